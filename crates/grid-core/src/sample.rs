@@ -1,0 +1,214 @@
+//! Sampling a grid at any world position: trilinear, clamped at the edges, and
+//! normal-biased against light leaking through walls.
+
+use glam::{UVec3, Vec3};
+
+use crate::grid::{AverageLight, DominantDir, Grid, Material};
+use crate::light::BinLight;
+use crate::{GridError, NUM_DIRS};
+
+/// Values that can be blended linearly (weights sum to 1 in trilinear sampling).
+pub trait Blend: Copy {
+    /// The additive identity.
+    fn zero() -> Self;
+    /// `self += other * w`.
+    fn add_scaled(&mut self, other: &Self, w: f32);
+}
+
+impl Blend for Vec3 {
+    fn zero() -> Self {
+        Vec3::ZERO
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        *self += *other * w;
+    }
+}
+
+impl Blend for BinLight {
+    fn zero() -> Self {
+        BinLight::ZERO
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        for d in 0..NUM_DIRS {
+            self.0[d] += other.0[d] * w;
+        }
+    }
+}
+
+impl Blend for AverageLight {
+    fn zero() -> Self {
+        AverageLight(Vec3::ZERO)
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        self.0 += other.0 * w;
+    }
+}
+
+impl Blend for DominantDir {
+    fn zero() -> Self {
+        DominantDir(Vec3::ZERO)
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        self.0 += other.0 * w;
+    }
+}
+
+impl Blend for Material {
+    fn zero() -> Self {
+        Material {
+            reflectance: Vec3::ZERO,
+            pass: 0.0,
+        }
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        self.reflectance += other.reflectance * w;
+        self.pass += other.pass * w;
+    }
+}
+
+/// The 8 corners and weights of a trilinear lookup at continuous grid coordinates `g`,
+/// clamped into the grid (a point outside reads the nearest face/edge/corner value).
+/// Along an axis with one point, that point has weight 1.
+pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
+    let maxf = (dims - UVec3::ONE).as_vec3();
+    let g = g.clamp(Vec3::ZERO, maxf);
+    let base = g
+        .floor()
+        .as_uvec3()
+        .min(dims.saturating_sub(UVec3::splat(2)));
+    let f = (g - base.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
+    let hi = (base + UVec3::ONE).min(dims - UVec3::ONE);
+    std::array::from_fn(|c| {
+        let (bx, by, bz) = (c & 1 != 0, c & 2 != 0, c & 4 != 0);
+        let p = UVec3::new(
+            if bx { hi.x } else { base.x },
+            if by { hi.y } else { base.y },
+            if bz { hi.z } else { base.z },
+        );
+        let w = (if bx { f.x } else { 1.0 - f.x })
+            * (if by { f.y } else { 1.0 - f.y })
+            * (if bz { f.z } else { 1.0 - f.z });
+        (p, w)
+    })
+}
+
+impl<T: Blend> Grid<T> {
+    /// Trilinear interpolation at world position `p`, clamped at the grid's edges.
+    /// `p` must be finite (a typed error names it otherwise).
+    pub fn sample(&self, p: Vec3) -> Result<T, GridError> {
+        if !p.is_finite() {
+            return Err(GridError::invalid("p", p, "sample position must be finite"));
+        }
+        let g = self.desc().to_grid(p);
+        let mut acc = T::zero();
+        for (c, w) in trilinear_corners(self.desc().dims(), g) {
+            if w != 0.0 {
+                let i = self.desc().index_unchecked(c);
+                acc.add_scaled(&self.data()[i], w);
+            }
+        }
+        Ok(acc)
+    }
+
+    /// Samples at `p + n * h / 2` (half a cell along the unit normal `n`), as 3DWorld
+    /// does, so a surface reads the light on its own side of a wall rather than a blend
+    /// with the dark inside. `n` must be finite and non-zero.
+    pub fn sample_biased(&self, p: Vec3, n: Vec3) -> Result<T, GridError> {
+        let n = n
+            .try_normalize()
+            .ok_or_else(|| GridError::invalid("n", n, "normal must be finite and non-zero"))?;
+        self.sample(p + n * (0.5 * self.desc().h()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::GridDesc;
+    use proptest::prelude::*;
+
+    /// A grid whose value is a linear function of position: trilinear reproduces it
+    /// exactly inside the grid.
+    fn linear_grid() -> Grid<Vec3> {
+        let d = GridDesc::new(Vec3::new(-1.0, 2.0, 0.5), 0.5, UVec3::new(4, 3, 5)).unwrap();
+        let data = (0..d.point_count())
+            .map(|i| {
+                let p = d.position(d.coords(i).unwrap());
+                Vec3::new(p.x * 2.0 + p.y, p.z - p.y, 3.0)
+            })
+            .collect();
+        Grid::from_trusted(d, data)
+    }
+
+    fn f(p: Vec3) -> Vec3 {
+        Vec3::new(p.x * 2.0 + p.y, p.z - p.y, 3.0)
+    }
+
+    #[test]
+    fn reproduces_linear_fields_and_grid_points() {
+        let g = linear_grid();
+        for i in 0..g.desc().point_count() {
+            let p = g.desc().position(g.desc().coords(i).unwrap());
+            assert!((g.sample(p).unwrap() - g.data()[i]).length() < 1e-5);
+        }
+        let p = Vec3::new(-0.3, 2.7, 1.9);
+        assert!((g.sample(p).unwrap() - f(p)).length() < 1e-5);
+    }
+
+    #[test]
+    fn clamps_outside() {
+        let g = linear_grid();
+        let (lo, hi) = g.desc().point_bounds();
+        assert!((g.sample(lo - Vec3::splat(10.0)).unwrap() - f(lo)).length() < 1e-5);
+        assert!((g.sample(hi + Vec3::splat(10.0)).unwrap() - f(hi)).length() < 1e-5);
+        assert!(g.sample(Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
+    }
+
+    #[test]
+    fn normal_bias_moves_half_a_cell() {
+        let g = linear_grid();
+        let p = Vec3::new(0.0, 3.0, 1.0);
+        let b = g.sample_biased(p, Vec3::new(0.0, 0.0, 7.0)).unwrap();
+        assert!((b - f(p + Vec3::Z * 0.25)).length() < 1e-5);
+        assert!(g.sample_biased(p, Vec3::ZERO).is_err());
+        assert!(g.sample_biased(p, Vec3::NAN).is_err());
+    }
+
+    #[test]
+    fn one_point_wide_axes() {
+        let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(1, 4, 1)).unwrap();
+        let g = Grid::from_trusted(d, (0..4).map(|j| Vec3::splat(j as f32)).collect());
+        assert!((g.sample(Vec3::new(5.0, 1.5, -3.0)).unwrap() - Vec3::splat(1.5)).length() < 1e-6);
+        let one = Grid::from_trusted(
+            GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE).unwrap(),
+            vec![Vec3::ONE],
+        );
+        assert_eq!(one.sample(Vec3::splat(0.3)).unwrap(), Vec3::ONE);
+    }
+
+    proptest! {
+        /// Continuity across cell borders: the values just either side of a border agree.
+        #[test]
+        fn continuous_across_cell_borders(
+            seed in prop::collection::vec(0f32..10.0, 60),
+            x in 0u32..3, y in 0f32..2.0, z in 0f32..4.0,
+        ) {
+            let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, 3, 5)).unwrap();
+            let g = Grid::from_trusted(d, seed.iter().map(|&v| Vec3::splat(v)).collect());
+            let border = Vec3::new(x as f32 + 1.0, y, z);
+            let eps = Vec3::X * 1e-4;
+            let a = g.sample(border - eps).unwrap();
+            let b = g.sample(border + eps).unwrap();
+            prop_assert!((a - b).abs().max_element() < 1e-2);
+        }
+
+        /// Weights are a partition of unity and never negative.
+        #[test]
+        fn weights_partition_unity(gx in -5f32..10.0, gy in -5f32..10.0, gz in -5f32..10.0, nx in 1u32..5, ny in 1u32..5, nz in 1u32..5) {
+            let c = trilinear_corners(UVec3::new(nx, ny, nz), Vec3::new(gx, gy, gz));
+            let s: f32 = c.iter().map(|(_, w)| w).sum();
+            prop_assert!((s - 1.0).abs() < 1e-5);
+            prop_assert!(c.iter().all(|(p, w)| *w >= 0.0 && p.x < nx && p.y < ny && p.z < nz));
+        }
+    }
+}

@@ -1,0 +1,435 @@
+//! The narrow traits that keep the layers apart, and the plain data they exchange.
+//!
+//! * [`Sweeper`]: material + boundary in, light grids out. `sweep-cpu` and `sweep-gpu`
+//!   implement it; callers cannot tell which one runs.
+//! * [`LightField`]: light at a point and normal. The grid hierarchy implements it;
+//!   `render` consumes it.
+//! * [`MaterialSource`]: the material grid of a box. The area composer implements it.
+
+use glam::{UVec3, Vec3};
+
+use crate::grid::{AverageGrid, DominantGrid, Grid, LightGrid, Material, MaterialGrid};
+use crate::light::BinLight;
+use crate::{GridDesc, GridError, HORIZONTAL_STEP};
+
+/// Light entering the grid from above and from the sides.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Boundary {
+    /// Light arriving through the top face.
+    pub top: TopBoundary,
+    /// Light arriving through the four side faces.
+    pub sides: SideBoundary,
+}
+
+impl Boundary {
+    /// Open sky: the same sky above every top point and outside every side.
+    pub fn open_sky(sky: BinLight) -> Self {
+        Self {
+            top: TopBoundary::Uniform(Box::new(sky)),
+            sides: SideBoundary::Open,
+        }
+    }
+
+    /// Checks every value against `desc` (finite, not negative, right lengths).
+    pub fn validate(&self, desc: &GridDesc) -> Result<(), GridError> {
+        let check = |field: String, b: &BinLight| {
+            if b.is_valid() {
+                Ok(())
+            } else {
+                Err(GridError::invalid(
+                    field,
+                    b,
+                    "boundary light must be finite and >= 0",
+                ))
+            }
+        };
+        match &self.top {
+            TopBoundary::Uniform(b) => check("top".into(), b.as_ref())?,
+            TopBoundary::PerPoint(v) => {
+                if v.len() != desc.level_len() {
+                    return Err(GridError::LengthMismatch {
+                        field: "top",
+                        expected: desc.level_len(),
+                        found: v.len(),
+                    });
+                }
+                for (i, b) in v.iter().enumerate() {
+                    check(format!("top[{i}]"), b)?;
+                }
+            }
+        }
+        if let SideBoundary::Given(h) = &self.sides {
+            let layout = HaloLayout::new(desc.dims());
+            if h.len() != layout.len() {
+                return Err(GridError::LengthMismatch {
+                    field: "sides",
+                    expected: layout.len(),
+                    found: h.len(),
+                });
+            }
+            for (i, b) in h.iter().enumerate() {
+                check(format!("sides[{i}]"), b)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Light arriving through the top face, as the outgoing light of an imaginary level just
+/// above the grid.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TopBoundary {
+    /// The same light above every point (an open sky).
+    Uniform(Box<BinLight>),
+    /// One value per top point, in level order (`i + nx * k`): a fine grid inside a coarser
+    /// one.
+    PerPoint(Vec<BinLight>),
+}
+
+/// Light arriving through the side faces.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SideBoundary {
+    /// Outside the grid is empty space under the open sky: light from outside is the top
+    /// boundary's (uniform) light.
+    Open,
+    /// The grid wraps around in x and z (a tileable scene).
+    Periodic,
+    /// Given values at the points outside the grid that sweep paths start from: a ring of
+    /// width [`HORIZONTAL_STEP`] around every level, laid out by [`HaloLayout`].
+    Given(Vec<BinLight>),
+}
+
+/// Layout of the [`SideBoundary::Given`] halo: for each level `j` (0 = bottom), the points
+/// `(x, z)` with `x` in `-W .. nx + W` and `z` in `-W .. nz + W` that lie outside the grid,
+/// in z-major then x order, `W` = [`HORIZONTAL_STEP`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HaloLayout {
+    dims: UVec3,
+}
+
+impl HaloLayout {
+    /// The halo around a grid of `dims` points.
+    pub fn new(dims: UVec3) -> Self {
+        Self { dims }
+    }
+    /// Halo points per level.
+    pub fn per_level(&self) -> usize {
+        let w = HORIZONTAL_STEP as usize;
+        let (nx, nz) = (self.dims.x as usize, self.dims.z as usize);
+        (nx + 2 * w) * (nz + 2 * w) - nx * nz
+    }
+    /// Total halo points over all levels.
+    pub fn len(&self) -> usize {
+        self.per_level() * self.dims.y as usize
+    }
+    /// True when the halo has no points (never, for a valid grid).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Index of outside point `(x, j, z)`; `None` inside the grid or beyond the ring.
+    pub fn index(&self, x: i32, j: u32, z: i32) -> Option<usize> {
+        let w = HORIZONTAL_STEP;
+        let (nx, nz) = (self.dims.x as i32, self.dims.z as i32);
+        if j >= self.dims.y || x < -w || x >= nx + w || z < -w || z >= nz + w {
+            return None;
+        }
+        if (0..nx).contains(&x) && (0..nz).contains(&z) {
+            return None;
+        }
+        let width = (nx + 2 * w) as usize;
+        let row = (z + w) as usize;
+        let col = (x + w) as usize;
+        // Rows above the grid's z range are full; rows inside it have 2W points.
+        let before = if z < 0 {
+            row * width + col
+        } else if z < nz {
+            w as usize * width
+                + (z as usize) * 2 * w as usize
+                + if x < 0 { col } else { col - nx as usize }
+        } else {
+            w as usize * width + nz as usize * 2 * w as usize + (z - nz) as usize * width + col
+        };
+        Some(j as usize * self.per_level() + before)
+    }
+}
+
+/// Which outputs a sweep computes. Nothing that is not asked for is computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Outputs {
+    /// The full 26-bin light grid.
+    pub bins: bool,
+    /// The average-light grid.
+    pub average: bool,
+    /// The dominant-direction grid.
+    pub dominant: bool,
+}
+
+impl Outputs {
+    /// Everything.
+    pub const ALL: Self = Self {
+        bins: true,
+        average: true,
+        dominant: true,
+    };
+    /// Average and dominant direction only (per-frame lighting).
+    pub const AVERAGE_DOMINANT: Self = Self {
+        bins: false,
+        average: true,
+        dominant: true,
+    };
+}
+
+/// Options of a sweep. Start from a preset and change fields.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct SweepOptions {
+    /// Outputs to compute.
+    pub outputs: Outputs,
+    /// Weight in `[0, 1)` of the smoothing kernel over a source point's neighbours
+    /// (0 = off): softens the sharp shadows of a few directions.
+    pub smoothing: f32,
+    /// Most down/up pass pairs (1 = one downward pass, no upward bounce light).
+    pub max_passes: u32,
+    /// Stop repeating passes when a pass changes the light by less than this fraction.
+    pub tolerance: f32,
+}
+
+impl SweepOptions {
+    /// One downward pass, light smoothing, every output: the seed's sweep.
+    pub const fn single_pass() -> Self {
+        Self {
+            outputs: Outputs::ALL,
+            smoothing: 0.25,
+            max_passes: 1,
+            tolerance: 0.0,
+        }
+    }
+    /// Repeated down/up passes for multiple bounces, to 0.1 %.
+    pub const fn multi_bounce() -> Self {
+        Self {
+            outputs: Outputs::ALL,
+            smoothing: 0.25,
+            max_passes: 8,
+            tolerance: 1e-3,
+        }
+    }
+    /// Checks every field; errors name it.
+    pub fn validate(&self) -> Result<(), GridError> {
+        if !(self.smoothing.is_finite() && (0.0..1.0).contains(&self.smoothing)) {
+            return Err(GridError::invalid(
+                "smoothing",
+                self.smoothing,
+                "must be in [0, 1)",
+            ));
+        }
+        if self.max_passes == 0 {
+            return Err(GridError::invalid(
+                "max_passes",
+                self.max_passes,
+                "must be at least 1",
+            ));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(GridError::invalid(
+                "tolerance",
+                self.tolerance,
+                "must be finite and >= 0",
+            ));
+        }
+        if !(self.outputs.bins || self.outputs.average || self.outputs.dominant) {
+            return Err(GridError::invalid(
+                "outputs",
+                self.outputs,
+                "asks for nothing",
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        Self::single_pass()
+    }
+}
+
+/// What a sweep produced: the outputs asked for, and what it did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepOutput {
+    /// The 26-bin grid, if asked for.
+    pub bins: Option<LightGrid>,
+    /// The average-light grid, if asked for.
+    pub average: Option<AverageGrid>,
+    /// The dominant-direction grid, if asked for.
+    pub dominant: Option<DominantGrid>,
+    /// Work counters.
+    pub stats: SweepStats,
+}
+
+/// Work a sweep did and skipped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SweepStats {
+    /// Levels computed point by point.
+    pub levels_computed: u64,
+    /// Levels above all material whose light was copied from the boundary.
+    pub levels_copied: u64,
+    /// Down/up pass pairs run.
+    pub passes: u32,
+}
+
+/// Errors a sweeper returns.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SweepError {
+    /// The material, boundary or options are invalid.
+    #[error(transparent)]
+    Invalid(#[from] GridError),
+    /// The backend cannot run this sweep (no adapter, grid beyond a device limit, ...).
+    #[error("{backend}: {message}")]
+    Backend {
+        /// Which sweeper.
+        backend: &'static str,
+        /// What went wrong, naming the limit or resource.
+        message: String,
+    },
+}
+
+/// Computes light grids from a material grid and its boundary light.
+///
+/// Implementations follow the semantics written in `sweep-cpu`'s docs and must validate
+/// their inputs (returning [`SweepError::Invalid`]), never emitting NaN or infinity.
+pub trait Sweeper {
+    /// A short name for logs ("cpu", "gpu").
+    fn name(&self) -> &'static str;
+    /// Sweeps `material` lit by `boundary`.
+    fn sweep(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError>;
+}
+
+/// Light at any point in space.
+pub trait LightField {
+    /// Irradiance on a surface at `p` facing unit normal `n` (sampled with the normal
+    /// bias). Errors on non-finite input.
+    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError>;
+    /// Mean light over the sphere at `p`.
+    fn average(&self, p: Vec3) -> Result<Vec3, GridError>;
+}
+
+impl LightField for LightGrid {
+    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
+        Ok(self.sample_biased(p, n)?.irradiance(n.normalize()))
+    }
+    fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
+        Ok(self.sample(p)?.average())
+    }
+}
+
+/// The material grid of any box.
+pub trait MaterialSource {
+    /// The material of every cell of `desc`.
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError>;
+}
+
+/// The same material everywhere (a fog, or empty space): the simplest source.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UniformMaterial(pub Material);
+
+impl MaterialSource for UniformMaterial {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        Grid::filled(*desc, self.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn halo_layout_is_a_bijection() {
+        for dims in [
+            UVec3::new(1, 2, 1),
+            UVec3::new(3, 1, 5),
+            UVec3::new(9, 2, 2),
+        ] {
+            let l = HaloLayout::new(dims);
+            let mut seen = vec![false; l.len()];
+            let w = HORIZONTAL_STEP;
+            for j in 0..dims.y {
+                for z in -w..dims.z as i32 + w {
+                    for x in -w..dims.x as i32 + w {
+                        let inside =
+                            (0..dims.x as i32).contains(&x) && (0..dims.z as i32).contains(&z);
+                        match l.index(x, j, z) {
+                            Some(i) => {
+                                assert!(!inside && !seen[i], "{dims} ({x},{j},{z}) -> {i}");
+                                seen[i] = true;
+                            }
+                            None => assert!(inside),
+                        }
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s));
+            assert_eq!(l.index(-w - 1, 0, 0), None);
+        }
+    }
+
+    #[test]
+    fn options_and_boundary_validation_name_fields() {
+        let mut o = SweepOptions::single_pass();
+        o.smoothing = 1.0;
+        assert!(
+            o.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("smoothing = 1.0")
+        );
+        let mut o = SweepOptions::multi_bounce();
+        o.max_passes = 0;
+        assert!(o.validate().unwrap_err().to_string().contains("max_passes"));
+        assert!(SweepOptions::default().validate().is_ok());
+
+        let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 2, 2)).unwrap();
+        let mut sky = BinLight::uniform(Vec3::ONE);
+        assert!(Boundary::open_sky(sky).validate(&d).is_ok());
+        sky.0[3].x = f32::INFINITY;
+        assert!(
+            Boundary::open_sky(sky)
+                .validate(&d)
+                .unwrap_err()
+                .to_string()
+                .contains("top")
+        );
+        let b = Boundary {
+            top: TopBoundary::PerPoint(vec![BinLight::ZERO; 3]),
+            sides: SideBoundary::Open,
+        };
+        assert!(
+            b.validate(&d)
+                .unwrap_err()
+                .to_string()
+                .contains("top has 3 elements")
+        );
+    }
+
+    #[test]
+    fn light_grid_is_a_light_field() {
+        let d = GridDesc::new(Vec3::ZERO, 2.0, UVec3::new(2, 2, 2)).unwrap();
+        let g = LightGrid::filled(d, BinLight::uniform(Vec3::ONE)).unwrap();
+        let e = g.irradiance(Vec3::ONE, Vec3::Y).unwrap();
+        assert!((e - Vec3::splat(std::f32::consts::PI)).abs().max_element() < 1e-5);
+        assert!(
+            (g.average(Vec3::ONE).unwrap() - Vec3::ONE)
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert!(g.irradiance(Vec3::ONE, Vec3::ZERO).is_err());
+        let m = UniformMaterial(Material::EMPTY).material(&d).unwrap();
+        assert_eq!(m.data().len(), 8);
+    }
+}
