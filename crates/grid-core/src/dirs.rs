@@ -163,6 +163,24 @@ pub fn clipped_cosine(d: usize, n: DVec3) -> f64 {
     n.dot(polygon_moment(&clipped)).max(0.0)
 }
 
+/// Solid angle and first moment `∫ ω dω` of the part of bin `d` on the positive side of
+/// every plane in `planes` (each a normal through the origin): for example the
+/// downward-travelling half of a horizontal bin (`planes = [-Y]`), or the part of it that
+/// enters a face with inward normal `n` (`[-Y, n]`).
+pub fn bin_region(d: usize, planes: &[DVec3]) -> (f64, DVec3) {
+    let mut poly = bins().polygons[d].clone();
+    for p in planes {
+        if poly.len() < 3 {
+            break;
+        }
+        poly = clip(&poly, *p);
+    }
+    if poly.len() < 3 {
+        return (0.0, DVec3::ZERO);
+    }
+    (polygon_solid_angle(&poly), polygon_moment(&poly))
+}
+
 /// The nearest of the 26 directions to `v` (any non-zero vector): the bin containing it.
 pub fn nearest_dir(v: Vec3) -> usize {
     let mut best = 0;
@@ -364,6 +382,23 @@ pub(crate) mod tests {
         // A bin fully behind the normal contributes nothing; fully in front, n·moment.
         assert_eq!(clipped_cosine(DOWN, DVec3::Y), 0.0);
         assert!((clipped_cosine(UP, DVec3::Y) - bins().moment[UP].y).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bin_regions_split_exactly() {
+        let g = bins();
+        for d in 0..NUM_DIRS {
+            let (lo, _) = bin_region(d, &[DVec3::NEG_Y]);
+            let (hi, _) = bin_region(d, &[DVec3::Y]);
+            assert!((lo + hi - g.omega[d]).abs() < 1e-12, "bin {d}");
+            match dir_ivec(d).y {
+                -1 => assert!((lo - g.omega[d]).abs() < 1e-12),
+                1 => assert!(lo.abs() < 1e-12),
+                _ => assert!((lo - hi).abs() < 1e-12), // symmetric about the horizon
+            }
+            let (w, m) = bin_region(d, &[]);
+            assert!((w - g.omega[d]).abs() < 1e-12 && (m - g.moment[d]).length() < 1e-12);
+        }
     }
 
     #[test]

@@ -95,8 +95,8 @@ pub use grid::{
 pub use light::{AmbientCube, BinLight, Sh1, Sh2};
 pub use sample::{Blend, trilinear_corners};
 pub use traits::{
-    Boundary, HaloLayout, LightField, MaterialSource, Outputs, SideBoundary, SweepError,
-    SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial,
+    Boundary, HALO_WIDTH, HaloLayout, LightField, MaterialSource, Outputs, SideBoundary,
+    SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial,
 };
 
 /// The README's examples, compiled and run as doc tests.

@@ -137,6 +137,26 @@ impl BinLight {
         AmbientCube(AMBIENT_AXES.map(|a| self.irradiance(a)))
     }
 
+    /// Splits full-sphere bins into the light travelling downward (the 9 downward bins and
+    /// half of each horizontal bin) and upward (the 9 upward bins and the other halves).
+    /// Exact for radiance constant within each bin: every horizontal bin is symmetric
+    /// about the horizon. The two parts sum to `self`.
+    pub fn split_vertical(&self) -> (BinLight, BinLight) {
+        let mut down = BinLight::ZERO;
+        let mut up = BinLight::ZERO;
+        for d in 0..NUM_DIRS {
+            match dirs::dir_ivec(d).y {
+                -1 => down.0[d] = self.0[d],
+                1 => up.0[d] = self.0[d],
+                _ => {
+                    down.0[d] = self.0[d] * 0.5;
+                    up.0[d] = self.0[d] * 0.5;
+                }
+            }
+        }
+        (down, up)
+    }
+
     /// `self * s` per bin.
     pub fn scaled(&self, s: f32) -> Self {
         Self(self.0.map(|v| v * s))

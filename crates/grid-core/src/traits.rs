@@ -12,20 +12,43 @@ use crate::grid::{AverageGrid, DominantGrid, Grid, LightGrid, Material, Material
 use crate::light::BinLight;
 use crate::{GridDesc, GridError, HORIZONTAL_STEP};
 
-/// Light entering the grid from above and from the sides.
+/// Light entering the grid through its faces.
+///
+/// Light travelling downward enters through the top, light travelling upward through the
+/// bottom. A horizontal bin (which straddles the horizon symmetrically) is split into its
+/// downward-travelling half, which belongs to the top, and its upward-travelling half,
+/// which belongs to the bottom: in `top` the horizontal bins hold the downward halves and
+/// the upward bins are ignored; in `bottom` the horizontal bins hold the upward halves and
+/// the downward bins are ignored. [`BinLight::split_vertical`] makes both from
+/// full-sphere bins.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Boundary {
     /// Light arriving through the top face.
     pub top: TopBoundary,
+    /// Light arriving through the bottom face (the same under every bottom point).
+    pub bottom: BinLight,
     /// Light arriving through the four side faces.
     pub sides: SideBoundary,
 }
 
 impl Boundary {
-    /// Open sky: the same sky above every top point and outside every side.
-    pub fn open_sky(sky: BinLight) -> Self {
+    /// Open sky: `top` above every top point and beside every side (as if the world
+    /// around the grid were empty), nothing from below.
+    pub fn open_sky(top: BinLight) -> Self {
         Self {
-            top: TopBoundary::Uniform(Box::new(sky)),
+            top: TopBoundary::Uniform(Box::new(top)),
+            bottom: BinLight::ZERO,
+            sides: SideBoundary::Open,
+        }
+    }
+
+    /// The grid inside an empty world lit from every direction by `light` (full-sphere
+    /// bins): the top gets its downward part, the bottom its upward part.
+    pub fn surrounding(light: &BinLight) -> Self {
+        let (top, bottom) = light.split_vertical();
+        Self {
+            top: TopBoundary::Uniform(Box::new(top)),
+            bottom,
             sides: SideBoundary::Open,
         }
     }
@@ -43,6 +66,7 @@ impl Boundary {
                 ))
             }
         };
+        check("bottom".into(), &self.bottom)?;
         match &self.top {
             TopBoundary::Uniform(b) => check("top".into(), b.as_ref())?,
             TopBoundary::PerPoint(v) => {
@@ -95,13 +119,19 @@ pub enum SideBoundary {
     /// The grid wraps around in x and z (a tileable scene).
     Periodic,
     /// Given values at the points outside the grid that sweep paths start from: a ring of
-    /// width [`HORIZONTAL_STEP`] around every level, laid out by [`HaloLayout`].
+    /// width [`HALO_WIDTH`] around every level, laid out by [`HaloLayout`]. Each value
+    /// is full-sphere light (as a coarser grid holds it): the downward pass takes its
+    /// downward part, the upward pass its upward part ([`BinLight::split_vertical`]).
     Given(Vec<BinLight>),
 }
 
+/// Width of the [`SideBoundary::Given`] halo: the farthest a sweep path's source point
+/// lies outside the grid ([`HORIZONTAL_STEP`], plus one for the smoothing kernel).
+pub const HALO_WIDTH: i32 = HORIZONTAL_STEP + 1;
+
 /// Layout of the [`SideBoundary::Given`] halo: for each level `j` (0 = bottom), the points
 /// `(x, z)` with `x` in `-W .. nx + W` and `z` in `-W .. nz + W` that lie outside the grid,
-/// in z-major then x order, `W` = [`HORIZONTAL_STEP`].
+/// in z-major then x order, `W` = [`HALO_WIDTH`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct HaloLayout {
     dims: UVec3,
@@ -114,7 +144,7 @@ impl HaloLayout {
     }
     /// Halo points per level.
     pub fn per_level(&self) -> usize {
-        let w = HORIZONTAL_STEP as usize;
+        let w = HALO_WIDTH as usize;
         let (nx, nz) = (self.dims.x as usize, self.dims.z as usize);
         (nx + 2 * w) * (nz + 2 * w) - nx * nz
     }
@@ -128,7 +158,7 @@ impl HaloLayout {
     }
     /// Index of outside point `(x, j, z)`; `None` inside the grid or beyond the ring.
     pub fn index(&self, x: i32, j: u32, z: i32) -> Option<usize> {
-        let w = HORIZONTAL_STEP;
+        let w = HALO_WIDTH;
         let (nx, nz) = (self.dims.x as i32, self.dims.z as i32);
         if j >= self.dims.y || x < -w || x >= nx + w || z < -w || z >= nz + w {
             return None;
@@ -188,7 +218,8 @@ pub struct SweepOptions {
     /// Weight in `[0, 1)` of the smoothing kernel over a source point's neighbours
     /// (0 = off): softens the sharp shadows of a few directions.
     pub smoothing: f32,
-    /// Most down/up pass pairs (1 = one downward pass, no upward bounce light).
+    /// Most sweeps, alternating downward and upward, starting downward (1 = the seed's
+    /// single downward pass: no light travels upward).
     pub max_passes: u32,
     /// Stop repeating passes when a pass changes the light by less than this fraction.
     pub tolerance: f32,
@@ -204,12 +235,13 @@ impl SweepOptions {
             tolerance: 0.0,
         }
     }
-    /// Repeated down/up passes for multiple bounces, to 0.1 %.
+    /// Repeated down/up passes for multiple bounces, until the light still to be
+    /// transported is under 0.1 % of the input.
     pub const fn multi_bounce() -> Self {
         Self {
             outputs: Outputs::ALL,
             smoothing: 0.25,
-            max_passes: 8,
+            max_passes: 16,
             tolerance: 1e-3,
         }
     }
@@ -273,7 +305,7 @@ pub struct SweepStats {
     pub levels_computed: u64,
     /// Levels above all material whose light was copied from the boundary.
     pub levels_copied: u64,
-    /// Down/up pass pairs run.
+    /// Sweeps run (downward and upward passes counted separately).
     pub passes: u32,
 }
 
@@ -357,7 +389,7 @@ mod tests {
         ] {
             let l = HaloLayout::new(dims);
             let mut seen = vec![false; l.len()];
-            let w = HORIZONTAL_STEP;
+            let w = HALO_WIDTH;
             for j in 0..dims.y {
                 for z in -w..dims.z as i32 + w {
                     for x in -w..dims.x as i32 + w {
@@ -406,6 +438,7 @@ mod tests {
         );
         let b = Boundary {
             top: TopBoundary::PerPoint(vec![BinLight::ZERO; 3]),
+            bottom: BinLight::ZERO,
             sides: SideBoundary::Open,
         };
         assert!(

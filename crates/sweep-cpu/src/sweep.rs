@@ -1,0 +1,744 @@
+//! The sweep itself. The semantics are in the crate docs; this file follows them step by
+//! step (the step names in comments refer to them).
+
+use std::f32::consts::PI;
+use std::sync::OnceLock;
+
+use grid_core::dirs::{self, NUM_SWEEP_DIRS};
+use grid_core::glam::{DVec3, IVec3, UVec3, Vec3};
+use grid_core::light::luminance;
+use grid_core::{
+    AverageLight, BinLight, Boundary, DominantDir, Grid, GridError, MaterialGrid, SideBoundary,
+    SweepError, SweepOptions, SweepOutput, SweepStats, TopBoundary,
+};
+use rayon::prelude::*;
+
+/// Number of transport channels of one pass (9 vertical-ish bins + 8 horizontal halves).
+pub const CHANNELS: usize = NUM_SWEEP_DIRS;
+/// Largest boundary light value accepted: leaves room for path-length factors (≤ √33) and
+/// sums over a grid without overflowing `f32`.
+pub const MAX_LIGHT: f32 = 1e30;
+
+/// Cells a channel's path crosses inside its slab, as horizontal offsets from the
+/// receiving point, in travel order, with the fraction of the path in each.
+#[derive(Debug, Clone)]
+pub struct Channel {
+    /// Bin the channel's light is accounted in.
+    pub bin: usize,
+    /// Offset from source point to receiving point (y = -1 downward, +1 upward).
+    pub step: IVec3,
+    /// Path length per level in units of `h`.
+    pub length: f32,
+    /// `1 / length`: `|cos|` of the path to the vertical, light to flux.
+    pub mu: f32,
+    /// Unit vector of the bin (direction of travel).
+    pub unit: Vec3,
+    /// `(dx, dz, fraction)` of each cell crossed, in travel order.
+    pub stencil: Vec<(i32, i32, f32)>,
+    /// Path fraction from the slab's entry to the receiving point's centre (always 1/2).
+    pub first_slot: usize,
+    /// Share of the bin's isotropic emission this channel carries: 1, or 1/2 for a
+    /// horizontal bin (the other half travels in the opposite pass).
+    pub share: f32,
+}
+
+/// Channels of the downward (`up = false`) or upward pass.
+pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
+    static DOWN: OnceLock<[Channel; CHANNELS]> = OnceLock::new();
+    static UP: OnceLock<[Channel; CHANNELS]> = OnceLock::new();
+    let make = |up: bool| {
+        let mut slot = 0;
+        std::array::from_fn(|c| {
+            let sd = dirs::sweep_dirs()[c];
+            let mut step = sd.step;
+            let mut v = dirs::dir_ivec(sd.bin);
+            if up {
+                step.y = 1;
+                v.y = -v.y;
+            }
+            let bin = dirs::dir_index(v).expect("mirrored direction");
+            let horizontal = v.y == 0;
+            let stencil = if horizontal {
+                let (dx, dz) = (v.x, v.z);
+                vec![
+                    (-2 * dx, -2 * dz, 0.125),
+                    (-dx, -dz, 0.25),
+                    (0, 0, 0.25),
+                    (dx, dz, 0.25),
+                    (2 * dx, 2 * dz, 0.125),
+                ]
+            } else {
+                vec![(0, 0, 1.0)]
+            };
+            let first_slot = slot;
+            slot += stencil.len();
+            Channel {
+                bin,
+                step,
+                length: sd.length,
+                mu: 1.0 / sd.length,
+                unit: dirs::dir_unit(bin),
+                stencil,
+                first_slot,
+                share: if horizontal { 0.5 } else { 1.0 },
+            }
+        })
+    };
+    if up {
+        UP.get_or_init(|| make(true))
+    } else {
+        DOWN.get_or_init(|| make(false))
+    }
+}
+
+/// Total stencil slots over the channels of a pass.
+pub const SLOTS: usize = 9 + 8 * 5;
+
+/// Flux balance of a sweep, per RGB channel, in units of light × `h²` per point
+/// (multiply by `h²` for power). Every term is non-negative; `input()` equals
+/// `absorbed + escaped() + pending` to float rounding.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct EnergyBalance {
+    /// Entered through the top face.
+    pub top_in: DVec3,
+    /// Entered through the bottom face.
+    pub bottom_in: DVec3,
+    /// Entered through the side faces.
+    pub side_in: DVec3,
+    /// Left through the top face.
+    pub top_out: DVec3,
+    /// Left through the bottom face.
+    pub bottom_out: DVec3,
+    /// Left through the side faces.
+    pub side_out: DVec3,
+    /// Absorbed by material.
+    pub absorbed: DVec3,
+    /// Scattered light not yet transported when the passes stopped.
+    pub pending: DVec3,
+}
+
+impl EnergyBalance {
+    /// Everything that entered.
+    pub fn input(&self) -> DVec3 {
+        self.top_in + self.bottom_in + self.side_in
+    }
+    /// Everything that left.
+    pub fn escaped(&self) -> DVec3 {
+        self.top_out + self.bottom_out + self.side_out
+    }
+    /// `|input - absorbed - escaped - pending| / input`, worst RGB channel (0 for no input).
+    pub fn relative_error(&self) -> f64 {
+        let diff = (self.input() - self.absorbed - self.escaped() - self.pending).abs();
+        let inp = self.input();
+        (0..3)
+            .map(|i| {
+                if inp[i] > 0.0 {
+                    diff[i] / inp[i]
+                } else {
+                    diff[i]
+                }
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// A sweep's outputs and its energy balance.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// What the [`grid_core::Sweeper`] trait returns.
+    pub output: SweepOutput,
+    /// The flux balance.
+    pub balance: EnergyBalance,
+}
+
+/// Scattered light a cell holds for emission: total flux `s` (RGB) and its first moment
+/// `m[axis]` (RGB) over the incoming directions.
+#[derive(Clone, Copy, Default)]
+struct Pending {
+    s: Vec3,
+    m: [Vec3; 3],
+}
+
+impl Pending {
+    fn add(&self, o: &Pending) -> Pending {
+        Pending {
+            s: self.s + o.s,
+            m: [self.m[0] + o.m[0], self.m[1] + o.m[1], self.m[2] + o.m[2]],
+        }
+    }
+}
+
+/// Flux a cell scatters into bin `bin` (unit vector `unit`): the semantics' emission rule
+/// `omega_b / 4pi * (S - kappa * u_b · M)`, never negative.
+fn emission_flux(p: &Pending, unit: Vec3, bin: usize, kappa: f32) -> Vec3 {
+    let w = dirs::solid_angles()[bin] / (4.0 * PI);
+    let um = p.m[0] * unit.x + p.m[1] * unit.y + p.m[2] * unit.z;
+    ((p.s - um * kappa) * w).max(Vec3::ZERO)
+}
+
+/// Flux of `p`'s emission that travels in the other pass's channels.
+fn other_flux(p: &Pending, up: bool, kappa: f32) -> DVec3 {
+    if p.s == Vec3::ZERO {
+        return DVec3::ZERO;
+    }
+    channels(!up)
+        .iter()
+        .map(|c| (emission_flux(p, c.unit, c.bin, kappa) * c.share).as_dvec3())
+        .sum()
+}
+
+/// Where the final light of a point goes: all 26 bins, or only what the average and the
+/// dominant direction need.
+trait Sink: Copy + Default + Send + Sync {
+    fn add(&mut self, bin: usize, unit: Vec3, g: Vec3);
+}
+
+impl Sink for BinLight {
+    #[inline]
+    fn add(&mut self, bin: usize, _unit: Vec3, g: Vec3) {
+        self.0[bin] += g;
+    }
+}
+
+/// Running sums for the average (`sum`) and dominant direction (`num / den`).
+#[derive(Clone, Copy, Default)]
+struct AvgAcc {
+    sum: Vec3,
+    num: Vec3,
+    den: f32,
+}
+
+impl Sink for AvgAcc {
+    #[inline]
+    fn add(&mut self, _bin: usize, unit: Vec3, g: Vec3) {
+        self.sum += g;
+        let l = luminance(g);
+        self.num += unit * l;
+        self.den += l;
+    }
+}
+
+/// Per-row flux sums, reduced in row order (deterministic for any thread count).
+#[derive(Clone, Copy, Default)]
+struct RowFlux {
+    inside: DVec3,
+    outside: DVec3,
+    absorbed: DVec3,
+    pending: DVec3,
+}
+
+impl std::ops::Add for RowFlux {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self {
+            inside: self.inside + o.inside,
+            outside: self.outside + o.outside,
+            absorbed: self.absorbed + o.absorbed,
+            pending: self.pending + o.pending,
+        }
+    }
+}
+
+fn sum_rows(v: Vec<RowFlux>) -> RowFlux {
+    v.into_iter().fold(RowFlux::default(), |a, b| a + b)
+}
+
+type Level = [Vec3; CHANNELS];
+
+/// Channel `c`'s value in bins `b`: horizontal bins halved where `b` is full-sphere light.
+#[inline]
+fn channel_value(b: &BinLight, chn: &Channel, full_sphere: bool) -> Vec3 {
+    let v = b.0[chn.bin];
+    if full_sphere { v * chn.share } else { v }
+}
+
+fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
+    let big = |b: &BinLight| b.0.iter().any(|v| v.max_element() > MAX_LIGHT);
+    let err = |field: &str| {
+        Err(GridError::invalid(
+            field,
+            "a value over 1e30",
+            "boundary light must be <= 1e30",
+        ))
+    };
+    let top_big = match &boundary.top {
+        TopBoundary::Uniform(b) => big(b),
+        TopBoundary::PerPoint(v) => v.iter().any(big),
+    };
+    if top_big {
+        return err("top");
+    }
+    if big(&boundary.bottom) {
+        return err("bottom");
+    }
+    if let SideBoundary::Given(h) = &boundary.sides
+        && h.iter().any(big)
+    {
+        return err("sides");
+    }
+    Ok(())
+}
+
+/// Boundary light of one pass.
+struct Sources<'a> {
+    boundary: &'a Boundary,
+    /// Boundary light enters only in the first downward and the first upward pass.
+    active: bool,
+    up: bool,
+    dims: UVec3,
+    halo: Option<grid_core::HaloLayout>,
+}
+
+impl Sources<'_> {
+    /// Light of the virtual level beyond the grid (above it downward, below it upward)
+    /// at column (x, z), channel `chn`.
+    fn virtual_light(&self, x: i32, z: i32, chn: &Channel) -> Vec3 {
+        if !self.active {
+            return Vec3::ZERO;
+        }
+        if self.up {
+            return channel_value(&self.boundary.bottom, chn, false);
+        }
+        match &self.boundary.top {
+            TopBoundary::Uniform(b) => channel_value(b, chn, false),
+            TopBoundary::PerPoint(v) => {
+                let (nx, nz) = (self.dims.x as i32, self.dims.z as i32);
+                let i = x.clamp(0, nx - 1) + nx * z.clamp(0, nz - 1);
+                channel_value(&v[i as usize], chn, false)
+            }
+        }
+    }
+
+    /// Light of a source point outside the grid's sides at (x, level, z).
+    fn outside(&self, x: i32, level: i32, z: i32, chn: &Channel) -> Vec3 {
+        if !self.active {
+            return Vec3::ZERO;
+        }
+        match (&self.boundary.sides, &self.halo) {
+            (SideBoundary::Given(h), Some(layout)) => {
+                let lv = level.clamp(0, self.dims.y as i32 - 1) as u32;
+                match layout.index(x, lv, z) {
+                    Some(i) => channel_value(&h[i], chn, true),
+                    None => Vec3::ZERO,
+                }
+            }
+            _ => self.virtual_light(x, z, chn),
+        }
+    }
+}
+
+struct Ctx {
+    nx: i32,
+    nz: i32,
+    periodic: bool,
+    smoothing: f32,
+    ch: &'static [Channel; CHANNELS],
+}
+
+impl Ctx {
+    /// Index of column (x, z) within a level, wrapping in periodic mode; `None` outside.
+    #[inline]
+    fn col(&self, x: i32, z: i32) -> Option<usize> {
+        if self.periodic {
+            Some((x.rem_euclid(self.nx) + self.nx * z.rem_euclid(self.nz)) as usize)
+        } else if x >= 0 && x < self.nx && z >= 0 && z < self.nz {
+            Some((x + self.nx * z) as usize)
+        } else {
+            None
+        }
+    }
+}
+
+impl Ctx {
+    #[allow(clippy::too_many_arguments)]
+    fn phase1<S: Sink>(
+        &self,
+        prev: &[Level],
+        src: &Sources<'_>,
+        from_virtual: bool,
+        src_level: i32,
+        lnp: &[f32],
+        cur: &mut [Level],
+        removed: &mut [[Vec3; SLOTS]],
+        g: &mut [S],
+    ) -> RowFlux {
+        let nx = self.nx as usize;
+        let rows: Vec<RowFlux> = cur
+            .par_chunks_mut(nx)
+            .zip(removed.par_chunks_mut(nx))
+            .zip(g.par_chunks_mut(nx))
+            .enumerate()
+            .map(|(z, ((cur_row, rem_row), g_row))| {
+                let z = z as i32;
+                let mut rf = RowFlux::default();
+                for x in 0..self.nx {
+                    let xi = x as usize;
+                    for (c, chn) in self.ch.iter().enumerate() {
+                        // Step 1: gather from the source point and its smoothing taps.
+                        let (qx, qz) = (x - chn.step.x, z - chn.step.z);
+                        let s = self.smoothing;
+                        let taps = [
+                            (qx, qz, 1.0 - s),
+                            (qx + 1, qz, 0.25 * s),
+                            (qx - 1, qz, 0.25 * s),
+                            (qx, qz + 1, 0.25 * s),
+                            (qx, qz - 1, 0.25 * s),
+                        ];
+                        let mut ins = Vec3::ZERO;
+                        let mut outs = Vec3::ZERO;
+                        for (tx, tz, w) in taps {
+                            if w == 0.0 {
+                                continue;
+                            }
+                            match self.col(tx, tz) {
+                                Some(i) => ins += prev[i][c] * w,
+                                None if from_virtual && src.halo.is_none() => {
+                                    outs += src.virtual_light(tx, tz, chn) * w
+                                }
+                                None => outs += src.outside(tx, src_level, tz, chn) * w,
+                            }
+                        }
+                        rf.inside += ins.as_dvec3() * chn.mu as f64;
+                        rf.outside += outs.as_dvec3() * chn.mu as f64;
+                        let light = ins + outs;
+                        // Step 2: transmit along the path, recording what each cell removes.
+                        let mut t = 1.0f32;
+                        let mut t_mid = 1.0f32;
+                        for (k, &(dx, dz, frac)) in chn.stencil.iter().enumerate() {
+                            let tr = match self.col(x + dx, z + dz) {
+                                Some(ci) => (frac * chn.length * lnp[ci]).exp(),
+                                None => 1.0,
+                            };
+                            rem_row[xi][chn.first_slot + k] = light * (t * (1.0 - tr));
+                            if dx == 0 && dz == 0 {
+                                t_mid = t * tr.sqrt();
+                            }
+                            t *= tr;
+                        }
+                        cur_row[xi][c] = light * t;
+                        g_row[xi].add(chn.bin, chn.unit, light * t_mid);
+                    }
+                }
+                rf
+            })
+            .collect();
+        sum_rows(rows)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn phase2<S: Sink>(
+        &self,
+        removed: &[[Vec3; SLOTS]],
+        cells: &[grid_core::Material],
+        pend_in: &[Pending],
+        up: bool,
+        cur: &mut [Level],
+        pend_out: &mut [Pending],
+        g: &mut [S],
+    ) -> RowFlux {
+        let nx = self.nx as usize;
+        let rows: Vec<RowFlux> = cur
+            .par_chunks_mut(nx)
+            .zip(pend_out.par_chunks_mut(nx))
+            .zip(g.par_chunks_mut(nx))
+            .enumerate()
+            .map(|(z, ((cur_row, pend_row), g_row))| {
+                let z = z as i32;
+                let mut rf = RowFlux::default();
+                for x in 0..self.nx {
+                    let xi = x as usize;
+                    let ci = xi + nx * z as usize;
+                    // Step 3: the flux this cell removed from every path crossing it.
+                    let mut s_raw = Vec3::ZERO;
+                    let mut m_raw = [Vec3::ZERO; 3];
+                    for chn in self.ch.iter() {
+                        let mut r = Vec3::ZERO;
+                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                            if let Some(p) = self.col(x - dx, z - dz) {
+                                r += removed[p][chn.first_slot + k];
+                            }
+                        }
+                        let r = r * chn.mu;
+                        s_raw += r;
+                        m_raw[0] += r * chn.unit.x;
+                        m_raw[1] += r * chn.unit.y;
+                        m_raw[2] += r * chn.unit.z;
+                    }
+                    // Step 4: absorb (1 - albedo), keep albedo for scattering.
+                    let mat = cells[ci];
+                    let a = mat.reflectance;
+                    rf.absorbed += (s_raw * (Vec3::ONE - a)).as_dvec3();
+                    let new = Pending {
+                        s: s_raw * a,
+                        m: m_raw.map(|v| v * a),
+                    };
+                    let kappa = (1.0 - mat.pass) / (1.0 + mat.pass);
+                    // Step 5: emit into this pass's channels what was scattered now and
+                    // what the previous pass left for this direction.
+                    let own = new.add(&pend_in[ci]);
+                    if own.s != Vec3::ZERO {
+                        for (c, chn) in self.ch.iter().enumerate() {
+                            let e = emission_flux(&own, chn.unit, chn.bin, kappa)
+                                * (chn.share * chn.length);
+                            cur_row[xi][c] += e;
+                            g_row[xi].add(chn.bin, chn.unit, e * 0.5);
+                        }
+                    }
+                    // The other direction's share waits for the next pass.
+                    rf.pending += other_flux(&new, up, kappa);
+                    pend_row[xi] = new;
+                }
+                rf
+            })
+            .collect();
+        sum_rows(rows)
+    }
+}
+
+fn level_flux(level: &[Level], ch: &[Channel; CHANNELS]) -> DVec3 {
+    level
+        .iter()
+        .map(|o| {
+            (0..CHANNELS)
+                .map(|c| o[c].as_dvec3() * ch[c].mu as f64)
+                .sum::<DVec3>()
+        })
+        .sum()
+}
+
+/// Runs the sweep; see the crate docs for the semantics.
+pub fn run(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    options: &SweepOptions,
+) -> Result<Sweep, SweepError> {
+    options.validate()?;
+    let desc = *material.desc();
+    boundary.validate(&desc)?;
+    check_boundary_scale(boundary)?;
+    if options.outputs.bins {
+        let (g, balance, stats) = run_with::<BinLight>(material, boundary, options);
+        let grid = Grid::from_trusted(desc, g);
+        finish(
+            SweepOutput {
+                average: options.outputs.average.then(|| grid.average_grid()),
+                dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
+                bins: Some(grid),
+                stats,
+            },
+            balance,
+        )
+    } else {
+        let (g, balance, stats) = run_with::<AvgAcc>(material, boundary, options);
+        let average = options.outputs.average.then(|| {
+            Grid::from_trusted(
+                desc,
+                g.iter().map(|a| AverageLight(a.sum / (4.0 * PI))).collect(),
+            )
+        });
+        let dominant = options.outputs.dominant.then(|| {
+            Grid::from_trusted(
+                desc,
+                g.iter()
+                    .map(|a| {
+                        DominantDir(if a.den > 0.0 && a.den.is_finite() {
+                            (a.num / a.den).clamp_length_max(1.0)
+                        } else {
+                            Vec3::ZERO
+                        })
+                    })
+                    .collect(),
+            )
+        });
+        finish(
+            SweepOutput {
+                bins: None,
+                average,
+                dominant,
+                stats,
+            },
+            balance,
+        )
+    }
+}
+
+/// Last guard: no NaN or infinity leaves the sweep.
+fn finish(output: SweepOutput, balance: EnergyBalance) -> Result<Sweep, SweepError> {
+    let bad = output
+        .bins
+        .as_ref()
+        .is_some_and(|g| g.data().iter().any(|b| !b.is_valid()))
+        || output
+            .average
+            .as_ref()
+            .is_some_and(|g| g.data().iter().any(|a| !a.0.is_finite()))
+        || output
+            .dominant
+            .as_ref()
+            .is_some_and(|g| g.data().iter().any(|a| !a.0.is_finite()));
+    if bad {
+        return Err(SweepError::Backend {
+            backend: "cpu",
+            message: "light overflowed f32 (boundary light too large for this grid)".into(),
+        });
+    }
+    Ok(Sweep { output, balance })
+}
+
+fn run_with<S: Sink>(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    options: &SweepOptions,
+) -> (Vec<S>, EnergyBalance, SweepStats) {
+    let desc = *material.desc();
+    let dims = desc.dims();
+    let (nx, ny, nz) = (dims.x as i32, dims.y as i32, dims.z as i32);
+    let level_len = desc.level_len();
+    let n = desc.point_count();
+    let cells = material.data();
+    // ln(pass) per cell: -inf for opaque cells, whose exp(f * l * -inf) is exactly 0
+    // (f * l > 0 always, so no 0 * inf).
+    let lnp: Vec<f32> = cells.iter().map(|m| m.pass.ln()).collect();
+    let top_material = (0..ny)
+        .rev()
+        .find(|&j| {
+            cells[desc.level_range(j as u32)]
+                .iter()
+                .any(|m| !m.is_empty())
+        })
+        .unwrap_or(-1);
+    let laterally_uniform = matches!(boundary.top, TopBoundary::Uniform(_))
+        && matches!(boundary.sides, SideBoundary::Open | SideBoundary::Periodic);
+    let halo =
+        matches!(boundary.sides, SideBoundary::Given(_)).then(|| grid_core::HaloLayout::new(dims));
+
+    let mut g: Vec<S> = vec![S::default(); n];
+    let mut prev: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];
+    let mut cur: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];
+    let mut removed: Vec<[Vec3; SLOTS]> = vec![[Vec3::ZERO; SLOTS]; level_len];
+    let mut pend_in: Vec<Pending> = vec![Pending::default(); n];
+    let mut pend_out: Vec<Pending> = vec![Pending::default(); n];
+    let mut bal = EnergyBalance::default();
+    let mut stats = SweepStats::default();
+
+    for pass in 0..options.max_passes {
+        let up = pass % 2 == 1;
+        let ch = channels(up);
+        let src = Sources {
+            boundary,
+            active: pass < 2,
+            up,
+            dims,
+            halo,
+        };
+        let ctx = Ctx {
+            nx,
+            nz,
+            periodic: matches!(boundary.sides, SideBoundary::Periodic),
+            smoothing: options.smoothing,
+            ch,
+        };
+        stats.passes += 1;
+        let mut pending = DVec3::ZERO;
+        let levels: Vec<i32> = if up {
+            (0..ny).collect()
+        } else {
+            (0..ny).rev().collect()
+        };
+        for (li, &j) in levels.iter().enumerate() {
+            let from_virtual = li == 0;
+            let range = desc.level_range(j as u32);
+            if from_virtual {
+                for z in 0..nz {
+                    for x in 0..nx {
+                        let o = &mut prev[(x + nx * z) as usize];
+                        for (c, chn) in ch.iter().enumerate() {
+                            o[c] = src.virtual_light(x, z, chn);
+                        }
+                    }
+                }
+            }
+            // Skip: a level above all material, in a downward pass, under a laterally
+            // uniform boundary (or with no boundary light at all), receives exactly what
+            // it passes on. Copy instead of computing.
+            if !up && j > top_material && (laterally_uniform || !src.active) {
+                let v: Level = std::array::from_fn(|c| src.virtual_light(0, 0, &ch[c]));
+                if from_virtual {
+                    bal.top_in += level_flux(&prev, ch);
+                }
+                if src.active {
+                    for gp in &mut g[range.clone()] {
+                        for (c, chn) in ch.iter().enumerate() {
+                            gp.add(chn.bin, chn.unit, v[c]);
+                        }
+                    }
+                }
+                cur.iter_mut().for_each(|o| *o = v);
+                stats.levels_copied += 1;
+                std::mem::swap(&mut prev, &mut cur);
+                continue;
+            }
+            stats.levels_computed += 1;
+            let src_level = if up { j - 1 } else { j + 1 };
+            let sent = if from_virtual {
+                DVec3::ZERO
+            } else {
+                level_flux(&prev, ch)
+            };
+            let f1 = ctx.phase1(
+                &prev,
+                &src,
+                from_virtual,
+                src_level,
+                &lnp[range.clone()],
+                &mut cur,
+                &mut removed,
+                &mut g[range.clone()],
+            );
+            if from_virtual {
+                if up {
+                    bal.bottom_in += f1.inside;
+                } else {
+                    bal.top_in += f1.inside;
+                }
+            } else {
+                // Light that left the previous level but reached no point of this one
+                // crossed a side face.
+                bal.side_out += (sent - f1.inside).max(DVec3::ZERO);
+            }
+            bal.side_in += f1.outside;
+            let f2 = ctx.phase2(
+                &removed,
+                &cells[range.clone()],
+                &pend_in[range.clone()],
+                up,
+                &mut cur,
+                &mut pend_out[range.clone()],
+                &mut g[range.clone()],
+            );
+            bal.absorbed += f2.absorbed;
+            pending += f2.pending;
+            std::mem::swap(&mut prev, &mut cur);
+        }
+        // What leaves the last level leaves the grid.
+        let leaving = level_flux(&prev, ch);
+        if up {
+            bal.top_out += leaving;
+        } else {
+            bal.bottom_out += leaving;
+        }
+        // Skipped levels scattered nothing in this pass: their entries must be zero.
+        if !up {
+            for j in (top_material + 1).max(0)..ny {
+                pend_out[desc.level_range(j as u32)].fill(Pending::default());
+            }
+        }
+        std::mem::swap(&mut pend_in, &mut pend_out);
+        bal.pending = pending;
+        let input = bal.input().max_element();
+        if pending.max_element() <= options.tolerance as f64 * input && pass >= 1 {
+            break;
+        }
+    }
+    (g, bal, stats)
+}

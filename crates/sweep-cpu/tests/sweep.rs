@@ -1,0 +1,343 @@
+//! Properties of the sweep: known answers, energy, linearity, symmetry, monotonicity.
+
+use grid_core::dirs::{self, NUM_DIRS, dir_index, dir_ivec};
+use grid_core::glam::{IVec3, UVec3, Vec3};
+use grid_core::{
+    BinLight, Boundary, GridDesc, HaloLayout, LightGrid, Material, MaterialGrid, Outputs,
+    SideBoundary, SweepOptions, TopBoundary,
+};
+use proptest::prelude::*;
+use sweep_cpu::run;
+
+fn desc(nx: u32, ny: u32, nz: u32) -> GridDesc {
+    GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(nx, ny, nz)).unwrap()
+}
+
+fn opts(passes: u32, smoothing: f32) -> SweepOptions {
+    let mut o = SweepOptions::single_pass();
+    o.max_passes = passes;
+    o.smoothing = smoothing;
+    o.tolerance = 0.0;
+    o
+}
+
+/// A sky with a different value in every bin (full sphere).
+fn lumpy_sky() -> BinLight {
+    BinLight(std::array::from_fn(|d| {
+        Vec3::new(1.0 + d as f32, 2.0 + (d % 5) as f32, 0.5 + (d % 3) as f32)
+    }))
+}
+
+fn bins(out: &sweep_cpu::Sweep) -> &LightGrid {
+    out.output.bins.as_ref().unwrap()
+}
+
+fn rel_close(a: Vec3, b: Vec3, rel: f32) -> bool {
+    (a - b).abs().max_element() <= rel * a.abs().max(b.abs()).max_element().max(1e-20)
+}
+
+#[test]
+fn empty_medium_every_point_gets_the_sky() {
+    let sky = lumpy_sky();
+    for sides in [SideBoundary::Open, SideBoundary::Periodic] {
+        for smoothing in [0.0, 0.3] {
+            let m = MaterialGrid::filled(desc(5, 7, 3), Material::EMPTY).unwrap();
+            let mut b = Boundary::surrounding(&sky);
+            b.sides = sides.clone();
+            let out = run(&m, &b, &opts(2, smoothing)).unwrap();
+            for (i, p) in bins(&out).data().iter().enumerate() {
+                for d in 0..NUM_DIRS {
+                    assert!(
+                        rel_close(p.0[d], sky.0[d], 1e-6),
+                        "{sides:?} point {i} bin {d}: {} vs {}",
+                        p.0[d],
+                        sky.0[d]
+                    );
+                }
+            }
+            // Levels above all material are copied, not computed, in the downward pass.
+            assert_eq!(out.output.stats.levels_copied, 7);
+        }
+    }
+}
+
+#[test]
+fn empty_medium_with_given_sides_and_per_point_top() {
+    let sky = lumpy_sky();
+    let (top, bottom) = sky.split_vertical();
+    let d = desc(3, 4, 2);
+    let b = Boundary {
+        top: TopBoundary::PerPoint(vec![top; d.level_len()]),
+        bottom,
+        sides: SideBoundary::Given(vec![sky; HaloLayout::new(d.dims()).len()]),
+    };
+    let m = MaterialGrid::filled(d, Material::EMPTY).unwrap();
+    let out = run(&m, &b, &opts(2, 0.2)).unwrap();
+    for p in bins(&out).data() {
+        for k in 0..NUM_DIRS {
+            assert!(rel_close(p.0[k], sky.0[k], 1e-6));
+        }
+    }
+    assert_eq!(
+        out.output.stats.levels_copied, 0,
+        "a per-point top is not laterally uniform"
+    );
+}
+
+fn material_strategy(max: u32) -> impl Strategy<Value = MaterialGrid> {
+    (1..=max, 1..=max, 1..=max).prop_flat_map(|(nx, ny, nz)| {
+        let n = (nx * ny * nz) as usize;
+        let cell = (
+            prop_oneof![Just(0.0f32), Just(1.0), 0.0f32..1.0],
+            prop_oneof![Just(0.0f32), Just(1.0), Just(1.0 - 1e-7), 0.0f32..1.0],
+        )
+            .prop_map(|(a, p)| Material {
+                reflectance: Vec3::new(a, a * 0.5, 1.0 - a),
+                pass: p,
+            });
+        prop::collection::vec(cell, n)
+            .prop_map(move |cells| MaterialGrid::new(desc(nx, ny, nz), cells).unwrap())
+    })
+}
+
+fn sides_strategy() -> impl Strategy<Value = u8> {
+    0u8..3
+}
+
+fn boundary_for(d: &GridDesc, kind: u8, sky: &BinLight) -> Boundary {
+    let mut b = Boundary::surrounding(sky);
+    b.sides = match kind {
+        0 => SideBoundary::Open,
+        1 => SideBoundary::Periodic,
+        _ => SideBoundary::Given(vec![sky.scaled(0.7); HaloLayout::new(d.dims()).len()]),
+    };
+    b
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Input = absorbed + escaped + pending, to 1e-4, for any material, sides, smoothing
+    /// and number of passes, and whichever outputs are asked for.
+    #[test]
+    fn energy_is_accounted(m in material_strategy(9), sides in sides_strategy(), smoothing in 0f32..0.9, passes in 1u32..6, bins_out in any::<bool>()) {
+        let b = boundary_for(m.desc(), sides, &lumpy_sky());
+        let mut o = opts(passes, smoothing);
+        if !bins_out { o.outputs = Outputs::AVERAGE_DOMINANT; }
+        let out = run(&m, &b, &o).unwrap();
+        let bal = out.balance;
+        prop_assert!(bal.relative_error() < 1e-4, "{bal:?} err {}", bal.relative_error());
+        prop_assert!(bal.input().min_element() > 0.0);
+    }
+
+    /// The sweep is linear in the boundary light.
+    #[test]
+    fn linear_in_the_sky(m in material_strategy(7), sides in 0u8..2, a in 0.1f32..3.0, c in 0.1f32..3.0) {
+        let s1 = lumpy_sky();
+        let s2 = BinLight::uniform(Vec3::new(0.3, 1.0, 2.0));
+        let mix = BinLight(std::array::from_fn(|d| s1.0[d] * a + s2.0[d] * c));
+        let o = opts(3, 0.25);
+        let r1 = run(&m, &boundary_for(m.desc(), sides, &s1), &o).unwrap();
+        let r2 = run(&m, &boundary_for(m.desc(), sides, &s2), &o).unwrap();
+        let rm = run(&m, &boundary_for(m.desc(), sides, &mix), &o).unwrap();
+        for ((p1, p2), pm) in bins(&r1).data().iter().zip(bins(&r2).data()).zip(bins(&rm).data()) {
+            for d in 0..NUM_DIRS {
+                let expect = p1.0[d] * a + p2.0[d] * c;
+                prop_assert!((pm.0[d] - expect).abs().max_element() <= 1e-4 * expect.max_element() + 1e-6);
+            }
+        }
+    }
+}
+
+fn mirror_bin(d: usize, mx: bool, mz: bool) -> usize {
+    let v = dir_ivec(d);
+    dir_index(IVec3::new(
+        if mx { -v.x } else { v.x },
+        v.y,
+        if mz { -v.z } else { v.z },
+    ))
+    .unwrap()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Mirroring the material (and the sky) in x or z mirrors the light.
+    #[test]
+    fn mirror_symmetry(m in material_strategy(8), mx in any::<bool>(), periodic in any::<bool>()) {
+        let mz = !mx;
+        let d = *m.desc();
+        let dims = d.dims();
+        let flip = |p: UVec3| UVec3::new(if mx { dims.x - 1 - p.x } else { p.x }, p.y, if mz { dims.z - 1 - p.z } else { p.z });
+        let cells: Vec<Material> = (0..d.point_count()).map(|i| *m.get(flip(d.coords(i).unwrap())).unwrap()).collect();
+        let mm = MaterialGrid::new(d, cells).unwrap();
+        let sky = lumpy_sky();
+        let msky = BinLight(std::array::from_fn(|k| sky.0[mirror_bin(k, mx, mz)]));
+        let sides = if periodic { 1 } else { 0 };
+        let o = opts(3, 0.3);
+        let a = run(&m, &boundary_for(&d, sides, &sky), &o).unwrap();
+        let b = run(&mm, &boundary_for(&d, sides, &msky), &o).unwrap();
+        for i in 0..d.point_count() {
+            let p = d.coords(i).unwrap();
+            let la = bins(&a).get(p).unwrap();
+            let lb = bins(&b).get(flip(p)).unwrap();
+            for k in 0..NUM_DIRS {
+                let (x, y) = (la.0[k], lb.0[mirror_bin(k, mx, mz)]);
+                prop_assert!((x - y).abs().max_element() <= 1e-4 * x.max(y).max_element() + 1e-6, "point {p} bin {k}: {x} vs {y}");
+            }
+        }
+    }
+
+    /// Darker cells never brighten anything; denser absorbing cells never brighten
+    /// anything.
+    #[test]
+    fn monotonic_in_reflectance_and_density(m in material_strategy(7), pick in any::<prop::sample::Index>(), factor in 0f32..1.0) {
+        let d = *m.desc();
+        let i = pick.index(d.point_count());
+        let sky = lumpy_sky();
+        let o = opts(4, 0.25);
+        let base = run(&m, &boundary_for(&d, 0, &sky), &o).unwrap();
+        let mut darker = m.data().to_vec();
+        darker[i].reflectance *= factor;
+        let dk = run(&MaterialGrid::new(d, darker).unwrap(), &boundary_for(&d, 0, &sky), &o).unwrap();
+        for (a, b) in bins(&base).data().iter().zip(bins(&dk).data()) {
+            for k in 0..NUM_DIRS {
+                prop_assert!(b.0[k].cmple(a.0[k] * (1.0 + 1e-5) + Vec3::splat(1e-6)).all());
+            }
+        }
+        let mut absorbing: Vec<Material> = m.data().iter().map(|c| Material { reflectance: Vec3::ZERO, pass: c.pass }).collect();
+        let base = run(&MaterialGrid::new(d, absorbing.clone()).unwrap(), &boundary_for(&d, 0, &sky), &o).unwrap();
+        absorbing[i].pass *= factor;
+        let dense = run(&MaterialGrid::new(d, absorbing).unwrap(), &boundary_for(&d, 0, &sky), &o).unwrap();
+        for (a, b) in bins(&base).data().iter().zip(bins(&dense).data()) {
+            for k in 0..NUM_DIRS {
+                prop_assert!(b.0[k].cmple(a.0[k] * (1.0 + 1e-5) + Vec3::splat(1e-6)).all());
+            }
+        }
+    }
+}
+
+#[test]
+fn one_cell_wall_blocks_near_horizontal_light() {
+    let (nx, ny, nz) = (40u32, 8u32, 3u32);
+    let wall = 14u32;
+    let plus_x = dir_index(IVec3::X).unwrap();
+    let sky = BinLight::single(plus_x, Vec3::ONE);
+    let d = desc(nx, ny, nz);
+    let mut cells = vec![Material::EMPTY; d.point_count()];
+    for i in 0..d.point_count() {
+        if d.coords(i).unwrap().x == wall {
+            cells[i] = Material::opaque(Vec3::ZERO);
+        }
+    }
+    let with_wall = run(
+        &MaterialGrid::new(d, cells).unwrap(),
+        &Boundary::open_sky(sky),
+        &opts(1, 0.0),
+    )
+    .unwrap();
+    let without = run(
+        &MaterialGrid::filled(d, Material::EMPTY).unwrap(),
+        &Boundary::open_sky(sky),
+        &opts(1, 0.0),
+    )
+    .unwrap();
+    let mut checked = 0;
+    for i in 0..d.point_count() {
+        let p = d.coords(i).unwrap();
+        // Every chain of paths reaching this point started left of the wall.
+        let start = p.x as i64 - 4 * (ny - p.y) as i64;
+        if p.x > wall + 2 && start < wall as i64 - 2 {
+            checked += 1;
+            assert_eq!(
+                bins(&with_wall).data()[i].0[plus_x],
+                Vec3::ZERO,
+                "point {p}"
+            );
+            assert_eq!(bins(&without).data()[i].0[plus_x], Vec3::ONE, "point {p}");
+        }
+    }
+    assert!(checked > 100, "{checked}");
+}
+
+#[test]
+fn single_pass_never_lights_upward_bins() {
+    let d = desc(6, 6, 6);
+    let m = MaterialGrid::filled(
+        d,
+        Material {
+            reflectance: Vec3::ONE,
+            pass: 0.5,
+        },
+    )
+    .unwrap();
+    let (top, _) = lumpy_sky().split_vertical();
+    let out = run(&m, &Boundary::open_sky(top), &opts(1, 0.0)).unwrap();
+    for p in bins(&out).data() {
+        for k in 17..NUM_DIRS {
+            assert_eq!(p.0[k], Vec3::ZERO);
+        }
+    }
+    // With an upward pass, the bright fog lights them.
+    let out = run(&m, &Boundary::open_sky(top), &opts(2, 0.0)).unwrap();
+    assert!(bins(&out).data()[0].0[dirs::UP].x > 0.0);
+}
+
+#[test]
+fn multi_bounce_converges_and_average_only_matches_bins() {
+    let d = desc(8, 10, 8);
+    let m = MaterialGrid::filled(
+        d,
+        Material {
+            reflectance: Vec3::splat(0.9),
+            pass: 0.7,
+        },
+    )
+    .unwrap();
+    let (top, _) = lumpy_sky().split_vertical();
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 1e-4;
+    let full = run(&m, &Boundary::open_sky(top), &o).unwrap();
+    assert!(
+        full.output.stats.passes < o.max_passes,
+        "{:?}",
+        full.output.stats
+    );
+    assert!(full.balance.pending.max_element() <= 1e-4 * full.balance.input().max_element());
+    o.outputs = Outputs::AVERAGE_DOMINANT;
+    let lean = run(&m, &Boundary::open_sky(top), &o).unwrap();
+    assert!(lean.output.bins.is_none());
+    let (a, b) = (full.output.average.unwrap(), lean.output.average.unwrap());
+    let (da, db) = (full.output.dominant.unwrap(), lean.output.dominant.unwrap());
+    for i in 0..d.point_count() {
+        assert!(rel_close(a.data()[i].0, b.data()[i].0, 1e-5));
+        assert!((da.data()[i].0 - db.data()[i].0).length() < 1e-5);
+    }
+}
+
+#[test]
+fn invalid_input_is_a_typed_error() {
+    let m = MaterialGrid::filled(desc(2, 2, 2), Material::EMPTY).unwrap();
+    let mut sky = BinLight::ZERO;
+    sky.0[3].y = f32::NAN;
+    let e = run(&m, &Boundary::open_sky(sky), &SweepOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("top"), "{e}");
+    let e = run(
+        &m,
+        &Boundary::open_sky(BinLight::single(4, Vec3::splat(1e35))),
+        &SweepOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("1e30"), "{e}");
+    let mut o = SweepOptions::default();
+    o.smoothing = f32::NAN;
+    assert!(
+        run(&m, &Boundary::open_sky(BinLight::ZERO), &o)
+            .unwrap_err()
+            .to_string()
+            .contains("smoothing")
+    );
+}
