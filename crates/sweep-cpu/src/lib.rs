@@ -68,7 +68,7 @@
 //!
 //! 1. **Gather.** `I(x, c) = (1 - w) O'(x - s_c, c) + (w/4) Σ O'(x - s_c ± e, c)` over
 //!    the four horizontal neighbours `e` of the source point, where `w` is the smoothing
-//!    weight and `O'` the outgoing light of the previous level. Beyond the first level the
+//!    weight and `O'` the outgoing light of the previous level. For the first level the
 //!    previous level is the virtual level outside the grid: the top boundary (downward)
 //!    or the bottom boundary (upward). Source points beyond the sides take: open — the
 //!    top (downward) or bottom (upward) boundary light, as if the world around were empty;
@@ -77,29 +77,37 @@
 //!    in the first downward and the first upward pass.
 //! 2. **Transmit.** Along the path, cell by cell: cell `k` removes `I · T_k (1 - τ_k)`
 //!    (`T_k` the product of the `τ` before it); the path leaves with `I · T`. Path cells
-//!    outside the grid are empty (periodic: wrapped).
+//!    outside the grid are empty (periodic: wrapped). `T_after` is the transmittance of
+//!    the path cells after the point's own cell (1 for vertical and diagonal channels).
 //! 3. **Collect.** Each cell sums, in flux, what it removed from every path crossing it:
 //!    `R = Σ_c μ_c Σ removed`, and the first moment `M = Σ_c μ_c u_c Σ removed`.
-//! 4. **Absorb.** `(1 - a) R` is absorbed; `S = a R` and `a M` are scattered.
-//! 5. **Emit.** The cell emits, into every bin `b`, the flux
-//!    `F_b = ω_b / 4π · (S - κ u_b · M)` with `κ = (1 - p)/(1 + p)`: isotropic for
-//!    `p = 1`, and for dense cells weighted towards back-scattering by `1 - κ cos` (the
-//!    seed's "forward directions multiplied by the pass-through, interpolated between
-//!    forward and backward"), exactly normalised (`Σ_b ω_b u_b = 0`, so `Σ_b F_b = S`)
-//!    and never negative. Into this pass's channel `c` it adds `σ_c F_b ℓ_c` to the
-//!    outgoing light. What goes into the other pass's channels waits (as `S`, `M`) and
-//!    is emitted by the next pass at step 5; there it adds to that pass's own `S`, `M`.
-//! 6. **Outgoing and final light.** `O(x, c) = I T + E(x, c)` (with `E` the emission of
-//!    step 5). The light grid gets `I T_mid + E/2` in bin `b_c` (`T_mid` the transmittance
-//!    from the entry face to the point, halfway along the path; the emission is on average
-//!    halfway out), summed over all passes; horizontal bins sum both halves.
+//! 4. **Absorb.** `(1 - a) R` is absorbed; `S = a R` and `a M` are scattered. Half of
+//!    the scattered flux belongs to this pass's channels (the downward bins and the
+//!    downward halves of the horizontal bins hold half the sphere), half waits for the
+//!    next pass in the other direction. To this pass's half the cell adds what earlier
+//!    passes left for this direction.
+//! 5. **Emit.** Of scattered light `(S, M)` the cell sends into channel `c` (bin `b`)
+//!    the flux `F_c = σ_c ω_b / 4π · (A S - B u_b · M) · T_after` with `A = (1 + p)/2`,
+//!    `B = (1 - p)/2`: isotropic in a clear cell, and in a dense cell the forward light
+//!    is stopped by the cell's own material (weight `p` straight on, 1 straight back,
+//!    interpolated between: the seed's rule). The outgoing light gains `F_c / μ_c`.
+//! 6. **Re-absorb.** What the weights and `T_after` stopped, `σ_c ω_b/4π S - F_c`
+//!    summed over the channels, was removed by the cell from light travelling along
+//!    `u_c`: it is absorbed and scattered again as in steps 3–5, up to
+//!    [`sweep::LOCAL_ROUNDS`] times within the pass; what is left waits for the next
+//!    passes of both directions.
+//! 7. **Outgoing and final light.** `O(x, c) = I T + Σ F_c / μ_c`. The light grid gets
+//!    `I T_mid + F_c / (2 μ_c)` (before `T_after`) in bin `b_c`, where `T_mid` is the
+//!    transmittance from the entry face to the point (halfway along the path), summed
+//!    over all passes; horizontal bins sum both halves.
 //!
 //! The outgoing light of the last level leaves the grid (bottom, or top for upward
 //! passes); light whose receiving point lies beyond a side leaves through the side.
-//! Passes alternate downward, upward, downward, ... and stop after `max_passes`, or when
-//! the scattered flux still waiting is at most `tolerance` times the input flux.
+//! Passes alternate downward, upward, downward, ... and stop after `max_passes`, or
+//! (after at least one pass each way) when the scattered flux still waiting is at most
+//! `tolerance` times the input flux.
 //!
-//! **Energy.** Steps 1–6 conserve flux exactly: input (top, bottom, sides) = absorbed +
+//! **Energy.** Steps 1–7 conserve flux exactly: input (top, bottom, sides) = absorbed +
 //! escaped (top, bottom, sides) + pending. [`Sweep::balance`] reports every term; the
 //! tests hold it to 1e-4.
 //!
@@ -113,6 +121,8 @@
 //! leaving through a side skips the (at most two) edge cells its path would still cross.
 //! Periodic boundaries have no edge.
 
+pub mod reference;
+pub mod scenes;
 pub mod sweep;
 
 pub use sweep::{EnergyBalance, Sweep, run};

@@ -91,6 +91,10 @@ pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
     }
 }
 
+/// Rounds of re-emission, within one pass, of the light a cell's own material stops
+/// (step 6); what remains waits for the next pass in this direction.
+pub const LOCAL_ROUNDS: usize = 4;
+
 /// Total stencil slots over the channels of a pass.
 pub const SLOTS: usize = 9 + 8 * 5;
 
@@ -168,23 +172,14 @@ impl Pending {
     }
 }
 
-/// Flux a cell scatters into bin `bin` (unit vector `unit`): the semantics' emission rule
-/// `omega_b / 4pi * (S - kappa * u_b · M)`, never negative.
-fn emission_flux(p: &Pending, unit: Vec3, bin: usize, kappa: f32) -> Vec3 {
+/// Flux a cell scatters towards bin `bin` (unit vector `unit`) before the cell's own
+/// material attenuates it: `omega_b / 4pi * (A S - B u_b · M)` with `A = (1 + p)/2`,
+/// `B = (1 - p)/2` (never negative, since `|u_b · M| <= S` and `A >= B`).
+#[inline]
+fn emission_flux(p: &Pending, unit: Vec3, bin: usize, a: f32, b: f32) -> Vec3 {
     let w = dirs::solid_angles()[bin] / (4.0 * PI);
     let um = p.m[0] * unit.x + p.m[1] * unit.y + p.m[2] * unit.z;
-    ((p.s - um * kappa) * w).max(Vec3::ZERO)
-}
-
-/// Flux of `p`'s emission that travels in the other pass's channels.
-fn other_flux(p: &Pending, up: bool, kappa: f32) -> DVec3 {
-    if p.s == Vec3::ZERO {
-        return DVec3::ZERO;
-    }
-    channels(!up)
-        .iter()
-        .map(|c| (emission_flux(p, c.unit, c.bin, kappa) * c.share).as_dvec3())
-        .sum()
+    ((p.s * a - um * b) * w).max(Vec3::ZERO)
 }
 
 /// Where the final light of a point goes: all 26 bins, or only what the average and the
@@ -360,15 +355,17 @@ impl Ctx {
         lnp: &[f32],
         cur: &mut [Level],
         removed: &mut [[Vec3; SLOTS]],
+        t_after: &mut [[f32; CHANNELS]],
         g: &mut [S],
     ) -> RowFlux {
         let nx = self.nx as usize;
         let rows: Vec<RowFlux> = cur
             .par_chunks_mut(nx)
             .zip(removed.par_chunks_mut(nx))
+            .zip(t_after.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
             .enumerate()
-            .map(|(z, ((cur_row, rem_row), g_row))| {
+            .map(|(z, (((cur_row, rem_row), ta_row), g_row))| {
                 let z = z as i32;
                 let mut rf = RowFlux::default();
                 for x in 0..self.nx {
@@ -404,17 +401,24 @@ impl Ctx {
                         // Step 2: transmit along the path, recording what each cell removes.
                         let mut t = 1.0f32;
                         let mut t_mid = 1.0f32;
+                        let mut after = 1.0f32;
+                        let mut past_centre = false;
                         for (k, &(dx, dz, frac)) in chn.stencil.iter().enumerate() {
                             let tr = match self.col(x + dx, z + dz) {
                                 Some(ci) => (frac * chn.length * lnp[ci]).exp(),
                                 None => 1.0,
                             };
                             rem_row[xi][chn.first_slot + k] = light * (t * (1.0 - tr));
+                            if past_centre {
+                                after *= tr;
+                            }
                             if dx == 0 && dz == 0 {
                                 t_mid = t * tr.sqrt();
+                                past_centre = true;
                             }
                             t *= tr;
                         }
+                        ta_row[xi][c] = after;
                         cur_row[xi][c] = light * t;
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
                     }
@@ -429,20 +433,21 @@ impl Ctx {
     fn phase2<S: Sink>(
         &self,
         removed: &[[Vec3; SLOTS]],
+        t_after: &[[f32; CHANNELS]],
         cells: &[grid_core::Material],
-        pend_in: &[Pending],
-        up: bool,
         cur: &mut [Level],
-        pend_out: &mut [Pending],
+        pend_same: &mut [Pending],
+        pend_other: &mut [Pending],
         g: &mut [S],
     ) -> RowFlux {
         let nx = self.nx as usize;
         let rows: Vec<RowFlux> = cur
             .par_chunks_mut(nx)
-            .zip(pend_out.par_chunks_mut(nx))
+            .zip(pend_same.par_chunks_mut(nx))
+            .zip(pend_other.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
             .enumerate()
-            .map(|(z, ((cur_row, pend_row), g_row))| {
+            .map(|(z, (((cur_row, same_row), other_row), g_row))| {
                 let z = z as i32;
                 let mut rf = RowFlux::default();
                 for x in 0..self.nx {
@@ -466,27 +471,49 @@ impl Ctx {
                     }
                     // Step 4: absorb (1 - albedo), keep albedo for scattering.
                     let mat = cells[ci];
-                    let a = mat.reflectance;
-                    rf.absorbed += (s_raw * (Vec3::ONE - a)).as_dvec3();
+                    let alb = mat.reflectance;
+                    rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
                     let new = Pending {
-                        s: s_raw * a,
-                        m: m_raw.map(|v| v * a),
+                        s: s_raw * alb,
+                        m: m_raw.map(|v| v * alb),
                     };
-                    let kappa = (1.0 - mat.pass) / (1.0 + mat.pass);
-                    // Step 5: emit into this pass's channels what was scattered now and
-                    // what the previous pass left for this direction.
-                    let own = new.add(&pend_in[ci]);
-                    if own.s != Vec3::ZERO {
-                        for (c, chn) in self.ch.iter().enumerate() {
-                            let e = emission_flux(&own, chn.unit, chn.bin, kappa)
-                                * (chn.share * chn.length);
-                            cur_row[xi][c] += e;
-                            g_row[xi].add(chn.bin, chn.unit, e * 0.5);
+                    // Step 5: emit this pass's half of what the cell scatters now and of
+                    // what earlier passes left for this direction. Step 6: what the cell's
+                    // own material stops of that emission is removed again (absorbed or
+                    // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
+                    let mut own = new.add(&same_row[xi]);
+                    let mut other = other_row[xi].add(&new);
+                    let (ka, kb) = ((1.0 + mat.pass) * 0.5, (1.0 - mat.pass) * 0.5);
+                    let omega = dirs::solid_angles();
+                    for _ in 0..LOCAL_ROUNDS {
+                        if own.s == Vec3::ZERO {
+                            break;
                         }
+                        let mut lost_s = Vec3::ZERO;
+                        let mut lost_m = [Vec3::ZERO; 3];
+                        for (c, chn) in self.ch.iter().enumerate() {
+                            let f = emission_flux(&own, chn.unit, chn.bin, ka, kb) * chn.share;
+                            let leaving = f * t_after[ci][c];
+                            let full = own.s * (omega[chn.bin] / (4.0 * PI) * chn.share);
+                            let lost = (full - leaving).max(Vec3::ZERO);
+                            lost_s += lost;
+                            lost_m[0] += lost * chn.unit.x;
+                            lost_m[1] += lost * chn.unit.y;
+                            lost_m[2] += lost * chn.unit.z;
+                            cur_row[xi][c] += leaving / chn.mu;
+                            g_row[xi].add(chn.bin, chn.unit, f * (0.5 / chn.mu));
+                        }
+                        rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
+                        own = Pending {
+                            s: lost_s * alb,
+                            m: lost_m.map(|v| v * alb),
+                        };
+                        other = other.add(&own);
                     }
-                    // The other direction's share waits for the next pass.
-                    rf.pending += other_flux(&new, up, kappa);
-                    pend_row[xi] = new;
+                    let recycled = own;
+                    same_row[xi] = recycled;
+                    other_row[xi] = other;
+                    rf.pending += ((recycled.s + other.s) * 0.5).as_dvec3();
                 }
                 rf
             })
@@ -616,8 +643,10 @@ fn run_with<S: Sink>(
     let mut prev: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];
     let mut cur: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];
     let mut removed: Vec<[Vec3; SLOTS]> = vec![[Vec3::ZERO; SLOTS]; level_len];
-    let mut pend_in: Vec<Pending> = vec![Pending::default(); n];
-    let mut pend_out: Vec<Pending> = vec![Pending::default(); n];
+    let mut t_after: Vec<[f32; CHANNELS]> = vec![[1.0; CHANNELS]; level_len];
+    // Scattered light waiting to be emitted in downward / upward channels.
+    let mut pend_down: Vec<Pending> = vec![Pending::default(); n];
+    let mut pend_up: Vec<Pending> = vec![Pending::default(); n];
     let mut bal = EnergyBalance::default();
     let mut stats = SweepStats::default();
 
@@ -693,6 +722,7 @@ fn run_with<S: Sink>(
                 &lnp[range.clone()],
                 &mut cur,
                 &mut removed,
+                &mut t_after,
                 &mut g[range.clone()],
             );
             if from_virtual {
@@ -707,13 +737,18 @@ fn run_with<S: Sink>(
                 bal.side_out += (sent - f1.inside).max(DVec3::ZERO);
             }
             bal.side_in += f1.outside;
+            let (same, other) = if up {
+                (&mut pend_up, &mut pend_down)
+            } else {
+                (&mut pend_down, &mut pend_up)
+            };
             let f2 = ctx.phase2(
                 &removed,
+                &t_after,
                 &cells[range.clone()],
-                &pend_in[range.clone()],
-                up,
                 &mut cur,
-                &mut pend_out[range.clone()],
+                &mut same[range.clone()],
+                &mut other[range.clone()],
                 &mut g[range.clone()],
             );
             bal.absorbed += f2.absorbed;
@@ -727,13 +762,6 @@ fn run_with<S: Sink>(
         } else {
             bal.bottom_out += leaving;
         }
-        // Skipped levels scattered nothing in this pass: their entries must be zero.
-        if !up {
-            for j in (top_material + 1).max(0)..ny {
-                pend_out[desc.level_range(j as u32)].fill(Pending::default());
-            }
-        }
-        std::mem::swap(&mut pend_in, &mut pend_out);
         bal.pending = pending;
         let input = bal.input().max_element();
         if pending.max_element() <= options.tolerance as f64 * input && pass >= 1 {

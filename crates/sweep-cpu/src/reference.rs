@@ -1,0 +1,508 @@
+//! The Monte Carlo reference: the same physical problem as the sweep, in the continuous
+//! limit, solved by tracing light paths.
+//!
+//! **The problem.** Each material cell is a homogeneous medium with extinction
+//! `σ = -ln(p) / h` (`p = 0`: opaque, infinite extinction), single-scattering albedo =
+//! reflectance (per RGB channel), and isotropic scattering. It is lit through its faces by
+//! the [`Boundary`]: radiance constant within each bin (within each half of a horizontal
+//! bin), `top` entering through the top face and, with open sides, through the sides
+//! (travelling downward), `bottom` through the bottom face and the sides (travelling
+//! upward). Periodic sides wrap paths around. Given halos and per-point tops are not
+//! supported (a typed error).
+//!
+//! **The estimator.** Paths start on a face with probability proportional to the flux
+//! entering there (exact per bin: `dirs::bin_region` clips each bin to the half-space
+//! that enters the face), then fly through the cells with exact segment-in-cell lengths
+//! (3D DDA), scatter at collisions (weight × albedo), and end when they leave the grid
+//! or their weight falls below 1e-6 of where it started (that remainder is tallied as
+//! `terminated`). Every segment deposits `weight × length` into the bin of its direction
+//! in the cell it crosses (the track-length estimator, 3DWorld's "every cell a ray
+//! passes"); divided by the cell volume this is the light a bin holds at the cell's point,
+//! directly comparable with the sweep's light grid.
+//!
+//! **Determinism.** Paths are traced in batches; each path draws from its own random
+//! stream (seed, path index), and deposits are added to `f64` tallies in path order, so a
+//! run is identical for the same seed and path count on any number of threads. A time
+//! budget stops between batches.
+
+use std::time::{Duration, Instant};
+
+use grid_core::dirs::{self, NUM_DIRS};
+use grid_core::glam::{DVec3, IVec3, UVec3, Vec3};
+use grid_core::{
+    BinLight, Boundary, Grid, GridError, LightGrid, MaterialGrid, SideBoundary, SweepError,
+    TopBoundary,
+};
+use rayon::prelude::*;
+
+use crate::EnergyBalance;
+
+/// Options of a reference run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceOptions {
+    /// Paths to trace.
+    pub paths: u64,
+    /// Stop early (between batches) after this long.
+    pub time_budget: Option<Duration>,
+    /// Random seed.
+    pub seed: u64,
+    /// Most scattering events of one path before it is terminated.
+    pub max_events: u32,
+}
+
+impl Default for ReferenceOptions {
+    fn default() -> Self {
+        Self {
+            paths: 1_000_000,
+            time_budget: None,
+            seed: 1,
+            max_events: 100_000,
+        }
+    }
+}
+
+/// The result of a reference run.
+#[derive(Debug, Clone)]
+pub struct Reference {
+    /// Light per point and bin (the cell's mean over its volume).
+    pub light: LightGrid,
+    /// Paths traced.
+    pub paths: u64,
+    /// Flux tallies in the sweep's units (light × `h²` per point); `pending` holds the
+    /// weight of terminated paths.
+    pub balance: EnergyBalance,
+    /// Standard error of each point's average light (RGB), from 8 interleaved groups of
+    /// paths.
+    pub std_error: Vec<Vec3>,
+}
+
+impl Reference {
+    /// Root-mean-square over points of (standard error / value) of the average light,
+    /// over points whose average exceeds `floor` (luminance).
+    pub fn relative_std_error(&self, floor: f32) -> f64 {
+        let mut sum = 0.0;
+        let mut n = 0usize;
+        for (b, se) in self.light.data().iter().zip(&self.std_error) {
+            let a = grid_core::light::luminance(b.average());
+            if a > floor {
+                let r = grid_core::light::luminance(*se) / a;
+                sum += (r * r) as f64;
+                n += 1;
+            }
+        }
+        if n == 0 { 0.0 } else { (sum / n as f64).sqrt() }
+    }
+}
+
+const GROUPS: usize = 8;
+const BATCH: u64 = 1 << 14;
+
+/// One way light enters: a face, a boundary's bin, the part of the bin that enters.
+struct SourceComponent {
+    /// Inward normal of the face.
+    normal: IVec3,
+    bin: usize,
+    /// Planes the direction must be on the positive side of.
+    planes: Vec<DVec3>,
+    /// Flux entering (RGB), light × h² per point units.
+    flux: Vec3,
+}
+
+struct BinCap {
+    basis: (Vec3, Vec3, Vec3),
+    cos_max: f32,
+}
+
+fn bin_caps() -> Vec<BinCap> {
+    let g = dirs::bins();
+    (0..NUM_DIRS)
+        .map(|d| {
+            let u = dirs::dir_unit(d);
+            let ud = u.as_dvec3();
+            let cos_min = g.polygons[d].iter().map(|v| v.dot(ud)).fold(1.0, f64::min);
+            let t1 = u.any_orthonormal_vector();
+            BinCap {
+                basis: (t1, u.cross(t1), u),
+                cos_max: (cos_min - 1e-4) as f32,
+            }
+        })
+        .collect()
+}
+
+fn sources(
+    boundary: &Boundary,
+    dims: UVec3,
+    open: bool,
+) -> Result<Vec<SourceComponent>, SweepError> {
+    let top = match &boundary.top {
+        TopBoundary::Uniform(b) => **b,
+        TopBoundary::PerPoint(_) => {
+            return Err(SweepError::Invalid(GridError::invalid(
+                "top",
+                "PerPoint",
+                "the Monte Carlo reference supports a uniform top only",
+            )));
+        }
+    };
+    if matches!(boundary.sides, SideBoundary::Given(_)) {
+        return Err(SweepError::Invalid(GridError::invalid(
+            "sides",
+            "Given",
+            "the Monte Carlo reference supports open and periodic sides only",
+        )));
+    }
+    let (nx, ny, nz) = (dims.x as f64, dims.y as f64, dims.z as f64);
+    let mut faces = vec![(IVec3::NEG_Y, nx * nz), (IVec3::Y, nx * nz)];
+    if open {
+        faces.extend([
+            (IVec3::X, ny * nz),
+            (IVec3::NEG_X, ny * nz),
+            (IVec3::Z, nx * ny),
+            (IVec3::NEG_Z, nx * ny),
+        ]);
+    }
+    let mut out = Vec::new();
+    for (light, vertical) in [(&top, DVec3::NEG_Y), (&boundary.bottom, DVec3::Y)] {
+        for d in 0..NUM_DIRS {
+            let v = light.0[d];
+            if v == Vec3::ZERO || dirs::dir_ivec(d).y as f64 * vertical.y < 0.0 {
+                continue; // empty, or a bin this boundary does not carry
+            }
+            let (omega_half, _) = dirs::bin_region(d, &[vertical]);
+            if omega_half <= 0.0 {
+                continue;
+            }
+            let radiance = v / omega_half as f32;
+            for &(n, area) in &faces {
+                let planes = vec![vertical, n.as_dvec3()];
+                let (w, m) = dirs::bin_region(d, &planes);
+                let cosine = n.as_dvec3().dot(m);
+                if w <= 0.0 || cosine <= 0.0 {
+                    continue;
+                }
+                out.push(SourceComponent {
+                    normal: n,
+                    bin: d,
+                    planes,
+                    flux: radiance * (cosine * area) as f32,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// One deposit: cell index × 26 + bin, and the light added (weight × length).
+type Deposit = (u32, Vec3);
+
+struct PathResult {
+    deposits: Vec<Deposit>,
+    w0: Vec3,
+    absorbed: Vec3,
+    escaped: [Vec3; 3], // top, bottom, sides
+    terminated: Vec3,
+    /// Face the path entered by: 0 top, 1 bottom, 2 side.
+    entry: usize,
+}
+
+struct Tracer<'a> {
+    dims: IVec3,
+    sigma: Vec<f32>,
+    albedo: Vec<Vec3>,
+    periodic: bool,
+    comps: &'a [SourceComponent],
+    cdf: Vec<f64>,
+    caps: Vec<BinCap>,
+    max_events: u32,
+}
+
+impl Tracer<'_> {
+    fn cell_index(&self, c: IVec3) -> usize {
+        (c.x + self.dims.x * (c.z + self.dims.z * c.y)) as usize
+    }
+
+    fn sample_bin_direction(&self, rng: &mut fastrand::Rng, comp: &SourceComponent) -> Vec3 {
+        let cap = &self.caps[comp.bin];
+        let n = comp.normal.as_vec3();
+        loop {
+            let cos_t = 1.0 - rng.f32() * (1.0 - cap.cos_max);
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * rng.f32();
+            let (a, b, c) = cap.basis;
+            let t = a * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + c * cos_t;
+            if dirs::nearest_dir(t) != comp.bin {
+                continue;
+            }
+            if comp.planes.iter().any(|p| p.as_vec3().dot(t) <= 0.0) {
+                continue;
+            }
+            // Cosine-weighted by rejection: accept with probability n·t.
+            if rng.f32() < n.dot(t) {
+                return t;
+            }
+        }
+    }
+
+    fn trace(&self, index: u64, seed: u64) -> PathResult {
+        let mut rng = fastrand::Rng::with_seed(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let total = self.cdf.last().copied().unwrap_or(0.0);
+        let pick = rng.f64() * total;
+        let k = self
+            .cdf
+            .partition_point(|&c| c <= pick)
+            .min(self.comps.len() - 1);
+        let comp = &self.comps[k];
+        let prob = (self.cdf[k] - if k == 0 { 0.0 } else { self.cdf[k - 1] }) / total;
+        let w0 = comp.flux / prob as f32;
+        let d = self.dims;
+        let dims_f = d.as_vec3();
+        // Start on the face.
+        let n = comp.normal;
+        let mut pos = Vec3::new(
+            rng.f32() * dims_f.x - 0.5,
+            rng.f32() * dims_f.y - 0.5,
+            rng.f32() * dims_f.z - 0.5,
+        );
+        for axis in 0..3 {
+            if n[axis] > 0 {
+                pos[axis] = -0.5;
+            } else if n[axis] < 0 {
+                pos[axis] = dims_f[axis] - 0.5;
+            }
+        }
+        let mut cell = (pos + Vec3::splat(0.5))
+            .floor()
+            .as_ivec3()
+            .clamp(IVec3::ZERO, d - IVec3::ONE);
+        for axis in 0..3 {
+            if n[axis] > 0 {
+                cell[axis] = 0;
+            } else if n[axis] < 0 {
+                cell[axis] = d[axis] - 1;
+            }
+        }
+        let mut dir = self.sample_bin_direction(&mut rng, comp);
+        let mut w = w0;
+        let mut res = PathResult {
+            deposits: Vec::with_capacity(32),
+            w0,
+            absorbed: Vec3::ZERO,
+            escaped: [Vec3::ZERO; 3],
+            terminated: Vec3::ZERO,
+            entry: match n.y {
+                -1 => 0,
+                1 => 1,
+                _ => 2,
+            },
+        };
+        let w_min = w0.max_element() * 1e-6;
+        let mut tau = -(1.0 - rng.f32()).ln();
+        let mut bin = dirs::nearest_dir(dir);
+        let mut events = 0u32;
+        loop {
+            // Distance to the exit of the current cell.
+            let mut s_exit = f32::INFINITY;
+            let mut axis = 0;
+            for a in 0..3 {
+                let t = if dir[a] > 0.0 {
+                    (cell[a] as f32 + 0.5 - pos[a]) / dir[a]
+                } else if dir[a] < 0.0 {
+                    (cell[a] as f32 - 0.5 - pos[a]) / dir[a]
+                } else {
+                    f32::INFINITY
+                };
+                let t = t.max(0.0);
+                if t < s_exit {
+                    s_exit = t;
+                    axis = a;
+                }
+            }
+            let ci = self.cell_index(cell);
+            let sigma = self.sigma[ci];
+            let collide = sigma > 0.0 && (sigma == f32::INFINITY || sigma * s_exit >= tau);
+            let s = if collide {
+                if sigma == f32::INFINITY {
+                    0.0
+                } else {
+                    tau / sigma
+                }
+            } else {
+                s_exit
+            };
+            if s > 0.0 {
+                res.deposits.push(((ci * NUM_DIRS + bin) as u32, w * s));
+            }
+            pos += dir * s;
+            if collide {
+                let a = self.albedo[ci];
+                res.absorbed += w * (Vec3::ONE - a);
+                w *= a;
+                events += 1;
+                if w.max_element() < w_min || events >= self.max_events {
+                    res.terminated += w;
+                    return res;
+                }
+                // Isotropic scattering.
+                let z = 1.0 - 2.0 * rng.f32();
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = std::f32::consts::TAU * rng.f32();
+                dir = Vec3::new(r * phi.cos(), z, r * phi.sin());
+                bin = dirs::nearest_dir(dir);
+                tau = -(1.0 - rng.f32()).ln();
+                continue;
+            }
+            tau -= sigma * s_exit;
+            // Step into the next cell.
+            let step = if dir[axis] > 0.0 { 1 } else { -1 };
+            cell[axis] += step;
+            if cell[axis] < 0 || cell[axis] >= d[axis] {
+                if axis == 1 {
+                    res.escaped[if step > 0 { 0 } else { 1 }] += w;
+                    return res;
+                }
+                if !self.periodic {
+                    res.escaped[2] += w;
+                    return res;
+                }
+                let wrap = d[axis];
+                cell[axis] = cell[axis].rem_euclid(wrap);
+                pos[axis] += if step > 0 {
+                    -(wrap as f32)
+                } else {
+                    wrap as f32
+                };
+            }
+        }
+    }
+}
+
+/// Traces the reference solution. `progress(done, total)` is called after every batch.
+pub fn trace(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    options: &ReferenceOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Reference, SweepError> {
+    let desc = *material.desc();
+    boundary.validate(&desc)?;
+    if options.paths == 0 {
+        return Err(GridError::invalid("paths", 0, "must be at least 1").into());
+    }
+    let dims = desc.dims();
+    let periodic = matches!(boundary.sides, SideBoundary::Periodic);
+    let comps = sources(boundary, dims, !periodic)?;
+    let n = desc.point_count();
+    let mut light = vec![0f64; n * NUM_DIRS * 3];
+    let mut groups = vec![[0f64; 3]; n * GROUPS];
+    let mut bal = EnergyBalance::default();
+    if comps.is_empty() {
+        return Ok(Reference {
+            light: Grid::from_trusted(desc, vec![BinLight::ZERO; n]),
+            paths: 0,
+            balance: bal,
+            std_error: vec![Vec3::ZERO; n],
+        });
+    }
+    let mut cdf = Vec::with_capacity(comps.len());
+    let mut acc = 0.0;
+    for c in &comps {
+        acc += c.flux.element_sum() as f64;
+        cdf.push(acc);
+    }
+    let tracer = Tracer {
+        dims: dims.as_ivec3(),
+        sigma: material
+            .data()
+            .iter()
+            .map(|m| {
+                if m.pass <= 0.0 {
+                    f32::INFINITY
+                } else {
+                    -m.pass.ln()
+                }
+            })
+            .collect(),
+        albedo: material.data().iter().map(|m| m.reflectance).collect(),
+        periodic,
+        comps: &comps,
+        cdf,
+        caps: bin_caps(),
+        max_events: options.max_events,
+    };
+    let start = Instant::now();
+    let mut done = 0u64;
+    while done < options.paths {
+        if let Some(b) = options.time_budget
+            && done > 0
+            && start.elapsed() >= b
+        {
+            break;
+        }
+        let count = BATCH.min(options.paths - done);
+        let results: Vec<PathResult> = (done..done + count)
+            .into_par_iter()
+            .map(|i| tracer.trace(i, options.seed))
+            .collect();
+        for (k, r) in results.iter().enumerate() {
+            let group = (done as usize + k) % GROUPS;
+            *[&mut bal.top_in, &mut bal.bottom_in, &mut bal.side_in][r.entry] += r.w0.as_dvec3();
+            bal.absorbed += r.absorbed.as_dvec3();
+            bal.top_out += r.escaped[0].as_dvec3();
+            bal.bottom_out += r.escaped[1].as_dvec3();
+            bal.side_out += r.escaped[2].as_dvec3();
+            bal.pending += r.terminated.as_dvec3();
+            for &(slot, v) in &r.deposits {
+                let s = slot as usize;
+                let base = s * 3;
+                light[base] += v.x as f64;
+                light[base + 1] += v.y as f64;
+                light[base + 2] += v.z as f64;
+                let g = &mut groups[(s / NUM_DIRS) * GROUPS + group];
+                g[0] += v.x as f64;
+                g[1] += v.y as f64;
+                g[2] += v.z as f64;
+            }
+        }
+        done += count;
+        progress(done, options.paths);
+    }
+    // Normalise: each path carries its weight / paths; cells have unit volume (h = 1 units).
+    let inv = 1.0 / done as f64;
+    bal.top_in *= inv;
+    bal.bottom_in *= inv;
+    bal.side_in *= inv;
+    bal.absorbed *= inv;
+    bal.top_out *= inv;
+    bal.bottom_out *= inv;
+    bal.side_out *= inv;
+    bal.pending *= inv;
+    let data: Vec<BinLight> = (0..n)
+        .map(|p| {
+            BinLight(std::array::from_fn(|d| {
+                let b = (p * NUM_DIRS + d) * 3;
+                DVec3::new(light[b], light[b + 1], light[b + 2]).as_vec3() * inv as f32
+            }))
+        })
+        .collect();
+    // Standard error of the mean of the average light from the group estimates.
+    let four_pi = 4.0 * std::f64::consts::PI;
+    let std_error = (0..n)
+        .map(|p| {
+            let est: Vec<DVec3> = (0..GROUPS)
+                .map(|g| {
+                    DVec3::from_array(groups[p * GROUPS + g]) * (GROUPS as f64 * inv / four_pi)
+                })
+                .collect();
+            let mean = est.iter().copied().sum::<DVec3>() / GROUPS as f64;
+            let var = est.iter().map(|e| (*e - mean) * (*e - mean)).sum::<DVec3>()
+                / (GROUPS as f64 - 1.0);
+            (var / GROUPS as f64).map(f64::sqrt).as_vec3()
+        })
+        .collect();
+    Ok(Reference {
+        light: Grid::from_trusted(desc, data),
+        paths: done,
+        balance: bal,
+        std_error,
+    })
+}
