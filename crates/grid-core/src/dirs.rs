@@ -66,9 +66,16 @@ pub const fn opposite(d: usize) -> usize {
     NUM_DIRS - 1 - d
 }
 
-/// Unit vector of direction `d`.
+/// Unit vector of direction `d` (`d < 26`).
+#[inline]
 pub fn dir_unit(d: usize) -> Vec3 {
-    dir_ivec(d).as_vec3().normalize()
+    units()[d]
+}
+
+/// The 26 unit vectors in canonical order.
+pub fn units() -> &'static [Vec3; NUM_DIRS] {
+    static U: OnceLock<[Vec3; NUM_DIRS]> = OnceLock::new();
+    U.get_or_init(|| std::array::from_fn(|d| dir_ivec(d).as_vec3().normalize()))
 }
 
 /// One of the 17 directions the downward sweep gathers from.
@@ -183,10 +190,11 @@ pub fn bin_region(d: usize, planes: &[DVec3]) -> (f64, DVec3) {
 
 /// The nearest of the 26 directions to `v` (any non-zero vector): the bin containing it.
 pub fn nearest_dir(v: Vec3) -> usize {
+    let u = units();
     let mut best = 0;
     let mut best_dot = f32::NEG_INFINITY;
     for d in 0..NUM_DIRS {
-        let dot = dir_unit(d).dot(v);
+        let dot = u[d].dot(v);
         if dot > best_dot {
             best_dot = dot;
             best = d;

@@ -81,16 +81,22 @@
 //!    the path cells after the point's own cell (1 for vertical and diagonal channels).
 //! 3. **Collect.** Each cell sums, in flux, what it removed from every path crossing it:
 //!    `R = Σ_c μ_c Σ removed`, and the first moment `M = Σ_c μ_c u_c Σ removed`.
-//! 4. **Absorb.** `(1 - a) R` is absorbed; `S = a R` and `a M` are scattered. Half of
-//!    the scattered flux belongs to this pass's channels (the downward bins and the
-//!    downward halves of the horizontal bins hold half the sphere), half waits for the
-//!    next pass in the other direction. To this pass's half the cell adds what earlier
-//!    passes left for this direction.
-//! 5. **Emit.** Of scattered light `(S, M)` the cell sends into channel `c` (bin `b`)
-//!    the flux `F_c = σ_c ω_b / 4π · (A S - B u_b · M) · T_after` with `A = (1 + p)/2`,
-//!    `B = (1 - p)/2`: isotropic in a clear cell, and in a dense cell the forward light
-//!    is stopped by the cell's own material (weight `p` straight on, 1 straight back,
-//!    interpolated between: the seed's rule). The outgoing light gains `F_c / μ_c`.
+//! 4. **Absorb.** `(1 - a) R` is absorbed; `S = a R` and `a M` are scattered. This
+//!    pass emits its own channels' share of it (half, for a medium: the downward bins
+//!    and the downward halves of the horizontal bins hold half the sphere); the rest
+//!    waits for the next pass in the other direction. To `(S, M)` the cell adds what
+//!    earlier passes left for this direction.
+//! 5. **Emit.** Of scattered light `(S, M)` a cell with `p > 0` (a medium) sends into
+//!    channel `c` (bin `b`) the flux `F_c = σ_c ω_b / 4π · (A S - B u_b · M) · T_after`
+//!    with `A = (1 + p)/2`, `B = (1 - p)/2`: isotropic in a clear cell, and in a dense
+//!    cell the forward light is stopped by the cell's own material (weight `p` straight
+//!    on, 1 straight back, interpolated between: the seed's rule). A cell with `p = 0`
+//!    is opaque: its faces that border non-opaque cells are diffuse surfaces, and it
+//!    sends `F_c = σ_c W_b S · T_after` with fixed weights `W_b`, the mean over those
+//!    faces of the Lambertian lobe `ω_b max(0, u_b · n) / Σ ω max(0, u · n)`
+//!    ([`sweep::surface_weights`]); the downward pass emits its channels' share, the
+//!    upward pass the rest. Neither rule depends on the light, so the sweep is linear.
+//!    The outgoing light gains `F_c / μ_c`.
 //! 6. **Re-absorb.** What the weights and `T_after` stopped, `σ_c ω_b/4π S - F_c`
 //!    summed over the channels, was removed by the cell from light travelling along
 //!    `u_c`: it is absorbed and scattered again as in steps 3–5, up to
@@ -116,6 +122,24 @@
 //! they are filled, not computed (`SweepStats::levels_copied`). In later downward passes
 //! they carry nothing. Outputs not asked for are not computed: with `outputs.bins` off the
 //! sweep keeps 7 floats per point instead of 78.
+//!
+//! ## Accuracy against the Monte Carlo reference
+//!
+//! The four canonical scenes of [`scenes`] on 12³ cells, multi-bounce defaults with
+//! tolerance 1e-4, against 600 000 reference paths (seed 1); relative RMSE (see
+//! [`scenes::Errors`]). The reference's own relative standard error is listed: the
+//! empty scene's error is that noise alone (the sweep is exact there). The test
+//! `sweep_against_reference_on_canonical_scenes` holds each figure within 10 %.
+//!
+//! | scene | average light | irradiance (6 axes) | reference noise |
+//! |-------|--------------:|--------------------:|----------------:|
+//! | empty | 0.0114 | 0.0126 | 0.0117 |
+//! | uniform fog | 0.0450 | 0.0432 | 0.0165 |
+//! | dense block | 0.0370 | 0.0553 | 0.0117 |
+//! | canopy | 0.0205 | 0.0258 | 0.0133 |
+//!
+//! `cargo run --release -p sweep-cpu --example canonical -- 16 1000000` prints the same
+//! comparison with timings.
 //!
 //! **Edge approximation.** The paths of points outside the grid are not traced, so light
 //! leaving through a side skips the (at most two) edge cells its path would still cross.

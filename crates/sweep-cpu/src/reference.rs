@@ -1,9 +1,11 @@
 //! The Monte Carlo reference: the same physical problem as the sweep, in the continuous
 //! limit, solved by tracing light paths.
 //!
-//! **The problem.** Each material cell is a homogeneous medium with extinction
-//! `σ = -ln(p) / h` (`p = 0`: opaque, infinite extinction), single-scattering albedo =
-//! reflectance (per RGB channel), and isotropic scattering. It is lit through its faces by
+//! **The problem.** Each material cell with `p > 0` is a homogeneous medium with
+//! extinction `σ = -ln(p) / h`, single-scattering albedo = reflectance (per RGB channel),
+//! and isotropic scattering. A cell with `p = 0` is opaque: its faces are diffuse
+//! (Lambertian) surfaces of albedo = reflectance. (A face that scatters isotropically
+//! would have unbounded radiance at grazing angles, and so would the fluence near it.) It is lit through its faces by
 //! the [`Boundary`]: radiance constant within each bin (within each half of a horizontal
 //! bin), `top` entering through the top face and, with open sides, through the sides
 //! (travelling downward), `bottom` through the bottom face and the sides (travelling
@@ -48,6 +50,11 @@ pub struct ReferenceOptions {
     pub seed: u64,
     /// Most scattering events of one path before it is terminated.
     pub max_events: u32,
+    /// Longest track of one path, in multiples of `nx + ny + nz` cells, before it is
+    /// terminated. Bounds the heavy tail of grazing paths between periodic layers (their
+    /// track-length estimate has unbounded variance); the cut weight is reported as
+    /// `pending`.
+    pub max_track: f32,
 }
 
 impl Default for ReferenceOptions {
@@ -57,6 +64,7 @@ impl Default for ReferenceOptions {
             time_budget: None,
             seed: 1,
             max_events: 100_000,
+            max_track: 16.0,
         }
     }
 }
@@ -214,6 +222,7 @@ struct Tracer<'a> {
     cdf: Vec<f64>,
     caps: Vec<BinCap>,
     max_events: u32,
+    max_track: f32,
 }
 
 impl Tracer<'_> {
@@ -299,41 +308,40 @@ impl Tracer<'_> {
         let mut tau = -(1.0 - rng.f32()).ln();
         let mut bin = dirs::nearest_dir(dir);
         let mut events = 0u32;
+        let mut track = 0.0f32;
+        // The face the path entered its current cell through: axis and travel direction.
+        let mut entry_axis = (0..3).find(|&a| n[a] != 0).unwrap_or(1);
+        let mut entry_step = n[entry_axis];
         loop {
-            // Distance to the exit of the current cell.
-            let mut s_exit = f32::INFINITY;
-            let mut axis = 0;
-            for a in 0..3 {
-                let t = if dir[a] > 0.0 {
-                    (cell[a] as f32 + 0.5 - pos[a]) / dir[a]
-                } else if dir[a] < 0.0 {
-                    (cell[a] as f32 - 0.5 - pos[a]) / dir[a]
-                } else {
-                    f32::INFINITY
-                };
-                let t = t.max(0.0);
-                if t < s_exit {
-                    s_exit = t;
-                    axis = a;
-                }
-            }
             let ci = self.cell_index(cell);
             let sigma = self.sigma[ci];
-            let collide = sigma > 0.0 && (sigma == f32::INFINITY || sigma * s_exit >= tau);
-            let s = if collide {
-                if sigma == f32::INFINITY {
-                    0.0
-                } else {
-                    tau / sigma
+            let collide_at_entry = sigma == f32::INFINITY;
+            let mut s_exit = f32::INFINITY;
+            let mut axis = 0;
+            if !collide_at_entry {
+                // Distance to the exit of the current cell.
+                for a in 0..3 {
+                    let t = if dir[a] > 0.0 {
+                        (cell[a] as f32 + 0.5 - pos[a]) / dir[a]
+                    } else if dir[a] < 0.0 {
+                        (cell[a] as f32 - 0.5 - pos[a]) / dir[a]
+                    } else {
+                        f32::INFINITY
+                    };
+                    let t = t.max(0.0);
+                    if t < s_exit {
+                        s_exit = t;
+                        axis = a;
+                    }
                 }
-            } else {
-                s_exit
-            };
-            if s > 0.0 {
-                res.deposits.push(((ci * NUM_DIRS + bin) as u32, w * s));
             }
-            pos += dir * s;
+            let collide = collide_at_entry || (sigma > 0.0 && sigma * s_exit >= tau);
             if collide {
+                if !collide_at_entry {
+                    let s = tau / sigma;
+                    res.deposits.push(((ci * NUM_DIRS + bin) as u32, w * s));
+                    pos += dir * s;
+                }
                 let a = self.albedo[ci];
                 res.absorbed += w * (Vec3::ONE - a);
                 w *= a;
@@ -342,38 +350,89 @@ impl Tracer<'_> {
                     res.terminated += w;
                     return res;
                 }
-                // Isotropic scattering.
-                let z = 1.0 - 2.0 * rng.f32();
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let phi = std::f32::consts::TAU * rng.f32();
-                dir = Vec3::new(r * phi.cos(), z, r * phi.sin());
+                if collide_at_entry {
+                    // An opaque cell is a diffuse (Lambertian) surface: the path leaves
+                    // back through its entry face, cosine-distributed about its normal.
+                    let step = -entry_step;
+                    let mut normal = Vec3::ZERO;
+                    normal[entry_axis] = step as f32;
+                    dir = lambertian(&mut rng, normal);
+                    pos[entry_axis] = cell[entry_axis] as f32 + 0.5 * step as f32;
+                    if let Some(face) = self.advance(&mut cell, &mut pos, entry_axis, step) {
+                        res.escaped[face] += w;
+                        return res;
+                    }
+                    entry_step = step;
+                } else {
+                    dir = isotropic(&mut rng);
+                }
                 bin = dirs::nearest_dir(dir);
                 tau = -(1.0 - rng.f32()).ln();
                 continue;
             }
-            tau -= sigma * s_exit;
-            // Step into the next cell.
-            let step = if dir[axis] > 0.0 { 1 } else { -1 };
-            cell[axis] += step;
-            if cell[axis] < 0 || cell[axis] >= d[axis] {
-                if axis == 1 {
-                    res.escaped[if step > 0 { 0 } else { 1 }] += w;
+            if s_exit > 0.0 {
+                res.deposits
+                    .push(((ci * NUM_DIRS + bin) as u32, w * s_exit));
+                track += s_exit;
+                if track > self.max_track {
+                    res.terminated += w;
                     return res;
                 }
-                if !self.periodic {
-                    res.escaped[2] += w;
-                    return res;
-                }
-                let wrap = d[axis];
-                cell[axis] = cell[axis].rem_euclid(wrap);
-                pos[axis] += if step > 0 {
-                    -(wrap as f32)
-                } else {
-                    wrap as f32
-                };
             }
+            tau -= sigma * s_exit;
+            pos += dir * s_exit;
+            // Step into the next cell, exactly onto the shared face.
+            let step = if dir[axis] > 0.0 { 1 } else { -1 };
+            pos[axis] = cell[axis] as f32 + 0.5 * step as f32;
+            if let Some(face) = self.advance(&mut cell, &mut pos, axis, step) {
+                res.escaped[face] += w;
+                return res;
+            }
+            entry_axis = axis;
+            entry_step = step;
         }
     }
+
+    /// Moves to the neighbouring cell along `axis`; `Some(face)` (0 top, 1 bottom,
+    /// 2 side) when the path leaves the grid, wrapping instead with periodic sides.
+    fn advance(&self, cell: &mut IVec3, pos: &mut Vec3, axis: usize, step: i32) -> Option<usize> {
+        let d = self.dims;
+        cell[axis] += step;
+        if cell[axis] >= 0 && cell[axis] < d[axis] {
+            return None;
+        }
+        if axis == 1 {
+            return Some(if step > 0 { 0 } else { 1 });
+        }
+        if !self.periodic {
+            return Some(2);
+        }
+        let wrap = d[axis];
+        cell[axis] = cell[axis].rem_euclid(wrap);
+        pos[axis] += if step > 0 {
+            -(wrap as f32)
+        } else {
+            wrap as f32
+        };
+        None
+    }
+}
+
+/// A cosine-distributed direction about unit `normal`.
+fn lambertian(rng: &mut fastrand::Rng, normal: Vec3) -> Vec3 {
+    let r = rng.f32().sqrt();
+    let phi = std::f32::consts::TAU * rng.f32();
+    let z = (1.0 - r * r).max(0.0).sqrt();
+    let t1 = normal.any_orthonormal_vector();
+    let t2 = normal.cross(t1);
+    (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + normal * z).normalize()
+}
+
+fn isotropic(rng: &mut fastrand::Rng) -> Vec3 {
+    let z = 1.0 - 2.0 * rng.f32();
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * rng.f32();
+    Vec3::new(r * phi.cos(), z, r * phi.sin())
 }
 
 /// Traces the reference solution. `progress(done, total)` is called after every batch.
@@ -428,6 +487,7 @@ pub fn trace(
         cdf,
         caps: bin_caps(),
         max_events: options.max_events,
+        max_track: options.max_track.max(1.0) * (dims.x + dims.y + dims.z) as f32,
     };
     let start = Instant::now();
     let mut done = 0u64;

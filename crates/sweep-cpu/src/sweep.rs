@@ -4,7 +4,7 @@
 use std::f32::consts::PI;
 use std::sync::OnceLock;
 
-use grid_core::dirs::{self, NUM_SWEEP_DIRS};
+use grid_core::dirs::{self, NUM_DIRS, NUM_SWEEP_DIRS};
 use grid_core::glam::{DVec3, IVec3, UVec3, Vec3};
 use grid_core::light::luminance;
 use grid_core::{
@@ -172,14 +172,112 @@ impl Pending {
     }
 }
 
-/// Flux a cell scatters towards bin `bin` (unit vector `unit`) before the cell's own
-/// material attenuates it: `omega_b / 4pi * (A S - B u_b · M)` with `A = (1 + p)/2`,
-/// `B = (1 - p)/2` (never negative, since `|u_b · M| <= S` and `A >= B`).
-#[inline]
-fn emission_flux(p: &Pending, unit: Vec3, bin: usize, a: f32, b: f32) -> Vec3 {
-    let w = dirs::solid_angles()[bin] / (4.0 * PI);
-    let um = p.m[0] * unit.x + p.m[1] * unit.y + p.m[2] * unit.z;
-    ((p.s * a - um * b) * w).max(Vec3::ZERO)
+/// How a cell distributes scattered light `(S, M)` over the bins (step 5).
+enum Emission {
+    /// A medium (`p > 0`): `omega_b / 4pi * (A S - B u_b · M)`, `A = (1 + p)/2`,
+    /// `B = (1 - p)/2`; the rest of each bin's isotropic share is stopped in the cell.
+    Medium { a: f32, b: f32 },
+    /// An opaque cell (`p = 0`): diffuse (Lambertian) faces where it borders a
+    /// non-opaque cell, with fixed weights per bin (see [`surface_weights`]).
+    Surface { w: &'static [f32; NUM_DIRS] },
+}
+
+/// Emission weights of an opaque cell by the mask of its exposed faces (bit `f` for
+/// the face with normal `FACE_NORMALS[f]`): the mean over the exposed faces of the
+/// Lambertian lobe `omega_b max(0, u_b · n_f) / Σ_b omega_b max(0, u_b · n_f)`. Summing
+/// to 1, they do not depend on the light, so the sweep stays linear. An enclosed cell
+/// (mask 0, unreachable by light) scatters isotropically.
+pub fn surface_weights(mask: u8) -> &'static [f32; NUM_DIRS] {
+    static T: OnceLock<Vec<[f32; NUM_DIRS]>> = OnceLock::new();
+    let t = T.get_or_init(|| {
+        let omega = dirs::solid_angles();
+        (0..64u8)
+            .map(|m| {
+                let faces: Vec<Vec3> = (0..6)
+                    .filter(|f| m & (1 << f) != 0)
+                    .map(|f| FACE_NORMALS[f])
+                    .collect();
+                if faces.is_empty() {
+                    return std::array::from_fn(|d| omega[d] / (4.0 * PI));
+                }
+                let mut w = [0.0f32; NUM_DIRS];
+                for n in &faces {
+                    let lobe: [f32; NUM_DIRS] =
+                        std::array::from_fn(|d| omega[d] * dirs::dir_unit(d).dot(*n).max(0.0));
+                    let sum: f32 = lobe.iter().sum();
+                    for d in 0..NUM_DIRS {
+                        w[d] += lobe[d] / sum / faces.len() as f32;
+                    }
+                }
+                w
+            })
+            .collect()
+    });
+    &t[mask as usize & 63]
+}
+
+/// Outward normals of a cell's six faces, in exposure-mask bit order.
+pub const FACE_NORMALS: [Vec3; 6] = [
+    Vec3::X,
+    Vec3::NEG_X,
+    Vec3::Y,
+    Vec3::NEG_Y,
+    Vec3::Z,
+    Vec3::NEG_Z,
+];
+
+impl Emission {
+    fn new(pass: f32, exposed: u8) -> Self {
+        if pass > 0.0 {
+            Emission::Medium {
+                a: (1.0 + pass) * 0.5,
+                b: (1.0 - pass) * 0.5,
+            }
+        } else {
+            Emission::Surface {
+                w: surface_weights(exposed),
+            }
+        }
+    }
+
+    /// Flux sent into channel `chn`, before the path cells after the cell (`T_after`).
+    #[inline]
+    fn flux(&self, p: &Pending, chn: &Channel) -> Vec3 {
+        match self {
+            Emission::Medium { a, b } => {
+                let w = dirs::solid_angles()[chn.bin] / (4.0 * PI);
+                let um = p.m[0] * chn.unit.x + p.m[1] * chn.unit.y + p.m[2] * chn.unit.z;
+                ((p.s * *a - um * *b) * (w * chn.share)).max(Vec3::ZERO)
+            }
+            Emission::Surface { w } => p.s * (w[chn.bin] * chn.share),
+        }
+    }
+
+    /// Channel `chn`'s share of the scattered flux before anything stops it.
+    #[inline]
+    fn full(&self, p: &Pending, chn: &Channel) -> Vec3 {
+        match self {
+            Emission::Medium { .. } => {
+                p.s * (dirs::solid_angles()[chn.bin] / (4.0 * PI) * chn.share)
+            }
+            Emission::Surface { w } => p.s * (w[chn.bin] * chn.share),
+        }
+    }
+
+    /// The share of `p` that the pass with channels `ch` will emit (half, for a medium).
+    fn budget(&self, p: &Pending, ch: &[Channel; CHANNELS]) -> Vec3 {
+        if p.s == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        match self {
+            Emission::Medium { .. } => p.s * 0.5,
+            Emission::Surface { .. } => ch.iter().map(|c| self.full(p, c)).sum(),
+        }
+    }
+}
+
+fn up_pass(ch: &[Channel; CHANNELS]) -> bool {
+    ch[0].step.y > 0
 }
 
 /// Where the final light of a point goes: all 26 bins, or only what the average and the
@@ -435,6 +533,7 @@ impl Ctx {
         removed: &[[Vec3; SLOTS]],
         t_after: &[[f32; CHANNELS]],
         cells: &[grid_core::Material],
+        exposed: &[u8],
         cur: &mut [Level],
         pend_same: &mut [Pending],
         pend_other: &mut [Pending],
@@ -483,19 +582,17 @@ impl Ctx {
                     // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
                     let mut own = new.add(&same_row[xi]);
                     let mut other = other_row[xi].add(&new);
-                    let (ka, kb) = ((1.0 + mat.pass) * 0.5, (1.0 - mat.pass) * 0.5);
-                    let omega = dirs::solid_angles();
                     for _ in 0..LOCAL_ROUNDS {
                         if own.s == Vec3::ZERO {
                             break;
                         }
+                        let em = Emission::new(mat.pass, exposed[ci]);
                         let mut lost_s = Vec3::ZERO;
                         let mut lost_m = [Vec3::ZERO; 3];
                         for (c, chn) in self.ch.iter().enumerate() {
-                            let f = emission_flux(&own, chn.unit, chn.bin, ka, kb) * chn.share;
+                            let f = em.flux(&own, chn);
                             let leaving = f * t_after[ci][c];
-                            let full = own.s * (omega[chn.bin] / (4.0 * PI) * chn.share);
-                            let lost = (full - leaving).max(Vec3::ZERO);
+                            let lost = (em.full(&own, chn) - leaving).max(Vec3::ZERO);
                             lost_s += lost;
                             lost_m[0] += lost * chn.unit.x;
                             lost_m[1] += lost * chn.unit.y;
@@ -513,13 +610,49 @@ impl Ctx {
                     let recycled = own;
                     same_row[xi] = recycled;
                     other_row[xi] = other;
-                    rf.pending += ((recycled.s + other.s) * 0.5).as_dvec3();
+                    let other_ch = channels(!up_pass(self.ch));
+                    let em = Emission::new(mat.pass, exposed[ci]);
+                    rf.pending +=
+                        (em.budget(&recycled, self.ch) + em.budget(&other, other_ch)).as_dvec3();
                 }
                 rf
             })
             .collect();
         sum_rows(rows)
     }
+}
+
+/// Mask of each opaque cell's faces that border a non-opaque cell or the outside
+/// (bit order of [`FACE_NORMALS`]); 0 for cells with `p > 0`.
+fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
+    let d = *material.desc();
+    let dims = d.dims().as_ivec3();
+    let cells = material.data();
+    (0..d.point_count())
+        .map(|i| {
+            if cells[i].pass > 0.0 {
+                return 0;
+            }
+            let p = d.coords(i).expect("index in range").as_ivec3();
+            let mut mask = 0u8;
+            for (f, n) in FACE_NORMALS.iter().enumerate() {
+                let mut q = p + n.as_ivec3();
+                if periodic && n.y == 0.0 {
+                    q.x = q.x.rem_euclid(dims.x);
+                    q.z = q.z.rem_euclid(dims.z);
+                }
+                let open = if q.cmplt(IVec3::ZERO).any() || q.cmpge(dims).any() {
+                    true
+                } else {
+                    cells[d.index_unchecked(q.as_uvec3())].pass > 0.0
+                };
+                if open {
+                    mask |= 1 << f;
+                }
+            }
+            mask
+        })
+        .collect()
 }
 
 fn level_flux(level: &[Level], ch: &[Channel; CHANNELS]) -> DVec3 {
@@ -626,6 +759,7 @@ fn run_with<S: Sink>(
     // ln(pass) per cell: -inf for opaque cells, whose exp(f * l * -inf) is exactly 0
     // (f * l > 0 always, so no 0 * inf).
     let lnp: Vec<f32> = cells.iter().map(|m| m.pass.ln()).collect();
+    let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
     let top_material = (0..ny)
         .rev()
         .find(|&j| {
@@ -746,6 +880,7 @@ fn run_with<S: Sink>(
                 &removed,
                 &t_after,
                 &cells[range.clone()],
+                &exposed[range.clone()],
                 &mut cur,
                 &mut same[range.clone()],
                 &mut other[range.clone()],

@@ -1,0 +1,243 @@
+//! The Monte Carlo reference against analytic answers, its convergence, its accounting,
+//! its determinism; then the sweep against it on the canonical scenes.
+
+use grid_core::dirs::{DOWN, NUM_DIRS, nearest_dir};
+use grid_core::glam::{UVec3, Vec3};
+use grid_core::{
+    BinLight, Boundary, GridDesc, LightGrid, Material, MaterialGrid, SideBoundary, SweepOptions,
+};
+use sweep_cpu::reference::{Reference, ReferenceOptions, trace};
+use sweep_cpu::scenes::{Scene, compare};
+
+fn fog(dims: UVec3, albedo: f32, pass: f32) -> MaterialGrid {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, dims).unwrap();
+    MaterialGrid::filled(
+        d,
+        Material {
+            reflectance: Vec3::splat(albedo),
+            pass,
+        },
+    )
+    .unwrap()
+}
+
+fn down_only_periodic() -> Boundary {
+    let mut b = Boundary::open_sky(BinLight::single(DOWN, Vec3::ONE));
+    b.sides = SideBoundary::Periodic;
+    b
+}
+
+fn mc(m: &MaterialGrid, b: &Boundary, paths: u64, seed: u64) -> Reference {
+    trace(
+        m,
+        b,
+        &ReferenceOptions {
+            paths,
+            seed,
+            ..Default::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap()
+}
+
+/// Down-bin light averaged over each level's cells, top level first.
+fn level_means(g: &LightGrid, bin: usize) -> Vec<f64> {
+    let d = g.desc();
+    (0..d.levels())
+        .rev()
+        .map(|j| {
+            let r = d.level_range(j);
+            g.data()[r.clone()]
+                .iter()
+                .map(|p| p.0[bin].x as f64)
+                .sum::<f64>()
+                / r.len() as f64
+        })
+        .collect()
+}
+
+/// Exact cell averages for a purely absorbing slab lit by constant radiance within the
+/// down bin: `∫_bin L0 (μ/σ)(e^{-σ D/μ} - e^{-σ (D+1)/μ}) dω` by a 2M-point lattice.
+fn absorbing_slab_answer(levels: u32, pass: f32) -> Vec<f64> {
+    let sigma = -(pass as f64).ln();
+    let n = 2_000_000usize;
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let omega = grid_core::dirs::bins().omega[DOWN];
+    let w = 4.0 * std::f64::consts::PI / n as f64;
+    let l0 = 1.0 / omega;
+    let mut out = vec![0.0; levels as usize];
+    for i in 0..n {
+        let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let r = (1.0 - y * y).sqrt();
+        let phi = golden * i as f64;
+        let t = Vec3::new((r * phi.cos()) as f32, y as f32, (r * phi.sin()) as f32);
+        if nearest_dir(t) != DOWN {
+            continue;
+        }
+        let mu = -y;
+        for (k, o) in out.iter_mut().enumerate() {
+            let d0 = k as f64;
+            *o +=
+                w * l0 * mu / sigma * ((-sigma * d0 / mu).exp() - (-sigma * (d0 + 1.0) / mu).exp());
+        }
+    }
+    out
+}
+
+#[test]
+fn purely_absorbing_slab_matches_the_analytic_answer() {
+    let m = fog(UVec3::new(4, 8, 4), 0.0, 0.7);
+    let r = mc(&m, &down_only_periodic(), 400_000, 7);
+    let got = level_means(&r.light, DOWN);
+    let want = absorbing_slab_answer(8, 0.7);
+    for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert!(
+            (g - w).abs() / w < 0.01,
+            "level {k} from the top: {g} vs {w}"
+        );
+    }
+    // No scattering: every other bin stays exactly dark.
+    for p in r.light.data() {
+        for d in 0..NUM_DIRS {
+            if d != DOWN {
+                assert_eq!(p.0[d], Vec3::ZERO);
+            }
+        }
+    }
+}
+
+#[test]
+fn error_falls_like_one_over_sqrt_paths_in_a_fog_slab() {
+    let m = fog(UVec3::new(4, 6, 4), 0.5, 0.7);
+    let b = down_only_periodic();
+    let truth = mc(&m, &b, 512_000, 99);
+    let rms = |r: &Reference| {
+        let mut s = 0.0;
+        for (a, t) in r.light.data().iter().zip(truth.light.data()) {
+            s += ((a.average().x - t.average().x) as f64).powi(2);
+        }
+        (s / r.light.data().len() as f64).sqrt()
+    };
+    let e1 = rms(&mc(&m, &b, 2_000, 1));
+    let e16 = rms(&mc(&m, &b, 32_000, 2));
+    let ratio = e1 / e16;
+    // Expected 4 (sqrt of 16); the reference's own noise is 1/16 of e1's.
+    assert!(
+        (2.8..5.5).contains(&ratio),
+        "error ratio {ratio} ({e1} vs {e16})"
+    );
+}
+
+#[test]
+fn energy_is_accounted_per_path() {
+    for (albedo, pass) in [(0.0, 0.5), (0.9, 0.6), (1.0, 0.0), (0.5, 1.0 - 1e-7)] {
+        let m = fog(UVec3::new(5, 4, 3), albedo, pass);
+        for sides in [SideBoundary::Open, SideBoundary::Periodic] {
+            let mut b = Boundary::surrounding(&BinLight::uniform(Vec3::new(1.0, 0.5, 2.0)));
+            b.sides = sides;
+            let r = mc(&m, &b, 20_000, 3);
+            let bal = r.balance;
+            assert!(
+                bal.relative_error() < 1e-5,
+                "albedo {albedo} pass {pass}: {bal:?}"
+            );
+            assert!(bal.input().min_element() > 0.0);
+        }
+    }
+}
+
+#[test]
+fn deterministic_for_a_seed_on_any_thread_count() {
+    let m = fog(UVec3::new(4, 4, 4), 0.8, 0.5);
+    let b = down_only_periodic();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| mc(&m, &b, 40_000, 11))
+    };
+    let (a, c) = (run(1), run(2));
+    assert_eq!(a.light, c.light);
+    assert_eq!(a.balance, c.balance);
+    let other_seed = mc(&m, &b, 40_000, 12);
+    assert_ne!(a.light, other_seed.light);
+}
+
+#[test]
+fn empty_medium_sees_the_sky() {
+    let sky = BinLight::uniform(Vec3::new(1.0, 2.0, 3.0));
+    let m = fog(UVec3::new(3, 3, 3), 0.0, 1.0);
+    let r = mc(&m, &Boundary::surrounding(&sky), 400_000, 5);
+    for p in r.light.data() {
+        let a = p.average();
+        assert!(
+            (a - Vec3::new(1.0, 2.0, 3.0)).abs().max_element() < 0.03 * 3.0,
+            "{a}"
+        );
+    }
+    assert!(r.relative_std_error(0.0) < 0.02);
+}
+
+#[test]
+fn unsupported_boundaries_are_typed_errors() {
+    let m = fog(UVec3::new(2, 2, 2), 0.0, 1.0);
+    let mut b = Boundary::open_sky(BinLight::ZERO);
+    b.sides = SideBoundary::Given(vec![
+        BinLight::ZERO;
+        grid_core::HaloLayout::new(UVec3::splat(2)).len()
+    ]);
+    let e = trace(&m, &b, &ReferenceOptions::default(), &|_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("sides"), "{e}");
+    let e = trace(
+        &m,
+        &down_only_periodic(),
+        &ReferenceOptions {
+            paths: 0,
+            ..Default::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("paths"), "{e}");
+}
+
+/// The sweep (multi-bounce defaults) against the reference on the four canonical scenes,
+/// 12³ cells, 600k paths, seed 1: relative RMSE of the average light and of irradiance
+/// on the six axis normals. The run is deterministic, so these bounds (10 % over the
+/// measured values, table in the crate docs) guard against regressions.
+#[test]
+fn sweep_against_reference_on_canonical_scenes() {
+    let bounds = [
+        (Scene::Empty, 0.0126, 0.0139),
+        (Scene::UniformFog, 0.0495, 0.0475),
+        (Scene::DenseBlock, 0.0410, 0.0610),
+        (Scene::Canopy, 0.0226, 0.0284),
+    ];
+    let mut report = String::new();
+    for (scene, avg_bound, irr_bound) in bounds {
+        let (m, b) = scene.build(12);
+        let mut o = SweepOptions::multi_bounce();
+        o.tolerance = 1e-4;
+        let s = sweep_cpu::run(&m, &b, &o).unwrap();
+        let r = mc(&m, &b, 600_000, 1);
+        let e = compare(s.output.bins.as_ref().unwrap(), &r.light, &m);
+        report += &format!(
+            "{}: average {:.4}, irradiance {:.4}, mc rse {:.4}\n",
+            scene.name(),
+            e.average,
+            e.irradiance,
+            r.relative_std_error(0.0)
+        );
+        assert!(e.points > 100);
+        assert!(
+            e.average < avg_bound && e.irradiance < irr_bound,
+            "{report}"
+        );
+    }
+    println!("{report}");
+}
