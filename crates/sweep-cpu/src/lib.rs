@@ -1,7 +1,7 @@
 //! # sweep-cpu
 //!
 //! The reference light-flow sweep of lightgrid, multithreaded with rayon, and
-//! ([`reference`]) the Monte Carlo tracer it is measured against. **This page is the
+//! ([`mod@reference`]) the Monte Carlo tracer it is measured against. **This page is the
 //! specification of the sweep**: `sweep-gpu` implements exactly these formulas.
 //!
 //! ## Example
