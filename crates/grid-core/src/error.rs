@@ -27,7 +27,7 @@ pub enum GridError {
         found: usize,
     },
     /// Reading or writing a file failed at the operating-system level.
-    #[error("{path}: {source}")]
+    #[error("I/O error on {}", path.display())]
     Io {
         /// The file.
         path: PathBuf,

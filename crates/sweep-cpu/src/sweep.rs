@@ -35,11 +35,50 @@ pub struct Channel {
     pub unit: Vec3,
     /// `(dx, dz, fraction)` of each cell crossed, in travel order.
     pub stencil: Vec<(i32, i32, f32)>,
+    /// For each stencil cell, the index in [`path_exponents`] of `fraction × length`.
+    pub pow: Vec<usize>,
+    /// Index in [`path_exponents`] of half the centre cell's `fraction × length`.
+    pub mid_pow: usize,
     /// Path fraction from the slab's entry to the receiving point's centre (always 1/2).
     pub first_slot: usize,
     /// Share of the bin's isotropic emission this channel carries: 1, or 1/2 for a
     /// horizontal bin (the other half travels in the opposite pass).
     pub share: f32,
+}
+
+/// The distinct path lengths through one cell (in `h`) that the channels use, and the
+/// halves of the centre cells': each cell's transmittance `p^e` is computed once per
+/// exponent `e` and level, not once per path.
+pub fn path_exponents() -> &'static [f32] {
+    static E: OnceLock<Vec<f32>> = OnceLock::new();
+    E.get_or_init(|| {
+        let mut e: Vec<f32> = Vec::new();
+        for sd in dirs::sweep_dirs() {
+            let horizontal = sd.step.x.abs() > 1 || sd.step.z.abs() > 1;
+            let fracs: &[f32] = if horizontal {
+                &[0.125, 0.25]
+            } else {
+                &[1.0, 0.5]
+            };
+            for f in fracs {
+                let v = f * sd.length;
+                if !e.iter().any(|x| (x - v).abs() < 1e-6) {
+                    e.push(v);
+                }
+            }
+        }
+        e
+    })
+}
+
+/// Most distinct exponents (see [`path_exponents`]).
+pub const MAX_EXPONENTS: usize = 10;
+
+fn exponent_index(v: f32) -> usize {
+    path_exponents()
+        .iter()
+        .position(|x| (x - v).abs() < 1e-6)
+        .expect("exponent in the table")
 }
 
 /// Channels of the downward (`up = false`) or upward pass.
@@ -72,12 +111,23 @@ pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
             };
             let first_slot = slot;
             slot += stencil.len();
+            let pow = stencil
+                .iter()
+                .map(|&(_, _, f)| exponent_index(f * sd.length))
+                .collect();
+            let centre = stencil
+                .iter()
+                .find(|s| s.0 == 0 && s.1 == 0)
+                .expect("centre cell")
+                .2;
             Channel {
                 bin,
                 step,
                 length: sd.length,
                 mu: 1.0 / sd.length,
                 unit: dirs::dir_unit(bin),
+                pow,
+                mid_pow: exponent_index(0.5 * centre * sd.length),
                 stencil,
                 first_slot,
                 share: if horizontal { 0.5 } else { 1.0 },
@@ -332,8 +382,8 @@ impl std::ops::Add for RowFlux {
     }
 }
 
-fn sum_rows(v: Vec<RowFlux>) -> RowFlux {
-    v.into_iter().fold(RowFlux::default(), |a, b| a + b)
+fn sum_rows(v: &[RowFlux]) -> RowFlux {
+    v.iter().fold(RowFlux::default(), |a, b| a + *b)
 }
 
 type Level = [Vec3; CHANNELS];
@@ -450,20 +500,21 @@ impl Ctx {
         src: &Sources<'_>,
         from_virtual: bool,
         src_level: i32,
-        lnp: &[f32],
+        pows: &[[f32; MAX_EXPONENTS]],
         cur: &mut [Level],
         removed: &mut [[Vec3; SLOTS]],
         t_after: &mut [[f32; CHANNELS]],
         g: &mut [S],
+        rows: &mut [RowFlux],
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let rows: Vec<RowFlux> = cur
-            .par_chunks_mut(nx)
+        cur.par_chunks_mut(nx)
             .zip(removed.par_chunks_mut(nx))
             .zip(t_after.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
+            .zip(rows.par_iter_mut())
             .enumerate()
-            .map(|(z, (((cur_row, rem_row), ta_row), g_row))| {
+            .for_each(|(z, ((((cur_row, rem_row), ta_row), g_row), row_out))| {
                 let z = z as i32;
                 let mut rf = RowFlux::default();
                 for x in 0..self.nx {
@@ -501,17 +552,17 @@ impl Ctx {
                         let mut t_mid = 1.0f32;
                         let mut after = 1.0f32;
                         let mut past_centre = false;
-                        for (k, &(dx, dz, frac)) in chn.stencil.iter().enumerate() {
-                            let tr = match self.col(x + dx, z + dz) {
-                                Some(ci) => (frac * chn.length * lnp[ci]).exp(),
-                                None => 1.0,
+                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                            let (tr, half) = match self.col(x + dx, z + dz) {
+                                Some(ci) => (pows[ci][chn.pow[k]], pows[ci][chn.mid_pow]),
+                                None => (1.0, 1.0),
                             };
                             rem_row[xi][chn.first_slot + k] = light * (t * (1.0 - tr));
                             if past_centre {
                                 after *= tr;
                             }
                             if dx == 0 && dz == 0 {
-                                t_mid = t * tr.sqrt();
+                                t_mid = t * half;
                                 past_centre = true;
                             }
                             t *= tr;
@@ -521,9 +572,8 @@ impl Ctx {
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
                     }
                 }
-                rf
-            })
-            .collect();
+                *row_out = rf;
+            });
         sum_rows(rows)
     }
 
@@ -538,86 +588,92 @@ impl Ctx {
         pend_same: &mut [Pending],
         pend_other: &mut [Pending],
         g: &mut [S],
+        rows: &mut [RowFlux],
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let rows: Vec<RowFlux> = cur
-            .par_chunks_mut(nx)
+        cur.par_chunks_mut(nx)
             .zip(pend_same.par_chunks_mut(nx))
             .zip(pend_other.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
+            .zip(rows.par_iter_mut())
             .enumerate()
-            .map(|(z, (((cur_row, same_row), other_row), g_row))| {
-                let z = z as i32;
-                let mut rf = RowFlux::default();
-                for x in 0..self.nx {
-                    let xi = x as usize;
-                    let ci = xi + nx * z as usize;
-                    // Step 3: the flux this cell removed from every path crossing it.
-                    let mut s_raw = Vec3::ZERO;
-                    let mut m_raw = [Vec3::ZERO; 3];
-                    for chn in self.ch.iter() {
-                        let mut r = Vec3::ZERO;
-                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                            if let Some(p) = self.col(x - dx, z - dz) {
-                                r += removed[p][chn.first_slot + k];
+            .for_each(
+                |(z, ((((cur_row, same_row), other_row), g_row), row_out))| {
+                    let z = z as i32;
+                    let mut rf = RowFlux::default();
+                    for x in 0..self.nx {
+                        let xi = x as usize;
+                        let ci = xi + nx * z as usize;
+                        if cells[ci].pass >= 1.0 {
+                            // An empty cell removes nothing, so it never holds scattered light.
+                            continue;
+                        }
+                        // Step 3: the flux this cell removed from every path crossing it.
+                        let mut s_raw = Vec3::ZERO;
+                        let mut m_raw = [Vec3::ZERO; 3];
+                        for chn in self.ch.iter() {
+                            let mut r = Vec3::ZERO;
+                            for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                                if let Some(p) = self.col(x - dx, z - dz) {
+                                    r += removed[p][chn.first_slot + k];
+                                }
                             }
+                            let r = r * chn.mu;
+                            s_raw += r;
+                            m_raw[0] += r * chn.unit.x;
+                            m_raw[1] += r * chn.unit.y;
+                            m_raw[2] += r * chn.unit.z;
                         }
-                        let r = r * chn.mu;
-                        s_raw += r;
-                        m_raw[0] += r * chn.unit.x;
-                        m_raw[1] += r * chn.unit.y;
-                        m_raw[2] += r * chn.unit.z;
-                    }
-                    // Step 4: absorb (1 - albedo), keep albedo for scattering.
-                    let mat = cells[ci];
-                    let alb = mat.reflectance;
-                    rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
-                    let new = Pending {
-                        s: s_raw * alb,
-                        m: m_raw.map(|v| v * alb),
-                    };
-                    // Step 5: emit this pass's half of what the cell scatters now and of
-                    // what earlier passes left for this direction. Step 6: what the cell's
-                    // own material stops of that emission is removed again (absorbed or
-                    // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
-                    let mut own = new.add(&same_row[xi]);
-                    let mut other = other_row[xi].add(&new);
-                    for _ in 0..LOCAL_ROUNDS {
-                        if own.s == Vec3::ZERO {
-                            break;
-                        }
-                        let em = Emission::new(mat.pass, exposed[ci]);
-                        let mut lost_s = Vec3::ZERO;
-                        let mut lost_m = [Vec3::ZERO; 3];
-                        for (c, chn) in self.ch.iter().enumerate() {
-                            let f = em.flux(&own, chn);
-                            let leaving = f * t_after[ci][c];
-                            let lost = (em.full(&own, chn) - leaving).max(Vec3::ZERO);
-                            lost_s += lost;
-                            lost_m[0] += lost * chn.unit.x;
-                            lost_m[1] += lost * chn.unit.y;
-                            lost_m[2] += lost * chn.unit.z;
-                            cur_row[xi][c] += leaving / chn.mu;
-                            g_row[xi].add(chn.bin, chn.unit, f * (0.5 / chn.mu));
-                        }
-                        rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
-                        own = Pending {
-                            s: lost_s * alb,
-                            m: lost_m.map(|v| v * alb),
+                        // Step 4: absorb (1 - albedo), keep albedo for scattering.
+                        let mat = cells[ci];
+                        let alb = mat.reflectance;
+                        rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
+                        let new = Pending {
+                            s: s_raw * alb,
+                            m: m_raw.map(|v| v * alb),
                         };
-                        other = other.add(&own);
+                        // Step 5: emit this pass's half of what the cell scatters now and of
+                        // what earlier passes left for this direction. Step 6: what the cell's
+                        // own material stops of that emission is removed again (absorbed or
+                        // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
+                        let mut own = new.add(&same_row[xi]);
+                        let mut other = other_row[xi].add(&new);
+                        for _ in 0..LOCAL_ROUNDS {
+                            if own.s == Vec3::ZERO {
+                                break;
+                            }
+                            let em = Emission::new(mat.pass, exposed[ci]);
+                            let mut lost_s = Vec3::ZERO;
+                            let mut lost_m = [Vec3::ZERO; 3];
+                            for (c, chn) in self.ch.iter().enumerate() {
+                                let f = em.flux(&own, chn);
+                                let leaving = f * t_after[ci][c];
+                                let lost = (em.full(&own, chn) - leaving).max(Vec3::ZERO);
+                                lost_s += lost;
+                                lost_m[0] += lost * chn.unit.x;
+                                lost_m[1] += lost * chn.unit.y;
+                                lost_m[2] += lost * chn.unit.z;
+                                cur_row[xi][c] += leaving / chn.mu;
+                                g_row[xi].add(chn.bin, chn.unit, f * (0.5 / chn.mu));
+                            }
+                            rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
+                            own = Pending {
+                                s: lost_s * alb,
+                                m: lost_m.map(|v| v * alb),
+                            };
+                            other = other.add(&own);
+                        }
+                        let recycled = own;
+                        same_row[xi] = recycled;
+                        other_row[xi] = other;
+                        let other_ch = channels(!up_pass(self.ch));
+                        let em = Emission::new(mat.pass, exposed[ci]);
+                        rf.pending += (em.budget(&recycled, self.ch) + em.budget(&other, other_ch))
+                            .as_dvec3();
                     }
-                    let recycled = own;
-                    same_row[xi] = recycled;
-                    other_row[xi] = other;
-                    let other_ch = channels(!up_pass(self.ch));
-                    let em = Emission::new(mat.pass, exposed[ci]);
-                    rf.pending +=
-                        (em.budget(&recycled, self.ch) + em.budget(&other, other_ch)).as_dvec3();
-                }
-                rf
-            })
-            .collect();
+                    *row_out = rf;
+                },
+            );
         sum_rows(rows)
     }
 }
@@ -778,6 +834,8 @@ fn run_with<S: Sink>(
     let mut cur: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];
     let mut removed: Vec<[Vec3; SLOTS]> = vec![[Vec3::ZERO; SLOTS]; level_len];
     let mut t_after: Vec<[f32; CHANNELS]> = vec![[1.0; CHANNELS]; level_len];
+    let mut rows = vec![RowFlux::default(); nz as usize];
+    let mut pows: Vec<[f32; MAX_EXPONENTS]> = vec![[1.0; MAX_EXPONENTS]; level_len];
     // Scattered light waiting to be emitted in downward / upward channels.
     let mut pend_down: Vec<Pending> = vec![Pending::default(); n];
     let mut pend_up: Vec<Pending> = vec![Pending::default(); n];
@@ -848,16 +906,26 @@ fn run_with<S: Sink>(
             } else {
                 level_flux(&prev, ch)
             };
+            // Transmittance of every cell of the level for each path exponent.
+            let exps = path_exponents();
+            pows.par_iter_mut()
+                .zip(&lnp[range.clone()])
+                .for_each(|(pw, &l)| {
+                    for (k, e) in exps.iter().enumerate() {
+                        pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
+                    }
+                });
             let f1 = ctx.phase1(
                 &prev,
                 &src,
                 from_virtual,
                 src_level,
-                &lnp[range.clone()],
+                &pows,
                 &mut cur,
                 &mut removed,
                 &mut t_after,
                 &mut g[range.clone()],
+                &mut rows,
             );
             if from_virtual {
                 if up {
@@ -885,6 +953,7 @@ fn run_with<S: Sink>(
                 &mut same[range.clone()],
                 &mut other[range.clone()],
                 &mut g[range.clone()],
+                &mut rows,
             );
             bal.absorbed += f2.absorbed;
             pending += f2.pending;

@@ -341,3 +341,48 @@ fn invalid_input_is_a_typed_error() {
             .contains("smoothing")
     );
 }
+
+#[test]
+fn sun_and_sky_responses_combine_exactly() {
+    use sweep_cpu::{ClearSky, Sun, sweep_responses};
+    let (m, _) = sweep_cpu::scenes::Scene::Canopy.build(8);
+    let sun = Sun::at(0.6, 0.4, Vec3::ONE);
+    let sky = ClearSky::blue(sun.direction).bins().unwrap();
+    let sun_bins = sun.bins().unwrap();
+    let o = opts(4, 0.2);
+    let r = sweep_responses(&m, &sky, &sun_bins, SideBoundary::Periodic, &o).unwrap();
+    let (cs, cu) = (Vec3::new(0.5, 0.7, 1.2), Vec3::new(3000.0, 2800.0, 2500.0));
+    let combined = r.combine(cs, cu);
+    let direct = run(
+        &m,
+        &Boundary {
+            top: TopBoundary::Uniform(Box::new(BinLight(std::array::from_fn(|d| {
+                sky.top.0[d] * cs + sun_bins.0[d] * cu
+            })))),
+            bottom: BinLight(sky.bottom.0.map(|v| v * cs)),
+            sides: SideBoundary::Periodic,
+        },
+        &o,
+    )
+    .unwrap();
+    for (a, b) in combined
+        .bins
+        .unwrap()
+        .data()
+        .iter()
+        .zip(bins(&direct).data())
+    {
+        for d in 0..NUM_DIRS {
+            assert!(rel_close(a.0[d], b.0[d], 1e-5), "{} vs {}", a.0[d], b.0[d]);
+        }
+    }
+    for (a, b) in combined
+        .average
+        .unwrap()
+        .data()
+        .iter()
+        .zip(direct.output.average.unwrap().data())
+    {
+        assert!(rel_close(a.0, b.0, 1e-5));
+    }
+}

@@ -1,0 +1,305 @@
+//! `lightgrid-sweep`: sweep a material grid file under a sky, or trace the Monte Carlo
+//! reference, and write the light grid file.
+//!
+//! ```text
+//! lightgrid-sweep scene canopy -o canopy.lgrid
+//! lightgrid-sweep sweep canopy.lgrid -o light.lgrid --sky clear --sun 5000,4800,4500 --sun-elevation 40
+//! lightgrid-sweep reference canopy.lgrid -o ref.lgrid --paths 2000000 --sky uniform --sky-radiance 1,1,1
+//! ```
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand, ValueEnum};
+use grid_core::glam::Vec3;
+use grid_core::{BinLight, Boundary, GridFile, Outputs, SideBoundary, SweepOptions, TopBoundary};
+use sweep_cpu::reference::{ReferenceOptions, trace};
+use sweep_cpu::scenes::Scene;
+use sweep_cpu::{ClearSky, EnvMap, Sun, sky};
+
+#[derive(Parser)]
+#[command(
+    name = "lightgrid-sweep",
+    version,
+    about = "Light grids from material grids: the sweep and its Monte Carlo reference"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Write the material grid of a canonical test scene.
+    Scene {
+        /// Which scene.
+        scene: SceneArg,
+        /// Cells along each axis.
+        #[arg(long, default_value_t = 16)]
+        size: u32,
+        /// Output material grid file.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Sweep a material grid and write the light grid.
+    Sweep {
+        /// Material grid file.
+        material: PathBuf,
+        /// Output light grid file.
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        light: LightArgs,
+        /// Most passes (alternating down and up).
+        #[arg(long, default_value_t = 16)]
+        passes: u32,
+        /// Smoothing weight in [0, 1).
+        #[arg(long, default_value_t = 0.25)]
+        smoothing: f32,
+        /// Stop when the light still to transport is below this fraction of the input.
+        #[arg(long, default_value_t = 1e-3)]
+        tolerance: f32,
+        /// Write the light packed as R11G11B10 (104 bytes a point instead of 312).
+        #[arg(long)]
+        packed: bool,
+    },
+    /// Trace the Monte Carlo reference and write its light grid.
+    Reference {
+        /// Material grid file.
+        material: PathBuf,
+        /// Output light grid file.
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        light: LightArgs,
+        /// Paths to trace.
+        #[arg(long, default_value_t = 1_000_000)]
+        paths: u64,
+        /// Stop after this many seconds (between batches).
+        #[arg(long)]
+        seconds: Option<f64>,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SceneArg {
+    Empty,
+    Fog,
+    Block,
+    Canopy,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SkyArg {
+    /// No sky light (sun only).
+    None,
+    /// Uniform radiance above the horizon (`--sky-radiance`).
+    Uniform,
+    /// The analytic clear sky, glowing around the sun.
+    Clear,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SidesArg {
+    Open,
+    Periodic,
+}
+
+#[derive(clap::Args)]
+struct LightArgs {
+    /// Sky model (ignored with --sky-exr).
+    #[arg(long, value_enum, default_value = "clear")]
+    sky: SkyArg,
+    /// Radiance of the uniform sky, `R,G,B`.
+    #[arg(long, value_parser = parse_rgb, default_value = "1,1,1")]
+    sky_radiance: Vec3,
+    /// Equirectangular HDR environment map (EXR) as the sky.
+    #[arg(long)]
+    sky_exr: Option<PathBuf>,
+    /// Sun illuminance `R,G,B` (irradiance facing the sun); `0,0,0` for no sun.
+    #[arg(long, value_parser = parse_rgb, default_value = "0,0,0")]
+    sun: Vec3,
+    /// Sun elevation above the horizon, degrees.
+    #[arg(long, default_value_t = 45.0, allow_negative_numbers = true)]
+    sun_elevation: f32,
+    /// Sun azimuth from -Z towards +X, degrees.
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    sun_azimuth: f32,
+    /// Side boundaries.
+    #[arg(long, value_enum, default_value = "open")]
+    sides: SidesArg,
+}
+
+fn parse_rgb(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("`{p}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match v.as_slice() {
+        [r, g, b] if v.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok(Vec3::new(*r, *g, *b)),
+        [x] if x.is_finite() && *x >= 0.0 => Ok(Vec3::splat(*x)),
+        _ => Err(format!("expected R,G,B (three numbers >= 0), got `{s}`")),
+    }
+}
+
+impl LightArgs {
+    fn boundary(&self) -> Result<Boundary> {
+        let sun = Sun::at(
+            self.sun_elevation.to_radians(),
+            self.sun_azimuth.to_radians(),
+            self.sun,
+        );
+        let sky = if let Some(path) = &self.sky_exr {
+            EnvMap::load_exr(path)?.bins()
+        } else {
+            match self.sky {
+                SkyArg::None => sky::SkyBins {
+                    top: BinLight::ZERO,
+                    bottom: BinLight::ZERO,
+                },
+                SkyArg::Uniform => sky::uniform_sky(self.sky_radiance)?,
+                SkyArg::Clear => ClearSky::blue(sun.direction).bins()?,
+            }
+        };
+        let sun_bins = if self.sun == Vec3::ZERO {
+            BinLight::ZERO
+        } else {
+            sun.bins()?
+        };
+        let top = BinLight(std::array::from_fn(|d| sky.top.0[d] + sun_bins.0[d]));
+        Ok(Boundary {
+            top: TopBoundary::Uniform(Box::new(top)),
+            bottom: sky.bottom,
+            sides: match self.sides {
+                SidesArg::Open => SideBoundary::Open,
+                SidesArg::Periodic => SideBoundary::Periodic,
+            },
+        })
+    }
+}
+
+fn load_material(path: &PathBuf) -> Result<grid_core::MaterialGrid> {
+    GridFile::load(path)
+        .and_then(GridFile::into_material)
+        .with_context(|| format!("reading material grid {}", path.display()))
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().command {
+        Command::Scene {
+            scene,
+            size,
+            output,
+        } => {
+            if size == 0 || size > 512 {
+                bail!("--size must be in 1..=512, got {size}");
+            }
+            let s = match scene {
+                SceneArg::Empty => Scene::Empty,
+                SceneArg::Fog => Scene::UniformFog,
+                SceneArg::Block => Scene::DenseBlock,
+                SceneArg::Canopy => Scene::Canopy,
+            };
+            let (m, _) = s.build(size);
+            GridFile::Material(m)
+                .save(&output)
+                .with_context(|| format!("writing {}", output.display()))?;
+            println!(
+                "wrote {} ({size}³ cells, scene {})",
+                output.display(),
+                s.name()
+            );
+        }
+        Command::Sweep {
+            material,
+            output,
+            light,
+            passes,
+            smoothing,
+            tolerance,
+            packed,
+        } => {
+            let m = load_material(&material)?;
+            let b = light.boundary()?;
+            let mut o = SweepOptions::multi_bounce();
+            o.max_passes = passes;
+            o.smoothing = smoothing;
+            o.tolerance = tolerance;
+            o.outputs = Outputs {
+                bins: true,
+                average: false,
+                dominant: false,
+            };
+            let t = Instant::now();
+            let s = sweep_cpu::run(&m, &b, &o).context("sweeping")?;
+            let secs = t.elapsed().as_secs_f64();
+            let g = s.output.bins.expect("bins were asked for");
+            let file = if packed {
+                GridFile::PackedLight(g.pack())
+            } else {
+                GridFile::Light(g)
+            };
+            file.save(&output)
+                .with_context(|| format!("writing {}", output.display()))?;
+            let st = s.output.stats;
+            println!(
+                "swept {} points in {:.1} ms: {} passes, {} levels computed, {} copied; energy balance error {:.2e}",
+                m.desc().point_count(),
+                secs * 1e3,
+                st.passes,
+                st.levels_computed,
+                st.levels_copied,
+                s.balance.relative_error()
+            );
+            println!("wrote {}", output.display());
+        }
+        Command::Reference {
+            material,
+            output,
+            light,
+            paths,
+            seconds,
+            seed,
+        } => {
+            let m = load_material(&material)?;
+            let b = light.boundary()?;
+            if let Some(s) = seconds
+                && !(s.is_finite() && s > 0.0)
+            {
+                bail!("--seconds must be a positive number, got {s}");
+            }
+            let bar = indicatif::ProgressBar::new(paths);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:40}] {pos}/{len} paths ({eta} left)",
+                )
+                .expect("valid template"),
+            );
+            let opts = ReferenceOptions {
+                paths,
+                time_budget: seconds.map(std::time::Duration::from_secs_f64),
+                seed,
+                ..Default::default()
+            };
+            let t = Instant::now();
+            let r = trace(&m, &b, &opts, &|done, _| bar.set_position(done))
+                .context("tracing the reference")?;
+            bar.finish_and_clear();
+            GridFile::Light(r.light.clone())
+                .save(&output)
+                .with_context(|| format!("writing {}", output.display()))?;
+            println!(
+                "traced {} paths in {:.2} s; relative standard error of the average light {:.4}",
+                r.paths,
+                t.elapsed().as_secs_f64(),
+                r.relative_std_error(0.0)
+            );
+            println!("wrote {}", output.display());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,462 @@
+//! Skies and the sun as boundary light: a uniform sky, an analytic clear sky, an
+//! equirectangular HDR environment map (EXR), and a sun disc, each integrated over the
+//! 26 bins' solid angles.
+//!
+//! Sky and sun are kept apart so that their colours and intensities can change by a
+//! multiply, without a new sweep ([`crate::Responses`]).
+//!
+//! **Environment maps** are equirectangular: texel `(x, y)` of a `w × h` map covers the
+//! directions (towards where the light comes from) with azimuth
+//! `φ = 2π (x + 1/2)/w - π` measured from `-Z` towards `+X` and polar angle
+//! `θ = π (y + 1/2)/h` from `+Y` (row 0 is the zenith). Each texel's radiance is constant
+//! over its exact solid angle `(2π/w)(cos θ_top - cos θ_bottom)`; a texel's light goes to
+//! the bin of its centre direction. With `h` even the horizon falls on a texel border, so
+//! light from above (the top boundary) and from below (the bottom boundary) split
+//! exactly.
+
+use std::f32::consts::{PI, TAU};
+use std::path::{Path, PathBuf};
+
+use grid_core::dirs;
+use grid_core::glam::Vec3;
+use grid_core::{BinLight, GridError};
+
+/// Errors of sky construction and loading.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SkyError {
+    /// A parameter is out of range (the error names it).
+    #[error(transparent)]
+    Invalid(#[from] GridError),
+    /// An EXR file could not be read.
+    #[error("{path}: cannot read EXR: {message}")]
+    Exr {
+        /// The file.
+        path: PathBuf,
+        /// What the EXR reader said.
+        message: String,
+    },
+}
+
+/// Light from the sky, as it enters a grid: through the top (travelling downward) and
+/// through the bottom (travelling upward, e.g. a lower hemisphere of an environment map).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SkyBins {
+    /// Light entering through the top: downward bins and downward halves of horizontal
+    /// bins.
+    pub top: BinLight,
+    /// Light entering through the bottom.
+    pub bottom: BinLight,
+}
+
+/// An equirectangular radiance map (see the module docs for the mapping).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnvMap {
+    width: u32,
+    height: u32,
+    texels: Vec<Vec3>,
+}
+
+impl EnvMap {
+    /// A map from texels in row-major order (row 0 = zenith). Texels must be finite and
+    /// not negative; `width >= 1`, `height >= 2` and even.
+    pub fn new(width: u32, height: u32, texels: Vec<Vec3>) -> Result<Self, SkyError> {
+        if width == 0 {
+            return Err(GridError::invalid("width", width, "must be at least 1").into());
+        }
+        if height < 2 || !height.is_multiple_of(2) {
+            return Err(GridError::invalid("height", height, "must be even and at least 2").into());
+        }
+        if texels.len() != (width * height) as usize {
+            return Err(GridError::LengthMismatch {
+                field: "texels",
+                expected: (width * height) as usize,
+                found: texels.len(),
+            }
+            .into());
+        }
+        if let Some(i) = texels
+            .iter()
+            .position(|t| !(t.is_finite() && t.cmpge(Vec3::ZERO).all()))
+        {
+            return Err(GridError::invalid(
+                format!("texels[{i}]"),
+                texels[i],
+                "radiance must be finite and >= 0",
+            )
+            .into());
+        }
+        Ok(Self {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// A map filled by `radiance(direction towards the light)` at texel centres.
+    pub fn from_fn(
+        width: u32,
+        height: u32,
+        radiance: impl Fn(Vec3) -> Vec3,
+    ) -> Result<Self, SkyError> {
+        let mut texels = Vec::with_capacity((width * height) as usize);
+        for y in 0..height {
+            for x in 0..width {
+                texels.push(radiance(texel_direction(x, y, width, height)));
+            }
+        }
+        Self::new(width, height, texels)
+    }
+
+    /// Loads the first RGB(A) layer of an EXR file. Pixels with NaN, infinity or negative
+    /// values are an error naming the pixel.
+    pub fn load_exr(path: impl AsRef<Path>) -> Result<Self, SkyError> {
+        let path = path.as_ref();
+        let fail = |message: String| SkyError::Exr {
+            path: path.to_path_buf(),
+            message,
+        };
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |resolution, _| {
+                (
+                    resolution.width(),
+                    vec![Vec3::ZERO; resolution.width() * resolution.height()],
+                )
+            },
+            |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
+            },
+        )
+        .map_err(|e| fail(e.to_string()))?;
+        let (w, texels) = image.layer_data.channel_data.pixels;
+        let h = texels.len() / w.max(1);
+        Self::new(w as u32, h as u32, texels).map_err(|e| fail(e.to_string()))
+    }
+
+    /// Writes the map as an RGB EXR (f32), e.g. to inspect an analytic sky.
+    pub fn save_exr(&self, path: impl AsRef<Path>) -> Result<(), SkyError> {
+        let path = path.as_ref();
+        let w = self.width as usize;
+        exr::prelude::write_rgb_file(path, w, self.height as usize, |x, y| {
+            let t = self.texels[y * w + x];
+            (t.x, t.y, t.z)
+        })
+        .map_err(|e| SkyError::Exr {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+    }
+
+    /// Width in texels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    /// Height in texels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    /// Texels, row-major, row 0 at the zenith.
+    pub fn texels(&self) -> &[Vec3] {
+        &self.texels
+    }
+
+    /// The map integrated over the bins: light travels opposite to the texel direction.
+    pub fn bins(&self) -> SkyBins {
+        let (w, h) = (self.width, self.height);
+        let mut top = [grid_core::glam::DVec3::ZERO; dirs::NUM_DIRS];
+        let mut bottom = top;
+        for y in 0..h {
+            let t0 = PI as f64 * y as f64 / h as f64;
+            let t1 = PI as f64 * (y + 1) as f64 / h as f64;
+            let omega = std::f64::consts::TAU / w as f64 * (t0.cos() - t1.cos());
+            let from_above = y < h / 2;
+            for x in 0..w {
+                let l = self.texels[(y * w + x) as usize];
+                if l == Vec3::ZERO {
+                    continue;
+                }
+                let bin = dirs::nearest_dir(-texel_direction(x, y, w, h));
+                let target = if from_above { &mut top } else { &mut bottom };
+                target[bin] += l.as_dvec3() * omega;
+            }
+        }
+        SkyBins {
+            top: BinLight(top.map(|v| v.as_vec3())),
+            bottom: BinLight(bottom.map(|v| v.as_vec3())),
+        }
+    }
+}
+
+/// Direction towards the light of texel `(x, y)`'s centre.
+fn texel_direction(x: u32, y: u32, w: u32, h: u32) -> Vec3 {
+    let phi = TAU * (x as f32 + 0.5) / w as f32 - PI;
+    let theta = PI * (y as f32 + 0.5) / h as f32;
+    Vec3::new(
+        theta.sin() * phi.sin(),
+        theta.cos(),
+        -theta.sin() * phi.cos(),
+    )
+}
+
+/// A uniform sky of `radiance` above the horizon, nothing below.
+pub fn uniform_sky(radiance: Vec3) -> Result<SkyBins, SkyError> {
+    check_colour("radiance", radiance)?;
+    let (top, _) = BinLight::uniform(radiance).split_vertical();
+    Ok(SkyBins {
+        top,
+        bottom: BinLight::ZERO,
+    })
+}
+
+/// A simple analytic clear sky: radiance blends from `horizon` to `zenith` with the
+/// square root of the sine of the elevation, plus a circumsolar glow of
+/// `glow · exp(-angle / 0.25 rad)` around `sun_direction`; nothing below the horizon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClearSky {
+    /// Radiance straight up.
+    pub zenith: Vec3,
+    /// Radiance at the horizon.
+    pub horizon: Vec3,
+    /// Peak radiance of the glow around the sun (not the sun disc itself).
+    pub glow: Vec3,
+    /// Direction towards the sun (normalised internally).
+    pub sun_direction: Vec3,
+}
+
+impl ClearSky {
+    /// A blue sky with a warm glow, for a sun at `sun_direction`.
+    pub fn blue(sun_direction: Vec3) -> Self {
+        Self {
+            zenith: Vec3::new(0.25, 0.45, 1.0),
+            horizon: Vec3::new(0.7, 0.8, 1.0),
+            glow: Vec3::new(1.0, 0.9, 0.7),
+            sun_direction,
+        }
+    }
+
+    /// Radiance arriving from direction `dir` (unit, towards the light).
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        if dir.y <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let base = self.horizon.lerp(self.zenith, dir.y.sqrt());
+        let angle = dir
+            .dot(self.sun_direction.normalize_or_zero())
+            .clamp(-1.0, 1.0)
+            .acos();
+        base + self.glow * (-angle / 0.25).exp()
+    }
+
+    /// Rendered into a `width × height` map.
+    pub fn env_map(&self, width: u32, height: u32) -> Result<EnvMap, SkyError> {
+        check_colour("zenith", self.zenith)?;
+        check_colour("horizon", self.horizon)?;
+        check_colour("glow", self.glow)?;
+        check_direction("sun_direction", self.sun_direction)?;
+        EnvMap::from_fn(width, height, |d| self.radiance(d))
+    }
+
+    /// Integrated over the bins (through a 512 × 256 map).
+    pub fn bins(&self) -> Result<SkyBins, SkyError> {
+        Ok(self.env_map(512, 256)?.bins())
+    }
+}
+
+/// The sun: a disc of uniform radiance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sun {
+    /// Direction towards the sun (normalised internally).
+    pub direction: Vec3,
+    /// Angular radius, radians (the real sun: 0.00465).
+    pub angular_radius: f32,
+    /// Irradiance on a surface facing the sun (white light: 1 for a unit response).
+    pub illuminance: Vec3,
+}
+
+impl Sun {
+    /// A sun at `elevation` above the horizon and `azimuth` from `-Z` towards `+X`
+    /// (radians), of the real sun's size.
+    pub fn at(elevation: f32, azimuth: f32, illuminance: Vec3) -> Self {
+        Self {
+            direction: Vec3::new(
+                elevation.cos() * azimuth.sin(),
+                elevation.sin(),
+                -elevation.cos() * azimuth.cos(),
+            ),
+            angular_radius: 0.00465,
+            illuminance,
+        }
+    }
+
+    /// The disc split over the bins by the area of it each covers (4096 stratified
+    /// samples): a sun near a bin border lights both bins. A sun below the horizon (its
+    /// centre) gives no light; one straddling it gives only its upper part.
+    pub fn bins(&self) -> Result<BinLight, SkyError> {
+        check_direction("direction", self.direction)?;
+        check_colour("illuminance", self.illuminance)?;
+        if !(self.angular_radius.is_finite()
+            && self.angular_radius > 0.0
+            && self.angular_radius < 0.5)
+        {
+            return Err(GridError::invalid(
+                "angular_radius",
+                self.angular_radius,
+                "must be in (0, 0.5) radians",
+            )
+            .into());
+        }
+        let c = self.direction.normalize();
+        let t1 = c.any_orthonormal_vector();
+        let t2 = c.cross(t1);
+        let n = 64u32;
+        let mut out = BinLight::ZERO;
+        let share = self.illuminance / (n * n) as f32;
+        let tan_r = self.angular_radius.tan();
+        for i in 0..n {
+            for j in 0..n {
+                // Concentric square-to-disc mapping of stratified samples (equal areas).
+                let a = 2.0 * (i as f32 + 0.5) / n as f32 - 1.0;
+                let b = 2.0 * (j as f32 + 0.5) / n as f32 - 1.0;
+                let (r, phi) = if a.abs() > b.abs() {
+                    (a, PI / 4.0 * (b / a))
+                } else {
+                    (b, PI / 2.0 - PI / 4.0 * (a / b))
+                };
+                let d = (c + (t1 * phi.cos() + t2 * phi.sin()) * (r * tan_r)).normalize();
+                if d.y <= 0.0 {
+                    continue; // below the horizon
+                }
+                out.0[dirs::nearest_dir(-d)] += share;
+            }
+        }
+        Ok(out)
+    }
+}
+
+fn check_colour(field: &str, c: Vec3) -> Result<(), SkyError> {
+    if c.is_finite() && c.cmpge(Vec3::ZERO).all() && c.max_element() <= crate::sweep::MAX_LIGHT {
+        Ok(())
+    } else {
+        Err(GridError::invalid(field, c, "must be finite, >= 0 and <= 1e30").into())
+    }
+}
+
+fn check_direction(field: &str, d: Vec3) -> Result<(), SkyError> {
+    if d.is_finite() && d.length_squared() > 1e-12 {
+        Ok(())
+    } else {
+        Err(GridError::invalid(field, d, "must be finite and non-zero").into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use grid_core::dirs::{dir_index, dir_ivec};
+    use grid_core::glam::IVec3;
+
+    #[test]
+    fn uniform_env_map_matches_uniform_bins() {
+        let l = Vec3::new(1.0, 2.0, 0.5);
+        let map = EnvMap::from_fn(720, 360, |_| l).unwrap();
+        let b = map.bins();
+        let full = BinLight::uniform(l);
+        for d in 0..dirs::NUM_DIRS {
+            let got = b.top.0[d] + b.bottom.0[d];
+            // Texels are assigned whole to a bin: error of order one texel row per bin edge.
+            assert!(
+                (got - full.0[d]).abs().max_element() < 0.01 * full.0[d].max_element(),
+                "bin {d}"
+            );
+            match dir_ivec(d).y {
+                -1 => assert_eq!(b.bottom.0[d], Vec3::ZERO),
+                1 => assert_eq!(b.top.0[d], Vec3::ZERO),
+                _ => assert!(
+                    (b.top.0[d] - b.bottom.0[d]).abs().max_element() < 1e-4 * l.max_element()
+                ),
+            }
+        }
+    }
+
+    #[test]
+    fn sun_straight_overhead_lands_in_one_bin_and_splits_at_a_border() {
+        let e = Vec3::new(1000.0, 900.0, 800.0);
+        let b = Sun {
+            direction: Vec3::Y,
+            angular_radius: 0.00465,
+            illuminance: e,
+        }
+        .bins()
+        .unwrap();
+        assert!((b.0[dirs::DOWN] - e).abs().max_element() < 1e-2);
+        assert!((b.total() - e).abs().max_element() < 1e-2);
+        // On the border between the bins of (0,-1,0) and (1,-1,0) (travel), half each.
+        let border = (Vec3::Y + Vec3::new(-1.0, 1.0, 0.0).normalize()).normalize();
+        let b = Sun {
+            direction: border,
+            angular_radius: 0.02,
+            illuminance: Vec3::ONE,
+        }
+        .bins()
+        .unwrap();
+        let diag = dir_index(IVec3::new(1, -1, 0)).unwrap();
+        assert!(
+            (b.0[dirs::DOWN].x - 0.5).abs() < 0.02,
+            "{}",
+            b.0[dirs::DOWN].x
+        );
+        assert!((b.0[diag].x - 0.5).abs() < 0.02);
+        // Below the horizon: dark.
+        let b = Sun::at(-0.3, 0.0, Vec3::ONE).bins().unwrap();
+        assert_eq!(b.total(), Vec3::ZERO);
+    }
+
+    #[test]
+    fn clear_sky_is_brighter_near_the_sun_and_dark_below() {
+        let sun = Sun::at(0.5, 1.0, Vec3::ONE);
+        let sky = ClearSky::blue(sun.direction).bins().unwrap();
+        assert_eq!(sky.bottom.total(), Vec3::ZERO);
+        let toward = dirs::nearest_dir(-sun.direction);
+        let away = dirs::nearest_dir(-Vec3::new(
+            -sun.direction.x,
+            sun.direction.y,
+            -sun.direction.z,
+        ));
+        let w = dirs::solid_angles();
+        assert!(sky.top.0[toward].x / w[toward] > sky.top.0[away].x / w[away]);
+    }
+
+    #[test]
+    fn exr_round_trip_and_errors() {
+        let dir = std::env::temp_dir().join(format!("sweep-cpu-sky-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("sky.exr");
+        let map = ClearSky::blue(Vec3::new(0.3, 0.8, 0.1))
+            .env_map(64, 32)
+            .unwrap();
+        map.save_exr(&path).unwrap();
+        let back = EnvMap::load_exr(&path).unwrap();
+        assert_eq!(back, map);
+        let e = EnvMap::load_exr(dir.join("missing.exr"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing.exr"), "{e}");
+        std::fs::write(dir.join("bad.exr"), b"not an exr").unwrap();
+        assert!(EnvMap::load_exr(dir.join("bad.exr")).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(
+            EnvMap::new(4, 3, vec![Vec3::ONE; 12])
+                .unwrap_err()
+                .to_string()
+                .contains("height")
+        );
+        assert!(
+            EnvMap::new(2, 2, vec![Vec3::ONE, Vec3::NAN, Vec3::ONE, Vec3::ONE])
+                .unwrap_err()
+                .to_string()
+                .contains("texels[1]")
+        );
+        assert!(Sun::at(0.5, 0.0, Vec3::NAN).bins().is_err());
+    }
+}
