@@ -1,8 +1,42 @@
 //! # material-voxelizer
 //!
 //! Turns glTF models into model material grids (reflectance and pass-through per cell)
-//! by ray queries against an obvhs BVH, offline, and composes the material grid of an
-//! area from a terrain heightmap and model instances at run time.
+//! by ray queries against an obvhs BVH, offline.
 //!
-//! Status: not built yet (issue "material-voxelizer"); the types it produces and the
-//! `MaterialSource` trait it will implement live in `grid-core`.
+//! ```
+//! use grid_core::glam::{Vec2, Vec3, Vec4};
+//! use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+//! use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // A red square, 1 m on a side, lying flat at y = 0.
+//! let corners = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 0.0, 1.0)];
+//! let tri = |a: usize, b: usize, c: usize| Triangle {
+//!     positions: [corners[a], corners[b], corners[c]],
+//!     uvs: [Vec2::ZERO; 3],
+//!     material: 0,
+//!     part: 0,
+//! };
+//! let model = Model {
+//!     triangles: vec![tri(0, 1, 2), tri(0, 2, 3)],
+//!     materials: vec![SurfaceMaterial { base_colour: Vec4::new(0.8, 0.1, 0.1, 1.0), ..Default::default() }],
+//!     textures: vec![],
+//! };
+//! let (grid, stats) = voxelize(&model, &VoxelizeParams::preview(0.25), &|_, _| {})?;
+//! assert_eq!(stats.cells, 16); // 4 x 1 x 4 cells
+//! let cell = grid.data()[5];
+//! assert!(cell.pass < 1.0 && cell.reflectance.x > 0.7);
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! Load real models with [`model::Model::load_gltf`] (`.gltf` with embedded or external
+//! buffers, `.glb`; base colour factor and texture with `KHR_texture_transform`; alpha
+//! masks). The `voxelize` command does it from the shell:
+//! `voxelize tree.glb --cell 0.25 -o tree.lgrid`.
+//!
+//! Status: model voxelization is here; area composition with terrain (the other half of
+//! seed 000's "Material representation") is still to come.
+
+pub mod model;
+pub mod voxelize;

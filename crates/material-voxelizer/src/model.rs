@@ -1,0 +1,395 @@
+//! Models: triangles with UVs and materials, loaded from glTF 2.0 or built in memory.
+
+use std::path::{Path, PathBuf};
+
+use grid_core::glam::{Mat4, Vec2, Vec3, Vec4};
+
+/// Errors of model loading.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModelError {
+    /// The glTF file could not be read or parsed.
+    #[error("{}: {message}", path.display())]
+    Gltf {
+        /// The file.
+        path: PathBuf,
+        /// What the glTF reader said.
+        message: String,
+    },
+    /// The model uses something this loader does not support.
+    #[error("{}: unsupported: {what}", path.display())]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+        /// What, with where (mesh, primitive, material).
+        what: String,
+    },
+    /// The model has no triangles.
+    #[error("{}: the model has no triangles", path.display())]
+    Empty {
+        /// The file.
+        path: PathBuf,
+    },
+    /// An in-memory model is invalid (the error names the field).
+    #[error(transparent)]
+    Invalid(#[from] grid_core::GridError),
+}
+
+/// How a material's alpha is used (glTF `alphaMode`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored: every hit blocks.
+    Opaque,
+    /// Hits with alpha below the cutoff let light through (leaf cards).
+    Mask(f32),
+    /// Alpha is the probability that a hit blocks.
+    Blend,
+}
+
+/// A texture in linear RGBA, with wrapping (repeat) lookups.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Texture {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Linear RGBA texels, row-major from the top.
+    pub texels: Vec<Vec4>,
+}
+
+impl Texture {
+    /// Bilinear lookup with repeat wrapping. `uv` (0, 0) is the top-left corner.
+    pub fn sample(&self, uv: Vec2) -> Vec4 {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let x = uv.x * w - 0.5;
+        let y = uv.y * h - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let at = |xi: f32, yi: f32| {
+            let xi = (xi as i64).rem_euclid(self.width as i64) as usize;
+            let yi = (yi as i64).rem_euclid(self.height as i64) as usize;
+            self.texels[yi * self.width as usize + xi]
+        };
+        let top = at(x0, y0).lerp(at(x0 + 1.0, y0), fx);
+        let bottom = at(x0, y0 + 1.0).lerp(at(x0 + 1.0, y0 + 1.0), fx);
+        let v = top.lerp(bottom, fy);
+        if v.is_finite() { v } else { Vec4::ZERO }
+    }
+}
+
+/// The UV transform of `KHR_texture_transform`: `uv' = T · R · S · uv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UvTransform {
+    /// Offset (translation).
+    pub offset: Vec2,
+    /// Rotation, radians (counter-clockwise in UV space).
+    pub rotation: f32,
+    /// Scale.
+    pub scale: Vec2,
+}
+
+impl UvTransform {
+    /// The identity.
+    pub const IDENTITY: Self = Self {
+        offset: Vec2::ZERO,
+        rotation: 0.0,
+        scale: Vec2::ONE,
+    };
+    /// Applies the transform.
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        let s = uv * self.scale;
+        let (sin, cos) = self.rotation.sin_cos();
+        Vec2::new(cos * s.x + sin * s.y, -sin * s.x + cos * s.y) + self.offset
+    }
+}
+
+/// What a surface looks like: base colour (factor × texture) and alpha use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceMaterial {
+    /// Linear RGBA factor.
+    pub base_colour: Vec4,
+    /// Index into [`Model::textures`] of the base-colour texture.
+    pub texture: Option<usize>,
+    /// Transform of the texture's UVs.
+    pub uv_transform: UvTransform,
+    /// How alpha is used.
+    pub alpha: AlphaMode,
+}
+
+impl Default for SurfaceMaterial {
+    fn default() -> Self {
+        Self {
+            base_colour: Vec4::ONE,
+            texture: None,
+            uv_transform: UvTransform::IDENTITY,
+            alpha: AlphaMode::Opaque,
+        }
+    }
+}
+
+/// One triangle in model space (metres, Y up), with UVs and a material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Triangle {
+    /// Vertex positions.
+    pub positions: [Vec3; 3],
+    /// Vertex UVs.
+    pub uvs: [Vec2; 3],
+    /// Index into [`Model::materials`].
+    pub material: u32,
+    /// Index of the mesh primitive it came from (closedness is decided per primitive).
+    pub part: u32,
+}
+
+/// A triangle soup with materials: what the voxelizer needs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Model {
+    /// All triangles, node transforms applied.
+    pub triangles: Vec<Triangle>,
+    /// Materials.
+    pub materials: Vec<SurfaceMaterial>,
+    /// Textures.
+    pub textures: Vec<Texture>,
+}
+
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl Model {
+    /// Bounds of all triangles: `(min, max)`; `None` for an empty model.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut it = self.triangles.iter().flat_map(|t| t.positions);
+        let first = it.next()?;
+        Some(it.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
+    }
+
+    /// Checks every value (finite positions and UVs, material and texture indices in
+    /// range, colours in [0, 1]); errors name the element.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        use grid_core::GridError;
+        for (i, t) in self.triangles.iter().enumerate() {
+            if t.positions.iter().any(|p| !p.is_finite()) {
+                return Err(GridError::invalid(
+                    format!("triangles[{i}].positions"),
+                    t.positions,
+                    "must be finite",
+                )
+                .into());
+            }
+            if t.uvs.iter().any(|p| !p.is_finite()) {
+                return Err(GridError::invalid(
+                    format!("triangles[{i}].uvs"),
+                    t.uvs,
+                    "must be finite",
+                )
+                .into());
+            }
+            if t.material as usize >= self.materials.len() {
+                return Err(GridError::invalid(
+                    format!("triangles[{i}].material"),
+                    t.material,
+                    "no such material",
+                )
+                .into());
+            }
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if !(m.base_colour.is_finite()
+                && m.base_colour.cmpge(Vec4::ZERO).all()
+                && m.base_colour.cmple(Vec4::ONE).all())
+            {
+                return Err(GridError::invalid(
+                    format!("materials[{i}].base_colour"),
+                    m.base_colour,
+                    "must be in [0, 1]",
+                )
+                .into());
+            }
+            if m.texture.is_some_and(|t| t >= self.textures.len()) {
+                return Err(GridError::invalid(
+                    format!("materials[{i}].texture"),
+                    m.texture,
+                    "no such texture",
+                )
+                .into());
+            }
+        }
+        Ok(())
+    }
+
+    /// The surface colour and alpha of triangle `tri` at barycentrics `(u, v)` (weights
+    /// of vertices 1 and 2).
+    pub fn surface_at(&self, tri: &Triangle, u: f32, v: f32) -> Vec4 {
+        let m = &self.materials[tri.material as usize];
+        let mut c = m.base_colour;
+        if let Some(t) = m.texture {
+            let uv = tri.uvs[0] * (1.0 - u - v) + tri.uvs[1] * u + tri.uvs[2] * v;
+            c *= self.textures[t].sample(m.uv_transform.apply(uv));
+        }
+        c
+    }
+
+    /// Loads a `.gltf` (embedded or external buffers and images) or `.glb` file: every
+    /// triangle primitive of the default scene (or the first), node transforms applied.
+    pub fn load_gltf(path: impl AsRef<Path>) -> Result<Self, ModelError> {
+        let path = path.as_ref();
+        let (doc, buffers, images) = gltf::import(path).map_err(|e| ModelError::Gltf {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        let unsupported = |what: String| ModelError::Unsupported {
+            path: path.to_path_buf(),
+            what,
+        };
+        let mut model = Model::default();
+        for (i, img) in images.iter().enumerate() {
+            model.textures.push(
+                convert_image(img).ok_or_else(|| {
+                    unsupported(format!("image {i}: pixel format {:?}", img.format))
+                })?,
+            );
+        }
+        for (i, mat) in doc.materials().enumerate() {
+            let pbr = mat.pbr_metallic_roughness();
+            let f = pbr.base_color_factor();
+            let (texture, uv_transform) = match pbr.base_color_texture() {
+                Some(info) => {
+                    if info.tex_coord() != 0 {
+                        return Err(unsupported(format!(
+                            "material {i}: base colour texture uses TEXCOORD_{}",
+                            info.tex_coord()
+                        )));
+                    }
+                    let tt =
+                        info.texture_transform()
+                            .map_or(UvTransform::IDENTITY, |t| UvTransform {
+                                offset: Vec2::from_array(t.offset()),
+                                rotation: t.rotation(),
+                                scale: Vec2::from_array(t.scale()),
+                            });
+                    (Some(info.texture().source().index()), tt)
+                }
+                None => (None, UvTransform::IDENTITY),
+            };
+            model.materials.push(SurfaceMaterial {
+                base_colour: Vec4::from_array(f),
+                texture,
+                uv_transform,
+                alpha: match mat.alpha_mode() {
+                    gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                    gltf::material::AlphaMode::Mask => {
+                        AlphaMode::Mask(mat.alpha_cutoff().unwrap_or(0.5))
+                    }
+                    gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+                },
+            });
+        }
+        let default_material = model.materials.len() as u32;
+        model.materials.push(SurfaceMaterial::default());
+        let scene = doc.default_scene().or_else(|| doc.scenes().next());
+        let Some(scene) = scene else {
+            return Err(ModelError::Empty {
+                path: path.to_path_buf(),
+            });
+        };
+        let mut stack: Vec<(gltf::Node, Mat4)> =
+            scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+        let mut part = 0u32;
+        while let Some((node, parent)) = stack.pop() {
+            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+            for child in node.children() {
+                stack.push((child, world));
+            }
+            let Some(mesh) = node.mesh() else { continue };
+            for (pi, prim) in mesh.primitives().enumerate() {
+                let where_ = format!("mesh {} primitive {pi}", mesh.index());
+                if prim.mode() != gltf::mesh::Mode::Triangles {
+                    return Err(unsupported(format!(
+                        "{where_}: mode {:?} (only triangles)",
+                        prim.mode()
+                    )));
+                }
+                let reader = prim.reader(|b| Some(&buffers[b.index()]));
+                let positions: Vec<Vec3> = reader
+                    .read_positions()
+                    .ok_or_else(|| unsupported(format!("{where_}: no POSITION")))?
+                    .map(|p| world.transform_point3(Vec3::from_array(p)))
+                    .collect();
+                let uvs: Vec<Vec2> = match reader.read_tex_coords(0) {
+                    Some(t) => t.into_f32().map(Vec2::from_array).collect(),
+                    None => vec![Vec2::ZERO; positions.len()],
+                };
+                let indices: Vec<u32> = match reader.read_indices() {
+                    Some(i) => i.into_u32().collect(),
+                    None => (0..positions.len() as u32).collect(),
+                };
+                let material = prim
+                    .material()
+                    .index()
+                    .map_or(default_material, |i| i as u32);
+                for tri in indices.chunks_exact(3) {
+                    let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                    if idx.iter().any(|&i| i >= positions.len() || i >= uvs.len()) {
+                        return Err(unsupported(format!("{where_}: index out of range")));
+                    }
+                    model.triangles.push(Triangle {
+                        positions: idx.map(|i| positions[i]),
+                        uvs: idx.map(|i| uvs[i]),
+                        material,
+                        part,
+                    });
+                }
+                part += 1;
+            }
+        }
+        if model.triangles.is_empty() {
+            return Err(ModelError::Empty {
+                path: path.to_path_buf(),
+            });
+        }
+        model.validate().map_err(|e| ModelError::Gltf {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Ok(model)
+    }
+}
+
+/// Converts glTF image data to linear RGBA (colour channels from sRGB, alpha linear).
+fn convert_image(img: &gltf::image::Data) -> Option<Texture> {
+    use gltf::image::Format;
+    let channels = match img.format {
+        Format::R8 => 1,
+        Format::R8G8 => 2,
+        Format::R8G8B8 => 3,
+        Format::R8G8B8A8 => 4,
+        _ => return None,
+    };
+    let texels = img
+        .pixels
+        .chunks_exact(channels)
+        .map(|p| {
+            let c = |i: usize| srgb_to_linear(p[i.min(channels - 1)] as f32 / 255.0);
+            let (r, g, b) = if channels >= 3 {
+                (c(0), c(1), c(2))
+            } else {
+                (c(0), c(0), c(0))
+            };
+            let a = if channels == 4 || channels == 2 {
+                p[channels - 1] as f32 / 255.0
+            } else {
+                1.0
+            };
+            Vec4::new(r, g, b, a)
+        })
+        .collect();
+    Some(Texture {
+        width: img.width,
+        height: img.height,
+        texels,
+    })
+}
