@@ -35,8 +35,10 @@
 //! masks). The `voxelize` command does it from the shell:
 //! `voxelize tree.glb --cell 0.25 -o tree.lgrid`.
 //!
-//! Status: model voxelization is here; area composition with terrain (the other half of
-//! seed 000's "Material representation") is still to come.
+//! At run time, [`compose::AreaComposer`] builds the material grid of any box from a
+//! terrain heightmap and instances of model grids (it implements
+//! `grid_core::MaterialSource`).
 
+pub mod compose;
 pub mod model;
 pub mod voxelize;

@@ -1,0 +1,512 @@
+//! Area composition: the material grid of a light grid's box, from a terrain heightmap
+//! with a ground colour and from instances of model material grids.
+//!
+//! **Per area cell** (centre `c`, size `h`), on `k³` sample points spread over the cell
+//! (`k = ceil(h / finest model cell)`, at most [`ComposeParams::max_samples_per_axis`]):
+//!
+//! * *Objects.* Each instance overlapping the sample maps it into model space
+//!   (`m = R⁻¹ (c - position) / scale`) and samples its model grid trilinearly (outside
+//!   the model grid: empty). The model's pass-through is per model cell length
+//!   `h_m · scale`; over the area cell's length it is `p^(h / (h_m · scale))`.
+//!   Overlapping objects multiply their pass-through; their reflectances are weighted by
+//!   what each blocks (`1 - p`).
+//! * *Ground.* With `g` the terrain height at the sample's `(x, z)` lowered by
+//!   [`ComposeParams::ground_bias`], the ground covers the sample by
+//!   `w = clamp((g - y) / band + 1/2, 0, 1)` (a linear transition over
+//!   [`ComposeParams::ground_band`] metres): pass-through `1 - w`, colour the ground's.
+//!   Seed 000 explains the bias: interpolated light at hilltops would otherwise be
+//!   shadowed by ground cells that are barely underground.
+//!
+//! The cell's pass-through is the mean of its samples' and its reflectance the mean of
+//! their blocking-weighted colours. For a homogeneous model this is exact:
+//! composing at `2h` gives the square of the pass-through at `h`.
+//!
+//! **Cost.** Instances are binned into square tiles by their world bounds (seed 000's
+//! per-thread-group object lists), so an area only looks at the instances of the tiles it
+//! overlaps: the cost follows the objects near it, not the world's.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use grid_core::glam::{IVec2, Quat, UVec3, Vec2, Vec3};
+use grid_core::{GridDesc, GridError, Material, MaterialGrid, MaterialSource};
+
+use crate::model::Texture;
+
+/// A heightmap: heights (metres, world Y) on a regular `(x, z)` lattice.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Heightmap {
+    /// World `(x, z)` of sample `(0, 0)`.
+    pub origin: Vec2,
+    /// Metres between neighbouring samples.
+    pub spacing: f32,
+    /// Samples along x.
+    pub width: u32,
+    /// Samples along z.
+    pub depth: u32,
+    /// Heights, x fastest.
+    pub heights: Vec<f32>,
+}
+
+impl Heightmap {
+    /// A heightmap from a function of world `(x, z)`.
+    pub fn from_fn(
+        origin: Vec2,
+        spacing: f32,
+        width: u32,
+        depth: u32,
+        f: impl Fn(f32, f32) -> f32,
+    ) -> Result<Self, GridError> {
+        let mut heights = Vec::with_capacity((width * depth) as usize);
+        for k in 0..depth {
+            for i in 0..width {
+                heights.push(f(
+                    origin.x + i as f32 * spacing,
+                    origin.y + k as f32 * spacing,
+                ));
+            }
+        }
+        Self::new(origin, spacing, width, depth, heights)
+    }
+
+    /// A validated heightmap (finite heights, `spacing > 0`, at least 2 × 2 samples).
+    pub fn new(
+        origin: Vec2,
+        spacing: f32,
+        width: u32,
+        depth: u32,
+        heights: Vec<f32>,
+    ) -> Result<Self, GridError> {
+        if !origin.is_finite() {
+            return Err(GridError::invalid("origin", origin, "must be finite"));
+        }
+        if !(spacing.is_finite() && spacing > 0.0) {
+            return Err(GridError::invalid(
+                "spacing",
+                spacing,
+                "must be finite and > 0",
+            ));
+        }
+        if width < 2 || depth < 2 {
+            return Err(GridError::invalid(
+                "width x depth",
+                (width, depth),
+                "needs at least 2 x 2 samples",
+            ));
+        }
+        if heights.len() != (width * depth) as usize {
+            return Err(GridError::LengthMismatch {
+                field: "heights",
+                expected: (width * depth) as usize,
+                found: heights.len(),
+            });
+        }
+        if let Some(i) = heights.iter().position(|h| !h.is_finite()) {
+            return Err(GridError::invalid(
+                format!("heights[{i}]"),
+                heights[i],
+                "must be finite",
+            ));
+        }
+        Ok(Self {
+            origin,
+            spacing,
+            width,
+            depth,
+            heights,
+        })
+    }
+
+    /// Loads a 16-bit (or 8-bit) greyscale PNG: height = `offset + scale × value`, row 0
+    /// at `z = origin.y`. Errors name the file.
+    pub fn load_png(
+        path: impl AsRef<Path>,
+        origin: Vec2,
+        spacing: f32,
+        scale: f32,
+        offset: f32,
+    ) -> Result<Self, GridError> {
+        let path = path.as_ref();
+        let img = image::ImageReader::open(path)
+            .map_err(|e| GridError::Io {
+                path: path.to_path_buf(),
+                source: e,
+            })?
+            .decode()
+            .map_err(|e| GridError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::other(e),
+            })?;
+        let luma = img.into_luma16();
+        let (w, d) = luma.dimensions();
+        let heights = luma
+            .pixels()
+            .map(|p| offset + scale * p.0[0] as f32)
+            .collect();
+        Self::new(origin, spacing, w, d, heights)
+    }
+
+    /// Bilinear height at world `(x, z)`, clamped at the edges.
+    pub fn height_at(&self, x: f32, z: f32) -> f32 {
+        let gx = ((x - self.origin.x) / self.spacing).clamp(0.0, (self.width - 1) as f32);
+        let gz = ((z - self.origin.y) / self.spacing).clamp(0.0, (self.depth - 1) as f32);
+        let (i0, k0) = (
+            (gx as u32).min(self.width - 2),
+            (gz as u32).min(self.depth - 2),
+        );
+        let (fx, fz) = (gx - i0 as f32, gz - k0 as f32);
+        let at = |i: u32, k: u32| self.heights[(k * self.width + i) as usize];
+        let a = at(i0, k0) + (at(i0 + 1, k0) - at(i0, k0)) * fx;
+        let b = at(i0, k0 + 1) + (at(i0 + 1, k0 + 1) - at(i0, k0 + 1)) * fx;
+        a + (b - a) * fz
+    }
+
+    /// Lowest and highest height.
+    pub fn range(&self) -> (f32, f32) {
+        self.heights
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| {
+                (lo.min(h), hi.max(h))
+            })
+    }
+}
+
+/// The ground's colour: uniform, or a texture stretched over a world rectangle.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GroundColour {
+    /// One linear RGB colour.
+    Uniform(Vec3),
+    /// A texture over the rectangle `origin .. origin + size` in world `(x, z)`.
+    Texture {
+        /// The texture (linear).
+        texture: Texture,
+        /// World `(x, z)` of the texture's top-left corner.
+        origin: Vec2,
+        /// World size of the texture.
+        size: Vec2,
+    },
+}
+
+impl GroundColour {
+    fn at(&self, x: f32, z: f32) -> Vec3 {
+        match self {
+            GroundColour::Uniform(c) => *c,
+            GroundColour::Texture {
+                texture,
+                origin,
+                size,
+            } => {
+                let uv = (Vec2::new(x, z) - *origin) / *size;
+                texture
+                    .sample(uv.clamp(Vec2::ZERO, Vec2::ONE))
+                    .truncate()
+                    .clamp(Vec3::ZERO, Vec3::ONE)
+            }
+        }
+    }
+}
+
+/// Terrain: a heightmap and its colour.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Terrain {
+    /// Heights.
+    pub heightmap: Heightmap,
+    /// Colour of the ground.
+    pub colour: GroundColour,
+}
+
+/// One placed model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Instance {
+    /// Index into the composer's models.
+    pub model: u32,
+    /// World position of the model's origin.
+    pub position: Vec3,
+    /// Rotation (about any axis).
+    pub rotation: Quat,
+    /// Uniform scale (> 0).
+    pub scale: f32,
+}
+
+/// Composition parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ComposeParams {
+    /// Width of the ground's linear transition, metres.
+    pub ground_band: f32,
+    /// How far the ground is lowered, metres.
+    pub ground_bias: f32,
+    /// Side of the square tiles instances are binned into, metres.
+    pub tile: f32,
+    /// Most sample points per axis within one area cell.
+    pub max_samples_per_axis: u32,
+}
+
+impl Default for ComposeParams {
+    fn default() -> Self {
+        Self {
+            ground_band: 1.0,
+            ground_bias: 0.25,
+            tile: 16.0,
+            max_samples_per_axis: 4,
+        }
+    }
+}
+
+/// Counters of one composition.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ComposeStats {
+    /// Instances in the tiles the area overlaps (what the area looked at).
+    pub candidates: u64,
+    /// Instances whose bounds overlap the area.
+    pub overlapping: u64,
+}
+
+struct Placed {
+    inst: Instance,
+    inv_rot: Quat,
+    lo: Vec3,
+    hi: Vec3,
+}
+
+/// Composes area material grids from a terrain and instances of model grids; implements
+/// [`MaterialSource`].
+pub struct AreaComposer {
+    models: Vec<MaterialGrid>,
+    placed: Vec<Placed>,
+    tiles: HashMap<IVec2, Vec<u32>>,
+    terrain: Option<Terrain>,
+    params: ComposeParams,
+}
+
+impl AreaComposer {
+    /// Validates the instances (model index, finite transform, scale > 0) and bins them.
+    pub fn new(
+        models: Vec<MaterialGrid>,
+        instances: &[Instance],
+        terrain: Option<Terrain>,
+        params: ComposeParams,
+    ) -> Result<Self, GridError> {
+        if !(params.tile.is_finite() && params.tile > 0.0) {
+            return Err(GridError::invalid(
+                "tile",
+                params.tile,
+                "must be finite and > 0",
+            ));
+        }
+        if !(params.ground_band.is_finite() && params.ground_band > 0.0) {
+            return Err(GridError::invalid(
+                "ground_band",
+                params.ground_band,
+                "must be finite and > 0",
+            ));
+        }
+        if !params.ground_bias.is_finite() {
+            return Err(GridError::invalid(
+                "ground_bias",
+                params.ground_bias,
+                "must be finite",
+            ));
+        }
+        if params.max_samples_per_axis == 0 {
+            return Err(GridError::invalid(
+                "max_samples_per_axis",
+                0,
+                "must be at least 1",
+            ));
+        }
+        let mut placed = Vec::with_capacity(instances.len());
+        let mut tiles: HashMap<IVec2, Vec<u32>> = HashMap::new();
+        for (i, inst) in instances.iter().enumerate() {
+            let field = |f: &str| format!("instances[{i}].{f}");
+            let Some(model) = models.get(inst.model as usize) else {
+                return Err(GridError::invalid(
+                    field("model"),
+                    inst.model,
+                    "no such model",
+                ));
+            };
+            if !inst.position.is_finite() {
+                return Err(GridError::invalid(
+                    field("position"),
+                    inst.position,
+                    "must be finite",
+                ));
+            }
+            if !(inst.rotation.is_finite() && (inst.rotation.length() - 1.0).abs() < 1e-3) {
+                return Err(GridError::invalid(
+                    field("rotation"),
+                    inst.rotation,
+                    "must be a unit quaternion",
+                ));
+            }
+            if !(inst.scale.is_finite() && inst.scale > 0.0) {
+                return Err(GridError::invalid(
+                    field("scale"),
+                    inst.scale,
+                    "must be finite and > 0",
+                ));
+            }
+            let (mlo, mhi) = model.desc().cell_bounds();
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for c in 0..8 {
+                let corner = Vec3::new(
+                    if c & 1 != 0 { mhi.x } else { mlo.x },
+                    if c & 2 != 0 { mhi.y } else { mlo.y },
+                    if c & 4 != 0 { mhi.z } else { mlo.z },
+                );
+                let w = inst.position + inst.rotation * (corner * inst.scale);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+            let t0 = (Vec2::new(lo.x, lo.z) / params.tile).floor().as_ivec2();
+            let t1 = (Vec2::new(hi.x, hi.z) / params.tile).floor().as_ivec2();
+            for tz in t0.y..=t1.y {
+                for tx in t0.x..=t1.x {
+                    tiles.entry(IVec2::new(tx, tz)).or_default().push(i as u32);
+                }
+            }
+            placed.push(Placed {
+                inst: *inst,
+                inv_rot: inst.rotation.inverse(),
+                lo,
+                hi,
+            });
+        }
+        Ok(Self {
+            models,
+            placed,
+            tiles,
+            terrain,
+            params,
+        })
+    }
+
+    /// Composes the area `desc`, with counters.
+    pub fn compose(&self, desc: &GridDesc) -> Result<(MaterialGrid, ComposeStats), GridError> {
+        let (alo, ahi) = desc.cell_bounds();
+        // Candidates: instances in the tiles the area overlaps.
+        let t0 = (Vec2::new(alo.x, alo.z) / self.params.tile)
+            .floor()
+            .as_ivec2();
+        let t1 = (Vec2::new(ahi.x, ahi.z) / self.params.tile)
+            .floor()
+            .as_ivec2();
+        let mut cand: Vec<u32> = Vec::new();
+        for tz in t0.y..=t1.y {
+            for tx in t0.x..=t1.x {
+                if let Some(v) = self.tiles.get(&IVec2::new(tx, tz)) {
+                    cand.extend_from_slice(v);
+                }
+            }
+        }
+        cand.sort_unstable();
+        cand.dedup();
+        let candidates = cand.len() as u64;
+        cand.retain(|&i| {
+            let p = &self.placed[i as usize];
+            p.lo.cmple(ahi).all() && p.hi.cmpge(alo).all()
+        });
+        let stats = ComposeStats {
+            candidates,
+            overlapping: cand.len() as u64,
+        };
+        let h = desc.h();
+        let finest = cand
+            .iter()
+            .map(|&i| {
+                let p = &self.placed[i as usize];
+                self.models[p.inst.model as usize].desc().h() * p.inst.scale
+            })
+            .fold(f32::INFINITY, f32::min);
+        let k = if finest.is_finite() {
+            ((h / finest).ceil() as u32).clamp(1, self.params.max_samples_per_axis)
+        } else {
+            1
+        };
+        let mut cells = vec![Material::EMPTY; desc.point_count()];
+        let ground_top = self.terrain.as_ref().map(|t| t.heightmap.range().1);
+        use rayon::prelude::*;
+        cells.par_iter_mut().enumerate().for_each(|(i, cell)| {
+            let centre = desc.position(desc.coords(i).expect("index in range"));
+            // Instances overlapping this cell.
+            let half = Vec3::splat(h * 0.5);
+            let local: Vec<&Placed> = cand
+                .iter()
+                .map(|&j| &self.placed[j as usize])
+                .filter(|p| p.lo.cmple(centre + half).all() && p.hi.cmpge(centre - half).all())
+                .collect();
+            let ground_possible = ground_top.is_some_and(|top| {
+                centre.y - h * 0.5 <= top - self.params.ground_bias + self.params.ground_band * 0.5
+            });
+            if local.is_empty() && !ground_possible {
+                return;
+            }
+            // Wholly under the ground's transition band: dense ground, nothing to sample.
+            if let Some(t) = &self.terrain {
+                let g = t.heightmap.height_at(centre.x, centre.z) - self.params.ground_bias;
+                let slope_room = t.heightmap.spacing.min(h) * 4.0;
+                if centre.y + h * 0.5 + slope_room < g - self.params.ground_band * 0.5 {
+                    *cell = Material::opaque(t.colour.at(centre.x, centre.z));
+                    return;
+                }
+            }
+            // Ground alone is smooth: one sample; objects need k per axis.
+            let k = if local.is_empty() { 1 } else { k };
+            let mut pass_sum = 0.0;
+            let mut colour_sum = Vec3::ZERO;
+            let mut block_sum = 0.0;
+            for s in 0..k * k * k {
+                let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
+                let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
+                let mut pass = 1.0f32;
+                let mut colour = Vec3::ZERO;
+                let mut weight = 0.0f32;
+                let mut add = |m_pass: f32, m_colour: Vec3| {
+                    let blocked = 1.0 - m_pass;
+                    if blocked > 0.0 {
+                        colour += m_colour * blocked;
+                        weight += blocked;
+                        pass *= m_pass;
+                    }
+                };
+                for pl in &local {
+                    let model = &self.models[pl.inst.model as usize];
+                    let mpos = pl.inv_rot * (p - pl.inst.position) / pl.inst.scale;
+                    let (mlo, mhi) = model.desc().cell_bounds();
+                    if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
+                        continue;
+                    }
+                    let m = model.sample(mpos).unwrap_or(Material::EMPTY);
+                    let ratio = h / (model.desc().h() * pl.inst.scale);
+                    add(m.pass.clamp(0.0, 1.0).powf(ratio), m.reflectance);
+                }
+                if let Some(t) = &self.terrain {
+                    let g = t.heightmap.height_at(p.x, p.z) - self.params.ground_bias;
+                    let w = ((g - p.y) / self.params.ground_band + 0.5).clamp(0.0, 1.0);
+                    add(1.0 - w, t.colour.at(p.x, p.z));
+                }
+                pass_sum += pass;
+                if weight > 0.0 {
+                    colour_sum += colour / weight * (1.0 - pass);
+                    block_sum += 1.0 - pass;
+                }
+            }
+            let n = (k * k * k) as f32;
+            *cell = Material {
+                reflectance: if block_sum > 0.0 {
+                    (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
+                } else {
+                    Vec3::ZERO
+                },
+                pass: (pass_sum / n).clamp(0.0, 1.0),
+            };
+        });
+        Ok((MaterialGrid::new(*desc, cells)?, stats))
+    }
+}
+
+impl MaterialSource for AreaComposer {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        Ok(self.compose(desc)?.0)
+    }
+}
