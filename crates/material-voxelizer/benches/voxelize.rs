@@ -59,7 +59,7 @@ fn forest(n: usize, spread: f32, offset: Vec3) -> Vec<Instance> {
         .map(|_| Instance {
             model: 0,
             position: offset + Vec3::new(rng() * spread, 0.0, rng() * spread),
-            rotation: Quat::from_rotation_y(rng() * 6.28),
+            rotation: Quat::from_rotation_y(rng() * std::f32::consts::TAU),
             scale: 4.0 + rng() * 2.0,
         })
         .collect()
