@@ -35,10 +35,14 @@
 //! masks). The `voxelize` command does it from the shell:
 //! `voxelize tree.glb --cell 0.25 -o tree.lgrid`.
 //!
+//! [`procedural`] makes deterministic trees (closed trunk and branches, alpha-masked leaf
+//! cards), bushes and rocks, and writes them as `.glb`.
+//!
 //! At run time, [`compose::AreaComposer`] builds the material grid of any box from a
 //! terrain heightmap and instances of model grids (it implements
 //! `grid_core::MaterialSource`).
 
 pub mod compose;
 pub mod model;
+pub mod procedural;
 pub mod voxelize;
