@@ -1,0 +1,112 @@
+//! `.gltf` with external and embedded buffers, node transforms, unsupported features,
+//! and the `voxelize` command line.
+
+use std::process::Command;
+
+use grid_core::GridFile;
+use material_voxelizer::model::Model;
+use material_voxelizer::procedural::{rock, write_glb};
+
+/// Splits a GLB into its JSON and binary chunks.
+fn split_glb(bytes: &[u8]) -> (serde_json::Value, Vec<u8>) {
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).unwrap();
+    let bin_start = 20 + json_len + 8;
+    (json, bytes[bin_start..].to_vec())
+}
+
+fn base64(data: &[u8]) -> String {
+    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in data.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            if k <= c.len() {
+                out.push(T[(n >> (18 - 6 * k)) as usize & 63] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn gltf_with_external_and_embedded_buffers_and_node_transforms() {
+    let dir = std::env::temp_dir().join(format!("gltf-forms-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = rock(1, 1.0).unwrap();
+    write_glb(&model, dir.join("rock.glb")).unwrap();
+    let (mut json, bin) = split_glb(&std::fs::read(dir.join("rock.glb")).unwrap());
+    // External buffer, and a node translated by (1, 2, 3) under a parent scaled by 2.
+    std::fs::write(dir.join("rock.bin"), &bin).unwrap();
+    json["buffers"][0]["uri"] = "rock.bin".into();
+    json["nodes"] = serde_json::json!([{"children": [1], "scale": [2.0, 2.0, 2.0]}, {"mesh": 0, "translation": [1.0, 2.0, 3.0]}]);
+    std::fs::write(
+        dir.join("external.gltf"),
+        serde_json::to_vec(&json).unwrap(),
+    )
+    .unwrap();
+    let ext = Model::load_gltf(dir.join("external.gltf")).unwrap();
+    assert_eq!(ext.triangles.len(), model.triangles.len());
+    let want = (model.triangles[0].positions[0] + grid_core::glam::Vec3::new(1.0, 2.0, 3.0)) * 2.0;
+    assert!((ext.triangles[0].positions[0] - want).length() < 1e-5);
+    // Embedded (data URI) buffer.
+    json["buffers"][0]["uri"] =
+        format!("data:application/octet-stream;base64,{}", base64(&bin)).into();
+    std::fs::write(
+        dir.join("embedded.gltf"),
+        serde_json::to_vec(&json).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(Model::load_gltf(dir.join("embedded.gltf")).unwrap(), ext);
+    // Lines are not triangles: a clear message, not a panic.
+    json["meshes"][0]["primitives"][0]["mode"] = 1.into();
+    std::fs::write(dir.join("lines.gltf"), serde_json::to_vec(&json).unwrap()).unwrap();
+    let e = Model::load_gltf(dir.join("lines.gltf"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("unsupported") && e.contains("lines.gltf"), "{e}");
+    // Not a glTF at all.
+    std::fs::write(dir.join("junk.glb"), b"junk").unwrap();
+    assert!(Model::load_gltf(dir.join("junk.glb")).is_err());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn voxelize_command_writes_a_material_grid() {
+    let dir = std::env::temp_dir().join(format!("voxelize-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write_glb(&rock(2, 0.5).unwrap(), dir.join("r.glb")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_voxelize"))
+        .arg(dir.join("r.glb"))
+        .args(["--cell", "0.1", "--quality", "preview", "-o"])
+        .arg(dir.join("r.lgrid"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("320 triangles") && text.contains("rays"),
+        "{text}"
+    );
+    let g = GridFile::load(dir.join("r.lgrid"))
+        .unwrap()
+        .into_material()
+        .unwrap();
+    assert!(g.data().iter().any(|m| m.pass == 0.0));
+    let bad = Command::new(env!("CARGO_BIN_EXE_voxelize"))
+        .arg(dir.join("none.glb"))
+        .args(["--cell", "0.1", "-o", "x"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("none.glb"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
