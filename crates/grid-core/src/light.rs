@@ -194,27 +194,27 @@ const SH_COSINE: [f32; 3] = [
     std::f32::consts::PI / 4.0,
 ];
 
+/// Irradiance on unit normal `n` from the first `coeffs.len()` SH coefficients.
+fn sh_irradiance(coeffs: &[Vec3], n: Vec3) -> Vec3 {
+    let y = sh_basis(n.as_dvec3());
+    let mut e = Vec3::ZERO;
+    for (k, c) in coeffs.iter().enumerate() {
+        e += *c * (y[k] as f32 * SH_COSINE[band(k)]);
+    }
+    e.max(Vec3::ZERO)
+}
+
 impl Sh2 {
     /// Irradiance on unit normal `n` from the band-limited radiance.
     pub fn irradiance(&self, n: Vec3) -> Vec3 {
-        let y = sh_basis(n.as_dvec3());
-        let mut e = Vec3::ZERO;
-        for k in 0..9 {
-            e += self.0[k] * (y[k] as f32 * SH_COSINE[band(k)]);
-        }
-        e.max(Vec3::ZERO)
+        sh_irradiance(&self.0, n)
     }
 }
 
 impl Sh1 {
     /// Irradiance on unit normal `n` from the band-limited radiance.
     pub fn irradiance(&self, n: Vec3) -> Vec3 {
-        let y = sh_basis(n.as_dvec3());
-        let mut e = Vec3::ZERO;
-        for k in 0..4 {
-            e += self.0[k] * (y[k] as f32 * SH_COSINE[band(k)]);
-        }
-        e.max(Vec3::ZERO)
+        sh_irradiance(&self.0, n)
     }
 }
 

@@ -266,15 +266,9 @@ pub fn surface_weights(mask: u8) -> &'static [f32; NUM_DIRS] {
     &t[mask as usize & 63]
 }
 
-/// Outward normals of a cell's six faces, in exposure-mask bit order.
-pub const FACE_NORMALS: [Vec3; 6] = [
-    Vec3::X,
-    Vec3::NEG_X,
-    Vec3::Y,
-    Vec3::NEG_Y,
-    Vec3::Z,
-    Vec3::NEG_Z,
-];
+/// Outward normals of a cell's six faces, in exposure-mask bit order (the ambient
+/// cube's axis order).
+pub const FACE_NORMALS: [Vec3; 6] = grid_core::light::AMBIENT_AXES;
 
 impl Emission {
     fn new(pass: f32, exposed: u8) -> Self {
