@@ -1,7 +1,661 @@
 //! # terrain-lod
 //!
-//! Organises a heightmap terrain as a quadtree and keeps a hierarchy of light grids
-//! around the camera: one coarse world grid, finer node grids nearby, each initialised at
-//! its edges from the coarser grid and built within a per-frame budget.
+//! The light grid hierarchy around a moving camera (seed 000, "Global illumination" and
+//! "Performance"): one **world grid** over the whole terrain (16 m cells by default), and
+//! **node grids** of a quadtree whose cell size halves per level down to the finest
+//! (1 m), each `node_points × node_points` points across and as tall as the node's
+//! ground-to-canopy span. Grids are built coarse to fine: a node's top and side
+//! boundaries are interpolated from the coarser grids, then it is swept, so reading the
+//! finest ready grid needs no blending at its edges.
 //!
-//! Status: not built yet (issue "terrain-lod"); it will implement `grid_core::LightField`.
+//! Each frame, [`Hierarchy::update`] decides from the camera which nodes should exist
+//! (finer near the camera), evicts far ones, and builds missing or stale ones, coarse and
+//! near first, within a budget of points swept. A node whose inputs (material, boundary
+//! light, options) hash as before is not swept again. Nodes with no objects above the
+//! ground get no finer children.
+//!
+//! ```
+//! use grid_core::glam::{Vec2, Vec3};
+//! use grid_core::{BinLight, LightField};
+//! use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
+//! use sweep_cpu::CpuSweeper;
+//! use terrain_lod::{Hierarchy, HierarchyParams};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 129, 129, |x, z| 3.0 * (x * 0.02).sin() * (z * 0.03).cos())?;
+//! let terrain = Terrain { heightmap: hm, colour: GroundColour::Uniform(Vec3::splat(0.3)) };
+//! let composer = AreaComposer::new(vec![], &[], Some(terrain.clone()), ComposeParams::default())?;
+//! let (sky, _) = BinLight::uniform(Vec3::ONE).split_vertical();
+//! let mut params = HierarchyParams::default();
+//! params.finest_cell = 4.0; // 16, 8, 4 m
+//! let mut h = Hierarchy::new(&terrain.heightmap, Box::new(composer), Box::new(CpuSweeper::new()), sky, params)?;
+//! let frame = h.update(Vec3::new(128.0, 10.0, 128.0))?;
+//! assert!(frame.points_swept <= params.budget_points);
+//! let e = h.irradiance(Vec3::new(128.0, 5.0, 128.0), Vec3::Y)?;
+//! assert!(e.x > 0.0);
+//! # Ok(())
+//! # }
+//! ```
+
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+
+use grid_core::glam::{IVec2, UVec3, Vec2, Vec3};
+use grid_core::{
+    BinLight, Boundary, GridDesc, GridError, HALO_WIDTH, HaloLayout, LightField, LightGrid,
+    MaterialGrid, MaterialSource, SideBoundary, SweepError, SweepOptions, Sweeper, TopBoundary,
+};
+use material_voxelizer::compose::Heightmap;
+
+/// Errors of the hierarchy.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LodError {
+    /// A parameter or input is invalid (names the field).
+    #[error(transparent)]
+    Invalid(#[from] GridError),
+    /// A sweep failed.
+    #[error(transparent)]
+    Sweep(#[from] SweepError),
+}
+
+/// Parameters of the hierarchy. Start from `default()` and change fields.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HierarchyParams {
+    /// Cell size of the world grid, metres.
+    pub world_cell: f32,
+    /// Cell size of the finest node grids, metres (`world_cell / 2^k`).
+    pub finest_cell: f32,
+    /// Points across a node grid horizontally.
+    pub node_points: u32,
+    /// Height above a node's highest ground searched for objects (trees), metres; the
+    /// grid then ends two cells above the highest object found.
+    pub margin: f32,
+    /// A node is wanted while the camera is within `lod_factor × node size` of it.
+    pub lod_factor: f32,
+    /// A node is evicted once the camera is beyond `evict_factor × node size`.
+    pub evict_factor: f32,
+    /// Most points swept per frame (the world grid, built at load, is not counted).
+    pub budget_points: u64,
+    /// Most levels of one node grid (taller spans are cut at the top).
+    pub max_levels: u32,
+    /// Sweep options for every grid (`outputs.bins` is forced on: children read it).
+    pub sweep: SweepOptions,
+}
+
+impl Default for HierarchyParams {
+    fn default() -> Self {
+        let mut sweep = SweepOptions::multi_bounce();
+        sweep.max_passes = 4;
+        Self {
+            world_cell: 16.0,
+            finest_cell: 1.0,
+            node_points: 32,
+            margin: 12.0,
+            lod_factor: 1.0,
+            evict_factor: 1.5,
+            budget_points: 32 * 32 * 48 * 2,
+            max_levels: 48,
+            sweep,
+        }
+    }
+}
+
+impl HierarchyParams {
+    /// Node depth count: levels below the world grid (`world_cell / finest_cell = 2^k`).
+    pub fn depths(&self) -> u32 {
+        (self.world_cell / self.finest_cell).log2().round() as u32
+    }
+    /// Cell size at node depth `d` (0 = world).
+    pub fn cell(&self, d: u32) -> f32 {
+        self.world_cell / (1u32 << d) as f32
+    }
+    /// Horizontal size of a node at depth `d >= 1`, metres.
+    pub fn node_size(&self, d: u32) -> f32 {
+        self.cell(d) * self.node_points as f32
+    }
+
+    fn validate(&self) -> Result<(), GridError> {
+        for (name, v) in [
+            ("world_cell", self.world_cell),
+            ("finest_cell", self.finest_cell),
+            ("lod_factor", self.lod_factor),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(GridError::invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        let ratio = self.world_cell / self.finest_cell;
+        if !(ratio >= 1.0 && (ratio.log2() - ratio.log2().round()).abs() < 1e-4) {
+            return Err(GridError::invalid(
+                "finest_cell",
+                self.finest_cell,
+                "world_cell / finest_cell must be a power of two",
+            ));
+        }
+        if self.node_points < 2 {
+            return Err(GridError::invalid(
+                "node_points",
+                self.node_points,
+                "must be at least 2",
+            ));
+        }
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(GridError::invalid(
+                "margin",
+                self.margin,
+                "must be finite and >= 0",
+            ));
+        }
+        if !(self.evict_factor.is_finite() && self.evict_factor >= self.lod_factor) {
+            return Err(GridError::invalid(
+                "evict_factor",
+                self.evict_factor,
+                "must be finite and >= lod_factor",
+            ));
+        }
+        if self.max_levels < 2 {
+            return Err(GridError::invalid(
+                "max_levels",
+                self.max_levels,
+                "must be at least 2",
+            ));
+        }
+        let largest = self.node_points as u64 * self.node_points as u64 * self.max_levels as u64;
+        if self.budget_points < largest {
+            return Err(GridError::invalid(
+                "budget_points",
+                self.budget_points,
+                "must cover the largest node (node_points² × max_levels), or it could never be built",
+            ));
+        }
+        self.sweep.validate()
+    }
+}
+
+/// A node of the quadtree: depth (1 = coarsest nodes) and index in its depth's lattice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct NodeKey {
+    /// Depth, 1 ..= `params.depths()`.
+    pub depth: u32,
+    /// Lattice index in x and z.
+    pub index: IVec2,
+}
+
+impl Ord for NodeKey {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        (self.depth, self.index.y, self.index.x).cmp(&(o.depth, o.index.y, o.index.x))
+    }
+}
+
+impl PartialOrd for NodeKey {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+struct Node {
+    light: LightGrid,
+    input_hash: u64,
+    has_objects: bool,
+}
+
+/// Per-frame report.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FrameStats {
+    /// Points swept this frame.
+    pub points_swept: u64,
+    /// Nodes built (swept) this frame.
+    pub built: u32,
+    /// Nodes whose inputs were unchanged: not swept again.
+    pub skipped_unchanged: u32,
+    /// Wanted nodes left for later frames (over budget or waiting for a parent).
+    pub pending: u32,
+    /// Nodes evicted.
+    pub evicted: u32,
+    /// Ready nodes per depth (index 0: the world grid, 0 or 1).
+    pub alive_per_depth: Vec<u32>,
+    /// Bytes of the ready grids per depth, as stored (26 bins `f32`).
+    pub bytes_per_depth: Vec<u64>,
+}
+
+impl FrameStats {
+    /// Total bytes.
+    pub fn bytes(&self) -> u64 {
+        self.bytes_per_depth.iter().sum()
+    }
+}
+
+/// Bytes per point of the representations the docs compare.
+pub const BYTES_26_F32: u64 = 26 * 12;
+/// 26 bins as R11G11B10.
+pub const BYTES_26_PACKED: u64 = 26 * 4;
+/// Average (RGB `f32`) and dominant direction (`f32` × 3).
+pub const BYTES_AVG_DOM: u64 = 24;
+
+/// The light grid hierarchy.
+pub struct Hierarchy {
+    params: HierarchyParams,
+    heightmap_lo: Vec2,
+    heightmap_hi: Vec2,
+    heights: Heightmap,
+    source: Box<dyn MaterialSource>,
+    sweeper: Box<dyn Sweeper>,
+    sky: BinLight,
+    world: LightGrid,
+    nodes: HashMap<NodeKey, Node>,
+}
+
+fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let d = m.desc();
+    for v in [d.origin().x, d.origin().y, d.origin().z, d.h()] {
+        v.to_bits().hash(&mut h);
+    }
+    d.dims().to_array().hash(&mut h);
+    for c in m.data() {
+        for v in [c.reflectance.x, c.reflectance.y, c.reflectance.z, c.pass] {
+            v.to_bits().hash(&mut h);
+        }
+    }
+    let bins = |b: &BinLight, h: &mut std::collections::hash_map::DefaultHasher| {
+        for v in &b.0 {
+            for x in v.to_array() {
+                x.to_bits().hash(h);
+            }
+        }
+    };
+    match &b.top {
+        TopBoundary::Uniform(x) => bins(x, &mut h),
+        TopBoundary::PerPoint(v) => v.iter().for_each(|x| bins(x, &mut h)),
+    }
+    if let SideBoundary::Given(v) = &b.sides {
+        v.iter().for_each(|x| bins(x, &mut h));
+    }
+    format!("{o:?}").hash(&mut h);
+    h.finish()
+}
+
+impl Hierarchy {
+    /// Builds the world grid over the heightmap's extent (at load; not budgeted).
+    pub fn new(
+        heightmap: &Heightmap,
+        source: Box<dyn MaterialSource>,
+        sweeper: Box<dyn Sweeper>,
+        sky_top: BinLight,
+        params: HierarchyParams,
+    ) -> Result<Self, LodError> {
+        params.validate()?;
+        if !sky_top.is_valid() {
+            return Err(
+                GridError::invalid("sky_top", sky_top, "light must be finite and >= 0").into(),
+            );
+        }
+        let lo = heightmap.origin;
+        let hi = lo
+            + Vec2::new((heightmap.width - 1) as f32, (heightmap.depth - 1) as f32)
+                * heightmap.spacing;
+        let ground = heightmap.range();
+        let mut h = Self {
+            params,
+            heightmap_lo: lo,
+            heightmap_hi: hi,
+            heights: heightmap.clone(),
+            source,
+            sweeper,
+            sky: sky_top,
+            world: LightGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE)?, BinLight::ZERO)?,
+            nodes: HashMap::new(),
+        };
+        let w = params.world_cell;
+        let dims_xz = ((hi - lo) / w).ceil().as_uvec2() + grid_core::glam::UVec2::ONE;
+        let bottom = ground.0 - 2.0 * w;
+        let top = ground.1 + params.margin.max(w) + 2.0 * w;
+        let ny = (((top - bottom) / w).ceil() as u32 + 1).max(2);
+        let desc = GridDesc::new(
+            Vec3::new(lo.x, bottom, lo.y),
+            w,
+            UVec3::new(dims_xz.x, ny, dims_xz.y),
+        )?;
+        h.world = LightGrid::filled(desc, BinLight::ZERO)?;
+        h.sweep_world()?;
+        Ok(h)
+    }
+
+    fn sweep_world(&mut self) -> Result<(), LodError> {
+        let desc = *self.world.desc();
+        let material = self.source.material(&desc)?;
+        let mut o = self.params.sweep;
+        o.outputs.bins = true;
+        let out = self
+            .sweeper
+            .sweep(&material, &Boundary::open_sky(self.sky), &o)?;
+        self.world = out.bins.expect("bins asked for");
+        Ok(())
+    }
+
+    /// Changes the sky: the world grid is swept again at once; ready nodes are rebuilt by
+    /// [`Hierarchy::refresh`] (within the budget), each only if its inputs changed.
+    pub fn set_sky(&mut self, sky_top: BinLight) -> Result<(), LodError> {
+        if !sky_top.is_valid() {
+            return Err(
+                GridError::invalid("sky_top", sky_top, "light must be finite and >= 0").into(),
+            );
+        }
+        self.sky = sky_top;
+        self.sweep_world()
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &HierarchyParams {
+        &self.params
+    }
+
+    /// The world grid.
+    pub fn world(&self) -> &LightGrid {
+        &self.world
+    }
+
+    /// A ready node's light grid.
+    pub fn node(&self, key: NodeKey) -> Option<&LightGrid> {
+        self.nodes.get(&key).map(|n| &n.light)
+    }
+
+    /// Keys of the ready nodes.
+    pub fn ready_nodes(&self) -> Vec<NodeKey> {
+        let mut v: Vec<NodeKey> = self.nodes.keys().copied().collect();
+        v.sort();
+        v
+    }
+
+    /// World `(x, z)` rectangle of a node.
+    pub fn node_rect(&self, key: NodeKey) -> (Vec2, Vec2) {
+        let s = self.params.node_size(key.depth);
+        let lo = self.heightmap_lo + key.index.as_vec2() * s;
+        (lo, lo + Vec2::splat(s))
+    }
+
+    fn node_at(&self, depth: u32, p: Vec2) -> NodeKey {
+        let s = self.params.node_size(depth);
+        NodeKey {
+            depth,
+            index: ((p - self.heightmap_lo) / s).floor().as_ivec2(),
+        }
+    }
+
+    fn distance(&self, key: NodeKey, cam: Vec3) -> f32 {
+        let (lo, hi) = self.node_rect(key);
+        let c = Vec2::new(cam.x, cam.z);
+        (c - c.clamp(lo, hi)).length()
+    }
+
+    /// The nodes the camera wants, coarse first, nearest first within a depth.
+    pub fn wanted(&self, cam: Vec3) -> Vec<NodeKey> {
+        let mut out = Vec::new();
+        for d in 1..=self.params.depths() {
+            let s = self.params.node_size(d);
+            let r = self.params.lod_factor * s;
+            let c = Vec2::new(cam.x, cam.z);
+            let lo = self.node_at(d, c - Vec2::splat(r)).index;
+            let hi = self.node_at(d, c + Vec2::splat(r)).index;
+            let mut level: Vec<(f32, NodeKey)> = Vec::new();
+            for iz in lo.y..=hi.y {
+                for ix in lo.x..=hi.x {
+                    let key = NodeKey {
+                        depth: d,
+                        index: IVec2::new(ix, iz),
+                    };
+                    let (nlo, nhi) = self.node_rect(key);
+                    // Inside the terrain, and within reach.
+                    if nhi.cmple(self.heightmap_lo).any() || nlo.cmpge(self.heightmap_hi).any() {
+                        continue;
+                    }
+                    let dist = self.distance(key, cam);
+                    if dist <= r {
+                        level.push((dist, key));
+                    }
+                }
+            }
+            level.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            out.extend(level.into_iter().map(|(_, k)| k));
+        }
+        out
+    }
+
+    fn parent(key: NodeKey) -> Option<NodeKey> {
+        (key.depth > 1).then(|| NodeKey {
+            depth: key.depth - 1,
+            index: key.index.div_euclid(IVec2::splat(2)),
+        })
+    }
+
+    /// The node's material grid, `node_points` across and from below its lowest ground to
+    /// two cells above its highest object (or its highest ground): tall where the forest
+    /// is tall. Also whether it has objects above the ground.
+    fn node_material(&self, key: NodeKey) -> Result<(MaterialGrid, bool), GridError> {
+        let full = self.source.material(&self.node_desc(key)?)?;
+        let d = *full.desc();
+        let mut top_level = 0;
+        let mut has_objects = false;
+        for (i, c) in full.data().iter().enumerate() {
+            if c.is_empty() {
+                continue;
+            }
+            let q = d.coords(i).expect("index in range");
+            let p = d.position(q);
+            top_level = top_level.max(q.y);
+            has_objects |= p.y - d.h() > self.heights.height_at(p.x, p.z);
+        }
+        let ny = (top_level + 3).clamp(2, d.dims().y);
+        if ny == d.dims().y {
+            return Ok((full, has_objects));
+        }
+        let desc = GridDesc::new(d.origin(), d.h(), UVec3::new(d.dims().x, ny, d.dims().z))?;
+        let cells = full.into_data()[..desc.point_count()].to_vec();
+        Ok((MaterialGrid::new(desc, cells)?, has_objects))
+    }
+
+    /// The node's tallest grid descriptor: `node_points` across, from below its lowest
+    /// ground to `margin` above its highest ground, at most `max_levels`.
+    fn node_desc(&self, key: NodeKey) -> Result<GridDesc, GridError> {
+        let (lo, hi) = self.node_rect(key);
+        let h = self.params.cell(key.depth);
+        // Lowest ground in the node.
+        let mut ground_lo = f32::INFINITY;
+        let mut ground_hi = f32::NEG_INFINITY;
+        let steps = 8;
+        for i in 0..=steps {
+            for k in 0..=steps {
+                let p = lo + (hi - lo) * Vec2::new(i as f32, k as f32) / steps as f32;
+                let g = self.heights.height_at(p.x, p.y);
+                ground_lo = ground_lo.min(g);
+                ground_hi = ground_hi.max(g);
+            }
+        }
+        let bottom = ground_lo - 2.0 * h;
+        let top = ground_hi + self.params.margin.max(h);
+        let ny = (((top - bottom) / h).ceil() as u32 + 1).clamp(2, self.params.max_levels);
+        GridDesc::new(
+            Vec3::new(lo.x + 0.5 * h, bottom, lo.y + 0.5 * h),
+            h,
+            UVec3::new(self.params.node_points, ny, self.params.node_points),
+        )
+    }
+
+    /// Light (full bins) at `p` from the finest ready grid coarser than `depth`.
+    fn coarse_light(&self, p: Vec3, depth: u32) -> BinLight {
+        for d in (1..depth).rev() {
+            let key = self.node_at(d, Vec2::new(p.x, p.z));
+            if let Some(n) = self.nodes.get(&key)
+                && n.light.desc().contains(p)
+            {
+                return n.light.sample(p).unwrap_or_default();
+            }
+        }
+        self.world.sample(p).unwrap_or_default()
+    }
+
+    /// The boundary of a node grid from the coarser grids: the top from the downward
+    /// light just above it, the sides from the full light in the halo.
+    fn node_boundary(&self, desc: &GridDesc, depth: u32) -> Boundary {
+        let dims = desc.dims();
+        let h = desc.h();
+        let top_y = dims.y - 1;
+        let mut top = Vec::with_capacity(desc.level_len());
+        for k in 0..dims.z {
+            for i in 0..dims.x {
+                let p = desc.position(UVec3::new(i, top_y, k)) + Vec3::Y * h;
+                top.push(self.coarse_light(p, depth).split_vertical().0);
+            }
+        }
+        let layout = HaloLayout::new(dims);
+        let mut halo = vec![BinLight::ZERO; layout.len()];
+        let w = HALO_WIDTH;
+        for j in 0..dims.y {
+            for z in -w..dims.z as i32 + w {
+                for x in -w..dims.x as i32 + w {
+                    if let Some(i) = layout.index(x, j, z) {
+                        let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
+                        halo[i] = self.coarse_light(p, depth);
+                    }
+                }
+            }
+        }
+        Boundary {
+            top: TopBoundary::PerPoint(top),
+            bottom: BinLight::ZERO,
+            sides: SideBoundary::Given(halo),
+        }
+    }
+
+    /// One frame: evict, then build wanted nodes coarse and near first within the budget.
+    pub fn update(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
+        if !camera.is_finite() {
+            return Err(GridError::invalid("camera", camera, "must be finite").into());
+        }
+        let mut stats = FrameStats::default();
+        // Evict far nodes.
+        let evict: Vec<NodeKey> = self
+            .nodes
+            .keys()
+            .copied()
+            .filter(|k| {
+                self.distance(*k, camera)
+                    > self.params.evict_factor * self.params.node_size(k.depth)
+            })
+            .collect();
+        for k in evict {
+            self.nodes.remove(&k);
+            stats.evicted += 1;
+        }
+        let mut o = self.params.sweep;
+        o.outputs.bins = true;
+        for key in self.wanted(camera) {
+            if self.nodes.contains_key(&key) {
+                continue;
+            }
+            // Coarse to fine: the parent must be ready and have objects worth refining.
+            if let Some(p) = Self::parent(key) {
+                match self.nodes.get(&p) {
+                    Some(n) if n.has_objects => {}
+                    Some(_) => continue, // bare ground: no finer child needed
+                    None => {
+                        stats.pending += 1;
+                        continue;
+                    }
+                }
+            }
+            // Material first (composing is cheap next to sweeping): it sizes the grid.
+            let (material, has_objects) = self.node_material(key)?;
+            let desc = *material.desc();
+            let cost = desc.point_count() as u64;
+            if stats.points_swept + cost > self.params.budget_points {
+                stats.pending += 1;
+                continue;
+            }
+            let boundary = self.node_boundary(&desc, key.depth);
+            let input_hash = hash_grid(&material, &boundary, &o);
+            let out = self.sweeper.sweep(&material, &boundary, &o)?;
+            stats.points_swept += cost;
+            stats.built += 1;
+            self.nodes.insert(
+                key,
+                Node {
+                    light: out.bins.expect("bins asked for"),
+                    input_hash,
+                    has_objects,
+                },
+            );
+        }
+        let depths = self.params.depths() as usize;
+        stats.alive_per_depth = vec![0; depths + 1];
+        stats.bytes_per_depth = vec![0; depths + 1];
+        stats.alive_per_depth[0] = 1;
+        stats.bytes_per_depth[0] = self.world.desc().point_count() as u64 * BYTES_26_F32;
+        for (k, n) in &self.nodes {
+            stats.alive_per_depth[k.depth as usize] += 1;
+            stats.bytes_per_depth[k.depth as usize] +=
+                n.light.desc().point_count() as u64 * BYTES_26_F32;
+        }
+        Ok(stats)
+    }
+
+    /// Rebuilds every ready node whose inputs changed (after the scene or sky changed),
+    /// within the budget; nodes whose inputs hash as before are counted as skipped.
+    pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
+        let mut stats = FrameStats::default();
+        let mut o = self.params.sweep;
+        o.outputs.bins = true;
+        let mut keys = self.ready_nodes();
+        keys.sort_by(|a, b| {
+            a.depth.cmp(&b.depth).then(
+                self.distance(*a, camera)
+                    .total_cmp(&self.distance(*b, camera)),
+            )
+        });
+        for key in keys {
+            let desc = *self.nodes[&key].light.desc();
+            if stats.points_swept + desc.point_count() as u64 > self.params.budget_points {
+                stats.pending += 1;
+                continue;
+            }
+            let material = self.source.material(&desc)?;
+            let boundary = self.node_boundary(&desc, key.depth);
+            let hash = hash_grid(&material, &boundary, &o);
+            // (The node keeps its size; a changed scene may need a new size: evict it.)
+            if hash == self.nodes[&key].input_hash {
+                stats.skipped_unchanged += 1;
+                continue;
+            }
+            let out = self.sweeper.sweep(&material, &boundary, &o)?;
+            stats.points_swept += desc.point_count() as u64;
+            stats.built += 1;
+            let n = self.nodes.get_mut(&key).expect("ready node");
+            n.light = out.bins.expect("bins asked for");
+            n.input_hash = hash;
+        }
+        Ok(stats)
+    }
+
+    /// The finest ready grid containing `p` (the world grid if none).
+    pub fn grid_at(&self, p: Vec3) -> &LightGrid {
+        for d in (1..=self.params.depths()).rev() {
+            let key = self.node_at(d, Vec2::new(p.x, p.z));
+            if let Some(n) = self.nodes.get(&key)
+                && n.light.desc().contains(p)
+            {
+                return &n.light;
+            }
+        }
+        &self.world
+    }
+}
+
+impl LightField for Hierarchy {
+    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
+        self.grid_at(p).irradiance(p, n)
+    }
+    fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
+        self.grid_at(p).average(p)
+    }
+}
