@@ -55,11 +55,13 @@ fn scene() -> (Heightmap, AreaComposer) {
 }
 
 fn params() -> HierarchyParams {
-    let mut p = HierarchyParams::default();
-    p.finest_cell = 2.0; // depths: 8, 4, 2 m
-    p.node_points = 16;
-    p.max_levels = 40;
-    p.budget_points = 16 * 16 * 40 * 3;
+    let mut p = HierarchyParams {
+        finest_cell: 2.0, // depths: 8, 4, 2 m
+        node_points: 16,
+        max_levels: 40,
+        budget_points: 16 * 16 * 40 * 3,
+        ..Default::default()
+    };
     p.sweep.max_passes = 2;
     p
 }
