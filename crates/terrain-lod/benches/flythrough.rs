@@ -1,0 +1,79 @@
+//! Time of a short fly-through (8 frames from a cold hierarchy) over the shipped DEM with
+//! a procedural forest, for node grids of 16 and 32 points.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use grid_core::BinLight;
+use grid_core::glam::{Quat, Vec2, Vec3};
+use material_voxelizer::compose::{
+    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
+};
+use material_voxelizer::procedural::{TreeParams, tree};
+use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use sweep_cpu::CpuSweeper;
+use terrain_lod::{Hierarchy, HierarchyParams};
+
+fn bench(c: &mut Criterion) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/testdata/dem-jacksboro/jacksboro_fault_dem_u16.png");
+    let hm = Heightmap::load_png(&path, Vec2::ZERO, 4.0, 0.05, 0.0).expect("dem");
+    let (tree_grid, _) = voxelize(
+        &tree(&TreeParams::young(3)).expect("tree"),
+        &VoxelizeParams::preview(0.5),
+        &|_, _| {},
+    )
+    .expect("voxelize");
+    let instances: Vec<Instance> = (0..2000)
+        .map(|i| {
+            let (x, z) = (450.0 + (i % 45) as f32 * 9.0, 450.0 + (i / 45) as f32 * 9.0);
+            Instance {
+                model: 0,
+                position: Vec3::new(x, hm.height_at(x, z) - 0.3, z),
+                rotation: Quat::from_rotation_y(i as f32),
+                scale: 2.0,
+            }
+        })
+        .collect();
+    let terrain = Terrain {
+        heightmap: hm.clone(),
+        colour: GroundColour::Uniform(Vec3::splat(0.25)),
+    };
+    let (sky, _) = BinLight::uniform(Vec3::ONE).split_vertical();
+    let mut g = c.benchmark_group("flythrough 8 frames");
+    g.sample_size(10);
+    for node_points in [16u32, 32] {
+        g.bench_function(format!("{node_points} points a node"), |b| {
+            b.iter(|| {
+                let composer = AreaComposer::new(
+                    vec![tree_grid.clone()],
+                    &instances,
+                    Some(terrain.clone()),
+                    ComposeParams::default(),
+                )
+                .expect("composer");
+                let params = HierarchyParams {
+                    node_points,
+                    finest_cell: 2.0,
+                    budget_points: node_points as u64 * node_points as u64 * 48 * 2,
+                    ..Default::default()
+                };
+                let mut h = Hierarchy::new(
+                    &hm,
+                    Box::new(composer),
+                    Box::new(CpuSweeper::new()),
+                    sky,
+                    params,
+                )
+                .expect("hierarchy");
+                for f in 0..8 {
+                    let (x, z) = (500.0 + 10.0 * f as f32, 520.0 + 8.0 * f as f32);
+                    h.update(Vec3::new(x, hm.height_at(x, z) + 20.0, z))
+                        .expect("frame");
+                }
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,111 @@
+//! A scripted fly-through over the shipped DEM with a procedural forest: per frame, the
+//! points swept, grids alive per depth, memory and skipped work; then the same path with
+//! node grids of 16, 32 and 64 points for the time/memory table in the crate docs.
+//!
+//! `cargo run --release -p terrain-lod --example flythrough`
+
+use std::time::Instant;
+
+use grid_core::BinLight;
+use grid_core::glam::{Quat, Vec2, Vec3};
+use material_voxelizer::compose::{
+    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
+};
+use material_voxelizer::procedural::{TreeParams, tree};
+use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use sweep_cpu::CpuSweeper;
+use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/testdata/dem-jacksboro/jacksboro_fault_dem_u16.png");
+    let hm = Heightmap::load_png(&path, Vec2::ZERO, 4.0, 0.05, 0.0)?;
+    let (tree_grid, _) = voxelize(
+        &tree(&TreeParams::broadleaf(3))?,
+        &VoxelizeParams::standard(0.5),
+        &|_, _| {},
+    )?;
+    let mut s = 99u64;
+    let mut rng = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let instances: Vec<Instance> = (0..4000)
+        .map(|_| {
+            let (x, z) = (400.0 + rng() * 500.0, 400.0 + rng() * 500.0);
+            Instance {
+                model: 0,
+                position: Vec3::new(x, hm.height_at(x, z) - 0.3, z),
+                rotation: Quat::from_rotation_y(rng() * std::f32::consts::TAU),
+                scale: 0.8 + rng() * 0.5,
+            }
+        })
+        .collect();
+    let terrain = Terrain {
+        heightmap: hm.clone(),
+        colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),
+    };
+    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+    let camera = |f: u32| {
+        let (x, z) = (500.0 + 10.0 * f as f32, 520.0 + 8.0 * f as f32);
+        Vec3::new(x, hm.height_at(x, z) + 20.0, z)
+    };
+    println!(
+        "node points | frames | total s | ms/frame | points swept | 26-bin f32 MB | packed MB | avg+dom MB"
+    );
+    for node_points in [16u32, 32, 64] {
+        let composer = AreaComposer::new(
+            vec![tree_grid.clone()],
+            &instances,
+            Some(terrain.clone()),
+            ComposeParams::default(),
+        )?;
+        let params = HierarchyParams {
+            node_points,
+            finest_cell: 1.0,
+            max_levels: 48,
+            budget_points: node_points as u64 * node_points as u64 * 48 * 2,
+            ..Default::default()
+        };
+        let t = Instant::now();
+        let mut h = Hierarchy::new(
+            &hm,
+            Box::new(composer),
+            Box::new(CpuSweeper::new()),
+            sky,
+            params,
+        )?;
+        let mut swept = 0;
+        let frames = 30;
+        let mut last = None;
+        for f in 0..frames {
+            let s = h.update(camera(f))?;
+            swept += s.points_swept;
+            if node_points == 32 {
+                println!(
+                    "  frame {f:2}: swept {:6} points, built {:2}, pending {:2}, evicted {:2}, bare skipped {:2}, alive {:?}, {:.1} MB",
+                    s.points_swept,
+                    s.built,
+                    s.pending,
+                    s.evicted,
+                    s.skipped_bare,
+                    s.alive_per_depth,
+                    s.bytes(BYTES_26_F32) as f64 / 1e6
+                );
+            }
+            last = Some(s);
+        }
+        let secs = t.elapsed().as_secs_f64();
+        let s = last.expect("frames ran");
+        println!(
+            "{node_points:11} | {frames:6} | {secs:7.2} | {:8.1} | {swept:12} | {:13.1} | {:9.1} | {:10.1}",
+            secs * 1e3 / frames as f64,
+            s.bytes(BYTES_26_F32) as f64 / 1e6,
+            s.bytes(BYTES_26_PACKED) as f64 / 1e6,
+            s.bytes(BYTES_AVG_DOM) as f64 / 1e6
+        );
+    }
+    Ok(())
+}
