@@ -3,36 +3,22 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use grid_core::BinLight;
-use grid_core::glam::{Quat, Vec2, Vec3};
-use material_voxelizer::compose::{
-    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
-};
+use grid_core::glam::{Vec2, Vec3};
+use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use sweep_cpu::CpuSweeper;
-use terrain_lod::{Hierarchy, HierarchyParams};
+use terrain_lod::{Hierarchy, HierarchyParams, demo};
 
 fn bench(c: &mut Criterion) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/testdata/dem-jacksboro/jacksboro_fault_dem_u16.png");
-    let hm = Heightmap::load_png(&path, Vec2::ZERO, 4.0, 0.05, 0.0).expect("dem");
+    let hm = demo::jacksboro(&demo::testdata_dir()).expect("dem");
     let (tree_grid, _) = voxelize(
         &tree(&TreeParams::young(3)).expect("tree"),
         &VoxelizeParams::preview(0.5),
         &|_, _| {},
     )
     .expect("voxelize");
-    let instances: Vec<Instance> = (0..2000)
-        .map(|i| {
-            let (x, z) = (450.0 + (i % 45) as f32 * 9.0, 450.0 + (i / 45) as f32 * 9.0);
-            Instance {
-                model: 0,
-                position: Vec3::new(x, hm.height_at(x, z) - 0.3, z),
-                rotation: Quat::from_rotation_y(i as f32),
-                scale: 2.0,
-            }
-        })
-        .collect();
+    let instances = demo::scatter_forest(&hm, 2000, Vec2::splat(450.0), 400.0, (2.0, 2.0), 7);
     let terrain = Terrain {
         heightmap: hm.clone(),
         colour: GroundColour::Uniform(Vec3::splat(0.25)),

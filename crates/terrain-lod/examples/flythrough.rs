@@ -7,42 +7,21 @@
 use std::time::Instant;
 
 use grid_core::BinLight;
-use grid_core::glam::{Quat, Vec2, Vec3};
-use material_voxelizer::compose::{
-    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
-};
+use grid_core::glam::{Vec2, Vec3};
+use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use sweep_cpu::CpuSweeper;
-use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams};
+use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams, demo};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/testdata/dem-jacksboro/jacksboro_fault_dem_u16.png");
-    let hm = Heightmap::load_png(&path, Vec2::ZERO, 4.0, 0.05, 0.0)?;
+    let hm = demo::jacksboro(&demo::testdata_dir())?;
     let (tree_grid, _) = voxelize(
         &tree(&TreeParams::broadleaf(3))?,
         &VoxelizeParams::standard(0.5),
         &|_, _| {},
     )?;
-    let mut s = 99u64;
-    let mut rng = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let instances: Vec<Instance> = (0..4000)
-        .map(|_| {
-            let (x, z) = (400.0 + rng() * 500.0, 400.0 + rng() * 500.0);
-            Instance {
-                model: 0,
-                position: Vec3::new(x, hm.height_at(x, z) - 0.3, z),
-                rotation: Quat::from_rotation_y(rng() * std::f32::consts::TAU),
-                scale: 0.8 + rng() * 0.5,
-            }
-        })
-        .collect();
+    let instances = demo::scatter_forest(&hm, 4000, Vec2::splat(400.0), 500.0, (0.8, 1.3), 99);
     let terrain = Terrain {
         heightmap: hm.clone(),
         colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),

@@ -56,6 +56,8 @@
 //! # }
 //! ```
 
+pub mod demo;
+
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 

@@ -1,45 +1,24 @@
 //! A fly-through over the shipped DEM with a procedural forest.
 
-use grid_core::glam::{Quat, Vec2, Vec3};
+use grid_core::glam::{Vec2, Vec3};
 use grid_core::{BinLight, LightField};
-use material_voxelizer::compose::{
-    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
-};
+use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use sweep_cpu::CpuSweeper;
-use terrain_lod::{Hierarchy, HierarchyParams, NodeKey};
+use terrain_lod::{Hierarchy, HierarchyParams, NodeKey, demo};
 
 /// The Jacksboro DEM at 4 m a pixel, heights × 0.05 (12–54 m of relief over 1.6 km), with
 /// 1500 trees scattered over 300 m × 300 m around the path.
 fn scene() -> (Heightmap, AreaComposer) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/testdata/dem-jacksboro/jacksboro_fault_dem_u16.png");
-    let hm = Heightmap::load_png(&path, Vec2::ZERO, 4.0, 0.05, 0.0).unwrap();
+    let hm = demo::jacksboro(&demo::testdata_dir()).unwrap();
     let (tree_grid, _) = voxelize(
         &tree(&TreeParams::young(3)).unwrap(),
         &VoxelizeParams::preview(0.5),
         &|_, _| {},
     )
     .unwrap();
-    let mut s = 99u64;
-    let mut rng = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let instances: Vec<Instance> = (0..1500)
-        .map(|_| {
-            let (x, z) = (500.0 + rng() * 300.0, 500.0 + rng() * 300.0);
-            Instance {
-                model: 0,
-                position: Vec3::new(x, hm.height_at(x, z) - 0.3, z),
-                rotation: Quat::from_rotation_y(rng() * std::f32::consts::TAU),
-                scale: 1.5 + rng(),
-            }
-        })
-        .collect();
+    let instances = demo::scatter_forest(&hm, 1500, Vec2::splat(500.0), 300.0, (1.5, 2.5), 99);
     let terrain = Terrain {
         heightmap: hm.clone(),
         colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),

@@ -1,0 +1,56 @@
+//! The demo scene shared by the fly-through test, example and benchmark: the shipped DEM
+//! and a deterministic forest of procedural trees.
+
+use std::path::Path;
+
+use grid_core::GridError;
+use grid_core::glam::{Quat, Vec2, Vec3};
+use material_voxelizer::compose::{Heightmap, Instance};
+
+/// The shipped Jacksboro DEM (`shared/testdata/dem-jacksboro`) at 4 m a pixel with
+/// heights × 0.05: 1.6 km × 1.4 km, 12–54 m of relief.
+pub fn jacksboro(testdata: &Path) -> Result<Heightmap, GridError> {
+    Heightmap::load_png(
+        testdata.join("dem-jacksboro/jacksboro_fault_dem_u16.png"),
+        Vec2::ZERO,
+        4.0,
+        0.05,
+        0.0,
+    )
+}
+
+/// `count` instances of model 0 scattered uniformly over the square `lo .. lo + size`
+/// (world x, z), standing on the ground (0.3 m sunk), turned at random, scaled in
+/// `scale.0 .. scale.1`. Deterministic for a seed.
+pub fn scatter_forest(
+    hm: &Heightmap,
+    count: usize,
+    lo: Vec2,
+    size: f32,
+    scale: (f32, f32),
+    seed: u64,
+) -> Vec<Instance> {
+    let mut s = seed.max(1);
+    let mut rng = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..count)
+        .map(|_| {
+            let (x, z) = (lo.x + rng() * size, lo.y + rng() * size);
+            Instance {
+                model: 0,
+                position: Vec3::new(x, hm.height_at(x, z) - 0.3, z),
+                rotation: Quat::from_rotation_y(rng() * std::f32::consts::TAU),
+                scale: scale.0 + rng() * (scale.1 - scale.0),
+            }
+        })
+        .collect()
+}
+
+/// The folder of the shipped test data, beside the repository.
+pub fn testdata_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata")
+}
