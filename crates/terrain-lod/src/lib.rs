@@ -392,6 +392,16 @@ impl Hierarchy {
         self.nodes.get(&key).map(|n| &n.light)
     }
 
+    /// Whether a ready node has objects above the ground (and so may get finer children).
+    pub fn node_has_objects(&self, key: NodeKey) -> Option<bool> {
+        self.nodes.get(&key).map(|n| n.has_objects)
+    }
+
+    /// The parent of a node (`None` at depth 1, whose parent is the world grid).
+    pub fn parent_of(key: NodeKey) -> Option<NodeKey> {
+        Self::parent(key)
+    }
+
     /// Keys of the ready nodes.
     pub fn ready_nodes(&self) -> Vec<NodeKey> {
         let mut v: Vec<NodeKey> = self.nodes.keys().copied().collect();

@@ -76,6 +76,15 @@ fn flythrough_respects_the_budget_and_refines_around_the_camera() {
         }
         assert!(frames < 10, "still pending after {frames} frames: {s:?}");
     }
+    // Every node the camera wants is ready, or not needed (its parent is bare ground).
+    for key in h.wanted(cam) {
+        let bare_parent =
+            Hierarchy::parent_of(key).is_some_and(|p| h.node_has_objects(p) == Some(false));
+        assert!(
+            h.node(key).is_some() || bare_parent,
+            "{key:?} wanted but not ready"
+        );
+    }
     let below = Vec3::new(x, hm.height_at(x, z) + 2.0, z);
     let finest = h.grid_at(below);
     assert_eq!(
