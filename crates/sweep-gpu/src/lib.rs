@@ -1,7 +1,240 @@
 //! # sweep-gpu
 //!
-//! The same sweep as `sweep-cpu`, as wgpu compute shaders (WGSL) with one dispatch per
-//! level, so light grids can be rebuilt on the GPU around a moving camera. Its results
-//! are property-tested against `sweep-cpu`.
+//! The light-flow sweep of `sweep-cpu` as wgpu compute shaders (WGSL), so light grids can
+//! be rebuilt on the GPU around a moving camera.
 //!
-//! Status: not built yet (issue "sweep-gpu"); it will implement `grid_core::Sweeper`.
+//! Status: this crate has its foundation: the device context ([`GpuContext`], a typed
+//! error when no adapter exists), WGSL whose shared constants are generated from
+//! `grid-core` ([`wgsl::prelude`]), every shader validated by naga in a plain
+//! `cargo test`, and R11G11B10 packing on the GPU, bit-exact with `grid_core::pack`
+//! ([`GpuPacker`]). The sweep kernels themselves are still to come.
+//!
+//! ```no_run
+//! use grid_core::glam::Vec3;
+//! use sweep_gpu::{GpuContext, GpuPacker};
+//!
+//! # fn main() -> Result<(), sweep_gpu::GpuError> {
+//! let ctx = GpuContext::new()?; // Err(GpuError::NoAdapter) without a GPU or lavapipe
+//! let packer = GpuPacker::new(&ctx);
+//! let words = packer.pack(&ctx, &[Vec3::new(1.0, 0.5, 65024.0)], 1.0)?;
+//! assert_eq!(words[0], grid_core::pack::pack_r11g11b10(Vec3::new(1.0, 0.5, 65024.0)));
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! GPU tests need an adapter; in CI that is Mesa's lavapipe. Without one they fail,
+//! unless `LIGHTGRID_ALLOW_NO_GPU=1` is set, in which case they say loudly that they did
+//! not run.
+
+pub mod wgsl;
+
+use grid_core::glam::Vec3;
+use wgpu::util::DeviceExt;
+
+/// Errors of the GPU backend.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum GpuError {
+    /// No GPU adapter was found (callers fall back to the CPU sweeper).
+    #[error(
+        "no GPU adapter found ({0}); use sweep-cpu, or install a Vulkan driver (Mesa's lavapipe: mesa-vulkan-drivers)"
+    )]
+    NoAdapter(String),
+    /// The adapter refused to create a device.
+    #[error("the GPU adapter {adapter} refused a device: {message}")]
+    Device {
+        /// Adapter name.
+        adapter: String,
+        /// What it said.
+        message: String,
+    },
+    /// A buffer would exceed what one binding allows.
+    #[error(
+        "{what} needs {bytes} bytes, over the device's limit of {limit} bytes per storage binding"
+    )]
+    TooLarge {
+        /// Which buffer.
+        what: &'static str,
+        /// Bytes needed.
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
+    /// Mapping a buffer for readback failed.
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+}
+
+/// A device and queue, created once and reused.
+pub struct GpuContext {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// What the adapter is.
+    pub info: wgpu::AdapterInfo,
+}
+
+impl GpuContext {
+    /// The first adapter wgpu finds (a discrete GPU preferred; lavapipe in CI).
+    pub fn new() -> Result<Self, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("lightgrid"),
+            required_features: wgpu::Features::empty(),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device {
+            adapter: info.name.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(Self {
+            device,
+            queue,
+            info,
+        })
+    }
+
+    /// Largest storage buffer binding, bytes.
+    pub fn max_binding(&self) -> u64 {
+        self.device.limits().max_storage_buffer_binding_size as u64
+    }
+
+    /// Copies `buffer` (which must allow COPY_SRC) back to the CPU.
+    pub fn read_back(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: buffer.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+        self.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let data = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .to_vec();
+        staging.unmap();
+        Ok(data)
+    }
+}
+
+/// Packs light to R11G11B10 on the GPU; the pipeline is created once.
+pub struct GpuPacker {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl GpuPacker {
+    /// Compiles the packing kernel.
+    pub fn new(ctx: &GpuContext) -> Self {
+        let module = ctx
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("pack"),
+                source: wgpu::ShaderSource::Wgsl(wgsl::pack_kernel().into()),
+            });
+        let pipeline = ctx
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("pack"),
+                layout: None,
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+        Self { pipeline }
+    }
+
+    /// `values × exposure`, packed. The output buffer starts filled with `u32::MAX` (an
+    /// impossible word: its exponents are 31), so an unwritten word cannot pass a test.
+    pub fn pack(
+        &self,
+        ctx: &GpuContext,
+        values: &[Vec3],
+        exposure: f32,
+    ) -> Result<Vec<u32>, GpuError> {
+        let n = values.len().max(1);
+        let bytes = (n * 12) as u64;
+        if bytes > ctx.max_binding() {
+            return Err(GpuError::TooLarge {
+                what: "input light",
+                bytes,
+                limit: ctx.max_binding(),
+            });
+        }
+        let mut flat: Vec<f32> = values.iter().flat_map(|v| v.to_array()).collect();
+        flat.resize(n * 3, 0.0);
+        let input = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("pack input"),
+                contents: bytemuck::cast_slice(&flat),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+        let sentinel = vec![u32::MAX; n];
+        let output = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("pack output"),
+                contents: bytemuck::cast_slice(&sentinel),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            });
+        let params = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("pack params"),
+                contents: bytemuck::cast_slice(&[values.len() as u32, exposure.to_bits()]),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+        let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pack"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: input.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: output.as_entire_binding(),
+                },
+            ],
+        });
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+        }
+        ctx.queue.submit([enc.finish()]);
+        let data = ctx.read_back(&output)?;
+        Ok(bytemuck::cast_slice::<u8, u32>(&data)[..values.len()].to_vec())
+    }
+}
