@@ -106,7 +106,7 @@ impl GpuContext {
 
     /// Largest storage buffer binding, bytes.
     pub fn max_binding(&self) -> u64 {
-        self.device.limits().max_storage_buffer_binding_size as u64
+        self.device.limits().max_storage_buffer_binding_size
     }
 
     /// Copies `buffer` (which must allow COPY_SRC) back to the CPU.
