@@ -389,6 +389,15 @@ fn channel_value(b: &BinLight, chn: &Channel, full_sphere: bool) -> Vec3 {
     if full_sphere { v * chn.share } else { v }
 }
 
+/// Checks the inputs of a sweep as [`run`] does (options, boundary against the grid,
+/// boundary light at most [`MAX_LIGHT`]).
+pub fn validate_inputs(material: &MaterialGrid, boundary: &Boundary, options: &SweepOptions) -> Result<(), SweepError> {
+    options.validate()?;
+    boundary.validate(material.desc())?;
+    check_boundary_scale(boundary)?;
+    Ok(())
+}
+
 fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
     let big = |b: &BinLight| b.0.iter().any(|v| v.max_element() > MAX_LIGHT);
     let err = |field: &str| {
@@ -674,7 +683,7 @@ impl Ctx {
 
 /// Mask of each opaque cell's faces that border a non-opaque cell or the outside
 /// (bit order of [`FACE_NORMALS`]); 0 for cells with `p > 0`.
-fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
+pub fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
     let d = *material.desc();
     let dims = d.dims().as_ivec3();
     let cells = material.data();
@@ -722,10 +731,8 @@ pub fn run(
     boundary: &Boundary,
     options: &SweepOptions,
 ) -> Result<Sweep, SweepError> {
-    options.validate()?;
+    validate_inputs(material, boundary, options)?;
     let desc = *material.desc();
-    boundary.validate(&desc)?;
-    check_boundary_scale(boundary)?;
     if options.outputs.bins {
         let (g, balance, stats) = run_with::<BinLight>(material, boundary, options);
         let grid = Grid::from_trusted(desc, g);

@@ -26,7 +26,10 @@
 //! unless `LIGHTGRID_ALLOW_NO_GPU=1` is set, in which case they say loudly that they did
 //! not run.
 
+pub mod sweep;
 pub mod wgsl;
+
+pub use sweep::GpuSweeper;
 
 use grid_core::glam::Vec3;
 use wgpu::util::DeviceExt;

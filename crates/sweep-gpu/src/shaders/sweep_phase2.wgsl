@@ -1,0 +1,210 @@
+// Phase 2 of a level: each cell collects what it removed, absorbs, emits into this
+// pass's channels and re-absorbs what its own material stops (sweep-cpu steps 3-7).
+
+struct Level {
+    nx: u32,
+    nz: u32,
+    level_len: u32,
+    j: u32,
+    src_level: i32,
+    from_virtual: u32,
+    up: u32,
+    periodic: u32,
+    given: u32,
+    ny: u32,
+    smoothing: f32,
+    _pad: u32,
+}
+
+const SCRATCH: u32 = 164u;
+const CH: u32 = 17u;
+const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
+
+@group(0) @binding(0) var<uniform> P: Level;
+@group(0) @binding(1) var<storage, read> cells: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> exposed: array<u32>;
+@group(0) @binding(3) var<storage, read_write> cur: array<f32>;
+@group(0) @binding(4) var<storage, read> scratch: array<f32>;
+@group(0) @binding(5) var<storage, read_write> g: array<f32>;
+@group(0) @binding(6) var<storage, read_write> pend_same: array<f32>;
+@group(0) @binding(7) var<storage, read_write> pend_other: array<f32>;
+@group(0) @binding(8) var<storage, read_write> pend_flux: array<f32>;
+
+struct Pending {
+    s: vec3<f32>,
+    m0: vec3<f32>,
+    m1: vec3<f32>,
+    m2: vec3<f32>,
+}
+
+fn column(x: i32, z: i32) -> i32 {
+    let nx = i32(P.nx);
+    let nz = i32(P.nz);
+    if (P.periodic == 1u) {
+        let wx = ((x % nx) + nx) % nx;
+        let wz = ((z % nz) + nz) % nz;
+        return wx + nx * wz;
+    }
+    if (x < 0 || x >= nx || z < 0 || z >= nz) {
+        return -1;
+    }
+    return x + nx * z;
+}
+
+fn load_pending(buf: u32, gi: u32) -> Pending {
+    let b = gi * 12u;
+    var v: array<f32, 12>;
+    for (var k = 0u; k < 12u; k++) {
+        if (buf == 0u) {
+            v[k] = pend_same[b + k];
+        } else {
+            v[k] = pend_other[b + k];
+        }
+    }
+    return Pending(vec3<f32>(v[0], v[1], v[2]), vec3<f32>(v[3], v[4], v[5]), vec3<f32>(v[6], v[7], v[8]), vec3<f32>(v[9], v[10], v[11]));
+}
+
+fn store_pending(buf: u32, gi: u32, p: Pending) {
+    let b = gi * 12u;
+    let v = array<f32, 12>(p.s.x, p.s.y, p.s.z, p.m0.x, p.m0.y, p.m0.z, p.m1.x, p.m1.y, p.m1.z, p.m2.x, p.m2.y, p.m2.z);
+    for (var k = 0u; k < 12u; k++) {
+        if (buf == 0u) {
+            pend_same[b + k] = v[k];
+        } else {
+            pend_other[b + k] = v[k];
+        }
+    }
+}
+
+fn add_p(a: Pending, b: Pending) -> Pending {
+    return Pending(a.s + b.s, a.m0 + b.m0, a.m1 + b.m1, a.m2 + b.m2);
+}
+
+fn g_add(gi: u32, bin: u32, v: vec3<f32>) {
+    let i = (gi * NUM_DIRS + bin) * 3u;
+    g[i] += v.x;
+    g[i + 1u] += v.y;
+    g[i + 2u] += v.z;
+}
+
+fn ch_bin(up: u32, c: u32) -> u32 {
+    if (up == 1u) {
+        return CH_BIN_UP[c];
+    }
+    return CH_BIN_DOWN[c];
+}
+
+// Flux sent into channel c before T_after (sweep-cpu's Emission::flux).
+fn emission(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> {
+    let bin = ch_bin(up, c);
+    if (pass_through > 0.0) {
+        let a = (1.0 + pass_through) * 0.5;
+        let b = (1.0 - pass_through) * 0.5;
+        let u = DIR_UNIT[bin];
+        let w = SOLID_ANGLE[bin] / FOUR_PI;
+        let um = p.m0 * u.x + p.m1 * u.y + p.m2 * u.z;
+        return max((p.s * a - um * b) * (w * CH_SHARE[c]), vec3<f32>(0.0));
+    }
+    return p.s * (SURFACE_W[mask * NUM_DIRS + bin] * CH_SHARE[c]);
+}
+
+// The channel's share before anything stops it (Emission::full).
+fn full(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> {
+    let bin = ch_bin(up, c);
+    if (pass_through > 0.0) {
+        return p.s * (SOLID_ANGLE[bin] / FOUR_PI * CH_SHARE[c]);
+    }
+    return p.s * (SURFACE_W[mask * NUM_DIRS + bin] * CH_SHARE[c]);
+}
+
+fn budget(p: Pending, pass_through: f32, mask: u32, up: u32) -> vec3<f32> {
+    if (all(p.s == vec3<f32>(0.0))) {
+        return vec3<f32>(0.0);
+    }
+    if (pass_through > 0.0) {
+        return p.s * 0.5;
+    }
+    var sum = vec3<f32>(0.0);
+    for (var c = 0u; c < CH; c++) {
+        sum += full(p, pass_through, mask, up, c);
+    }
+    return sum;
+}
+
+@compute @workgroup_size(64)
+fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
+    let li = id.x;
+    if (li >= P.level_len) {
+        return;
+    }
+    let gi = li + P.level_len * P.j;
+    let mat = cells[gi];
+    if (mat.w >= 1.0) {
+        return;
+    }
+    let x = i32(li % P.nx);
+    let z = i32(li / P.nx);
+    // Step 3: the flux this cell removed from every path crossing it.
+    var s_raw = vec3<f32>(0.0);
+    var m0 = vec3<f32>(0.0);
+    var m1 = vec3<f32>(0.0);
+    var m2 = vec3<f32>(0.0);
+    for (var c = 0u; c < CH; c++) {
+        var r = vec3<f32>(0.0);
+        let first = CH_FIRST_SLOT[c];
+        for (var k = 0u; k < CH_NSTENCIL[c]; k++) {
+            let sd = STENCIL_D[first + k];
+            let col = column(x - sd.x, z - sd.y);
+            if (col >= 0) {
+                let i = u32(col) * SCRATCH + (first + k) * 3u;
+                r += vec3<f32>(scratch[i], scratch[i + 1u], scratch[i + 2u]);
+            }
+        }
+        r = r * CH_MU[c];
+        let u = DIR_UNIT[ch_bin(P.up, c)];
+        s_raw += r;
+        m0 += r * u.x;
+        m1 += r * u.y;
+        m2 += r * u.z;
+    }
+    // Step 4: absorb (1 - albedo), keep albedo for scattering.
+    let alb = mat.xyz;
+    let fresh = Pending(s_raw * alb, m0 * alb, m1 * alb, m2 * alb);
+    // Steps 5 and 6: emit, re-absorb in rounds.
+    var own = add_p(fresh, load_pending(0u, gi));
+    var other = add_p(load_pending(1u, gi), fresh);
+    let mask = exposed[gi];
+    for (var round = 0u; round < LOCAL_ROUNDS; round++) {
+        if (all(own.s == vec3<f32>(0.0))) {
+            break;
+        }
+        var lost_s = vec3<f32>(0.0);
+        var l0 = vec3<f32>(0.0);
+        var l1 = vec3<f32>(0.0);
+        var l2 = vec3<f32>(0.0);
+        for (var c = 0u; c < CH; c++) {
+            let f = emission(own, mat.w, mask, P.up, c);
+            let leaving = f * scratch[li * SCRATCH + 147u + c];
+            let lost = max(full(own, mat.w, mask, P.up, c) - leaving, vec3<f32>(0.0));
+            let u = DIR_UNIT[ch_bin(P.up, c)];
+            lost_s += lost;
+            l0 += lost * u.x;
+            l1 += lost * u.y;
+            l2 += lost * u.z;
+            let oi = (li * CH + c) * 3u;
+            let add = leaving / CH_MU[c];
+            cur[oi] += add.x;
+            cur[oi + 1u] += add.y;
+            cur[oi + 2u] += add.z;
+            g_add(gi, ch_bin(P.up, c), f * (0.5 / CH_MU[c]));
+        }
+        own = Pending(lost_s * alb, l0 * alb, l1 * alb, l2 * alb);
+        other = add_p(other, own);
+    }
+    store_pending(0u, gi, own);
+    store_pending(1u, gi, other);
+    let pf = budget(own, mat.w, mask, P.up) + budget(other, mat.w, mask, 1u - P.up);
+    pend_flux[gi * 3u] = pf.x;
+    pend_flux[gi * 3u + 1u] = pf.y;
+    pend_flux[gi * 3u + 2u] = pf.z;
+}

@@ -1,0 +1,410 @@
+//! The GPU sweeper: sweep-cpu's semantics, one dispatch pair per level.
+
+use grid_core::glam::Vec3;
+use grid_core::{
+    BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, SideBoundary, SweepError,
+    SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary,
+};
+use sweep_cpu::sweep::{CHANNELS, Channel, channels};
+use wgpu::util::DeviceExt;
+
+use crate::{GpuContext, GpuError, wgsl};
+
+/// Uniform block of one level (matches `struct Level` in the WGSL).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct LevelParams {
+    nx: u32,
+    nz: u32,
+    level_len: u32,
+    j: u32,
+    src_level: i32,
+    from_virtual: u32,
+    up: u32,
+    periodic: u32,
+    given: u32,
+    ny: u32,
+    smoothing: f32,
+    _pad: u32,
+}
+
+const PARAM_STRIDE: u64 = 256;
+const SCRATCH: usize = 164;
+
+/// The sweep as wgpu compute: device, pipelines and layouts are created once and reused
+/// across sweeps. Implements [`Sweeper`]: outputs equal `sweep-cpu`'s within `f32`
+/// rounding (relative 1e-4 plus an absolute floor; see the crate docs).
+pub struct GpuSweeper {
+    ctx: GpuContext,
+    phase1: wgpu::ComputePipeline,
+    phase2: wgpu::ComputePipeline,
+    layout1: wgpu::BindGroupLayout,
+    layout2: wgpu::BindGroupLayout,
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn uniform_dynamic() -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: true,
+            min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
+        },
+        count: None,
+    }
+}
+
+impl GpuSweeper {
+    /// Finds an adapter and compiles the kernels. `Err(GpuError::NoAdapter)` without one.
+    pub fn new() -> Result<Self, GpuError> {
+        Ok(Self::with_context(GpuContext::new()?))
+    }
+
+    /// The sweeper on an existing context.
+    pub fn with_context(ctx: GpuContext) -> Self {
+        let d = &ctx.device;
+        let layout1 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("sweep phase 1"),
+            entries: &[
+                uniform_dynamic(),
+                storage(1, true),
+                storage(2, false),
+                storage(3, false),
+                storage(4, false),
+                storage(5, false),
+                storage(6, true),
+                storage(7, true),
+                storage(8, false),
+            ],
+        });
+        let layout2 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("sweep phase 2"),
+            entries: &[
+                uniform_dynamic(),
+                storage(1, true),
+                storage(2, true),
+                storage(3, false),
+                storage(4, true),
+                storage(5, false),
+                storage(6, false),
+                storage(7, false),
+                storage(8, false),
+            ],
+        });
+        let pipeline = |name: &str, src: String, layout: &wgpu::BindGroupLayout, entry: &str| {
+            let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(src.into()),
+            });
+            let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(name),
+                bind_group_layouts: &[Some(layout)],
+                immediate_size: 0,
+            });
+            d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let phase1 = pipeline("sweep phase 1", wgsl::sweep_phase1(), &layout1, "phase1");
+        let phase2 = pipeline("sweep phase 2", wgsl::sweep_phase2(), &layout2, "phase2");
+        Self {
+            ctx,
+            phase1,
+            phase2,
+            layout1,
+            layout2,
+        }
+    }
+
+    /// The context (device and queue).
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    fn buffer(&self, label: &str, data: &[f32], extra: wgpu::BufferUsages) -> wgpu::Buffer {
+        let data: &[f32] = if data.is_empty() { &[0.0] } else { data };
+        self.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(data),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+        })
+    }
+
+    fn check_size(&self, what: &'static str, floats: usize) -> Result<(), GpuError> {
+        let bytes = floats as u64 * 4;
+        if bytes > self.ctx.max_binding() {
+            return Err(GpuError::TooLarge {
+                what,
+                bytes,
+                limit: self.ctx.max_binding(),
+            });
+        }
+        Ok(())
+    }
+
+    fn read_f32(&self, b: &wgpu::Buffer) -> Result<Vec<f32>, GpuError> {
+        Ok(bytemuck::cast_slice::<u8, f32>(&self.ctx.read_back(b)?).to_vec())
+    }
+
+    /// Runs the sweep; see `sweep-cpu`'s docs for the semantics.
+    pub fn run(&self, material: &MaterialGrid, boundary: &Boundary, options: &SweepOptions) -> Result<SweepOutput, SweepError> {
+        sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
+        let backend = |e: GpuError| SweepError::Backend {
+            backend: "gpu",
+            message: e.to_string(),
+        };
+        let desc = *material.desc();
+        let dims = desc.dims();
+        let (nx, ny, nz) = (dims.x as usize, dims.y as usize, dims.z as usize);
+        let level_len = nx * nz;
+        let n = desc.point_count();
+        let periodic = matches!(boundary.sides, SideBoundary::Periodic);
+        let halo_layout = HaloLayout::new(dims);
+        let w = HALO_WIDTH as usize;
+        let padded = (nx + 2 * w) * (nz + 2 * w);
+        for (what, floats) in [
+            ("light grid", n * 26 * 3),
+            ("pending light", n * 12),
+            ("halo", halo_layout.len() * CHANNELS * 3),
+            ("level scratch", level_len * SCRATCH),
+        ] {
+            self.check_size(what, floats).map_err(backend)?;
+        }
+        let cells: Vec<f32> = material
+            .data()
+            .iter()
+            .flat_map(|m| [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass])
+            .collect();
+        let exposed: Vec<u32> = sweep_cpu::sweep::exposure(material, periodic).iter().map(|&m| m as u32).collect();
+        let d = &self.ctx.device;
+        let cells_b = self.buffer("cells", &cells, wgpu::BufferUsages::empty());
+        let exposed_b = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("exposed"),
+            contents: bytemuck::cast_slice(&exposed),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let level_f = vec![0.0f32; level_len * CHANNELS * 3];
+        let ping = [self.buffer("level A", &level_f, wgpu::BufferUsages::empty()), self.buffer("level B", &level_f, wgpu::BufferUsages::empty())];
+        let scratch = self.buffer("scratch", &vec![0.0; level_len * SCRATCH], wgpu::BufferUsages::empty());
+        let g = self.buffer("light", &vec![0.0; n * 26 * 3], wgpu::BufferUsages::COPY_SRC);
+        let virt = self.buffer("virtual level", &vec![0.0; padded * CHANNELS * 3], wgpu::BufferUsages::empty());
+        let halo = self.buffer("halo", &vec![0.0; (halo_layout.len() * CHANNELS * 3).max(1)], wgpu::BufferUsages::empty());
+        let flux_in = self.buffer("input flux", &vec![0.0; level_len * 3], wgpu::BufferUsages::COPY_SRC);
+        let pend = [self.buffer("pending down", &vec![0.0; n * 12], wgpu::BufferUsages::empty()), self.buffer("pending up", &vec![0.0; n * 12], wgpu::BufferUsages::empty())];
+        let pend_flux = self.buffer("pending flux", &vec![0.0; n * 3], wgpu::BufferUsages::COPY_SRC);
+        let params = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("level params"),
+            size: PARAM_STRIDE * ny as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let pbind = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &params,
+            offset: 0,
+            size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
+        });
+        // Phase 1 bind groups: prev = ping[k], cur = ping[1 - k].
+        let bg1: Vec<wgpu::BindGroup> = (0..2)
+            .map(|k| {
+                d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("phase 1"),
+                    layout: &self.layout1,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: pbind.clone() },
+                        wgpu::BindGroupEntry { binding: 1, resource: cells_b.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: ping[k].as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 3, resource: ping[1 - k].as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 4, resource: scratch.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 5, resource: g.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 6, resource: virt.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 7, resource: halo.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 8, resource: flux_in.as_entire_binding() },
+                    ],
+                })
+            })
+            .collect();
+        // Phase 2 bind groups: cur = ping[c], pending (same, other) by direction.
+        let bg2 = |c: usize, up: usize| {
+            d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("phase 2"),
+                layout: &self.layout2,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: pbind.clone() },
+                    wgpu::BindGroupEntry { binding: 1, resource: cells_b.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: exposed_b.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 3, resource: ping[c].as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: scratch.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 5, resource: g.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 6, resource: pend[up].as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: pend[1 - up].as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 8, resource: pend_flux.as_entire_binding() },
+                ],
+            })
+        };
+        let bg2: Vec<Vec<wgpu::BindGroup>> = (0..2).map(|c| (0..2).map(|up| bg2(c, up)).collect()).collect();
+        let groups = (level_len as u32).div_ceil(64);
+        let mut stats = SweepStats::default();
+        for pass in 0..options.max_passes {
+            let up = pass % 2 == 1;
+            let active = pass < 2;
+            let ch = channels(up);
+            // The virtual level (padded columns) and the halo, as channel light.
+            let mut v = vec![0.0f32; padded * CHANNELS * 3];
+            if active {
+                for pz in 0..nz + 2 * w {
+                    for px in 0..nx + 2 * w {
+                        let (x, z) = (px as i32 - w as i32, pz as i32 - w as i32);
+                        let light = virtual_light(boundary, up, x, z, nx, nz);
+                        for (c, chn) in ch.iter().enumerate() {
+                            let val = light.0[chn.bin];
+                            let i = ((pz * (nx + 2 * w) + px) * CHANNELS + c) * 3;
+                            v[i..i + 3].copy_from_slice(&val.to_array());
+                        }
+                    }
+                }
+            }
+            self.ctx.queue.write_buffer(&virt, 0, bytemuck::cast_slice(&v));
+            if let SideBoundary::Given(h) = &boundary.sides {
+                let mut hv = vec![0.0f32; halo_layout.len() * CHANNELS * 3];
+                if active {
+                    for (i, b) in h.iter().enumerate() {
+                        for (c, chn) in ch.iter().enumerate() {
+                            let val = channel_value(b, chn);
+                            hv[(i * CHANNELS + c) * 3..(i * CHANNELS + c) * 3 + 3].copy_from_slice(&val.to_array());
+                        }
+                    }
+                }
+                self.ctx.queue.write_buffer(&halo, 0, bytemuck::cast_slice(&hv));
+            }
+            // The first level gathers from the virtual level: fill the "previous" buffer.
+            let mut first = vec![0.0f32; level_len * CHANNELS * 3];
+            for z in 0..nz {
+                for x in 0..nx {
+                    let src = (((z + w) * (nx + 2 * w) + x + w) * CHANNELS) * 3;
+                    let dst = ((z * nx + x) * CHANNELS) * 3;
+                    first[dst..dst + CHANNELS * 3].copy_from_slice(&v[src..src + CHANNELS * 3]);
+                }
+            }
+            self.ctx.queue.write_buffer(&ping[0], 0, bytemuck::cast_slice(&first));
+            // Per-level uniforms at 256-byte strides.
+            let mut pbytes = vec![0u8; PARAM_STRIDE as usize * ny];
+            for li in 0..ny {
+                let j = if up { li } else { ny - 1 - li };
+                let p = LevelParams {
+                    nx: nx as u32,
+                    nz: nz as u32,
+                    level_len: level_len as u32,
+                    j: j as u32,
+                    src_level: if up { j as i32 - 1 } else { j as i32 + 1 },
+                    from_virtual: u32::from(li == 0),
+                    up: u32::from(up),
+                    periodic: u32::from(periodic),
+                    given: u32::from(matches!(boundary.sides, SideBoundary::Given(_))),
+                    ny: ny as u32,
+                    smoothing: options.smoothing,
+                    _pad: 0,
+                };
+                let o = li * PARAM_STRIDE as usize;
+                pbytes[o..o + std::mem::size_of::<LevelParams>()].copy_from_slice(bytemuck::bytes_of(&p));
+            }
+            self.ctx.queue.write_buffer(&params, 0, &pbytes);
+            let mut enc = d.create_command_encoder(&Default::default());
+            for li in 0..ny {
+                let k = li % 2; // prev = ping[k], cur = ping[1 - k]
+                let off = (li as u64 * PARAM_STRIDE) as u32;
+                let mut cp = enc.begin_compute_pass(&Default::default());
+                cp.set_pipeline(&self.phase1);
+                cp.set_bind_group(0, &bg1[k], &[off]);
+                cp.dispatch_workgroups(groups, 1, 1);
+                cp.set_pipeline(&self.phase2);
+                cp.set_bind_group(0, &bg2[1 - k][usize::from(up)], &[off]);
+                cp.dispatch_workgroups(groups, 1, 1);
+            }
+            self.ctx.queue.submit([enc.finish()]);
+            stats.passes += 1;
+            stats.levels_computed += ny as u64;
+            if options.tolerance > 0.0 && pass >= 1 {
+                let pending: f64 = sum_max(&self.read_f32(&pend_flux).map_err(backend)?);
+                let input: f64 = sum_max(&self.read_f32(&flux_in).map_err(backend)?);
+                if pending <= options.tolerance as f64 * input {
+                    break;
+                }
+            }
+        }
+        let gd = self.read_f32(&g).map_err(backend)?;
+        let bins: Vec<BinLight> = (0..n)
+            .map(|i| BinLight(std::array::from_fn(|b| Vec3::from_slice(&gd[(i * 26 + b) * 3..(i * 26 + b) * 3 + 3]))))
+            .collect();
+        if bins.iter().any(|b| !b.is_valid()) {
+            return Err(SweepError::Backend {
+                backend: "gpu",
+                message: "light overflowed f32 (boundary light too large for this grid)".into(),
+            });
+        }
+        let grid = Grid::from_trusted(desc, bins);
+        Ok(SweepOutput {
+            average: options.outputs.average.then(|| grid.average_grid()),
+            dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
+            bins: options.outputs.bins.then_some(grid),
+            stats,
+        })
+    }
+}
+
+/// The largest RGB channel of a sum of RGB triples, in `f64`.
+fn sum_max(v: &[f32]) -> f64 {
+    let mut s = [0f64; 3];
+    for t in v.chunks_exact(3) {
+        for k in 0..3 {
+            s[k] += t[k] as f64;
+        }
+    }
+    s.iter().copied().fold(0.0, f64::max)
+}
+
+/// Channel value of full-sphere light (horizontal bins halved), as sweep-cpu's halo.
+fn channel_value(b: &BinLight, chn: &Channel) -> Vec3 {
+    b.0[chn.bin] * chn.share
+}
+
+/// Light of the virtual level at column (x, z): sweep-cpu's `Sources::virtual_light`.
+fn virtual_light(boundary: &Boundary, up: bool, x: i32, z: i32, nx: usize, nz: usize) -> BinLight {
+    if up {
+        return boundary.bottom;
+    }
+    match &boundary.top {
+        TopBoundary::Uniform(b) => **b,
+        TopBoundary::PerPoint(v) => {
+            let i = x.clamp(0, nx as i32 - 1) as usize + nx * z.clamp(0, nz as i32 - 1) as usize;
+            v[i]
+        }
+    }
+}
+
+impl Sweeper for GpuSweeper {
+    fn name(&self) -> &'static str {
+        "gpu"
+    }
+    fn sweep(&mut self, material: &MaterialGrid, boundary: &Boundary, options: &SweepOptions) -> Result<SweepOutput, SweepError> {
+        self.run(material, boundary, options)
+    }
+}

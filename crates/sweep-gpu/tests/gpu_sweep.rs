@@ -1,0 +1,111 @@
+//! The GPU sweep equals sweep-cpu's (the specification) within the stated tolerance.
+//! Runs on any adapter (lavapipe in CI); fails without one unless LIGHTGRID_ALLOW_NO_GPU=1.
+
+use grid_core::glam::{UVec3, Vec3};
+use grid_core::{BinLight, Boundary, GridDesc, HaloLayout, Material, MaterialGrid, SideBoundary, SweepOptions, TopBoundary};
+use proptest::prelude::*;
+use sweep_gpu::{GpuContext, GpuSweeper};
+
+/// One sweeper for all tests of this binary: pipelines compile once.
+fn sweeper() -> Option<&'static GpuSweeper> {
+    static S: std::sync::OnceLock<Option<GpuSweeper>> = std::sync::OnceLock::new();
+    S.get_or_init(|| match GpuContext::new() {
+        Ok(c) => {
+            eprintln!("GPU tests on {} ({:?}, {:?})", c.info.name, c.info.device_type, c.info.backend);
+            Some(GpuSweeper::with_context(c))
+        }
+        Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
+            eprintln!("!!! GPU TEST NOT RUN: {e} (LIGHTGRID_ALLOW_NO_GPU=1) !!!");
+            None
+        }
+        Err(e) => panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)"),
+    })
+    .as_ref()
+}
+
+/// Relative 1e-4 of the larger value plus 1e-5 of the grid's largest value (f32
+/// rounding in a different order, and exp/log of another library).
+fn assert_close(cpu: &grid_core::LightGrid, gpu: &grid_core::LightGrid) -> Result<(), String> {
+    let scale = cpu.max_value().max(1e-20);
+    for (i, (a, b)) in cpu.data().iter().zip(gpu.data()).enumerate() {
+        for d in 0..26 {
+            let (x, y) = (a.0[d], b.0[d]);
+            let tol = 1e-4 * x.abs().max(y.abs()).max_element() + 1e-5 * scale;
+            if (x - y).abs().max_element() > tol {
+                return Err(format!("point {i} bin {d}: cpu {x} gpu {y}"));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn lumpy_sky() -> BinLight {
+    BinLight(std::array::from_fn(|d| Vec3::new(1.0 + d as f32, 2.0 + (d % 5) as f32, 0.5 + (d % 3) as f32)))
+}
+
+#[test]
+fn canonical_scenes_match_the_cpu() {
+    let Some(gpu) = sweeper() else { return };
+    for scene in sweep_cpu::scenes::Scene::ALL {
+        let (m, b) = scene.build(10);
+        let mut o = SweepOptions::multi_bounce();
+        o.tolerance = 0.0;
+        o.max_passes = 5;
+        let cpu = sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
+        let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
+        assert_close(&cpu, &g).unwrap_or_else(|e| panic!("{}: {e}", scene.name()));
+    }
+}
+
+fn material_strategy(max: u32) -> impl Strategy<Value = MaterialGrid> {
+    (1..=max, 1..=max, 1..=max).prop_flat_map(|(nx, ny, nz)| {
+        let n = (nx * ny * nz) as usize;
+        let cell = (prop_oneof![Just(0.0f32), Just(1.0), 0.0f32..1.0], prop_oneof![Just(0.0f32), Just(1.0), Just(1.0 - 1e-7), 0.0f32..1.0])
+            .prop_map(|(a, p)| Material { reflectance: Vec3::new(a, a * 0.5, 1.0 - a), pass: p });
+        prop::collection::vec(cell, n).prop_map(move |cells| {
+            MaterialGrid::new(GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(nx, ny, nz)).unwrap(), cells).unwrap()
+        })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    /// Random grids (each side 1 to 40 levels... kept small for lavapipe), every side mode,
+    /// random sky and sun, smoothing and pass count.
+    #[test]
+    fn random_grids_match_the_cpu(m in material_strategy(12), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17) {
+        let Some(gpu) = sweeper() else { return Ok(()) };
+        let d = *m.desc();
+        let mut sky = lumpy_sky();
+        sky.0[sun_bin] += Vec3::splat(sun);
+        let (top, bottom) = sky.split_vertical();
+        let b = Boundary {
+            top: if sides == 3 { TopBoundary::PerPoint((0..d.level_len()).map(|i| top.scaled(1.0 + i as f32 * 0.01)).collect()) } else { TopBoundary::Uniform(Box::new(top)) },
+            bottom,
+            sides: match sides {
+                0 | 3 => SideBoundary::Open,
+                1 => SideBoundary::Periodic,
+                _ => SideBoundary::Given((0..HaloLayout::new(d.dims()).len()).map(|i| sky.scaled(0.5 + (i % 7) as f32 * 0.1)).collect()),
+            },
+        };
+        let mut o = SweepOptions::multi_bounce();
+        o.smoothing = smoothing;
+        o.max_passes = passes;
+        o.tolerance = 0.0;
+        let cpu = sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
+        let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
+        if let Err(e) = assert_close(&cpu, &g) {
+            prop_assert!(false, "{e}");
+        }
+    }
+}
+
+#[test]
+fn invalid_input_is_the_same_typed_error() {
+    let Some(gpu) = sweeper() else { return };
+    let m = MaterialGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap(), Material::EMPTY).unwrap();
+    let mut sky = BinLight::ZERO;
+    sky.0[2].x = f32::NAN;
+    let e = gpu.run(&m, &Boundary::open_sky(sky), &SweepOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("top"), "{e}");
+}
