@@ -391,7 +391,11 @@ fn channel_value(b: &BinLight, chn: &Channel, full_sphere: bool) -> Vec3 {
 
 /// Checks the inputs of a sweep as [`run`] does (options, boundary against the grid,
 /// boundary light at most [`MAX_LIGHT`]).
-pub fn validate_inputs(material: &MaterialGrid, boundary: &Boundary, options: &SweepOptions) -> Result<(), SweepError> {
+pub fn validate_inputs(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    options: &SweepOptions,
+) -> Result<(), SweepError> {
     options.validate()?;
     boundary.validate(material.desc())?;
     check_boundary_scale(boundary)?;

@@ -40,6 +40,7 @@ pub struct GpuSweeper {
     phase2: wgpu::ComputePipeline,
     layout1: wgpu::BindGroupLayout,
     layout2: wgpu::BindGroupLayout,
+    surface_w: wgpu::Buffer,
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -103,6 +104,16 @@ impl GpuSweeper {
                 storage(6, false),
                 storage(7, false),
                 storage(8, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 9,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
             ],
         });
         let pipeline = |name: &str, src: String, layout: &wgpu::BindGroupLayout, entry: &str| {
@@ -126,7 +137,13 @@ impl GpuSweeper {
         };
         let phase1 = pipeline("sweep phase 1", wgsl::sweep_phase1(), &layout1, "phase1");
         let phase2 = pipeline("sweep phase 2", wgsl::sweep_phase2(), &layout2, "phase2");
+        let surface_w = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("surface weights"),
+            contents: bytemuck::cast_slice(&wgsl::surface_weight_table()),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
         Self {
+            surface_w,
             ctx,
             phase1,
             phase2,
@@ -142,11 +159,13 @@ impl GpuSweeper {
 
     fn buffer(&self, label: &str, data: &[f32], extra: wgpu::BufferUsages) -> wgpu::Buffer {
         let data: &[f32] = if data.is_empty() { &[0.0] } else { data };
-        self.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::cast_slice(data),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
-        })
+        self.ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(data),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+            })
     }
 
     fn check_size(&self, what: &'static str, floats: usize) -> Result<(), GpuError> {
@@ -166,7 +185,12 @@ impl GpuSweeper {
     }
 
     /// Runs the sweep; see `sweep-cpu`'s docs for the semantics.
-    pub fn run(&self, material: &MaterialGrid, boundary: &Boundary, options: &SweepOptions) -> Result<SweepOutput, SweepError> {
+    pub fn run(
+        &self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
         sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
         let backend = |e: GpuError| SweepError::Backend {
             backend: "gpu",
@@ -194,7 +218,10 @@ impl GpuSweeper {
             .iter()
             .flat_map(|m| [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass])
             .collect();
-        let exposed: Vec<u32> = sweep_cpu::sweep::exposure(material, periodic).iter().map(|&m| m as u32).collect();
+        let exposed: Vec<u32> = sweep_cpu::sweep::exposure(material, periodic)
+            .iter()
+            .map(|&m| m as u32)
+            .collect();
         let d = &self.ctx.device;
         let cells_b = self.buffer("cells", &cells, wgpu::BufferUsages::empty());
         let exposed_b = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -203,14 +230,52 @@ impl GpuSweeper {
             usage: wgpu::BufferUsages::STORAGE,
         });
         let level_f = vec![0.0f32; level_len * CHANNELS * 3];
-        let ping = [self.buffer("level A", &level_f, wgpu::BufferUsages::empty()), self.buffer("level B", &level_f, wgpu::BufferUsages::empty())];
-        let scratch = self.buffer("scratch", &vec![0.0; level_len * SCRATCH], wgpu::BufferUsages::empty());
-        let g = self.buffer("light", &vec![0.0; n * 26 * 3], wgpu::BufferUsages::COPY_SRC);
-        let virt = self.buffer("virtual level", &vec![0.0; padded * CHANNELS * 3], wgpu::BufferUsages::empty());
-        let halo = self.buffer("halo", &vec![0.0; (halo_layout.len() * CHANNELS * 3).max(1)], wgpu::BufferUsages::empty());
-        let flux_in = self.buffer("input flux", &vec![0.0; level_len * 3], wgpu::BufferUsages::COPY_SRC);
-        let pend = [self.buffer("pending down", &vec![0.0; n * 12], wgpu::BufferUsages::empty()), self.buffer("pending up", &vec![0.0; n * 12], wgpu::BufferUsages::empty())];
-        let pend_flux = self.buffer("pending flux", &vec![0.0; n * 3], wgpu::BufferUsages::COPY_SRC);
+        let ping = [
+            self.buffer("level A", &level_f, wgpu::BufferUsages::empty()),
+            self.buffer("level B", &level_f, wgpu::BufferUsages::empty()),
+        ];
+        let scratch = self.buffer(
+            "scratch",
+            &vec![0.0; level_len * SCRATCH],
+            wgpu::BufferUsages::empty(),
+        );
+        let g = self.buffer(
+            "light",
+            &vec![0.0; n * 26 * 3],
+            wgpu::BufferUsages::COPY_SRC,
+        );
+        let virt = self.buffer(
+            "virtual level",
+            &vec![0.0; padded * CHANNELS * 3],
+            wgpu::BufferUsages::empty(),
+        );
+        let halo = self.buffer(
+            "halo",
+            &vec![0.0; (halo_layout.len() * CHANNELS * 3).max(1)],
+            wgpu::BufferUsages::empty(),
+        );
+        let flux_in = self.buffer(
+            "input flux",
+            &vec![0.0; level_len * 3],
+            wgpu::BufferUsages::COPY_SRC,
+        );
+        let pend = [
+            self.buffer(
+                "pending down",
+                &vec![0.0; n * 12],
+                wgpu::BufferUsages::empty(),
+            ),
+            self.buffer(
+                "pending up",
+                &vec![0.0; n * 12],
+                wgpu::BufferUsages::empty(),
+            ),
+        ];
+        let pend_flux = self.buffer(
+            "pending flux",
+            &vec![0.0; n * 3],
+            wgpu::BufferUsages::COPY_SRC,
+        );
         let params = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("level params"),
             size: PARAM_STRIDE * ny as u64,
@@ -229,15 +294,42 @@ impl GpuSweeper {
                     label: Some("phase 1"),
                     layout: &self.layout1,
                     entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: pbind.clone() },
-                        wgpu::BindGroupEntry { binding: 1, resource: cells_b.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: ping[k].as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 3, resource: ping[1 - k].as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 4, resource: scratch.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 5, resource: g.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 6, resource: virt.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 7, resource: halo.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 8, resource: flux_in.as_entire_binding() },
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: pbind.clone(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: cells_b.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: ping[k].as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 3,
+                            resource: ping[1 - k].as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 4,
+                            resource: scratch.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 5,
+                            resource: g.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 6,
+                            resource: virt.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 7,
+                            resource: halo.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 8,
+                            resource: flux_in.as_entire_binding(),
+                        },
                     ],
                 })
             })
@@ -248,19 +340,52 @@ impl GpuSweeper {
                 label: Some("phase 2"),
                 layout: &self.layout2,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: pbind.clone() },
-                    wgpu::BindGroupEntry { binding: 1, resource: cells_b.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 2, resource: exposed_b.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 3, resource: ping[c].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: scratch.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: g.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 6, resource: pend[up].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: pend[1 - up].as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 8, resource: pend_flux.as_entire_binding() },
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: pbind.clone(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: cells_b.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: exposed_b.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: ping[c].as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: scratch.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: g.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 6,
+                        resource: pend[up].as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 7,
+                        resource: pend[1 - up].as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: pend_flux.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 9,
+                        resource: self.surface_w.as_entire_binding(),
+                    },
                 ],
             })
         };
-        let bg2: Vec<Vec<wgpu::BindGroup>> = (0..2).map(|c| (0..2).map(|up| bg2(c, up)).collect()).collect();
+        let bg2: Vec<Vec<wgpu::BindGroup>> = (0..2)
+            .map(|c| (0..2).map(|up| bg2(c, up)).collect())
+            .collect();
         let groups = (level_len as u32).div_ceil(64);
         let mut stats = SweepStats::default();
         for pass in 0..options.max_passes {
@@ -282,18 +407,23 @@ impl GpuSweeper {
                     }
                 }
             }
-            self.ctx.queue.write_buffer(&virt, 0, bytemuck::cast_slice(&v));
+            self.ctx
+                .queue
+                .write_buffer(&virt, 0, bytemuck::cast_slice(&v));
             if let SideBoundary::Given(h) = &boundary.sides {
                 let mut hv = vec![0.0f32; halo_layout.len() * CHANNELS * 3];
                 if active {
                     for (i, b) in h.iter().enumerate() {
                         for (c, chn) in ch.iter().enumerate() {
                             let val = channel_value(b, chn);
-                            hv[(i * CHANNELS + c) * 3..(i * CHANNELS + c) * 3 + 3].copy_from_slice(&val.to_array());
+                            hv[(i * CHANNELS + c) * 3..(i * CHANNELS + c) * 3 + 3]
+                                .copy_from_slice(&val.to_array());
                         }
                     }
                 }
-                self.ctx.queue.write_buffer(&halo, 0, bytemuck::cast_slice(&hv));
+                self.ctx
+                    .queue
+                    .write_buffer(&halo, 0, bytemuck::cast_slice(&hv));
             }
             // The first level gathers from the virtual level: fill the "previous" buffer.
             let mut first = vec![0.0f32; level_len * CHANNELS * 3];
@@ -304,7 +434,9 @@ impl GpuSweeper {
                     first[dst..dst + CHANNELS * 3].copy_from_slice(&v[src..src + CHANNELS * 3]);
                 }
             }
-            self.ctx.queue.write_buffer(&ping[0], 0, bytemuck::cast_slice(&first));
+            self.ctx
+                .queue
+                .write_buffer(&ping[0], 0, bytemuck::cast_slice(&first));
             // Per-level uniforms at 256-byte strides.
             let mut pbytes = vec![0u8; PARAM_STRIDE as usize * ny];
             for li in 0..ny {
@@ -324,7 +456,8 @@ impl GpuSweeper {
                     _pad: 0,
                 };
                 let o = li * PARAM_STRIDE as usize;
-                pbytes[o..o + std::mem::size_of::<LevelParams>()].copy_from_slice(bytemuck::bytes_of(&p));
+                pbytes[o..o + std::mem::size_of::<LevelParams>()]
+                    .copy_from_slice(bytemuck::bytes_of(&p));
             }
             self.ctx.queue.write_buffer(&params, 0, &pbytes);
             let mut enc = d.create_command_encoder(&Default::default());
@@ -352,7 +485,11 @@ impl GpuSweeper {
         }
         let gd = self.read_f32(&g).map_err(backend)?;
         let bins: Vec<BinLight> = (0..n)
-            .map(|i| BinLight(std::array::from_fn(|b| Vec3::from_slice(&gd[(i * 26 + b) * 3..(i * 26 + b) * 3 + 3]))))
+            .map(|i| {
+                BinLight(std::array::from_fn(|b| {
+                    Vec3::from_slice(&gd[(i * 26 + b) * 3..(i * 26 + b) * 3 + 3])
+                }))
+            })
             .collect();
         if bins.iter().any(|b| !b.is_valid()) {
             return Err(SweepError::Backend {
@@ -404,7 +541,12 @@ impl Sweeper for GpuSweeper {
     fn name(&self) -> &'static str {
         "gpu"
     }
-    fn sweep(&mut self, material: &MaterialGrid, boundary: &Boundary, options: &SweepOptions) -> Result<SweepOutput, SweepError> {
+    fn sweep(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
         self.run(material, boundary, options)
     }
 }

@@ -41,43 +41,121 @@ pub fn prelude() -> String {
 /// specification): steps, flux factors, bins of both passes, stencils and their path
 /// exponents, and the opaque cells' surface weights.
 pub fn sweep_tables() -> String {
-    use sweep_cpu::sweep::{CHANNELS, SLOTS, channels, path_exponents, surface_weights};
+    use sweep_cpu::sweep::{CHANNELS, SLOTS, channels, path_exponents};
     let (down, up) = (channels(false), channels(true));
     let mut s = String::new();
     let list = |v: Vec<String>| v.join(", ");
-    let _ = writeln!(s, "const FOUR_PI: f32 = {:?};", 4.0f32 * std::f32::consts::PI);
-    let _ = writeln!(s, "const CH_STEP = array<vec2<i32>, {CHANNELS}>({});", list(down.iter().map(|c| format!("vec2<i32>({}, {})", c.step.x, c.step.z)).collect()));
-    let _ = writeln!(s, "const CH_MU = array<f32, {CHANNELS}>({});", list(down.iter().map(|c| format!("{:?}", c.mu)).collect()));
-    let _ = writeln!(s, "const CH_SHARE = array<f32, {CHANNELS}>({});", list(down.iter().map(|c| format!("{:?}", c.share)).collect()));
-    let _ = writeln!(s, "const CH_BIN_DOWN = array<u32, {CHANNELS}>({});", list(down.iter().map(|c| format!("{}u", c.bin)).collect()));
-    let _ = writeln!(s, "const CH_BIN_UP = array<u32, {CHANNELS}>({});", list(up.iter().map(|c| format!("{}u", c.bin)).collect()));
-    let _ = writeln!(s, "const CH_FIRST_SLOT = array<u32, {CHANNELS}>({});", list(down.iter().map(|c| format!("{}u", c.first_slot)).collect()));
-    let _ = writeln!(s, "const CH_NSTENCIL = array<u32, {CHANNELS}>({});", list(down.iter().map(|c| format!("{}u", c.stencil.len())).collect()));
+    let _ = writeln!(
+        s,
+        "const FOUR_PI: f32 = {:?};",
+        4.0f32 * std::f32::consts::PI
+    );
+    let _ = writeln!(
+        s,
+        "const CH_STEP = array<vec2<i32>, {CHANNELS}>({});",
+        list(
+            down.iter()
+                .map(|c| format!("vec2<i32>({}, {})", c.step.x, c.step.z))
+                .collect()
+        )
+    );
+    let _ = writeln!(
+        s,
+        "const CH_MU = array<f32, {CHANNELS}>({});",
+        list(down.iter().map(|c| format!("{:?}", c.mu)).collect())
+    );
+    let _ = writeln!(
+        s,
+        "const CH_SHARE = array<f32, {CHANNELS}>({});",
+        list(down.iter().map(|c| format!("{:?}", c.share)).collect())
+    );
+    let _ = writeln!(
+        s,
+        "const CH_BIN_DOWN = array<u32, {CHANNELS}>({});",
+        list(down.iter().map(|c| format!("{}u", c.bin)).collect())
+    );
+    let _ = writeln!(
+        s,
+        "const CH_BIN_UP = array<u32, {CHANNELS}>({});",
+        list(up.iter().map(|c| format!("{}u", c.bin)).collect())
+    );
+    let _ = writeln!(
+        s,
+        "const CH_FIRST_SLOT = array<u32, {CHANNELS}>({});",
+        list(down.iter().map(|c| format!("{}u", c.first_slot)).collect())
+    );
+    let _ = writeln!(
+        s,
+        "const CH_NSTENCIL = array<u32, {CHANNELS}>({});",
+        list(
+            down.iter()
+                .map(|c| format!("{}u", c.stencil.len()))
+                .collect()
+        )
+    );
     let e = path_exponents();
-    let _ = writeln!(s, "const CH_MID_E = array<f32, {CHANNELS}>({});", list(down.iter().map(|c| format!("{:?}", e[c.mid_pow])).collect()));
+    let _ = writeln!(
+        s,
+        "const CH_MID_E = array<f32, {CHANNELS}>({});",
+        list(down.iter().map(|c| format!("{:?}", e[c.mid_pow])).collect())
+    );
     let _ = writeln!(
         s,
         "const STENCIL_D = array<vec2<i32>, {SLOTS}>({});",
-        list(down.iter().flat_map(|c| c.stencil.iter().map(|&(dx, dz, _)| format!("vec2<i32>({dx}, {dz})"))).collect())
+        list(
+            down.iter()
+                .flat_map(|c| c
+                    .stencil
+                    .iter()
+                    .map(|&(dx, dz, _)| format!("vec2<i32>({dx}, {dz})")))
+                .collect()
+        )
     );
     let _ = writeln!(
         s,
         "const STENCIL_E = array<f32, {SLOTS}>({});",
-        list(down.iter().flat_map(|c| c.pow.iter().map(|&k| format!("{:?}", e[k]))).collect())
+        list(
+            down.iter()
+                .flat_map(|c| c.pow.iter().map(|&k| format!("{:?}", e[k])))
+                .collect()
+        )
     );
-    let w: Vec<String> = (0..64u8).flat_map(|m| surface_weights(m).iter().map(|v| format!("{v:?}")).collect::<Vec<_>>()).collect();
-    let _ = writeln!(s, "const SURFACE_W = array<f32, {}>({});", w.len(), list(w));
     s
+}
+
+/// The opaque cells' surface weights (`sweep_cpu::sweep::surface_weights`) for all 64
+/// exposure masks, `mask * 26 + bin`, padded to 16-byte rows: the contents of phase 2's
+/// uniform buffer (a uniform, not a constant: a dynamically indexed constant array this
+/// size makes shader compilers build it in private memory per invocation).
+pub fn surface_weight_table() -> Vec<f32> {
+    let mut v: Vec<f32> = (0..64u8)
+        .flat_map(|m| *sweep_cpu::sweep::surface_weights(m))
+        .collect();
+    v.resize(v.len().div_ceil(4) * 4, 0.0);
+    v
 }
 
 /// Phase 1 of a level (gather, transmit).
 pub fn sweep_phase1() -> String {
-    format!("{}\n{}\n{}", prelude(), sweep_tables(), include_str!("shaders/sweep.wgsl"))
+    format!(
+        "{}\n{}\n{}",
+        prelude(),
+        sweep_tables(),
+        include_str!("shaders/sweep.wgsl")
+    )
 }
 
 /// Phase 2 of a level (collect, absorb, emit).
 pub fn sweep_phase2() -> String {
-    let body = include_str!("shaders/sweep_phase2.wgsl").replace("LOCAL_ROUNDS_GEN", &format!("{}u", sweep_cpu::sweep::LOCAL_ROUNDS));
+    let body = include_str!("shaders/sweep_phase2.wgsl")
+        .replace(
+            "LOCAL_ROUNDS_GEN",
+            &format!("{}u", sweep_cpu::sweep::LOCAL_ROUNDS),
+        )
+        .replace(
+            "SURFACE_ROWS_GEN",
+            &format!("{}", surface_weight_table().len() / 4),
+        );
     format!("{}\n{}\n{}", prelude(), sweep_tables(), body)
 }
 
@@ -96,5 +174,9 @@ pub fn pack_kernel() -> String {
 
 /// Every complete shader this crate compiles, by name (for validation).
 pub fn all() -> Vec<(&'static str, String)> {
-    vec![("pack_kernel", pack_kernel()), ("sweep_phase1", sweep_phase1()), ("sweep_phase2", sweep_phase2())]
+    vec![
+        ("pack_kernel", pack_kernel()),
+        ("sweep_phase1", sweep_phase1()),
+        ("sweep_phase2", sweep_phase2()),
+    ]
 }

@@ -2,7 +2,10 @@
 //! Runs on any adapter (lavapipe in CI); fails without one unless LIGHTGRID_ALLOW_NO_GPU=1.
 
 use grid_core::glam::{UVec3, Vec3};
-use grid_core::{BinLight, Boundary, GridDesc, HaloLayout, Material, MaterialGrid, SideBoundary, SweepOptions, TopBoundary};
+use grid_core::{
+    BinLight, Boundary, GridDesc, HaloLayout, Material, MaterialGrid, SideBoundary, SweepOptions,
+    TopBoundary,
+};
 use proptest::prelude::*;
 use sweep_gpu::{GpuContext, GpuSweeper};
 
@@ -11,7 +14,10 @@ fn sweeper() -> Option<&'static GpuSweeper> {
     static S: std::sync::OnceLock<Option<GpuSweeper>> = std::sync::OnceLock::new();
     S.get_or_init(|| match GpuContext::new() {
         Ok(c) => {
-            eprintln!("GPU tests on {} ({:?}, {:?})", c.info.name, c.info.device_type, c.info.backend);
+            eprintln!(
+                "GPU tests on {} ({:?}, {:?})",
+                c.info.name, c.info.device_type, c.info.backend
+            );
             Some(GpuSweeper::with_context(c))
         }
         Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
@@ -40,7 +46,9 @@ fn assert_close(cpu: &grid_core::LightGrid, gpu: &grid_core::LightGrid) -> Resul
 }
 
 fn lumpy_sky() -> BinLight {
-    BinLight(std::array::from_fn(|d| Vec3::new(1.0 + d as f32, 2.0 + (d % 5) as f32, 0.5 + (d % 3) as f32)))
+    BinLight(std::array::from_fn(|d| {
+        Vec3::new(1.0 + d as f32, 2.0 + (d % 5) as f32, 0.5 + (d % 3) as f32)
+    }))
 }
 
 #[test]
@@ -60,20 +68,31 @@ fn canonical_scenes_match_the_cpu() {
 fn material_strategy(max: u32) -> impl Strategy<Value = MaterialGrid> {
     (1..=max, 1..=max, 1..=max).prop_flat_map(|(nx, ny, nz)| {
         let n = (nx * ny * nz) as usize;
-        let cell = (prop_oneof![Just(0.0f32), Just(1.0), 0.0f32..1.0], prop_oneof![Just(0.0f32), Just(1.0), Just(1.0 - 1e-7), 0.0f32..1.0])
-            .prop_map(|(a, p)| Material { reflectance: Vec3::new(a, a * 0.5, 1.0 - a), pass: p });
+        let cell = (
+            prop_oneof![Just(0.0f32), Just(1.0), 0.0f32..1.0],
+            prop_oneof![Just(0.0f32), Just(1.0), Just(1.0 - 1e-7), 0.0f32..1.0],
+        )
+            .prop_map(|(a, p)| Material {
+                reflectance: Vec3::new(a, a * 0.5, 1.0 - a),
+                pass: p,
+            });
         prop::collection::vec(cell, n).prop_map(move |cells| {
-            MaterialGrid::new(GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(nx, ny, nz)).unwrap(), cells).unwrap()
+            MaterialGrid::new(
+                GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(nx, ny, nz)).unwrap(),
+                cells,
+            )
+            .unwrap()
         })
     })
 }
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
-    /// Random grids (each side 1 to 40 levels... kept small for lavapipe), every side mode,
-    /// random sky and sun, smoothing and pass count.
+    /// Random grids (each side 1 to 40 points; pass-through and reflectance including exact
+    /// 0 and 1), every side mode and a per-point top, random sky and sun, smoothing and
+    /// pass count.
     #[test]
-    fn random_grids_match_the_cpu(m in material_strategy(12), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17) {
+    fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17) {
         let Some(gpu) = sweeper() else { return Ok(()) };
         let d = *m.desc();
         let mut sky = lumpy_sky();
@@ -100,12 +119,49 @@ proptest! {
     }
 }
 
+/// Known answer: in an empty medium every point holds the sky exactly, so a point the
+/// kernels never wrote (left at 0) fails.
+#[test]
+fn empty_medium_known_answer() {
+    let Some(gpu) = sweeper() else { return };
+    let sky = lumpy_sky();
+    for sides in [SideBoundary::Open, SideBoundary::Periodic] {
+        let m = MaterialGrid::filled(
+            GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(7, 5, 9)).unwrap(),
+            Material::EMPTY,
+        )
+        .unwrap();
+        let mut b = Boundary::surrounding(&sky);
+        b.sides = sides;
+        let mut o = SweepOptions::single_pass();
+        o.max_passes = 2;
+        let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
+        for p in g.data() {
+            for d in 0..26 {
+                assert!(
+                    (p.0[d] - sky.0[d]).abs().max_element() <= 1e-5 * sky.0[d].max_element(),
+                    "bin {d}: {} vs {}",
+                    p.0[d],
+                    sky.0[d]
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn invalid_input_is_the_same_typed_error() {
     let Some(gpu) = sweeper() else { return };
-    let m = MaterialGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap(), Material::EMPTY).unwrap();
+    let m = MaterialGrid::filled(
+        GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap(),
+        Material::EMPTY,
+    )
+    .unwrap();
     let mut sky = BinLight::ZERO;
     sky.0[2].x = f32::NAN;
-    let e = gpu.run(&m, &Boundary::open_sky(sky), &SweepOptions::default()).unwrap_err().to_string();
+    let e = gpu
+        .run(&m, &Boundary::open_sky(sky), &SweepOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("top"), "{e}");
 }

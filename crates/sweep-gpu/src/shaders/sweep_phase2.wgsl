@@ -29,6 +29,11 @@ const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 @group(0) @binding(6) var<storage, read_write> pend_same: array<f32>;
 @group(0) @binding(7) var<storage, read_write> pend_other: array<f32>;
 @group(0) @binding(8) var<storage, read_write> pend_flux: array<f32>;
+@group(0) @binding(9) var<uniform> SURFACE_W4: array<vec4<f32>, SURFACE_ROWS_GEN>;
+
+fn surface_w(i: u32) -> f32 {
+    return SURFACE_W4[i / 4u][i % 4u];
+}
 
 struct Pending {
     s: vec3<f32>,
@@ -105,7 +110,7 @@ fn emission(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f
         let um = p.m0 * u.x + p.m1 * u.y + p.m2 * u.z;
         return max((p.s * a - um * b) * (w * CH_SHARE[c]), vec3<f32>(0.0));
     }
-    return p.s * (SURFACE_W[mask * NUM_DIRS + bin] * CH_SHARE[c]);
+    return p.s * (surface_w(mask * NUM_DIRS + bin) * CH_SHARE[c]);
 }
 
 // The channel's share before anything stops it (Emission::full).
@@ -114,7 +119,7 @@ fn full(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> 
     if (pass_through > 0.0) {
         return p.s * (SOLID_ANGLE[bin] / FOUR_PI * CH_SHARE[c]);
     }
-    return p.s * (SURFACE_W[mask * NUM_DIRS + bin] * CH_SHARE[c]);
+    return p.s * (surface_w(mask * NUM_DIRS + bin) * CH_SHARE[c]);
 }
 
 fn budget(p: Pending, pass_through: f32, mask: u32, up: u32) -> vec3<f32> {
