@@ -29,7 +29,7 @@
 pub mod sweep;
 pub mod wgsl;
 
-pub use sweep::GpuSweeper;
+pub use sweep::{GpuSweeper, GpuTimings};
 
 use grid_core::glam::Vec3;
 use wgpu::util::DeviceExt;

@@ -191,6 +191,18 @@ impl GpuSweeper {
         boundary: &Boundary,
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
+        Ok(self.run_timed(material, boundary, options)?.0)
+    }
+
+    /// [`GpuSweeper::run`], with the time spent uploading, computing and reading back.
+    pub fn run_timed(
+        &self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<(SweepOutput, GpuTimings), SweepError> {
+        let start = std::time::Instant::now();
+        let mut timings = GpuTimings::default();
         sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
         let backend = |e: GpuError| SweepError::Backend {
             backend: "gpu",
@@ -388,6 +400,8 @@ impl GpuSweeper {
             .collect();
         let groups = (level_len as u32).div_ceil(64);
         let mut stats = SweepStats::default();
+        timings.upload = start.elapsed();
+        let compute_start = std::time::Instant::now();
         for pass in 0..options.max_passes {
             let up = pass % 2 == 1;
             let active = pass < 2;
@@ -483,7 +497,14 @@ impl GpuSweeper {
                 }
             }
         }
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| backend(GpuError::Readback(e.to_string())))?;
+        timings.compute = compute_start.elapsed();
+        let readback_start = std::time::Instant::now();
         let gd = self.read_f32(&g).map_err(backend)?;
+        timings.readback = readback_start.elapsed();
         let bins: Vec<BinLight> = (0..n)
             .map(|i| {
                 BinLight(std::array::from_fn(|b| {
@@ -498,13 +519,28 @@ impl GpuSweeper {
             });
         }
         let grid = Grid::from_trusted(desc, bins);
-        Ok(SweepOutput {
-            average: options.outputs.average.then(|| grid.average_grid()),
-            dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
-            bins: options.outputs.bins.then_some(grid),
-            stats,
-        })
+        Ok((
+            SweepOutput {
+                average: options.outputs.average.then(|| grid.average_grid()),
+                dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
+                bins: options.outputs.bins.then_some(grid),
+                stats,
+            },
+            timings,
+        ))
     }
+}
+
+/// Where a GPU sweep's time went.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GpuTimings {
+    /// Creating and filling buffers.
+    pub upload: std::time::Duration,
+    /// Per-pass boundary uploads, dispatches and waiting for the GPU (and the stopping
+    /// test's readbacks when `tolerance > 0`).
+    pub compute: std::time::Duration,
+    /// Reading the light grid back.
+    pub readback: std::time::Duration,
 }
 
 /// The largest RGB channel of a sum of RGB triples, in `f64`.
