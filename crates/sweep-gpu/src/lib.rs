@@ -30,6 +30,10 @@
 //! ([`GpuSweeper::new`]) and reused; grids whose buffers exceed the device's storage
 //! binding limit are refused with [`GpuError::TooLarge`] naming the buffer and the limit.
 //!
+//! [`GpuSweeper::run_packed`] packs the final grid to R11G11B10 on the GPU (the exposure
+//! from the largest value, found with an atomic max) and reads back only the words;
+//! they equal `LightGrid::pack` of sweep-cpu's grid within one code per channel.
+//!
 //! **One source for shared constants.** The direction tables, channel steps, flux
 //! factors, bins, stencils, path exponents and surface weights are generated into the
 //! WGSL from `grid-core` and `sweep-cpu` ([`wgsl`]); nothing is copied by hand. Every
@@ -168,31 +172,37 @@ impl GpuContext {
     }
 }
 
-/// Packs light to R11G11B10 on the GPU; the pipeline is created once.
+/// Packs light to R11G11B10 on the GPU, and finds the largest value for the exposure;
+/// the pipelines are created once.
 pub struct GpuPacker {
-    pipeline: wgpu::ComputePipeline,
+    pack: wgpu::ComputePipeline,
+    max: wgpu::ComputePipeline,
 }
 
 impl GpuPacker {
-    /// Compiles the packing kernel.
+    /// Compiles the kernels.
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = ctx
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("pack"),
-                source: wgpu::ShaderSource::Wgsl(wgsl::pack_kernel().into()),
-            });
-        let pipeline = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("pack"),
-                layout: None,
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
-        Self { pipeline }
+        let make = |name: &str, src: String| {
+            let module = ctx
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(name),
+                    source: wgpu::ShaderSource::Wgsl(src.into()),
+                });
+            ctx.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(name),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        };
+        Self {
+            pack: make("pack", wgsl::pack_kernel()),
+            max: make("max", wgsl::max_kernel()),
+        }
     }
 
     /// `values × exposure`, packed. The output buffer starts filled with `u32::MAX` (an
@@ -203,8 +213,7 @@ impl GpuPacker {
         values: &[Vec3],
         exposure: f32,
     ) -> Result<Vec<u32>, GpuError> {
-        let n = values.len().max(1);
-        let bytes = (n * 12) as u64;
+        let bytes = (values.len().max(1) * 12) as u64;
         if bytes > ctx.max_binding() {
             return Err(GpuError::TooLarge {
                 what: "input light",
@@ -213,7 +222,7 @@ impl GpuPacker {
             });
         }
         let mut flat: Vec<f32> = values.iter().flat_map(|v| v.to_array()).collect();
-        flat.resize(n * 3, 0.0);
+        flat.resize(values.len().max(1) * 3, 0.0);
         let input = ctx
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -221,24 +230,28 @@ impl GpuPacker {
                 contents: bytemuck::cast_slice(&flat),
                 usage: wgpu::BufferUsages::STORAGE,
             });
-        let sentinel = vec![u32::MAX; n];
-        let output = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("pack output"),
-                contents: bytemuck::cast_slice(&sentinel),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            });
+        self.pack_buffer(ctx, &input, values.len(), exposure)
+    }
+
+    fn run(
+        &self,
+        ctx: &GpuContext,
+        pipeline: &wgpu::ComputePipeline,
+        input: &wgpu::Buffer,
+        count: usize,
+        exposure: f32,
+        output: &wgpu::Buffer,
+    ) {
         let params = ctx
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("pack params"),
-                contents: bytemuck::cast_slice(&[values.len() as u32, exposure.to_bits()]),
+                contents: bytemuck::cast_slice(&[count as u32, exposure.to_bits()]),
                 usage: wgpu::BufferUsages::UNIFORM,
             });
         let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("pack"),
-            layout: &self.pipeline.get_bind_group_layout(0),
+            layout: &pipeline.get_bind_group_layout(0),
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -257,12 +270,51 @@ impl GpuPacker {
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+            pass.dispatch_workgroups((count.max(1) as u32).div_ceil(64), 1, 1);
         }
         ctx.queue.submit([enc.finish()]);
+    }
+
+    /// Packs the first `count` RGB triples of a GPU buffer of `f32`.
+    pub fn pack_buffer(
+        &self,
+        ctx: &GpuContext,
+        input: &wgpu::Buffer,
+        count: usize,
+        exposure: f32,
+    ) -> Result<Vec<u32>, GpuError> {
+        let sentinel = vec![u32::MAX; count.max(1)];
+        let output = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("pack output"),
+                contents: bytemuck::cast_slice(&sentinel),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            });
+        self.run(ctx, &self.pack, input, count, exposure, &output);
         let data = ctx.read_back(&output)?;
-        Ok(bytemuck::cast_slice::<u8, u32>(&data)[..values.len()].to_vec())
+        Ok(bytemuck::cast_slice::<u8, u32>(&data)[..count].to_vec())
+    }
+
+    /// The largest channel value among the first `count` RGB triples (0 if none is > 0;
+    /// infinity if one is).
+    pub fn max_of(
+        &self,
+        ctx: &GpuContext,
+        input: &wgpu::Buffer,
+        count: usize,
+    ) -> Result<f32, GpuError> {
+        let output = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("max output"),
+                contents: bytemuck::cast_slice(&[0u32]),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            });
+        self.run(ctx, &self.max, input, count, 1.0, &output);
+        let data = ctx.read_back(&output)?;
+        Ok(f32::from_bits(bytemuck::cast_slice::<u8, u32>(&data)[0]))
     }
 }

@@ -2,8 +2,8 @@
 
 use grid_core::glam::Vec3;
 use grid_core::{
-    BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, SideBoundary, SweepError,
-    SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary,
+    BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins, PackedLightGrid,
+    SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary,
 };
 use sweep_cpu::sweep::{CHANNELS, Channel, channels};
 use wgpu::util::DeviceExt;
@@ -41,6 +41,7 @@ pub struct GpuSweeper {
     layout1: wgpu::BindGroupLayout,
     layout2: wgpu::BindGroupLayout,
     surface_w: wgpu::Buffer,
+    packer: crate::GpuPacker,
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -142,7 +143,9 @@ impl GpuSweeper {
             contents: bytemuck::cast_slice(&wgsl::surface_weight_table()),
             usage: wgpu::BufferUsages::UNIFORM,
         });
+        let packer = crate::GpuPacker::new(&ctx);
         Self {
+            packer,
             surface_w,
             ctx,
             phase1,
@@ -201,6 +204,69 @@ impl GpuSweeper {
         boundary: &Boundary,
         options: &SweepOptions,
     ) -> Result<(SweepOutput, GpuTimings), SweepError> {
+        let (g, stats, mut timings) = self.execute(material, boundary, options)?;
+        let n = material.desc().point_count();
+        let readback_start = std::time::Instant::now();
+        let gd = self.read_f32(&g).map_err(gpu_backend)?;
+        timings.readback = readback_start.elapsed();
+        let bins: Vec<BinLight> = (0..n)
+            .map(|i| {
+                BinLight(std::array::from_fn(|b| {
+                    Vec3::from_slice(&gd[(i * 26 + b) * 3..(i * 26 + b) * 3 + 3])
+                }))
+            })
+            .collect();
+        if bins.iter().any(|b| !b.is_valid()) {
+            return Err(overflow());
+        }
+        let grid = Grid::from_trusted(*material.desc(), bins);
+        Ok((
+            SweepOutput {
+                average: options.outputs.average.then(|| grid.average_grid()),
+                dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
+                bins: options.outputs.bins.then_some(grid),
+                stats,
+            },
+            timings,
+        ))
+    }
+
+    /// The sweep with the final grid packed to R11G11B10 on the GPU: the exposure is
+    /// chosen as `LightGrid::pack` does (from the largest value, found on the GPU), and
+    /// only the packed words (a third of the `f32` bytes) are read back.
+    pub fn run_packed(
+        &self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<PackedLightGrid, SweepError> {
+        let (g, _, _) = self.execute(material, boundary, options)?;
+        let count = material.desc().point_count() * 26;
+        let max = self
+            .packer
+            .max_of(&self.ctx, &g, count)
+            .map_err(gpu_backend)?;
+        if !max.is_finite() {
+            return Err(overflow());
+        }
+        let exposure = grid_core::pack::exposure_for(max);
+        let words = self
+            .packer
+            .pack_buffer(&self.ctx, &g, count, exposure)
+            .map_err(gpu_backend)?;
+        let bins = words
+            .chunks_exact(26)
+            .map(|w| PackedBins(w.try_into().expect("26 words")))
+            .collect();
+        PackedLightGrid::new(Grid::new(*material.desc(), bins)?, exposure).map_err(SweepError::from)
+    }
+
+    fn execute(
+        &self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<(wgpu::Buffer, SweepStats, GpuTimings), SweepError> {
         let start = std::time::Instant::now();
         let mut timings = GpuTimings::default();
         sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
@@ -502,32 +568,21 @@ impl GpuSweeper {
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| backend(GpuError::Readback(e.to_string())))?;
         timings.compute = compute_start.elapsed();
-        let readback_start = std::time::Instant::now();
-        let gd = self.read_f32(&g).map_err(backend)?;
-        timings.readback = readback_start.elapsed();
-        let bins: Vec<BinLight> = (0..n)
-            .map(|i| {
-                BinLight(std::array::from_fn(|b| {
-                    Vec3::from_slice(&gd[(i * 26 + b) * 3..(i * 26 + b) * 3 + 3])
-                }))
-            })
-            .collect();
-        if bins.iter().any(|b| !b.is_valid()) {
-            return Err(SweepError::Backend {
-                backend: "gpu",
-                message: "light overflowed f32 (boundary light too large for this grid)".into(),
-            });
-        }
-        let grid = Grid::from_trusted(desc, bins);
-        Ok((
-            SweepOutput {
-                average: options.outputs.average.then(|| grid.average_grid()),
-                dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
-                bins: options.outputs.bins.then_some(grid),
-                stats,
-            },
-            timings,
-        ))
+        Ok((g, stats, timings))
+    }
+}
+
+fn gpu_backend(e: GpuError) -> SweepError {
+    SweepError::Backend {
+        backend: "gpu",
+        message: e.to_string(),
+    }
+}
+
+fn overflow() -> SweepError {
+    SweepError::Backend {
+        backend: "gpu",
+        message: "light overflowed f32 (boundary light too large for this grid)".into(),
     }
 }
 

@@ -172,6 +172,11 @@ pub fn pack_kernel() -> String {
     )
 }
 
+/// The maximum kernel (largest channel, for the exposure).
+pub fn max_kernel() -> String {
+    include_str!("shaders/max_kernel.wgsl").to_string()
+}
+
 /// Every complete shader this crate compiles, by name (for validation).
 pub fn all() -> Vec<(&'static str, String)> {
     vec![

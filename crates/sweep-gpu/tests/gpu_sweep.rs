@@ -165,3 +165,36 @@ fn invalid_input_is_the_same_typed_error() {
         .to_string();
     assert!(e.contains("top"), "{e}");
 }
+
+/// The final grid packed on the GPU equals sweep-cpu's grid packed by grid-core within
+/// one code per channel, with the same exposure.
+#[test]
+fn packed_on_the_gpu_within_one_code() {
+    let Some(gpu) = sweeper() else { return };
+    for scene in sweep_cpu::scenes::Scene::ALL {
+        let (m, b) = scene.build(9);
+        let mut o = SweepOptions::multi_bounce();
+        o.tolerance = 0.0;
+        o.max_passes = 3;
+        let cpu = sweep_cpu::run(&m, &b, &o)
+            .unwrap()
+            .output
+            .bins
+            .unwrap()
+            .pack();
+        let g = gpu.run_packed(&m, &b, &o).unwrap();
+        assert_eq!(g.exposure, cpu.exposure, "{}", scene.name());
+        for (a, c) in g.grid.data().iter().zip(cpu.grid.data()) {
+            for (wa, wc) in a.0.iter().zip(&c.0) {
+                for (shift, mask) in [(0, 0x7ff), (11, 0x7ff), (22, 0x3ff)] {
+                    let (x, y) = ((wa >> shift) & mask, (wc >> shift) & mask);
+                    assert!(
+                        x.abs_diff(y) <= 1,
+                        "{}: word {wa:#x} vs {wc:#x}",
+                        scene.name()
+                    );
+                }
+            }
+        }
+    }
+}
