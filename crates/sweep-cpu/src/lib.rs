@@ -228,60 +228,91 @@ impl Responses {
     /// luminance-weighted blend of the two responses' directions, exact for grey
     /// materials.
     pub fn combine(&self, sky: Vec3, sun: Vec3) -> SweepOutput {
-        let (a, b) = (&self.sky.output, &self.sun.output);
-        let bins = a.bins.as_ref().zip(b.bins.as_ref()).map(|(x, y)| {
-            Grid::from_trusted(
-                *x.desc(),
-                x.data()
-                    .iter()
-                    .zip(y.data())
-                    .map(|(p, q)| BinLight(std::array::from_fn(|d| p.0[d] * sky + q.0[d] * sun)))
-                    .collect(),
-            )
-        });
-        let average = a.average.as_ref().zip(b.average.as_ref()).map(|(x, y)| {
-            Grid::from_trusted(
-                *x.desc(),
-                x.data()
-                    .iter()
-                    .zip(y.data())
-                    .map(|(p, q)| AverageLight(p.0 * sky + q.0 * sun))
-                    .collect(),
-            )
-        });
-        let dominant = match (&bins, &average) {
-            (Some(g), _) if a.dominant.is_some() => Some(g.dominant_grid()),
-            (_, Some(_)) => a
-                .dominant
-                .as_ref()
-                .zip(b.dominant.as_ref())
-                .zip(a.average.as_ref().zip(b.average.as_ref()))
-                .map(|((dx, dy), (ax, ay))| {
-                    Grid::from_trusted(
-                        *dx.desc(),
-                        (0..dx.data().len())
-                            .map(|i| {
-                                let wx = luminance(ax.data()[i].0 * sky);
-                                let wy = luminance(ay.data()[i].0 * sun);
-                                let w = wx + wy;
-                                DominantDir(if w > 0.0 {
-                                    ((dx.data()[i].0 * wx + dy.data()[i].0 * wy) / w)
-                                        .clamp_length_max(1.0)
-                                } else {
-                                    Vec3::ZERO
-                                })
+        combine_outputs(&self.sky.output, &self.sun.output, sky, sun)
+    }
+}
+
+/// The sky and sun responses of any sweeper (CPU or GPU): `(sky, sun)` outputs, to be
+/// combined by [`combine_outputs`].
+pub fn responses_with(
+    sweeper: &mut dyn Sweeper,
+    material: &MaterialGrid,
+    sky: &SkyBins,
+    sun: &BinLight,
+    sides: SideBoundary,
+    options: &SweepOptions,
+) -> Result<(SweepOutput, SweepOutput), SweepError> {
+    let sky_b = Boundary {
+        top: TopBoundary::Uniform(Box::new(sky.top)),
+        bottom: sky.bottom,
+        sides: sides.clone(),
+    };
+    let sun_b = Boundary {
+        top: TopBoundary::Uniform(Box::new(*sun)),
+        bottom: BinLight::ZERO,
+        sides,
+    };
+    Ok((
+        sweeper.sweep(material, &sky_b, options)?,
+        sweeper.sweep(material, &sun_b, options)?,
+    ))
+}
+
+/// Combines a sky response `a` and a sun response `b` under colours `sky` and `sun`
+/// (see [`Responses::combine`]).
+pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -> SweepOutput {
+    let bins = a.bins.as_ref().zip(b.bins.as_ref()).map(|(x, y)| {
+        Grid::from_trusted(
+            *x.desc(),
+            x.data()
+                .iter()
+                .zip(y.data())
+                .map(|(p, q)| BinLight(std::array::from_fn(|d| p.0[d] * sky + q.0[d] * sun)))
+                .collect(),
+        )
+    });
+    let average = a.average.as_ref().zip(b.average.as_ref()).map(|(x, y)| {
+        Grid::from_trusted(
+            *x.desc(),
+            x.data()
+                .iter()
+                .zip(y.data())
+                .map(|(p, q)| AverageLight(p.0 * sky + q.0 * sun))
+                .collect(),
+        )
+    });
+    let dominant = match (&bins, &average) {
+        (Some(g), _) if a.dominant.is_some() => Some(g.dominant_grid()),
+        (_, Some(_)) => a
+            .dominant
+            .as_ref()
+            .zip(b.dominant.as_ref())
+            .zip(a.average.as_ref().zip(b.average.as_ref()))
+            .map(|((dx, dy), (ax, ay))| {
+                Grid::from_trusted(
+                    *dx.desc(),
+                    (0..dx.data().len())
+                        .map(|i| {
+                            let wx = luminance(ax.data()[i].0 * sky);
+                            let wy = luminance(ay.data()[i].0 * sun);
+                            let w = wx + wy;
+                            DominantDir(if w > 0.0 {
+                                ((dx.data()[i].0 * wx + dy.data()[i].0 * wy) / w)
+                                    .clamp_length_max(1.0)
+                            } else {
+                                Vec3::ZERO
                             })
-                            .collect(),
-                    )
-                }),
-            _ => None,
-        };
-        SweepOutput {
-            bins,
-            average,
-            dominant,
-            stats: a.stats,
-        }
+                        })
+                        .collect(),
+                )
+            }),
+        _ => None,
+    };
+    SweepOutput {
+        bins,
+        average,
+        dominant,
+        stats: a.stats,
     }
 }
 

@@ -628,6 +628,21 @@ fn virtual_light(boundary: &Boundary, up: bool, x: i32, z: i32, nx: usize, nz: u
     }
 }
 
+/// A shared GPU sweeper sweeps too (its methods take `&self`).
+impl Sweeper for &GpuSweeper {
+    fn name(&self) -> &'static str {
+        "gpu"
+    }
+    fn sweep(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        self.run(material, boundary, options)
+    }
+}
+
 impl Sweeper for GpuSweeper {
     fn name(&self) -> &'static str {
         "gpu"

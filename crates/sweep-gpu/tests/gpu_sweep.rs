@@ -198,3 +198,38 @@ fn packed_on_the_gpu_within_one_code() {
         }
     }
 }
+
+/// Sun and sky as separate responses on the GPU combine to the CPU's direct sweep.
+#[test]
+fn sun_and_sky_responses_on_the_gpu() {
+    let Some(gpu) = sweeper() else { return };
+    use sweep_cpu::{ClearSky, Sun, combine_outputs, responses_with};
+    let (m, _) = sweep_cpu::scenes::Scene::Canopy.build(8);
+    let sun = Sun::at(0.6, 0.4, Vec3::ONE);
+    let sky = ClearSky::blue(sun.direction).bins().unwrap();
+    let sun_bins = sun.bins().unwrap();
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 0.0;
+    o.max_passes = 4;
+    let mut shared = gpu;
+    let (a, b) =
+        responses_with(&mut shared, &m, &sky, &sun_bins, SideBoundary::Periodic, &o).unwrap();
+    let (cs, cu) = (Vec3::new(0.5, 0.7, 1.2), Vec3::new(3000.0, 2800.0, 2500.0));
+    let combined = combine_outputs(&a, &b, cs, cu).bins.unwrap();
+    let direct = sweep_cpu::run(
+        &m,
+        &Boundary {
+            top: TopBoundary::Uniform(Box::new(BinLight(std::array::from_fn(|d| {
+                sky.top.0[d] * cs + sun_bins.0[d] * cu
+            })))),
+            bottom: BinLight(sky.bottom.0.map(|v| v * cs)),
+            sides: SideBoundary::Periodic,
+        },
+        &o,
+    )
+    .unwrap()
+    .output
+    .bins
+    .unwrap();
+    assert_close(&direct, &combined).unwrap();
+}
