@@ -63,6 +63,9 @@ enum Command {
         /// Write the light packed as R11G11B10 (104 bytes a point instead of 312).
         #[arg(long)]
         packed: bool,
+        /// Also write a PNG preview: the average light on the grid's middle vertical slice.
+        #[arg(long)]
+        preview: Option<PathBuf>,
     },
     /// Trace the Monte Carlo reference and write its light grid.
     Reference {
@@ -82,6 +85,9 @@ enum Command {
         /// Random seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Also write a PNG preview: the average light on the grid's middle vertical slice.
+        #[arg(long)]
+        preview: Option<PathBuf>,
     },
 }
 
@@ -182,6 +188,36 @@ impl LightArgs {
     }
 }
 
+/// The average light of the middle x-y slice (z = nz / 2), scaled so the brightest
+/// point is white, gamma 2.2, each point a 4 × 4 block, top level at the top.
+fn write_preview(g: &grid_core::LightGrid, path: &PathBuf) -> Result<()> {
+    let d = g.desc();
+    let (nx, ny, nz) = (d.dims().x, d.dims().y, d.dims().z);
+    let k = nz / 2;
+    let at = |i: u32, j: u32| {
+        g.get(grid_core::glam::UVec3::new(i, j, k))
+            .map(|b| b.average())
+            .unwrap_or_default()
+    };
+    let max = (0..ny)
+        .flat_map(|j| (0..nx).map(move |i| (i, j)))
+        .map(|(i, j)| at(i, j).max_element())
+        .fold(1e-30f32, f32::max);
+    let s = 4;
+    let img = image::RgbImage::from_fn(nx * s, ny * s, |x, y| {
+        let c = at(x / s, ny - 1 - y / s) / max;
+        let t = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0 + 0.5) as u8;
+        image::Rgb([t(c.x), t(c.y), t(c.z)])
+    });
+    img.save(path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!(
+        "wrote {} (average light, slice z = {k}, white = {max:.3})",
+        path.display()
+    );
+    Ok(())
+}
+
 fn load_material(path: &PathBuf) -> Result<grid_core::MaterialGrid> {
     GridFile::load(path)
         .and_then(GridFile::into_material)
@@ -222,6 +258,7 @@ fn main() -> Result<()> {
             smoothing,
             tolerance,
             packed,
+            preview,
         } => {
             let m = load_material(&material)?;
             let b = light.boundary()?;
@@ -238,6 +275,9 @@ fn main() -> Result<()> {
             let s = sweep_cpu::run(&m, &b, &o).context("sweeping")?;
             let secs = t.elapsed().as_secs_f64();
             let g = s.output.bins.expect("bins were asked for");
+            if let Some(p) = &preview {
+                write_preview(&g, p)?;
+            }
             let file = if packed {
                 GridFile::PackedLight(g.pack())
             } else {
@@ -264,6 +304,7 @@ fn main() -> Result<()> {
             paths,
             seconds,
             seed,
+            preview,
         } => {
             let m = load_material(&material)?;
             let b = light.boundary()?;
@@ -289,6 +330,9 @@ fn main() -> Result<()> {
             let r = trace(&m, &b, &opts, &|done, _| bar.set_position(done))
                 .context("tracing the reference")?;
             bar.finish_and_clear();
+            if let Some(p) = &preview {
+                write_preview(&r.light, p)?;
+            }
             GridFile::Light(r.light.clone())
                 .save(&output)
                 .with_context(|| format!("writing {}", output.display()))?;
