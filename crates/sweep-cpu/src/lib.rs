@@ -205,6 +205,15 @@ pub fn sweep_responses(
     sides: SideBoundary,
     options: &SweepOptions,
 ) -> Result<Responses, SweepError> {
+    let (sky_b, sun_b) = response_boundaries(sky, sun, sides);
+    Ok(Responses {
+        sky: run(material, &sky_b, options)?,
+        sun: run(material, &sun_b, options)?,
+    })
+}
+
+/// The boundaries of the sky response and of the sun response.
+fn response_boundaries(sky: &SkyBins, sun: &BinLight, sides: SideBoundary) -> (Boundary, Boundary) {
     let sky_b = Boundary {
         top: TopBoundary::Uniform(Box::new(sky.top)),
         bottom: sky.bottom,
@@ -215,10 +224,7 @@ pub fn sweep_responses(
         bottom: BinLight::ZERO,
         sides,
     };
-    Ok(Responses {
-        sky: run(material, &sky_b, options)?,
-        sun: run(material, &sun_b, options)?,
-    })
+    (sky_b, sun_b)
 }
 
 impl Responses {
@@ -242,16 +248,7 @@ pub fn responses_with(
     sides: SideBoundary,
     options: &SweepOptions,
 ) -> Result<(SweepOutput, SweepOutput), SweepError> {
-    let sky_b = Boundary {
-        top: TopBoundary::Uniform(Box::new(sky.top)),
-        bottom: sky.bottom,
-        sides: sides.clone(),
-    };
-    let sun_b = Boundary {
-        top: TopBoundary::Uniform(Box::new(*sun)),
-        bottom: BinLight::ZERO,
-        sides,
-    };
+    let (sky_b, sun_b) = response_boundaries(sky, sun, sides);
     Ok((
         sweeper.sweep(material, &sky_b, options)?,
         sweeper.sweep(material, &sun_b, options)?,

@@ -10,7 +10,8 @@ use wgpu::util::DeviceExt;
 
 use crate::{GpuContext, GpuError, wgsl};
 
-/// Uniform block of one level (matches `struct Level` in the WGSL).
+/// Uniform block of one level: the fields of [`wgsl::LEVEL_FIELDS`], in that order (the
+/// WGSL `struct Level` is generated from the same list; a test compares the layouts).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct LevelParams {
@@ -29,7 +30,7 @@ struct LevelParams {
 }
 
 const PARAM_STRIDE: u64 = 256;
-const SCRATCH: usize = 164;
+use crate::wgsl::SCRATCH;
 
 /// The sweep as wgpu compute: device, pipelines and layouts are created once and reused
 /// across sweeps. Implements [`Sweeper`]: outputs equal `sweep-cpu`'s within `f32`
@@ -654,5 +655,51 @@ impl Sweeper for GpuSweeper {
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
         self.run(material, boundary, options)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LevelParams;
+    use std::mem::offset_of;
+
+    /// `LevelParams` and the generated WGSL `struct Level` have the same fields at the
+    /// same offsets (naga's layout of the compiled shader).
+    #[test]
+    fn level_params_match_the_wgsl_struct() {
+        let src = crate::wgsl::sweep_phase1();
+        let module = naga::front::wgsl::parse_str(&src).expect("phase 1 parses");
+        let ty = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some("Level"))
+            .expect("struct Level")
+            .1;
+        let naga::TypeInner::Struct { members, span } = &ty.inner else {
+            panic!("Level is a struct")
+        };
+        let rust = [
+            ("nx", offset_of!(LevelParams, nx)),
+            ("nz", offset_of!(LevelParams, nz)),
+            ("level_len", offset_of!(LevelParams, level_len)),
+            ("j", offset_of!(LevelParams, j)),
+            ("src_level", offset_of!(LevelParams, src_level)),
+            ("from_virtual", offset_of!(LevelParams, from_virtual)),
+            ("up", offset_of!(LevelParams, up)),
+            ("periodic", offset_of!(LevelParams, periodic)),
+            ("given", offset_of!(LevelParams, given)),
+            ("ny", offset_of!(LevelParams, ny)),
+            ("smoothing", offset_of!(LevelParams, smoothing)),
+            ("_pad", offset_of!(LevelParams, _pad)),
+        ];
+        assert_eq!(members.len(), rust.len());
+        for (m, (name, off)) in members.iter().zip(rust) {
+            assert_eq!(m.name.as_deref(), Some(name));
+            assert_eq!(m.offset as usize, off, "{name}");
+        }
+        assert_eq!(*span as usize, std::mem::size_of::<LevelParams>());
+        for ((name, _), (rname, _)) in crate::wgsl::LEVEL_FIELDS.iter().zip(rust) {
+            assert_eq!(*name, rname);
+        }
     }
 }

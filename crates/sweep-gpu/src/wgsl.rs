@@ -135,12 +135,52 @@ pub fn surface_weight_table() -> Vec<f32> {
     v
 }
 
+/// Fields of the per-level uniform block, in order: the one source of both
+/// `struct Level` in the WGSL and `LevelParams` in Rust (a test compares their layouts).
+pub const LEVEL_FIELDS: [(&str, &str); 12] = [
+    ("nx", "u32"),
+    ("nz", "u32"),
+    ("level_len", "u32"),
+    ("j", "u32"),
+    ("src_level", "i32"),
+    ("from_virtual", "u32"),
+    ("up", "u32"),
+    ("periodic", "u32"),
+    ("given", "u32"),
+    ("ny", "u32"),
+    ("smoothing", "f32"),
+    ("_pad", "u32"),
+];
+
+/// Floats of a point's level scratch: the removals of every stencil slot (RGB) and the
+/// `T_after` of every channel.
+pub const SCRATCH: usize = sweep_cpu::sweep::SLOTS * 3 + sweep_cpu::sweep::CHANNELS;
+
+/// The part both sweep phases share: `struct Level`, sizes, helpers.
+fn sweep_common() -> String {
+    let mut s = String::from("struct Level {\n");
+    for (name, ty) in LEVEL_FIELDS {
+        let _ = writeln!(s, "    {name}: {ty},");
+    }
+    s.push_str("}\n");
+    let _ = writeln!(s, "const SCRATCH: u32 = {SCRATCH}u;");
+    let _ = writeln!(
+        s,
+        "const T_AFTER_OFFSET: u32 = {}u;",
+        sweep_cpu::sweep::SLOTS * 3
+    );
+    let _ = writeln!(s, "const CH: u32 = {}u;", sweep_cpu::sweep::CHANNELS);
+    s.push_str(include_str!("shaders/sweep_common.wgsl"));
+    s
+}
+
 /// Phase 1 of a level (gather, transmit).
 pub fn sweep_phase1() -> String {
     format!(
-        "{}\n{}\n{}",
+        "{}\n{}\n{}\n{}",
         prelude(),
         sweep_tables(),
+        sweep_common(),
         include_str!("shaders/sweep.wgsl")
     )
 }
@@ -156,7 +196,13 @@ pub fn sweep_phase2() -> String {
             "SURFACE_ROWS_GEN",
             &format!("{}", surface_weight_table().len() / 4),
         );
-    format!("{}\n{}\n{}", prelude(), sweep_tables(), body)
+    format!(
+        "{}\n{}\n{}\n{}",
+        prelude(),
+        sweep_tables(),
+        sweep_common(),
+        body
+    )
 }
 
 /// The R11G11B10 packing functions.

@@ -2,23 +2,6 @@
 // pair: `phase1` (gather, transmit, record removals) then `phase2` (collect, absorb,
 // emit, re-absorb). Channel tables come from the generated prelude.
 
-struct Level {
-    nx: u32,
-    nz: u32,
-    level_len: u32,
-    j: u32,
-    src_level: i32,
-    from_virtual: u32,
-    up: u32,
-    periodic: u32,
-    given: u32,
-    ny: u32,
-    smoothing: f32,
-    _pad: u32,
-}
-
-const SCRATCH: u32 = 164u; // 49 removal slots x 3 + 17 T_after
-const CH: u32 = 17u;
 
 @group(0) @binding(0) var<uniform> P: Level;
 @group(0) @binding(1) var<storage, read> cells: array<vec4<f32>>;
@@ -29,20 +12,6 @@ const CH: u32 = 17u;
 @group(0) @binding(6) var<storage, read> virt: array<f32>;
 @group(0) @binding(7) var<storage, read> halo: array<f32>;
 @group(0) @binding(8) var<storage, read_write> aux: array<f32>;
-
-fn column(x: i32, z: i32) -> i32 {
-    let nx = i32(P.nx);
-    let nz = i32(P.nz);
-    if (P.periodic == 1u) {
-        let wx = ((x % nx) + nx) % nx;
-        let wz = ((z % nz) + nz) % nz;
-        return wx + nx * wz;
-    }
-    if (x < 0 || x >= nx || z < 0 || z >= nz) {
-        return -1;
-    }
-    return x + nx * z;
-}
 
 fn load3(i: u32) -> vec3<f32> {
     return vec3<f32>(prev[i], prev[i + 1u], prev[i + 2u]);
@@ -95,13 +64,6 @@ fn trans(pass_through: f32, e: f32) -> f32 {
         return 0.0;
     }
     return exp(e * log(pass_through));
-}
-
-fn g_add(gi: u32, bin: u32, v: vec3<f32>) {
-    let i = (gi * NUM_DIRS + bin) * 3u;
-    g[i] += v.x;
-    g[i + 1u] += v.y;
-    g[i + 2u] += v.z;
 }
 
 fn ch_bin(c: u32) -> u32 {
@@ -191,7 +153,7 @@ fn phase1(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             t *= tr;
         }
-        scratch[li * SCRATCH + 147u + c] = after;
+        scratch[li * SCRATCH + T_AFTER_OFFSET + c] = after;
         let o = light * t;
         let oi = (li * CH + c) * 3u;
         cur[oi] = o.x;

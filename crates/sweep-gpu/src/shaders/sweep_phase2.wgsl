@@ -1,23 +1,6 @@
 // Phase 2 of a level: each cell collects what it removed, absorbs, emits into this
 // pass's channels and re-absorbs what its own material stops (sweep-cpu steps 3-7).
 
-struct Level {
-    nx: u32,
-    nz: u32,
-    level_len: u32,
-    j: u32,
-    src_level: i32,
-    from_virtual: u32,
-    up: u32,
-    periodic: u32,
-    given: u32,
-    ny: u32,
-    smoothing: f32,
-    _pad: u32,
-}
-
-const SCRATCH: u32 = 164u;
-const CH: u32 = 17u;
 const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 
 @group(0) @binding(0) var<uniform> P: Level;
@@ -40,20 +23,6 @@ struct Pending {
     m0: vec3<f32>,
     m1: vec3<f32>,
     m2: vec3<f32>,
-}
-
-fn column(x: i32, z: i32) -> i32 {
-    let nx = i32(P.nx);
-    let nz = i32(P.nz);
-    if (P.periodic == 1u) {
-        let wx = ((x % nx) + nx) % nx;
-        let wz = ((z % nz) + nz) % nz;
-        return wx + nx * wz;
-    }
-    if (x < 0 || x >= nx || z < 0 || z >= nz) {
-        return -1;
-    }
-    return x + nx * z;
 }
 
 fn load_pending(buf: u32, gi: u32) -> Pending {
@@ -83,13 +52,6 @@ fn store_pending(buf: u32, gi: u32, p: Pending) {
 
 fn add_p(a: Pending, b: Pending) -> Pending {
     return Pending(a.s + b.s, a.m0 + b.m0, a.m1 + b.m1, a.m2 + b.m2);
-}
-
-fn g_add(gi: u32, bin: u32, v: vec3<f32>) {
-    let i = (gi * NUM_DIRS + bin) * 3u;
-    g[i] += v.x;
-    g[i + 1u] += v.y;
-    g[i + 2u] += v.z;
 }
 
 fn ch_bin(up: u32, c: u32) -> u32 {
@@ -189,7 +151,7 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
         var l2 = vec3<f32>(0.0);
         for (var c = 0u; c < CH; c++) {
             let f = emission(own, mat.w, mask, P.up, c);
-            let leaving = f * scratch[li * SCRATCH + 147u + c];
+            let leaving = f * scratch[li * SCRATCH + T_AFTER_OFFSET + c];
             let lost = max(full(own, mat.w, mask, P.up, c) - leaving, vec3<f32>(0.0));
             let u = DIR_UNIT[ch_bin(P.up, c)];
             lost_s += lost;

@@ -1,0 +1,22 @@
+// Shared by both sweep phases. `struct Level` and the sizes are generated in wgsl.rs.
+
+fn column(x: i32, z: i32) -> i32 {
+    let nx = i32(P.nx);
+    let nz = i32(P.nz);
+    if (P.periodic == 1u) {
+        let wx = ((x % nx) + nx) % nx;
+        let wz = ((z % nz) + nz) % nz;
+        return wx + nx * wz;
+    }
+    if (x < 0 || x >= nx || z < 0 || z >= nz) {
+        return -1;
+    }
+    return x + nx * z;
+}
+
+fn g_add(gi: u32, bin: u32, v: vec3<f32>) {
+    let i = (gi * NUM_DIRS + bin) * 3u;
+    g[i] += v.x;
+    g[i + 1u] += v.y;
+    g[i + 2u] += v.z;
+}
