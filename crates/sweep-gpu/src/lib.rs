@@ -252,20 +252,11 @@ impl GpuPacker {
         let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("pack"),
             layout: &pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: input.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: output.as_entire_binding(),
-                },
-            ],
+            entries: &bind_entries([
+                params.as_entire_binding(),
+                input.as_entire_binding(),
+                output.as_entire_binding(),
+            ]),
         });
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
@@ -317,4 +308,19 @@ impl GpuPacker {
         let data = ctx.read_back(&output)?;
         Ok(f32::from_bits(bytemuck::cast_slice::<u8, u32>(&data)[0]))
     }
+}
+
+/// Bind group entries numbered 0, 1, 2, ... in the order given.
+pub(crate) fn bind_entries<'a, const N: usize>(
+    resources: [wgpu::BindingResource<'a>; N],
+) -> [wgpu::BindGroupEntry<'a>; N] {
+    let mut i = 0;
+    resources.map(|resource| {
+        let e = wgpu::BindGroupEntry {
+            binding: i,
+            resource,
+        };
+        i += 1;
+        e
+    })
 }

@@ -8,7 +8,7 @@ use grid_core::{
 use sweep_cpu::sweep::{CHANNELS, Channel, channels};
 use wgpu::util::DeviceExt;
 
-use crate::{GpuContext, GpuError, wgsl};
+use crate::{GpuContext, GpuError, bind_entries, wgsl};
 
 /// Uniform block of one level: the fields of [`wgsl::LEVEL_FIELDS`], in that order (the
 /// WGSL `struct Level` is generated from the same list; a test compares the layouts).
@@ -372,44 +372,17 @@ impl GpuSweeper {
                 d.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("phase 1"),
                     layout: &self.layout1,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: pbind.clone(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: cells_b.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: ping[k].as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 3,
-                            resource: ping[1 - k].as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 4,
-                            resource: scratch.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 5,
-                            resource: g.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 6,
-                            resource: virt.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 7,
-                            resource: halo.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 8,
-                            resource: flux_in.as_entire_binding(),
-                        },
-                    ],
+                    entries: &bind_entries([
+                        pbind.clone(),
+                        cells_b.as_entire_binding(),
+                        ping[k].as_entire_binding(),
+                        ping[1 - k].as_entire_binding(),
+                        scratch.as_entire_binding(),
+                        g.as_entire_binding(),
+                        virt.as_entire_binding(),
+                        halo.as_entire_binding(),
+                        flux_in.as_entire_binding(),
+                    ]),
                 })
             })
             .collect();
@@ -418,48 +391,18 @@ impl GpuSweeper {
             d.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("phase 2"),
                 layout: &self.layout2,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: pbind.clone(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: cells_b.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: exposed_b.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: ping[c].as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: scratch.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 5,
-                        resource: g.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 6,
-                        resource: pend[up].as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 7,
-                        resource: pend[1 - up].as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 8,
-                        resource: pend_flux.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 9,
-                        resource: self.surface_w.as_entire_binding(),
-                    },
-                ],
+                entries: &bind_entries([
+                    pbind.clone(),
+                    cells_b.as_entire_binding(),
+                    exposed_b.as_entire_binding(),
+                    ping[c].as_entire_binding(),
+                    scratch.as_entire_binding(),
+                    g.as_entire_binding(),
+                    pend[up].as_entire_binding(),
+                    pend[1 - up].as_entire_binding(),
+                    pend_flux.as_entire_binding(),
+                    self.surface_w.as_entire_binding(),
+                ]),
             })
         };
         let bg2: Vec<Vec<wgpu::BindGroup>> = (0..2)
