@@ -92,7 +92,7 @@ pub use grid::{
     AverageGrid, AverageLight, DominantDir, DominantGrid, Grid, GridValue, LightGrid, Material,
     MaterialGrid, PackedBins, PackedLightGrid,
 };
-pub use light::{AmbientCube, BinLight, Sh1, Sh2};
+pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
 pub use sample::{Blend, trilinear_corners};
 pub use traits::{
     Boundary, HALO_WIDTH, HaloLayout, LightField, MaterialSource, Outputs, SideBoundary,

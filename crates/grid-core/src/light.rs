@@ -165,8 +165,12 @@ impl BinLight {
 
 /// Rec. 709 luminance of linear RGB.
 pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+    c.dot(Vec3::from_array(LUMA))
 }
+
+/// Rec. 709 luminance weights of linear RGB (what [`luminance`] uses; shaders get them
+/// generated from here).
+pub const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
 /// Axis normals of the ambient cube, in its order.
 pub const AMBIENT_AXES: [Vec3; 6] = [

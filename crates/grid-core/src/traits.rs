@@ -343,20 +343,32 @@ pub trait Sweeper {
 }
 
 /// Light at any point in space.
+///
+/// One required method, [`LightField::light`] (the 26 bins at a point); irradiance and
+/// average light follow from it. Implemented by [`LightGrid`] and by the grid hierarchy
+/// (`terrain-lod`); `render` consumes it.
 pub trait LightField {
-    /// Irradiance on a surface at `p` facing unit normal `n` (sampled with the normal
-    /// bias). Errors on non-finite input.
-    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError>;
+    /// The light in the 26 bins at `p`, trilinearly interpolated; with a normal `n`, read
+    /// half a cell along it (the normal bias against leaks through walls). Errors on
+    /// non-finite `p` or a zero or non-finite `n`.
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError>;
+
+    /// Irradiance on a surface at `p` facing normal `n` (sampled with the normal bias).
+    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
+        Ok(self.light(p, Some(n))?.irradiance(n))
+    }
     /// Mean light over the sphere at `p`.
-    fn average(&self, p: Vec3) -> Result<Vec3, GridError>;
+    fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
+        Ok(self.light(p, None)?.average())
+    }
 }
 
 impl LightField for LightGrid {
-    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
-        Ok(self.sample_biased(p, n)?.irradiance(n.normalize()))
-    }
-    fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
-        Ok(self.sample(p)?.average())
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        match n {
+            Some(n) => self.sample_biased(p, n),
+            None => self.sample(p),
+        }
     }
 }
 

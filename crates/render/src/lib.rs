@@ -1,7 +1,62 @@
 //! # render
 //!
-//! Reads light from the grid hierarchy for batches of points (light sampling buffers, on
-//! CPU and GPU) and shades surfaces with it: irradiance on normals, average plus dominant
-//! direction for moving objects, and the seed's ground-blend and normal-bias tweaks.
+//! Light for what the camera sees, from the light grids.
 //!
-//! Status: not built yet (issue "render and viewer"); it consumes `grid_core::LightField`.
+//! - **Light sampling buffers** ([`sample_points`] on the CPU from any
+//!   [`grid_core::LightField`], [`GpuLightSampler`] as one wgpu compute dispatch per grid):
+//!   a batch of points, with or without normals, in; irradiance (from the 26 bins) or
+//!   average light, plus the dominant direction, out. This is how the seed lights the
+//!   vertices of a terrain node once, when the node is prepared.
+//! - **Shading** ([`shading`]): irradiance from average + dominant direction for moving
+//!   objects, a cheap specular term from the dominant direction, the seed's ground blend,
+//!   underwater attenuation, tone mapping. The CPU functions are the specification; the
+//!   WGSL in `shaders/common.wgsl` implements the same formulas.
+//! - **Rasteriser** ([`Renderer`]): terrain and instanced meshes (base colour texture,
+//!   alpha mask) into a linear HDR target, tone-mapped to sRGB; headless images or any
+//!   texture view (a window).
+//!
+//! Every WGSL struct shared with Rust is generated from the Rust declaration
+//! ([`gpu_struct!`]); every shader validates with naga in a plain `cargo test`.
+//!
+//! ```
+//! use grid_core::glam::{UVec3, Vec3};
+//! use grid_core::{BinLight, Grid, GridDesc, LightGrid};
+//! use render::{SamplePoints, sample_points};
+//!
+//! // A grid lit by a uniform sky of radiance 1.
+//! let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(4))?;
+//! let grid: LightGrid = Grid::filled(desc, BinLight::uniform(Vec3::ONE))?;
+//! let positions = [Vec3::splat(1.5), Vec3::new(0.5, 2.0, 2.5)];
+//! let normals = [Vec3::Y, Vec3::X];
+//! let lit = sample_points(&grid, SamplePoints { positions: &positions, normals: Some(&normals) })?;
+//! // A uniform sky gives irradiance π on every normal.
+//! for s in &lit {
+//!     assert!((s.light.x - std::f32::consts::PI).abs() < 1e-3);
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod gpu;
+pub mod raster;
+pub mod sampling;
+pub mod shading;
+pub mod wgsl;
+
+pub use gpu::GpuLightSampler;
+pub use raster::{
+    Camera, GroundLight, Image, Instance, Lighting, LightingMode, MeshId, MeshMaterial, Renderer,
+    TextureRgba8, Vertex, View, Water,
+};
+pub use sampling::{IrradianceTable, LightVolume, SamplePoints, SampledLight, sample_points};
+
+/// Errors of rendering and sampling.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RenderError {
+    /// Invalid input (names the field and value).
+    #[error(transparent)]
+    Grid(#[from] grid_core::GridError),
+    /// The GPU failed or is missing.
+    #[error(transparent)]
+    Gpu(#[from] sweep_gpu::GpuError),
+}

@@ -136,6 +136,27 @@ impl GpuContext {
         })
     }
 
+    /// For test suites that must run on a GPU: a context, or `Ok(None)` (with a loud
+    /// message on stderr) when no adapter exists and the environment variable
+    /// `LIGHTGRID_ALLOW_NO_GPU=1` opts out; without it, no adapter is an error, so GPU
+    /// tests never skip in silence.
+    pub fn new_or_opt_out() -> Result<Option<Self>, GpuError> {
+        match Self::new() {
+            Ok(c) => {
+                eprintln!(
+                    "GPU adapter: {} ({:?}, {:?})",
+                    c.info.name, c.info.device_type, c.info.backend
+                );
+                Ok(Some(c))
+            }
+            Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
+                eprintln!("!!! GPU TEST NOT RUN: {e} (LIGHTGRID_ALLOW_NO_GPU=1) !!!");
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
     /// Largest storage buffer binding, bytes.
     pub fn max_binding(&self) -> u64 {
         self.device.limits().max_storage_buffer_binding_size

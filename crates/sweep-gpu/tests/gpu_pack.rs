@@ -6,20 +6,9 @@ use grid_core::pack::{pack_r11g11b10, uf10_to_f32, uf11_to_f32};
 use sweep_gpu::{GpuContext, GpuPacker};
 
 fn context() -> Option<GpuContext> {
-    match GpuContext::new() {
-        Ok(c) => {
-            eprintln!(
-                "GPU test on {} ({:?}, {:?})",
-                c.info.name, c.info.device_type, c.info.backend
-            );
-            Some(c)
-        }
-        Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
-            eprintln!("!!! GPU TEST NOT RUN: {e} (LIGHTGRID_ALLOW_NO_GPU=1) !!!");
-            None
-        }
-        Err(e) => panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)"),
-    }
+    GpuContext::new_or_opt_out().unwrap_or_else(|e| {
+        panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
+    })
 }
 
 #[test]

@@ -12,19 +12,12 @@ use sweep_gpu::{GpuContext, GpuSweeper};
 /// One sweeper for all tests of this binary: pipelines compile once.
 fn sweeper() -> Option<&'static GpuSweeper> {
     static S: std::sync::OnceLock<Option<GpuSweeper>> = std::sync::OnceLock::new();
-    S.get_or_init(|| match GpuContext::new() {
-        Ok(c) => {
-            eprintln!(
-                "GPU tests on {} ({:?}, {:?})",
-                c.info.name, c.info.device_type, c.info.backend
-            );
-            Some(GpuSweeper::with_context(c))
-        }
-        Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
-            eprintln!("!!! GPU TEST NOT RUN: {e} (LIGHTGRID_ALLOW_NO_GPU=1) !!!");
-            None
-        }
-        Err(e) => panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)"),
+    S.get_or_init(|| {
+        GpuContext::new_or_opt_out()
+            .unwrap_or_else(|e| {
+                panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
+            })
+            .map(GpuSweeper::with_context)
     })
     .as_ref()
 }

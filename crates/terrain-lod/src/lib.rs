@@ -270,8 +270,8 @@ pub struct Hierarchy {
     heightmap_lo: Vec2,
     heightmap_hi: Vec2,
     heights: Heightmap,
-    source: Box<dyn MaterialSource>,
-    sweeper: Box<dyn Sweeper>,
+    source: Box<dyn MaterialSource + Send + Sync>,
+    sweeper: Box<dyn Sweeper + Send + Sync>,
     sky: BinLight,
     world: LightGrid,
     nodes: HashMap<NodeKey, Node>,
@@ -311,8 +311,8 @@ impl Hierarchy {
     /// Builds the world grid over the heightmap's extent (at load; not budgeted).
     pub fn new(
         heightmap: &Heightmap,
-        source: Box<dyn MaterialSource>,
-        sweeper: Box<dyn Sweeper>,
+        source: Box<dyn MaterialSource + Send + Sync>,
+        sweeper: Box<dyn Sweeper + Send + Sync>,
         sky_top: BinLight,
         params: HierarchyParams,
     ) -> Result<Self, LodError> {
@@ -695,10 +695,7 @@ impl Hierarchy {
 }
 
 impl LightField for Hierarchy {
-    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
-        self.grid_at(p).irradiance(p, n)
-    }
-    fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
-        self.grid_at(p).average(p)
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        self.grid_at(p).light(p, n)
     }
 }

@@ -1,0 +1,1166 @@
+//! The rasteriser: terrain and instanced meshes lit by the light grids, drawn into a
+//! linear HDR target and tone-mapped to sRGB, headless (read back as an [`Image`]) or
+//! into any texture view (a window's surface).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use grid_core::GridError;
+use grid_core::glam::{Mat4, Vec2, Vec3, Vec4};
+use sweep_gpu::{GpuContext, GpuError};
+use wgpu::util::DeviceExt;
+
+use crate::RenderError;
+use crate::sampling::LightVolume;
+
+/// The HDR target's format (linear, renderable, read back as `f32`).
+pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The tone-mapped target's format for headless images.
+pub const LDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+crate::gpu_struct! {
+    /// Per-frame uniforms of the mesh shader.
+    pub struct FrameUniforms {
+        /// Projection × view.
+        pub view_proj: [[f32; 4]; 4] => "mat4x4<f32>",
+        /// Camera position (xyz).
+        pub eye: [f32; 4] => "vec4<f32>",
+        /// The way sunlight travels (xyz, unit), for the view without the grid.
+        pub sun_direction: [f32; 4] => "vec4<f32>",
+        /// Sun irradiance on a surface facing it (rgb), for the view without the grid.
+        pub sun_colour: [f32; 4] => "vec4<f32>",
+        /// Mean sky radiance (rgb), for the view without the grid.
+        pub sky_ambient: [f32; 4] => "vec4<f32>",
+        /// Water level (x) and attenuation per metre (y; 0 = no water).
+        pub water: [f32; 4] => "vec4<f32>",
+        /// Light volume origin (xyz) and cell size (w).
+        pub volume_origin_h: [f32; 4] => "vec4<f32>",
+        /// Light volume dims (xyz).
+        pub volume_dims: [u32; 4] => "vec4<u32>",
+        /// Normal bias of volume lookups in metres (x), ground-blend height (y).
+        pub volume_params: [f32; 4] => "vec4<f32>",
+        /// Ground light origin x, z (xy) and spacing (z).
+        pub ground_origin: [f32; 4] => "vec4<f32>",
+        /// Ground light nodes along x, z (xy); z = 1 when ground light is set.
+        pub ground_dims: [u32; 4] => "vec4<u32>",
+        /// Lighting mode (x).
+        pub mode: [u32; 4] => "vec4<u32>",
+    }
+}
+
+crate::gpu_struct! {
+    /// Per-mesh uniforms of the mesh shader.
+    pub struct MeshUniforms {
+        /// Base colour factor (linear RGBA).
+        pub base_colour: [f32; 4] => "vec4<f32>",
+        /// Has a texture, alpha mask on, lighting kind, double-sided.
+        pub flags: [u32; 4] => "vec4<u32>",
+        /// Alpha cutoff, specular strength, shininess.
+        pub params: [f32; 4] => "vec4<f32>",
+    }
+}
+
+/// How a mesh is lit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum Lighting {
+    /// The light stored in each vertex by a sampling buffer (irradiance from the 26 bins):
+    /// stationary diffuse surfaces such as the terrain.
+    Vertex = 0,
+    /// Average light and dominant direction read per pixel from the light volume, with a
+    /// specular term from the dominant direction: moving objects, rocks, trunks.
+    Surface = 1,
+    /// Average light only (π × average), per pixel: leaves and bushes, as the seed does.
+    Foliage = 2,
+    /// The tint is the HDR colour (debug: light grid points as balls).
+    Emissive = 3,
+    /// A fixed key light on the tint (debug: material cells as cubes).
+    Flat = 4,
+}
+
+/// Whether the grids light the frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum LightingMode {
+    /// Light from the grids (sun shadowed and bounced by the sweep).
+    Grid = 0,
+    /// Without the grids: the unshadowed sun plus a constant sky ambient.
+    NoGrid = 1,
+}
+
+/// One vertex: position, normal, texture coordinate and the sampled light
+/// ([`Lighting::Vertex`] meshes read `light.xyz`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Vertex {
+    /// Model-space position.
+    pub position: [f32; 3],
+    /// Model-space normal.
+    pub normal: [f32; 3],
+    /// Texture coordinate.
+    pub uv: [f32; 2],
+    /// Irradiance (xyz) for [`Lighting::Vertex`].
+    pub light: [f32; 4],
+}
+
+/// One instance of a mesh: model matrix and a colour multiplier.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Instance {
+    /// Model to world (column major).
+    pub model: [[f32; 4]; 4],
+    /// Multiplies the base colour; for [`Lighting::Emissive`], the HDR colour.
+    pub tint: [f32; 4],
+}
+
+impl Instance {
+    /// An instance from a matrix and a tint.
+    pub fn new(model: Mat4, tint: Vec4) -> Self {
+        Self {
+            model: model.to_cols_array_2d(),
+            tint: tint.to_array(),
+        }
+    }
+}
+
+/// An RGBA8 texture in sRGB encoding (what PNG files and glTF base colours hold).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextureRgba8 {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// `width × height` texels, rows top to bottom.
+    pub texels: Vec<[u8; 4]>,
+}
+
+/// The surface of a mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshMaterial {
+    /// Base colour factor (linear RGBA).
+    pub base_colour: Vec4,
+    /// Base colour texture.
+    pub texture: Option<TextureRgba8>,
+    /// Alpha mask: fragments with alpha below this are discarded.
+    pub alpha_cutoff: Option<f32>,
+    /// How it is lit.
+    pub lighting: Lighting,
+    /// Both faces drawn, the normal flipped on the back face (leaves).
+    pub double_sided: bool,
+    /// Specular strength (0 = none) for [`Lighting::Surface`].
+    pub specular: f32,
+    /// Blinn-Phong exponent of the specular term.
+    pub shininess: f32,
+}
+
+impl Default for MeshMaterial {
+    fn default() -> Self {
+        Self {
+            base_colour: Vec4::ONE,
+            texture: None,
+            alpha_cutoff: None,
+            lighting: Lighting::Surface,
+            double_sided: false,
+            specular: 0.0,
+            shininess: 32.0,
+        }
+    }
+}
+
+/// Handle of a mesh added to a [`Renderer`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct MeshId(usize);
+
+/// A perspective camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+    /// Near plane distance.
+    pub near: f32,
+    /// Far plane distance.
+    pub far: f32,
+}
+
+impl Camera {
+    /// A camera at `position` looking at `target`, 60° field of view, 0.1 m to 5 km.
+    pub fn look_at(position: Vec3, target: Vec3) -> Self {
+        Self {
+            position,
+            target,
+            fov_y: 60f32.to_radians(),
+            near: 0.1,
+            far: 5000.0,
+        }
+    }
+
+    /// Projection × view for an aspect ratio (width / height), wgpu's depth range.
+    pub fn view_proj(&self, aspect: f32) -> Mat4 {
+        use grid_core::glam::camera::rh::{proj::directx::perspective, view::look_at_mat4};
+        // Up is Y unless the camera looks straight up or down.
+        let dir = (self.target - self.position).normalize_or_zero();
+        let up = if dir.cross(Vec3::Y).length_squared() < 1e-8 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
+        perspective(self.fov_y, aspect, self.near, self.far)
+            * look_at_mat4(self.position, self.target, up)
+    }
+
+    fn validate(&self) -> Result<(), GridError> {
+        if !(self.position.is_finite() && self.target.is_finite()) {
+            return Err(GridError::invalid(
+                "camera",
+                self.position,
+                "position and target must be finite",
+            ));
+        }
+        if (self.target - self.position).length_squared() == 0.0 {
+            return Err(GridError::invalid(
+                "camera.target",
+                self.target,
+                "must differ from the position",
+            ));
+        }
+        if !(self.fov_y > 0.0 && self.fov_y < std::f32::consts::PI) {
+            return Err(GridError::invalid(
+                "camera.fov_y",
+                self.fov_y,
+                "must be in (0, π)",
+            ));
+        }
+        if !(self.near > 0.0 && self.far > self.near && self.far.is_finite()) {
+            return Err(GridError::invalid(
+                "camera.near",
+                self.near,
+                "need 0 < near < far < ∞",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Water: light below `level` falls as `exp(-attenuation · depth)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Water {
+    /// Water surface height, metres.
+    pub level: f32,
+    /// Attenuation per metre of depth.
+    pub attenuation: f32,
+}
+
+/// What one frame shows and how.
+#[derive(Debug, Clone, PartialEq)]
+pub struct View {
+    /// The camera.
+    pub camera: Camera,
+    /// Grid light or the no-grid comparison.
+    pub mode: LightingMode,
+    /// The way sunlight travels (for [`LightingMode::NoGrid`]).
+    pub sun_direction: Vec3,
+    /// Sun irradiance facing it (for [`LightingMode::NoGrid`]).
+    pub sun_colour: Vec3,
+    /// Mean sky radiance (for [`LightingMode::NoGrid`], and the background).
+    pub sky_ambient: Vec3,
+    /// HDR multiplier before tone mapping.
+    pub exposure: f32,
+    /// Optional water.
+    pub water: Option<Water>,
+    /// Height over which objects' light blends from the ground's to their own, metres.
+    pub ground_blend: f32,
+    /// Background colour (linear HDR).
+    pub background: Vec3,
+    /// The meshes to draw.
+    pub meshes: Vec<MeshId>,
+}
+
+/// A rendered frame, read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Linear HDR RGBA, rows top to bottom.
+    pub hdr: Vec<[f32; 4]>,
+    /// Tone-mapped sRGB RGBA8.
+    pub srgb: Vec<[u8; 4]>,
+}
+
+/// Ground light for the ground blend: per heightmap node, the ground's irradiance and
+/// height.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroundLight {
+    /// World (x, z) of node (0, 0).
+    pub origin: Vec2,
+    /// Node spacing, metres.
+    pub spacing: f32,
+    /// Nodes along x.
+    pub width: u32,
+    /// Nodes along z.
+    pub depth: u32,
+    /// `(irradiance rgb, height)` per node, x fastest.
+    pub nodes: Vec<[f32; 4]>,
+}
+
+struct GpuMesh {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    bind: wgpu::BindGroup,
+    instances: Option<(wgpu::Buffer, u32)>,
+    double_sided: bool,
+}
+
+/// Draws meshes lit by light grids. Create once; add meshes, set instances, the light
+/// volume and the ground light; render views.
+pub struct Renderer {
+    ctx: Arc<GpuContext>,
+    width: u32,
+    height: u32,
+    mesh_pipelines: [wgpu::RenderPipeline; 2],
+    frame_layout: wgpu::BindGroupLayout,
+    mesh_layout: wgpu::BindGroupLayout,
+    tonemap_layout: wgpu::BindGroupLayout,
+    tonemap_module: wgpu::ShaderModule,
+    tonemap_pipelines: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    frame_uniform: wgpu::Buffer,
+    tonemap_uniform: wgpu::Buffer,
+    volume: (wgpu::Buffer, wgpu::Buffer, LightVolumeInfo),
+    ground: (wgpu::Buffer, Option<GroundInfo>),
+    frame_bind: wgpu::BindGroup,
+    sampler: wgpu::Sampler,
+    white: wgpu::TextureView,
+    targets: Targets,
+    meshes: Vec<GpuMesh>,
+}
+
+#[derive(Clone, Copy)]
+struct LightVolumeInfo {
+    origin_h: [f32; 4],
+    dims: [u32; 4],
+}
+
+#[derive(Clone, Copy)]
+struct GroundInfo {
+    origin: [f32; 4],
+    dims: [u32; 4],
+}
+
+struct Targets {
+    hdr: wgpu::Texture,
+    hdr_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    ldr: wgpu::Texture,
+    ldr_view: wgpu::TextureView,
+    tonemap_bind: wgpu::BindGroup,
+}
+
+fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl Renderer {
+    /// A renderer drawing `width × height` images.
+    pub fn new(ctx: Arc<GpuContext>, width: u32, height: u32) -> Result<Self, RenderError> {
+        let device = &ctx.device;
+        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
+                storage_entry(1),
+                storage_entry(2),
+                storage_entry(3),
+            ],
+        });
+        let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("mesh"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let tonemap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("tonemap"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("mesh"),
+            source: wgpu::ShaderSource::Wgsl(crate::wgsl::mesh_shader().into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("mesh"),
+            bind_group_layouts: &[Some(&frame_layout), Some(&mesh_layout)],
+            immediate_size: 0,
+        });
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x4];
+        let instance_attrs = wgpu::vertex_attr_array![4 => Float32x4, 5 => Float32x4, 6 => Float32x4, 7 => Float32x4, 8 => Float32x4];
+        let mesh_pipeline = |cull: Option<wgpu::Face>| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("mesh"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[
+                        Some(wgpu::VertexBufferLayout {
+                            array_stride: std::mem::size_of::<Vertex>() as u64,
+                            step_mode: wgpu::VertexStepMode::Vertex,
+                            attributes: &vertex_attrs,
+                        }),
+                        Some(wgpu::VertexBufferLayout {
+                            array_stride: std::mem::size_of::<Instance>() as u64,
+                            step_mode: wgpu::VertexStepMode::Instance,
+                            attributes: &instance_attrs,
+                        }),
+                    ],
+                },
+                primitive: wgpu::PrimitiveState {
+                    cull_mode: cull,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(HDR_FORMAT.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let mesh_pipelines = [mesh_pipeline(Some(wgpu::Face::Back)), mesh_pipeline(None)];
+        let tonemap_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tonemap"),
+            source: wgpu::ShaderSource::Wgsl(crate::wgsl::tonemap_shader().into()),
+        });
+        let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let tonemap_uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tonemap"),
+            size: 16,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let placeholder = |label| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &[0u8; 16],
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let volume = (
+            placeholder("volume average"),
+            placeholder("volume dominant"),
+            LightVolumeInfo {
+                origin_h: [0.0, 0.0, 0.0, 1.0],
+                dims: [1, 1, 1, 0],
+            },
+        );
+        let ground = (placeholder("ground"), None);
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("base colour"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let white = Self::upload_texture(
+            &ctx,
+            &TextureRgba8 {
+                width: 1,
+                height: 1,
+                texels: vec![[255; 4]],
+            },
+        )?;
+        let frame_bind =
+            Self::frame_bind_group(&ctx, &frame_layout, &frame_uniform, &volume, &ground);
+        let targets = Self::targets(&ctx, &tonemap_layout, &tonemap_uniform, width, height)?;
+        Ok(Self {
+            ctx,
+            width,
+            height,
+            mesh_pipelines,
+            frame_layout,
+            mesh_layout,
+            tonemap_layout,
+            tonemap_module,
+            tonemap_pipelines: HashMap::new(),
+            frame_uniform,
+            tonemap_uniform,
+            volume,
+            ground,
+            frame_bind,
+            sampler,
+            white,
+            targets,
+            meshes: Vec::new(),
+        })
+    }
+
+    /// The GPU context.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Image size.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Changes the image size (recreates the targets).
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
+        self.targets = Self::targets(
+            &self.ctx,
+            &self.tonemap_layout,
+            &self.tonemap_uniform,
+            width,
+            height,
+        )?;
+        self.width = width;
+        self.height = height;
+        Ok(())
+    }
+
+    fn targets(
+        ctx: &GpuContext,
+        tonemap_layout: &wgpu::BindGroupLayout,
+        tonemap_uniform: &wgpu::Buffer,
+        width: u32,
+        height: u32,
+    ) -> Result<Targets, RenderError> {
+        let max = ctx.device.limits().max_texture_dimension_2d;
+        for (field, v) in [("width", width), ("height", height)] {
+            if v == 0 || v > max {
+                return Err(GridError::invalid(
+                    field,
+                    v,
+                    "must be between 1 and the device's largest texture size",
+                )
+                .into());
+            }
+        }
+        let texture = |label, format, usage| {
+            ctx.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let attach = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+        let hdr = texture(
+            "hdr",
+            HDR_FORMAT,
+            attach | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let depth = texture(
+            "depth",
+            DEPTH_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        let ldr = texture("ldr", LDR_FORMAT, attach);
+        let hdr_view = hdr.create_view(&Default::default());
+        let tonemap_bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("tonemap"),
+            layout: tonemap_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&hdr_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: tonemap_uniform.as_entire_binding(),
+                },
+            ],
+        });
+        Ok(Targets {
+            hdr_view,
+            depth_view: depth.create_view(&Default::default()),
+            ldr_view: ldr.create_view(&Default::default()),
+            hdr,
+            ldr,
+            tonemap_bind,
+        })
+    }
+
+    fn frame_bind_group(
+        ctx: &GpuContext,
+        layout: &wgpu::BindGroupLayout,
+        uniform: &wgpu::Buffer,
+        volume: &(wgpu::Buffer, wgpu::Buffer, LightVolumeInfo),
+        ground: &(wgpu::Buffer, Option<GroundInfo>),
+    ) -> wgpu::BindGroup {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout,
+            entries: &[(0, uniform), (1, &volume.0), (2, &volume.1), (3, &ground.0)].map(
+                |(binding, b)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: b.as_entire_binding(),
+                },
+            ),
+        })
+    }
+
+    fn upload_texture(
+        ctx: &GpuContext,
+        t: &TextureRgba8,
+    ) -> Result<wgpu::TextureView, RenderError> {
+        if t.width == 0 || t.height == 0 || t.texels.len() != (t.width * t.height) as usize {
+            return Err(GridError::invalid(
+                "texture.texels.len()",
+                t.texels.len(),
+                "must be width × height (both > 0)",
+            )
+            .into());
+        }
+        let tex = ctx.device.create_texture_with_data(
+            &ctx.queue,
+            &wgpu::TextureDescriptor {
+                label: Some("base colour"),
+                size: wgpu::Extent3d {
+                    width: t.width,
+                    height: t.height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&t.texels),
+        );
+        Ok(tex.create_view(&Default::default()))
+    }
+
+    fn storage(&self, label: &'static str, data: &[u8]) -> Result<wgpu::Buffer, RenderError> {
+        let limit = self.ctx.max_binding();
+        if data.len() as u64 > limit {
+            return Err(GpuError::TooLarge {
+                what: label,
+                bytes: data.len() as u64,
+                limit,
+            }
+            .into());
+        }
+        Ok(self
+            .ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: data,
+                usage: wgpu::BufferUsages::STORAGE,
+            }))
+    }
+
+    /// Adds a mesh (drawn once per instance; see [`Renderer::set_instances`]).
+    pub fn add_mesh(
+        &mut self,
+        vertices: &[Vertex],
+        indices: &[u32],
+        material: &MeshMaterial,
+    ) -> Result<MeshId, RenderError> {
+        if vertices.is_empty() || indices.is_empty() || !indices.len().is_multiple_of(3) {
+            return Err(GridError::invalid(
+                "indices.len()",
+                indices.len(),
+                "need vertices and a non-zero multiple of 3 indices",
+            )
+            .into());
+        }
+        if let Some(i) = indices.iter().find(|&&i| i as usize >= vertices.len()) {
+            return Err(GridError::invalid("indices", i, "index past the vertices").into());
+        }
+        let finite = |v: &Vertex| {
+            v.position
+                .iter()
+                .chain(&v.normal)
+                .chain(&v.uv)
+                .chain(&v.light)
+                .all(|x| x.is_finite())
+        };
+        if let Some(v) = vertices.iter().find(|v| !finite(v)) {
+            return Err(GridError::invalid("vertices", v.position[0], "must be finite").into());
+        }
+        let device = &self.ctx.device;
+        let view = match &material.texture {
+            Some(t) => Some(Self::upload_texture(&self.ctx, t)?),
+            None => None,
+        };
+        let uniforms = MeshUniforms {
+            base_colour: material.base_colour.to_array(),
+            flags: [
+                material.texture.is_some() as u32,
+                material.alpha_cutoff.is_some() as u32,
+                material.lighting as u32,
+                material.double_sided as u32,
+            ],
+            params: [
+                material.alpha_cutoff.unwrap_or(0.0),
+                material.specular,
+                material.shininess,
+                0.0,
+            ],
+        };
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("mesh"),
+            contents: bytemuck::bytes_of(&uniforms),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("mesh"),
+            layout: &self.mesh_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(
+                        view.as_ref().unwrap_or(&self.white),
+                    ),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::Sampler(&self.sampler),
+                },
+            ],
+        });
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        self.meshes.push(GpuMesh {
+            vertices: init(
+                "vertices",
+                bytemuck::cast_slice(vertices),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            indices: init(
+                "indices",
+                bytemuck::cast_slice(indices),
+                wgpu::BufferUsages::INDEX,
+            ),
+            index_count: indices.len() as u32,
+            bind,
+            instances: None,
+            double_sided: material.double_sided,
+        });
+        Ok(MeshId(self.meshes.len() - 1))
+    }
+
+    /// Sets the instances of a mesh (replacing earlier ones; none hides it).
+    pub fn set_instances(
+        &mut self,
+        mesh: MeshId,
+        instances: &[Instance],
+    ) -> Result<(), RenderError> {
+        let Some(m) = self.meshes.get_mut(mesh.0) else {
+            return Err(GridError::invalid("mesh", mesh.0, "no such mesh").into());
+        };
+        if let Some(bad) = instances.iter().find(|i| {
+            !i.model
+                .iter()
+                .flatten()
+                .chain(&i.tint)
+                .all(|x| x.is_finite())
+        }) {
+            return Err(GridError::invalid("instances", bad.tint[0], "must be finite").into());
+        }
+        m.instances = if instances.is_empty() {
+            None
+        } else {
+            Some((
+                self.ctx
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("instances"),
+                        contents: bytemuck::cast_slice(instances),
+                        usage: wgpu::BufferUsages::VERTEX,
+                    }),
+                instances.len() as u32,
+            ))
+        };
+        Ok(())
+    }
+
+    /// Uploads the light volume that [`Lighting::Surface`] and [`Lighting::Foliage`] read.
+    pub fn set_light_volume(&mut self, volume: &LightVolume) -> Result<(), RenderError> {
+        let n = volume.desc.point_count();
+        if volume.average.len() != n || volume.dominant.len() != n {
+            return Err(GridError::invalid(
+                "volume.average.len()",
+                volume.average.len(),
+                "must equal the volume's point count",
+            )
+            .into());
+        }
+        let d = volume.desc;
+        self.volume = (
+            self.storage(
+                "light volume average",
+                bytemuck::cast_slice(&volume.average),
+            )?,
+            self.storage(
+                "light volume dominant",
+                bytemuck::cast_slice(&volume.dominant),
+            )?,
+            LightVolumeInfo {
+                origin_h: d.origin().extend(d.h()).to_array(),
+                dims: d.dims().extend(1).to_array(),
+            },
+        );
+        self.rebind();
+        Ok(())
+    }
+
+    /// Uploads the ground light used by the ground blend.
+    pub fn set_ground(&mut self, ground: &GroundLight) -> Result<(), RenderError> {
+        if ground.width == 0
+            || ground.depth == 0
+            || ground.nodes.len() != (ground.width * ground.depth) as usize
+        {
+            return Err(GridError::invalid(
+                "ground.nodes.len()",
+                ground.nodes.len(),
+                "must be width × depth (both > 0)",
+            )
+            .into());
+        }
+        if !(ground.spacing > 0.0 && ground.spacing.is_finite() && ground.origin.is_finite()) {
+            return Err(GridError::invalid(
+                "ground.spacing",
+                ground.spacing,
+                "must be finite and > 0",
+            )
+            .into());
+        }
+        self.ground = (
+            self.storage("ground light", bytemuck::cast_slice(&ground.nodes))?,
+            Some(GroundInfo {
+                origin: [ground.origin.x, ground.origin.y, ground.spacing, 0.0],
+                dims: [ground.width, ground.depth, 1, 0],
+            }),
+        );
+        self.rebind();
+        Ok(())
+    }
+
+    fn rebind(&mut self) {
+        self.frame_bind = Self::frame_bind_group(
+            &self.ctx,
+            &self.frame_layout,
+            &self.frame_uniform,
+            &self.volume,
+            &self.ground,
+        );
+    }
+
+    fn frame_uniforms(&self, view: &View) -> Result<FrameUniforms, RenderError> {
+        view.camera.validate()?;
+        if !(view.exposure.is_finite() && view.exposure > 0.0) {
+            return Err(
+                GridError::invalid("exposure", view.exposure, "must be finite and > 0").into(),
+            );
+        }
+        for (field, v) in [
+            ("sun_direction", view.sun_direction),
+            ("sun_colour", view.sun_colour),
+            ("sky_ambient", view.sky_ambient),
+            ("background", view.background),
+        ] {
+            if !v.is_finite() {
+                return Err(GridError::invalid(field, v, "must be finite").into());
+            }
+        }
+        if let Some(m) = view.meshes.iter().find(|m| m.0 >= self.meshes.len()) {
+            return Err(GridError::invalid("meshes", m.0, "no such mesh").into());
+        }
+        let (water, ground) = (
+            view.water
+                .map(|w| [w.level, w.attenuation.max(0.0), 0.0, 0.0])
+                .unwrap_or([0.0; 4]),
+            self.ground.1.unwrap_or(GroundInfo {
+                origin: [0.0, 0.0, 1.0, 0.0],
+                dims: [1, 1, 0, 0],
+            }),
+        );
+        Ok(FrameUniforms {
+            view_proj: view
+                .camera
+                .view_proj(self.width as f32 / self.height as f32)
+                .to_cols_array_2d(),
+            eye: view.camera.position.extend(1.0).to_array(),
+            sun_direction: view
+                .sun_direction
+                .normalize_or_zero()
+                .extend(0.0)
+                .to_array(),
+            sun_colour: view.sun_colour.extend(0.0).to_array(),
+            sky_ambient: view.sky_ambient.extend(0.0).to_array(),
+            water,
+            volume_origin_h: self.volume.2.origin_h,
+            volume_dims: self.volume.2.dims,
+            volume_params: [0.5 * self.volume.2.origin_h[3], view.ground_blend, 0.0, 0.0],
+            ground_origin: ground.origin,
+            ground_dims: ground.dims,
+            mode: [view.mode as u32, 0, 0, 0],
+        })
+    }
+
+    fn tonemap_pipeline(&mut self, format: wgpu::TextureFormat) -> &wgpu::RenderPipeline {
+        let (device, layout, module) =
+            (&self.ctx.device, &self.tonemap_layout, &self.tonemap_module);
+        self.tonemap_pipelines.entry(format).or_insert_with(|| {
+            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("tonemap"),
+                bind_group_layouts: &[Some(layout)],
+                immediate_size: 0,
+            });
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("tonemap"),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(format.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        })
+    }
+
+    /// Draws `view` into the HDR target and tone-maps it into `target` (a texture view of
+    /// `format`, e.g. a window's surface, sized like the renderer).
+    pub fn render_to(
+        &mut self,
+        view: &View,
+        target: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+    ) -> Result<(), RenderError> {
+        let uniforms = self.frame_uniforms(view)?;
+        self.ctx
+            .queue
+            .write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniforms));
+        self.ctx.queue.write_buffer(
+            &self.tonemap_uniform,
+            0,
+            bytemuck::bytes_of(&[view.exposure, 0.0, 0.0, 0.0]),
+        );
+        self.tonemap_pipeline(format);
+        let tonemap = &self.tonemap_pipelines[&format];
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let bg = view.background;
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("meshes"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &self.targets.hdr_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: bg.x as f64,
+                            g: bg.y as f64,
+                            b: bg.z as f64,
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.targets.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                ..Default::default()
+            });
+            pass.set_bind_group(0, &self.frame_bind, &[]);
+            for id in &view.meshes {
+                let m = &self.meshes[id.0];
+                let Some((instances, count)) = &m.instances else {
+                    continue;
+                };
+                // Double-sided meshes use the pipeline without culling.
+                let pipeline = &self.mesh_pipelines[m.double_sided as usize];
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(1, &m.bind, &[]);
+                pass.set_vertex_buffer(0, m.vertices.slice(..));
+                pass.set_vertex_buffer(1, instances.slice(..));
+                pass.set_index_buffer(m.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..m.index_count, 0, 0..*count);
+            }
+        }
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("tonemap"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                ..Default::default()
+            });
+            pass.set_pipeline(tonemap);
+            pass.set_bind_group(0, &self.targets.tonemap_bind, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        self.ctx.queue.submit([enc.finish()]);
+        Ok(())
+    }
+
+    /// Draws `view` headless and reads back the HDR and sRGB images.
+    pub fn render(&mut self, view: &View) -> Result<Image, RenderError> {
+        let ldr_view = self.targets.ldr_view.clone();
+        self.render_to(view, &ldr_view, LDR_FORMAT)?;
+        let hdr: Vec<[f32; 4]> =
+            bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.hdr, 16)?);
+        let srgb: Vec<[u8; 4]> =
+            bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.ldr, 4)?);
+        Ok(Image {
+            width: self.width,
+            height: self.height,
+            hdr: hdr
+                .into_iter()
+                .map(|p| p.map(|c| if c.is_finite() { c } else { 0.0 }))
+                .collect(),
+            srgb,
+        })
+    }
+
+    fn read_texture(&self, tex: &wgpu::Texture, bpp: u32) -> Result<Vec<u8>, GpuError> {
+        let row = self.width * bpp;
+        let padded =
+            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("image readback"),
+            size: (padded * self.height) as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        enc.copy_texture_to_buffer(
+            tex.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(self.height),
+                },
+            },
+            tex.size(),
+        );
+        self.ctx.queue.submit([enc.finish()]);
+        let bytes = self.ctx.read_back(&buffer)?;
+        Ok(bytes
+            .chunks(padded as usize)
+            .flat_map(|r| &r[..row as usize])
+            .copied()
+            .collect())
+    }
+}

@@ -1,0 +1,363 @@
+//! Light sampling buffers: a batch of points (with or without normals) in, light out, in
+//! one call. The CPU path reads any [`LightField`] (a single grid or the whole
+//! hierarchy); the GPU path ([`crate::GpuLightSampler`]) reads one grid, as the seed's
+//! per-node sampling buffers do, and gives the same numbers (checked in
+//! `tests/gpu_sampler.rs`).
+//!
+//! Irradiance on a normal from the 26 bins is `Σ_d L_d K_d(n)` with `K_d(n) = ∫_{bin d}
+//! max(0, -n·t) dt / ω_d` (exact in [`grid_core::BinLight::irradiance`]). Evaluating `K`
+//! exactly clips 26 spherical polygons, so both samplers read it from an
+//! [`IrradianceTable`]: `K` at the nodes of a 128 × 128 octahedral map of normals,
+//! interpolated bilinearly (1.7 MB). Its error against the exact kernel is at most 0.9 %
+//! of the total light `Σ_d L_d` (measured worst case 0.82 %, for light in one bin at a
+//! normal where the hemisphere's edge crosses the bin; the kernel has kinks there, so
+//! the error halves, not quarters, with each doubling of the table).
+
+use std::sync::OnceLock;
+
+use grid_core::glam::{DVec3, Vec2, Vec3};
+use grid_core::{BinLight, GridDesc, GridError, LightField, NUM_DIRS, dirs};
+use rayon::prelude::*;
+
+/// Light read at one point.
+#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub struct SampledLight {
+    /// Irradiance on the point's normal (if it had one), else the average light.
+    pub light: Vec3,
+    /// Unused (keeps the GPU layout, two `vec4`s a point).
+    pub _pad0: f32,
+    /// The dominant direction of the light (travel direction; length = how directional).
+    pub dominant: Vec3,
+    /// Unused.
+    pub _pad1: f32,
+}
+
+/// Points to light: positions, and optionally one normal per position.
+#[derive(Debug, Clone, Copy)]
+pub struct SamplePoints<'a> {
+    /// World positions.
+    pub positions: &'a [Vec3],
+    /// Unit normals, one per position (irradiance is returned), or `None` (average light).
+    pub normals: Option<&'a [Vec3]>,
+}
+
+impl SamplePoints<'_> {
+    /// Checks lengths and values: finite positions, finite non-zero normals.
+    pub fn validate(&self) -> Result<(), GridError> {
+        if let Some(n) = self.normals
+            && n.len() != self.positions.len()
+        {
+            return Err(GridError::invalid(
+                "normals.len()",
+                n.len(),
+                "must equal positions.len()",
+            ));
+        }
+        if let Some(p) = self.positions.iter().find(|p| !p.is_finite()) {
+            return Err(GridError::invalid("positions", p, "must be finite"));
+        }
+        if let Some(n) = self
+            .normals
+            .unwrap_or(&[])
+            .iter()
+            .find(|n| !n.is_finite() || n.length_squared() == 0.0)
+        {
+            return Err(GridError::invalid(
+                "normals",
+                n,
+                "must be finite and non-zero",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Lights every point from `field`, in parallel: irradiance (from the [`IrradianceTable`])
+/// where a normal is given, read with the normal bias; average light otherwise; and the
+/// dominant direction. No NaN or infinity comes out (non-finite light in a field is an
+/// error of the field's own checks).
+pub fn sample_points<F: LightField + Sync + ?Sized>(
+    field: &F,
+    points: SamplePoints<'_>,
+) -> Result<Vec<SampledLight>, GridError> {
+    points.validate()?;
+    let table = IrradianceTable::get();
+    (0..points.positions.len())
+        .into_par_iter()
+        .map(|i| {
+            let p = points.positions[i];
+            let n = points.normals.map(|n| n[i]);
+            let bins = field.light(p, n)?;
+            let light = match n {
+                Some(n) => table.irradiance(&bins, n),
+                None => bins.average(),
+            };
+            Ok(SampledLight {
+                light: finite_or_zero(light),
+                dominant: bins.dominant(),
+                ..Default::default()
+            })
+        })
+        .collect()
+}
+
+fn finite_or_zero(v: Vec3) -> Vec3 {
+    if v.is_finite() { v } else { Vec3::ZERO }
+}
+
+/// Octahedral encoding of a unit vector into `[0, 1]²` (the usual fold of the lower
+/// hemisphere onto the square's corners).
+pub fn octahedral_encode(n: Vec3) -> Vec2 {
+    let n = n / (n.x.abs() + n.y.abs() + n.z.abs());
+    let p = if n.y >= 0.0 {
+        Vec2::new(n.x, n.z)
+    } else {
+        let s = Vec2::new(n.x.signum(), n.z.signum());
+        (Vec2::ONE - Vec2::new(n.z.abs(), n.x.abs())) * s
+    };
+    p * 0.5 + Vec2::splat(0.5)
+}
+
+/// Inverse of [`octahedral_encode`].
+pub fn octahedral_decode(uv: Vec2) -> Vec3 {
+    let f = uv * 2.0 - Vec2::ONE;
+    let y = 1.0 - f.x.abs() - f.y.abs();
+    let t = (-y).max(0.0);
+    let x = f.x - t * f.x.signum();
+    let z = f.y - t * f.y.signum();
+    Vec3::new(x, y, z).normalize()
+}
+
+/// The irradiance kernel `K_d(n)` tabulated on an octahedral map of normals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IrradianceTable {
+    /// Nodes per side.
+    pub size: u32,
+    /// `K_d` at node `(i, j)`: `weights[(j * size + i) * 26 + d]`; node `(i, j)` is the
+    /// normal `octahedral_decode((i, j) / (size - 1))`.
+    pub weights: Vec<f32>,
+}
+
+impl IrradianceTable {
+    /// Nodes per side of the shared table.
+    pub const SIZE: u32 = 128;
+
+    /// The shared table (built once, in about 50 ms).
+    pub fn get() -> &'static IrradianceTable {
+        static T: OnceLock<IrradianceTable> = OnceLock::new();
+        T.get_or_init(|| Self::build(Self::SIZE))
+    }
+
+    /// Tabulates the exact kernel at `size × size` normals (`size >= 2`).
+    pub fn build(size: u32) -> Self {
+        let size = size.max(2);
+        let omega = &dirs::bins().omega;
+        let mut weights = vec![0.0; (size * size) as usize * NUM_DIRS];
+        weights
+            .par_chunks_mut(NUM_DIRS)
+            .enumerate()
+            .for_each(|(k, w)| {
+                let (i, j) = (k as u32 % size, k as u32 / size);
+                let uv = Vec2::new(i as f32, j as f32) / (size - 1) as f32;
+                let n: DVec3 = octahedral_decode(uv).as_dvec3();
+                for d in 0..NUM_DIRS {
+                    w[d] = (dirs::clipped_cosine(d, -n) / omega[d]) as f32;
+                }
+            });
+        Self { size, weights }
+    }
+
+    /// Irradiance of `bins` on the normal `n` (any non-zero length), interpolating the
+    /// table bilinearly. The GPU sampler does the same arithmetic.
+    pub fn irradiance(&self, bins: &BinLight, n: Vec3) -> Vec3 {
+        let g = octahedral_encode(n.normalize()) * (self.size - 1) as f32;
+        let max = self.size - 2;
+        let base = g.floor().as_uvec2().min(grid_core::glam::UVec2::splat(max));
+        let f = (g - base.as_vec2()).clamp(Vec2::ZERO, Vec2::ONE);
+        let mut e = Vec3::ZERO;
+        for (dx, dy, w) in [
+            (0, 0, (1.0 - f.x) * (1.0 - f.y)),
+            (1, 0, f.x * (1.0 - f.y)),
+            (0, 1, (1.0 - f.x) * f.y),
+            (1, 1, f.x * f.y),
+        ] {
+            let node = ((base.y + dy) * self.size + base.x + dx) as usize * NUM_DIRS;
+            let k = &self.weights[node..node + NUM_DIRS];
+            for d in 0..NUM_DIRS {
+                e += bins.0[d] * (k[d] * w);
+            }
+        }
+        e
+    }
+}
+
+/// Average light and dominant direction on a regular grid, resampled from any light
+/// field: what moving objects and foliage read per pixel (uploaded by the renderer).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightVolume {
+    /// Where the points are.
+    pub desc: GridDesc,
+    /// Per point (x fastest, then z, then y): average light in `xyz`, `w` unused.
+    pub average: Vec<[f32; 4]>,
+    /// Per point: dominant direction in `xyz`, `w` unused.
+    pub dominant: Vec<[f32; 4]>,
+}
+
+impl LightVolume {
+    /// Samples `field` at every point of `desc`.
+    pub fn from_field<F: LightField + Sync + ?Sized>(
+        field: &F,
+        desc: GridDesc,
+    ) -> Result<Self, GridError> {
+        let positions: Vec<Vec3> = (0..desc.point_count())
+            .map(|i| desc.position(desc.coords(i).expect("index in range")))
+            .collect();
+        let s = sample_points(
+            field,
+            SamplePoints {
+                positions: &positions,
+                normals: None,
+            },
+        )?;
+        Ok(Self {
+            desc,
+            average: s.iter().map(|s| s.light.extend(0.0).to_array()).collect(),
+            dominant: s
+                .iter()
+                .map(|s| s.dominant.extend(0.0).to_array())
+                .collect(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use grid_core::glam::UVec3;
+    use grid_core::{Grid, LightGrid};
+    use proptest::prelude::*;
+
+    #[test]
+    fn octahedral_round_trip() {
+        for i in 0..500 {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / 500.0;
+            let r = (1.0 - y * y).sqrt();
+            let phi = i as f32 * 2.399_963;
+            let n = Vec3::new(r * phi.cos(), y, r * phi.sin());
+            let back = octahedral_decode(octahedral_encode(n));
+            assert!((back - n).length() < 1e-5, "{n} {back}");
+        }
+    }
+
+    #[test]
+    fn table_nodes_are_exact() {
+        let t = IrradianceTable::build(8);
+        let mut b = BinLight::uniform(Vec3::splat(0.2));
+        b.0[5] = Vec3::new(3.0, 1.0, 0.0);
+        for j in 0..8 {
+            for i in 0..8 {
+                let n = octahedral_decode(Vec2::new(i as f32, j as f32) / 7.0);
+                let (a, e) = (t.irradiance(&b, n), b.irradiance(n));
+                assert!((a - e).abs().max_element() < 1e-4 * e.max_element().max(1.0));
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// The table's error against the exact kernel, for random light and normals, is
+        /// below 0.9 % of the total light.
+        #[test]
+        fn table_matches_exact_irradiance(
+            light in proptest::collection::vec(0.0f32..10.0, NUM_DIRS),
+            peak in 0usize..NUM_DIRS,
+            nx in -1.0f32..1.0, ny in -1.0f32..1.0, nz in -1.0f32..1.0,
+        ) {
+            let n = Vec3::new(nx, ny, nz);
+            prop_assume!(n.length() > 0.1);
+            let mut b = BinLight(std::array::from_fn(|d| Vec3::splat(light[d])));
+            b.0[peak] *= 50.0;
+            let t = IrradianceTable::get();
+            let (a, e) = (t.irradiance(&b, n).x, b.irradiance(n).x);
+            let total = b.total().x;
+            prop_assert!((a - e).abs() <= 9e-3 * total, "table {a} exact {e} total {total}");
+        }
+    }
+
+    #[test]
+    fn worst_case_table_error_is_light_in_one_bin() {
+        let t = IrradianceTable::get();
+        let mut worst: f32 = 0.0;
+        for d in 0..NUM_DIRS {
+            let b = BinLight::single(d, Vec3::ONE);
+            for i in 0..2000 {
+                let y = 1.0 - 2.0 * (i as f32 + 0.5) / 2000.0;
+                let r = (1.0 - y * y).sqrt();
+                let phi = i as f32 * 2.399_963;
+                let n = Vec3::new(r * phi.cos(), y, r * phi.sin());
+                worst = worst.max((t.irradiance(&b, n).x - b.irradiance(n).x).abs());
+            }
+        }
+        // Measured 0.0082 with 4000 normals; the bound the docs state is 0.009.
+        assert!(worst < 9e-3 && worst > 1e-3, "worst {worst}");
+    }
+
+    #[test]
+    fn sampling_a_grid_matches_its_own_lookups() {
+        let desc = GridDesc::new(Vec3::ZERO, 0.5, UVec3::new(3, 4, 5)).unwrap();
+        let data = (0..desc.point_count())
+            .map(|i| {
+                let mut b = BinLight::uniform(Vec3::splat(0.1 + i as f32 * 0.01));
+                b.0[i % NUM_DIRS] += Vec3::new(1.0, 0.5, 0.25);
+                b
+            })
+            .collect();
+        let grid: LightGrid = Grid::from_trusted(desc, data);
+        let positions = [Vec3::new(0.3, 0.7, 1.1), Vec3::new(0.9, 1.4, 0.2)];
+        let normals = [Vec3::Y, Vec3::new(1.0, 0.0, 1.0)];
+        let with = sample_points(
+            &grid,
+            SamplePoints {
+                positions: &positions,
+                normals: Some(&normals),
+            },
+        )
+        .unwrap();
+        let without = sample_points(
+            &grid,
+            SamplePoints {
+                positions: &positions,
+                normals: None,
+            },
+        )
+        .unwrap();
+        for i in 0..2 {
+            let exact = grid.irradiance(positions[i], normals[i]).unwrap();
+            let total = grid.sample(positions[i]).unwrap().total();
+            assert!((with[i].light - exact).abs().max_element() < 9e-3 * total.max_element());
+            assert_eq!(without[i].light, grid.average(positions[i]).unwrap());
+            assert_eq!(
+                without[i].dominant,
+                grid.sample(positions[i]).unwrap().dominant()
+            );
+        }
+        let bad = sample_points(
+            &grid,
+            SamplePoints {
+                positions: &positions,
+                normals: Some(&normals[..1]),
+            },
+        );
+        assert!(bad.unwrap_err().to_string().contains("normals.len()"));
+        let nan = [Vec3::NAN];
+        let bad = sample_points(
+            &grid,
+            SamplePoints {
+                positions: &nan,
+                normals: None,
+            },
+        );
+        assert!(bad.unwrap_err().to_string().contains("positions"));
+    }
+}

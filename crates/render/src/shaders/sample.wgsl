@@ -1,0 +1,95 @@
+// The light sampling buffer on the GPU: render::sampling::sample_points for one grid.
+
+@group(0) @binding(0) var<uniform> params: SampleParams;
+// 26 RGB bins a point (78 floats), grid order.
+@group(0) @binding(1) var<storage, read> bins: array<f32>;
+// Two vec4 a point: (position, has_normal), (normal, 0).
+@group(0) @binding(2) var<storage, read> points: array<vec4<f32>>;
+// render::sampling::IrradianceTable::weights.
+@group(0) @binding(3) var<storage, read> table: array<f32>;
+// Two vec4 a point: (light, 0), (dominant, 0).
+@group(0) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
+
+// render::sampling::octahedral_encode
+fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
+    let n = n_in / (abs(n_in.x) + abs(n_in.y) + abs(n_in.z));
+    var p = vec2<f32>(n.x, n.z);
+    if (n.y < 0.0) {
+        let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), vec2<f32>(n.x, n.z) >= vec2<f32>(0.0));
+        p = (vec2<f32>(1.0) - vec2<f32>(abs(n.z), abs(n.x))) * s;
+    }
+    return p * 0.5 + vec2<f32>(0.5);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= params.count) {
+        return;
+    }
+    let head = points[2u * i];
+    let has_normal = head.w > 0.5;
+    var n = vec3<f32>(0.0, 1.0, 0.0);
+    var p = head.xyz;
+    if (has_normal) {
+        n = normalize(points[2u * i + 1u].xyz);
+        p = p + n * (0.5 * params.origin_h.w);
+    }
+    let dims = params.dims.xyz;
+    let t = trilinear(dims, (p - params.origin_h.xyz) / params.origin_h.w);
+    var acc: array<vec3<f32>, 26>;
+    for (var d = 0u; d < NUM_DIRS; d++) {
+        acc[d] = vec3<f32>(0.0);
+    }
+    for (var c = 0u; c < 8u; c++) {
+        let w = corner_weight(t, c);
+        if (w != 0.0) {
+            let base = grid_index(dims, corner(t, c)) * 78u;
+            for (var d = 0u; d < NUM_DIRS; d++) {
+                let o = base + 3u * d;
+                acc[d] += vec3<f32>(bins[o], bins[o + 1u], bins[o + 2u]) * w;
+            }
+        }
+    }
+    var light = vec3<f32>(0.0);
+    if (has_normal) {
+        let size = params.dims.w;
+        let g = octahedral_encode(n) * f32(size - 1u);
+        let b = min(vec2<u32>(floor(g)), vec2<u32>(size - 2u));
+        let f = clamp(g - vec2<f32>(b), vec2<f32>(0.0), vec2<f32>(1.0));
+        for (var k = 0u; k < 4u; k++) {
+            let dx = k & 1u;
+            let dy = k >> 1u;
+            let wx = select(1.0 - f.x, f.x, dx == 1u);
+            let wy = select(1.0 - f.y, f.y, dy == 1u);
+            let w = wx * wy;
+            let node = ((b.y + dy) * size + b.x + dx) * NUM_DIRS;
+            for (var d = 0u; d < NUM_DIRS; d++) {
+                light += acc[d] * (table[node + d] * w);
+            }
+        }
+    } else {
+        for (var d = 0u; d < NUM_DIRS; d++) {
+            light += acc[d];
+        }
+        light = light / (4.0 * PI);
+    }
+    var dom = vec3<f32>(0.0);
+    var sum = 0.0;
+    for (var d = 0u; d < NUM_DIRS; d++) {
+        let l = luminance(acc[d]);
+        dom += DIR_UNIT[d] * l;
+        sum += l;
+    }
+    if (sum > 0.0) {
+        dom = dom / sum;
+        let len = length(dom);
+        if (len > 1.0) {
+            dom = dom / len;
+        }
+    } else {
+        dom = vec3<f32>(0.0);
+    }
+    out[2u * i] = vec4<f32>(light, 0.0);
+    out[2u * i + 1u] = vec4<f32>(dom, 0.0);
+}

@@ -1,0 +1,99 @@
+//! WGSL sources. Every struct and constant the shaders share with Rust is generated here
+//! from one Rust declaration ([`gpu_struct!`](crate::gpu_struct) writes the Rust struct
+//! and its WGSL text together; a naga test compares the two layouts); the direction
+//! tables come from `grid-core` through `sweep_gpu::wgsl::prelude`.
+
+use std::fmt::Write;
+
+use crate::gpu::SampleParams;
+use crate::raster::{FrameUniforms, MeshUniforms};
+
+/// Defines a `#[repr(C)]` plain-old-data struct and its WGSL declaration from one list of
+/// fields (`name: RustType => "wgsl type"`).
+#[macro_export]
+macro_rules! gpu_struct {
+    ($(#[$m:meta])* pub struct $name:ident { $( $(#[$fm:meta])* pub $f:ident : $ty:ty => $wgsl:literal ),* $(,)? }) => {
+        $(#[$m])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+        pub struct $name { $( $(#[$fm])* pub $f: $ty ),* }
+
+        impl $name {
+            /// The WGSL declaration of this struct (generated from the Rust one).
+            pub fn wgsl() -> String {
+                let mut s = format!("struct {} {{\n", stringify!($name));
+                $( s.push_str(&format!("    {}: {},\n", stringify!($f), $wgsl)); )*
+                s.push_str("}\n");
+                s
+            }
+            /// Field names and byte offsets in Rust (compared with naga's in a test).
+            pub fn offsets() -> Vec<(&'static str, usize)> {
+                vec![$( (stringify!($f), std::mem::offset_of!($name, $f)) ),*]
+            }
+        }
+    };
+}
+
+/// Constants every render shader shares: π, luminance weights, direction tables.
+pub fn prelude() -> String {
+    let mut s = sweep_gpu::wgsl::prelude();
+    let _ = writeln!(s, "const PI: f32 = {:?};", std::f32::consts::PI);
+    let l = grid_core::LUMA;
+    let _ = writeln!(
+        s,
+        "const LUMA: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});",
+        l[0], l[1], l[2]
+    );
+    let _ = writeln!(
+        s,
+        "const LIGHTING_VERTEX: u32 = {}u;\nconst LIGHTING_SURFACE: u32 = {}u;\nconst LIGHTING_FOLIAGE: u32 = {}u;\nconst LIGHTING_EMISSIVE: u32 = {}u;\nconst LIGHTING_FLAT: u32 = {}u;",
+        crate::Lighting::Vertex as u32,
+        crate::Lighting::Surface as u32,
+        crate::Lighting::Foliage as u32,
+        crate::Lighting::Emissive as u32,
+        crate::Lighting::Flat as u32,
+    );
+    let _ = writeln!(
+        s,
+        "const MODE_GRID: u32 = {}u;\nconst MODE_NO_GRID: u32 = {}u;",
+        crate::LightingMode::Grid as u32,
+        crate::LightingMode::NoGrid as u32
+    );
+    s.push_str(include_str!("shaders/common.wgsl"));
+    s
+}
+
+/// The light sampling compute kernel.
+pub fn sample_kernel() -> String {
+    format!(
+        "{}\n{}\n{}",
+        prelude(),
+        SampleParams::wgsl(),
+        include_str!("shaders/sample.wgsl")
+    )
+}
+
+/// The mesh shader (terrain, instanced meshes, debug views).
+pub fn mesh_shader() -> String {
+    format!(
+        "{}\n{}\n{}\n{}",
+        prelude(),
+        FrameUniforms::wgsl(),
+        MeshUniforms::wgsl(),
+        include_str!("shaders/mesh.wgsl")
+    )
+}
+
+/// The tone-mapping pass (HDR to sRGB).
+pub fn tonemap_shader() -> String {
+    format!("{}\n{}", prelude(), include_str!("shaders/tonemap.wgsl"))
+}
+
+/// Every complete shader, by name (for validation).
+pub fn all() -> Vec<(&'static str, String)> {
+    vec![
+        ("sample_kernel", sample_kernel()),
+        ("mesh_shader", mesh_shader()),
+        ("tonemap_shader", tonemap_shader()),
+    ]
+}

@@ -1,0 +1,355 @@
+//! The GPU sampling buffer equals the CPU one, and the rasteriser's shading gives known
+//! answers (render::shading is the specification). Runs on any adapter (lavapipe in CI);
+//! fails without one unless LIGHTGRID_ALLOW_NO_GPU=1.
+
+use std::f32::consts::PI;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use grid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
+use grid_core::{BinLight, Grid, GridDesc, LightGrid, NUM_DIRS};
+use render::shading::{linear_to_srgb8, tonemap_aces};
+use render::{
+    Camera, GpuLightSampler, GroundLight, Instance, LightVolume, Lighting, LightingMode,
+    MeshMaterial, Renderer, SamplePoints, TextureRgba8, Vertex, View, Water, sample_points,
+};
+use sweep_gpu::GpuContext;
+
+fn context() -> Option<Arc<GpuContext>> {
+    static C: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
+    C.get_or_init(|| {
+        GpuContext::new_or_opt_out()
+            .unwrap_or_else(|e| {
+                panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
+            })
+            .map(Arc::new)
+    })
+    .clone()
+}
+
+/// A grid whose bins vary with position and direction (every value distinct, > 0).
+fn test_grid() -> LightGrid {
+    let desc = GridDesc::new(Vec3::new(-1.0, 0.5, 2.0), 0.75, UVec3::new(5, 4, 3)).unwrap();
+    let data = (0..desc.point_count())
+        .map(|i| {
+            BinLight(std::array::from_fn(|d| {
+                let x = (i * 31 + d * 17) % 23;
+                Vec3::new(0.1 + x as f32, 0.5 + (d % 5) as f32, 0.2 + (i % 7) as f32) * 0.1
+            }))
+        })
+        .collect();
+    Grid::from_trusted(desc, data)
+}
+
+#[test]
+fn gpu_sampler_equals_cpu_sampler() {
+    let Some(ctx) = context() else { return };
+    let sampler = GpuLightSampler::new(ctx);
+    let grid = test_grid();
+    // Points inside, on the edges and outside (clamped), with odd normals.
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for i in 0..500 {
+        let t = i as f32;
+        positions.push(Vec3::new(
+            -1.5 + (t * 0.37) % 4.5,
+            0.2 + (t * 0.53) % 3.0,
+            1.8 + (t * 0.29) % 2.0,
+        ));
+        normals.push(Vec3::new(
+            (t * 1.3).sin(),
+            (t * 0.7).cos(),
+            (t * 2.1).sin() + 0.01,
+        ));
+    }
+    for with_normals in [false, true] {
+        let pts = SamplePoints {
+            positions: &positions,
+            normals: with_normals.then_some(&normals[..]),
+        };
+        let cpu = sample_points(&grid, pts).unwrap();
+        let gpu = sampler.sample(&grid, pts).unwrap();
+        assert_eq!(cpu.len(), gpu.len());
+        for (i, (c, g)) in cpu.iter().zip(&gpu).enumerate() {
+            assert!(
+                c.light.min_element() > 0.0,
+                "point {i}: light must be non-zero here"
+            );
+            let tol = 1e-5 * c.light.abs().max_element() + 1e-6;
+            assert!(
+                (c.light - g.light).abs().max_element() <= tol,
+                "normals {with_normals} point {i}: cpu {} gpu {}",
+                c.light,
+                g.light
+            );
+            assert!(
+                (c.dominant - g.dominant).abs().max_element() <= 1e-5,
+                "point {i}: cpu {} gpu {}",
+                c.dominant,
+                g.dominant
+            );
+        }
+    }
+    // Empty batches and bad input.
+    let none = SamplePoints {
+        positions: &[],
+        normals: None,
+    };
+    assert!(sampler.sample(&grid, none).unwrap().is_empty());
+    let bad = [Vec3::ZERO];
+    let err = sampler
+        .sample(
+            &grid,
+            SamplePoints {
+                positions: &positions[..1],
+                normals: Some(&bad),
+            },
+        )
+        .unwrap_err();
+    assert!(err.to_string().contains("normals"), "{err}");
+    assert_eq!(NUM_DIRS, 26);
+}
+
+const SIZE: u32 = 32;
+
+/// One renderer for the binary (pipelines compile once), behind a lock.
+fn renderer() -> Option<&'static Mutex<Renderer>> {
+    static R: OnceLock<Option<Mutex<Renderer>>> = OnceLock::new();
+    R.get_or_init(|| context().map(|c| Mutex::new(Renderer::new(c, SIZE, SIZE).unwrap())))
+        .as_ref()
+}
+
+/// A horizontal square at height `y`, 20 m wide, normal up, every vertex lit by `light`.
+fn quad(y: f32, light: Vec3) -> (Vec<Vertex>, Vec<u32>) {
+    let v = |x: f32, z: f32, u: f32, w: f32| Vertex {
+        position: [x, y, z],
+        normal: [0.0, 1.0, 0.0],
+        uv: [u, w],
+        light: light.extend(1.0).to_array(),
+    };
+    (
+        vec![
+            v(-10.0, -10.0, 0.0, 0.0),
+            v(10.0, -10.0, 1.0, 0.0),
+            v(10.0, 10.0, 1.0, 1.0),
+            v(-10.0, 10.0, 0.0, 1.0),
+        ],
+        // Counter-clockwise seen from above.
+        vec![0, 2, 1, 0, 3, 2],
+    )
+}
+
+fn view(mode: LightingMode, meshes: Vec<render::MeshId>) -> View {
+    View {
+        camera: Camera::look_at(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO),
+        mode,
+        sun_direction: Vec3::NEG_Y,
+        sun_colour: Vec3::new(2.0, 1.5, 1.0),
+        sky_ambient: Vec3::new(0.1, 0.2, 0.3),
+        exposure: 0.7,
+        water: None,
+        ground_blend: 0.0,
+        background: Vec3::new(9.0, 9.0, 9.0),
+        meshes,
+    }
+}
+
+fn add_quad(r: &mut Renderer, y: f32, light: Vec3, material: MeshMaterial) -> render::MeshId {
+    let (v, i) = quad(y, light);
+    let id = r.add_mesh(&v, &i, &material).unwrap();
+    r.set_instances(id, &[Instance::new(Mat4::IDENTITY, Vec4::ONE)])
+        .unwrap();
+    id
+}
+
+fn assert_all_pixels(img: &render::Image, expected: Vec3, what: &str) {
+    for (i, p) in img.hdr.iter().enumerate() {
+        let got = Vec3::new(p[0], p[1], p[2]);
+        assert!(
+            (got - expected).abs().max_element() <= 1e-5 * expected.max_element().max(1.0),
+            "{what}: pixel {i} = {got}, expected {expected}"
+        );
+    }
+}
+
+#[test]
+fn vertex_light_and_tone_mapping_give_known_answers() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let albedo = Vec4::new(0.5, 0.25, 1.0, 1.0);
+    let e = Vec3::new(2.0, 4.0, 0.5) * PI;
+    let id = add_quad(
+        &mut r,
+        0.0,
+        e,
+        MeshMaterial {
+            base_colour: albedo,
+            lighting: Lighting::Vertex,
+            ..Default::default()
+        },
+    );
+    let img = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
+    // Lambert: albedo × E / π.
+    assert_all_pixels(&img, albedo.truncate() * e / PI, "vertex light");
+    // The sRGB image is the CPU tone map of the HDR one, within one code.
+    for (h, s) in img.hdr.iter().zip(&img.srgb) {
+        let t = tonemap_aces(Vec3::new(h[0], h[1], h[2]) * 0.7);
+        for c in 0..3 {
+            let want = linear_to_srgb8(t[c]) as i32;
+            assert!((s[c] as i32 - want).abs() <= 1, "{s:?} vs {t}");
+        }
+    }
+    // Without the grid: the unshadowed sun plus π × sky ambient.
+    let img = r.render(&view(LightingMode::NoGrid, vec![id])).unwrap();
+    let v = view(LightingMode::NoGrid, vec![]);
+    let e = v.sun_colour + PI * v.sky_ambient;
+    assert_all_pixels(&img, albedo.truncate() * e / PI, "no grid");
+    // Nothing drawn: the background.
+    let img = r.render(&view(LightingMode::Grid, vec![])).unwrap();
+    assert_all_pixels(&img, Vec3::splat(9.0), "background");
+}
+
+fn uniform_volume(average: Vec3, dominant: Vec3) -> LightVolume {
+    let desc = GridDesc::new(Vec3::new(-20.0, -5.0, -20.0), 5.0, UVec3::new(9, 4, 9)).unwrap();
+    let n = desc.point_count();
+    LightVolume {
+        desc,
+        average: vec![average.extend(0.0).to_array(); n],
+        dominant: vec![dominant.extend(0.0).to_array(); n],
+    }
+}
+
+#[test]
+fn volume_light_ground_blend_and_water_give_known_answers() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let avg = Vec3::new(0.4, 0.8, 1.2);
+    // Light arriving from straight above, half directional.
+    let dom = Vec3::NEG_Y * 0.5;
+    r.set_light_volume(&uniform_volume(avg, dom)).unwrap();
+    let surface = add_quad(
+        &mut r,
+        1.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            lighting: Lighting::Surface,
+            ..Default::default()
+        },
+    );
+    let foliage = add_quad(
+        &mut r,
+        1.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            lighting: Lighting::Foliage,
+            ..Default::default()
+        },
+    );
+    // Surface: the average + dominant model, E = π avg (1 - s) + 4π avg s cos.
+    let img = r.render(&view(LightingMode::Grid, vec![surface])).unwrap();
+    let e = render::shading::irradiance_average_dominant(avg, dom, Vec3::Y);
+    assert!((e - avg * (PI * 0.5 + 2.0 * PI)).abs().max_element() < 1e-5);
+    assert_all_pixels(&img, e / PI, "surface");
+    // Foliage: π × average, whatever the normal.
+    let img = r.render(&view(LightingMode::Grid, vec![foliage])).unwrap();
+    assert_all_pixels(&img, avg, "foliage");
+    // Ground blend: the quad is 0.5 m above a ground at 0.5 m lit with E_g; with a blend
+    // height of 1 m the share of the object's own light is smoothstep(0.5) = 0.5.
+    let eg = Vec3::new(3.0, 0.0, 1.0);
+    r.set_ground(&GroundLight {
+        origin: Vec2::splat(-30.0),
+        spacing: 10.0,
+        width: 7,
+        depth: 7,
+        nodes: vec![eg.extend(0.5).to_array(); 49],
+    })
+    .unwrap();
+    let mut v = view(LightingMode::Grid, vec![foliage]);
+    v.ground_blend = 1.0;
+    let img = r.render(&v).unwrap();
+    assert_all_pixels(&img, (eg * 0.5 + PI * avg * 0.5) / PI, "ground blend");
+    // Under 2 m of water with attenuation 0.3 per metre.
+    v.ground_blend = 0.0;
+    v.water = Some(Water {
+        level: 3.0,
+        attenuation: 0.3,
+    });
+    let img = r.render(&v).unwrap();
+    assert_all_pixels(&img, avg * (-0.6f32).exp(), "underwater");
+}
+
+#[test]
+fn alpha_mask_and_emissive_tint() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    // Left half of the texture transparent.
+    let texels = (0..16)
+        .map(|i| {
+            if i % 4 < 2 {
+                [255, 0, 0, 0]
+            } else {
+                [255, 255, 255, 255]
+            }
+        })
+        .collect();
+    let masked = add_quad(
+        &mut r,
+        0.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            texture: Some(TextureRgba8 {
+                width: 4,
+                height: 4,
+                texels,
+            }),
+            alpha_cutoff: Some(0.5),
+            lighting: Lighting::Emissive,
+            ..Default::default()
+        },
+    );
+    let img = r.render(&view(LightingMode::Grid, vec![masked])).unwrap();
+    // Every pixel is either background (alpha under the cutoff) or the texture's
+    // colour (red 1 everywhere; green filtered between 0 and 1), and both occur.
+    let bg = img.hdr.iter().filter(|p| p[0] == 9.0).count();
+    let drawn = img.hdr.iter().filter(|p| (p[0] - 1.0).abs() < 1e-6).count();
+    let total = (SIZE * SIZE) as usize;
+    assert_eq!(bg + drawn, total);
+    assert!(
+        bg > total / 10 && drawn > total / 10,
+        "bg {bg} drawn {drawn}"
+    );
+    // Emissive tint is the HDR colour.
+    let mut r2 = r;
+    let glow = add_quad(
+        &mut r2,
+        0.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            lighting: Lighting::Emissive,
+            ..Default::default()
+        },
+    );
+    r2.set_instances(
+        glow,
+        &[Instance::new(
+            Mat4::IDENTITY,
+            Vec4::new(5.0, 0.5, 0.05, 1.0),
+        )],
+    )
+    .unwrap();
+    let img = r2.render(&view(LightingMode::Grid, vec![glow])).unwrap();
+    assert_all_pixels(&img, Vec3::new(5.0, 0.5, 0.05), "emissive");
+    // Bad input is a typed error naming the field.
+    let mut bad = view(LightingMode::Grid, vec![glow]);
+    bad.exposure = f32::NAN;
+    assert!(
+        r2.render(&bad)
+            .unwrap_err()
+            .to_string()
+            .contains("exposure")
+    );
+    let (v, _) = quad(0.0, Vec3::ZERO);
+    let err = r2
+        .add_mesh(&v, &[0, 1, 9], &MeshMaterial::default())
+        .unwrap_err();
+    assert!(err.to_string().contains("indices"), "{err}");
+}

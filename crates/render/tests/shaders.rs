@@ -1,0 +1,78 @@
+//! Every render shader validates with naga (no GPU needed), and the structs shared with
+//! Rust have the same layout on both sides.
+
+use render::gpu::SampleParams;
+use render::raster::{FrameUniforms, MeshUniforms};
+use render::wgsl;
+
+fn validate(name: &str, src: &str) -> naga::Module {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    module
+}
+
+#[test]
+fn every_shader_validates() {
+    let all = wgsl::all();
+    assert_eq!(all.len(), 3);
+    for (name, src) in all {
+        validate(name, &src);
+    }
+}
+
+fn check_layout(module: &naga::Module, name: &str, rust: Vec<(&str, usize)>, size: usize) {
+    let ty = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("{name} not in the shader"))
+        .1;
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("{name} is a struct")
+    };
+    assert_eq!(members.len(), rust.len(), "{name}");
+    for (m, (field, offset)) in members.iter().zip(rust) {
+        assert_eq!(m.name.as_deref(), Some(field), "{name}");
+        assert_eq!(m.offset as usize, offset, "{name}.{field}");
+    }
+    assert_eq!(*span as usize, size, "{name} size");
+}
+
+#[test]
+fn shared_structs_have_the_same_layout_in_rust_and_wgsl() {
+    let mesh = validate("mesh", &wgsl::mesh_shader());
+    check_layout(
+        &mesh,
+        "FrameUniforms",
+        FrameUniforms::offsets(),
+        size_of::<FrameUniforms>(),
+    );
+    check_layout(
+        &mesh,
+        "MeshUniforms",
+        MeshUniforms::offsets(),
+        size_of::<MeshUniforms>(),
+    );
+    let sample = validate("sample", &wgsl::sample_kernel());
+    check_layout(
+        &sample,
+        "SampleParams",
+        SampleParams::offsets(),
+        size_of::<SampleParams>(),
+    );
+}
+
+#[test]
+fn generated_luminance_weights_are_grid_cores() {
+    let p = wgsl::prelude();
+    let line = p.lines().find(|l| l.starts_with("const LUMA")).unwrap();
+    let inner = &line[line.find(">(").unwrap() + 2..line.rfind(')').unwrap()];
+    let v: Vec<f32> = inner.split(", ").map(|x| x.parse().unwrap()).collect();
+    assert_eq!(v, grid_core::LUMA.to_vec());
+}
