@@ -378,6 +378,13 @@ pub trait MaterialSource {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError>;
 }
 
+/// A shared source (one composer feeding the hierarchy and debug views).
+impl<T: MaterialSource + ?Sized> MaterialSource for std::sync::Arc<T> {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        (**self).material(desc)
+    }
+}
+
 /// The same material everywhere (a fog, or empty space): the simplest source.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UniformMaterial(pub Material);

@@ -820,7 +820,7 @@ impl Renderer {
             vertices: init(
                 "vertices",
                 bytemuck::cast_slice(vertices),
-                wgpu::BufferUsages::VERTEX,
+                wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             ),
             indices: init(
                 "indices",
@@ -833,6 +833,28 @@ impl Renderer {
             double_sided: material.double_sided,
         });
         Ok(MeshId(self.meshes.len() - 1))
+    }
+
+    /// Replaces a mesh's vertices (same count), e.g. its light after the grids changed.
+    pub fn update_vertices(
+        &mut self,
+        mesh: MeshId,
+        vertices: &[Vertex],
+    ) -> Result<(), RenderError> {
+        let Some(m) = self.meshes.get(mesh.0) else {
+            return Err(GridError::invalid("mesh", mesh.0, "no such mesh").into());
+        };
+        let bytes: &[u8] = bytemuck::cast_slice(vertices);
+        if bytes.len() as u64 != m.vertices.size() {
+            return Err(GridError::invalid(
+                "vertices.len()",
+                vertices.len(),
+                "must equal the mesh's vertex count",
+            )
+            .into());
+        }
+        self.ctx.queue.write_buffer(&m.vertices, 0, bytes);
+        Ok(())
     }
 
     /// Sets the instances of a mesh (replacing earlier ones; none hides it).

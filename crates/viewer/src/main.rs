@@ -1,15 +1,55 @@
-//! # viewer
-//!
-//! The program people run: it will build the demo scene, compute its light grids and
-//! write images and a summary (headless), or open an interactive window.
-//!
-//! Status: the demo arrives with the "render and viewer" issue. Until then this program
-//! says so and exits with an error, so no script mistakes it for a working demo.
+//! `viewer`: renders the lightgrid demo scene (or `--scene file.toml`) headless into
+//! `out/`, or opens an interactive window with `--window`. See the crate docs.
 
-fn main() -> std::process::ExitCode {
-    eprintln!(
-        "viewer: the demo scene is not built yet (it needs sweep-cpu, terrain-lod and render). \
-         grid-core works today: see `cargo doc -p grid-core --open`."
-    );
-    std::process::ExitCode::FAILURE
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Parser;
+use viewer::{Options, SceneFile, SweeperChoice};
+
+/// Render a scene lit by lightgrid's volumetric light grids.
+#[derive(Debug, Parser)]
+#[command(version, about)]
+struct Args {
+    /// Scene file (TOML); the embedded demo scene when omitted (see scenes/demo.toml).
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Output folder for images and the summary.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Which sweeper computes the grids.
+    #[arg(long, value_enum, default_value_t = SweeperChoice::Auto)]
+    sweeper: SweeperChoice,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 960)]
+    width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 540)]
+    height: u32,
+    /// Open an interactive window instead of writing images.
+    #[arg(long)]
+    window: bool,
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    let scene = match &args.scene {
+        Some(p) => SceneFile::load(p)?,
+        None => SceneFile::demo()?,
+    };
+    if args.window {
+        return viewer::window::run(scene, args.sweeper, args.width, args.height);
+    }
+    let summary = viewer::run(
+        scene,
+        &Options {
+            out: args.out.clone(),
+            width: args.width,
+            height: args.height,
+            sweeper: args.sweeper,
+            exr: true,
+        },
+    )?;
+    print!("{}", summary.text());
+    Ok(())
 }

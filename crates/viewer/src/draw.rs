@@ -1,0 +1,488 @@
+//! Turns a [`World`] into renderer meshes and draws its views: the lit scene, the same
+//! without the grids, the grid points as lit balls, the material cells as cubes.
+
+use anyhow::{Context, Result};
+use grid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
+use grid_core::{GridDesc, LightGrid, MaterialSource};
+use material_voxelizer::model::{AlphaMode, Model};
+use render::shading::linear_to_srgb8;
+use render::{
+    Camera, GroundLight, Instance, LightVolume, Lighting, LightingMode, MeshId, MeshMaterial,
+    Renderer, SamplePoints, TextureRgba8, Vertex, View, sample_points,
+};
+
+use crate::world::World;
+
+/// The terrain mesh: the heightmap's nodes (every `stride`-th), normals from central
+/// differences.
+pub struct TerrainMesh {
+    /// Vertex positions (world).
+    pub positions: Vec<Vec3>,
+    /// Unit normals.
+    pub normals: Vec<Vec3>,
+    /// Triangle indices.
+    pub indices: Vec<u32>,
+    /// Vertices along x and z.
+    pub size: (u32, u32),
+    /// World (x, z) of vertex (0, 0) and the spacing.
+    pub origin: Vec2,
+    /// Metres between vertices.
+    pub spacing: f32,
+}
+
+impl TerrainMesh {
+    /// At most `max_side` vertices a side.
+    pub fn new(world: &World, max_side: u32) -> Self {
+        let hm = &world.heightmap;
+        let stride = hm.width.max(hm.depth).div_ceil(max_side).max(1);
+        let (nx, nz) = ((hm.width - 1) / stride + 1, (hm.depth - 1) / stride + 1);
+        let spacing = hm.spacing * stride as f32;
+        let mut positions = Vec::with_capacity((nx * nz) as usize);
+        let mut normals = Vec::with_capacity((nx * nz) as usize);
+        for k in 0..nz {
+            for i in 0..nx {
+                let (x, z) = (
+                    hm.origin.x + (i * stride) as f32 * hm.spacing,
+                    hm.origin.y + (k * stride) as f32 * hm.spacing,
+                );
+                positions.push(Vec3::new(x, hm.height_at(x, z), z));
+                let e = hm.spacing;
+                let dx = hm.height_at(x + e, z) - hm.height_at(x - e, z);
+                let dz = hm.height_at(x, z + e) - hm.height_at(x, z - e);
+                normals.push(Vec3::new(-dx, 2.0 * e, -dz).normalize());
+            }
+        }
+        let mut indices = Vec::new();
+        for k in 0..nz - 1 {
+            for i in 0..nx - 1 {
+                let a = k * nx + i;
+                let (b, c, d) = (a + 1, a + nx, a + nx + 1);
+                // Counter-clockwise seen from above (+Y).
+                indices.extend_from_slice(&[a, c, b, b, c, d]);
+            }
+        }
+        Self {
+            positions,
+            normals,
+            indices,
+            size: (nx, nz),
+            origin: hm.origin,
+            spacing,
+        }
+    }
+}
+
+fn srgb_texture(t: &material_voxelizer::model::Texture) -> TextureRgba8 {
+    TextureRgba8 {
+        width: t.width,
+        height: t.height,
+        texels: t
+            .texels
+            .iter()
+            .map(|c| {
+                [
+                    linear_to_srgb8(c.x),
+                    linear_to_srgb8(c.y),
+                    linear_to_srgb8(c.z),
+                    (c.w.clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
+                ]
+            })
+            .collect(),
+    }
+}
+
+/// One mesh per material of `model` (flat normals, UV transform applied).
+pub fn model_meshes(r: &mut Renderer, model: &Model, foliage: bool) -> Result<Vec<MeshId>> {
+    let mut ids = Vec::new();
+    for (mi, mat) in model.materials.iter().enumerate() {
+        let mut vertices = Vec::new();
+        for tri in model.triangles.iter().filter(|t| t.material == mi as u32) {
+            let [a, b, c] = tri.positions;
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            if n == Vec3::ZERO {
+                continue;
+            }
+            for k in 0..3 {
+                vertices.push(Vertex {
+                    position: tri.positions[k].to_array(),
+                    normal: n.to_array(),
+                    uv: mat.uv_transform.apply(tri.uvs[k]).to_array(),
+                    light: [0.0; 4],
+                });
+            }
+        }
+        if vertices.is_empty() {
+            continue;
+        }
+        let masked = !matches!(mat.alpha, AlphaMode::Opaque);
+        let indices: Vec<u32> = (0..vertices.len() as u32).collect();
+        let material = MeshMaterial {
+            base_colour: mat.base_colour,
+            texture: mat.texture.map(|t| srgb_texture(&model.textures[t])),
+            alpha_cutoff: match mat.alpha {
+                AlphaMode::Mask(c) => Some(c),
+                AlphaMode::Blend => Some(0.5),
+                AlphaMode::Opaque => None,
+            },
+            lighting: if foliage && masked {
+                Lighting::Foliage
+            } else {
+                Lighting::Surface
+            },
+            double_sided: masked,
+            specular: if masked { 0.0 } else { 0.15 },
+            shininess: 24.0,
+        };
+        ids.push(r.add_mesh(&vertices, &indices, &material)?);
+    }
+    Ok(ids)
+}
+
+/// An icosphere of radius 1 (two subdivisions, 320 triangles).
+pub fn sphere() -> (Vec<Vertex>, Vec<u32>) {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut p: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..2 {
+        let mut next = Vec::new();
+        let mut mid = std::collections::HashMap::new();
+        let mut m = |a: u32, b: u32, p: &mut Vec<Vec3>| {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                p.push(((p[a as usize] + p[b as usize]) * 0.5).normalize());
+                p.len() as u32 - 1
+            })
+        };
+        for [a, b, c] in f {
+            let (ab, bc, ca) = (m(a, b, &mut p), m(b, c, &mut p), m(c, a, &mut p));
+            next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    let v = p
+        .iter()
+        .map(|q| Vertex {
+            position: q.to_array(),
+            normal: q.to_array(),
+            uv: [0.0; 2],
+            light: [0.0; 4],
+        })
+        .collect();
+    (v, f.into_iter().flatten().collect())
+}
+
+/// A unit cube centred on the origin (24 vertices, flat faces).
+pub fn cube() -> (Vec<Vertex>, Vec<u32>) {
+    let mut v = Vec::new();
+    let mut idx = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            let a = n.any_orthonormal_vector();
+            let b = n.cross(a);
+            let base = v.len() as u32;
+            for (s, t) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                v.push(Vertex {
+                    position: ((n + a * s + b * t) * 0.5).to_array(),
+                    normal: n.to_array(),
+                    uv: [0.0; 2],
+                    light: [0.0; 4],
+                });
+            }
+            idx.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    (v, idx)
+}
+
+/// The meshes of a world in a renderer.
+pub struct SceneMeshes {
+    /// The terrain.
+    pub terrain: MeshId,
+    /// The terrain's vertices (light refreshed per view).
+    pub terrain_mesh: TerrainMesh,
+    /// Model meshes (instanced).
+    pub models: Vec<MeshId>,
+    /// Debug: a ball per grid point.
+    pub balls: MeshId,
+    /// Debug: a cube per material cell.
+    pub cubes: MeshId,
+}
+
+impl SceneMeshes {
+    /// Uploads the terrain, the models with their instances, and the debug meshes.
+    pub fn new(r: &mut Renderer, world: &World) -> Result<Self> {
+        let terrain_mesh = TerrainMesh::new(world, 320);
+        let ground = match &world.ground {
+            material_voxelizer::compose::GroundColour::Uniform(c) => c.extend(1.0),
+            _ => Vec4::new(0.25, 0.22, 0.16, 1.0),
+        };
+        let vertices = terrain_vertices(
+            &terrain_mesh,
+            &vec![Vec3::ZERO; terrain_mesh.positions.len()],
+        );
+        let terrain = r.add_mesh(
+            &vertices,
+            &terrain_mesh.indices,
+            &MeshMaterial {
+                base_colour: ground,
+                lighting: Lighting::Vertex,
+                ..Default::default()
+            },
+        )?;
+        r.set_instances(terrain, &[Instance::new(Mat4::IDENTITY, Vec4::ONE)])?;
+        let mut models = Vec::new();
+        for (mi, entry) in world.models.iter().enumerate() {
+            let ids = model_meshes(r, &entry.model, entry.foliage)
+                .with_context(|| format!("meshes of model {}", entry.name))?;
+            let inst: Vec<Instance> = world
+                .instances
+                .iter()
+                .filter(|i| i.model == mi as u32)
+                .map(|i| {
+                    Instance::new(
+                        Mat4::from_scale_rotation_translation(
+                            Vec3::splat(i.scale),
+                            i.rotation,
+                            i.position,
+                        ),
+                        Vec4::ONE,
+                    )
+                })
+                .collect();
+            for id in &ids {
+                r.set_instances(*id, &inst)?;
+            }
+            models.extend(ids);
+        }
+        let (v, i) = sphere();
+        let balls = r.add_mesh(
+            &v,
+            &i,
+            &MeshMaterial {
+                lighting: Lighting::Emissive,
+                ..Default::default()
+            },
+        )?;
+        let (v, i) = cube();
+        let cubes = r.add_mesh(
+            &v,
+            &i,
+            &MeshMaterial {
+                lighting: Lighting::Flat,
+                ..Default::default()
+            },
+        )?;
+        Ok(Self {
+            terrain,
+            terrain_mesh,
+            models,
+            balls,
+            cubes,
+        })
+    }
+
+    /// Relights the terrain vertices (sampling buffer with normals) and the ground light,
+    /// and resamples the light volume, from the hierarchy's current grids. Returns the
+    /// bytes of the light volume.
+    pub fn relight(&self, r: &mut Renderer, world: &World) -> Result<u64> {
+        let t = &self.terrain_mesh;
+        let lit = sample_points(
+            &world.hierarchy,
+            SamplePoints {
+                positions: &t.positions,
+                normals: Some(&t.normals),
+            },
+        )?;
+        let light: Vec<Vec3> = lit.iter().map(|s| s.light).collect();
+        r.update_vertices(self.terrain, &terrain_vertices(t, &light))?;
+        r.set_ground(&GroundLight {
+            origin: t.origin,
+            spacing: t.spacing,
+            width: t.size.0,
+            depth: t.size.1,
+            nodes: t
+                .positions
+                .iter()
+                .zip(&light)
+                .map(|(p, e)| e.extend(p.y).to_array())
+                .collect(),
+        })?;
+        let volume = LightVolume::from_field(&world.hierarchy, volume_desc(world)?)?;
+        let bytes = volume.average.len() as u64 * 32;
+        r.set_light_volume(&volume)?;
+        Ok(bytes)
+    }
+
+    /// Instances for the debug views of `grid`: balls at its points above the ground
+    /// (radius 0.18 h, shown as a mid-grey card of albedo 0.18 under the point's light) and cubes at its
+    /// material cells (side h × density^(1/3), coloured by reflectance).
+    pub fn set_debug(
+        &self,
+        r: &mut Renderer,
+        world: &World,
+        grid: &LightGrid,
+    ) -> Result<(usize, usize)> {
+        let d = *grid.desc();
+        let h = d.h();
+        let ground = |p: Vec3| world.heightmap.height_at(p.x, p.z);
+        let mut balls = Vec::new();
+        for (i, b) in grid.data().iter().enumerate() {
+            let p = d.position(d.coords(i).expect("in range"));
+            if p.y < ground(p) - 0.25 * h {
+                continue;
+            }
+            let light = b.average() * std::f32::consts::PI * 0.18;
+            balls.push(Instance::new(
+                Mat4::from_scale_rotation_translation(Vec3::splat(0.18 * h), Default::default(), p),
+                light.extend(1.0),
+            ));
+        }
+        let material = world.composer.material(&d)?;
+        let mut cubes = Vec::new();
+        for (i, m) in material.data().iter().enumerate() {
+            let p = d.position(d.coords(i).expect("in range"));
+            let density = 1.0 - m.pass;
+            if density < 0.03 || p.y < ground(p) - 1.5 * h {
+                continue;
+            }
+            cubes.push(Instance::new(
+                Mat4::from_scale_rotation_translation(
+                    Vec3::splat(h * density.cbrt()),
+                    Default::default(),
+                    p,
+                ),
+                m.reflectance.extend(1.0),
+            ));
+        }
+        r.set_instances(self.balls, &balls)?;
+        r.set_instances(self.cubes, &cubes)?;
+        Ok((balls.len(), cubes.len()))
+    }
+}
+
+fn terrain_vertices(t: &TerrainMesh, light: &[Vec3]) -> Vec<Vertex> {
+    t.positions
+        .iter()
+        .zip(&t.normals)
+        .zip(light)
+        .map(|((p, n), e)| Vertex {
+            position: p.to_array(),
+            normal: n.to_array(),
+            uv: [p.x / 8.0, p.z / 8.0],
+            light: e.extend(1.0).to_array(),
+        })
+        .collect()
+}
+
+/// The light volume's box: the whole terrain, from 2 m under its lowest point to 24 m
+/// over its highest, in cells of at least twice the finest grid's, at most ~1.5 M points.
+pub fn volume_desc(world: &World) -> Result<GridDesc> {
+    let hm = &world.heightmap;
+    let (lo, hi) = hm.range();
+    let size = Vec2::new(
+        (hm.width - 1) as f32 * hm.spacing,
+        (hm.depth - 1) as f32 * hm.spacing,
+    );
+    let height = hi - lo + 26.0;
+    let volume = size.x * size.y * height;
+    let h = (2.0 * world.scene.grid.finest_cell).max((volume / 1.5e6).cbrt());
+    let dims = (Vec3::new(size.x, height, size.y) / h).ceil().as_uvec3() + UVec3::ONE;
+    Ok(GridDesc::new(
+        Vec3::new(hm.origin.x, lo - 2.0, hm.origin.y),
+        h,
+        dims,
+    )?)
+}
+
+/// The views of one camera: what each image shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shot {
+    /// The scene lit by the grids.
+    Lit,
+    /// The scene with the sun unshadowed and a flat sky ambient (no grids).
+    NoGrid,
+    /// Terrain plus the grid points as balls.
+    Points,
+    /// The material cells as cubes.
+    Material,
+}
+
+impl Shot {
+    /// All shots.
+    pub const ALL: [Shot; 4] = [Shot::Lit, Shot::NoGrid, Shot::Points, Shot::Material];
+
+    /// File name suffix.
+    pub fn suffix(self) -> &'static str {
+        match self {
+            Shot::Lit => "",
+            Shot::NoGrid => "-no-grid",
+            Shot::Points => "-grid-points",
+            Shot::Material => "-material",
+        }
+    }
+}
+
+/// The renderer view of a shot.
+pub fn make_view(world: &World, meshes: &SceneMeshes, camera: Camera, shot: Shot) -> View {
+    let sky_ambient = world.sky_top.total() / (2.0 * std::f32::consts::PI);
+    let mut list = vec![meshes.terrain];
+    match shot {
+        Shot::Lit | Shot::NoGrid => list.extend(&meshes.models),
+        Shot::Points => list.push(meshes.balls),
+        Shot::Material => list = vec![meshes.cubes],
+    }
+    View {
+        camera,
+        mode: if shot == Shot::NoGrid {
+            LightingMode::NoGrid
+        } else {
+            LightingMode::Grid
+        },
+        sun_direction: world.sun.0,
+        sun_colour: world.sun.1,
+        sky_ambient,
+        exposure: 0.6,
+        water: None,
+        ground_blend: 1.5,
+        background: sky_ambient,
+        meshes: list,
+    }
+}

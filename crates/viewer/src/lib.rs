@@ -1,0 +1,247 @@
+//! # viewer
+//!
+//! The program people run. With no arguments it builds the embedded demo scene
+//! (`scenes/demo.toml`: procedural hills and forest), computes its light grids around
+//! each view (GPU if a real GPU exists, else CPU; said in the output), renders every view
+//! headless and writes into `out/`:
+//!
+//! - `<view>.png`: the scene lit by the grids; `<view>-no-grid.png`: the same with the
+//!   unshadowed sun and a flat sky instead; `<view>-grid-points.png`: the light grid
+//!   points as lit balls; `<view>-material.png`: the material cells as cubes sized by
+//!   density (as in the seed's figures);
+//! - `<first view>.exr`: the lit view in linear HDR;
+//! - `summary.txt` and `summary.json`: timings per stage, grids per depth, memory.
+//!
+//! `--scene file.toml` renders a user's scene, `--window` opens an interactive window.
+//! The library half ([`run`]) is what the binary and the image tests call.
+
+pub mod draw;
+pub mod scene;
+pub mod window;
+pub mod world;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use render::{Camera, Renderer};
+use serde::Serialize;
+use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM};
+
+pub use scene::SceneFile;
+pub use world::{SweeperChoice, World};
+
+/// Options of a headless run.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Output folder (created).
+    pub out: PathBuf,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Which sweeper builds the grids.
+    pub sweeper: SweeperChoice,
+    /// Also write the EXR of the first view.
+    pub exr: bool,
+}
+
+/// What a run did and measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    /// The sweeper used.
+    pub sweeper: String,
+    /// The GPU adapter that rendered.
+    pub renderer: String,
+    /// Seconds per stage.
+    pub timings: Vec<(String, f64)>,
+    /// Per view: frames until every wanted grid was ready, points swept.
+    pub views: Vec<ViewSummary>,
+    /// Instances in the scene.
+    pub instances: usize,
+    /// Bytes of the model material grids.
+    pub model_grid_bytes: u64,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// One view's figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewSummary {
+    /// View name.
+    pub name: String,
+    /// Hierarchy frames until nothing was pending.
+    pub frames: u32,
+    /// Points swept for this view.
+    pub points_swept: u64,
+    /// Node grids alive per depth (1 = coarsest node level) after it.
+    pub grids_per_depth: Vec<u32>,
+    /// Grid points per depth.
+    pub points_per_depth: Vec<u64>,
+    /// Grid memory: 26 bins in f32, packed R11G11B10, average + dominant only.
+    pub grid_bytes: [u64; 3],
+    /// Light volume bytes uploaded for per-pixel lighting.
+    pub volume_bytes: u64,
+    /// Balls and cubes in the debug views.
+    pub debug_instances: (usize, usize),
+}
+
+impl Summary {
+    /// The human-readable report (also `summary.txt`).
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "lightgrid viewer summary");
+        let _ = writeln!(s, "  grids swept by: {}", self.sweeper);
+        let _ = writeln!(s, "  rendered on:    {}", self.renderer);
+        let _ = writeln!(s, "  instances:      {}", self.instances);
+        let _ = writeln!(
+            s,
+            "  model material grids: {:.1} MB",
+            self.model_grid_bytes as f64 / 1e6
+        );
+        let _ = writeln!(s, "stages (seconds):");
+        for (name, t) in &self.timings {
+            let _ = writeln!(s, "  {name:32} {t:8.2}");
+        }
+        for v in &self.views {
+            let _ = writeln!(
+                s,
+                "view {}: {} frames, {} points swept",
+                v.name, v.frames, v.points_swept
+            );
+            let _ = writeln!(
+                s,
+                "  grids per depth {:?}, points per depth {:?}",
+                v.grids_per_depth, v.points_per_depth
+            );
+            let _ = writeln!(
+                s,
+                "  grid memory: {:.1} MB as 26 f32 bins, {:.1} MB packed, {:.1} MB average+dominant; light volume {:.1} MB",
+                v.grid_bytes[0] as f64 / 1e6,
+                v.grid_bytes[1] as f64 / 1e6,
+                v.grid_bytes[2] as f64 / 1e6,
+                v.volume_bytes as f64 / 1e6
+            );
+            let _ = writeln!(
+                s,
+                "  debug views: {} grid points, {} material cells",
+                v.debug_instances.0, v.debug_instances.1
+            );
+        }
+        let _ = writeln!(s, "files:");
+        for f in &self.files {
+            let _ = writeln!(s, "  {}", f.display());
+        }
+        s
+    }
+}
+
+/// Writes an sRGB RGBA8 image as PNG.
+pub fn write_png(path: &Path, img: &render::Image) -> Result<()> {
+    let buf: Vec<u8> = img.srgb.iter().flatten().copied().collect();
+    image::save_buffer(path, &buf, img.width, img.height, image::ColorType::Rgba8)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Writes the linear HDR image as EXR.
+pub fn write_exr(path: &Path, img: &render::Image) -> Result<()> {
+    let w = img.width as usize;
+    exr::prelude::write_rgb_file(path, w, img.height as usize, |x, y| {
+        let p = img.hdr[y * w + x];
+        (p[0], p[1], p[2])
+    })
+    .with_context(|| format!("writing {}", path.display()))
+}
+
+/// The GPU context for rendering (any adapter, lavapipe included).
+pub fn render_context() -> Result<Arc<sweep_gpu::GpuContext>> {
+    Ok(Arc::new(sweep_gpu::GpuContext::new().context(
+        "rendering needs a GPU adapter (any Vulkan driver; Mesa's lavapipe works: apt-get install mesa-vulkan-drivers)",
+    )?))
+}
+
+/// Builds `scene`, computes the grids around every view and writes the images and
+/// summary into `opts.out`.
+pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
+    std::fs::create_dir_all(&opts.out)
+        .with_context(|| format!("creating {}", opts.out.display()))?;
+    let total = Instant::now();
+    let mut world = World::build(scene, opts.sweeper)?;
+    let mut timings = world.timings.clone();
+    let t = Instant::now();
+    let ctx = render_context()?;
+    let renderer_name = format!("{} ({:?})", ctx.info.name, ctx.info.device_type);
+    let mut r = Renderer::new(ctx, opts.width, opts.height)?;
+    let meshes = draw::SceneMeshes::new(&mut r, &world)?;
+    timings.push(("upload meshes".into(), t.elapsed().as_secs_f64()));
+    let mut files = Vec::new();
+    let mut views = Vec::new();
+    for vi in 0..world.scene.views.len() {
+        let spec = world.scene.views[vi].clone();
+        let (eye, target) = world.view_points(vi);
+        let t = Instant::now();
+        let (frames, swept, stats) =
+            world.prepare_view(eye, &format!("light grids for {}", spec.name))?;
+        timings.push((
+            format!("grids for {}", spec.name),
+            t.elapsed().as_secs_f64(),
+        ));
+        let t = Instant::now();
+        let volume_bytes = meshes.relight(&mut r, &world)?;
+        let grid = world.hierarchy.grid_at(target).clone();
+        let debug = meshes.set_debug(&mut r, &world, &grid)?;
+        timings.push((
+            format!("sample light for {}", spec.name),
+            t.elapsed().as_secs_f64(),
+        ));
+        let t = Instant::now();
+        let mut camera = Camera::look_at(eye, target);
+        camera.fov_y = spec.fov_deg.to_radians();
+        for shot in draw::Shot::ALL {
+            let img = r.render(&draw::make_view(&world, &meshes, camera, shot))?;
+            let path = opts.out.join(format!("{}{}.png", spec.name, shot.suffix()));
+            write_png(&path, &img)?;
+            files.push(path);
+            if vi == 0 && shot == draw::Shot::Lit && opts.exr {
+                let path = opts.out.join(format!("{}.exr", spec.name));
+                write_exr(&path, &img)?;
+                files.push(path);
+            }
+        }
+        timings.push((format!("render {}", spec.name), t.elapsed().as_secs_f64()));
+        views.push(ViewSummary {
+            name: spec.name.clone(),
+            frames,
+            points_swept: swept,
+            grids_per_depth: stats.alive_per_depth.clone(),
+            points_per_depth: stats.points_per_depth.clone(),
+            grid_bytes: [
+                stats.bytes(BYTES_26_F32),
+                stats.bytes(BYTES_26_PACKED),
+                stats.bytes(BYTES_AVG_DOM),
+            ],
+            volume_bytes,
+            debug_instances: debug,
+        });
+    }
+    timings.push(("total".into(), total.elapsed().as_secs_f64()));
+    let mut summary = Summary {
+        sweeper: world.sweeper.clone(),
+        renderer: renderer_name,
+        timings,
+        views,
+        instances: world.instances.len(),
+        model_grid_bytes: world.model_grid_bytes,
+        files,
+    };
+    let txt = opts.out.join("summary.txt");
+    let json = opts.out.join("summary.json");
+    summary.files.push(txt.clone());
+    summary.files.push(json.clone());
+    std::fs::write(&txt, summary.text()).with_context(|| format!("writing {}", txt.display()))?;
+    std::fs::write(&json, serde_json::to_string_pretty(&summary)?)
+        .with_context(|| format!("writing {}", json.display()))?;
+    Ok(summary)
+}

@@ -1,0 +1,557 @@
+//! Scene files (TOML): terrain, sky and sun, models, instances and scatter rules, grid
+//! settings and views. The demo scene is `scenes/demo.toml`, embedded in the binary;
+//! relative paths resolve against the scene file's folder.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+
+/// The demo scene shipped with the viewer (the README's main command renders it).
+pub const DEMO: &str = include_str!("../scenes/demo.toml");
+
+/// A whole scene.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Terrain.
+    pub terrain: TerrainSpec,
+    /// Sky.
+    #[serde(default)]
+    pub sky: SkySpec,
+    /// Sun.
+    #[serde(default)]
+    pub sun: SunSpec,
+    /// Light grid settings.
+    #[serde(default)]
+    pub grid: GridSpec,
+    /// Models, by name.
+    #[serde(default)]
+    pub models: Vec<ModelSpec>,
+    /// Single placed instances.
+    #[serde(default)]
+    pub instances: Vec<InstanceSpec>,
+    /// Scatter rules.
+    #[serde(default)]
+    pub scatter: Vec<ScatterSpec>,
+    /// Views to render.
+    pub views: Vec<ViewSpec>,
+    /// Folder relative paths resolve against (not in the file).
+    #[serde(skip)]
+    pub base: PathBuf,
+}
+
+/// Terrain: a heightmap PNG or procedural hills, and the ground's colour.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TerrainSpec {
+    /// A 16-bit (or 8-bit) grey PNG heightmap.
+    pub heightmap: Option<PathBuf>,
+    /// Procedural hills (fBm Perlin noise), when no heightmap is given.
+    pub procedural: Option<ProceduralTerrain>,
+    /// Metres between heightmap samples.
+    #[serde(default = "default_spacing")]
+    pub spacing: f32,
+    /// Metres per heightmap unit (PNG: per grey level).
+    #[serde(default = "one")]
+    pub height_scale: f32,
+    /// Linear RGB of the ground.
+    #[serde(default = "default_ground")]
+    pub ground_colour: [f32; 3],
+    /// Optional ground texture (PNG, sRGB) stretched over the whole terrain.
+    pub ground_texture: Option<PathBuf>,
+}
+
+/// Procedural hills.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProceduralTerrain {
+    /// Side of the square terrain, metres.
+    pub size: f32,
+    /// Height range, metres.
+    pub relief: f32,
+    /// Size of the largest hills, metres.
+    #[serde(default = "default_feature")]
+    pub feature_size: f32,
+    /// Noise seed.
+    #[serde(default)]
+    pub seed: u32,
+}
+
+/// The sky.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkySpec {
+    /// `"clear"` (analytic blue sky around the sun), `"uniform"` or `"exr"`.
+    #[serde(default = "default_sky")]
+    pub kind: String,
+    /// Radiance of a uniform sky.
+    #[serde(default = "default_radiance")]
+    pub radiance: [f32; 3],
+    /// Equirectangular EXR environment map (kind = "exr").
+    pub file: Option<PathBuf>,
+    /// Multiplies the sky.
+    #[serde(default = "one")]
+    pub scale: f32,
+}
+
+impl Default for SkySpec {
+    fn default() -> Self {
+        Self {
+            kind: default_sky(),
+            radiance: default_radiance(),
+            file: None,
+            scale: 1.0,
+        }
+    }
+}
+
+/// The sun: angles or a time of day.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SunSpec {
+    /// Hours (6 = sunrise in the east, 12 = highest, 18 = sunset in the west); overrides
+    /// the angles when given.
+    pub time_of_day: Option<f32>,
+    /// Degrees above the horizon.
+    #[serde(default = "default_elevation")]
+    pub elevation_deg: f32,
+    /// Degrees from -Z towards +X.
+    #[serde(default = "default_azimuth")]
+    pub azimuth_deg: f32,
+    /// Irradiance on a surface facing the sun (linear RGB).
+    #[serde(default = "default_sun")]
+    pub illuminance: [f32; 3],
+}
+
+impl Default for SunSpec {
+    fn default() -> Self {
+        Self {
+            time_of_day: None,
+            elevation_deg: default_elevation(),
+            azimuth_deg: default_azimuth(),
+            illuminance: default_sun(),
+        }
+    }
+}
+
+impl SunSpec {
+    /// Elevation and azimuth in radians (from the time of day when given): the sun rises
+    /// at 6 h in the east (+X), is highest at 12 h in the south (-Z, 60°), sets at 18 h.
+    pub fn angles(&self) -> (f32, f32) {
+        match self.time_of_day {
+            Some(t) => {
+                let phase = (t - 6.0) / 12.0 * std::f32::consts::PI;
+                let elevation = 60f32.to_radians() * phase.sin();
+                let azimuth = std::f32::consts::FRAC_PI_2 + phase;
+                (elevation, azimuth)
+            }
+            None => (
+                self.elevation_deg.to_radians(),
+                self.azimuth_deg.to_radians(),
+            ),
+        }
+    }
+}
+
+/// Light grid settings (see `terrain_lod::HierarchyParams`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    /// World grid cell size, metres.
+    #[serde(default = "default_world_cell")]
+    pub world_cell: f32,
+    /// Finest node grid cell size, metres.
+    #[serde(default = "one")]
+    pub finest_cell: f32,
+    /// Points across a node grid.
+    #[serde(default = "default_node_points")]
+    pub node_points: u32,
+    /// Down/up passes of each sweep (1 = the seed's single downward pass).
+    #[serde(default = "default_passes")]
+    pub passes: u32,
+}
+
+impl Default for GridSpec {
+    fn default() -> Self {
+        Self {
+            world_cell: default_world_cell(),
+            finest_cell: 1.0,
+            node_points: default_node_points(),
+            passes: default_passes(),
+        }
+    }
+}
+
+/// A model: a glTF file or a procedural one.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSpec {
+    /// Name instances refer to.
+    pub name: String,
+    /// A .glb / .gltf file.
+    pub gltf: Option<PathBuf>,
+    /// `"broadleaf"`, `"young"`, `"bush"` or `"rock"`.
+    pub procedural: Option<String>,
+    /// Seed of a procedural model.
+    #[serde(default)]
+    pub seed: u64,
+    /// Material grid cell size, metres.
+    #[serde(default = "default_voxel")]
+    pub voxel_size: f32,
+}
+
+/// One placed instance.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstanceSpec {
+    /// Model name.
+    pub model: String,
+    /// World x, z.
+    pub position: [f32; 2],
+    /// Height above the ground (metres; default 0, standing on it).
+    #[serde(default)]
+    pub height: f32,
+    /// Turn about +Y, degrees.
+    #[serde(default)]
+    pub rotation_deg: f32,
+    /// Uniform scale.
+    #[serde(default = "one")]
+    pub scale: f32,
+}
+
+/// Scatter `count` instances in a disc.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScatterSpec {
+    /// Model name.
+    pub model: String,
+    /// How many.
+    pub count: u32,
+    /// Disc centre, world x, z.
+    pub centre: [f32; 2],
+    /// Disc radius, metres.
+    pub radius: f32,
+    /// Scale range.
+    #[serde(default = "default_scale")]
+    pub scale: [f32; 2],
+    /// Random seed.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+/// A camera.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ViewSpec {
+    /// File name stem of the images.
+    pub name: String,
+    /// Eye x, z.
+    pub position: [f32; 2],
+    /// Eye height above the ground, metres.
+    pub height: f32,
+    /// Target x, z.
+    pub target: [f32; 2],
+    /// Target height above the ground.
+    #[serde(default = "default_target_height")]
+    pub target_height: f32,
+    /// Vertical field of view, degrees.
+    #[serde(default = "default_fov")]
+    pub fov_deg: f32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+fn default_spacing() -> f32 {
+    2.0
+}
+fn default_ground() -> [f32; 3] {
+    [0.22, 0.2, 0.14]
+}
+fn default_feature() -> f32 {
+    200.0
+}
+fn default_sky() -> String {
+    "clear".into()
+}
+fn default_radiance() -> [f32; 3] {
+    [0.5, 0.6, 0.8]
+}
+fn default_elevation() -> f32 {
+    35.0
+}
+fn default_azimuth() -> f32 {
+    150.0
+}
+fn default_sun() -> [f32; 3] {
+    [8.0, 7.6, 6.8]
+}
+fn default_world_cell() -> f32 {
+    16.0
+}
+fn default_node_points() -> u32 {
+    32
+}
+fn default_passes() -> u32 {
+    2
+}
+fn default_voxel() -> f32 {
+    0.5
+}
+fn default_scale() -> [f32; 2] {
+    [0.8, 1.2]
+}
+fn default_target_height() -> f32 {
+    2.0
+}
+fn default_fov() -> f32 {
+    60.0
+}
+
+impl SceneFile {
+    /// Parses `text` (named `origin` in errors) and checks it; relative paths resolve
+    /// against `base`.
+    pub fn parse(text: &str, origin: &str, base: &Path) -> Result<Self> {
+        let mut s: SceneFile =
+            toml::from_str(text).with_context(|| format!("scene file {origin}"))?;
+        s.base = base.to_path_buf();
+        s.validate()
+            .with_context(|| format!("scene file {origin}"))?;
+        Ok(s)
+    }
+
+    /// Reads and checks a scene file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("reading scene file {}", path.display()))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::parse(&text, &path.display().to_string(), base)
+    }
+
+    /// The embedded demo scene.
+    pub fn demo() -> Result<Self> {
+        Self::parse(
+            DEMO,
+            "scenes/demo.toml (embedded)",
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("scenes")
+                .as_path(),
+        )
+    }
+
+    /// A path from the file, resolved against its folder.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.base.join(p)
+        }
+    }
+
+    /// Semantic checks the TOML types cannot express; errors name the field and value.
+    pub fn validate(&self) -> Result<()> {
+        let t = &self.terrain;
+        match (&t.heightmap, &t.procedural) {
+            (None, None) => bail!("terrain: give `heightmap` or `procedural`"),
+            (Some(_), Some(_)) => bail!("terrain: give `heightmap` or `procedural`, not both"),
+            _ => {}
+        }
+        positive("terrain.spacing", t.spacing)?;
+        positive("terrain.height_scale", t.height_scale)?;
+        if let Some(p) = &t.procedural {
+            positive("terrain.procedural.size", p.size)?;
+            positive("terrain.procedural.feature_size", p.feature_size)?;
+            if !(p.relief.is_finite() && p.relief >= 0.0) {
+                bail!("terrain.procedural.relief = {}: must be >= 0", p.relief);
+            }
+        }
+        colour("terrain.ground_colour", t.ground_colour, Some(1.0))?;
+        match self.sky.kind.as_str() {
+            "clear" | "uniform" => {}
+            "exr" if self.sky.file.is_some() => {}
+            "exr" => bail!("sky.kind = \"exr\" needs sky.file"),
+            k => bail!("sky.kind = {k:?}: must be \"clear\", \"uniform\" or \"exr\""),
+        }
+        colour("sky.radiance", self.sky.radiance, None)?;
+        if !(self.sky.scale.is_finite() && self.sky.scale >= 0.0) {
+            bail!("sky.scale = {}: must be >= 0", self.sky.scale);
+        }
+        colour("sun.illuminance", self.sun.illuminance, None)?;
+        if let Some(t) = self.sun.time_of_day
+            && !(0.0..=24.0).contains(&t)
+        {
+            bail!("sun.time_of_day = {t}: must be in 0..=24 hours");
+        }
+        for (f, v) in [
+            ("sun.elevation_deg", self.sun.elevation_deg),
+            ("sun.azimuth_deg", self.sun.azimuth_deg),
+        ] {
+            if !v.is_finite() {
+                bail!("{f} = {v}: must be finite");
+            }
+        }
+        let g = &self.grid;
+        positive("grid.world_cell", g.world_cell)?;
+        positive("grid.finest_cell", g.finest_cell)?;
+        if !(4..=128).contains(&g.node_points) {
+            bail!("grid.node_points = {}: must be in 4..=128", g.node_points);
+        }
+        if !(1..=16).contains(&g.passes) {
+            bail!("grid.passes = {}: must be in 1..=16", g.passes);
+        }
+        for (i, m) in self.models.iter().enumerate() {
+            match (&m.gltf, m.procedural.as_deref()) {
+                (Some(_), None) => {}
+                (None, Some("broadleaf" | "young" | "bush" | "rock")) => {}
+                (None, Some(k)) => bail!(
+                    "models[{i}].procedural = {k:?}: must be \"broadleaf\", \"young\", \"bush\" or \"rock\""
+                ),
+                _ => bail!(
+                    "models[{i}] ({}): give `gltf` or `procedural`, exactly one",
+                    m.name
+                ),
+            }
+            positive(&format!("models[{i}].voxel_size"), m.voxel_size)?;
+            if self.models[..i].iter().any(|o| o.name == m.name) {
+                bail!("models[{i}].name = {:?}: used twice", m.name);
+            }
+        }
+        let known = |field: String, name: &str| -> Result<()> {
+            if self.models.iter().any(|m| m.name == name) {
+                Ok(())
+            } else {
+                bail!("{field} = {name:?}: no model of that name")
+            }
+        };
+        for (i, inst) in self.instances.iter().enumerate() {
+            known(format!("instances[{i}].model"), &inst.model)?;
+            positive(&format!("instances[{i}].scale"), inst.scale)?;
+            finite2(&format!("instances[{i}].position"), inst.position)?;
+        }
+        for (i, s) in self.scatter.iter().enumerate() {
+            known(format!("scatter[{i}].model"), &s.model)?;
+            positive(&format!("scatter[{i}].radius"), s.radius)?;
+            finite2(&format!("scatter[{i}].centre"), s.centre)?;
+            if !(s.scale[0] > 0.0 && s.scale[1] >= s.scale[0] && s.scale[1].is_finite()) {
+                bail!("scatter[{i}].scale = {:?}: need 0 < min <= max", s.scale);
+            }
+            if s.count > 100_000 {
+                bail!("scatter[{i}].count = {}: at most 100000", s.count);
+            }
+        }
+        if self.views.is_empty() {
+            bail!("views: give at least one [[views]]");
+        }
+        for (i, v) in self.views.iter().enumerate() {
+            finite2(&format!("views[{i}].position"), v.position)?;
+            finite2(&format!("views[{i}].target"), v.target)?;
+            if !(v.fov_deg > 1.0 && v.fov_deg < 170.0) {
+                bail!("views[{i}].fov_deg = {}: must be in (1, 170)", v.fov_deg);
+            }
+            if v.name.is_empty()
+                || !v
+                    .name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+            {
+                bail!(
+                    "views[{i}].name = {:?}: letters, digits, - and _ only",
+                    v.name
+                );
+            }
+            if v.position == v.target && v.height == v.target_height {
+                bail!("views[{i}]: position and target are the same point");
+            }
+        }
+        Ok(())
+    }
+}
+
+fn positive(field: &str, v: f32) -> Result<()> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        bail!("{field} = {v}: must be finite and > 0")
+    }
+}
+
+fn finite2(field: &str, v: [f32; 2]) -> Result<()> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        bail!("{field} = {v:?}: must be finite")
+    }
+}
+
+fn colour(field: &str, c: [f32; 3], max: Option<f32>) -> Result<()> {
+    let ok = c
+        .iter()
+        .all(|x| x.is_finite() && *x >= 0.0 && max.is_none_or(|m| *x <= m));
+    if ok {
+        Ok(())
+    } else {
+        bail!(
+            "{field} = {c:?}: must be finite, >= 0{}",
+            max.map(|m| format!(" and <= {m}")).unwrap_or_default()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_demo_scene_parses() {
+        let s = SceneFile::demo().unwrap();
+        assert!(!s.views.is_empty() && !s.models.is_empty());
+    }
+
+    #[test]
+    fn type_errors_name_the_file_line_and_field() {
+        let text = DEMO.replacen("relief = 28.0", "relief = \"high\"", 1);
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "my.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains("my.toml"), "{e}");
+        assert!(e.contains("line"), "{e}");
+        assert!(e.contains("relief"), "{e}");
+    }
+
+    #[test]
+    fn unknown_fields_and_bad_values_are_named() {
+        let text = DEMO.replacen("[sun]", "[sun]\nelevaton_deg = 3", 1);
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "a.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains("elevaton_deg") && e.contains("a.toml"), "{e}");
+        let text = DEMO.replacen("node_points = ", "node_points = 1000 #", 1);
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "b.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains("grid.node_points = 1000"), "{e}");
+        let text = DEMO.replacen("model = \"oak\"", "model = \"pine\"", 1);
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "c.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains("\"pine\"") && e.contains("no model"), "{e}");
+    }
+
+    #[test]
+    fn time_of_day_moves_the_sun_east_to_west() {
+        let mut s = SunSpec {
+            time_of_day: Some(6.0),
+            ..Default::default()
+        };
+        let (e, a) = s.angles();
+        assert!(e.abs() < 1e-6 && (a - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+        s.time_of_day = Some(12.0);
+        let (e, _) = s.angles();
+        assert!((e - 60f32.to_radians()).abs() < 1e-6);
+    }
+}

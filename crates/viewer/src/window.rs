@@ -1,0 +1,324 @@
+//! `--window`: an interactive window (winit) with a flying camera. The grids are rebuilt
+//! around the camera within the per-frame point budget while flying.
+//!
+//! Keys: W/S forward/back, A/D sideways, Q/E down/up, arrow keys turn, Shift faster;
+//! `[` / `]` time of day −/+ 15 min (new sky; grids rebuild progressively);
+//! 1 lit, 2 without grids, 3 grid points, 4 material cells; Esc quits.
+
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use grid_core::glam::Vec3;
+use render::{Camera, Renderer};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::draw::{SceneMeshes, Shot, make_view};
+use crate::scene::SceneFile;
+use crate::world::{SweeperChoice, World, boundary_light, sky_and_sun};
+
+/// Opens the window and runs until it closes. Errors (with a hint) where no display
+/// exists.
+pub fn run(scene: SceneFile, sweeper: SweeperChoice, width: u32, height: u32) -> Result<()> {
+    let event_loop = EventLoop::new().context(
+        "--window needs a display (X11 or Wayland); run without --window for headless images",
+    )?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    println!("building the scene (grids swept by the {sweeper:?} choice)...");
+    let world = World::build(scene, sweeper)?;
+    println!("grids swept by: {}", world.sweeper);
+    let mut app = App {
+        world,
+        size: (width, height),
+        state: None,
+        error: None,
+        keys: HashSet::new(),
+        eye: Vec3::ZERO,
+        yaw: 0.0,
+        pitch: -0.2,
+        shot: Shot::Lit,
+        last: Instant::now(),
+        last_relight: Instant::now(),
+        dirty: true,
+    };
+    let (eye, target) = app.world.view_points(0);
+    app.eye = eye;
+    let d = (target - eye).normalize();
+    app.yaw = d.x.atan2(-d.z);
+    app.pitch = d.y.asin();
+    event_loop.run_app(&mut app).context("window event loop")?;
+    match app.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct GpuState {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    renderer: Renderer,
+    meshes: SceneMeshes,
+}
+
+struct App {
+    world: World,
+    size: (u32, u32),
+    state: Option<GpuState>,
+    error: Option<anyhow::Error>,
+    keys: HashSet<KeyCode>,
+    eye: Vec3,
+    yaw: f32,
+    pitch: f32,
+    shot: Shot,
+    last: Instant,
+    last_relight: Instant,
+    dirty: bool,
+}
+
+impl App {
+    fn init(&mut self, event_loop: &ActiveEventLoop) -> Result<GpuState> {
+        let window = Arc::new(
+            event_loop
+                .create_window(
+                    Window::default_attributes()
+                        .with_title("lightgrid viewer")
+                        .with_inner_size(winit::dpi::PhysicalSize::new(self.size.0, self.size.1)),
+                )
+                .context("creating the window")?,
+        );
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle(
+            Box::new(event_loop.owned_display_handle()),
+        ));
+        let surface = instance
+            .create_surface(window.clone())
+            .context("creating the window surface")?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: Some(&surface),
+            apply_limit_buckets: false,
+        }))
+        .context("no GPU adapter can draw to this window")?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("lightgrid viewer"),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .context("creating the GPU device")?;
+        let size = window.inner_size();
+        let mut config = surface
+            .get_default_config(&adapter, size.width.max(1), size.height.max(1))
+            .context("the surface does not work with this adapter")?;
+        let caps = surface.get_capabilities(&adapter);
+        if let Some(f) = caps.formats.iter().find(|f| f.is_srgb()) {
+            config.format = *f;
+        }
+        surface.configure(&device, &config);
+        println!("rendering on {} ({:?})", info.name, info.device_type);
+        let ctx = Arc::new(sweep_gpu::GpuContext {
+            device,
+            queue,
+            info,
+        });
+        let mut renderer = Renderer::new(ctx, config.width, config.height)?;
+        let meshes = SceneMeshes::new(&mut renderer, &self.world)?;
+        Ok(GpuState {
+            window,
+            surface,
+            config,
+            renderer,
+            meshes,
+        })
+    }
+
+    fn forward(&self) -> Vec3 {
+        Vec3::new(
+            self.yaw.sin() * self.pitch.cos(),
+            self.pitch.sin(),
+            -self.yaw.cos() * self.pitch.cos(),
+        )
+    }
+
+    fn frame(&mut self) -> Result<()> {
+        let dt = self.last.elapsed().as_secs_f32().min(0.2);
+        self.last = Instant::now();
+        let speed = if self.keys.contains(&KeyCode::ShiftLeft) {
+            60.0
+        } else {
+            15.0
+        } * dt;
+        let f = self.forward();
+        let side = f.cross(Vec3::Y).normalize_or_zero();
+        for (k, v) in [
+            (KeyCode::KeyW, f),
+            (KeyCode::KeyS, -f),
+            (KeyCode::KeyD, side),
+            (KeyCode::KeyA, -side),
+            (KeyCode::KeyE, Vec3::Y),
+            (KeyCode::KeyQ, Vec3::NEG_Y),
+        ] {
+            if self.keys.contains(&k) {
+                self.eye += v * speed;
+            }
+        }
+        let turn = 1.2 * dt;
+        for (k, dy, dp) in [
+            (KeyCode::ArrowLeft, -turn, 0.0),
+            (KeyCode::ArrowRight, turn, 0.0),
+            (KeyCode::ArrowUp, 0.0, turn),
+            (KeyCode::ArrowDown, 0.0, -turn),
+        ] {
+            if self.keys.contains(&k) {
+                self.yaw += dy;
+                self.pitch = (self.pitch + dp).clamp(-1.5, 1.5);
+            }
+        }
+        // Rebuild grids around the camera within the budget.
+        let stats = self.world.hierarchy.update(self.eye)?;
+        if stats.built > 0 {
+            self.dirty = true;
+        }
+        let camera = Camera::look_at(self.eye, self.eye + self.forward());
+        let Some(state) = self.state.as_mut() else {
+            return Ok(());
+        };
+        // Resampling the light volume costs about a second on two cores: at most once a
+        // second, and only after grids changed.
+        if self.dirty && self.last_relight.elapsed().as_secs_f32() > 1.0 {
+            state.meshes.relight(&mut state.renderer, &self.world)?;
+            let grid = self.world.hierarchy.grid_at(self.eye).clone();
+            state
+                .meshes
+                .set_debug(&mut state.renderer, &self.world, &grid)?;
+            self.dirty = false;
+            self.last_relight = Instant::now();
+        }
+        let view = make_view(&self.world, &state.meshes, camera, self.shot);
+        let frame = match state.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                state
+                    .surface
+                    .configure(&state.renderer.context().device, &state.config);
+                return Ok(());
+            }
+            _ => return Ok(()),
+        };
+        let target = frame.texture.create_view(&Default::default());
+        state
+            .renderer
+            .render_to(&view, &target, state.config.format)?;
+        state.renderer.context().queue.present(frame);
+        state.window.set_title(&format!(
+            "lightgrid viewer: {:?} | {:.1} h | swept {} points, {} pending | {:.0} fps",
+            self.shot,
+            self.world.scene.sun.time_of_day.unwrap_or(f32::NAN),
+            stats.points_swept,
+            stats.pending,
+            1.0 / dt.max(1e-3)
+        ));
+        state.window.request_redraw();
+        Ok(())
+    }
+
+    fn key(&mut self, code: KeyCode) -> Result<()> {
+        match code {
+            KeyCode::Digit1 => self.shot = Shot::Lit,
+            KeyCode::Digit2 => self.shot = Shot::NoGrid,
+            KeyCode::Digit3 => self.shot = Shot::Points,
+            KeyCode::Digit4 => self.shot = Shot::Material,
+            KeyCode::BracketLeft | KeyCode::BracketRight => {
+                let step = if code == KeyCode::BracketLeft {
+                    -0.25
+                } else {
+                    0.25
+                };
+                let t = (self.world.scene.sun.time_of_day.unwrap_or(12.0) + step).clamp(5.0, 19.0);
+                self.world.scene.sun.time_of_day = Some(t);
+                let (sky, sun) = sky_and_sun(&self.world.scene)?;
+                self.world.sky_top = sky;
+                self.world.sun = sun;
+                let top = boundary_light(&sky, &self.world.scene)?;
+                self.world.hierarchy.set_sky(top)?;
+                self.dirty = true;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: anyhow::Error) {
+        self.error = Some(e);
+        event_loop.exit();
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.state.is_none() {
+            match self.init(event_loop) {
+                Ok(s) => {
+                    s.window.request_redraw();
+                    self.state = Some(s);
+                }
+                Err(e) => self.fail(event_loop, e),
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                if let Some(s) = self.state.as_mut()
+                    && size.width > 0
+                    && size.height > 0
+                {
+                    s.config.width = size.width;
+                    s.config.height = size.height;
+                    s.surface.configure(&s.renderer.context().device, &s.config);
+                    if let Err(e) = s.renderer.resize(size.width, size.height) {
+                        self.fail(event_loop, e.into());
+                    }
+                }
+            }
+            WindowEvent::KeyboardInput {
+                event:
+                    KeyEvent {
+                        physical_key: PhysicalKey::Code(code),
+                        state,
+                        repeat,
+                        ..
+                    },
+                ..
+            } => {
+                if state == ElementState::Pressed {
+                    if code == KeyCode::Escape {
+                        event_loop.exit();
+                        return;
+                    }
+                    self.keys.insert(code);
+                    if !repeat && let Err(e) = self.key(code) {
+                        self.fail(event_loop, e);
+                    }
+                } else {
+                    self.keys.remove(&code);
+                }
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.frame() {
+                    self.fail(event_loop, e);
+                }
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,381 @@
+//! Builds a scene's world: heightmap, models and their material grids, instances, the
+//! area composer, the sky and the light grid hierarchy.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use grid_core::glam::{Quat, Vec2, Vec3, Vec4};
+use grid_core::{BinLight, MaterialGrid, Sweeper};
+use indicatif::{ProgressBar, ProgressStyle};
+use material_voxelizer::compose::{
+    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
+};
+use material_voxelizer::model::{Model, Texture};
+use material_voxelizer::procedural::{TreeParams, bush, rock, tree};
+use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use sweep_cpu::sky::{ClearSky, EnvMap, Sun, uniform_sky};
+use terrain_lod::{Hierarchy, HierarchyParams};
+
+use crate::scene::SceneFile;
+
+/// Which sweeper computes the grids.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SweeperChoice {
+    /// A real GPU if one exists, else the CPU (lavapipe, a software GPU, is slower than
+    /// the CPU sweeper, so it only counts when asked for).
+    Auto,
+    /// The multithreaded CPU sweep.
+    Cpu,
+    /// The wgpu compute sweep (any adapter, lavapipe included).
+    Gpu,
+}
+
+/// A model and the instances placed from the scene file.
+pub struct ModelEntry {
+    /// Name in the scene file.
+    pub name: String,
+    /// Its triangles and materials.
+    pub model: Model,
+    /// Leaves and bushes (alpha-masked or procedural foliage) are lit as foliage.
+    pub foliage: bool,
+}
+
+/// Everything built from a scene file.
+pub struct World {
+    /// The scene.
+    pub scene: SceneFile,
+    /// Terrain heights.
+    pub heightmap: Heightmap,
+    /// Ground colour.
+    pub ground: GroundColour,
+    /// Models, in scene order.
+    pub models: Vec<ModelEntry>,
+    /// All instances (model = index into `models`).
+    pub instances: Vec<Instance>,
+    /// The material of any box (shared with the hierarchy).
+    pub composer: Arc<AreaComposer>,
+    /// The light grids.
+    pub hierarchy: Hierarchy,
+    /// Sky light entering the top (without the sun).
+    pub sky_top: BinLight,
+    /// The way sunlight travels (unit), and its irradiance (zero below the horizon).
+    pub sun: (Vec3, Vec3),
+    /// Name of the sweeper used.
+    pub sweeper: String,
+    /// Seconds per stage.
+    pub timings: Vec<(String, f64)>,
+    /// Material grid bytes of the models.
+    pub model_grid_bytes: u64,
+}
+
+fn bar(len: u64, what: &str) -> ProgressBar {
+    let b = if std::env::var_os("LIGHTGRID_QUIET").is_some() {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(len)
+    };
+    b.set_style(
+        ProgressStyle::with_template("{msg:28} [{bar:30}] {pos}/{len} {elapsed}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    b.set_message(what.to_string());
+    b
+}
+
+fn procedural_heightmap(p: &crate::scene::ProceduralTerrain, spacing: f32) -> Result<Heightmap> {
+    use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
+    let fbm = Fbm::<Perlin>::new(p.seed)
+        .set_octaves(5)
+        .set_frequency(1.0 / p.feature_size as f64);
+    let n = (p.size / spacing).round() as u32 + 1;
+    Ok(Heightmap::from_fn(Vec2::ZERO, spacing, n, n, |x, z| {
+        // fBm is roughly in [-1, 1]; map to [0, relief].
+        let v = fbm.get([x as f64, z as f64]) as f32;
+        (0.5 + 0.5 * v).clamp(0.0, 1.0) * p.relief
+    })?)
+}
+
+fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
+    let img = image::ImageReader::open(path)
+        .with_context(|| format!("opening {}", path.display()))?
+        .decode()
+        .with_context(|| format!("decoding {}", path.display()))?
+        .into_rgba8();
+    let (w, h) = img.dimensions();
+    let lin = |c: u8| {
+        let c = c as f32 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    Ok(Texture {
+        width: w,
+        height: h,
+        texels: img
+            .pixels()
+            .map(|p| Vec4::new(lin(p[0]), lin(p[1]), lin(p[2]), p[3] as f32 / 255.0))
+            .collect(),
+    })
+}
+
+/// A xorshift stream of uniform numbers in [0, 1) (deterministic scatter).
+fn rng(seed: u64) -> impl FnMut() -> f32 {
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).max(1);
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// The sky's top boundary (sun excluded), and the sun.
+pub fn sky_and_sun(scene: &SceneFile) -> Result<(BinLight, (Vec3, Vec3))> {
+    let (elevation, azimuth) = scene.sun.angles();
+    let illuminance = Vec3::from_array(scene.sun.illuminance);
+    let sun = Sun::at(elevation, azimuth, illuminance);
+    let sky = match scene.sky.kind.as_str() {
+        "uniform" => uniform_sky(Vec3::from_array(scene.sky.radiance))?.top,
+        "exr" => {
+            let f = scene.resolve(scene.sky.file.as_ref().context("sky.file")?);
+            EnvMap::load_exr(&f)
+                .with_context(|| format!("sky.file {}", f.display()))?
+                .bins()
+                .top
+        }
+        _ => ClearSky::blue(sun.direction).bins()?.top,
+    };
+    let sky = sky.scaled(scene.sky.scale);
+    let sun_light = if elevation > 0.0 {
+        illuminance
+    } else {
+        Vec3::ZERO
+    };
+    Ok((sky, (-sun.direction.normalize(), sun_light)))
+}
+
+/// The sky top boundary with the sun disc in it (what the sweep reads).
+pub fn boundary_light(sky: &BinLight, scene: &SceneFile) -> Result<BinLight> {
+    let (elevation, azimuth) = scene.sun.angles();
+    let mut top = *sky;
+    if elevation > 0.0 {
+        let sun = Sun::at(elevation, azimuth, Vec3::from_array(scene.sun.illuminance)).bins()?;
+        for (t, s) in top.0.iter_mut().zip(sun.0) {
+            *t += s;
+        }
+    }
+    Ok(top)
+}
+
+impl World {
+    /// Builds everything but the node grids (those follow the camera:
+    /// [`World::prepare_view`]).
+    pub fn build(scene: SceneFile, sweeper: SweeperChoice) -> Result<Self> {
+        let mut timings = Vec::new();
+        let t = Instant::now();
+        let ts = &scene.terrain;
+        let heightmap = match (&ts.heightmap, &ts.procedural) {
+            (Some(path), _) => {
+                let p = scene.resolve(path);
+                Heightmap::load_png(&p, Vec2::ZERO, ts.spacing, ts.height_scale, 0.0)
+                    .with_context(|| format!("terrain.heightmap {}", p.display()))?
+            }
+            (None, Some(p)) => procedural_heightmap(p, ts.spacing)?,
+            (None, None) => anyhow::bail!("terrain: no heightmap"),
+        };
+        let ground = match &ts.ground_texture {
+            Some(path) => {
+                let (w, d) = (
+                    (heightmap.width - 1) as f32 * heightmap.spacing,
+                    (heightmap.depth - 1) as f32 * heightmap.spacing,
+                );
+                GroundColour::Texture {
+                    texture: load_texture_png(&scene.resolve(path))
+                        .context("terrain.ground_texture")?,
+                    origin: heightmap.origin,
+                    size: Vec2::new(w, d),
+                }
+            }
+            None => GroundColour::Uniform(Vec3::from_array(ts.ground_colour)),
+        };
+        timings.push(("terrain".to_string(), t.elapsed().as_secs_f64()));
+
+        // Models and their material grids.
+        let t = Instant::now();
+        let mut models = Vec::new();
+        let mut grids: Vec<MaterialGrid> = Vec::new();
+        let pb = bar(scene.models.len() as u64, "voxelizing models");
+        for (i, m) in scene.models.iter().enumerate() {
+            pb.set_message(format!("voxelizing {}", m.name));
+            let (model, foliage) = match (&m.gltf, m.procedural.as_deref()) {
+                (Some(path), _) => {
+                    let p = scene.resolve(path);
+                    let model = Model::load_gltf(&p)
+                        .with_context(|| format!("models[{i}].gltf {}", p.display()))?;
+                    let foliage = model
+                        .materials
+                        .iter()
+                        .any(|s| !matches!(s.alpha, material_voxelizer::model::AlphaMode::Opaque));
+                    (model, foliage)
+                }
+                (None, Some("broadleaf")) => (tree(&TreeParams::broadleaf(m.seed))?, true),
+                (None, Some("young")) => (tree(&TreeParams::young(m.seed))?, true),
+                (None, Some("bush")) => (bush(m.seed, 1.2)?, true),
+                (None, Some(_)) => (rock(m.seed, 1.0)?, false),
+                (None, None) => anyhow::bail!("models[{i}]: no source"),
+            };
+            let (grid, _) = voxelize(&model, &VoxelizeParams::standard(m.voxel_size), &|_, _| {})
+                .with_context(|| format!("voxelizing models[{i}] ({})", m.name))?;
+            grids.push(grid);
+            models.push(ModelEntry {
+                name: m.name.clone(),
+                model,
+                foliage,
+            });
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        let model_grid_bytes = grids.iter().map(|g| g.data().len() as u64 * 16).sum();
+        timings.push(("voxelize models".to_string(), t.elapsed().as_secs_f64()));
+
+        // Instances.
+        let t = Instant::now();
+        let index = |name: &str| {
+            scene
+                .models
+                .iter()
+                .position(|m| m.name == name)
+                .expect("validated") as u32
+        };
+        let mut instances = Vec::new();
+        for inst in &scene.instances {
+            let [x, z] = inst.position;
+            instances.push(Instance {
+                model: index(&inst.model),
+                position: Vec3::new(x, heightmap.height_at(x, z) + inst.height, z),
+                rotation: Quat::from_rotation_y(inst.rotation_deg.to_radians()),
+                scale: inst.scale,
+            });
+        }
+        for s in &scene.scatter {
+            let mut r = rng(s.seed ^ ((index(&s.model) as u64 + 1) * 7919));
+            for _ in 0..s.count {
+                let (a, d) = (r() * std::f32::consts::TAU, s.radius * r().sqrt());
+                let (x, z) = (s.centre[0] + d * a.cos(), s.centre[1] + d * a.sin());
+                instances.push(Instance {
+                    model: index(&s.model),
+                    // Sunk a little so slopes leave no gap under the trunk.
+                    position: Vec3::new(x, heightmap.height_at(x, z) - 0.2, z),
+                    rotation: Quat::from_rotation_y(r() * std::f32::consts::TAU),
+                    scale: s.scale[0] + r() * (s.scale[1] - s.scale[0]),
+                });
+            }
+        }
+        let composer = Arc::new(AreaComposer::new(
+            grids,
+            &instances,
+            Some(Terrain {
+                heightmap: heightmap.clone(),
+                colour: ground.clone(),
+            }),
+            ComposeParams::default(),
+        )?);
+        timings.push(("place instances".to_string(), t.elapsed().as_secs_f64()));
+
+        // Sky, sweeper, hierarchy (the world grid is swept here).
+        let t = Instant::now();
+        let (sky_top, sun) = sky_and_sun(&scene)?;
+        let top = boundary_light(&sky_top, &scene)?;
+        let (sweeper, name): (Box<dyn Sweeper + Send + Sync>, String) = match sweeper {
+            SweeperChoice::Cpu => (Box::new(sweep_cpu::CpuSweeper::new()), "cpu".into()),
+            SweeperChoice::Gpu => {
+                let c = sweep_gpu::GpuContext::new().context("--sweeper gpu")?;
+                let name = format!("gpu ({})", c.info.name);
+                (Box::new(sweep_gpu::GpuSweeper::with_context(c)), name)
+            }
+            SweeperChoice::Auto => match sweep_gpu::GpuContext::new() {
+                Ok(c) if c.info.device_type != wgpu::DeviceType::Cpu => {
+                    let name = format!("gpu ({})", c.info.name);
+                    (Box::new(sweep_gpu::GpuSweeper::with_context(c)), name)
+                }
+                Ok(c) => (
+                    Box::new(sweep_cpu::CpuSweeper::new()),
+                    format!(
+                        "cpu (auto: the only GPU adapter, {}, is a software one)",
+                        c.info.name
+                    ),
+                ),
+                Err(_) => (
+                    Box::new(sweep_cpu::CpuSweeper::new()),
+                    "cpu (auto: no GPU adapter)".into(),
+                ),
+            },
+        };
+        let g = &scene.grid;
+        let mut params = HierarchyParams {
+            world_cell: g.world_cell,
+            finest_cell: g.finest_cell,
+            node_points: g.node_points,
+            budget_points: g.node_points as u64 * g.node_points as u64 * 48 * 4,
+            ..Default::default()
+        };
+        params.sweep.max_passes = g.passes;
+        let hierarchy =
+            Hierarchy::new(&heightmap, Box::new(composer.clone()), sweeper, top, params)
+                .context("building the light grid hierarchy")?;
+        timings.push(("world grid".to_string(), t.elapsed().as_secs_f64()));
+        Ok(Self {
+            scene,
+            heightmap,
+            ground,
+            models,
+            instances,
+            composer,
+            hierarchy,
+            sky_top,
+            sun,
+            sweeper: name,
+            timings,
+            model_grid_bytes,
+        })
+    }
+
+    /// Eye and target of view `i` in world space.
+    pub fn view_points(&self, i: usize) -> (Vec3, Vec3) {
+        let v = &self.scene.views[i];
+        let at = |xz: [f32; 2], h: f32| {
+            Vec3::new(xz[0], self.heightmap.height_at(xz[0], xz[1]) + h, xz[1])
+        };
+        (at(v.position, v.height), at(v.target, v.target_height))
+    }
+
+    /// Builds the grids the camera at `eye` wants (all of them: frames until none is
+    /// pending), with progress. Returns frames run, points swept and the last stats.
+    pub fn prepare_view(
+        &mut self,
+        eye: Vec3,
+        label: &str,
+    ) -> Result<(u32, u64, terrain_lod::FrameStats)> {
+        let pb = bar(0, label);
+        let mut swept = 0;
+        let mut frames = 0;
+        loop {
+            let s = self
+                .hierarchy
+                .update(eye)
+                .context("updating the light grids")?;
+            frames += 1;
+            swept += s.points_swept;
+            pb.set_length(frames as u64 + s.pending as u64);
+            pb.set_position(frames as u64);
+            if s.pending == 0 || frames >= 400 {
+                pb.finish_and_clear();
+                return Ok((frames, swept, s));
+            }
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! Image tests: small headless renders of `tests/data/tiny.toml` compared with the
+//! references in `tests/reference/` (rendered on lavapipe). A render passes when its mean
+//! absolute difference is at most 1.5 levels (of 255) per channel and at most 1 % of its
+//! pixels differ by more than 24 levels in any channel: rasterisers may differ in edge
+//! rules and float rounding, not in lighting. On failure the actual image and a diff
+//! (differences × 8) are written to `target/image-tests/`. `LIGHTGRID_BLESS=1` rewrites
+//! the references. Needs a GPU adapter (lavapipe in CI); fails without one unless
+//! LIGHTGRID_ALLOW_NO_GPU=1.
+
+use std::path::{Path, PathBuf};
+
+use viewer::{Options, SceneFile, SweeperChoice};
+
+fn manifest() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn load_rgba(path: &Path) -> (u32, u32, Vec<u8>) {
+    let img = image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .into_rgba8();
+    let (w, h) = img.dimensions();
+    (w, h, img.into_raw())
+}
+
+/// (mean absolute difference per channel, fraction of pixels off by more than 24).
+fn compare(a: &[u8], b: &[u8]) -> (f64, f64) {
+    let mut sum = 0u64;
+    let mut bad = 0usize;
+    for (pa, pb) in a.chunks(4).zip(b.chunks(4)) {
+        let mut worst = 0;
+        for c in 0..3 {
+            let d = (pa[c] as i32 - pb[c] as i32).unsigned_abs();
+            sum += d as u64;
+            worst = worst.max(d);
+        }
+        bad += (worst > 24) as usize;
+    }
+    let pixels = a.len() / 4;
+    (sum as f64 / (pixels * 3) as f64, bad as f64 / pixels as f64)
+}
+
+#[test]
+fn tiny_scene_matches_the_reference_images() {
+    if sweep_gpu::GpuContext::new_or_opt_out()
+        .unwrap_or_else(|e| {
+            panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
+        })
+        .is_none()
+    {
+        return;
+    }
+    let out = manifest().join("../../target/image-tests");
+    std::fs::create_dir_all(&out).unwrap();
+    let scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
+    let summary = viewer::run(
+        scene,
+        &Options {
+            out: out.clone(),
+            width: 64,
+            height: 64,
+            sweeper: SweeperChoice::Cpu,
+            exr: true,
+        },
+    )
+    .unwrap();
+    assert!(summary.text().contains("view tiny"));
+    // The EXR holds the same lit view in linear HDR: it reads back and is not black.
+    let exr = exr::prelude::read_first_rgba_layer_from_file(
+        out.join("tiny.exr"),
+        |res, _| vec![0f32; res.width() * res.height()],
+        |px: &mut Vec<f32>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[p.y() * 64 + p.x()] = r + g + b
+        },
+    )
+    .unwrap();
+    let hdr = &exr.layer_data.channel_data.pixels;
+    assert!(hdr.iter().all(|v| v.is_finite()) && hdr.iter().sum::<f32>() > 1.0);
+
+    let bless = std::env::var("LIGHTGRID_BLESS").as_deref() == Ok("1");
+    let mut failures = Vec::new();
+    for name in ["tiny", "tiny-no-grid", "tiny-grid-points", "tiny-material"] {
+        let actual = out.join(format!("{name}.png"));
+        let reference = manifest().join(format!("tests/reference/{name}.png"));
+        if bless {
+            std::fs::copy(&actual, &reference).unwrap();
+            continue;
+        }
+        let (w, h, a) = load_rgba(&actual);
+        let (rw, rh, b) = load_rgba(&reference);
+        assert_eq!((w, h), (rw, rh), "{name}: size");
+        let (mean, off) = compare(&a, &b);
+        eprintln!(
+            "{name}: mean difference {mean:.3}, pixels off {:.2} %",
+            off * 100.0
+        );
+        if mean > 1.5 || off > 0.01 {
+            let diff: Vec<u8> = a
+                .chunks(4)
+                .zip(b.chunks(4))
+                .flat_map(|(p, q)| {
+                    let d =
+                        |c: usize| ((p[c] as i32 - q[c] as i32).unsigned_abs() * 8).min(255) as u8;
+                    [d(0), d(1), d(2), 255]
+                })
+                .collect();
+            let diff_path = out.join(format!("{name}-diff.png"));
+            image::save_buffer(&diff_path, &diff, w, h, image::ColorType::Rgba8).unwrap();
+            failures.push(format!(
+                "{name}: mean {mean:.3} (max 1.5), pixels off {:.2} % (max 1 %); actual {} diff {}",
+                off * 100.0,
+                actual.display(),
+                diff_path.display()
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    // The grids light the scene differently from the no-grid comparison (shadows and
+    // bounce): the two images must not be the same.
+    let (_, _, lit) = load_rgba(&out.join("tiny.png"));
+    let (_, _, flat) = load_rgba(&out.join("tiny-no-grid.png"));
+    assert!(compare(&lit, &flat).0 > 2.0, "grid light changes nothing?");
+}
