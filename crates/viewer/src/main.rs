@@ -29,6 +29,9 @@ struct Args {
     /// Open an interactive window instead of writing images.
     #[arg(long)]
     window: bool,
+    /// With --window: fly forward on autopilot and quit after this many frames.
+    #[arg(long, requires = "window")]
+    frames: Option<u32>,
 }
 
 fn main() -> Result<()> {
@@ -38,7 +41,7 @@ fn main() -> Result<()> {
         None => SceneFile::demo()?,
     };
     if args.window {
-        return viewer::window::run(scene, args.sweeper, args.width, args.height);
+        return viewer::window::run(scene, args.sweeper, args.width, args.height, args.frames);
     }
     let summary = viewer::run(
         scene,

@@ -4,6 +4,9 @@
 //! Keys: W/S forward/back, A/D sideways, Q/E down/up, arrow keys turn, Shift faster;
 //! `[` / `]` time of day −/+ 15 min (new sky; grids rebuild progressively);
 //! 1 lit, 2 without grids, 3 grid points, 4 material cells; Esc quits.
+//!
+//! `--frames N` (smoke tests, demos) flies forward on its own and quits after `N`
+//! frames, printing the frames drawn and the grids built while flying.
 
 use std::collections::HashSet;
 use std::sync::Arc;
@@ -24,7 +27,13 @@ use crate::world::{SweeperChoice, World, boundary_light, sky_and_sun};
 
 /// Opens the window and runs until it closes. Errors (with a hint) where no display
 /// exists.
-pub fn run(scene: SceneFile, sweeper: SweeperChoice, width: u32, height: u32) -> Result<()> {
+pub fn run(
+    scene: SceneFile,
+    sweeper: SweeperChoice,
+    width: u32,
+    height: u32,
+    frames: Option<u32>,
+) -> Result<()> {
     let event_loop = EventLoop::new().context(
         "--window needs a display (X11 or Wayland); run without --window for headless images",
     )?;
@@ -45,17 +54,27 @@ pub fn run(scene: SceneFile, sweeper: SweeperChoice, width: u32, height: u32) ->
         last: Instant::now(),
         last_relight: Instant::now(),
         dirty: true,
+        frames_left: frames,
+        drawn: 0,
+        built: 0,
     };
+    if frames.is_some() {
+        app.keys.insert(KeyCode::KeyW);
+    }
     let (eye, target) = app.world.view_points(0);
     app.eye = eye;
     let d = (target - eye).normalize();
     app.yaw = d.x.atan2(-d.z);
     app.pitch = d.y.asin();
     event_loop.run_app(&mut app).context("window event loop")?;
-    match app.error {
-        Some(e) => Err(e),
-        None => Ok(()),
+    if let Some(e) = app.error {
+        return Err(e);
     }
+    println!(
+        "frames drawn: {}, grids built while flying: {}",
+        app.drawn, app.built
+    );
+    Ok(())
 }
 
 struct GpuState {
@@ -79,6 +98,9 @@ struct App {
     last: Instant,
     last_relight: Instant,
     dirty: bool,
+    frames_left: Option<u32>,
+    drawn: u32,
+    built: u32,
 }
 
 impl App {
@@ -182,6 +204,7 @@ impl App {
         }
         // Rebuild grids around the camera within the budget.
         let stats = self.world.hierarchy.update(self.eye)?;
+        self.built += stats.built;
         if stats.built > 0 {
             self.dirty = true;
         }
@@ -217,6 +240,7 @@ impl App {
             .renderer
             .render_to(&view, &target, state.config.format)?;
         state.renderer.context().queue.present(frame);
+        self.drawn += 1;
         state.window.set_title(&format!(
             "lightgrid viewer: {:?} | {:.1} h | swept {} points, {} pending | {:.0} fps",
             self.shot,
@@ -316,6 +340,12 @@ impl ApplicationHandler for App {
             WindowEvent::RedrawRequested => {
                 if let Err(e) = self.frame() {
                     self.fail(event_loop, e);
+                }
+                if let Some(n) = self.frames_left.as_mut() {
+                    *n = n.saturating_sub(1);
+                    if *n == 0 {
+                        event_loop.exit();
+                    }
                 }
             }
             _ => {}
