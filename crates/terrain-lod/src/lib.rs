@@ -603,6 +603,12 @@ impl Hierarchy {
                         stats.skipped_bare += 1; // bare ground: no finer child needed
                         continue;
                     }
+                    // A missing parent under a bare ancestor will never be built:
+                    // neither will this node (not pending work).
+                    None if self.bare_ancestor(p) => {
+                        stats.skipped_bare += 1;
+                        continue;
+                    }
                     None => {
                         stats.pending += 1;
                         continue;
@@ -641,6 +647,18 @@ impl Hierarchy {
             stats.points_per_depth[k.depth as usize] += n.light.desc().point_count() as u64;
         }
         Ok(stats)
+    }
+
+    /// Whether the nearest ready ancestor of `key` (itself included) is bare ground.
+    fn bare_ancestor(&self, key: NodeKey) -> bool {
+        let mut k = Some(key);
+        while let Some(key) = k {
+            if let Some(n) = self.nodes.get(&key) {
+                return !n.has_objects;
+            }
+            k = Self::parent(key);
+        }
+        false
     }
 
     /// Rebuilds every ready node whose inputs changed (after the scene or sky changed),

@@ -23,6 +23,9 @@ struct Args {
     /// Image width in pixels.
     #[arg(long, default_value_t = 960)]
     width: u32,
+    /// Render only this view of the scene file (repeatable).
+    #[arg(long = "view")]
+    views: Vec<String>,
     /// Image height in pixels.
     #[arg(long, default_value_t = 540)]
     height: u32,
@@ -36,10 +39,21 @@ struct Args {
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    let scene = match &args.scene {
+    let mut scene = match &args.scene {
         Some(p) => SceneFile::load(p)?,
         None => SceneFile::demo()?,
     };
+    if !args.views.is_empty() {
+        if let Some(bad) = args
+            .views
+            .iter()
+            .find(|v| !scene.views.iter().any(|s| &s.name == *v))
+        {
+            let names: Vec<&str> = scene.views.iter().map(|v| v.name.as_str()).collect();
+            anyhow::bail!("--view {bad}: the scene has no such view (it has {names:?})");
+        }
+        scene.views.retain(|v| args.views.contains(&v.name));
+    }
     if args.window {
         return viewer::window::run(scene, args.sweeper, args.width, args.height, args.frames);
     }

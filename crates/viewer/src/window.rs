@@ -2,7 +2,8 @@
 //! around the camera within the per-frame point budget while flying.
 //!
 //! Keys: W/S forward/back, A/D sideways, Q/E down/up, arrow keys turn, Shift faster;
-//! `[` / `]` time of day −/+ 15 min (new sky; grids rebuild progressively);
+//! `[` / `]` time of day −/+ 15 min, `,` / `.` sun azimuth −/+ 10° (new sky; grids
+//! rebuild progressively);
 //! 1 lit, 2 without grids, 3 grid points, 4 material cells; Esc quits.
 //!
 //! `--frames N` (smoke tests, demos) flies forward on its own and quits after `N`
@@ -267,15 +268,30 @@ impl App {
                 };
                 let t = (self.world.scene.sun.time_of_day.unwrap_or(12.0) + step).clamp(5.0, 19.0);
                 self.world.scene.sun.time_of_day = Some(t);
-                let (sky, sun) = sky_and_sun(&self.world.scene)?;
-                self.world.sky_top = sky;
-                self.world.sun = sun;
-                let top = boundary_light(&sky, &self.world.scene)?;
-                self.world.hierarchy.set_sky(top)?;
-                self.dirty = true;
+                self.new_sky()?;
+            }
+            KeyCode::Comma | KeyCode::Period => {
+                let (e, a) = self.world.scene.sun.angles();
+                let step = if code == KeyCode::Comma { -10.0 } else { 10.0 };
+                let sun = &mut self.world.scene.sun;
+                sun.time_of_day = None;
+                sun.elevation_deg = e.to_degrees();
+                sun.azimuth_deg = a.to_degrees() + step;
+                self.new_sky()?;
             }
             _ => {}
         }
+        Ok(())
+    }
+
+    /// The sky and sun changed: new boundary light (grids rebuild progressively).
+    fn new_sky(&mut self) -> Result<()> {
+        let (sky, sun) = sky_and_sun(&self.world.scene)?;
+        self.world.sky_top = sky;
+        self.world.sun = sun;
+        let top = boundary_light(&sky, &self.world.scene)?;
+        self.world.hierarchy.set_sky(top)?;
+        self.dirty = true;
         Ok(())
     }
 

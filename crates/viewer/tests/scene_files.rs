@@ -1,0 +1,114 @@
+//! A user's scene with every kind of input: a PNG heightmap (the shipped DEM), glTF
+//! models (the shipped Kenney models), a ground texture, an EXR sky and a time of day.
+//! Builds the world and the grids around a view on the CPU (no GPU needed).
+
+use std::path::PathBuf;
+
+use grid_core::LightField;
+use grid_core::glam::Vec3;
+use sweep_cpu::sky::ClearSky;
+use viewer::{SceneFile, SweeperChoice, World};
+
+#[test]
+fn scene_with_heightmap_gltf_texture_and_exr_sky_builds() {
+    let testdata = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata");
+    let dir = std::env::temp_dir().join(format!("viewer-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    ClearSky::blue(Vec3::new(0.3, 0.8, 0.2))
+        .env_map(64, 32)
+        .unwrap()
+        .save_exr(dir.join("sky.exr"))
+        .unwrap();
+    let ground: Vec<u8> = (0..16 * 16)
+        .flat_map(|i| [90 + (i % 7) as u8 * 10, 80, 50])
+        .collect();
+    image::save_buffer(
+        dir.join("ground.png"),
+        &ground,
+        16,
+        16,
+        image::ColorType::Rgb8,
+    )
+    .unwrap();
+    let text = format!(
+        r#"
+[terrain]
+heightmap = "{dem}"
+spacing = 4.0
+height_scale = 0.05
+ground_texture = "ground.png"
+
+[sky]
+kind = "exr"
+file = "sky.exr"
+
+[sun]
+time_of_day = 10.0
+
+[grid]
+node_points = 16
+passes = 1
+
+[[models]]
+name = "trees"
+gltf = "{trees}"
+voxel_size = 0.25
+
+[[models]]
+name = "house"
+gltf = "{house}"
+voxel_size = 0.25
+
+[[instances]]
+model = "house"
+position = [520.0, 520.0]
+scale = 4.0
+
+[[scatter]]
+model = "trees"
+count = 40
+centre = [510.0, 530.0]
+radius = 20.0
+scale = [3.0, 4.0]
+
+[[views]]
+name = "town"
+position = [540.0, 500.0]
+height = 10.0
+target = [520.0, 520.0]
+"#,
+        dem = testdata
+            .join("dem-jacksboro/jacksboro_fault_dem_u16.png")
+            .display(),
+        trees = testdata
+            .join("kenney-city-builder/grass-trees.glb")
+            .display(),
+        house = testdata
+            .join("kenney-city-builder/building-small-a.glb")
+            .display(),
+    );
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = SceneFile::load(&path).unwrap();
+    let mut world = World::build(scene, SweeperChoice::Cpu).unwrap();
+    assert_eq!(world.models.len(), 2);
+    assert_eq!(world.instances.len(), 41);
+    // The EXR sky lights the top; at 10 h the sun is up, in the east-south-east.
+    assert!(world.sky_top.total().min_element() > 0.0);
+    assert!(world.sun.1.min_element() > 0.0 && world.sun.0.y < 0.0);
+    let (eye, target) = world.view_points(0);
+    let (_, swept, stats) = world.prepare_view(eye, "test").unwrap();
+    assert!(swept > 0 && stats.pending == 0, "swept {swept} {stats:?}");
+    // Light above the house roof is brighter than light inside it; all finite.
+    let inside = world
+        .hierarchy
+        .average(target + Vec3::new(0.0, 1.0, 0.0))
+        .unwrap();
+    let above = world
+        .hierarchy
+        .average(target + Vec3::new(0.0, 30.0, 0.0))
+        .unwrap();
+    assert!(inside.is_finite() && above.is_finite());
+    assert!(above.x > inside.x, "above {above} inside {inside}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
