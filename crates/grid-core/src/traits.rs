@@ -223,6 +223,10 @@ pub struct SweepOptions {
     pub max_passes: u32,
     /// Stop repeating passes when a pass changes the light by less than this fraction.
     pub tolerance: f32,
+    /// Copy, instead of computing, the levels above all material in a downward pass
+    /// under a laterally uniform boundary (same result; on by default; off only to
+    /// measure what the skip saves). GPU sweepers may compute them regardless.
+    pub skip_empty_levels: bool,
 }
 
 impl SweepOptions {
@@ -233,6 +237,7 @@ impl SweepOptions {
             smoothing: 0.25,
             max_passes: 1,
             tolerance: 0.0,
+            skip_empty_levels: true,
         }
     }
     /// Repeated down/up passes for multiple bounces, until the light still to be
@@ -243,6 +248,7 @@ impl SweepOptions {
             smoothing: 0.25,
             max_passes: 16,
             tolerance: 1e-3,
+            skip_empty_levels: true,
         }
     }
     /// Checks every field; errors name it.

@@ -887,7 +887,11 @@ fn run_with<S: Sink>(
             // Skip: a level above all material, in a downward pass, under a laterally
             // uniform boundary (or with no boundary light at all), receives exactly what
             // it passes on. Copy instead of computing.
-            if !up && j > top_material && (laterally_uniform || !src.active) {
+            if options.skip_empty_levels
+                && !up
+                && j > top_material
+                && (laterally_uniform || !src.active)
+            {
                 let v: Level = std::array::from_fn(|c| src.virtual_light(0, 0, &ch[c]));
                 if from_virtual {
                     bal.top_in += level_flux(&prev, ch);

@@ -102,6 +102,33 @@ pub struct HierarchyParams {
     pub max_levels: u32,
     /// Sweep options for every grid (`outputs.bins` is forced on: children read it).
     pub sweep: SweepOptions,
+    /// Work the hierarchy skips (all on by default; off only to measure each saving).
+    pub skip: LodSkips,
+}
+
+/// Work the hierarchy skips. Each is measured (time saved) and checked (light changed
+/// within tolerance) by `cargo xtask bench`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LodSkips {
+    /// No finer grids under a node without objects (bare ground): its light is read
+    /// from the coarser grid.
+    pub bare_children: bool,
+    /// `refresh` does not sweep a node whose inputs (material, boundary, options) hash
+    /// as before.
+    pub unchanged: bool,
+    /// Nodes without objects get a single downward pass: the upward pass over bare
+    /// ground only carries ground bounce into empty air.
+    pub up_pass_over_bare: bool,
+}
+
+impl Default for LodSkips {
+    fn default() -> Self {
+        Self {
+            bare_children: true,
+            unchanged: true,
+            up_pass_over_bare: true,
+        }
+    }
 }
 
 impl Default for HierarchyParams {
@@ -118,6 +145,7 @@ impl Default for HierarchyParams {
             budget_points: 32 * 32 * 48 * 2,
             max_levels: 48,
             sweep,
+            skip: LodSkips::default(),
         }
     }
 }
@@ -356,8 +384,7 @@ impl Hierarchy {
     fn sweep_world(&mut self) -> Result<(), LodError> {
         let desc = *self.world.desc();
         let material = self.source.material(&desc)?;
-        let mut o = self.params.sweep;
-        o.outputs.bins = true;
+        let o = self.node_options(true);
         let out = self
             .sweeper
             .sweep(&material, &Boundary::open_sky(self.sky), &o)?;
@@ -589,23 +616,22 @@ impl Hierarchy {
             self.nodes.remove(&k);
             stats.evicted += 1;
         }
-        let mut o = self.params.sweep;
-        o.outputs.bins = true;
         for key in self.wanted(camera) {
             if self.nodes.contains_key(&key) {
                 continue;
             }
             // Coarse to fine: the parent must be ready and have objects worth refining.
             if let Some(p) = Self::parent(key) {
+                let skip_bare = self.params.skip.bare_children;
                 match self.nodes.get(&p) {
-                    Some(n) if n.has_objects => {}
+                    Some(n) if n.has_objects || !skip_bare => {}
                     Some(_) => {
                         stats.skipped_bare += 1; // bare ground: no finer child needed
                         continue;
                     }
                     // A missing parent under a bare ancestor will never be built:
                     // neither will this node (not pending work).
-                    None if self.bare_ancestor(p) => {
+                    None if skip_bare && self.bare_ancestor(p) => {
                         stats.skipped_bare += 1;
                         continue;
                     }
@@ -624,6 +650,7 @@ impl Hierarchy {
                 continue;
             }
             let boundary = self.node_boundary(&desc, key.depth);
+            let o = self.node_options(has_objects);
             let input_hash = hash_grid(&material, &boundary, &o);
             let out = self.sweeper.sweep(&material, &boundary, &o)?;
             stats.points_swept += cost;
@@ -649,6 +676,17 @@ impl Hierarchy {
         Ok(stats)
     }
 
+    /// The sweep options of a node: bins always on; one downward pass over bare ground
+    /// when that skip is on.
+    fn node_options(&self, has_objects: bool) -> SweepOptions {
+        let mut o = self.params.sweep;
+        o.outputs.bins = true;
+        if !has_objects && self.params.skip.up_pass_over_bare {
+            o.max_passes = 1;
+        }
+        o
+    }
+
     /// Whether the nearest ready ancestor of `key` (itself included) is bare ground.
     fn bare_ancestor(&self, key: NodeKey) -> bool {
         let mut k = Some(key);
@@ -665,8 +703,6 @@ impl Hierarchy {
     /// within the budget; nodes whose inputs hash as before are counted as skipped.
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
         let mut stats = FrameStats::default();
-        let mut o = self.params.sweep;
-        o.outputs.bins = true;
         let mut keys = self.ready_nodes();
         keys.sort_by(|a, b| {
             a.depth.cmp(&b.depth).then(
@@ -682,9 +718,10 @@ impl Hierarchy {
             }
             let material = self.source.material(&desc)?;
             let boundary = self.node_boundary(&desc, key.depth);
+            let o = self.node_options(self.nodes[&key].has_objects);
             let hash = hash_grid(&material, &boundary, &o);
             // (The node keeps its size; a changed scene may need a new size: evict it.)
-            if hash == self.nodes[&key].input_hash {
+            if self.params.skip.unchanged && hash == self.nodes[&key].input_hash {
                 stats.skipped_unchanged += 1;
                 continue;
             }
