@@ -1,22 +1,57 @@
 //! `cargo xtask <task>`: project chores.
 //!
 //! * `inspect <file>`: prints the header of a grid file and a summary of its values.
-//!
-//! `bench` (run time against error) arrives with the benchmark issue.
+//! * `bench [--full] [--scene NAME]... [--no-gpu] [--out DIR]`: run time against error
+//!   for the sweep (CPU, GPU) and Monte Carlo on every bench scene, against a cached long
+//!   Monte Carlo reference, and the work the library skips; writes a table, JSON and a
+//!   log-log plot (see `bench` module docs). The quick default takes a few minutes on two
+//!   cores; `--full` uses larger grids and a longer reference.
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 
+use clap::{Parser, Subcommand};
 use grid_core::{GridFile, LightGrid};
 
+pub mod bench;
+
+#[derive(Debug, Parser)]
+#[command(about = "lightgrid project chores")]
+struct Args {
+    #[command(subcommand)]
+    task: Task,
+}
+
+#[derive(Debug, Subcommand)]
+enum Task {
+    /// Print the header and a summary of a grid file.
+    Inspect {
+        /// The grid file.
+        path: PathBuf,
+    },
+    /// Run time against error, and the skipped work.
+    Bench {
+        /// Larger grids, a longer reference and more Monte Carlo path counts.
+        #[arg(long)]
+        full: bool,
+        /// Only this scene (repeatable): empty, uniform-fog, dense-block, canopy,
+        /// line-source, lattice, forest.
+        #[arg(long = "scene")]
+        scenes: Vec<String>,
+        /// Leave the GPU sweeper out.
+        #[arg(long)]
+        no_gpu: bool,
+        /// Output folder (default target/bench).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match args
-        .iter()
-        .map(String::as_str)
-        .collect::<Vec<_>>()
-        .as_slice()
-    {
-        ["inspect", path] => match GridFile::load(path) {
+    let args = Args::parse();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    match args.task {
+        Task::Inspect { path } => match GridFile::load(&path) {
             Ok(f) => {
                 print!("{}", describe(&f));
                 ExitCode::SUCCESS
@@ -26,9 +61,29 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
-        _ => {
-            eprintln!("usage: cargo xtask inspect <grid file>");
-            ExitCode::FAILURE
+        Task::Bench {
+            full,
+            scenes,
+            no_gpu,
+            out,
+        } => {
+            let mut cfg = if full {
+                bench::BenchConfig::full(&root)
+            } else {
+                bench::BenchConfig::quick(&root)
+            };
+            cfg.only = scenes;
+            cfg.gpu = !no_gpu;
+            if let Some(o) = out {
+                cfg.out = o;
+            }
+            match bench::run(&cfg) {
+                Ok(_) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("xtask bench: {e:#}");
+                    ExitCode::FAILURE
+                }
+            }
         }
     }
 }

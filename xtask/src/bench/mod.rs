@@ -1,0 +1,668 @@
+//! `cargo xtask bench`: run time against error, side by side, for the sweep (CPU and
+//! GPU, several settings) and Monte Carlo at growing path counts, on every bench scene,
+//! against a long Monte Carlo reference cached on disk; then the work the library skips,
+//! with and without each skip.
+//!
+//! Errors are over the points outside opaque cells whose reference average light exceeds
+//! 1e-3 of the largest (as `sweep_cpu::scenes::compare`), on luminance:
+//! - `rel_rmse_avg`: `sqrt(Σ (a − r)² / Σ r²)` of the average light (the plotted error);
+//! - `rel_rmse_irr`: the same for irradiance on the six axis normals;
+//! - `rel_mse`: mean of `(a − r)² / (r² + ε)`, with `ε = 1e-4` (light units; the sky has
+//!   radiance 1), so dark points do not dominate;
+//! - `smape`: mean of `2 |a − r| / (|a| + |r| + ε)`.
+
+mod plot;
+pub mod scenes;
+mod skips;
+
+use std::hash::Hasher;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use grid_core::light::luminance;
+use grid_core::{GridFile, LightField, LightGrid, MaterialGrid, SweepOptions};
+use serde::Serialize;
+use sweep_cpu::reference::{ReferenceOptions, trace};
+use sweep_cpu::scenes::compare;
+
+use scenes::BenchScene;
+
+/// `ε` of `rel_mse` and `smape`.
+pub const EPSILON: f64 = 1e-4;
+
+/// Settings of a run.
+#[derive(Debug, Clone)]
+pub struct BenchConfig {
+    /// Cells a side of every scene.
+    pub n: u32,
+    /// Reference paths.
+    pub reference_paths: u64,
+    /// Monte Carlo path counts compared.
+    pub mc_paths: Vec<u64>,
+    /// Also run the GPU sweeper (when an adapter exists).
+    pub gpu: bool,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Reference cache folder.
+    pub cache: PathBuf,
+    /// Shipped test data (the forest's model).
+    pub testdata: PathBuf,
+    /// Only these scenes (all when empty).
+    pub only: Vec<String>,
+    /// Repetitions of each sweep (the fastest counts).
+    pub repeats: u32,
+    /// Measure the skipped work too.
+    pub skips: bool,
+}
+
+impl BenchConfig {
+    /// The quick default (under five minutes on two cores with a cold cache).
+    pub fn quick(root: &Path) -> Self {
+        Self {
+            n: 16,
+            reference_paths: 8_000_000,
+            mc_paths: vec![2_000, 8_000, 32_000, 128_000, 512_000],
+            gpu: true,
+            out: root.join("target/bench"),
+            cache: root.join("target/bench-cache"),
+            testdata: root.join("../shared/testdata"),
+            only: Vec::new(),
+            repeats: 5,
+            skips: true,
+        }
+    }
+    /// `--full`: larger grids, a longer reference, more path counts.
+    pub fn full(root: &Path) -> Self {
+        Self {
+            n: 24,
+            reference_paths: 32_000_000,
+            mc_paths: vec![4_000, 16_000, 64_000, 256_000, 1_024_000, 4_096_000],
+            repeats: 7,
+            ..Self::quick(root)
+        }
+    }
+}
+
+/// One method at one setting on one scene.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Scene.
+    pub scene: String,
+    /// `sweep-cpu`, `sweep-gpu` or `monte-carlo`.
+    pub method: String,
+    /// Its setting.
+    pub setting: String,
+    /// Wall time, seconds (fastest of the repeats for sweeps).
+    pub seconds: f64,
+    /// Relative RMSE of the average light.
+    pub rel_rmse_avg: f64,
+    /// Relative RMSE of irradiance on the six axis normals.
+    pub rel_rmse_irr: f64,
+    /// Mean relative squared error with ε.
+    pub rel_mse: f64,
+    /// Symmetric mean absolute percentage error (fraction) with ε.
+    pub smape: f64,
+    /// |in − absorbed − escaped − pending| / in (`None` where the method does not
+    /// report its tallies: the GPU sweep).
+    pub energy_error: Option<f64>,
+    /// Bytes of the method's working grids.
+    pub memory_bytes: u64,
+}
+
+/// A reference run.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReferenceInfo {
+    /// Scene.
+    pub scene: String,
+    /// Paths.
+    pub paths: u64,
+    /// RMS relative standard error of its average light.
+    pub rel_std_error: f64,
+    /// Seconds it took (0 when read from the cache).
+    pub seconds: f64,
+    /// Read from the cache.
+    pub cached: bool,
+}
+
+/// The whole report.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    /// Cells a side.
+    pub n: u32,
+    /// The ε of rel_mse and smape.
+    pub epsilon: f64,
+    /// References.
+    pub references: Vec<ReferenceInfo>,
+    /// Every measurement.
+    pub rows: Vec<Row>,
+    /// Skipped work.
+    pub skips: Vec<skips::SkipRow>,
+    /// The headline.
+    pub headline: String,
+    /// The GPU adapter, if one ran.
+    pub gpu: Option<String>,
+}
+
+/// FNV-1a over bytes (stable across runs and Rust versions, unlike `DefaultHasher`).
+struct Fnv(u64);
+impl Hasher for Fnv {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 ^= *b as u64;
+            self.0 = self.0.wrapping_mul(0x100_0000_01b3);
+        }
+    }
+}
+
+fn reference_key(s: &BenchScene, paths: u64, seed: u64) -> String {
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    h.write(b"lightgrid-reference-v1");
+    for m in s.material.data() {
+        for v in [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass] {
+            h.write(&v.to_bits().to_le_bytes());
+        }
+    }
+    let d = s.material.desc();
+    h.write(format!("{:?}{:?}{}", d.origin(), d.dims(), d.h()).as_bytes());
+    h.write(format!("{:?}", s.boundary).as_bytes());
+    h.write(&paths.to_le_bytes());
+    h.write(&seed.to_le_bytes());
+    format!("{}-{:016x}", s.name, h.finish())
+}
+
+/// The reference of a scene: from the cache if its inputs hash the same, else traced
+/// (with progress) and cached (atomically; a corrupt file is traced again).
+fn reference(s: &BenchScene, cfg: &BenchConfig) -> Result<(LightGrid, ReferenceInfo)> {
+    const SEED: u64 = 0x5eed;
+    std::fs::create_dir_all(&cfg.cache)?;
+    let key = reference_key(s, cfg.reference_paths, SEED);
+    let grid_path = cfg.cache.join(format!("{key}.lgrid"));
+    let meta_path = cfg.cache.join(format!("{key}.json"));
+    if let (Ok(GridFile::Light(g)), Ok(meta)) = (
+        GridFile::load(&grid_path),
+        std::fs::read_to_string(&meta_path),
+    ) && g.desc() == s.material.desc()
+        && let Ok(v) = serde_json::from_str::<serde_json::Value>(&meta)
+        && let Some(se) = v["rel_std_error"].as_f64()
+    {
+        return Ok((
+            g,
+            ReferenceInfo {
+                scene: s.name.clone(),
+                paths: cfg.reference_paths,
+                rel_std_error: se,
+                seconds: 0.0,
+                cached: true,
+            },
+        ));
+    }
+    let bar = indicatif::ProgressBar::new(cfg.reference_paths);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "reference {msg:12} [{bar:30}] {pos}/{len} paths {elapsed}",
+        )
+        .expect("template")
+        .progress_chars("=> "),
+    );
+    bar.set_message(s.name.clone());
+    let t = Instant::now();
+    let r = trace(
+        &s.material,
+        &s.boundary,
+        &ReferenceOptions {
+            paths: cfg.reference_paths,
+            seed: SEED,
+            ..Default::default()
+        },
+        &|done, _| bar.set_position(done),
+    )?;
+    bar.finish_and_clear();
+    let seconds = t.elapsed().as_secs_f64();
+    let max = r
+        .light
+        .data()
+        .iter()
+        .map(|b| luminance(b.average()))
+        .fold(0.0, f32::max);
+    let info = ReferenceInfo {
+        scene: s.name.clone(),
+        paths: r.paths,
+        rel_std_error: r.relative_std_error(1e-3 * max),
+        seconds,
+        cached: false,
+    };
+    GridFile::Light(r.light.clone()).save(&grid_path)?;
+    grid_core::file::write_atomic(&meta_path, serde_json::to_string(&info)?.as_bytes())?;
+    Ok((r.light, info))
+}
+
+/// Errors of `light` (on the reference's points) against the reference.
+fn errors(light: &LightGrid, reference: &LightGrid, material: &MaterialGrid) -> [f64; 4] {
+    let e = compare(light, reference, material);
+    let max = reference
+        .data()
+        .iter()
+        .map(|b| luminance(b.average()))
+        .fold(0.0, f32::max);
+    let (mut mse, mut smape, mut k) = (0.0, 0.0, 0usize);
+    for ((a, r), m) in light
+        .data()
+        .iter()
+        .zip(reference.data())
+        .zip(material.data())
+    {
+        let (a, r) = (luminance(a.average()) as f64, luminance(r.average()) as f64);
+        if m.pass <= 0.0 || r <= 1e-3 * max as f64 {
+            continue;
+        }
+        mse += (a - r).powi(2) / (r * r + EPSILON);
+        smape += 2.0 * (a - r).abs() / (a.abs() + r.abs() + EPSILON);
+        k += 1;
+    }
+    let k = k.max(1) as f64;
+    [e.average, e.irradiance, mse / k, smape / k]
+}
+
+/// The light of a coarse grid at the points of `fine` (trilinear).
+fn resample(coarse: &LightGrid, fine: &grid_core::GridDesc) -> Result<LightGrid> {
+    let data = (0..fine.point_count())
+        .map(|i| coarse.light(fine.position(fine.coords(i).expect("in range")), None))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(grid_core::Grid::from_trusted(*fine, data))
+}
+
+fn sweep_settings() -> Vec<(String, SweepOptions, bool)> {
+    let mut v = Vec::new();
+    for (passes, tol) in [(1u32, 0.0f32), (2, 0.0), (4, 0.0), (16, 1e-3)] {
+        for smoothing in [0.0f32, 0.25] {
+            let mut o = SweepOptions::multi_bounce();
+            o.max_passes = passes;
+            o.tolerance = tol;
+            o.smoothing = smoothing;
+            let name = if tol > 0.0 {
+                format!("passes ≤{passes} tol {tol}, smoothing {smoothing}")
+            } else {
+                format!("passes {passes}, smoothing {smoothing}")
+            };
+            v.push((name, o, false));
+        }
+    }
+    // Half resolution, default settings.
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 4;
+    o.tolerance = 0.0;
+    v.push(("half resolution, passes 4, smoothing 0.25".into(), o, true));
+    v
+}
+
+fn fastest<T>(repeats: u32, mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
+    let mut best = f64::INFINITY;
+    let mut out = None;
+    for _ in 0..repeats.max(1) {
+        let t = Instant::now();
+        let r = f()?;
+        best = best.min(t.elapsed().as_secs_f64());
+        out = Some(r);
+    }
+    Ok((out.expect("ran once"), best))
+}
+
+/// Runs everything and writes `bench.json`, `bench.png` and `bench.txt` into `cfg.out`.
+pub fn run(cfg: &BenchConfig) -> Result<Report> {
+    std::fs::create_dir_all(&cfg.out).with_context(|| format!("{}", cfg.out.display()))?;
+    let mut all = scenes::all(cfg.n, &cfg.testdata)?;
+    if !cfg.only.is_empty() {
+        all.retain(|s| cfg.only.contains(&s.name));
+        anyhow::ensure!(!all.is_empty(), "--scene {:?}: no such scene", cfg.only);
+    }
+    let gpu = if cfg.gpu {
+        match sweep_gpu::GpuContext::new() {
+            Ok(c) => {
+                let name = format!("{} ({:?})", c.info.name, c.info.device_type);
+                Some((sweep_gpu::GpuSweeper::with_context(c), name))
+            }
+            Err(e) => {
+                println!("no GPU adapter ({e}): the GPU sweep is left out");
+                None
+            }
+        }
+    } else {
+        None
+    };
+    let mut rows = Vec::new();
+    let mut references = Vec::new();
+    for s in &all {
+        println!("scene {}: {} ({}³ cells)", s.name, s.about, cfg.n);
+        let (reference, info) = reference(s, cfg)?;
+        println!(
+            "  reference: {} paths, relative standard error {:.4}{}",
+            info.paths,
+            info.rel_std_error,
+            if info.cached { " (cached)" } else { "" }
+        );
+        references.push(info);
+        let n = s.material.desc().point_count() as u64;
+        let coarse = scenes::coarsen(s)?;
+        for (name, o, half) in sweep_settings() {
+            let (m, b) = if half {
+                (&coarse.material, &coarse.boundary)
+            } else {
+                (&s.material, &s.boundary)
+            };
+            let (sweep, secs) = fastest(cfg.repeats, || Ok(sweep_cpu::run(m, b, &o)?))?;
+            let mut light = sweep.output.bins.clone().context("bins")?;
+            if half {
+                light = resample(&light, s.material.desc())?;
+            }
+            let [a, i, mse, sm] = errors(&light, &reference, &s.material);
+            rows.push(Row {
+                scene: s.name.clone(),
+                method: "sweep-cpu".into(),
+                setting: name,
+                seconds: secs,
+                rel_rmse_avg: a,
+                rel_rmse_irr: i,
+                rel_mse: mse,
+                smape: sm,
+                energy_error: Some(sweep.balance.relative_error()),
+                memory_bytes: m.desc().point_count() as u64 * (26 * 12 + 16),
+            });
+        }
+        if let Some((g, _)) = &gpu {
+            for (name, passes) in [
+                ("passes 1, smoothing 0.25", 1u32),
+                ("passes 4, smoothing 0.25", 4),
+            ] {
+                let mut o = SweepOptions::multi_bounce();
+                o.max_passes = passes;
+                o.tolerance = 0.0;
+                let (out, secs) = fastest(cfg.repeats.min(2), || {
+                    Ok(grid_core::Sweeper::sweep(
+                        &mut &*g,
+                        &s.material,
+                        &s.boundary,
+                        &o,
+                    )?)
+                })?;
+                let light = out.bins.context("bins")?;
+                let [a, i, mse, sm] = errors(&light, &reference, &s.material);
+                rows.push(Row {
+                    scene: s.name.clone(),
+                    method: "sweep-gpu".into(),
+                    setting: name.into(),
+                    seconds: secs,
+                    rel_rmse_avg: a,
+                    rel_rmse_irr: i,
+                    rel_mse: mse,
+                    smape: sm,
+                    energy_error: None,
+                    memory_bytes: n * (26 * 12 * 2 + 16),
+                });
+            }
+        }
+        for &paths in &cfg.mc_paths {
+            let t = Instant::now();
+            let r = trace(
+                &s.material,
+                &s.boundary,
+                &ReferenceOptions {
+                    paths,
+                    seed: 7,
+                    ..Default::default()
+                },
+                &|_, _| {},
+            )?;
+            let secs = t.elapsed().as_secs_f64();
+            let [a, i, mse, sm] = errors(&r.light, &reference, &s.material);
+            rows.push(Row {
+                scene: s.name.clone(),
+                method: "monte-carlo".into(),
+                setting: format!("{paths} paths"),
+                seconds: secs,
+                rel_rmse_avg: a,
+                rel_rmse_irr: i,
+                rel_mse: mse,
+                smape: sm,
+                energy_error: Some(r.balance.relative_error()),
+                memory_bytes: n * (26 * 3 * 8 + 8 * 24),
+            });
+        }
+    }
+    let skips = if cfg.skips {
+        skips::measure(cfg)?
+    } else {
+        Vec::new()
+    };
+    let headline = headline(&rows);
+    let report = Report {
+        n: cfg.n,
+        epsilon: EPSILON,
+        references,
+        rows,
+        skips,
+        headline,
+        gpu: gpu.map(|(_, n)| n),
+    };
+    let text = table(&report);
+    print!("{text}");
+    std::fs::write(cfg.out.join("bench.txt"), &text)?;
+    std::fs::write(
+        cfg.out.join("bench.json"),
+        serde_json::to_string_pretty(&report)?,
+    )?;
+    plot::error_vs_time(&report, &cfg.out.join("bench.png"))?;
+    println!(
+        "wrote {}, bench.json and bench.png",
+        cfg.out.join("bench.txt").display()
+    );
+    Ok(report)
+}
+
+/// The Monte Carlo time for error `e`, from the log-log line through the two nearest
+/// measured points (extrapolated at the ends, where MC error falls as `t^-1/2`).
+pub fn mc_time_for(points: &[(f64, f64)], e: f64) -> Option<f64> {
+    let mut p: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|(t, err)| *t > 0.0 && *err > 0.0)
+        .collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if p.len() < 2 || e.is_nan() || e <= 0.0 {
+        return None;
+    }
+    let i = p
+        .windows(2)
+        .position(|w| w[1].1 <= e)
+        .unwrap_or(p.len() - 2)
+        .min(p.len() - 2);
+    let ((t0, e0), (t1, e1)) = (p[i], p[i + 1]);
+    let slope = if e1 != e0 {
+        (e1.ln() - e0.ln()) / (t1.ln() - t0.ln())
+    } else {
+        -0.5
+    };
+    let slope = if slope < -0.05 { slope } else { -0.5 };
+    Some((t0.ln() + (e.ln() - e0.ln()) / slope).exp())
+}
+
+fn headline(rows: &[Row]) -> String {
+    let sweep = rows
+        .iter()
+        .filter(|r| r.scene == "forest" && r.method == "sweep-cpu")
+        .find(|r| r.setting.starts_with("passes 4, smoothing 0.25"));
+    let mc: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.scene == "forest" && r.method == "monte-carlo")
+        .map(|r| (r.seconds, r.rel_rmse_avg))
+        .collect();
+    match (sweep, sweep.and_then(|s| mc_time_for(&mc, s.rel_rmse_avg))) {
+        (Some(s), Some(t)) => format!(
+            "forest: the sweep (4 passes) reaches error {:.4} in {:.1} ms; Monte Carlo needs {:.1} ms for the same error: {:.0}x",
+            s.rel_rmse_avg,
+            s.seconds * 1e3,
+            t * 1e3,
+            t / s.seconds
+        ),
+        _ => "forest: not measured (scene left out)".into(),
+    }
+}
+
+fn table(r: &Report) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n{:12} {:12} {:42} {:>10} {:>9} {:>9} {:>9} {:>8} {:>9} {:>8}",
+        "scene", "method", "setting", "ms", "err avg", "err irr", "relMSE", "SMAPE", "energy", "MB"
+    );
+    for row in &r.rows {
+        let _ = writeln!(
+            s,
+            "{:12} {:12} {:42} {:>10.2} {:>9.4} {:>9.4} {:>9.5} {:>8.4} {:>9} {:>8.2}",
+            row.scene,
+            row.method,
+            row.setting,
+            row.seconds * 1e3,
+            row.rel_rmse_avg,
+            row.rel_rmse_irr,
+            row.rel_mse,
+            row.smape,
+            row.energy_error
+                .map(|e| format!("{e:.1e}"))
+                .unwrap_or_else(|| "-".into()),
+            row.memory_bytes as f64 / 1e6
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nreferences (relative standard error of the average light):"
+    );
+    for x in &r.references {
+        let _ = writeln!(
+            s,
+            "  {:12} {:>10} paths  {:.4}{}",
+            x.scene,
+            x.paths,
+            x.rel_std_error,
+            if x.cached {
+                " (cached)".to_string()
+            } else {
+                format!(" ({:.1} s)", x.seconds)
+            }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nskipped work (time with the skip / without it; result difference):"
+    );
+    for k in &r.skips {
+        let _ = writeln!(
+            s,
+            "  {:44} {:>9.1} ms / {:>9.1} ms  ({:.1}x)  difference {:.2e} ({})",
+            k.skip,
+            k.with_skip * 1e3,
+            k.without_skip * 1e3,
+            k.without_skip / k.with_skip.max(1e-9),
+            k.difference,
+            k.difference_measure
+        );
+    }
+    let _ = writeln!(s, "\n{}", r.headline);
+    let _ = writeln!(s, "(ε of relMSE and SMAPE: {})", r.epsilon);
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mc_time_interpolates_on_the_log_log_line() {
+        // error = t^-1/2: error 0.1 at t = 100.
+        let pts: Vec<(f64, f64)> = [1.0, 4.0, 16.0, 64.0]
+            .iter()
+            .map(|t: &f64| (*t, t.powf(-0.5)))
+            .collect();
+        let t = mc_time_for(&pts, 0.25).unwrap();
+        assert!((t - 16.0).abs() < 1e-9, "{t}");
+        let t = mc_time_for(&pts, 0.1).unwrap();
+        assert!((t - 100.0).abs() < 1e-6, "{t}");
+        let t = mc_time_for(&pts, 0.75).unwrap();
+        assert!((t - 1.0 / 0.5625).abs() < 1e-6, "{t}");
+        assert_eq!(mc_time_for(&pts[..1], 0.1), None);
+    }
+
+    #[test]
+    fn bench_runs_end_to_end_on_a_tiny_configuration() {
+        let dir = std::env::temp_dir().join(format!("xtask-bench-{}", std::process::id()));
+        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+        let cfg = BenchConfig {
+            n: 8,
+            reference_paths: 40_000,
+            mc_paths: vec![1_000, 4_000],
+            gpu: false,
+            out: dir.join("out"),
+            cache: dir.join("cache"),
+            only: vec!["empty".into(), "forest".into()],
+            repeats: 1,
+            skips: false,
+            ..BenchConfig::quick(&root)
+        };
+        let r = run(&cfg).unwrap();
+        // 9 sweep settings + 2 MC counts per scene.
+        assert_eq!(r.rows.len(), 2 * (9 + 2));
+        assert!(
+            r.rows
+                .iter()
+                .all(|x| x.seconds > 0.0 && x.rel_rmse_avg.is_finite())
+        );
+        // Monte Carlo error falls with more paths; the sweep of an empty scene is exact,
+        // so its error is the reference's own noise.
+        let mc: Vec<f64> = r
+            .rows
+            .iter()
+            .filter(|x| x.scene == "empty" && x.method == "monte-carlo")
+            .map(|x| x.rel_rmse_avg)
+            .collect();
+        assert!(mc[1] < mc[0], "{mc:?}");
+        assert!(r.headline.contains("forest"), "{}", r.headline);
+        for f in ["bench.json", "bench.png", "bench.txt"] {
+            assert!(cfg.out.join(f).exists(), "{f}");
+        }
+        // The second run reads the references from the cache.
+        let again = run(&cfg).unwrap();
+        assert!(again.references.iter().all(|x| x.cached));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn reference_key_changes_with_every_input() {
+        let s = scenes::lattice(8);
+        let k = reference_key(&s, 1000, 1);
+        assert_eq!(k, reference_key(&s, 1000, 1));
+        assert_ne!(k, reference_key(&s, 1001, 1));
+        assert_ne!(k, reference_key(&s, 1000, 2));
+        let mut t = scenes::lattice(8);
+        let mut d = t.material.data().to_vec();
+        d[3].pass = 0.5;
+        t.material = grid_core::Grid::from_trusted(*t.material.desc(), d);
+        assert_ne!(k, reference_key(&t, 1000, 1));
+    }
+
+    #[test]
+    fn coarsening_halves_the_grid_and_squares_a_uniform_pass_through() {
+        let s = scenes::lattice(8);
+        let c = scenes::coarsen(&s).unwrap();
+        assert_eq!(c.material.desc().dims(), grid_core::glam::UVec3::splat(4));
+        assert_eq!(c.material.desc().h(), 2.0);
+        let e = scenes::line_source(8);
+        let ce = scenes::coarsen(&e).unwrap();
+        // Fog of pass 0.7 per h below the roof: 0.49 per 2h.
+        let below = ce.material.level(0);
+        assert!(below.iter().all(|m| (m.pass - 0.49).abs() < 1e-6));
+    }
+}

@@ -1,0 +1,138 @@
+//! `bench.png`: error against time, log-log, one panel per scene, one series per method.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use plotters::prelude::*;
+
+use super::Report;
+
+/// Registers a system sans-serif font for the labels (plotters' `ab_glyph` backend needs
+/// one); false when none is found (the plot is then drawn without text).
+fn register_font() -> bool {
+    const PATHS: [&str; 4] = [
+        "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+        "/usr/share/fonts/TTF/DejaVuSans.ttf",
+        "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+        "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    ];
+    for p in PATHS {
+        if let Ok(bytes) = std::fs::read(p) {
+            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+            if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Draws the plot into `path`.
+pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
+    let text = register_font();
+    if !text {
+        println!(
+            "no DejaVu/Liberation font found: bench.png has no labels (apt-get install fonts-dejavu-core)"
+        );
+    }
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in &report.rows {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    let cols = 3usize;
+    let rows = scenes.len().div_ceil(cols).max(1);
+    let (w, h) = (1500u32, 420 * rows as u32);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let panels = root.split_evenly((rows, cols));
+        for (scene, area) in scenes.iter().zip(panels.iter()) {
+            let pts = |m: &str| -> Vec<(f64, f64)> {
+                report
+                    .rows
+                    .iter()
+                    .filter(|r| r.scene == *scene && r.method == m && r.rel_rmse_avg > 0.0)
+                    .map(|r| (r.seconds * 1e3, r.rel_rmse_avg))
+                    .collect()
+            };
+            let all: Vec<(f64, f64)> = ["sweep-cpu", "sweep-gpu", "monte-carlo"]
+                .iter()
+                .flat_map(|m| pts(m))
+                .collect();
+            if all.is_empty() {
+                continue;
+            }
+            let (tmin, tmax) = all
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+            let (emin, emax) = all
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+            let mut chart = ChartBuilder::on(area);
+            chart.margin(12);
+            if text {
+                chart
+                    .caption(*scene, ("sans-serif", 22))
+                    .x_label_area_size(36)
+                    .y_label_area_size(56);
+            }
+            let mut chart = chart
+                .build_cartesian_2d(
+                    (tmin * 0.5..tmax * 2.0).log_scale(),
+                    (emin * 0.5..emax * 2.0).log_scale(),
+                )
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+            if text {
+                chart
+                    .configure_mesh()
+                    .x_desc("time (ms)")
+                    .y_desc("rel. RMSE of average light")
+                    .label_style(("sans-serif", 13))
+                    .draw()
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+            }
+            for (m, colour) in [
+                ("sweep-cpu", BLUE),
+                ("sweep-gpu", GREEN),
+                ("monte-carlo", RED),
+            ] {
+                let mut p = pts(m);
+                if p.is_empty() {
+                    continue;
+                }
+                p.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let series = chart
+                    .draw_series(
+                        p.iter()
+                            .map(|&(x, y)| Circle::new((x, y), 4, colour.filled())),
+                    )
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                if text {
+                    series
+                        .label(m)
+                        .legend(move |(x, y)| Circle::new((x + 8, y), 4, colour.filled()));
+                }
+                if m == "monte-carlo" {
+                    chart
+                        .draw_series(LineSeries::new(p.clone(), colour))
+                        .map_err(|e| anyhow::anyhow!("{e}"))?;
+                }
+            }
+            if text {
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 13))
+                    .draw()
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+            }
+        }
+        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    image::save_buffer(path, &buf, w, h, image::ColorType::Rgb8)
+        .with_context(|| format!("writing {}", path.display()))
+}

@@ -1,0 +1,251 @@
+//! The work the library skips, each measured with and without the skip, with the
+//! difference it makes to the result.
+
+use std::time::Instant;
+
+use anyhow::Result;
+use grid_core::glam::{UVec3, Vec3};
+use grid_core::light::luminance;
+use grid_core::{
+    Boundary, GridDesc, LightField, LightGrid, Material, MaterialGrid, Outputs, SideBoundary,
+    SweepOptions,
+};
+use serde::Serialize;
+use sweep_cpu::scenes::{Scene, sky_and_sun};
+use terrain_lod::{Hierarchy, HierarchyParams, LodSkips};
+use viewer::{SceneFile, SweeperChoice, World};
+
+use super::BenchConfig;
+
+/// One skip.
+#[derive(Debug, Clone, Serialize)]
+pub struct SkipRow {
+    /// What is skipped.
+    pub skip: String,
+    /// Seconds with the skip (the default).
+    pub with_skip: f64,
+    /// Seconds without it.
+    pub without_skip: f64,
+    /// How much the result differs.
+    pub difference: f64,
+    /// What `difference` measures.
+    pub difference_measure: String,
+}
+
+fn max_rel_diff(a: &LightGrid, b: &LightGrid) -> f64 {
+    let max = b.max_value().max(1e-30) as f64;
+    a.data()
+        .iter()
+        .zip(b.data())
+        .flat_map(|(x, y)| {
+            x.0.iter()
+                .zip(y.0.iter())
+                .map(|(p, q)| (*p - *q).abs().max_element())
+        })
+        .fold(0.0f64, |m, d| m.max(d as f64 / max))
+}
+
+fn timed<T>(repeats: u32, mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
+    super::fastest(repeats, &mut f)
+}
+
+/// Canopy under `extra` empty levels: most of the grid is air above all material.
+fn tall_canopy(n: u32, extra: u32) -> (MaterialGrid, Boundary) {
+    let (m, _) = Scene::Canopy.build(n);
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(n, n + extra, n)).expect("valid");
+    let cells = (0..desc.point_count())
+        .map(|i| {
+            let p = desc.coords(i).expect("in range");
+            m.get(p).copied().unwrap_or(Material::EMPTY)
+        })
+        .collect();
+    (
+        MaterialGrid::new(desc, cells).expect("valid"),
+        Boundary {
+            sides: SideBoundary::Periodic,
+            ..sky_and_sun()
+        },
+    )
+}
+
+/// Probes of a light field around `centre`: irradiance on the ground normal at the
+/// ground, and average light 1.5 m above it, on a 64 × 64 lattice 4 m apart (inside and
+/// outside the forest).
+fn probes(field: &dyn LightField, world: &World, centre: Vec3) -> Result<Vec<f32>> {
+    let hm = &world.heightmap;
+    let mut out = Vec::new();
+    for k in 0..64 {
+        for i in 0..64 {
+            let (x, z) = (
+                centre.x - 128.0 + 4.0 * i as f32,
+                centre.z - 128.0 + 4.0 * k as f32,
+            );
+            let y = hm.height_at(x, z);
+            let e = hm.spacing;
+            let n = Vec3::new(
+                hm.height_at(x - e, z) - hm.height_at(x + e, z),
+                2.0 * e,
+                hm.height_at(x, z - e) - hm.height_at(x, z + e),
+            )
+            .normalize();
+            out.push(luminance(field.irradiance(Vec3::new(x, y, z), n)?));
+            out.push(luminance(field.average(Vec3::new(x, y + 1.5, z))?));
+        }
+    }
+    Ok(out)
+}
+
+fn rel_rms(a: &[f32], b: &[f32]) -> f64 {
+    let (mut n, mut d) = (0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        n += ((x - y) as f64).powi(2);
+        d += (*y as f64).powi(2);
+    }
+    if d > 0.0 { (n / d).sqrt() } else { 0.0 }
+}
+
+/// Builds the demo scene's hierarchy around `eye` with `skip`, frames until ready.
+fn hierarchy(world: &World, eye: Vec3, skip: LodSkips) -> Result<(Hierarchy, f64)> {
+    let g = &world.scene.grid;
+    let mut params = HierarchyParams {
+        world_cell: g.world_cell,
+        finest_cell: g.finest_cell,
+        node_points: g.node_points,
+        budget_points: u64::MAX / 4,
+        skip,
+        ..Default::default()
+    };
+    params.sweep.max_passes = g.passes;
+    let top = viewer::world::boundary_light(&world.sky_top, &world.scene)?;
+    let t = Instant::now();
+    let mut h = Hierarchy::new(
+        &world.heightmap,
+        Box::new(world.composer.clone()),
+        Box::new(sweep_cpu::CpuSweeper::new()),
+        top,
+        params,
+    )?;
+    for _ in 0..100 {
+        if h.update(eye)?.pending == 0 {
+            break;
+        }
+    }
+    Ok((h, t.elapsed().as_secs_f64()))
+}
+
+/// Measures every skip.
+pub(super) fn measure(cfg: &BenchConfig) -> Result<Vec<SkipRow>> {
+    println!("skipped work: measuring each skip with and without it");
+    let mut rows = Vec::new();
+    let n = cfg.n;
+
+    // Levels above all material: copied, not computed.
+    let (m, b) = tall_canopy(n, 3 * n);
+    let mut on = SweepOptions::multi_bounce();
+    on.max_passes = 4;
+    let mut off = on;
+    off.skip_empty_levels = false;
+    let (a, t_on) = timed(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &on)?))?;
+    let (c, t_off) = timed(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &off)?))?;
+    rows.push(SkipRow {
+        skip: format!("levels above all material ({n}x{}x{n}, 3/4 air)", 4 * n),
+        with_skip: t_on,
+        without_skip: t_off,
+        difference: max_rel_diff(
+            a.output.bins.as_ref().expect("bins"),
+            c.output.bins.as_ref().expect("bins"),
+        ),
+        difference_measure: "largest bin difference / largest bin".into(),
+    });
+
+    // Outputs not asked for: average + dominant only, instead of 26 bins (a forest of
+    // twice the bench size: the saving is per point).
+    let forest = super::scenes::forest(2 * n, &cfg.testdata)?;
+    let mut avg = on;
+    avg.outputs = Outputs::AVERAGE_DOMINANT;
+    let (a, t_on) = timed(cfg.repeats, || {
+        Ok(sweep_cpu::run(&forest.material, &forest.boundary, &avg)?)
+    })?;
+    let (c, t_off) = timed(cfg.repeats, || {
+        Ok(sweep_cpu::run(&forest.material, &forest.boundary, &on)?)
+    })?;
+    let (x, y) = (
+        a.output.average.expect("average"),
+        c.output.average.expect("average"),
+    );
+    let max = y
+        .data()
+        .iter()
+        .map(|v| v.0.max_element())
+        .fold(0.0, f32::max) as f64;
+    let diff = x
+        .data()
+        .iter()
+        .zip(y.data())
+        .map(|(p, q)| (p.0 - q.0).abs().max_element() as f64 / max)
+        .fold(0.0, f64::max);
+    rows.push(SkipRow {
+        skip: format!("26-bin output not asked for (forest {0}x{0}x{0})", 2 * n),
+        with_skip: t_on,
+        without_skip: t_off,
+        difference: diff,
+        difference_measure: "largest average-light difference / largest".into(),
+    });
+
+    // The hierarchy's skips, on the viewer's demo forest around its first view.
+    let world = World::build(SceneFile::demo()?, SweeperChoice::Cpu)?;
+    let (eye, _) = world.view_points(0);
+    let (mut base, t_base) = hierarchy(&world, eye, LodSkips::default())?;
+    let p_base = probes(&base, &world, eye)?;
+    for (name, skip) in [
+        (
+            "no finer grids under bare ground (demo)",
+            LodSkips {
+                bare_children: false,
+                ..Default::default()
+            },
+        ),
+        (
+            "one downward pass over bare ground (demo)",
+            LodSkips {
+                up_pass_over_bare: false,
+                ..Default::default()
+            },
+        ),
+    ] {
+        let (h, t) = hierarchy(&world, eye, skip)?;
+        rows.push(SkipRow {
+            skip: name.into(),
+            with_skip: t_base,
+            without_skip: t,
+            difference: rel_rms(&probes(&h, &world, eye)?, &p_base),
+            difference_measure: "relative RMS of ground irradiance and air light".into(),
+        });
+    }
+    // Unchanged inputs: a refresh after nothing changed sweeps nothing. (A first
+    // refresh settles nodes built before their coarser neighbours existed.)
+    base.refresh(eye)?;
+    let t = Instant::now();
+    base.refresh(eye)?;
+    let t_on = t.elapsed().as_secs_f64();
+    let (mut forced, _) = hierarchy(
+        &world,
+        eye,
+        LodSkips {
+            unchanged: false,
+            ..Default::default()
+        },
+    )?;
+    forced.refresh(eye)?;
+    let t = Instant::now();
+    forced.refresh(eye)?;
+    let t_off = t.elapsed().as_secs_f64();
+    rows.push(SkipRow {
+        skip: "unchanged inputs not swept again (demo)".into(),
+        with_skip: t_on,
+        without_skip: t_off,
+        difference: rel_rms(&probes(&forced, &world, eye)?, &probes(&base, &world, eye)?),
+        difference_measure: "relative RMS of ground irradiance and air light".into(),
+    });
+    Ok(rows)
+}
