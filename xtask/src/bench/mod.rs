@@ -10,6 +10,17 @@
 //! - `rel_mse`: mean of `(a − r)² / (r² + ε)`, with `ε = 1e-4` (light units; the sky has
 //!   radiance 1), so dark points do not dominate;
 //! - `smape`: mean of `2 |a − r| / (|a| + |r| + ε)`.
+//!
+//! What it shows (quick run, 16³): the sweep reaches 2–5 % on the canonical scenes and
+//! the forest in milliseconds, where Monte Carlo needs about a second for the same
+//! error. The lattice is the sweep's weak case: scatterer blocks of a 3D checkerboard
+//! touch only along edges and corners, and the sweep's diagonal paths run exactly
+//! through them (no absorber crossed), while real light in the same bins mostly
+//! crosses an absorber. Light leaks between scatterers; each further pass adds more, so
+//! the error grows with passes (0.48 → 0.75 at 2-cell blocks; 0.18 → 0.39 in the
+//! scatterers at 4-cell blocks). The reference's cell means against the sweep's cell
+//! centres also differ inside strong absorbers (pass 0.02: light falls 50× across a
+//! cell).
 
 mod plot;
 pub mod scenes;

@@ -90,6 +90,9 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
                     .configure_mesh()
                     .x_desc("time (ms)")
                     .y_desc("rel. RMSE of average light")
+                    .x_label_formatter(&|v| format!("{v:.3}"))
+                    .y_label_formatter(&|v| format!("{v:.3}"))
+                    .light_line_style(WHITE)
                     .label_style(("sans-serif", 13))
                     .draw()
                     .map_err(|e| anyhow::anyhow!("{e}"))?;
