@@ -74,6 +74,7 @@
 //! No public function returns NaN or infinity: invalid input is a [`GridError`] naming the
 //! field and value.
 
+pub mod dda;
 mod desc;
 pub mod dirs;
 mod error;

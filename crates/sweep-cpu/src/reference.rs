@@ -29,6 +29,7 @@
 
 use std::time::{Duration, Instant};
 
+use grid_core::dda;
 use grid_core::dirs::{self, NUM_DIRS};
 use grid_core::glam::{DVec3, IVec3, UVec3, Vec3};
 use grid_core::{
@@ -346,25 +347,13 @@ impl Tracer<'_> {
             let ci = self.cell_index(cell);
             let sigma = self.sigma[ci];
             let collide_at_entry = sigma == f32::INFINITY;
-            let mut s_exit = f32::INFINITY;
-            let mut axis = 0;
-            if !collide_at_entry {
-                // Distance to the exit of the current cell.
-                for a in 0..3 {
-                    let t = if dir[a] > 0.0 {
-                        (cell[a] as f32 + 0.5 - pos[a]) / dir[a]
-                    } else if dir[a] < 0.0 {
-                        (cell[a] as f32 - 0.5 - pos[a]) / dir[a]
-                    } else {
-                        f32::INFINITY
-                    };
-                    let t = t.max(0.0);
-                    if t < s_exit {
-                        s_exit = t;
-                        axis = a;
-                    }
-                }
-            }
+            // Distance to the exit of the current cell (grid_core::dda: the walk shared
+            // with light-volumes).
+            let (s_exit, axis) = if collide_at_entry {
+                (f32::INFINITY, 0)
+            } else {
+                dda::exit(cell, pos, dir)
+            };
             let collide = collide_at_entry || (sigma > 0.0 && sigma * s_exit >= tau);
             if collide {
                 if !collide_at_entry {
@@ -388,7 +377,8 @@ impl Tracer<'_> {
                     normal[entry_axis] = step as f32;
                     dir = lambertian(&mut rng, normal);
                     pos[entry_axis] = cell[entry_axis] as f32 + 0.5 * step as f32;
-                    if let Some(face) = self.advance(&mut cell, &mut pos, entry_axis, step) {
+                    cell[entry_axis] += step;
+                    if let Some(face) = self.wrap_or_escape(&mut cell, &mut pos, entry_axis, step) {
                         res.escaped[face] += w;
                         return res;
                     }
@@ -412,9 +402,8 @@ impl Tracer<'_> {
             tau -= sigma * s_exit;
             pos += dir * s_exit;
             // Step into the next cell, exactly onto the shared face.
-            let step = if dir[axis] > 0.0 { 1 } else { -1 };
-            pos[axis] = cell[axis] as f32 + 0.5 * step as f32;
-            if let Some(face) = self.advance(&mut cell, &mut pos, axis, step) {
+            let step = dda::cross(&mut cell, &mut pos, axis, dir);
+            if let Some(face) = self.wrap_or_escape(&mut cell, &mut pos, axis, step) {
                 res.escaped[face] += w;
                 return res;
             }
@@ -423,11 +412,16 @@ impl Tracer<'_> {
         }
     }
 
-    /// Moves to the neighbouring cell along `axis`; `Some(face)` (0 top, 1 bottom,
-    /// 2 side) when the path leaves the grid, wrapping instead with periodic sides.
-    fn advance(&self, cell: &mut IVec3, pos: &mut Vec3, axis: usize, step: i32) -> Option<usize> {
+    /// After a step of `step` along `axis` into `cell`: `Some(face)` (0 top, 1 bottom,
+    /// 2 side) when the path left the grid, wrapping instead with periodic sides.
+    fn wrap_or_escape(
+        &self,
+        cell: &mut IVec3,
+        pos: &mut Vec3,
+        axis: usize,
+        step: i32,
+    ) -> Option<usize> {
         let d = self.dims;
-        cell[axis] += step;
         if cell[axis] >= 0 && cell[axis] < d[axis] {
             return None;
         }
