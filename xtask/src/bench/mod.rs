@@ -583,7 +583,8 @@ fn table(r: &Report) -> String {
     }
     let _ = writeln!(
         s,
-        "\nskipped work (time with the skip / without it; result difference):"
+        "\nskipped work (time with the skip / without it; result difference, harmless under {:.4}: the sweep's own error on the forest):",
+        r.skip_tolerance
     );
     for k in &r.skips {
         let _ = writeln!(
