@@ -117,6 +117,11 @@ impl<T> Grid<T> {
     pub fn level(&self, j: u32) -> &[T] {
         &self.data[self.desc.level_range(j)]
     }
+    /// The values, mutable (the caller keeps them valid, as with [`Grid::from_trusted`]):
+    /// for in-place updates such as merging light volumes.
+    pub fn data_mut(&mut self) -> &mut [T] {
+        &mut self.data
+    }
     /// The grid's values, consumed.
     pub fn into_data(self) -> Vec<T> {
         self.data

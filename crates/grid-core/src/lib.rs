@@ -96,7 +96,7 @@ pub use grid::{
 pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
 pub use sample::{Blend, trilinear_corners};
 pub use traits::{
-    Boundary, HALO_WIDTH, HaloLayout, LightField, MaterialSource, Outputs, SideBoundary,
+    Boundary, HALO_WIDTH, HaloLayout, LightField, MaterialSource, Outputs, SideBoundary, SumField,
     SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial,
 };
 

@@ -378,6 +378,23 @@ impl LightField for LightGrid {
     }
 }
 
+/// Two light fields added: e.g. the sky and sun hierarchy plus local lights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SumField<A, B>(pub A, pub B);
+
+impl<A: LightField, B: LightField> LightField for SumField<A, B> {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        let (a, b) = (self.0.light(p, n)?, self.1.light(p, n)?);
+        Ok(BinLight(std::array::from_fn(|d| a.0[d] + b.0[d])))
+    }
+}
+
+impl<T: LightField + ?Sized> LightField for &T {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        (**self).light(p, n)
+    }
+}
+
 /// The material grid of any box.
 pub trait MaterialSource {
     /// The material of every cell of `desc`.

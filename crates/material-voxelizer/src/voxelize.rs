@@ -137,6 +137,19 @@ pub struct VoxelizeStats {
     pub time: Duration,
 }
 
+/// A ray's first blocking surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Distance along the (unit) ray.
+    pub t: f32,
+    /// Surface colour (linear RGB, the diffuse albedo).
+    pub colour: Vec3,
+    /// Unit geometric normal, facing the ray's origin.
+    pub normal: Vec3,
+    /// Triangle index in the model.
+    pub triangle: u32,
+}
+
 /// A model prepared for ray queries.
 pub struct Scene<'a> {
     model: &'a Model,
@@ -224,15 +237,21 @@ impl<'a> Scene<'a> {
 
     /// The first blocking surface along `origin + t dir`, `t` in `(0, tmax)`: its colour.
     pub fn first_block(&self, origin: Vec3, dir: Vec3, tmax: f32, xi: f32) -> Option<Vec3> {
+        self.closest_hit(origin, dir, tmax, xi).map(|h| h.colour)
+    }
+
+    /// The first blocking surface along `origin + t dir`, `t` in `(0, tmax)`: distance,
+    /// colour and the triangle's normal turned to face the ray's origin.
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmax: f32, xi: f32) -> Option<Hit> {
         let ray = Ray::new(a(origin), a(dir), 0.0, tmax);
         let mut hit = RayHit::none();
-        let mut colour = Vec3::ZERO;
+        let mut best = None;
         let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
             let tri = self.bvh.primitive_indices[id] as usize;
             match self.hit(tri, origin, dir, 0.0, r.tmax) {
                 Some((t, u, v)) => match self.blocks(tri, u, v, xi) {
                     Some(c) => {
-                        colour = c;
+                        best = Some((t, c, tri));
                         t
                     }
                     None => f32::INFINITY,
@@ -240,7 +259,18 @@ impl<'a> Scene<'a> {
                 None => f32::INFINITY,
             }
         });
-        found.then_some(colour)
+        let (t, colour, tri) = best.filter(|_| found)?;
+        let p = &self.model.triangles[tri].positions;
+        let mut normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+        if normal.dot(dir) > 0.0 {
+            normal = -normal;
+        }
+        Some(Hit {
+            t,
+            colour,
+            normal,
+            triangle: tri as u32,
+        })
     }
 
     /// Brute force over all triangles (no BVH): the reference for tests.

@@ -1,0 +1,226 @@
+//! A set of local lights over one grid: lights turn on and off and change colour and
+//! intensity; the combined grid changes only inside the changed light's box (its
+//! volume times the old factor is subtracted, times the new one added), and the box is
+//! recorded as dirty for a sparse GPU upload.
+
+use grid_core::glam::{UVec3, Vec3};
+use grid_core::{BinLight, Grid, GridDesc, GridError, LightField, LightGrid};
+
+use crate::volume::CompressedVolume;
+
+/// Handle of a light in a [`LightSet`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct LightId(usize);
+
+/// A box of points `[lo, hi]` (inclusive) of the combined grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    /// Lowest point.
+    pub lo: UVec3,
+    /// Highest point.
+    pub hi: UVec3,
+}
+
+impl Region {
+    /// Points inside.
+    pub fn point_count(&self) -> usize {
+        let d = self.hi - self.lo + UVec3::ONE;
+        d.x as usize * d.y as usize * d.z as usize
+    }
+    fn union(self, o: Region) -> Region {
+        Region {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+}
+
+struct Entry {
+    /// The white volume, decoded, on the combined grid's points of `region`.
+    volume: Vec<BinLight>,
+    region: Region,
+    /// Colour × intensity while on; zero while off.
+    factor: Vec3,
+    colour: Vec3,
+    intensity: f32,
+    on: bool,
+}
+
+/// Local lights merged into one grid.
+pub struct LightSet {
+    combined: LightGrid,
+    lights: Vec<Entry>,
+    dirty: Option<Region>,
+}
+
+impl LightSet {
+    /// An empty set over `desc` (every light's volume must lie on this grid's points).
+    pub fn new(desc: GridDesc) -> Result<Self, GridError> {
+        Ok(Self {
+            combined: Grid::filled(desc, BinLight::ZERO)?,
+            lights: Vec::new(),
+            dirty: None,
+        })
+    }
+
+    /// The combined light.
+    pub fn grid(&self) -> &LightGrid {
+        &self.combined
+    }
+
+    /// Adds a light (on) from its compressed white volume, with its colour and intensity.
+    pub fn add(
+        &mut self,
+        volume: &CompressedVolume,
+        colour: Vec3,
+        intensity: f32,
+    ) -> Result<LightId, GridError> {
+        check_factor(colour, intensity)?;
+        let d = *self.combined.desc();
+        let (values, region) = match volume.decode() {
+            Some(g) => {
+                let vd = g.desc();
+                let lo_f = (vd.origin() - d.origin()) / d.h();
+                let lo = lo_f.round();
+                if (lo_f - lo).abs().max_element() > 1e-3
+                    || (vd.h() - d.h()).abs() > 1e-6 * d.h()
+                    || lo.min_element() < 0.0
+                {
+                    return Err(GridError::invalid(
+                        "volume.desc",
+                        vd,
+                        "must lie on the set's grid points",
+                    ));
+                }
+                let lo = lo.as_uvec3();
+                let hi = lo + vd.dims() - UVec3::ONE;
+                if hi.cmpge(d.dims()).any() {
+                    return Err(GridError::invalid(
+                        "volume.desc",
+                        vd,
+                        "reaches outside the set's grid",
+                    ));
+                }
+                (g.into_data(), Region { lo, hi })
+            }
+            None => (
+                Vec::new(),
+                Region {
+                    lo: UVec3::ZERO,
+                    hi: UVec3::ZERO,
+                },
+            ),
+        };
+        self.lights.push(Entry {
+            volume: values,
+            region,
+            factor: Vec3::ZERO,
+            colour,
+            intensity,
+            on: false,
+        });
+        let id = LightId(self.lights.len() - 1);
+        self.set_on(id, true)?;
+        Ok(id)
+    }
+
+    /// Turns a light on or off.
+    pub fn set_on(&mut self, id: LightId, on: bool) -> Result<(), GridError> {
+        let e = self.entry(id)?;
+        let (c, i) = (e.colour, e.intensity);
+        self.lights[id.0].on = on;
+        self.apply(id, if on { c * i } else { Vec3::ZERO });
+        Ok(())
+    }
+
+    /// Changes a light's colour and intensity (kept while it is off).
+    pub fn set_colour(
+        &mut self,
+        id: LightId,
+        colour: Vec3,
+        intensity: f32,
+    ) -> Result<(), GridError> {
+        check_factor(colour, intensity)?;
+        self.entry(id)?;
+        let e = &mut self.lights[id.0];
+        e.colour = colour;
+        e.intensity = intensity;
+        let on = e.on;
+        if on {
+            self.apply(id, colour * intensity);
+        }
+        Ok(())
+    }
+
+    /// Whether a light is on.
+    pub fn is_on(&self, id: LightId) -> Result<bool, GridError> {
+        Ok(self.entry(id)?.on)
+    }
+
+    /// The region changed since the last call (to upload), and clears it.
+    pub fn take_dirty(&mut self) -> Option<Region> {
+        self.dirty.take()
+    }
+
+    fn entry(&self, id: LightId) -> Result<&Entry, GridError> {
+        self.lights
+            .get(id.0)
+            .ok_or_else(|| GridError::invalid("light", id.0, "no such light"))
+    }
+
+    /// Adds `(new − old factor) × volume` inside the light's region only.
+    fn apply(&mut self, id: LightId, factor: Vec3) {
+        let e = &mut self.lights[id.0];
+        let delta = factor - e.factor;
+        e.factor = factor;
+        if delta == Vec3::ZERO || e.volume.is_empty() {
+            return;
+        }
+        let r = e.region;
+        let d = *self.combined.desc();
+        let nx = (r.hi.x - r.lo.x + 1) as usize;
+        let nz = (r.hi.z - r.lo.z + 1) as usize;
+        let data = self.combined.data_mut();
+        let mut k = 0;
+        for y in r.lo.y..=r.hi.y {
+            for z in r.lo.z..=r.hi.z {
+                let row = d.index_unchecked(UVec3::new(r.lo.x, y, z));
+                for x in 0..nx {
+                    let dst = &mut data[row + x];
+                    let src = &e.volume[k];
+                    for b in 0..grid_core::NUM_DIRS {
+                        // Subtracting can leave -1e-9 where the sum was a light alone.
+                        dst.0[b] = (dst.0[b] + src.0[b] * delta).max(Vec3::ZERO);
+                    }
+                    k += 1;
+                }
+            }
+        }
+        debug_assert_eq!(k, nx * nz * (r.hi.y - r.lo.y + 1) as usize);
+        self.dirty = Some(self.dirty.map_or(r, |d| d.union(r)));
+    }
+}
+
+fn check_factor(colour: Vec3, intensity: f32) -> Result<(), GridError> {
+    if !(colour.is_finite() && colour.cmpge(Vec3::ZERO).all()) {
+        return Err(GridError::invalid(
+            "colour",
+            colour,
+            "must be finite and >= 0",
+        ));
+    }
+    if !(intensity.is_finite() && intensity >= 0.0) {
+        return Err(GridError::invalid(
+            "intensity",
+            intensity,
+            "must be finite and >= 0",
+        ));
+    }
+    Ok(())
+}
+
+impl LightField for LightSet {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        self.combined.light(p, n)
+    }
+}
