@@ -3,7 +3,6 @@
 //! albedo, every segment deposited into every grid cell it crosses (the exact walk of
 //! [`grid_core::dda`], shared with sweep-cpu's Monte Carlo reference).
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -117,10 +116,11 @@ pub fn trace_light(
     let dep_ns = AtomicU64::new(0);
     let seg_count = AtomicU64::new(0);
     let hit_count = AtomicU64::new(0);
-    let sums: Vec<HashMap<u32, Vec3>> = (0..chunks)
+    let sums: Vec<Vec<(u32, Vec3)>> = (0..chunks)
         .into_par_iter()
         .map(|c| {
-            let mut acc: HashMap<u32, Vec3> = HashMap::new();
+            // This chunk's deposits, in ray order (summed in f32 below, per slot).
+            let mut acc: Vec<(u32, Vec3)> = Vec::with_capacity(1 << 16);
             let (mut t_bvh, mut t_dep) = (Duration::ZERO, Duration::ZERO);
             let (mut segs, mut hits) = (0u64, 0u64);
             let end = ((c + 1) * CHUNK).min(params.rays);
@@ -140,7 +140,7 @@ pub fn trace_light(
                     let bin = dirs::nearest_dir(d) as u32;
                     dda::walk_segment(to_grid(o), to_grid(o + d * end_t), dims, |cell, len| {
                         let ci = (cell.x + dims.x * (cell.z + dims.z * cell.y)) as u32;
-                        *acc.entry(ci * NUM_DIRS as u32 + bin).or_default() += w * len;
+                        acc.push((ci * NUM_DIRS as u32 + bin, w * len));
                     });
                     t_dep += t.elapsed();
                     let Some(hit) = hit else { break };
@@ -167,18 +167,24 @@ pub fn trace_light(
             hit_count.fetch_add(hits, Ordering::Relaxed);
             let n = done.fetch_add(end - c * CHUNK, Ordering::Relaxed) + end - c * CHUNK;
             progress(n, params.rays);
-            acc
+            // Sum per slot in f32 (a chunk's sums are small), sorted by slot.
+            acc.sort_by_key(|d| d.0);
+            let mut summed: Vec<(u32, Vec3)> = Vec::with_capacity(acc.len() / 4);
+            for (slot, v) in acc {
+                match summed.last_mut() {
+                    Some(last) if last.0 == slot => last.1 += v,
+                    _ => summed.push((slot, v)),
+                }
+            }
+            summed
         })
         .collect();
     // Merge the chunks in order, in f64.
     let n = desc.point_count();
     let mut total = vec![[0f64; 3]; n * NUM_DIRS];
     for chunk in &sums {
-        let mut keys: Vec<&u32> = chunk.keys().collect();
-        keys.sort_unstable();
-        for k in keys {
-            let v = chunk[k];
-            let t = &mut total[*k as usize];
+        for &(k, v) in chunk {
+            let t = &mut total[k as usize];
             t[0] += v.x as f64;
             t[1] += v.y as f64;
             t[2] += v.z as f64;

@@ -1,9 +1,12 @@
 //! One light's volume, compressed as 3DWorld caches it: cropped to the bounding box of
 //! the cells holding more than 1/256 of the light's largest value, 8-bit RGB per bin
-//! with one scale per file; and the cache file, keyed by a hash of the light and the
+//! with one scale per file. Beyond 3DWorld, codes are on a square-root curve
+//! (`v = (code / 255)² · scale`): light falls as 1/r², and a linear code would leave
+//! most cells a few levels (relative RMS error 5.7 % on the town example; 2.5 % with the
+//! curve). And the cache file, keyed by a hash of the light and the
 //! scene, written atomically, checked on load.
 //!
-//! File layout (little endian): `b"LGVOL\0"`, version `u16` = 1, key `u64`, cropped
+//! File layout (little endian): `b"LGVOL\0"`, version `u16` = 2, key `u64`, cropped
 //! origin `3 × f32`, cell size `f32`, dims `3 × u32`, scale `f32`, then `26 × 3` bytes
 //! per point (x fastest, then z, then y), then CRC-32 of everything before it.
 
@@ -16,7 +19,7 @@ use grid_core::{BinLight, Grid, GridDesc, GridError, LightGrid, NUM_DIRS};
 pub const THRESHOLD: f32 = 1.0 / 256.0;
 
 const MAGIC: &[u8; 6] = b"LGVOL\0";
-const VERSION: u16 = 1;
+const VERSION: u16 = 2;
 const HEADER: usize = 6 + 2 + 8 + 12 + 4 + 12 + 4;
 
 /// A compressed light volume.
@@ -26,15 +29,15 @@ pub struct CompressedVolume {
     pub key: u64,
     /// The cropped box (`None` for a light that lit nothing).
     pub desc: Option<GridDesc>,
-    /// Value of the code 255.
+    /// Value of the code 255 (codes decode as `(code / 255)² · scale`).
     pub scale: f32,
     /// 26 RGB codes per point.
     pub codes: Vec<[u8; 3]>,
 }
 
 impl CompressedVolume {
-    /// Crops and quantises `volume` (values round to the nearest of 256 levels of
-    /// `scale` = the largest value).
+    /// Crops and quantises `volume` (the square root of each value over `scale` = the
+    /// largest value rounds to the nearest of 256 levels).
     pub fn compress(volume: &LightGrid, key: u64) -> Self {
         let max = volume.max_value();
         let d = volume.desc();
@@ -57,7 +60,11 @@ impl CompressedVolume {
         }
         let dims = hi - lo + UVec3::ONE;
         let desc = GridDesc::new(d.position(lo), d.h(), dims).expect("a box inside a grid");
-        let q = |v: f32| ((v / max * 255.0).round().clamp(0.0, 255.0)) as u8;
+        let q = |v: f32| {
+            (((v / max).max(0.0).sqrt() * 255.0)
+                .round()
+                .clamp(0.0, 255.0)) as u8
+        };
         let mut codes = Vec::with_capacity(desc.point_count() * NUM_DIRS);
         for y in lo.y..=hi.y {
             for z in lo.z..=hi.z {
@@ -78,13 +85,20 @@ impl CompressedVolume {
     /// The cropped volume, decoded.
     pub fn decode(&self) -> Option<LightGrid> {
         let desc = self.desc?;
-        let f = self.scale / 255.0;
+        let table: [f32; 256] = std::array::from_fn(|c| {
+            let s = c as f32 / 255.0;
+            s * s * self.scale
+        });
         let data = self
             .codes
             .chunks(NUM_DIRS)
             .map(|c| {
                 BinLight(std::array::from_fn(|d| {
-                    Vec3::new(c[d][0] as f32, c[d][1] as f32, c[d][2] as f32) * f
+                    Vec3::new(
+                        table[c[d][0] as usize],
+                        table[c[d][1] as usize],
+                        table[c[d][2] as usize],
+                    )
                 }))
             })
             .collect();

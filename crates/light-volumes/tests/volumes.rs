@@ -157,7 +157,8 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
         "{} vs {full_bytes}",
         c.file_bytes()
     );
-    // Inside the box: within half a code; outside: below the threshold.
+    // Inside the box: within half a code of the square-root curve; outside: below the
+    // threshold.
     let back = c.decode().unwrap();
     let max = g.max_value();
     for (i, b) in g.data().iter().enumerate() {
@@ -167,8 +168,13 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
         for d in 0..NUM_DIRS {
             let v = b.0[d].max_element();
             if inside {
-                let q = back.sample(pos).unwrap().0[d].max_element();
-                assert!((q - v).abs() <= max / 510.0 + 1e-6 * max, "{q} vs {v}");
+                let q = back.sample(pos).unwrap().0[d];
+                for c in 0..3 {
+                    let v = b.0[d][c];
+                    let s = (v / max).sqrt();
+                    let bound = max * (s / 255.0 + (0.5f32 / 255.0).powi(2)) + 1e-6 * max;
+                    assert!((q[c] - v).abs() <= bound, "{} vs {v}", q[c]);
+                }
             } else {
                 assert!(v <= max * light_volumes::THRESHOLD, "{v} outside the box");
             }

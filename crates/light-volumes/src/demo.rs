@@ -1,0 +1,72 @@
+//! A small town of the shipped CC0 Kenney models for the example, benchmark and tests:
+//! two buildings and trees, scaled ×8 (the tiles are 1 m), on a 40 m ground square.
+
+use std::path::Path;
+
+use grid_core::glam::{Vec2, Vec3, Vec4};
+use material_voxelizer::model::{Model, ModelError, SurfaceMaterial, Triangle};
+
+/// Appends `part` to `model`, scaled by `scale` and moved by `offset`.
+pub fn append(model: &mut Model, part: &Model, scale: f32, offset: Vec3) {
+    let (m0, t0) = (model.materials.len() as u32, model.textures.len());
+    model.textures.extend(part.textures.iter().cloned());
+    model
+        .materials
+        .extend(part.materials.iter().cloned().map(|mut m| {
+            m.texture = m.texture.map(|t| t + t0);
+            m
+        }));
+    let p0 = model
+        .triangles
+        .iter()
+        .map(|t| t.part)
+        .max()
+        .map_or(0, |p| p + 1);
+    model
+        .triangles
+        .extend(part.triangles.iter().map(|t| Triangle {
+            positions: t.positions.map(|p| p * scale + offset),
+            uvs: t.uvs,
+            material: t.material + m0,
+            part: t.part + p0,
+        }));
+}
+
+/// The town: `testdata` is the shipped `shared/testdata` folder.
+pub fn town(testdata: &Path) -> Result<Model, ModelError> {
+    let dir = testdata.join("kenney-city-builder");
+    let mut model = Model::default();
+    // Ground: two triangles, grey-green.
+    let g = |x: f32, z: f32| Vec3::new(x, 0.0, z);
+    model.materials.push(SurfaceMaterial {
+        base_colour: Vec4::new(0.35, 0.38, 0.3, 1.0),
+        ..Default::default()
+    });
+    for tri in [
+        [g(-20.0, -20.0), g(20.0, 20.0), g(20.0, -20.0)],
+        [g(-20.0, -20.0), g(-20.0, 20.0), g(20.0, 20.0)],
+    ] {
+        model.triangles.push(Triangle {
+            positions: tri,
+            uvs: [Vec2::ZERO; 3],
+            material: 0,
+            part: 0,
+        });
+    }
+    for (file, offset) in [
+        ("building-small-a.glb", Vec3::new(-6.0, 0.0, -4.0)),
+        ("building-small-c.glb", Vec3::new(6.0, 0.0, -4.0)),
+        ("grass-trees.glb", Vec3::new(-6.0, 0.0, 6.0)),
+        ("grass-trees-tall.glb", Vec3::new(6.0, 0.0, 6.0)),
+    ] {
+        let part = Model::load_gltf(dir.join(file))?;
+        append(&mut model, &part, 8.0, offset);
+    }
+    model.validate()?;
+    Ok(model)
+}
+
+/// The shipped test data folder, beside the repository.
+pub fn testdata_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata")
+}
