@@ -15,6 +15,11 @@
 //!   alpha mask) into a linear HDR target, tone-mapped to sRGB; headless images or any
 //!   texture view (a window).
 //!
+//! - **Many dynamic lights** ([`dynamic`]): point, spot and line lights culled through a
+//!   world-space grid of light-index ranges (3DWorld's grid bag), in the mesh shader.
+//! - **Sparse uploads** ([`GpuBinGrid`]): a 26-bin grid on the GPU updated only in a
+//!   changed box (local lights toggling).
+//!
 //! Every WGSL struct shared with Rust is generated from the Rust declaration
 //! ([`gpu_struct!`]); every shader validates with naga in a plain `cargo test`.
 //!
@@ -36,13 +41,15 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod dynamic;
 pub mod gpu;
 pub mod raster;
 pub mod sampling;
 pub mod shading;
 pub mod wgsl;
 
-pub use gpu::GpuLightSampler;
+pub use dynamic::{DynamicKind, DynamicLight, DynamicLights, DynamicShade};
+pub use gpu::{GpuBinGrid, GpuDynamicShader, GpuLightSampler};
 pub use raster::{
     Camera, GroundLight, Image, Instance, Lighting, LightingMode, MeshId, MeshMaterial, Renderer,
     TextureRgba8, Vertex, View, Water,

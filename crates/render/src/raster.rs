@@ -11,6 +11,7 @@ use sweep_gpu::{GpuContext, GpuError};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
+use crate::dynamic::DynamicLights;
 use crate::sampling::LightVolume;
 
 /// The HDR target's format (linear, renderable, read back as `f32`).
@@ -46,6 +47,10 @@ crate::gpu_struct! {
         pub ground_dims: [u32; 4] => "vec4<u32>",
         /// Lighting mode (x).
         pub mode: [u32; 4] => "vec4<u32>",
+        /// Dynamic-light grid origin (xyz) and cell size (w).
+        pub dyn_origin_cell: [f32; 4] => "vec4<f32>",
+        /// Dynamic-light grid cells (xyz) and light count (w; 0 = none).
+        pub dyn_dims: [u32; 4] => "vec4<u32>",
     }
 }
 
@@ -334,6 +339,7 @@ pub struct Renderer {
     tonemap_uniform: wgpu::Buffer,
     volume: (wgpu::Buffer, wgpu::Buffer, LightVolumeInfo),
     ground: (wgpu::Buffer, Option<GroundInfo>),
+    dynamic: DynamicBuffers,
     frame_bind: wgpu::BindGroup,
     sampler: wgpu::Sampler,
     white: wgpu::TextureView,
@@ -350,6 +356,14 @@ struct LightVolumeInfo {
 #[derive(Clone, Copy)]
 struct GroundInfo {
     origin: [f32; 4],
+    dims: [u32; 4],
+}
+
+struct DynamicBuffers {
+    lights: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    origin_cell: [f32; 4],
     dims: [u32; 4],
 }
 
@@ -399,6 +413,9 @@ impl Renderer {
                 storage_entry(1),
                 storage_entry(2),
                 storage_entry(3),
+                storage_entry(4),
+                storage_entry(5),
+                storage_entry(6),
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -526,6 +543,18 @@ impl Renderer {
             },
         );
         let ground = (placeholder("ground"), None);
+        let dynamic = DynamicBuffers {
+            // One zero light's worth of bytes (the binding's minimum size).
+            lights: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("dynamic lights"),
+                contents: bytemuck::bytes_of(&crate::dynamic::DynLightGpu::default()),
+                usage: wgpu::BufferUsages::STORAGE,
+            }),
+            cells: placeholder("dynamic cells"),
+            indices: placeholder("dynamic indices"),
+            origin_cell: [0.0, 0.0, 0.0, 1.0],
+            dims: [1, 1, 1, 0],
+        };
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("base colour"),
             address_mode_u: wgpu::AddressMode::Repeat,
@@ -542,8 +571,14 @@ impl Renderer {
                 texels: vec![[255; 4]],
             },
         )?;
-        let frame_bind =
-            Self::frame_bind_group(&ctx, &frame_layout, &frame_uniform, &volume, &ground);
+        let frame_bind = Self::frame_bind_group(
+            &ctx,
+            &frame_layout,
+            &frame_uniform,
+            &volume,
+            &ground,
+            &dynamic,
+        );
         let targets = Self::targets(&ctx, &tonemap_layout, &tonemap_uniform, width, height)?;
         Ok(Self {
             ctx,
@@ -559,6 +594,7 @@ impl Renderer {
             tonemap_uniform,
             volume,
             ground,
+            dynamic,
             frame_bind,
             sampler,
             white,
@@ -668,16 +704,24 @@ impl Renderer {
         uniform: &wgpu::Buffer,
         volume: &(wgpu::Buffer, wgpu::Buffer, LightVolumeInfo),
         ground: &(wgpu::Buffer, Option<GroundInfo>),
+        dynamic: &DynamicBuffers,
     ) -> wgpu::BindGroup {
         ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout,
-            entries: &[(0, uniform), (1, &volume.0), (2, &volume.1), (3, &ground.0)].map(
-                |(binding, b)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: b.as_entire_binding(),
-                },
-            ),
+            entries: &[
+                (0, uniform),
+                (1, &volume.0),
+                (2, &volume.1),
+                (3, &ground.0),
+                (4, &dynamic.lights),
+                (5, &dynamic.cells),
+                (6, &dynamic.indices),
+            ]
+            .map(|(binding, b)| wgpu::BindGroupEntry {
+                binding,
+                resource: b.as_entire_binding(),
+            }),
         })
     }
 
@@ -954,6 +998,32 @@ impl Renderer {
         Ok(())
     }
 
+    /// Uploads this frame's dynamic lights and their culling grid (rebuilt on the CPU
+    /// each frame: [`DynamicLights::build`]).
+    pub fn set_dynamic_lights(&mut self, lights: &DynamicLights) -> Result<(), RenderError> {
+        // Bindings need at least one element (64 bytes for a light).
+        let nonempty = |v: Vec<u8>| if v.is_empty() { vec![0u8; 64] } else { v };
+        let (origin_cell, dims) = lights.gpu_placement();
+        self.dynamic = DynamicBuffers {
+            lights: self.storage(
+                "dynamic lights",
+                &nonempty(bytemuck::cast_slice(&lights.gpu_lights()).to_vec()),
+            )?,
+            cells: self.storage(
+                "dynamic cells",
+                &nonempty(bytemuck::cast_slice(&lights.cells).to_vec()),
+            )?,
+            indices: self.storage(
+                "dynamic indices",
+                &nonempty(bytemuck::cast_slice(&lights.indices).to_vec()),
+            )?,
+            origin_cell,
+            dims,
+        };
+        self.rebind();
+        Ok(())
+    }
+
     fn rebind(&mut self) {
         self.frame_bind = Self::frame_bind_group(
             &self.ctx,
@@ -961,6 +1031,7 @@ impl Renderer {
             &self.frame_uniform,
             &self.volume,
             &self.ground,
+            &self.dynamic,
         );
     }
 
@@ -1013,6 +1084,8 @@ impl Renderer {
             ground_origin: ground.origin,
             ground_dims: ground.dims,
             mode: [view.mode as u32, 0, 0, 0],
+            dyn_origin_cell: self.dynamic.origin_cell,
+            dyn_dims: self.dynamic.dims,
         })
     }
 

@@ -5,6 +5,7 @@
 
 use std::fmt::Write;
 
+use crate::dynamic::{DynLightGpu, DynParams};
 use crate::gpu::SampleParams;
 use crate::raster::{FrameUniforms, MeshUniforms};
 
@@ -73,14 +74,36 @@ pub fn sample_kernel() -> String {
     )
 }
 
+/// The dynamic-light structs and shading functions.
+fn dynamic_common() -> String {
+    format!(
+        "{}\nconst DYN_FALLOFF_EPSILON: f32 = {:?};\n{}",
+        DynLightGpu::wgsl(),
+        crate::dynamic::FALLOFF_EPSILON,
+        include_str!("shaders/dynamic.wgsl")
+    )
+}
+
 /// The mesh shader (terrain, instanced meshes, debug views).
 pub fn mesh_shader() -> String {
     format!(
-        "{}\n{}\n{}\n{}",
+        "{}\n{}\n{}\n{}\n{}",
         prelude(),
         FrameUniforms::wgsl(),
         MeshUniforms::wgsl(),
+        dynamic_common(),
         include_str!("shaders/mesh.wgsl")
+    )
+}
+
+/// The dynamic-light compute kernel (a batch of points).
+pub fn dynamic_kernel() -> String {
+    format!(
+        "{}\n{}\n{}\n{}",
+        prelude(),
+        DynParams::wgsl(),
+        dynamic_common(),
+        include_str!("shaders/dynamic_kernel.wgsl")
     )
 }
 
@@ -95,5 +118,6 @@ pub fn all() -> Vec<(&'static str, String)> {
         ("sample_kernel", sample_kernel()),
         ("mesh_shader", mesh_shader()),
         ("tonemap_shader", tonemap_shader()),
+        ("dynamic_kernel", dynamic_kernel()),
     ]
 }

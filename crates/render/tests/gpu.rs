@@ -353,3 +353,230 @@ fn alpha_mask_and_emissive_tint() {
         .unwrap_err();
     assert!(err.to_string().contains("indices"), "{err}");
 }
+
+fn dynamic_lights() -> render::DynamicLights {
+    use render::{DynamicKind, DynamicLight};
+    let mut s = 12345u64;
+    let mut r = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let lights = (0..600)
+        .map(|i| {
+            let p = Vec3::new(r() * 30.0 - 15.0, r() * 4.0, r() * 30.0 - 15.0);
+            let kind = match i % 3 {
+                0 => DynamicKind::Point { position: p },
+                1 => DynamicKind::Spot {
+                    position: p,
+                    direction: Vec3::new(r() - 0.5, -1.0, r() - 0.5).normalize(),
+                    cos_inner: 0.9,
+                    cos_outer: 0.6,
+                },
+                _ => DynamicKind::Line {
+                    a: p,
+                    b: p + Vec3::new(r() * 3.0, 0.5, r() * 3.0),
+                },
+            };
+            DynamicLight {
+                kind,
+                colour: Vec3::new(r(), r(), r()) * 4.0,
+                range: 1.0 + 4.0 * r(),
+            }
+        })
+        .collect();
+    render::DynamicLights::build(lights, 2.0).unwrap()
+}
+
+#[test]
+fn gpu_dynamic_lights_equal_cpu_brute_force() {
+    let Some(ctx) = context() else { return };
+    let lights = dynamic_lights();
+    let shader = render::GpuDynamicShader::new(ctx);
+    let points: Vec<(Vec3, Vec3, Vec3)> = (0..4000)
+        .map(|i| {
+            let t = i as f32;
+            (
+                Vec3::new(
+                    (t * 0.37) % 34.0 - 17.0,
+                    (t * 0.11) % 5.0 - 0.5,
+                    (t * 0.73) % 34.0 - 17.0,
+                ),
+                Vec3::new((t * 1.3).sin(), 1.0, (t * 0.7).cos()).normalize(),
+                Vec3::new((t * 0.3).cos(), 0.8, (t * 2.1).sin()).normalize(),
+            )
+        })
+        .collect();
+    let gpu = shader.shade(&lights, &points, 24.0).unwrap();
+    let mut lit = 0;
+    for ((p, n, v), g) in points.iter().zip(&gpu) {
+        let c = lights.shade_brute_force(*p, *n, *v, 24.0);
+        let tol_d = 1e-4 * c.diffuse.max_element() + 1e-6;
+        let tol_s = 1e-3 * c.specular.max_element() + 1e-6;
+        assert!(
+            (c.diffuse - g.diffuse).abs().max_element() <= tol_d,
+            "{p}: cpu {} gpu {}",
+            c.diffuse,
+            g.diffuse
+        );
+        assert!(
+            (c.specular - g.specular).abs().max_element() <= tol_s,
+            "{p}: cpu {} gpu {}",
+            c.specular,
+            g.specular
+        );
+        lit += (c.diffuse != Vec3::ZERO) as u32;
+    }
+    assert!(
+        lit > 500,
+        "only {lit} points lit: the test would prove little"
+    );
+}
+
+#[test]
+fn dynamic_point_light_in_the_mesh_shader_gives_the_cpu_answer() {
+    use render::{DynamicKind, DynamicLight, DynamicLights};
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let lights = DynamicLights::build(
+        vec![DynamicLight {
+            kind: DynamicKind::Point {
+                position: Vec3::new(0.3, 1.5, -0.2),
+            },
+            colour: Vec3::new(3.0, 2.0, 1.0),
+            range: 8.0,
+        }],
+        1.0,
+    )
+    .unwrap();
+    r.set_dynamic_lights(&lights).unwrap();
+    let id = add_quad(
+        &mut r,
+        0.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            lighting: Lighting::Vertex,
+            ..Default::default()
+        },
+    );
+    let v = view(LightingMode::Grid, vec![id]);
+    let img = r.render(&v).unwrap();
+    // Each pixel's world point on the quad (y = 0), by unprojecting its centre.
+    let inv = v.camera.view_proj(1.0).inverse();
+    let mut checked = 0;
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let ndc = grid_core::glam::Vec2::new(
+                (x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0,
+                1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0,
+            );
+            let a = inv.project_point3(ndc.extend(0.0));
+            let b = inv.project_point3(ndc.extend(1.0));
+            let t = a.y / (a.y - b.y);
+            let p = a + (b - a) * t;
+            let to_eye = (v.camera.position - p).normalize();
+            let e = lights.shade(p, Vec3::Y, to_eye, 32.0).diffuse;
+            let got = img.hdr[(y * SIZE + x) as usize];
+            let got = Vec3::new(got[0], got[1], got[2]);
+            // Vertex light is zero: the pixel is albedo 1 × E / π (no specular: the
+            // mesh's specular strength is 0).
+            assert!(
+                (got - e / PI).abs().max_element() <= 2e-3 * (e / PI).max_element() + 1e-5,
+                "pixel ({x}, {y}) at {p}: {got} vs {}",
+                e / PI
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, SIZE * SIZE);
+    // No lights again for the other tests of this binary.
+    r.set_dynamic_lights(&DynamicLights::build(Vec::new(), 1.0).unwrap())
+        .unwrap();
+}
+
+#[test]
+fn bin_grid_uploads_only_the_changed_box() {
+    let Some(ctx) = context() else { return };
+    let grid = test_grid();
+    let gpu = render::GpuBinGrid::new(ctx, &grid).unwrap();
+    assert_eq!(gpu.read().unwrap(), grid);
+    // Change a box on the CPU, upload only that box.
+    let mut changed = grid.clone();
+    let (lo, hi) = (
+        grid_core::glam::UVec3::new(1, 1, 0),
+        grid_core::glam::UVec3::new(3, 2, 1),
+    );
+    let d = *changed.desc();
+    for y in lo.y..=hi.y {
+        for z in lo.z..=hi.z {
+            for x in lo.x..=hi.x {
+                let i = d.index_unchecked(grid_core::glam::UVec3::new(x, y, z));
+                changed.data_mut()[i] = BinLight::uniform(Vec3::splat(7.0 + i as f32));
+            }
+        }
+    }
+    let bytes = gpu.upload_region(&changed, lo, hi).unwrap();
+    assert_eq!(bytes, 3 * 2 * 2 * 26 * 12, "only the box's points");
+    assert_eq!(gpu.read().unwrap(), changed);
+    assert!(gpu.upload_region(&changed, hi, lo).is_err());
+}
+
+#[test]
+fn toggling_a_local_light_uploads_only_its_box() {
+    use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
+    use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+    let Some(ctx) = context() else { return };
+    let p = |x: f32, z: f32| Vec3::new(x, 0.0, z);
+    let tri = |a, b, c| Triangle {
+        positions: [a, b, c],
+        uvs: [Vec2::ZERO; 3],
+        material: 0,
+        part: 0,
+    };
+    let model = Model {
+        triangles: vec![
+            tri(p(-4.0, -4.0), p(4.0, -4.0), p(4.0, 4.0)),
+            tri(p(-4.0, -4.0), p(4.0, 4.0), p(-4.0, 4.0)),
+        ],
+        materials: vec![SurfaceMaterial::default()],
+        textures: Vec::new(),
+    };
+    let scene =
+        material_voxelizer::voxelize::Scene::new(&model, obvhs::BvhBuildParams::fast_build());
+    let desc = GridDesc::new(Vec3::new(-4.0, -0.25, -4.0), 0.5, UVec3::new(17, 8, 17)).unwrap();
+    let mut set = LightSet::new(desc).unwrap();
+    let mut ids = Vec::new();
+    for pos in [Vec3::new(-2.5, 1.0, -2.5), Vec3::new(2.5, 1.0, 2.5)] {
+        let l = Light {
+            kind: LightKind::Spot {
+                position: pos,
+                direction: Vec3::NEG_Y,
+                inner: 0.2,
+                outer: 0.5,
+            },
+            colour: Vec3::ONE,
+            intensity: 3.0,
+        };
+        let params = TraceParams {
+            rays: 20_000,
+            ..TraceParams::preview()
+        };
+        let (v, _) = trace_light(&scene, &desc, &l, &params, &|_, _| {}).unwrap();
+        ids.push(
+            set.add(&CompressedVolume::compress(&v, 0), l.colour, l.intensity)
+                .unwrap(),
+        );
+    }
+    set.take_dirty();
+    let gpu = render::GpuBinGrid::new(ctx, set.grid()).unwrap();
+    set.set_on(ids[0], false).unwrap();
+    let r = set.take_dirty().unwrap();
+    let bytes = gpu.upload_region(set.grid(), r.lo, r.hi).unwrap();
+    assert_eq!(bytes, r.point_count() as u64 * 26 * 12);
+    assert!(
+        r.point_count() < desc.point_count(),
+        "the box is not the whole grid"
+    );
+    assert_eq!(&gpu.read().unwrap(), set.grid());
+}

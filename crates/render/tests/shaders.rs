@@ -1,6 +1,7 @@
 //! Every render shader validates with naga (no GPU needed), and the structs shared with
 //! Rust have the same layout on both sides.
 
+use render::dynamic::{DynLightGpu, DynParams};
 use render::gpu::SampleParams;
 use render::raster::{FrameUniforms, MeshUniforms};
 use render::wgsl;
@@ -20,7 +21,7 @@ fn validate(name: &str, src: &str) -> naga::Module {
 #[test]
 fn every_shader_validates() {
     let all = wgsl::all();
-    assert_eq!(all.len(), 3);
+    assert_eq!(all.len(), 4);
     for (name, src) in all {
         validate(name, &src);
     }
@@ -58,6 +59,19 @@ fn shared_structs_have_the_same_layout_in_rust_and_wgsl() {
         "MeshUniforms",
         MeshUniforms::offsets(),
         size_of::<MeshUniforms>(),
+    );
+    let dynamic = validate("dynamic", &wgsl::dynamic_kernel());
+    check_layout(
+        &dynamic,
+        "DynLightGpu",
+        DynLightGpu::offsets(),
+        size_of::<DynLightGpu>(),
+    );
+    check_layout(
+        &dynamic,
+        "DynParams",
+        DynParams::offsets(),
+        size_of::<DynParams>(),
     );
     let sample = validate("sample", &wgsl::sample_kernel());
     check_layout(

@@ -12,6 +12,10 @@
 @group(0) @binding(2) var<storage, read> volume_dominant: array<vec4<f32>>;
 // Ground: (irradiance rgb, height) per heightmap node, x fastest.
 @group(0) @binding(3) var<storage, read> ground: array<vec4<f32>>;
+// Dynamic lights and their culling grid (render::dynamic).
+@group(0) @binding(4) var<storage, read> dyn_lights: array<DynLightGpu>;
+@group(0) @binding(5) var<storage, read> dyn_cells: array<vec2<u32>>;
+@group(0) @binding(6) var<storage, read> dyn_indices: array<u32>;
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniforms;
 @group(1) @binding(1) var base_texture: texture_2d<f32>;
@@ -132,6 +136,11 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
         }
         e = mix(e_ground, e_obj, t);
     }
+    // Dynamic lights add to either mode.
+    let to_eye = normalize(frame.eye.xyz - in.world);
+    let dl = dynamic_shade(in.world, n, to_eye, mesh.params.z, frame.dyn_origin_cell, frame.dyn_dims);
+    e += dl.diffuse;
+    spec += mesh.params.y * dl.specular;
     let water = underwater_attenuation(in.world.y, frame.water.x, frame.water.y);
     let colour = (albedo.rgb * e / PI + spec) * water;
     return vec4<f32>(colour, 1.0);

@@ -1,0 +1,461 @@
+//! Many small dynamic lights (3DWorld's "grid bag"): point, spot and line lights with a
+//! finite range, culled through a world-space grid whose cells hold ranges into one
+//! light-index array, built on the CPU each frame and read in the shaders.
+//!
+//! The shading functions here are the specification; `shaders/dynamic.wgsl` implements
+//! them. A light contributes exactly zero beyond its range, and every cell lists (in
+//! ascending order) every light whose range reaches into it, so shading through the
+//! grid gives the same sum as a loop over all lights (tested).
+
+use std::f32::consts::PI;
+
+use grid_core::GridError;
+use grid_core::glam::{UVec3, Vec3};
+
+/// The shape of a dynamic light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DynamicKind {
+    /// A point.
+    Point {
+        /// Position.
+        position: Vec3,
+    },
+    /// A point limited to a cone around `direction` (unit), full inside `cos_inner`,
+    /// zero outside `cos_outer`.
+    Spot {
+        /// Position.
+        position: Vec3,
+        /// Axis (unit).
+        direction: Vec3,
+        /// Cosine of the full-intensity half-angle.
+        cos_inner: f32,
+        /// Cosine of the cut-off half-angle (< `cos_inner`).
+        cos_outer: f32,
+    },
+    /// A segment, lit from its point nearest the shaded point.
+    Line {
+        /// One end.
+        a: Vec3,
+        /// The other end.
+        b: Vec3,
+    },
+}
+
+/// A dynamic light: shape, colour × intensity (irradiance at 1 m) and range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DynamicLight {
+    /// Shape.
+    pub kind: DynamicKind,
+    /// Linear RGB irradiance on a surface facing it 1 m away.
+    pub colour: Vec3,
+    /// Distance beyond which it contributes nothing, metres.
+    pub range: f32,
+}
+
+/// `ε` of the falloff `1 / (d² + ε)` (no singularity at the light).
+pub const FALLOFF_EPSILON: f32 = 0.01;
+
+impl DynamicLight {
+    /// The point the light shines from, for a shaded point `p`.
+    pub fn source(&self, p: Vec3) -> Vec3 {
+        match self.kind {
+            DynamicKind::Point { position } | DynamicKind::Spot { position, .. } => position,
+            DynamicKind::Line { a, b } => {
+                let ab = b - a;
+                let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
+                a + ab * t
+            }
+        }
+    }
+
+    /// Bounding box of the lit region (the range around the source).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let r = Vec3::splat(self.range);
+        match self.kind {
+            DynamicKind::Point { position } | DynamicKind::Spot { position, .. } => {
+                (position - r, position + r)
+            }
+            DynamicKind::Line { a, b } => (a.min(b) - r, a.max(b) + r),
+        }
+    }
+
+    fn validate(&self, i: usize) -> Result<(), GridError> {
+        let _ = i;
+        if !(self.range.is_finite() && self.range > 0.0) {
+            return Err(GridError::invalid(
+                "range",
+                self.range,
+                "must be finite and > 0",
+            ));
+        }
+        if !(self.colour.is_finite() && self.colour.cmpge(Vec3::ZERO).all()) {
+            return Err(GridError::invalid(
+                "colour",
+                self.colour,
+                "must be finite and >= 0",
+            ));
+        }
+        let (lo, hi) = self.bounds();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err(GridError::invalid("position", lo, "must be finite"));
+        }
+        if let DynamicKind::Spot {
+            direction,
+            cos_inner,
+            cos_outer,
+            ..
+        } = self.kind
+            && !(direction.is_finite()
+                && (direction.length() - 1.0).abs() < 1e-3
+                && cos_outer < cos_inner
+                && (-1.0..=1.0).contains(&cos_outer)
+                && cos_inner <= 1.0)
+        {
+            return Err(GridError::invalid(
+                "direction",
+                direction,
+                "need a unit direction and -1 <= cos_outer < cos_inner <= 1",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Diffuse irradiance and specular radiance from dynamic lights at a point.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DynamicShade {
+    /// Irradiance (multiply by albedo / π).
+    pub diffuse: Vec3,
+    /// Specular radiance (Blinn-Phong, normalised).
+    pub specular: Vec3,
+}
+
+/// One light's contribution at `p` (normal `n`, unit vector to the eye `v`).
+pub fn shade_one(light: &DynamicLight, p: Vec3, n: Vec3, v: Vec3, shininess: f32) -> DynamicShade {
+    let to = light.source(p) - p;
+    let d2 = to.length_squared();
+    let d = d2.sqrt();
+    if d >= light.range {
+        return DynamicShade::default();
+    }
+    let l = if d > 0.0 { to / d } else { n };
+    let ndl = n.dot(l);
+    if ndl <= 0.0 {
+        return DynamicShade::default();
+    }
+    let x = d / light.range;
+    let window = (1.0 - x * x * x * x).max(0.0);
+    let mut f = window * window / (d2 + FALLOFF_EPSILON);
+    if let DynamicKind::Spot {
+        direction,
+        cos_inner,
+        cos_outer,
+        ..
+    } = light.kind
+    {
+        let c = (-l).dot(direction);
+        let t = ((c - cos_outer) / (cos_inner - cos_outer)).clamp(0.0, 1.0);
+        f *= t * t * (3.0 - 2.0 * t);
+    }
+    let e = light.colour * (f * ndl);
+    let h = (l + v).normalize_or_zero();
+    let spec = n.dot(h).max(0.0).powf(shininess) * (shininess + 8.0) / (8.0 * PI);
+    DynamicShade {
+        diffuse: e,
+        specular: e * spec,
+    }
+}
+
+/// The lights of a frame and their culling grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DynamicLights {
+    /// All lights.
+    pub lights: Vec<DynamicLight>,
+    /// World position of cell (0, 0, 0)'s lower corner.
+    pub origin: Vec3,
+    /// Cell size, metres.
+    pub cell: f32,
+    /// Cells along x, y, z.
+    pub dims: UVec3,
+    /// Per cell (x fastest, then z, then y): offset and count into `indices`.
+    pub cells: Vec<[u32; 2]>,
+    /// Light indices, ascending within each cell.
+    pub indices: Vec<u32>,
+}
+
+/// Most cells along one axis of the culling grid.
+pub const MAX_CELLS_PER_AXIS: u32 = 64;
+
+impl DynamicLights {
+    /// Builds the grid bag: cells of `cell` metres (grown if the lights span more than
+    /// [`MAX_CELLS_PER_AXIS`] cells) over the lights' bounds.
+    pub fn build(lights: Vec<DynamicLight>, cell: f32) -> Result<Self, GridError> {
+        if !(cell.is_finite() && cell > 0.0) {
+            return Err(GridError::invalid("cell", cell, "must be finite and > 0"));
+        }
+        for (i, l) in lights.iter().enumerate() {
+            l.validate(i)?;
+        }
+        if lights.is_empty() {
+            return Ok(Self {
+                lights,
+                origin: Vec3::ZERO,
+                cell,
+                dims: UVec3::ONE,
+                cells: vec![[0, 0]],
+                indices: Vec::new(),
+            });
+        }
+        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        for l in &lights {
+            let (a, b) = l.bounds();
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        let span = hi - lo;
+        let cell = cell.max(span.max_element() / MAX_CELLS_PER_AXIS as f32);
+        let dims = (span / cell).ceil().as_uvec3().max(UVec3::ONE);
+        let count = (dims.x * dims.y * dims.z) as usize;
+        let index = |c: UVec3| (c.x + dims.x * (c.z + dims.z * c.y)) as usize;
+        let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); count];
+        for (i, l) in lights.iter().enumerate() {
+            let (a, b) = l.bounds();
+            let c0 = ((a - lo) / cell)
+                .floor()
+                .max(Vec3::ZERO)
+                .as_uvec3()
+                .min(dims - 1);
+            let c1 = ((b - lo) / cell)
+                .floor()
+                .max(Vec3::ZERO)
+                .as_uvec3()
+                .min(dims - 1);
+            for y in c0.y..=c1.y {
+                for z in c0.z..=c1.z {
+                    for x in c0.x..=c1.x {
+                        per_cell[index(UVec3::new(x, y, z))].push(i as u32);
+                    }
+                }
+            }
+        }
+        let mut cells = Vec::with_capacity(count);
+        let mut indices = Vec::new();
+        for c in per_cell {
+            cells.push([indices.len() as u32, c.len() as u32]);
+            indices.extend(c);
+        }
+        Ok(Self {
+            lights,
+            origin: lo,
+            cell,
+            dims,
+            cells,
+            indices,
+        })
+    }
+
+    /// The lights whose range may reach `p` (ascending indices), through the grid.
+    pub fn candidates(&self, p: Vec3) -> &[u32] {
+        let g = (p - self.origin) / self.cell;
+        if !(g.cmpge(Vec3::ZERO).all() && g.is_finite()) {
+            return &[];
+        }
+        let c = g.floor().as_uvec3();
+        if c.cmpge(self.dims).any() {
+            return &[];
+        }
+        let [o, n] = self.cells[(c.x + self.dims.x * (c.z + self.dims.z * c.y)) as usize];
+        &self.indices[o as usize..(o + n) as usize]
+    }
+
+    /// Shading at `p` through the grid.
+    pub fn shade(&self, p: Vec3, n: Vec3, v: Vec3, shininess: f32) -> DynamicShade {
+        let mut s = DynamicShade::default();
+        for &i in self.candidates(p) {
+            let c = shade_one(&self.lights[i as usize], p, n, v, shininess);
+            s.diffuse += c.diffuse;
+            s.specular += c.specular;
+        }
+        s
+    }
+
+    /// Shading at `p` by brute force over every light (the reference).
+    pub fn shade_brute_force(&self, p: Vec3, n: Vec3, v: Vec3, shininess: f32) -> DynamicShade {
+        let mut s = DynamicShade::default();
+        for l in &self.lights {
+            let c = shade_one(l, p, n, v, shininess);
+            s.diffuse += c.diffuse;
+            s.specular += c.specular;
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lights(n: usize, seed: u64) -> Vec<DynamicLight> {
+        let mut r = fastrand_like(seed);
+        (0..n)
+            .map(|i| {
+                let p = Vec3::new(r() * 40.0 - 20.0, r() * 6.0, r() * 40.0 - 20.0);
+                let kind = match i % 3 {
+                    0 => DynamicKind::Point { position: p },
+                    1 => DynamicKind::Spot {
+                        position: p,
+                        direction: Vec3::new(r() - 0.5, -1.0, r() - 0.5).normalize(),
+                        cos_inner: 0.9,
+                        cos_outer: 0.7,
+                    },
+                    _ => DynamicKind::Line {
+                        a: p,
+                        b: p + Vec3::new(r() * 4.0, 0.0, r() * 4.0),
+                    },
+                };
+                DynamicLight {
+                    kind,
+                    colour: Vec3::new(r(), r(), r()) * 5.0,
+                    range: 1.0 + r() * 5.0,
+                }
+            })
+            .collect()
+    }
+
+    fn fastrand_like(seed: u64) -> impl FnMut() -> f32 {
+        let mut s = seed.max(1);
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    #[test]
+    fn grid_shading_equals_brute_force() {
+        for (n, cell) in [(1, 2.0), (50, 1.0), (2000, 2.5), (300, 0.01)] {
+            let d = DynamicLights::build(lights(n, n as u64), cell).unwrap();
+            assert!(d.dims.max_element() <= MAX_CELLS_PER_AXIS);
+            let mut r = fastrand_like(7);
+            let mut lit = 0;
+            for _ in 0..3000 {
+                let p = Vec3::new(r() * 50.0 - 25.0, r() * 10.0 - 2.0, r() * 50.0 - 25.0);
+                let nrm = Vec3::new(r() - 0.5, 1.0, r() - 0.5).normalize();
+                let v = Vec3::new(r() - 0.5, 0.5, r() - 0.5).normalize();
+                let a = d.shade(p, nrm, v, 32.0);
+                let b = d.shade_brute_force(p, nrm, v, 32.0);
+                assert_eq!(a, b, "{n} lights at {p}");
+                lit += (a.diffuse != Vec3::ZERO) as u32;
+            }
+            assert!(
+                lit > 0,
+                "{n} lights: nothing lit, the test would prove nothing"
+            );
+        }
+    }
+
+    #[test]
+    fn point_light_known_answer_and_range() {
+        let l = DynamicLight {
+            kind: DynamicKind::Point {
+                position: Vec3::new(0.0, 2.0, 0.0),
+            },
+            colour: Vec3::ONE,
+            range: 10.0,
+        };
+        let s = shade_one(&l, Vec3::ZERO, Vec3::Y, Vec3::Y, 16.0);
+        let w = 1.0 - (0.2f32).powi(4);
+        let expect = w * w / (4.0 + FALLOFF_EPSILON);
+        assert!((s.diffuse.x - expect).abs() < 1e-6, "{}", s.diffuse);
+        assert_eq!(
+            shade_one(&l, Vec3::new(0.0, 12.5, 0.0), Vec3::NEG_Y, Vec3::Y, 16.0),
+            DynamicShade::default()
+        );
+        assert_eq!(
+            shade_one(&l, Vec3::ZERO, Vec3::NEG_Y, Vec3::Y, 16.0),
+            DynamicShade::default()
+        );
+    }
+
+    #[test]
+    fn bad_lights_are_typed_errors() {
+        let mut l = lights(1, 3);
+        l[0].range = f32::NAN;
+        assert!(
+            DynamicLights::build(l, 1.0)
+                .unwrap_err()
+                .to_string()
+                .contains("range")
+        );
+        assert!(
+            DynamicLights::build(Vec::new(), 0.0)
+                .unwrap_err()
+                .to_string()
+                .contains("cell")
+        );
+    }
+}
+
+crate::gpu_struct! {
+    /// One dynamic light as the shaders read it.
+    pub struct DynLightGpu {
+        /// Position (or a line's first end), range.
+        pub position_range: [f32; 4] => "vec4<f32>",
+        /// Colour, kind (0 point, 1 spot, 2 line).
+        pub colour_kind: [f32; 4] => "vec4<f32>",
+        /// Spot axis, cosine of the cut-off.
+        pub dir_cos_outer: [f32; 4] => "vec4<f32>",
+        /// A line's second end, a spot's cosine of full intensity.
+        pub end_cos_inner: [f32; 4] => "vec4<f32>",
+    }
+}
+
+crate::gpu_struct! {
+    /// The culling grid's placement, for the compute kernel.
+    pub struct DynParams {
+        /// Origin (xyz) and cell size (w).
+        pub origin_cell: [f32; 4] => "vec4<f32>",
+        /// Cells (xyz) and light count (w).
+        pub dims: [u32; 4] => "vec4<u32>",
+        /// Points in the batch (x).
+        pub count: [u32; 4] => "vec4<u32>",
+    }
+}
+
+impl DynamicLights {
+    /// The lights as the shaders read them.
+    pub fn gpu_lights(&self) -> Vec<DynLightGpu> {
+        self.lights
+            .iter()
+            .map(|l| {
+                let (p, kind, dir, cos_outer, end, cos_inner) = match l.kind {
+                    DynamicKind::Point { position } => {
+                        (position, 0.0, Vec3::ZERO, 0.0, Vec3::ZERO, 1.0)
+                    }
+                    DynamicKind::Spot {
+                        position,
+                        direction,
+                        cos_inner,
+                        cos_outer,
+                    } => (position, 1.0, direction, cos_outer, Vec3::ZERO, cos_inner),
+                    DynamicKind::Line { a, b } => (a, 2.0, Vec3::ZERO, 0.0, b, 1.0),
+                };
+                DynLightGpu {
+                    position_range: p.extend(l.range).to_array(),
+                    colour_kind: l.colour.extend(kind).to_array(),
+                    dir_cos_outer: dir.extend(cos_outer).to_array(),
+                    end_cos_inner: end.extend(cos_inner).to_array(),
+                }
+            })
+            .collect()
+    }
+
+    /// Origin and cell size, dims and light count, as the shaders read them.
+    pub fn gpu_placement(&self) -> ([f32; 4], [u32; 4]) {
+        (
+            self.origin.extend(self.cell).to_array(),
+            self.dims.extend(self.lights.len() as u32).to_array(),
+        )
+    }
+}
