@@ -299,3 +299,39 @@ mod tests {
         }
     }
 }
+
+/// Linear `[0, 1]` to an 8-bit sRGB code (the IEC 61966-2-1 curve; clamped).
+pub fn linear_to_srgb8(c: f32) -> u8 {
+    let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
+    let s = if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// An 8-bit sRGB code to linear `[0, 1]`.
+pub fn srgb8_to_linear(code: u8) -> f32 {
+    let c = code as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+#[cfg(test)]
+mod srgb_tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trips_every_code() {
+        for code in 0..=255u8 {
+            assert_eq!(linear_to_srgb8(srgb8_to_linear(code)), code);
+        }
+        assert_eq!(linear_to_srgb8(f32::NAN), 0);
+        assert_eq!(linear_to_srgb8(2.0), 255);
+        assert_eq!(linear_to_srgb8(0.5), 188);
+    }
+}

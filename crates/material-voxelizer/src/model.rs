@@ -151,14 +151,6 @@ pub struct Model {
     pub textures: Vec<Texture>,
 }
 
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
 impl Model {
     /// Bounds of all triangles: `(min, max)`; `None` for an empty model.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
@@ -373,7 +365,7 @@ fn convert_image(img: &gltf::image::Data) -> Option<Texture> {
         .pixels
         .chunks_exact(channels)
         .map(|p| {
-            let c = |i: usize| srgb_to_linear(p[i.min(channels - 1)] as f32 / 255.0);
+            let c = |i: usize| grid_core::pack::srgb8_to_linear(p[i.min(channels - 1)]);
             let (r, g, b) = if channels >= 3 {
                 (c(0), c(1), c(2))
             } else {

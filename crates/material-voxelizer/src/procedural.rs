@@ -294,15 +294,10 @@ pub fn bush(seed: u64, radius: f32) -> Result<Model, GridError> {
     })
 }
 
-/// A procedural rock: a closed, bumpy icosphere of about `radius` metres, grey.
-pub fn rock(seed: u64, radius: f32) -> Result<Model, GridError> {
-    if !(radius.is_finite() && radius > 0.0) {
-        return Err(GridError::invalid(
-            "radius",
-            radius,
-            "must be finite and > 0",
-        ));
-    }
+/// A unit icosphere: the icosahedron with each triangle split in four `subdivisions`
+/// times (20 · 4^n triangles), vertices on the unit sphere, faces counter-clockwise seen
+/// from outside.
+pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut verts: Vec<Vec3> = [
         (-1.0, t, 0.0),
@@ -343,7 +338,7 @@ pub fn rock(seed: u64, radius: f32) -> Result<Model, GridError> {
         [8, 6, 7],
         [9, 8, 1],
     ];
-    for _ in 0..2 {
+    for _ in 0..subdivisions {
         let mut mid: std::collections::HashMap<(usize, usize), usize> =
             std::collections::HashMap::new();
         let mut next = Vec::with_capacity(faces.len() * 4);
@@ -366,6 +361,23 @@ pub fn rock(seed: u64, radius: f32) -> Result<Model, GridError> {
         }
         faces = next;
     }
+    (
+        verts,
+        faces.into_iter().map(|f| f.map(|i| i as u32)).collect(),
+    )
+}
+
+/// A procedural rock: a closed, bumpy icosphere of about `radius` metres, grey.
+pub fn rock(seed: u64, radius: f32) -> Result<Model, GridError> {
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(GridError::invalid(
+            "radius",
+            radius,
+            "must be finite and > 0",
+        ));
+    }
+    let (verts, faces) = icosphere(2);
+    let faces: Vec<[usize; 3]> = faces.iter().map(|f| f.map(|i| i as usize)).collect();
     let mut rng = Rng::new(seed ^ 0x50C);
     let bumps: Vec<(Vec3, f32)> = (0..6)
         .map(|_| (rng.unit(), rng.range(-0.15, 0.2)))
@@ -403,16 +415,6 @@ pub fn rock(seed: u64, radius: f32) -> Result<Model, GridError> {
         }],
         textures: vec![],
     })
-}
-
-fn linear_to_srgb8(c: f32) -> u8 {
-    let c = c.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0 + 0.5) as u8
 }
 
 /// Writes `model` as a binary glTF (`.glb`): one primitive per material (non-indexed
@@ -475,9 +477,9 @@ pub fn write_glb(model: &Model, path: impl AsRef<Path>) -> Result<(), GridError>
         let mut rgba = Vec::with_capacity(t.texels.len() * 4);
         for c in &t.texels {
             rgba.extend([
-                linear_to_srgb8(c.x),
-                linear_to_srgb8(c.y),
-                linear_to_srgb8(c.z),
+                grid_core::pack::linear_to_srgb8(c.x),
+                grid_core::pack::linear_to_srgb8(c.y),
+                grid_core::pack::linear_to_srgb8(c.z),
                 (c.w.clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
             ]);
         }

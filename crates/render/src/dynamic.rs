@@ -291,45 +291,48 @@ impl DynamicLights {
     }
 }
 
+/// `n` random lights in the box `lo ..= hi` (points, spots aimed down, short lines in
+/// turn; ranges 1–6 m; colours up to 5): for demos, tests and benchmarks.
+/// Deterministic for a seed.
+pub fn scatter(n: usize, seed: u64, lo: Vec3, hi: Vec3) -> Vec<DynamicLight> {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let mut r = move || rng.f32();
+    (0..n)
+        .map(|i| {
+            let p = lo + (hi - lo) * Vec3::new(r(), r(), r());
+            let kind = match i % 3 {
+                0 => DynamicKind::Point { position: p },
+                1 => DynamicKind::Spot {
+                    position: p,
+                    direction: Vec3::new(r() - 0.5, -1.0, r() - 0.5).normalize(),
+                    cos_inner: 0.9,
+                    cos_outer: 0.65,
+                },
+                _ => DynamicKind::Line {
+                    a: p,
+                    b: p + Vec3::new(r() * 4.0, r() * 0.5, r() * 4.0),
+                },
+            };
+            DynamicLight {
+                kind,
+                colour: Vec3::new(r(), r(), r()) * 5.0,
+                range: 1.0 + r() * 5.0,
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn lights(n: usize, seed: u64) -> Vec<DynamicLight> {
-        let mut r = fastrand_like(seed);
-        (0..n)
-            .map(|i| {
-                let p = Vec3::new(r() * 40.0 - 20.0, r() * 6.0, r() * 40.0 - 20.0);
-                let kind = match i % 3 {
-                    0 => DynamicKind::Point { position: p },
-                    1 => DynamicKind::Spot {
-                        position: p,
-                        direction: Vec3::new(r() - 0.5, -1.0, r() - 0.5).normalize(),
-                        cos_inner: 0.9,
-                        cos_outer: 0.7,
-                    },
-                    _ => DynamicKind::Line {
-                        a: p,
-                        b: p + Vec3::new(r() * 4.0, 0.0, r() * 4.0),
-                    },
-                };
-                DynamicLight {
-                    kind,
-                    colour: Vec3::new(r(), r(), r()) * 5.0,
-                    range: 1.0 + r() * 5.0,
-                }
-            })
-            .collect()
-    }
-
-    fn fastrand_like(seed: u64) -> impl FnMut() -> f32 {
-        let mut s = seed.max(1);
-        move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        }
+        scatter(
+            n,
+            seed,
+            Vec3::new(-20.0, 0.0, -20.0),
+            Vec3::new(20.0, 6.0, 20.0),
+        )
     }
 
     #[test]
@@ -337,7 +340,8 @@ mod tests {
         for (n, cell) in [(1, 2.0), (50, 1.0), (2000, 2.5), (300, 0.01)] {
             let d = DynamicLights::build(lights(n, n as u64), cell).unwrap();
             assert!(d.dims.max_element() <= MAX_CELLS_PER_AXIS);
-            let mut r = fastrand_like(7);
+            let mut rng = fastrand::Rng::with_seed(7);
+            let mut r = move || rng.f32();
             let mut lit = 0;
             for _ in 0..3000 {
                 let p = Vec3::new(r() * 50.0 - 25.0, r() * 10.0 - 2.0, r() * 50.0 - 25.0);

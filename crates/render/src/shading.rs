@@ -88,16 +88,7 @@ pub fn tonemap_aces(x: Vec3) -> Vec3 {
     ((x * (a * x + b)) / (x * (c * x + d) + e)).clamp(Vec3::ZERO, Vec3::ONE)
 }
 
-/// Linear `[0, 1]` to 8-bit sRGB.
-pub fn linear_to_srgb8(c: f32) -> u8 {
-    let c = c.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0 + 0.5) as u8
-}
+pub use grid_core::pack::linear_to_srgb8;
 
 #[cfg(test)]
 mod tests {

@@ -355,37 +355,12 @@ fn alpha_mask_and_emissive_tint() {
 }
 
 fn dynamic_lights() -> render::DynamicLights {
-    use render::{DynamicKind, DynamicLight};
-    let mut s = 12345u64;
-    let mut r = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let lights = (0..600)
-        .map(|i| {
-            let p = Vec3::new(r() * 30.0 - 15.0, r() * 4.0, r() * 30.0 - 15.0);
-            let kind = match i % 3 {
-                0 => DynamicKind::Point { position: p },
-                1 => DynamicKind::Spot {
-                    position: p,
-                    direction: Vec3::new(r() - 0.5, -1.0, r() - 0.5).normalize(),
-                    cos_inner: 0.9,
-                    cos_outer: 0.6,
-                },
-                _ => DynamicKind::Line {
-                    a: p,
-                    b: p + Vec3::new(r() * 3.0, 0.5, r() * 3.0),
-                },
-            };
-            DynamicLight {
-                kind,
-                colour: Vec3::new(r(), r(), r()) * 4.0,
-                range: 1.0 + 4.0 * r(),
-            }
-        })
-        .collect();
+    let lights = render::dynamic::scatter(
+        600,
+        12345,
+        Vec3::new(-15.0, 0.0, -15.0),
+        Vec3::new(15.0, 4.0, 15.0),
+    );
     render::DynamicLights::build(lights, 2.0).unwrap()
 }
 

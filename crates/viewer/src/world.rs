@@ -104,14 +104,7 @@ fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
         .with_context(|| format!("decoding {}", path.display()))?
         .into_rgba8();
     let (w, h) = img.dimensions();
-    let lin = |c: u8| {
-        let c = c as f32 / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let lin = grid_core::pack::srgb8_to_linear;
     Ok(Texture {
         width: w,
         height: h,
@@ -120,17 +113,6 @@ fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
             .map(|p| Vec4::new(lin(p[0]), lin(p[1]), lin(p[2]), p[3] as f32 / 255.0))
             .collect(),
     })
-}
-
-/// A xorshift stream of uniform numbers in [0, 1) (deterministic scatter).
-fn rng(seed: u64) -> impl FnMut() -> f32 {
-    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).max(1);
-    move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    }
 }
 
 /// The sky's top boundary (sun excluded), and the sun.
@@ -262,7 +244,8 @@ impl World {
             });
         }
         for s in &scene.scatter {
-            let mut r = rng(s.seed ^ ((index(&s.model) as u64 + 1) * 7919));
+            let mut rng = fastrand::Rng::with_seed(s.seed ^ ((index(&s.model) as u64 + 1) * 7919));
+            let mut r = move || rng.f32();
             for _ in 0..s.count {
                 let (a, d) = (r() * std::f32::consts::TAU, s.radius * r().sqrt());
                 let (x, z) = (s.centre[0] + d * a.cos(), s.centre[1] + d * a.sin());

@@ -134,13 +134,8 @@ pub fn forest(n: u32, testdata: &Path) -> Result<BenchScene> {
     let heightmap = Heightmap::from_fn(Vec2::ZERO, 1.0, n + 1, n + 1, |x, z| {
         1.5 + 0.8 * (x * 0.31).sin() * (z * 0.23).cos()
     })?;
-    let mut s = 7u64;
-    let mut rng = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut r = fastrand::Rng::with_seed(7);
+    let mut rng = move || r.f32();
     let count = (n * n / 12).max(4);
     let instances: Vec<Instance> = (0..count)
         .map(|_| {
