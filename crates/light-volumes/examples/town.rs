@@ -29,7 +29,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         intensity: 100.0,
     };
     let params = TraceParams::standard();
-    let (volume, stats) = trace_light(&scene, &desc, &lamp, &params, &|_, _| {})?;
+    // Progress: a line at every tenth of the rays.
+    let shown = std::sync::atomic::AtomicU64::new(0);
+    let progress = |done: u64, total: u64| {
+        let tenth = done * 10 / total;
+        if shown.fetch_max(tenth, std::sync::atomic::Ordering::Relaxed) < tenth {
+            eprintln!("  tracing: {}%", tenth * 10);
+        }
+    };
+    let (volume, stats) = trace_light(&scene, &desc, &lamp, &params, &progress)?;
     println!(
         "1 light, {} rays: {} segments, {:.0}% hit; wall {:.2} s; BVH {:.2} s and deposits {:.2} s (summed over threads)",
         stats.rays,
