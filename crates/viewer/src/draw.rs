@@ -238,6 +238,7 @@ impl SceneMeshes {
             }
             models.extend(ids);
         }
+        r.set_dynamic_lights(&world.dynamic)?;
         let (v, i) = sphere();
         let balls = r.add_mesh(
             &v,

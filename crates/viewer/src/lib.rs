@@ -61,6 +61,8 @@ pub struct Summary {
     pub views: Vec<ViewSummary>,
     /// Instances in the scene.
     pub instances: usize,
+    /// Dynamic lights, and the entries of their culling grid.
+    pub dynamic_lights: (usize, usize),
     /// Bytes of the model material grids.
     pub model_grid_bytes: u64,
     /// Files written.
@@ -96,6 +98,13 @@ impl Summary {
         let _ = writeln!(s, "  grids swept by: {}", self.sweeper);
         let _ = writeln!(s, "  rendered on:    {}", self.renderer);
         let _ = writeln!(s, "  instances:      {}", self.instances);
+        if self.dynamic_lights.0 > 0 {
+            let _ = writeln!(
+                s,
+                "  dynamic lights: {} ({} entries in their culling grid)",
+                self.dynamic_lights.0, self.dynamic_lights.1
+            );
+        }
         let _ = writeln!(
             s,
             "  model material grids: {:.1} MB",
@@ -233,6 +242,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
         timings,
         views,
         instances: world.instances.len(),
+        dynamic_lights: (world.dynamic.lights.len(), world.dynamic.indices.len()),
         model_grid_bytes: world.model_grid_bytes,
         files,
     };

@@ -36,6 +36,8 @@ pub struct SceneFile {
     pub scatter: Vec<ScatterSpec>,
     /// Views to render.
     pub views: Vec<ViewSpec>,
+    /// Many small dynamic lights (fireflies, lamps), scattered at random.
+    pub dynamic_lights: Option<DynamicLightsSpec>,
     /// Folder relative paths resolve against (not in the file).
     #[serde(skip)]
     pub base: PathBuf,
@@ -240,6 +242,29 @@ pub struct ScatterSpec {
     pub seed: u64,
 }
 
+/// Dynamic lights scattered over a disc, at heights above the ground (points, spots
+/// and short lines in turn; `render::dynamic::scatter`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicLightsSpec {
+    /// How many (at most 10 000).
+    pub count: u32,
+    /// Disc centre, world x, z.
+    pub centre: [f32; 2],
+    /// Disc radius, metres.
+    pub radius: f32,
+    /// Height range above the ground, metres.
+    #[serde(default = "default_light_heights")]
+    pub height: [f32; 2],
+    /// Random seed.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+fn default_light_heights() -> [f32; 2] {
+    [0.5, 4.0]
+}
+
 /// A camera.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -438,6 +463,19 @@ impl SceneFile {
             }
             if s.count > 100_000 {
                 bail!("scatter[{i}].count = {}: at most 100000", s.count);
+            }
+        }
+        if let Some(d) = &self.dynamic_lights {
+            if d.count > 10_000 {
+                bail!("dynamic_lights.count = {}: at most 10000", d.count);
+            }
+            positive("dynamic_lights.radius", d.radius)?;
+            finite2("dynamic_lights.centre", d.centre)?;
+            if !(d.height[0].is_finite() && d.height[1].is_finite() && d.height[0] <= d.height[1]) {
+                bail!(
+                    "dynamic_lights.height = {:?}: need finite min <= max",
+                    d.height
+                );
             }
         }
         if self.views.is_empty() {

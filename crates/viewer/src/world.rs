@@ -67,6 +67,8 @@ pub struct World {
     pub timings: Vec<(String, f64)>,
     /// Material grid bytes of the models.
     pub model_grid_bytes: u64,
+    /// Dynamic lights and their culling grid (empty without `[dynamic_lights]`).
+    pub dynamic: render::DynamicLights,
 }
 
 fn bar(len: u64, what: &str) -> ProgressBar {
@@ -151,6 +153,47 @@ pub fn boundary_light(sky: &BinLight, scene: &SceneFile) -> Result<BinLight> {
         }
     }
     Ok(top)
+}
+
+/// The scene's dynamic lights, standing on the ground, with their culling grid.
+fn dynamic_lights(scene: &SceneFile, hm: &Heightmap) -> Result<render::DynamicLights> {
+    let Some(d) = &scene.dynamic_lights else {
+        return Ok(render::DynamicLights::build(Vec::new(), 4.0)?);
+    };
+    let (c, r) = (Vec2::from_array(d.centre), d.radius);
+    let mut lights = render::dynamic::scatter(
+        d.count as usize,
+        d.seed,
+        Vec3::new(c.x - r, d.height[0], c.y - r),
+        Vec3::new(c.x + r, d.height[1], c.y + r),
+    );
+    let lift = |p: Vec3| p + Vec3::Y * hm.height_at(p.x, p.z);
+    for l in &mut lights {
+        l.kind = match l.kind {
+            render::DynamicKind::Point { position } => render::DynamicKind::Point {
+                position: lift(position),
+            },
+            render::DynamicKind::Spot {
+                position,
+                direction,
+                cos_inner,
+                cos_outer,
+            } => render::DynamicKind::Spot {
+                position: lift(position),
+                direction,
+                cos_inner,
+                cos_outer,
+            },
+            render::DynamicKind::Line { a, b } => {
+                let dy = Vec3::Y * hm.height_at(a.x, a.z);
+                render::DynamicKind::Line {
+                    a: a + dy,
+                    b: b + dy,
+                }
+            }
+        };
+    }
+    Ok(render::DynamicLights::build(lights, 4.0)?)
 }
 
 impl World {
@@ -311,6 +354,7 @@ impl World {
             Hierarchy::new(&heightmap, Box::new(composer.clone()), sweeper, top, params)
                 .context("building the light grid hierarchy")?;
         timings.push(("world grid".to_string(), t.elapsed().as_secs_f64()));
+        let dynamic = dynamic_lights(&scene, &heightmap)?;
         Ok(Self {
             scene,
             heightmap,
@@ -324,6 +368,7 @@ impl World {
             sweeper: name,
             timings,
             model_grid_bytes,
+            dynamic,
         })
     }
 

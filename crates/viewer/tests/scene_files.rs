@@ -71,6 +71,12 @@ centre = [510.0, 530.0]
 radius = 20.0
 scale = [3.0, 4.0]
 
+[dynamic_lights]
+count = 50
+centre = [520.0, 520.0]
+radius = 30.0
+height = [1.0, 3.0]
+
 [[views]]
 name = "town"
 position = [540.0, 500.0]
@@ -93,6 +99,17 @@ target = [520.0, 520.0]
     let mut world = World::build(scene, SweeperChoice::Cpu).unwrap();
     assert_eq!(world.models.len(), 2);
     assert_eq!(world.instances.len(), 41);
+    // Dynamic lights stand 1–3 m above the ground.
+    assert_eq!(world.dynamic.lights.len(), 50);
+    for l in &world.dynamic.lights {
+        let p = match l.kind {
+            render::DynamicKind::Point { position }
+            | render::DynamicKind::Spot { position, .. } => position,
+            render::DynamicKind::Line { a, .. } => a,
+        };
+        let above = p.y - world.heightmap.height_at(p.x, p.z);
+        assert!((0.99..=3.01).contains(&above), "{above}");
+    }
     // The EXR sky lights the top; at 10 h the sun is up, in the east-south-east.
     assert!(world.sky_top.total().min_element() > 0.0);
     assert!(world.sun.1.min_element() > 0.0 && world.sun.0.y < 0.0);
