@@ -169,7 +169,9 @@ impl App {
         )
     }
 
-    fn frame(&mut self) -> Result<()> {
+    /// Updates the grids and the camera and draws one frame; `Ok(false)` when the
+    /// surface gave no texture this time (the next redraw tries again).
+    fn frame(&mut self) -> Result<bool> {
         let dt = self.last.elapsed().as_secs_f32().min(0.2);
         self.last = Instant::now();
         let speed = if self.keys.contains(&KeyCode::ShiftLeft) {
@@ -211,7 +213,7 @@ impl App {
         }
         let camera = Camera::look_at(self.eye, self.eye + self.forward());
         let Some(state) = self.state.as_mut() else {
-            return Ok(());
+            return Ok(false);
         };
         // Resampling the light volume costs about a second on two cores: at most once a
         // second, and only after grids changed.
@@ -232,9 +234,9 @@ impl App {
                 state
                     .surface
                     .configure(&state.renderer.context().device, &state.config);
-                return Ok(());
+                return Ok(false);
             }
-            _ => return Ok(()),
+            _ => return Ok(false),
         };
         let target = frame.texture.create_view(&Default::default());
         state
@@ -250,8 +252,7 @@ impl App {
             stats.pending,
             1.0 / dt.max(1e-3)
         ));
-        state.window.request_redraw();
-        Ok(())
+        Ok(true)
     }
 
     fn key(&mut self, code: KeyCode) -> Result<()> {
@@ -354,10 +355,18 @@ impl ApplicationHandler for App {
                 }
             }
             WindowEvent::RedrawRequested => {
-                if let Err(e) = self.frame() {
-                    self.fail(event_loop, e);
+                let drawn = match self.frame() {
+                    Ok(d) => d,
+                    Err(e) => {
+                        self.fail(event_loop, e);
+                        return;
+                    }
+                };
+                // Keep drawing, whether or not this frame got a surface texture.
+                if let Some(s) = &self.state {
+                    s.window.request_redraw();
                 }
-                if let Some(n) = self.frames_left.as_mut() {
+                if drawn && let Some(n) = self.frames_left.as_mut() {
                     *n = n.saturating_sub(1);
                     if *n == 0 {
                         event_loop.exit();
