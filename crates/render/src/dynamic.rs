@@ -79,25 +79,26 @@ impl DynamicLight {
         }
     }
 
+    /// Checks the light at index `i`; errors name the field as `lights[i].field`.
     fn validate(&self, i: usize) -> Result<(), GridError> {
-        let _ = i;
+        let field = |f: &str| format!("lights[{i}].{f}");
         if !(self.range.is_finite() && self.range > 0.0) {
             return Err(GridError::invalid(
-                "range",
+                field("range"),
                 self.range,
                 "must be finite and > 0",
             ));
         }
         if !(self.colour.is_finite() && self.colour.cmpge(Vec3::ZERO).all()) {
             return Err(GridError::invalid(
-                "colour",
+                field("colour"),
                 self.colour,
                 "must be finite and >= 0",
             ));
         }
         let (lo, hi) = self.bounds();
         if !(lo.is_finite() && hi.is_finite()) {
-            return Err(GridError::invalid("position", lo, "must be finite"));
+            return Err(GridError::invalid(field("position"), lo, "must be finite"));
         }
         if let DynamicKind::Spot {
             direction,
@@ -112,7 +113,7 @@ impl DynamicLight {
                 && cos_inner <= 1.0)
         {
             return Err(GridError::invalid(
-                "direction",
+                field("direction"),
                 direction,
                 "need a unit direction and -1 <= cos_outer < cos_inner <= 1",
             ));
@@ -390,7 +391,7 @@ mod tests {
             DynamicLights::build(l, 1.0)
                 .unwrap_err()
                 .to_string()
-                .contains("range")
+                .contains("lights[0].range")
         );
         assert!(
             DynamicLights::build(Vec::new(), 0.0)

@@ -47,10 +47,6 @@ fn max_rel_diff(a: &LightGrid, b: &LightGrid) -> f64 {
         .fold(0.0f64, |m, d| m.max(d as f64 / max))
 }
 
-fn timed<T>(repeats: u32, mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
-    super::fastest(repeats, &mut f)
-}
-
 /// Canopy under `extra` empty levels: most of the grid is air above all material.
 fn tall_canopy(n: u32, extra: u32) -> (MaterialGrid, Boundary) {
     let (m, _) = Scene::Canopy.build(n);
@@ -154,8 +150,8 @@ pub(super) fn measure(cfg: &BenchConfig) -> Result<Vec<SkipRow>> {
     on.max_passes = 4;
     let mut off = on;
     off.skip_empty_levels = false;
-    let (a, t_on) = timed(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &on)?))?;
-    let (c, t_off) = timed(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &off)?))?;
+    let (a, t_on) = super::fastest(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &on)?))?;
+    let (c, t_off) = super::fastest(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &off)?))?;
     rows.push(SkipRow {
         skip: format!("levels above all material ({n}x{}x{n}, 3/4 air)", 4 * n),
         with_skip: t_on,
@@ -173,10 +169,10 @@ pub(super) fn measure(cfg: &BenchConfig) -> Result<Vec<SkipRow>> {
     let forest = super::scenes::forest(4 * n, &cfg.testdata)?;
     let mut avg = on;
     avg.outputs = Outputs::AVERAGE_DOMINANT;
-    let (a, t_on) = timed(cfg.repeats, || {
+    let (a, t_on) = super::fastest(cfg.repeats, || {
         Ok(sweep_cpu::run(&forest.material, &forest.boundary, &avg)?)
     })?;
-    let (c, t_off) = timed(cfg.repeats, || {
+    let (c, t_off) = super::fastest(cfg.repeats, || {
         Ok(sweep_cpu::run(&forest.material, &forest.boundary, &on)?)
     })?;
     let (x, y) = (
