@@ -54,8 +54,11 @@ impl GridDesc {
                 return Err(GridError::invalid(name, d, "must be at least 1"));
             }
         }
-        let count = dims.x as u64 * dims.y as u64 * dims.z as u64;
-        if count > MAX_POINTS {
+        // Checked: 2^22 points a side is 2^66 points, which wraps a plain u64 product.
+        let count = (dims.x as u64)
+            .checked_mul(dims.y as u64)
+            .and_then(|c| c.checked_mul(dims.z as u64));
+        if count.is_none_or(|c| c > MAX_POINTS) {
             return Err(GridError::invalid(
                 "dims",
                 dims,
@@ -183,6 +186,23 @@ mod tests {
             assert_eq!(d.index(d.coords(i).unwrap()), Some(i));
         }
         assert_eq!(d.coords(d.point_count()), None);
+    }
+
+    #[test]
+    fn point_count_products_cannot_wrap() {
+        // 2^22 cubed = 2^66 points wraps a u64 product to 0: it must be refused.
+        for dims in [
+            UVec3::splat(1 << 22),
+            UVec3::new(u32::MAX, u32::MAX, u32::MAX),
+            UVec3::new(1 << 16, 1 << 16, 2),
+            UVec3::new(u32::MAX, 2, 1),
+        ] {
+            let e = GridDesc::new(Vec3::ZERO, 1e-4, dims)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("dims"), "{dims}: {e}");
+        }
+        assert!(GridDesc::new(Vec3::ZERO, 1e-4, UVec3::new(1 << 16, 1 << 16, 1)).is_ok());
     }
 
     #[test]

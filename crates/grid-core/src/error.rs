@@ -27,12 +27,35 @@ pub enum GridError {
         found: usize,
     },
     /// Reading or writing a file failed at the operating-system level.
-    #[error("I/O error on {}", path.display())]
+    #[error("I/O error on {}: {source}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The underlying error.
         source: std::io::Error,
+    },
+    /// A job would allocate more memory than the limit in force
+    /// ([`crate::limits::memory_limit`]).
+    #[error(
+        "{what} needs {bytes} bytes of memory, over the limit of {limit} bytes (raise it with --memory-limit or LIGHTGRID_MEMORY_LIMIT)"
+    )]
+    TooMuchMemory {
+        /// What would be allocated, with the values that size it.
+        what: String,
+        /// Bytes it needs.
+        bytes: u64,
+        /// The limit in force.
+        limit: u64,
+    },
+    /// A file is larger than its reader accepts.
+    #[error("{}: {bytes} bytes is over this reader's limit of {limit} bytes", path.display())]
+    FileTooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size (or the bytes read before giving up).
+        bytes: u64,
+        /// The limit.
+        limit: u64,
     },
     /// A grid file is malformed.
     #[error("grid file{}: {kind}", .path.as_ref().map(|p| format!(" {}", p.display())).unwrap_or_default())]

@@ -163,21 +163,27 @@ impl GridFile {
     }
 
     /// Reads a file with the default size limit. Errors name the path.
+    ///
+    /// Only regular files are read (a FIFO or device is an error, not a hang), never more
+    /// than [`DEFAULT_MAX_PAYLOAD`] plus the header, and the file plus its decoded grid
+    /// must fit the memory limit ([`crate::limits::check_memory`]).
     pub fn load(path: impl AsRef<Path>) -> Result<Self, GridError> {
         let path = path.as_ref();
-        let io = |source| GridError::Io {
-            path: path.to_path_buf(),
-            source,
-        };
-        let len = std::fs::metadata(path).map_err(io)?.len();
-        if len > DEFAULT_MAX_PAYLOAD + HEADER_BYTES as u64 + 4 {
-            return Err(GridError::file(K::TooLarge {
-                bytes: len,
-                limit: DEFAULT_MAX_PAYLOAD,
-            })
-            .with_path(path));
+        let limit = DEFAULT_MAX_PAYLOAD + HEADER_BYTES as u64 + 4;
+        if let Ok(meta) = std::fs::metadata(path) {
+            if meta.is_file() && meta.len() > limit {
+                return Err(GridError::file(K::TooLarge {
+                    bytes: meta.len(),
+                    limit: DEFAULT_MAX_PAYLOAD,
+                })
+                .with_path(path));
+            }
+            crate::limits::check_memory(
+                &format!("reading {}", path.display()),
+                meta.len().saturating_mul(2),
+            )?;
         }
-        let bytes = std::fs::read(path).map_err(io)?;
+        let bytes = crate::limits::read_file(path, limit)?;
         Self::from_bytes(&bytes).map_err(|e| e.with_path(path))
     }
 }
@@ -372,13 +378,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), GridError> {
     let name = path
         .file_name()
         .ok_or_else(|| GridError::invalid("path", path, "must name a file"))?;
+    // Unique per process and per call: two threads (or two processes) writing the same
+    // target never share a temporary file; `create_new` refuses to reuse a stale one.
+    static SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let serial = SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let tmp = dir.join(format!(
-        ".{}.{}.tmp",
+        ".{}.{}-{serial}.tmp",
         name.to_string_lossy(),
         std::process::id()
     ));
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
+        let mut f = std::fs::File::options()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);

@@ -382,11 +382,13 @@ pub struct PackedLightGrid {
 impl PackedLightGrid {
     /// Validates the exposure (the words are validated by [`Grid::new`]).
     pub fn new(grid: Grid<PackedBins>, exposure: f32) -> Result<Self, GridError> {
-        if !(exposure.is_finite() && exposure > 0.0) {
+        // The largest code divided by the exposure must stay finite: a subnormal exposure
+        // has an infinite reciprocal and would unpack to NaN (0 × inf) and infinity.
+        if !(exposure.is_finite() && exposure > 0.0 && (pack::MAX_UF11 / exposure).is_finite()) {
             return Err(GridError::invalid(
                 "exposure",
                 exposure,
-                "must be finite and > 0",
+                "must be finite, > 0 and at least 65024 / f32::MAX",
             ));
         }
         Ok(Self { grid, exposure })
@@ -409,6 +411,48 @@ mod tests {
 
     fn desc() -> GridDesc {
         GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 3, 2)).unwrap()
+    }
+
+    #[test]
+    fn exposures_that_would_unpack_to_nan_or_infinity_are_refused() {
+        let g = Grid::filled(
+            desc(),
+            PackedBins([pack::pack_r11g11b10(Vec3::ONE); NUM_DIRS]),
+        )
+        .unwrap();
+        for bad in [
+            0.0,
+            -1.0,
+            1e-40,
+            f32::MIN_POSITIVE,
+            1e-34,
+            f32::NAN,
+            f32::INFINITY,
+        ] {
+            let e = PackedLightGrid::new(g.clone(), bad)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("exposure"), "{bad}: {e}");
+        }
+        for good in [2f32.powi(-111), 1.0, 2f32.powi(126)] {
+            let p = PackedLightGrid::new(g.clone(), good).unwrap();
+            assert!(
+                p.unpack()
+                    .data()
+                    .iter()
+                    .all(|b| b.0.iter().all(|v| v.is_finite()))
+            );
+        }
+        // Packing the largest finite light gives a valid, finite grid.
+        let huge = Grid::filled(desc(), BinLight::uniform(Vec3::splat(f32::MAX))).unwrap();
+        let p = huge.pack();
+        assert!(PackedLightGrid::new(p.grid.clone(), p.exposure).is_ok());
+        assert!(
+            p.unpack()
+                .data()
+                .iter()
+                .all(|b| b.0.iter().all(|v| v.is_finite()))
+        );
     }
 
     #[test]

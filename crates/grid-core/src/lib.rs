@@ -81,6 +81,7 @@ mod error;
 pub mod file;
 mod grid;
 pub mod light;
+pub mod limits;
 pub mod pack;
 mod sample;
 mod traits;
@@ -96,8 +97,9 @@ pub use grid::{
 pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
 pub use sample::{Blend, trilinear_corners};
 pub use traits::{
-    Boundary, HALO_WIDTH, HaloLayout, LightField, MaterialSource, Outputs, SideBoundary, SumField,
-    SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial,
+    Boundary, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES, MaterialSource, Outputs,
+    SideBoundary, SumField, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
+    TopBoundary, UniformMaterial,
 };
 
 /// The README's examples, compiled and run as doc tests.

@@ -174,7 +174,9 @@ pub fn exposure_for(max_value: f32) -> f32 {
     if !(max_value.is_finite() && max_value > 0.0) {
         return 1.0;
     }
-    let e = (MAX_UF10 / max_value).log2().floor().clamp(-126.0, 126.0);
+    // At least 2^-111: the largest code divided by the exposure stays finite (a smaller
+    // exposure would unpack to infinity; light that large saturates instead).
+    let e = (MAX_UF10 / max_value).log2().floor().clamp(-111.0, 126.0);
     2f32.powi(e as i32)
 }
 

@@ -229,6 +229,10 @@ pub struct SweepOptions {
     pub skip_empty_levels: bool,
 }
 
+/// Most passes one sweep may run ([`SweepOptions::max_passes`]): bounds the run time of
+/// a sweep whose tolerance is never reached.
+pub const MAX_PASSES: u32 = 4096;
+
 impl SweepOptions {
     /// One downward pass, light smoothing, every output: the seed's sweep.
     pub const fn single_pass() -> Self {
@@ -260,11 +264,11 @@ impl SweepOptions {
                 "must be in [0, 1)",
             ));
         }
-        if self.max_passes == 0 {
+        if self.max_passes == 0 || self.max_passes > MAX_PASSES {
             return Err(GridError::invalid(
                 "max_passes",
                 self.max_passes,
-                "must be at least 1",
+                "must be in 1..=4096",
             ));
         }
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {

@@ -190,7 +190,10 @@ impl LightSet {
                     let src = &e.volume[k];
                     for b in 0..grid_core::NUM_DIRS {
                         // Subtracting can leave -1e-9 where the sum was a light alone.
-                        dst.0[b] = (dst.0[b] + src.0[b] * delta).max(Vec3::ZERO);
+                        // Clamped to f32's range too: the sum of many bright lights must
+                        // not become infinity (and NaN when it is subtracted again).
+                        dst.0[b] =
+                            (dst.0[b] + src.0[b] * delta).clamp(Vec3::ZERO, Vec3::splat(f32::MAX));
                     }
                     k += 1;
                 }
@@ -200,6 +203,9 @@ impl LightSet {
         self.dirty = Some(self.dirty.map_or(r, |d| d.union(r)));
     }
 }
+
+/// Largest colour × intensity of one light.
+pub const MAX_FACTOR: f32 = 1e30;
 
 fn check_factor(colour: Vec3, intensity: f32) -> Result<(), GridError> {
     if !(colour.is_finite() && colour.cmpge(Vec3::ZERO).all()) {
@@ -214,6 +220,14 @@ fn check_factor(colour: Vec3, intensity: f32) -> Result<(), GridError> {
             "intensity",
             intensity,
             "must be finite and >= 0",
+        ));
+    }
+    let product = colour * intensity;
+    if !(product.is_finite() && product.max_element() <= MAX_FACTOR) {
+        return Err(GridError::invalid(
+            "colour x intensity",
+            product,
+            "must be at most 1e30",
         ));
     }
     Ok(())

@@ -216,13 +216,33 @@ impl CompressedVolume {
     /// Reads a cache file made for `key`.
     pub fn load(path: impl AsRef<Path>, key: u64) -> Result<Self, GridError> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| GridError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::from_bytes(&bytes, key)
+        if let Ok(meta) = std::fs::metadata(path)
+            && meta.is_file()
+        {
+            // The codes, then one f32 per code once the volume is expanded.
+            grid_core::limits::check_memory(
+                &format!("light volume {}", path.display()),
+                meta.len().saturating_mul(5),
+            )?;
+        }
+        let bytes = grid_core::limits::read_file(path, MAX_FILE_BYTES)?;
+        Self::from_bytes(&bytes, key).map_err(|e| match e {
+            GridError::InvalidField {
+                field,
+                value,
+                reason,
+            } => GridError::InvalidField {
+                field: format!("{}: {field}", path.display()),
+                value,
+                reason,
+            },
+            other => other,
+        })
     }
 }
+
+/// Largest cache file read: 4 GiB (a volume of 55 M points).
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
 
 /// Where a volume came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

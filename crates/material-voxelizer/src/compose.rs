@@ -48,6 +48,50 @@ pub struct Heightmap {
     pub heights: Vec<f32>,
 }
 
+/// Most samples of one heightmap (2^30: 4 GiB of heights).
+pub const MAX_HEIGHTMAP_SAMPLES: u64 = 1 << 30;
+/// Largest heightmap PNG read: 1 GiB.
+pub const MAX_HEIGHTMAP_FILE_BYTES: u64 = 1 << 30;
+
+/// Decodes an image whose sides are at most `max_side`, refusing before decoding one
+/// whose `bytes_per_texel` × texels would pass the memory limit. Panics of the decoder
+/// become errors.
+pub fn decode_limited(
+    bytes: &[u8],
+    max_side: u32,
+    bytes_per_texel: u64,
+) -> Result<image::DynamicImage, String> {
+    let open = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())
+    };
+    let run = |f: &dyn Fn() -> Result<image::DynamicImage, String>| {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(f))
+            .unwrap_or_else(|_| Err("malformed image (the decoder failed on it)".to_string()))
+    };
+    run(&|| {
+        let (w, h) = open()?
+            .into_dimensions()
+            .map_err(|e| format!("cannot read the image size: {e}"))?;
+        if w == 0 || h == 0 || w > max_side || h > max_side {
+            return Err(format!(
+                "{w} x {h} pixels (each side must be in 1..={max_side})"
+            ));
+        }
+        let need = w as u64 * h as u64 * bytes_per_texel;
+        grid_core::limits::check_memory(&format!("a {w} x {h} image"), need)
+            .map_err(|e| e.to_string())?;
+        let mut reader = open()?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(max_side);
+        limits.max_image_height = Some(max_side);
+        limits.max_alloc = Some(need.max(1 << 20));
+        reader.limits(limits);
+        reader.decode().map_err(|e| e.to_string())
+    })
+}
+
 impl Heightmap {
     /// A heightmap from a function of world `(x, z)`.
     pub fn from_fn(
@@ -57,7 +101,16 @@ impl Heightmap {
         depth: u32,
         f: impl Fn(f32, f32) -> f32,
     ) -> Result<Self, GridError> {
-        let mut heights = Vec::with_capacity((width * depth) as usize);
+        let count = width as u64 * depth as u64;
+        if count > MAX_HEIGHTMAP_SAMPLES {
+            return Err(GridError::invalid(
+                "width x depth",
+                (width, depth),
+                "more than 2^30 height samples",
+            ));
+        }
+        grid_core::limits::check_memory(&format!("a {width} x {depth} heightmap"), count * 4)?;
+        let mut heights = Vec::with_capacity(count as usize);
         for k in 0..depth {
             for i in 0..width {
                 heights.push(f(
@@ -94,10 +147,18 @@ impl Heightmap {
                 "needs at least 2 x 2 samples",
             ));
         }
-        if heights.len() != (width * depth) as usize {
+        let count = width as u64 * depth as u64;
+        if count > MAX_HEIGHTMAP_SAMPLES {
+            return Err(GridError::invalid(
+                "width x depth",
+                (width, depth),
+                "more than 2^30 height samples",
+            ));
+        }
+        if heights.len() as u64 != count {
             return Err(GridError::LengthMismatch {
                 field: "heights",
-                expected: (width * depth) as usize,
+                expected: count as usize,
                 found: heights.len(),
             });
         }
@@ -127,16 +188,11 @@ impl Heightmap {
         offset: f32,
     ) -> Result<Self, GridError> {
         let path = path.as_ref();
-        let img = image::ImageReader::open(path)
-            .map_err(|e| GridError::Io {
-                path: path.to_path_buf(),
-                source: e,
-            })?
-            .decode()
-            .map_err(|e| GridError::Io {
-                path: path.to_path_buf(),
-                source: std::io::Error::other(e),
-            })?;
+        let bytes = grid_core::limits::read_file(path, MAX_HEIGHTMAP_FILE_BYTES)?;
+        let img = decode_limited(&bytes, 1 << 16, 8).map_err(|e| GridError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+        })?;
         let luma = img.into_luma16();
         let (w, d) = luma.dimensions();
         let heights = luma
@@ -274,9 +330,16 @@ pub struct AreaComposer {
     models: Vec<MaterialGrid>,
     placed: Vec<Placed>,
     tiles: HashMap<IVec2, Vec<u32>>,
+    /// Instances covering more than [`MAX_TILES_PER_INSTANCE`] tiles, not binned.
+    large: Vec<u32>,
     terrain: Option<Terrain>,
     params: ComposeParams,
 }
+
+/// Most tiles one instance is binned into; larger instances are checked by every area.
+pub const MAX_TILES_PER_INSTANCE: u64 = 4096;
+/// Most (tile, instance) entries of one composer.
+pub const MAX_TILE_ENTRIES: u64 = 1 << 26;
 
 impl AreaComposer {
     /// Validates the instances (model index, finite transform, scale > 0) and bins them.
@@ -314,8 +377,14 @@ impl AreaComposer {
                 "must be at least 1",
             ));
         }
+        grid_core::limits::check_memory(
+            &format!("{} instances", instances.len()),
+            instances.len() as u64 * std::mem::size_of::<Placed>() as u64 * 2,
+        )?;
         let mut placed = Vec::with_capacity(instances.len());
         let mut tiles: HashMap<IVec2, Vec<u32>> = HashMap::new();
+        let mut large: Vec<u32> = Vec::new();
+        let mut tile_entries = 0u64;
         for (i, inst) in instances.iter().enumerate() {
             let field = |f: &str| format!("instances[{i}].{f}");
             let Some(model) = models.get(inst.model as usize) else {
@@ -360,9 +429,25 @@ impl AreaComposer {
             }
             let t0 = (Vec2::new(lo.x, lo.z) / params.tile).floor().as_ivec2();
             let t1 = (Vec2::new(hi.x, hi.z) / params.tile).floor().as_ivec2();
-            for tz in t0.y..=t1.y {
-                for tx in t0.x..=t1.x {
-                    tiles.entry(IVec2::new(tx, tz)).or_default().push(i as u32);
+            let covered =
+                (t1.x as i64 - t0.x as i64 + 1) as u64 * (t1.y as i64 - t0.y as i64 + 1) as u64;
+            if covered > MAX_TILES_PER_INSTANCE {
+                // A huge instance (or tiny tiles) would add one entry per tile: keep it in
+                // one list that every area checks by its bounds instead.
+                large.push(i as u32);
+            } else {
+                tile_entries += covered;
+                if tile_entries > MAX_TILE_ENTRIES {
+                    return Err(GridError::invalid(
+                        "tile",
+                        params.tile,
+                        "instances cover more than 2^26 tile entries: use larger tiles",
+                    ));
+                }
+                for tz in t0.y..=t1.y {
+                    for tx in t0.x..=t1.x {
+                        tiles.entry(IVec2::new(tx, tz)).or_default().push(i as u32);
+                    }
                 }
             }
             placed.push(Placed {
@@ -376,6 +461,7 @@ impl AreaComposer {
             models,
             placed,
             tiles,
+            large,
             terrain,
             params,
         })
@@ -391,11 +477,22 @@ impl AreaComposer {
         let t1 = (Vec2::new(ahi.x, ahi.z) / self.params.tile)
             .floor()
             .as_ivec2();
-        let mut cand: Vec<u32> = Vec::new();
-        for tz in t0.y..=t1.y {
-            for tx in t0.x..=t1.x {
-                if let Some(v) = self.tiles.get(&IVec2::new(tx, tz)) {
+        let mut cand: Vec<u32> = self.large.clone();
+        let area_tiles =
+            (t1.x as i64 - t0.x as i64 + 1) as u64 * (t1.y as i64 - t0.y as i64 + 1) as u64;
+        if area_tiles > self.tiles.len() as u64 {
+            // More tiles under the area than occupied tiles: walk the occupied ones.
+            for (t, v) in &self.tiles {
+                if t.cmpge(t0).all() && t.cmple(t1).all() {
                     cand.extend_from_slice(v);
+                }
+            }
+        } else {
+            for tz in t0.y..=t1.y {
+                for tx in t0.x..=t1.x {
+                    if let Some(v) = self.tiles.get(&IVec2::new(tx, tz)) {
+                        cand.extend_from_slice(v);
+                    }
                 }
             }
         }
@@ -423,6 +520,10 @@ impl AreaComposer {
         } else {
             1
         };
+        grid_core::limits::check_memory(
+            &format!("area material grid of {} points", desc.point_count()),
+            desc.point_count() as u64 * std::mem::size_of::<Material>() as u64,
+        )?;
         let mut cells = vec![Material::EMPTY; desc.point_count()];
         let ground_top = self.terrain.as_ref().map(|t| t.heightmap.range().1);
         use rayon::prelude::*;

@@ -43,6 +43,7 @@
 //! `grid_core::MaterialSource`).
 
 pub mod compose;
+pub mod gltf_read;
 pub mod model;
 pub mod procedural;
 pub mod voxelize;

@@ -227,24 +227,53 @@ impl Model {
 
     /// Loads a `.gltf` (embedded or external buffers and images) or `.glb` file: every
     /// triangle primitive of the default scene (or the first), node transforms applied.
+    ///
+    /// Malformed and hostile files are errors naming the file, never panics, hangs or
+    /// unbounded allocations: see [`crate::gltf_read`] for every check (bounded reads,
+    /// the GLB header, relative references inside the model's folder only, node cycles,
+    /// accessor ranges, texture sizes, the memory limit).
     pub fn load_gltf(path: impl AsRef<Path>) -> Result<Self, ModelError> {
         let path = path.as_ref();
-        let (doc, buffers, images) = gltf::import(path).map_err(|e| ModelError::Gltf {
+        let bytes =
+            grid_core::limits::read_file(path, crate::gltf_read::MAX_MODEL_BYTES).map_err(|e| {
+                ModelError::Gltf {
+                    path: path.to_path_buf(),
+                    message: e.to_string(),
+                }
+            })?;
+        let base = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        Self::from_gltf(&bytes, Some(base), path)
+    }
+
+    /// Loads a glTF or GLB document from memory; only `data:` URIs can be referenced.
+    /// Errors carry `name` as their path.
+    pub fn from_gltf_slice(bytes: &[u8], name: impl AsRef<Path>) -> Result<Self, ModelError> {
+        Self::from_gltf(bytes, None, name.as_ref())
+    }
+
+    fn from_gltf(bytes: &[u8], base: Option<&Path>, path: &Path) -> Result<Self, ModelError> {
+        use crate::gltf_read as gr;
+        use gltf::accessor::{DataType as T, Dimensions as D};
+        let gltf_err = |message: String| ModelError::Gltf {
             path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+            message,
+        };
+        let gr::Loaded {
+            doc,
+            buffers,
+            textures,
+        } = gr::load(bytes, base).map_err(gltf_err)?;
         let unsupported = |what: String| ModelError::Unsupported {
             path: path.to_path_buf(),
             what,
         };
-        let mut model = Model::default();
-        for (i, img) in images.iter().enumerate() {
-            model.textures.push(
-                convert_image(img).ok_or_else(|| {
-                    unsupported(format!("image {i}: pixel format {:?}", img.format))
-                })?,
-            );
-        }
+        let mut model = Model {
+            textures,
+            ..Model::default()
+        };
         for (i, mat) in doc.materials().enumerate() {
             let pbr = mat.pbr_metallic_roughness();
             let f = pbr.base_color_factor();
@@ -288,6 +317,56 @@ impl Model {
                 path: path.to_path_buf(),
             });
         };
+        // The node graph: no cycles, bounded expansion, and a triangle budget checked
+        // before any triangle is stored.
+        let roots: Vec<usize> = scene.nodes().map(|n| n.index()).collect();
+        let instances = gr::node_instances(&doc, &roots).map_err(gltf_err)?;
+        let positions_layout = [(D::Vec3, T::F32)];
+        let uv_layouts = [(D::Vec2, T::F32), (D::Vec2, T::U8), (D::Vec2, T::U16)];
+        let index_layouts = [(D::Scalar, T::U8), (D::Scalar, T::U16), (D::Scalar, T::U32)];
+        let mut triangles = 0u64;
+        for node in doc.nodes() {
+            let Some(mesh) = node.mesh() else { continue };
+            for (pi, prim) in mesh.primitives().enumerate() {
+                let where_ = format!("mesh {} primitive {pi}", mesh.index());
+                if prim.mode() != gltf::mesh::Mode::Triangles {
+                    return Err(unsupported(format!(
+                        "{where_}: mode {:?} (only triangles)",
+                        prim.mode()
+                    )));
+                }
+                let Some(pos) = prim.get(&gltf::Semantic::Positions) else {
+                    return Err(unsupported(format!("{where_}: no POSITION")));
+                };
+                gr::check_accessor(&pos, &buffers, &positions_layout)
+                    .map_err(|e| gltf_err(format!("{where_}: {e}")))?;
+                if let Some(uv) = prim.get(&gltf::Semantic::TexCoords(0)) {
+                    gr::check_accessor(&uv, &buffers, &uv_layouts)
+                        .map_err(|e| gltf_err(format!("{where_}: {e}")))?;
+                }
+                let corners = match prim.indices() {
+                    Some(ix) => {
+                        gr::check_accessor(&ix, &buffers, &index_layouts)
+                            .map_err(|e| gltf_err(format!("{where_}: {e}")))?;
+                        ix.count()
+                    }
+                    None => pos.count(),
+                };
+                triangles = triangles
+                    .saturating_add((corners as u64 / 3).saturating_mul(instances[node.index()]));
+            }
+        }
+        if triangles > gr::MAX_TRIANGLES {
+            return Err(gltf_err(format!(
+                "{triangles} triangles after expanding the node graph (at most {})",
+                gr::MAX_TRIANGLES
+            )));
+        }
+        grid_core::limits::check_memory(
+            &format!("{triangles} triangles"),
+            triangles * std::mem::size_of::<Triangle>() as u64,
+        )?;
+        model.triangles.reserve(triangles as usize);
         let mut stack: Vec<(gltf::Node, Mat4)> =
             scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
         let mut part = 0u32;
@@ -299,13 +378,7 @@ impl Model {
             let Some(mesh) = node.mesh() else { continue };
             for (pi, prim) in mesh.primitives().enumerate() {
                 let where_ = format!("mesh {} primitive {pi}", mesh.index());
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    return Err(unsupported(format!(
-                        "{where_}: mode {:?} (only triangles)",
-                        prim.mode()
-                    )));
-                }
-                let reader = prim.reader(|b| Some(&buffers[b.index()]));
+                let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
                 let positions: Vec<Vec3> = reader
                     .read_positions()
                     .ok_or_else(|| unsupported(format!("{where_}: no POSITION")))?
@@ -349,39 +422,4 @@ impl Model {
         })?;
         Ok(model)
     }
-}
-
-/// Converts glTF image data to linear RGBA (colour channels from sRGB, alpha linear).
-fn convert_image(img: &gltf::image::Data) -> Option<Texture> {
-    use gltf::image::Format;
-    let channels = match img.format {
-        Format::R8 => 1,
-        Format::R8G8 => 2,
-        Format::R8G8B8 => 3,
-        Format::R8G8B8A8 => 4,
-        _ => return None,
-    };
-    let texels = img
-        .pixels
-        .chunks_exact(channels)
-        .map(|p| {
-            let c = |i: usize| grid_core::pack::srgb8_to_linear(p[i.min(channels - 1)]);
-            let (r, g, b) = if channels >= 3 {
-                (c(0), c(1), c(2))
-            } else {
-                (c(0), c(0), c(0))
-            };
-            let a = if channels == 4 || channels == 2 {
-                p[channels - 1] as f32 / 255.0
-            } else {
-                1.0
-            };
-            Vec4::new(r, g, b, a)
-        })
-        .collect();
-    Some(Texture {
-        width: img.width,
-        height: img.height,
-        texels,
-    })
 }

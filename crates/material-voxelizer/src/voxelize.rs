@@ -465,11 +465,29 @@ pub fn voxelize(
         .bounds()
         .ok_or_else(|| GridError::invalid("model", "no triangles", "has nothing to voxelize"))?;
     let h = params.cell;
-    let dims = ((hi - lo) / h).ceil().as_uvec3().max(UVec3::ONE) + UVec3::splat(2 * params.padding);
-    let cells = dims.x as u64 * dims.y as u64 * dims.z as u64;
-    if cells > params.max_cells {
-        return Err(GridError::invalid("cell", h, "gives more cells than max_cells").into());
+    // In u64 with checked products: padding near 2^31 or a tiny cell must be an error,
+    // not a wrapped size.
+    let span = ((hi - lo) / h)
+        .ceil()
+        .as_dvec3()
+        .max(grid_core::glam::DVec3::ONE);
+    let pad = 2.0 * params.padding as f64;
+    let dims_f = span + grid_core::glam::DVec3::splat(pad);
+    let cells_f = dims_f.x * dims_f.y * dims_f.z;
+    if !(cells_f <= params.max_cells as f64) {
+        return Err(GridError::invalid(
+            "cell",
+            h,
+            "gives more cells than max_cells (with the padding)",
+        )
+        .into());
     }
+    let dims = dims_f.as_uvec3();
+    let cells = dims.x as u64 * dims.y as u64 * dims.z as u64;
+    grid_core::limits::check_memory(
+        &format!("a model grid of {dims} cells"),
+        (cells_f as u64).saturating_mul(std::mem::size_of::<Material>() as u64),
+    )?;
     // Centre the grid on the model: cell (0,0,0) starts at the low corner.
     let origin = (lo + hi) * 0.5 - (dims.as_vec3() - Vec3::ONE) * (0.5 * h);
     let desc = GridDesc::new(origin, h, dims)?;

@@ -58,6 +58,34 @@ pub struct ReferenceOptions {
     pub max_track: f32,
 }
 
+/// Most paths one reference run may trace (2^40, about a day on a workstation).
+pub const MAX_PATHS: u64 = 1 << 40;
+
+impl ReferenceOptions {
+    /// Checks the options: `paths` in 1..=[`MAX_PATHS`], `max_events` at least 1,
+    /// `max_track` finite and > 0. Errors name the field.
+    pub fn validate(&self) -> Result<(), GridError> {
+        if !(1..=MAX_PATHS).contains(&self.paths) {
+            return Err(GridError::invalid(
+                "paths",
+                self.paths,
+                "must be in 1..=2^40",
+            ));
+        }
+        if self.max_events == 0 {
+            return Err(GridError::invalid("max_events", 0, "must be at least 1"));
+        }
+        if !(self.max_track.is_finite() && self.max_track > 0.0) {
+            return Err(GridError::invalid(
+                "max_track",
+                self.max_track,
+                "must be finite and > 0",
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for ReferenceOptions {
     fn default() -> Self {
         Self {
@@ -468,13 +496,19 @@ pub fn trace(
 ) -> Result<Reference, SweepError> {
     let desc = *material.desc();
     boundary.validate(&desc)?;
-    if options.paths == 0 {
-        return Err(GridError::invalid("paths", 0, "must be at least 1").into());
-    }
+    crate::sweep::check_boundary_scale(boundary)?;
+    options.validate()?;
+    let n = desc.point_count();
+    grid_core::limits::check_memory(
+        &format!("Monte Carlo reference of {} points", n),
+        grid_core::limits::checked_bytes(
+            "points",
+            &[n as u64, (NUM_DIRS * 24 + GROUPS * 24 + 64) as u64],
+        )?,
+    )?;
     let dims = desc.dims();
     let periodic = matches!(boundary.sides, SideBoundary::Periodic);
     let comps = sources(boundary, dims, !periodic)?;
-    let n = desc.point_count();
     let mut light = Tally::new(n * NUM_DIRS);
     let mut groups = vec![[0f64; 3]; n * GROUPS];
     let mut bal = EnergyBalance::default();
@@ -579,6 +613,16 @@ pub fn trace(
             (var / GROUPS as f64).map(f64::sqrt).as_vec3()
         })
         .collect();
+    // Light at most 1e30 over a grid of at most 2^32 points stays finite; check anyway so
+    // that no NaN or infinity can leave.
+    if let Some(p) = data.iter().position(|b| !b.is_valid()) {
+        return Err(GridError::invalid(
+            format!("light[{p}]"),
+            data[p],
+            "the reference overflowed: boundary light too large for this grid",
+        )
+        .into());
+    }
     Ok(Reference {
         light: Grid::from_trusted(desc, data),
         paths: done,

@@ -21,6 +21,8 @@ use grid_core::dirs;
 use grid_core::glam::Vec3;
 use grid_core::{BinLight, GridError};
 
+use crate::sweep::MAX_LIGHT;
+
 /// Errors of sky construction and loading.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -49,6 +51,12 @@ pub struct SkyBins {
     pub bottom: BinLight,
 }
 
+/// Most texels of one environment map (2^28: 3 GiB as RGB `f32`).
+pub const MAX_TEXELS: u64 = 1 << 28;
+
+/// Largest EXR file [`EnvMap::load_exr`] reads: 2 GiB.
+pub const MAX_EXR_BYTES: u64 = 2 << 30;
+
 /// An equirectangular radiance map (see the module docs for the mapping).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvMap {
@@ -67,22 +75,30 @@ impl EnvMap {
         if height < 2 || !height.is_multiple_of(2) {
             return Err(GridError::invalid("height", height, "must be even and at least 2").into());
         }
-        if texels.len() != (width * height) as usize {
+        let count = width as u64 * height as u64;
+        if count > MAX_TEXELS {
+            return Err(GridError::invalid(
+                "width x height",
+                (width, height),
+                "more than 2^28 texels in one environment map",
+            )
+            .into());
+        }
+        if texels.len() as u64 != count {
             return Err(GridError::LengthMismatch {
                 field: "texels",
-                expected: (width * height) as usize,
+                expected: count as usize,
                 found: texels.len(),
             }
             .into());
         }
-        if let Some(i) = texels
-            .iter()
-            .position(|t| !(t.is_finite() && t.cmpge(Vec3::ZERO).all()))
-        {
+        if let Some(i) = texels.iter().position(|t| {
+            !(t.is_finite() && t.cmpge(Vec3::ZERO).all() && t.max_element() <= MAX_LIGHT)
+        }) {
             return Err(GridError::invalid(
                 format!("texels[{i}]"),
                 texels[i],
-                "radiance must be finite and >= 0",
+                "radiance must be finite, >= 0 and <= 1e30",
             )
             .into());
         }
@@ -99,7 +115,15 @@ impl EnvMap {
         height: u32,
         radiance: impl Fn(Vec3) -> Vec3,
     ) -> Result<Self, SkyError> {
-        let mut texels = Vec::with_capacity((width * height) as usize);
+        if width as u64 * height as u64 > MAX_TEXELS {
+            return Err(GridError::invalid(
+                "width x height",
+                (width, height),
+                "more than 2^28 texels in one environment map",
+            )
+            .into());
+        }
+        let mut texels = Vec::with_capacity(width as usize * height as usize);
         for y in 0..height {
             for x in 0..width {
                 texels.push(radiance(texel_direction(x, y, width, height)));
@@ -108,30 +132,80 @@ impl EnvMap {
         Self::new(width, height, texels)
     }
 
-    /// Loads the first RGB(A) layer of an EXR file. Pixels with NaN, infinity or negative
-    /// values are an error naming the pixel.
+    /// Loads the first RGB(A) layer of an EXR file. Pixels with NaN, infinity, negative
+    /// values or values over 1e30 are an error naming the pixel.
+    ///
+    /// The file is read only if it is a regular file of at most [`MAX_EXR_BYTES`]; its
+    /// headers are read first and every layer must have at most [`MAX_TEXELS`] texels
+    /// within the memory limit ([`grid_core::limits`]) before any pixel is allocated.
     pub fn load_exr(path: impl AsRef<Path>) -> Result<Self, SkyError> {
         let path = path.as_ref();
+        let bytes = grid_core::limits::read_file(path, MAX_EXR_BYTES)?;
+        Self::from_exr_bytes(&bytes).map_err(|e| match e {
+            SkyError::Exr { message, .. } => SkyError::Exr {
+                path: path.to_path_buf(),
+                message,
+            },
+            other => other,
+        })
+    }
+
+    /// [`EnvMap::load_exr`] from bytes in memory (errors carry an empty path).
+    pub fn from_exr_bytes(bytes: &[u8]) -> Result<Self, SkyError> {
+        use exr::prelude::{ReadChannels, ReadLayers};
         let fail = |message: String| SkyError::Exr {
-            path: path.to_path_buf(),
+            path: PathBuf::new(),
             message,
         };
-        let image = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |resolution, _| {
-                (
-                    resolution.width(),
-                    vec![Vec3::ZERO; resolution.width() * resolution.height()],
+        // The exr crate sizes buffers from header values: check them before it does, and
+        // turn any panic of its parser into an error.
+        let guarded = |f: &dyn Fn() -> Result<Self, SkyError>| {
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(f))
+                .unwrap_or_else(|_| Err(fail("malformed EXR (the EXR reader failed on it)".into())))
+        };
+        guarded(&|| {
+            let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+                .map_err(|e| fail(e.to_string()))?;
+            for (i, h) in meta.headers.iter().enumerate() {
+                let (w, hgt) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+                let texels = w.checked_mul(hgt).unwrap_or(u64::MAX);
+                if texels > MAX_TEXELS {
+                    return Err(GridError::invalid(
+                        format!("layer {i} size"),
+                        (w, hgt),
+                        "more than 2^28 texels in one environment map",
+                    )
+                    .into());
+                }
+                grid_core::limits::check_memory(
+                    &format!("EXR layer {i} of {w} x {hgt} texels"),
+                    texels * 32,
+                )?;
+            }
+            let image = exr::prelude::read()
+                .no_deep_data()
+                .largest_resolution_level()
+                .rgba_channels(
+                    |resolution, _| {
+                        (
+                            resolution.width(),
+                            vec![Vec3::ZERO; resolution.width() * resolution.height()],
+                        )
+                    },
+                    |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                        if let Some(t) = px.get_mut(pos.y() * *w + pos.x()) {
+                            *t = Vec3::new(r, g, b);
+                        }
+                    },
                 )
-            },
-            |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
-            },
-        )
-        .map_err(|e| fail(e.to_string()))?;
-        let (w, texels) = image.layer_data.channel_data.pixels;
-        let h = texels.len() / w.max(1);
-        Self::new(w as u32, h as u32, texels).map_err(|e| fail(e.to_string()))
+                .first_valid_layer()
+                .all_attributes()
+                .from_buffered(std::io::Cursor::new(bytes))
+                .map_err(|e| fail(e.to_string()))?;
+            let (w, texels) = image.layer_data.channel_data.pixels;
+            let h = texels.len() / w.max(1);
+            Self::new(w as u32, h as u32, texels).map_err(|e| fail(e.to_string()))
+        })
     }
 
     /// Writes the map as an RGB EXR (f32), e.g. to inspect an analytic sky.
@@ -335,7 +409,7 @@ impl Sun {
 }
 
 fn check_colour(field: &str, c: Vec3) -> Result<(), SkyError> {
-    if c.is_finite() && c.cmpge(Vec3::ZERO).all() && c.max_element() <= crate::sweep::MAX_LIGHT {
+    if c.is_finite() && c.cmpge(Vec3::ZERO).all() && c.max_element() <= MAX_LIGHT {
         Ok(())
     } else {
         Err(GridError::invalid(field, c, "must be finite, >= 0 and <= 1e30").into())

@@ -399,10 +399,23 @@ pub fn validate_inputs(
     options.validate()?;
     boundary.validate(material.desc())?;
     check_boundary_scale(boundary)?;
+    let desc = material.desc();
+    grid_core::limits::check_memory(
+        &format!("a sweep of {} points", desc.point_count()),
+        sweep_bytes(desc),
+    )?;
     Ok(())
 }
 
-fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
+/// Most bytes [`run`] holds at once for a grid: per point the accumulated bins (312),
+/// two pending-scatter records (96), ln(pass) and exposure (8) and the output (312); per
+/// point of one level the level buffers (two 17-channel levels, removals, transmittance,
+/// powers: 1104).
+pub fn sweep_bytes(desc: &grid_core::GridDesc) -> u64 {
+    desc.point_count() as u64 * (312 + 96 + 8 + 312) + desc.level_len() as u64 * 1104
+}
+
+pub(crate) fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
     let big = |b: &BinLight| b.0.iter().any(|v| v.max_element() > MAX_LIGHT);
     let err = |field: &str| {
         Err(GridError::invalid(

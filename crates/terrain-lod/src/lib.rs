@@ -184,11 +184,18 @@ impl HierarchyParams {
                 "world_cell / finest_cell must be a power of two",
             ));
         }
-        if self.node_points < 2 {
+        if ratio > (1u32 << MAX_DEPTHS) as f32 {
+            return Err(GridError::invalid(
+                "finest_cell",
+                self.finest_cell,
+                "world_cell / finest_cell must be at most 2^16 (16 depths)",
+            ));
+        }
+        if !(2..=1024).contains(&self.node_points) {
             return Err(GridError::invalid(
                 "node_points",
                 self.node_points,
-                "must be at least 2",
+                "must be in 2..=1024",
             ));
         }
         if !(self.margin.is_finite() && self.margin >= 0.0) {
@@ -205,11 +212,11 @@ impl HierarchyParams {
                 "must be finite and >= lod_factor",
             ));
         }
-        if self.max_levels < 2 {
+        if !(2..=4096).contains(&self.max_levels) {
             return Err(GridError::invalid(
                 "max_levels",
                 self.max_levels,
-                "must be at least 2",
+                "must be in 2..=4096",
             ));
         }
         let largest = self.node_points as u64 * self.node_points as u64 * self.max_levels as u64;
@@ -337,6 +344,13 @@ fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
     h.finish()
 }
 
+/// Most node depths below the world grid (`world_cell / finest_cell <= 2^16`).
+pub const MAX_DEPTHS: u32 = 16;
+
+/// Bytes a world-grid point needs while it is built: its material (16), the sweep's
+/// bins (312) and the stored grid (312).
+const WORLD_BYTES_PER_POINT: u64 = 16 + 2 * 312;
+
 impl Hierarchy {
     /// Builds the world grid over the heightmap's extent (at load; not budgeted).
     pub fn new(
@@ -372,11 +386,24 @@ impl Hierarchy {
         let dims_xz = ((hi - lo) / w).ceil().as_uvec2() + grid_core::glam::UVec2::ONE;
         let bottom = ground.0 - 2.0 * w;
         let top = ground.1 + params.margin.max(w) + 2.0 * w;
-        let ny = (((top - bottom) / w).ceil() as u32 + 1).max(2);
+        let ny = (((top - bottom) / w).ceil() as u32)
+            .saturating_add(1)
+            .max(2);
         let desc = GridDesc::new(
             Vec3::new(lo.x, bottom, lo.y),
             w,
             UVec3::new(dims_xz.x, ny, dims_xz.y),
+        )?;
+        // The world grid (26 f32 bins) and what sweeping it holds at once.
+        grid_core::limits::check_memory(
+            &format!(
+                "the world grid of {} points (world_cell = {w} m over the terrain)",
+                desc.point_count()
+            ),
+            grid_core::limits::checked_bytes(
+                "world grid",
+                &[desc.point_count() as u64, WORLD_BYTES_PER_POINT],
+            )?,
         )?;
         h.world = LightGrid::filled(desc, BinLight::ZERO)?;
         h.sweep_world()?;

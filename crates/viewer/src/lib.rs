@@ -33,6 +33,9 @@ use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM};
 pub use scene::SceneFile;
 pub use world::{SweeperChoice, World};
 
+/// Largest image width or height rendered.
+pub const MAX_IMAGE_SIDE: u32 = 8192;
+
 /// Options of a headless run.
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -147,21 +150,38 @@ impl Summary {
     }
 }
 
-/// Writes an sRGB RGBA8 image as PNG.
+/// Writes an sRGB RGBA8 image as PNG (encoded in memory, then written atomically).
 pub fn write_png(path: &Path, img: &render::Image) -> Result<()> {
     let buf: Vec<u8> = img.srgb.iter().flatten().copied().collect();
-    image::save_buffer(path, &buf, img.width, img.height, image::ColorType::Rgba8)
-        .with_context(|| format!("writing {}", path.display()))
+    let mut png = Vec::new();
+    image::write_buffer_with_format(
+        &mut std::io::Cursor::new(&mut png),
+        &buf,
+        img.width,
+        img.height,
+        image::ColorType::Rgba8,
+        image::ImageFormat::Png,
+    )
+    .with_context(|| format!("encoding {}", path.display()))?;
+    grid_core::file::write_atomic(path, &png).with_context(|| format!("writing {}", path.display()))
 }
 
-/// Writes the linear HDR image as EXR.
+/// Writes the linear HDR image as EXR (encoded in memory, then written atomically).
 pub fn write_exr(path: &Path, img: &render::Image) -> Result<()> {
+    use exr::prelude::*;
     let w = img.width as usize;
-    exr::prelude::write_rgb_file(path, w, img.height as usize, |x, y| {
-        let p = img.hdr[y * w + x];
-        (p[0], p[1], p[2])
-    })
-    .with_context(|| format!("writing {}", path.display()))
+    let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let v = img.hdr[p.y() * w + p.x()];
+        (v[0], v[1], v[2])
+    });
+    let image = Image::from_channels((w, img.height as usize), pixels);
+    let mut bytes = Vec::new();
+    image
+        .write()
+        .to_buffered(std::io::Cursor::new(&mut bytes))
+        .with_context(|| format!("encoding {}", path.display()))?;
+    grid_core::file::write_atomic(path, &bytes)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// The GPU context for rendering (any adapter, lavapipe included).
@@ -174,6 +194,11 @@ pub fn render_context() -> Result<Arc<sweep_gpu::GpuContext>> {
 /// Builds `scene`, computes the grids around every view and writes the images and
 /// summary into `opts.out`.
 pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
+    for (name, v) in [("width", opts.width), ("height", opts.height)] {
+        if !(1..=MAX_IMAGE_SIDE).contains(&v) {
+            anyhow::bail!("{name} = {v}: must be in 1..={MAX_IMAGE_SIDE}");
+        }
+    }
     std::fs::create_dir_all(&opts.out)
         .with_context(|| format!("creating {}", opts.out.display()))?;
     let total = Instant::now();
@@ -250,8 +275,9 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
     let json = opts.out.join("summary.json");
     summary.files.push(txt.clone());
     summary.files.push(json.clone());
-    std::fs::write(&txt, summary.text()).with_context(|| format!("writing {}", txt.display()))?;
-    std::fs::write(&json, serde_json::to_string_pretty(&summary)?)
+    grid_core::file::write_atomic(&txt, summary.text().as_bytes())
+        .with_context(|| format!("writing {}", txt.display()))?;
+    grid_core::file::write_atomic(&json, serde_json::to_string_pretty(&summary)?.as_bytes())
         .with_context(|| format!("writing {}", json.display()))?;
     Ok(summary)
 }

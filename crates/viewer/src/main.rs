@@ -35,10 +35,26 @@ struct Args {
     /// With --window: fly forward on autopilot and quit after this many frames.
     #[arg(long, requires = "window")]
     frames: Option<u32>,
+    /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
+    /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
+    #[arg(long, value_parser = parse_memory_limit)]
+    memory_limit: Option<u64>,
+}
+
+fn parse_memory_limit(s: &str) -> Result<u64, String> {
+    grid_core::limits::parse_size(s).map_err(|e| e.to_string())
 }
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    if let Some(limit) = args.memory_limit {
+        grid_core::limits::set_memory_limit(limit);
+    }
+    for (name, v) in [("--width", args.width), ("--height", args.height)] {
+        if !(1..=viewer::MAX_IMAGE_SIDE).contains(&v) {
+            anyhow::bail!("{name} {v}: must be in 1..={}", viewer::MAX_IMAGE_SIDE);
+        }
+    }
     let mut scene = match &args.scene {
         Some(p) => SceneFile::load(p)?,
         None => SceneFile::demo()?,

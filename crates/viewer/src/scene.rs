@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 
+/// Largest scene file read: 16 MiB.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// The demo scene shipped with the viewer (the README's main command renders it).
 pub const DEMO: &str = include_str!("../scenes/demo.toml");
 
@@ -348,7 +351,7 @@ impl SceneFile {
 
     /// Reads and checks a scene file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
+        let text = grid_core::limits::read_text(path, MAX_SCENE_BYTES)
             .with_context(|| format!("reading scene file {}", path.display()))?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::parse(&text, &path.display().to_string(), base)

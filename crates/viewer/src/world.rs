@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use grid_core::glam::{Quat, Vec2, Vec3, Vec4};
+use grid_core::glam::{Quat, Vec2, Vec3};
 use grid_core::{BinLight, MaterialGrid, Sweeper};
 use indicatif::{ProgressBar, ProgressStyle};
 use material_voxelizer::compose::{
@@ -86,12 +86,23 @@ fn bar(len: u64, what: &str) -> ProgressBar {
     b
 }
 
+/// Most samples along one side of a procedural terrain (a 16384² heightmap is 1 GiB).
+const MAX_TERRAIN_SAMPLES_PER_SIDE: f32 = 16384.0;
+
 fn procedural_heightmap(p: &crate::scene::ProceduralTerrain, spacing: f32) -> Result<Heightmap> {
     use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
     let fbm = Fbm::<Perlin>::new(p.seed)
         .set_octaves(5)
         .set_frequency(1.0 / p.feature_size as f64);
-    let n = (p.size / spacing).round() as u32 + 1;
+    let n = (p.size / spacing).round();
+    if !(1.0..MAX_TERRAIN_SAMPLES_PER_SIDE).contains(&n) {
+        anyhow::bail!(
+            "terrain.procedural.size / terrain.spacing = {} / {spacing} = {n} samples a side: at most {}",
+            p.size,
+            MAX_TERRAIN_SAMPLES_PER_SIDE - 1.0
+        );
+    }
+    let n = n as u32 + 1;
     Ok(Heightmap::from_fn(Vec2::ZERO, spacing, n, n, |x, z| {
         // fBm is roughly in [-1, 1]; map to [0, relief].
         let v = fbm.get([x as f64, z as f64]) as f32;
@@ -100,21 +111,9 @@ fn procedural_heightmap(p: &crate::scene::ProceduralTerrain, spacing: f32) -> Re
 }
 
 fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
-    let img = image::ImageReader::open(path)
-        .with_context(|| format!("opening {}", path.display()))?
-        .decode()
-        .with_context(|| format!("decoding {}", path.display()))?
-        .into_rgba8();
-    let (w, h) = img.dimensions();
-    let lin = grid_core::pack::srgb8_to_linear;
-    Ok(Texture {
-        width: w,
-        height: h,
-        texels: img
-            .pixels()
-            .map(|p| Vec4::new(lin(p[0]), lin(p[1]), lin(p[2]), p[3] as f32 / 255.0))
-            .collect(),
-    })
+    let bytes = grid_core::limits::read_file(path, material_voxelizer::gltf_read::MAX_MODEL_BYTES)?;
+    material_voxelizer::gltf_read::decode_texture(&bytes)
+        .map_err(|e| anyhow::anyhow!("decoding {}: {e}", path.display()))
 }
 
 /// The sky's top boundary (sun excluded), and the sun.

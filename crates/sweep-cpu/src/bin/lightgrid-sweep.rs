@@ -27,6 +27,14 @@ use sweep_cpu::{ClearSky, EnvMap, Sun, sky};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
+    /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
+    #[arg(long, global = true, value_parser = parse_memory_limit)]
+    memory_limit: Option<u64>,
+}
+
+fn parse_memory_limit(s: &str) -> Result<u64, String> {
+    grid_core::limits::parse_size(s).map_err(|e| e.to_string())
 }
 
 #[derive(Subcommand)]
@@ -209,7 +217,11 @@ fn write_preview(g: &grid_core::LightGrid, path: &PathBuf) -> Result<()> {
         let t = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0 + 0.5) as u8;
         image::Rgb([t(c.x), t(c.y), t(c.z)])
     });
-    img.save(path)
+    // Encoded in memory, then written atomically like the grids.
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .context("encoding the preview")?;
+    grid_core::file::write_atomic(path, &png)
         .with_context(|| format!("writing {}", path.display()))?;
     println!(
         "wrote {} (average light, slice z = {k}, white = {max:.3})",
@@ -225,7 +237,11 @@ fn load_material(path: &PathBuf) -> Result<grid_core::MaterialGrid> {
 }
 
 fn main() -> Result<()> {
-    match Cli::parse().command {
+    let cli = Cli::parse();
+    if let Some(limit) = cli.memory_limit {
+        grid_core::limits::set_memory_limit(limit);
+    }
+    match cli.command {
         Command::Scene {
             scene,
             size,
@@ -275,16 +291,17 @@ fn main() -> Result<()> {
             let s = sweep_cpu::run(&m, &b, &o).context("sweeping")?;
             let secs = t.elapsed().as_secs_f64();
             let g = s.output.bins.expect("bins were asked for");
-            if let Some(p) = &preview {
-                write_preview(&g, p)?;
-            }
+            // The grid first: a bad preview path must not throw the sweep away.
             let file = if packed {
                 GridFile::PackedLight(g.pack())
             } else {
-                GridFile::Light(g)
+                GridFile::Light(g.clone())
             };
             file.save(&output)
                 .with_context(|| format!("writing {}", output.display()))?;
+            if let Some(p) = &preview {
+                write_preview(&g, p)?;
+            }
             let st = s.output.stats;
             println!(
                 "swept {} points in {:.1} ms: {} passes, {} levels computed, {} copied; energy balance error {:.2e}",
@@ -308,10 +325,15 @@ fn main() -> Result<()> {
         } => {
             let m = load_material(&material)?;
             let b = light.boundary()?;
-            if let Some(s) = seconds
-                && !(s.is_finite() && s > 0.0)
-            {
-                bail!("--seconds must be a positive number, got {s}");
+            let time_budget = match seconds {
+                None => None,
+                Some(s) => match std::time::Duration::try_from_secs_f64(s) {
+                    Ok(d) if s > 0.0 => Some(d),
+                    _ => bail!("--seconds must be a positive number of seconds, got {s}"),
+                },
+            };
+            if !(1..=sweep_cpu::reference::MAX_PATHS).contains(&paths) {
+                bail!("--paths must be in 1..=2^40 (1099511627776), got {paths}");
             }
             let bar = indicatif::ProgressBar::new(paths);
             bar.set_style(
@@ -322,7 +344,7 @@ fn main() -> Result<()> {
             );
             let opts = ReferenceOptions {
                 paths,
-                time_budget: seconds.map(std::time::Duration::from_secs_f64),
+                time_budget,
                 seed,
                 ..Default::default()
             };
@@ -330,12 +352,12 @@ fn main() -> Result<()> {
             let r = trace(&m, &b, &opts, &|done, _| bar.set_position(done))
                 .context("tracing the reference")?;
             bar.finish_and_clear();
-            if let Some(p) = &preview {
-                write_preview(&r.light, p)?;
-            }
             GridFile::Light(r.light.clone())
                 .save(&output)
                 .with_context(|| format!("writing {}", output.display()))?;
+            if let Some(p) = &preview {
+                write_preview(&r.light, p)?;
+            }
             println!(
                 "traced {} paths in {:.2} s; relative standard error of the average light {:.4}",
                 r.paths,
