@@ -6,6 +6,11 @@
 //!   Monte Carlo reference, and the work the library skips; writes a table, JSON and a
 //!   log-log plot (see `bench` module docs). The quick default takes a few minutes on two
 //!   cores; `--full` uses larger grids and a longer reference.
+//! * `fuzz [--inputs N] [--target NAME]... [--seed S]`: every reader of user files (grid,
+//!   scene, volume, gltf, exr, png) over N generated inputs (default one million per
+//!   target): panics, slow inputs, peak memory (see `xtask::fuzz`). Writes
+//!   `target/fuzz/fuzz.{txt,json}`; exits non-zero if any panic escaped or any input was
+//!   slow.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -44,6 +49,18 @@ enum Task {
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Feed every file reader generated bad inputs: panics, slow inputs, peak memory.
+    Fuzz {
+        /// Inputs per target.
+        #[arg(long, default_value_t = 1_000_000)]
+        inputs: u64,
+        /// Only this target (repeatable): grid, scene, volume, gltf, exr, png.
+        #[arg(long = "target")]
+        targets: Vec<String>,
+        /// Seed of the input generator.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
     },
 }
 
@@ -85,6 +102,58 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Task::Fuzz {
+            inputs,
+            targets,
+            seed,
+        } => fuzz(&root, inputs, &targets, seed),
+    }
+}
+
+fn fuzz(root: &std::path::Path, inputs: u64, only: &[String], seed: u64) -> ExitCode {
+    let out = root.join("target/fuzz");
+    let all = xtask::fuzz::targets();
+    if let Some(bad) = only
+        .iter()
+        .find(|o| !all.iter().any(|t| t.name == o.as_str()))
+    {
+        let names: Vec<&str> = all.iter().map(|t| t.name).collect();
+        eprintln!("xtask fuzz: no target {bad:?} (targets: {names:?})");
+        return ExitCode::FAILURE;
+    }
+    let mut reports = Vec::new();
+    println!("{}", xtask::fuzz::Report::header());
+    for t in all
+        .iter()
+        .filter(|t| only.is_empty() || only.iter().any(|o| o == t.name))
+    {
+        eprintln!("fuzzing {} ({inputs} inputs)...", t.name);
+        let r = xtask::fuzz::run_target(t, inputs, seed, Some(&out));
+        println!("{}", r.line());
+        reports.push(r);
+    }
+    let mut text = format!(
+        "cargo xtask fuzz --inputs {inputs} --seed {seed}\n{}\n",
+        xtask::fuzz::Report::header()
+    );
+    for r in &reports {
+        text.push_str(&r.line());
+        text.push('\n');
+    }
+    let _ = std::fs::create_dir_all(&out);
+    let _ = std::fs::write(out.join("fuzz.txt"), &text);
+    if let Ok(j) = serde_json::to_string_pretty(&reports) {
+        let _ = std::fs::write(out.join("fuzz.json"), j);
+    }
+    println!("wrote {}", out.join("fuzz.txt").display());
+    if reports.iter().all(|r| r.clean()) {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "xtask fuzz: panics escaped or inputs were slow (crash inputs in {})",
+            out.display()
+        );
+        ExitCode::FAILURE
     }
 }
 

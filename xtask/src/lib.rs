@@ -1,0 +1,4 @@
+//! Project chores for lightgrid, as a library so that tests can run them too; the
+//! `cargo xtask` command (`src/main.rs`) is the front end.
+
+pub mod fuzz;
