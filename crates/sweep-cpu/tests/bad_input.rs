@@ -1,0 +1,196 @@
+//! Hand-made bad inputs for sweep-cpu: EXR skies with huge or broken headers, files that
+//! are not files, light and option values that would overflow or never finish, and the
+//! `lightgrid-sweep` command's limits and write order.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use grid_core::glam::Vec3;
+use grid_core::{BinLight, Boundary, GridFile, SweepOptions};
+use sweep_cpu::reference::{ReferenceOptions, trace};
+use sweep_cpu::scenes::Scene;
+use sweep_cpu::sky::EnvMap;
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sweep-cpu-bad-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn exr_bytes() -> Vec<u8> {
+    let dir = scratch("exr-seed");
+    let p = dir.join("sky.exr");
+    EnvMap::from_fn(8, 4, |d| Vec3::new(0.3, 0.5, 1.0) * (1.5 + d.y))
+        .unwrap()
+        .save_exr(&p)
+        .unwrap();
+    let b = std::fs::read(&p).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    b
+}
+
+/// Overwrites the four i32 of the `box2i` attribute `name` in an EXR header.
+fn set_box(b: &mut [u8], name: &str, v: [i32; 4]) {
+    let key = format!("{name}\0box2i\0");
+    let at = b
+        .windows(key.len())
+        .position(|w| w == key.as_bytes())
+        .expect("attribute present")
+        + key.len()
+        + 4;
+    for (k, x) in v.iter().enumerate() {
+        b[at + 4 * k..at + 4 * k + 4].copy_from_slice(&x.to_le_bytes());
+    }
+}
+
+#[test]
+fn exr_headers_claiming_huge_images_are_refused_before_allocating() {
+    let good = exr_bytes();
+    assert_eq!(EnvMap::from_exr_bytes(&good).unwrap().width(), 8);
+    for v in [
+        [0, 0, i32::MAX - 1, i32::MAX - 1],
+        [0, 0, 1 << 20, 1 << 20],
+        [i32::MIN + 1, i32::MIN + 1, i32::MAX - 1, i32::MAX - 1],
+        [0, 0, 16383, 16383 * 2],
+    ] {
+        let mut b = good.clone();
+        set_box(&mut b, "dataWindow", v);
+        set_box(&mut b, "displayWindow", v);
+        assert!(EnvMap::from_exr_bytes(&b).is_err(), "{v:?} accepted");
+    }
+    // Truncated anywhere and bit-flipped anywhere in the header: errors, no panic.
+    for cut in 0..good.len() {
+        assert!(
+            EnvMap::from_exr_bytes(&good[..cut]).is_err(),
+            "cut at {cut} accepted"
+        );
+    }
+    for i in 0..good.len().min(400) {
+        let mut b = good.clone();
+        b[i] ^= 0x80;
+        let _ = EnvMap::from_exr_bytes(&b);
+    }
+}
+
+#[test]
+fn texels_and_sizes_that_would_overflow_are_errors() {
+    // Texel radiance near f32::MAX made the Monte Carlo reference write NaN.
+    let e = EnvMap::new(2, 2, vec![Vec3::splat(3e38); 4])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("texels[0]") && e.contains("1e30"), "{e}");
+    // width × height wrapping u32.
+    assert!(EnvMap::new(u32::MAX, 2, vec![]).is_err());
+    assert!(EnvMap::from_fn(1 << 16, 1 << 16, |_| Vec3::ONE).is_err());
+    // The reference refuses boundary light over 1e30 as the sweep does, by name.
+    let (m, _) = Scene::UniformFog.build(4);
+    let b = Boundary::open_sky(BinLight::uniform(Vec3::splat(1e31)));
+    let e = trace(&m, &b, &ReferenceOptions::default(), &|_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("1e30"), "{e}");
+    // Options that would run forever.
+    let o = ReferenceOptions {
+        paths: u64::MAX,
+        ..Default::default()
+    };
+    let ok = Boundary::open_sky(BinLight::uniform(Vec3::ONE));
+    assert!(
+        trace(&m, &ok, &o, &|_, _| {})
+            .unwrap_err()
+            .to_string()
+            .contains("paths")
+    );
+    let mut s = SweepOptions::multi_bounce();
+    s.max_passes = u32::MAX;
+    s.tolerance = 0.0;
+    let e = sweep_cpu::run(&m, &ok, &s)
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("max_passes"), "{e}");
+}
+
+#[test]
+fn exr_readers_refuse_devices_fifos_and_folders() {
+    let dir = scratch("special");
+    let mut bad: Vec<PathBuf> = vec![dir.clone()];
+    if Path::new("/dev/zero").exists() {
+        bad.push("/dev/zero".into());
+    }
+    let fifo = dir.join("sky.exr");
+    if Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        bad.push(fifo);
+    }
+    for p in bad {
+        let e = EnvMap::load_exr(&p).unwrap_err().to_string();
+        assert!(e.contains("regular file"), "{}: {e}", p.display());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_lightgrid-sweep"))
+}
+
+#[test]
+fn the_command_refuses_endless_runs_and_keeps_the_grid_when_the_preview_fails() {
+    let dir = scratch("cli");
+    let mat = dir.join("m.lgrid");
+    assert!(
+        bin()
+            .args(["scene", "fog", "--size", "4", "-o"])
+            .arg(&mat)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let fails_with = |args: &[&str], needle: &str| {
+        let out = bin().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    };
+    let m = mat.to_str().unwrap();
+    let out = dir.join("r.lgrid");
+    let o = out.to_str().unwrap();
+    fails_with(&["reference", m, "-o", o, "--seconds", "1e20"], "--seconds");
+    fails_with(&["reference", m, "-o", o, "--seconds=-1"], "--seconds");
+    fails_with(&["reference", m, "-o", o, "--seconds", "nan"], "--seconds");
+    fails_with(
+        &["reference", m, "-o", o, "--paths", "18446744073709551615"],
+        "--paths",
+    );
+    fails_with(
+        &[
+            "sweep",
+            m,
+            "-o",
+            o,
+            "--passes",
+            "4294967295",
+            "--tolerance",
+            "0",
+        ],
+        "max_passes",
+    );
+    fails_with(&["sweep", m, "-o", o, "--memory-limit", "1K"], "memory");
+    fails_with(
+        &["sweep", m, "-o", o, "--memory-limit", "lots"],
+        "memory-limit",
+    );
+    assert!(!out.exists(), "a failed run wrote its output");
+    // A bad preview path fails the command, but only after the grid is safely written.
+    let s = bin()
+        .args(["sweep", m, "-o", o, "--preview"])
+        .arg(dir.join("no/such/folder/p.png"))
+        .output()
+        .unwrap();
+    assert!(!s.status.success());
+    assert!(GridFile::load(&out).unwrap().into_light().is_ok());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,99 @@
+//! Scene values and files that used to crash or exhaust the machine: each is now a
+//! clear error naming the field or file, given before the large allocation.
+
+use std::path::{Path, PathBuf};
+
+use viewer::{SceneFile, SweeperChoice, World};
+
+/// `body` plus one view (every scene needs one).
+fn scene(body: &str) -> SceneFile {
+    let text = format!(
+        "{body}\n[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
+    );
+    SceneFile::parse(&text, "bad.toml", Path::new(".")).expect("parses")
+}
+
+fn build_error(body: &str) -> String {
+    match World::build(scene(body), SweeperChoice::Cpu) {
+        Ok(_) => panic!("built a world from:\n{body}"),
+        Err(e) => format!("{e:#}"),
+    }
+}
+
+const TERRAIN_512: &str = r#"
+[terrain]
+procedural = { size = 512.0, relief = 20.0, feature_size = 100.0, seed = 1 }
+spacing = 8.0
+"#;
+
+#[test]
+fn a_world_grid_over_the_memory_limit_is_refused() {
+    // world_cell = 0.25 over 512 m of terrain: about 2049² × 130 points × 640 bytes.
+    let e = build_error(&format!(
+        "{TERRAIN_512}\n[grid]\nworld_cell = 0.25\nfinest_cell = 0.25\n"
+    ));
+    assert!(e.contains("world grid") && e.contains("memory"), "{e}");
+}
+
+#[test]
+fn a_terrain_spacing_that_needs_billions_of_samples_is_refused() {
+    let e =
+        build_error("[terrain]\nprocedural = { size = 512.0, relief = 20.0 }\nspacing = 0.001\n");
+    assert!(e.contains("terrain.spacing"), "{e}");
+}
+
+#[test]
+fn too_many_depths_are_refused() {
+    // 2^40 between world and finest cells would overflow the depth shift.
+    let e = build_error(&format!(
+        "{TERRAIN_512}\n[grid]\nworld_cell = 16.0\nfinest_cell = 1.4551915228366852e-11\n"
+    ));
+    assert!(e.contains("finest_cell"), "{e}");
+}
+
+#[test]
+fn scene_files_that_are_not_files_or_too_large_are_errors() {
+    let dir = std::env::temp_dir().join(format!("viewer-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut bad: Vec<PathBuf> = vec![dir.clone()];
+    if Path::new("/dev/zero").exists() {
+        bad.push("/dev/zero".into());
+    }
+    let fifo = dir.join("scene.toml");
+    if std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        bad.push(fifo);
+    }
+    let big = dir.join("big.toml");
+    std::fs::write(
+        &big,
+        vec![b'#'; (viewer::scene::MAX_SCENE_BYTES + 1) as usize],
+    )
+    .unwrap();
+    bad.push(big);
+    for p in bad {
+        let e = format!("{:#}", SceneFile::load(&p).unwrap_err());
+        assert!(e.contains(&p.display().to_string()), "{e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn image_sizes_out_of_range_are_refused() {
+    let opts = |w, h| viewer::Options {
+        out: std::env::temp_dir().join("viewer-bad-size"),
+        width: w,
+        height: h,
+        sweeper: SweeperChoice::Cpu,
+        exr: false,
+    };
+    for (w, h) in [(0, 10), (10, 0), (100_000, 10)] {
+        let e = viewer::run(SceneFile::demo().unwrap(), &opts(w, h))
+            .map(|_| ())
+            .unwrap_err();
+        assert!(e.to_string().contains("must be in 1..="), "{e}");
+    }
+}
