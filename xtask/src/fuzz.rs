@@ -49,7 +49,7 @@ pub struct Target {
     /// Valid inputs the mutations start from.
     pub seeds: Vec<Vec<u8>>,
     /// Recomputes checksums and length fields after a mutation.
-    pub fixup: fn(&mut Vec<u8>),
+    pub fixup: fn(&mut [u8]),
     /// Runs the reader: `Ok(true)` accepted, `Ok(false)` rejected with an error.
     pub run: fn(&[u8]) -> bool,
 }
@@ -300,7 +300,7 @@ pub fn run_target(t: &Target, inputs: u64, seed: u64, crash_dir: Option<&Path>) 
 // ---------------------------------------------------------------- fix-ups
 
 /// Recomputes a trailing CRC-32 over everything before it (grid and volume files).
-fn fix_trailing_crc(b: &mut Vec<u8>) {
+fn fix_trailing_crc(b: &mut [u8]) {
     if b.len() >= 8 {
         let n = b.len() - 4;
         let crc = crc32fast::hash(&b[..n]);
@@ -309,7 +309,7 @@ fn fix_trailing_crc(b: &mut Vec<u8>) {
 }
 
 /// Grid files: the payload length field follows the bytes present, then the CRC.
-fn fix_grid(b: &mut Vec<u8>) {
+fn fix_grid(b: &mut [u8]) {
     if b.len() >= 68 {
         let payload = (b.len() - 68) as u64;
         b[56..64].copy_from_slice(&payload.to_le_bytes());
@@ -319,14 +319,14 @@ fn fix_grid(b: &mut Vec<u8>) {
 
 /// GLB: the total length field follows the bytes present; the JSON chunk length too
 /// when there is no BIN chunk after it.
-fn fix_glb(b: &mut Vec<u8>) {
+fn fix_glb(b: &mut [u8]) {
     if b.len() >= 12 && b.starts_with(b"glTF") {
         let n = b.len() as u32;
         b[8..12].copy_from_slice(&n.to_le_bytes());
     }
 }
 
-fn no_fixup(_: &mut Vec<u8>) {}
+fn no_fixup(_: &mut [u8]) {}
 
 // ---------------------------------------------------------------- seeds and readers
 
@@ -406,24 +406,6 @@ fn triangle_gltf() -> Vec<u8> {
     image::RgbaImage::from_pixel(1, 1, image::Rgba([200, 100, 50, 255]))
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .expect("encodes");
-    let b64 = |d: &[u8]| {
-        use std::fmt::Write;
-        const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-        let mut s = String::new();
-        for c in d.chunks(3) {
-            let n = (c[0] as u32) << 16
-                | (*c.get(1).unwrap_or(&0) as u32) << 8
-                | *c.get(2).unwrap_or(&0) as u32;
-            for k in 0..4 {
-                if k <= c.len() {
-                    let _ = s.write_char(T[(n >> (18 - 6 * k) & 63) as usize] as char);
-                } else {
-                    s.push('=');
-                }
-            }
-        }
-        s
-    };
     format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
 "nodes":[{{"mesh":0,"translation":[1,2,3]}}],
@@ -434,8 +416,8 @@ fn triangle_gltf() -> Vec<u8> {
 "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":24}}],
 "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
 {{"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"}}]}}"#,
-        b64(&png),
-        b64(&bin[..60])
+        base64::encode(&png),
+        base64::encode(&bin[..60])
     )
     .into_bytes()
 }

@@ -98,6 +98,11 @@ pub fn parse_size(text: &str) -> Result<u64, GridError> {
         .ok_or_else(bad)
 }
 
+/// [`parse_size`] for command-line parsers (clap's `value_parser`): the error as text.
+pub fn parse_size_arg(text: &str) -> Result<u64, String> {
+    parse_size(text).map_err(|e| e.to_string())
+}
+
 /// The product of `factors` (counts and a size in bytes), or an error naming `field` when
 /// it overflows `u64`.
 pub fn checked_bytes(field: &str, factors: &[u64]) -> Result<u64, GridError> {

@@ -474,7 +474,7 @@ pub fn voxelize(
     let pad = 2.0 * params.padding as f64;
     let dims_f = span + grid_core::glam::DVec3::splat(pad);
     let cells_f = dims_f.x * dims_f.y * dims_f.z;
-    if !(cells_f <= params.max_cells as f64) {
+    if cells_f.is_nan() || cells_f > params.max_cells as f64 {
         return Err(GridError::invalid(
             "cell",
             h,

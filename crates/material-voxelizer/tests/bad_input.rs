@@ -58,7 +58,7 @@ fn load(doc: &serde_json::Value) -> Result<Model, String> {
 
 fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
     let mut j = json.to_vec();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut out = b"glTF".to_vec();
@@ -174,7 +174,8 @@ fn references_outside_the_folder_and_bad_uris_are_refused() {
 #[test]
 fn views_and_accessors_out_of_range_are_errors() {
     let base = triangle_doc(None);
-    let cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>)> = vec![
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: Vec<(&str, Edit)> = vec![
         (
             "view past its buffer",
             Box::new(|d| d["bufferViews"][1]["byteLength"] = json!(1 << 30)),
@@ -321,8 +322,10 @@ fn huge_instances_do_not_fill_the_tile_table() {
     assert!(m.data().iter().all(|x| x.pass.is_finite()));
     // Tiny tiles: every instance covers more tiles than the cap, so none is binned, and
     // the composed grid is the same as with the default tiles.
-    let mut p = ComposeParams::default();
-    p.tile = 1e-3;
+    let p = ComposeParams {
+        tile: 1e-3,
+        ..Default::default()
+    };
     let many: Vec<Instance> = (0..20)
         .map(|i| Instance {
             position: Vec3::X * i as f32 * 0.7,

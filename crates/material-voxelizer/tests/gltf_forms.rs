@@ -15,24 +15,6 @@ fn split_glb(bytes: &[u8]) -> (serde_json::Value, Vec<u8>) {
     (json, bytes[bin_start..].to_vec())
 }
 
-fn base64(data: &[u8]) -> String {
-    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in data.chunks(3) {
-        let n = (c[0] as u32) << 16
-            | (*c.get(1).unwrap_or(&0) as u32) << 8
-            | *c.get(2).unwrap_or(&0) as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                out.push(T[(n >> (18 - 6 * k)) as usize & 63] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
 #[test]
 fn gltf_with_external_and_embedded_buffers_and_node_transforms() {
     let dir = std::env::temp_dir().join(format!("gltf-forms-{}", std::process::id()));
@@ -54,8 +36,11 @@ fn gltf_with_external_and_embedded_buffers_and_node_transforms() {
     let want = (model.triangles[0].positions[0] + grid_core::glam::Vec3::new(1.0, 2.0, 3.0)) * 2.0;
     assert!((ext.triangles[0].positions[0] - want).length() < 1e-5);
     // Embedded (data URI) buffer.
-    json["buffers"][0]["uri"] =
-        format!("data:application/octet-stream;base64,{}", base64(&bin)).into();
+    json["buffers"][0]["uri"] = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::encode(&bin)
+    )
+    .into();
     std::fs::write(
         dir.join("embedded.gltf"),
         serde_json::to_vec(&json).unwrap(),

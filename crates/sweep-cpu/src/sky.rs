@@ -168,7 +168,7 @@ impl EnvMap {
                 .map_err(|e| fail(e.to_string()))?;
             for (i, h) in meta.headers.iter().enumerate() {
                 let (w, hgt) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
-                let texels = w.checked_mul(hgt).unwrap_or(u64::MAX);
+                let texels = w.saturating_mul(hgt);
                 if texels > MAX_TEXELS {
                     return Err(GridError::invalid(
                         format!("layer {i} size"),

@@ -37,12 +37,8 @@ struct Args {
     frames: Option<u32>,
     /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
     /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
-    #[arg(long, value_parser = parse_memory_limit)]
+    #[arg(long, value_parser = grid_core::limits::parse_size_arg)]
     memory_limit: Option<u64>,
-}
-
-fn parse_memory_limit(s: &str) -> Result<u64, String> {
-    grid_core::limits::parse_size(s).map_err(|e| e.to_string())
 }
 
 fn main() -> Result<()> {

@@ -32,10 +32,17 @@ struct Cli {
     /// Leave closed meshes hollow.
     #[arg(long)]
     hollow: bool,
+    /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
+    /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
+    #[arg(long, value_parser = grid_core::limits::parse_size_arg)]
+    memory_limit: Option<u64>,
 }
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
+    if let Some(limit) = cli.memory_limit {
+        grid_core::limits::set_memory_limit(limit);
+    }
     let model =
         Model::load_gltf(&cli.model).with_context(|| format!("loading {}", cli.model.display()))?;
     let mut params = match cli.quality.as_str() {

@@ -29,12 +29,8 @@ struct Cli {
     command: Command,
     /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
     /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
-    #[arg(long, global = true, value_parser = parse_memory_limit)]
+    #[arg(long, global = true, value_parser = grid_core::limits::parse_size_arg)]
     memory_limit: Option<u64>,
-}
-
-fn parse_memory_limit(s: &str) -> Result<u64, String> {
-    grid_core::limits::parse_size(s).map_err(|e| e.to_string())
 }
 
 #[derive(Subcommand)]
@@ -198,7 +194,7 @@ impl LightArgs {
 
 /// The average light of the middle x-y slice (z = nz / 2), scaled so the brightest
 /// point is white, gamma 2.2, each point a 4 × 4 block, top level at the top.
-fn write_preview(g: &grid_core::LightGrid, path: &PathBuf) -> Result<()> {
+fn write_preview(g: &grid_core::LightGrid, path: &std::path::Path) -> Result<()> {
     let d = g.desc();
     let (nx, ny, nz) = (d.dims().x, d.dims().y, d.dims().z);
     let k = nz / 2;
