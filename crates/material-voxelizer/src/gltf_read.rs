@@ -153,8 +153,36 @@ pub(crate) fn load(bytes: &[u8], base: Option<&Path>) -> Result<Loaded, String> 
         check_glb(bytes)?;
     }
     let gltf::Gltf { document, blob } = guarded("glTF", || {
-        gltf::Gltf::from_slice(bytes).map_err(|e| e.to_string())
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| e.to_string())
     })?;
+    // The gltf crate's validation indexes the POSITION accessor before checking that it
+    // exists: check every attribute's accessor index first, then validate.
+    let root = document.into_json();
+    for (mi, mesh) in root.meshes.iter().enumerate() {
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(bad) = prim
+                .attributes
+                .values()
+                .find(|a| a.value() >= root.accessors.len())
+            {
+                return Err(format!(
+                    "mesh {mi} primitive {pi}: accessor {} does not exist",
+                    bad.value()
+                ));
+            }
+        }
+    }
+    let document = guarded("glTF", || {
+        gltf::Document::from_json(root).map_err(|e| format!("invalid glTF: {e}"))
+    })?;
+    // The gltf crate unwraps these when an image's source is asked for.
+    for (i, img) in document.as_json().images.iter().enumerate() {
+        match (&img.buffer_view, &img.uri, &img.mime_type) {
+            (Some(_), _, None) => return Err(format!("image {i}: a buffer view needs a mimeType")),
+            (None, None, _) => return Err(format!("image {i}: neither a uri nor a buffer view")),
+            _ => {}
+        }
+    }
     let mut blob = blob;
     let mut buffers = Vec::new();
     for b in document.buffers() {

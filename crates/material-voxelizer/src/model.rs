@@ -255,6 +255,24 @@ impl Model {
     }
 
     fn from_gltf(bytes: &[u8], base: Option<&Path>, path: &Path) -> Result<Self, ModelError> {
+        // Every size and index is checked before the gltf crate's accessors run (see
+        // `gltf_read`); a panic left in them is still an error, never a crash.
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            Self::from_gltf_unguarded(bytes, base, path)
+        }))
+        .unwrap_or_else(|_| {
+            Err(ModelError::Gltf {
+                path: path.to_path_buf(),
+                message: "malformed glTF (the glTF reader failed on it)".into(),
+            })
+        })
+    }
+
+    fn from_gltf_unguarded(
+        bytes: &[u8],
+        base: Option<&Path>,
+        path: &Path,
+    ) -> Result<Self, ModelError> {
         use crate::gltf_read as gr;
         use gltf::accessor::{DataType as T, Dimensions as D};
         let gltf_err = |message: String| ModelError::Gltf {
