@@ -456,6 +456,10 @@ impl SceneFile {
             known(format!("instances[{i}].model"), &inst.model)?;
             positive(&format!("instances[{i}].scale"), inst.scale)?;
             finite2(&format!("instances[{i}].position"), inst.position)?;
+            finite2(
+                &format!("instances[{i}].height, rotation_deg"),
+                [inst.height, inst.rotation_deg],
+            )?;
         }
         for (i, s) in self.scatter.iter().enumerate() {
             known(format!("scatter[{i}].model"), &s.model)?;
@@ -487,6 +491,10 @@ impl SceneFile {
         for (i, v) in self.views.iter().enumerate() {
             finite2(&format!("views[{i}].position"), v.position)?;
             finite2(&format!("views[{i}].target"), v.target)?;
+            finite2(
+                &format!("views[{i}].height, target_height"),
+                [v.height, v.target_height],
+            )?;
             if !(v.fov_deg > 1.0 && v.fov_deg < 170.0) {
                 bail!("views[{i}].fov_deg = {}: must be in (1, 170)", v.fov_deg);
             }

@@ -97,3 +97,32 @@ fn image_sizes_out_of_range_are_refused() {
         assert!(e.to_string().contains("must be in 1..="), "{e}");
     }
 }
+
+#[test]
+fn non_finite_scene_values_name_their_field() {
+    // TOML can spell nan and inf; every float that places something must be finite.
+    let demo = viewer::scene::DEMO;
+    for (from, to, field) in [
+        ("target_height = ", "target_height = nan #", "target_height"),
+        ("spacing = ", "spacing = inf #", "terrain.spacing"),
+        ("time_of_day = ", "time_of_day = nan #", "sun.time_of_day"),
+    ] {
+        assert!(demo.contains(from), "the demo has no {from}");
+        let text = demo.replacen(from, to, 1);
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains(field), "{field}: {e}");
+    }
+    let mut s = String::from(TERRAIN_512);
+    s.push_str("[[models]]\nname = \"r\"\nprocedural = \"rock\"\n[[instances]]\nmodel = \"r\"\nposition = [1.0, 1.0]\nheight = inf\n");
+    let text = format!(
+        "{s}\n[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
+    );
+    let e = format!(
+        "{:#}",
+        SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
+    );
+    assert!(e.contains("instances[0].height"), "{e}");
+}
