@@ -13,7 +13,7 @@
 //! by a panic hook), **slow inputs** (over [`SLOW`], counted as timeouts; must be 0), the
 //! slowest input, and the peak memory (`VmHWM`, reset between targets through
 //! `/proc/self/clear_refs`). An input whose panic escaped is written to
-//! `target/fuzz/crash-<target>-<n>.bin` to reproduce it.
+//! `target/fuzz/crash-<target>-<n>.bin` (a slow one to `slow-...`) to reproduce it.
 //!
 //! The memory limit ([`grid_core::limits`]) is set to 2 GiB while fuzzing, so an input
 //! that asks for more is refused, and the peak shows that no input got round it.
@@ -272,7 +272,13 @@ pub fn run_target(t: &Target, inputs: u64, seed: u64, crash_dir: Option<&Path>) 
             }
         };
         if dt > SLOW {
-            slow.fetch_add(1, Ordering::Relaxed);
+            let n = slow.fetch_add(1, Ordering::Relaxed);
+            if let Some(d) = crash_dir
+                && n < 20
+            {
+                let _ = std::fs::create_dir_all(d);
+                let _ = std::fs::write(d.join(format!("slow-{}-{i}.bin", t.name)), &input);
+            }
         }
         let ms = dt.as_secs_f64() * 1e3;
         let mut s = slowest.lock().expect("not poisoned");

@@ -177,6 +177,40 @@ impl EnvMap {
                     )
                     .into());
                 }
+                // Every EXR compression ends in deflate, RLE or a fixed-rate code, none
+                // of which packs more than about 1032 : 1, and a texel takes at least 2
+                // bytes: a header claiming more texels than 512 per file byte is a lie
+                // that would make the reader allocate and fill gigabytes.
+                // The reader allocates a whole tile per chunk: tiles obey the same rule.
+                if let exr::meta::BlockDescription::Tiles(t) = h.blocks {
+                    let area =
+                        (t.tile_size.width() as u64).saturating_mul(t.tile_size.height() as u64);
+                    if area > MAX_TEXELS || area > bytes.len() as u64 * 512 {
+                        return Err(GridError::invalid(
+                            format!("layer {i} tile size"),
+                            (t.tile_size.width(), t.tile_size.height()),
+                            "tiles larger than the file can hold",
+                        )
+                        .into());
+                    }
+                }
+                // Each chunk takes at least an 8-byte offset and an 8-byte chunk header.
+                if h.chunk_count as u64 > bytes.len() as u64 / 16 {
+                    return Err(GridError::invalid(
+                        format!("layer {i} chunk count"),
+                        h.chunk_count,
+                        "more chunks than the file can hold",
+                    )
+                    .into());
+                }
+                if texels > bytes.len() as u64 * 512 {
+                    return Err(GridError::invalid(
+                        format!("layer {i} size"),
+                        (w, hgt),
+                        "more texels than the file can hold (over 512 per byte)",
+                    )
+                    .into());
+                }
                 grid_core::limits::check_memory(
                     &format!("EXR layer {i} of {w} x {hgt} texels"),
                     texels * 32,

@@ -194,3 +194,19 @@ fn the_command_refuses_endless_runs_and_keeps_the_grid_when_the_preview_fails() 
     assert!(GridFile::load(&out).unwrap().into_light().is_ok());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Inputs `cargo xtask fuzz` found slow or crashing, kept so they stay fixed: tiled EXRs
+/// whose tile size (64 × 2^24 and more) made the reader allocate gigabytes.
+#[test]
+fn the_fuzz_corpus_is_rejected() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        let b = std::fs::read(&p).unwrap();
+        let e = EnvMap::from_exr_bytes(&b).unwrap_err().to_string();
+        assert!(e.contains("tile size"), "{}: {e}", p.display());
+        n += 1;
+    }
+    assert!(n >= 2, "corpus missing");
+}
