@@ -117,11 +117,14 @@
 //!    with `A = (1 + p)/2`, `B = (1 - p)/2`: isotropic in a clear cell, and in a dense
 //!    cell the forward light is stopped by the cell's own material (weight `p` straight
 //!    on, 1 straight back, interpolated between: the seed's rule). A cell with `p = 0`
-//!    is opaque: its faces that border non-opaque cells are diffuse surfaces, and it
-//!    sends `F_c = σ_c W_b S · T_after` with fixed weights `W_b`, the mean over those
-//!    faces of the Lambertian lobe `ω_b max(0, u_b · n) / Σ ω max(0, u · n)`
-//!    ([`sweep::surface_weights`]); the downward pass emits its channels' share, the
-//!    upward pass the rest. Neither rule depends on the light, so the sweep is linear.
+//!    is opaque: its faces that border non-opaque cells or the outside through a side are
+//!    diffuse surfaces (below the bottom level is ground, never a surface), and it
+//!    sends `F_c = W_c S · T_after` with fixed weights `W_c`, the mean over those faces
+//!    of the exact Lambertian share of the channel's bin, `∫_b max(0, u · n) dω / π`; a
+//!    horizontal bin's share goes to the channel on the face's side of the horizon
+//!    (both halves for a side face) ([`sweep::surface_weights`]); the downward pass
+//!    emits its channels' share, the upward pass the rest. Neither rule depends on the
+//!    light, so the sweep is linear.
 //!    The outgoing light gains `F_c / μ_c`.
 //! 6. **Re-absorb.** What the weights and `T_after` stopped, `σ_c ω_b/4π S - F_c`
 //!    summed over the channels, was removed by the cell from light travelling along
@@ -161,8 +164,16 @@
 //! |-------|--------------:|--------------------:|----------------:|
 //! | empty | 0.0114 | 0.0126 | 0.0117 |
 //! | uniform fog | 0.0450 | 0.0432 | 0.0165 |
-//! | dense block | 0.0370 | 0.0553 | 0.0117 |
-//! | canopy | 0.0205 | 0.0258 | 0.0133 |
+//! | dense block | 0.0412 | 0.0528 | 0.0117 |
+//! | canopy | 0.0245 | 0.0260 | 0.0133 |
+//!
+//! Opaque surfaces emit with the exact Lambertian share of each bin (step 5) since the
+//! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its
+//! albedo to 1e-3, at any number of ground levels, sun angle or sky). Against the seed's
+//! centre-cosine weights (0.0370 / 0.0553 and 0.0205 / 0.0258 on the block and the
+//! canopy) irradiance improved and average light got worse: the seed's weights starved
+//! the horizontal bins, which hid part of the media's excess reflection (issue 13: the
+//! medium emission rule and the channel cosines are next).
 //!
 //! `cargo run --release -p sweep-cpu --example canonical -- 16 1000000` prints the same
 //! comparison with timings.

@@ -46,6 +46,14 @@ pub struct Channel {
     pub share: f32,
 }
 
+impl Channel {
+    /// 0 for a channel of the downward pass, 1 for the upward pass.
+    #[inline]
+    pub fn pass(&self) -> usize {
+        (self.step.y > 0) as usize
+    }
+}
+
 /// The distinct path lengths through one cell (in `h`) that the channels use, and the
 /// halves of the centre cells': each cell's transmittance `p^e` is computed once per
 /// exponent `e` and level, not once per path.
@@ -228,17 +236,42 @@ enum Emission {
     /// `B = (1 - p)/2`; the rest of each bin's isotropic share is stopped in the cell.
     Medium { a: f32, b: f32 },
     /// An opaque cell (`p = 0`): diffuse (Lambertian) faces where it borders a
-    /// non-opaque cell, with fixed weights per bin (see [`surface_weights`]).
-    Surface { w: &'static [f32; NUM_DIRS] },
+    /// non-opaque cell, with fixed weights per channel (see [`surface_weights`]).
+    Surface { w: &'static SurfaceWeights },
+}
+
+/// How an opaque cell with a given set of exposed faces emits: per channel
+/// (`[pass][bin]`, pass 0 the downward channels, 1 the upward ones) the share of its
+/// scattered light, and the part of that share that leaves the cell's level at once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceWeights {
+    /// Share of the scattered flux sent into each channel (all channels sum to 1).
+    pub w: [[f32; NUM_DIRS]; 2],
+    /// The part of `w` emitted by a top or bottom face into a horizontal bin: it starts
+    /// on the face, above (below) the cell's level, so the cell's level-mates on the
+    /// channel's path (`T_after`) do not stop it.
+    pub free: [[f32; NUM_DIRS]; 2],
 }
 
 /// Emission weights of an opaque cell by the mask of its exposed faces (bit `f` for
-/// the face with normal `FACE_NORMALS[f]`): the mean over the exposed faces of the
-/// Lambertian lobe `omega_b max(0, u_b · n_f) / Σ_b omega_b max(0, u_b · n_f)`. Summing
-/// to 1, they do not depend on the light, so the sweep stays linear. An enclosed cell
-/// (mask 0, unreachable by light) scatters isotropically.
-pub fn surface_weights(mask: u8) -> &'static [f32; NUM_DIRS] {
-    static T: OnceLock<Vec<[f32; NUM_DIRS]>> = OnceLock::new();
+/// the face with normal `FACE_NORMALS[f]`).
+///
+/// Each exposed face is a Lambertian surface: it sends into bin `b` the exact fraction
+/// `∫_b max(0, u · n) dω / π` of what it emits ([`dirs::clipped_cosine`]; the fractions
+/// over all bins sum to 1). A downward bin belongs to the downward pass, an upward one
+/// to the upward pass; a horizontal bin spans both halves of the sphere, and its share
+/// goes to the half on the face's side (a top face emits upward, a bottom face downward,
+/// a side face half into each). A top or bottom face's horizontal light starts on the
+/// face, outside the cell's level, so it is `free` of the level's `T_after`. The weights
+/// are the mean over the exposed faces. They do not depend on the light, so the sweep
+/// stays linear. An enclosed cell (mask 0, unreachable by light) scatters isotropically
+/// (`ω_b / 4π`, horizontal bins halved).
+///
+/// (The seed's rule weighted each bin by `ω_b max(0, u_b · n)` at its centre direction,
+/// which gives horizontal bins nothing: ground light above a Lambertian surface came out
+/// 7 % too bright looking down, measured in `tests/exact.rs`.)
+pub fn surface_weights(mask: u8) -> &'static SurfaceWeights {
+    static T: OnceLock<Vec<SurfaceWeights>> = OnceLock::new();
     let t = T.get_or_init(|| {
         let omega = dirs::solid_angles();
         (0..64u8)
@@ -247,19 +280,40 @@ pub fn surface_weights(mask: u8) -> &'static [f32; NUM_DIRS] {
                     .filter(|f| m & (1 << f) != 0)
                     .map(|f| FACE_NORMALS[f])
                     .collect();
+                let mut w = [[0f64; NUM_DIRS]; 2];
+                let mut free = [[0f64; NUM_DIRS]; 2];
+                // `into(b, side, v)`: v into bin b from a source whose normal has y
+                // component `side` (horizontal bins go to that half, or both for 0).
+                let mut into = |b: usize, side: f32, v: f64| {
+                    let dy = dirs::dir_unit(b).y;
+                    if dy < 0.0 {
+                        w[0][b] += v;
+                    } else if dy > 0.0 {
+                        w[1][b] += v;
+                    } else if side == 0.0 {
+                        w[0][b] += v * 0.5;
+                        w[1][b] += v * 0.5;
+                    } else {
+                        let h = (side > 0.0) as usize;
+                        w[h][b] += v;
+                        free[h][b] += v;
+                    }
+                };
                 if faces.is_empty() {
-                    return std::array::from_fn(|d| omega[d] / (4.0 * PI));
-                }
-                let mut w = [0.0f32; NUM_DIRS];
-                for n in &faces {
-                    let lobe: [f32; NUM_DIRS] =
-                        std::array::from_fn(|d| omega[d] * dirs::dir_unit(d).dot(*n).max(0.0));
-                    let sum: f32 = lobe.iter().sum();
-                    for d in 0..NUM_DIRS {
-                        w[d] += lobe[d] / sum / faces.len() as f32;
+                    for b in 0..NUM_DIRS {
+                        into(b, 0.0, omega[b] as f64 / (4.0 * std::f64::consts::PI));
                     }
                 }
-                w
+                for n in &faces {
+                    for b in 0..NUM_DIRS {
+                        let c = dirs::clipped_cosine(b, n.as_dvec3()) / std::f64::consts::PI;
+                        into(b, n.y, c / faces.len() as f64);
+                    }
+                }
+                SurfaceWeights {
+                    w: w.map(|h| h.map(|v| v as f32)),
+                    free: free.map(|h| h.map(|v| v as f32)),
+                }
             })
             .collect()
     });
@@ -293,7 +347,20 @@ impl Emission {
                 let um = p.m[0] * chn.unit.x + p.m[1] * chn.unit.y + p.m[2] * chn.unit.z;
                 ((p.s * *a - um * *b) * (w * chn.share)).max(Vec3::ZERO)
             }
-            Emission::Surface { w } => p.s * (w[chn.bin] * chn.share),
+            Emission::Surface { w } => p.s * w.w[chn.pass()][chn.bin],
+        }
+    }
+
+    /// What of `flux` (this channel's emission) leaves the cell's level along a path of
+    /// transmittance `t_after`.
+    #[inline]
+    fn leaving(&self, p: &Pending, chn: &Channel, flux: Vec3, t_after: f32) -> Vec3 {
+        match self {
+            Emission::Medium { .. } => flux * t_after,
+            Emission::Surface { w } => {
+                let free = p.s * w.free[chn.pass()][chn.bin];
+                (flux - free) * t_after + free
+            }
         }
     }
 
@@ -304,7 +371,7 @@ impl Emission {
             Emission::Medium { .. } => {
                 p.s * (dirs::solid_angles()[chn.bin] / (4.0 * PI) * chn.share)
             }
-            Emission::Surface { w } => p.s * (w[chn.bin] * chn.share),
+            Emission::Surface { w } => p.s * w.w[chn.pass()][chn.bin],
         }
     }
 
@@ -667,7 +734,7 @@ impl Ctx {
                             let mut lost_m = [Vec3::ZERO; 3];
                             for (c, chn) in self.ch.iter().enumerate() {
                                 let f = em.flux(&own, chn);
-                                let leaving = f * t_after[ci][c];
+                                let leaving = em.leaving(&own, chn, f, t_after[ci][c]);
                                 let lost = (em.full(&own, chn) - leaving).max(Vec3::ZERO);
                                 lost_s += lost;
                                 lost_m[0] += lost * chn.unit.x;
@@ -698,8 +765,15 @@ impl Ctx {
     }
 }
 
-/// Mask of each opaque cell's faces that border a non-opaque cell or the outside
-/// (bit order of [`FACE_NORMALS`]); 0 for cells with `p > 0`.
+/// Mask of each opaque cell's faces that can receive light (bit order of
+/// [`FACE_NORMALS`]); 0 for cells with `p > 0`.
+///
+/// A face is exposed when it borders a non-opaque cell, or the outside through a side
+/// (open sides: the empty world under the sky; given: the halo). The bottom face of a
+/// bottom-level cell is **never** exposed: below the grid is the ground the bottom level
+/// stands on, not empty space, so an opaque cell there emits nothing downward (emitting
+/// half the ground's bounce light into nothing was a leak: a one-level ground reflected
+/// half its albedo).
 pub fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
     let d = *material.desc();
     let dims = d.dims().as_ivec3();
@@ -717,7 +791,9 @@ pub fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
                     q.x = q.x.rem_euclid(dims.x);
                     q.z = q.z.rem_euclid(dims.z);
                 }
-                let open = if q.cmplt(IVec3::ZERO).any() || q.cmpge(dims).any() {
+                let open = if q.y < 0 {
+                    false // the ground below the grid
+                } else if q.cmplt(IVec3::ZERO).any() || q.cmpge(dims).any() {
                     true
                 } else {
                     cells[d.index_unchecked(q.as_uvec3())].pass > 0.0

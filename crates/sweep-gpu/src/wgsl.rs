@@ -123,14 +123,21 @@ pub fn sweep_tables() -> String {
     s
 }
 
+/// Where the `free` half of [`surface_weight_table`] starts.
+pub const SURFACE_FREE_OFFSET: usize = 64 * 2 * grid_core::NUM_DIRS;
+
 /// The opaque cells' surface weights (`sweep_cpu::sweep::surface_weights`) for all 64
-/// exposure masks, `mask * 26 + bin`, padded to 16-byte rows: the contents of phase 2's
-/// uniform buffer (a uniform, not a constant: a dynamically indexed constant array this
-/// size makes shader compilers build it in private memory per invocation).
+/// exposure masks and both passes: `w` at `(mask * 2 + up) * 26 + bin`, then `free` at
+/// `SURFACE_FREE_OFFSET` plus the same index, padded to 16-byte rows:
+/// the contents of phase 2's uniform buffer (a uniform, not a constant: a dynamically
+/// indexed constant array this size makes shader compilers build it in private memory
+/// per invocation).
 pub fn surface_weight_table() -> Vec<f32> {
     let mut v: Vec<f32> = (0..64u8)
-        .flat_map(|m| *sweep_cpu::sweep::surface_weights(m))
+        .flat_map(|m| sweep_cpu::sweep::surface_weights(m).w.concat())
         .collect();
+    debug_assert_eq!(v.len(), SURFACE_FREE_OFFSET);
+    v.extend((0..64u8).flat_map(|m| sweep_cpu::sweep::surface_weights(m).free.concat()));
     v.resize(v.len().div_ceil(4) * 4, 0.0);
     v
 }
@@ -195,6 +202,10 @@ pub fn sweep_phase2() -> String {
         .replace(
             "SURFACE_ROWS_GEN",
             &format!("{}", surface_weight_table().len() / 4),
+        )
+        .replace(
+            "SURFACE_FREE_OFFSET_GEN",
+            &format!("{SURFACE_FREE_OFFSET}u"),
         );
     format!(
         "{}\n{}\n{}\n{}",

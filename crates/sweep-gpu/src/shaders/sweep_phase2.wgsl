@@ -72,7 +72,17 @@ fn emission(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f
         let um = p.m0 * u.x + p.m1 * u.y + p.m2 * u.z;
         return max((p.s * a - um * b) * (w * CH_SHARE[c]), vec3<f32>(0.0));
     }
-    return p.s * (surface_w(mask * NUM_DIRS + bin) * CH_SHARE[c]);
+    return p.s * surface_w((mask * 2u + up) * NUM_DIRS + bin);
+}
+
+// What of flux f leaves the cell's level through T_after (sweep-cpu's Emission::leaving):
+// a top or bottom face's horizontal light is free of the level's path cells.
+fn leaving(p: Pending, f: vec3<f32>, t_after: f32, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> {
+    if (pass_through > 0.0) {
+        return f * t_after;
+    }
+    let free = p.s * surface_w(SURFACE_FREE_OFFSET_GEN + (mask * 2u + up) * NUM_DIRS + ch_bin(up, c));
+    return (f - free) * t_after + free;
 }
 
 // The channel's share before anything stops it (Emission::full).
@@ -81,7 +91,7 @@ fn full(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> 
     if (pass_through > 0.0) {
         return p.s * (SOLID_ANGLE[bin] / FOUR_PI * CH_SHARE[c]);
     }
-    return p.s * (surface_w(mask * NUM_DIRS + bin) * CH_SHARE[c]);
+    return p.s * surface_w((mask * 2u + up) * NUM_DIRS + bin);
 }
 
 fn budget(p: Pending, pass_through: f32, mask: u32, up: u32) -> vec3<f32> {
@@ -151,7 +161,7 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
         var l2 = vec3<f32>(0.0);
         for (var c = 0u; c < CH; c++) {
             let f = emission(own, mat.w, mask, P.up, c);
-            let leaving = f * scratch[li * SCRATCH + T_AFTER_OFFSET + c];
+            let leaving = leaving(own, f, scratch[li * SCRATCH + T_AFTER_OFFSET + c], mat.w, mask, P.up, c);
             let lost = max(full(own, mat.w, mask, P.up, c) - leaving, vec3<f32>(0.0));
             let u = DIR_UNIT[ch_bin(P.up, c)];
             lost_s += lost;
