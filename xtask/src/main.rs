@@ -6,6 +6,10 @@
 //!   Monte Carlo reference, and the work the library skips; writes a table, JSON and a
 //!   log-log plot (see `bench` module docs). The quick default takes a few minutes on two
 //!   cores; `--full` uses larger grids and a longer reference.
+//! * `exact [--max-passes N]`: the sweep against problems with exact answers (white
+//!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
+//!   tolerance against optical depth and albedo (`sweep_cpu::exact`); writes
+//!   `target/bench/exact.txt`.
 //! * `fuzz [--inputs N] [--target NAME]... [--seed S]`: every reader of user files (grid,
 //!   scene, volume, gltf, exr, png) over N generated inputs (default one million per
 //!   target): panics, slow inputs, peak memory (see `xtask::fuzz`). Writes
@@ -49,6 +53,13 @@ enum Task {
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// The sweep against exact answers (white furnace, Lambertian ground, Chandrasekhar's
+    /// half-space albedo) and its passes to tolerance against optical depth and albedo.
+    Exact {
+        /// Most passes per case.
+        #[arg(long, default_value_t = 1024)]
+        max_passes: u32,
     },
     /// Feed every file reader generated bad inputs: panics, slow inputs, peak memory.
     Fuzz {
@@ -102,11 +113,43 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Task::Exact { max_passes } => exact(&root, max_passes),
         Task::Fuzz {
             inputs,
             targets,
             seed,
         } => fuzz(&root, inputs, &targets, seed),
+    }
+}
+
+fn exact(root: &std::path::Path, max_passes: u32) -> ExitCode {
+    use sweep_cpu::exact;
+    let mut cases = exact::measure(max_passes);
+    for depth in [1, 10, 100, 1000] {
+        for w in [0.5, 0.9, 0.99, 0.999] {
+            eprintln!("slab of optical depth {depth}, albedo {w}...");
+            cases.push(exact::convergence(depth, w, max_passes));
+        }
+    }
+    let text = format!(
+        "cargo xtask exact --max-passes {max_passes}\n{}",
+        exact::table(&cases)
+    );
+    print!("{text}");
+    let out = root.join("target/bench");
+    let _ = std::fs::create_dir_all(&out);
+    match std::fs::write(out.join("exact.txt"), &text) {
+        Ok(()) => {
+            println!("wrote {}", out.join("exact.txt").display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!(
+                "xtask exact: writing {}: {e}",
+                out.join("exact.txt").display()
+            );
+            ExitCode::FAILURE
+        }
     }
 }
 

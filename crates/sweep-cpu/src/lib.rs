@@ -178,10 +178,30 @@
 //! `cargo run --release -p sweep-cpu --example canonical -- 16 1000000` prints the same
 //! comparison with timings.
 //!
+//! ## Against exact answers
+//!
+//! [`exact`] holds problems whose answers share none of the sweep's assumptions, and
+//! `cargo xtask exact` measures them (2-core VM, release):
+//!
+//! | problem | exact | sweep |
+//! |---------|------:|------:|
+//! | one-level Lambertian ground, albedo 0.3, zenith sun | 0.3000 | 0.3000 |
+//! | white furnace, random white blobs, 12³, smoothing 0.25: largest deviation of the average light / of irradiance | 0 | 22 % / 47 % |
+//! | half-space albedo, w 0.5, cells of optical depth 0.05 / 0.69 / 3 | 0.1152 | +7 % / +26 % / +59 % |
+//! | half-space albedo, w 0.9, same cells | 0.4149 | +3.5 % / +12 % / +29 % |
+//! | half-space albedo, w 0.99, same cells | 0.7527 | +1.2 % / +4.0 % / +9.6 % |
+//! | passes to tolerance 1e-4, slab of optical depth 100, w 0.5 / 0.9 / 0.99 / 0.999 | | 8 / 38 / 319 / over 1024 |
+//!
+//! Surfaces are exact; media are not: they reflect too much, more so the thicker the
+//! cells, and source iteration slows down as the albedo nears 1. Both are issue 13's
+//! open work (the medium emission rule, the light recorded at a point, the channel
+//! cosines, and an acceleration between passes).
+//!
 //! **Edge approximation.** The paths of points outside the grid are not traced, so light
 //! leaving through a side skips the (at most two) edge cells its path would still cross.
 //! Periodic boundaries have no edge.
 
+pub mod exact;
 pub mod reference;
 pub mod scenes;
 pub mod sky;

@@ -1,0 +1,393 @@
+//! Transport problems with exact answers that share none of the sweep's assumptions,
+//! and the sweep's error on each: the yardstick of issue 13's rules work.
+//!
+//! - **White furnace**: every cell a white medium (albedo 1) inside uniform radiance 1.
+//!   The exact light is radiance 1 from every direction at every point (average light
+//!   1, irradiance π on any normal), whatever the medium.
+//! - **Lambertian ground**: periodic sides, the bottom levels opaque ground of albedo
+//!   `a`: exactly `a` of any incident light leaves through the top.
+//! - **Half-space albedo** (Chandrasekhar): a thick slab of isotropic scatterers of
+//!   single-scattering albedo `w` under a collimated beam at cosine `μ₀` reflects
+//!   `1 − H(μ₀) √(1 − w)` of it, and under a uniform sky `1 − 2 √(1 − w) ∫₀¹ H(μ) μ dμ`,
+//!   with Chandrasekhar's H-function ([`h_function`]).
+//!
+//! [`measure`] runs the sweep on each and reports its error; `cargo xtask bench` prints
+//! the table.
+
+use std::f64::consts::PI;
+
+use grid_core::glam::{UVec3, Vec3};
+use grid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions};
+
+/// Gauss–Legendre nodes and weights on `[0, 1]` (`n` points, Newton iteration on the
+/// Legendre polynomial; exact for polynomials of degree `2n − 1`).
+pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        // Initial guess (Tricomi), then Newton on P_n.
+        let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, x);
+            for k in 2..=n {
+                let k = k as f64;
+                let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+                p0 = p1;
+                p1 = p2;
+            }
+            dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+            let dx = p1 / dp;
+            x -= dx;
+            if dx.abs() < 1e-15 {
+                break;
+            }
+        }
+        let w = 2.0 / ((1.0 - x * x) * dp * dp);
+        out.push((0.5 * (1.0 - x), 0.5 * w));
+    }
+    out
+}
+
+/// Chandrasekhar's H-function for isotropic scattering of albedo `w` (in `[0, 1)`; the
+/// iteration converges too slowly at `w = 1`, where a half-space reflects everything),
+/// evaluated at the cosines `mu`: the fixed point of
+/// `1 / H(μ) = √(1 − w) + (w / 2) ∫₀¹ μ' H(μ') / (μ + μ') dμ'`, iterated on 64
+/// Gauss–Legendre nodes and extended to any `μ` through the same integral.
+pub fn h_function(w: f64, mu: &[f64]) -> Vec<f64> {
+    let q = gauss_legendre_01(64);
+    let s = (1.0 - w).max(0.0).sqrt();
+    let mut h: Vec<f64> = vec![1.0; q.len()];
+    for _ in 0..10_000 {
+        let next: Vec<f64> = q
+            .iter()
+            .map(|&(m, _)| {
+                let integral: f64 = q
+                    .iter()
+                    .zip(&h)
+                    .map(|(&(m2, wt), &h2)| wt * m2 * h2 / (m + m2))
+                    .sum();
+                1.0 / (s + 0.5 * w * integral)
+            })
+            .collect();
+        let change = next
+            .iter()
+            .zip(&h)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        h = next;
+        if change < 1e-13 {
+            break;
+        }
+    }
+    mu.iter()
+        .map(|&m| {
+            let integral: f64 = q
+                .iter()
+                .zip(&h)
+                .map(|(&(m2, wt), &h2)| wt * m2 * h2 / (m + m2))
+                .sum();
+            1.0 / (s + 0.5 * w * integral)
+        })
+        .collect()
+}
+
+/// Fraction of a collimated beam at cosine `mu0` that a half-space of isotropic
+/// scatterers of albedo `w` reflects: `1 − H(μ₀) √(1 − w)`.
+pub fn half_space_albedo_beam(w: f64, mu0: f64) -> f64 {
+    1.0 - h_function(w, &[mu0])[0] * (1.0 - w).sqrt()
+}
+
+/// Fraction of uniform (isotropic) incident radiance that the half-space reflects:
+/// `1 − 2 √(1 − w) ∫₀¹ H(μ) μ dμ`.
+pub fn half_space_albedo_diffuse(w: f64) -> f64 {
+    let q = gauss_legendre_01(64);
+    let mu: Vec<f64> = q.iter().map(|p| p.0).collect();
+    let h = h_function(w, &mu);
+    let integral: f64 = q.iter().zip(&h).map(|(p, h)| p.1 * p.0 * h).sum();
+    1.0 - 2.0 * (1.0 - w).sqrt() * integral
+}
+
+/// One measured exact-answer case.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Case {
+    /// What was swept.
+    pub name: String,
+    /// The exact answer.
+    pub exact: f64,
+    /// The sweep's answer (for the furnace: its largest deviation, added to 1).
+    pub swept: f64,
+    /// `swept / exact − 1`.
+    pub error: f64,
+    /// Passes the sweep ran.
+    pub passes: u32,
+    /// Flux still pending when it stopped, as a fraction of the input.
+    pub pending: f64,
+    /// Wall time of the sweep, seconds.
+    pub seconds: f64,
+}
+
+fn options(max_passes: u32, tolerance: f32) -> SweepOptions {
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = max_passes;
+    o.tolerance = tolerance;
+    o
+}
+
+fn case(name: String, exact: f64, swept: f64, s: &crate::Sweep, seconds: f64) -> Case {
+    Case {
+        name,
+        exact,
+        swept,
+        error: swept / exact - 1.0,
+        passes: s.output.stats.passes,
+        pending: s.balance.pending.x / s.balance.input().x.max(1e-300),
+        seconds,
+    }
+}
+
+/// A deterministic random material of white medium blobs (pass-through 0.02..1,
+/// albedo 1) in empty space, `n³` cells.
+pub fn furnace_material(n: u32, seed: u64) -> MaterialGrid {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(n)).expect("valid grid");
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let blobs: Vec<(Vec3, f32, f32)> = (0..6)
+        .map(|_| {
+            (
+                Vec3::new(rng.f32(), rng.f32(), rng.f32()) * n as f32,
+                1.0 + rng.f32() * n as f32 * 0.25,
+                0.02 + 0.9 * rng.f32(),
+            )
+        })
+        .collect();
+    let cells = (0..d.point_count())
+        .map(|i| {
+            let p = d.coords(i).expect("in range").as_vec3();
+            let pass = blobs
+                .iter()
+                .filter(|b| p.distance(b.0) < b.1)
+                .map(|b| b.2)
+                .fold(1.0f32, f32::min);
+            Material {
+                reflectance: Vec3::ONE,
+                pass,
+            }
+        })
+        .collect();
+    MaterialGrid::new(d, cells).expect("valid material")
+}
+
+/// The white furnace on [`furnace_material`]: the largest deviation of the average
+/// light from 1 and of the irradiance on the six axes from π, over all points.
+pub fn furnace(n: u32, seed: u64, smoothing: f32) -> (Case, Case) {
+    let m = furnace_material(n, seed);
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
+    };
+    let mut o = options(400, 1e-6);
+    o.smoothing = smoothing;
+    let t = std::time::Instant::now();
+    let s = crate::run(&m, &b, &o).expect("valid furnace");
+    let secs = t.elapsed().as_secs_f64();
+    let g = s.output.bins.as_ref().expect("bins");
+    let (mut avg, mut irr) = (0f64, 0f64);
+    for l in g.data() {
+        avg = avg.max((l.average().x as f64 - 1.0).abs());
+        for n in grid_core::light::AMBIENT_AXES {
+            irr = irr.max((l.irradiance(n).x as f64 / PI - 1.0).abs());
+        }
+    }
+    let name = |what: &str| format!("furnace {n}³, smoothing {smoothing}: {what}");
+    (
+        case(name("average light"), 1.0, 1.0 + avg, &s, secs),
+        case(name("irradiance"), 1.0, 1.0 + irr, &s, secs),
+    )
+}
+
+/// A slab of isotropic scatterers (albedo `w`, cells of pass-through `pass`) thick enough
+/// to be a half-space (total optical depth `depth`), periodic sides, lit from above by
+/// a zenith beam; compared with [`half_space_albedo_beam`] at `μ₀ = 1`.
+pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
+    let tau = -(pass as f64).ln();
+    let levels = ((depth as f64 / tau).ceil() as u32).max(2);
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, levels, 4)).expect("valid grid");
+    let m = MaterialGrid::filled(
+        d,
+        Material {
+            reflectance: Vec3::splat(w),
+            pass,
+        },
+    )
+    .expect("valid material");
+    let mut top = BinLight::ZERO;
+    top.0[grid_core::dirs::DOWN] = Vec3::ONE;
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(top)
+    };
+    let t = std::time::Instant::now();
+    let s = crate::run(&m, &b, &options(max_passes, 1e-5)).expect("valid slab");
+    let secs = t.elapsed().as_secs_f64();
+    let swept = s.balance.top_out.x / s.balance.top_in.x;
+    case(
+        format!("half-space w {w}, cell optical depth {tau:.2}, {levels} levels"),
+        half_space_albedo_beam(w as f64, 1.0),
+        swept,
+        &s,
+        secs,
+    )
+}
+
+/// One level of opaque ground of albedo `a` under a zenith beam, periodic sides: the
+/// fraction reflected against `a`.
+pub fn lambertian_ground(a: f32) -> Case {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(8, 6, 8)).expect("valid grid");
+    let mut cells = vec![Material::EMPTY; d.point_count()];
+    for c in &mut cells[d.level_range(0)] {
+        *c = Material::opaque(Vec3::splat(a));
+    }
+    let m = MaterialGrid::new(d, cells).expect("valid material");
+    let mut top = BinLight::ZERO;
+    top.0[grid_core::dirs::DOWN] = Vec3::ONE;
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(top)
+    };
+    let t = std::time::Instant::now();
+    let s = crate::run(&m, &b, &options(64, 1e-7)).expect("valid ground");
+    let secs = t.elapsed().as_secs_f64();
+    let swept = s.balance.top_out.x / s.balance.top_in.x;
+    case(
+        format!("one-level Lambertian ground, albedo {a}"),
+        a as f64,
+        swept,
+        &s,
+        secs,
+    )
+}
+
+/// Every case: the furnace (smoothing 0 and the default), one-level ground, and the
+/// half-space for `w` in {0.1, 0.5, 0.9, 0.99} and cell optical depths 0.05, 0.69, 3
+/// (total depth 40), at most `max_passes` passes each.
+pub fn measure(max_passes: u32) -> Vec<Case> {
+    let mut out = Vec::new();
+    for smoothing in [0.0, 0.25] {
+        let (a, i) = furnace(12, 7, smoothing);
+        out.push(a);
+        out.push(i);
+    }
+    out.push(lambertian_ground(0.3));
+    for w in [0.1, 0.5, 0.9, 0.99] {
+        for pass in [0.95f32, 0.5, 0.05] {
+            out.push(half_space(w, pass, 40.0, max_passes));
+        }
+    }
+    out
+}
+
+/// Passes to tolerance 1e-4 (at most `max_passes`) of a slab of total optical depth
+/// `depth` (cells of optical depth 1) and albedo `w` under a zenith beam: the source
+/// iteration slows down as the slab thickens and `w` nears 1 (issue 13 item 4). The
+/// case's `exact` is the half-space albedo (the slab's own is lower when it is thin).
+pub fn convergence(depth: u32, w: f32, max_passes: u32) -> Case {
+    let pass = (-1.0f32).exp();
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, depth.max(2), 4)).expect("valid grid");
+    let m = MaterialGrid::filled(
+        d,
+        Material {
+            reflectance: Vec3::splat(w),
+            pass,
+        },
+    )
+    .expect("valid material");
+    let mut top = BinLight::ZERO;
+    top.0[grid_core::dirs::DOWN] = Vec3::ONE;
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(top)
+    };
+    let t = std::time::Instant::now();
+    let s = crate::run(&m, &b, &options(max_passes, 1e-4)).expect("valid slab");
+    let secs = t.elapsed().as_secs_f64();
+    case(
+        format!("slab of optical depth {depth}, w {w}: passes to 1e-4"),
+        half_space_albedo_beam(w as f64, 1.0),
+        s.balance.top_out.x / s.balance.top_in.x,
+        &s,
+        secs,
+    )
+}
+
+/// One line per case: name, exact, swept, error, passes, pending, milliseconds.
+pub fn table(cases: &[Case]) -> String {
+    use std::fmt::Write;
+    let mut s = format!(
+        "{:64} {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}\n",
+        "case", "exact", "sweep", "error", "passes", "pending", "ms"
+    );
+    for c in cases {
+        let _ = writeln!(
+            s,
+            "{:64} {:>8.4} {:>8.4} {:>+7.1}% {:>6} {:>9.1e} {:>9.1}",
+            c.name,
+            c.exact,
+            c.swept,
+            100.0 * c.error,
+            c.passes,
+            c.pending,
+            c.seconds * 1e3
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        let q = gauss_legendre_01(8);
+        assert!((q.iter().map(|p| p.1).sum::<f64>() - 1.0).abs() < 1e-14);
+        // ∫₀¹ x^15 dx = 1/16 (degree 2n − 1).
+        let v: f64 = q.iter().map(|p| p.1 * p.0.powi(15)).sum();
+        assert!((v - 1.0 / 16.0).abs() < 1e-14, "{v}");
+    }
+
+    #[test]
+    fn h_function_matches_known_values() {
+        for w in [0.1, 0.5, 0.9, 0.99] {
+            let h = h_function(w, &[0.0, 1.0]);
+            assert!((h[0] - 1.0).abs() < 1e-9, "w {w}: H(0) = {}", h[0]);
+            assert!(h[1] > 1.0, "w {w}: H(1) = {}", h[1]);
+        }
+        // The zeroth moment identity: ∫₀¹ H(μ) dμ = 2 (1 − √(1 − w)) / w.
+        for w in [0.1, 0.5, 0.9, 0.99] {
+            let q = gauss_legendre_01(64);
+            let mu: Vec<f64> = q.iter().map(|p| p.0).collect();
+            let h = h_function(w, &mu);
+            let m0: f64 = q.iter().zip(&h).map(|(p, h)| p.1 * h).sum();
+            let exact = 2.0 * (1.0 - (1.0 - w).sqrt()) / w;
+            assert!((m0 - exact).abs() < 1e-6, "w {w}: {m0} vs {exact}");
+        }
+        // The issue's figures: 0.1152 (w = 0.5) and 0.4150 (w = 0.9) at normal incidence.
+        assert!((half_space_albedo_beam(0.5, 1.0) - 0.1152).abs() < 1e-4);
+        assert!((half_space_albedo_beam(0.9, 1.0) - 0.4150).abs() < 1e-4);
+        // Nearly white half-spaces reflect nearly everything, monotonically in w.
+        let r: Vec<f64> = [0.1, 0.5, 0.9, 0.99]
+            .map(half_space_albedo_diffuse)
+            .to_vec();
+        assert!(
+            r.windows(2).all(|p| p[0] < p[1]) && r[3] < 1.0 && r[3] > 0.7,
+            "{r:?}"
+        );
+    }
+
+    #[test]
+    fn the_ground_case_is_exact_and_the_furnace_conserves_energy() {
+        let g = lambertian_ground(0.3);
+        assert!(g.error.abs() < 1e-3, "{g:?}");
+        let (a, _) = furnace(6, 3, 0.0);
+        assert!(a.pending < 1e-3, "{a:?}");
+    }
+}
