@@ -53,6 +53,19 @@ pub const MAX_HEIGHTMAP_SAMPLES: u64 = 1 << 30;
 /// Largest heightmap PNG read: 1 GiB.
 pub const MAX_HEIGHTMAP_FILE_BYTES: u64 = 1 << 30;
 
+/// `width × depth` if it is at most [`MAX_HEIGHTMAP_SAMPLES`].
+fn check_samples(width: u32, depth: u32) -> Result<u64, GridError> {
+    let count = width as u64 * depth as u64;
+    if count > MAX_HEIGHTMAP_SAMPLES {
+        return Err(GridError::invalid(
+            "width x depth",
+            (width, depth),
+            "more than 2^30 height samples",
+        ));
+    }
+    Ok(count)
+}
+
 /// Decodes an image whose sides are at most `max_side`, refusing before decoding one
 /// whose `bytes_per_texel` × texels would pass the memory limit. Panics of the decoder
 /// become errors.
@@ -101,14 +114,7 @@ impl Heightmap {
         depth: u32,
         f: impl Fn(f32, f32) -> f32,
     ) -> Result<Self, GridError> {
-        let count = width as u64 * depth as u64;
-        if count > MAX_HEIGHTMAP_SAMPLES {
-            return Err(GridError::invalid(
-                "width x depth",
-                (width, depth),
-                "more than 2^30 height samples",
-            ));
-        }
+        let count = check_samples(width, depth)?;
         grid_core::limits::check_memory(&format!("a {width} x {depth} heightmap"), count * 4)?;
         let mut heights = Vec::with_capacity(count as usize);
         for k in 0..depth {
@@ -147,14 +153,7 @@ impl Heightmap {
                 "needs at least 2 x 2 samples",
             ));
         }
-        let count = width as u64 * depth as u64;
-        if count > MAX_HEIGHTMAP_SAMPLES {
-            return Err(GridError::invalid(
-                "width x depth",
-                (width, depth),
-                "more than 2^30 height samples",
-            ));
-        }
+        let count = check_samples(width, depth)?;
         if heights.len() as u64 != count {
             return Err(GridError::LengthMismatch {
                 field: "heights",

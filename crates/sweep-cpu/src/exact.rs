@@ -204,12 +204,9 @@ pub fn furnace(n: u32, seed: u64, smoothing: f32) -> (Case, Case) {
     )
 }
 
-/// A slab of isotropic scatterers (albedo `w`, cells of pass-through `pass`) thick enough
-/// to be a half-space (total optical depth `depth`), periodic sides, lit from above by
-/// a zenith beam; compared with [`half_space_albedo_beam`] at `μ₀ = 1`.
-pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
-    let tau = -(pass as f64).ln();
-    let levels = ((depth as f64 / tau).ceil() as u32).max(2);
+/// `levels` levels of 4 × 4 cells of a uniform medium (albedo `w`, pass-through `pass`),
+/// periodic sides, a zenith beam of 1 from above.
+fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary) {
     let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, levels, 4)).expect("valid grid");
     let m = MaterialGrid::filled(
         d,
@@ -225,6 +222,16 @@ pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(top)
     };
+    (m, b)
+}
+
+/// A slab of isotropic scatterers (albedo `w`, cells of pass-through `pass`) thick enough
+/// to be a half-space (total optical depth `depth`), periodic sides, lit from above by
+/// a zenith beam; compared with [`half_space_albedo_beam`] at `μ₀ = 1`.
+pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
+    let tau = -(pass as f64).ln();
+    let levels = ((depth as f64 / tau).ceil() as u32).max(2);
+    let (m, b) = beam_slab(w, pass, levels);
     let t = std::time::Instant::now();
     let s = crate::run(&m, &b, &options(max_passes, 1e-5)).expect("valid slab");
     let secs = t.elapsed().as_secs_f64();
@@ -290,22 +297,7 @@ pub fn measure(max_passes: u32) -> Vec<Case> {
 /// iteration slows down as the slab thickens and `w` nears 1 (issue 13 item 4). The
 /// case's `exact` is the half-space albedo (the slab's own is lower when it is thin).
 pub fn convergence(depth: u32, w: f32, max_passes: u32) -> Case {
-    let pass = (-1.0f32).exp();
-    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, depth.max(2), 4)).expect("valid grid");
-    let m = MaterialGrid::filled(
-        d,
-        Material {
-            reflectance: Vec3::splat(w),
-            pass,
-        },
-    )
-    .expect("valid material");
-    let mut top = BinLight::ZERO;
-    top.0[grid_core::dirs::DOWN] = Vec3::ONE;
-    let b = Boundary {
-        sides: SideBoundary::Periodic,
-        ..Boundary::open_sky(top)
-    };
+    let (m, b) = beam_slab(w, (-1.0f32).exp(), depth.max(2));
     let t = std::time::Instant::now();
     let s = crate::run(&m, &b, &options(max_passes, 1e-4)).expect("valid slab");
     let secs = t.elapsed().as_secs_f64();

@@ -57,6 +57,19 @@ pub const MAX_TEXELS: u64 = 1 << 28;
 /// Largest EXR file [`EnvMap::load_exr`] reads: 2 GiB.
 pub const MAX_EXR_BYTES: u64 = 2 << 30;
 
+/// `width × height` if it is at most [`MAX_TEXELS`].
+fn check_texels(width: u32, height: u32) -> Result<u64, GridError> {
+    let count = width as u64 * height as u64;
+    if count > MAX_TEXELS {
+        return Err(GridError::invalid(
+            "width x height",
+            (width, height),
+            "more than 2^28 texels in one environment map",
+        ));
+    }
+    Ok(count)
+}
+
 /// An equirectangular radiance map (see the module docs for the mapping).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvMap {
@@ -75,15 +88,7 @@ impl EnvMap {
         if height < 2 || !height.is_multiple_of(2) {
             return Err(GridError::invalid("height", height, "must be even and at least 2").into());
         }
-        let count = width as u64 * height as u64;
-        if count > MAX_TEXELS {
-            return Err(GridError::invalid(
-                "width x height",
-                (width, height),
-                "more than 2^28 texels in one environment map",
-            )
-            .into());
-        }
+        let count = check_texels(width, height)?;
         if texels.len() as u64 != count {
             return Err(GridError::LengthMismatch {
                 field: "texels",
@@ -115,14 +120,7 @@ impl EnvMap {
         height: u32,
         radiance: impl Fn(Vec3) -> Vec3,
     ) -> Result<Self, SkyError> {
-        if width as u64 * height as u64 > MAX_TEXELS {
-            return Err(GridError::invalid(
-                "width x height",
-                (width, height),
-                "more than 2^28 texels in one environment map",
-            )
-            .into());
-        }
+        check_texels(width, height)?;
         let mut texels = Vec::with_capacity(width as usize * height as usize);
         for y in 0..height {
             for x in 0..width {
