@@ -112,6 +112,20 @@ pub fn checked_bytes(field: &str, factors: &[u64]) -> Result<u64, GridError> {
         .ok_or_else(|| GridError::invalid(field, factors, "size overflows 64 bits"))
 }
 
+/// `a × b` (the sides of an image, a heightmap, ...) if it is at most `max`; else an
+/// error naming `field`.
+pub fn checked_count(field: &str, a: u32, b: u32, max: u64) -> Result<u64, GridError> {
+    let count = a as u64 * b as u64;
+    if count > max {
+        return Err(GridError::InvalidField {
+            field: field.to_string(),
+            value: format!("{a} x {b}"),
+            reason: "too many samples for one map",
+        });
+    }
+    Ok(count)
+}
+
 /// Checks that allocating `bytes` for `what` stays within [`memory_limit`].
 pub fn check_memory(what: &str, bytes: u64) -> Result<(), GridError> {
     let limit = memory_limit();

@@ -55,15 +55,7 @@ pub const MAX_HEIGHTMAP_FILE_BYTES: u64 = 1 << 30;
 
 /// `width × depth` if it is at most [`MAX_HEIGHTMAP_SAMPLES`].
 fn check_samples(width: u32, depth: u32) -> Result<u64, GridError> {
-    let count = width as u64 * depth as u64;
-    if count > MAX_HEIGHTMAP_SAMPLES {
-        return Err(GridError::invalid(
-            "width x depth",
-            (width, depth),
-            "more than 2^30 height samples",
-        ));
-    }
-    Ok(count)
+    grid_core::limits::checked_count("width x depth", width, depth, MAX_HEIGHTMAP_SAMPLES)
 }
 
 /// Decodes an image whose sides are at most `max_side`, refusing before decoding one

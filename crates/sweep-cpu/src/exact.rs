@@ -56,19 +56,18 @@ pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
 pub fn h_function(w: f64, mu: &[f64]) -> Vec<f64> {
     let q = gauss_legendre_01(64);
     let s = (1.0 - w).max(0.0).sqrt();
+    // One application of the right-hand side at cosine `m`, from H on the nodes.
+    let step = |h: &[f64], m: f64| {
+        let integral: f64 = q
+            .iter()
+            .zip(h)
+            .map(|(&(m2, wt), &h2)| wt * m2 * h2 / (m + m2))
+            .sum();
+        1.0 / (s + 0.5 * w * integral)
+    };
     let mut h: Vec<f64> = vec![1.0; q.len()];
     for _ in 0..10_000 {
-        let next: Vec<f64> = q
-            .iter()
-            .map(|&(m, _)| {
-                let integral: f64 = q
-                    .iter()
-                    .zip(&h)
-                    .map(|(&(m2, wt), &h2)| wt * m2 * h2 / (m + m2))
-                    .sum();
-                1.0 / (s + 0.5 * w * integral)
-            })
-            .collect();
+        let next: Vec<f64> = q.iter().map(|&(m, _)| step(&h, m)).collect();
         let change = next
             .iter()
             .zip(&h)
@@ -79,16 +78,7 @@ pub fn h_function(w: f64, mu: &[f64]) -> Vec<f64> {
             break;
         }
     }
-    mu.iter()
-        .map(|&m| {
-            let integral: f64 = q
-                .iter()
-                .zip(&h)
-                .map(|(&(m2, wt), &h2)| wt * m2 * h2 / (m + m2))
-                .sum();
-            1.0 / (s + 0.5 * w * integral)
-        })
-        .collect()
+    mu.iter().map(|&m| step(&h, m)).collect()
 }
 
 /// Fraction of a collimated beam at cosine `mu0` that a half-space of isotropic

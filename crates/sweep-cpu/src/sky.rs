@@ -59,15 +59,7 @@ pub const MAX_EXR_BYTES: u64 = 2 << 30;
 
 /// `width × height` if it is at most [`MAX_TEXELS`].
 fn check_texels(width: u32, height: u32) -> Result<u64, GridError> {
-    let count = width as u64 * height as u64;
-    if count > MAX_TEXELS {
-        return Err(GridError::invalid(
-            "width x height",
-            (width, height),
-            "more than 2^28 texels in one environment map",
-        ));
-    }
-    Ok(count)
+    grid_core::limits::checked_count("width x height", width, height, MAX_TEXELS)
 }
 
 /// An equirectangular radiance map (see the module docs for the mapping).
