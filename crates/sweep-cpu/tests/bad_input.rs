@@ -176,7 +176,7 @@ fn the_command_refuses_endless_runs_and_keeps_the_grid_when_the_preview_fails() 
             "--tolerance",
             "0",
         ],
-        "max_passes",
+        "--passes must be in 1..=4096",
     );
     fails_with(&["sweep", m, "-o", o, "--memory-limit", "1K"], "memory");
     fails_with(

@@ -272,6 +272,12 @@ fn main() -> Result<()> {
             packed,
             preview,
         } => {
+            if !(1..=grid_core::MAX_PASSES).contains(&passes) {
+                bail!(
+                    "--passes must be in 1..={}, got {passes}",
+                    grid_core::MAX_PASSES
+                );
+            }
             let m = load_material(&material)?;
             let b = light.boundary()?;
             let mut o = SweepOptions::multi_bounce();
