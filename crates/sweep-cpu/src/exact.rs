@@ -215,6 +215,46 @@ fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary) {
     (m, b)
 }
 
+/// The white furnace in a uniform medium (every cell pass-through `pass`, albedo 1,
+/// periodic): the largest deviation of any bin from its exact value (radiance 1 times
+/// the bin's solid angle). It isolates the per-channel balance of removal and emission
+/// from the geometry of heterogeneous media.
+pub fn uniform_furnace(pass: f32) -> Case {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(8)).expect("valid grid");
+    let m = MaterialGrid::filled(
+        d,
+        Material {
+            reflectance: Vec3::ONE,
+            pass,
+        },
+    )
+    .expect("valid material");
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
+    };
+    let t = std::time::Instant::now();
+    let s = crate::run(&m, &b, &options(400, 1e-7)).expect("valid furnace");
+    let secs = t.elapsed().as_secs_f64();
+    let omega = grid_core::dirs::solid_angles();
+    let worst = s
+        .output
+        .bins
+        .as_ref()
+        .expect("bins")
+        .data()
+        .iter()
+        .flat_map(|l| (0..grid_core::NUM_DIRS).map(move |b| (l.0[b].x / omega[b] - 1.0).abs()))
+        .fold(0f32, f32::max);
+    case(
+        format!("furnace, uniform medium of pass-through {pass}: worst bin"),
+        1.0,
+        1.0 + worst as f64,
+        &s,
+        secs,
+    )
+}
+
 /// A slab of isotropic scatterers (albedo `w`, cells of pass-through `pass`) thick enough
 /// to be a half-space (total optical depth `depth`), periodic sides, lit from above by
 /// a zenith beam; compared with [`half_space_albedo_beam`] at `μ₀ = 1`.
@@ -263,7 +303,8 @@ pub fn lambertian_ground(a: f32) -> Case {
     )
 }
 
-/// Every case: the furnace (smoothing 0 and the default), one-level ground, and the
+/// Every case: the furnace (smoothing 0 and the default; uniform media of pass-through
+/// 0.9, 0.5, 0.1), one-level ground, and the
 /// half-space for `w` in {0.1, 0.5, 0.9, 0.99} and cell optical depths 0.05, 0.69, 3
 /// (total depth 40), at most `max_passes` passes each.
 pub fn measure(max_passes: u32) -> Vec<Case> {
@@ -272,6 +313,9 @@ pub fn measure(max_passes: u32) -> Vec<Case> {
         let (a, i) = furnace(12, 7, smoothing);
         out.push(a);
         out.push(i);
+    }
+    for pass in [0.9, 0.5, 0.1] {
+        out.push(uniform_furnace(pass));
     }
     out.push(lambertian_ground(0.3));
     for w in [0.1, 0.5, 0.9, 0.99] {
