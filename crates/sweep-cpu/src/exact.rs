@@ -275,15 +275,64 @@ pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
     )
 }
 
+/// An 8³ grid of 1 m cells whose `levels` bottom levels are opaque ground of albedo
+/// `albedo`, the rest empty (sweep it with periodic sides: an infinite ground).
+pub fn ground_material(levels: u32, albedo: f32) -> MaterialGrid {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(8)).expect("valid grid");
+    let mut cells = vec![Material::EMPTY; d.point_count()];
+    for j in 0..levels.min(8) {
+        for c in &mut cells[d.level_range(j)] {
+            *c = Material::opaque(Vec3::splat(albedo));
+        }
+    }
+    MaterialGrid::new(d, cells).expect("valid material")
+}
+
+/// The light above an infinite Lambertian ground of albedo `a` under a uniform sky of
+/// radiance 1 (`sky`: the sky's top boundary bins): `(exact, rule)`.
+///
+/// `exact` is the continuous field in bins: radiance 1 from above the horizon, `a` (the
+/// Lambertian `a E / π` with `E = π`) from below, a horizontal bin half each; a bin holds
+/// radiance times its solid angle. `rule` is what the sweep's rules must give: it turns
+/// light into flux through a level with each channel's `μ_c = 1 / path length per
+/// level` (where the continuous field has the bin's mean cosine), so the sky brings
+/// `E_s = Σ_c sky_c μ_c` to the ground, the ground sends `a E_s / π ·
+/// clipped_cosine(b, +Y)` (its exact Lambertian share) into the upward half of bin `b`,
+/// and the channel turns that back into light dividing by `μ_c`.
+pub fn ground_fields(albedo: f32, sky: &BinLight) -> (BinLight, BinLight) {
+    let omega = grid_core::dirs::solid_angles();
+    let up = crate::sweep::channels(true);
+    let field = |ground_half: &dyn Fn(usize) -> f32| {
+        BinLight(std::array::from_fn(|b| {
+            let dy = grid_core::dirs::dir_unit(b).y;
+            let from_sky = if dy <= 0.0 { sky.0[b].x } else { 0.0 };
+            Vec3::splat(from_sky + if dy >= 0.0 { ground_half(b) } else { 0.0 })
+        }))
+    };
+    let exact = field(&|b| {
+        let half = if grid_core::dirs::dir_unit(b).y == 0.0 {
+            0.5
+        } else {
+            1.0
+        };
+        albedo * omega[b] * half
+    });
+    let e_sweep: f32 = crate::sweep::channels(false)
+        .iter()
+        .map(|c| sky.0[c.bin].x * c.mu)
+        .sum();
+    let rule = field(&|b| {
+        let chn = up.iter().find(|c| c.bin == b).expect("an upward channel");
+        let cc = grid_core::dirs::clipped_cosine(b, grid_core::glam::DVec3::Y) as f32;
+        albedo * e_sweep / std::f32::consts::PI * cc / chn.mu
+    });
+    (exact, rule)
+}
+
 /// One level of opaque ground of albedo `a` under a zenith beam, periodic sides: the
 /// fraction reflected against `a`.
 pub fn lambertian_ground(a: f32) -> Case {
-    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(8, 6, 8)).expect("valid grid");
-    let mut cells = vec![Material::EMPTY; d.point_count()];
-    for c in &mut cells[d.level_range(0)] {
-        *c = Material::opaque(Vec3::splat(a));
-    }
-    let m = MaterialGrid::new(d, cells).expect("valid material");
+    let m = ground_material(1, a);
     let mut top = BinLight::ZERO;
     top.0[grid_core::dirs::DOWN] = Vec3::ONE;
     let b = Boundary {

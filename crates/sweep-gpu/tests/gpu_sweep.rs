@@ -226,3 +226,38 @@ fn sun_and_sky_responses_on_the_gpu() {
     .unwrap();
     assert_close(&direct, &combined).unwrap();
 }
+
+/// The exact-answer case of `sweep-cpu/tests/exact.rs` on the GPU: above an infinite
+/// Lambertian ground (one and two levels, albedo 0.3 and 0.9) under a uniform sky, every
+/// bin at every point holds the rules' field (`sweep_cpu::exact::ground_fields`).
+#[test]
+fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
+    let Some(gpu) = sweeper() else { return };
+    let top = sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top;
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(top)
+    };
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 8;
+    o.tolerance = 0.0;
+    for levels in [1, 2] {
+        for albedo in [0.3f32, 0.9] {
+            let m = sweep_cpu::exact::ground_material(levels, albedo);
+            let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
+            let (_, rule) = sweep_cpu::exact::ground_fields(albedo, &top);
+            for j in levels..g.desc().levels() {
+                let l = g.get(UVec3::new(3, j, 5)).unwrap();
+                for bin in 0..26 {
+                    let (got, want) = (l.0[bin].x, rule.0[bin].x);
+                    // The stated CPU == GPU tolerance (see `assert_close`).
+                    let tol = 1e-4 * got.max(want) + 1e-5 * g.max_value();
+                    assert!(
+                        (got - want).abs() <= tol,
+                        "{levels} levels, albedo {albedo}, level {j}, bin {bin}: gpu {got}, rule {want}"
+                    );
+                }
+            }
+        }
+    }
+}
