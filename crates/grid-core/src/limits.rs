@@ -59,13 +59,19 @@ pub fn memory_limit() -> u64 {
     if o > 0 {
         return o;
     }
-    if let Some(v) = std::env::var(MEMORY_LIMIT_ENV)
-        .ok()
-        .and_then(|s| parse_size(&s).ok())
-    {
-        return v;
-    }
-    machine_memory().map_or(FALLBACK_MEMORY_LIMIT, |m| m / 2)
+    // The environment and the machine do not change while the process runs: read once.
+    static DEFAULT: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *DEFAULT.get_or_init(|| {
+        let half = || machine_memory().map_or(FALLBACK_MEMORY_LIMIT, |m| m / 2);
+        match std::env::var(MEMORY_LIMIT_ENV) {
+            Ok(text) => parse_size(&text).unwrap_or_else(|e| {
+                // Said once, on stderr: a limit the user meant to set must not vanish.
+                eprintln!("warning: {MEMORY_LIMIT_ENV}: {e}; using half the machine's memory");
+                half()
+            }),
+            Err(_) => half(),
+        }
+    })
 }
 
 /// Total memory of the machine in bytes, from `/proc/meminfo` (Linux); `None` elsewhere.
