@@ -13,9 +13,64 @@ use glam::{DVec3, Vec3};
 use crate::dirs::{self, NUM_DIRS};
 
 /// Light at a point: 26 RGB bins (see the module docs for the convention).
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// Light adds and scales bin by bin, like glam's vectors: `a + b`, `a - b`, `a * 2.0`,
+/// `a * Vec3::new(1.0, 0.9, 0.8)` (a colour per channel), `iter.sum()`. It is `Pod`, so
+/// a slice of points casts to 78 floats each (`bytemuck::cast_slice`) for the GPU.
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(transparent)]
 pub struct BinLight(pub [Vec3; NUM_DIRS]);
+
+impl std::ops::Add for BinLight {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self(std::array::from_fn(|d| self.0[d] + o.0[d]))
+    }
+}
+
+impl std::ops::AddAssign for BinLight {
+    fn add_assign(&mut self, o: Self) {
+        for (a, b) in self.0.iter_mut().zip(o.0) {
+            *a += b;
+        }
+    }
+}
+
+impl std::ops::Sub for BinLight {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        Self(std::array::from_fn(|d| self.0[d] - o.0[d]))
+    }
+}
+
+impl std::ops::Mul<f32> for BinLight {
+    type Output = Self;
+    fn mul(self, s: f32) -> Self {
+        Self(self.0.map(|v| v * s))
+    }
+}
+
+/// Per colour channel: a white response tinted by a light's colour.
+impl std::ops::Mul<Vec3> for BinLight {
+    type Output = Self;
+    fn mul(self, c: Vec3) -> Self {
+        Self(self.0.map(|v| v * c))
+    }
+}
+
+impl std::ops::MulAssign<f32> for BinLight {
+    fn mul_assign(&mut self, s: f32) {
+        for v in &mut self.0 {
+            *v *= s;
+        }
+    }
+}
+
+impl std::iter::Sum for BinLight {
+    fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
+        iter.fold(Self::ZERO, |a, b| a + b)
+    }
+}
 
 impl Default for BinLight {
     fn default() -> Self {
@@ -159,7 +214,7 @@ impl BinLight {
 
     /// `self * s` per bin.
     pub fn scaled(&self, s: f32) -> Self {
-        Self(self.0.map(|v| v * s))
+        *self * s
     }
 }
 
@@ -330,6 +385,50 @@ fn integrate_bin(d: usize, n: u32, mut f: impl FnMut(DVec3, f64)) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bin_light_arithmetic_is_per_bin() {
+        let a = BinLight(std::array::from_fn(|d| Vec3::new(d as f32, 1.0, 2.0)));
+        // Binary fractions: every sum and product below is exact in f32.
+        let b = BinLight(std::array::from_fn(|d| Vec3::new(0.5, 0.25, d as f32)));
+        let sum = a + b;
+        let diff = a - b;
+        for d in 0..NUM_DIRS {
+            assert_eq!(sum.0[d], a.0[d] + b.0[d]);
+            assert_eq!(diff.0[d], a.0[d] - b.0[d]);
+            assert_eq!((a * 3.0).0[d], a.0[d] * 3.0);
+            assert_eq!(
+                (a * Vec3::new(1.0, 2.0, 0.0)).0[d],
+                a.0[d] * Vec3::new(1.0, 2.0, 0.0)
+            );
+        }
+        let mut c = a;
+        c += b;
+        c *= 2.0;
+        assert_eq!(c, (a + b) * 2.0);
+        assert_eq!([a, b, a].into_iter().sum::<BinLight>(), a * 2.0 + b);
+        assert_eq!(
+            std::iter::empty::<BinLight>().sum::<BinLight>(),
+            BinLight::ZERO
+        );
+        // Linear projections commute with the arithmetic.
+        let n = Vec3::new(0.3, -0.8, 0.5).normalize();
+        let lhs = (a + b * 2.0).irradiance(n);
+        let rhs = a.irradiance(n) + b.irradiance(n) * 2.0;
+        assert!((lhs - rhs).abs().max_element() < 1e-4 * rhs.abs().max_element());
+    }
+
+    #[test]
+    fn bin_light_casts_to_78_floats_in_canonical_order() {
+        let a = BinLight(std::array::from_fn(|d| {
+            Vec3::new(d as f32, 100.0 + d as f32, -1.0)
+        }));
+        let pts = [a, BinLight::ZERO];
+        let f: &[f32] = bytemuck::cast_slice(&pts);
+        assert_eq!(f.len(), 2 * 78);
+        assert_eq!(&f[..6], &[0.0, 100.0, -1.0, 1.0, 101.0, -1.0]);
+        assert!(f[78..].iter().all(|&x| x == 0.0));
+    }
     use crate::dirs::{DOWN, UP, dir_unit};
     use std::f32::consts::PI as PI32;
 
@@ -455,7 +554,7 @@ mod tests {
         let b = BinLight(std::array::from_fn(|d| {
             Vec3::new(1.0, 0.0, (25 - d) as f32)
         }));
-        let sum = BinLight(std::array::from_fn(|d| a.0[d] * 2.0 + b.0[d] * 3.0));
+        let sum = a * 2.0 + b * 3.0;
         for n in normals() {
             let lhs = sum.irradiance(n);
             let rhs = a.irradiance(n) * 2.0 + b.irradiance(n) * 3.0;

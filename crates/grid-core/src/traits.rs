@@ -389,7 +389,7 @@ pub struct SumField<A, B>(pub A, pub B);
 impl<A: LightField, B: LightField> LightField for SumField<A, B> {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         let (a, b) = (self.0.light(p, n)?, self.1.light(p, n)?);
-        Ok(BinLight(std::array::from_fn(|d| a.0[d] + b.0[d])))
+        Ok(a + b)
     }
 }
 

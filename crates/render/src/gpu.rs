@@ -450,8 +450,5 @@ impl GpuBinGrid {
 }
 
 fn flatten(points: &[grid_core::BinLight]) -> Vec<f32> {
-    points
-        .iter()
-        .flat_map(|b| b.0.iter().flat_map(|v| v.to_array()))
-        .collect()
+    bytemuck::cast_slice(points).to_vec()
 }

@@ -301,7 +301,7 @@ pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -
             x.data()
                 .iter()
                 .zip(y.data())
-                .map(|(p, q)| BinLight(std::array::from_fn(|d| p.0[d] * sky + q.0[d] * sun)))
+                .map(|(p, q)| *p * sky + *q * sun)
                 .collect(),
         )
     });

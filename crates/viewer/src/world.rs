@@ -147,9 +147,7 @@ pub fn boundary_light(sky: &BinLight, scene: &SceneFile) -> Result<BinLight> {
     let mut top = *sky;
     if elevation > 0.0 {
         let sun = Sun::at(elevation, azimuth, Vec3::from_array(scene.sun.illuminance)).bins()?;
-        for (t, s) in top.0.iter_mut().zip(sun.0) {
-            *t += s;
-        }
+        top += sun;
     }
     Ok(top)
 }
@@ -249,7 +247,10 @@ impl World {
                 (None, Some("broadleaf")) => (tree(&TreeParams::broadleaf(m.seed))?, true),
                 (None, Some("young")) => (tree(&TreeParams::young(m.seed))?, true),
                 (None, Some("bush")) => (bush(m.seed, 1.2)?, true),
-                (None, Some(_)) => (rock(m.seed, 1.0)?, false),
+                (None, Some("rock")) => (rock(m.seed, 1.0)?, false),
+                (None, Some(k)) => {
+                    anyhow::bail!("models[{i}].procedural = {k:?}: no such procedural model")
+                }
                 (None, None) => anyhow::bail!("models[{i}]: no source"),
             };
             let (grid, _) = voxelize(&model, &VoxelizeParams::standard(m.voxel_size), &|_, _| {})

@@ -180,7 +180,7 @@ impl LightArgs {
         } else {
             sun.bins()?
         };
-        let top = BinLight(std::array::from_fn(|d| sky.top.0[d] + sun_bins.0[d]));
+        let top = sky.top + sun_bins;
         Ok(Boundary {
             top: TopBoundary::Uniform(Box::new(top)),
             bottom: sky.bottom,
