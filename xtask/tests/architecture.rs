@@ -1,39 +1,97 @@
-//! The architecture invariants of `ARCHITECTURE.md`, checked against every crate's
-//! `Cargo.toml` so they cannot rot silently.
+//! The architecture invariants of `ARCHITECTURE.md`, checked against `cargo metadata`
+//! (every dependency of every workspace crate, dev and build included) so they cannot
+//! rot silently.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// Each workspace crate with the names in its `[dependencies]` table.
-fn dependencies() -> BTreeMap<String, Vec<String>> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let mut manifests = vec![root.join("xtask/Cargo.toml")];
-    for e in std::fs::read_dir(root.join("crates")).unwrap() {
-        manifests.push(e.unwrap().path().join("Cargo.toml"));
-    }
-    let mut out = BTreeMap::new();
-    for m in manifests {
-        let text = std::fs::read_to_string(&m).unwrap();
-        let mut name = String::new();
-        let mut deps = Vec::new();
-        let mut section = String::new();
-        for line in text.lines().map(str::trim) {
-            if line.starts_with('[') {
-                section = line.to_string();
-            } else if let Some((key, value)) = line.split_once('=') {
-                let key = key.trim().split('.').next().unwrap().to_string();
-                if section == "[package]" && key == "name" {
-                    name = value.trim().trim_matches('"').to_string();
-                } else if section == "[dependencies]" && !key.is_empty() {
-                    deps.push(key);
-                }
-            }
-        }
-        assert!(!name.is_empty(), "{} has no package name", m.display());
-        out.insert(name, deps);
-    }
-    out
+/// One dependency of a workspace crate: its name and kind (`normal`, `dev`, `build`).
+#[derive(Debug, Clone, PartialEq)]
+struct Dep {
+    name: String,
+    kind: String,
 }
+
+/// Each workspace crate with all its dependencies (normal, dev and build), as
+/// `cargo metadata` reports them: no hand parsing of manifests.
+fn dependencies() -> BTreeMap<String, Vec<Dep>> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = std::process::Command::new(env!("CARGO"))
+        .args(["metadata", "--format-version", "1", "--no-deps"])
+        .current_dir(&root)
+        .output()
+        .expect("cargo metadata runs");
+    assert!(
+        out.status.success(),
+        "cargo metadata: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).expect("metadata is JSON");
+    let mut map = BTreeMap::new();
+    for p in meta["packages"].as_array().expect("packages") {
+        let deps = p["dependencies"]
+            .as_array()
+            .expect("dependencies")
+            .iter()
+            .map(|d| Dep {
+                name: d["name"].as_str().expect("name").to_string(),
+                kind: d["kind"].as_str().unwrap_or("normal").to_string(),
+            })
+            .collect();
+        map.insert(p["name"].as_str().expect("name").to_string(), deps);
+    }
+    map
+}
+
+/// The crates in layer order, each with the workspace crates it may depend on (any kind
+/// of dependency). A new crate or a new edge is a decision: add it here, and to
+/// ARCHITECTURE.md.
+const ALLOWED: [(&str, &[&str]); 9] = [
+    ("grid-core", &[]),
+    ("sweep-cpu", &["grid-core"]),
+    ("sweep-gpu", &["grid-core", "sweep-cpu"]),
+    ("material-voxelizer", &["grid-core"]),
+    ("light-volumes", &["grid-core", "material-voxelizer"]),
+    (
+        "terrain-lod",
+        &["grid-core", "material-voxelizer", "sweep-cpu"],
+    ),
+    (
+        "render",
+        &[
+            "grid-core",
+            "sweep-cpu",
+            "sweep-gpu",
+            "material-voxelizer",
+            "light-volumes",
+        ],
+    ),
+    (
+        "viewer",
+        &[
+            "grid-core",
+            "sweep-cpu",
+            "sweep-gpu",
+            "material-voxelizer",
+            "light-volumes",
+            "terrain-lod",
+            "render",
+        ],
+    ),
+    (
+        "xtask",
+        &[
+            "grid-core",
+            "sweep-cpu",
+            "sweep-gpu",
+            "material-voxelizer",
+            "light-volumes",
+            "terrain-lod",
+            "render",
+            "viewer",
+        ],
+    ),
+];
 
 #[test]
 fn all_nine_crates_exist() {
@@ -58,17 +116,18 @@ fn grid_core_has_no_gpu_or_io_heavy_dependency() {
     let d = dependencies();
     let allowed = ["glam", "bytemuck", "thiserror", "crc32fast"];
     for dep in &d["grid-core"] {
-        assert!(
-            allowed.contains(&dep.as_str()),
-            "grid-core depends on {dep}"
-        );
+        let ok = match dep.kind.as_str() {
+            "dev" => dep.name == "proptest",
+            _ => allowed.contains(&dep.name.as_str()),
+        };
+        assert!(ok, "grid-core depends on {} ({})", dep.name, dep.kind);
     }
 }
 
 #[test]
 fn only_gpu_crates_depend_on_wgpu() {
     for (name, deps) in dependencies() {
-        if deps.iter().any(|d| d == "wgpu") {
+        if deps.iter().any(|d| d.name == "wgpu") {
             assert!(
                 ["sweep-gpu", "render", "viewer", "xtask"].contains(&name.as_str()),
                 "{name} depends on wgpu"
@@ -78,27 +137,28 @@ fn only_gpu_crates_depend_on_wgpu() {
 }
 
 #[test]
-fn layers_point_downwards() {
-    // A crate may depend only on crates below it (grid-core at the bottom).
-    let order = [
-        "grid-core",
-        "sweep-cpu",
-        "sweep-gpu",
-        "material-voxelizer",
-        "light-volumes",
-        "terrain-lod",
-        "render",
-        "viewer",
-        "xtask",
-    ];
-    let rank = |n: &str| order.iter().position(|o| *o == n);
-    for (name, deps) in dependencies() {
-        // Every workspace crate has a place in the order (a new crate must be added).
-        let me = rank(&name).unwrap_or_else(|| panic!("crate {name} is not in the layer order"));
-        for dep in deps {
-            if let Some(r) = rank(&dep) {
-                assert!(r < me, "{name} depends on {dep}, which is not below it");
-            }
+fn every_edge_between_crates_is_allowed_and_points_down() {
+    let rank = |n: &str| ALLOWED.iter().position(|(c, _)| *c == n);
+    // The table itself is layered: each crate may use only crates listed before it.
+    for (i, (name, deps)) in ALLOWED.iter().enumerate() {
+        for dep in *deps {
+            let r = rank(dep).unwrap_or_else(|| panic!("{name} allows unknown crate {dep}"));
+            assert!(r < i, "{name} allows {dep}, which is not below it");
+        }
+    }
+    let all = dependencies();
+    for (name, deps) in &all {
+        let (_, allowed) = ALLOWED
+            .iter()
+            .find(|(c, _)| c == name)
+            .unwrap_or_else(|| panic!("crate {name} is not in the layer table"));
+        for dep in deps.iter().filter(|d| all.contains_key(&d.name)) {
+            assert!(
+                allowed.contains(&dep.name.as_str()),
+                "{name} depends on {} ({}), which its row does not allow",
+                dep.name,
+                dep.kind
+            );
         }
     }
 }
