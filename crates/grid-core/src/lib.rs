@@ -80,6 +80,7 @@ pub mod dirs;
 mod error;
 pub mod file;
 mod grid;
+pub mod hash;
 pub mod light;
 pub mod limits;
 pub mod pack;

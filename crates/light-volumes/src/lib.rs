@@ -53,39 +53,44 @@ pub use volume::{CacheOutcome, CompressedVolume, THRESHOLD, load_or_make};
 use grid_core::GridDesc;
 use material_voxelizer::model::Model;
 
-/// FNV-1a, stable across runs and Rust versions (cache keys).
-fn fnv(bytes: impl IntoIterator<Item = u8>, mut h: u64) -> u64 {
-    for b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x100_0000_01b3);
-    }
-    h
-}
-
 /// The cache key of a light's volume: its shape (not colour or intensity: volumes are
 /// white), the scene's triangles, materials and textures, the grid and the trace
-/// parameters. Any change gives another key, so a stale cache file is never used.
+/// parameters, through [`grid_core::hash::ContentHash`]. Any change gives another key,
+/// so a stale cache file is never used.
 pub fn volume_key(light: &Light, model: &Model, desc: &GridDesc, params: &TraceParams) -> u64 {
-    let mut h = fnv(
-        b"lightgrid-light-volume-v1".iter().copied(),
-        0xcbf2_9ce4_8422_2325,
-    );
-    h = fnv(light.shape_key().into_bytes(), h);
-    h = fnv(format!("{desc:?}{params:?}").into_bytes(), h);
+    let mut h = grid_core::hash::ContentHash::new(b"lightgrid-light-volume-v2");
+    light.hash_shape(&mut h);
+    h.desc(desc)
+        .u64(params.rays)
+        .u32(params.max_bounces)
+        .u32(params.bounce_limit)
+        .u64(params.seed);
     for t in &model.triangles {
         for p in t.positions {
-            h = fnv(p.to_array().iter().flat_map(|v| v.to_le_bytes()), h);
+            h.vec3(p);
         }
         for uv in t.uvs {
-            h = fnv(uv.to_array().iter().flat_map(|v| v.to_le_bytes()), h);
+            h.f32s(&uv.to_array());
         }
-        h = fnv(t.material.to_le_bytes(), h);
+        h.u32(t.material);
     }
-    h = fnv(format!("{:?}", model.materials).into_bytes(), h);
+    for m in &model.materials {
+        h.f32s(&m.base_colour.to_array())
+            .u64(m.texture.map_or(u64::MAX, |t| t as u64))
+            .f32s(&m.uv_transform.offset.to_array())
+            .f32s(&[m.uv_transform.rotation])
+            .f32s(&m.uv_transform.scale.to_array());
+        match m.alpha {
+            material_voxelizer::model::AlphaMode::Opaque => h.u32(0),
+            material_voxelizer::model::AlphaMode::Mask(c) => h.u32(1).f32s(&[c]),
+            material_voxelizer::model::AlphaMode::Blend => h.u32(2),
+        };
+    }
     for tex in &model.textures {
+        h.u32(tex.width).u32(tex.height);
         for c in &tex.texels {
-            h = fnv(c.to_array().iter().flat_map(|v| v.to_le_bytes()), h);
+            h.f32s(&c.to_array());
         }
     }
-    h
+    h.finish()
 }

@@ -125,10 +125,24 @@ impl Light {
         }
     }
 
-    /// A stable description of the shape (for cache keys; colour and intensity excluded:
-    /// volumes are stored as white light).
-    pub fn shape_key(&self) -> String {
-        format!("{:?}", self.kind)
+    /// Adds the shape to a cache key (colour and intensity excluded: volumes are stored
+    /// as white light).
+    pub fn hash_shape(&self, h: &mut grid_core::hash::ContentHash) {
+        match self.kind {
+            LightKind::Point { position } => h.u32(0).vec3(position),
+            LightKind::Spot {
+                position,
+                direction,
+                inner,
+                outer,
+            } => h
+                .u32(1)
+                .vec3(position)
+                .vec3(direction)
+                .f32s(&[inner, outer]),
+            LightKind::Area { centre, u, v } => h.u32(2).vec3(centre).vec3(u).vec3(v),
+            LightKind::Line { a, b } => h.u32(3).vec3(a).vec3(b),
+        };
     }
 
     /// One emitted ray from uniform numbers `r` in `[0, 1)`: origin, unit direction and

@@ -59,7 +59,6 @@
 pub mod demo;
 
 use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
 
 use grid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use grid_core::{
@@ -315,33 +314,12 @@ pub struct Hierarchy {
 }
 
 fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    let d = m.desc();
-    for v in [d.origin().x, d.origin().y, d.origin().z, d.h()] {
-        v.to_bits().hash(&mut h);
-    }
-    d.dims().to_array().hash(&mut h);
-    for c in m.data() {
-        for v in [c.reflectance.x, c.reflectance.y, c.reflectance.z, c.pass] {
-            v.to_bits().hash(&mut h);
-        }
-    }
-    let bins = |b: &BinLight, h: &mut std::collections::hash_map::DefaultHasher| {
-        for v in &b.0 {
-            for x in v.to_array() {
-                x.to_bits().hash(h);
-            }
-        }
-    };
-    match &b.top {
-        TopBoundary::Uniform(x) => bins(x, &mut h),
-        TopBoundary::PerPoint(v) => v.iter().for_each(|x| bins(x, &mut h)),
-    }
-    if let SideBoundary::Given(v) = &b.sides {
-        v.iter().for_each(|x| bins(x, &mut h));
-    }
-    format!("{o:?}").hash(&mut h);
-    h.finish()
+    grid_core::hash::ContentHash::new(b"terrain-lod-node-v1")
+        .desc(m.desc())
+        .materials(m.data())
+        .boundary(b)
+        .options(o)
+        .finish()
 }
 
 /// Most node depths below the world grid (`world_cell / finest_cell <= 2^16`).

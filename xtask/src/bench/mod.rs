@@ -26,7 +26,6 @@ mod plot;
 pub mod scenes;
 mod skips;
 
-use std::hash::Hasher;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -158,34 +157,15 @@ pub struct Report {
     pub gpu: Option<String>,
 }
 
-/// FNV-1a over bytes (stable across runs and Rust versions, unlike `DefaultHasher`).
-struct Fnv(u64);
-impl Hasher for Fnv {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.0 ^= *b as u64;
-            self.0 = self.0.wrapping_mul(0x100_0000_01b3);
-        }
-    }
-}
-
 fn reference_key(s: &BenchScene, paths: u64, seed: u64) -> String {
-    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
-    h.write(b"lightgrid-reference-v1");
-    for m in s.material.data() {
-        for v in [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass] {
-            h.write(&v.to_bits().to_le_bytes());
-        }
-    }
-    let d = s.material.desc();
-    h.write(format!("{:?}{:?}{}", d.origin(), d.dims(), d.h()).as_bytes());
-    h.write(format!("{:?}", s.boundary).as_bytes());
-    h.write(&paths.to_le_bytes());
-    h.write(&seed.to_le_bytes());
-    format!("{}-{:016x}", s.name, h.finish())
+    let key = grid_core::hash::ContentHash::new(b"lightgrid-reference-v2")
+        .desc(s.material.desc())
+        .materials(s.material.data())
+        .boundary(&s.boundary)
+        .u64(paths)
+        .u64(seed)
+        .finish();
+    format!("{}-{key:016x}", s.name)
 }
 
 /// The reference of a scene: from the cache if its inputs hash the same, else traced
