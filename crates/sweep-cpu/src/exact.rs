@@ -48,12 +48,18 @@ pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
     out
 }
 
-/// Chandrasekhar's H-function for isotropic scattering of albedo `w` (in `[0, 1)`; the
-/// iteration converges too slowly at `w = 1`, where a half-space reflects everything),
+/// Chandrasekhar's H-function for isotropic scattering of albedo `w`, clamped to
+/// `[0, 0.99999]` (the iteration does not converge at `w = 1`, where a half-space
+/// reflects everything; a non-finite `w` counts as 0),
 /// evaluated at the cosines `mu`: the fixed point of
 /// `1 / H(μ) = √(1 − w) + (w / 2) ∫₀¹ μ' H(μ') / (μ + μ') dμ'`, iterated on 64
 /// Gauss–Legendre nodes and extended to any `μ` through the same integral.
 pub fn h_function(w: f64, mu: &[f64]) -> Vec<f64> {
+    let w = if w.is_finite() {
+        w.clamp(0.0, 0.99999)
+    } else {
+        0.0
+    };
     let q = gauss_legendre_01(64);
     let s = (1.0 - w).max(0.0).sqrt();
     // One application of the right-hand side at cosine `m`, from H on the nodes.
@@ -84,12 +90,28 @@ pub fn h_function(w: f64, mu: &[f64]) -> Vec<f64> {
 /// Fraction of a collimated beam at cosine `mu0` that a half-space of isotropic
 /// scatterers of albedo `w` reflects: `1 − H(μ₀) √(1 − w)`.
 pub fn half_space_albedo_beam(w: f64, mu0: f64) -> f64 {
+    let w = if w.is_finite() {
+        w.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if w >= 1.0 {
+        return 1.0;
+    }
     1.0 - h_function(w, &[mu0])[0] * (1.0 - w).sqrt()
 }
 
 /// Fraction of uniform (isotropic) incident radiance that the half-space reflects:
 /// `1 − 2 √(1 − w) ∫₀¹ H(μ) μ dμ`.
 pub fn half_space_albedo_diffuse(w: f64) -> f64 {
+    let w = if w.is_finite() {
+        w.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if w >= 1.0 {
+        return 1.0;
+    }
     let q = gauss_legendre_01(64);
     let mu: Vec<f64> = q.iter().map(|p| p.0).collect();
     let h = h_function(w, &mu);
