@@ -98,8 +98,8 @@ pub use grid::{
 pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
 pub use sample::{Blend, trilinear_corners};
 pub use traits::{
-    Boundary, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES, MaterialSource, Outputs,
-    SideBoundary, SumField, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
+    Boundary, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES, MaterialSource,
+    NoScatter, Outputs, SideBoundary, SumField, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
     TopBoundary, UniformMaterial,
 };
 

@@ -322,14 +322,22 @@ impl AmbientCube {
 
     /// Texel of face `face` (ambient-cube order) of point `(x, y, z)` in Bevy's irradiance
     /// volume texture of size `(Rx, 2 Ry, 3 Rz)` for a grid of `(Rx, Ry, Rz)` points:
-    /// `s = x`, `t = y + Ry` for positive faces, `p = z + Rz * axis` (x, y, z axis = 0, 1, 2).
+    /// `s = x`; `t = y` for the positive faces and `t = y + Ry` for the negative ones;
+    /// `p = z + Rz * axis` (x, y, z axis = 0, 1, 2).
+    ///
+    /// **This follows Bevy's shader, not its doc comment.** The module docs of
+    /// `bevy_pbr::irradiance_volume` put the negative faces at `t = y` and the positive
+    /// ones at `t = y + Ry`, but `irradiance_volume.wgsl` samples
+    /// `uvw + (0, select(0, 0.5, N < 0), axis / 3)`: a negative normal component reads the
+    /// upper half of `t`. The shader is what lights a scene, so the texel goes where it
+    /// reads (the exporter's tests run a port of that lookup against these textures).
     /// Bevy multiplies the stored value by the diffuse colour, so store `irradiance / pi`.
     pub fn bevy_texel(point: glam::UVec3, face: usize, res: glam::UVec3) -> glam::UVec3 {
         let axis = (face / 2) as u32;
-        let positive = face.is_multiple_of(2);
+        let negative = !face.is_multiple_of(2);
         glam::UVec3::new(
             point.x,
-            point.y + if positive { res.y } else { 0 },
+            point.y + if negative { res.y } else { 0 },
             point.z + res.z * axis,
         )
     }
@@ -565,23 +573,29 @@ mod tests {
 
     #[test]
     fn bevy_texel_layout() {
+        // Positive faces in the lower half of t, negative in the upper (Bevy's shader);
+        // the axis picks the third of p.
         let res = glam::UVec3::new(4, 5, 6);
         let p = glam::UVec3::new(1, 2, 3);
-        assert_eq!(
-            AmbientCube::bevy_texel(p, 0, res),
-            glam::UVec3::new(1, 7, 3)
-        );
-        assert_eq!(
-            AmbientCube::bevy_texel(p, 1, res),
-            glam::UVec3::new(1, 2, 3)
-        );
-        assert_eq!(
-            AmbientCube::bevy_texel(p, 3, res),
-            glam::UVec3::new(1, 2, 9)
-        );
-        assert_eq!(
-            AmbientCube::bevy_texel(p, 4, res),
-            glam::UVec3::new(1, 7, 15)
-        );
+        let texel = |face| AmbientCube::bevy_texel(p, face, res);
+        assert_eq!(texel(0), glam::UVec3::new(1, 2, 3));
+        assert_eq!(texel(1), glam::UVec3::new(1, 7, 3));
+        assert_eq!(texel(2), glam::UVec3::new(1, 2, 9));
+        assert_eq!(texel(3), glam::UVec3::new(1, 7, 9));
+        assert_eq!(texel(4), glam::UVec3::new(1, 2, 15));
+        assert_eq!(texel(5), glam::UVec3::new(1, 7, 15));
+        // Every (point, face) lands on its own texel inside the texture.
+        let mut seen = std::collections::HashSet::new();
+        for z in 0..res.z {
+            for y in 0..res.y {
+                for x in 0..res.x {
+                    for f in 0..6 {
+                        let t = AmbientCube::bevy_texel(glam::UVec3::new(x, y, z), f, res);
+                        assert!(t.x < res.x && t.y < 2 * res.y && t.z < 3 * res.z);
+                        assert!(seen.insert(t));
+                    }
+                }
+            }
+        }
     }
 }

@@ -393,6 +393,23 @@ impl<A: LightField, B: LightField> LightField for SumField<A, B> {
     }
 }
 
+/// One light field minus another, clamped at zero per bin and colour: `B` is a part of
+/// `A` (the direct sun within everything, say), so the difference is the rest (the
+/// indirect light). The clamp only removes rounding below zero.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DifferenceField<A, B>(pub A, pub B);
+
+impl<A: LightField, B: LightField> LightField for DifferenceField<A, B> {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        let (a, b) = (self.0.light(p, n)?, self.1.light(p, n)?);
+        let mut d = a - b;
+        for v in d.0.iter_mut() {
+            *v = v.max(Vec3::ZERO);
+        }
+        Ok(d)
+    }
+}
+
 impl<T: LightField + ?Sized> LightField for &T {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         (**self).light(p, n)
@@ -409,6 +426,22 @@ pub trait MaterialSource {
 impl<T: MaterialSource + ?Sized> MaterialSource for std::sync::Arc<T> {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
         (**self).material(desc)
+    }
+}
+
+/// A source with every reflectance set to zero: the same shadows and no scattered light.
+/// Swept under the sun alone it gives the sun's direct (uncollided) light, which
+/// [`DifferenceField`] removes from the full light to leave the indirect part.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoScatter<S>(pub S);
+
+impl<S: MaterialSource> MaterialSource for NoScatter<S> {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        let mut g = self.0.material(desc)?;
+        for m in g.data_mut() {
+            m.reflectance = Vec3::ZERO;
+        }
+        Ok(g)
     }
 }
 

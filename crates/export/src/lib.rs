@@ -1,0 +1,690 @@
+//! Light grids into engines: **Bevy irradiance volumes**, as DDS and KTX2 3D textures
+//! with a JSON sidecar.
+//!
+//! Bevy (0.13 and later) lights meshes inside an `IrradianceVolume` from a 3D texture of
+//! ambient cubes, but ships no baker. This crate turns any light field — a swept
+//! [`LightGrid`], the grid hierarchy, or the indirect part of either — into that texture.
+//!
+//! ```
+//! use lightgrid_export::{BevyVolume, TexelFormat};
+//! use grid_core::{BinLight, GridDesc, LightGrid, glam::{UVec3, Vec3}};
+//!
+//! // A 4 x 3 x 2 grid of points 0.5 m apart, lit by a uniform radiance of 1.
+//! let desc = GridDesc::new(Vec3::ZERO, 0.5, UVec3::new(4, 3, 2)).unwrap();
+//! let grid = LightGrid::filled(desc, BinLight::uniform(Vec3::ONE)).unwrap();
+//! let volume = BevyVolume::from_field(&grid, &desc, TexelFormat::Rgb9e5).unwrap();
+//! assert_eq!(volume.texture_size(), UVec3::new(4, 6, 6));
+//! // Every face holds irradiance / pi = 1 (times the volume's intensity).
+//! let texel = volume.texel(UVec3::new(1, 1, 1), 3);
+//! assert!((texel * volume.intensity() - Vec3::ONE).abs().max_element() < 4e-3);
+//! let dds = volume.to_dds().unwrap();
+//! assert_eq!(&dds[..4], b"DDS ");
+//! ```
+//!
+//! # Layout (what Bevy reads)
+//!
+//! A grid of `(Rx, Ry, Rz)` points becomes a 3D texture of `(Rx, 2 Ry, 3 Rz)` texels, one
+//! 32-bit texel per point and face of the ambient cube:
+//!
+//! ```text
+//! texel(x, y, z, face) = (x,  y + Ry * [face is negative],  z + Rz * axis(face))
+//! value = irradiance on the face's axis normal / pi / intensity
+//! ```
+//!
+//! The face placement follows Bevy's shader (`irradiance_volume.wgsl`), which reads a
+//! negative normal component from the upper half of `t`; Bevy's module docs state the
+//! opposite. See [`grid_core::AmbientCube::bevy_texel`]; `tests/bevy.rs` runs a port of
+//! the shader's lookup on the written files. Bevy multiplies the sample by the diffuse
+//! colour and by [`IrradianceVolume::intensity`], hence the `/ pi` (Lambert) and the
+//! intensity: texels are scaled by a power of two so the brightest is near 2^14, far from
+//! both ends of the formats' range, and the sidecar's `intensity` undoes it (times the
+//! caller's `unit_scale`, from the grid's light units to Bevy's cd/m²).
+//!
+//! Bevy's light probes are unit cubes `[-1/2, 1/2]^3` under a transform, with voxel
+//! centres at `(i + 1/2) / R`. Grid point `i` sits at `origin + h i`, so the transform is
+//! `translation = origin + h (dims - 1) / 2`, `scale = h dims`, no rotation; the volume's
+//! box reaches half a spacing past the outer points on every side.
+//!
+//! # Formats
+//!
+//! | format | bits (R, G, B) | relative error | when |
+//! |--------|----------------|----------------|------|
+//! | [`TexelFormat::Rgb9e5`] (default) | 9, 9, 9 mantissa, shared 5-bit exponent | 2^-9 of the brightest channel | light with colour: sky blue beside sun yellow |
+//! | [`TexelFormat::Rg11b10`] | 6, 6, 5 mantissa, own exponents | 2^-7 (R, G), 2^-6 (B) of each channel | dark channels next to bright ones |
+//!
+//! Both are 4 bytes a texel, 24 bytes a point (Bevy's own figure for ambient cubes).
+//! DDS is written with `ddsfile` (a DX10 header, `DXGI_FORMAT_R9G9B9E5_SHAREDEXP` or
+//! `R11G11B10_FLOAT`, depth = `3 Rz`), KTX2 with the `ktx2` crate's header types
+//! (`E5B9G9R9_UFLOAT_PACK32` or `B10G11R11_UFLOAT_PACK32`, one level, a basic data format
+//! descriptor); both are the crates Bevy's loaders use.
+//!
+//! [`LightGrid`]: grid_core::LightGrid
+//! [`IrradianceVolume::intensity`]: https://docs.rs/bevy/latest/bevy/pbr/irradiance_volume/struct.IrradianceVolume.html
+
+use std::num::NonZeroU8;
+use std::path::{Path, PathBuf};
+
+use grid_core::glam::{UVec3, Vec3};
+use grid_core::{AmbientCube, GridDesc, GridError, LightField, pack};
+use serde::{Deserialize, Serialize};
+
+/// The largest side of a 3D texture wgpu allows by default (`max_texture_dimension_3d`).
+pub const MAX_TEXTURE_SIDE: u32 = 2048;
+
+/// The brightest texel is scaled to about this value (2^14): far below the formats'
+/// largest value (65024 and more), far above their smallest normal (2^-14).
+const TARGET_MAX: f32 = 16384.0;
+
+/// What went wrong while exporting.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    /// A grid error (a bad descriptor, a light field that cannot be sampled, I/O).
+    #[error(transparent)]
+    Grid(#[from] GridError),
+    /// The texture would not fit a GPU's 3D texture.
+    #[error("{field} = {value}: a 3D texture side may be at most {MAX_TEXTURE_SIDE} texels")]
+    TooLarge {
+        /// Which side (`texture width`, `texture height`, `texture depth`).
+        field: &'static str,
+        /// Its size in texels.
+        value: u64,
+    },
+    /// A parameter out of its range.
+    #[error("invalid {field} = {value}: {reason}")]
+    Invalid {
+        /// The parameter.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What it must be.
+        reason: &'static str,
+    },
+    /// The DDS writer refused the texture.
+    #[error("writing DDS: {0}")]
+    Dds(String),
+}
+
+/// The texel format of the exported texture (see the module docs' table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum TexelFormat {
+    /// Shared-exponent RGB (`Rgb9e5Ufloat` in wgpu and Bevy).
+    #[default]
+    Rgb9e5,
+    /// Packed small floats (`Rg11b10Ufloat` in wgpu and Bevy).
+    Rg11b10,
+}
+
+impl TexelFormat {
+    /// wgpu's name of the format (what Bevy's loaders produce).
+    pub const fn wgpu_name(self) -> &'static str {
+        match self {
+            Self::Rgb9e5 => "Rgb9e5Ufloat",
+            Self::Rg11b10 => "Rg11b10Ufloat",
+        }
+    }
+    /// Packs linear RGB into one texel.
+    pub fn pack(self, c: Vec3) -> u32 {
+        match self {
+            Self::Rgb9e5 => pack::pack_rgb9e5(c),
+            Self::Rg11b10 => pack::pack_r11g11b10(c),
+        }
+    }
+    /// Unpacks one texel.
+    pub fn unpack(self, w: u32) -> Vec3 {
+        match self {
+            Self::Rgb9e5 => pack::unpack_rgb9e5(w),
+            Self::Rg11b10 => pack::unpack_r11g11b10(w),
+        }
+    }
+    fn dxgi(self) -> ddsfile::DxgiFormat {
+        match self {
+            Self::Rgb9e5 => ddsfile::DxgiFormat::R9G9B9E5_SharedExp,
+            Self::Rg11b10 => ddsfile::DxgiFormat::R11G11B10_Float,
+        }
+    }
+    fn vk(self) -> ktx2::Format {
+        match self {
+            Self::Rgb9e5 => ktx2::Format::E5B9G9R9_UFLOAT_PACK32,
+            Self::Rg11b10 => ktx2::Format::B10G11R11_UFLOAT_PACK32,
+        }
+    }
+}
+
+/// An irradiance volume ready to write: packed texels, transform and intensity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BevyVolume {
+    desc: GridDesc,
+    format: TexelFormat,
+    /// Texels in texture order: `x` fastest, then `t` (`2 Ry`), then `p` (`3 Rz`).
+    texels: Vec<u32>,
+    intensity: f32,
+}
+
+impl BevyVolume {
+    /// Samples `field` at every point of `desc` (no normal bias: the points are in free
+    /// space or the light is what it is there) and packs the ambient cubes. For a
+    /// [`grid_core::LightGrid`] sampled at its own descriptor this is its values exactly.
+    pub fn from_field(
+        field: &impl LightField,
+        desc: &GridDesc,
+        format: TexelFormat,
+    ) -> Result<Self, ExportError> {
+        let res = desc.dims();
+        let size = texture_size(res);
+        for (field, v) in [
+            ("texture width", size.x),
+            ("texture height", size.y),
+            ("texture depth", size.z),
+        ] {
+            if v as u64 > MAX_TEXTURE_SIDE as u64 {
+                return Err(ExportError::TooLarge {
+                    field,
+                    value: v as u64,
+                });
+            }
+        }
+        // Each side is at most 2048, so the product fits a u64; 4 bytes a texel plus
+        // 4 x 3 floats a face while sampling.
+        let n = size.x as u64 * size.y as u64 * size.z as u64;
+        grid_core::limits::check_memory("irradiance volume", n * 16)?;
+        let n = n as usize;
+        // Ambient cubes of every point, as irradiance / pi.
+        let mut cubes = Vec::with_capacity(desc.point_count());
+        for z in 0..res.z {
+            for y in 0..res.y {
+                for x in 0..res.x {
+                    let p = desc.position(UVec3::new(x, y, z));
+                    let c = field.light(p, None)?.ambient_cube();
+                    cubes.push(c.0.map(|f| f / std::f32::consts::PI));
+                }
+            }
+        }
+        let max = cubes
+            .iter()
+            .flat_map(|c| c.iter().map(|f| f.max_element()))
+            .fold(0.0f32, f32::max);
+        let intensity = intensity_for(max);
+        let mut texels = vec![0u32; n];
+        let mut i = 0;
+        for z in 0..res.z {
+            for y in 0..res.y {
+                for x in 0..res.x {
+                    for (face, v) in cubes[i].iter().enumerate() {
+                        let t = AmbientCube::bevy_texel(UVec3::new(x, y, z), face, res);
+                        let k = (t.x + size.x * (t.y + size.y * t.z)) as usize;
+                        texels[k] = format.pack(*v / intensity);
+                    }
+                    i += 1;
+                }
+            }
+        }
+        Ok(Self {
+            desc: *desc,
+            format,
+            texels,
+            intensity,
+        })
+    }
+
+    /// The grid the volume was sampled on.
+    pub fn desc(&self) -> &GridDesc {
+        &self.desc
+    }
+    /// The texel format.
+    pub fn format(&self) -> TexelFormat {
+        self.format
+    }
+    /// `(Rx, 2 Ry, 3 Rz)`.
+    pub fn texture_size(&self) -> UVec3 {
+        texture_size(self.desc.dims())
+    }
+    /// The packed texels, `x` fastest, then `t`, then `p`.
+    pub fn texels(&self) -> &[u32] {
+        &self.texels
+    }
+    /// The factor that turns texel values back into irradiance / pi (a power of two).
+    pub fn intensity(&self) -> f32 {
+        self.intensity
+    }
+    /// The unpacked texel of face `face` (ambient-cube order `+X, -X, +Y, -Y, +Z, -Z`) of
+    /// grid point `p` (before the intensity).
+    pub fn texel(&self, p: UVec3, face: usize) -> Vec3 {
+        let size = self.texture_size();
+        let t = AmbientCube::bevy_texel(p, face, self.desc.dims());
+        self.format
+            .unpack(self.texels[(t.x + size.x * (t.y + size.y * t.z)) as usize])
+    }
+    /// Bevy's light-probe transform: the unit cube onto the volume's box.
+    pub fn transform(&self) -> Transform {
+        let d = self.desc.dims().as_vec3();
+        let h = self.desc.h();
+        Transform {
+            translation: (self.desc.origin() + h * (d - Vec3::ONE) * 0.5).to_array(),
+            rotation: [0.0, 0.0, 0.0, 1.0],
+            scale: (h * d).to_array(),
+        }
+    }
+
+    /// The texture as a DDS file (DX10 header, a volume texture of one mip level).
+    pub fn to_dds(&self) -> Result<Vec<u8>, ExportError> {
+        let size = self.texture_size();
+        let mut dds = ddsfile::Dds::new_dxgi(ddsfile::NewDxgiParams {
+            height: size.y,
+            width: size.x,
+            depth: Some(size.z),
+            format: self.format.dxgi(),
+            mipmap_levels: Some(1),
+            array_layers: None,
+            caps2: Some(ddsfile::Caps2::VOLUME),
+            is_cubemap: false,
+            resource_dimension: ddsfile::D3D10ResourceDimension::Texture3D,
+            alpha_mode: ddsfile::AlphaMode::Unknown,
+        })
+        .map_err(|e| ExportError::Dds(e.to_string()))?;
+        let bytes: &[u8] = bytemuck_cast(&self.texels);
+        if dds.data.len() != bytes.len() {
+            return Err(ExportError::Dds(format!(
+                "ddsfile sized the data {} bytes, the texels are {}",
+                dds.data.len(),
+                bytes.len()
+            )));
+        }
+        dds.data.copy_from_slice(bytes);
+        let mut out = Vec::with_capacity(bytes.len() + 148);
+        dds.write(&mut out)
+            .map_err(|e| ExportError::Dds(e.to_string()))?;
+        Ok(out)
+    }
+
+    /// The texture as a KTX2 file: one level, no supercompression, a basic data format
+    /// descriptor for the packed format, and a `KTXwriter` key.
+    pub fn to_ktx2(&self) -> Vec<u8> {
+        let size = self.texture_size();
+        let dfd = basic_dfd(self.format);
+        let kvd = key_value(
+            "KTXwriter",
+            concat!("lightgrid-export ", env!("CARGO_PKG_VERSION")),
+        );
+        let level_index_len = ktx2::LevelIndex::LENGTH;
+        let dfd_offset = ktx2::Header::LENGTH + level_index_len;
+        let kvd_offset = dfd_offset + dfd.len();
+        // Level data aligned to lcm(texel block size 4, 4).
+        let data_offset = (kvd_offset + kvd.len()).next_multiple_of(4);
+        let bytes: &[u8] = bytemuck_cast(&self.texels);
+        let header = ktx2::Header {
+            format: Some(self.format.vk()),
+            type_size: 4,
+            pixel_width: size.x,
+            pixel_height: size.y,
+            pixel_depth: size.z,
+            layer_count: 0,
+            face_count: 1,
+            level_count: 1,
+            supercompression_scheme: None,
+            index: ktx2::Index {
+                dfd_byte_offset: dfd_offset as u32,
+                dfd_byte_length: dfd.len() as u32,
+                kvd_byte_offset: kvd_offset as u32,
+                kvd_byte_length: kvd.len() as u32,
+                sgd_byte_offset: 0,
+                sgd_byte_length: 0,
+            },
+        };
+        let level = ktx2::LevelIndex {
+            byte_offset: data_offset as u64,
+            byte_length: bytes.len() as u64,
+            uncompressed_byte_length: bytes.len() as u64,
+        };
+        let mut out = Vec::with_capacity(data_offset + bytes.len());
+        out.extend_from_slice(&header.as_bytes());
+        out.extend_from_slice(&level.as_bytes());
+        out.extend_from_slice(&dfd);
+        out.extend_from_slice(&kvd);
+        out.resize(data_offset, 0);
+        out.extend_from_slice(bytes);
+        out
+    }
+
+    /// The sidecar describing this volume (file names relative to the sidecar).
+    pub fn sidecar(&self, stem: &str, content: Content, unit_scale: f32) -> VolumeInfo {
+        let d = self.desc.dims();
+        VolumeInfo {
+            name: stem.to_string(),
+            dds: format!("{stem}.dds"),
+            ktx2: format!("{stem}.ktx2"),
+            format: self.format.wgpu_name().to_string(),
+            resolution: d.to_array(),
+            texture_size: self.texture_size().to_array(),
+            transform: self.transform(),
+            intensity: self.intensity * unit_scale,
+            content,
+            grid_origin: self.desc.origin().to_array(),
+            grid_spacing: self.desc.h(),
+        }
+    }
+
+    /// Writes `<stem>.dds` and `<stem>.ktx2` into `dir` (created if missing), atomically.
+    /// Returns the paths written.
+    pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, ExportError> {
+        check_stem(stem)?;
+        std::fs::create_dir_all(dir).map_err(|source| GridError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        let dds = dir.join(format!("{stem}.dds"));
+        grid_core::file::write_atomic(&dds, &self.to_dds()?)?;
+        let ktx = dir.join(format!("{stem}.ktx2"));
+        grid_core::file::write_atomic(&ktx, &self.to_ktx2())?;
+        Ok(vec![dds, ktx])
+    }
+}
+
+/// What light an export holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Content {
+    /// Sky light and the sun's scattered light, without the direct sun: for engines that
+    /// add their own directional light (Bevy's `DirectionalLight`). The default.
+    Indirect,
+    /// Everything the sweep computed, the direct sun included.
+    All,
+}
+
+/// Bevy's `Transform` of a light probe: translation, rotation (quaternion `x, y, z, w`),
+/// scale.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Transform {
+    /// Centre of the volume's box.
+    pub translation: [f32; 3],
+    /// Always the identity: grids are axis-aligned.
+    pub rotation: [f32; 4],
+    /// Size of the volume's box.
+    pub scale: [f32; 3],
+}
+
+/// One volume in the sidecar.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VolumeInfo {
+    /// File stem.
+    pub name: String,
+    /// DDS file, relative to the sidecar.
+    pub dds: String,
+    /// KTX2 file, relative to the sidecar.
+    pub ktx2: String,
+    /// wgpu texture format of both files.
+    pub format: String,
+    /// Grid points `(Rx, Ry, Rz)`.
+    pub resolution: [u32; 3],
+    /// Texture size `(Rx, 2 Ry, 3 Rz)`.
+    pub texture_size: [u32; 3],
+    /// The light probe's transform.
+    pub transform: Transform,
+    /// `IrradianceVolume::intensity`: texel × intensity = irradiance / pi in Bevy's units.
+    pub intensity: f32,
+    /// Which light the texels hold.
+    pub content: Content,
+    /// World position of grid point (0, 0, 0).
+    pub grid_origin: [f32; 3],
+    /// Distance between grid points.
+    pub grid_spacing: f32,
+}
+
+/// The sidecar file (`<name>.json`): every volume, first = coarsest (the world grid),
+/// then finer ones; where volumes overlap, the finer one should win (Bevy picks one
+/// volume per fragment; give the finer ones the smaller boxes, as they are).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sidecar {
+    /// `"lightgrid-bevy-irradiance-volumes"`.
+    pub kind: String,
+    /// Sidecar format version (1).
+    pub version: u32,
+    /// Where the texels go in the texture.
+    pub face_order: String,
+    /// The volumes.
+    pub volumes: Vec<VolumeInfo>,
+}
+
+impl Sidecar {
+    /// The sidecar of `volumes`.
+    pub fn new(volumes: Vec<VolumeInfo>) -> Self {
+        Self {
+            kind: "lightgrid-bevy-irradiance-volumes".into(),
+            version: 1,
+            face_order: "Bevy's shader: s = x; t = y for +X, +Y, +Z and y + Ry for -X, -Y, -Z; \
+                         p = z + Rz * axis (X 0, Y 1, Z 2)"
+                .into(),
+            volumes,
+        }
+    }
+    /// Pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+    /// Writes the sidecar as `<dir>/<stem>.json`, atomically.
+    pub fn write(&self, dir: &Path, stem: &str) -> Result<PathBuf, ExportError> {
+        check_stem(stem)?;
+        let path = dir.join(format!("{stem}.json"));
+        grid_core::file::write_atomic(&path, self.to_json().as_bytes())?;
+        Ok(path)
+    }
+}
+
+/// Exports several volumes (coarsest first) into `dir`: `<stem>-<i>.dds`, `.ktx2` each
+/// and one `<stem>.json`. Returns every path written.
+pub fn write_volumes(
+    dir: &Path,
+    stem: &str,
+    volumes: &[BevyVolume],
+    content: Content,
+    unit_scale: f32,
+) -> Result<Vec<PathBuf>, ExportError> {
+    if !(unit_scale.is_finite() && unit_scale > 0.0) {
+        return Err(ExportError::Invalid {
+            field: "unit_scale",
+            value: format!("{unit_scale:?}"),
+            reason: "must be finite and > 0",
+        });
+    }
+    let mut paths = Vec::new();
+    let mut infos = Vec::new();
+    for (i, v) in volumes.iter().enumerate() {
+        let name = if volumes.len() == 1 {
+            stem.to_string()
+        } else {
+            format!("{stem}-{i}")
+        };
+        paths.extend(v.write(dir, &name)?);
+        infos.push(v.sidecar(&name, content, unit_scale));
+    }
+    paths.push(Sidecar::new(infos).write(dir, stem)?);
+    Ok(paths)
+}
+
+fn check_stem(stem: &str) -> Result<(), ExportError> {
+    let ok = !stem.is_empty()
+        && stem.len() <= 128
+        && stem
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
+        && !stem.starts_with('.');
+    if ok {
+        Ok(())
+    } else {
+        Err(ExportError::Invalid {
+            field: "name",
+            value: format!("{stem:?}"),
+            reason: "must be 1..=128 ASCII letters, digits, '-', '_' or '.', not starting with '.'",
+        })
+    }
+}
+
+fn texture_size(res: UVec3) -> UVec3 {
+    UVec3::new(
+        res.x,
+        res.y.saturating_mul(2),
+        res.z.saturating_mul(3),
+    )
+}
+
+/// The power of two that brings `max` near [`TARGET_MAX`]; 1 for no light.
+fn intensity_for(max: f32) -> f32 {
+    if !(max.is_finite() && max > 0.0) {
+        return 1.0;
+    }
+    2f32.powi((max / TARGET_MAX).log2().ceil().clamp(-100.0, 100.0) as i32)
+}
+
+/// Little-endian bytes of the texels (every target Bevy runs on is little-endian; this
+/// spells it out rather than reinterpreting memory).
+fn bytemuck_cast(texels: &[u32]) -> &[u8] {
+    #[cfg(target_endian = "little")]
+    {
+        bytemuck::cast_slice(texels)
+    }
+    #[cfg(not(target_endian = "little"))]
+    compile_error!("lightgrid-export writes little-endian textures on little-endian targets only")
+}
+
+/// A KTX2 basic data format descriptor (with its total-size prefix) for a packed format:
+/// RGBSDA, BT.709 primaries, linear transfer, one 4-byte plane. RGB9E5 has six samples
+/// (three 9-bit mantissas and their shared 5-bit exponent, once per channel with the
+/// `EXPONENT` qualifier); R11G11B10 three unsigned float samples.
+fn basic_dfd(format: TexelFormat) -> Vec<u8> {
+    use ktx2::ChannelTypeQualifiers as Q;
+    let one = NonZeroU8::MIN;
+    let sample = |offset: u16, bits: u8, channel: u8, q: Q, lower: u32, upper: u32| {
+        ktx2::SampleInformation {
+            bit_offset: offset,
+            bit_length: NonZeroU8::new(bits).unwrap_or(one),
+            channel_type: channel,
+            channel_type_qualifiers: q,
+            sample_positions: [0; 4],
+            lower,
+            upper,
+        }
+    };
+    const F32_ONE: u32 = 0x3f80_0000;
+    let samples: Vec<ktx2::SampleInformation> = match format {
+        TexelFormat::Rgb9e5 => (0..3u8)
+            .flat_map(|c| {
+                [
+                    sample(9 * c as u16, 9, c, Q::empty(), 0, 8448),
+                    sample(27, 5, c, Q::EXPONENT, 15, 31),
+                ]
+            })
+            .collect(),
+        TexelFormat::Rg11b10 => vec![
+            sample(0, 11, 0, Q::FLOAT, 0, F32_ONE),
+            sample(11, 11, 1, Q::FLOAT, 0, F32_ONE),
+            sample(22, 10, 2, Q::FLOAT, 0, F32_ONE),
+        ],
+    };
+    let block_size = ktx2::DfdHeader::LENGTH
+        + ktx2::DfdBlockHeaderBasic::LENGTH
+        + samples.len() * ktx2::SampleInformation::LENGTH;
+    let basic = ktx2::DfdBlockHeaderBasic {
+        color_model: Some(ktx2::ColorModel::RGBSDA),
+        color_primaries: Some(ktx2::ColorPrimaries::BT709),
+        transfer_function: Some(ktx2::TransferFunction::Linear),
+        flags: ktx2::DataFormatFlags::STRAIGHT_ALPHA,
+        texel_block_dimensions: [one; 4],
+        bytes_planes: [4, 0, 0, 0, 0, 0, 0, 0],
+    };
+    let mut out = Vec::with_capacity(4 + block_size);
+    out.extend_from_slice(&((4 + block_size) as u32).to_le_bytes());
+    out.extend_from_slice(&ktx2::DfdHeader::BASIC.as_bytes(block_size as u16));
+    out.extend_from_slice(&basic.as_bytes());
+    for s in &samples {
+        out.extend_from_slice(&s.as_bytes());
+    }
+    out
+}
+
+/// One KTX2 key/value entry: length, `key\0value\0`, padded to 4 bytes.
+fn key_value(key: &str, value: &str) -> Vec<u8> {
+    let mut kv = Vec::new();
+    kv.extend_from_slice(key.as_bytes());
+    kv.push(0);
+    kv.extend_from_slice(value.as_bytes());
+    kv.push(0);
+    let mut out = (kv.len() as u32).to_le_bytes().to_vec();
+    out.extend_from_slice(&kv);
+    out.resize(out.len().next_multiple_of(4), 0);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use grid_core::{BinLight, LightGrid};
+
+    fn grid(dims: UVec3) -> (GridDesc, LightGrid) {
+        let desc = GridDesc::new(Vec3::new(1.0, -2.0, 3.0), 0.5, dims).unwrap();
+        let data = (0..desc.point_count())
+            .map(|i| BinLight(std::array::from_fn(|d| Vec3::splat((i * 26 + d) as f32 + 1.0))))
+            .collect();
+        (desc, LightGrid::new(desc, data).unwrap())
+    }
+
+    #[test]
+    fn every_point_and_face_lands_where_bevy_texel_says() {
+        let (desc, g) = grid(UVec3::new(3, 4, 5));
+        for format in [TexelFormat::Rgb9e5, TexelFormat::Rg11b10] {
+            let v = BevyVolume::from_field(&g, &desc, format).unwrap();
+            assert_eq!(v.texels().len(), 3 * 8 * 15);
+            for (i, b) in g.data().iter().enumerate() {
+                let p = desc.coords(i).unwrap();
+                let cube = b.ambient_cube();
+                for face in 0..6 {
+                    let want = cube.0[face] / std::f32::consts::PI;
+                    let got = v.texel(p, face) * v.intensity();
+                    let err = ((got - want).abs() / want.max_element()).max_element();
+                    assert!(err < 1.0 / 64.0, "{format:?} point {p} face {face}: {got} vs {want}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn transform_puts_points_at_voxel_centres() {
+        let (desc, g) = grid(UVec3::new(4, 2, 3));
+        let v = BevyVolume::from_field(&g, &desc, TexelFormat::Rgb9e5).unwrap();
+        let t = v.transform();
+        let (c, s) = (Vec3::from(t.translation), Vec3::from(t.scale));
+        for i in 0..desc.point_count() {
+            let p = desc.coords(i).unwrap();
+            // Bevy: unit = (world - translation) / scale; texel = (unit + 1/2) * R.
+            let unit = (desc.position(p) - c) / s;
+            let texel = (unit + 0.5) * desc.dims().as_vec3();
+            assert!((texel - (p.as_vec3() + 0.5)).abs().max_element() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn intensity_keeps_texels_inside_the_formats() {
+        for max in [1e-6f32, 1e-3, 1.0, 3e4, 1e9] {
+            let k = intensity_for(max);
+            let scaled = max / k;
+            assert!((TARGET_MAX / 2.0..=TARGET_MAX).contains(&scaled), "{max}: {scaled}");
+            assert_eq!(k.log2().fract(), 0.0);
+        }
+        assert_eq!(intensity_for(0.0), 1.0);
+        assert_eq!(intensity_for(f32::NAN), 1.0);
+    }
+
+    #[test]
+    fn oversized_textures_and_bad_names_are_refused() {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 2, 700)).unwrap();
+        let g = LightGrid::filled(desc, BinLight::ZERO).unwrap();
+        let e = BevyVolume::from_field(&g, &desc, TexelFormat::Rgb9e5).unwrap_err();
+        assert!(e.to_string().contains("texture depth = 2100"), "{e}");
+        for bad in ["", "../x", "a/b", ".hidden", "a b"] {
+            assert!(check_stem(bad).is_err(), "{bad:?}");
+        }
+        let (desc, g) = grid(UVec3::new(2, 2, 2));
+        let v = BevyVolume::from_field(&g, &desc, TexelFormat::Rgb9e5).unwrap();
+        let dir = std::env::temp_dir();
+        let e = write_volumes(&dir, "x", &[v], Content::All, f32::NAN).unwrap_err();
+        assert!(e.to_string().contains("unit_scale"), "{e}");
+    }
+}

@@ -1,0 +1,253 @@
+//! The exported files read exactly as Bevy reads them: its DDS and KTX2 loaders
+//! (`bevy_image::dds::dds_buffer_to_image`, `bevy_image::ktx2::ktx2_buffer_to_image`,
+//! ported below for the two formats we write, with the same `ddsfile` and `ktx2` crates),
+//! then its shader's lookup (`irradiance_volume_light` in
+//! `bevy_pbr/src/light_probe/irradiance_volume.wgsl`, ported line by line with a
+//! clamp-to-edge trilinear sampler). Bevy itself does not build on this machine in
+//! reasonable time, so this is the check that the face order, the transform and the
+//! intensity are the ones Bevy's code uses.
+
+use grid_core::glam::{UVec3, Vec3};
+use grid_core::{BinLight, GridDesc, LightField, LightGrid, dirs};
+use lightgrid_export::{BevyVolume, Content, Sidecar, TexelFormat, Transform, write_volumes};
+
+/// What Bevy's loaders hand to wgpu for our files.
+struct Image {
+    format: TexelFormat,
+    size: UVec3,
+    is_3d: bool,
+    data: Vec<u8>,
+}
+
+/// `dds_buffer_to_image`: `Dds::read`, the DXGI format mapping, `depth > 1` is a 3D
+/// texture, mip levels 0 are bumped to 1, the data is used as is.
+fn bevy_load_dds(bytes: &[u8]) -> Image {
+    let dds = ddsfile::Dds::read(&mut std::io::Cursor::new(bytes)).expect("Failed to parse DDS");
+    assert!(dds.get_d3d_format().is_none(), "a D3D format takes the other branch");
+    let format = match dds.get_dxgi_format().expect("a DXGI format") {
+        ddsfile::DxgiFormat::R9G9B9E5_SharedExp => TexelFormat::Rgb9e5,
+        ddsfile::DxgiFormat::R11G11B10_Float => TexelFormat::Rg11b10,
+        f => panic!("unexpected {f:?}"),
+    };
+    assert!(!dds.header.caps2.contains(ddsfile::Caps2::CUBEMAP));
+    assert_eq!(dds.get_num_array_layers(), 1);
+    assert_eq!(dds.get_num_mipmap_levels().max(1), 1);
+    Image {
+        format,
+        size: UVec3::new(dds.get_width(), dds.get_height(), dds.get_depth()),
+        is_3d: dds.get_depth() > 1,
+        data: dds.data,
+    }
+}
+
+/// `ktx2_buffer_to_image`: `Reader::new`, `header.format` mapped (ours always has one),
+/// no supercompression, levels concatenated, `depth > 1` is a 3D texture.
+fn bevy_load_ktx2(bytes: &[u8]) -> Image {
+    let ktx = ktx2::Reader::new(bytes).expect("Failed to parse ktx2 file");
+    let h = ktx.header();
+    assert!(h.supercompression_scheme.is_none());
+    assert_eq!((h.layer_count.max(1), h.face_count.max(1), h.level_count), (1, 1, 1));
+    let format = match h.format.expect("a vkFormat") {
+        ktx2::Format::E5B9G9R9_UFLOAT_PACK32 => TexelFormat::Rgb9e5,
+        ktx2::Format::B10G11R11_UFLOAT_PACK32 => TexelFormat::Rg11b10,
+        f => panic!("unexpected {f:?}"),
+    };
+    let data: Vec<u8> = ktx.levels().flat_map(|l| l.data.to_vec()).collect();
+    // The data format descriptor parses and describes one 4-byte RGB plane.
+    let block = ktx.dfd_blocks().next().expect("a DFD block");
+    assert_eq!(block.header, ktx2::DfdHeader::BASIC);
+    let basic = ktx2::DfdBlockBasic::parse(block.data).expect("a basic DFD");
+    assert_eq!(basic.header.color_model, Some(ktx2::ColorModel::RGBSDA));
+    assert_eq!(basic.header.bytes_planes[0], 4);
+    let channels: Vec<u8> = basic.sample_information().map(|s| s.channel_type).collect();
+    assert!(channels.contains(&0) && channels.contains(&1) && channels.contains(&2));
+    let writer = ktx
+        .key_value_data()
+        .find(|(k, _)| *k == "KTXwriter")
+        .expect("a KTXwriter key");
+    assert!(std::str::from_utf8(writer.1).unwrap().starts_with("lightgrid-export"));
+    let depth = h.pixel_depth.max(1);
+    Image {
+        format,
+        size: UVec3::new(h.pixel_width, h.pixel_height, depth),
+        is_3d: depth > 1,
+        data,
+    }
+}
+
+impl Image {
+    fn texel(&self, t: UVec3) -> Vec3 {
+        let i = 4 * (t.x + self.size.x * (t.y + self.size.y * t.z)) as usize;
+        let w = u32::from_le_bytes(self.data[i..i + 4].try_into().unwrap());
+        self.format.unpack(w)
+    }
+
+    /// `textureSampleLevel` with a linear, clamp-to-edge sampler at normalised `uvw`.
+    fn sample(&self, uvw: Vec3) -> Vec3 {
+        let size = self.size.as_vec3();
+        let f = uvw * size - 0.5;
+        let base = f.floor();
+        let w = f - base;
+        let clamp = |v: f32, n: u32| (v.max(0.0) as u32).min(n - 1);
+        let mut acc = Vec3::ZERO;
+        for corner in 0..8u32 {
+            let o = UVec3::new(corner & 1, (corner >> 1) & 1, corner >> 2);
+            let t = UVec3::new(
+                clamp(base.x + o.x as f32, self.size.x),
+                clamp(base.y + o.y as f32, self.size.y),
+                clamp(base.z + o.z as f32, self.size.z),
+            );
+            let wt = Vec3::select(o.cmpeq(UVec3::ONE).into(), w, Vec3::ONE - w);
+            acc += self.texel(t) * wt.x * wt.y * wt.z;
+        }
+        acc
+    }
+
+    /// `irradiance_volume_light(world_position, N)` after `query_light_probe` found this
+    /// volume: `light_from_world` is the inverse of the probe's transform, and the result
+    /// is multiplied by the probe's intensity.
+    fn bevy_light(&self, t: &Transform, intensity: f32, world: Vec3, n: Vec3) -> Vec3 {
+        let atlas_resolution = self.size.as_vec3();
+        let resolution = (self.size / UVec3::new(1, 2, 3)).as_vec3();
+        let unit_pos = (world - Vec3::from(t.translation)) / Vec3::from(t.scale);
+        let stp = ((unit_pos + 0.5) * resolution).clamp(Vec3::splat(0.5), resolution - 0.5);
+        let uvw = stp / atlas_resolution;
+        let neg_offset = Vec3::select(n.cmplt(Vec3::ZERO), Vec3::splat(0.5), Vec3::ZERO);
+        let uvw_x = uvw + Vec3::new(0.0, neg_offset.x, 0.0);
+        let uvw_y = uvw + Vec3::new(0.0, neg_offset.y, 1.0 / 3.0);
+        let uvw_z = uvw + Vec3::new(0.0, neg_offset.z, 2.0 / 3.0);
+        let rgb_x = self.sample(uvw_x);
+        let rgb_y = self.sample(uvw_y);
+        let rgb_z = self.sample(uvw_z);
+        let nn = n * n;
+        (rgb_x * nn.x + rgb_y * nn.y + rgb_z * nn.z) * intensity
+    }
+}
+
+/// Sky-like light that differs in every direction: brighter from above and from +X, a
+/// colour that changes with the direction, varying from point to point.
+fn test_grid() -> LightGrid {
+    let desc = GridDesc::new(Vec3::new(-3.0, 1.0, 2.0), 0.75, UVec3::new(5, 4, 3)).unwrap();
+    let data = (0..desc.point_count())
+        .map(|i| {
+            let p = desc.coords(i).unwrap().as_vec3();
+            BinLight(std::array::from_fn(|d| {
+                let v = dirs::dir_unit(d);
+                // Light travelling along v arrives from -v.
+                let from = -v;
+                let base = 1.0 + 3.0 * from.y.max(0.0) + 1.5 * from.x.max(0.0) + 0.2 * p.x;
+                Vec3::new(base, base * (0.8 + 0.1 * from.z), base * (0.5 + 0.05 * p.y))
+                    * dirs::solid_angles()[d]
+                    * 500.0
+            }))
+        })
+        .collect();
+    LightGrid::new(desc, data).unwrap()
+}
+
+fn rel(a: Vec3, b: Vec3) -> f32 {
+    ((a - b).abs() / b.max_element().max(1e-30)).max_element()
+}
+
+fn normals() -> Vec<Vec3> {
+    let mut v: Vec<Vec3> = grid_core::light::AMBIENT_AXES.to_vec();
+    for (x, y, z) in [(1.0, 2.0, -0.5), (-0.3, -1.0, 0.7), (0.6, -0.2, -0.9), (-1.0, 0.4, 0.2)] {
+        v.push(Vec3::new(x, y, z).normalize());
+    }
+    v
+}
+
+fn files(format: TexelFormat) -> (LightGrid, BevyVolume, Vec<Image>) {
+    let g = test_grid();
+    let v = BevyVolume::from_field(&g, g.desc(), format).unwrap();
+    let images = vec![bevy_load_dds(&v.to_dds().unwrap()), bevy_load_ktx2(&v.to_ktx2())];
+    (g, v, images)
+}
+
+#[test]
+fn bevy_loaders_read_a_3d_texture_of_the_right_size_and_format() {
+    for format in [TexelFormat::Rgb9e5, TexelFormat::Rg11b10] {
+        let (g, v, images) = files(format);
+        let d = g.desc().dims();
+        for img in &images {
+            assert!(img.is_3d);
+            assert_eq!(img.format, format);
+            assert_eq!(img.size, UVec3::new(d.x, 2 * d.y, 3 * d.z));
+            assert_eq!(img.data.len(), 4 * v.texels().len());
+            // Both containers hold the same texels.
+            assert_eq!(img.data, images[0].data);
+        }
+    }
+}
+
+/// At every grid point, for the six axis normals, Bevy's lookup gives the sweep's
+/// irradiance on that normal / pi: the face order, the transform and the intensity are
+/// right. The light is brighter from above than below and from +X than -X, so swapping
+/// the halves of the texture (Bevy's doc-comment order) fails this by a factor of ~2.
+#[test]
+fn bevy_lookup_at_grid_points_is_the_irradiance_over_pi() {
+    for (format, tol) in [(TexelFormat::Rgb9e5, 1.0 / 256.0), (TexelFormat::Rg11b10, 1.0 / 32.0)] {
+        let (g, v, images) = files(format);
+        let t = v.transform();
+        for img in &images {
+            for i in 0..g.desc().point_count() {
+                let p = g.desc().coords(i).unwrap();
+                let world = g.desc().position(p);
+                let b = &g.data()[i];
+                for n in grid_core::light::AMBIENT_AXES {
+                    let want = b.irradiance(n) / std::f32::consts::PI;
+                    let got = img.bevy_light(&t, v.intensity(), world, n);
+                    assert!(rel(got, want) < tol, "{format:?} {p} n {n}: {got} vs {want}");
+                }
+                // The halves differ, so the test above can tell them apart.
+                let up = b.irradiance(Vec3::Y).x;
+                let down = b.irradiance(Vec3::NEG_Y).x;
+                assert!(up > 1.5 * down, "{up} vs {down}");
+            }
+        }
+    }
+}
+
+/// Between grid points and for any normal, Bevy's lookup is the trilinear blend of the
+/// ambient cubes at the eight surrounding points (hardware filtering inside one half of
+/// the texture), evaluated with Valve's formula.
+#[test]
+fn bevy_lookup_between_points_is_the_blended_ambient_cube() {
+    let (g, v, images) = files(TexelFormat::Rgb9e5);
+    let t = v.transform();
+    let desc = g.desc();
+    let img = &images[1];
+    for (k, n) in normals().into_iter().enumerate() {
+        for q in [
+            Vec3::new(0.3, 0.5, 0.25),
+            Vec3::new(2.7, 1.2, 1.9),
+            Vec3::new(3.99, 2.5, 0.01),
+        ] {
+            let world = desc.to_world(q + 0.013 * k as f32);
+            let want = g.light(world, None).unwrap().ambient_cube().irradiance(n) / std::f32::consts::PI;
+            let got = img.bevy_light(&t, v.intensity(), world, n);
+            assert!(rel(got, want) < 1.0 / 200.0, "{q} n {n}: {got} vs {want}");
+        }
+    }
+}
+
+#[test]
+fn the_sidecar_describes_the_files() {
+    let g = test_grid();
+    let v = BevyVolume::from_field(&g, g.desc(), TexelFormat::Rg11b10).unwrap();
+    let dir = std::env::temp_dir().join(format!("lightgrid-export-test-{}", std::process::id()));
+    let paths = write_volumes(&dir, "volume", &[v.clone()], Content::Indirect, 2.0).unwrap();
+    assert_eq!(paths.len(), 3);
+    let text = std::fs::read_to_string(dir.join("volume.json")).unwrap();
+    let side: Sidecar = serde_json::from_str(&text).unwrap();
+    let info = &side.volumes[0];
+    assert_eq!(info.content, Content::Indirect);
+    assert_eq!(info.format, "Rg11b10Ufloat");
+    assert_eq!(info.intensity, 2.0 * v.intensity());
+    assert_eq!(info.resolution, g.desc().dims().to_array());
+    assert_eq!(info.transform, v.transform());
+    let dds = std::fs::read(dir.join(&info.dds)).unwrap();
+    let ktx = std::fs::read(dir.join(&info.ktx2)).unwrap();
+    assert_eq!(bevy_load_dds(&dds).data, bevy_load_ktx2(&ktx).data);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
