@@ -15,7 +15,7 @@
 //! `/proc/self/clear_refs`). An input whose panic escaped is written to
 //! `target/fuzz/crash-<target>-<n>.bin` (a slow one to `slow-...`) to reproduce it.
 //!
-//! The memory limit ([`grid_core::limits`]) is set to 2 GiB while fuzzing, so an input
+//! The memory limit ([`lightgrid_core::limits`]) is set to 2 GiB while fuzzing, so an input
 //! that asks for more is refused, and the peak shows that no input got round it.
 //!
 //! `xtask/tests/fuzz.rs` runs every target over a few thousand inputs in CI; the command
@@ -32,8 +32,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use grid_core::glam::{UVec3, Vec3, Vec4};
-use grid_core::{BinLight, GridDesc, GridFile, Material};
+use lightgrid_core::glam::{UVec3, Vec3, Vec4};
+use lightgrid_core::{BinLight, GridDesc, GridFile, Material};
 use rayon::prelude::*;
 
 /// An input slower than this counts as a timeout.
@@ -241,7 +241,7 @@ pub fn generate(t: &Target, seed: u64, i: u64) -> Vec<u8> {
 /// Runs `inputs` generated inputs through target `t` (in parallel) and reports.
 pub fn run_target(t: &Target, inputs: u64, seed: u64, crash_dir: Option<&Path>) -> Report {
     install_hook();
-    grid_core::limits::set_memory_limit(FUZZ_MEMORY_LIMIT);
+    lightgrid_core::limits::set_memory_limit(FUZZ_MEMORY_LIMIT);
     reset_peak_rss();
     let hook_before = HOOK_PANICS.load(Ordering::Relaxed);
     let accepted = AtomicU64::new(0);
@@ -288,7 +288,7 @@ pub fn run_target(t: &Target, inputs: u64, seed: u64, crash_dir: Option<&Path>) 
     });
     let escaped = escaped.load(Ordering::Relaxed);
     let hook = HOOK_PANICS.load(Ordering::Relaxed) - hook_before;
-    grid_core::limits::set_memory_limit(0);
+    lightgrid_core::limits::set_memory_limit(0);
     Report {
         target: t.name.to_string(),
         inputs,
@@ -340,7 +340,7 @@ const VOLUME_KEY: u64 = 0x1234_5678_9abc_def0;
 
 fn grid_seeds() -> Vec<Vec<u8>> {
     let d = GridDesc::new(Vec3::new(-1.0, 0.0, 2.0), 0.5, UVec3::new(3, 2, 2)).expect("valid");
-    let m = grid_core::MaterialGrid::filled(
+    let m = lightgrid_core::MaterialGrid::filled(
         d,
         Material {
             reflectance: Vec3::splat(0.4),
@@ -348,7 +348,7 @@ fn grid_seeds() -> Vec<Vec<u8>> {
         },
     )
     .expect("valid");
-    let l = grid_core::LightGrid::filled(d, BinLight::uniform(Vec3::new(1.0, 2.0, 3.0)))
+    let l = lightgrid_core::LightGrid::filled(d, BinLight::uniform(Vec3::new(1.0, 2.0, 3.0)))
         .expect("valid");
     vec![
         GridFile::Material(m).to_bytes(),
@@ -389,8 +389,8 @@ fn volume_seeds() -> Vec<Vec<u8>> {
     for (i, b) in data.iter_mut().enumerate() {
         b.0[i % 26] = Vec3::new(1.0 + i as f32, 0.5, 0.25);
     }
-    let g = grid_core::LightGrid::new(d, data).expect("valid");
-    let empty = grid_core::LightGrid::filled(d, BinLight::ZERO).expect("valid");
+    let g = lightgrid_core::LightGrid::new(d, data).expect("valid");
+    let empty = lightgrid_core::LightGrid::filled(d, BinLight::ZERO).expect("valid");
     vec![
         light_volumes::CompressedVolume::compress(&g, VOLUME_KEY).to_bytes(),
         light_volumes::CompressedVolume::compress(&empty, VOLUME_KEY).to_bytes(),

@@ -1,6 +1,5 @@
 //! `cargo xtask <task>`: project chores.
 //!
-//! * `inspect <file>`: prints the header of a grid file and a summary of its values.
 //! * `bench [--full] [--scene NAME]... [--no-gpu] [--out DIR]`: run time against error
 //!   for the sweep (CPU, GPU) and Monte Carlo on every bench scene, against a cached long
 //!   Monte Carlo reference, and the work the library skips; writes a table, JSON and a
@@ -20,7 +19,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use grid_core::{GridFile, LightGrid};
 
 pub mod bench;
 
@@ -33,11 +31,6 @@ struct Args {
 
 #[derive(Debug, Subcommand)]
 enum Task {
-    /// Print the header and a summary of a grid file.
-    Inspect {
-        /// The grid file.
-        path: PathBuf,
-    },
     /// Run time against error, and the skipped work.
     Bench {
         /// Larger grids, a longer reference and more Monte Carlo path counts.
@@ -79,16 +72,6 @@ fn main() -> ExitCode {
     let args = Args::parse();
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     match args.task {
-        Task::Inspect { path } => match GridFile::load(&path) {
-            Ok(f) => {
-                print!("{}", describe(&f));
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("xtask inspect: {e}");
-                ExitCode::FAILURE
-            }
-        },
         Task::Bench {
             full,
             scenes,
@@ -198,43 +181,4 @@ fn fuzz(root: &std::path::Path, inputs: u64, only: &[String], seed: u64) -> Exit
         );
         ExitCode::FAILURE
     }
-}
-
-fn describe(f: &GridFile) -> String {
-    let (desc, extra) = match f {
-        GridFile::Material(g) => {
-            let filled = g.data().iter().filter(|m| !m.is_empty()).count();
-            (*g.desc(), format!("cells with material: {filled}\n"))
-        }
-        GridFile::Light(g) => (*g.desc(), light_summary(g)),
-        GridFile::PackedLight(p) => (
-            *p.grid.desc(),
-            format!("exposure: {}\n{}", p.exposure, light_summary(&p.unpack())),
-        ),
-        GridFile::Average(g) => (*g.desc(), String::new()),
-        GridFile::Dominant(g) => (*g.desc(), String::new()),
-    };
-    format!(
-        "kind: {}\norigin: {}\ncell size: {} m\ndims: {}\npoints: {}\n{extra}",
-        f.kind().name(),
-        desc.origin(),
-        desc.h(),
-        desc.dims(),
-        desc.point_count()
-    )
-}
-
-fn light_summary(g: &LightGrid) -> String {
-    let n = g.data().len().max(1) as f32;
-    let mean = g
-        .data()
-        .iter()
-        .map(|b| b.average())
-        .sum::<grid_core::glam::Vec3>()
-        / n;
-    format!(
-        "largest bin value: {}\nmean average light: {}\n",
-        g.max_value(),
-        mean
-    )
 }

@@ -46,26 +46,31 @@ fn dependencies() -> BTreeMap<String, Vec<Dep>> {
 /// The crates in layer order, each with the workspace crates it may depend on (any kind
 /// of dependency); `None`: any crate below it (the applications at the top). A new crate
 /// or a new edge is a decision: add it here, and to ARCHITECTURE.md.
-const ALLOWED: [(&str, Option<&[&str]>); 9] = [
-    ("grid-core", Some(&[])),
-    ("sweep-cpu", Some(&["grid-core"])),
-    ("sweep-gpu", Some(&["grid-core", "sweep-cpu"])),
-    ("material-voxelizer", Some(&["grid-core"])),
-    ("light-volumes", Some(&["grid-core", "material-voxelizer"])),
+const ALLOWED: [(&str, Option<&[&str]>); 11] = [
+    ("lightgrid-core", Some(&[])),
+    ("sweep-cpu", Some(&["lightgrid-core"])),
+    ("sweep-gpu", Some(&["lightgrid-core", "sweep-cpu"])),
+    ("material-voxelizer", Some(&["lightgrid-core"])),
     (
-        "terrain-lod",
-        Some(&["grid-core", "material-voxelizer", "sweep-cpu"]),
+        "light-volumes",
+        Some(&["lightgrid-core", "material-voxelizer"]),
     ),
     (
-        "render",
+        "terrain-lod",
+        Some(&["lightgrid-core", "material-voxelizer", "sweep-cpu"]),
+    ),
+    (
+        "lightgrid-render",
         Some(&[
-            "grid-core",
+            "lightgrid-core",
             "sweep-cpu",
             "sweep-gpu",
             "material-voxelizer",
             "light-volumes",
         ]),
     ),
+    ("lightgrid-export", Some(&["lightgrid-core", "sweep-cpu"])),
+    ("lightgrid", None),
     ("viewer", None),
     ("xtask", None),
 ];
@@ -85,16 +90,18 @@ fn allowed(name: &str, dep: &str) -> bool {
 }
 
 #[test]
-fn all_nine_crates_exist() {
+fn every_crate_exists() {
     let d = dependencies();
     for c in [
-        "grid-core",
+        "lightgrid-core",
         "material-voxelizer",
         "light-volumes",
         "sweep-cpu",
         "sweep-gpu",
         "terrain-lod",
-        "render",
+        "lightgrid-render",
+        "lightgrid-export",
+        "lightgrid",
         "viewer",
         "xtask",
     ] {
@@ -106,12 +113,12 @@ fn all_nine_crates_exist() {
 fn grid_core_has_no_gpu_or_io_heavy_dependency() {
     let d = dependencies();
     let allowed = ["glam", "bytemuck", "thiserror", "crc32fast"];
-    for dep in &d["grid-core"] {
+    for dep in &d["lightgrid-core"] {
         let ok = match dep.kind.as_str() {
             "dev" => dep.name == "proptest",
             _ => allowed.contains(&dep.name.as_str()),
         };
-        assert!(ok, "grid-core depends on {} ({})", dep.name, dep.kind);
+        assert!(ok, "lightgrid-core depends on {} ({})", dep.name, dep.kind);
     }
 }
 
@@ -120,7 +127,7 @@ fn only_gpu_crates_depend_on_wgpu() {
     for (name, deps) in dependencies() {
         if deps.iter().any(|d| d.name == "wgpu") {
             assert!(
-                ["sweep-gpu", "render", "viewer", "xtask"].contains(&name.as_str()),
+                ["sweep-gpu", "lightgrid-render", "viewer", "xtask"].contains(&name.as_str()),
                 "{name} depends on wgpu"
             );
         }

@@ -7,7 +7,7 @@
 //!
 //! ```
 //! use lightgrid_export::{BevyVolume, TexelFormat};
-//! use grid_core::{BinLight, GridDesc, LightGrid, glam::{UVec3, Vec3}};
+//! use lightgrid_core::{BinLight, GridDesc, LightGrid, glam::{UVec3, Vec3}};
 //!
 //! // A 4 x 3 x 2 grid of points 0.5 m apart, lit by a uniform radiance of 1.
 //! let desc = GridDesc::new(Vec3::ZERO, 0.5, UVec3::new(4, 3, 2)).unwrap();
@@ -33,7 +33,7 @@
 //!
 //! The face placement follows Bevy's shader (`irradiance_volume.wgsl`), which reads a
 //! negative normal component from the upper half of `t`; Bevy's module docs state the
-//! opposite. See [`grid_core::AmbientCube::bevy_texel`]; `tests/bevy.rs` runs a port of
+//! opposite. See [`lightgrid_core::AmbientCube::bevy_texel`]; `tests/bevy.rs` runs a port of
 //! the shader's lookup on the written files. Bevy multiplies the sample by the diffuse
 //! colour and by [`IrradianceVolume::intensity`], hence the `/ pi` (Lambert) and the
 //! intensity: texels are scaled by a power of two so the brightest is near 2^14, far from
@@ -58,14 +58,17 @@
 //! (`E5B9G9R9_UFLOAT_PACK32` or `B10G11R11_UFLOAT_PACK32`, one level, a basic data format
 //! descriptor); both are the crates Bevy's loaders use.
 //!
-//! [`LightGrid`]: grid_core::LightGrid
+//! [`LightGrid`]: lightgrid_core::LightGrid
 //! [`IrradianceVolume::intensity`]: https://docs.rs/bevy/latest/bevy/pbr/irradiance_volume/struct.IrradianceVolume.html
 
 use std::num::NonZeroU8;
 use std::path::{Path, PathBuf};
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{AmbientCube, GridDesc, GridError, LightField, pack};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{
+    AmbientCube, Boundary, GridDesc, GridError, LightField, LightGrid, MaterialGrid,
+    MaterialSource, NoScatter, SweepError, SweepOptions, Sweeper, pack,
+};
 use serde::{Deserialize, Serialize};
 
 /// The largest side of a 3D texture wgpu allows by default (`max_texture_dimension_3d`).
@@ -99,6 +102,9 @@ pub enum ExportError {
         /// What it must be.
         reason: &'static str,
     },
+    /// A sweep failed.
+    #[error(transparent)]
+    Sweep(#[from] SweepError),
     /// The DDS writer refused the texture.
     #[error("writing DDS: {0}")]
     Dds(String),
@@ -163,7 +169,7 @@ pub struct BevyVolume {
 impl BevyVolume {
     /// Samples `field` at every point of `desc` (no normal bias: the points are in free
     /// space or the light is what it is there) and packs the ambient cubes. For a
-    /// [`grid_core::LightGrid`] sampled at its own descriptor this is its values exactly.
+    /// [`lightgrid_core::LightGrid`] sampled at its own descriptor this is its values exactly.
     pub fn from_field(
         field: &impl LightField,
         desc: &GridDesc,
@@ -186,7 +192,7 @@ impl BevyVolume {
         // Each side is at most 2048, so the product fits a u64; 4 bytes a texel plus
         // 4 x 3 floats a face while sampling.
         let n = size.x as u64 * size.y as u64 * size.z as u64;
-        grid_core::limits::check_memory("irradiance volume", n * 16)?;
+        lightgrid_core::limits::check_memory("irradiance volume", n * 16)?;
         let n = n as usize;
         // Ambient cubes of every point, as irradiance / pi.
         let mut cubes = Vec::with_capacity(desc.point_count());
@@ -372,9 +378,9 @@ impl BevyVolume {
             source,
         })?;
         let dds = dir.join(format!("{stem}.dds"));
-        grid_core::file::write_atomic(&dds, &self.to_dds()?)?;
+        lightgrid_core::file::write_atomic(&dds, &self.to_dds()?)?;
         let ktx = dir.join(format!("{stem}.ktx2"));
-        grid_core::file::write_atomic(&ktx, &self.to_ktx2())?;
+        lightgrid_core::file::write_atomic(&ktx, &self.to_ktx2())?;
         Ok(vec![dds, ktx])
     }
 }
@@ -464,7 +470,7 @@ impl Sidecar {
     pub fn write(&self, dir: &Path, stem: &str) -> Result<PathBuf, ExportError> {
         check_stem(stem)?;
         let path = dir.join(format!("{stem}.json"));
-        grid_core::file::write_atomic(&path, self.to_json().as_bytes())?;
+        lightgrid_core::file::write_atomic(&path, self.to_json().as_bytes())?;
         Ok(path)
     }
 }
@@ -500,6 +506,40 @@ pub fn write_volumes(
     Ok(paths)
 }
 
+/// The indirect light of `material` under `sky_and_sun`: everything the sweep computes
+/// minus the sun's direct light, which is the same sweep under `sun` alone with every
+/// reflectance set to zero ([`NoScatter`]): the light of the sun beam as the sweep
+/// carries it, shadows and all, before any scattering. What remains is the sky and
+/// every bounce of the sun, the light an engine that draws its own sun needs.
+/// `sun = None` (no sun) returns the full sweep. Options must ask for the 26 bins.
+pub fn indirect_light(
+    sweeper: &mut dyn Sweeper,
+    material: &MaterialGrid,
+    sky_and_sun: &Boundary,
+    sun: Option<&Boundary>,
+    options: &SweepOptions,
+) -> Result<LightGrid, ExportError> {
+    let mut run = |m: &MaterialGrid, b: &Boundary| -> Result<LightGrid, ExportError> {
+        sweeper
+            .sweep(m, b, options)?
+            .bins
+            .ok_or_else(|| ExportError::Invalid {
+                field: "options.outputs.bins",
+                value: "false".into(),
+                reason: "the export needs the 26 bins",
+            })
+    };
+    let mut full = run(material, sky_and_sun)?;
+    if let Some(sun) = sun {
+        let dark = NoScatter(material).material(material.desc())?;
+        let direct = run(&dark, sun)?;
+        for (a, b) in full.data_mut().iter_mut().zip(direct.data()) {
+            *a = a.saturating_sub(b);
+        }
+    }
+    Ok(full)
+}
+
 fn check_stem(stem: &str) -> Result<(), ExportError> {
     let ok = !stem.is_empty()
         && stem.len() <= 128
@@ -519,11 +559,7 @@ fn check_stem(stem: &str) -> Result<(), ExportError> {
 }
 
 fn texture_size(res: UVec3) -> UVec3 {
-    UVec3::new(
-        res.x,
-        res.y.saturating_mul(2),
-        res.z.saturating_mul(3),
-    )
+    UVec3::new(res.x, res.y.saturating_mul(2), res.z.saturating_mul(3))
 }
 
 /// The power of two that brings `max` near [`TARGET_MAX`]; 1 for no light.
@@ -616,12 +652,16 @@ fn key_value(key: &str, value: &str) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use grid_core::{BinLight, LightGrid};
+    use lightgrid_core::{BinLight, LightGrid};
 
     fn grid(dims: UVec3) -> (GridDesc, LightGrid) {
         let desc = GridDesc::new(Vec3::new(1.0, -2.0, 3.0), 0.5, dims).unwrap();
         let data = (0..desc.point_count())
-            .map(|i| BinLight(std::array::from_fn(|d| Vec3::splat((i * 26 + d) as f32 + 1.0))))
+            .map(|i| {
+                BinLight(std::array::from_fn(|d| {
+                    Vec3::splat((i * 26 + d) as f32 + 1.0)
+                }))
+            })
             .collect();
         (desc, LightGrid::new(desc, data).unwrap())
     }
@@ -639,7 +679,10 @@ mod tests {
                     let want = cube.0[face] / std::f32::consts::PI;
                     let got = v.texel(p, face) * v.intensity();
                     let err = ((got - want).abs() / want.max_element()).max_element();
-                    assert!(err < 1.0 / 64.0, "{format:?} point {p} face {face}: {got} vs {want}");
+                    assert!(
+                        err < 1.0 / 64.0,
+                        "{format:?} point {p} face {face}: {got} vs {want}"
+                    );
                 }
             }
         }
@@ -665,7 +708,10 @@ mod tests {
         for max in [1e-6f32, 1e-3, 1.0, 3e4, 1e9] {
             let k = intensity_for(max);
             let scaled = max / k;
-            assert!((TARGET_MAX / 2.0..=TARGET_MAX).contains(&scaled), "{max}: {scaled}");
+            assert!(
+                (TARGET_MAX / 2.0..=TARGET_MAX).contains(&scaled),
+                "{max}: {scaled}"
+            );
             assert_eq!(k.log2().fract(), 0.0);
         }
         assert_eq!(intensity_for(0.0), 1.0);

@@ -7,8 +7,8 @@
 //! reasonable time, so this is the check that the face order, the transform and the
 //! intensity are the ones Bevy's code uses.
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{BinLight, GridDesc, LightField, LightGrid, dirs};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{BinLight, GridDesc, LightField, LightGrid, dirs};
 use lightgrid_export::{BevyVolume, Content, Sidecar, TexelFormat, Transform, write_volumes};
 
 /// What Bevy's loaders hand to wgpu for our files.
@@ -23,7 +23,10 @@ struct Image {
 /// texture, mip levels 0 are bumped to 1, the data is used as is.
 fn bevy_load_dds(bytes: &[u8]) -> Image {
     let dds = ddsfile::Dds::read(&mut std::io::Cursor::new(bytes)).expect("Failed to parse DDS");
-    assert!(dds.get_d3d_format().is_none(), "a D3D format takes the other branch");
+    assert!(
+        dds.get_d3d_format().is_none(),
+        "a D3D format takes the other branch"
+    );
     let format = match dds.get_dxgi_format().expect("a DXGI format") {
         ddsfile::DxgiFormat::R9G9B9E5_SharedExp => TexelFormat::Rgb9e5,
         ddsfile::DxgiFormat::R11G11B10_Float => TexelFormat::Rg11b10,
@@ -46,7 +49,10 @@ fn bevy_load_ktx2(bytes: &[u8]) -> Image {
     let ktx = ktx2::Reader::new(bytes).expect("Failed to parse ktx2 file");
     let h = ktx.header();
     assert!(h.supercompression_scheme.is_none());
-    assert_eq!((h.layer_count.max(1), h.face_count.max(1), h.level_count), (1, 1, 1));
+    assert_eq!(
+        (h.layer_count.max(1), h.face_count.max(1), h.level_count),
+        (1, 1, 1)
+    );
     let format = match h.format.expect("a vkFormat") {
         ktx2::Format::E5B9G9R9_UFLOAT_PACK32 => TexelFormat::Rgb9e5,
         ktx2::Format::B10G11R11_UFLOAT_PACK32 => TexelFormat::Rg11b10,
@@ -65,7 +71,11 @@ fn bevy_load_ktx2(bytes: &[u8]) -> Image {
         .key_value_data()
         .find(|(k, _)| *k == "KTXwriter")
         .expect("a KTXwriter key");
-    assert!(std::str::from_utf8(writer.1).unwrap().starts_with("lightgrid-export"));
+    assert!(
+        std::str::from_utf8(writer.1)
+            .unwrap()
+            .starts_with("lightgrid-export")
+    );
     let depth = h.pixel_depth.max(1);
     Image {
         format,
@@ -97,7 +107,7 @@ impl Image {
                 clamp(base.y + o.y as f32, self.size.y),
                 clamp(base.z + o.z as f32, self.size.z),
             );
-            let wt = Vec3::select(o.cmpeq(UVec3::ONE).into(), w, Vec3::ONE - w);
+            let wt = Vec3::select(o.cmpeq(UVec3::ONE), w, Vec3::ONE - w);
             acc += self.texel(t) * wt.x * wt.y * wt.z;
         }
         acc
@@ -150,8 +160,13 @@ fn rel(a: Vec3, b: Vec3) -> f32 {
 }
 
 fn normals() -> Vec<Vec3> {
-    let mut v: Vec<Vec3> = grid_core::light::AMBIENT_AXES.to_vec();
-    for (x, y, z) in [(1.0, 2.0, -0.5), (-0.3, -1.0, 0.7), (0.6, -0.2, -0.9), (-1.0, 0.4, 0.2)] {
+    let mut v: Vec<Vec3> = lightgrid_core::light::AMBIENT_AXES.to_vec();
+    for (x, y, z) in [
+        (1.0, 2.0, -0.5),
+        (-0.3, -1.0, 0.7),
+        (0.6, -0.2, -0.9),
+        (-1.0, 0.4, 0.2),
+    ] {
         v.push(Vec3::new(x, y, z).normalize());
     }
     v
@@ -160,7 +175,10 @@ fn normals() -> Vec<Vec3> {
 fn files(format: TexelFormat) -> (LightGrid, BevyVolume, Vec<Image>) {
     let g = test_grid();
     let v = BevyVolume::from_field(&g, g.desc(), format).unwrap();
-    let images = vec![bevy_load_dds(&v.to_dds().unwrap()), bevy_load_ktx2(&v.to_ktx2())];
+    let images = vec![
+        bevy_load_dds(&v.to_dds().unwrap()),
+        bevy_load_ktx2(&v.to_ktx2()),
+    ];
     (g, v, images)
 }
 
@@ -186,7 +204,10 @@ fn bevy_loaders_read_a_3d_texture_of_the_right_size_and_format() {
 /// the halves of the texture (Bevy's doc-comment order) fails this by a factor of ~2.
 #[test]
 fn bevy_lookup_at_grid_points_is_the_irradiance_over_pi() {
-    for (format, tol) in [(TexelFormat::Rgb9e5, 1.0 / 256.0), (TexelFormat::Rg11b10, 1.0 / 32.0)] {
+    for (format, tol) in [
+        (TexelFormat::Rgb9e5, 1.0 / 256.0),
+        (TexelFormat::Rg11b10, 1.0 / 32.0),
+    ] {
         let (g, v, images) = files(format);
         let t = v.transform();
         for img in &images {
@@ -194,10 +215,13 @@ fn bevy_lookup_at_grid_points_is_the_irradiance_over_pi() {
                 let p = g.desc().coords(i).unwrap();
                 let world = g.desc().position(p);
                 let b = &g.data()[i];
-                for n in grid_core::light::AMBIENT_AXES {
+                for n in lightgrid_core::light::AMBIENT_AXES {
                     let want = b.irradiance(n) / std::f32::consts::PI;
                     let got = img.bevy_light(&t, v.intensity(), world, n);
-                    assert!(rel(got, want) < tol, "{format:?} {p} n {n}: {got} vs {want}");
+                    assert!(
+                        rel(got, want) < tol,
+                        "{format:?} {p} n {n}: {got} vs {want}"
+                    );
                 }
                 // The halves differ, so the test above can tell them apart.
                 let up = b.irradiance(Vec3::Y).x;
@@ -224,7 +248,8 @@ fn bevy_lookup_between_points_is_the_blended_ambient_cube() {
             Vec3::new(3.99, 2.5, 0.01),
         ] {
             let world = desc.to_world(q + 0.013 * k as f32);
-            let want = g.light(world, None).unwrap().ambient_cube().irradiance(n) / std::f32::consts::PI;
+            let want =
+                g.light(world, None).unwrap().ambient_cube().irradiance(n) / std::f32::consts::PI;
             let got = img.bevy_light(&t, v.intensity(), world, n);
             assert!(rel(got, want) < 1.0 / 200.0, "{q} n {n}: {got} vs {want}");
         }
@@ -236,7 +261,14 @@ fn the_sidecar_describes_the_files() {
     let g = test_grid();
     let v = BevyVolume::from_field(&g, g.desc(), TexelFormat::Rg11b10).unwrap();
     let dir = std::env::temp_dir().join(format!("lightgrid-export-test-{}", std::process::id()));
-    let paths = write_volumes(&dir, "volume", &[v.clone()], Content::Indirect, 2.0).unwrap();
+    let paths = write_volumes(
+        &dir,
+        "volume",
+        std::slice::from_ref(&v),
+        Content::Indirect,
+        2.0,
+    )
+    .unwrap();
     assert_eq!(paths.len(), 3);
     let text = std::fs::read_to_string(dir.join("volume.json")).unwrap();
     let side: Sidecar = serde_json::from_str(&text).unwrap();
@@ -250,4 +282,58 @@ fn the_sidecar_describes_the_files() {
     let ktx = std::fs::read(dir.join(&info.ktx2)).unwrap();
     assert_eq!(bevy_load_dds(&dds).data, bevy_load_ktx2(&ktx).data);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An infinite Lambertian ground (one level, albedo 0.3, periodic sides) under a sun at
+/// the zenith and no sky: the sun's light travels downward only, and everything that
+/// travels upward or sideways is the ground's reflection. So the indirect light must be
+/// exactly the full light's upward and horizontal bins, with nothing in the downward
+/// ones, at every level; In an empty grid the indirect light is
+/// zero.
+#[test]
+fn indirect_light_is_the_ground_bounce_alone() {
+    use lightgrid_core::{Boundary, SideBoundary, SweepOptions, TopBoundary};
+    let sun = sweep_cpu::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
+        .bins()
+        .unwrap();
+    let b = Boundary {
+        top: TopBoundary::Uniform(Box::new(sun)),
+        bottom: BinLight::ZERO,
+        sides: SideBoundary::Periodic,
+    };
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 1e-7;
+    o.max_passes = 64;
+    let mut cpu = sweep_cpu::CpuSweeper::new();
+    for (levels, albedo) in [(1, 0.3f32), (1, 0.9), (0, 0.3)] {
+        let m = sweep_cpu::exact::ground_material(levels, albedo);
+        let full = lightgrid_export::indirect_light(&mut cpu, &m, &b, None, &o).unwrap();
+        let ind = lightgrid_export::indirect_light(&mut cpu, &m, &b, Some(&b), &o).unwrap();
+        let d = m.desc();
+        for j in levels..d.dims().y {
+            let i = d.index(UVec3::new(3, j, 4)).unwrap();
+            let (f, g) = (&full.data()[i], &ind.data()[i]);
+            let scale = f.0.iter().map(|v| v.x).fold(0.0, f32::max);
+            for k in 0..26 {
+                let want = if dirs::dir_unit(k).y < 0.0 {
+                    0.0
+                } else {
+                    f.0[k].x
+                };
+                assert!(
+                    (g.0[k].x - want).abs() <= 1e-5 * scale,
+                    "ground {levels} albedo {albedo} level {j} bin {k}: {} vs {want}",
+                    g.0[k].x
+                );
+            }
+            if levels > 0 {
+                // The bounce is there: the ground reflected light up to every level.
+                let up: f32 = (0..26)
+                    .filter(|&k| dirs::dir_unit(k).y > 0.0)
+                    .map(|k| g.0[k].x)
+                    .sum();
+                assert!(up > 0.1 * albedo, "level {j}: upward light {up}");
+            }
+        }
+    }
 }

@@ -365,6 +365,42 @@ fn decode<T: GridValue>(desc: GridDesc, payload: &[u8]) -> Result<Grid<T>, GridE
     })
 }
 
+impl GridFile {
+    /// A few lines for people: kind, origin, cell size, dims, points, and a summary of
+    /// the values (cells with material; largest bin value and mean average light).
+    pub fn describe(&self) -> String {
+        let light_summary = |g: &crate::LightGrid| {
+            let n = g.data().len().max(1) as f32;
+            let mean = g.data().iter().map(|b| b.average()).sum::<glam::Vec3>() / n;
+            format!(
+                "largest bin value: {}\nmean average light: {mean}\n",
+                g.max_value()
+            )
+        };
+        let (desc, extra) = match self {
+            GridFile::Material(g) => {
+                let filled = g.data().iter().filter(|m| !m.is_empty()).count();
+                (*g.desc(), format!("cells with material: {filled}\n"))
+            }
+            GridFile::Light(g) => (*g.desc(), light_summary(g)),
+            GridFile::PackedLight(p) => (
+                *p.grid.desc(),
+                format!("exposure: {}\n{}", p.exposure, light_summary(&p.unpack())),
+            ),
+            GridFile::Average(g) => (*g.desc(), String::new()),
+            GridFile::Dominant(g) => (*g.desc(), String::new()),
+        };
+        format!(
+            "kind: {}\norigin: {}\ncell size: {} m\ndims: {}\npoints: {}\n{extra}",
+            self.kind().name(),
+            desc.origin(),
+            desc.h(),
+            desc.dims(),
+            desc.point_count()
+        )
+    }
+}
+
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, synced, renamed).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), GridError> {
     let io = |source| GridError::Io {

@@ -4,8 +4,8 @@
 //! a contract). Not cryptographic.
 //!
 //! ```
-//! use grid_core::hash::ContentHash;
-//! use grid_core::glam::Vec3;
+//! use lightgrid_core::hash::ContentHash;
+//! use lightgrid_core::glam::Vec3;
 //! let mut a = ContentHash::new(b"my-cache-v1");
 //! a.f32s(&[1.0, 2.0]).vec3(Vec3::Y).u64(7);
 //! let mut b = ContentHash::new(b"my-cache-v1");

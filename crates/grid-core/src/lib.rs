@@ -8,10 +8,10 @@
 //! ## Example: build a grid, write light, pack it, sample it
 //!
 //! ```
-//! use grid_core::{BinLight, GridDesc, GridFile, LightField, LightGrid};
+//! use lightgrid_core::{BinLight, GridDesc, GridFile, LightField, LightGrid};
 //! use glam::{UVec3, Vec3};
 //!
-//! # fn main() -> Result<(), grid_core::GridError> {
+//! # fn main() -> Result<(), lightgrid_core::GridError> {
 //! // 8 x 4 x 8 points, 1 m apart, starting at (-4, 0, -4).
 //! let desc = GridDesc::new(Vec3::new(-4.0, 0.0, -4.0), 1.0, UVec3::new(8, 4, 8))?;
 //! // Every point sees a uniform blue-ish sky of radiance (0.5, 0.7, 1.0)...
@@ -20,7 +20,7 @@
 //! for x in 0..8 {
 //!     for z in 0..8 {
 //!         let mut light = BinLight::uniform(Vec3::new(0.5, 0.7, 1.0));
-//!         light.0[grid_core::dirs::DOWN] += Vec3::splat(5000.0);
+//!         light.0[lightgrid_core::dirs::DOWN] += Vec3::splat(5000.0);
 //!         grid.set(UVec3::new(x, 3, z), light)?;
 //!     }
 //! }
@@ -99,8 +99,8 @@ pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
 pub use sample::{Blend, trilinear_corners};
 pub use traits::{
     Boundary, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES, MaterialSource,
-    NoScatter, Outputs, SideBoundary, SumField, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
-    TopBoundary, UniformMaterial,
+    NoScatter, Outputs, SideBoundary, SumField, SweepError, SweepOptions, SweepOutput, SweepStats,
+    Sweeper, TopBoundary, UniformMaterial,
 };
 
 /// The README's examples, compiled and run as doc tests.

@@ -186,6 +186,14 @@ impl BinLight {
         Sh1([s[0], s[1], s[2], s[3]])
     }
 
+    /// `self - other`, each bin and colour clamped at zero: for removing a part of the
+    /// light (the direct sun from everything), where rounding may leave tiny negatives.
+    pub fn saturating_sub(&self, other: &BinLight) -> BinLight {
+        BinLight(std::array::from_fn(|d| {
+            (self.0[d] - other.0[d]).max(Vec3::ZERO)
+        }))
+    }
+
     /// The Half-Life 2 ambient cube: irradiance on the six axis normals, in the order
     /// `+X, -X, +Y, -Y, +Z, -Z`.
     pub fn ambient_cube(&self) -> AmbientCube {

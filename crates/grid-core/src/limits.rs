@@ -25,7 +25,7 @@
 //! at most that many bytes even if the file grows meanwhile. Errors name the path.
 //!
 //! ```
-//! use grid_core::limits;
+//! use lightgrid_core::limits;
 //! // 2^22 cubed points of 312 bytes: the product overflows u64 and is an error.
 //! let e = limits::checked_bytes("dims", &[1 << 22, 1 << 22, 1 << 22, 312]).unwrap_err();
 //! assert!(e.to_string().contains("dims"));

@@ -401,12 +401,7 @@ pub struct DifferenceField<A, B>(pub A, pub B);
 
 impl<A: LightField, B: LightField> LightField for DifferenceField<A, B> {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
-        let (a, b) = (self.0.light(p, n)?, self.1.light(p, n)?);
-        let mut d = a - b;
-        for v in d.0.iter_mut() {
-            *v = v.max(Vec3::ZERO);
-        }
-        Ok(d)
+        Ok(self.0.light(p, n)?.saturating_sub(&self.1.light(p, n)?))
     }
 }
 
@@ -442,6 +437,28 @@ impl<S: MaterialSource> MaterialSource for NoScatter<S> {
             m.reflectance = Vec3::ZERO;
         }
         Ok(g)
+    }
+}
+
+/// A borrowed source.
+impl<T: MaterialSource + ?Sized> MaterialSource for &T {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        (**self).material(desc)
+    }
+}
+
+/// A material grid is the source of its own box (and of no other: a different `desc` is
+/// an error, not a resampling).
+impl MaterialSource for MaterialGrid {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        if desc != self.desc() {
+            return Err(GridError::invalid(
+                "desc",
+                desc,
+                "a material grid is the source of its own box only",
+            ));
+        }
+        Ok(self.clone())
     }
 }
 

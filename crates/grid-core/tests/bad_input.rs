@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{BinLight, GridDesc, GridError, GridFile, LightGrid};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{BinLight, GridDesc, GridError, GridFile, LightGrid};
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("grid-core-bad-{name}-{}", std::process::id()));
@@ -14,9 +14,9 @@ fn scratch(name: &str) -> PathBuf {
 
 /// A header for `dims` with a payload length of 0 and a valid checksum: 68 bytes.
 fn header_only(kind: u32, dims: [u32; 3], payload_len: u64, exposure: f32) -> Vec<u8> {
-    let mut b = grid_core::file::MAGIC.to_vec();
+    let mut b = lightgrid_core::file::MAGIC.to_vec();
     let encoding = u32::from(kind == 3); // R11G11B10 words for packed light
-    for v in [grid_core::file::VERSION, kind, encoding] {
+    for v in [lightgrid_core::file::VERSION, kind, encoding] {
         b.extend(v.to_le_bytes());
     }
     for v in [0f32, 0.0, 0.0, 1.0] {
@@ -89,7 +89,7 @@ fn readers_refuse_devices_fifos_and_folders_without_blocking() {
     for p in &specials {
         let e = GridFile::load(p).unwrap_err().to_string();
         assert!(e.contains("regular file"), "{}: {e}", p.display());
-        assert!(grid_core::limits::read_file(p, 1 << 20).is_err());
+        assert!(lightgrid_core::limits::read_file(p, 1 << 20).is_err());
     }
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -103,9 +103,9 @@ fn a_file_over_the_memory_limit_is_refused_before_reading() {
     let p = dir.join("g.lgrid");
     GridFile::Light(g).save(&p).unwrap();
     // The limit is process-wide: no other test of this binary checks memory meanwhile.
-    grid_core::limits::set_memory_limit(1 << 10);
+    lightgrid_core::limits::set_memory_limit(1 << 10);
     let r = GridFile::load(&p);
-    grid_core::limits::set_memory_limit(0);
+    lightgrid_core::limits::set_memory_limit(0);
     match r {
         Err(GridError::TooMuchMemory { bytes, limit, .. }) => {
             assert!(bytes > limit && limit == 1 << 10)
@@ -125,7 +125,7 @@ fn concurrent_atomic_writes_to_one_target_never_mix_or_leave_temporaries() {
             let target = &target;
             s.spawn(move || {
                 for _ in 0..20 {
-                    grid_core::file::write_atomic(target, &vec![t; 4096]).unwrap();
+                    lightgrid_core::file::write_atomic(target, &vec![t; 4096]).unwrap();
                 }
             });
         }

@@ -1,9 +1,9 @@
 //! Ray casts in the town's BVH (alone and with deposits) and toggling one light of 100.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use grid_core::GridDesc;
-use grid_core::glam::{UVec3, Vec3};
 use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
+use lightgrid_core::GridDesc;
+use lightgrid_core::glam::{UVec3, Vec3};
 use material_voxelizer::voxelize::Scene;
 
 fn bench(c: &mut Criterion) {

@@ -6,9 +6,9 @@
 
 use std::time::Instant;
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{GridDesc, NUM_DIRS};
 use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{GridDesc, NUM_DIRS};
 use material_voxelizer::voxelize::Scene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -62,7 +62,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let q = if back.desc().contains(p) {
             back.sample(p)?
         } else {
-            grid_core::BinLight::ZERO
+            lightgrid_core::BinLight::ZERO
         };
         for d in 0..NUM_DIRS {
             let e = (q.0[d] - b.0[d]).abs().max_element();

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use grid_core::glam::{Vec2, Vec3, Vec4};
+use lightgrid_core::glam::{Vec2, Vec3, Vec4};
 use material_voxelizer::model::{Model, ModelError, SurfaceMaterial, Triangle};
 
 /// Appends `part` to `model`, scaled by `scale` and moved by `offset`.

@@ -6,12 +6,12 @@
 //! they cross; the volume is stored per light as white light, cropped and compressed to
 //! 8 bits, cached on disk under a hash of the light and the scene; a [`LightSet`] merges
 //! volumes and updates the combined grid by adding or subtracting only the changed
-//! light's box. The combined grid is a `grid_core::LightField`; add it to the sky and sun
-//! hierarchy with `grid_core::SumField`.
+//! light's box. The combined grid is a `lightgrid_core::LightField`; add it to the sky and sun
+//! hierarchy with `lightgrid_core::SumField`.
 //!
 //! ```
-//! use grid_core::glam::{UVec3, Vec3};
-//! use grid_core::{GridDesc, LightField};
+//! use lightgrid_core::glam::{UVec3, Vec3};
+//! use lightgrid_core::{GridDesc, LightField};
 //! use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
 //! use material_voxelizer::model::Model;
 //! use material_voxelizer::procedural::rock;
@@ -50,15 +50,15 @@ pub use set::{LightId, LightSet, Region};
 pub use trace::{TraceParams, TraceStats, trace_light};
 pub use volume::{CacheOutcome, CompressedVolume, THRESHOLD, load_or_make};
 
-use grid_core::GridDesc;
+use lightgrid_core::GridDesc;
 use material_voxelizer::model::Model;
 
 /// The cache key of a light's volume: its shape (not colour or intensity: volumes are
 /// white), the scene's triangles, materials and textures, the grid and the trace
-/// parameters, through [`grid_core::hash::ContentHash`]. Any change gives another key,
+/// parameters, through [`lightgrid_core::hash::ContentHash`]. Any change gives another key,
 /// so a stale cache file is never used.
 pub fn volume_key(light: &Light, model: &Model, desc: &GridDesc, params: &TraceParams) -> u64 {
-    let mut h = grid_core::hash::ContentHash::new(b"lightgrid-light-volume-v2");
+    let mut h = lightgrid_core::hash::ContentHash::new(b"lightgrid-light-volume-v2");
     light.hash_shape(&mut h);
     h.desc(desc)
         .u64(params.rays)

@@ -2,8 +2,8 @@
 
 use std::f32::consts::{PI, TAU};
 
-use grid_core::GridError;
-use grid_core::glam::Vec3;
+use lightgrid_core::GridError;
+use lightgrid_core::glam::Vec3;
 
 /// The shape of a light.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -127,7 +127,7 @@ impl Light {
 
     /// Adds the shape to a cache key (colour and intensity excluded: volumes are stored
     /// as white light).
-    pub fn hash_shape(&self, h: &mut grid_core::hash::ContentHash) {
+    pub fn hash_shape(&self, h: &mut lightgrid_core::hash::ContentHash) {
         match self.kind {
             LightKind::Point { position } => h.u32(0).vec3(position),
             LightKind::Spot {

@@ -3,8 +3,8 @@
 //! volume times the old factor is subtracted, times the new one added), and the box is
 //! recorded as dirty for a sparse GPU upload.
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{BinLight, Grid, GridDesc, GridError, LightField, LightGrid};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{BinLight, Grid, GridDesc, GridError, LightField, LightGrid};
 
 use crate::volume::CompressedVolume;
 
@@ -188,7 +188,7 @@ impl LightSet {
                 for x in 0..nx {
                     let dst = &mut data[row + x];
                     let src = &e.volume[k];
-                    for b in 0..grid_core::NUM_DIRS {
+                    for b in 0..lightgrid_core::NUM_DIRS {
                         // Subtracting can leave -1e-9 where the sum was a light alone.
                         // Clamped to f32's range too: the sum of many bright lights must
                         // not become infinity (and NaN when it is subtracted again).

@@ -1,13 +1,13 @@
 //! Tracing one light's indirect (and direct) light into a volume, 3DWorld's way: rays
 //! from the light, closest hits in the mesh BVH, diffuse bounces with the surface's
 //! albedo, every segment deposited into every grid cell it crosses (the exact walk of
-//! [`grid_core::dda`], shared with sweep-cpu's Monte Carlo reference).
+//! [`lightgrid_core::dda`], shared with sweep-cpu's Monte Carlo reference).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use grid_core::glam::Vec3;
-use grid_core::{BinLight, GridDesc, GridError, LightGrid, NUM_DIRS, dda, dirs};
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::{BinLight, GridDesc, GridError, LightGrid, NUM_DIRS, dda, dirs};
 use material_voxelizer::voxelize::Scene;
 use rayon::prelude::*;
 
@@ -212,5 +212,5 @@ pub fn trace_light(
         deposit_time: Duration::from_nanos(dep_ns.into_inner()),
         wall: start.elapsed(),
     };
-    Ok((grid_core::Grid::from_trusted(*desc, data), stats))
+    Ok((lightgrid_core::Grid::from_trusted(*desc, data), stats))
 }

@@ -12,8 +12,8 @@
 
 use std::path::Path;
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{BinLight, Grid, GridDesc, GridError, LightGrid, NUM_DIRS};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{BinLight, Grid, GridDesc, GridError, LightGrid, NUM_DIRS};
 
 /// Cells below this fraction of the largest value are dropped from the bounding box.
 pub const THRESHOLD: f32 = 1.0 / 256.0;
@@ -210,7 +210,7 @@ impl CompressedVolume {
 
     /// Writes the cache file atomically.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), GridError> {
-        grid_core::file::write_atomic(path.as_ref(), &self.to_bytes())
+        lightgrid_core::file::write_atomic(path.as_ref(), &self.to_bytes())
     }
 
     /// Reads a cache file made for `key`.
@@ -220,12 +220,12 @@ impl CompressedVolume {
             && meta.is_file()
         {
             // The codes, then one f32 per code once the volume is expanded.
-            grid_core::limits::check_memory(
+            lightgrid_core::limits::check_memory(
                 &format!("light volume {}", path.display()),
                 meta.len().saturating_mul(5),
             )?;
         }
-        let bytes = grid_core::limits::read_file(path, MAX_FILE_BYTES)?;
+        let bytes = lightgrid_core::limits::read_file(path, MAX_FILE_BYTES)?;
         Self::from_bytes(&bytes, key).map_err(|e| match e {
             GridError::InvalidField {
                 field,

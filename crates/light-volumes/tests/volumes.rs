@@ -1,12 +1,12 @@
 //! Light volumes: known answers for tracing, linearity in albedo, determinism, the
 //! compressed cache (error bound, corruption, staleness) and the light set's toggles.
 
-use grid_core::glam::{UVec3, Vec2, Vec3, Vec4};
-use grid_core::{GridDesc, LightField, LightGrid, NUM_DIRS, SumField, dirs};
 use light_volumes::{
     CacheOutcome, CompressedVolume, Light, LightKind, LightSet, TraceParams, load_or_make,
     trace_light,
 };
+use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
+use lightgrid_core::{GridDesc, LightField, LightGrid, NUM_DIRS, SumField, dirs};
 use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
 use material_voxelizer::voxelize::Scene;
 use obvhs::BvhBuildParams;
@@ -290,7 +290,8 @@ fn light_set_toggles_touch_only_the_light_box_and_restore_the_grid() {
     );
     // The local lights add to another field.
     set.set_on(ids[2], true).unwrap();
-    let sky = LightGrid::filled(desc, grid_core::BinLight::uniform(Vec3::splat(0.25))).unwrap();
+    let sky =
+        LightGrid::filled(desc, lightgrid_core::BinLight::uniform(Vec3::splat(0.25))).unwrap();
     let q = Vec3::new(0.0, 1.0, 0.0);
     let sum = SumField(&set, &sky).average(q).unwrap();
     let parts = set.average(q).unwrap() + sky.average(q).unwrap();

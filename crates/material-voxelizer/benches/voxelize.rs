@@ -3,8 +3,8 @@
 use std::path::Path;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use grid_core::GridDesc;
-use grid_core::glam::{Quat, UVec3, Vec2, Vec3};
+use lightgrid_core::GridDesc;
+use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
 use material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };

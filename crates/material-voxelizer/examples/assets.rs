@@ -22,7 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let glb = out.join(format!("{name}.glb"));
         write_glb(&model, &glb)?;
         let (grid, stats) = voxelize(&model, &VoxelizeParams::standard(cell), &|_, _| {})?;
-        grid_core::GridFile::Material(grid).save(out.join(format!("{name}.lgrid")))?;
+        lightgrid_core::GridFile::Material(grid).save(out.join(format!("{name}.lgrid")))?;
         println!(
             "{name}: {} triangles -> {} ({} cells of {cell} m, {} with material, {} rays in {:.0} ms)",
             model.triangles.len(),

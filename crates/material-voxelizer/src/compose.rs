@@ -28,8 +28,8 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use grid_core::glam::{IVec2, Quat, UVec3, Vec2, Vec3};
-use grid_core::{GridDesc, GridError, Material, MaterialGrid, MaterialSource};
+use lightgrid_core::glam::{IVec2, Quat, UVec3, Vec2, Vec3};
+use lightgrid_core::{GridDesc, GridError, Material, MaterialGrid, MaterialSource};
 
 use crate::model::Texture;
 
@@ -55,7 +55,7 @@ pub const MAX_HEIGHTMAP_FILE_BYTES: u64 = 1 << 30;
 
 /// `width × depth` if it is at most [`MAX_HEIGHTMAP_SAMPLES`].
 fn check_samples(width: u32, depth: u32) -> Result<u64, GridError> {
-    grid_core::limits::checked_count("width x depth", width, depth, MAX_HEIGHTMAP_SAMPLES)
+    lightgrid_core::limits::checked_count("width x depth", width, depth, MAX_HEIGHTMAP_SAMPLES)
 }
 
 /// Decodes an image whose sides are at most `max_side`, refusing before decoding one
@@ -85,7 +85,7 @@ pub fn decode_limited(
             ));
         }
         let need = w as u64 * h as u64 * bytes_per_texel;
-        grid_core::limits::check_memory(&format!("a {w} x {h} image"), need)
+        lightgrid_core::limits::check_memory(&format!("a {w} x {h} image"), need)
             .map_err(|e| e.to_string())?;
         let mut reader = open()?;
         let mut limits = image::Limits::default();
@@ -107,7 +107,7 @@ impl Heightmap {
         f: impl Fn(f32, f32) -> f32,
     ) -> Result<Self, GridError> {
         let count = check_samples(width, depth)?;
-        grid_core::limits::check_memory(&format!("a {width} x {depth} heightmap"), count * 4)?;
+        lightgrid_core::limits::check_memory(&format!("a {width} x {depth} heightmap"), count * 4)?;
         let mut heights = Vec::with_capacity(count as usize);
         for k in 0..depth {
             for i in 0..width {
@@ -179,7 +179,7 @@ impl Heightmap {
         offset: f32,
     ) -> Result<Self, GridError> {
         let path = path.as_ref();
-        let bytes = grid_core::limits::read_file(path, MAX_HEIGHTMAP_FILE_BYTES)?;
+        let bytes = lightgrid_core::limits::read_file(path, MAX_HEIGHTMAP_FILE_BYTES)?;
         let img = decode_limited(&bytes, 1 << 16, 8).map_err(|e| GridError::Io {
             path: path.to_path_buf(),
             source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
@@ -368,7 +368,7 @@ impl AreaComposer {
                 "must be at least 1",
             ));
         }
-        grid_core::limits::check_memory(
+        lightgrid_core::limits::check_memory(
             &format!("{} instances", instances.len()),
             instances.len() as u64 * std::mem::size_of::<Placed>() as u64 * 2,
         )?;
@@ -511,7 +511,7 @@ impl AreaComposer {
         } else {
             1
         };
-        grid_core::limits::check_memory(
+        lightgrid_core::limits::check_memory(
             &format!("area material grid of {} points", desc.point_count()),
             desc.point_count() as u64 * std::mem::size_of::<Material>() as u64,
         )?;

@@ -24,7 +24,7 @@
 
 use std::path::{Component, Path};
 
-use grid_core::glam::Vec4;
+use lightgrid_core::glam::Vec4;
 
 use crate::model::Texture;
 
@@ -140,7 +140,7 @@ fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, String> {
             truncate(uri)
         ));
     }
-    grid_core::limits::read_file(&base.join(rel), MAX_MODEL_BYTES).map_err(|e| e.to_string())
+    lightgrid_core::limits::read_file(&base.join(rel), MAX_MODEL_BYTES).map_err(|e| e.to_string())
 }
 
 fn truncate(s: &str) -> String {
@@ -238,7 +238,7 @@ pub fn decode_texture(bytes: &[u8]) -> Result<Texture, String> {
     // Decoded RGBA8, then linear RGBA f32: 20 bytes a texel.
     let img = crate::compose::decode_limited(bytes, MAX_TEXTURE_SIDE, 20)?;
     let rgba = img.into_rgba8();
-    let lin = grid_core::pack::srgb8_to_linear;
+    let lin = lightgrid_core::pack::srgb8_to_linear;
     Ok(Texture {
         width: rgba.width(),
         height: rgba.height(),

@@ -4,7 +4,7 @@
 //! by ray queries against an obvhs BVH, offline.
 //!
 //! ```
-//! use grid_core::glam::{Vec2, Vec3, Vec4};
+//! use lightgrid_core::glam::{Vec2, Vec3, Vec4};
 //! use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
 //! use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 //!
@@ -40,7 +40,7 @@
 //!
 //! At run time, [`compose::AreaComposer`] builds the material grid of any box from a
 //! terrain heightmap and instances of model grids (it implements
-//! `grid_core::MaterialSource`).
+//! `lightgrid_core::MaterialSource`).
 
 pub mod compose;
 pub mod gltf_read;

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use grid_core::glam::{Mat4, Vec2, Vec3, Vec4};
+use lightgrid_core::glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// Errors of model loading.
 #[derive(Debug, thiserror::Error)]
@@ -32,7 +32,7 @@ pub enum ModelError {
     },
     /// An in-memory model is invalid (the error names the field).
     #[error(transparent)]
-    Invalid(#[from] grid_core::GridError),
+    Invalid(#[from] lightgrid_core::GridError),
 }
 
 /// How a material's alpha is used (glTF `alphaMode`).
@@ -162,7 +162,7 @@ impl Model {
     /// Checks every value (finite positions and UVs, material and texture indices in
     /// range, colours in [0, 1]); errors name the element.
     pub fn validate(&self) -> Result<(), ModelError> {
-        use grid_core::GridError;
+        use lightgrid_core::GridError;
         for (i, t) in self.triangles.iter().enumerate() {
             if t.positions.iter().any(|p| !p.is_finite()) {
                 return Err(GridError::invalid(
@@ -234,12 +234,10 @@ impl Model {
     /// accessor ranges, texture sizes, the memory limit).
     pub fn load_gltf(path: impl AsRef<Path>) -> Result<Self, ModelError> {
         let path = path.as_ref();
-        let bytes =
-            grid_core::limits::read_file(path, crate::gltf_read::MAX_MODEL_BYTES).map_err(|e| {
-                ModelError::Gltf {
-                    path: path.to_path_buf(),
-                    message: e.to_string(),
-                }
+        let bytes = lightgrid_core::limits::read_file(path, crate::gltf_read::MAX_MODEL_BYTES)
+            .map_err(|e| ModelError::Gltf {
+                path: path.to_path_buf(),
+                message: e.to_string(),
             })?;
         let base = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p,
@@ -380,7 +378,7 @@ impl Model {
                 gr::MAX_TRIANGLES
             )));
         }
-        grid_core::limits::check_memory(
+        lightgrid_core::limits::check_memory(
             &format!("{triangles} triangles"),
             triangles * std::mem::size_of::<Triangle>() as u64,
         )?;

@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use grid_core::GridError;
-use grid_core::glam::{Quat, Vec2, Vec3, Vec4};
+use lightgrid_core::GridError;
+use lightgrid_core::glam::{Quat, Vec2, Vec3, Vec4};
 
 use crate::model::{AlphaMode, Model, SurfaceMaterial, Texture, Triangle, UvTransform};
 
@@ -477,9 +477,9 @@ pub fn write_glb(model: &Model, path: impl AsRef<Path>) -> Result<(), GridError>
         let mut rgba = Vec::with_capacity(t.texels.len() * 4);
         for c in &t.texels {
             rgba.extend([
-                grid_core::pack::linear_to_srgb8(c.x),
-                grid_core::pack::linear_to_srgb8(c.y),
-                grid_core::pack::linear_to_srgb8(c.z),
+                lightgrid_core::pack::linear_to_srgb8(c.x),
+                lightgrid_core::pack::linear_to_srgb8(c.y),
+                lightgrid_core::pack::linear_to_srgb8(c.z),
                 (c.w.clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
             ]);
         }
@@ -560,5 +560,5 @@ pub fn write_glb(model: &Model, path: impl AsRef<Path>) -> Result<(), GridError>
     out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
     out.extend_from_slice(b"BIN\0");
     out.extend_from_slice(&bin);
-    grid_core::file::write_atomic(path, &out)
+    lightgrid_core::file::write_atomic(path, &out)
 }

@@ -25,8 +25,8 @@
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
-use grid_core::glam::{IVec3, UVec3, Vec3, Vec3A, Vec4};
-use grid_core::{GridDesc, GridError, Material, MaterialGrid};
+use lightgrid_core::glam::{IVec3, UVec3, Vec3, Vec3A, Vec4};
+use lightgrid_core::{GridDesc, GridError, Material, MaterialGrid};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
@@ -95,8 +95,8 @@ impl VoxelizeParams {
     /// Checks every field; errors name it.
     pub fn validate(&self) -> Result<(), GridError> {
         if !(self.cell.is_finite()
-            && self.cell >= grid_core::CELL_SIZE_RANGE.0
-            && self.cell <= grid_core::CELL_SIZE_RANGE.1)
+            && self.cell >= lightgrid_core::CELL_SIZE_RANGE.0
+            && self.cell <= lightgrid_core::CELL_SIZE_RANGE.1)
         {
             return Err(GridError::invalid(
                 "cell",
@@ -470,9 +470,9 @@ pub fn voxelize(
     let span = ((hi - lo) / h)
         .ceil()
         .as_dvec3()
-        .max(grid_core::glam::DVec3::ONE);
+        .max(lightgrid_core::glam::DVec3::ONE);
     let pad = 2.0 * params.padding as f64;
-    let dims_f = span + grid_core::glam::DVec3::splat(pad);
+    let dims_f = span + lightgrid_core::glam::DVec3::splat(pad);
     let cells_f = dims_f.x * dims_f.y * dims_f.z;
     if cells_f.is_nan() || cells_f > params.max_cells as f64 {
         return Err(GridError::invalid(
@@ -484,7 +484,7 @@ pub fn voxelize(
     }
     let dims = dims_f.as_uvec3();
     let cells = dims.x as u64 * dims.y as u64 * dims.z as u64;
-    grid_core::limits::check_memory(
+    lightgrid_core::limits::check_memory(
         &format!("a model grid of {dims} cells"),
         (cells_f as u64).saturating_mul(std::mem::size_of::<Material>() as u64),
     )?;

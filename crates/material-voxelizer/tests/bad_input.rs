@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use grid_core::glam::{Quat, Vec2, Vec3};
+use lightgrid_core::glam::{Quat, Vec2, Vec3};
 use material_voxelizer::compose::{AreaComposer, ComposeParams, Heightmap, Instance};
 use material_voxelizer::model::Model;
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
@@ -254,10 +254,10 @@ fn huge_image_headers_are_refused_before_decoding() {
     let e = material_voxelizer::gltf_read::decode_texture(&png_header(40_000, 2)).unwrap_err();
     assert!(e.contains("40000 x 2"), "{e}");
     // Within the sides but over the memory limit: 60000² × 8 bytes = 27 GiB.
-    grid_core::limits::set_memory_limit(1 << 30);
+    lightgrid_core::limits::set_memory_limit(1 << 30);
     let e = material_voxelizer::compose::decode_limited(&png_header(60_000, 60_000), 1 << 16, 8)
         .unwrap_err();
-    grid_core::limits::set_memory_limit(0);
+    lightgrid_core::limits::set_memory_limit(0);
     assert!(e.contains("memory"), "{e}");
     // Heightmaps from files: devices, FIFOs and folders are errors, not hangs.
     let dir = scratch("png");
@@ -316,8 +316,12 @@ fn huge_instances_do_not_fill_the_tile_table() {
         ComposeParams::default(),
     )
     .unwrap();
-    let d =
-        grid_core::GridDesc::new(Vec3::splat(-2.0), 1.0, grid_core::glam::UVec3::splat(4)).unwrap();
+    let d = lightgrid_core::GridDesc::new(
+        Vec3::splat(-2.0),
+        1.0,
+        lightgrid_core::glam::UVec3::splat(4),
+    )
+    .unwrap();
     let (m, stats) = c.compose(&d).unwrap();
     assert_eq!(stats.overlapping, 2);
     assert!(m.data().iter().all(|x| x.pass.is_finite()));
@@ -335,10 +339,10 @@ fn huge_instances_do_not_fill_the_tile_table() {
         .collect();
     let tiny = AreaComposer::new(vec![grid.clone()], &many, None, p).unwrap();
     let normal = AreaComposer::new(vec![grid], &many, None, ComposeParams::default()).unwrap();
-    let d = grid_core::GridDesc::new(
+    let d = lightgrid_core::GridDesc::new(
         Vec3::new(-2.0, -2.0, -2.0),
         0.5,
-        grid_core::glam::UVec3::new(24, 8, 8),
+        lightgrid_core::glam::UVec3::new(24, 8, 8),
     )
     .unwrap();
     let (a, sa) = tiny.compose(&d).unwrap();

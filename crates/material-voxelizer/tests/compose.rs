@@ -1,7 +1,7 @@
 //! Area composition: resampling, rotation, cell-size consistency, ground, binning.
 
-use grid_core::glam::{Quat, UVec3, Vec2, Vec3};
-use grid_core::{GridDesc, Material, MaterialGrid, MaterialSource};
+use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
+use lightgrid_core::{GridDesc, Material, MaterialGrid, MaterialSource};
 use material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };

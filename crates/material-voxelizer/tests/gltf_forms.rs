@@ -1,9 +1,8 @@
-//! `.gltf` with external and embedded buffers, node transforms, unsupported features,
-//! and the `voxelize` command line.
+//! `.gltf` with external and embedded buffers, node transforms, unsupported features.
 
 use std::process::Command;
 
-use grid_core::GridFile;
+use lightgrid_core::GridFile;
 use material_voxelizer::model::Model;
 use material_voxelizer::procedural::{rock, write_glb};
 
@@ -33,7 +32,8 @@ fn gltf_with_external_and_embedded_buffers_and_node_transforms() {
     .unwrap();
     let ext = Model::load_gltf(dir.join("external.gltf")).unwrap();
     assert_eq!(ext.triangles.len(), model.triangles.len());
-    let want = (model.triangles[0].positions[0] + grid_core::glam::Vec3::new(1.0, 2.0, 3.0)) * 2.0;
+    let want =
+        (model.triangles[0].positions[0] + lightgrid_core::glam::Vec3::new(1.0, 2.0, 3.0)) * 2.0;
     assert!((ext.triangles[0].positions[0] - want).length() < 1e-5);
     // Embedded (data URI) buffer.
     json["buffers"][0]["uri"] = format!(
@@ -57,41 +57,5 @@ fn gltf_with_external_and_embedded_buffers_and_node_transforms() {
     // Not a glTF at all.
     std::fs::write(dir.join("junk.glb"), b"junk").unwrap();
     assert!(Model::load_gltf(dir.join("junk.glb")).is_err());
-    std::fs::remove_dir_all(&dir).unwrap();
-}
-
-#[test]
-fn voxelize_command_writes_a_material_grid() {
-    let dir = std::env::temp_dir().join(format!("voxelize-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    write_glb(&rock(2, 0.5).unwrap(), dir.join("r.glb")).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_voxelize"))
-        .arg(dir.join("r.glb"))
-        .args(["--cell", "0.1", "--quality", "preview", "-o"])
-        .arg(dir.join("r.lgrid"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        text.contains("320 triangles") && text.contains("rays"),
-        "{text}"
-    );
-    let g = GridFile::load(dir.join("r.lgrid"))
-        .unwrap()
-        .into_material()
-        .unwrap();
-    assert!(g.data().iter().any(|m| m.pass == 0.0));
-    let bad = Command::new(env!("CARGO_BIN_EXE_voxelize"))
-        .arg(dir.join("none.glb"))
-        .args(["--cell", "0.1", "-o", "x"])
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("none.glb"));
     std::fs::remove_dir_all(&dir).unwrap();
 }

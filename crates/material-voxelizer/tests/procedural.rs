@@ -1,6 +1,6 @@
 //! Procedural assets: deterministic, written and read back as glTF, voxelized sensibly.
 
-use grid_core::glam::Vec3;
+use lightgrid_core::glam::Vec3;
 use material_voxelizer::model::{AlphaMode, Model};
 use material_voxelizer::procedural::{TreeParams, bush, rock, tree, write_glb};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
@@ -103,7 +103,7 @@ fn voxelized_tree_has_a_solid_trunk_and_a_leaky_crown() {
     let mut opaque = model.clone();
     opaque.materials[1].alpha = AlphaMode::Opaque;
     let (go, _) = voxelize(&opaque, &VoxelizeParams::standard(0.5), &|_, _| {}).unwrap();
-    let sum = |g: &grid_core::MaterialGrid| g.data().iter().map(|m| 1.0 - m.pass).sum::<f32>();
+    let sum = |g: &lightgrid_core::MaterialGrid| g.data().iter().map(|m| 1.0 - m.pass).sum::<f32>();
     assert!(sum(&go) > sum(&g) * 1.2, "{} vs {}", sum(&go), sum(&g));
 }
 

@@ -1,6 +1,6 @@
 //! The voxelizer against known answers and brute force.
 
-use grid_core::glam::{UVec3, Vec2, Vec3, Vec4};
+use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
 use material_voxelizer::model::{AlphaMode, Model, SurfaceMaterial, Texture, Triangle};
 use material_voxelizer::voxelize::{Scene, VoxelizeParams, voxelize};
 use obvhs::BvhBuildParams;
@@ -105,7 +105,7 @@ fn closed_cube_is_solid_inside_clear_outside_and_graded_between() {
     };
     let (g2, _) = voxelize(&bigger, &params(0.5), &|_, _| {}).unwrap();
     let p = Vec3::splat(-0.75);
-    let pick = |g: &grid_core::MaterialGrid| {
+    let pick = |g: &lightgrid_core::MaterialGrid| {
         let c = g.desc().to_grid(p).round().as_uvec3();
         g.get(c).unwrap().pass
     };

@@ -9,8 +9,8 @@
 
 use std::f32::consts::PI;
 
-use grid_core::GridError;
-use grid_core::glam::{UVec3, Vec3};
+use lightgrid_core::GridError;
+use lightgrid_core::glam::{UVec3, Vec3};
 
 /// The shape of a dynamic light.
 #[derive(Debug, Clone, Copy, PartialEq)]

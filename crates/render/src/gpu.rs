@@ -2,8 +2,8 @@
 
 use std::sync::Arc;
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{GridError, LightGrid, NUM_DIRS};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{GridError, LightGrid, NUM_DIRS};
 use sweep_gpu::{GpuContext, GpuError};
 use wgpu::util::DeviceExt;
 
@@ -360,7 +360,7 @@ impl GpuDynamicShader {
 pub struct GpuBinGrid {
     ctx: Arc<GpuContext>,
     buffer: wgpu::Buffer,
-    desc: grid_core::GridDesc,
+    desc: lightgrid_core::GridDesc,
 }
 
 const POINT_BYTES: u64 = NUM_DIRS as u64 * 12;
@@ -440,15 +440,15 @@ impl GpuBinGrid {
             .chunks(NUM_DIRS * 3)
             .take(self.desc.point_count())
             .map(|c| {
-                grid_core::BinLight(std::array::from_fn(|d| {
+                lightgrid_core::BinLight(std::array::from_fn(|d| {
                     Vec3::new(c[3 * d], c[3 * d + 1], c[3 * d + 2])
                 }))
             })
             .collect();
-        Ok(grid_core::Grid::from_trusted(self.desc, data))
+        Ok(lightgrid_core::Grid::from_trusted(self.desc, data))
     }
 }
 
-fn flatten(points: &[grid_core::BinLight]) -> Vec<f32> {
+fn flatten(points: &[lightgrid_core::BinLight]) -> Vec<f32> {
     bytemuck::cast_slice(points).to_vec()
 }

@@ -3,7 +3,7 @@
 //! Light for what the camera sees, from the light grids.
 //!
 //! - **Light sampling buffers** ([`sample_points`] on the CPU from any
-//!   [`grid_core::LightField`], [`GpuLightSampler`] as one wgpu compute dispatch per grid):
+//!   [`lightgrid_core::LightField`], [`GpuLightSampler`] as one wgpu compute dispatch per grid):
 //!   a batch of points, with or without normals, in; irradiance (from the 26 bins) or
 //!   average light, plus the dominant direction, out. This is how the seed lights the
 //!   vertices of a terrain node once, when the node is prepared.
@@ -24,9 +24,9 @@
 //! ([`gpu_struct!`]); every shader validates with naga in a plain `cargo test`.
 //!
 //! ```
-//! use grid_core::glam::{UVec3, Vec3};
-//! use grid_core::{BinLight, Grid, GridDesc, LightGrid};
-//! use render::{SamplePoints, sample_points};
+//! use lightgrid_core::glam::{UVec3, Vec3};
+//! use lightgrid_core::{BinLight, Grid, GridDesc, LightGrid};
+//! use lightgrid_render::{SamplePoints, sample_points};
 //!
 //! // A grid lit by a uniform sky of radiance 1.
 //! let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(4))?;
@@ -62,7 +62,7 @@ pub use sampling::{IrradianceTable, LightVolume, SamplePoints, SampledLight, sam
 pub enum RenderError {
     /// Invalid input (names the field and value).
     #[error(transparent)]
-    Grid(#[from] grid_core::GridError),
+    Grid(#[from] lightgrid_core::GridError),
     /// The GPU failed or is missing.
     #[error(transparent)]
     Gpu(#[from] sweep_gpu::GpuError),

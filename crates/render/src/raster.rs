@@ -5,8 +5,8 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use grid_core::GridError;
-use grid_core::glam::{Mat4, Vec2, Vec3, Vec4};
+use lightgrid_core::GridError;
+use lightgrid_core::glam::{Mat4, Vec2, Vec3, Vec4};
 use sweep_gpu::{GpuContext, GpuError};
 use wgpu::util::DeviceExt;
 
@@ -206,7 +206,7 @@ impl Camera {
 
     /// Projection × view for an aspect ratio (width / height), wgpu's depth range.
     pub fn view_proj(&self, aspect: f32) -> Mat4 {
-        use grid_core::glam::camera::rh::{proj::directx::perspective, view::look_at_mat4};
+        use lightgrid_core::glam::camera::rh::{proj::directx::perspective, view::look_at_mat4};
         // Up is Y unless the camera looks straight up or down.
         let dir = (self.target - self.position).normalize_or_zero();
         let up = if dir.cross(Vec3::Y).length_squared() < 1e-8 {

@@ -5,7 +5,7 @@
 //! `tests/gpu_sampler.rs`).
 //!
 //! Irradiance on a normal from the 26 bins is `Σ_d L_d K_d(n)` with `K_d(n) = ∫_{bin d}
-//! max(0, -n·t) dt / ω_d` (exact in [`grid_core::BinLight::irradiance`]). Evaluating `K`
+//! max(0, -n·t) dt / ω_d` (exact in [`lightgrid_core::BinLight::irradiance`]). Evaluating `K`
 //! exactly clips 26 spherical polygons, so both samplers read it from an
 //! [`IrradianceTable`]: `K` at the nodes of a 128 × 128 octahedral map of normals,
 //! interpolated bilinearly (1.7 MB). Its error against the exact kernel is at most 0.9 %
@@ -15,8 +15,8 @@
 
 use std::sync::OnceLock;
 
-use grid_core::glam::{DVec3, Vec2, Vec3};
-use grid_core::{BinLight, GridDesc, GridError, LightField, NUM_DIRS, dirs};
+use lightgrid_core::glam::{DVec3, Vec2, Vec3};
+use lightgrid_core::{BinLight, GridDesc, GridError, LightField, NUM_DIRS, dirs};
 use rayon::prelude::*;
 
 /// Light read at one point.
@@ -173,7 +173,10 @@ impl IrradianceTable {
     pub fn irradiance(&self, bins: &BinLight, n: Vec3) -> Vec3 {
         let g = octahedral_encode(n.normalize()) * (self.size - 1) as f32;
         let max = self.size - 2;
-        let base = g.floor().as_uvec2().min(grid_core::glam::UVec2::splat(max));
+        let base = g
+            .floor()
+            .as_uvec2()
+            .min(lightgrid_core::glam::UVec2::splat(max));
         let f = (g - base.as_vec2()).clamp(Vec2::ZERO, Vec2::ONE);
         let mut e = Vec3::ZERO;
         for (dx, dy, w) in [
@@ -234,8 +237,8 @@ impl LightVolume {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use grid_core::glam::UVec3;
-    use grid_core::{Grid, LightGrid};
+    use lightgrid_core::glam::UVec3;
+    use lightgrid_core::{Grid, LightGrid};
     use proptest::prelude::*;
 
     #[test]

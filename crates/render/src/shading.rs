@@ -8,7 +8,7 @@
 
 use std::f32::consts::PI;
 
-use grid_core::glam::Vec3;
+use lightgrid_core::glam::Vec3;
 
 /// Irradiance on normal `n` from the average light `average` and the dominant direction
 /// `dominant` (the way the light *travels*, length `s` in `[0, 1]`: how directional it
@@ -88,12 +88,12 @@ pub fn tonemap_aces(x: Vec3) -> Vec3 {
     ((x * (a * x + b)) / (x * (c * x + d) + e)).clamp(Vec3::ZERO, Vec3::ONE)
 }
 
-pub use grid_core::pack::linear_to_srgb8;
+pub use lightgrid_core::pack::linear_to_srgb8;
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use grid_core::BinLight;
+    use lightgrid_core::BinLight;
 
     #[test]
     fn uniform_light_gives_pi_l_on_every_normal() {
@@ -110,7 +110,7 @@ mod tests {
         // All light in the straight-down bin: from above, E(up) ≈ total, E(down) = 0, and
         // the model conserves the total (its integral over all normals is the same as the
         // exact bins').
-        let b = BinLight::single(grid_core::dirs::DOWN, Vec3::ONE);
+        let b = BinLight::single(lightgrid_core::dirs::DOWN, Vec3::ONE);
         let (avg, dom) = (b.average(), b.dominant());
         let up = irradiance_average_dominant(avg, dom, Vec3::Y);
         let down = irradiance_average_dominant(avg, dom, Vec3::NEG_Y);

@@ -39,7 +39,7 @@ macro_rules! gpu_struct {
 pub fn prelude() -> String {
     let mut s = sweep_gpu::wgsl::prelude();
     let _ = writeln!(s, "const PI: f32 = {:?};", std::f32::consts::PI);
-    let l = grid_core::LUMA;
+    let l = lightgrid_core::LUMA;
     let _ = writeln!(
         s,
         "const LUMA: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});",

@@ -1,14 +1,14 @@
 //! The GPU sampling buffer equals the CPU one, and the rasteriser's shading gives known
-//! answers (render::shading is the specification). Runs on any adapter (lavapipe in CI);
+//! answers (lightgrid_render::shading is the specification). Runs on any adapter (lavapipe in CI);
 //! fails without one unless LIGHTGRID_ALLOW_NO_GPU=1.
 
 use std::f32::consts::PI;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use grid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
-use grid_core::{BinLight, Grid, GridDesc, LightGrid, NUM_DIRS};
-use render::shading::{linear_to_srgb8, tonemap_aces};
-use render::{
+use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
+use lightgrid_core::{BinLight, Grid, GridDesc, LightGrid, NUM_DIRS};
+use lightgrid_render::shading::{linear_to_srgb8, tonemap_aces};
+use lightgrid_render::{
     Camera, GpuLightSampler, GroundLight, Instance, LightVolume, Lighting, LightingMode,
     MeshMaterial, Renderer, SamplePoints, TextureRgba8, Vertex, View, Water, sample_points,
 };
@@ -138,7 +138,7 @@ fn quad(y: f32, light: Vec3) -> (Vec<Vertex>, Vec<u32>) {
     )
 }
 
-fn view(mode: LightingMode, meshes: Vec<render::MeshId>) -> View {
+fn view(mode: LightingMode, meshes: Vec<lightgrid_render::MeshId>) -> View {
     View {
         camera: Camera::look_at(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO),
         mode,
@@ -153,7 +153,12 @@ fn view(mode: LightingMode, meshes: Vec<render::MeshId>) -> View {
     }
 }
 
-fn add_quad(r: &mut Renderer, y: f32, light: Vec3, material: MeshMaterial) -> render::MeshId {
+fn add_quad(
+    r: &mut Renderer,
+    y: f32,
+    light: Vec3,
+    material: MeshMaterial,
+) -> lightgrid_render::MeshId {
     let (v, i) = quad(y, light);
     let id = r.add_mesh(&v, &i, &material).unwrap();
     r.set_instances(id, &[Instance::new(Mat4::IDENTITY, Vec4::ONE)])
@@ -161,7 +166,7 @@ fn add_quad(r: &mut Renderer, y: f32, light: Vec3, material: MeshMaterial) -> re
     id
 }
 
-fn assert_all_pixels(img: &render::Image, expected: Vec3, what: &str) {
+fn assert_all_pixels(img: &lightgrid_render::Image, expected: Vec3, what: &str) {
     for (i, p) in img.hdr.iter().enumerate() {
         let got = Vec3::new(p[0], p[1], p[2]);
         assert!(
@@ -246,7 +251,7 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
     );
     // Surface: the average + dominant model, E = π avg (1 - s) + 4π avg s cos.
     let img = r.render(&view(LightingMode::Grid, vec![surface])).unwrap();
-    let e = render::shading::irradiance_average_dominant(avg, dom, Vec3::Y);
+    let e = lightgrid_render::shading::irradiance_average_dominant(avg, dom, Vec3::Y);
     assert!((e - avg * (PI * 0.5 + 2.0 * PI)).abs().max_element() < 1e-5);
     assert_all_pixels(&img, e / PI, "surface");
     // Foliage: π × average, whatever the normal.
@@ -354,21 +359,21 @@ fn alpha_mask_and_emissive_tint() {
     assert!(err.to_string().contains("indices"), "{err}");
 }
 
-fn dynamic_lights() -> render::DynamicLights {
-    let lights = render::dynamic::scatter(
+fn dynamic_lights() -> lightgrid_render::DynamicLights {
+    let lights = lightgrid_render::dynamic::scatter(
         600,
         12345,
         Vec3::new(-15.0, 0.0, -15.0),
         Vec3::new(15.0, 4.0, 15.0),
     );
-    render::DynamicLights::build(lights, 2.0).unwrap()
+    lightgrid_render::DynamicLights::build(lights, 2.0).unwrap()
 }
 
 #[test]
 fn gpu_dynamic_lights_equal_cpu_brute_force() {
     let Some(ctx) = context() else { return };
     let lights = dynamic_lights();
-    let shader = render::GpuDynamicShader::new(ctx);
+    let shader = lightgrid_render::GpuDynamicShader::new(ctx);
     let points: Vec<(Vec3, Vec3, Vec3)> = (0..4000)
         .map(|i| {
             let t = i as f32;
@@ -411,7 +416,7 @@ fn gpu_dynamic_lights_equal_cpu_brute_force() {
 
 #[test]
 fn dynamic_point_light_in_the_mesh_shader_gives_the_cpu_answer() {
-    use render::{DynamicKind, DynamicLight, DynamicLights};
+    use lightgrid_render::{DynamicKind, DynamicLight, DynamicLights};
     let Some(r) = renderer() else { return };
     let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
     let lights = DynamicLights::build(
@@ -442,7 +447,7 @@ fn dynamic_point_light_in_the_mesh_shader_gives_the_cpu_answer() {
     let mut checked = 0;
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let ndc = grid_core::glam::Vec2::new(
+            let ndc = lightgrid_core::glam::Vec2::new(
                 (x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0,
                 1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0,
             );
@@ -474,19 +479,19 @@ fn dynamic_point_light_in_the_mesh_shader_gives_the_cpu_answer() {
 fn bin_grid_uploads_only_the_changed_box() {
     let Some(ctx) = context() else { return };
     let grid = test_grid();
-    let gpu = render::GpuBinGrid::new(ctx, &grid).unwrap();
+    let gpu = lightgrid_render::GpuBinGrid::new(ctx, &grid).unwrap();
     assert_eq!(gpu.read().unwrap(), grid);
     // Change a box on the CPU, upload only that box.
     let mut changed = grid.clone();
     let (lo, hi) = (
-        grid_core::glam::UVec3::new(1, 1, 0),
-        grid_core::glam::UVec3::new(3, 2, 1),
+        lightgrid_core::glam::UVec3::new(1, 1, 0),
+        lightgrid_core::glam::UVec3::new(3, 2, 1),
     );
     let d = *changed.desc();
     for y in lo.y..=hi.y {
         for z in lo.z..=hi.z {
             for x in lo.x..=hi.x {
-                let i = d.index_unchecked(grid_core::glam::UVec3::new(x, y, z));
+                let i = d.index_unchecked(lightgrid_core::glam::UVec3::new(x, y, z));
                 changed.data_mut()[i] = BinLight::uniform(Vec3::splat(7.0 + i as f32));
             }
         }
@@ -544,7 +549,7 @@ fn toggling_a_local_light_uploads_only_its_box() {
         );
     }
     set.take_dirty();
-    let gpu = render::GpuBinGrid::new(ctx, set.grid()).unwrap();
+    let gpu = lightgrid_render::GpuBinGrid::new(ctx, set.grid()).unwrap();
     set.set_on(ids[0], false).unwrap();
     let r = set.take_dirty().unwrap();
     let bytes = gpu.upload_region(set.grid(), r.lo, r.hi).unwrap();

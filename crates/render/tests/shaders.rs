@@ -1,10 +1,10 @@
 //! Every render shader validates with naga (no GPU needed), and the structs shared with
 //! Rust have the same layout on both sides.
 
-use render::dynamic::{DynLightGpu, DynParams};
-use render::gpu::SampleParams;
-use render::raster::{FrameUniforms, MeshUniforms};
-use render::wgsl;
+use lightgrid_render::dynamic::{DynLightGpu, DynParams};
+use lightgrid_render::gpu::SampleParams;
+use lightgrid_render::raster::{FrameUniforms, MeshUniforms};
+use lightgrid_render::wgsl;
 
 fn validate(name: &str, src: &str) -> naga::Module {
     let module = naga::front::wgsl::parse_str(src)
@@ -88,5 +88,5 @@ fn generated_luminance_weights_are_grid_cores() {
     let line = p.lines().find(|l| l.starts_with("const LUMA")).unwrap();
     let inner = &line[line.find(">(").unwrap() + 2..line.rfind(')').unwrap()];
     let v: Vec<f32> = inner.split(", ").map(|x| x.parse().unwrap()).collect();
-    assert_eq!(v, grid_core::LUMA.to_vec());
+    assert_eq!(v, lightgrid_core::LUMA.to_vec());
 }

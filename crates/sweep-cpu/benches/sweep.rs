@@ -4,7 +4,7 @@
 //! errors side by side).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use grid_core::{Outputs, SweepOptions};
+use lightgrid_core::{Outputs, SweepOptions};
 use sweep_cpu::scenes::Scene;
 
 fn bench(c: &mut Criterion) {

@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use grid_core::SweepOptions;
+use lightgrid_core::SweepOptions;
 use sweep_cpu::reference::{ReferenceOptions, trace};
 use sweep_cpu::scenes::{Scene, compare};
 

@@ -16,8 +16,10 @@
 
 use std::f64::consts::PI;
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{
+    BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
+};
 
 /// Gauss–Legendre nodes and weights on `[0, 1]` (`n` points, Newton iteration on the
 /// Legendre polynomial; exact for polynomials of degree `2n − 1`).
@@ -205,7 +207,7 @@ pub fn furnace(n: u32, seed: u64, smoothing: f32) -> (Case, Case) {
     let (mut avg, mut irr) = (0f64, 0f64);
     for l in g.data() {
         avg = avg.max((l.average().x as f64 - 1.0).abs());
-        for n in grid_core::light::AMBIENT_AXES {
+        for n in lightgrid_core::light::AMBIENT_AXES {
             irr = irr.max((l.irradiance(n).x as f64 / PI - 1.0).abs());
         }
     }
@@ -229,7 +231,7 @@ fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary) {
     )
     .expect("valid material");
     let mut top = BinLight::ZERO;
-    top.0[grid_core::dirs::DOWN] = Vec3::ONE;
+    top.0[lightgrid_core::dirs::DOWN] = Vec3::ONE;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(top)
@@ -258,7 +260,7 @@ pub fn uniform_furnace(pass: f32) -> Case {
     let t = std::time::Instant::now();
     let s = crate::run(&m, &b, &options(400, 1e-7)).expect("valid furnace");
     let secs = t.elapsed().as_secs_f64();
-    let omega = grid_core::dirs::solid_angles();
+    let omega = lightgrid_core::dirs::solid_angles();
     let worst = s
         .output
         .bins
@@ -266,7 +268,7 @@ pub fn uniform_furnace(pass: f32) -> Case {
         .expect("bins")
         .data()
         .iter()
-        .flat_map(|l| (0..grid_core::NUM_DIRS).map(move |b| (l.0[b].x / omega[b] - 1.0).abs()))
+        .flat_map(|l| (0..lightgrid_core::NUM_DIRS).map(move |b| (l.0[b].x / omega[b] - 1.0).abs()))
         .fold(0f32, f32::max);
     case(
         format!("furnace, uniform medium of pass-through {pass}: worst bin"),
@@ -322,17 +324,17 @@ pub fn ground_material(levels: u32, albedo: f32) -> MaterialGrid {
 /// clipped_cosine(b, +Y)` (its exact Lambertian share) into the upward half of bin `b`,
 /// and the channel turns that back into light dividing by `μ_c`.
 pub fn ground_fields(albedo: f32, sky: &BinLight) -> (BinLight, BinLight) {
-    let omega = grid_core::dirs::solid_angles();
+    let omega = lightgrid_core::dirs::solid_angles();
     let up = crate::sweep::channels(true);
     let field = |ground_half: &dyn Fn(usize) -> f32| {
         BinLight(std::array::from_fn(|b| {
-            let dy = grid_core::dirs::dir_unit(b).y;
+            let dy = lightgrid_core::dirs::dir_unit(b).y;
             let from_sky = if dy <= 0.0 { sky.0[b].x } else { 0.0 };
             Vec3::splat(from_sky + if dy >= 0.0 { ground_half(b) } else { 0.0 })
         }))
     };
     let exact = field(&|b| {
-        let half = if grid_core::dirs::dir_unit(b).y == 0.0 {
+        let half = if lightgrid_core::dirs::dir_unit(b).y == 0.0 {
             0.5
         } else {
             1.0
@@ -345,7 +347,7 @@ pub fn ground_fields(albedo: f32, sky: &BinLight) -> (BinLight, BinLight) {
         .sum();
     let rule = field(&|b| {
         let chn = up.iter().find(|c| c.bin == b).expect("an upward channel");
-        let cc = grid_core::dirs::clipped_cosine(b, grid_core::glam::DVec3::Y) as f32;
+        let cc = lightgrid_core::dirs::clipped_cosine(b, lightgrid_core::glam::DVec3::Y) as f32;
         albedo * e_sweep / std::f32::consts::PI * cc / chn.mu
     });
     (exact, rule)
@@ -356,7 +358,7 @@ pub fn ground_fields(albedo: f32, sky: &BinLight) -> (BinLight, BinLight) {
 pub fn lambertian_ground(a: f32) -> Case {
     let m = ground_material(1, a);
     let mut top = BinLight::ZERO;
-    top.0[grid_core::dirs::DOWN] = Vec3::ONE;
+    top.0[lightgrid_core::dirs::DOWN] = Vec3::ONE;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(top)

@@ -7,8 +7,8 @@
 //! ## Example
 //!
 //! ```
-//! use grid_core::glam::{UVec3, Vec3};
-//! use grid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, Sweeper, SweepOptions};
+//! use lightgrid_core::glam::{UVec3, Vec3};
+//! use lightgrid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, Sweeper, SweepOptions};
 //! use sweep_cpu::CpuSweeper;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -40,7 +40,7 @@
 //!
 //! ## What is here
 //!
-//! * [`run`] / [`CpuSweeper`]: the sweep (implements `grid_core::Sweeper`), with its
+//! * [`run`] / [`CpuSweeper`]: the sweep (implements `lightgrid_core::Sweeper`), with its
 //!   [`EnergyBalance`].
 //! * [`sky`]: uniform and analytic clear skies, EXR environment maps, the sun disc, all
 //!   integrated over the bins; [`sweep_responses`] keeps sun and sky apart so their
@@ -68,11 +68,11 @@
 //!
 //! Notation: grid of `nx × ny × nz` points, cell size `h`; `p_c` the pass-through and
 //! `a_c` the reflectance (RGB) of cell `c`; bins and their solid angles `ω_b` as in
-//! `grid_core::dirs`; `u_b` the unit vector of bin `b`.
+//! `lightgrid_core::dirs`; `u_b` the unit vector of bin `b`.
 //!
 //! **Slabs and channels.** Level `j` is a slab of cells of thickness `h`. Light moves
 //! between slabs along 17 *channels* per pass. The downward pass has the 17 sweep
-//! directions of `grid_core::dirs::sweep_dirs`: channel `c` has step `s_c` = `(dx, -1, dz)`
+//! directions of `lightgrid_core::dirs::sweep_dirs`: channel `c` has step `s_c` = `(dx, -1, dz)`
 //! for the 9 downward bins and `(4dx, -1, 4dz)` for the 8 horizontal bins, path length
 //! `ℓ_c = |s_c|` (in `h`) per slab and `μ_c = 1/ℓ_c`. The upward pass mirrors it
 //! (`y = +1`, upward bins, the same horizontal bins). A horizontal bin is split in two
@@ -216,9 +216,9 @@ pub mod sweep;
 pub use sky::{ClearSky, EnvMap, SkyBins, SkyError, Sun};
 pub use sweep::{EnergyBalance, Sweep, run};
 
-use grid_core::glam::Vec3;
-use grid_core::light::luminance;
-use grid_core::{
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::light::luminance;
+use lightgrid_core::{
     AverageLight, BinLight, Boundary, DominantDir, Grid, MaterialGrid, SideBoundary, SweepError,
     SweepOptions, SweepOutput, Sweeper, TopBoundary,
 };

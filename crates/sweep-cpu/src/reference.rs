@@ -29,10 +29,10 @@
 
 use std::time::{Duration, Instant};
 
-use grid_core::dda;
-use grid_core::dirs::{self, NUM_DIRS};
-use grid_core::glam::{DVec3, IVec3, UVec3, Vec3};
-use grid_core::{
+use lightgrid_core::dda;
+use lightgrid_core::dirs::{self, NUM_DIRS};
+use lightgrid_core::glam::{DVec3, IVec3, UVec3, Vec3};
+use lightgrid_core::{
     BinLight, Boundary, Grid, GridError, LightGrid, MaterialGrid, SideBoundary, SweepError,
     TopBoundary,
 };
@@ -120,9 +120,9 @@ impl Reference {
         let mut sum = 0.0;
         let mut n = 0usize;
         for (b, se) in self.light.data().iter().zip(&self.std_error) {
-            let a = grid_core::light::luminance(b.average());
+            let a = lightgrid_core::light::luminance(b.average());
             if a > floor {
-                let r = grid_core::light::luminance(*se) / a;
+                let r = lightgrid_core::light::luminance(*se) / a;
                 sum += (r * r) as f64;
                 n += 1;
             }
@@ -375,7 +375,7 @@ impl Tracer<'_> {
             let ci = self.cell_index(cell);
             let sigma = self.sigma[ci];
             let collide_at_entry = sigma == f32::INFINITY;
-            // Distance to the exit of the current cell (grid_core::dda: the walk shared
+            // Distance to the exit of the current cell (lightgrid_core::dda: the walk shared
             // with light-volumes).
             let (s_exit, axis) = if collide_at_entry {
                 (f32::INFINITY, 0)
@@ -499,9 +499,9 @@ pub fn trace(
     crate::sweep::check_boundary_scale(boundary)?;
     options.validate()?;
     let n = desc.point_count();
-    grid_core::limits::check_memory(
+    lightgrid_core::limits::check_memory(
         &format!("Monte Carlo reference of {} points", n),
-        grid_core::limits::checked_bytes(
+        lightgrid_core::limits::checked_bytes(
             "points",
             &[n as u64, (NUM_DIRS * 24 + GROUPS * 24 + 64) as u64],
         )?,

@@ -1,9 +1,11 @@
 //! Canonical test scenes and the error measures used to compare a sweep with the
 //! Monte Carlo reference.
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::light::{AMBIENT_AXES, luminance};
-use grid_core::{BinLight, Boundary, GridDesc, LightGrid, Material, MaterialGrid, SideBoundary};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::light::{AMBIENT_AXES, luminance};
+use lightgrid_core::{
+    BinLight, Boundary, GridDesc, LightGrid, Material, MaterialGrid, SideBoundary,
+};
 
 /// The four canonical scenes (periodic sides, lit by a uniform sky of radiance 1 from
 /// above and a sun).
@@ -96,7 +98,8 @@ impl Scene {
 /// nothing from below.
 pub fn sky_and_sun() -> Boundary {
     let (mut top, _) = BinLight::uniform(Vec3::ONE).split_vertical();
-    let sun_bin = grid_core::dirs::dir_index(grid_core::glam::IVec3::new(1, -1, 0)).expect("bin");
+    let sun_bin =
+        lightgrid_core::dirs::dir_index(lightgrid_core::glam::IVec3::new(1, -1, 0)).expect("bin");
     top.0[sun_bin] += Vec3::splat(20.0);
     Boundary::open_sky(top)
 }

@@ -17,9 +17,9 @@
 use std::f32::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
-use grid_core::dirs;
-use grid_core::glam::Vec3;
-use grid_core::{BinLight, GridError};
+use lightgrid_core::dirs;
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::{BinLight, GridError};
 
 use crate::sweep::MAX_LIGHT;
 
@@ -59,7 +59,7 @@ pub const MAX_EXR_BYTES: u64 = 2 << 30;
 
 /// `width × height` if it is at most [`MAX_TEXELS`].
 fn check_texels(width: u32, height: u32) -> Result<u64, GridError> {
-    grid_core::limits::checked_count("width x height", width, height, MAX_TEXELS)
+    lightgrid_core::limits::checked_count("width x height", width, height, MAX_TEXELS)
 }
 
 /// An equirectangular radiance map (see the module docs for the mapping).
@@ -127,10 +127,10 @@ impl EnvMap {
     ///
     /// The file is read only if it is a regular file of at most [`MAX_EXR_BYTES`]; its
     /// headers are read first and every layer must have at most [`MAX_TEXELS`] texels
-    /// within the memory limit ([`grid_core::limits`]) before any pixel is allocated.
+    /// within the memory limit ([`lightgrid_core::limits`]) before any pixel is allocated.
     pub fn load_exr(path: impl AsRef<Path>) -> Result<Self, SkyError> {
         let path = path.as_ref();
-        let bytes = grid_core::limits::read_file(path, MAX_EXR_BYTES)?;
+        let bytes = lightgrid_core::limits::read_file(path, MAX_EXR_BYTES)?;
         Self::from_exr_bytes(&bytes).map_err(|e| match e {
             SkyError::Exr { message, .. } => SkyError::Exr {
                 path: path.to_path_buf(),
@@ -201,7 +201,7 @@ impl EnvMap {
                     )
                     .into());
                 }
-                grid_core::limits::check_memory(
+                lightgrid_core::limits::check_memory(
                     &format!("EXR layer {i} of {w} x {hgt} texels"),
                     texels * 32,
                 )?;
@@ -262,7 +262,7 @@ impl EnvMap {
     /// The map integrated over the bins: light travels opposite to the texel direction.
     pub fn bins(&self) -> SkyBins {
         let (w, h) = (self.width, self.height);
-        let mut top = [grid_core::glam::DVec3::ZERO; dirs::NUM_DIRS];
+        let mut top = [lightgrid_core::glam::DVec3::ZERO; dirs::NUM_DIRS];
         let mut bottom = top;
         for y in 0..h {
             let t0 = PI as f64 * y as f64 / h as f64;
@@ -451,8 +451,8 @@ fn check_direction(field: &str, d: Vec3) -> Result<(), SkyError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use grid_core::dirs::{dir_index, dir_ivec};
-    use grid_core::glam::IVec3;
+    use lightgrid_core::dirs::{dir_index, dir_ivec};
+    use lightgrid_core::glam::IVec3;
 
     #[test]
     fn uniform_env_map_matches_uniform_bins() {

@@ -4,10 +4,10 @@
 use std::f32::consts::PI;
 use std::sync::OnceLock;
 
-use grid_core::dirs::{self, NUM_DIRS, NUM_SWEEP_DIRS};
-use grid_core::glam::{DVec3, IVec3, UVec3, Vec3};
-use grid_core::light::luminance;
-use grid_core::{
+use lightgrid_core::dirs::{self, NUM_DIRS, NUM_SWEEP_DIRS};
+use lightgrid_core::glam::{DVec3, IVec3, UVec3, Vec3};
+use lightgrid_core::light::luminance;
+use lightgrid_core::{
     AverageLight, BinLight, Boundary, DominantDir, Grid, GridError, MaterialGrid, SideBoundary,
     SweepError, SweepOptions, SweepOutput, SweepStats, TopBoundary,
 };
@@ -207,7 +207,7 @@ impl EnergyBalance {
 /// A sweep's outputs and its energy balance.
 #[derive(Debug, Clone)]
 pub struct Sweep {
-    /// What the [`grid_core::Sweeper`] trait returns.
+    /// What the [`lightgrid_core::Sweeper`] trait returns.
     pub output: SweepOutput,
     /// The flux balance.
     pub balance: EnergyBalance,
@@ -322,7 +322,7 @@ pub fn surface_weights(mask: u8) -> &'static SurfaceWeights {
 
 /// Outward normals of a cell's six faces, in exposure-mask bit order (the ambient
 /// cube's axis order).
-pub const FACE_NORMALS: [Vec3; 6] = grid_core::light::AMBIENT_AXES;
+pub const FACE_NORMALS: [Vec3; 6] = lightgrid_core::light::AMBIENT_AXES;
 
 impl Emission {
     fn new(pass: f32, exposed: u8) -> Self {
@@ -467,7 +467,7 @@ pub fn validate_inputs(
     boundary.validate(material.desc())?;
     check_boundary_scale(boundary)?;
     let desc = material.desc();
-    grid_core::limits::check_memory(
+    lightgrid_core::limits::check_memory(
         &format!("a sweep of {} points", desc.point_count()),
         sweep_bytes(desc),
     )?;
@@ -478,7 +478,7 @@ pub fn validate_inputs(
 /// two pending-scatter records (96), ln(pass) and exposure (8) and the output (312); per
 /// point of one level the level buffers (two 17-channel levels, removals, transmittance,
 /// powers: 1104).
-pub fn sweep_bytes(desc: &grid_core::GridDesc) -> u64 {
+pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
     desc.point_count() as u64 * (312 + 96 + 8 + 312) + desc.level_len() as u64 * 1104
 }
 
@@ -516,7 +516,7 @@ struct Sources<'a> {
     active: bool,
     up: bool,
     dims: UVec3,
-    halo: Option<grid_core::HaloLayout>,
+    halo: Option<lightgrid_core::HaloLayout>,
 }
 
 impl Sources<'_> {
@@ -669,7 +669,7 @@ impl Ctx {
         &self,
         removed: &[[Vec3; SLOTS]],
         t_after: &[[f32; CHANNELS]],
-        cells: &[grid_core::Material],
+        cells: &[lightgrid_core::Material],
         exposed: &[u8],
         cur: &mut [Level],
         pend_same: &mut [Pending],
@@ -920,8 +920,8 @@ fn run_with<S: Sink>(
         .unwrap_or(-1);
     let laterally_uniform = matches!(boundary.top, TopBoundary::Uniform(_))
         && matches!(boundary.sides, SideBoundary::Open | SideBoundary::Periodic);
-    let halo =
-        matches!(boundary.sides, SideBoundary::Given(_)).then(|| grid_core::HaloLayout::new(dims));
+    let halo = matches!(boundary.sides, SideBoundary::Given(_))
+        .then(|| lightgrid_core::HaloLayout::new(dims));
 
     let mut g: Vec<S> = vec![S::default(); n];
     let mut prev: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];

@@ -7,11 +7,11 @@
 //! above it is `a` times the irradiance the ground receives. Issue 13 found one-level
 //! ground reflecting `a/2` (its bottom face emitted into nothing).
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{Boundary, SideBoundary, SweepOptions};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{Boundary, SideBoundary, SweepOptions};
 use sweep_cpu::sky::{Sun, uniform_sky};
 
-fn ground(levels: u32, albedo: f32) -> grid_core::MaterialGrid {
+fn ground(levels: u32, albedo: f32) -> lightgrid_core::MaterialGrid {
     sweep_cpu::exact::ground_material(levels, albedo)
 }
 
@@ -23,7 +23,7 @@ fn converged() -> SweepOptions {
 }
 
 /// (name, top boundary light) for a zenith sun, a low sun between bins and a uniform sky.
-fn lights() -> Vec<(&'static str, grid_core::BinLight)> {
+fn lights() -> Vec<(&'static str, lightgrid_core::BinLight)> {
     vec![
         (
             "zenith sun",
@@ -102,7 +102,7 @@ fn light_above_lambertian_ground_is_the_exact_field_up_to_the_channel_cosines() 
             for j in levels..d.levels() {
                 for p in [UVec3::new(0, j, 0), UVec3::new(5, j, 3)] {
                     let l = g.get(p).unwrap();
-                    for bin in 0..grid_core::NUM_DIRS {
+                    for bin in 0..lightgrid_core::NUM_DIRS {
                         let (got, want) = (l.0[bin].x, rule.0[bin].x);
                         assert!(
                             (got - want).abs() <= 1e-4 * want.max(1e-3),

@@ -1,9 +1,9 @@
 //! The Monte Carlo reference against analytic answers, its convergence, its accounting,
 //! its determinism; then the sweep against it on the canonical scenes.
 
-use grid_core::dirs::{DOWN, NUM_DIRS, nearest_dir};
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{
+use lightgrid_core::dirs::{DOWN, NUM_DIRS, nearest_dir};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{
     BinLight, Boundary, GridDesc, LightGrid, Material, MaterialGrid, SideBoundary, SweepOptions,
 };
 use sweep_cpu::reference::{Reference, ReferenceOptions, trace};
@@ -63,7 +63,7 @@ fn absorbing_slab_answer(levels: u32, pass: f32) -> Vec<f64> {
     let sigma = -(pass as f64).ln();
     let n = 2_000_000usize;
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let omega = grid_core::dirs::bins().omega[DOWN];
+    let omega = lightgrid_core::dirs::bins().omega[DOWN];
     let w = 4.0 * std::f64::consts::PI / n as f64;
     let l0 = 1.0 / omega;
     let mut out = vec![0.0; levels as usize];
@@ -186,7 +186,7 @@ fn unsupported_boundaries_are_typed_errors() {
     let mut b = Boundary::open_sky(BinLight::ZERO);
     b.sides = SideBoundary::Given(vec![
         BinLight::ZERO;
-        grid_core::HaloLayout::new(UVec3::splat(2)).len()
+        lightgrid_core::HaloLayout::new(UVec3::splat(2)).len()
     ]);
     let e = trace(&m, &b, &ReferenceOptions::default(), &|_, _| {})
         .unwrap_err()

@@ -1,8 +1,8 @@
 //! Numerical stress (DESIGN.md, "Numerical stability"): extreme ratios, sizes and values;
 //! no NaN or infinity ever comes out, energy stays accounted.
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, SweepOptions};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, SweepOptions};
 use sweep_cpu::run;
 
 fn fog(dims: UVec3, h: f32, albedo: f32, pass: f32) -> MaterialGrid {
@@ -35,8 +35,8 @@ fn all_finite(s: &sweep_cpu::Sweep) -> bool {
 #[test]
 fn sun_to_sky_ratio_of_a_million() {
     let (mut top, _) = BinLight::uniform(Vec3::ONE).split_vertical();
-    top.0[grid_core::dirs::DOWN] +=
-        Vec3::splat(1e6 * grid_core::dirs::solid_angles()[grid_core::dirs::DOWN]);
+    top.0[lightgrid_core::dirs::DOWN] +=
+        Vec3::splat(1e6 * lightgrid_core::dirs::solid_angles()[lightgrid_core::dirs::DOWN]);
     for (albedo, pass) in [(0.0, 0.5), (1.0, 0.5), (0.9, 0.0), (0.5, 1.0 - 1e-7)] {
         let s = run(
             &fog(UVec3::new(6, 8, 6), 1.0, albedo, pass),
@@ -272,6 +272,6 @@ fn ten_million_equal_deposits_into_one_cell() {
         ((got - exact) / exact).abs().max_element() < 1e-12,
         "{got} vs {exact}"
     );
-    assert_eq!(t.get(0), grid_core::glam::DVec3::ZERO);
+    assert_eq!(t.get(0), lightgrid_core::glam::DVec3::ZERO);
     assert!(((naive as f64 - exact.x) / exact.x).abs() > 1e-2, "{naive}");
 }

@@ -1,8 +1,8 @@
 //! Properties of the sweep: known answers, energy, linearity, symmetry, monotonicity.
 
-use grid_core::dirs::{self, NUM_DIRS, dir_index, dir_ivec};
-use grid_core::glam::{IVec3, UVec3, Vec3};
-use grid_core::{
+use lightgrid_core::dirs::{self, NUM_DIRS, dir_index, dir_ivec};
+use lightgrid_core::glam::{IVec3, UVec3, Vec3};
+use lightgrid_core::{
     BinLight, Boundary, GridDesc, HaloLayout, LightGrid, Material, MaterialGrid, Outputs,
     SideBoundary, SweepOptions, TopBoundary,
 };

@@ -3,7 +3,7 @@
 //! Mesa's software Vulkan on the same two CPU cores.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use grid_core::SweepOptions;
+use lightgrid_core::SweepOptions;
 use sweep_cpu::scenes::Scene;
 use sweep_gpu::GpuSweeper;
 

@@ -2,10 +2,10 @@
 //!
 //! The light-flow sweep of `sweep-cpu` as wgpu compute shaders (WGSL), so light grids can
 //! be rebuilt on the GPU around a moving camera. [`GpuSweeper`] implements
-//! `grid_core::Sweeper`: callers cannot tell which sweeper runs.
+//! `lightgrid_core::Sweeper`: callers cannot tell which sweeper runs.
 //!
 //! ```no_run
-//! use grid_core::{Sweeper, SweepOptions};
+//! use lightgrid_core::{Sweeper, SweepOptions};
 //! use sweep_cpu::scenes::Scene;
 //! use sweep_gpu::GpuSweeper;
 //!
@@ -60,7 +60,7 @@ pub mod wgsl;
 
 pub use sweep::{GpuSweeper, GpuTimings};
 
-use grid_core::glam::Vec3;
+use lightgrid_core::glam::Vec3;
 use wgpu::util::DeviceExt;
 
 /// Errors of the GPU backend.

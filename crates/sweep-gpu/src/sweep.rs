@@ -1,7 +1,7 @@
 //! The GPU sweeper: sweep-cpu's semantics, one dispatch pair per level.
 
-use grid_core::glam::Vec3;
-use grid_core::{
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::{
     BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins, PackedLightGrid,
     SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary,
 };
@@ -250,7 +250,7 @@ impl GpuSweeper {
         if !max.is_finite() {
             return Err(overflow());
         }
-        let exposure = grid_core::pack::exposure_for(max);
+        let exposure = lightgrid_core::pack::exposure_for(max);
         let words = self
             .packer
             .pack_buffer(&self.ctx, &g, count, exposure)

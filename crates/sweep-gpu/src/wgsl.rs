@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use grid_core::dirs;
+use lightgrid_core::dirs;
 
 /// The generated constants: the 26 directions in canonical order, their unit vectors and
 /// solid angles, the sweep's step and halo widths.
@@ -13,7 +13,7 @@ pub fn prelude() -> String {
     let _ = writeln!(s, "const NUM_DIRS: u32 = {}u;", dirs::NUM_DIRS);
     let _ = writeln!(s, "const NUM_SWEEP_DIRS: u32 = {}u;", dirs::NUM_SWEEP_DIRS);
     let _ = writeln!(s, "const HORIZONTAL_STEP: i32 = {};", dirs::HORIZONTAL_STEP);
-    let _ = writeln!(s, "const HALO_WIDTH: i32 = {};", grid_core::HALO_WIDTH);
+    let _ = writeln!(s, "const HALO_WIDTH: i32 = {};", lightgrid_core::HALO_WIDTH);
     let w: Vec<String> = dirs::solid_angles()
         .iter()
         .map(|v| format!("{v:?}"))
@@ -124,7 +124,7 @@ pub fn sweep_tables() -> String {
 }
 
 /// Where the `free` half of [`surface_weight_table`] starts.
-pub const SURFACE_FREE_OFFSET: usize = 64 * 2 * grid_core::NUM_DIRS;
+pub const SURFACE_FREE_OFFSET: usize = 64 * 2 * lightgrid_core::NUM_DIRS;
 
 /// The opaque cells' surface weights (`sweep_cpu::sweep::surface_weights`) for all 64
 /// exposure masks and both passes: `w` at `(mask * 2 + up) * 26 + bin`, then `free` at

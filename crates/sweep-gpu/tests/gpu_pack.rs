@@ -1,8 +1,8 @@
 //! R11G11B10 on the GPU equals grid-core's packing bit for bit. Runs on any adapter
 //! (lavapipe in CI); fails without one unless LIGHTGRID_ALLOW_NO_GPU=1.
 
-use grid_core::glam::Vec3;
-use grid_core::pack::{pack_r11g11b10, uf10_to_f32, uf11_to_f32};
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::pack::{pack_r11g11b10, uf10_to_f32, uf11_to_f32};
 use sweep_gpu::{GpuContext, GpuPacker};
 
 fn context() -> Option<GpuContext> {

@@ -1,8 +1,8 @@
 //! The GPU sweep equals sweep-cpu's (the specification) within the stated tolerance.
 //! Runs on any adapter (lavapipe in CI); fails without one unless LIGHTGRID_ALLOW_NO_GPU=1.
 
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::{
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{
     BinLight, Boundary, GridDesc, HaloLayout, Material, MaterialGrid, SideBoundary, SweepOptions,
     TopBoundary,
 };
@@ -24,7 +24,10 @@ fn sweeper() -> Option<&'static GpuSweeper> {
 
 /// Relative 1e-4 of the larger value plus 1e-5 of the grid's largest value (f32
 /// rounding in a different order, and exp/log of another library).
-fn assert_close(cpu: &grid_core::LightGrid, gpu: &grid_core::LightGrid) -> Result<(), String> {
+fn assert_close(
+    cpu: &lightgrid_core::LightGrid,
+    gpu: &lightgrid_core::LightGrid,
+) -> Result<(), String> {
     let scale = cpu.max_value().max(1e-20);
     for (i, (a, b)) in cpu.data().iter().zip(gpu.data()).enumerate() {
         for d in 0..26 {

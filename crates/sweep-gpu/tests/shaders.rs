@@ -1,7 +1,7 @@
 //! Every WGSL source parses and validates with naga (no GPU needed), and the generated
 //! constants carry grid-core's values exactly.
 
-use grid_core::dirs;
+use lightgrid_core::dirs;
 use sweep_gpu::wgsl;
 
 fn validate(name: &str, src: &str) -> naga::Module {
@@ -59,7 +59,7 @@ fn generated_constants_are_grid_cores() {
     }
     assert!(p.contains(&format!(
         "const HALO_WIDTH: i32 = {};",
-        grid_core::HALO_WIDTH
+        lightgrid_core::HALO_WIDTH
     )));
     validate("prelude", &p);
 }

@@ -2,8 +2,8 @@
 //! a procedural forest, for node grids of 16 and 32 points.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use grid_core::BinLight;
-use grid_core::glam::{Vec2, Vec3};
+use lightgrid_core::BinLight;
+use lightgrid_core::glam::{Vec2, Vec3};
 use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};

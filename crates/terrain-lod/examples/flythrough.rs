@@ -6,8 +6,8 @@
 
 use std::time::Instant;
 
-use grid_core::BinLight;
-use grid_core::glam::{Vec2, Vec3};
+use lightgrid_core::BinLight;
+use lightgrid_core::glam::{Vec2, Vec3};
 use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};

@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use grid_core::GridError;
-use grid_core::glam::{Quat, Vec2, Vec3};
+use lightgrid_core::GridError;
+use lightgrid_core::glam::{Quat, Vec2, Vec3};
 use material_voxelizer::compose::{Heightmap, Instance};
 
 /// The shipped Jacksboro DEM (`shared/testdata/dem-jacksboro`) at 4 m a pixel with

@@ -34,8 +34,8 @@
 //! 8-frame fly-through for 16 and 32.
 //!
 //! ```
-//! use grid_core::glam::{Vec2, Vec3};
-//! use grid_core::{BinLight, LightField};
+//! use lightgrid_core::glam::{Vec2, Vec3};
+//! use lightgrid_core::{BinLight, LightField};
 //! use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
 //! use sweep_cpu::CpuSweeper;
 //! use terrain_lod::{Hierarchy, HierarchyParams};
@@ -60,8 +60,8 @@ pub mod demo;
 
 use std::collections::HashMap;
 
-use grid_core::glam::{IVec2, UVec3, Vec2, Vec3};
-use grid_core::{
+use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
+use lightgrid_core::{
     BinLight, Boundary, GridDesc, GridError, HALO_WIDTH, HaloLayout, LightField, LightGrid,
     MaterialGrid, MaterialSource, SideBoundary, SweepError, SweepOptions, Sweeper, TopBoundary,
 };
@@ -314,7 +314,7 @@ pub struct Hierarchy {
 }
 
 fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
-    grid_core::hash::ContentHash::new(b"terrain-lod-node-v1")
+    lightgrid_core::hash::ContentHash::new(b"terrain-lod-node-v1")
         .desc(m.desc())
         .materials(m.data())
         .boundary(b)
@@ -361,7 +361,7 @@ impl Hierarchy {
             nodes: HashMap::new(),
         };
         let w = params.world_cell;
-        let dims_xz = ((hi - lo) / w).ceil().as_uvec2() + grid_core::glam::UVec2::ONE;
+        let dims_xz = ((hi - lo) / w).ceil().as_uvec2() + lightgrid_core::glam::UVec2::ONE;
         let bottom = ground.0 - 2.0 * w;
         let top = ground.1 + params.margin.max(w) + 2.0 * w;
         let ny = (((top - bottom) / w).ceil() as u32)
@@ -373,12 +373,12 @@ impl Hierarchy {
             UVec3::new(dims_xz.x, ny, dims_xz.y),
         )?;
         // The world grid (26 f32 bins) and what sweeping it holds at once.
-        grid_core::limits::check_memory(
+        lightgrid_core::limits::check_memory(
             &format!(
                 "the world grid of {} points (world_cell = {w} m over the terrain)",
                 desc.point_count()
             ),
-            grid_core::limits::checked_bytes(
+            lightgrid_core::limits::checked_bytes(
                 "world grid",
                 &[desc.point_count() as u64, WORLD_BYTES_PER_POINT],
             )?,

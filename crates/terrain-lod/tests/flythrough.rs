@@ -1,7 +1,7 @@
 //! A fly-through over the shipped DEM with a procedural forest.
 
-use grid_core::glam::{Vec2, Vec3};
-use grid_core::{BinLight, LightField};
+use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::{BinLight, LightField};
 use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};

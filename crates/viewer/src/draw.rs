@@ -2,14 +2,14 @@
 //! without the grids, the grid points as lit balls, the material cells as cubes.
 
 use anyhow::{Context, Result};
-use grid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
-use grid_core::{GridDesc, LightGrid, MaterialSource};
-use material_voxelizer::model::{AlphaMode, Model};
-use render::shading::linear_to_srgb8;
-use render::{
+use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
+use lightgrid_core::{GridDesc, LightGrid, MaterialSource};
+use lightgrid_render::shading::linear_to_srgb8;
+use lightgrid_render::{
     Camera, GroundLight, Instance, LightVolume, Lighting, LightingMode, MeshId, MeshMaterial,
     Renderer, SamplePoints, TextureRgba8, Vertex, View, sample_points,
 };
+use material_voxelizer::model::{AlphaMode, Model};
 
 use crate::world::World;
 

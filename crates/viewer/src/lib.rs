@@ -15,6 +15,7 @@
 //! `--scene file.toml` renders a user's scene, `--window` opens an interactive window.
 //! The library half ([`run`]) is what the binary and the image tests call.
 
+pub mod bevy;
 pub mod draw;
 pub mod scene;
 pub mod window;
@@ -26,7 +27,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use render::{Camera, Renderer};
+use lightgrid_render::{Camera, Renderer};
 use serde::Serialize;
 use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM};
 
@@ -49,6 +50,9 @@ pub struct Options {
     pub sweeper: SweeperChoice,
     /// Also write the EXR of the first view.
     pub exr: bool,
+    /// Also write each view's light as Bevy irradiance volumes into `out/bevy/`
+    /// (indirect light; see [`bevy`]).
+    pub bevy: bool,
 }
 
 /// What a run did and measured.
@@ -151,7 +155,7 @@ impl Summary {
 }
 
 /// Writes an sRGB RGBA8 image as PNG (encoded in memory, then written atomically).
-pub fn write_png(path: &Path, img: &render::Image) -> Result<()> {
+pub fn write_png(path: &Path, img: &lightgrid_render::Image) -> Result<()> {
     let buf: Vec<u8> = img.srgb.iter().flatten().copied().collect();
     let mut png = Vec::new();
     image::write_buffer_with_format(
@@ -163,11 +167,12 @@ pub fn write_png(path: &Path, img: &render::Image) -> Result<()> {
         image::ImageFormat::Png,
     )
     .with_context(|| format!("encoding {}", path.display()))?;
-    grid_core::file::write_atomic(path, &png).with_context(|| format!("writing {}", path.display()))
+    lightgrid_core::file::write_atomic(path, &png)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Writes the linear HDR image as EXR (encoded in memory, then written atomically).
-pub fn write_exr(path: &Path, img: &render::Image) -> Result<()> {
+pub fn write_exr(path: &Path, img: &lightgrid_render::Image) -> Result<()> {
     use exr::prelude::*;
     let w = img.width as usize;
     let pixels = SpecificChannels::rgb(|p: Vec2<usize>| {
@@ -180,7 +185,7 @@ pub fn write_exr(path: &Path, img: &render::Image) -> Result<()> {
         .write()
         .to_buffered(std::io::Cursor::new(&mut bytes))
         .with_context(|| format!("encoding {}", path.display()))?;
-    grid_core::file::write_atomic(path, &bytes)
+    lightgrid_core::file::write_atomic(path, &bytes)
         .with_context(|| format!("writing {}", path.display()))
 }
 
@@ -222,6 +227,18 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
             format!("grids for {}", spec.name),
             t.elapsed().as_secs_f64(),
         ));
+        if opts.bevy {
+            let t = Instant::now();
+            let dir = opts.out.join("bevy");
+            files.extend(
+                bevy::export(&world, eye, &dir, &spec.name, false)
+                    .with_context(|| format!("exporting {} for Bevy", spec.name))?,
+            );
+            timings.push((
+                format!("bevy volumes for {}", spec.name),
+                t.elapsed().as_secs_f64(),
+            ));
+        }
         let t = Instant::now();
         let volume_bytes = meshes.relight(&mut r, &world)?;
         let grid = world.hierarchy.grid_at(target).clone();
@@ -275,9 +292,9 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
     let json = opts.out.join("summary.json");
     summary.files.push(txt.clone());
     summary.files.push(json.clone());
-    grid_core::file::write_atomic(&txt, summary.text().as_bytes())
+    lightgrid_core::file::write_atomic(&txt, summary.text().as_bytes())
         .with_context(|| format!("writing {}", txt.display()))?;
-    grid_core::file::write_atomic(&json, serde_json::to_string_pretty(&summary)?.as_bytes())
+    lightgrid_core::file::write_atomic(&json, serde_json::to_string_pretty(&summary)?.as_bytes())
         .with_context(|| format!("writing {}", json.display()))?;
     Ok(summary)
 }

@@ -29,6 +29,10 @@ struct Args {
     /// Image height in pixels.
     #[arg(long, default_value_t = 540)]
     height: u32,
+    /// Also write each view's indirect light as Bevy irradiance volumes (DDS, KTX2 and a
+    /// JSON sidecar) into `<out>/bevy/`.
+    #[arg(long)]
+    bevy: bool,
     /// Open an interactive window instead of writing images.
     #[arg(long)]
     window: bool,
@@ -37,14 +41,14 @@ struct Args {
     frames: Option<u32>,
     /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
     /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
-    #[arg(long, value_parser = grid_core::limits::parse_size_arg)]
+    #[arg(long, value_parser = lightgrid_core::limits::parse_size_arg)]
     memory_limit: Option<u64>,
 }
 
 fn main() -> Result<()> {
     let args = Args::parse();
     if let Some(limit) = args.memory_limit {
-        grid_core::limits::set_memory_limit(limit);
+        lightgrid_core::limits::set_memory_limit(limit);
     }
     for (name, v) in [("--width", args.width), ("--height", args.height)] {
         if !(1..=viewer::MAX_IMAGE_SIDE).contains(&v) {
@@ -77,6 +81,7 @@ fn main() -> Result<()> {
             height: args.height,
             sweeper: args.sweeper,
             exr: true,
+            bevy: args.bevy,
         },
     )?;
     print!("{}", summary.text());

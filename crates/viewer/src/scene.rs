@@ -246,7 +246,7 @@ pub struct ScatterSpec {
 }
 
 /// Dynamic lights scattered over a disc, at heights above the ground (points, spots
-/// and short lines in turn; `render::dynamic::scatter`).
+/// and short lines in turn; `lightgrid_render::dynamic::scatter`).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DynamicLightsSpec {
@@ -351,7 +351,7 @@ impl SceneFile {
 
     /// Reads and checks a scene file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = grid_core::limits::read_text(path, MAX_SCENE_BYTES)
+        let text = lightgrid_core::limits::read_text(path, MAX_SCENE_BYTES)
             .with_context(|| format!("reading scene file {}", path.display()))?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::parse(&text, &path.display().to_string(), base)

@@ -14,8 +14,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use grid_core::glam::Vec3;
-use render::{Camera, Renderer};
+use lightgrid_core::glam::Vec3;
+use lightgrid_render::{Camera, Renderer};
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, KeyEvent, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};

@@ -5,9 +5,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use grid_core::glam::{Quat, Vec2, Vec3};
-use grid_core::{BinLight, MaterialGrid, Sweeper};
 use indicatif::{ProgressBar, ProgressStyle};
+use lightgrid_core::glam::{Quat, Vec2, Vec3};
+use lightgrid_core::{BinLight, MaterialGrid, Sweeper};
 use material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };
@@ -68,7 +68,7 @@ pub struct World {
     /// Material grid bytes of the models.
     pub model_grid_bytes: u64,
     /// Dynamic lights and their culling grid (empty without `[dynamic_lights]`).
-    pub dynamic: render::DynamicLights,
+    pub dynamic: lightgrid_render::DynamicLights,
 }
 
 fn bar(len: u64, what: &str) -> ProgressBar {
@@ -111,7 +111,8 @@ fn procedural_heightmap(p: &crate::scene::ProceduralTerrain, spacing: f32) -> Re
 }
 
 fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
-    let bytes = grid_core::limits::read_file(path, material_voxelizer::gltf_read::MAX_MODEL_BYTES)?;
+    let bytes =
+        lightgrid_core::limits::read_file(path, material_voxelizer::gltf_read::MAX_MODEL_BYTES)?;
     material_voxelizer::gltf_read::decode_texture(&bytes)
         .map_err(|e| anyhow::anyhow!("decoding {}: {e}", path.display()))
 }
@@ -153,12 +154,12 @@ pub fn boundary_light(sky: &BinLight, scene: &SceneFile) -> Result<BinLight> {
 }
 
 /// The scene's dynamic lights, standing on the ground, with their culling grid.
-fn dynamic_lights(scene: &SceneFile, hm: &Heightmap) -> Result<render::DynamicLights> {
+fn dynamic_lights(scene: &SceneFile, hm: &Heightmap) -> Result<lightgrid_render::DynamicLights> {
     let Some(d) = &scene.dynamic_lights else {
-        return Ok(render::DynamicLights::build(Vec::new(), 4.0)?);
+        return Ok(lightgrid_render::DynamicLights::build(Vec::new(), 4.0)?);
     };
     let (c, r) = (Vec2::from_array(d.centre), d.radius);
-    let mut lights = render::dynamic::scatter(
+    let mut lights = lightgrid_render::dynamic::scatter(
         d.count as usize,
         d.seed,
         Vec3::new(c.x - r, d.height[0], c.y - r),
@@ -167,30 +168,32 @@ fn dynamic_lights(scene: &SceneFile, hm: &Heightmap) -> Result<render::DynamicLi
     let lift = |p: Vec3| p + Vec3::Y * hm.height_at(p.x, p.z);
     for l in &mut lights {
         l.kind = match l.kind {
-            render::DynamicKind::Point { position } => render::DynamicKind::Point {
-                position: lift(position),
-            },
-            render::DynamicKind::Spot {
+            lightgrid_render::DynamicKind::Point { position } => {
+                lightgrid_render::DynamicKind::Point {
+                    position: lift(position),
+                }
+            }
+            lightgrid_render::DynamicKind::Spot {
                 position,
                 direction,
                 cos_inner,
                 cos_outer,
-            } => render::DynamicKind::Spot {
+            } => lightgrid_render::DynamicKind::Spot {
                 position: lift(position),
                 direction,
                 cos_inner,
                 cos_outer,
             },
-            render::DynamicKind::Line { a, b } => {
+            lightgrid_render::DynamicKind::Line { a, b } => {
                 let dy = Vec3::Y * hm.height_at(a.x, a.z);
-                render::DynamicKind::Line {
+                lightgrid_render::DynamicKind::Line {
                     a: a + dy,
                     b: b + dy,
                 }
             }
         };
     }
-    Ok(render::DynamicLights::build(lights, 4.0)?)
+    Ok(lightgrid_render::DynamicLights::build(lights, 4.0)?)
 }
 
 impl World {

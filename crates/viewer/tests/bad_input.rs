@@ -89,6 +89,7 @@ fn image_sizes_out_of_range_are_refused() {
         height: h,
         sweeper: SweeperChoice::Cpu,
         exr: false,
+        bevy: false,
     };
     for (w, h) in [(0, 10), (10, 0), (100_000, 10)] {
         let e = viewer::run(SceneFile::demo().unwrap(), &opts(w, h))

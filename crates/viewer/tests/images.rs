@@ -61,10 +61,34 @@ fn tiny_scene_matches_the_reference_images() {
             height: 64,
             sweeper: SweeperChoice::Cpu,
             exr: true,
+            bevy: true,
         },
     )
     .unwrap();
     assert!(summary.text().contains("view tiny"));
+    // --bevy: the world volume first, then one per quadtree depth, indirect light.
+    let side: lightgrid_export::Sidecar =
+        serde_json::from_str(&std::fs::read_to_string(out.join("bevy/tiny.json")).unwrap())
+            .unwrap();
+    assert!(
+        (2..=8).contains(&side.volumes.len()),
+        "{} volumes",
+        side.volumes.len()
+    );
+    for (i, v) in side.volumes.iter().enumerate() {
+        assert_eq!(v.content, lightgrid_export::Content::Indirect);
+        assert!(
+            out.join("bevy").join(&v.dds).is_file() && out.join("bevy").join(&v.ktx2).is_file()
+        );
+        // Finer after coarser.
+        if i > 0 {
+            assert!(
+                v.grid_spacing <= side.volumes[i - 1].grid_spacing,
+                "volume {i}"
+            );
+        }
+        assert!(v.intensity.is_finite() && v.intensity > 0.0);
+    }
     // The EXR holds the same lit view in linear HDR: it reads back and is not black.
     let exr = exr::prelude::read_first_rgba_layer_from_file(
         out.join("tiny.exr"),

@@ -4,8 +4,8 @@
 
 use std::path::PathBuf;
 
-use grid_core::LightField;
-use grid_core::glam::Vec3;
+use lightgrid_core::LightField;
+use lightgrid_core::glam::Vec3;
 use sweep_cpu::sky::ClearSky;
 use viewer::{SceneFile, SweeperChoice, World};
 
@@ -103,9 +103,9 @@ target = [520.0, 520.0]
     assert_eq!(world.dynamic.lights.len(), 50);
     for l in &world.dynamic.lights {
         let p = match l.kind {
-            render::DynamicKind::Point { position }
-            | render::DynamicKind::Spot { position, .. } => position,
-            render::DynamicKind::Line { a, .. } => a,
+            lightgrid_render::DynamicKind::Point { position }
+            | lightgrid_render::DynamicKind::Spot { position, .. } => position,
+            lightgrid_render::DynamicKind::Line { a, .. } => a,
         };
         let above = p.y - world.heightmap.height_at(p.x, p.z);
         assert!((0.99..=3.01).contains(&above), "{above}");

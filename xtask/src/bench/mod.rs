@@ -30,8 +30,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use grid_core::light::luminance;
-use grid_core::{GridFile, LightField, LightGrid, MaterialGrid, SweepOptions};
+use lightgrid_core::light::luminance;
+use lightgrid_core::{GridFile, LightField, LightGrid, MaterialGrid, SweepOptions};
 use serde::Serialize;
 use sweep_cpu::reference::{ReferenceOptions, trace};
 use sweep_cpu::scenes::compare;
@@ -158,7 +158,7 @@ pub struct Report {
 }
 
 fn reference_key(s: &BenchScene, paths: u64, seed: u64) -> String {
-    let key = grid_core::hash::ContentHash::new(b"lightgrid-reference-v2")
+    let key = lightgrid_core::hash::ContentHash::new(b"lightgrid-reference-v2")
         .desc(s.material.desc())
         .materials(s.material.data())
         .boundary(&s.boundary)
@@ -230,7 +230,7 @@ fn reference(s: &BenchScene, cfg: &BenchConfig) -> Result<(LightGrid, ReferenceI
         cached: false,
     };
     GridFile::Light(r.light.clone()).save(&grid_path)?;
-    grid_core::file::write_atomic(&meta_path, serde_json::to_string(&info)?.as_bytes())?;
+    lightgrid_core::file::write_atomic(&meta_path, serde_json::to_string(&info)?.as_bytes())?;
     Ok((r.light, info))
 }
 
@@ -262,11 +262,11 @@ fn errors(light: &LightGrid, reference: &LightGrid, material: &MaterialGrid) -> 
 }
 
 /// The light of a coarse grid at the points of `fine` (trilinear).
-fn resample(coarse: &LightGrid, fine: &grid_core::GridDesc) -> Result<LightGrid> {
+fn resample(coarse: &LightGrid, fine: &lightgrid_core::GridDesc) -> Result<LightGrid> {
     let data = (0..fine.point_count())
         .map(|i| coarse.light(fine.position(fine.coords(i).expect("in range")), None))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(grid_core::Grid::from_trusted(*fine, data))
+    Ok(lightgrid_core::Grid::from_trusted(*fine, data))
 }
 
 fn sweep_settings() -> Vec<(String, SweepOptions, bool)> {
@@ -375,7 +375,7 @@ pub fn run(cfg: &BenchConfig) -> Result<Report> {
                 o.max_passes = passes;
                 o.tolerance = 0.0;
                 let (out, secs) = fastest(cfg.repeats.min(2), || {
-                    Ok(grid_core::Sweeper::sweep(
+                    Ok(lightgrid_core::Sweeper::sweep(
                         &mut &*g,
                         &s.material,
                         &s.boundary,
@@ -661,7 +661,7 @@ mod tests {
         let mut t = scenes::lattice(8);
         let mut d = t.material.data().to_vec();
         d[3].pass = 0.5;
-        t.material = grid_core::Grid::from_trusted(*t.material.desc(), d);
+        t.material = lightgrid_core::Grid::from_trusted(*t.material.desc(), d);
         assert_ne!(k, reference_key(&t, 1000, 1));
     }
 
@@ -669,7 +669,10 @@ mod tests {
     fn coarsening_halves_the_grid_and_squares_a_uniform_pass_through() {
         let s = scenes::lattice(8);
         let c = scenes::coarsen(&s).unwrap();
-        assert_eq!(c.material.desc().dims(), grid_core::glam::UVec3::splat(4));
+        assert_eq!(
+            c.material.desc().dims(),
+            lightgrid_core::glam::UVec3::splat(4)
+        );
         assert_eq!(c.material.desc().h(), 2.0);
         let e = scenes::line_source(8);
         let ce = scenes::coarsen(&e).unwrap();

@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use grid_core::glam::{Quat, UVec3, Vec2, Vec3};
-use grid_core::{
+use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
+use lightgrid_core::{
     Boundary, GridDesc, Material, MaterialGrid, MaterialSource, SideBoundary, TopBoundary,
 };
 use material_voxelizer::compose::{

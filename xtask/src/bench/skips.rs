@@ -4,9 +4,9 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use grid_core::glam::{UVec3, Vec3};
-use grid_core::light::luminance;
-use grid_core::{
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::light::luminance;
+use lightgrid_core::{
     Boundary, GridDesc, LightField, LightGrid, Material, MaterialGrid, Outputs, SideBoundary,
     SweepOptions,
 };

@@ -1,11 +1,11 @@
 // Shading functions shared by the render shaders. The specification is
-// render::shading (CPU); these are the same formulas.
+// lightgrid_render::shading (CPU); these are the same formulas.
 
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, LUMA);
 }
 
-// render::shading::irradiance_average_dominant
+// lightgrid_render::shading::irradiance_average_dominant
 fn irradiance_average_dominant(average: vec3<f32>, dominant: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let s = min(length(dominant), 1.0);
     var c = 0.0;
@@ -15,7 +15,7 @@ fn irradiance_average_dominant(average: vec3<f32>, dominant: vec3<f32>, n: vec3<
     return average * (PI * (1.0 - s) + 4.0 * PI * s * c);
 }
 
-// render::shading::specular_dominant
+// lightgrid_render::shading::specular_dominant
 fn specular_dominant(average: vec3<f32>, dominant: vec3<f32>, n: vec3<f32>, to_eye: vec3<f32>, shininess: f32) -> vec3<f32> {
     let s = min(length(dominant), 1.0);
     if (s <= 0.0) {
@@ -30,7 +30,7 @@ fn specular_dominant(average: vec3<f32>, dominant: vec3<f32>, n: vec3<f32>, to_e
     return average * (4.0 * PI * s * spec);
 }
 
-// render::shading::ground_blend_weight
+// lightgrid_render::shading::ground_blend_weight
 fn ground_blend_weight(height_above_ground: f32, blend_height: f32) -> f32 {
     if (!(blend_height > 0.0)) {
         return 1.0;
@@ -39,7 +39,7 @@ fn ground_blend_weight(height_above_ground: f32, blend_height: f32) -> f32 {
     return x * x * (3.0 - 2.0 * x);
 }
 
-// render::shading::underwater_attenuation
+// lightgrid_render::shading::underwater_attenuation
 fn underwater_attenuation(y: f32, water_level: f32, k: f32) -> f32 {
     let depth = water_level - y;
     if (depth > 0.0 && k > 0.0) {
@@ -48,13 +48,13 @@ fn underwater_attenuation(y: f32, water_level: f32, k: f32) -> f32 {
     return 1.0;
 }
 
-// render::shading::tonemap_aces
+// lightgrid_render::shading::tonemap_aces
 fn tonemap_aces(x_in: vec3<f32>) -> vec3<f32> {
     let x = max(x_in, vec3<f32>(0.0));
     return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), vec3<f32>(0.0), vec3<f32>(1.0));
 }
 
-// grid_core::trilinear_corners: base corner and fractions of a clamped lookup at grid
+// lightgrid_core::trilinear_corners: base corner and fractions of a clamped lookup at grid
 // coordinates g.
 struct Corners {
     base: vec3<u32>,

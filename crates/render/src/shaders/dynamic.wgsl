@@ -1,4 +1,4 @@
-// Dynamic lights through the grid bag: render::dynamic (the specification) in WGSL.
+// Dynamic lights through the grid bag: lightgrid_render::dynamic (the specification) in WGSL.
 // The including shader declares dyn_lights, dyn_cells and dyn_indices.
 
 struct DynShade {
@@ -16,7 +16,7 @@ fn dyn_source(l: DynLightGpu, p: vec3<f32>) -> vec3<f32> {
     return l.position_range.xyz;
 }
 
-// render::dynamic::shade_one
+// lightgrid_render::dynamic::shade_one
 fn dyn_shade_one(l: DynLightGpu, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, shininess: f32) -> DynShade {
     var out: DynShade;
     out.diffuse = vec3<f32>(0.0);
@@ -61,7 +61,7 @@ fn l_plus_v(l: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// render::dynamic::DynamicLights::shade: the lights listed in p's cell.
+// lightgrid_render::dynamic::DynamicLights::shade: the lights listed in p's cell.
 fn dynamic_shade(p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, shininess: f32, origin_cell: vec4<f32>, dims: vec4<u32>) -> DynShade {
     var out: DynShade;
     out.diffuse = vec3<f32>(0.0);

@@ -12,7 +12,7 @@
 @group(0) @binding(2) var<storage, read> volume_dominant: array<vec4<f32>>;
 // Ground: (irradiance rgb, height) per heightmap node, x fastest.
 @group(0) @binding(3) var<storage, read> ground: array<vec4<f32>>;
-// Dynamic lights and their culling grid (render::dynamic).
+// Dynamic lights and their culling grid (lightgrid_render::dynamic).
 @group(0) @binding(4) var<storage, read> dyn_lights: array<DynLightGpu>;
 @group(0) @binding(5) var<storage, read> dyn_cells: array<vec2<u32>>;
 @group(0) @binding(6) var<storage, read> dyn_indices: array<u32>;

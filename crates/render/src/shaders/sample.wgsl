@@ -1,16 +1,16 @@
-// The light sampling buffer on the GPU: render::sampling::sample_points for one grid.
+// The light sampling buffer on the GPU: lightgrid_render::sampling::sample_points for one grid.
 
 @group(0) @binding(0) var<uniform> params: SampleParams;
 // 26 RGB bins a point (78 floats), grid order.
 @group(0) @binding(1) var<storage, read> bins: array<f32>;
 // Two vec4 a point: (position, has_normal), (normal, 0).
 @group(0) @binding(2) var<storage, read> points: array<vec4<f32>>;
-// render::sampling::IrradianceTable::weights.
+// lightgrid_render::sampling::IrradianceTable::weights.
 @group(0) @binding(3) var<storage, read> table: array<f32>;
 // Two vec4 a point: (light, 0), (dominant, 0).
 @group(0) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
 
-// render::sampling::octahedral_encode
+// lightgrid_render::sampling::octahedral_encode
 fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
     let n = n_in / (abs(n_in.x) + abs(n_in.y) + abs(n_in.z));
     var p = vec2<f32>(n.x, n.z);

@@ -1,4 +1,4 @@
-// HDR to display: exposure, then render::shading::tonemap_aces; the sRGB target encodes.
+// HDR to display: exposure, then lightgrid_render::shading::tonemap_aces; the sRGB target encodes.
 
 struct Tonemap {
     exposure: vec4<f32>,

@@ -1,4 +1,4 @@
-// R11G11B10 packing, bit for bit as grid_core::pack (round to nearest even, negative and
+// R11G11B10 packing, bit for bit as lightgrid_core::pack (round to nearest even, negative and
 // NaN to 0, overflow and +inf saturated to the largest finite value, denormals).
 
 fn encode_ufloat(x: f32, mant: u32) -> u32 {

@@ -23,7 +23,7 @@ fn virt_at(x: i32, z: i32, c: u32) -> vec3<f32> {
     return vec3<f32>(virt[i], virt[i + 1u], virt[i + 2u]);
 }
 
-// Index of outside point (x, level, z) in the halo (grid_core::HaloLayout).
+// Index of outside point (x, level, z) in the halo (lightgrid_core::HaloLayout).
 fn halo_index(x: i32, level: u32, z: i32) -> u32 {
     let w = HALO_WIDTH;
     let nx = i32(P.nx);

@@ -1,40 +1,21 @@
-//! `lightgrid-sweep`: sweep a material grid file under a sky, or trace the Monte Carlo
-//! reference, and write the light grid file.
-//!
-//! ```text
-//! lightgrid-sweep scene canopy -o canopy.lgrid
-//! lightgrid-sweep sweep canopy.lgrid -o light.lgrid --sky clear --sun 5000,4800,4500 --sun-elevation 40
-//! lightgrid-sweep reference canopy.lgrid -o ref.lgrid --paths 2000000 --sky uniform --sky-radiance 1,1,1
-//! ```
+//! `lightgrid scene | sweep | reference`: canonical material grids, the sweep of a
+//! material grid file under a sky, and the Monte Carlo reference.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::{Parser, Subcommand, ValueEnum};
-use grid_core::glam::Vec3;
-use grid_core::{BinLight, Boundary, GridFile, Outputs, SideBoundary, SweepOptions, TopBoundary};
+use clap::{Subcommand, ValueEnum};
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::{
+    BinLight, Boundary, GridFile, Outputs, SideBoundary, SweepOptions, TopBoundary,
+};
 use sweep_cpu::reference::{ReferenceOptions, trace};
 use sweep_cpu::scenes::Scene;
 use sweep_cpu::{ClearSky, EnvMap, Sun, sky};
 
-#[derive(Parser)]
-#[command(
-    name = "lightgrid-sweep",
-    version,
-    about = "Light grids from material grids: the sweep and its Monte Carlo reference"
-)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
-    /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
-    /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
-    #[arg(long, global = true, value_parser = grid_core::limits::parse_size_arg)]
-    memory_limit: Option<u64>,
-}
-
 #[derive(Subcommand)]
-enum Command {
+pub(crate) enum Command {
     /// Write the material grid of a canonical test scene.
     Scene {
         /// Which scene.
@@ -55,15 +36,8 @@ enum Command {
         output: PathBuf,
         #[command(flatten)]
         light: LightArgs,
-        /// Most passes (alternating down and up).
-        #[arg(long, default_value_t = 16)]
-        passes: u32,
-        /// Smoothing weight in [0, 1).
-        #[arg(long, default_value_t = 0.25)]
-        smoothing: f32,
-        /// Stop when the light still to transport is below this fraction of the input.
-        #[arg(long, default_value_t = 1e-3)]
-        tolerance: f32,
+        #[command(flatten)]
+        sweep: SweepArgs,
         /// Write the light packed as R11G11B10 (104 bytes a point instead of 312).
         #[arg(long)]
         packed: bool,
@@ -96,7 +70,7 @@ enum Command {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
-enum SceneArg {
+pub(crate) enum SceneArg {
     Empty,
     Fog,
     Block,
@@ -104,7 +78,7 @@ enum SceneArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
-enum SkyArg {
+pub(crate) enum SkyArg {
     /// No sky light (sun only).
     None,
     /// Uniform radiance above the horizon (`--sky-radiance`).
@@ -114,13 +88,49 @@ enum SkyArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
-enum SidesArg {
+pub(crate) enum SidesArg {
     Open,
     Periodic,
 }
 
 #[derive(clap::Args)]
-struct LightArgs {
+pub(crate) struct SweepArgs {
+    /// Most passes (alternating down and up).
+    #[arg(long, default_value_t = 16)]
+    passes: u32,
+    /// Smoothing weight in [0, 1).
+    #[arg(long, default_value_t = 0.25)]
+    smoothing: f32,
+    /// Stop when the light still to transport is below this fraction of the input.
+    #[arg(long, default_value_t = 1e-3)]
+    tolerance: f32,
+}
+
+impl SweepArgs {
+    /// Multiple-bounce options with these settings, 26-bin output only.
+    pub(crate) fn options(&self) -> Result<SweepOptions> {
+        if !(1..=lightgrid_core::MAX_PASSES).contains(&self.passes) {
+            bail!(
+                "--passes must be in 1..={}, got {}",
+                lightgrid_core::MAX_PASSES,
+                self.passes
+            );
+        }
+        let mut o = SweepOptions::multi_bounce();
+        o.max_passes = self.passes;
+        o.smoothing = self.smoothing;
+        o.tolerance = self.tolerance;
+        o.outputs = Outputs {
+            bins: true,
+            average: false,
+            dominant: false,
+        };
+        Ok(o)
+    }
+}
+
+#[derive(clap::Args)]
+pub(crate) struct LightArgs {
     /// Sky model (ignored with --sky-exr).
     #[arg(long, value_enum, default_value = "clear")]
     sky: SkyArg,
@@ -157,7 +167,8 @@ fn parse_rgb(s: &str) -> Result<Vec3, String> {
 }
 
 impl LightArgs {
-    fn boundary(&self) -> Result<Boundary> {
+    /// The sky (top and bottom bins) and the sun's bins (zero without a sun).
+    fn sky_and_sun(&self) -> Result<(sky::SkyBins, BinLight)> {
         let sun = Sun::at(
             self.sun_elevation.to_radians(),
             self.sun_azimuth.to_radians(),
@@ -180,26 +191,45 @@ impl LightArgs {
         } else {
             sun.bins()?
         };
-        let top = sky.top + sun_bins;
+        Ok((sky, sun_bins))
+    }
+
+    fn sides(&self) -> SideBoundary {
+        match self.sides {
+            SidesArg::Open => SideBoundary::Open,
+            SidesArg::Periodic => SideBoundary::Periodic,
+        }
+    }
+
+    /// Sky and sun together.
+    pub(crate) fn boundary(&self) -> Result<Boundary> {
+        let (sky, sun) = self.sky_and_sun()?;
         Ok(Boundary {
-            top: TopBoundary::Uniform(Box::new(top)),
+            top: TopBoundary::Uniform(Box::new(sky.top + sun)),
             bottom: sky.bottom,
-            sides: match self.sides {
-                SidesArg::Open => SideBoundary::Open,
-                SidesArg::Periodic => SideBoundary::Periodic,
-            },
+            sides: self.sides(),
         })
+    }
+
+    /// The sun alone (`None` without a sun).
+    pub(crate) fn sun_boundary(&self) -> Result<Option<Boundary>> {
+        let (_, sun) = self.sky_and_sun()?;
+        Ok((sun != BinLight::ZERO).then(|| Boundary {
+            top: TopBoundary::Uniform(Box::new(sun)),
+            bottom: BinLight::ZERO,
+            sides: self.sides(),
+        }))
     }
 }
 
 /// The average light of the middle x-y slice (z = nz / 2), scaled so the brightest
 /// point is white, gamma 2.2, each point a 4 × 4 block, top level at the top.
-fn write_preview(g: &grid_core::LightGrid, path: &std::path::Path) -> Result<()> {
+fn write_preview(g: &lightgrid_core::LightGrid, path: &std::path::Path) -> Result<()> {
     let d = g.desc();
     let (nx, ny, nz) = (d.dims().x, d.dims().y, d.dims().z);
     let k = nz / 2;
     let at = |i: u32, j: u32| {
-        g.get(grid_core::glam::UVec3::new(i, j, k))
+        g.get(lightgrid_core::glam::UVec3::new(i, j, k))
             .map(|b| b.average())
             .unwrap_or_default()
     };
@@ -217,7 +247,7 @@ fn write_preview(g: &grid_core::LightGrid, path: &std::path::Path) -> Result<()>
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .context("encoding the preview")?;
-    grid_core::file::write_atomic(path, &png)
+    lightgrid_core::file::write_atomic(path, &png)
         .with_context(|| format!("writing {}", path.display()))?;
     println!(
         "wrote {} (average light, slice z = {k}, white = {max:.3})",
@@ -226,18 +256,15 @@ fn write_preview(g: &grid_core::LightGrid, path: &std::path::Path) -> Result<()>
     Ok(())
 }
 
-fn load_material(path: &PathBuf) -> Result<grid_core::MaterialGrid> {
+pub(crate) fn load_material(path: &std::path::Path) -> Result<lightgrid_core::MaterialGrid> {
     GridFile::load(path)
         .and_then(GridFile::into_material)
         .with_context(|| format!("reading material grid {}", path.display()))
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
-    if let Some(limit) = cli.memory_limit {
-        grid_core::limits::set_memory_limit(limit);
-    }
-    match cli.command {
+/// Runs `scene`, `sweep` or `reference`.
+pub(crate) fn run(command: Command) -> Result<()> {
+    match command {
         Command::Scene {
             scene,
             size,
@@ -266,29 +293,13 @@ fn main() -> Result<()> {
             material,
             output,
             light,
-            passes,
-            smoothing,
-            tolerance,
+            sweep,
             packed,
             preview,
         } => {
-            if !(1..=grid_core::MAX_PASSES).contains(&passes) {
-                bail!(
-                    "--passes must be in 1..={}, got {passes}",
-                    grid_core::MAX_PASSES
-                );
-            }
+            let o = sweep.options()?;
             let m = load_material(&material)?;
             let b = light.boundary()?;
-            let mut o = SweepOptions::multi_bounce();
-            o.max_passes = passes;
-            o.smoothing = smoothing;
-            o.tolerance = tolerance;
-            o.outputs = Outputs {
-                bins: true,
-                average: false,
-                dominant: false,
-            };
             let t = Instant::now();
             let s = sweep_cpu::run(&m, &b, &o).context("sweeping")?;
             let secs = t.elapsed().as_secs_f64();

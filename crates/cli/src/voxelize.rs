@@ -1,20 +1,15 @@
-//! `voxelize <model.glb|.gltf> --cell <metres> -o <file>`: a model's material grid.
+//! `lightgrid voxelize <model.glb|.gltf> --cell <metres> -o <file>`: a model's material
+//! grid.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use clap::Parser;
-use grid_core::GridFile;
+use lightgrid_core::GridFile;
 use material_voxelizer::model::Model;
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 
-#[derive(Parser)]
-#[command(
-    name = "voxelize",
-    version,
-    about = "glTF model to a lightgrid material grid (reflectance and pass-through per cell)"
-)]
-struct Cli {
+#[derive(clap::Args)]
+pub(crate) struct Args {
     /// The model: .glb, or .gltf with embedded or external buffers.
     model: PathBuf,
     /// Cell size in metres.
@@ -32,17 +27,10 @@ struct Cli {
     /// Leave closed meshes hollow.
     #[arg(long)]
     hollow: bool,
-    /// Most memory one job may allocate (bytes, or with K/M/G/T); default: the
-    /// LIGHTGRID_MEMORY_LIMIT environment variable, else half the machine's memory.
-    #[arg(long, value_parser = grid_core::limits::parse_size_arg)]
-    memory_limit: Option<u64>,
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
-    if let Some(limit) = cli.memory_limit {
-        grid_core::limits::set_memory_limit(limit);
-    }
+/// Runs `voxelize`.
+pub(crate) fn run(cli: Args) -> Result<()> {
     let model =
         Model::load_gltf(&cli.model).with_context(|| format!("loading {}", cli.model.display()))?;
     let mut params = match cli.quality.as_str() {

@@ -1,0 +1,171 @@
+//! `lightgrid bake` and `lightgrid export`: Bevy irradiance volumes.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use lightgrid_core::{GridFile, LightGrid};
+use lightgrid_export::{BevyVolume, Content, TexelFormat, indirect_light, write_volumes};
+
+use crate::sweep::{LightArgs, SweepArgs, load_material};
+
+#[derive(Clone, Copy, ValueEnum)]
+enum FormatArg {
+    /// Shared-exponent RGB (Bevy's `Rgb9e5Ufloat`): the default.
+    Rgb9e5,
+    /// Small packed floats (Bevy's `Rg11b10Ufloat`).
+    Rg11b10,
+}
+
+#[derive(clap::Args)]
+pub(crate) struct VolumeArgs {
+    /// Output folder (created if missing).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// File stem: writes `<name>.dds`, `<name>.ktx2` and `<name>.json`.
+    #[arg(long, default_value = "volume")]
+    name: String,
+    /// Texel format.
+    #[arg(long, value_enum, default_value = "rgb9e5")]
+    format: FormatArg,
+    /// Factor from the grid's light units to Bevy's (cd/m²), folded into the sidecar's
+    /// intensity.
+    #[arg(long, default_value_t = 1.0)]
+    unit_scale: f32,
+}
+
+impl VolumeArgs {
+    fn format(&self) -> TexelFormat {
+        match self.format {
+            FormatArg::Rgb9e5 => TexelFormat::Rgb9e5,
+            FormatArg::Rg11b10 => TexelFormat::Rg11b10,
+        }
+    }
+
+    fn write(&self, volume: &BevyVolume, content: Content) -> Result<()> {
+        let paths = write_volumes(
+            &self.output,
+            &self.name,
+            std::slice::from_ref(volume),
+            content,
+            self.unit_scale,
+        )
+        .with_context(|| format!("writing into {}", self.output.display()))?;
+        let d = volume.desc().dims();
+        let t = volume.texture_size();
+        println!(
+            "irradiance volume: {}x{}x{} points -> {}x{}x{} texture of {}, intensity {}, {} light",
+            d.x,
+            d.y,
+            d.z,
+            t.x,
+            t.y,
+            t.z,
+            volume.format().wgpu_name(),
+            volume.intensity() * self.unit_scale,
+            match content {
+                Content::Indirect => "indirect",
+                Content::All => "all the",
+            }
+        );
+        for p in paths {
+            println!("wrote {}", p.display());
+        }
+        Ok(())
+    }
+}
+
+#[derive(clap::Args)]
+pub(crate) struct BakeArgs {
+    /// Material grid file.
+    material: PathBuf,
+    #[command(flatten)]
+    volume: VolumeArgs,
+    #[command(flatten)]
+    light: LightArgs,
+    #[command(flatten)]
+    sweep: SweepArgs,
+    /// Keep the direct sun in the volume (for engines with no directional light of
+    /// their own); by default only sky and scattered sun light are written.
+    #[arg(long)]
+    with_direct_sun: bool,
+}
+
+#[derive(clap::Args)]
+pub(crate) struct ExportArgs {
+    /// Light grid file (26 bins, packed or not).
+    light: PathBuf,
+    #[command(flatten)]
+    volume: VolumeArgs,
+    /// What the grid holds: `all` (a sweep with sky and sun, the default) or `indirect`
+    /// (a grid without the direct sun); recorded in the sidecar.
+    #[arg(long, value_enum, default_value = "all")]
+    content: ContentArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ContentArg {
+    All,
+    Indirect,
+}
+
+/// Sweeps the material under sky and sun and writes the indirect light (without
+/// `--with-direct-sun`) or all of it.
+pub(crate) fn bake(a: BakeArgs) -> Result<()> {
+    let options = a.sweep.options()?;
+    let m = load_material(&a.material)?;
+    let sky_and_sun = a.light.boundary()?;
+    let sun = if a.with_direct_sun {
+        None
+    } else {
+        a.light.sun_boundary()?
+    };
+    let t = Instant::now();
+    let light = indirect_light(
+        &mut sweep_cpu::CpuSweeper::new(),
+        &m,
+        &sky_and_sun,
+        sun.as_ref(),
+        &options,
+    )
+    .context("sweeping")?;
+    println!(
+        "swept {} points in {:.2} s{}",
+        m.desc().point_count(),
+        t.elapsed().as_secs_f64(),
+        if sun.is_some() {
+            " (sky and sun, then the direct sun alone to remove it)"
+        } else {
+            ""
+        }
+    );
+    let volume = BevyVolume::from_field(&light, m.desc(), a.volume.format())?;
+    let content = if a.with_direct_sun {
+        Content::All
+    } else {
+        Content::Indirect
+    };
+    a.volume.write(&volume, content)
+}
+
+/// Writes a light grid file as it is.
+pub(crate) fn export(a: ExportArgs) -> Result<()> {
+    let g: LightGrid = match GridFile::load(&a.light)
+        .with_context(|| format!("reading light grid {}", a.light.display()))?
+    {
+        GridFile::Light(g) => g,
+        GridFile::PackedLight(p) => p.unpack(),
+        other => bail!(
+            "{} holds a {} grid; export needs a 26-bin light grid",
+            a.light.display(),
+            other.kind().name()
+        ),
+    };
+    let volume = BevyVolume::from_field(&g, g.desc(), a.volume.format())?;
+    let content = match a.content {
+        ContentArg::All => Content::All,
+        ContentArg::Indirect => Content::Indirect,
+    };
+    a.volume.write(&volume, content)
+}

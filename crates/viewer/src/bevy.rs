@@ -1,0 +1,106 @@
+//! `--bevy`: the light around a view as Bevy irradiance volumes (see `lightgrid_export`).
+//!
+//! One volume for the world grid, then one per quadtree depth (coarse to fine, at most
+//! [`MAX_NEAR_VOLUMES`], Bevy's per-view limit with the world one) covering the ready
+//! nodes of that depth at its cell size. Each volume is sampled from the hierarchy,
+//! which answers with the finest ready grid at every point, so a volume is never coarser
+//! than the grids it covers. By default the light is indirect: the hierarchy's light
+//! minus a second hierarchy swept under the sun alone with no scattering, built only for
+//! the export (Bevy's `DirectionalLight` draws the direct sun).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{DifferenceField, GridDesc, NoScatter};
+use lightgrid_export::{BevyVolume, Content, TexelFormat, write_volumes};
+use terrain_lod::Hierarchy;
+
+use crate::world::World;
+
+/// Near volumes after the world one: Bevy binds at most 8 light probes of a kind per
+/// view.
+pub const MAX_NEAR_VOLUMES: usize = 7;
+
+/// The world box and one box per depth around the ready nodes, coarse to fine, finest
+/// `MAX_NEAR_VOLUMES` kept.
+fn volume_descs(h: &Hierarchy) -> Result<Vec<GridDesc>> {
+    let mut descs = vec![*h.world().desc()];
+    let mut near = Vec::new();
+    for depth in 1..=h.params().depths() {
+        let grids: Vec<&GridDesc> = h
+            .ready_nodes()
+            .into_iter()
+            .filter(|k| k.depth == depth)
+            .filter_map(|k| h.node(k).map(|g| g.desc()))
+            .collect();
+        if grids.is_empty() {
+            continue;
+        }
+        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        for g in &grids {
+            let (a, b) = g.point_bounds();
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        let cell = h.params().cell(depth);
+        let dims = ((hi - lo) / cell).round().as_uvec3() + UVec3::ONE;
+        near.push(GridDesc::new(lo, cell, dims).with_context(|| format!("depth {depth} volume"))?);
+    }
+    let skip = near.len().saturating_sub(MAX_NEAR_VOLUMES);
+    descs.extend(near.into_iter().skip(skip));
+    Ok(descs)
+}
+
+/// Writes `<dir>/<name>.json` and a DDS and KTX2 file per volume for the camera at
+/// `eye` (the world's hierarchy must be prepared for it). Returns the files written.
+pub fn export(
+    world: &World,
+    eye: Vec3,
+    dir: &Path,
+    name: &str,
+    with_direct_sun: bool,
+) -> Result<Vec<PathBuf>> {
+    let descs = volume_descs(&world.hierarchy)?;
+    let format = TexelFormat::Rgb9e5;
+    let (volumes, content) = if with_direct_sun || world.sun.1 == Vec3::ZERO {
+        let v = descs
+            .iter()
+            .map(|d| BevyVolume::from_field(&world.hierarchy, d, format))
+            .collect::<Result<Vec<_>, _>>()?;
+        (
+            v,
+            if with_direct_sun {
+                Content::All
+            } else {
+                Content::Indirect
+            },
+        )
+    } else {
+        let mut direct = Hierarchy::new(
+            &world.heightmap,
+            Box::new(NoScatter(world.composer.clone())),
+            Box::new(sweep_cpu::CpuSweeper::new()),
+            crate::world::boundary_light(&lightgrid_core::BinLight::ZERO, &world.scene)?,
+            world.hierarchy.params().clone(),
+        )
+        .context("building the direct-sun grids")?;
+        for _ in 0..400 {
+            if direct
+                .update(eye)
+                .context("sweeping the direct sun")?
+                .pending
+                == 0
+            {
+                break;
+            }
+        }
+        let field = DifferenceField(&world.hierarchy, &direct);
+        let v = descs
+            .iter()
+            .map(|d| BevyVolume::from_field(&field, d, format))
+            .collect::<Result<Vec<_>, _>>()?;
+        (v, Content::Indirect)
+    };
+    Ok(write_volumes(dir, name, &volumes, content, 1.0)?)
+}
