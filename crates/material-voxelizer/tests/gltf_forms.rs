@@ -1,8 +1,5 @@
 //! `.gltf` with external and embedded buffers, node transforms, unsupported features.
 
-use std::process::Command;
-
-use lightgrid_core::GridFile;
 use material_voxelizer::model::Model;
 use material_voxelizer::procedural::{rock, write_glb};
 

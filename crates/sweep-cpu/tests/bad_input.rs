@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use lightgrid_core::glam::Vec3;
-use lightgrid_core::{BinLight, Boundary, GridFile, SweepOptions};
+use lightgrid_core::{BinLight, Boundary, SweepOptions};
 use sweep_cpu::reference::{ReferenceOptions, trace};
 use sweep_cpu::scenes::Scene;
 use sweep_cpu::sky::EnvMap;

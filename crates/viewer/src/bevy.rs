@@ -82,7 +82,7 @@ pub fn export(
             Box::new(NoScatter(world.composer.clone())),
             Box::new(sweep_cpu::CpuSweeper::new()),
             crate::world::boundary_light(&lightgrid_core::BinLight::ZERO, &world.scene)?,
-            world.hierarchy.params().clone(),
+            *world.hierarchy.params(),
         )
         .context("building the direct-sun grids")?;
         for _ in 0..400 {
