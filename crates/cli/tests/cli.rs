@@ -12,7 +12,7 @@ fn bin() -> Command {
 
 #[test]
 fn scene_sweep_reference_round_trip() {
-    let dir = std::env::temp_dir().join(format!("lightgrid-sweep-cli-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("lightgrid-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mat = dir.join("m.lgrid");
     let light = dir.join("l.lgrid");

@@ -32,8 +32,8 @@
 //!
 //! Load real models with [`model::Model::load_gltf`] (`.gltf` with embedded or external
 //! buffers, `.glb`; base colour factor and texture with `KHR_texture_transform`; alpha
-//! masks). The `voxelize` command does it from the shell:
-//! `voxelize tree.glb --cell 0.25 -o tree.lgrid`.
+//! masks). The `lightgrid` command does it from the shell:
+//! `lightgrid voxelize tree.glb --cell 0.25 -o tree.lgrid`.
 //!
 //! [`procedural`] makes deterministic trees (closed trunk and branches, alpha-masked leaf
 //! cards), bushes and rocks, and writes them as `.glb`.

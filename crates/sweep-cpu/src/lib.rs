@@ -47,10 +47,10 @@
 //!   colours change by a multiply ([`Responses::combine`]).
 //! * [`mod@reference`]: the Monte Carlo reference; [`scenes`]: canonical scenes and error
 //!   measures.
-//! * The `lightgrid-sweep` command (feature `cli`, on by default):
-//!   `lightgrid-sweep scene canopy -o m.lgrid`,
-//!   `lightgrid-sweep sweep m.lgrid -o light.lgrid --sky clear --sun 3000 --sun-elevation 40`
-//!   (or `--sky-exr sky.exr`), `lightgrid-sweep reference m.lgrid -o ref.lgrid --paths 2000000`.
+//! * From the shell, the `lightgrid` command (crate `lightgrid`):
+//!   `lightgrid scene canopy -o m.lgrid`,
+//!   `lightgrid sweep m.lgrid -o light.lgrid --sky clear --sun 3000 --sun-elevation 40`
+//!   (or `--sky-exr sky.exr`), `lightgrid reference m.lgrid -o ref.lgrid --paths 2000000`.
 //!
 //! ## Speed
 //!

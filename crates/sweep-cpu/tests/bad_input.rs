@@ -1,6 +1,6 @@
 //! Hand-made bad inputs for sweep-cpu: EXR skies with huge or broken headers, files that
-//! are not files, light and option values that would overflow or never finish, and the
-//! `lightgrid-sweep` command's limits and write order.
+//! are not files, light and option values that would overflow or never finish (the
+//! command line's limits are in `crates/cli/tests/cli.rs`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

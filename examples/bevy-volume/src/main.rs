@@ -1,0 +1,169 @@
+//! Loads a lightgrid export into Bevy: every volume of the sidecar becomes a
+//! `LightProbe` + `IrradianceVolume` with the sidecar's transform and intensity (the KTX2
+//! file through Bevy's own loader), and a grid of white spheres is lit by nothing else.
+//!
+//! ```text
+//! cargo run --release -- <sidecar.json> [screenshot.png]
+//! ```
+//!
+//! With a screenshot path it saves one frame after the textures are loaded and exits
+//! (what `examples/bevy-volume/run.sh` does under Xvfb and lavapipe); without, it stays
+//! open.
+
+use std::path::PathBuf;
+
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::light::{IrradianceVolume, LightProbe};
+use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, save_to_disk};
+use serde::Deserialize;
+
+#[derive(Deserialize)]
+struct Sidecar {
+    volumes: Vec<Volume>,
+}
+
+#[derive(Deserialize)]
+struct Volume {
+    ktx2: String,
+    transform: Xform,
+    intensity: f32,
+}
+
+#[derive(Deserialize)]
+struct Xform {
+    translation: [f32; 3],
+    rotation: [f32; 4],
+    scale: [f32; 3],
+}
+
+#[derive(Resource)]
+struct Job {
+    sidecar: Sidecar,
+    screenshot: Option<PathBuf>,
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let Some(path) = args.next().map(PathBuf::from) else {
+        eprintln!("usage: bevy-volume <sidecar.json> [screenshot.png]");
+        std::process::exit(2);
+    };
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
+    let sidecar: Sidecar =
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let dir = path
+        .parent()
+        .map(|p| p.canonicalize().expect("the sidecar's folder"))
+        .unwrap_or_else(|| std::env::current_dir().expect("a current folder"));
+    App::new()
+        .insert_resource(Job {
+            sidecar,
+            screenshot: args.next().map(PathBuf::from),
+        })
+        .insert_resource(ClearColor(Color::BLACK))
+        .add_plugins(
+            DefaultPlugins
+                .set(AssetPlugin {
+                    file_path: dir.to_string_lossy().into_owned(),
+                    ..default()
+                })
+                .set(WindowPlugin {
+                    primary_window: Some(Window {
+                        resolution: (640, 360).into(),
+                        title: "lightgrid irradiance volumes in Bevy".into(),
+                        ..default()
+                    }),
+                    ..default()
+                }),
+        )
+        .add_systems(Startup, setup)
+        .add_systems(Update, shoot)
+        .run();
+}
+
+fn setup(
+    mut commands: Commands,
+    job: Res<Job>,
+    assets: Res<AssetServer>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    let mut brightest = 0.0f32;
+    for v in &job.sidecar.volumes {
+        let t = &v.transform;
+        commands.spawn((
+            LightProbe,
+            IrradianceVolume {
+                voxels: assets.load(v.ktx2.clone()),
+                intensity: v.intensity,
+                affects_lightmapped_meshes: true,
+            },
+            Transform {
+                translation: Vec3::from_array(t.translation),
+                rotation: Quat::from_array(t.rotation),
+                scale: Vec3::from_array(t.scale),
+            },
+        ));
+        brightest = brightest.max(v.intensity * 16384.0);
+    }
+    // Spheres across the finest volume (the last), a quarter of its box apart.
+    let last = &job.sidecar.volumes.last().expect("at least one volume").transform;
+    let (centre, size) = (Vec3::from_array(last.translation), Vec3::from_array(last.scale));
+    let radius = size.x.min(size.z) / 16.0;
+    let mesh = meshes.add(Sphere::new(radius).mesh().uv(32, 16));
+    let white = materials.add(StandardMaterial {
+        base_color: Color::WHITE,
+        perceptual_roughness: 1.0,
+        reflectance: 0.0,
+        ..default()
+    });
+    for i in -1..=1 {
+        for k in -1..=1 {
+            let p = centre + Vec3::new(i as f32 * size.x / 4.0, 0.0, k as f32 * size.z / 4.0);
+            commands.spawn((Mesh3d(mesh.clone()), MeshMaterial3d(white.clone()), Transform::from_translation(p)));
+        }
+    }
+    let eye = centre + Vec3::new(0.0, size.x.min(size.z) * 0.35, size.z * 0.6);
+    commands.spawn((
+        Camera3d::default(),
+        Tonemapping::AcesFitted,
+        // Brightest texel near white: exposure 1 / (1.2 * 2^ev100).
+        bevy::camera::Exposure {
+            ev100: (brightest.max(1e-6) / std::f32::consts::PI / 1.2).log2(),
+        },
+        Transform::from_translation(eye).looking_at(centre, Vec3::Y),
+    ));
+}
+
+/// Saves a screenshot once every volume texture is loaded (and a few frames more), then
+/// exits.
+fn shoot(
+    mut commands: Commands,
+    job: Res<Job>,
+    assets: Res<AssetServer>,
+    volumes: Query<&IrradianceVolume>,
+    mut frames: Local<u32>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    let Some(path) = &job.screenshot else { return };
+    let loaded = volumes
+        .iter()
+        .all(|v| assets.is_loaded_with_dependencies(&v.voxels));
+    if !loaded {
+        if let Some(v) = volumes.iter().find(|v| assets.load_state(&v.voxels).is_failed()) {
+            panic!("loading {:?} failed: {:?}", v.voxels.path(), assets.load_state(&v.voxels));
+        }
+        return;
+    }
+    *frames += 1;
+    if *frames == 10 {
+        commands
+            .spawn(Screenshot::primary_window())
+            .observe(save_to_disk(path.clone()));
+    }
+    if *frames == 40 {
+        exit.write(AppExit::Success);
+    }
+}
