@@ -615,4 +615,28 @@ mod tests {
             prop_assert!(GridFile::from_bytes(&good[..t]).is_err());
         }
     }
+
+    #[test]
+    fn describe_names_kind_size_and_values() {
+        let d = GridDesc::new(Vec3::new(1.0, 2.0, 3.0), 0.5, UVec3::new(2, 3, 4)).unwrap();
+        let light = GridFile::Light(
+            crate::LightGrid::filled(d, crate::BinLight::uniform(Vec3::ONE)).unwrap(),
+        );
+        let t = light.describe();
+        for want in [
+            "kind: light",
+            "cell size: 0.5 m",
+            "points: 24",
+            "mean average light: [1, 1, 1]",
+        ] {
+            assert!(t.contains(want), "{want:?} in {t}");
+        }
+        let mut m = crate::MaterialGrid::filled(d, crate::Material::EMPTY).unwrap();
+        m.data_mut()[5] = crate::Material::opaque(Vec3::ONE);
+        assert!(
+            GridFile::Material(m)
+                .describe()
+                .contains("cells with material: 1")
+        );
+    }
 }

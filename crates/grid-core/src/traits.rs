@@ -561,4 +561,50 @@ mod tests {
         let m = UniformMaterial(Material::EMPTY).material(&d).unwrap();
         assert_eq!(m.data().len(), 8);
     }
+
+    #[test]
+    fn difference_field_removes_a_part_and_clamps_rounding() {
+        let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(3, 3, 3)).unwrap();
+        let ramp = |k: f32| {
+            let data = (0..d.point_count())
+                .map(|i| BinLight(std::array::from_fn(|b| Vec3::splat(k * (i + b) as f32))))
+                .collect();
+            LightGrid::new(d, data).unwrap()
+        };
+        let (a, b) = (ramp(1.0), ramp(0.5));
+        let sum = SumField(&a, &b);
+        for p in [Vec3::ZERO, Vec3::new(0.3, 1.7, 1.2), Vec3::splat(2.0)] {
+            // (a + b) - b = a, within f32 rounding.
+            let got = DifferenceField(&sum, &b).light(p, None).unwrap();
+            let want = a.light(p, None).unwrap();
+            for k in 0..26 {
+                assert!((got.0[k] - want.0[k]).abs().max_element() < 1e-4);
+            }
+            // A part larger than the whole clamps to zero, never negative.
+            let neg = DifferenceField(&b, &sum).light(p, None).unwrap();
+            assert!(neg.0.iter().all(|v| *v == Vec3::ZERO));
+        }
+    }
+
+    #[test]
+    fn no_scatter_keeps_pass_through_and_drops_reflectance() {
+        let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 2, 2)).unwrap();
+        let m = Material {
+            reflectance: Vec3::new(0.2, 0.5, 0.9),
+            pass: 0.3,
+        };
+        let g = NoScatter(UniformMaterial(m)).material(&d).unwrap();
+        assert!(
+            g.data()
+                .iter()
+                .all(|c| c.reflectance == Vec3::ZERO && c.pass == 0.3)
+        );
+        // A grid is the source of its own box, and of no other.
+        let own = MaterialGrid::filled(d, m).unwrap();
+        assert_eq!(own.material(&d).unwrap(), own);
+        let other = GridDesc::new(Vec3::ONE, 1.0, UVec3::new(2, 2, 2)).unwrap();
+        let e = own.material(&other).unwrap_err().to_string();
+        assert!(e.contains("desc"), "{e}");
+        assert_eq!(NoScatter(&own).material(&d).unwrap().data()[0].pass, 0.3);
+    }
 }
