@@ -436,8 +436,12 @@ pub struct VolumeInfo {
 }
 
 /// The sidecar file (`<name>.json`): every volume, first = coarsest (the world grid),
-/// then finer ones; where volumes overlap, the finer one should win (Bevy picks one
-/// volume per fragment; give the finer ones the smaller boxes, as they are).
+/// then finer ones. Where volumes overlap, Bevy (0.17) lights a fragment from one of
+/// them: it sorts a view's irradiance volumes by the distance from the camera to each
+/// volume's centre, nearest first, and takes the first that contains the fragment. The
+/// viewer's near volumes are centred on the nodes around the camera, so the finer ones
+/// usually come first; each volume is complete on its own, so either choice is right to
+/// within the resampling error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Sidecar {
     /// `"lightgrid-bevy-irradiance-volumes"`.
