@@ -385,7 +385,9 @@ impl BevyVolume {
     }
 }
 
-/// What light an export holds.
+/// What light an export holds. The sky belongs in the volume either way: inside an
+/// irradiance volume Bevy's environment map adds no diffuse light
+/// (`pbr_functions.wgsl`: the volume sets `found_diffuse_indirect`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Content {
