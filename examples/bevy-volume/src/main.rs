@@ -63,6 +63,11 @@ fn main() {
             screenshot: args.next().map(PathBuf::from),
         })
         .insert_resource(ClearColor(Color::BLACK))
+        // No light but the volumes.
+        .insert_resource(AmbientLight {
+            brightness: 0.0,
+            ..default()
+        })
         .add_plugins(
             DefaultPlugins
                 .set(AssetPlugin {
@@ -129,9 +134,10 @@ fn setup(
     commands.spawn((
         Camera3d::default(),
         Tonemapping::AcesFitted,
-        // Brightest texel near white: exposure 1 / (1.2 * 2^ev100).
+        // A white surface facing the brightest texel renders its value (texel x
+        // intensity x albedo): map it to 1 with the exposure 1 / (1.2 * 2^ev100).
         bevy::camera::Exposure {
-            ev100: (brightest.max(1e-6) / std::f32::consts::PI / 1.2).log2(),
+            ev100: (brightest.max(1e-6) / 1.2).log2(),
         },
         Transform::from_translation(eye).looking_at(centre, Vec3::Y),
     ));
