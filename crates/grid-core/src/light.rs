@@ -196,8 +196,19 @@ impl BinLight {
 
     /// The Half-Life 2 ambient cube: irradiance on the six axis normals, in the order
     /// `+X, -X, +Y, -Y, +Z, -Z`.
+    /// The same numbers as [`BinLight::irradiance`] on each axis (the bins' clipped
+    /// cosines for the six axes are computed once per process).
     pub fn ambient_cube(&self) -> AmbientCube {
-        AmbientCube(AMBIENT_AXES.map(|a| self.irradiance(a)))
+        let w = ambient_weights();
+        AmbientCube(std::array::from_fn(|f| {
+            let mut e = DVec3::ZERO;
+            for d in 0..NUM_DIRS {
+                if self.0[d] != Vec3::ZERO {
+                    e += self.0[d].as_dvec3() * w[f][d];
+                }
+            }
+            e.as_vec3()
+        }))
     }
 
     /// Splits full-sphere bins into the light travelling downward (the 9 downward bins and
@@ -224,6 +235,19 @@ impl BinLight {
     pub fn scaled(&self, s: f32) -> Self {
         *self * s
     }
+}
+
+/// `clipped_cosine(d, -axis) / omega_d` for the six ambient-cube axes: the irradiance
+/// kernel of [`BinLight::irradiance`] at those normals.
+fn ambient_weights() -> &'static [[f64; NUM_DIRS]; 6] {
+    static W: OnceLock<[[f64; NUM_DIRS]; 6]> = OnceLock::new();
+    W.get_or_init(|| {
+        let g = dirs::bins();
+        std::array::from_fn(|f| {
+            let n = -AMBIENT_AXES[f].as_dvec3();
+            std::array::from_fn(|d| dirs::clipped_cosine(d, n) / g.omega[d])
+        })
+    })
 }
 
 /// Rec. 709 luminance of linear RGB.
@@ -548,6 +572,22 @@ mod tests {
         // Ambient cube: +Y face is E(up), -Y face E(down).
         let cube = b.ambient_cube();
         assert!((cube.0[2].x - e_up).abs() < 1e-6);
+    }
+
+    #[test]
+    fn ambient_cube_is_the_irradiance_on_each_axis() {
+        // The cached axis kernel gives exactly what irradiance computes per call.
+        let b = BinLight(std::array::from_fn(|d| {
+            Vec3::new(
+                d as f32 + 0.5,
+                (d * d % 7) as f32,
+                if d % 3 == 0 { 0.0 } else { 2.0 },
+            )
+        }));
+        let cube = b.ambient_cube();
+        for (f, a) in AMBIENT_AXES.iter().enumerate() {
+            assert_eq!(cube.0[f], b.irradiance(*a), "face {f}");
+        }
     }
 
     #[test]
