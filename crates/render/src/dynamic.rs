@@ -402,7 +402,7 @@ mod tests {
     }
 }
 
-crate::gpu_struct! {
+lightgrid_gpu::gpu_struct! {
     /// One dynamic light as the shaders read it.
     pub struct DynLightGpu {
         /// Position (or a line's first end), range.
@@ -416,7 +416,7 @@ crate::gpu_struct! {
     }
 }
 
-crate::gpu_struct! {
+lightgrid_gpu::gpu_struct! {
     /// The culling grid's placement, for the compute kernel.
     pub struct DynParams {
         /// Origin (xyz) and cell size (w).

@@ -4,14 +4,14 @@ use std::sync::Arc;
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{GridError, LightGrid, NUM_DIRS};
-use sweep_gpu::{GpuContext, GpuError};
+use lightgrid_gpu::{GpuContext, GpuError, bind};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
 use crate::dynamic::{DynParams, DynamicLights, DynamicShade};
 use crate::sampling::{IrradianceTable, SamplePoints, SampledLight};
 
-crate::gpu_struct! {
+lightgrid_gpu::gpu_struct! {
     /// Uniforms of the sampling kernel.
     pub struct SampleParams {
         /// Grid origin (xyz) and cell size (w).
@@ -172,19 +172,13 @@ fn compute(
     let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
         .iter()
         .enumerate()
-        .map(|(i, b)| wgpu::BindGroupLayoutEntry {
-            binding: i as u32,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: match b {
-                    Binding::Uniform => wgpu::BufferBindingType::Uniform,
-                    Binding::Read => wgpu::BufferBindingType::Storage { read_only: true },
-                    Binding::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
-                },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
+        .map(|(i, b)| {
+            let stage = wgpu::ShaderStages::COMPUTE;
+            match b {
+                Binding::Uniform => bind::uniform(i as u32, stage),
+                Binding::Read => bind::storage(i as u32, stage, true),
+                Binding::ReadWrite => bind::storage(i as u32, stage, false),
+            }
         })
         .collect();
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

@@ -21,7 +21,7 @@
 //!   changed box (local lights toggling).
 //!
 //! Every WGSL struct shared with Rust is generated from the Rust declaration
-//! ([`gpu_struct!`]); every shader validates with naga in a plain `cargo test`.
+//! (`lightgrid_gpu::gpu_struct!`); every shader validates with naga in a plain `cargo test`.
 //!
 //! ```
 //! use lightgrid_core::glam::{UVec3, Vec3};
@@ -65,5 +65,5 @@ pub enum RenderError {
     Grid(#[from] lightgrid_core::GridError),
     /// The GPU failed or is missing.
     #[error(transparent)]
-    Gpu(#[from] sweep_gpu::GpuError),
+    Gpu(#[from] lightgrid_gpu::GpuError),
 }

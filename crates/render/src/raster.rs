@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use lightgrid_core::GridError;
 use lightgrid_core::glam::{Mat4, Vec2, Vec3, Vec4};
-use sweep_gpu::{GpuContext, GpuError};
+use lightgrid_gpu::{GpuContext, GpuError};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
@@ -20,7 +20,7 @@ pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const LDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-crate::gpu_struct! {
+lightgrid_gpu::gpu_struct! {
     /// Per-frame uniforms of the mesh shader.
     pub struct FrameUniforms {
         /// Projection × view.
@@ -54,7 +54,7 @@ crate::gpu_struct! {
     }
 }
 
-crate::gpu_struct! {
+lightgrid_gpu::gpu_struct! {
     /// Per-mesh uniforms of the mesh shader.
     pub struct MeshUniforms {
         /// Base colour factor (linear RGBA).
@@ -376,30 +376,11 @@ struct Targets {
     tonemap_bind: wgpu::BindGroup,
 }
 
-fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
+use lightgrid_gpu::bind::uniform as uniform_entry;
 
+/// A read-only storage buffer of the fragment stage.
 fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    lightgrid_gpu::bind::storage(binding, wgpu::ShaderStages::FRAGMENT, true)
 }
 
 impl Renderer {

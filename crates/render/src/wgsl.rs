@@ -1,7 +1,7 @@
 //! WGSL sources. Every struct and constant the shaders share with Rust is generated here
-//! from one Rust declaration ([`gpu_struct!`](crate::gpu_struct) writes the Rust struct
+//! from one Rust declaration (`lightgrid_gpu::gpu_struct!` writes the Rust struct
 //! and its WGSL text together; a naga test compares the two layouts); the direction
-//! tables come from `grid-core` through `sweep_gpu::wgsl::prelude`.
+//! tables come from `lightgrid-core` through `lightgrid_gpu::wgsl::prelude`.
 
 use std::fmt::Write;
 
@@ -9,35 +9,9 @@ use crate::dynamic::{DynLightGpu, DynParams};
 use crate::gpu::SampleParams;
 use crate::raster::{FrameUniforms, MeshUniforms};
 
-/// Defines a `#[repr(C)]` plain-old-data struct and its WGSL declaration from one list of
-/// fields (`name: RustType => "wgsl type"`).
-#[macro_export]
-macro_rules! gpu_struct {
-    ($(#[$m:meta])* pub struct $name:ident { $( $(#[$fm:meta])* pub $f:ident : $ty:ty => $wgsl:literal ),* $(,)? }) => {
-        $(#[$m])*
-        #[repr(C)]
-        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-        pub struct $name { $( $(#[$fm])* pub $f: $ty ),* }
-
-        impl $name {
-            /// The WGSL declaration of this struct (generated from the Rust one).
-            pub fn wgsl() -> String {
-                let mut s = format!("struct {} {{\n", stringify!($name));
-                $( s.push_str(&format!("    {}: {},\n", stringify!($f), $wgsl)); )*
-                s.push_str("}\n");
-                s
-            }
-            /// Field names and byte offsets in Rust (compared with naga's in a test).
-            pub fn offsets() -> Vec<(&'static str, usize)> {
-                vec![$( (stringify!($f), std::mem::offset_of!($name, $f)) ),*]
-            }
-        }
-    };
-}
-
 /// Constants every render shader shares: π, luminance weights, direction tables.
 pub fn prelude() -> String {
-    let mut s = sweep_gpu::wgsl::prelude();
+    let mut s = lightgrid_gpu::wgsl::prelude();
     let _ = writeln!(s, "const PI: f32 = {:?};", std::f32::consts::PI);
     let l = lightgrid_core::LUMA;
     let _ = writeln!(

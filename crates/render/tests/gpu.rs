@@ -7,12 +7,12 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{BinLight, Grid, GridDesc, LightGrid, NUM_DIRS};
+use lightgrid_gpu::GpuContext;
 use lightgrid_render::shading::{linear_to_srgb8, tonemap_aces};
 use lightgrid_render::{
     Camera, GpuLightSampler, GroundLight, Instance, LightVolume, Lighting, LightingMode,
     MeshMaterial, Renderer, SamplePoints, TextureRgba8, Vertex, View, Water, sample_points,
 };
-use sweep_gpu::GpuContext;
 
 fn context() -> Option<Arc<GpuContext>> {
     static C: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();

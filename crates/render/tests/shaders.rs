@@ -7,15 +7,7 @@ use lightgrid_render::raster::{FrameUniforms, MeshUniforms};
 use lightgrid_render::wgsl;
 
 fn validate(name: &str, src: &str) -> naga::Module {
-    let module = naga::front::wgsl::parse_str(src)
-        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-    module
+    lightgrid_gpu::check::validate(name, src).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]
@@ -28,21 +20,7 @@ fn every_shader_validates() {
 }
 
 fn check_layout(module: &naga::Module, name: &str, rust: Vec<(&str, usize)>, size: usize) {
-    let ty = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("{name} not in the shader"))
-        .1;
-    let naga::TypeInner::Struct { members, span } = &ty.inner else {
-        panic!("{name} is a struct")
-    };
-    assert_eq!(members.len(), rust.len(), "{name}");
-    for (m, (field, offset)) in members.iter().zip(rust) {
-        assert_eq!(m.name.as_deref(), Some(field), "{name}");
-        assert_eq!(m.offset as usize, offset, "{name}.{field}");
-    }
-    assert_eq!(*span as usize, size, "{name} size");
+    lightgrid_gpu::check::layout_in(module, name, &rust, size).unwrap();
 }
 
 #[test]

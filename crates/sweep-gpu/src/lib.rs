@@ -63,135 +63,7 @@ pub use sweep::{GpuSweeper, GpuTimings};
 use lightgrid_core::glam::Vec3;
 use wgpu::util::DeviceExt;
 
-/// Errors of the GPU backend.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum GpuError {
-    /// No GPU adapter was found (callers fall back to the CPU sweeper).
-    #[error(
-        "no GPU adapter found ({0}); use sweep-cpu, or install a Vulkan driver (Mesa's lavapipe: mesa-vulkan-drivers)"
-    )]
-    NoAdapter(String),
-    /// The adapter refused to create a device.
-    #[error("the GPU adapter {adapter} refused a device: {message}")]
-    Device {
-        /// Adapter name.
-        adapter: String,
-        /// What it said.
-        message: String,
-    },
-    /// A buffer would exceed what one binding allows.
-    #[error(
-        "{what} needs {bytes} bytes, over the device's limit of {limit} bytes per storage binding"
-    )]
-    TooLarge {
-        /// Which buffer.
-        what: &'static str,
-        /// Bytes needed.
-        bytes: u64,
-        /// The limit.
-        limit: u64,
-    },
-    /// Mapping a buffer for readback failed.
-    #[error("GPU readback failed: {0}")]
-    Readback(String),
-}
-
-/// A device and queue, created once and reused.
-pub struct GpuContext {
-    /// The device.
-    pub device: wgpu::Device,
-    /// Its queue.
-    pub queue: wgpu::Queue,
-    /// What the adapter is.
-    pub info: wgpu::AdapterInfo,
-}
-
-impl GpuContext {
-    /// The first adapter wgpu finds (a discrete GPU preferred; lavapipe in CI).
-    pub fn new() -> Result<Self, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
-        let info = adapter.get_info();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("lightgrid"),
-            required_features: wgpu::Features::empty(),
-            required_limits: adapter.limits(),
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::Device {
-            adapter: info.name.clone(),
-            message: e.to_string(),
-        })?;
-        Ok(Self {
-            device,
-            queue,
-            info,
-        })
-    }
-
-    /// For test suites that must run on a GPU: a context, or `Ok(None)` (with a loud
-    /// message on stderr) when no adapter exists and the environment variable
-    /// `LIGHTGRID_ALLOW_NO_GPU=1` opts out; without it, no adapter is an error, so GPU
-    /// tests never skip in silence.
-    pub fn new_or_opt_out() -> Result<Option<Self>, GpuError> {
-        match Self::new() {
-            Ok(c) => {
-                eprintln!(
-                    "GPU adapter: {} ({:?}, {:?})",
-                    c.info.name, c.info.device_type, c.info.backend
-                );
-                Ok(Some(c))
-            }
-            Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
-                eprintln!("!!! GPU TEST NOT RUN: {e} (LIGHTGRID_ALLOW_NO_GPU=1) !!!");
-                Ok(None)
-            }
-            Err(e) => Err(e),
-        }
-    }
-
-    /// Largest storage buffer binding, bytes.
-    pub fn max_binding(&self) -> u64 {
-        self.device.limits().max_storage_buffer_binding_size
-    }
-
-    /// Copies `buffer` (which must allow COPY_SRC) back to the CPU.
-    pub fn read_back(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: buffer.size(),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
-        self.queue.submit([enc.finish()]);
-        let slice = staging.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let data = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .to_vec();
-        staging.unmap();
-        Ok(data)
-    }
-}
+pub use lightgrid_gpu::{GpuContext, GpuError};
 
 /// Packs light to R11G11B10 on the GPU, and finds the largest value for the exposure;
 /// the pipelines are created once.
@@ -273,7 +145,7 @@ impl GpuPacker {
         let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("pack"),
             layout: &pipeline.get_bind_group_layout(0),
-            entries: &bind_entries([
+            entries: &lightgrid_gpu::bind::entries([
                 params.as_entire_binding(),
                 input.as_entire_binding(),
                 output.as_entire_binding(),
@@ -329,19 +201,4 @@ impl GpuPacker {
         let data = ctx.read_back(&output)?;
         Ok(f32::from_bits(bytemuck::cast_slice::<u8, u32>(&data)[0]))
     }
-}
-
-/// Bind group entries numbered 0, 1, 2, ... in the order given.
-pub(crate) fn bind_entries<'a, const N: usize>(
-    resources: [wgpu::BindingResource<'a>; N],
-) -> [wgpu::BindGroupEntry<'a>; N] {
-    let mut i = 0;
-    resources.map(|resource| {
-        let e = wgpu::BindGroupEntry {
-            binding: i,
-            resource,
-        };
-        i += 1;
-        e
-    })
 }

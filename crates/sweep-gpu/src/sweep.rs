@@ -8,25 +8,41 @@ use lightgrid_core::{
 use sweep_cpu::sweep::{CHANNELS, Channel, channels};
 use wgpu::util::DeviceExt;
 
-use crate::{GpuContext, GpuError, bind_entries, wgsl};
+use std::sync::Arc;
 
-/// Uniform block of one level: the fields of [`wgsl::LEVEL_FIELDS`], in that order (the
-/// WGSL `struct Level` is generated from the same list; a test compares the layouts).
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct LevelParams {
-    nx: u32,
-    nz: u32,
-    level_len: u32,
-    j: u32,
-    src_level: i32,
-    from_virtual: u32,
-    up: u32,
-    periodic: u32,
-    given: u32,
-    ny: u32,
-    smoothing: f32,
-    _pad: u32,
+use lightgrid_gpu::bind;
+
+use crate::{GpuContext, GpuError, wgsl};
+
+lightgrid_gpu::gpu_struct! {
+    /// Uniform block of one level; its WGSL declaration is generated from this list
+    /// (`LevelParams::wgsl`), and a test compares the two layouts with naga.
+    pub struct LevelParams {
+        /// Points along x.
+        pub nx: u32 => "u32",
+        /// Points along z.
+        pub nz: u32 => "u32",
+        /// Points in a level.
+        pub level_len: u32 => "u32",
+        /// The level computed.
+        pub j: u32 => "u32",
+        /// The level light comes from (-1 or `ny`: the boundary).
+        pub src_level: i32 => "i32",
+        /// 1 when the source is the virtual boundary level.
+        pub from_virtual: u32 => "u32",
+        /// 1 on upward passes.
+        pub up: u32 => "u32",
+        /// 1 with periodic sides.
+        pub periodic: u32 => "u32",
+        /// 1 with given (halo) sides.
+        pub given: u32 => "u32",
+        /// Levels.
+        pub ny: u32 => "u32",
+        /// Smoothing weight.
+        pub smoothing: f32 => "f32",
+        /// Padding to 16 bytes.
+        pub _pad: u32 => "u32",
+    }
 }
 
 const PARAM_STRIDE: u64 = 256;
@@ -36,7 +52,7 @@ use crate::wgsl::SCRATCH;
 /// across sweeps. Implements [`Sweeper`]: outputs equal `sweep-cpu`'s within `f32`
 /// rounding (relative 1e-4 plus an absolute floor; see the crate docs).
 pub struct GpuSweeper {
-    ctx: GpuContext,
+    ctx: Arc<GpuContext>,
     phase1: wgpu::ComputePipeline,
     phase2: wgpu::ComputePipeline,
     layout1: wgpu::BindGroupLayout,
@@ -45,30 +61,18 @@ pub struct GpuSweeper {
     packer: crate::GpuPacker,
 }
 
+/// A compute-stage storage buffer.
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    bind::storage(binding, wgpu::ShaderStages::COMPUTE, read_only)
 }
 
+/// The per-level uniform block at dynamic offsets.
 fn uniform_dynamic() -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding: 0,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: true,
-            min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
-        },
-        count: None,
-    }
+    bind::uniform_dynamic(
+        0,
+        wgpu::ShaderStages::COMPUTE,
+        std::mem::size_of::<LevelParams>() as u64,
+    )
 }
 
 impl GpuSweeper {
@@ -77,8 +81,10 @@ impl GpuSweeper {
         Ok(Self::with_context(GpuContext::new()?))
     }
 
-    /// The sweeper on an existing context.
-    pub fn with_context(ctx: GpuContext) -> Self {
+    /// The sweeper on an existing context: pass the renderer's `Arc` to share one device
+    /// (swept grids then live on the device that draws them).
+    pub fn with_context(ctx: impl Into<Arc<GpuContext>>) -> Self {
+        let ctx = ctx.into();
         let d = &ctx.device;
         let layout1 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("sweep phase 1"),
@@ -156,8 +162,8 @@ impl GpuSweeper {
         }
     }
 
-    /// The context (device and queue).
-    pub fn context(&self) -> &GpuContext {
+    /// The context (device and queue), shareable with a renderer.
+    pub fn context(&self) -> &Arc<GpuContext> {
         &self.ctx
     }
 
@@ -372,7 +378,7 @@ impl GpuSweeper {
                 d.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("phase 1"),
                     layout: &self.layout1,
-                    entries: &bind_entries([
+                    entries: &bind::entries([
                         pbind.clone(),
                         cells_b.as_entire_binding(),
                         ping[k].as_entire_binding(),
@@ -391,7 +397,7 @@ impl GpuSweeper {
             d.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("phase 2"),
                 layout: &self.layout2,
-                entries: &bind_entries([
+                entries: &bind::entries([
                     pbind.clone(),
                     cells_b.as_entire_binding(),
                     exposed_b.as_entire_binding(),
@@ -604,45 +610,17 @@ impl Sweeper for GpuSweeper {
 #[cfg(test)]
 mod tests {
     use super::LevelParams;
-    use std::mem::offset_of;
 
-    /// `LevelParams` and the generated WGSL `struct Level` have the same fields at the
-    /// same offsets (naga's layout of the compiled shader).
+    /// `LevelParams` and its generated WGSL declaration have the same fields at the same
+    /// offsets in naga's layout of the compiled phase-1 shader.
     #[test]
     fn level_params_match_the_wgsl_struct() {
-        let src = crate::wgsl::sweep_phase1();
-        let module = naga::front::wgsl::parse_str(&src).expect("phase 1 parses");
-        let ty = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some("Level"))
-            .expect("struct Level")
-            .1;
-        let naga::TypeInner::Struct { members, span } = &ty.inner else {
-            panic!("Level is a struct")
-        };
-        let rust = [
-            ("nx", offset_of!(LevelParams, nx)),
-            ("nz", offset_of!(LevelParams, nz)),
-            ("level_len", offset_of!(LevelParams, level_len)),
-            ("j", offset_of!(LevelParams, j)),
-            ("src_level", offset_of!(LevelParams, src_level)),
-            ("from_virtual", offset_of!(LevelParams, from_virtual)),
-            ("up", offset_of!(LevelParams, up)),
-            ("periodic", offset_of!(LevelParams, periodic)),
-            ("given", offset_of!(LevelParams, given)),
-            ("ny", offset_of!(LevelParams, ny)),
-            ("smoothing", offset_of!(LevelParams, smoothing)),
-            ("_pad", offset_of!(LevelParams, _pad)),
-        ];
-        assert_eq!(members.len(), rust.len());
-        for (m, (name, off)) in members.iter().zip(rust) {
-            assert_eq!(m.name.as_deref(), Some(name));
-            assert_eq!(m.offset as usize, off, "{name}");
-        }
-        assert_eq!(*span as usize, std::mem::size_of::<LevelParams>());
-        for ((name, _), (rname, _)) in crate::wgsl::LEVEL_FIELDS.iter().zip(rust) {
-            assert_eq!(*name, rname);
-        }
+        lightgrid_gpu::check::layout(
+            &crate::wgsl::sweep_phase1(),
+            "LevelParams",
+            &LevelParams::offsets(),
+            std::mem::size_of::<LevelParams>(),
+        )
+        .unwrap();
     }
 }

@@ -190,8 +190,8 @@ pub fn write_exr(path: &Path, img: &lightgrid_render::Image) -> Result<()> {
 }
 
 /// The GPU context for rendering (any adapter, lavapipe included).
-pub fn render_context() -> Result<Arc<sweep_gpu::GpuContext>> {
-    Ok(Arc::new(sweep_gpu::GpuContext::new().context(
+pub fn render_context() -> Result<Arc<lightgrid_gpu::GpuContext>> {
+    Ok(Arc::new(lightgrid_gpu::GpuContext::new().context(
         "rendering needs a GPU adapter (any Vulkan driver; Mesa's lavapipe works: apt-get install mesa-vulkan-drivers)",
     )?))
 }
@@ -207,10 +207,14 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
     std::fs::create_dir_all(&opts.out)
         .with_context(|| format!("creating {}", opts.out.display()))?;
     let total = Instant::now();
-    let mut world = World::build(scene, opts.sweeper)?;
-    let mut timings = world.timings.clone();
+    // One device for sweeping (when the GPU sweeps) and drawing.
     let t = Instant::now();
     let ctx = render_context()?;
+    let device_time = t.elapsed().as_secs_f64();
+    let mut world = World::build_on(scene, opts.sweeper, Some(ctx.clone()))?;
+    let mut timings = vec![("GPU device".to_string(), device_time)];
+    timings.extend(world.timings.iter().cloned());
+    let t = Instant::now();
     let renderer_name = format!("{} ({:?})", ctx.info.name, ctx.info.device_type);
     let mut r = Renderer::new(ctx, opts.width, opts.height)?;
     let meshes = draw::SceneMeshes::new(&mut r, &world)?;

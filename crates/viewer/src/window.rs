@@ -145,7 +145,7 @@ impl App {
         }
         surface.configure(&device, &config);
         println!("rendering on {} ({:?})", info.name, info.device_type);
-        let ctx = Arc::new(sweep_gpu::GpuContext {
+        let ctx = Arc::new(lightgrid_gpu::GpuContext {
             device,
             queue,
             info,

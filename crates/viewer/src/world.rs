@@ -200,6 +200,16 @@ impl World {
     /// Builds everything but the node grids (those follow the camera:
     /// [`World::prepare_view`]).
     pub fn build(scene: SceneFile, sweeper: SweeperChoice) -> Result<Self> {
+        Self::build_on(scene, sweeper, None)
+    }
+
+    /// [`World::build`] with the GPU sweeper (if chosen) on the device `gpu`, the one the
+    /// renderer draws with.
+    pub fn build_on(
+        scene: SceneFile,
+        sweeper: SweeperChoice,
+        gpu: Option<Arc<lightgrid_gpu::GpuContext>>,
+    ) -> Result<Self> {
         let mut timings = Vec::new();
         let t = Instant::now();
         let ts = &scene.terrain;
@@ -319,14 +329,22 @@ impl World {
         let t = Instant::now();
         let (sky_top, sun) = sky_and_sun(&scene)?;
         let top = boundary_light(&sky_top, &scene)?;
+        // The GPU sweeper shares the renderer's device when one is given (one device per
+        // process); otherwise it opens its own.
+        let open = || -> Result<Arc<lightgrid_gpu::GpuContext>, lightgrid_gpu::GpuError> {
+            match &gpu {
+                Some(c) => Ok(c.clone()),
+                None => Ok(Arc::new(lightgrid_gpu::GpuContext::new()?)),
+            }
+        };
         let (sweeper, name): (Box<dyn Sweeper + Send + Sync>, String) = match sweeper {
             SweeperChoice::Cpu => (Box::new(sweep_cpu::CpuSweeper::new()), "cpu".into()),
             SweeperChoice::Gpu => {
-                let c = sweep_gpu::GpuContext::new().context("--sweeper gpu")?;
+                let c = open().context("--sweeper gpu")?;
                 let name = format!("gpu ({})", c.info.name);
                 (Box::new(sweep_gpu::GpuSweeper::with_context(c)), name)
             }
-            SweeperChoice::Auto => match sweep_gpu::GpuContext::new() {
+            SweeperChoice::Auto => match open() {
                 Ok(c) if c.info.device_type != wgpu::DeviceType::Cpu => {
                     let name = format!("gpu ({})", c.info.name);
                     (Box::new(sweep_gpu::GpuSweeper::with_context(c)), name)

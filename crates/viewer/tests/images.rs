@@ -42,7 +42,7 @@ fn compare(a: &[u8], b: &[u8]) -> (f64, f64) {
 
 #[test]
 fn tiny_scene_matches_the_reference_images() {
-    if sweep_gpu::GpuContext::new_or_opt_out()
+    if lightgrid_gpu::GpuContext::new_or_opt_out()
         .unwrap_or_else(|e| {
             panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
         })

@@ -1,4 +1,4 @@
-// Shared by both sweep phases. `struct Level` and the sizes are generated in wgsl.rs.
+// Shared by both sweep phases. `struct LevelParams` and the sizes are generated in wgsl.rs.
 
 fn column(x: i32, z: i32) -> i32 {
     let nx = i32(P.nx);

@@ -3,7 +3,7 @@
 
 const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 
-@group(0) @binding(0) var<uniform> P: Level;
+@group(0) @binding(0) var<uniform> P: LevelParams;
 @group(0) @binding(1) var<storage, read> cells: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> exposed: array<u32>;
 @group(0) @binding(3) var<storage, read_write> cur: array<f32>;

@@ -1,0 +1,102 @@
+//! naga checks that need no GPU: a shader parses and validates, and a Rust struct has
+//! the layout of its WGSL declaration.
+
+/// Parses and validates `src` (named `name` in errors) with every validation flag and
+/// capability; the module for further checks.
+pub fn validate(name: &str, src: &str) -> Result<naga::Module, String> {
+    let module = naga::front::wgsl::parse_str(src)
+        .map_err(|e| format!("{name}: {}", e.emit_to_string(src)))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| format!("{name}: {e:?}"))?;
+    Ok(module)
+}
+
+/// Checks that the WGSL struct `name` in `src` has exactly the fields `offsets` (name and
+/// byte offset, in order, as [`gpu_struct!`](crate::gpu_struct)'s `offsets()` gives them)
+/// and the size `size`, in naga's layout of the parsed shader. `Err` says what differs.
+pub fn layout(src: &str, name: &str, offsets: &[(&str, usize)], size: usize) -> Result<(), String> {
+    let module = naga::front::wgsl::parse_str(src).map_err(|e| format!("parse: {e}"))?;
+    layout_in(&module, name, offsets, size)
+}
+
+/// [`layout`] on an already parsed module.
+pub fn layout_in(
+    module: &naga::Module,
+    name: &str,
+    offsets: &[(&str, usize)],
+    size: usize,
+) -> Result<(), String> {
+    let ty = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .ok_or_else(|| format!("no struct {name}"))?
+        .1;
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        return Err(format!("{name} is not a struct"));
+    };
+    let wgsl: Vec<(&str, usize)> = members
+        .iter()
+        .map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize))
+        .collect();
+    if wgsl != offsets {
+        return Err(format!(
+            "{name}: WGSL fields {wgsl:?}, Rust fields {offsets:?}"
+        ));
+    }
+    if *span as usize != size {
+        return Err(format!("{name}: WGSL size {span}, Rust size {size}"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(unreachable_pub)] // the macro declares public items; here in a private test module
+mod tests {
+    crate::gpu_struct! {
+        /// A test block.
+        pub struct Probe {
+            /// A vector.
+            pub a: [f32; 4] => "vec4<f32>",
+            /// A scalar.
+            pub b: u32 => "u32",
+            /// Padding.
+            pub _pad0: u32 => "u32",
+            /// Padding.
+            pub _pad1: [u32; 2] => "vec2<u32>",
+        }
+    }
+
+    #[test]
+    fn generated_structs_match_naga_and_mismatches_are_named() {
+        assert!(
+            super::validate("bad", "fn f( {")
+                .unwrap_err()
+                .starts_with("bad")
+        );
+        let src = format!(
+            "{}\n@group(0) @binding(0) var<uniform> p: Probe;",
+            Probe::wgsl()
+        );
+        super::layout(
+            &src,
+            "Probe",
+            &Probe::offsets(),
+            std::mem::size_of::<Probe>(),
+        )
+        .unwrap();
+        let e = super::layout(&src, "Probe", &[("a", 0), ("b", 4)], 32).unwrap_err();
+        assert!(e.contains("Rust fields"), "{e}");
+        let e = super::layout(&src, "Probe", &Probe::offsets(), 16).unwrap_err();
+        assert!(e.contains("size"), "{e}");
+        assert!(
+            super::layout(&src, "Missing", &[], 0)
+                .unwrap_err()
+                .contains("no struct")
+        );
+    }
+}

@@ -1,0 +1,189 @@
+//! # lightgrid-gpu
+//!
+//! The GPU home of lightgrid, shared by `sweep-gpu` and `lightgrid-render`:
+//!
+//! * [`GpuContext`]: one device and queue per process. Create it once, wrap it in an
+//!   `Arc`, and hand it to the sweeper (`sweep_gpu::GpuSweeper::with_context`) and the
+//!   renderer (`lightgrid_render::Renderer::new`) alike.
+//! * [`GpuError`]: what can go wrong (no adapter, device refused, a buffer over the
+//!   binding limit, readback).
+//! * [`bind`]: bind-group layout entries and bind groups numbered in order.
+//! * [`gpu_struct!`]: a `#[repr(C)]` Rust struct and its WGSL declaration from one field
+//!   list, and [`check::layout`], which compares the Rust offsets with naga's layout of
+//!   the compiled shader, so structs shared with WGSL are never copied by hand.
+//! * [`wgsl::prelude`]: the direction tables of `lightgrid-core` as WGSL constants.
+//!
+//! ```no_run
+//! use std::sync::Arc;
+//! use lightgrid_gpu::GpuContext;
+//!
+//! # fn main() -> Result<(), lightgrid_gpu::GpuError> {
+//! // Err(GpuError::NoAdapter) without a GPU or a software driver such as lavapipe.
+//! let ctx = Arc::new(GpuContext::new()?);
+//! println!("adapter: {} ({:?})", ctx.info.name, ctx.info.device_type);
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! GPU tests need an adapter (lavapipe in CI): [`GpuContext::new_or_opt_out`] fails
+//! without one unless `LIGHTGRID_ALLOW_NO_GPU=1`, and then says loudly that nothing ran.
+
+pub mod bind;
+pub mod check;
+pub mod wgsl;
+
+/// Errors of the GPU backend.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum GpuError {
+    /// No GPU adapter was found (callers fall back to the CPU sweeper).
+    #[error(
+        "no GPU adapter found ({0}); use sweep-cpu, or install a Vulkan driver (Mesa's lavapipe: mesa-vulkan-drivers)"
+    )]
+    NoAdapter(String),
+    /// The adapter refused to create a device.
+    #[error("the GPU adapter {adapter} refused a device: {message}")]
+    Device {
+        /// Adapter name.
+        adapter: String,
+        /// What it said.
+        message: String,
+    },
+    /// A buffer would exceed what one binding allows.
+    #[error(
+        "{what} needs {bytes} bytes, over the device's limit of {limit} bytes per storage binding"
+    )]
+    TooLarge {
+        /// Which buffer.
+        what: &'static str,
+        /// Bytes needed.
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
+    /// Mapping a buffer for readback failed.
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+}
+
+/// A device and queue, created once and reused.
+pub struct GpuContext {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// What the adapter is.
+    pub info: wgpu::AdapterInfo,
+}
+
+impl GpuContext {
+    /// The first adapter wgpu finds (a discrete GPU preferred; lavapipe in CI).
+    pub fn new() -> Result<Self, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("lightgrid"),
+            required_features: wgpu::Features::empty(),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device {
+            adapter: info.name.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(Self {
+            device,
+            queue,
+            info,
+        })
+    }
+
+    /// For test suites that must run on a GPU: a context, or `Ok(None)` (with a loud
+    /// message on stderr) when no adapter exists and the environment variable
+    /// `LIGHTGRID_ALLOW_NO_GPU=1` opts out; without it, no adapter is an error, so GPU
+    /// tests never skip in silence.
+    pub fn new_or_opt_out() -> Result<Option<Self>, GpuError> {
+        match Self::new() {
+            Ok(c) => {
+                eprintln!(
+                    "GPU adapter: {} ({:?}, {:?})",
+                    c.info.name, c.info.device_type, c.info.backend
+                );
+                Ok(Some(c))
+            }
+            Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
+                eprintln!("!!! GPU TEST NOT RUN: {e} (LIGHTGRID_ALLOW_NO_GPU=1) !!!");
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Largest storage buffer binding, bytes.
+    pub fn max_binding(&self) -> u64 {
+        self.device.limits().max_storage_buffer_binding_size
+    }
+
+    /// Copies `buffer` (which must allow COPY_SRC) back to the CPU.
+    pub fn read_back(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: buffer.size(),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+        self.queue.submit([enc.finish()]);
+        let slice = staging.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let data = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .to_vec();
+        staging.unmap();
+        Ok(data)
+    }
+}
+
+/// Defines a `#[repr(C)]` plain-old-data struct and its WGSL declaration from one list of
+/// fields (`name: RustType => "wgsl type"`).
+#[macro_export]
+macro_rules! gpu_struct {
+    ($(#[$m:meta])* pub struct $name:ident { $( $(#[$fm:meta])* pub $f:ident : $ty:ty => $wgsl:literal ),* $(,)? }) => {
+        $(#[$m])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+        pub struct $name { $( $(#[$fm])* pub $f: $ty ),* }
+
+        impl $name {
+            /// The WGSL declaration of this struct (generated from the Rust one).
+            pub fn wgsl() -> String {
+                let mut s = format!("struct {} {{\n", stringify!($name));
+                $( s.push_str(&format!("    {}: {},\n", stringify!($f), $wgsl)); )*
+                s.push_str("}\n");
+                s
+            }
+            /// Field names and byte offsets in Rust (compared with naga's in a test).
+            pub fn offsets() -> Vec<(&'static str, usize)> {
+                vec![$( (stringify!($f), std::mem::offset_of!($name, $f)) ),*]
+            }
+        }
+    };
+}
