@@ -281,233 +281,25 @@ impl GpuSweeper {
             backend: "gpu",
             message: e.to_string(),
         };
-        let desc = *material.desc();
-        let dims = desc.dims();
-        let (nx, ny, nz) = (dims.x as usize, dims.y as usize, dims.z as usize);
-        let level_len = nx * nz;
-        let n = desc.point_count();
-        let periodic = matches!(boundary.sides, SideBoundary::Periodic);
-        let halo_layout = HaloLayout::new(dims);
-        let w = HALO_WIDTH as usize;
-        let padded = (nx + 2 * w) * (nz + 2 * w);
-        for (what, floats) in [
-            ("light grid", n * 26 * 3),
-            ("pending light", n * 12),
-            ("halo", halo_layout.len() * CHANNELS * 3),
-            ("level scratch", level_len * SCRATCH),
-        ] {
-            self.check_size(what, floats).map_err(backend)?;
-        }
-        let cells: Vec<f32> = material
-            .data()
-            .iter()
-            .flat_map(|m| [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass])
-            .collect();
-        let exposed: Vec<u32> = sweep_cpu::sweep::exposure(material, periodic)
-            .iter()
-            .map(|&m| m as u32)
-            .collect();
-        let d = &self.ctx.device;
-        let cells_b = self.buffer("cells", &cells, wgpu::BufferUsages::empty());
-        let exposed_b = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("exposed"),
-            contents: bytemuck::cast_slice(&exposed),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let level_f = vec![0.0f32; level_len * CHANNELS * 3];
-        let ping = [
-            self.buffer("level A", &level_f, wgpu::BufferUsages::empty()),
-            self.buffer("level B", &level_f, wgpu::BufferUsages::empty()),
-        ];
-        let scratch = self.buffer(
-            "scratch",
-            &vec![0.0; level_len * SCRATCH],
-            wgpu::BufferUsages::empty(),
-        );
-        let g = self.buffer(
-            "light",
-            &vec![0.0; n * 26 * 3],
-            wgpu::BufferUsages::COPY_SRC,
-        );
-        let virt = self.buffer(
-            "virtual level",
-            &vec![0.0; padded * CHANNELS * 3],
-            wgpu::BufferUsages::empty(),
-        );
-        let halo = self.buffer(
-            "halo",
-            &vec![0.0; (halo_layout.len() * CHANNELS * 3).max(1)],
-            wgpu::BufferUsages::empty(),
-        );
-        let flux_in = self.buffer(
-            "input flux",
-            &vec![0.0; level_len * 3],
-            wgpu::BufferUsages::COPY_SRC,
-        );
-        let pend = [
-            self.buffer(
-                "pending down",
-                &vec![0.0; n * 12],
-                wgpu::BufferUsages::empty(),
-            ),
-            self.buffer(
-                "pending up",
-                &vec![0.0; n * 12],
-                wgpu::BufferUsages::empty(),
-            ),
-        ];
-        let pend_flux = self.buffer(
-            "pending flux",
-            &vec![0.0; n * 3],
-            wgpu::BufferUsages::COPY_SRC,
-        );
-        let params = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("level params"),
-            size: PARAM_STRIDE * ny as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let pbind = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-            buffer: &params,
-            offset: 0,
-            size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
-        });
-        // Phase 1 bind groups: prev = ping[k], cur = ping[1 - k].
-        let bg1: Vec<wgpu::BindGroup> = (0..2)
-            .map(|k| {
-                d.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("phase 1"),
-                    layout: &self.layout1,
-                    entries: &bind::entries([
-                        pbind.clone(),
-                        cells_b.as_entire_binding(),
-                        ping[k].as_entire_binding(),
-                        ping[1 - k].as_entire_binding(),
-                        scratch.as_entire_binding(),
-                        g.as_entire_binding(),
-                        virt.as_entire_binding(),
-                        halo.as_entire_binding(),
-                        flux_in.as_entire_binding(),
-                    ]),
-                })
-            })
-            .collect();
-        // Phase 2 bind groups: cur = ping[c], pending (same, other) by direction.
-        let bg2 = |c: usize, up: usize| {
-            d.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("phase 2"),
-                layout: &self.layout2,
-                entries: &bind::entries([
-                    pbind.clone(),
-                    cells_b.as_entire_binding(),
-                    exposed_b.as_entire_binding(),
-                    ping[c].as_entire_binding(),
-                    scratch.as_entire_binding(),
-                    g.as_entire_binding(),
-                    pend[up].as_entire_binding(),
-                    pend[1 - up].as_entire_binding(),
-                    pend_flux.as_entire_binding(),
-                    self.surface_w.as_entire_binding(),
-                ]),
-            })
-        };
-        let bg2: Vec<Vec<wgpu::BindGroup>> = (0..2)
-            .map(|c| (0..2).map(|up| bg2(c, up)).collect())
-            .collect();
-        let groups = (level_len as u32).div_ceil(64);
+        let shape = Shape::of(material, boundary);
+        let bufs = self.buffers(material, &shape).map_err(backend)?;
+        let groups = self.bind_groups(&bufs);
+        let workgroups = (shape.level_len as u32).div_ceil(64);
         let mut stats = SweepStats::default();
         timings.upload = start.elapsed();
         let compute_start = std::time::Instant::now();
         for pass in 0..options.max_passes {
             let up = pass % 2 == 1;
-            let active = pass < 2;
-            let ch = channels(up);
-            // The virtual level (padded columns) and the halo, as channel light.
-            let mut v = vec![0.0f32; padded * CHANNELS * 3];
-            if active {
-                for pz in 0..nz + 2 * w {
-                    for px in 0..nx + 2 * w {
-                        let (x, z) = (px as i32 - w as i32, pz as i32 - w as i32);
-                        let light = virtual_light(boundary, up, x, z, nx, nz);
-                        for (c, chn) in ch.iter().enumerate() {
-                            let val = light.0[chn.bin];
-                            let i = ((pz * (nx + 2 * w) + px) * CHANNELS + c) * 3;
-                            v[i..i + 3].copy_from_slice(&val.to_array());
-                        }
-                    }
-                }
-            }
-            self.ctx
-                .queue
-                .write_buffer(&virt, 0, bytemuck::cast_slice(&v));
-            if let SideBoundary::Given(h) = &boundary.sides {
-                let mut hv = vec![0.0f32; halo_layout.len() * CHANNELS * 3];
-                if active {
-                    for (i, b) in h.iter().enumerate() {
-                        for (c, chn) in ch.iter().enumerate() {
-                            let val = channel_value(b, chn);
-                            hv[(i * CHANNELS + c) * 3..(i * CHANNELS + c) * 3 + 3]
-                                .copy_from_slice(&val.to_array());
-                        }
-                    }
-                }
-                self.ctx
-                    .queue
-                    .write_buffer(&halo, 0, bytemuck::cast_slice(&hv));
-            }
-            // The first level gathers from the virtual level: fill the "previous" buffer.
-            let mut first = vec![0.0f32; level_len * CHANNELS * 3];
-            for z in 0..nz {
-                for x in 0..nx {
-                    let src = (((z + w) * (nx + 2 * w) + x + w) * CHANNELS) * 3;
-                    let dst = ((z * nx + x) * CHANNELS) * 3;
-                    first[dst..dst + CHANNELS * 3].copy_from_slice(&v[src..src + CHANNELS * 3]);
-                }
-            }
-            self.ctx
-                .queue
-                .write_buffer(&ping[0], 0, bytemuck::cast_slice(&first));
-            // Per-level uniforms at 256-byte strides.
-            let mut pbytes = vec![0u8; PARAM_STRIDE as usize * ny];
-            for li in 0..ny {
-                let j = if up { li } else { ny - 1 - li };
-                let p = LevelParams {
-                    nx: nx as u32,
-                    nz: nz as u32,
-                    level_len: level_len as u32,
-                    j: j as u32,
-                    src_level: if up { j as i32 - 1 } else { j as i32 + 1 },
-                    from_virtual: u32::from(li == 0),
-                    up: u32::from(up),
-                    periodic: u32::from(periodic),
-                    given: u32::from(matches!(boundary.sides, SideBoundary::Given(_))),
-                    ny: ny as u32,
-                    smoothing: options.smoothing,
-                    _pad: 0,
-                };
-                let o = li * PARAM_STRIDE as usize;
-                pbytes[o..o + std::mem::size_of::<LevelParams>()]
-                    .copy_from_slice(bytemuck::bytes_of(&p));
-            }
-            self.ctx.queue.write_buffer(&params, 0, &pbytes);
-            let mut enc = d.create_command_encoder(&Default::default());
-            for li in 0..ny {
-                let k = li % 2; // prev = ping[k], cur = ping[1 - k]
-                let off = (li as u64 * PARAM_STRIDE) as u32;
-                let mut cp = enc.begin_compute_pass(&Default::default());
-                cp.set_pipeline(&self.phase1);
-                cp.set_bind_group(0, &bg1[k], &[off]);
-                cp.dispatch_workgroups(groups, 1, 1);
-                cp.set_pipeline(&self.phase2);
-                cp.set_bind_group(0, &bg2[1 - k][usize::from(up)], &[off]);
-                cp.dispatch_workgroups(groups, 1, 1);
-            }
-            self.ctx.queue.submit([enc.finish()]);
+            // Boundary light enters on the first downward and the first upward pass only.
+            self.upload_boundary(&bufs, &shape, boundary, up, pass < 2);
+            let params = level_params(&shape, up, options.smoothing);
+            self.ctx.queue.write_buffer(&bufs.params, 0, &params);
+            self.encode_pass(&groups, shape.ny, up, workgroups);
             stats.passes += 1;
-            stats.levels_computed += ny as u64;
+            stats.levels_computed += shape.ny as u64;
             if options.tolerance > 0.0 && pass >= 1 {
-                let pending: f64 = sum_max(&self.read_f32(&pend_flux).map_err(backend)?);
-                let input: f64 = sum_max(&self.read_f32(&flux_in).map_err(backend)?);
+                let pending: f64 = sum_max(&self.read_f32(&bufs.pend_flux).map_err(backend)?);
+                let input: f64 = sum_max(&self.read_f32(&bufs.flux_in).map_err(backend)?);
                 if pending <= options.tolerance as f64 * input {
                     break;
                 }
@@ -518,8 +310,270 @@ impl GpuSweeper {
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| backend(GpuError::Readback(e.to_string())))?;
         timings.compute = compute_start.elapsed();
-        Ok((g, stats, timings))
+        Ok((bufs.light, stats, timings))
     }
+
+    /// Every buffer of one sweep, sized and checked against the binding limit; material
+    /// and exposure uploaded, the rest zero.
+    fn buffers(&self, material: &MaterialGrid, shape: &Shape) -> Result<Buffers, GpuError> {
+        let (n, level_len) = (shape.n, shape.level_len);
+        for (what, floats) in [
+            ("light grid", n * 26 * 3),
+            ("pending light", n * 12),
+            ("halo", shape.halo.len() * CHANNELS * 3),
+            ("level scratch", level_len * SCRATCH),
+        ] {
+            self.check_size(what, floats)?;
+        }
+        let cells: Vec<f32> = material
+            .data()
+            .iter()
+            .flat_map(|m| [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass])
+            .collect();
+        let exposed: Vec<u32> = sweep_cpu::sweep::exposure(material, shape.periodic)
+            .iter()
+            .map(|&m| m as u32)
+            .collect();
+        let d = &self.ctx.device;
+        let zeros =
+            |label: &str, floats: usize, extra| self.buffer(label, &vec![0.0; floats], extra);
+        let none = wgpu::BufferUsages::empty();
+        let src = wgpu::BufferUsages::COPY_SRC;
+        let level = level_len * CHANNELS * 3;
+        Ok(Buffers {
+            cells: self.buffer("cells", &cells, none),
+            exposed: d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("exposed"),
+                contents: bytemuck::cast_slice(&exposed),
+                usage: wgpu::BufferUsages::STORAGE,
+            }),
+            ping: [zeros("level A", level, none), zeros("level B", level, none)],
+            scratch: zeros("scratch", level_len * SCRATCH, none),
+            light: zeros("light", n * 26 * 3, src),
+            virt: zeros("virtual level", shape.padded * CHANNELS * 3, none),
+            halo: zeros("halo", (shape.halo.len() * CHANNELS * 3).max(1), none),
+            flux_in: zeros("input flux", level_len * 3, src),
+            pend: [
+                zeros("pending down", n * 12, none),
+                zeros("pending up", n * 12, none),
+            ],
+            pend_flux: zeros("pending flux", n * 3, src),
+            params: d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("level params"),
+                size: PARAM_STRIDE * shape.ny as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        })
+    }
+
+    /// Phase 1 bind groups by `k` (previous level = `ping[k]`, current = `ping[1 - k]`);
+    /// phase 2 by current level and direction (pending of this direction, of the other).
+    fn bind_groups(&self, b: &Buffers) -> BindGroups {
+        let d = &self.ctx.device;
+        let pbind = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &b.params,
+            offset: 0,
+            size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
+        });
+        let phase1 = |k: usize| {
+            d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("phase 1"),
+                layout: &self.layout1,
+                entries: &bind::entries([
+                    pbind.clone(),
+                    b.cells.as_entire_binding(),
+                    b.ping[k].as_entire_binding(),
+                    b.ping[1 - k].as_entire_binding(),
+                    b.scratch.as_entire_binding(),
+                    b.light.as_entire_binding(),
+                    b.virt.as_entire_binding(),
+                    b.halo.as_entire_binding(),
+                    b.flux_in.as_entire_binding(),
+                ]),
+            })
+        };
+        let phase2 = |c: usize, up: usize| {
+            d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("phase 2"),
+                layout: &self.layout2,
+                entries: &bind::entries([
+                    pbind.clone(),
+                    b.cells.as_entire_binding(),
+                    b.exposed.as_entire_binding(),
+                    b.ping[c].as_entire_binding(),
+                    b.scratch.as_entire_binding(),
+                    b.light.as_entire_binding(),
+                    b.pend[up].as_entire_binding(),
+                    b.pend[1 - up].as_entire_binding(),
+                    b.pend_flux.as_entire_binding(),
+                    self.surface_w.as_entire_binding(),
+                ]),
+            })
+        };
+        BindGroups {
+            phase1: [phase1(0), phase1(1)],
+            phase2: [[phase2(0, 0), phase2(0, 1)], [phase2(1, 0), phase2(1, 1)]],
+        }
+    }
+
+    /// The boundary light of one pass as channel light: the virtual level (padded
+    /// columns), the halo of given sides, and the first level's "previous" buffer. On
+    /// passes after the first two (`active` false) all of it is zero.
+    fn upload_boundary(
+        &self,
+        b: &Buffers,
+        shape: &Shape,
+        boundary: &Boundary,
+        up: bool,
+        active: bool,
+    ) {
+        let (nx, nz, w) = (shape.nx, shape.nz, HALO_WIDTH as usize);
+        let ch = channels(up);
+        let mut v = vec![0.0f32; shape.padded * CHANNELS * 3];
+        if active {
+            for pz in 0..nz + 2 * w {
+                for px in 0..nx + 2 * w {
+                    let (x, z) = (px as i32 - w as i32, pz as i32 - w as i32);
+                    let light = virtual_light(boundary, up, x, z, nx, nz);
+                    for (c, chn) in ch.iter().enumerate() {
+                        let i = ((pz * (nx + 2 * w) + px) * CHANNELS + c) * 3;
+                        v[i..i + 3].copy_from_slice(&light.0[chn.bin].to_array());
+                    }
+                }
+            }
+        }
+        self.ctx
+            .queue
+            .write_buffer(&b.virt, 0, bytemuck::cast_slice(&v));
+        if let SideBoundary::Given(h) = &boundary.sides {
+            let mut hv = vec![0.0f32; shape.halo.len() * CHANNELS * 3];
+            if active {
+                for (i, l) in h.iter().enumerate() {
+                    for (c, chn) in ch.iter().enumerate() {
+                        let o = (i * CHANNELS + c) * 3;
+                        hv[o..o + 3].copy_from_slice(&channel_value(l, chn).to_array());
+                    }
+                }
+            }
+            self.ctx
+                .queue
+                .write_buffer(&b.halo, 0, bytemuck::cast_slice(&hv));
+        }
+        // The first level gathers from the virtual level: fill the "previous" buffer.
+        let mut first = vec![0.0f32; shape.level_len * CHANNELS * 3];
+        for z in 0..nz {
+            for x in 0..nx {
+                let src = (((z + w) * (nx + 2 * w) + x + w) * CHANNELS) * 3;
+                let dst = ((z * nx + x) * CHANNELS) * 3;
+                first[dst..dst + CHANNELS * 3].copy_from_slice(&v[src..src + CHANNELS * 3]);
+            }
+        }
+        self.ctx
+            .queue
+            .write_buffer(&b.ping[0], 0, bytemuck::cast_slice(&first));
+    }
+
+    /// One pass in one command buffer: per level, phase 1 then phase 2, each level's
+    /// uniforms at its dynamic offset.
+    fn encode_pass(&self, g: &BindGroups, ny: usize, up: bool, workgroups: u32) {
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        for li in 0..ny {
+            let k = li % 2; // prev = ping[k], cur = ping[1 - k]
+            let off = (li as u64 * PARAM_STRIDE) as u32;
+            let mut cp = enc.begin_compute_pass(&Default::default());
+            cp.set_pipeline(&self.phase1);
+            cp.set_bind_group(0, &g.phase1[k], &[off]);
+            cp.dispatch_workgroups(workgroups, 1, 1);
+            cp.set_pipeline(&self.phase2);
+            cp.set_bind_group(0, &g.phase2[1 - k][usize::from(up)], &[off]);
+            cp.dispatch_workgroups(workgroups, 1, 1);
+        }
+        self.ctx.queue.submit([enc.finish()]);
+    }
+}
+
+/// Sizes of one sweep.
+struct Shape {
+    nx: usize,
+    ny: usize,
+    nz: usize,
+    level_len: usize,
+    n: usize,
+    /// Points of a level padded by the halo width on every side.
+    padded: usize,
+    periodic: bool,
+    given: bool,
+    halo: HaloLayout,
+}
+
+impl Shape {
+    fn of(material: &MaterialGrid, boundary: &Boundary) -> Self {
+        let dims = material.desc().dims();
+        let (nx, ny, nz) = (dims.x as usize, dims.y as usize, dims.z as usize);
+        let w = HALO_WIDTH as usize;
+        Self {
+            nx,
+            ny,
+            nz,
+            level_len: nx * nz,
+            n: material.desc().point_count(),
+            padded: (nx + 2 * w) * (nz + 2 * w),
+            periodic: matches!(boundary.sides, SideBoundary::Periodic),
+            given: matches!(boundary.sides, SideBoundary::Given(_)),
+            halo: HaloLayout::new(dims),
+        }
+    }
+}
+
+/// The GPU buffers of one sweep.
+struct Buffers {
+    cells: wgpu::Buffer,
+    exposed: wgpu::Buffer,
+    /// Two level buffers, ping-ponged.
+    ping: [wgpu::Buffer; 2],
+    scratch: wgpu::Buffer,
+    /// The output: 26 bins × RGB a point.
+    light: wgpu::Buffer,
+    virt: wgpu::Buffer,
+    halo: wgpu::Buffer,
+    flux_in: wgpu::Buffer,
+    /// Pending light, downward and upward.
+    pend: [wgpu::Buffer; 2],
+    pend_flux: wgpu::Buffer,
+    params: wgpu::Buffer,
+}
+
+struct BindGroups {
+    phase1: [wgpu::BindGroup; 2],
+    phase2: [[wgpu::BindGroup; 2]; 2],
+}
+
+/// The per-level uniforms of one pass, at [`PARAM_STRIDE`]-byte strides, in the order the
+/// levels are computed.
+fn level_params(shape: &Shape, up: bool, smoothing: f32) -> Vec<u8> {
+    let ny = shape.ny;
+    let mut bytes = vec![0u8; PARAM_STRIDE as usize * ny];
+    for li in 0..ny {
+        let j = if up { li } else { ny - 1 - li };
+        let p = LevelParams {
+            nx: shape.nx as u32,
+            nz: shape.nz as u32,
+            level_len: shape.level_len as u32,
+            j: j as u32,
+            src_level: if up { j as i32 - 1 } else { j as i32 + 1 },
+            from_virtual: u32::from(li == 0),
+            up: u32::from(up),
+            periodic: u32::from(shape.periodic),
+            given: u32::from(shape.given),
+            ny: ny as u32,
+            smoothing,
+            _pad: 0,
+        };
+        let o = li * PARAM_STRIDE as usize;
+        bytes[o..o + std::mem::size_of::<LevelParams>()].copy_from_slice(bytemuck::bytes_of(&p));
+    }
+    bytes
 }
 
 fn gpu_backend(e: GpuError) -> SweepError {
