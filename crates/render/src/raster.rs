@@ -337,8 +337,8 @@ pub struct Renderer {
     tonemap_pipelines: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
     frame_uniform: wgpu::Buffer,
     tonemap_uniform: wgpu::Buffer,
-    volume: (wgpu::Buffer, wgpu::Buffer, LightVolumeInfo),
-    ground: (wgpu::Buffer, Option<GroundInfo>),
+    volume: VolumeBuffers,
+    ground: GroundBuffers,
     dynamic: DynamicBuffers,
     frame_bind: wgpu::BindGroup,
     sampler: wgpu::Sampler,
@@ -376,6 +376,11 @@ struct Targets {
     tonemap_bind: wgpu::BindGroup,
 }
 
+/// The light volume's average and dominant-direction buffers and their placement.
+type VolumeBuffers = (wgpu::Buffer, wgpu::Buffer, LightVolumeInfo);
+/// The ground light buffer and its placement (none until a scene sets it).
+type GroundBuffers = (wgpu::Buffer, Option<GroundInfo>);
+
 use lightgrid_gpu::bind::uniform as uniform_entry;
 
 /// A read-only storage buffer of the fragment stage.
@@ -387,7 +392,85 @@ impl Renderer {
     /// A renderer drawing `width × height` images.
     pub fn new(ctx: Arc<GpuContext>, width: u32, height: u32) -> Result<Self, RenderError> {
         let device = &ctx.device;
-        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let (frame_layout, mesh_layout, tonemap_layout) = Self::layouts(device);
+        let mesh_pipelines = Self::mesh_pipelines(device, &frame_layout, &mesh_layout);
+        let tonemap_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tonemap"),
+            source: wgpu::ShaderSource::Wgsl(crate::wgsl::tonemap_shader().into()),
+        });
+        let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let tonemap_uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tonemap"),
+            size: 16,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let (volume, ground, dynamic) = Self::placeholders(device);
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("base colour"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let white = Self::upload_texture(
+            &ctx,
+            &TextureRgba8 {
+                width: 1,
+                height: 1,
+                texels: vec![[255; 4]],
+            },
+        )?;
+        let frame_bind = Self::frame_bind_group(
+            &ctx,
+            &frame_layout,
+            &frame_uniform,
+            &volume,
+            &ground,
+            &dynamic,
+        );
+        let targets = Self::targets(&ctx, &tonemap_layout, &tonemap_uniform, width, height)?;
+        Ok(Self {
+            ctx,
+            width,
+            height,
+            mesh_pipelines,
+            frame_layout,
+            mesh_layout,
+            tonemap_layout,
+            tonemap_module,
+            tonemap_pipelines: HashMap::new(),
+            frame_uniform,
+            tonemap_uniform,
+            volume,
+            ground,
+            dynamic,
+            frame_bind,
+            sampler,
+            white,
+            targets,
+            meshes: Vec::new(),
+        })
+    }
+
+    /// The bind group layouts: per frame (uniforms, light volume, ground, dynamic
+    /// lights), per mesh (uniforms, base colour texture and sampler), tone mapping.
+    fn layouts(
+        device: &wgpu::Device,
+    ) -> (
+        wgpu::BindGroupLayout,
+        wgpu::BindGroupLayout,
+        wgpu::BindGroupLayout,
+    ) {
+        use lightgrid_gpu::bind;
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let frame = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("frame"),
             entries: &[
                 uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
@@ -399,51 +482,37 @@ impl Renderer {
                 storage_entry(6),
             ],
         });
-        let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let mesh = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mesh"),
             entries: &[
-                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                uniform_entry(0, fragment),
+                bind::texture_2d(1, fragment, true),
+                bind::sampler(2, fragment),
             ],
         });
-        let tonemap_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let tonemap = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("tonemap"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
+                bind::texture_2d(0, fragment, false),
+                uniform_entry(1, fragment),
             ],
         });
+        (frame, mesh, tonemap)
+    }
+
+    /// The mesh pipelines: back faces culled, and double-sided.
+    fn mesh_pipelines(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        mesh_layout: &wgpu::BindGroupLayout,
+    ) -> [wgpu::RenderPipeline; 2] {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("mesh"),
             source: wgpu::ShaderSource::Wgsl(crate::wgsl::mesh_shader().into()),
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("mesh"),
-            bind_group_layouts: &[Some(&frame_layout), Some(&mesh_layout)],
+            bind_group_layouts: &[Some(frame_layout), Some(mesh_layout)],
             immediate_size: 0,
         });
         let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x4];
@@ -491,23 +560,12 @@ impl Renderer {
                 cache: None,
             })
         };
-        let mesh_pipelines = [mesh_pipeline(Some(wgpu::Face::Back)), mesh_pipeline(None)];
-        let tonemap_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tonemap"),
-            source: wgpu::ShaderSource::Wgsl(crate::wgsl::tonemap_shader().into()),
-        });
-        let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("frame"),
-            size: std::mem::size_of::<FrameUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let tonemap_uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tonemap"),
-            size: 16,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        [mesh_pipeline(Some(wgpu::Face::Back)), mesh_pipeline(None)]
+    }
+
+    /// Small placeholder buffers for the light volume, the ground light and the dynamic
+    /// lights until a scene sets them (bindings may not be empty).
+    fn placeholders(device: &wgpu::Device) -> (VolumeBuffers, GroundBuffers, DynamicBuffers) {
         let placeholder = |label| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -536,52 +594,7 @@ impl Renderer {
             origin_cell: [0.0, 0.0, 0.0, 1.0],
             dims: [1, 1, 1, 0],
         };
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("base colour"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
-        let white = Self::upload_texture(
-            &ctx,
-            &TextureRgba8 {
-                width: 1,
-                height: 1,
-                texels: vec![[255; 4]],
-            },
-        )?;
-        let frame_bind = Self::frame_bind_group(
-            &ctx,
-            &frame_layout,
-            &frame_uniform,
-            &volume,
-            &ground,
-            &dynamic,
-        );
-        let targets = Self::targets(&ctx, &tonemap_layout, &tonemap_uniform, width, height)?;
-        Ok(Self {
-            ctx,
-            width,
-            height,
-            mesh_pipelines,
-            frame_layout,
-            mesh_layout,
-            tonemap_layout,
-            tonemap_module,
-            tonemap_pipelines: HashMap::new(),
-            frame_uniform,
-            tonemap_uniform,
-            volume,
-            ground,
-            dynamic,
-            frame_bind,
-            sampler,
-            white,
-            targets,
-            meshes: Vec::new(),
-        })
+        (volume, ground, dynamic)
     }
 
     /// The GPU context.
@@ -683,8 +696,8 @@ impl Renderer {
         ctx: &GpuContext,
         layout: &wgpu::BindGroupLayout,
         uniform: &wgpu::Buffer,
-        volume: &(wgpu::Buffer, wgpu::Buffer, LightVolumeInfo),
-        ground: &(wgpu::Buffer, Option<GroundInfo>),
+        volume: &VolumeBuffers,
+        ground: &GroundBuffers,
         dynamic: &DynamicBuffers,
     ) -> wgpu::BindGroup {
         ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
