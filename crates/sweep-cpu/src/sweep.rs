@@ -903,36 +903,10 @@ fn run_with<S: Sink>(
     let desc = *material.desc();
     let dims = desc.dims();
     let (nx, ny, nz) = (dims.x as i32, dims.y as i32, dims.z as i32);
-    let level_len = desc.level_len();
-    let n = desc.point_count();
     let cells = material.data();
-    // ln(pass) per cell: -inf for opaque cells, whose exp(f * l * -inf) is exactly 0
-    // (f * l > 0 always, so no 0 * inf).
-    let lnp: Vec<f32> = cells.iter().map(|m| m.pass.ln()).collect();
-    let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
-    let top_material = (0..ny)
-        .rev()
-        .find(|&j| {
-            cells[desc.level_range(j as u32)]
-                .iter()
-                .any(|m| !m.is_empty())
-        })
-        .unwrap_or(-1);
-    let laterally_uniform = matches!(boundary.top, TopBoundary::Uniform(_))
-        && matches!(boundary.sides, SideBoundary::Open | SideBoundary::Periodic);
-    let halo = matches!(boundary.sides, SideBoundary::Given(_))
-        .then(|| lightgrid_core::HaloLayout::new(dims));
-
-    let mut g: Vec<S> = vec![S::default(); n];
-    let mut prev: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];
-    let mut cur: Vec<Level> = vec![[Vec3::ZERO; CHANNELS]; level_len];
-    let mut removed: Vec<[Vec3; SLOTS]> = vec![[Vec3::ZERO; SLOTS]; level_len];
-    let mut t_after: Vec<[f32; CHANNELS]> = vec![[1.0; CHANNELS]; level_len];
-    let mut rows = vec![RowFlux::default(); nz as usize];
-    let mut pows: Vec<[f32; MAX_EXPONENTS]> = vec![[1.0; MAX_EXPONENTS]; level_len];
-    // Scattered light waiting to be emitted in downward / upward channels.
-    let mut pend_down: Vec<Pending> = vec![Pending::default(); n];
-    let mut pend_up: Vec<Pending> = vec![Pending::default(); n];
+    let fixed = Fixed::of(material, boundary);
+    let mut g: Vec<S> = vec![S::default(); desc.point_count()];
+    let mut w = Work::new(desc.level_len(), desc.point_count(), nz as usize);
     let mut bal = EnergyBalance::default();
     let mut stats = SweepStats::default();
 
@@ -944,46 +918,35 @@ fn run_with<S: Sink>(
             active: pass < 2,
             up,
             dims,
-            halo,
+            halo: fixed.halo,
         };
         let ctx = Ctx {
             nx,
             nz,
-            periodic: matches!(boundary.sides, SideBoundary::Periodic),
+            periodic: fixed.periodic,
             smoothing: options.smoothing,
             ch,
         };
         stats.passes += 1;
         let mut pending = DVec3::ZERO;
-        let levels: Vec<i32> = if up {
-            (0..ny).collect()
-        } else {
-            (0..ny).rev().collect()
-        };
-        for (li, &j) in levels.iter().enumerate() {
+        for li in 0..ny {
+            let j = if up { li } else { ny - 1 - li };
             let from_virtual = li == 0;
             let range = desc.level_range(j as u32);
             if from_virtual {
-                for z in 0..nz {
-                    for x in 0..nx {
-                        let o = &mut prev[(x + nx * z) as usize];
-                        for (c, chn) in ch.iter().enumerate() {
-                            o[c] = src.virtual_light(x, z, chn);
-                        }
-                    }
-                }
+                w.fill_from_boundary(&src, &ctx);
             }
             // Skip: a level above all material, in a downward pass, under a laterally
             // uniform boundary (or with no boundary light at all), receives exactly what
             // it passes on. Copy instead of computing.
             if options.skip_empty_levels
                 && !up
-                && j > top_material
-                && (laterally_uniform || !src.active)
+                && j > fixed.top_material
+                && (fixed.laterally_uniform || !src.active)
             {
                 let v: Level = std::array::from_fn(|c| src.virtual_light(0, 0, &ch[c]));
                 if from_virtual {
-                    bal.top_in += level_flux(&prev, ch);
+                    bal.top_in += level_flux(&w.prev, ch);
                 }
                 if src.active {
                     for gp in &mut g[range.clone()] {
@@ -992,9 +955,9 @@ fn run_with<S: Sink>(
                         }
                     }
                 }
-                cur.iter_mut().for_each(|o| *o = v);
+                w.cur.iter_mut().for_each(|o| *o = v);
                 stats.levels_copied += 1;
-                std::mem::swap(&mut prev, &mut cur);
+                std::mem::swap(&mut w.prev, &mut w.cur);
                 continue;
             }
             stats.levels_computed += 1;
@@ -1002,28 +965,20 @@ fn run_with<S: Sink>(
             let sent = if from_virtual {
                 DVec3::ZERO
             } else {
-                level_flux(&prev, ch)
+                level_flux(&w.prev, ch)
             };
-            // Transmittance of every cell of the level for each path exponent.
-            let exps = path_exponents();
-            pows.par_iter_mut()
-                .zip(&lnp[range.clone()])
-                .for_each(|(pw, &l)| {
-                    for (k, e) in exps.iter().enumerate() {
-                        pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
-                    }
-                });
+            w.level_powers(&fixed.lnp[range.clone()]);
             let f1 = ctx.phase1(
-                &prev,
+                &w.prev,
                 &src,
                 from_virtual,
                 src_level,
-                &pows,
-                &mut cur,
-                &mut removed,
-                &mut t_after,
+                &w.pows,
+                &mut w.cur,
+                &mut w.removed,
+                &mut w.t_after,
                 &mut g[range.clone()],
-                &mut rows,
+                &mut w.rows,
             );
             if from_virtual {
                 if up {
@@ -1038,27 +993,27 @@ fn run_with<S: Sink>(
             }
             bal.side_in += f1.outside;
             let (same, other) = if up {
-                (&mut pend_up, &mut pend_down)
+                (&mut w.pend_up, &mut w.pend_down)
             } else {
-                (&mut pend_down, &mut pend_up)
+                (&mut w.pend_down, &mut w.pend_up)
             };
             let f2 = ctx.phase2(
-                &removed,
-                &t_after,
+                &w.removed,
+                &w.t_after,
                 &cells[range.clone()],
-                &exposed[range.clone()],
-                &mut cur,
+                &fixed.exposed[range.clone()],
+                &mut w.cur,
                 &mut same[range.clone()],
                 &mut other[range.clone()],
                 &mut g[range.clone()],
-                &mut rows,
+                &mut w.rows,
             );
             bal.absorbed += f2.absorbed;
             pending += f2.pending;
-            std::mem::swap(&mut prev, &mut cur);
+            std::mem::swap(&mut w.prev, &mut w.cur);
         }
         // What leaves the last level leaves the grid.
-        let leaving = level_flux(&prev, ch);
+        let leaving = level_flux(&w.prev, ch);
         if up {
             bal.top_out += leaving;
         } else {
@@ -1071,4 +1026,97 @@ fn run_with<S: Sink>(
         }
     }
     (g, bal, stats)
+}
+
+/// What a sweep derives once from its inputs.
+struct Fixed {
+    /// ln(pass) per cell: -inf for opaque cells, whose exp(f * l * -inf) is exactly 0
+    /// (f * l > 0 always, so no 0 * inf).
+    lnp: Vec<f32>,
+    /// Exposed-face masks of opaque cells ([`exposure`]).
+    exposed: Vec<u8>,
+    /// The highest level holding material (-1: none).
+    top_material: i32,
+    /// The boundary is the same at every column (uniform top, open or periodic sides).
+    laterally_uniform: bool,
+    periodic: bool,
+    halo: Option<lightgrid_core::HaloLayout>,
+}
+
+impl Fixed {
+    fn of(material: &MaterialGrid, boundary: &Boundary) -> Self {
+        let desc = material.desc();
+        let cells = material.data();
+        let periodic = matches!(boundary.sides, SideBoundary::Periodic);
+        Self {
+            lnp: cells.iter().map(|m| m.pass.ln()).collect(),
+            exposed: exposure(material, periodic),
+            top_material: (0..desc.levels() as i32)
+                .rev()
+                .find(|&j| {
+                    cells[desc.level_range(j as u32)]
+                        .iter()
+                        .any(|m| !m.is_empty())
+                })
+                .unwrap_or(-1),
+            laterally_uniform: matches!(boundary.top, TopBoundary::Uniform(_))
+                && matches!(boundary.sides, SideBoundary::Open | SideBoundary::Periodic),
+            periodic,
+            halo: matches!(boundary.sides, SideBoundary::Given(_))
+                .then(|| lightgrid_core::HaloLayout::new(desc.dims())),
+        }
+    }
+}
+
+/// The working buffers of a sweep, allocated once (per level, and per point for the
+/// pending light).
+struct Work {
+    prev: Vec<Level>,
+    cur: Vec<Level>,
+    removed: Vec<[Vec3; SLOTS]>,
+    t_after: Vec<[f32; CHANNELS]>,
+    rows: Vec<RowFlux>,
+    /// Transmittance of every cell of the level for each path exponent.
+    pows: Vec<[f32; MAX_EXPONENTS]>,
+    /// Scattered light waiting to be emitted in downward / upward channels.
+    pend_down: Vec<Pending>,
+    pend_up: Vec<Pending>,
+}
+
+impl Work {
+    fn new(level_len: usize, n: usize, rows: usize) -> Self {
+        Self {
+            prev: vec![[Vec3::ZERO; CHANNELS]; level_len],
+            cur: vec![[Vec3::ZERO; CHANNELS]; level_len],
+            removed: vec![[Vec3::ZERO; SLOTS]; level_len],
+            t_after: vec![[1.0; CHANNELS]; level_len],
+            rows: vec![RowFlux::default(); rows],
+            pows: vec![[1.0; MAX_EXPONENTS]; level_len],
+            pend_down: vec![Pending::default(); n],
+            pend_up: vec![Pending::default(); n],
+        }
+    }
+
+    /// The first level of a pass gathers from the virtual level beyond the grid: its
+    /// channel light goes into `prev`.
+    fn fill_from_boundary(&mut self, src: &Sources, ctx: &Ctx) {
+        for z in 0..ctx.nz {
+            for x in 0..ctx.nx {
+                let o = &mut self.prev[(x + ctx.nx * z) as usize];
+                for (c, chn) in ctx.ch.iter().enumerate() {
+                    o[c] = src.virtual_light(x, z, chn);
+                }
+            }
+        }
+    }
+
+    /// `pows` for the level whose cells have `ln(pass)` = `lnp`.
+    fn level_powers(&mut self, lnp: &[f32]) {
+        let exps = path_exponents();
+        self.pows.par_iter_mut().zip(lnp).for_each(|(pw, &l)| {
+            for (k, e) in exps.iter().enumerate() {
+                pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
+            }
+        });
+    }
 }
