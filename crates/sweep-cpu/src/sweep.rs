@@ -449,11 +449,35 @@ fn sum_rows(v: &[RowFlux]) -> RowFlux {
 
 type Level = [Vec3; CHANNELS];
 
-/// Channel `c`'s value in bins `b`: horizontal bins halved where `b` is full-sphere light.
+/// Channel `chn`'s value in bins `b`: horizontal bins halved where `b` is full-sphere
+/// light (a side halo), whole where it is a boundary's one-way light. Part of the
+/// specification: the GPU sweeper uploads its boundary light through this.
 #[inline]
-fn channel_value(b: &BinLight, chn: &Channel, full_sphere: bool) -> Vec3 {
+pub fn channel_value(b: &BinLight, chn: &Channel, full_sphere: bool) -> Vec3 {
     let v = b.0[chn.bin];
     if full_sphere { v * chn.share } else { v }
+}
+
+/// The boundary light of the virtual level beyond the grid at column `(x, z)` (clamped
+/// to the grid): the bottom light on upward passes, the top light (uniform or per point)
+/// on downward ones. Part of the specification, shared with the GPU sweeper.
+pub fn virtual_level_light(
+    boundary: &Boundary,
+    up: bool,
+    x: i32,
+    z: i32,
+    dims: lightgrid_core::glam::UVec3,
+) -> &BinLight {
+    if up {
+        return &boundary.bottom;
+    }
+    match &boundary.top {
+        TopBoundary::Uniform(b) => b,
+        TopBoundary::PerPoint(v) => {
+            let (nx, nz) = (dims.x as i32, dims.z as i32);
+            &v[(x.clamp(0, nx - 1) + nx * z.clamp(0, nz - 1)) as usize]
+        }
+    }
 }
 
 /// Checks the inputs of a sweep as [`run`] does (options, boundary against the grid,
@@ -526,17 +550,11 @@ impl Sources<'_> {
         if !self.active {
             return Vec3::ZERO;
         }
-        if self.up {
-            return channel_value(&self.boundary.bottom, chn, false);
-        }
-        match &self.boundary.top {
-            TopBoundary::Uniform(b) => channel_value(b, chn, false),
-            TopBoundary::PerPoint(v) => {
-                let (nx, nz) = (self.dims.x as i32, self.dims.z as i32);
-                let i = x.clamp(0, nx - 1) + nx * z.clamp(0, nz - 1);
-                channel_value(&v[i as usize], chn, false)
-            }
-        }
+        channel_value(
+            virtual_level_light(self.boundary, self.up, x, z, self.dims),
+            chn,
+            false,
+        )
     }
 
     /// Light of a source point outside the grid's sides at (x, level, z).

@@ -3,9 +3,9 @@
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
     BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins, PackedLightGrid,
-    SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary,
+    SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
 };
-use sweep_cpu::sweep::{CHANNELS, Channel, channels};
+use sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
 use wgpu::util::DeviceExt;
 
 use std::sync::Arc;
@@ -435,7 +435,7 @@ impl GpuSweeper {
             for pz in 0..nz + 2 * w {
                 for px in 0..nx + 2 * w {
                     let (x, z) = (px as i32 - w as i32, pz as i32 - w as i32);
-                    let light = virtual_light(boundary, up, x, z, nx, nz);
+                    let light = virtual_level_light(boundary, up, x, z, shape.dims);
                     for (c, chn) in ch.iter().enumerate() {
                         let i = ((pz * (nx + 2 * w) + px) * CHANNELS + c) * 3;
                         v[i..i + 3].copy_from_slice(&light.0[chn.bin].to_array());
@@ -452,7 +452,7 @@ impl GpuSweeper {
                 for (i, l) in h.iter().enumerate() {
                     for (c, chn) in ch.iter().enumerate() {
                         let o = (i * CHANNELS + c) * 3;
-                        hv[o..o + 3].copy_from_slice(&channel_value(l, chn).to_array());
+                        hv[o..o + 3].copy_from_slice(&channel_value(l, chn, true).to_array());
                     }
                 }
             }
@@ -495,6 +495,7 @@ impl GpuSweeper {
 
 /// Sizes of one sweep.
 struct Shape {
+    dims: lightgrid_core::glam::UVec3,
     nx: usize,
     ny: usize,
     nz: usize,
@@ -513,6 +514,7 @@ impl Shape {
         let (nx, ny, nz) = (dims.x as usize, dims.y as usize, dims.z as usize);
         let w = HALO_WIDTH as usize;
         Self {
+            dims,
             nx,
             ny,
             nz,
@@ -611,25 +613,6 @@ fn sum_max(v: &[f32]) -> f64 {
         }
     }
     s.iter().copied().fold(0.0, f64::max)
-}
-
-/// Channel value of full-sphere light (horizontal bins halved), as sweep-cpu's halo.
-fn channel_value(b: &BinLight, chn: &Channel) -> Vec3 {
-    b.0[chn.bin] * chn.share
-}
-
-/// Light of the virtual level at column (x, z): sweep-cpu's `Sources::virtual_light`.
-fn virtual_light(boundary: &Boundary, up: bool, x: i32, z: i32, nx: usize, nz: usize) -> BinLight {
-    if up {
-        return boundary.bottom;
-    }
-    match &boundary.top {
-        TopBoundary::Uniform(b) => **b,
-        TopBoundary::PerPoint(v) => {
-            let i = x.clamp(0, nx as i32 - 1) as usize + nx * z.clamp(0, nz as i32 - 1) as usize;
-            v[i]
-        }
-    }
 }
 
 /// A shared GPU sweeper sweeps too (its methods take `&self`).
