@@ -82,6 +82,7 @@ pub mod file;
 mod grid;
 pub mod hash;
 pub mod light;
+pub mod lights;
 pub mod limits;
 pub mod pack;
 mod sample;
@@ -96,6 +97,7 @@ pub use grid::{
     MaterialGrid, PackedBins, PackedLightGrid,
 };
 pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
+pub use lights::LightKind;
 pub use sample::{Blend, trilinear_corners};
 pub use traits::{
     Boundary, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES, MaterialSource,

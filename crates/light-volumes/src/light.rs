@@ -1,47 +1,11 @@
 //! Local light sources and how they emit rays.
 
-use std::f32::consts::{PI, TAU};
+use std::f32::consts::TAU;
 
 use lightgrid_core::GridError;
+pub use lightgrid_core::LightKind;
 use lightgrid_core::glam::Vec3;
-
-/// The shape of a light.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum LightKind {
-    /// Emits equally in all directions from a point.
-    Point {
-        /// Position, metres.
-        position: Vec3,
-    },
-    /// A point light limited to a cone, full inside `inner` (half-angle, radians),
-    /// falling smoothly to zero at `outer`.
-    Spot {
-        /// Position.
-        position: Vec3,
-        /// Axis of the cone (any length > 0).
-        direction: Vec3,
-        /// Half-angle of full intensity, radians.
-        inner: f32,
-        /// Half-angle where it reaches zero, radians (`inner <= outer <= π`).
-        outer: f32,
-    },
-    /// A one-sided rectangle `centre ± u ± v` emitting (Lambertian) towards `u × v`.
-    Area {
-        /// Centre.
-        centre: Vec3,
-        /// Half of one edge.
-        u: Vec3,
-        /// Half of the other edge.
-        v: Vec3,
-    },
-    /// A segment `a → b` emitting equally in all directions from every point.
-    Line {
-        /// One end.
-        a: Vec3,
-        /// The other end.
-        b: Vec3,
-    },
-}
+pub use lightgrid_core::lights::spot_falloff;
 
 /// A light: shape, colour and intensity. The traced volume is for white light of unit
 /// power; colour × intensity scale it when volumes are merged (as 3DWorld does).
@@ -53,14 +17,6 @@ pub struct Light {
     pub colour: Vec3,
     /// Emitted power (the volume's unit).
     pub intensity: f32,
-}
-
-fn finite3(field: &'static str, v: Vec3) -> Result<(), GridError> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(GridError::invalid(field, v, "must be finite"))
-    }
 }
 
 impl Light {
@@ -80,69 +36,13 @@ impl Light {
                 "must be finite and >= 0",
             ));
         }
-        match self.kind {
-            LightKind::Point { position } => finite3("position", position),
-            LightKind::Spot {
-                position,
-                direction,
-                inner,
-                outer,
-            } => {
-                finite3("position", position)?;
-                if !(direction.is_finite() && direction.length_squared() > 0.0) {
-                    return Err(GridError::invalid(
-                        "direction",
-                        direction,
-                        "must be finite and non-zero",
-                    ));
-                }
-                if !(inner >= 0.0 && inner <= outer && outer > 0.0 && outer <= PI) {
-                    return Err(GridError::invalid(
-                        "outer",
-                        outer,
-                        "need 0 <= inner <= outer <= π and outer > 0",
-                    ));
-                }
-                Ok(())
-            }
-            LightKind::Area { centre, u, v } => {
-                finite3("centre", centre)?;
-                finite3("u", u)?;
-                finite3("v", v)?;
-                if u.cross(v).length_squared() == 0.0 {
-                    return Err(GridError::invalid("u", u, "u and v must span an area"));
-                }
-                Ok(())
-            }
-            LightKind::Line { a, b } => {
-                finite3("a", a)?;
-                finite3("b", b)?;
-                if a == b {
-                    return Err(GridError::invalid("b", b, "must differ from a"));
-                }
-                Ok(())
-            }
-        }
+        self.kind.validate()
     }
 
     /// Adds the shape to a cache key (colour and intensity excluded: volumes are stored
     /// as white light).
     pub fn hash_shape(&self, h: &mut lightgrid_core::hash::ContentHash) {
-        match self.kind {
-            LightKind::Point { position } => h.u32(0).vec3(position),
-            LightKind::Spot {
-                position,
-                direction,
-                inner,
-                outer,
-            } => h
-                .u32(1)
-                .vec3(position)
-                .vec3(direction)
-                .f32s(&[inner, outer]),
-            LightKind::Area { centre, u, v } => h.u32(2).vec3(centre).vec3(u).vec3(v),
-            LightKind::Line { a, b } => h.u32(3).vec3(a).vec3(b),
-        };
+        self.kind.hash_into(h);
     }
 
     /// One emitted ray from uniform numbers `r` in `[0, 1)`: origin, unit direction and
@@ -178,18 +78,6 @@ impl Light {
             }
         }
     }
-}
-
-/// Smoothstep from the outer to the inner cone, on the cosine of the angle.
-pub fn spot_falloff(cos: f32, cos_inner: f32, cos_outer: f32) -> f32 {
-    if cos >= cos_inner {
-        return 1.0;
-    }
-    if cos <= cos_outer {
-        return 0.0;
-    }
-    let x = (cos - cos_outer) / (cos_inner - cos_outer);
-    x * x * (3.0 - 2.0 * x)
 }
 
 /// Mean of [`spot_falloff`] over the outer cone (uniform in `cos`), for normalisation.

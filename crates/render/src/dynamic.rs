@@ -9,43 +9,15 @@
 
 use std::f32::consts::PI;
 
-use lightgrid_core::GridError;
 use lightgrid_core::glam::{UVec3, Vec3};
-
-/// The shape of a dynamic light.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum DynamicKind {
-    /// A point.
-    Point {
-        /// Position.
-        position: Vec3,
-    },
-    /// A point limited to a cone around `direction` (unit), full inside `cos_inner`,
-    /// zero outside `cos_outer`.
-    Spot {
-        /// Position.
-        position: Vec3,
-        /// Axis (unit).
-        direction: Vec3,
-        /// Cosine of the full-intensity half-angle.
-        cos_inner: f32,
-        /// Cosine of the cut-off half-angle (< `cos_inner`).
-        cos_outer: f32,
-    },
-    /// A segment, lit from its point nearest the shaded point.
-    Line {
-        /// One end.
-        a: Vec3,
-        /// The other end.
-        b: Vec3,
-    },
-}
+use lightgrid_core::{GridError, LightKind};
 
 /// A dynamic light: shape, colour × intensity (irradiance at 1 m) and range.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DynamicLight {
-    /// Shape.
-    pub kind: DynamicKind,
+    /// Shape: a point, a spot or a line (`lightgrid_core::LightKind`, the type the baked
+    /// light volumes use too); area lights are baked only and refused here.
+    pub kind: LightKind,
     /// Linear RGB irradiance on a surface facing it 1 m away.
     pub colour: Vec3,
     /// Distance beyond which it contributes nothing, metres.
@@ -59,8 +31,9 @@ impl DynamicLight {
     /// The point the light shines from, for a shaded point `p`.
     pub fn source(&self, p: Vec3) -> Vec3 {
         match self.kind {
-            DynamicKind::Point { position } | DynamicKind::Spot { position, .. } => position,
-            DynamicKind::Line { a, b } => {
+            LightKind::Point { position } | LightKind::Spot { position, .. } => position,
+            LightKind::Area { centre, .. } => centre,
+            LightKind::Line { a, b } => {
                 let ab = b - a;
                 let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
                 a + ab * t
@@ -72,10 +45,14 @@ impl DynamicLight {
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let r = Vec3::splat(self.range);
         match self.kind {
-            DynamicKind::Point { position } | DynamicKind::Spot { position, .. } => {
+            LightKind::Point { position } | LightKind::Spot { position, .. } => {
                 (position - r, position + r)
             }
-            DynamicKind::Line { a, b } => (a.min(b) - r, a.max(b) + r),
+            LightKind::Area { centre, u, v } => {
+                let e = u.abs() + v.abs();
+                (centre - e - r, centre + e + r)
+            }
+            LightKind::Line { a, b } => (a.min(b) - r, a.max(b) + r),
         }
     }
 
@@ -100,22 +77,23 @@ impl DynamicLight {
         if !(lo.is_finite() && hi.is_finite()) {
             return Err(GridError::invalid(field("position"), lo, "must be finite"));
         }
-        if let DynamicKind::Spot {
-            direction,
-            cos_inner,
-            cos_outer,
-            ..
-        } = self.kind
-            && !(direction.is_finite()
-                && (direction.length() - 1.0).abs() < 1e-3
-                && cos_outer < cos_inner
-                && (-1.0..=1.0).contains(&cos_outer)
-                && cos_inner <= 1.0)
-        {
+        self.kind.validate().map_err(|e| match e {
+            GridError::InvalidField {
+                field: f,
+                value,
+                reason,
+            } => GridError::InvalidField {
+                field: field(&format!("kind.{f}")),
+                value,
+                reason,
+            },
+            other => other,
+        })?;
+        if let LightKind::Area { centre, .. } = self.kind {
             return Err(GridError::invalid(
-                field("direction"),
-                direction,
-                "need a unit direction and -1 <= cos_outer < cos_inner <= 1",
+                field("kind"),
+                centre,
+                "area lights are baked (light-volumes), not drawn as dynamic lights",
             ));
         }
         Ok(())
@@ -147,16 +125,8 @@ pub fn shade_one(light: &DynamicLight, p: Vec3, n: Vec3, v: Vec3, shininess: f32
     let x = d / light.range;
     let window = (1.0 - x * x * x * x).max(0.0);
     let mut f = window * window / (d2 + FALLOFF_EPSILON);
-    if let DynamicKind::Spot {
-        direction,
-        cos_inner,
-        cos_outer,
-        ..
-    } = light.kind
-    {
-        let c = (-l).dot(direction);
-        let t = ((c - cos_outer) / (cos_inner - cos_outer)).clamp(0.0, 1.0);
-        f *= t * t * (3.0 - 2.0 * t);
+    if let Some((axis, cos_inner, cos_outer)) = light.kind.spot_cone() {
+        f *= lightgrid_core::lights::spot_falloff((-l).dot(axis), cos_inner, cos_outer);
     }
     let e = light.colour * (f * ndl);
     let h = (l + v).normalize_or_zero();
@@ -302,14 +272,14 @@ pub fn scatter(n: usize, seed: u64, lo: Vec3, hi: Vec3) -> Vec<DynamicLight> {
         .map(|i| {
             let p = lo + (hi - lo) * Vec3::new(r(), r(), r());
             let kind = match i % 3 {
-                0 => DynamicKind::Point { position: p },
-                1 => DynamicKind::Spot {
+                0 => LightKind::Point { position: p },
+                1 => LightKind::Spot {
                     position: p,
                     direction: Vec3::new(r() - 0.5, -1.0, r() - 0.5).normalize(),
-                    cos_inner: 0.9,
-                    cos_outer: 0.65,
+                    inner: 0.9f32.acos(),
+                    outer: 0.65f32.acos(),
                 },
-                _ => DynamicKind::Line {
+                _ => LightKind::Line {
                     a: p,
                     b: p + Vec3::new(r() * 4.0, r() * 0.5, r() * 4.0),
                 },
@@ -363,7 +333,7 @@ mod tests {
     #[test]
     fn point_light_known_answer_and_range() {
         let l = DynamicLight {
-            kind: DynamicKind::Point {
+            kind: LightKind::Point {
                 position: Vec3::new(0.0, 2.0, 0.0),
             },
             colour: Vec3::ONE,
@@ -399,6 +369,25 @@ mod tests {
                 .to_string()
                 .contains("cell")
         );
+        // The shared light type: its own checks name the field under `kind`, and area
+        // lights (baked only) are refused.
+        let mut l = lights(2, 3);
+        l[1].kind = LightKind::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::Y,
+            inner: 0.8,
+            outer: 0.4,
+        };
+        let e = DynamicLights::build(l, 1.0).unwrap_err().to_string();
+        assert!(e.contains("lights[1].kind.outer"), "{e}");
+        let mut l = lights(1, 3);
+        l[0].kind = LightKind::Area {
+            centre: Vec3::ZERO,
+            u: Vec3::X,
+            v: Vec3::Z,
+        };
+        let e = DynamicLights::build(l, 1.0).unwrap_err().to_string();
+        assert!(e.contains("area lights are baked"), "{e}");
     }
 }
 
@@ -435,16 +424,17 @@ impl DynamicLights {
             .iter()
             .map(|l| {
                 let (p, kind, dir, cos_outer, end, cos_inner) = match l.kind {
-                    DynamicKind::Point { position } => {
-                        (position, 0.0, Vec3::ZERO, 0.0, Vec3::ZERO, 1.0)
+                    LightKind::Spot { position, .. } => {
+                        let (axis, ci, co) = l.kind.spot_cone().unwrap_or((Vec3::Y, 1.0, 0.0));
+                        (position, 1.0, axis, co, Vec3::ZERO, ci)
                     }
-                    DynamicKind::Spot {
-                        position,
-                        direction,
-                        cos_inner,
-                        cos_outer,
-                    } => (position, 1.0, direction, cos_outer, Vec3::ZERO, cos_inner),
-                    DynamicKind::Line { a, b } => (a, 2.0, Vec3::ZERO, 0.0, b, 1.0),
+                    LightKind::Line { a, b } => (a, 2.0, Vec3::ZERO, 0.0, b, 1.0),
+                    // Area lights never get here (validation refuses them); a point is
+                    // the harmless fallback.
+                    LightKind::Point { position }
+                    | LightKind::Area {
+                        centre: position, ..
+                    } => (position, 0.0, Vec3::ZERO, 0.0, Vec3::ZERO, 1.0),
                 };
                 DynLightGpu {
                     position_range: p.extend(l.range).to_array(),

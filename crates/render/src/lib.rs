@@ -48,8 +48,9 @@ pub mod sampling;
 pub mod shading;
 pub mod wgsl;
 
-pub use dynamic::{DynamicKind, DynamicLight, DynamicLights, DynamicShade};
+pub use dynamic::{DynamicLight, DynamicLights, DynamicShade};
 pub use gpu::{GpuBinGrid, GpuDynamicShader, GpuLightSampler};
+pub use lightgrid_core::LightKind;
 pub use raster::{
     Camera, GroundLight, Image, Instance, Lighting, LightingMode, MeshId, MeshMaterial, Renderer,
     TextureRgba8, Vertex, View, Water,

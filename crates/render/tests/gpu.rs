@@ -416,12 +416,12 @@ fn gpu_dynamic_lights_equal_cpu_brute_force() {
 
 #[test]
 fn dynamic_point_light_in_the_mesh_shader_gives_the_cpu_answer() {
-    use lightgrid_render::{DynamicKind, DynamicLight, DynamicLights};
+    use lightgrid_render::{DynamicLight, DynamicLights, LightKind};
     let Some(r) = renderer() else { return };
     let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
     let lights = DynamicLights::build(
         vec![DynamicLight {
-            kind: DynamicKind::Point {
+            kind: LightKind::Point {
                 position: Vec3::new(0.3, 1.5, -0.2),
             },
             colour: Vec3::new(3.0, 2.0, 1.0),

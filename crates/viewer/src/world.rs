@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lightgrid_core::glam::{Quat, Vec2, Vec3};
-use lightgrid_core::{BinLight, MaterialGrid, Sweeper};
+use lightgrid_core::{BinLight, LightKind, MaterialGrid, Sweeper};
 use material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };
@@ -166,32 +166,19 @@ fn dynamic_lights(scene: &SceneFile, hm: &Heightmap) -> Result<lightgrid_render:
         Vec3::new(c.x + r, d.height[1], c.y + r),
     );
     let lift = |p: Vec3| p + Vec3::Y * hm.height_at(p.x, p.z);
+    // Stand every light on the ground (a line by the height at its first end).
     for l in &mut lights {
-        l.kind = match l.kind {
-            lightgrid_render::DynamicKind::Point { position } => {
-                lightgrid_render::DynamicKind::Point {
-                    position: lift(position),
-                }
+        match &mut l.kind {
+            LightKind::Point { position } | LightKind::Spot { position, .. } => {
+                *position = lift(*position);
             }
-            lightgrid_render::DynamicKind::Spot {
-                position,
-                direction,
-                cos_inner,
-                cos_outer,
-            } => lightgrid_render::DynamicKind::Spot {
-                position: lift(position),
-                direction,
-                cos_inner,
-                cos_outer,
-            },
-            lightgrid_render::DynamicKind::Line { a, b } => {
+            LightKind::Line { a, b } => {
                 let dy = Vec3::Y * hm.height_at(a.x, a.z);
-                lightgrid_render::DynamicKind::Line {
-                    a: a + dy,
-                    b: b + dy,
-                }
+                *a += dy;
+                *b += dy;
             }
-        };
+            LightKind::Area { centre, .. } => *centre = lift(*centre),
+        }
     }
     Ok(lightgrid_render::DynamicLights::build(lights, 4.0)?)
 }

@@ -103,9 +103,10 @@ target = [520.0, 520.0]
     assert_eq!(world.dynamic.lights.len(), 50);
     for l in &world.dynamic.lights {
         let p = match l.kind {
-            lightgrid_render::DynamicKind::Point { position }
-            | lightgrid_render::DynamicKind::Spot { position, .. } => position,
-            lightgrid_render::DynamicKind::Line { a, .. } => a,
+            lightgrid_core::LightKind::Point { position }
+            | lightgrid_core::LightKind::Spot { position, .. } => position,
+            lightgrid_core::LightKind::Line { a, .. } => a,
+            lightgrid_core::LightKind::Area { .. } => panic!("no area lights are scattered"),
         };
         let above = p.y - world.heightmap.height_at(p.x, p.z);
         assert!((0.99..=3.01).contains(&above), "{above}");
