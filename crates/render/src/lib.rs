@@ -52,8 +52,8 @@ pub use dynamic::{DynamicLight, DynamicLights, DynamicShade};
 pub use gpu::{GpuBinGrid, GpuDynamicShader, GpuLightSampler};
 pub use lightgrid_core::LightKind;
 pub use raster::{
-    Camera, GroundLight, Image, Instance, Lighting, LightingMode, MeshId, MeshMaterial, Renderer,
-    TextureRgba8, Vertex, View, Water,
+    Camera, GroundLight, Image, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial,
+    Renderer, TextureRgba8, Vertex, View, Water,
 };
 pub use sampling::{IrradianceTable, LightVolume, SamplePoints, SampledLight, sample_points};
 

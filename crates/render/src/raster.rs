@@ -109,17 +109,19 @@ pub struct Vertex {
     pub light: [f32; 4],
 }
 
-/// One instance of a mesh: model matrix and a colour multiplier.
+/// One instance of a mesh as the GPU draws it: model matrix and a colour multiplier.
+/// (A model's *placement* in a scene, with model index, position, rotation and scale, is
+/// `material_voxelizer::compose::Instance`; the viewer turns placements into these.)
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Instance {
+pub struct MeshInstance {
     /// Model to world (column major).
     pub model: [[f32; 4]; 4],
     /// Multiplies the base colour; for [`Lighting::Emissive`], the HDR colour.
     pub tint: [f32; 4],
 }
 
-impl Instance {
+impl MeshInstance {
     /// An instance from a matrix and a tint.
     pub fn new(model: Mat4, tint: Vec4) -> Self {
         Self {
@@ -532,7 +534,7 @@ impl Renderer {
                             attributes: &vertex_attrs,
                         }),
                         Some(wgpu::VertexBufferLayout {
-                            array_stride: std::mem::size_of::<Instance>() as u64,
+                            array_stride: std::mem::size_of::<MeshInstance>() as u64,
                             step_mode: wgpu::VertexStepMode::Instance,
                             attributes: &instance_attrs,
                         }),
@@ -899,7 +901,7 @@ impl Renderer {
     pub fn set_instances(
         &mut self,
         mesh: MeshId,
-        instances: &[Instance],
+        instances: &[MeshInstance],
     ) -> Result<(), RenderError> {
         let Some(m) = self.meshes.get_mut(mesh.0) else {
             return Err(GridError::invalid("mesh", mesh.0, "no such mesh").into());

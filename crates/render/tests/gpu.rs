@@ -10,7 +10,7 @@ use lightgrid_core::{BinLight, Grid, GridDesc, LightGrid, NUM_DIRS};
 use lightgrid_gpu::GpuContext;
 use lightgrid_render::shading::{linear_to_srgb8, tonemap_aces};
 use lightgrid_render::{
-    Camera, GpuLightSampler, GroundLight, Instance, LightVolume, Lighting, LightingMode,
+    Camera, GpuLightSampler, GroundLight, LightVolume, Lighting, LightingMode, MeshInstance,
     MeshMaterial, Renderer, SamplePoints, TextureRgba8, Vertex, View, Water, sample_points,
 };
 
@@ -161,7 +161,7 @@ fn add_quad(
 ) -> lightgrid_render::MeshId {
     let (v, i) = quad(y, light);
     let id = r.add_mesh(&v, &i, &material).unwrap();
-    r.set_instances(id, &[Instance::new(Mat4::IDENTITY, Vec4::ONE)])
+    r.set_instances(id, &[MeshInstance::new(Mat4::IDENTITY, Vec4::ONE)])
         .unwrap();
     id
 }
@@ -335,7 +335,7 @@ fn alpha_mask_and_emissive_tint() {
     );
     r2.set_instances(
         glow,
-        &[Instance::new(
+        &[MeshInstance::new(
             Mat4::IDENTITY,
             Vec4::new(5.0, 0.5, 0.05, 1.0),
         )],

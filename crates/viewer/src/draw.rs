@@ -6,7 +6,7 @@ use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, LightGrid, MaterialSource};
 use lightgrid_render::shading::linear_to_srgb8;
 use lightgrid_render::{
-    Camera, GroundLight, Instance, LightVolume, Lighting, LightingMode, MeshId, MeshMaterial,
+    Camera, GroundLight, LightVolume, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial,
     Renderer, SamplePoints, TextureRgba8, Vertex, View, sample_points,
 };
 use material_voxelizer::model::{AlphaMode, Model};
@@ -213,17 +213,17 @@ impl SceneMeshes {
                 ..Default::default()
             },
         )?;
-        r.set_instances(terrain, &[Instance::new(Mat4::IDENTITY, Vec4::ONE)])?;
+        r.set_instances(terrain, &[MeshInstance::new(Mat4::IDENTITY, Vec4::ONE)])?;
         let mut models = Vec::new();
         for (mi, entry) in world.models.iter().enumerate() {
             let ids = model_meshes(r, &entry.model, entry.foliage)
                 .with_context(|| format!("meshes of model {}", entry.name))?;
-            let inst: Vec<Instance> = world
+            let inst: Vec<MeshInstance> = world
                 .instances
                 .iter()
                 .filter(|i| i.model == mi as u32)
                 .map(|i| {
-                    Instance::new(
+                    MeshInstance::new(
                         Mat4::from_scale_rotation_translation(
                             Vec3::splat(i.scale),
                             i.rotation,
@@ -317,7 +317,7 @@ impl SceneMeshes {
                 continue;
             }
             let light = b.average() * std::f32::consts::PI * 0.18;
-            balls.push(Instance::new(
+            balls.push(MeshInstance::new(
                 Mat4::from_scale_rotation_translation(Vec3::splat(0.18 * h), Default::default(), p),
                 light.extend(1.0),
             ));
@@ -330,7 +330,7 @@ impl SceneMeshes {
             if density < 0.03 || p.y < ground(p) - 1.5 * h {
                 continue;
             }
-            cubes.push(Instance::new(
+            cubes.push(MeshInstance::new(
                 Mat4::from_scale_rotation_translation(
                     Vec3::splat(h * density.cbrt()),
                     Default::default(),
