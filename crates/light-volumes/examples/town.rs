@@ -9,12 +9,12 @@ use std::time::Instant;
 use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{GridDesc, NUM_DIRS};
-use material_voxelizer::voxelize::Scene;
+use material_voxelizer::voxelize::RayScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = demo::town(&demo::testdata_dir())?;
     let t = Instant::now();
-    let scene = Scene::new(&model, obvhs::BvhBuildParams::medium_build());
+    let scene = RayScene::new(&model, obvhs::BvhBuildParams::medium_build());
     println!(
         "town: {} triangles, BVH built in {:.1} ms",
         model.triangles.len(),

@@ -15,11 +15,11 @@
 //! use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
 //! use material_voxelizer::model::Model;
 //! use material_voxelizer::procedural::rock;
-//! use material_voxelizer::voxelize::Scene;
+//! use material_voxelizer::voxelize::RayScene;
 //!
 //! // A rock lit by a point light above it.
 //! let model: Model = rock(1, 1.0)?;
-//! let scene = Scene::new(&model, obvhs::BvhBuildParams::fast_build());
+//! let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
 //! let desc = GridDesc::new(Vec3::splat(-2.0), 0.25, UVec3::splat(17))?;
 //! let light = Light {
 //!     kind: LightKind::Point { position: Vec3::new(0.0, 1.8, 0.0) },

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, GridDesc, GridError, LightGrid, NUM_DIRS, dda, dirs};
-use material_voxelizer::voxelize::Scene;
+use material_voxelizer::voxelize::RayScene;
 use rayon::prelude::*;
 
 use crate::light::{Light, cosine};
@@ -90,7 +90,7 @@ const CHUNK: u64 = 8192;
 /// are drawn from per-ray random streams, each chunk sums its deposits (in `f32`), and
 /// the chunks are merged in order (in `f64`).
 pub fn trace_light(
-    scene: &Scene<'_>,
+    scene: &RayScene<'_>,
     desc: &GridDesc,
     light: &Light,
     params: &TraceParams,

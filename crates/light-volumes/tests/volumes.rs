@@ -8,7 +8,7 @@ use light_volumes::{
 use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, LightField, LightGrid, NUM_DIRS, SumField, dirs};
 use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
-use material_voxelizer::voxelize::Scene;
+use material_voxelizer::voxelize::RayScene;
 use obvhs::BvhBuildParams;
 
 fn quad(y: f32, half: f32, albedo: f32) -> Model {
@@ -51,7 +51,7 @@ fn params(rays: u64) -> TraceParams {
 fn point_light_in_empty_space_follows_the_inverse_square_law() {
     // A floor far below the grid: nothing in the grid is hit.
     let model = quad(-100.0, 1.0, 0.5);
-    let scene = Scene::new(&model, BvhBuildParams::fast_build());
+    let scene = RayScene::new(&model, BvhBuildParams::fast_build());
     let desc = GridDesc::new(Vec3::splat(-5.0), 0.5, UVec3::splat(21)).unwrap();
     let (g, stats) = trace_light(
         &scene,
@@ -91,7 +91,7 @@ fn reflected_light_is_linear_in_albedo_and_deterministic_on_any_thread_count() {
     let light = point(Vec3::new(0.0, 2.0, 0.0));
     let run = |albedo: f32, threads: usize| -> LightGrid {
         let model = quad(0.0, 3.0, albedo);
-        let scene = Scene::new(&model, BvhBuildParams::fast_build());
+        let scene = RayScene::new(&model, BvhBuildParams::fast_build());
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -130,7 +130,7 @@ fn reflected_light_is_linear_in_albedo_and_deterministic_on_any_thread_count() {
 #[test]
 fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() {
     let model = quad(0.0, 3.0, 0.6);
-    let scene = Scene::new(&model, BvhBuildParams::fast_build());
+    let scene = RayScene::new(&model, BvhBuildParams::fast_build());
     let desc = GridDesc::new(Vec3::new(-4.0, -0.25, -4.0), 0.25, UVec3::new(33, 20, 33)).unwrap();
     let light = Light {
         kind: LightKind::Spot {
@@ -211,7 +211,7 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
 #[test]
 fn light_set_toggles_touch_only_the_light_box_and_restore_the_grid() {
     let model = quad(0.0, 4.0, 0.7);
-    let scene = Scene::new(&model, BvhBuildParams::fast_build());
+    let scene = RayScene::new(&model, BvhBuildParams::fast_build());
     let desc = GridDesc::new(Vec3::new(-4.0, -0.25, -4.0), 0.25, UVec3::new(33, 16, 33)).unwrap();
     let p = params(20_000);
     let lights: Vec<Light> = [

@@ -151,7 +151,7 @@ pub struct Hit {
 }
 
 /// A model prepared for ray queries.
-pub struct Scene<'a> {
+pub struct RayScene<'a> {
     model: &'a Model,
     bvh: Bvh2,
     tris: Vec<obvhs::triangle::Triangle>,
@@ -165,7 +165,7 @@ fn a(v: Vec3) -> Vec3A {
     Vec3A::from(v)
 }
 
-impl<'a> Scene<'a> {
+impl<'a> RayScene<'a> {
     /// Builds the BVH and finds the closed components.
     pub fn new(model: &'a Model, bvh_params: BvhBuildParams) -> Self {
         let tris: Vec<obvhs::triangle::Triangle> = model
@@ -492,7 +492,7 @@ pub fn voxelize(
     let origin = (lo + hi) * 0.5 - (dims.as_vec3() - Vec3::ONE) * (0.5 * h);
     let desc = GridDesc::new(origin, h, dims)?;
     let t_bvh = Instant::now();
-    let scene = Scene::new(model, params.bvh);
+    let scene = RayScene::new(model, params.bvh);
     let bvh_time = t_bvh.elapsed();
     let directions = fibonacci_directions(params.directions);
     let n_chords = params.directions * params.chords_per_direction;

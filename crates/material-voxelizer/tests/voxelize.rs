@@ -2,7 +2,7 @@
 
 use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
 use material_voxelizer::model::{AlphaMode, Model, SurfaceMaterial, Texture, Triangle};
-use material_voxelizer::voxelize::{Scene, VoxelizeParams, voxelize};
+use material_voxelizer::voxelize::{RayScene, VoxelizeParams, voxelize};
 use obvhs::BvhBuildParams;
 use proptest::prelude::*;
 
@@ -225,7 +225,7 @@ proptest! {
     #[test]
     fn bvh_agrees_with_brute_force(seed in 1u64..1_000_000) {
         let model = random_model(seed, 60);
-        let scene = Scene::new(&model, BvhBuildParams::medium_build());
+        let scene = RayScene::new(&model, BvhBuildParams::medium_build());
         let mut rng = xorshift(seed ^ 0xabcdef);
         for _ in 0..300 {
             let o = Vec3::new(rng(), rng(), rng()) * 4.0 - Vec3::splat(0.5);

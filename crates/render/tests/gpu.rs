@@ -523,7 +523,7 @@ fn toggling_a_local_light_uploads_only_its_box() {
         textures: Vec::new(),
     };
     let scene =
-        material_voxelizer::voxelize::Scene::new(&model, obvhs::BvhBuildParams::fast_build());
+        material_voxelizer::voxelize::RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
     let desc = GridDesc::new(Vec3::new(-4.0, -0.25, -4.0), 0.5, UVec3::new(17, 8, 17)).unwrap();
     let mut set = LightSet::new(desc).unwrap();
     let mut ids = Vec::new();
