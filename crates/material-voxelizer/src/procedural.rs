@@ -542,23 +542,22 @@ pub fn write_glb(model: &Model, path: impl AsRef<Path>) -> Result<(), GridError>
         root["images"] = images.into();
         root["samplers"] = serde_json::json!([{"wrapS": 10497, "wrapT": 10497}]);
     }
-    let mut json = serde_json::to_vec(&root).map_err(|e| GridError::Io {
+    let io = |e: &dyn std::fmt::Display| GridError::Io {
         path: path.to_path_buf(),
-        source: std::io::Error::other(e),
-    })?;
-    while !json.len().is_multiple_of(4) {
-        json.push(b' ');
+        source: std::io::Error::other(e.to_string()),
+    };
+    let json = serde_json::to_vec(&root).map_err(|e| io(&e))?;
+    // The container (header, JSON chunk padded with spaces, BIN chunk) by the gltf crate.
+    let out = gltf::binary::Glb {
+        header: gltf::binary::Header {
+            magic: *b"glTF",
+            version: 2,
+            length: 0, // to_vec computes it
+        },
+        json: json.into(),
+        bin: Some(bin.into()),
     }
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
+    .to_vec()
+    .map_err(|e| io(&e))?;
     lightgrid_core::file::write_atomic(path, &out)
 }
