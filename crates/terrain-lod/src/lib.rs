@@ -399,6 +399,12 @@ impl Hierarchy {
         Ok(())
     }
 
+    /// Sweeps from now on with `sweeper` (the grids already built stay): for moving the
+    /// GPU sweeper onto the device a window draws with, once that device exists.
+    pub fn set_sweeper(&mut self, sweeper: Box<dyn Sweeper + Send + Sync>) {
+        self.sweeper = sweeper;
+    }
+
     /// Changes the sky: the world grid is swept again at once; ready nodes are rebuilt by
     /// [`Hierarchy::refresh`] (within the budget), each only if its inputs changed.
     pub fn set_sky(&mut self, sky_top: BinLight) -> Result<(), LodError> {

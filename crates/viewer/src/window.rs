@@ -150,6 +150,12 @@ impl App {
             queue,
             info,
         });
+        // One device: the grids built from now on are swept on the window's device.
+        if self.world.gpu_sweeps {
+            self.world
+                .hierarchy
+                .set_sweeper(Box::new(sweep_gpu::GpuSweeper::with_context(ctx.clone())));
+        }
         let mut renderer = Renderer::new(ctx, config.width, config.height)?;
         let meshes = SceneMeshes::new(&mut renderer, &self.world)?;
         Ok(GpuState {

@@ -63,6 +63,8 @@ pub struct World {
     pub sun: (Vec3, Vec3),
     /// Name of the sweeper used.
     pub sweeper: String,
+    /// The GPU sweeps the grids (else the CPU).
+    pub gpu_sweeps: bool,
     /// Seconds per stage.
     pub timings: Vec<(String, f64)>,
     /// Material grid bytes of the models.
@@ -373,6 +375,7 @@ impl World {
             hierarchy,
             sky_top,
             sun,
+            gpu_sweeps: name.starts_with("gpu"),
             sweeper: name,
             timings,
             model_grid_bytes,
