@@ -89,14 +89,19 @@ pub fn h_function(w: f64, mu: &[f64]) -> Vec<f64> {
     mu.iter().map(|&m| step(&h, m)).collect()
 }
 
-/// Fraction of a collimated beam at cosine `mu0` that a half-space of isotropic
-/// scatterers of albedo `w` reflects: `1 − H(μ₀) √(1 − w)`.
-pub fn half_space_albedo_beam(w: f64, mu0: f64) -> f64 {
-    let w = if w.is_finite() {
+/// An albedo clamped to `[0, 1]`; NaN and infinities count as 0 (no NaN out).
+fn albedo_in_range(w: f64) -> f64 {
+    if w.is_finite() {
         w.clamp(0.0, 1.0)
     } else {
         0.0
-    };
+    }
+}
+
+/// Fraction of a collimated beam at cosine `mu0` that a half-space of isotropic
+/// scatterers of albedo `w` reflects: `1 − H(μ₀) √(1 − w)`.
+pub fn half_space_albedo_beam(w: f64, mu0: f64) -> f64 {
+    let w = albedo_in_range(w);
     if w >= 1.0 {
         return 1.0;
     }
@@ -106,11 +111,7 @@ pub fn half_space_albedo_beam(w: f64, mu0: f64) -> f64 {
 /// Fraction of uniform (isotropic) incident radiance that the half-space reflects:
 /// `1 − 2 √(1 − w) ∫₀¹ H(μ) μ dμ`.
 pub fn half_space_albedo_diffuse(w: f64) -> f64 {
-    let w = if w.is_finite() {
-        w.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let w = albedo_in_range(w);
     if w >= 1.0 {
         return 1.0;
     }
