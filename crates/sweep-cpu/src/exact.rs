@@ -57,11 +57,7 @@ pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
 /// `1 / H(μ) = √(1 − w) + (w / 2) ∫₀¹ μ' H(μ') / (μ + μ') dμ'`, iterated on 64
 /// Gauss–Legendre nodes and extended to any `μ` through the same integral.
 pub fn h_function(w: f64, mu: &[f64]) -> Vec<f64> {
-    let w = if w.is_finite() {
-        w.clamp(0.0, 0.99999)
-    } else {
-        0.0
-    };
+    let w = albedo_in_range(w).min(0.99999);
     let q = gauss_legendre_01(64);
     let s = (1.0 - w).max(0.0).sqrt();
     // One application of the right-hand side at cosine `m`, from H on the nodes.
