@@ -85,7 +85,9 @@ pub mod light;
 pub mod lights;
 pub mod limits;
 pub mod pack;
+pub mod rng;
 mod sample;
+pub mod terrain;
 mod traits;
 
 pub use desc::{CELL_SIZE_RANGE, GridDesc, MAX_POINTS, WORLD_LIMIT};
@@ -98,7 +100,9 @@ pub use grid::{
 };
 pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
 pub use lights::LightKind;
+pub use rng::SeededRng;
 pub use sample::{Blend, trilinear_corners};
+pub use terrain::Heightmap;
 pub use traits::{
     Boundary, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES, MaterialSource,
     NoScatter, Outputs, SideBoundary, SumField, SweepError, SweepOptions, SweepOutput, SweepStats,

@@ -29,34 +29,13 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use lightgrid_core::glam::{IVec2, Quat, UVec3, Vec2, Vec3};
+pub use lightgrid_core::terrain::{Heightmap, MAX_HEIGHTMAP_SAMPLES};
 use lightgrid_core::{GridDesc, GridError, Material, MaterialGrid, MaterialSource};
 
-use crate::model::Texture;
-
-/// A heightmap: heights (metres, world Y) on a regular `(x, z)` lattice.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Heightmap {
-    /// World `(x, z)` of sample `(0, 0)`.
-    pub origin: Vec2,
-    /// Metres between neighbouring samples.
-    pub spacing: f32,
-    /// Samples along x.
-    pub width: u32,
-    /// Samples along z.
-    pub depth: u32,
-    /// Heights, x fastest.
-    pub heights: Vec<f32>,
-}
-
-/// Most samples of one heightmap (2^30: 4 GiB of heights).
-pub const MAX_HEIGHTMAP_SAMPLES: u64 = 1 << 30;
 /// Largest heightmap PNG read: 1 GiB.
 pub const MAX_HEIGHTMAP_FILE_BYTES: u64 = 1 << 30;
 
-/// `width × depth` if it is at most [`MAX_HEIGHTMAP_SAMPLES`].
-fn check_samples(width: u32, depth: u32) -> Result<u64, GridError> {
-    lightgrid_core::limits::checked_count("width x depth", width, depth, MAX_HEIGHTMAP_SAMPLES)
-}
+use crate::model::Texture;
 
 /// Decodes an image whose sides are at most `max_side`, refusing before decoding one
 /// whose `bytes_per_texel` × texels would pass the memory limit. Panics of the decoder
@@ -97,125 +76,28 @@ pub fn decode_limited(
     })
 }
 
-impl Heightmap {
-    /// A heightmap from a function of world `(x, z)`.
-    pub fn from_fn(
-        origin: Vec2,
-        spacing: f32,
-        width: u32,
-        depth: u32,
-        f: impl Fn(f32, f32) -> f32,
-    ) -> Result<Self, GridError> {
-        let count = check_samples(width, depth)?;
-        lightgrid_core::limits::check_memory(&format!("a {width} x {depth} heightmap"), count * 4)?;
-        let mut heights = Vec::with_capacity(count as usize);
-        for k in 0..depth {
-            for i in 0..width {
-                heights.push(f(
-                    origin.x + i as f32 * spacing,
-                    origin.y + k as f32 * spacing,
-                ));
-            }
-        }
-        Self::new(origin, spacing, width, depth, heights)
-    }
-
-    /// A validated heightmap (finite heights, `spacing > 0`, at least 2 × 2 samples).
-    pub fn new(
-        origin: Vec2,
-        spacing: f32,
-        width: u32,
-        depth: u32,
-        heights: Vec<f32>,
-    ) -> Result<Self, GridError> {
-        if !origin.is_finite() {
-            return Err(GridError::invalid("origin", origin, "must be finite"));
-        }
-        if !(spacing.is_finite() && spacing > 0.0) {
-            return Err(GridError::invalid(
-                "spacing",
-                spacing,
-                "must be finite and > 0",
-            ));
-        }
-        if width < 2 || depth < 2 {
-            return Err(GridError::invalid(
-                "width x depth",
-                (width, depth),
-                "needs at least 2 x 2 samples",
-            ));
-        }
-        let count = check_samples(width, depth)?;
-        if heights.len() as u64 != count {
-            return Err(GridError::LengthMismatch {
-                field: "heights",
-                expected: count as usize,
-                found: heights.len(),
-            });
-        }
-        if let Some(i) = heights.iter().position(|h| !h.is_finite()) {
-            return Err(GridError::invalid(
-                format!("heights[{i}]"),
-                heights[i],
-                "must be finite",
-            ));
-        }
-        Ok(Self {
-            origin,
-            spacing,
-            width,
-            depth,
-            heights,
-        })
-    }
-
-    /// Loads a 16-bit (or 8-bit) greyscale PNG: height = `offset + scale × value`, row 0
-    /// at `z = origin.y`. Errors name the file.
-    pub fn load_png(
-        path: impl AsRef<Path>,
-        origin: Vec2,
-        spacing: f32,
-        scale: f32,
-        offset: f32,
-    ) -> Result<Self, GridError> {
-        let path = path.as_ref();
-        let bytes = lightgrid_core::limits::read_file(path, MAX_HEIGHTMAP_FILE_BYTES)?;
-        let img = decode_limited(&bytes, 1 << 16, 8).map_err(|e| GridError::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
-        })?;
-        let luma = img.into_luma16();
-        let (w, d) = luma.dimensions();
-        let heights = luma
-            .pixels()
-            .map(|p| offset + scale * p.0[0] as f32)
-            .collect();
-        Self::new(origin, spacing, w, d, heights)
-    }
-
-    /// Bilinear height at world `(x, z)`, clamped at the edges.
-    pub fn height_at(&self, x: f32, z: f32) -> f32 {
-        let gx = ((x - self.origin.x) / self.spacing).clamp(0.0, (self.width - 1) as f32);
-        let gz = ((z - self.origin.y) / self.spacing).clamp(0.0, (self.depth - 1) as f32);
-        let (i0, k0) = (
-            (gx as u32).min(self.width - 2),
-            (gz as u32).min(self.depth - 2),
-        );
-        let (fx, fz) = (gx - i0 as f32, gz - k0 as f32);
-        let at = |i: u32, k: u32| self.heights[(k * self.width + i) as usize];
-        let a = at(i0, k0) + (at(i0 + 1, k0) - at(i0, k0)) * fx;
-        let b = at(i0, k0 + 1) + (at(i0 + 1, k0 + 1) - at(i0, k0 + 1)) * fx;
-        a + (b - a) * fz
-    }
-
-    /// Lowest and highest height.
-    pub fn range(&self) -> (f32, f32) {
-        self.heights
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| {
-                (lo.min(h), hi.max(h))
-            })
-    }
+/// Loads a 16-bit (or 8-bit) greyscale PNG: height = `offset + scale × value`, row 0
+/// at `z = origin.y`. Errors name the file.
+pub fn load_heightmap_png(
+    path: impl AsRef<Path>,
+    origin: Vec2,
+    spacing: f32,
+    scale: f32,
+    offset: f32,
+) -> Result<Heightmap, GridError> {
+    let path = path.as_ref();
+    let bytes = lightgrid_core::limits::read_file(path, MAX_HEIGHTMAP_FILE_BYTES)?;
+    let img = decode_limited(&bytes, 1 << 16, 8).map_err(|e| GridError::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+    })?;
+    let luma = img.into_luma16();
+    let (w, d) = luma.dimensions();
+    let heights = luma
+        .pixels()
+        .map(|p| offset + scale * p.0[0] as f32)
+        .collect();
+    Heightmap::new(origin, spacing, w, d, heights)
 }
 
 /// The ground's colour: uniform, or a texture stretched over a world rectangle.

@@ -4,34 +4,10 @@
 
 use std::path::Path;
 
-use lightgrid_core::GridError;
 use lightgrid_core::glam::{Quat, Vec2, Vec3, Vec4};
+use lightgrid_core::{GridError, SeededRng as Rng};
 
 use crate::model::{AlphaMode, Model, SurfaceMaterial, Texture, Triangle, UvTransform};
-
-/// A small deterministic random generator (xorshift64*).
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Self {
-        Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    fn f(&mut self) -> f32 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f()
-    }
-    fn unit(&mut self) -> Vec3 {
-        let z = self.range(-1.0, 1.0);
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = self.range(0.0, std::f32::consts::TAU);
-        Vec3::new(r * phi.cos(), z, r * phi.sin())
-    }
-}
 
 /// Parameters of a procedural tree. Start from a preset.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -221,7 +197,7 @@ pub fn tree(params: &TreeParams) -> Result<Model, GridError> {
     let crown_centre = Vec3::Y * (params.height - params.crown_radius);
     for b in 0..params.branches {
         let start = Vec3::Y * rng.range(0.45, 0.62) * params.height;
-        let azimuth = std::f32::consts::TAU * (b as f32 + rng.f()) / params.branches as f32;
+        let azimuth = std::f32::consts::TAU * (b as f32 + rng.f32()) / params.branches as f32;
         let dir = Vec3::new(azimuth.cos(), rng.range(0.5, 1.2), azimuth.sin()).normalize();
         let end = start + dir * params.crown_radius * rng.range(0.7, 1.0);
         let r = params.trunk_radius * 0.35;

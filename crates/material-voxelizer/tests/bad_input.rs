@@ -276,7 +276,7 @@ fn huge_image_headers_are_refused_before_decoding() {
         bad.push(fifo);
     }
     for p in bad {
-        let e = Heightmap::load_png(&p, Vec2::ZERO, 1.0, 1.0, 0.0)
+        let e = material_voxelizer::compose::load_heightmap_png(&p, Vec2::ZERO, 1.0, 1.0, 0.0)
             .unwrap_err()
             .to_string();
         assert!(!e.is_empty(), "{}", p.display());

@@ -237,14 +237,21 @@ fn invalid_instances_name_the_field() {
 fn shipped_dem_loads_as_a_heightmap() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/testdata/dem-jacksboro/jacksboro_fault_dem_u16.png");
-    let hm = Heightmap::load_png(&path, Vec2::ZERO, 30.0, 1.0, 0.0).unwrap();
+    let hm =
+        material_voxelizer::compose::load_heightmap_png(&path, Vec2::ZERO, 30.0, 1.0, 0.0).unwrap();
     assert_eq!((hm.width, hm.depth), (403, 344));
     let (lo, hi) = hm.range();
     assert_eq!((lo, hi), (236.0, 1076.0));
     assert!(
-        Heightmap::load_png("/nonexistent.png", Vec2::ZERO, 1.0, 1.0, 0.0)
-            .unwrap_err()
-            .to_string()
-            .contains("nonexistent.png")
+        material_voxelizer::compose::load_heightmap_png(
+            "/nonexistent.png",
+            Vec2::ZERO,
+            1.0,
+            1.0,
+            0.0
+        )
+        .unwrap_err()
+        .to_string()
+        .contains("nonexistent.png")
     );
 }

@@ -112,21 +112,17 @@ fn closed_cube_is_solid_inside_clear_outside_and_graded_between() {
     assert!(pick(&g2) < pick(&g), "{} vs {}", pick(&g2), pick(&g));
 }
 
-fn xorshift(seed: u64) -> impl FnMut() -> f32 {
-    let mut s = seed.max(1);
-    move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    }
+/// A seeded uniform `[0, 1)` stream (fastrand: statistics, not content).
+fn uniform(seed: u64) -> impl FnMut() -> f32 {
+    let mut r = fastrand::Rng::with_seed(seed);
+    move || r.f32()
 }
 
 /// Brute force for a thin horizontal plane through a unit cell: the fraction of
 /// μ-random chords (uniform directions, entry points uniform over the projected area)
 /// that cross it, by plain random sampling (no BVH, no stratification).
 fn crossing_fraction(height: f32) -> f32 {
-    let mut rng = xorshift(12345);
+    let mut rng = uniform(12345);
     let (mut crossed, n) = (0u32, 400_000u32);
     for _ in 0..n {
         let z = 1.0 - 2.0 * rng();
@@ -204,7 +200,7 @@ fn axis_aligned_plane_matches_brute_force_chords() {
 }
 
 fn random_model(seed: u64, n: usize) -> Model {
-    let mut rng = xorshift(seed);
+    let mut rng = uniform(seed);
     let mut triangles = Vec::new();
     for i in 0..n {
         let c = Vec3::new(rng(), rng(), rng()) * 3.0;
@@ -226,7 +222,7 @@ proptest! {
     fn bvh_agrees_with_brute_force(seed in 1u64..1_000_000) {
         let model = random_model(seed, 60);
         let scene = RayScene::new(&model, BvhBuildParams::medium_build());
-        let mut rng = xorshift(seed ^ 0xabcdef);
+        let mut rng = uniform(seed ^ 0xabcdef);
         for _ in 0..300 {
             let o = Vec3::new(rng(), rng(), rng()) * 4.0 - Vec3::splat(0.5);
             let d = (Vec3::new(rng(), rng(), rng()) - Vec3::splat(0.5)).normalize_or(Vec3::Y);

@@ -8,7 +8,10 @@ use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Ter
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use sweep_cpu::CpuSweeper;
-use terrain_lod::{Hierarchy, HierarchyParams, demo};
+use terrain_lod::{Hierarchy, HierarchyParams};
+
+#[path = "../tests/demo/mod.rs"]
+mod demo;
 
 fn bench(c: &mut Criterion) {
     let hm = demo::jacksboro(&demo::testdata_dir()).expect("dem");

@@ -12,7 +12,10 @@ use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Ter
 use material_voxelizer::procedural::{TreeParams, tree};
 use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use sweep_cpu::CpuSweeper;
-use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams, demo};
+use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams};
+
+#[path = "../tests/demo/mod.rs"]
+mod demo;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hm = demo::jacksboro(&demo::testdata_dir())?;

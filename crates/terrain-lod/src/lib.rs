@@ -56,16 +56,14 @@
 //! # }
 //! ```
 
-pub mod demo;
-
 use std::collections::HashMap;
 
+use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, GridError, HALO_WIDTH, HaloLayout, LightField, LightGrid,
     MaterialGrid, MaterialSource, SideBoundary, SweepError, SweepOptions, Sweeper, TopBoundary,
 };
-use material_voxelizer::compose::Heightmap;
 
 /// Errors of the hierarchy.
 #[derive(Debug, thiserror::Error)]

@@ -205,8 +205,14 @@ impl World {
         let heightmap = match (&ts.heightmap, &ts.procedural) {
             (Some(path), _) => {
                 let p = scene.resolve(path);
-                Heightmap::load_png(&p, Vec2::ZERO, ts.spacing, ts.height_scale, 0.0)
-                    .with_context(|| format!("terrain.heightmap {}", p.display()))?
+                material_voxelizer::compose::load_heightmap_png(
+                    &p,
+                    Vec2::ZERO,
+                    ts.spacing,
+                    ts.height_scale,
+                    0.0,
+                )
+                .with_context(|| format!("terrain.heightmap {}", p.display()))?
             }
             (None, Some(p)) => procedural_heightmap(p, ts.spacing)?,
             (None, None) => anyhow::bail!("terrain: no heightmap"),

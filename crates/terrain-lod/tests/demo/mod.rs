@@ -1,16 +1,17 @@
-//! The demo scene shared by the fly-through test, example and benchmark: the shipped DEM
-//! and a deterministic forest of procedural trees.
+//! The demo scene shared by the fly-through test, example and benchmark (each includes
+//! this file with `#[path]`; it is not part of the library, so the library needs no
+//! voxelizer): the shipped DEM and a deterministic forest of procedural trees.
 
 use std::path::Path;
 
 use lightgrid_core::GridError;
 use lightgrid_core::glam::{Quat, Vec2, Vec3};
-use material_voxelizer::compose::{Heightmap, Instance};
+use material_voxelizer::compose::{Heightmap, Instance, load_heightmap_png};
 
 /// The shipped Jacksboro DEM (`shared/testdata/dem-jacksboro`) at 4 m a pixel with
 /// heights × 0.05: 1.6 km × 1.4 km, 12–54 m of relief.
-pub fn jacksboro(testdata: &Path) -> Result<Heightmap, GridError> {
-    Heightmap::load_png(
+pub(crate) fn jacksboro(testdata: &Path) -> Result<Heightmap, GridError> {
+    load_heightmap_png(
         testdata.join("dem-jacksboro/jacksboro_fault_dem_u16.png"),
         Vec2::ZERO,
         4.0,
@@ -22,7 +23,7 @@ pub fn jacksboro(testdata: &Path) -> Result<Heightmap, GridError> {
 /// `count` instances of model 0 scattered uniformly over the square `lo .. lo + size`
 /// (world x, z), standing on the ground (0.3 m sunk), turned at random, scaled in
 /// `scale.0 .. scale.1`. Deterministic for a seed.
-pub fn scatter_forest(
+pub(crate) fn scatter_forest(
     hm: &Heightmap,
     count: usize,
     lo: Vec2,
@@ -30,6 +31,11 @@ pub fn scatter_forest(
     scale: (f32, f32),
     seed: u64,
 ) -> Vec<Instance> {
+    // xorshift64, kept rather than `lightgrid_core::SeededRng`: this stream defines the
+    // measured fly-through scenes (the figures in terrain-lod's docs, the seam test's
+    // bounds). Drawn from SeededRng, seed 99's forest puts trees on node edges and the
+    // seam test's coarse/fine bias goes from -0.034 to -0.081: a different scene, not a
+    // refactor.
     let mut s = seed.max(1);
     let mut rng = move || {
         s ^= s << 13;
@@ -51,6 +57,6 @@ pub fn scatter_forest(
 }
 
 /// The folder of the shipped test data, beside the repository.
-pub fn testdata_dir() -> std::path::PathBuf {
+pub(crate) fn testdata_dir() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata")
 }
