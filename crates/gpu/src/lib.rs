@@ -11,6 +11,8 @@
 //! * [`gpu_struct!`]: a `#[repr(C)]` Rust struct and its WGSL declaration from one field
 //!   list, and [`check::layout`], which compares the Rust offsets with naga's layout of
 //!   the compiled shader, so structs shared with WGSL are never copied by hand.
+//! * [`GpuLightGrid`]: a 26-bin light grid on the device, the form in which the GPU
+//!   sweeper hands grids to the renderer (no copy through the CPU).
 //! * [`wgsl::prelude`]: the direction tables of `lightgrid-core` as WGSL constants.
 //!
 //! ```no_run
@@ -30,7 +32,10 @@
 
 pub mod bind;
 pub mod check;
+pub mod grid;
 pub mod wgsl;
+
+pub use grid::GpuLightGrid;
 
 /// Errors of the GPU backend.
 #[derive(Debug, thiserror::Error)]
@@ -64,6 +69,9 @@ pub enum GpuError {
     /// Mapping a buffer for readback failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),
+    /// An argument was invalid (names the field and value).
+    #[error(transparent)]
+    Grid(#[from] lightgrid_core::GridError),
 }
 
 /// A device and queue, created once and reused.

@@ -306,6 +306,36 @@ pub struct SweepOutput {
     pub dominant: Option<DominantGrid>,
     /// Work counters.
     pub stats: SweepStats,
+    /// The sweeper's own copy of the 26 bins, kept where it computed them, if it keeps
+    /// one: the GPU sweeper (asked to) returns its device buffer here
+    /// (`lightgrid_gpu::GpuLightGrid`), so a renderer on the same device samples and
+    /// draws the grid without uploading it again. `None` from the CPU sweeper.
+    pub resident: Option<Resident>,
+}
+
+/// A sweeper's handle to light it keeps outside the CPU's memory (a GPU buffer), opaque
+/// to crates without the backend: downcast it with [`Resident::get`]. Cloning shares
+/// it; two handles are equal when they share one buffer.
+#[derive(Clone)]
+pub struct Resident(pub std::sync::Arc<dyn std::any::Any + Send + Sync>);
+
+impl Resident {
+    /// The handle as `T`, if it is one.
+    pub fn get<T: 'static>(&self) -> Option<&T> {
+        self.0.downcast_ref()
+    }
+}
+
+impl std::fmt::Debug for Resident {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Resident(..)")
+    }
+}
+
+impl PartialEq for Resident {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// Work a sweep did and skipped.

@@ -2,9 +2,9 @@
 
 use std::sync::Arc;
 
-use lightgrid_core::glam::{UVec3, Vec3};
-use lightgrid_core::{GridError, LightGrid, NUM_DIRS};
-use lightgrid_gpu::{GpuContext, GpuError, bind};
+use lightgrid_core::glam::{IVec2, Vec2, Vec3};
+use lightgrid_core::{GridDesc, GridError, LightGrid};
+use lightgrid_gpu::{GpuContext, GpuError, GpuLightGrid, bind};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
@@ -12,12 +12,20 @@ use crate::dynamic::{DynParams, DynamicLights, DynamicShade};
 use crate::sampling::{IrradianceTable, SamplePoints, SampledLight};
 
 lightgrid_gpu::gpu_struct! {
-    /// Uniforms of the sampling kernel.
+    /// Uniforms of the sampling kernel (one dispatch per layer).
     pub struct SampleParams {
         /// Grid origin (xyz) and cell size (w).
         pub origin_h: [f32; 4] => "vec4<f32>",
         /// Grid dims (xyz) and the irradiance table's nodes per side (w).
         pub dims: [u32; 4] => "vec4<u32>",
+        /// Ownership: quadtree corner (xy), node side (z), 1 if the layer is owned (w).
+        pub own: [f32; 4] => "vec4<f32>",
+        /// Ownership: the node's cell (xy).
+        pub own_index: [i32; 4] => "vec4<i32>",
+        /// Lattice points: origin (xyz) and spacing (w).
+        pub lattice_origin_h: [f32; 4] => "vec4<f32>",
+        /// Lattice points: dims (xyz), 1 if the points are the lattice's (w).
+        pub lattice_dims: [u32; 4] => "vec4<u32>",
         /// Points in the batch.
         pub count: u32 => "u32",
         /// Padding.
@@ -26,6 +34,134 @@ lightgrid_gpu::gpu_struct! {
         pub pad1: u32 => "u32",
         /// Padding.
         pub pad2: u32 => "u32",
+    }
+}
+
+lightgrid_gpu::gpu_struct! {
+    /// Uniforms of the scatter kernel (sampled light into strided `f32` arrays).
+    pub struct ScatterParams {
+        /// Points.
+        pub count: u32 => "u32",
+        /// Floats from one destination element to the next.
+        pub stride: u32 => "u32",
+        /// Float offset of the light within an element.
+        pub offset: u32 => "u32",
+        /// Padding.
+        pub pad0: u32 => "u32",
+    }
+}
+
+/// Writes the light of [`GpuSamples`] into the rgb of a strided `f32` buffer on the
+/// device (vertex light, ground light).
+pub(crate) struct LightScatter {
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl LightScatter {
+    pub(crate) fn new(device: &wgpu::Device) -> Self {
+        use Binding::{Read, ReadWrite, Uniform};
+        let (layout, pipeline) = compute(
+            device,
+            "scatter",
+            &crate::wgsl::scatter_kernel(),
+            &[Uniform, Read, ReadWrite],
+        );
+        Self { layout, pipeline }
+    }
+
+    /// `dst[i * stride + offset + k] = light[i][k]` for `k < 3`. The caller checked that
+    /// `dst` holds `samples.count()` elements of `stride` floats.
+    pub(crate) fn run(&self, samples: &GpuSamples, dst: &wgpu::Buffer, stride: u32, offset: u32) {
+        let ctx = &samples.ctx;
+        let params = ScatterParams {
+            count: samples.count as u32,
+            stride,
+            offset,
+            pad0: 0,
+        };
+        let uniform = init(
+            ctx,
+            "scatter params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let bind = bind(&ctx.device, &self.layout, &[&uniform, &samples.buffer, dst]);
+        dispatch(ctx, &self.pipeline, &bind, samples.count as u32);
+    }
+}
+
+/// Which points a layer lights, as `terrain_lod::Owner` states it: those whose `(x, z)`
+/// fall in quadtree cell `index` (`floor((p.xz - origin) / size) == index`) and inside
+/// the layer grid's point bounds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LayerOwner {
+    /// World `(x, z)` of the quadtree's corner.
+    pub origin: Vec2,
+    /// Node side, metres.
+    pub size: f32,
+    /// The node's cell.
+    pub index: IVec2,
+}
+
+/// One grid of a layered sampling: points take their light from the last layer that
+/// owns them (a layer without owner owns every point).
+#[derive(Debug, Clone, Copy)]
+pub struct GpuSampleLayer<'a> {
+    /// The grid, on the sampler's device.
+    pub grid: &'a GpuLightGrid,
+    /// Which points it lights; `None`: all.
+    pub owner: Option<LayerOwner>,
+}
+
+/// The points a GPU sampling lights.
+#[derive(Debug, Clone, Copy)]
+pub enum GpuPoints<'a> {
+    /// Given positions (and normals), uploaded.
+    List(SamplePoints<'a>),
+    /// Every point of a lattice (a light volume), generated on the device: nothing is
+    /// uploaded.
+    Lattice(GridDesc),
+}
+
+/// Sampled light left on the device: two `vec4` a point, `(light, 0)` and
+/// `(dominant, 0)`, the layout of [`SampledLight`] (and of the renderer's light volume).
+pub struct GpuSamples {
+    ctx: Arc<GpuContext>,
+    buffer: wgpu::Buffer,
+    count: usize,
+}
+
+impl GpuSamples {
+    /// The buffer (STORAGE | COPY_SRC).
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
+
+    /// Points sampled.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// The device it lives on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Reads the samples back (non-finite values, which finite grids cannot give,
+    /// would read as zero).
+    pub fn read(&self) -> Result<Vec<SampledLight>, RenderError> {
+        let bytes = self.ctx.read_back(&self.buffer)?;
+        let mut result: Vec<SampledLight> = bytemuck::pod_collect_to_vec(&bytes[..self.count * 32]);
+        for r in &mut result {
+            if !r.light.is_finite() {
+                r.light = Vec3::ZERO;
+            }
+            if !r.dominant.is_finite() {
+                r.dominant = Vec3::ZERO;
+            }
+        }
+        Ok(result)
     }
 }
 
@@ -64,62 +200,78 @@ impl GpuLightSampler {
         }
     }
 
-    /// Lights `points` from `grid` in one dispatch.
+    /// Lights `points` from `grid` (uploaded for this call) in one dispatch.
     pub fn sample(
         &self,
         grid: &LightGrid,
         points: SamplePoints<'_>,
     ) -> Result<Vec<SampledLight>, RenderError> {
         points.validate()?;
-        let count = points.positions.len();
-        if count == 0 {
+        if points.positions.is_empty() {
             return Ok(Vec::new());
         }
-        if count > (u32::MAX / 2) as usize {
-            return Err(GridError::invalid("positions.len()", count, "too many points").into());
-        }
+        let grid = GpuLightGrid::new(self.ctx.clone(), grid)?;
+        self.sample_layers(
+            &[GpuSampleLayer {
+                grid: &grid,
+                owner: None,
+            }],
+            GpuPoints::List(points),
+        )?
+        .read()
+    }
+
+    /// Lights `points` from grids already on the device, one dispatch per layer in
+    /// order (a point keeps the light of the last layer owning it), and leaves the
+    /// result there: the light grids of a GPU sweep are sampled, and drawn
+    /// ([`crate::Renderer::set_light_volume_samples`]), without a copy through the CPU.
+    /// Every grid must live on this sampler's device; points no layer owns read zero.
+    pub fn sample_layers(
+        &self,
+        layers: &[GpuSampleLayer<'_>],
+        points: GpuPoints<'_>,
+    ) -> Result<GpuSamples, RenderError> {
         let device = &self.ctx.device;
         let limit = self.ctx.max_binding();
-        let bin_bytes = grid.data().len() as u64 * NUM_DIRS as u64 * 12;
-        let point_bytes = count as u64 * 32;
-        for (what, bytes) in [("light grid", bin_bytes), ("sample points", point_bytes)] {
+        if let Some(i) = layers
+            .iter()
+            .position(|l| !Arc::ptr_eq(l.grid.context(), &self.ctx))
+        {
+            return Err(GridError::invalid(
+                format!("layers[{i}].grid"),
+                "another device",
+                "must live on the sampler's device",
+            )
+            .into());
+        }
+        let (count, packed, lattice) = match points {
+            GpuPoints::List(points) => {
+                points.validate()?;
+                let mut packed = Vec::with_capacity(points.positions.len() * 8);
+                for (i, p) in points.positions.iter().enumerate() {
+                    let n = points.normals.map(|n| n[i]);
+                    packed.extend_from_slice(&[p.x, p.y, p.z, if n.is_some() { 1.0 } else { 0.0 }]);
+                    let n = n.unwrap_or(Vec3::Y);
+                    packed.extend_from_slice(&[n.x, n.y, n.z, 0.0]);
+                }
+                (points.positions.len(), packed, None)
+            }
+            GpuPoints::Lattice(d) => (d.point_count(), vec![0.0; 16], Some(d)),
+        };
+        if count > (u32::MAX / 2) as usize {
+            return Err(GridError::invalid("points", count, "too many points").into());
+        }
+        let point_bytes = count.max(1) as u64 * 32;
+        for (what, bytes) in [
+            ("sample points", packed.len() as u64 * 4),
+            ("sampled light", point_bytes),
+        ] {
             if bytes > limit {
                 return Err(GpuError::TooLarge { what, bytes, limit }.into());
             }
         }
-        let flat = flatten(grid.data());
-        let mut packed = Vec::with_capacity(count * 8);
-        for (i, p) in points.positions.iter().enumerate() {
-            let n = points.normals.map(|n| n[i]);
-            packed.extend_from_slice(&[p.x, p.y, p.z, if n.is_some() { 1.0 } else { 0.0 }]);
-            let n = n.unwrap_or(Vec3::Y);
-            packed.extend_from_slice(&[n.x, n.y, n.z, 0.0]);
-        }
-        let d = grid.desc();
-        let params = SampleParams {
-            origin_h: d.origin().extend(d.h()).to_array(),
-            dims: d.dims().extend(IrradianceTable::get().size).to_array(),
-            count: count as u32,
-            ..Default::default()
-        };
-        let init = |label, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
-        let uniform = init(
-            "sample params",
-            bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let bins = init(
-            "sample bins",
-            bytemuck::cast_slice(&flat),
-            wgpu::BufferUsages::STORAGE,
-        );
         let pts = init(
+            &self.ctx,
             "sample points",
             bytemuck::cast_slice(&packed),
             wgpu::BufferUsages::STORAGE,
@@ -130,23 +282,50 @@ impl GpuLightSampler {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let bind = bind(
-            device,
-            &self.layout,
-            &[&uniform, &bins, &pts, &self.table, &out],
-        );
-        dispatch(&self.ctx, &self.pipeline, &bind, count as u32);
-        let bytes = self.ctx.read_back(&out)?;
-        let mut result: Vec<SampledLight> = bytemuck::pod_collect_to_vec(&bytes);
-        for r in &mut result {
-            if !r.light.is_finite() {
-                r.light = Vec3::ZERO;
-            }
-            if !r.dominant.is_finite() {
-                r.dominant = Vec3::ZERO;
-            }
+        for layer in layers {
+            let d = layer.grid.desc();
+            let (own, own_index) = match layer.owner {
+                Some(o) => (
+                    [o.origin.x, o.origin.y, o.size, 1.0],
+                    [o.index.x, o.index.y, 0, 0],
+                ),
+                None => ([0.0; 4], [0; 4]),
+            };
+            let (lattice_origin_h, lattice_dims) = match lattice {
+                Some(l) => (
+                    l.origin().extend(l.h()).to_array(),
+                    l.dims().extend(1).to_array(),
+                ),
+                None => ([0.0; 4], [0; 4]),
+            };
+            let params = SampleParams {
+                origin_h: d.origin().extend(d.h()).to_array(),
+                dims: d.dims().extend(IrradianceTable::get().size).to_array(),
+                own,
+                own_index,
+                lattice_origin_h,
+                lattice_dims,
+                count: count as u32,
+                ..Default::default()
+            };
+            let uniform = init(
+                &self.ctx,
+                "sample params",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let bind = bind(
+                device,
+                &self.layout,
+                &[&uniform, layer.grid.buffer(), &pts, &self.table, &out],
+            );
+            dispatch(&self.ctx, &self.pipeline, &bind, count as u32);
         }
-        Ok(result)
+        Ok(GpuSamples {
+            ctx: self.ctx.clone(),
+            buffer: out,
+            count,
+        })
     }
 }
 
@@ -346,103 +525,4 @@ impl GpuDynamicShader {
             })
             .collect())
     }
-}
-
-/// A 26-bin light grid on the GPU (78 `f32` a point, grid order), updated in place:
-/// [`GpuBinGrid::upload_region`] writes only the rows of a changed box, as when one local
-/// light toggles.
-pub struct GpuBinGrid {
-    ctx: Arc<GpuContext>,
-    buffer: wgpu::Buffer,
-    desc: lightgrid_core::GridDesc,
-}
-
-const POINT_BYTES: u64 = NUM_DIRS as u64 * 12;
-
-impl GpuBinGrid {
-    /// Uploads the whole grid.
-    pub fn new(ctx: Arc<GpuContext>, grid: &LightGrid) -> Result<Self, RenderError> {
-        let bytes = grid.data().len() as u64 * POINT_BYTES;
-        if bytes > ctx.max_binding() {
-            return Err(GpuError::TooLarge {
-                what: "light grid",
-                bytes,
-                limit: ctx.max_binding(),
-            }
-            .into());
-        }
-        let buffer = init(
-            &ctx,
-            "bin grid",
-            bytemuck::cast_slice(&flatten(grid.data())),
-            wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-        );
-        Ok(Self {
-            ctx,
-            buffer,
-            desc: *grid.desc(),
-        })
-    }
-
-    /// The buffer (bind it as `array<f32>`).
-    pub fn buffer(&self) -> &wgpu::Buffer {
-        &self.buffer
-    }
-
-    /// Writes the points `lo ..= hi` of `grid` (same descriptor) one x-row at a time;
-    /// returns the bytes written.
-    pub fn upload_region(
-        &self,
-        grid: &LightGrid,
-        lo: UVec3,
-        hi: UVec3,
-    ) -> Result<u64, RenderError> {
-        if grid.desc() != &self.desc {
-            return Err(GridError::invalid(
-                "grid",
-                grid.desc(),
-                "must have the uploaded grid's descriptor",
-            )
-            .into());
-        }
-        if lo.cmpgt(hi).any() || hi.cmpge(self.desc.dims()).any() {
-            return Err(GridError::invalid("hi", hi, "need lo <= hi < dims").into());
-        }
-        let mut written = 0;
-        for y in lo.y..=hi.y {
-            for z in lo.z..=hi.z {
-                let start = self.desc.index_unchecked(UVec3::new(lo.x, y, z));
-                let end = start + (hi.x - lo.x + 1) as usize;
-                let row = flatten(&grid.data()[start..end]);
-                self.ctx.queue.write_buffer(
-                    &self.buffer,
-                    start as u64 * POINT_BYTES,
-                    bytemuck::cast_slice(&row),
-                );
-                written += (end - start) as u64 * POINT_BYTES;
-            }
-        }
-        Ok(written)
-    }
-
-    /// Reads the grid back (tests).
-    pub fn read(&self) -> Result<LightGrid, RenderError> {
-        let v: Vec<f32> = bytemuck::pod_collect_to_vec(&self.ctx.read_back(&self.buffer)?);
-        let data = v
-            .chunks(NUM_DIRS * 3)
-            .take(self.desc.point_count())
-            .map(|c| {
-                lightgrid_core::BinLight(std::array::from_fn(|d| {
-                    Vec3::new(c[3 * d], c[3 * d + 1], c[3 * d + 2])
-                }))
-            })
-            .collect();
-        Ok(lightgrid_core::Grid::from_trusted(self.desc, data))
-    }
-}
-
-fn flatten(points: &[lightgrid_core::BinLight]) -> Vec<f32> {
-    bytemuck::cast_slice(points).to_vec()
 }

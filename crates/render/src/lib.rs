@@ -17,8 +17,13 @@
 //!
 //! - **Many dynamic lights** ([`dynamic`]): point, spot and line lights culled through a
 //!   world-space grid of light-index ranges (3DWorld's grid bag), in the mesh shader.
-//! - **Sparse uploads** ([`GpuBinGrid`]): a 26-bin grid on the GPU updated only in a
-//!   changed box (local lights toggling).
+//! - **Grids stay on the device** ([`GpuLightGrid`], from `lightgrid-gpu`): the GPU
+//!   sweeper's output is sampled where it lies ([`GpuLightSampler::sample_layers`]: a
+//!   grid hierarchy as layers, one dispatch each, the finest owning layer winning) and
+//!   the samples are drawn where they lie ([`Renderer::set_light_volume_samples`],
+//!   [`Renderer::set_vertex_light_samples`], [`Renderer::set_ground_light_samples`]);
+//!   CPU grids are uploaded once and updated only in a changed box
+//!   ([`GpuLightGrid::upload_region`], local lights toggling).
 //!
 //! Every WGSL struct shared with Rust is generated from the Rust declaration
 //! (`lightgrid_gpu::gpu_struct!`); every shader validates with naga in a plain `cargo test`.
@@ -49,8 +54,11 @@ pub mod shading;
 pub mod wgsl;
 
 pub use dynamic::{DynamicLight, DynamicLights, DynamicShade};
-pub use gpu::{GpuBinGrid, GpuDynamicShader, GpuLightSampler};
+pub use gpu::{
+    GpuDynamicShader, GpuLightSampler, GpuPoints, GpuSampleLayer, GpuSamples, LayerOwner,
+};
 pub use lightgrid_core::LightKind;
+pub use lightgrid_gpu::GpuLightGrid;
 pub use raster::{
     Camera, GroundLight, Image, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial,
     Renderer, TextureRgba8, Vertex, View, Water,

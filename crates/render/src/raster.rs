@@ -5,13 +5,14 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use lightgrid_core::GridError;
 use lightgrid_core::glam::{Mat4, Vec2, Vec3, Vec4};
+use lightgrid_core::{GridDesc, GridError};
 use lightgrid_gpu::{GpuContext, GpuError};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
 use crate::dynamic::DynamicLights;
+use crate::gpu::GpuSamples;
 use crate::sampling::LightVolume;
 
 /// The HDR target's format (linear, renderable, read back as `f32`).
@@ -340,6 +341,7 @@ pub struct Renderer {
     frame_uniform: wgpu::Buffer,
     tonemap_uniform: wgpu::Buffer,
     volume: VolumeBuffers,
+    scatter: crate::gpu::LightScatter,
     ground: GroundBuffers,
     dynamic: DynamicBuffers,
     frame_bind: wgpu::BindGroup,
@@ -378,8 +380,9 @@ struct Targets {
     tonemap_bind: wgpu::BindGroup,
 }
 
-/// The light volume's average and dominant-direction buffers and their placement.
-type VolumeBuffers = (wgpu::Buffer, wgpu::Buffer, LightVolumeInfo);
+/// The light volume (average and dominant direction interleaved, two `vec4` a point) and
+/// its placement.
+type VolumeBuffers = (wgpu::Buffer, LightVolumeInfo);
 /// The ground light buffer and its placement (none until a scene sets it).
 type GroundBuffers = (wgpu::Buffer, Option<GroundInfo>);
 
@@ -438,6 +441,7 @@ impl Renderer {
             &dynamic,
         );
         let targets = Self::targets(&ctx, &tonemap_layout, &tonemap_uniform, width, height)?;
+        let scatter = crate::gpu::LightScatter::new(device);
         Ok(Self {
             ctx,
             width,
@@ -458,6 +462,7 @@ impl Renderer {
             white,
             targets,
             meshes: Vec::new(),
+            scatter,
         })
     }
 
@@ -481,7 +486,6 @@ impl Renderer {
                 storage_entry(3),
                 storage_entry(4),
                 storage_entry(5),
-                storage_entry(6),
             ],
         });
         let mesh = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -576,8 +580,7 @@ impl Renderer {
             })
         };
         let volume = (
-            placeholder("volume average"),
-            placeholder("volume dominant"),
+            placeholder("light volume"),
             LightVolumeInfo {
                 origin_h: [0.0, 0.0, 0.0, 1.0],
                 dims: [1, 1, 1, 0],
@@ -708,11 +711,10 @@ impl Renderer {
             entries: &[
                 (0, uniform),
                 (1, &volume.0),
-                (2, &volume.1),
-                (3, &ground.0),
-                (4, &dynamic.lights),
-                (5, &dynamic.cells),
-                (6, &dynamic.indices),
+                (2, &ground.0),
+                (3, &dynamic.lights),
+                (4, &dynamic.cells),
+                (5, &dynamic.indices),
             ]
             .map(|(binding, b)| wgpu::BindGroupEntry {
                 binding,
@@ -860,7 +862,10 @@ impl Renderer {
             vertices: init(
                 "vertices",
                 bytemuck::cast_slice(vertices),
-                wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                // STORAGE: set_vertex_light_samples writes the light on the device.
+                wgpu::BufferUsages::VERTEX
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::STORAGE,
             ),
             indices: init(
                 "indices",
@@ -943,23 +948,93 @@ impl Renderer {
             )
             .into());
         }
-        let d = volume.desc;
+        let interleaved: Vec<[f32; 4]> = volume
+            .average
+            .iter()
+            .zip(&volume.dominant)
+            .flat_map(|(a, d)| [*a, *d])
+            .collect();
+        let buffer = self.storage("light volume", bytemuck::cast_slice(&interleaved))?;
+        self.set_volume_buffer(volume.desc, buffer);
+        Ok(())
+    }
+
+    /// Draws the light volume from samples already on the device: `samples` lit the
+    /// lattice `desc` (`GpuLightSampler::sample_layers` with `GpuPoints::Lattice(desc)`)
+    /// and is used where it lies, with no copy.
+    pub fn set_light_volume_samples(
+        &mut self,
+        desc: GridDesc,
+        samples: &GpuSamples,
+    ) -> Result<(), RenderError> {
+        self.check_samples(
+            samples,
+            desc.point_count(),
+            "must equal the volume's point count",
+        )?;
+        self.set_volume_buffer(desc, samples.buffer().clone());
+        Ok(())
+    }
+
+    /// Writes sampled light (irradiance on the vertex normals) into `light.xyz` of a
+    /// mesh's vertices, on the device: `samples` lit the mesh's vertices in order.
+    pub fn set_vertex_light_samples(
+        &mut self,
+        mesh: MeshId,
+        samples: &GpuSamples,
+    ) -> Result<(), RenderError> {
+        let Some(m) = self.meshes.get(mesh.0) else {
+            return Err(GridError::invalid("mesh", mesh.0, "no such mesh").into());
+        };
+        let floats = (std::mem::size_of::<Vertex>() / 4) as u32;
+        let count = m.vertices.size() as usize / std::mem::size_of::<Vertex>();
+        self.check_samples(samples, count, "must equal the mesh's vertex count")?;
+        let offset = (std::mem::offset_of!(Vertex, light) / 4) as u32;
+        self.scatter.run(samples, &m.vertices, floats, offset);
+        Ok(())
+    }
+
+    /// Writes sampled light into the ground light's rgb (heights stay), on the device:
+    /// `samples` lit the ground nodes of the last [`Renderer::set_ground`] in order.
+    pub fn set_ground_light_samples(&mut self, samples: &GpuSamples) -> Result<(), RenderError> {
+        let Some(info) = self.ground.1 else {
+            return Err(GridError::invalid("ground", "none", "set_ground first").into());
+        };
+        let count = (info.dims[0] * info.dims[1]) as usize;
+        self.check_samples(samples, count, "must equal the ground's node count")?;
+        self.scatter.run(samples, &self.ground.0, 4, 0);
+        Ok(())
+    }
+
+    fn check_samples(
+        &self,
+        samples: &GpuSamples,
+        count: usize,
+        what: &'static str,
+    ) -> Result<(), RenderError> {
+        if !Arc::ptr_eq(samples.context(), &self.ctx) {
+            return Err(GridError::invalid(
+                "samples",
+                "another device",
+                "must live on the renderer's device",
+            )
+            .into());
+        }
+        if samples.count() != count {
+            return Err(GridError::invalid("samples.count()", samples.count(), what).into());
+        }
+        Ok(())
+    }
+
+    fn set_volume_buffer(&mut self, d: GridDesc, buffer: wgpu::Buffer) {
         self.volume = (
-            self.storage(
-                "light volume average",
-                bytemuck::cast_slice(&volume.average),
-            )?,
-            self.storage(
-                "light volume dominant",
-                bytemuck::cast_slice(&volume.dominant),
-            )?,
+            buffer,
             LightVolumeInfo {
                 origin_h: d.origin().extend(d.h()).to_array(),
                 dims: d.dims().extend(1).to_array(),
             },
         );
         self.rebind();
-        Ok(())
     }
 
     /// Uploads the ground light used by the ground blend.
@@ -1074,9 +1149,9 @@ impl Renderer {
             sun_colour: view.sun_colour.extend(0.0).to_array(),
             sky_ambient: view.sky_ambient.extend(0.0).to_array(),
             water,
-            volume_origin_h: self.volume.2.origin_h,
-            volume_dims: self.volume.2.dims,
-            volume_params: [0.5 * self.volume.2.origin_h[3], view.ground_blend, 0.0, 0.0],
+            volume_origin_h: self.volume.1.origin_h,
+            volume_dims: self.volume.1.dims,
+            volume_params: [0.5 * self.volume.1.origin_h[3], view.ground_blend, 0.0, 0.0],
             ground_origin: ground.origin,
             ground_dims: ground.dims,
             mode: [view.mode as u32, 0, 0, 0],

@@ -6,7 +6,7 @@
 use std::fmt::Write;
 
 use crate::dynamic::{DynLightGpu, DynParams};
-use crate::gpu::SampleParams;
+use crate::gpu::{SampleParams, ScatterParams};
 use crate::raster::{FrameUniforms, MeshUniforms};
 
 /// Constants every render shader shares: π, luminance weights, direction tables.
@@ -70,6 +70,15 @@ pub fn mesh_shader() -> String {
     )
 }
 
+/// The kernel that writes sampled light into vertices or the ground light.
+pub fn scatter_kernel() -> String {
+    format!(
+        "{}\n{}",
+        ScatterParams::wgsl(),
+        include_str!("shaders/scatter.wgsl")
+    )
+}
+
 /// The dynamic-light compute kernel (a batch of points).
 pub fn dynamic_kernel() -> String {
     format!(
@@ -93,5 +102,6 @@ pub fn all() -> Vec<(&'static str, String)> {
         ("mesh_shader", mesh_shader()),
         ("tonemap_shader", tonemap_shader()),
         ("dynamic_kernel", dynamic_kernel()),
+        ("scatter_kernel", scatter_kernel()),
     ]
 }

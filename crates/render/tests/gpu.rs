@@ -10,8 +10,9 @@ use lightgrid_core::{BinLight, Grid, GridDesc, LightGrid, NUM_DIRS};
 use lightgrid_gpu::GpuContext;
 use lightgrid_render::shading::{linear_to_srgb8, tonemap_aces};
 use lightgrid_render::{
-    Camera, GpuLightSampler, GroundLight, LightVolume, Lighting, LightingMode, MeshInstance,
-    MeshMaterial, Renderer, SamplePoints, TextureRgba8, Vertex, View, Water, sample_points,
+    Camera, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight, LayerOwner,
+    LightVolume, Lighting, LightingMode, MeshInstance, MeshMaterial, Renderer, SamplePoints,
+    TextureRgba8, Vertex, View, Water, sample_points,
 };
 
 fn context() -> Option<Arc<GpuContext>> {
@@ -479,7 +480,7 @@ fn dynamic_point_light_in_the_mesh_shader_gives_the_cpu_answer() {
 fn bin_grid_uploads_only_the_changed_box() {
     let Some(ctx) = context() else { return };
     let grid = test_grid();
-    let gpu = lightgrid_render::GpuBinGrid::new(ctx, &grid).unwrap();
+    let gpu = lightgrid_render::GpuLightGrid::new(ctx, &grid).unwrap();
     assert_eq!(gpu.read().unwrap(), grid);
     // Change a box on the CPU, upload only that box.
     let mut changed = grid.clone();
@@ -549,7 +550,7 @@ fn toggling_a_local_light_uploads_only_its_box() {
         );
     }
     set.take_dirty();
-    let gpu = lightgrid_render::GpuBinGrid::new(ctx, set.grid()).unwrap();
+    let gpu = lightgrid_render::GpuLightGrid::new(ctx, set.grid()).unwrap();
     set.set_on(ids[0], false).unwrap();
     let r = set.take_dirty().unwrap();
     let bytes = gpu.upload_region(set.grid(), r.lo, r.hi).unwrap();
@@ -559,4 +560,320 @@ fn toggling_a_local_light_uploads_only_its_box() {
         "the box is not the whole grid"
     );
     assert_eq!(&gpu.read().unwrap(), set.grid());
+}
+
+/// A grid on `desc` whose bins vary with position, direction and `seed` (all > 0).
+fn varied_grid(desc: GridDesc, seed: usize) -> LightGrid {
+    let data = (0..desc.point_count())
+        .map(|i| {
+            BinLight(std::array::from_fn(|d| {
+                let x = (i * 31 + d * 17 + seed * 7) % 23;
+                Vec3::new(
+                    0.1 + x as f32,
+                    0.5 + ((d + seed) % 5) as f32,
+                    0.2 + (i % 7) as f32,
+                ) * 0.1
+            }))
+        })
+        .collect();
+    Grid::from_trusted(desc, data)
+}
+
+/// The layer rule, on the CPU: the last layer owning `p` (terrain_lod::Owner::owns).
+fn owning<'a>(layers: &[(&'a LightGrid, Option<LayerOwner>)], p: Vec3) -> Option<&'a LightGrid> {
+    layers.iter().rev().find_map(|(g, o)| {
+        let owns = o.is_none_or(|o| {
+            ((Vec2::new(p.x, p.z) - o.origin) / o.size)
+                .floor()
+                .as_ivec2()
+                == o.index
+                && g.desc().contains(p)
+        });
+        owns.then_some(*g)
+    })
+}
+
+/// Layered sampling on the device (a coarse grid under two owned finer ones, as the
+/// hierarchy draws) equals the CPU: per point, the last owning layer's
+/// `sample_points`; for listed points with and without normals and for a generated
+/// lattice. Points no layer owns keep the zero the output starts with.
+#[test]
+fn layered_device_sampling_equals_the_cpu_rule() {
+    let Some(ctx) = context() else { return };
+    let sampler = GpuLightSampler::new(ctx.clone());
+    let world = varied_grid(
+        GridDesc::new(Vec3::new(-8.0, 0.0, -8.0), 2.0, UVec3::new(9, 4, 9)).unwrap(),
+        0,
+    );
+    let a = varied_grid(
+        GridDesc::new(Vec3::new(-4.0, 0.0, -4.0), 1.0, UVec3::new(5, 5, 5)).unwrap(),
+        1,
+    );
+    let b = varied_grid(
+        GridDesc::new(Vec3::new(0.0, 0.0, 0.0), 0.5, UVec3::new(9, 9, 9)).unwrap(),
+        2,
+    );
+    let owner = |x, z| {
+        Some(LayerOwner {
+            origin: Vec2::splat(-8.0),
+            size: 4.0,
+            index: lightgrid_core::glam::IVec2::new(x, z),
+        })
+    };
+    let cpu_layers = [(&world, None), (&a, owner(1, 1)), (&b, owner(2, 2))];
+    let dev: Vec<GpuLightGrid> = cpu_layers
+        .iter()
+        .map(|(g, _)| GpuLightGrid::new(ctx.clone(), g).unwrap())
+        .collect();
+    let layers: Vec<GpuSampleLayer> = dev
+        .iter()
+        .zip(&cpu_layers)
+        .map(|(g, (_, o))| GpuSampleLayer { grid: g, owner: *o })
+        .collect();
+    let mut rng = fastrand::Rng::with_seed(3);
+    let positions: Vec<Vec3> = (0..3000)
+        .map(|_| {
+            Vec3::new(
+                rng.f32() * 10.0 - 5.0,
+                rng.f32() * 5.0 - 0.5,
+                rng.f32() * 10.0 - 5.0,
+            )
+        })
+        .collect();
+    let normals: Vec<Vec3> = (0..3000)
+        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5))
+        .collect();
+    let compare = |cpu: &[lightgrid_render::SampledLight],
+                   gpu: &[lightgrid_render::SampledLight],
+                   what: &str| {
+        assert_eq!(cpu.len(), gpu.len());
+        for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
+            let tol = 1e-5 * c.light.abs().max_element() + 1e-6;
+            assert!(
+                (c.light - g.light).abs().max_element() <= tol
+                    && (c.dominant - g.dominant).abs().max_element() <= 1e-5,
+                "{what} point {i}: cpu {c:?} gpu {g:?}"
+            );
+        }
+    };
+    let cpu_sample = |pts: &[Vec3], ns: Option<&[Vec3]>| -> Vec<lightgrid_render::SampledLight> {
+        pts.iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let g = owning(&cpu_layers, *p).unwrap();
+                let n = ns.map(|n| &n[i..i + 1]);
+                sample_points(
+                    g,
+                    SamplePoints {
+                        positions: &pts[i..i + 1],
+                        normals: n,
+                    },
+                )
+                .unwrap()[0]
+            })
+            .collect()
+    };
+    let mut fine = [0usize; 3];
+    for p in &positions {
+        let g = owning(&cpu_layers, *p).unwrap();
+        fine[[&world, &a, &b]
+            .iter()
+            .position(|x| std::ptr::eq(*x, g))
+            .unwrap()] += 1;
+    }
+    assert!(fine.iter().all(|&n| n > 100), "{fine:?}");
+    for with_normals in [false, true] {
+        let ns = with_normals.then_some(&normals[..]);
+        let pts = SamplePoints {
+            positions: &positions,
+            normals: ns,
+        };
+        let gpu = sampler
+            .sample_layers(&layers, GpuPoints::List(pts))
+            .unwrap()
+            .read()
+            .unwrap();
+        compare(
+            &cpu_sample(&positions, ns),
+            &gpu,
+            &format!("normals {with_normals}"),
+        );
+    }
+    // A lattice generated on the device, including points on the owners' edges.
+    let lattice = GridDesc::new(Vec3::new(-8.0, -0.5, -8.0), 0.5, UVec3::new(33, 12, 33)).unwrap();
+    let lpos: Vec<Vec3> = (0..lattice.point_count())
+        .map(|i| lattice.position(lattice.coords(i).unwrap()))
+        .collect();
+    let gpu = sampler
+        .sample_layers(&layers, GpuPoints::Lattice(lattice))
+        .unwrap();
+    assert_eq!(gpu.count(), lattice.point_count());
+    compare(&cpu_sample(&lpos, None), &gpu.read().unwrap(), "lattice");
+    // Without the world layer, points outside both nodes are untouched: zero.
+    let only_nodes = sampler
+        .sample_layers(
+            &layers[1..],
+            GpuPoints::List(SamplePoints {
+                positions: &positions,
+                normals: None,
+            }),
+        )
+        .unwrap()
+        .read()
+        .unwrap();
+    for (p, s) in positions.iter().zip(&only_nodes) {
+        let owned = owning(&cpu_layers[1..], *p).is_some();
+        assert_eq!(owned, s.light != Vec3::ZERO, "{p}: {s:?}");
+    }
+    // A grid of another device is refused, naming the layer.
+    let other = Arc::new(GpuContext::new().unwrap());
+    let foreign = GpuLightGrid::new(other, &world).unwrap();
+    let e = sampler
+        .sample_layers(
+            &[GpuSampleLayer {
+                grid: &foreign,
+                owner: None,
+            }],
+            GpuPoints::Lattice(lattice),
+        )
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("layers[0]"), "{e}");
+}
+
+/// Light sampled on the device and drawn from where it lies (light volume, vertex
+/// light, ground light) gives the image that uploading the CPU samples gives.
+#[test]
+fn drawing_device_samples_equals_drawing_uploaded_samples() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let ctx = r.context().clone();
+    let sampler = GpuLightSampler::new(ctx.clone());
+    let grid = varied_grid(
+        GridDesc::new(Vec3::new(-12.0, -1.0, -12.0), 3.0, UVec3::new(9, 4, 9)).unwrap(),
+        5,
+    );
+    let dev = GpuLightGrid::new(ctx, &grid).unwrap();
+    let layer = [GpuSampleLayer {
+        grid: &dev,
+        owner: None,
+    }];
+    let close = |a: &lightgrid_render::Image, b: &lightgrid_render::Image, what: &str| {
+        let mut lit = 0;
+        for (i, (p, q)) in a.hdr.iter().zip(&b.hdr).enumerate() {
+            let (p, q) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(q[0], q[1], q[2]));
+            assert!(
+                (p - q).abs().max_element() <= 1e-4 * p.max_element().max(1e-3),
+                "{what}: pixel {i} uploaded {p} device {q}"
+            );
+            lit += (p.max_element() > 0.01) as usize;
+        }
+        assert!(lit > a.hdr.len() / 2, "{what}: {lit} lit pixels");
+    };
+    // Light volume.
+    let desc = GridDesc::new(Vec3::new(-11.0, -0.5, -11.0), 1.0, UVec3::new(23, 4, 23)).unwrap();
+    let surface = add_quad(
+        &mut r,
+        1.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            lighting: Lighting::Surface,
+            ..Default::default()
+        },
+    );
+    r.set_light_volume(&LightVolume::from_field(&grid, desc).unwrap())
+        .unwrap();
+    let uploaded = r.render(&view(LightingMode::Grid, vec![surface])).unwrap();
+    let samples = sampler
+        .sample_layers(&layer, GpuPoints::Lattice(desc))
+        .unwrap();
+    r.set_light_volume_samples(desc, &samples).unwrap();
+    let device = r.render(&view(LightingMode::Grid, vec![surface])).unwrap();
+    close(&uploaded, &device, "light volume");
+    // Vertex light: irradiance on the quad's normals at its vertices.
+    let (v, i) = quad(0.5, Vec3::ZERO);
+    let vertex = r
+        .add_mesh(
+            &v,
+            &i,
+            &MeshMaterial {
+                lighting: Lighting::Vertex,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    r.set_instances(vertex, &[MeshInstance::new(Mat4::IDENTITY, Vec4::ONE)])
+        .unwrap();
+    let positions: Vec<Vec3> = v.iter().map(|v| Vec3::from(v.position)).collect();
+    let normals: Vec<Vec3> = v.iter().map(|v| Vec3::from(v.normal)).collect();
+    let pts = SamplePoints {
+        positions: &positions,
+        normals: Some(&normals),
+    };
+    let cpu = sample_points(&grid, pts).unwrap();
+    let lit: Vec<Vertex> = v
+        .iter()
+        .zip(&cpu)
+        .map(|(v, s)| Vertex {
+            light: s.light.extend(1.0).to_array(),
+            ..*v
+        })
+        .collect();
+    r.update_vertices(vertex, &lit).unwrap();
+    let uploaded = r.render(&view(LightingMode::Grid, vec![vertex])).unwrap();
+    r.update_vertices(vertex, &v).unwrap();
+    let dark = r.render(&view(LightingMode::Grid, vec![vertex])).unwrap();
+    assert!(
+        dark.hdr.iter().all(|p| p[..3] == [0.0; 3]),
+        "unlit vertices draw black"
+    );
+    let samples = sampler.sample_layers(&layer, GpuPoints::List(pts)).unwrap();
+    r.set_vertex_light_samples(vertex, &samples).unwrap();
+    let device = r.render(&view(LightingMode::Grid, vec![vertex])).unwrap();
+    close(&uploaded, &device, "vertex light");
+    // Ground light: 7 x 7 nodes at height 0.5 under the Surface quad, blended in.
+    let nodes: Vec<Vec3> = (0..49)
+        .map(|k| {
+            Vec3::new(
+                -30.0 + 10.0 * (k % 7) as f32,
+                0.5,
+                -30.0 + 10.0 * (k / 7) as f32,
+            )
+        })
+        .collect();
+    let up = vec![Vec3::Y; 49];
+    let npts = SamplePoints {
+        positions: &nodes,
+        normals: Some(&up),
+    };
+    let ground = |light: &[Vec3]| GroundLight {
+        origin: Vec2::splat(-30.0),
+        spacing: 10.0,
+        width: 7,
+        depth: 7,
+        nodes: light.iter().map(|e| e.extend(0.5).to_array()).collect(),
+    };
+    let cpu: Vec<Vec3> = sample_points(&grid, npts)
+        .unwrap()
+        .iter()
+        .map(|s| s.light)
+        .collect();
+    r.set_ground(&ground(&cpu)).unwrap();
+    let mut v = view(LightingMode::Grid, vec![surface]);
+    v.ground_blend = 1.0;
+    let uploaded = r.render(&v).unwrap();
+    r.set_ground(&ground(&[Vec3::ZERO; 49])).unwrap();
+    let samples = sampler
+        .sample_layers(&layer, GpuPoints::List(npts))
+        .unwrap();
+    r.set_ground_light_samples(&samples).unwrap();
+    let device = r.render(&v).unwrap();
+    close(&uploaded, &device, "ground light");
+    // Wrong counts are refused.
+    let e = r.set_ground_light_samples(
+        &sampler
+            .sample_layers(&layer, GpuPoints::Lattice(desc))
+            .unwrap(),
+    );
+    assert!(e.unwrap_err().to_string().contains("samples.count()"));
 }

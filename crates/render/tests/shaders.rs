@@ -2,7 +2,7 @@
 //! Rust have the same layout on both sides.
 
 use lightgrid_render::dynamic::{DynLightGpu, DynParams};
-use lightgrid_render::gpu::SampleParams;
+use lightgrid_render::gpu::{SampleParams, ScatterParams};
 use lightgrid_render::raster::{FrameUniforms, MeshUniforms};
 use lightgrid_render::wgsl;
 
@@ -57,6 +57,13 @@ fn shared_structs_have_the_same_layout_in_rust_and_wgsl() {
         "SampleParams",
         SampleParams::offsets(),
         size_of::<SampleParams>(),
+    );
+    let scatter = validate("scatter", &wgsl::scatter_kernel());
+    check_layout(
+        &scatter,
+        "ScatterParams",
+        ScatterParams::offsets(),
+        size_of::<ScatterParams>(),
     );
 }
 

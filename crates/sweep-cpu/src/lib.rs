@@ -347,6 +347,7 @@ pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -
         average,
         dominant,
         stats: a.stats,
+        resident: None,
     }
 }
 

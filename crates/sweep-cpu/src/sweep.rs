@@ -853,6 +853,7 @@ pub fn run(
                 dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
                 bins: Some(grid),
                 stats,
+                resident: None,
             },
             balance,
         )
@@ -884,6 +885,7 @@ pub fn run(
                 average,
                 dominant,
                 stats,
+                resident: None,
             },
             balance,
         )

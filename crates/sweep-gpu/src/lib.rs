@@ -63,7 +63,7 @@ pub use sweep::{GpuSweeper, GpuTimings};
 use lightgrid_core::glam::Vec3;
 use wgpu::util::DeviceExt;
 
-pub use lightgrid_gpu::{GpuContext, GpuError};
+pub use lightgrid_gpu::{GpuContext, GpuError, GpuLightGrid};
 
 /// Packs light to R11G11B10 on the GPU, and finds the largest value for the exposure;
 /// the pipelines are created once.

@@ -3,14 +3,14 @@
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
     BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins, PackedLightGrid,
-    SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
+    Resident, SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
 };
 use sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
 use wgpu::util::DeviceExt;
 
 use std::sync::Arc;
 
-use lightgrid_gpu::bind;
+use lightgrid_gpu::{GpuLightGrid, bind};
 
 use crate::{GpuContext, GpuError, wgsl};
 
@@ -59,6 +59,7 @@ pub struct GpuSweeper {
     layout2: wgpu::BindGroupLayout,
     surface_w: wgpu::Buffer,
     packer: crate::GpuPacker,
+    keep_resident: bool,
 }
 
 /// A compute-stage storage buffer.
@@ -153,6 +154,7 @@ impl GpuSweeper {
         let packer = crate::GpuPacker::new(&ctx);
         Self {
             packer,
+            keep_resident: false,
             surface_w,
             ctx,
             phase1,
@@ -165,6 +167,38 @@ impl GpuSweeper {
     /// The context (device and queue), shareable with a renderer.
     pub fn context(&self) -> &Arc<GpuContext> {
         &self.ctx
+    }
+
+    /// Whether sweeps through the [`Sweeper`] trait also return the grid as it lies on
+    /// the device (`SweepOutput::resident`, a [`GpuLightGrid`]), besides the CPU copy.
+    /// Off by default; a viewer drawing on this sweeper's device turns it on and samples
+    /// and draws the grids where they are.
+    pub fn keep_resident(&mut self, keep: bool) {
+        self.keep_resident = keep;
+    }
+
+    /// The sweep with its 26-bin result left on the device: nothing is read back but
+    /// the largest value (to refuse NaN and infinity). Sample or draw it on the same
+    /// context (`lightgrid_render::GpuLightSampler::sample_layers`), or
+    /// [`GpuLightGrid::read`] it.
+    pub fn run_on_device(
+        &self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        options: &SweepOptions,
+    ) -> Result<(GpuLightGrid, SweepStats), SweepError> {
+        let (g, stats, _) = self.execute(material, boundary, options)?;
+        let count = material.desc().point_count() * 26;
+        let max = self
+            .packer
+            .max_of(&self.ctx, &g, count)
+            .map_err(gpu_backend)?;
+        if !max.is_finite() {
+            return Err(overflow());
+        }
+        let grid = GpuLightGrid::from_buffer(self.ctx.clone(), g, *material.desc())
+            .map_err(gpu_backend)?;
+        Ok((grid, stats))
     }
 
     fn buffer(&self, label: &str, data: &[f32], extra: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -227,12 +261,20 @@ impl GpuSweeper {
             return Err(overflow());
         }
         let grid = Grid::from_trusted(*material.desc(), bins);
+        let resident = if self.keep_resident {
+            let g = GpuLightGrid::from_buffer(self.ctx.clone(), g, *material.desc())
+                .map_err(gpu_backend)?;
+            Some(Resident(Arc::new(g)))
+        } else {
+            None
+        };
         Ok((
             SweepOutput {
                 average: options.outputs.average.then(|| grid.average_grid()),
                 dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
                 bins: options.outputs.bins.then_some(grid),
                 stats,
+                resident,
             },
             timings,
         ))

@@ -62,7 +62,8 @@ use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, GridError, HALO_WIDTH, HaloLayout, LightField, LightGrid,
-    MaterialGrid, MaterialSource, SideBoundary, SweepError, SweepOptions, Sweeper, TopBoundary,
+    MaterialGrid, MaterialSource, Resident, SideBoundary, SweepError, SweepOptions, Sweeper,
+    TopBoundary,
 };
 
 /// Errors of the hierarchy.
@@ -251,8 +252,48 @@ impl PartialOrd for NodeKey {
 
 struct Node {
     light: LightGrid,
+    /// The sweeper's device copy of `light`, if it keeps one.
+    resident: Option<Resident>,
     input_hash: u64,
     has_objects: bool,
+}
+
+/// Which points of space a [`Layer`] lights: those whose `(x, z)` fall in quadtree cell
+/// `index` (`floor((p.xz - origin) / size) == index`) and which its grid's point bounds
+/// contain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Owner {
+    /// World `(x, z)` of the quadtree's corner.
+    pub origin: Vec2,
+    /// Side of a node at this depth, metres.
+    pub size: f32,
+    /// The node's cell.
+    pub index: IVec2,
+}
+
+impl Owner {
+    /// Whether the layer lights `p` (given its grid's descriptor).
+    pub fn owns(&self, desc: &GridDesc, p: Vec3) -> bool {
+        ((Vec2::new(p.x, p.z) - self.origin) / self.size)
+            .floor()
+            .as_ivec2()
+            == self.index
+            && desc.contains(p)
+    }
+}
+
+/// One grid of the hierarchy as a renderer layers them: [`Hierarchy::layers`] lists the
+/// world grid first (it lights every point), then the ready nodes coarse to fine; a point
+/// takes its light from the last layer that owns it, which is [`Hierarchy::grid_at`]
+/// (tested). GPU renderers evaluate the same rule per layer, one dispatch each.
+#[derive(Debug, Clone, Copy)]
+pub struct Layer<'a> {
+    /// The grid.
+    pub grid: &'a LightGrid,
+    /// The sweeper's device copy of it, if the sweeper keeps one.
+    pub resident: Option<&'a Resident>,
+    /// Which points it lights; `None`: all (the world grid).
+    pub owner: Option<Owner>,
 }
 
 /// Per-frame report.
@@ -308,6 +349,7 @@ pub struct Hierarchy {
     sweeper: Box<dyn Sweeper + Send + Sync>,
     sky: BinLight,
     world: LightGrid,
+    world_resident: Option<Resident>,
     nodes: HashMap<NodeKey, Node>,
 }
 
@@ -356,6 +398,7 @@ impl Hierarchy {
             sweeper,
             sky: sky_top,
             world: LightGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE)?, BinLight::ZERO)?,
+            world_resident: None,
             nodes: HashMap::new(),
         };
         let w = params.world_cell;
@@ -394,6 +437,7 @@ impl Hierarchy {
             .sweeper
             .sweep(&material, &Boundary::open_sky(self.sky), &o)?;
         self.world = out.bins.expect("bins asked for");
+        self.world_resident = out.resident;
         Ok(())
     }
 
@@ -670,6 +714,7 @@ impl Hierarchy {
                 key,
                 Node {
                     light: out.bins.expect("bins asked for"),
+                    resident: out.resident,
                     input_hash,
                     has_objects,
                 },
@@ -741,9 +786,33 @@ impl Hierarchy {
             stats.built += 1;
             let n = self.nodes.get_mut(&key).expect("ready node");
             n.light = out.bins.expect("bins asked for");
+            n.resident = out.resident;
             n.input_hash = hash;
         }
         Ok(stats)
+    }
+
+    /// The grids for layered sampling: the world grid, then the ready nodes by depth
+    /// (see [`Layer`]).
+    pub fn layers(&self) -> Vec<Layer<'_>> {
+        let mut v = vec![Layer {
+            grid: &self.world,
+            resident: self.world_resident.as_ref(),
+            owner: None,
+        }];
+        for key in self.ready_nodes() {
+            let n = &self.nodes[&key];
+            v.push(Layer {
+                grid: &n.light,
+                resident: n.resident.as_ref(),
+                owner: Some(Owner {
+                    origin: self.heightmap_lo,
+                    size: self.params.node_size(key.depth),
+                    index: key.index,
+                }),
+            });
+        }
+        v
     }
 
     /// The finest ready grid containing `p` (the world grid if none).

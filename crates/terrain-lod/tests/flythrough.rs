@@ -168,3 +168,52 @@ fn light_is_continuous_across_a_fine_grid_edge() {
     assert!(jump < 1.3 * var, "edge step {jump} vs the grid's own {var}");
     assert!(bias.abs() < 0.06, "{bias}");
 }
+
+/// The layer rule renderers evaluate per grid (last owning layer wins) picks the same
+/// grid as `grid_at`, at random points and at points on node edges.
+#[test]
+fn layers_pick_the_grid_that_grid_at_picks() {
+    let (hm, composer) = scene();
+    let (sky, _) = BinLight::uniform(Vec3::ONE).split_vertical();
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(composer),
+        Box::new(CpuSweeper::new()),
+        sky,
+        params(),
+    )
+    .unwrap();
+    let cam = Vec3::new(650.0, hm.height_at(650.0, 650.0) + 15.0, 650.0);
+    for _ in 0..10 {
+        if h.update(cam).unwrap().pending == 0 {
+            break;
+        }
+    }
+    let layers = h.layers();
+    assert!(layers.len() > 5, "{}", layers.len());
+    let mut rng = fastrand::Rng::with_seed(5);
+    let mut points: Vec<Vec3> = (0..20_000)
+        .map(|_| {
+            let (x, z) = (400.0 + 500.0 * rng.f32(), 400.0 + 500.0 * rng.f32());
+            Vec3::new(x, hm.height_at(x, z) + 40.0 * rng.f32() - 5.0, z)
+        })
+        .collect();
+    // Node edges exactly.
+    for l in &layers[1..] {
+        let (lo, _) = l.grid.desc().point_bounds();
+        let o = l.owner.unwrap();
+        let edge = o.origin + o.index.as_vec2() * o.size;
+        points.push(Vec3::new(edge.x, lo.y + 3.0, edge.y));
+    }
+    let mut fine = 0;
+    for p in points {
+        let picked = layers
+            .iter()
+            .rev()
+            .find(|l| l.owner.is_none_or(|o| o.owns(l.grid.desc(), p)))
+            .unwrap();
+        assert!(std::ptr::eq(picked.grid, h.grid_at(p)), "{p}");
+        fine += picked.owner.is_some() as u32;
+    }
+    assert!(fine > 1000, "{fine}");
+}

@@ -7,15 +7,16 @@
 // as light (grid points as balls); FLAT is a fixed key light (material cubes).
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
-// Light volume: average light and dominant direction per point (grid order).
-@group(0) @binding(1) var<storage, read> volume_average: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> volume_dominant: array<vec4<f32>>;
+// Light volume: two vec4 per point (grid order), (average light, 0) and (dominant
+// direction, 0): the layout the sampling kernel (sample.wgsl) writes, so a volume
+// sampled on the GPU is drawn from where it was written.
+@group(0) @binding(1) var<storage, read> volume: array<vec4<f32>>;
 // Ground: (irradiance rgb, height) per heightmap node, x fastest.
-@group(0) @binding(3) var<storage, read> ground: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> ground: array<vec4<f32>>;
 // Dynamic lights and their culling grid (lightgrid_render::dynamic).
-@group(0) @binding(4) var<storage, read> dyn_lights: array<DynLightGpu>;
-@group(0) @binding(5) var<storage, read> dyn_cells: array<vec2<u32>>;
-@group(0) @binding(6) var<storage, read> dyn_indices: array<u32>;
+@group(0) @binding(3) var<storage, read> dyn_lights: array<DynLightGpu>;
+@group(0) @binding(4) var<storage, read> dyn_cells: array<vec2<u32>>;
+@group(0) @binding(5) var<storage, read> dyn_indices: array<u32>;
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniforms;
 @group(1) @binding(1) var base_texture: texture_2d<f32>;
@@ -71,8 +72,8 @@ fn sample_volume(p: vec3<f32>) -> AverageDominant {
     for (var c = 0u; c < 8u; c++) {
         let w = corner_weight(t, c);
         let i = grid_index(dims, corner(t, c));
-        r.average += volume_average[i].xyz * w;
-        r.dominant += volume_dominant[i].xyz * w;
+        r.average += volume[2u * i].xyz * w;
+        r.dominant += volume[2u * i + 1u].xyz * w;
     }
     return r;
 }

@@ -1,4 +1,6 @@
-// The light sampling buffer on the GPU: lightgrid_render::sampling::sample_points for one grid.
+// The light sampling buffer on the GPU: lightgrid_render::sampling::sample_points for one
+// grid, dispatched once per layer: a point the layer does not own keeps what an earlier
+// layer wrote (terrain_lod::Owner, Hierarchy::grid_at).
 
 @group(0) @binding(0) var<uniform> params: SampleParams;
 // 26 RGB bins a point (78 floats), grid order.
@@ -27,10 +29,29 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= params.count) {
         return;
     }
-    let head = points[2u * i];
-    let has_normal = head.w > 0.5;
+    var p: vec3<f32>;
+    var has_normal = false;
+    if (params.lattice_dims.w == 1u) {
+        // Point i of the lattice (x fastest, then z, then y), as GridDesc::position.
+        let ld = params.lattice_dims.xyz;
+        let c = vec3<u32>(i % ld.x, i / (ld.x * ld.z), (i / ld.x) % ld.z);
+        p = params.lattice_origin_h.xyz + params.lattice_origin_h.w * vec3<f32>(c);
+    } else {
+        let head = points[2u * i];
+        has_normal = head.w > 0.5;
+        p = head.xyz;
+    }
+    if (params.own.w > 0.5) {
+        // terrain_lod::Owner::owns: the point's quadtree cell is the layer's node, and
+        // the layer grid's point bounds contain it.
+        let cell = vec2<i32>(floor((p.xz - params.own.xy) / params.own.z));
+        let lo = params.origin_h.xyz;
+        let hi = lo + params.origin_h.w * vec3<f32>(params.dims.xyz - vec3<u32>(1u));
+        if (any(cell != params.own_index.xy) || any(p < lo) || any(p > hi)) {
+            return;
+        }
+    }
     var n = vec3<f32>(0.0, 1.0, 0.0);
-    var p = head.xyz;
     if (has_normal) {
         n = normalize(points[2u * i + 1u].xyz);
         p = p + n * (0.5 * params.origin_h.w);
