@@ -441,10 +441,13 @@ impl Hierarchy {
         Ok(())
     }
 
-    /// Sweeps from now on with `sweeper` (the grids already built stay): for moving the
-    /// GPU sweeper onto the device a window draws with, once that device exists.
-    pub fn set_sweeper(&mut self, sweeper: Box<dyn Sweeper + Send + Sync>) {
+    /// Sweeps from now on with `sweeper`, and sweeps the world grid again with it (so
+    /// that a sweeper keeping its grids on a device holds the base layer too); the nodes
+    /// already built stay as they are. For moving the GPU sweeper onto the device a
+    /// window draws with, once that device exists.
+    pub fn set_sweeper(&mut self, sweeper: Box<dyn Sweeper + Send + Sync>) -> Result<(), LodError> {
         self.sweeper = sweeper;
+        self.sweep_world()
     }
 
     /// Changes the sky: the world grid is swept again at once; ready nodes are rebuilt by

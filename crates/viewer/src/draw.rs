@@ -6,8 +6,9 @@ use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, LightGrid, MaterialSource};
 use lightgrid_render::shading::linear_to_srgb8;
 use lightgrid_render::{
-    Camera, GroundLight, LightVolume, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial,
-    Renderer, SamplePoints, TextureRgba8, Vertex, View, sample_points,
+    Camera, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight, LayerOwner,
+    LightVolume, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial, Renderer,
+    SamplePoints, TextureRgba8, Vertex, View, sample_points,
 };
 use material_voxelizer::model::{AlphaMode, Model};
 
@@ -190,6 +191,20 @@ pub struct SceneMeshes {
     pub balls: MeshId,
     /// Debug: a cube per material cell.
     pub cubes: MeshId,
+    /// Samples grids where they lie, on the renderer's device.
+    sampler: GpuLightSampler,
+}
+
+/// What [`SceneMeshes::relight`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Relit {
+    /// Bytes of the light volume.
+    pub volume_bytes: u64,
+    /// Whether the light was sampled on the device from the grids the GPU sweeper left
+    /// there (no grid went through the CPU), rather than on the CPU.
+    pub on_device: bool,
+    /// Grids sampled (the world grid and the ready nodes).
+    pub grids: usize,
 }
 
 impl SceneMeshes {
@@ -263,24 +278,23 @@ impl SceneMeshes {
             models,
             balls,
             cubes,
+            sampler: GpuLightSampler::new(r.context().clone()),
         })
     }
 
     /// Relights the terrain vertices (sampling buffer with normals) and the ground light,
-    /// and resamples the light volume, from the hierarchy's current grids. Returns the
-    /// bytes of the light volume.
-    pub fn relight(&self, r: &mut Renderer, world: &World) -> Result<u64> {
+    /// and resamples the light volume, from the hierarchy's current grids: on the device
+    /// when every grid lies there (the GPU sweeper keeps them on the renderer's device),
+    /// else on the CPU. Both follow `Hierarchy::grid_at` (a GPU test holds them equal).
+    pub fn relight(&self, r: &mut Renderer, world: &World) -> Result<Relit> {
+        let layers = world.hierarchy.layers();
+        let desc = volume_desc(world)?;
         let t = &self.terrain_mesh;
-        let lit = sample_points(
-            &world.hierarchy,
-            SamplePoints {
-                positions: &t.positions,
-                normals: Some(&t.normals),
-            },
-        )?;
-        let light: Vec<Vec3> = lit.iter().map(|s| s.light).collect();
-        r.update_vertices(self.terrain, &terrain_vertices(t, &light))?;
-        r.set_ground(&GroundLight {
+        let terrain_points = SamplePoints {
+            positions: &t.positions,
+            normals: Some(&t.normals),
+        };
+        let ground = |light: &[Vec3]| GroundLight {
             origin: t.origin,
             spacing: t.spacing,
             width: t.size.0,
@@ -288,14 +302,52 @@ impl SceneMeshes {
             nodes: t
                 .positions
                 .iter()
-                .zip(&light)
+                .zip(light)
                 .map(|(p, e)| e.extend(p.y).to_array())
                 .collect(),
-        })?;
-        let volume = LightVolume::from_field(&world.hierarchy, volume_desc(world)?)?;
-        let bytes = volume.average.len() as u64 * 32;
-        r.set_light_volume(&volume)?;
-        Ok(bytes)
+        };
+        let volume_bytes = desc.point_count() as u64 * 32;
+        let device: Option<Vec<GpuSampleLayer>> = layers
+            .iter()
+            .map(|l| {
+                let grid = l.resident?.get::<GpuLightGrid>()?;
+                std::sync::Arc::ptr_eq(grid.context(), r.context()).then_some(GpuSampleLayer {
+                    grid,
+                    owner: l.owner.map(|o| LayerOwner {
+                        origin: o.origin,
+                        size: o.size,
+                        index: o.index,
+                    }),
+                })
+            })
+            .collect();
+        if let Some(device) = device {
+            let lit = self
+                .sampler
+                .sample_layers(&device, GpuPoints::List(terrain_points))?;
+            r.set_vertex_light_samples(self.terrain, &lit)?;
+            r.set_ground(&ground(&vec![Vec3::ZERO; t.positions.len()]))?;
+            r.set_ground_light_samples(&lit)?;
+            let volume = self
+                .sampler
+                .sample_layers(&device, GpuPoints::Lattice(desc))?;
+            r.set_light_volume_samples(desc, &volume)?;
+            return Ok(Relit {
+                volume_bytes,
+                on_device: true,
+                grids: layers.len(),
+            });
+        }
+        let lit = sample_points(&world.hierarchy, terrain_points)?;
+        let light: Vec<Vec3> = lit.iter().map(|s| s.light).collect();
+        r.update_vertices(self.terrain, &terrain_vertices(t, &light))?;
+        r.set_ground(&ground(&light))?;
+        r.set_light_volume(&LightVolume::from_field(&world.hierarchy, desc)?)?;
+        Ok(Relit {
+            volume_bytes,
+            on_device: false,
+            grids: layers.len(),
+        })
     }
 
     /// Instances for the debug views of `grid`: balls at its points above the ground

@@ -91,8 +91,11 @@ pub struct ViewSummary {
     pub points_per_depth: Vec<u64>,
     /// Grid memory: 26 bins in f32, packed R11G11B10, average + dominant only.
     pub grid_bytes: [u64; 3],
-    /// Light volume bytes uploaded for per-pixel lighting.
+    /// Light volume bytes for per-pixel lighting.
     pub volume_bytes: u64,
+    /// Where the light was sampled: `"device"` (from the grids the GPU sweeper left on
+    /// the renderer's device: nothing copied through the CPU) or `"cpu"`.
+    pub sampled_on: String,
     /// Balls and cubes in the debug views.
     pub debug_instances: (usize, usize),
 }
@@ -140,6 +143,7 @@ impl Summary {
                 v.grid_bytes[2] as f64 / 1e6,
                 v.volume_bytes as f64 / 1e6
             );
+            let _ = writeln!(s, "  light sampled on: {}", v.sampled_on);
             let _ = writeln!(
                 s,
                 "  debug views: {} grid points, {} material cells",
@@ -244,7 +248,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
             ));
         }
         let t = Instant::now();
-        let volume_bytes = meshes.relight(&mut r, &world)?;
+        let relit = meshes.relight(&mut r, &world)?;
         let grid = world.hierarchy.grid_at(target).clone();
         let debug = meshes.set_debug(&mut r, &world, &grid)?;
         timings.push((
@@ -277,7 +281,12 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
                 stats.bytes(BYTES_26_PACKED),
                 stats.bytes(BYTES_AVG_DOM),
             ],
-            volume_bytes,
+            volume_bytes: relit.volume_bytes,
+            sampled_on: if relit.on_device {
+                format!("device ({} grids in place)", relit.grids)
+            } else {
+                format!("cpu ({} grids)", relit.grids)
+            },
             debug_instances: debug,
         });
     }

@@ -152,9 +152,10 @@ impl App {
         });
         // One device: the grids built from now on are swept on the window's device.
         if self.world.gpu_sweeps {
-            self.world
-                .hierarchy
-                .set_sweeper(Box::new(sweep_gpu::GpuSweeper::with_context(ctx.clone())));
+            let mut sweeper = sweep_gpu::GpuSweeper::with_context(ctx.clone());
+            // Swept grids stay on the device and are drawn from there (SceneMeshes::relight).
+            sweeper.keep_resident(true);
+            self.world.hierarchy.set_sweeper(Box::new(sweeper))?;
         }
         let mut renderer = Renderer::new(ctx, config.width, config.height)?;
         let meshes = SceneMeshes::new(&mut renderer, &self.world)?;

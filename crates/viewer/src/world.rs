@@ -332,17 +332,24 @@ impl World {
                 None => Ok(Arc::new(lightgrid_gpu::GpuContext::new()?)),
             }
         };
+        // On the renderer's device the sweeper keeps its grids there, and the renderer
+        // samples and draws them in place (SceneMeshes::relight).
+        let gpu_sweeper = |c: Arc<lightgrid_gpu::GpuContext>| {
+            let mut s = sweep_gpu::GpuSweeper::with_context(c);
+            s.keep_resident(gpu.is_some());
+            Box::new(s)
+        };
         let (sweeper, name): (Box<dyn Sweeper + Send + Sync>, String) = match sweeper {
             SweeperChoice::Cpu => (Box::new(sweep_cpu::CpuSweeper::new()), "cpu".into()),
             SweeperChoice::Gpu => {
                 let c = open().context("--sweeper gpu")?;
                 let name = format!("gpu ({})", c.info.name);
-                (Box::new(sweep_gpu::GpuSweeper::with_context(c)), name)
+                (gpu_sweeper(c), name)
             }
             SweeperChoice::Auto => match open() {
                 Ok(c) if c.info.device_type != wgpu::DeviceType::Cpu => {
                     let name = format!("gpu ({})", c.info.name);
-                    (Box::new(sweep_gpu::GpuSweeper::with_context(c)), name)
+                    (gpu_sweeper(c), name)
                 }
                 Ok(c) => (
                     Box::new(sweep_cpu::CpuSweeper::new()),

@@ -102,6 +102,18 @@ fn tiny_scene_matches_the_reference_images() {
     assert!(hdr.iter().all(|v| v.is_finite()) && hdr.iter().sum::<f32>() > 1.0);
 
     let bless = std::env::var("LIGHTGRID_BLESS").as_deref() == Ok("1");
+    let failures = compare_with_references(&out, bless);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    // The grids light the scene differently from the no-grid comparison (shadows and
+    // bounce): the two images must not be the same.
+    let (_, _, lit) = load_rgba(&out.join("tiny.png"));
+    let (_, _, flat) = load_rgba(&out.join("tiny-no-grid.png"));
+    assert!(compare(&lit, &flat).0 > 2.0, "grid light changes nothing?");
+}
+
+/// Compares the four images in `out` with the references (or, with `bless`, replaces
+/// the references); returns the failures.
+fn compare_with_references(out: &Path, bless: bool) -> Vec<String> {
     let mut failures = Vec::new();
     for name in ["tiny", "tiny-no-grid", "tiny-grid-points", "tiny-material"] {
         let actual = out.join(format!("{name}.png"));
@@ -138,10 +150,45 @@ fn tiny_scene_matches_the_reference_images() {
             ));
         }
     }
+    failures
+}
+
+/// The same scene swept on the GPU, with the grids left on the renderer's device and
+/// sampled and drawn there (no grid through the CPU), matches the same references.
+#[test]
+fn tiny_scene_swept_and_drawn_on_the_device_matches_the_references() {
+    if lightgrid_gpu::GpuContext::new_or_opt_out()
+        .unwrap_or_else(|e| {
+            panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
+        })
+        .is_none()
+    {
+        return;
+    }
+    let out = manifest().join("../../target/image-tests/gpu");
+    std::fs::create_dir_all(&out).unwrap();
+    let scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
+    let summary = viewer::run(
+        scene,
+        &Options {
+            out: out.clone(),
+            width: 64,
+            height: 64,
+            sweeper: SweeperChoice::Gpu,
+            exr: false,
+            bevy: false,
+        },
+    )
+    .unwrap();
+    assert!(summary.sweeper.starts_with("gpu"), "{}", summary.sweeper);
+    for v in &summary.views {
+        assert!(
+            v.sampled_on.starts_with("device"),
+            "{}: {}",
+            v.name,
+            v.sampled_on
+        );
+    }
+    let failures = compare_with_references(&out, false);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-    // The grids light the scene differently from the no-grid comparison (shadows and
-    // bounce): the two images must not be the same.
-    let (_, _, lit) = load_rgba(&out.join("tiny.png"));
-    let (_, _, flat) = load_rgba(&out.join("tiny-no-grid.png"));
-    assert!(compare(&lit, &flat).0 > 2.0, "grid light changes nothing?");
 }
