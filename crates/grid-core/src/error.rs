@@ -161,7 +161,9 @@ impl GridError {
         GridError::File { path: None, kind }
     }
 
-    pub(crate) fn with_path(self, p: &std::path::Path) -> Self {
+    /// A file error without a path gets `p` (readers of other crates that parse bytes
+    /// first and know the file after); other errors are unchanged.
+    pub fn with_path(self, p: &std::path::Path) -> Self {
         match self {
             GridError::File { path: None, kind } => GridError::File {
                 path: Some(p.to_path_buf()),

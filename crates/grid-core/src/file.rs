@@ -8,21 +8,23 @@
 //! |-------:|-----:|-------|-------|
 //! | 0 | 8 | magic | ASCII `LTGRID`, then `0x1A 0x0A` |
 //! | 8 | 4 | version | `u32` = 1 |
-//! | 12 | 4 | kind | `u32`: 1 material, 2 light (26 bins `f32`), 3 packed light (26 × R11G11B10), 4 average, 5 dominant |
-//! | 16 | 4 | encoding | `u32`: 0 = `f32` values, 1 = R11G11B10 words (kind 3 only) |
+//! | 12 | 4 | kind | `u32`: 1 material, 2 light (26 bins `f32`), 3 packed light (26 × R11G11B10), 4 average, 5 dominant, 6 coded light (26 × 8-bit RGB codes) |
+//! | 16 | 4 | encoding | `u32`: 0 = `f32` values, 1 = R11G11B10 words (kind 3 only), 2 = square-root codes (kind 6 only) |
 //! | 20 | 12 | origin | 3 × `f32`: world position of point (0, 0, 0), metres |
 //! | 32 | 4 | h | `f32`: cell size, metres |
 //! | 36 | 12 | dims | 3 × `u32`: points along x, y, z |
-//! | 48 | 4 | exposure | `f32`: packed value = light × exposure (1.0 for unpacked kinds) |
+//! | 48 | 4 | exposure | `f32`: packed value = light × exposure (kind 3); the value of code 255 (kind 6); 1.0 for the others |
 //! | 52 | 4 | reserved | `u32` = 0 |
-//! | 56 | 8 | payload length | `u64`: bytes of payload = points × bytes per point |
-//! | 64 | n | payload | points in memory order (x fastest, then z, then y) |
+//! | 56 | 8 | payload length | `u64`: bytes of payload = prefix + points × bytes per point |
+//! | 64 | n | payload | kind 6 only: the content key (`u64`, 8 bytes); then the points in memory order (x fastest, then z, then y) |
 //! | 64 + n | 4 | checksum | `u32` CRC-32 (IEEE, as zlib) of bytes `0 .. 64 + n` |
 //!
 //! Bytes per point: material 16 (`r, g, b, pass` as `f32`); light 312 (bin 0 `r, g, b`,
 //! bin 1 `r, g, b`, ... in the canonical direction order of [`crate::dirs`]); packed light
 //! 104 (26 `u32` words, R in bits 0–10, G 11–21, B 22–31); average 12 (`r, g, b`);
-//! dominant 12 (`x, y, z`).
+//! dominant 12 (`x, y, z`); coded light 78 (26 × `r, g, b` bytes, value =
+//! `(code / 255)² × exposure`: light falls as 1/r², so a square-root curve spends the
+//! codes evenly; light-volumes' cache, whose key says which light and scene made it).
 //!
 //! Reading checks, in order: magic, version, size against the reader's limit, length
 //! (truncated or trailing bytes), checksum, header fields (kind, encoding, descriptor,
@@ -36,7 +38,8 @@ use glam::{UVec3, Vec3};
 
 use crate::error::FileErrorKind as K;
 use crate::grid::{
-    AverageLight, DominantDir, Grid, GridValue, Material, PackedBins, PackedLightGrid,
+    AverageLight, CodedBins, CodedLightGrid, DominantDir, Grid, GridValue, Material, PackedBins,
+    PackedLightGrid,
 };
 use crate::light::BinLight;
 use crate::{GridDesc, GridError};
@@ -64,6 +67,8 @@ pub enum GridKind {
     Average = 4,
     /// Dominant-direction grid.
     Dominant = 5,
+    /// Light grid as 8-bit square-root codes with a content key (light-volumes' cache).
+    CodedLight = 6,
 }
 
 impl GridKind {
@@ -75,6 +80,7 @@ impl GridKind {
             GridKind::PackedLight => "packed light",
             GridKind::Average => "average",
             GridKind::Dominant => "dominant",
+            GridKind::CodedLight => "coded light",
         }
     }
     fn from_u32(v: u32) -> Option<Self> {
@@ -84,11 +90,20 @@ impl GridKind {
             3 => GridKind::PackedLight,
             4 => GridKind::Average,
             5 => GridKind::Dominant,
+            6 => GridKind::CodedLight,
             _ => return None,
         })
     }
     fn encoding(self) -> u32 {
-        u32::from(self == GridKind::PackedLight)
+        match self {
+            GridKind::PackedLight => 1,
+            GridKind::CodedLight => 2,
+            _ => 0,
+        }
+    }
+    /// Bytes of the payload before the points: the content key of a coded light grid.
+    fn prefix_bytes(self) -> u64 {
+        if self == GridKind::CodedLight { 8 } else { 0 }
     }
 }
 
@@ -105,6 +120,8 @@ pub enum GridFile {
     Average(Grid<AverageLight>),
     /// A dominant-direction grid.
     Dominant(Grid<DominantDir>),
+    /// A coded light grid (light-volumes' cache).
+    CodedLight(CodedLightGrid),
 }
 
 impl GridFile {
@@ -116,6 +133,7 @@ impl GridFile {
             GridFile::PackedLight(_) => GridKind::PackedLight,
             GridFile::Average(_) => GridKind::Average,
             GridFile::Dominant(_) => GridKind::Dominant,
+            GridFile::CodedLight(_) => GridKind::CodedLight,
         }
     }
 
@@ -127,6 +145,7 @@ impl GridFile {
             GridFile::PackedLight(p) => encode(&p.grid, p.exposure),
             GridFile::Average(g) => encode(g, 1.0),
             GridFile::Dominant(g) => encode(g, 1.0),
+            GridFile::CodedLight(c) => encode_with(&c.grid, c.scale, &c.key.to_le_bytes()),
         }
     }
 
@@ -153,6 +172,11 @@ impl GridFile {
             }
             GridKind::Average => GridFile::Average(decode(h.desc, payload)?),
             GridKind::Dominant => GridFile::Dominant(decode(h.desc, payload)?),
+            GridKind::CodedLight => {
+                let key = u64::from_le_bytes(payload[..8].try_into().expect("8 bytes"));
+                let g = decode(h.desc, &payload[8..])?;
+                GridFile::CodedLight(CodedLightGrid::new(g, h.exposure, key)?)
+            }
         })
     }
 
@@ -210,6 +234,7 @@ impl GridFile {
     into_kind!(into_packed_light, PackedLight, PackedLightGrid);
     into_kind!(into_average, Average, Grid<AverageLight>);
     into_kind!(into_dominant, Dominant, Grid<DominantDir>);
+    into_kind!(into_coded_light, CodedLight, CodedLightGrid);
 }
 
 struct Header {
@@ -292,7 +317,7 @@ fn parse_header(b: &[u8], max_payload: u64) -> Result<Header, GridError> {
     })?;
     let exposure = f32_at(b, 48);
     if !(exposure.is_finite() && exposure > 0.0)
-        || (kind != GridKind::PackedLight && exposure != 1.0)
+        || (!matches!(kind, GridKind::PackedLight | GridKind::CodedLight) && exposure != 1.0)
     {
         return bad("exposure", format!("{exposure:?}"));
     }
@@ -305,8 +330,9 @@ fn parse_header(b: &[u8], max_payload: u64) -> Result<Header, GridError> {
         GridKind::PackedLight => PackedBins::FILE_BYTES,
         GridKind::Average => AverageLight::FILE_BYTES,
         GridKind::Dominant => DominantDir::FILE_BYTES,
+        GridKind::CodedLight => CodedBins::FILE_BYTES,
     } as u64;
-    let expected = desc.point_count() as u64 * per_point;
+    let expected = kind.prefix_bytes() + desc.point_count() as u64 * per_point;
     if expected != payload_len {
         return bad(
             "payload length",
@@ -322,7 +348,12 @@ fn parse_header(b: &[u8], max_payload: u64) -> Result<Header, GridError> {
 }
 
 fn encode<T: GridValue>(g: &Grid<T>, exposure: f32) -> Vec<u8> {
-    let payload = g.data().len() * T::FILE_BYTES;
+    encode_with(g, exposure, &[])
+}
+
+/// The file of `g`, its payload starting with `prefix` (the kind's prefix bytes).
+fn encode_with<T: GridValue>(g: &Grid<T>, exposure: f32, prefix: &[u8]) -> Vec<u8> {
+    let payload = prefix.len() + g.data().len() * T::FILE_BYTES;
     let mut out = Vec::with_capacity(HEADER_BYTES + payload + 4);
     out.extend_from_slice(&MAGIC);
     let d = g.desc();
@@ -338,6 +369,7 @@ fn encode<T: GridValue>(g: &Grid<T>, exposure: f32) -> Vec<u8> {
     out.extend_from_slice(&exposure.to_le_bytes());
     out.extend_from_slice(&0u32.to_le_bytes());
     out.extend_from_slice(&(payload as u64).to_le_bytes());
+    out.extend_from_slice(prefix);
     for v in g.data() {
         v.write_le(&mut out);
     }
@@ -389,6 +421,15 @@ impl GridFile {
             ),
             GridFile::Average(g) => (*g.desc(), String::new()),
             GridFile::Dominant(g) => (*g.desc(), String::new()),
+            GridFile::CodedLight(c) => (
+                *c.grid.desc(),
+                format!(
+                    "scale: {}\nkey: {:#018x}\n{}",
+                    c.scale,
+                    c.key,
+                    light_summary(&c.decode())
+                ),
+            ),
         };
         format!(
             "kind: {}\norigin: {}\ncell size: {} m\ndims: {}\npoints: {}\n{extra}",
@@ -463,8 +504,50 @@ mod tests {
             GridFile::PackedLight(l.pack()),
             GridFile::Average(l.average_grid()),
             GridFile::Dominant(l.dominant_grid()),
+            GridFile::CodedLight(
+                CodedLightGrid::new(
+                    l.map(|b| CodedBins(b.0.map(|v| [v.x as u8 * 9, v.y as u8, 200]))),
+                    3.5,
+                    0xfeed_beef_0123_4567,
+                )
+                .unwrap(),
+            ),
             GridFile::Light(l),
         ]
+    }
+
+    /// The coded kind's payload: the key first, then 78 bytes a point; the exposure
+    /// field holds the scale; codes decode on the square-root curve.
+    #[test]
+    fn coded_light_layout_and_decoding() {
+        let f = &all_kinds()[4];
+        let GridFile::CodedLight(c) = f else { panic!() };
+        let b = f.to_bytes();
+        assert_eq!(u32_at(&b, 12), 6);
+        assert_eq!(u32_at(&b, 16), 2);
+        assert_eq!(f32_at(&b, 48), 3.5);
+        assert_eq!(b[64..72], 0xfeed_beef_0123_4567u64.to_le_bytes());
+        assert_eq!(b.len(), 64 + 8 + 12 * 78 + 4);
+        assert_eq!(b[72..75], c.grid.data()[0].0[0]);
+        let d = c.decode();
+        let code = c.grid.data()[1].0[2];
+        let want = |k: u8| (k as f32 / 255.0).powi(2) * 3.5;
+        assert!(
+            (d.data()[1].0[2] - Vec3::new(want(code[0]), want(code[1]), want(code[2]))).length()
+                < 1e-6
+        );
+        // A zero or NaN scale is refused when reading.
+        for bad in [0.0f32, f32::NAN] {
+            let mut b = b.clone();
+            b[48..52].copy_from_slice(&bad.to_le_bytes());
+            assert!(matches!(
+                kind_of(GridFile::from_bytes(&resign(b))),
+                K::BadHeader {
+                    field: "exposure",
+                    ..
+                }
+            ));
+        }
     }
 
     #[test]
@@ -601,7 +684,7 @@ mod tests {
         }
 
         #[test]
-        fn mutated_files_never_panic(which in 0usize..5, pos in any::<prop::sample::Index>(), val in any::<u8>(), cut in any::<prop::sample::Index>(), sign in any::<bool>()) {
+        fn mutated_files_never_panic(which in 0usize..6, pos in any::<prop::sample::Index>(), val in any::<u8>(), cut in any::<prop::sample::Index>(), sign in any::<bool>()) {
             let good = all_kinds()[which].to_bytes();
             let mut b = good.clone();
             let i = pos.index(b.len());

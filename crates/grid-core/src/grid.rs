@@ -404,6 +404,64 @@ impl PackedLightGrid {
     }
 }
 
+/// 26 bins of 8-bit RGB codes on a square-root curve (`value = (code / 255)² × scale`):
+/// the compressed light volumes of `light-volumes`, 78 bytes a point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CodedBins(pub [[u8; 3]; NUM_DIRS]);
+
+impl GridValue for CodedBins {
+    const KIND: crate::file::GridKind = crate::file::GridKind::CodedLight;
+    const FILE_BYTES: usize = NUM_DIRS * 3;
+    fn check(&self) -> Result<(), (&'static str, String, &'static str)> {
+        Ok(())
+    }
+    fn write_le(&self, out: &mut Vec<u8>) {
+        for c in self.0 {
+            out.extend_from_slice(&c);
+        }
+    }
+    fn read_le(b: &[u8]) -> Self {
+        Self(std::array::from_fn(|d| {
+            [b[3 * d], b[3 * d + 1], b[3 * d + 2]]
+        }))
+    }
+}
+
+/// A light grid coded as [`CodedBins`], with the value of code 255 (`scale`) and the
+/// content key of what made it (a cache key: readers refuse a file made for another).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CodedLightGrid {
+    /// The codes.
+    pub grid: Grid<CodedBins>,
+    /// Value of code 255 (finite, > 0).
+    pub scale: f32,
+    /// Content key of what the grid was made from.
+    pub key: u64,
+}
+
+impl CodedLightGrid {
+    /// Validates the scale.
+    pub fn new(grid: Grid<CodedBins>, scale: f32, key: u64) -> Result<Self, GridError> {
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(GridError::invalid("scale", scale, "must be finite and > 0"));
+        }
+        Ok(Self { grid, scale, key })
+    }
+    /// Decodes every point.
+    pub fn decode(&self) -> LightGrid {
+        let table: [f32; 256] = std::array::from_fn(|c| {
+            let s = c as f32 / 255.0;
+            s * s * self.scale
+        });
+        self.grid.map(|b| {
+            BinLight(std::array::from_fn(|d| {
+                let [r, g, bl] = b.0[d];
+                Vec3::new(table[r as usize], table[g as usize], table[bl as usize])
+            }))
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -95,8 +95,8 @@ pub use dirs::{HORIZONTAL_STEP, NUM_DIRS, NUM_SWEEP_DIRS, SweepDir};
 pub use error::{FileErrorKind, GridError};
 pub use file::{GridFile, GridKind};
 pub use grid::{
-    AverageGrid, AverageLight, DominantDir, DominantGrid, Grid, GridValue, LightGrid, Material,
-    MaterialGrid, PackedBins, PackedLightGrid,
+    AverageGrid, AverageLight, CodedBins, CodedLightGrid, DominantDir, DominantGrid, Grid,
+    GridValue, LightGrid, Material, MaterialGrid, PackedBins, PackedLightGrid,
 };
 pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
 pub use lights::LightKind;

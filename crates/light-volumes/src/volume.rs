@@ -6,21 +6,21 @@
 //! curve). And the cache file, keyed by a hash of the light and the
 //! scene, written atomically, checked on load.
 //!
-//! File layout (little endian): `b"LGVOL\0"`, version `u16` = 2, key `u64`, cropped
-//! origin `3 × f32`, cell size `f32`, dims `3 × u32`, scale `f32`, then `26 × 3` bytes
-//! per point (x fastest, then z, then y), then CRC-32 of everything before it.
+//! The file is lightgrid's one grid format (`lightgrid_core::file`), kind 6 "coded
+//! light": the cropped box as the descriptor, the scale in the exposure field, the key
+//! at the head of the payload, then `26 × 3` code bytes a point; its reader checks
+//! magic, version, length, checksum and header before this crate checks the key. A light
+//! that lit nothing is stored as one zero point at the origin (and read back as such).
 
 use std::path::Path;
 
 use lightgrid_core::glam::{UVec3, Vec3};
-use lightgrid_core::{BinLight, Grid, GridDesc, GridError, LightGrid, NUM_DIRS};
+use lightgrid_core::{
+    BinLight, CodedBins, CodedLightGrid, Grid, GridDesc, GridError, GridFile, LightGrid, NUM_DIRS,
+};
 
 /// Cells below this fraction of the largest value are dropped from the bounding box.
 pub const THRESHOLD: f32 = 1.0 / 256.0;
-
-const MAGIC: &[u8; 6] = b"LGVOL\0";
-const VERSION: u16 = 2;
-const HEADER: usize = 6 + 2 + 8 + 12 + 4 + 12 + 4;
 
 /// A compressed light volume.
 #[derive(Debug, Clone, PartialEq)]
@@ -107,104 +107,63 @@ impl CompressedVolume {
 
     /// Bytes of the file.
     pub fn file_bytes(&self) -> usize {
-        HEADER + self.codes.len() * 3 + 4
+        lightgrid_core::file::HEADER_BYTES + 8 + self.codes.len().max(NUM_DIRS) * 3 + 4
+    }
+
+    /// As a coded light grid (the dark volume: one zero point at the origin).
+    fn to_coded(&self) -> CodedLightGrid {
+        let (desc, scale) = match self.desc {
+            Some(d) => (d, self.scale),
+            None => (
+                GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE).expect("valid"),
+                1.0,
+            ),
+        };
+        let data = if self.desc.is_some() {
+            self.codes
+                .chunks_exact(NUM_DIRS)
+                .map(|c| CodedBins(c.try_into().expect("26 codes")))
+                .collect()
+        } else {
+            vec![CodedBins([[0; 3]; NUM_DIRS])]
+        };
+        CodedLightGrid {
+            grid: Grid::from_trusted(desc, data),
+            scale,
+            key: self.key,
+        }
     }
 
     /// Serialises (see the module docs).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(self.file_bytes());
-        b.extend_from_slice(MAGIC);
-        b.extend_from_slice(&VERSION.to_le_bytes());
-        b.extend_from_slice(&self.key.to_le_bytes());
-        let (o, h, dims) = match self.desc {
-            Some(d) => (d.origin(), d.h(), d.dims()),
-            None => (Vec3::ZERO, 0.0, UVec3::ZERO),
-        };
-        for v in o.to_array() {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        b.extend_from_slice(&h.to_le_bytes());
-        for v in dims.to_array() {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        b.extend_from_slice(&self.scale.to_le_bytes());
-        for c in &self.codes {
-            b.extend_from_slice(c);
-        }
-        let crc = crc32fast::hash(&b);
-        b.extend_from_slice(&crc.to_le_bytes());
-        b
+        GridFile::CodedLight(self.to_coded()).to_bytes()
     }
 
-    /// Parses and checks a file's bytes: magic, version, checksum, sizes, and that it
-    /// was made for `key` (a stale volume is an error, never used).
+    /// Parses and checks a file's bytes (the grid format's checks, then that it was made
+    /// for `key`: a stale volume is an error, never used).
     pub fn from_bytes(bytes: &[u8], key: u64) -> Result<Self, GridError> {
-        let bad = |field: &'static str, value: String, reason: &'static str| {
-            GridError::invalid(field, value, reason)
-        };
-        if bytes.len() < HEADER + 4 {
-            return Err(bad("file", format!("{} bytes", bytes.len()), "truncated"));
-        }
-        if &bytes[..6] != MAGIC {
-            return Err(bad(
-                "magic",
-                format!("{:02x?}", &bytes[..6]),
-                "not a light volume",
-            ));
-        }
-        let (body, tail) = bytes.split_at(bytes.len() - 4);
-        let stored = u32::from_le_bytes(tail.try_into().expect("4 bytes"));
-        if crc32fast::hash(body) != stored {
-            return Err(bad(
-                "checksum",
-                format!("{stored:#010x}"),
-                "does not match: corrupt",
-            ));
-        }
-        let u16_at = |i: usize| u16::from_le_bytes(bytes[i..i + 2].try_into().expect("2"));
-        let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4"));
-        let f32_at = |i: usize| f32::from_le_bytes(bytes[i..i + 4].try_into().expect("4"));
-        let version = u16_at(6);
-        if version != VERSION {
-            return Err(bad("version", version.to_string(), "not supported"));
-        }
-        let found = u64::from_le_bytes(bytes[8..16].try_into().expect("8"));
-        if found != key {
-            return Err(bad(
+        let c = GridFile::from_bytes(bytes)?.into_coded_light()?;
+        if c.key != key {
+            return Err(GridError::invalid(
                 "key",
-                format!("{found:#018x}"),
+                format!("{:#018x}", c.key),
                 "made for another light or scene: stale",
             ));
         }
-        let origin = Vec3::new(f32_at(16), f32_at(20), f32_at(24));
-        let h = f32_at(28);
-        let dims = UVec3::new(u32_at(32), u32_at(36), u32_at(40));
-        let scale = f32_at(44);
-        let codes_bytes = &body[HEADER..];
-        if dims == UVec3::ZERO {
+        let codes: Vec<[u8; 3]> = c.grid.data().iter().flat_map(|b| b.0).collect();
+        if c.grid.desc().point_count() == 1 && codes.iter().all(|c| *c == [0; 3]) {
             return Ok(Self {
                 key,
                 desc: None,
-                scale,
+                scale: 0.0,
                 codes: Vec::new(),
             });
         }
-        let desc = GridDesc::new(origin, h, dims)?;
-        if !(scale.is_finite() && scale > 0.0) {
-            return Err(bad("scale", scale.to_string(), "must be finite and > 0"));
-        }
-        if codes_bytes.len() != desc.point_count() * NUM_DIRS * 3 {
-            return Err(bad(
-                "codes",
-                codes_bytes.len().to_string(),
-                "length does not match the dims",
-            ));
-        }
         Ok(Self {
             key,
-            desc: Some(desc),
-            scale,
-            codes: codes_bytes.chunks(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            desc: Some(*c.grid.desc()),
+            scale: c.scale,
+            codes,
         })
     }
 
@@ -236,7 +195,7 @@ impl CompressedVolume {
                 value,
                 reason,
             },
-            other => other,
+            other => other.with_path(path),
         })
     }
 }

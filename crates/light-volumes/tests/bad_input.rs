@@ -43,27 +43,26 @@ fn corrupt_cache_files_are_errors() {
             "cut {cut}"
         );
     }
-    // Dims that wrap (2^22 cubed), zero cell size, NaN scale: with a valid checksum.
-    let dims_at = 32;
+    // Dims that wrap (2^22 cubed), zero cell size, NaN scale: with a valid checksum
+    // (offsets of lightgrid_core::file's header: h 32, dims 36, exposure = scale 48).
+    let dims_at = 36;
     let mut b = good.clone();
     for k in 0..3 {
         b[dims_at + 4 * k..dims_at + 4 * k + 4].copy_from_slice(&(1u32 << 22).to_le_bytes());
     }
     assert!(CompressedVolume::from_bytes(&resign(b), KEY).is_err());
     let mut b = good.clone();
-    b[28..32].copy_from_slice(&0f32.to_le_bytes());
+    b[32..36].copy_from_slice(&0f32.to_le_bytes());
     let e = CompressedVolume::from_bytes(&resign(b), KEY)
         .unwrap_err()
         .to_string();
     assert!(e.contains("invalid h = 0"), "{e}");
     let mut b = good.clone();
-    b[44..48].copy_from_slice(&f32::NAN.to_le_bytes());
-    assert!(
-        CompressedVolume::from_bytes(&resign(b), KEY)
-            .unwrap_err()
-            .to_string()
-            .contains("scale")
-    );
+    b[48..52].copy_from_slice(&f32::NAN.to_le_bytes());
+    let e = CompressedVolume::from_bytes(&resign(b), KEY)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("exposure"), "{e}");
 }
 
 #[test]
