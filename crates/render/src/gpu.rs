@@ -125,7 +125,8 @@ pub enum GpuPoints<'a> {
 }
 
 /// Sampled light left on the device: two `vec4` a point, `(light, 0)` and
-/// `(dominant, 0)`, the layout of [`SampledLight`] (and of the renderer's light volume).
+/// `(dominant, 1)` (`w` = 1 once a layer wrote the point; 0 for points no layer owns),
+/// the layout of [`SampledLight`] and of the renderer's light volume.
 pub struct GpuSamples {
     ctx: Arc<GpuContext>,
     buffer: wgpu::Buffer,
@@ -154,6 +155,8 @@ impl GpuSamples {
         let bytes = self.ctx.read_back(&self.buffer)?;
         let mut result: Vec<SampledLight> = bytemuck::pod_collect_to_vec(&bytes[..self.count * 32]);
         for r in &mut result {
+            // The kernel's "written" flag.
+            r._pad1 = 0.0;
             if !r.light.is_finite() {
                 r.light = Vec3::ZERO;
             }
@@ -221,8 +224,9 @@ impl GpuLightSampler {
         .read()
     }
 
-    /// Lights `points` from grids already on the device, one dispatch per layer in
-    /// order (a point keeps the light of the last layer owning it), and leaves the
+    /// Lights `points` from grids already on the device, each point from the last layer
+    /// owning it (one dispatch per layer, finest first; each point is sampled once), and
+    /// leaves the
     /// result there: the light grids of a GPU sweep are sampled, and drawn
     /// ([`crate::Renderer::set_light_volume_samples`]), without a copy through the CPU.
     /// Every grid must live on this sampler's device; points no layer owns read zero.
@@ -282,7 +286,9 @@ impl GpuLightSampler {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        for layer in layers {
+        // Finest first; each point is sampled by the first layer that owns it (the
+        // kernel skips points already written), which is the last in `layers` order.
+        for layer in layers.iter().rev() {
             let d = layer.grid.desc();
             let (own, own_index) = match layer.owner {
                 Some(o) => (

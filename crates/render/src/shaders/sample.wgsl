@@ -1,6 +1,7 @@
 // The light sampling buffer on the GPU: lightgrid_render::sampling::sample_points for one
-// grid, dispatched once per layer: a point the layer does not own keeps what an earlier
-// layer wrote (terrain_lod::Owner, Hierarchy::grid_at).
+// grid, dispatched once per layer, finest first: a point already written (out[2i + 1].w =
+// 1) or not owned by the layer is skipped, so each point is sampled once, from the last
+// layer in hierarchy order that owns it (terrain_lod::Owner, Hierarchy::grid_at).
 
 @group(0) @binding(0) var<uniform> params: SampleParams;
 // 26 RGB bins a point (78 floats), grid order.
@@ -9,7 +10,7 @@
 @group(0) @binding(2) var<storage, read> points: array<vec4<f32>>;
 // lightgrid_render::sampling::IrradianceTable::weights.
 @group(0) @binding(3) var<storage, read> table: array<f32>;
-// Two vec4 a point: (light, 0), (dominant, 0).
+// Two vec4 a point: (light, 0), (dominant, written ? 1 : 0).
 @group(0) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
 
 // lightgrid_render::sampling::octahedral_encode
@@ -26,7 +27,7 @@ fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.count) {
+    if (i >= params.count || out[2u * i + 1u].w != 0.0) {
         return;
     }
     var p: vec3<f32>;
@@ -112,5 +113,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         dom = vec3<f32>(0.0);
     }
     out[2u * i] = vec4<f32>(light, 0.0);
-    out[2u * i + 1u] = vec4<f32>(dom, 0.0);
+    out[2u * i + 1u] = vec4<f32>(dom, 1.0);
 }
