@@ -13,7 +13,7 @@ fn validate(name: &str, src: &str) -> naga::Module {
 #[test]
 fn every_shader_validates() {
     let all = wgsl::all();
-    assert_eq!(all.len(), 4);
+    assert_eq!(all.len(), 5);
     for (name, src) in all {
         validate(name, &src);
     }
