@@ -401,15 +401,61 @@ pub fn write_glb(model: &Model, path: impl AsRef<Path>) -> Result<(), GridError>
     model
         .validate()
         .map_err(|e| GridError::invalid("model", e.to_string(), "is invalid"))?;
+    use gltf::json;
+    use json::validation::{Checked::Valid, USize64};
     let mut bin: Vec<u8> = Vec::new();
-    let mut views = Vec::new();
-    let mut accessors = Vec::new();
-    let mut primitives = Vec::new();
+    let mut root = json::Root {
+        asset: json::Asset {
+            copyright: None,
+            extensions: None,
+            extras: Default::default(),
+            generator: Some("lightgrid material-voxelizer".into()),
+            min_version: None,
+            version: "2.0".into(),
+        },
+        ..Default::default()
+    };
     let align = |bin: &mut Vec<u8>| {
         while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
     };
+    // A view of `len` bytes at `offset` in the one buffer.
+    let view = |root: &mut json::Root, offset: usize, len: usize| {
+        root.push(json::buffer::View {
+            buffer: json::Index::new(0),
+            byte_length: USize64(len as u64),
+            byte_offset: Some(USize64(offset as u64)),
+            byte_stride: None,
+            name: None,
+            target: None,
+            extensions: None,
+            extras: Default::default(),
+        })
+    };
+    let accessor = |root: &mut json::Root,
+                    view: json::Index<json::buffer::View>,
+                    count: usize,
+                    type_: json::accessor::Type,
+                    bounds: Option<(Vec3, Vec3)>| {
+        root.push(json::Accessor {
+            buffer_view: Some(view),
+            byte_offset: None,
+            count: USize64(count as u64),
+            component_type: Valid(json::accessor::GenericComponentType(
+                json::accessor::ComponentType::F32,
+            )),
+            extensions: None,
+            extras: Default::default(),
+            type_: Valid(type_),
+            min: bounds.map(|b| json::Value::from(b.0.to_array().to_vec())),
+            max: bounds.map(|b| json::Value::from(b.1.to_array().to_vec())),
+            name: None,
+            normalized: false,
+            sparse: None,
+        })
+    };
+    let mut primitives = Vec::new();
     for (mi, _) in model.materials.iter().enumerate() {
         let tris: Vec<&Triangle> = model
             .triangles
@@ -440,15 +486,24 @@ pub fn write_glb(model: &Model, path: impl AsRef<Path>) -> Result<(), GridError>
             }
         }
         let n = tris.len() * 3;
-        views.push(serde_json::json!({"buffer": 0, "byteOffset": pos_off, "byteLength": n * 12}));
-        accessors.push(serde_json::json!({"bufferView": views.len() - 1, "componentType": 5126, "count": n, "type": "VEC3",
-            "min": lo.to_array(), "max": hi.to_array()}));
-        let pos_acc = accessors.len() - 1;
-        views.push(serde_json::json!({"buffer": 0, "byteOffset": uv_off, "byteLength": n * 8}));
-        accessors.push(serde_json::json!({"bufferView": views.len() - 1, "componentType": 5126, "count": n, "type": "VEC2"}));
-        primitives.push(serde_json::json!({"attributes": {"POSITION": pos_acc, "TEXCOORD_0": accessors.len() - 1}, "material": mi}));
+        let v = view(&mut root, pos_off, n * 12);
+        let positions = accessor(&mut root, v, n, json::accessor::Type::Vec3, Some((lo, hi)));
+        let v = view(&mut root, uv_off, n * 8);
+        let uvs = accessor(&mut root, v, n, json::accessor::Type::Vec2, None);
+        primitives.push(json::mesh::Primitive {
+            attributes: [
+                (Valid(json::mesh::Semantic::Positions), positions),
+                (Valid(json::mesh::Semantic::TexCoords(0)), uvs),
+            ]
+            .into(),
+            extensions: None,
+            extras: Default::default(),
+            indices: None,
+            material: Some(json::Index::new(mi as u32)),
+            mode: Valid(json::mesh::Mode::Triangles),
+            targets: None,
+        });
     }
-    let mut images = Vec::new();
     for t in &model.textures {
         let mut rgba = Vec::with_capacity(t.texels.len() * 4);
         for c in &t.texels {
@@ -472,57 +527,90 @@ pub fn write_glb(model: &Model, path: impl AsRef<Path>) -> Result<(), GridError>
             source: std::io::Error::other(e),
         })?;
         align(&mut bin);
-        views.push(
-            serde_json::json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": png.len()}),
-        );
+        let v = view(&mut root, bin.len(), png.len());
         bin.extend_from_slice(&png);
-        images.push(serde_json::json!({"bufferView": views.len() - 1, "mimeType": "image/png"}));
+        let source = root.push(json::Image {
+            buffer_view: Some(v),
+            mime_type: Some(json::image::MimeType("image/png".into())),
+            name: None,
+            uri: None,
+            extensions: None,
+            extras: Default::default(),
+        });
+        if root.samplers.is_empty() {
+            root.push(json::texture::Sampler {
+                wrap_s: Valid(json::texture::WrappingMode::Repeat),
+                wrap_t: Valid(json::texture::WrappingMode::Repeat),
+                ..Default::default()
+            });
+        }
+        root.push(json::Texture {
+            name: None,
+            sampler: Some(json::Index::new(0)),
+            source,
+            extensions: None,
+            extras: Default::default(),
+        });
     }
     align(&mut bin);
-    let materials: Vec<serde_json::Value> = model
-        .materials
-        .iter()
-        .map(|m| {
-            let mut pbr = serde_json::json!({"baseColorFactor": m.base_colour.to_array(), "metallicFactor": 0.0, "roughnessFactor": 1.0});
-            if let Some(t) = m.texture {
-                pbr["baseColorTexture"] = serde_json::json!({"index": t});
-            }
-            let mut v = serde_json::json!({"pbrMetallicRoughness": pbr, "doubleSided": true});
-            match m.alpha {
-                AlphaMode::Opaque => {}
-                AlphaMode::Mask(c) => {
-                    v["alphaMode"] = "MASK".into();
-                    v["alphaCutoff"] = c.into();
-                }
-                AlphaMode::Blend => v["alphaMode"] = "BLEND".into(),
-            }
-            v
-        })
-        .collect();
-    let textures: Vec<serde_json::Value> = (0..model.textures.len())
-        .map(|i| serde_json::json!({"source": i, "sampler": 0}))
-        .collect();
-    let mut root = serde_json::json!({
-        "asset": {"version": "2.0", "generator": "lightgrid material-voxelizer"},
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "meshes": [{"primitives": primitives}],
-        "buffers": [{"byteLength": bin.len()}],
-        "bufferViews": views,
-        "accessors": accessors,
-        "materials": materials,
-    });
-    if !textures.is_empty() {
-        root["textures"] = textures.into();
-        root["images"] = images.into();
-        root["samplers"] = serde_json::json!([{"wrapS": 10497, "wrapT": 10497}]);
+    for m in &model.materials {
+        let (alpha_mode, alpha_cutoff) = match m.alpha {
+            AlphaMode::Opaque => (json::material::AlphaMode::Opaque, None),
+            AlphaMode::Mask(c) => (
+                json::material::AlphaMode::Mask,
+                Some(json::material::AlphaCutoff(c)),
+            ),
+            AlphaMode::Blend => (json::material::AlphaMode::Blend, None),
+        };
+        root.push(json::Material {
+            alpha_cutoff,
+            alpha_mode: Valid(alpha_mode),
+            double_sided: true,
+            pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+                base_color_factor: json::material::PbrBaseColorFactor(m.base_colour.to_array()),
+                base_color_texture: m.texture.map(|t| json::texture::Info {
+                    index: json::Index::new(t as u32),
+                    tex_coord: 0,
+                    extensions: None,
+                    extras: Default::default(),
+                }),
+                metallic_factor: json::material::StrengthFactor(0.0),
+                roughness_factor: json::material::StrengthFactor(1.0),
+                ..Default::default()
+            },
+            ..Default::default()
+        });
     }
+    let mesh = root.push(json::Mesh {
+        extensions: None,
+        extras: Default::default(),
+        name: None,
+        primitives,
+        weights: None,
+    });
+    let node = root.push(json::Node {
+        mesh: Some(mesh),
+        ..Default::default()
+    });
+    let scene = root.push(json::Scene {
+        extensions: None,
+        extras: Default::default(),
+        name: None,
+        nodes: vec![node],
+    });
+    root.scene = Some(scene);
+    root.push(json::Buffer {
+        byte_length: USize64(bin.len() as u64),
+        name: None,
+        uri: None,
+        extensions: None,
+        extras: Default::default(),
+    });
     let io = |e: &dyn std::fmt::Display| GridError::Io {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
     };
-    let json = serde_json::to_vec(&root).map_err(|e| io(&e))?;
+    let json = json::serialize::to_vec(&root).map_err(|e| io(&e))?;
     // The container (header, JSON chunk padded with spaces, BIN chunk) by the gltf crate.
     let out = gltf::binary::Glb {
         header: gltf::binary::Header {
