@@ -8,6 +8,8 @@
 //! * [`GpuError`]: what can go wrong (no adapter, device refused, a buffer over the
 //!   binding limit, readback).
 //! * [`bind`]: bind-group layout entries and bind groups numbered in order.
+//! * [`kernel`]: small compute kernels (one bind group of buffers in order, workgroups
+//!   of 64), the form of every kernel but the sweep's.
 //! * [`gpu_struct!`]: a `#[repr(C)]` Rust struct and its WGSL declaration from one field
 //!   list, and [`check::layout`], which compares the Rust offsets with naga's layout of
 //!   the compiled shader, so structs shared with WGSL are never copied by hand.
@@ -33,6 +35,7 @@
 pub mod bind;
 pub mod check;
 pub mod grid;
+pub mod kernel;
 pub mod wgsl;
 
 pub use grid::GpuLightGrid;

@@ -4,7 +4,8 @@ use std::sync::Arc;
 
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{GridDesc, GridError, LightGrid};
-use lightgrid_gpu::{GpuContext, GpuError, GpuLightGrid, bind};
+use lightgrid_gpu::kernel::{Binding, Kernel, buffer};
+use lightgrid_gpu::{GpuContext, GpuError, GpuLightGrid};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
@@ -54,20 +55,20 @@ lightgrid_gpu::gpu_struct! {
 /// Writes the light of [`GpuSamples`] into the rgb of a strided `f32` buffer on the
 /// device (vertex light, ground light).
 pub(crate) struct LightScatter {
-    layout: wgpu::BindGroupLayout,
-    pipeline: wgpu::ComputePipeline,
+    kernel: Kernel,
 }
 
 impl LightScatter {
     pub(crate) fn new(device: &wgpu::Device) -> Self {
         use Binding::{Read, ReadWrite, Uniform};
-        let (layout, pipeline) = compute(
-            device,
-            "scatter",
-            &crate::wgsl::scatter_kernel(),
-            &[Uniform, Read, ReadWrite],
-        );
-        Self { layout, pipeline }
+        Self {
+            kernel: Kernel::new(
+                device,
+                "scatter",
+                &crate::wgsl::scatter_kernel(),
+                &[Uniform, Read, ReadWrite],
+            ),
+        }
     }
 
     /// `dst[i * stride + offset + k] = light[i][k]` for `k < 3`. The caller checked that
@@ -80,14 +81,16 @@ impl LightScatter {
             offset,
             pad0: 0,
         };
-        let uniform = init(
+        let uniform = buffer(
             ctx,
             "scatter params",
             bytemuck::bytes_of(&params),
             wgpu::BufferUsages::UNIFORM,
         );
-        let bind = bind(&ctx.device, &self.layout, &[&uniform, &samples.buffer, dst]);
-        dispatch(ctx, &self.pipeline, &bind, samples.count as u32);
+        let bind = self
+            .kernel
+            .bind(&ctx.device, &[&uniform, &samples.buffer, dst]);
+        self.kernel.dispatch(ctx, &bind, samples.count as u32);
     }
 }
 
@@ -172,19 +175,16 @@ impl GpuSamples {
 /// [`crate::sample_points`] on that grid (within f32 rounding).
 pub struct GpuLightSampler {
     ctx: Arc<GpuContext>,
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+    kernel: Kernel,
     table: wgpu::Buffer,
 }
-
-const WORKGROUP: u32 = 64;
 
 impl GpuLightSampler {
     /// Compiles the kernel and uploads the irradiance table.
     pub fn new(ctx: Arc<GpuContext>) -> Self {
         let device = &ctx.device;
         use Binding::{Read, ReadWrite, Uniform};
-        let (layout, pipeline) = compute(
+        let kernel = Kernel::new(
             device,
             "sample",
             &crate::wgsl::sample_kernel(),
@@ -195,12 +195,7 @@ impl GpuLightSampler {
             contents: bytemuck::cast_slice(&IrradianceTable::get().weights),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        Self {
-            ctx,
-            pipeline,
-            layout,
-            table,
-        }
+        Self { ctx, kernel, table }
     }
 
     /// Lights `points` from `grid` (uploaded for this call) in one dispatch.
@@ -274,7 +269,7 @@ impl GpuLightSampler {
                 return Err(GpuError::TooLarge { what, bytes, limit }.into());
             }
         }
-        let pts = init(
+        let pts = buffer(
             &self.ctx,
             "sample points",
             bytemuck::cast_slice(&packed),
@@ -314,18 +309,17 @@ impl GpuLightSampler {
                 count: count as u32,
                 ..Default::default()
             };
-            let uniform = init(
+            let uniform = buffer(
                 &self.ctx,
                 "sample params",
                 bytemuck::bytes_of(&params),
                 wgpu::BufferUsages::UNIFORM,
             );
-            let bind = bind(
+            let bind = self.kernel.bind(
                 device,
-                &self.layout,
                 &[&uniform, layer.grid.buffer(), &pts, &self.table, &out],
             );
-            dispatch(&self.ctx, &self.pipeline, &bind, count as u32);
+            self.kernel.dispatch(&self.ctx, &bind, count as u32);
         }
         Ok(GpuSamples {
             ctx: self.ctx.clone(),
@@ -335,135 +329,24 @@ impl GpuLightSampler {
     }
 }
 
-/// How a compute kernel binds a buffer (bindings are numbered in order from 0).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Binding {
-    Uniform,
-    Read,
-    ReadWrite,
-}
-
-/// A compute pipeline of `src` (entry point `main`) with one bind group of `bindings`.
-fn compute(
-    device: &wgpu::Device,
-    label: &str,
-    src: &str,
-    bindings: &[Binding],
-) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(src.into()),
-    });
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
-        .iter()
-        .enumerate()
-        .map(|(i, b)| {
-            let stage = wgpu::ShaderStages::COMPUTE;
-            match b {
-                Binding::Uniform => bind::uniform(i as u32, stage),
-                Binding::Read => bind::storage(i as u32, stage, true),
-                Binding::ReadWrite => bind::storage(i as u32, stage, false),
-            }
-        })
-        .collect();
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &entries,
-    });
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(label),
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: Some(&pl),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    (layout, pipeline)
-}
-
-/// A bind group of `buffers`, bound in order from 0.
-fn bind(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout,
-        entries: &entries,
-    })
-}
-
-/// One dispatch of `count` invocations (workgroups of 64).
-fn dispatch(
-    ctx: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
-    bind: &wgpu::BindGroup,
-    count: u32,
-) {
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, bind, &[]);
-        pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
-    }
-    ctx.queue.submit([enc.finish()]);
-}
-
-fn init(ctx: &GpuContext, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
-    // Bindings need at least one element (64 bytes covers every struct here).
-    let padded;
-    let contents = if contents.len() < 64 {
-        padded = [contents, &[0u8; 64][..64 - contents.len()]].concat();
-        &padded[..]
-    } else {
-        contents
-    };
-    ctx.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage,
-        })
-}
-
 /// Dynamic-light shading of a batch of points on the GPU, through the same WGSL the mesh
 /// shader uses (tests compare it with [`crate::dynamic`]).
 pub struct GpuDynamicShader {
     ctx: Arc<GpuContext>,
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+    kernel: Kernel,
 }
 
 impl GpuDynamicShader {
     /// Compiles the kernel.
     pub fn new(ctx: Arc<GpuContext>) -> Self {
         use Binding::{Read, ReadWrite, Uniform};
-        let (layout, pipeline) = compute(
+        let kernel = Kernel::new(
             &ctx.device,
             "dynamic lights",
             &crate::wgsl::dynamic_kernel(),
             &[Uniform, Read, Read, Read, Read, ReadWrite],
         );
-        Self {
-            ctx,
-            pipeline,
-            layout,
-        }
+        Self { ctx, kernel }
     }
 
     /// Diffuse and specular light at each `(position, normal, to_eye)` with `shininess`.
@@ -493,26 +376,26 @@ impl GpuDynamicShader {
         let storage = wgpu::BufferUsages::STORAGE;
         let ctx = &*self.ctx;
         let buffers = [
-            init(
+            buffer(
                 ctx,
                 "params",
                 bytemuck::bytes_of(&params),
                 wgpu::BufferUsages::UNIFORM,
             ),
-            init(
+            buffer(
                 ctx,
                 "lights",
                 bytemuck::cast_slice(&lights.gpu_lights()),
                 storage,
             ),
-            init(ctx, "cells", bytemuck::cast_slice(&lights.cells), storage),
-            init(
+            buffer(ctx, "cells", bytemuck::cast_slice(&lights.cells), storage),
+            buffer(
                 ctx,
                 "indices",
                 bytemuck::cast_slice(&lights.indices),
                 storage,
             ),
-            init(ctx, "points", bytemuck::cast_slice(&packed), storage),
+            buffer(ctx, "points", bytemuck::cast_slice(&packed), storage),
         ];
         let out = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("dynamic out"),
@@ -521,8 +404,8 @@ impl GpuDynamicShader {
             mapped_at_creation: false,
         });
         let refs: Vec<&wgpu::Buffer> = buffers.iter().chain([&out]).collect();
-        let b = bind(&ctx.device, &self.layout, &refs);
-        dispatch(ctx, &self.pipeline, &b, points.len() as u32);
+        let b = self.kernel.bind(&ctx.device, &refs);
+        self.kernel.dispatch(ctx, &b, points.len() as u32);
         let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&ctx.read_back(&out)?);
         Ok(v.chunks(2)
             .map(|c| DynamicShade {

@@ -63,34 +63,22 @@ pub use sweep::{GpuSweeper, GpuTimings};
 use lightgrid_core::glam::Vec3;
 use wgpu::util::DeviceExt;
 
+use lightgrid_gpu::kernel::{Binding, Kernel};
 pub use lightgrid_gpu::{GpuContext, GpuError, GpuLightGrid};
 
 /// Packs light to R11G11B10 on the GPU, and finds the largest value for the exposure;
 /// the pipelines are created once.
 pub struct GpuPacker {
-    pack: wgpu::ComputePipeline,
-    max: wgpu::ComputePipeline,
+    pack: Kernel,
+    max: Kernel,
 }
 
 impl GpuPacker {
     /// Compiles the kernels.
     pub fn new(ctx: &GpuContext) -> Self {
+        use Binding::{Read, ReadWrite, Uniform};
         let make = |name: &str, src: String| {
-            let module = ctx
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(name),
-                    source: wgpu::ShaderSource::Wgsl(src.into()),
-                });
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(name),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
+            Kernel::new(&ctx.device, name, &src, &[Uniform, Read, ReadWrite])
         };
         Self {
             pack: make("pack", wgsl::pack_kernel()),
@@ -129,36 +117,20 @@ impl GpuPacker {
     fn run(
         &self,
         ctx: &GpuContext,
-        pipeline: &wgpu::ComputePipeline,
+        kernel: &Kernel,
         input: &wgpu::Buffer,
         count: usize,
         exposure: f32,
         output: &wgpu::Buffer,
     ) {
-        let params = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("pack params"),
-                contents: bytemuck::cast_slice(&[count as u32, exposure.to_bits()]),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-        let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pack"),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &lightgrid_gpu::bind::entries([
-                params.as_entire_binding(),
-                input.as_entire_binding(),
-                output.as_entire_binding(),
-            ]),
-        });
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups((count.max(1) as u32).div_ceil(64), 1, 1);
-        }
-        ctx.queue.submit([enc.finish()]);
+        let params = lightgrid_gpu::kernel::buffer(
+            ctx,
+            "pack params",
+            bytemuck::cast_slice(&[count as u32, exposure.to_bits()]),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let bind = kernel.bind(&ctx.device, &[&params, input, output]);
+        kernel.dispatch(ctx, &bind, count as u32);
     }
 
     /// Packs the first `count` RGB triples of a GPU buffer of `f32`.
