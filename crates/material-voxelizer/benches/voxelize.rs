@@ -48,13 +48,8 @@ fn bench_voxelize(c: &mut Criterion) {
 }
 
 fn forest(n: usize, spread: f32, offset: Vec3) -> Vec<Instance> {
-    let mut s = 0x2545_f491_4f6c_dd1du64;
-    let mut rng = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut r = lightgrid_core::SeededRng::new(0x2545_f491_4f6c_dd1d);
+    let mut rng = move || r.f32();
     (0..n)
         .map(|_| Instance {
             model: 0,

@@ -167,6 +167,19 @@ fn add_quad(
     id
 }
 
+/// A white quad at height `y` lit per pixel by `lighting` (no vertex light).
+fn lit_quad(r: &mut Renderer, y: f32, lighting: Lighting) -> lightgrid_render::MeshId {
+    add_quad(
+        r,
+        y,
+        Vec3::ZERO,
+        MeshMaterial {
+            lighting,
+            ..Default::default()
+        },
+    )
+}
+
 fn assert_all_pixels(img: &lightgrid_render::Image, expected: Vec3, what: &str) {
     for (i, p) in img.hdr.iter().enumerate() {
         let got = Vec3::new(p[0], p[1], p[2]);
@@ -232,15 +245,7 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
     // Light arriving from straight above, half directional.
     let dom = Vec3::NEG_Y * 0.5;
     r.set_light_volume(&uniform_volume(avg, dom)).unwrap();
-    let surface = add_quad(
-        &mut r,
-        1.0,
-        Vec3::ZERO,
-        MeshMaterial {
-            lighting: Lighting::Surface,
-            ..Default::default()
-        },
-    );
+    let surface = lit_quad(&mut r, 1.0, Lighting::Surface);
     let foliage = add_quad(
         &mut r,
         1.0,
@@ -772,15 +777,7 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
     };
     // Light volume.
     let desc = GridDesc::new(Vec3::new(-11.0, -0.5, -11.0), 1.0, UVec3::new(23, 4, 23)).unwrap();
-    let surface = add_quad(
-        &mut r,
-        1.0,
-        Vec3::ZERO,
-        MeshMaterial {
-            lighting: Lighting::Surface,
-            ..Default::default()
-        },
-    );
+    let surface = lit_quad(&mut r, 1.0, Lighting::Surface);
     r.set_light_volume(&LightVolume::from_field(&grid, desc).unwrap())
         .unwrap();
     let uploaded = r.render(&view(LightingMode::Grid, vec![surface])).unwrap();

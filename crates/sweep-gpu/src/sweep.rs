@@ -188,14 +188,7 @@ impl GpuSweeper {
         options: &SweepOptions,
     ) -> Result<(GpuLightGrid, SweepStats), SweepError> {
         let (g, stats, _) = self.execute(material, boundary, options)?;
-        let count = material.desc().point_count() * 26;
-        let max = self
-            .packer
-            .max_of(&self.ctx, &g, count)
-            .map_err(gpu_backend)?;
-        if !max.is_finite() {
-            return Err(overflow());
-        }
+        self.largest_finite(&g, material)?;
         let grid = GpuLightGrid::from_buffer(self.ctx.clone(), g, *material.desc())
             .map_err(gpu_backend)?;
         Ok((grid, stats))
@@ -290,14 +283,8 @@ impl GpuSweeper {
         options: &SweepOptions,
     ) -> Result<PackedLightGrid, SweepError> {
         let (g, _, _) = self.execute(material, boundary, options)?;
+        let max = self.largest_finite(&g, material)?;
         let count = material.desc().point_count() * 26;
-        let max = self
-            .packer
-            .max_of(&self.ctx, &g, count)
-            .map_err(gpu_backend)?;
-        if !max.is_finite() {
-            return Err(overflow());
-        }
         let exposure = lightgrid_core::pack::exposure_for(max);
         let words = self
             .packer
@@ -308,6 +295,20 @@ impl GpuSweeper {
             .map(|w| PackedBins(w.try_into().expect("26 words")))
             .collect();
         PackedLightGrid::new(Grid::new(*material.desc(), bins)?, exposure).map_err(SweepError::from)
+    }
+
+    /// The largest value of a swept grid on the device (found there); an overflow error
+    /// if it is not finite.
+    fn largest_finite(&self, g: &wgpu::Buffer, material: &MaterialGrid) -> Result<f32, SweepError> {
+        let count = material.desc().point_count() * 26;
+        let max = self
+            .packer
+            .max_of(&self.ctx, g, count)
+            .map_err(gpu_backend)?;
+        if !max.is_finite() {
+            return Err(overflow());
+        }
+        Ok(max)
     }
 
     fn execute(

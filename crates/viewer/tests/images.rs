@@ -9,7 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
-use viewer::{Options, SceneFile, SweeperChoice};
+use viewer::{Options, SceneFile, Summary, SweeperChoice};
 
 fn manifest() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -40,17 +40,13 @@ fn compare(a: &[u8], b: &[u8]) -> (f64, f64) {
     (sum as f64 / (pixels * 3) as f64, bad as f64 / pixels as f64)
 }
 
-#[test]
-fn tiny_scene_matches_the_reference_images() {
-    if lightgrid_gpu::GpuContext::new_or_opt_out()
-        .unwrap_or_else(|e| {
-            panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-        })
-        .is_none()
-    {
-        return;
-    }
-    let out = manifest().join("../../target/image-tests");
+/// Renders `tests/data/tiny.toml` at 64 x 64 into `target/image-tests/<dir>`; `None`
+/// when no adapter exists and LIGHTGRID_ALLOW_NO_GPU=1 opts out.
+fn render_tiny(dir: &str, sweeper: SweeperChoice, extras: bool) -> Option<(PathBuf, Summary)> {
+    lightgrid_gpu::GpuContext::new_or_opt_out().unwrap_or_else(|e| {
+        panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
+    })?;
+    let out = manifest().join("../../target/image-tests").join(dir);
     std::fs::create_dir_all(&out).unwrap();
     let scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
     let summary = viewer::run(
@@ -59,12 +55,20 @@ fn tiny_scene_matches_the_reference_images() {
             out: out.clone(),
             width: 64,
             height: 64,
-            sweeper: SweeperChoice::Cpu,
-            exr: true,
-            bevy: true,
+            sweeper,
+            exr: extras,
+            bevy: extras,
         },
     )
     .unwrap();
+    Some((out, summary))
+}
+
+#[test]
+fn tiny_scene_matches_the_reference_images() {
+    let Some((out, summary)) = render_tiny("", SweeperChoice::Cpu, true) else {
+        return;
+    };
     assert!(summary.text().contains("view tiny"));
     // --bevy: the world volume first, then one per quadtree depth, indirect light.
     let side: lightgrid_export::Sidecar =
@@ -157,29 +161,9 @@ fn compare_with_references(out: &Path, bless: bool) -> Vec<String> {
 /// sampled and drawn there (no grid through the CPU), matches the same references.
 #[test]
 fn tiny_scene_swept_and_drawn_on_the_device_matches_the_references() {
-    if lightgrid_gpu::GpuContext::new_or_opt_out()
-        .unwrap_or_else(|e| {
-            panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-        })
-        .is_none()
-    {
+    let Some((out, summary)) = render_tiny("gpu", SweeperChoice::Gpu, false) else {
         return;
-    }
-    let out = manifest().join("../../target/image-tests/gpu");
-    std::fs::create_dir_all(&out).unwrap();
-    let scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
-    let summary = viewer::run(
-        scene,
-        &Options {
-            out: out.clone(),
-            width: 64,
-            height: 64,
-            sweeper: SweeperChoice::Gpu,
-            exr: false,
-            bevy: false,
-        },
-    )
-    .unwrap();
+    };
     assert!(summary.sweeper.starts_with("gpu"), "{}", summary.sweeper);
     for v in &summary.views {
         assert!(
