@@ -211,9 +211,11 @@ pub mod exact;
 pub mod reference;
 pub mod scenes;
 pub mod sky;
+pub mod sun;
 pub mod sweep;
 
 pub use sky::{ClearSky, EnvMap, SkyBins, SkyError, Sun};
+pub use sun::SunTransmittance;
 pub use sweep::{EnergyBalance, Sweep, run};
 
 use lightgrid_core::glam::Vec3;
