@@ -40,8 +40,8 @@ pub struct SunTransmittance {
 }
 
 /// The unit direction toward the sun, or `None` at or below the horizon; errors on a
-/// zero or non-finite vector.
-fn sun_direction(to_sun: Vec3) -> Result<Option<Vec3>, GridError> {
+/// zero or non-finite vector (the GPU march takes its direction from here).
+pub fn sun_direction(to_sun: Vec3) -> Result<Option<Vec3>, GridError> {
     if !to_sun.is_finite() || to_sun.length_squared() == 0.0 {
         return Err(GridError::invalid(
             "to_sun",
@@ -181,8 +181,28 @@ impl SunTransmittance {
         Ok(Self { desc, values })
     }
 
+    /// Values computed elsewhere (the GPU march): one per point of `desc`, each finite
+    /// and in `[0, 1]`.
+    pub fn from_values(desc: GridDesc, values: Vec<f32>) -> Result<Self, GridError> {
+        if values.len() != desc.point_count() {
+            return Err(GridError::LengthMismatch {
+                field: "values",
+                expected: desc.point_count(),
+                found: values.len(),
+            });
+        }
+        if let Some(i) = values.iter().position(|v| !(0.0..=1.0).contains(v)) {
+            return Err(GridError::invalid(
+                format!("values[{i}]"),
+                values[i],
+                "must be in [0, 1]",
+            ));
+        }
+        Ok(Self { desc, values })
+    }
+
     /// Zero everywhere (the sun below the horizon).
-    fn zero(desc: GridDesc) -> Self {
+    pub fn zero(desc: GridDesc) -> Self {
         Self {
             desc,
             values: vec![0.0; desc.point_count()],

@@ -30,6 +30,9 @@
 //! ([`GpuSweeper::new`]) and reused; grids whose buffers exceed the device's storage
 //! binding limit are refused with [`GpuError::TooLarge`] naming the buffer and the limit.
 //!
+//! [`GpuSunTransmittance`] is sweep-cpu's exact sun march (`SunTransmittance::march`)
+//! with one thread per point, equal to it within 1e-4 relative.
+//!
 //! [`GpuSweeper::run_packed`] packs the final grid to R11G11B10 on the GPU (the exposure
 //! from the largest value, found with an atomic max) and reads back only the words;
 //! they equal `LightGrid::pack` of sweep-cpu's grid within one code per channel.
@@ -55,9 +58,11 @@
 //! GPU tests need an adapter; in CI that is lavapipe. Without one they fail, unless
 //! `LIGHTGRID_ALLOW_NO_GPU=1` is set, in which case they say loudly that they did not run.
 
+pub mod sun;
 pub mod sweep;
 pub mod wgsl;
 
+pub use sun::GpuSunTransmittance;
 pub use sweep::{GpuSweeper, GpuTimings};
 
 use lightgrid_core::glam::Vec3;

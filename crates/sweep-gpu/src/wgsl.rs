@@ -181,11 +181,22 @@ pub fn max_kernel() -> String {
     include_str!("shaders/max_kernel.wgsl").to_string()
 }
 
+/// The sun transmittance march (`crate::sun`).
+pub fn sun_kernel() -> String {
+    format!(
+        "{}\n{}",
+        crate::sun::SunParams::wgsl(),
+        include_str!("shaders/sun.wgsl")
+    )
+}
+
 /// Every complete shader this crate compiles, by name (for validation).
 pub fn all() -> Vec<(&'static str, String)> {
     vec![
         ("pack_kernel", pack_kernel()),
+        ("max_kernel", max_kernel()),
         ("sweep_phase1", sweep_phase1()),
         ("sweep_phase2", sweep_phase2()),
+        ("sun_kernel", sun_kernel()),
     ]
 }
