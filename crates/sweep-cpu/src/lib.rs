@@ -216,7 +216,7 @@ pub mod sweep;
 
 pub use sky::{ClearSky, EnvMap, SkyBins, SkyError, Sun};
 pub use sun::SunTransmittance;
-pub use sweep::{EnergyBalance, Sweep, run};
+pub use sweep::{CellSource, EnergyBalance, Sweep, run, run_with_source};
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::luminance;

@@ -177,12 +177,15 @@ pub struct EnergyBalance {
     pub absorbed: DVec3,
     /// Scattered light not yet transported when the passes stopped.
     pub pending: DVec3,
+    /// Taken from a beam inside the grid by a [`CellSource`] (the sun's first
+    /// collisions): absorbed or scattered into the bins.
+    pub source_in: DVec3,
 }
 
 impl EnergyBalance {
     /// Everything that entered.
     pub fn input(&self) -> DVec3 {
-        self.top_in + self.bottom_in + self.side_in
+        self.top_in + self.bottom_in + self.side_in + self.source_in
     }
     /// Everything that left.
     pub fn escaped(&self) -> DVec3 {
@@ -836,16 +839,99 @@ fn level_flux(level: &[Level], ch: &[Channel; CHANNELS]) -> DVec3 {
         .sum()
 }
 
+/// Light a beam deposits in cells before the sweep's first pass (the first collisions of
+/// the sun, `crate::sun::first_collision`): per cell the flux taken from the beam (RGB,
+/// per `h²` like [`EnergyBalance`]), and the beam's direction of travel. The sweep
+/// absorbs `(1 - a)` of it and scatters the rest as if the cell had removed it from a
+/// channel along that direction (steps 4-7), so only scattered sun light enters the
+/// bins; the beam itself is the sun transmittance's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellSource {
+    desc: lightgrid_core::GridDesc,
+    removed: Vec<Vec3>,
+    dir: Vec3,
+}
+
+impl CellSource {
+    /// A source on the cells of `desc`: `removed` per cell (finite, >= 0), travelling
+    /// along `dir` (normalised; non-zero and finite).
+    pub fn new(
+        desc: lightgrid_core::GridDesc,
+        removed: Vec<Vec3>,
+        dir: Vec3,
+    ) -> Result<Self, GridError> {
+        if removed.len() != desc.point_count() {
+            return Err(GridError::LengthMismatch {
+                field: "removed",
+                expected: desc.point_count(),
+                found: removed.len(),
+            });
+        }
+        if let Some(i) = removed
+            .iter()
+            .position(|v| !v.is_finite() || v.min_element() < 0.0)
+        {
+            return Err(GridError::invalid(
+                format!("removed[{i}]"),
+                removed[i],
+                "must be finite and >= 0",
+            ));
+        }
+        if !dir.is_finite() || dir.length_squared() == 0.0 {
+            return Err(GridError::invalid(
+                "dir",
+                dir,
+                "must be finite and non-zero",
+            ));
+        }
+        Ok(Self {
+            desc,
+            removed,
+            dir: dir.normalize(),
+        })
+    }
+
+    /// Flux taken from the beam, per cell (grid order).
+    pub fn removed(&self) -> &[Vec3] {
+        &self.removed
+    }
+
+    /// The beam's direction of travel.
+    pub fn dir(&self) -> Vec3 {
+        self.dir
+    }
+}
+
 /// Runs the sweep; see the crate docs for the semantics.
 pub fn run(
     material: &MaterialGrid,
     boundary: &Boundary,
     options: &SweepOptions,
 ) -> Result<Sweep, SweepError> {
+    run_with_source(material, boundary, None, options)
+}
+
+/// [`run`] with light already deposited in cells (see [`CellSource`]).
+pub fn run_with_source(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    source: Option<&CellSource>,
+    options: &SweepOptions,
+) -> Result<Sweep, SweepError> {
     validate_inputs(material, boundary, options)?;
     let desc = *material.desc();
+    if let Some(src) = source
+        && src.desc != desc
+    {
+        return Err(GridError::invalid(
+            "source",
+            src.desc,
+            "must lie on the material grid's descriptor",
+        )
+        .into());
+    }
     if options.outputs.bins {
-        let (g, balance, stats) = run_with::<BinLight>(material, boundary, options);
+        let (g, balance, stats) = run_with::<BinLight>(material, boundary, source, options);
         let grid = Grid::from_trusted(desc, g);
         finish(
             SweepOutput {
@@ -858,7 +944,7 @@ pub fn run(
             balance,
         )
     } else {
-        let (g, balance, stats) = run_with::<AvgAcc>(material, boundary, options);
+        let (g, balance, stats) = run_with::<AvgAcc>(material, boundary, source, options);
         let average = options.outputs.average.then(|| {
             Grid::from_trusted(
                 desc,
@@ -918,6 +1004,7 @@ fn finish(output: SweepOutput, balance: EnergyBalance) -> Result<Sweep, SweepErr
 fn run_with<S: Sink>(
     material: &MaterialGrid,
     boundary: &Boundary,
+    source: Option<&CellSource>,
     options: &SweepOptions,
 ) -> (Vec<S>, EnergyBalance, SweepStats) {
     let desc = *material.desc();
@@ -929,6 +1016,24 @@ fn run_with<S: Sink>(
     let mut w = Work::new(desc.level_len(), desc.point_count(), nz as usize);
     let mut bal = EnergyBalance::default();
     let mut stats = SweepStats::default();
+    if let Some(src) = source {
+        // Step 4 for the beam's deposit: absorb (1 - a), and the rest waits in both
+        // directions' pending light (each pass emits its half, as for removed light).
+        for (i, (&r, mat)) in src.removed.iter().zip(cells).enumerate() {
+            if r == Vec3::ZERO {
+                continue;
+            }
+            bal.source_in += r.as_dvec3();
+            bal.absorbed += (r * (Vec3::ONE - mat.reflectance)).as_dvec3();
+            let s = r * mat.reflectance;
+            let p = Pending {
+                s,
+                m: [s * src.dir.x, s * src.dir.y, s * src.dir.z],
+            };
+            w.pend_down[i] = p;
+            w.pend_up[i] = p;
+        }
+    }
 
     for pass in 0..options.max_passes {
         let up = pass % 2 == 1;

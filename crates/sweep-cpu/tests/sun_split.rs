@@ -1,0 +1,162 @@
+//! The sun split (issue 14): the beam attenuated along its exact direction
+//! (`SunTransmittance`), its first collisions scattered into the sweep as a cell source
+//! (`first_collision`, `run_with_source`), against answers that need no sweep.
+//!
+//! **Infinite Lambertian ground under a sun between the bins.** The ground receives
+//! exactly `E cos θ` (direct irradiance on its face: the transmittance is 1 above it),
+//! reflects exactly its albedo of that through the top, and nothing leaves through it.
+//! With the sun in the bins instead, its light moves along the nearest bin and lands on
+//! the ground with the bin's mean cosine.
+
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{
+    BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
+};
+use sweep_cpu::sun::first_collision;
+use sweep_cpu::{SunTransmittance, run_with_source};
+
+fn converged() -> SweepOptions {
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 64;
+    o.tolerance = 1e-7;
+    o
+}
+
+fn dark_periodic() -> Boundary {
+    Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(BinLight::ZERO)
+    }
+}
+
+fn sun(elevation_deg: f32, azimuth_deg: f32) -> Vec3 {
+    let (e, a) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
+    Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin())
+}
+
+#[test]
+fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
+    let e = Vec3::new(1.0, 0.8, 0.5);
+    for levels in [1, 2] {
+        for albedo in [0.3f32, 0.8] {
+            for (elev, azim) in [(90.0, 0.0), (37.0, 20.0), (12.0, 63.0)] {
+                let m = sweep_cpu::exact::ground_material(levels, albedo);
+                let to_sun = sun(elev, azim);
+                let open = |_: Vec3| 1.0;
+                let t = SunTransmittance::march(&m, to_sun, &open).unwrap();
+                let src = first_collision(&m, &t, to_sun, e, true, &open).unwrap();
+                let case = format!("{levels} levels, albedo {albedo}, sun {elev}/{azim}");
+                // Every top ground cell takes exactly E cos(theta); nothing else does.
+                let d = *m.desc();
+                for (i, r) in src.removed().iter().enumerate() {
+                    let top_ground = d.coords(i).unwrap().y == levels - 1;
+                    let want = if top_ground { e * to_sun.y } else { Vec3::ZERO };
+                    assert!(
+                        (*r - want).abs().max_element() < 1e-6,
+                        "{case}: cell {i} {r}"
+                    );
+                }
+                let s = run_with_source(&m, &dark_periodic(), Some(&src), &converged()).unwrap();
+                let b = s.balance;
+                assert!(b.relative_error() < 1e-5, "{case}: {b:?}");
+                let input = b.source_in;
+                assert!((input.x - (e.x * to_sun.y) as f64 * 64.0).abs() < 1e-4);
+                let reflected = b.top_out / input;
+                assert!(
+                    (reflected - Vec3::splat(albedo).as_dvec3())
+                        .abs()
+                        .max_element()
+                        < 1e-3,
+                    "{case}: reflected {reflected}"
+                );
+                assert!(b.bottom_out.max_element() < 1e-6 * input.x, "{case}");
+                // Above the ground: the field the sweep's rules give for a Lambertian
+                // ground lit with E cos(theta) (`exact::ground_fields` with that flux
+                // arriving straight down), at every level. It differs from the exact
+                // continuous field by the channel cosines only (issue 13's remainder:
+                // -10 % looking straight down with no sky), which the split inherits.
+                // (`ground_fields` is grey: run it for red and scale the colour.)
+                let mut straight = BinLight::ZERO;
+                straight.0[lightgrid_core::dirs::DOWN] = Vec3::splat(to_sun.y);
+                let (_, rule) = sweep_cpu::exact::ground_fields(albedo, &straight);
+                let g = s.output.bins.unwrap();
+                for j in levels..d.levels() {
+                    let l = g.get(UVec3::new(3, j, 5)).unwrap();
+                    for bin in 0..lightgrid_core::NUM_DIRS {
+                        if lightgrid_core::dirs::dir_unit(bin).y < 0.0 {
+                            assert_eq!(l.0[bin], Vec3::ZERO, "{case}: level {j} bin {bin}");
+                            continue;
+                        }
+                        let (got, want) = (l.0[bin], rule.0[bin].x * e);
+                        assert!(
+                            (got - want).abs().max_element() <= 1e-4 * want.max_element().max(1e-3),
+                            "{case}: level {j} bin {bin}: {got} vs {want}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A uniform half-space under an oblique sun: what the beam deposits layer by layer is
+/// exactly `E cos θ (T_top - T_bottom)`, so the cells' deposits telescope to the beam's
+/// loss, `E cos θ (1 - T(bottom face))`; and the sweep conserves it all.
+#[test]
+fn deposits_telescope_to_the_beams_loss_and_energy_balances() {
+    for (pass, w) in [(0.9f32, 0.5f32), (0.5, 0.9), (0.05, 0.99)] {
+        let levels = 12u32;
+        let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, levels, 4)).unwrap();
+        let m = MaterialGrid::filled(
+            d,
+            Material {
+                reflectance: Vec3::splat(w),
+                pass,
+            },
+        )
+        .unwrap();
+        let to_sun = sun(41.0, 17.0);
+        // Beyond the sides the medium goes on: the exact transmittance of the layers
+        // above the exit point.
+        let top = levels as f32 - 0.5;
+        let outside = move |wp: Vec3| pass.powf((top - wp.y) / to_sun.normalize().y);
+        let t = SunTransmittance::march(&m, to_sun, &outside).unwrap();
+        let s_y = to_sun.normalize().y;
+        let src = first_collision(&m, &t, to_sun, Vec3::ONE, true, &outside).unwrap();
+        let total: f32 = src.removed().iter().map(|r| r.x).sum();
+        let want = 16.0 * s_y * (1.0 - pass.powf(levels as f32 / s_y));
+        assert!(
+            (total - want).abs() < 1e-4 * want,
+            "pass {pass}: deposited {total}, the beam lost {want}"
+        );
+        let r = run_with_source(&m, &dark_periodic(), Some(&src), &converged()).unwrap();
+        assert!(r.balance.relative_error() < 1e-5, "{:?}", r.balance);
+    }
+}
+
+#[test]
+fn bad_sources_are_refused_by_name() {
+    let m = sweep_cpu::exact::ground_material(1, 0.5);
+    let other = sweep_cpu::exact::ground_material(2, 0.5);
+    let open = |_: Vec3| 1.0;
+    let t = SunTransmittance::march(&other, Vec3::Y, &open).unwrap();
+    let e = first_collision(&m, &t, Vec3::Y, Vec3::ONE, true, &open);
+    assert!(e.is_ok(), "same descriptor");
+    let t_small = SunTransmittance::march(
+        &MaterialGrid::filled(
+            GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap(),
+            Material::EMPTY,
+        )
+        .unwrap(),
+        Vec3::Y,
+        &open,
+    )
+    .unwrap();
+    let e = first_collision(&m, &t_small, Vec3::Y, Vec3::ONE, true, &open).unwrap_err();
+    assert!(e.to_string().contains('t'), "{e}");
+    let e =
+        first_collision(&m, &t, Vec3::Y, Vec3::new(f32::NAN, 1.0, 1.0), true, &open).unwrap_err();
+    assert!(e.to_string().contains("irradiance"), "{e}");
+    let e = sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::NEG_ONE; 512], Vec3::Y).unwrap_err();
+    assert!(e.to_string().contains("removed[0]"), "{e}");
+}
