@@ -111,6 +111,21 @@ pub struct Reference {
     /// Standard error of each point's average light (RGB), from 8 interleaved groups of
     /// paths.
     pub std_error: Vec<Vec3>,
+    /// The collimated sun's uncollided light per point (cell mean of `E T`, RGB; zero
+    /// without a sun): kept out of `light`, whose bins hold only the light that has
+    /// scattered at least once, because a bin cannot hold a beam's exact direction.
+    pub direct: Vec<Vec3>,
+}
+
+/// A collimated sun for [`trace_with_sun`]: irradiance `irradiance` (RGB, on a plane
+/// facing it) arriving from direction `to_sun`, exactly, through the grid's faces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CollimatedSun {
+    /// Direction toward the sun (any length; at or below the horizon it lights nothing
+    /// through the top).
+    pub to_sun: Vec3,
+    /// Irradiance normal to the beam.
+    pub irradiance: Vec3,
 }
 
 impl Reference {
@@ -143,6 +158,9 @@ struct SourceComponent {
     planes: Vec<DVec3>,
     /// Flux entering (RGB), light × h² per point units.
     flux: Vec3,
+    /// A collimated beam's exact direction (no sampling; uncollided light is tallied in
+    /// `Reference::direct`).
+    exact: Option<Vec3>,
 }
 
 struct BinCap {
@@ -222,11 +240,56 @@ fn sources(
                     bin: d,
                     planes,
                     flux: radiance * (cosine * area) as f32,
+                    exact: None,
                 });
             }
         }
     }
     Ok(out)
+}
+
+/// The collimated sun's components: every face the beam enters (the top, and the sides
+/// when they are open), flux `E (d · n) area`.
+fn sun_sources(
+    sun: &CollimatedSun,
+    dims: UVec3,
+    open: bool,
+) -> Result<Vec<SourceComponent>, SweepError> {
+    let Some(s) = crate::sun::sun_direction(sun.to_sun)? else {
+        return Ok(Vec::new());
+    };
+    if !sun.irradiance.is_finite() || sun.irradiance.min_element() < 0.0 {
+        return Err(GridError::invalid(
+            "sun.irradiance",
+            sun.irradiance,
+            "must be finite and >= 0",
+        )
+        .into());
+    }
+    let d = -s;
+    let (nx, ny, nz) = (dims.x as f32, dims.y as f32, dims.z as f32);
+    let mut faces = vec![(IVec3::NEG_Y, nx * nz)];
+    if open {
+        faces.extend([
+            (IVec3::X, ny * nz),
+            (IVec3::NEG_X, ny * nz),
+            (IVec3::Z, nx * ny),
+            (IVec3::NEG_Z, nx * ny),
+        ]);
+    }
+    Ok(faces
+        .into_iter()
+        .filter_map(|(n, area)| {
+            let c = d.dot(n.as_vec3());
+            (c > 0.0 && sun.irradiance != Vec3::ZERO).then(|| SourceComponent {
+                normal: n,
+                bin: dirs::nearest_dir(d),
+                planes: Vec::new(),
+                flux: sun.irradiance * (c * area),
+                exact: Some(d),
+            })
+        })
+        .collect())
 }
 
 /// The reference's tallies: an RGB sum per slot (cell × 26 + bin), in `f64`, added in
@@ -264,6 +327,8 @@ type Deposit = (u32, Vec3);
 
 struct PathResult {
     deposits: Vec<Deposit>,
+    /// Deposits of a collimated beam before its first collision: (cell, light).
+    direct: Vec<Deposit>,
     w0: Vec3,
     absorbed: Vec3,
     escaped: [Vec3; 3], // top, bottom, sides
@@ -349,9 +414,14 @@ impl Tracer<'_> {
                 cell[axis] = d[axis] - 1;
             }
         }
-        let mut dir = self.sample_bin_direction(&mut rng, comp);
+        let mut dir = match comp.exact {
+            Some(d) => d,
+            None => self.sample_bin_direction(&mut rng, comp),
+        };
+        let mut uncollided = comp.exact.is_some();
         let mut w = w0;
         let mut res = PathResult {
+            direct: Vec::new(),
             deposits: Vec::with_capacity(32),
             w0,
             absorbed: Vec3::ZERO,
@@ -386,9 +456,14 @@ impl Tracer<'_> {
             if collide {
                 if !collide_at_entry {
                     let s = tau / sigma;
-                    res.deposits.push(((ci * NUM_DIRS + bin) as u32, w * s));
+                    if uncollided {
+                        res.direct.push((ci as u32, w * s));
+                    } else {
+                        res.deposits.push(((ci * NUM_DIRS + bin) as u32, w * s));
+                    }
                     pos += dir * s;
                 }
+                uncollided = false;
                 let a = self.albedo[ci];
                 res.absorbed += w * (Vec3::ONE - a);
                 w *= a;
@@ -419,8 +494,12 @@ impl Tracer<'_> {
                 continue;
             }
             if s_exit > 0.0 {
-                res.deposits
-                    .push(((ci * NUM_DIRS + bin) as u32, w * s_exit));
+                if uncollided {
+                    res.direct.push((ci as u32, w * s_exit));
+                } else {
+                    res.deposits
+                        .push(((ci * NUM_DIRS + bin) as u32, w * s_exit));
+                }
                 track += s_exit;
                 if track > self.max_track {
                     res.terminated += w;
@@ -494,6 +573,19 @@ pub fn trace(
     options: &ReferenceOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Reference, SweepError> {
+    trace_with_sun(material, boundary, None, options, progress)
+}
+
+/// [`trace`] with a collimated sun besides the boundary light: its paths start along
+/// its exact direction, and their light before the first collision goes to
+/// `Reference::direct`, not to the bins.
+pub fn trace_with_sun(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    sun: Option<&CollimatedSun>,
+    options: &ReferenceOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Reference, SweepError> {
     let desc = *material.desc();
     boundary.validate(&desc)?;
     crate::sweep::check_boundary_scale(boundary)?;
@@ -508,8 +600,12 @@ pub fn trace(
     )?;
     let dims = desc.dims();
     let periodic = matches!(boundary.sides, SideBoundary::Periodic);
-    let comps = sources(boundary, dims, !periodic)?;
+    let mut comps = sources(boundary, dims, !periodic)?;
+    if let Some(sun) = sun {
+        comps.extend(sun_sources(sun, dims, !periodic)?);
+    }
     let mut light = Tally::new(n * NUM_DIRS);
+    let mut direct = Tally::new(n);
     let mut groups = vec![[0f64; 3]; n * GROUPS];
     let mut bal = EnergyBalance::default();
     if comps.is_empty() {
@@ -518,6 +614,7 @@ pub fn trace(
             paths: 0,
             balance: bal,
             std_error: vec![Vec3::ZERO; n],
+            direct: vec![Vec3::ZERO; n],
         });
     }
     let mut cdf = Vec::with_capacity(comps.len());
@@ -569,6 +666,9 @@ pub fn trace(
             bal.bottom_out += r.escaped[1].as_dvec3();
             bal.side_out += r.escaped[2].as_dvec3();
             bal.pending += r.terminated.as_dvec3();
+            for &(cell, v) in &r.direct {
+                direct.add(cell as usize, v);
+            }
             for &(slot, v) in &r.deposits {
                 let s = slot as usize;
                 light.add(s, v);
@@ -623,10 +723,20 @@ pub fn trace(
         )
         .into());
     }
+    let direct: Vec<Vec3> = (0..n).map(|p| (direct.get(p) * inv).as_vec3()).collect();
+    if let Some(p) = direct.iter().position(|v| !v.is_finite()) {
+        return Err(GridError::invalid(
+            format!("direct[{p}]"),
+            direct[p],
+            "the reference overflowed: sun too bright for this grid",
+        )
+        .into());
+    }
     Ok(Reference {
         light: Grid::from_trusted(desc, data),
         paths: done,
         balance: bal,
         std_error,
+        direct,
     })
 }
