@@ -29,7 +29,7 @@ fn main() -> Result<(), lightgrid_core::GridError> {
             let (e, a) = (elev.to_radians(), azim.to_radians());
             let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
             let t = Instant::now();
-            let exact = SunTransmittance::march(&m, to_sun, &open)?;
+            let exact = SunTransmittance::march(&m, to_sun, false, &open)?;
             let t_march = t.elapsed().as_secs_f64() * 1e3;
             let t = Instant::now();
             let sheared = SunTransmittance::sheared(&m, to_sun, &open)?;

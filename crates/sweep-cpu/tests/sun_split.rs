@@ -43,7 +43,7 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
                 let m = sweep_cpu::exact::ground_material(levels, albedo);
                 let to_sun = sun(elev, azim);
                 let open = |_: Vec3| 1.0;
-                let t = SunTransmittance::march(&m, to_sun, &open).unwrap();
+                let t = SunTransmittance::march(&m, to_sun, true, &open).unwrap();
                 let src = first_collision(&m, &t, to_sun, e, true, &open).unwrap();
                 let case = format!("{levels} levels, albedo {albedo}, sun {elev}/{azim}");
                 // Every top ground cell takes exactly E cos(theta); nothing else does.
@@ -120,7 +120,7 @@ fn deposits_telescope_to_the_beams_loss_and_energy_balances() {
         // above the exit point.
         let top = levels as f32 - 0.5;
         let outside = move |wp: Vec3| pass.powf((top - wp.y) / to_sun.normalize().y);
-        let t = SunTransmittance::march(&m, to_sun, &outside).unwrap();
+        let t = SunTransmittance::march(&m, to_sun, true, &outside).unwrap();
         let s_y = to_sun.normalize().y;
         let src = first_collision(&m, &t, to_sun, Vec3::ONE, true, &outside).unwrap();
         let total: f32 = src.removed().iter().map(|r| r.x).sum();
@@ -139,7 +139,7 @@ fn bad_sources_are_refused_by_name() {
     let m = sweep_cpu::exact::ground_material(1, 0.5);
     let other = sweep_cpu::exact::ground_material(2, 0.5);
     let open = |_: Vec3| 1.0;
-    let t = SunTransmittance::march(&other, Vec3::Y, &open).unwrap();
+    let t = SunTransmittance::march(&other, Vec3::Y, true, &open).unwrap();
     let e = first_collision(&m, &t, Vec3::Y, Vec3::ONE, true, &open);
     assert!(e.is_ok(), "same descriptor");
     let t_small = SunTransmittance::march(
@@ -149,6 +149,7 @@ fn bad_sources_are_refused_by_name() {
         )
         .unwrap(),
         Vec3::Y,
+        true,
         &open,
     )
     .unwrap();

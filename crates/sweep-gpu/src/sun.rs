@@ -15,10 +15,12 @@ use crate::{GpuContext, GpuError};
 lightgrid_gpu::gpu_struct! {
     /// Uniforms of the sun march.
     pub struct SunParams {
-        /// Grid dims (xyz).
+        /// Grid dims (xyz), 1 for periodic sides (w).
         pub dims: [u32; 4] => "vec4<u32>",
         /// Unit direction toward the sun (xyz) and the transmittance beyond the grid (w).
         pub dir_outside: [f32; 4] => "vec4<f32>",
+        /// Most cell steps of one ray (x).
+        pub steps: [u32; 4] => "vec4<u32>",
     }
 }
 
@@ -53,12 +55,14 @@ impl GpuSunTransmittance {
         Self { ctx, kernel }
     }
 
-    /// The march toward `to_sun` with transmittance `outside` beyond the grid (clamped
-    /// to `[0, 1]`, NaN as 0), read back.
+    /// The march toward `to_sun` (periodic sides wrapping, as sweep-cpu's) with
+    /// transmittance `outside` beyond the grid (clamped to `[0, 1]`, NaN as 0), read
+    /// back.
     pub fn march(
         &self,
         material: &MaterialGrid,
         to_sun: Vec3,
+        periodic: bool,
         outside: f32,
     ) -> Result<SunTransmittance, SunError> {
         let desc = *material.desc();
@@ -80,9 +84,16 @@ impl GpuSunTransmittance {
             }
             .into());
         }
+        let d = desc.dims();
         let params = SunParams {
-            dims: desc.dims().extend(0).to_array(),
+            dims: d.extend(periodic as u32).to_array(),
             dir_outside: dir.extend(outside).to_array(),
+            steps: [
+                sweep_cpu::sun::MAX_STEPS_PER_CELL * (d.x + d.y + d.z),
+                0,
+                0,
+                0,
+            ],
         };
         let pass: Vec<f32> = material.data().iter().map(|m| m.pass).collect();
         let storage = wgpu::BufferUsages::STORAGE;

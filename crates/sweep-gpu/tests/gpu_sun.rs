@@ -60,9 +60,12 @@ fn canopy_at_several_suns_matches_the_cpu() {
         Vec3::new(-0.9, 0.17, 0.4),
         Vec3::new(0.2, -0.1, 0.0),
     ] {
-        let cpu = SunTransmittance::march(&m, to_sun, &|_| 1.0).unwrap();
-        let g = gpu.march(&m, to_sun, 1.0).unwrap();
-        close(&cpu, &g).unwrap_or_else(|e| panic!("{to_sun}: {e}"));
+        for periodic in [false, true] {
+            let cpu = SunTransmittance::march(&m, to_sun, periodic, &|_| 1.0).unwrap();
+            let g = gpu.march(&m, to_sun, periodic, 1.0).unwrap();
+            close(&cpu, &g).unwrap_or_else(|e| panic!("{to_sun} periodic {periodic}: {e}"));
+        }
+        let cpu = SunTransmittance::march(&m, to_sun, false, &|_| 1.0).unwrap();
         // Shadows exist (not all 1) unless the sun is below the horizon (all 0).
         let lit = cpu.values().iter().filter(|&&v| v > 0.99).count();
         if to_sun.y > 0.0 {
@@ -81,12 +84,13 @@ proptest! {
         seed in any::<u64>(),
         sun in (-1.0f32..1.0, 0.02f32..1.0, -1.0f32..1.0),
         outside in 0.0f32..=1.0,
+        periodic in any::<bool>(),
     ) {
         let Some(gpu) = march() else { return Ok(()) };
         let m = grid(UVec3::new(dims.0, dims.1, dims.2), seed);
         let to_sun = Vec3::new(sun.0, sun.1, sun.2);
-        let cpu = SunTransmittance::march(&m, to_sun, &move |_| outside).unwrap();
-        let g = gpu.march(&m, to_sun, outside).unwrap();
+        let cpu = SunTransmittance::march(&m, to_sun, periodic, &move |_| outside).unwrap();
+        let g = gpu.march(&m, to_sun, periodic, outside).unwrap();
         prop_assert!(close(&cpu, &g).is_ok(), "{}", close(&cpu, &g).unwrap_err());
     }
 }
