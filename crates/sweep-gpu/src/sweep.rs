@@ -5,6 +5,7 @@ use lightgrid_core::{
     BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins, PackedLightGrid,
     Resident, SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
 };
+use sweep_cpu::CellSource;
 use sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
 use wgpu::util::DeviceExt;
 
@@ -187,7 +188,7 @@ impl GpuSweeper {
         boundary: &Boundary,
         options: &SweepOptions,
     ) -> Result<(GpuLightGrid, SweepStats), SweepError> {
-        let (g, stats, _) = self.execute(material, boundary, options)?;
+        let (g, stats, _) = self.execute(material, boundary, None, options)?;
         self.largest_finite(&g, material)?;
         let grid = GpuLightGrid::from_buffer(self.ctx.clone(), g, *material.desc())
             .map_err(gpu_backend)?;
@@ -231,6 +232,18 @@ impl GpuSweeper {
         Ok(self.run_timed(material, boundary, options)?.0)
     }
 
+    /// [`GpuSweeper::run`] with light already deposited in cells
+    /// (`sweep_cpu::run_with_source`: the sun's first collisions).
+    pub fn run_with_source(
+        &self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        source: Option<&CellSource>,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        Ok(self.timed(material, boundary, source, options)?.0)
+    }
+
     /// [`GpuSweeper::run`], with the time spent uploading, computing and reading back.
     pub fn run_timed(
         &self,
@@ -238,7 +251,17 @@ impl GpuSweeper {
         boundary: &Boundary,
         options: &SweepOptions,
     ) -> Result<(SweepOutput, GpuTimings), SweepError> {
-        let (g, stats, mut timings) = self.execute(material, boundary, options)?;
+        self.timed(material, boundary, None, options)
+    }
+
+    fn timed(
+        &self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        source: Option<&CellSource>,
+        options: &SweepOptions,
+    ) -> Result<(SweepOutput, GpuTimings), SweepError> {
+        let (g, stats, mut timings) = self.execute(material, boundary, source, options)?;
         let n = material.desc().point_count();
         let readback_start = std::time::Instant::now();
         let gd = self.read_f32(&g).map_err(gpu_backend)?;
@@ -282,7 +305,7 @@ impl GpuSweeper {
         boundary: &Boundary,
         options: &SweepOptions,
     ) -> Result<PackedLightGrid, SweepError> {
-        let (g, _, _) = self.execute(material, boundary, options)?;
+        let (g, _, _) = self.execute(material, boundary, None, options)?;
         let max = self.largest_finite(&g, material)?;
         let count = material.desc().point_count() * 26;
         let exposure = lightgrid_core::pack::exposure_for(max);
@@ -315,6 +338,7 @@ impl GpuSweeper {
         &self,
         material: &MaterialGrid,
         boundary: &Boundary,
+        source: Option<&CellSource>,
         options: &SweepOptions,
     ) -> Result<(wgpu::Buffer, SweepStats, GpuTimings), SweepError> {
         let start = std::time::Instant::now();
@@ -326,6 +350,10 @@ impl GpuSweeper {
         };
         let shape = Shape::of(material, boundary);
         let bufs = self.buffers(material, &shape).map_err(backend)?;
+        let source_in = match source {
+            Some(src) => self.upload_source(&bufs, material, src)?,
+            None => [0.0; 3],
+        };
         let groups = self.bind_groups(&bufs);
         let workgroups = (shape.level_len as u32).div_ceil(64);
         let mut stats = SweepStats::default();
@@ -342,7 +370,11 @@ impl GpuSweeper {
             stats.levels_computed += shape.ny as u64;
             if options.tolerance > 0.0 && pass >= 1 {
                 let pending: f64 = sum_max(&self.read_f32(&bufs.pend_flux).map_err(backend)?);
-                let input: f64 = sum_max(&self.read_f32(&bufs.flux_in).map_err(backend)?);
+                let input: f64 = sums(&self.read_f32(&bufs.flux_in).map_err(backend)?)
+                    .iter()
+                    .zip(source_in)
+                    .map(|(a, b)| a + b)
+                    .fold(0.0, f64::max);
                 if pending <= options.tolerance as f64 * input {
                     break;
                 }
@@ -354,6 +386,45 @@ impl GpuSweeper {
             .map_err(|e| backend(GpuError::Readback(e.to_string())))?;
         timings.compute = compute_start.elapsed();
         Ok((bufs.light, stats, timings))
+    }
+
+    /// Step 4 for a cell source, as sweep-cpu does it: `a × removed` waits in both
+    /// pending buffers with its moment along the beam. Returns the flux it brings (RGB).
+    fn upload_source(
+        &self,
+        bufs: &Buffers,
+        material: &MaterialGrid,
+        src: &CellSource,
+    ) -> Result<[f64; 3], SweepError> {
+        if src.removed().len() != material.data().len() {
+            return Err(lightgrid_core::GridError::invalid(
+                "source",
+                src.removed().len(),
+                "must lie on the material grid's descriptor",
+            )
+            .into());
+        }
+        let d = src.dir();
+        let mut input = [0f64; 3];
+        let pend: Vec<f32> = src
+            .removed()
+            .iter()
+            .zip(material.data())
+            .flat_map(|(&r, m)| {
+                for k in 0..3 {
+                    input[k] += r[k] as f64;
+                }
+                let s = r * m.reflectance;
+                let (a, b, c) = (s * d.x, s * d.y, s * d.z);
+                [s.x, s.y, s.z, a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z]
+            })
+            .collect();
+        for p in &bufs.pend {
+            self.ctx
+                .queue
+                .write_buffer(p, 0, bytemuck::cast_slice(&pend));
+        }
+        Ok(input)
     }
 
     /// Every buffer of one sweep, sized and checked against the binding limit; material
@@ -648,14 +719,18 @@ pub struct GpuTimings {
 }
 
 /// The largest RGB channel of a sum of RGB triples, in `f64`.
-fn sum_max(v: &[f32]) -> f64 {
+fn sums(v: &[f32]) -> [f64; 3] {
     let mut s = [0f64; 3];
     for t in v.chunks_exact(3) {
         for k in 0..3 {
             s[k] += t[k] as f64;
         }
     }
-    s.iter().copied().fold(0.0, f64::max)
+    s
+}
+
+fn sum_max(v: &[f32]) -> f64 {
+    sums(v).iter().copied().fold(0.0, f64::max)
 }
 
 /// A shared GPU sweeper sweeps too (its methods take `&self`).

@@ -264,3 +264,34 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    /// A cell source (the sun's first collisions, issue 14) sweeps on the GPU as on the
+    /// CPU: random media, sides, suns, passes.
+    #[test]
+    fn cell_sources_match_the_cpu(
+        m in material_strategy(24),
+        periodic in any::<bool>(),
+        sun in (-1.0f32..1.0, 0.05f32..1.0, -1.0f32..1.0),
+        passes in 1u32..5,
+    ) {
+        let Some(gpu) = sweeper() else { return Ok(()) };
+        let to_sun = Vec3::new(sun.0, sun.1, sun.2);
+        let open = |_: Vec3| 1.0;
+        let t = sweep_cpu::SunTransmittance::march(&m, to_sun, periodic, &open).unwrap();
+        let src = sweep_cpu::sun::first_collision(&m, &t, to_sun, Vec3::new(3.0, 2.0, 1.0), periodic, &open).unwrap();
+        let b = Boundary {
+            sides: if periodic { SideBoundary::Periodic } else { SideBoundary::Open },
+            ..Boundary::open_sky(lumpy_sky().scaled(0.1))
+        };
+        let mut o = SweepOptions::multi_bounce();
+        o.max_passes = passes;
+        o.tolerance = 0.0;
+        let cpu = sweep_cpu::run_with_source(&m, &b, Some(&src), &o).unwrap().output.bins.unwrap();
+        let g = gpu.run_with_source(&m, &b, Some(&src), &o).unwrap().bins.unwrap();
+        if let Err(e) = assert_close(&cpu, &g) {
+            prop_assert!(false, "{e}");
+        }
+    }
+}
