@@ -9,6 +9,9 @@
 //! transmittance (`SunTransmittance::march`) for the direct beam, its first collisions
 //! (`first_collision`) swept as a cell source for the scattered light.
 //!
+//! Then the shadow of a dense block on the ground: the direction from the block to the
+//! centroid of the missing ground irradiance, against the exact one (away from the sun).
+//!
 //! `cargo run --release -p sweep-cpu --example sun_split -- [n] [paths]` (16, 2 000 000)
 
 use lightgrid_core::glam::Vec3;
@@ -123,6 +126,125 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 reference.relative_std_error(0.0)
             );
         }
+    }
+    shadows(&o)
+}
+
+/// Ground irradiance (facing up) one level above the ground, with the sun in the bins
+/// and with the split.
+fn ground_light(
+    m: &lightgrid_core::MaterialGrid,
+    sun: &Sun,
+    o: &SweepOptions,
+) -> Result<(Vec<f32>, Vec<f32>), Box<dyn std::error::Error>> {
+    let periodic = lightgrid_core::SideBoundary::Periodic;
+    let d = *m.desc();
+    let level = d.level_range(1);
+    let binned = run(
+        m,
+        &Boundary {
+            sides: periodic.clone(),
+            ..Boundary::open_sky(sun.bins()?)
+        },
+        o,
+    )?
+    .output
+    .bins
+    .expect("bins");
+    let s = sun.direction;
+    let open = |_: Vec3| 1.0;
+    let t = SunTransmittance::march(m, s, true, &open)?;
+    let src = first_collision(m, &t, s, sun.illuminance, true, &open)?;
+    let dark = Boundary {
+        sides: periodic,
+        ..Boundary::open_sky(BinLight::ZERO)
+    };
+    let scattered = run_with_source(m, &dark, Some(&src), o)?
+        .output
+        .bins
+        .expect("bins");
+    let b: Vec<f32> = binned.data()[level.clone()]
+        .iter()
+        .map(|l| luminance(l.irradiance(Vec3::Y)))
+        .collect();
+    let sp: Vec<f32> = scattered.data()[level.clone()]
+        .iter()
+        .zip(&t.values()[level])
+        .map(|(l, t)| luminance(l.irradiance(Vec3::Y) + sun.illuminance * (t * s.y)))
+        .collect();
+    Ok((b, sp))
+}
+
+fn shadows(o: &SweepOptions) -> Result<(), Box<dyn std::error::Error>> {
+    use lightgrid_core::glam::UVec3;
+    use lightgrid_core::{GridDesc, Material, MaterialGrid};
+    let n = 32u32;
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(n, 10, n))?;
+    let c = n / 2;
+    let scene = |block: bool| {
+        let cells = (0..d.point_count())
+            .map(|i| {
+                let p = d.coords(i).expect("in range");
+                if p.y == 0 {
+                    Material::opaque(Vec3::splat(0.3))
+                } else if block
+                    && (c - 1..c + 1).contains(&p.x)
+                    && (c - 1..c + 1).contains(&p.z)
+                    && p.y < 7
+                {
+                    Material {
+                        reflectance: Vec3::splat(0.3),
+                        pass: 0.05,
+                    }
+                } else {
+                    Material::EMPTY
+                }
+            })
+            .collect();
+        MaterialGrid::new(d, cells)
+    };
+    let (with, without) = (scene(true)?, scene(false)?);
+    println!(
+        "\nshadow of a 2 x 6 x 2 dense block on a 32 x 32 ground: azimuth of the shadow's centroid"
+    );
+    println!("sun elev  azim   exact   bins (error)   split (error)");
+    for (elev, azim) in [
+        (40.0f32, 30.0f32),
+        (30.0, 20.0),
+        (55.0, 67.0),
+        (25.0, 112.0),
+    ] {
+        let sun = Sun::at(elev.to_radians(), azim.to_radians(), Vec3::ONE);
+        let (b1, s1) = ground_light(&with, &sun, o)?;
+        let (b0, s0) = ground_light(&without, &sun, o)?;
+        let centre = Vec3::new(c as f32 - 0.5, 0.0, c as f32 - 0.5);
+        let azimuth = |lit: &[f32], open: &[f32]| {
+            let (mut sum, mut acc) = (0.0f32, Vec3::ZERO);
+            for (i, (a, b)) in lit.iter().zip(open).enumerate() {
+                let deficit = (b - a).max(0.0);
+                let p = Vec3::new((i as u32 % n) as f32, 0.0, (i as u32 / n) as f32);
+                // Periodic ground: the nearest image of the point.
+                let mut off = p - centre;
+                off.x -= n as f32 * (off.x / n as f32).round();
+                off.z -= n as f32 * (off.z / n as f32).round();
+                acc += off * deficit;
+                sum += deficit;
+            }
+            let v = acc / sum.max(1e-12);
+            v.x.atan2(-v.z).to_degrees()
+        };
+        let s = sun.direction;
+        let exact = (-s.x).atan2(s.z).to_degrees();
+        let (ab, asp) = (azimuth(&b1, &b0), azimuth(&s1, &s0));
+        let err = |a: f32| {
+            let e = (a - exact + 540.0).rem_euclid(360.0) - 180.0;
+            e.abs()
+        };
+        println!(
+            "         {elev:4.0}  {azim:4.0}  {exact:6.1}  {ab:6.1} ({:4.1})   {asp:6.1} ({:4.1})",
+            err(ab),
+            err(asp)
+        );
     }
     Ok(())
 }

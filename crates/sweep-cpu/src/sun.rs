@@ -50,6 +50,12 @@
 //! Irradiance improves 4–20× everywhere (the bins land the sun with their mean cosine
 //! and move it along the nearest bin); average light improves in 9 of 10 cases, the
 //! canopy at 80° (0.022 against 0.018) being within the reference's own noise of it.
+//!
+//! The shadow of a dense 2 × 6 × 2 block on a periodic ground (same example): the
+//! azimuth of the centroid of the missing ground irradiance, against the exact one
+//! (away from the sun). Sun at 40°/30°, 30°/20°, 55°/67°, 25°/112° (elevation/azimuth):
+//! the bins are off by 15°, 12°, 23°, 23° (the sun moves along the nearest bin); the
+//! split by 0.7°, 0.2°, 1.8°, 0.4°.
 
 use lightgrid_core::glam::{IVec3, Vec3};
 use lightgrid_core::{GridDesc, GridError, MaterialGrid};
