@@ -104,9 +104,9 @@ pub use rng::SeededRng;
 pub use sample::{Blend, trilinear_corners};
 pub use terrain::Heightmap;
 pub use traits::{
-    Boundary, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES, MaterialSource,
-    NoScatter, Outputs, Resident, SideBoundary, SumField, SweepError, SweepOptions, SweepOutput,
-    SweepStats, Sweeper, TopBoundary, UniformMaterial,
+    Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES,
+    MaterialSource, NoScatter, Outputs, Resident, SideBoundary, SumField, SweepError, SweepOptions,
+    SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial,
 };
 
 /// The README's examples, compiled and run as doc tests.

@@ -380,6 +380,86 @@ pub trait Sweeper {
         boundary: &Boundary,
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError>;
+    /// Sweeps with light already deposited in cells (the sun's first collisions: see
+    /// [`CellSource`]). Sweepers that cannot take one say so (the default).
+    fn sweep_with_source(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        source: &CellSource,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        let _ = (material, boundary, source, options);
+        Err(SweepError::Invalid(GridError::invalid(
+            "source",
+            self.name(),
+            "this sweeper takes no cell sources",
+        )))
+    }
+}
+
+/// Light a beam deposits in cells before a sweep's first pass (the first collisions of
+/// the sun, `sweep_cpu::sun::first_collision`; [`Sweeper::sweep_with_source`]): per
+/// cell the flux taken from the beam (RGB, per `h²`, the sweep's flux unit), and the beam's direction of travel. A sweep
+/// absorbs `(1 - a)` of it and scatters the rest as if the cell had removed it from a
+/// channel along that direction (sweep-cpu's steps 4-7), so only scattered sun light
+/// enters the bins; the beam itself is the sun transmittance's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellSource {
+    desc: GridDesc,
+    removed: Vec<Vec3>,
+    dir: Vec3,
+}
+
+impl CellSource {
+    /// A source on the cells of `desc`: `removed` per cell (finite, >= 0), travelling
+    /// along `dir` (normalised; non-zero and finite).
+    pub fn new(desc: GridDesc, removed: Vec<Vec3>, dir: Vec3) -> Result<Self, GridError> {
+        if removed.len() != desc.point_count() {
+            return Err(GridError::LengthMismatch {
+                field: "removed",
+                expected: desc.point_count(),
+                found: removed.len(),
+            });
+        }
+        if let Some(i) = removed
+            .iter()
+            .position(|v| !v.is_finite() || v.min_element() < 0.0)
+        {
+            return Err(GridError::invalid(
+                format!("removed[{i}]"),
+                removed[i],
+                "must be finite and >= 0",
+            ));
+        }
+        if !dir.is_finite() || dir.length_squared() == 0.0 {
+            return Err(GridError::invalid(
+                "dir",
+                dir,
+                "must be finite and non-zero",
+            ));
+        }
+        Ok(Self {
+            desc,
+            removed,
+            dir: dir.normalize(),
+        })
+    }
+
+    /// Flux taken from the beam, per cell (grid order).
+    pub fn removed(&self) -> &[Vec3] {
+        &self.removed
+    }
+
+    /// The beam's direction of travel.
+    pub fn dir(&self) -> Vec3 {
+        self.dir
+    }
+
+    /// Where the cells are.
+    pub fn desc(&self) -> &GridDesc {
+        &self.desc
+    }
 }
 
 /// Light at any point in space.

@@ -214,9 +214,10 @@ pub mod sky;
 pub mod sun;
 pub mod sweep;
 
+pub use lightgrid_core::CellSource;
 pub use sky::{ClearSky, EnvMap, SkyBins, SkyError, Sun};
 pub use sun::SunTransmittance;
-pub use sweep::{CellSource, EnergyBalance, Sweep, run, run_with_source};
+pub use sweep::{EnergyBalance, Sweep, run, run_with_source};
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::luminance;
@@ -381,6 +382,17 @@ impl Sweeper for CpuSweeper {
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
         let s = run(material, boundary, options)?;
+        self.last_balance = Some(s.balance);
+        Ok(s.output)
+    }
+    fn sweep_with_source(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        source: &CellSource,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        let s = run_with_source(material, boundary, Some(source), options)?;
         self.last_balance = Some(s.balance);
         Ok(s.output)
     }

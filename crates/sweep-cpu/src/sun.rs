@@ -257,11 +257,137 @@ impl SunTransmittance {
         &self.values
     }
 
+    /// Trilinear value at world position `p`, clamped at the grid's edges; errors on a
+    /// non-finite `p`.
+    pub fn sample(&self, p: Vec3) -> Result<f32, GridError> {
+        if !p.is_finite() {
+            return Err(GridError::invalid("p", p, "must be finite"));
+        }
+        let g = self.desc.to_grid(p);
+        Ok(lightgrid_core::trilinear_corners(self.desc.dims(), g)
+            .iter()
+            .map(|(c, w)| self.values[self.desc.index_unchecked(*c)] * w)
+            .sum())
+    }
+
     /// The value at a point.
     pub fn get(&self, c: IVec3) -> Option<f32> {
         let d = self.desc.dims().as_ivec3();
         (c.cmpge(IVec3::ZERO).all() && c.cmplt(d).all())
             .then(|| self.values[self.desc.index_unchecked(c.as_uvec3())])
+    }
+}
+
+/// The sun and the sky kept apart, three responses (issue 14): the sky's light (26
+/// bins, for the sky boundary as given), the sun's scattered light (26 bins, for a sun
+/// of irradiance 1) and the sun's transmittance along its exact direction. Sky and sun
+/// colours then change by a multiply; a new sun direction recomputes the sun's two
+/// responses only ([`SunSplit::resun`]). The direct sun is never in the bins: its
+/// irradiance on a normal is `E T max(0, n · s)` with the exact direction.
+#[derive(Debug, Clone)]
+pub struct SunSplit {
+    /// Sky light (26 bins).
+    pub sky: lightgrid_core::LightGrid,
+    /// The sun's light after at least one scattering, for unit irradiance (26 bins).
+    pub sun_scattered: lightgrid_core::LightGrid,
+    /// The sun's transmittance at every point.
+    pub transmittance: SunTransmittance,
+    /// Unit direction toward the sun.
+    pub to_sun: Vec3,
+}
+
+impl SunSplit {
+    /// Sweeps the sky (`sky`: its top light and sides) and the sun toward `to_sun` (at
+    /// or below the horizon: no sun) with any sweeper that takes cell sources.
+    pub fn compute(
+        sweeper: &mut dyn lightgrid_core::Sweeper,
+        material: &MaterialGrid,
+        sky: &lightgrid_core::Boundary,
+        to_sun: Vec3,
+        options: &lightgrid_core::SweepOptions,
+    ) -> Result<Self, lightgrid_core::SweepError> {
+        let mut o = *options;
+        o.outputs = lightgrid_core::Outputs::ALL;
+        let sky_light = sweeper
+            .sweep(material, sky, &o)?
+            .bins
+            .expect("bins asked for");
+        let mut split = Self {
+            sky: sky_light,
+            sun_scattered: lightgrid_core::LightGrid::filled(
+                *material.desc(),
+                lightgrid_core::BinLight::ZERO,
+            )?,
+            transmittance: SunTransmittance::zero(*material.desc()),
+            to_sun: Vec3::Y,
+        };
+        split.resun(sweeper, material, &sky.sides, to_sun, &o)?;
+        Ok(split)
+    }
+
+    /// Moves the sun: the transmittance and the sun's scattered light are computed again
+    /// (sides as the sky's; open sky above), the sky's light is kept.
+    pub fn resun(
+        &mut self,
+        sweeper: &mut dyn lightgrid_core::Sweeper,
+        material: &MaterialGrid,
+        sides: &lightgrid_core::SideBoundary,
+        to_sun: Vec3,
+        options: &lightgrid_core::SweepOptions,
+    ) -> Result<(), lightgrid_core::SweepError> {
+        let periodic = matches!(sides, lightgrid_core::SideBoundary::Periodic);
+        let open = |_: Vec3| 1.0;
+        let t = SunTransmittance::march(material, to_sun, periodic, &open)?;
+        let src = first_collision(material, &t, to_sun, Vec3::ONE, periodic, &open)?;
+        // Only the first collisions bring light: no boundary light at all.
+        let dark = lightgrid_core::Boundary {
+            sides: match sides {
+                lightgrid_core::SideBoundary::Given(h) => {
+                    lightgrid_core::SideBoundary::Given(vec![
+                        lightgrid_core::BinLight::ZERO;
+                        h.len()
+                    ])
+                }
+                other => other.clone(),
+            },
+            ..lightgrid_core::Boundary::open_sky(lightgrid_core::BinLight::ZERO)
+        };
+        let mut o = *options;
+        o.outputs = lightgrid_core::Outputs::ALL;
+        self.sun_scattered = sweeper
+            .sweep_with_source(material, &dark, &src, &o)?
+            .bins
+            .expect("bins asked for");
+        self.transmittance = t;
+        self.to_sun = sun_direction(to_sun)?.unwrap_or(Vec3::Y);
+        Ok(())
+    }
+
+    /// The 26 bins of sky and scattered sun light for a sky of colour `sky` and a sun
+    /// of irradiance `sun` (what exports and bin-based renderers take; the direct sun is
+    /// [`SunSplit::direct`]).
+    pub fn bins(&self, sky: Vec3, sun: Vec3) -> lightgrid_core::LightGrid {
+        let data = self
+            .sky
+            .data()
+            .iter()
+            .zip(self.sun_scattered.data())
+            .map(|(a, b)| *a * sky + *b * sun)
+            .collect();
+        lightgrid_core::Grid::from_trusted(*self.sky.desc(), data)
+    }
+
+    /// The direct sun's irradiance on a surface at `p` facing `n`: `E T(p) max(0, n·s)`.
+    pub fn direct(&self, p: Vec3, n: Vec3, sun: Vec3) -> Result<Vec3, GridError> {
+        Ok(sun * (self.transmittance.sample(p)? * n.dot(self.to_sun).max(0.0)))
+    }
+
+    /// All light on a surface at `p` facing unit `n`: sky and scattered sun from the
+    /// bins (read with the normal bias) plus the direct sun.
+    pub fn irradiance(&self, p: Vec3, n: Vec3, sky: Vec3, sun: Vec3) -> Result<Vec3, GridError> {
+        use lightgrid_core::LightField;
+        let bins = self.sky.irradiance(p, n)? * sky + self.sun_scattered.irradiance(p, n)? * sun;
+        Ok(bins + self.direct(p, n, sun)?)
     }
 }
 

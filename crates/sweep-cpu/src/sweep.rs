@@ -8,8 +8,8 @@ use lightgrid_core::dirs::{self, NUM_DIRS, NUM_SWEEP_DIRS};
 use lightgrid_core::glam::{DVec3, IVec3, UVec3, Vec3};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{
-    AverageLight, BinLight, Boundary, DominantDir, Grid, GridError, MaterialGrid, SideBoundary,
-    SweepError, SweepOptions, SweepOutput, SweepStats, TopBoundary,
+    AverageLight, BinLight, Boundary, CellSource, DominantDir, Grid, GridError, MaterialGrid,
+    SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, TopBoundary,
 };
 use rayon::prelude::*;
 
@@ -839,69 +839,6 @@ fn level_flux(level: &[Level], ch: &[Channel; CHANNELS]) -> DVec3 {
         .sum()
 }
 
-/// Light a beam deposits in cells before the sweep's first pass (the first collisions of
-/// the sun, `crate::sun::first_collision`): per cell the flux taken from the beam (RGB,
-/// per `h²` like [`EnergyBalance`]), and the beam's direction of travel. The sweep
-/// absorbs `(1 - a)` of it and scatters the rest as if the cell had removed it from a
-/// channel along that direction (steps 4-7), so only scattered sun light enters the
-/// bins; the beam itself is the sun transmittance's.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CellSource {
-    desc: lightgrid_core::GridDesc,
-    removed: Vec<Vec3>,
-    dir: Vec3,
-}
-
-impl CellSource {
-    /// A source on the cells of `desc`: `removed` per cell (finite, >= 0), travelling
-    /// along `dir` (normalised; non-zero and finite).
-    pub fn new(
-        desc: lightgrid_core::GridDesc,
-        removed: Vec<Vec3>,
-        dir: Vec3,
-    ) -> Result<Self, GridError> {
-        if removed.len() != desc.point_count() {
-            return Err(GridError::LengthMismatch {
-                field: "removed",
-                expected: desc.point_count(),
-                found: removed.len(),
-            });
-        }
-        if let Some(i) = removed
-            .iter()
-            .position(|v| !v.is_finite() || v.min_element() < 0.0)
-        {
-            return Err(GridError::invalid(
-                format!("removed[{i}]"),
-                removed[i],
-                "must be finite and >= 0",
-            ));
-        }
-        if !dir.is_finite() || dir.length_squared() == 0.0 {
-            return Err(GridError::invalid(
-                "dir",
-                dir,
-                "must be finite and non-zero",
-            ));
-        }
-        Ok(Self {
-            desc,
-            removed,
-            dir: dir.normalize(),
-        })
-    }
-
-    /// Flux taken from the beam, per cell (grid order).
-    pub fn removed(&self) -> &[Vec3] {
-        &self.removed
-    }
-
-    /// The beam's direction of travel.
-    pub fn dir(&self) -> Vec3 {
-        self.dir
-    }
-}
-
 /// Runs the sweep; see the crate docs for the semantics.
 pub fn run(
     material: &MaterialGrid,
@@ -921,11 +858,11 @@ pub fn run_with_source(
     validate_inputs(material, boundary, options)?;
     let desc = *material.desc();
     if let Some(src) = source
-        && src.desc != desc
+        && *src.desc() != desc
     {
         return Err(GridError::invalid(
             "source",
-            src.desc,
+            src.desc(),
             "must lie on the material grid's descriptor",
         )
         .into());
@@ -1019,7 +956,7 @@ fn run_with<S: Sink>(
     if let Some(src) = source {
         // Step 4 for the beam's deposit: absorb (1 - a), and the rest waits in both
         // directions' pending light (each pass emits its half, as for removed light).
-        for (i, (&r, mat)) in src.removed.iter().zip(cells).enumerate() {
+        for (i, (&r, mat)) in src.removed().iter().zip(cells).enumerate() {
             if r == Vec3::ZERO {
                 continue;
             }
@@ -1028,7 +965,7 @@ fn run_with<S: Sink>(
             let s = r * mat.reflectance;
             let p = Pending {
                 s,
-                m: [s * src.dir.x, s * src.dir.y, s * src.dir.z],
+                m: [s * src.dir().x, s * src.dir().y, s * src.dir().z],
             };
             w.pend_down[i] = p;
             w.pend_up[i] = p;

@@ -206,3 +206,73 @@ fn reference_collimated_sun_known_answers() {
     let reflected = r.balance.top_out.x / r.balance.input().x;
     assert!((reflected - 0.4).abs() < 0.005, "reflected {reflected}");
 }
+
+/// The three responses: colours combine linearly, the direct sun is exact on the
+/// ground, moving the sun recomputes the sun's responses and keeps the sky's.
+#[test]
+fn sun_split_responses() {
+    use sweep_cpu::sun::SunSplit;
+    let m = sweep_cpu::exact::ground_material(1, 0.3);
+    let sky = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top)
+    };
+    let mut cpu = sweep_cpu::CpuSweeper::new();
+    let s1 = sun(37.0, 20.0);
+    let mut split = SunSplit::compute(&mut cpu, &m, &sky, s1, &converged()).unwrap();
+    let p = Vec3::new(3.0, 1.0, 4.0);
+    let (c_sky, c_sun) = (Vec3::new(0.2, 0.3, 0.5), Vec3::new(3.0, 2.5, 2.0));
+    let both = split.irradiance(p, Vec3::Y, c_sky, c_sun).unwrap();
+    let sky_only = split.irradiance(p, Vec3::Y, c_sky, Vec3::ZERO).unwrap();
+    let sun_only = split.irradiance(p, Vec3::Y, Vec3::ZERO, c_sun).unwrap();
+    assert!((both - sky_only - sun_only).abs().max_element() < 1e-5 * both.max_element());
+    // Above the ground the sun is unshadowed: direct E cos(theta) exactly.
+    let d = split.direct(p, Vec3::Y, c_sun).unwrap();
+    assert!(
+        (d - c_sun * s1.normalize().y).abs().max_element() < 1e-6,
+        "{d}"
+    );
+    // Facing away from the sun: no direct light.
+    assert_eq!(split.direct(p, -s1, c_sun).unwrap(), Vec3::ZERO);
+    // A new sun: the sky's response is kept bit for bit, the sun's equal a fresh split.
+    let sky_before = split.sky.clone();
+    let s2 = sun(60.0, 110.0);
+    split
+        .resun(&mut cpu, &m, &sky.sides, s2, &converged())
+        .unwrap();
+    assert_eq!(split.sky, sky_before);
+    let fresh = SunSplit::compute(&mut cpu, &m, &sky, s2, &converged()).unwrap();
+    assert_eq!(split.sun_scattered, fresh.sun_scattered);
+    assert_eq!(split.transmittance, fresh.transmittance);
+}
+
+/// A sweeper without cell sources says so by name instead of ignoring the source.
+#[test]
+fn sweepers_without_sources_refuse_them() {
+    struct Plain;
+    impl lightgrid_core::Sweeper for Plain {
+        fn name(&self) -> &'static str {
+            "plain"
+        }
+        fn sweep(
+            &mut self,
+            m: &MaterialGrid,
+            b: &Boundary,
+            o: &SweepOptions,
+        ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
+            Ok(sweep_cpu::run(m, b, o)?.output)
+        }
+    }
+    let m = sweep_cpu::exact::ground_material(1, 0.3);
+    let src = sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::ZERO; 512], Vec3::NEG_Y).unwrap();
+    let e = lightgrid_core::Sweeper::sweep_with_source(
+        &mut Plain,
+        &m,
+        &dark_periodic(),
+        &src,
+        &SweepOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("plain") && e.contains("source"), "{e}");
+}

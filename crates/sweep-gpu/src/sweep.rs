@@ -2,10 +2,10 @@
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
-    BinLight, Boundary, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins, PackedLightGrid,
-    Resident, SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
+    BinLight, Boundary, CellSource, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins,
+    PackedLightGrid, Resident, SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats,
+    Sweeper,
 };
-use sweep_cpu::CellSource;
 use sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
 use wgpu::util::DeviceExt;
 
@@ -746,6 +746,15 @@ impl Sweeper for &GpuSweeper {
     ) -> Result<SweepOutput, SweepError> {
         self.run(material, boundary, options)
     }
+    fn sweep_with_source(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        source: &CellSource,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        self.run_with_source(material, boundary, Some(source), options)
+    }
 }
 
 impl Sweeper for GpuSweeper {
@@ -759,6 +768,15 @@ impl Sweeper for GpuSweeper {
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
         self.run(material, boundary, options)
+    }
+    fn sweep_with_source(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        source: &CellSource,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        self.run_with_source(material, boundary, Some(source), options)
     }
 }
 

@@ -295,3 +295,22 @@ proptest! {
         }
     }
 }
+
+/// The sun split's responses (issue 14) computed with the GPU sweeper equal the CPU's.
+#[test]
+fn sun_split_on_the_gpu() {
+    let Some(gpu) = sweeper() else { return };
+    let (m, b) = sweep_cpu::scenes::Scene::DenseBlock.build(10);
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 0.0;
+    o.max_passes = 4;
+    let to_sun = Vec3::new(0.5, 0.6, -0.3);
+    let cpu =
+        sweep_cpu::sun::SunSplit::compute(&mut sweep_cpu::CpuSweeper::new(), &m, &b, to_sun, &o)
+            .unwrap();
+    let mut g = gpu;
+    let on_gpu = sweep_cpu::sun::SunSplit::compute(&mut g, &m, &b, to_sun, &o).unwrap();
+    assert_close(&cpu.sky, &on_gpu.sky).unwrap();
+    assert_close(&cpu.sun_scattered, &on_gpu.sun_scattered).unwrap();
+    assert!(cpu.sun_scattered.max_value() > 0.0);
+}
