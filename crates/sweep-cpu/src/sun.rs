@@ -326,7 +326,9 @@ impl SunSplit {
     }
 
     /// Moves the sun: the transmittance and the sun's scattered light are computed again
-    /// (sides as the sky's; open sky above), the sky's light is kept.
+    /// (open or periodic sides as the sky's; a given halo is taken as dark, since it holds
+    /// sky light: a hierarchy will pass its coarser grid's sun response instead), the
+    /// sky's light is kept.
     pub fn resun(
         &mut self,
         sweeper: &mut dyn lightgrid_core::Sweeper,
