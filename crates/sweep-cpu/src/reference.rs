@@ -715,20 +715,17 @@ pub fn trace_with_sun(
         .collect();
     // Light at most 1e30 over a grid of at most 2^32 points stays finite; check anyway so
     // that no NaN or infinity can leave.
-    if let Some(p) = data.iter().position(|b| !b.is_valid()) {
-        return Err(GridError::invalid(
-            format!("light[{p}]"),
-            data[p],
-            "the reference overflowed: boundary light too large for this grid",
-        )
-        .into());
-    }
     let direct: Vec<Vec3> = (0..n).map(|p| (direct.get(p) * inv).as_vec3()).collect();
-    if let Some(p) = direct.iter().position(|v| !v.is_finite()) {
+    let bad_light = data.iter().position(|b| !b.is_valid());
+    let bad_direct = direct.iter().position(|v| !v.is_finite());
+    if let Some((field, p)) = bad_light
+        .map(|p| ("light", p))
+        .or(bad_direct.map(|p| ("direct", p)))
+    {
         return Err(GridError::invalid(
-            format!("direct[{p}]"),
-            direct[p],
-            "the reference overflowed: sun too bright for this grid",
+            format!("{field}[{p}]"),
+            "NaN or infinity",
+            "the reference overflowed: light too large for this grid",
         )
         .into());
     }

@@ -733,52 +733,37 @@ fn sum_max(v: &[f32]) -> f64 {
     sums(v).iter().copied().fold(0.0, f64::max)
 }
 
-/// A shared GPU sweeper sweeps too (its methods take `&self`).
-impl Sweeper for &GpuSweeper {
-    fn name(&self) -> &'static str {
-        "gpu"
-    }
-    fn sweep(
-        &mut self,
-        material: &MaterialGrid,
-        boundary: &Boundary,
-        options: &SweepOptions,
-    ) -> Result<SweepOutput, SweepError> {
-        self.run(material, boundary, options)
-    }
-    fn sweep_with_source(
-        &mut self,
-        material: &MaterialGrid,
-        boundary: &Boundary,
-        source: &CellSource,
-        options: &SweepOptions,
-    ) -> Result<SweepOutput, SweepError> {
-        self.run_with_source(material, boundary, Some(source), options)
-    }
+/// `Sweeper` for the GPU sweeper, owned or shared (its methods take `&self`, so a
+/// shared one sweeps too).
+macro_rules! gpu_sweeper_impl {
+    ($t:ty) => {
+        impl Sweeper for $t {
+            fn name(&self) -> &'static str {
+                "gpu"
+            }
+            fn sweep(
+                &mut self,
+                material: &MaterialGrid,
+                boundary: &Boundary,
+                options: &SweepOptions,
+            ) -> Result<SweepOutput, SweepError> {
+                self.run(material, boundary, options)
+            }
+            fn sweep_with_source(
+                &mut self,
+                material: &MaterialGrid,
+                boundary: &Boundary,
+                source: &CellSource,
+                options: &SweepOptions,
+            ) -> Result<SweepOutput, SweepError> {
+                self.run_with_source(material, boundary, Some(source), options)
+            }
+        }
+    };
 }
 
-impl Sweeper for GpuSweeper {
-    fn name(&self) -> &'static str {
-        "gpu"
-    }
-    fn sweep(
-        &mut self,
-        material: &MaterialGrid,
-        boundary: &Boundary,
-        options: &SweepOptions,
-    ) -> Result<SweepOutput, SweepError> {
-        self.run(material, boundary, options)
-    }
-    fn sweep_with_source(
-        &mut self,
-        material: &MaterialGrid,
-        boundary: &Boundary,
-        source: &CellSource,
-        options: &SweepOptions,
-    ) -> Result<SweepOutput, SweepError> {
-        self.run_with_source(material, boundary, Some(source), options)
-    }
-}
+gpu_sweeper_impl!(GpuSweeper);
+gpu_sweeper_impl!(&GpuSweeper);
 
 #[cfg(test)]
 mod tests {
