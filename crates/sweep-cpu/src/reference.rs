@@ -206,16 +206,7 @@ fn sources(
             "the Monte Carlo reference supports open and periodic sides only",
         )));
     }
-    let (nx, ny, nz) = (dims.x as f64, dims.y as f64, dims.z as f64);
-    let mut faces = vec![(IVec3::NEG_Y, nx * nz), (IVec3::Y, nx * nz)];
-    if open {
-        faces.extend([
-            (IVec3::X, ny * nz),
-            (IVec3::NEG_X, ny * nz),
-            (IVec3::Z, nx * ny),
-            (IVec3::NEG_Z, nx * ny),
-        ]);
-    }
+    let faces = entry_faces(dims, open);
     let mut out = Vec::new();
     for (light, vertical) in [(&top, DVec3::NEG_Y), (&boundary.bottom, DVec3::Y)] {
         for d in 0..NUM_DIRS {
@@ -248,6 +239,22 @@ fn sources(
     Ok(out)
 }
 
+/// The faces light may enter by, as (inward normal, area in cells): top and bottom, and
+/// the four sides when they are open.
+fn entry_faces(dims: UVec3, open: bool) -> Vec<(IVec3, f64)> {
+    let (nx, ny, nz) = (dims.x as f64, dims.y as f64, dims.z as f64);
+    let mut faces = vec![(IVec3::NEG_Y, nx * nz), (IVec3::Y, nx * nz)];
+    if open {
+        faces.extend([
+            (IVec3::X, ny * nz),
+            (IVec3::NEG_X, ny * nz),
+            (IVec3::Z, nx * ny),
+            (IVec3::NEG_Z, nx * ny),
+        ]);
+    }
+    faces
+}
+
 /// The collimated sun's components: every face the beam enters (the top, and the sides
 /// when they are open), flux `E (d · n) area`.
 fn sun_sources(
@@ -267,25 +274,16 @@ fn sun_sources(
         .into());
     }
     let d = -s;
-    let (nx, ny, nz) = (dims.x as f32, dims.y as f32, dims.z as f32);
-    let mut faces = vec![(IVec3::NEG_Y, nx * nz)];
-    if open {
-        faces.extend([
-            (IVec3::X, ny * nz),
-            (IVec3::NEG_X, ny * nz),
-            (IVec3::Z, nx * ny),
-            (IVec3::NEG_Z, nx * ny),
-        ]);
-    }
-    Ok(faces
+    Ok(entry_faces(dims, open)
         .into_iter()
         .filter_map(|(n, area)| {
+            // Only the faces the beam enters (the bottom never: the sun is above).
             let c = d.dot(n.as_vec3());
             (c > 0.0 && sun.irradiance != Vec3::ZERO).then(|| SourceComponent {
                 normal: n,
                 bin: dirs::nearest_dir(d),
                 planes: Vec::new(),
-                flux: sun.irradiance * (c * area),
+                flux: sun.irradiance * (c * area as f32),
                 exact: Some(d),
             })
         })
