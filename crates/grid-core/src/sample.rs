@@ -15,6 +15,15 @@ pub trait Blend: Copy {
     fn add_scaled(&mut self, other: &Self, w: f32);
 }
 
+impl Blend for f32 {
+    fn zero() -> Self {
+        0.0
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        *self += *other * w;
+    }
+}
+
 impl Blend for Vec3 {
     fn zero() -> Self {
         Vec3::ZERO

@@ -396,6 +396,66 @@ pub trait Sweeper {
             "this sweeper takes no cell sources",
         )))
     }
+    /// The sun's responses in `material` (see [`SunResponse`]): the transmittance along
+    /// the exact direction, and the light of the sun's first collisions swept into the
+    /// bins with `sun.scattered` as boundary. Sweepers that cannot keep the sun apart say
+    /// so (the default); `sweep_cpu::sun::sweep_sun` is the implementation the CPU and
+    /// GPU sweepers share.
+    fn sweep_sun(
+        &mut self,
+        material: &MaterialGrid,
+        sun: &SunBoundary<'_>,
+        options: &SweepOptions,
+    ) -> Result<SunResponse, SweepError> {
+        let _ = (material, sun, options);
+        Err(SweepError::Invalid(GridError::invalid(
+            "sun",
+            self.name(),
+            "this sweeper cannot keep the sun apart from the sky",
+        )))
+    }
+}
+
+/// What a sweeper needs to compute the sun's two responses in one grid
+/// ([`Sweeper::sweep_sun`]; the sun kept apart from the sky, issue 14). All sun light is
+/// for a sun of normal irradiance 1: colours multiply afterwards.
+pub struct SunBoundary<'a> {
+    /// Direction toward the sun (need not be unit; at or below the horizon there is no
+    /// direct sun: transmittance 0 and no first collisions).
+    pub to_sun: Vec3,
+    /// Scattered sun light entering the grid (top, sides, bottom), per unit sun
+    /// irradiance: none under open sky (`Boundary::open_sky(BinLight::ZERO)`); a fine
+    /// grid of a hierarchy takes it from its coarser grid's sun response. Periodic sides
+    /// also make the transmittance march wrap.
+    pub scattered: Boundary,
+    /// The sun's transmittance already lost where its ray leaves the grid's box toward
+    /// the sun (world position of the exit): 1 under open sky, a coarser grid's
+    /// transmittance in a hierarchy. Values are clamped to `[0, 1]` (NaN counts as 0).
+    pub outside: &'a (dyn Fn(Vec3) -> f32 + Sync),
+}
+
+impl std::fmt::Debug for SunBoundary<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SunBoundary")
+            .field("to_sun", &self.to_sun)
+            .field("scattered", &self.scattered)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The sun's two responses in one grid, for unit sun irradiance
+/// ([`Sweeper::sweep_sun`]): its light after at least one scattering (26 bins) and its
+/// uncollided beam's transmittance at every point (`[0, 1]`, along the exact sun
+/// direction). The direct sun on a surface facing `n` at `p` is then
+/// `E T(p) max(0, n · s)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SunResponse {
+    /// Scattered sun light (26 bins).
+    pub scattered: LightGrid,
+    /// The beam's transmittance per point (same grid; trilinear `sample`).
+    pub transmittance: Grid<f32>,
+    /// Work counters of the scattered-light sweep.
+    pub stats: SweepStats,
 }
 
 /// Light a beam deposits in cells before a sweep's first pass (the first collisions of
@@ -481,6 +541,15 @@ pub trait LightField {
     fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
         Ok(self.light(p, None)?.average())
     }
+    /// The transmittance at `p` of a direct sun this field keeps apart from its bins
+    /// (issue 14: the bins then hold sky and scattered sun light only, and the direct
+    /// sun on a surface facing `n` is `E T(p) max(0, n · s)` with the field's own sun
+    /// colour `E` and direction `s`). 0 for fields whose bins hold all their light
+    /// (the default), so adding the direct term is always right.
+    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
+        let _ = p;
+        Ok(0.0)
+    }
 }
 
 impl LightField for LightGrid {
@@ -501,6 +570,10 @@ impl<A: LightField, B: LightField> LightField for SumField<A, B> {
         let (a, b) = (self.0.light(p, n)?, self.1.light(p, n)?);
         Ok(a + b)
     }
+    /// The sum: the direct suns of both fields add (they must be the same sun).
+    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
+        Ok(self.0.sun_transmittance(p)? + self.1.sun_transmittance(p)?)
+    }
 }
 
 /// One light field minus another, clamped at zero per bin and colour: `B` is a part of
@@ -513,11 +586,18 @@ impl<A: LightField, B: LightField> LightField for DifferenceField<A, B> {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         Ok(self.0.light(p, n)?.saturating_sub(&self.1.light(p, n)?))
     }
+    /// The difference, clamped at zero (as the bins).
+    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
+        Ok((self.0.sun_transmittance(p)? - self.1.sun_transmittance(p)?).max(0.0))
+    }
 }
 
 impl<T: LightField + ?Sized> LightField for &T {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         (**self).light(p, n)
+    }
+    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
+        (**self).sun_transmittance(p)
     }
 }
 

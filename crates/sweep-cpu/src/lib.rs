@@ -396,4 +396,12 @@ impl Sweeper for CpuSweeper {
         self.last_balance = Some(s.balance);
         Ok(s.output)
     }
+    fn sweep_sun(
+        &mut self,
+        material: &MaterialGrid,
+        sun: &lightgrid_core::SunBoundary<'_>,
+        options: &SweepOptions,
+    ) -> Result<lightgrid_core::SunResponse, SweepError> {
+        sun::sweep_sun(self, material, sun, options)
+    }
 }

@@ -337,10 +337,6 @@ impl SunSplit {
         to_sun: Vec3,
         options: &lightgrid_core::SweepOptions,
     ) -> Result<(), lightgrid_core::SweepError> {
-        let periodic = matches!(sides, lightgrid_core::SideBoundary::Periodic);
-        let open = |_: Vec3| 1.0;
-        let t = SunTransmittance::march(material, to_sun, periodic, &open)?;
-        let src = first_collision(material, &t, to_sun, Vec3::ONE, periodic, &open)?;
         // Only the first collisions bring light: no boundary light at all.
         let dark = lightgrid_core::Boundary {
             sides: match sides {
@@ -354,13 +350,15 @@ impl SunSplit {
             },
             ..lightgrid_core::Boundary::open_sky(lightgrid_core::BinLight::ZERO)
         };
-        let mut o = *options;
-        o.outputs = lightgrid_core::Outputs::ALL;
-        self.sun_scattered = sweeper
-            .sweep_with_source(material, &dark, &src, &o)?
-            .bins
-            .expect("bins asked for");
-        self.transmittance = t;
+        let sun = lightgrid_core::SunBoundary {
+            to_sun,
+            scattered: dark,
+            outside: &|_| 1.0,
+        };
+        let r = sweep_sun(sweeper, material, &sun, options)?;
+        self.sun_scattered = r.scattered;
+        self.transmittance =
+            SunTransmittance::from_values(*material.desc(), r.transmittance.into_data())?;
         self.to_sun = sun_direction(to_sun)?.unwrap_or(Vec3::Y);
         Ok(())
     }
@@ -391,6 +389,36 @@ impl SunSplit {
         let bins = self.sky.irradiance(p, n)? * sky + self.sun_scattered.irradiance(p, n)? * sun;
         Ok(bins + self.direct(p, n, sun)?)
     }
+}
+
+/// The sun's two responses in one grid ([`lightgrid_core::Sweeper::sweep_sun`]; the
+/// implementation the CPU and GPU sweepers share): the exact march
+/// ([`SunTransmittance::march`], wrapping when `sun.scattered` has periodic sides,
+/// `sun.outside` beyond the box), the first collisions ([`first_collision`], unit
+/// irradiance) and one sweep of them with `sweeper` into the bins, `sun.scattered` the
+/// boundary light. A sun at or below the horizon has no beam: transmittance 0, and the
+/// bins hold only what `sun.scattered` brings.
+pub fn sweep_sun(
+    sweeper: &mut dyn lightgrid_core::Sweeper,
+    material: &MaterialGrid,
+    sun: &lightgrid_core::SunBoundary<'_>,
+    options: &lightgrid_core::SweepOptions,
+) -> Result<lightgrid_core::SunResponse, lightgrid_core::SweepError> {
+    let periodic = matches!(sun.scattered.sides, lightgrid_core::SideBoundary::Periodic);
+    let t = SunTransmittance::march(material, sun.to_sun, periodic, sun.outside)?;
+    let mut o = *options;
+    o.outputs = lightgrid_core::Outputs::ALL;
+    let out = if sun_direction(sun.to_sun)?.is_some() {
+        let src = first_collision(material, &t, sun.to_sun, Vec3::ONE, periodic, sun.outside)?;
+        sweeper.sweep_with_source(material, &sun.scattered, &src, &o)?
+    } else {
+        sweeper.sweep(material, &sun.scattered, &o)?
+    };
+    Ok(lightgrid_core::SunResponse {
+        scattered: out.bins.expect("bins asked for"),
+        transmittance: lightgrid_core::Grid::from_trusted(t.desc, t.values),
+        stats: out.stats,
+    })
 }
 
 /// The sun's first collisions: what the beam of normal irradiance `irradiance` (RGB)

@@ -276,3 +276,157 @@ fn sweepers_without_sources_refuse_them() {
     .to_string();
     assert!(e.contains("plain") && e.contains("source"), "{e}");
 }
+
+/// `Sweeper::sweep_sun`: refused by name where a sweeper cannot keep the sun apart; a
+/// sun below the horizon has no beam (transmittance 0) and its bins hold only the
+/// scattered light of the boundary.
+#[test]
+fn sweep_sun_refusal_and_a_sun_below_the_horizon() {
+    struct Plain;
+    impl lightgrid_core::Sweeper for Plain {
+        fn name(&self) -> &'static str {
+            "plain"
+        }
+        fn sweep(
+            &mut self,
+            m: &MaterialGrid,
+            b: &Boundary,
+            o: &SweepOptions,
+        ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
+            Ok(sweep_cpu::run(m, b, o)?.output)
+        }
+    }
+    use lightgrid_core::{SunBoundary, Sweeper};
+    let m = sweep_cpu::exact::ground_material(1, 0.3);
+    let sb = SunBoundary {
+        to_sun: sun(40.0, 20.0),
+        scattered: dark_periodic(),
+        outside: &|_| 1.0,
+    };
+    let e = Plain
+        .sweep_sun(&m, &sb, &SweepOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("plain") && e.contains("sun"), "{e}");
+    // Below the horizon, with some scattered light coming in from above.
+    let lit = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top)
+    };
+    let below = SunBoundary {
+        to_sun: Vec3::new(1.0, -0.2, 0.0),
+        scattered: lit.clone(),
+        outside: &|_| 1.0,
+    };
+    let mut cpu = sweep_cpu::CpuSweeper::new();
+    let r = cpu.sweep_sun(&m, &below, &converged()).unwrap();
+    assert!(r.transmittance.data().iter().all(|&t| t == 0.0));
+    let plain = cpu.sweep(&m, &lit, &converged()).unwrap().bins.unwrap();
+    assert_eq!(r.scattered, plain);
+}
+
+/// The nesting a hierarchy relies on: a grid's lower levels swept on their own, with
+/// the sun boundary taken from the whole grid's response (the top from its downward
+/// light one level above, the transmittance outside from its transmittance where the
+/// ray leaves), give the whole grid's response there. A canopy fills the lower levels;
+/// the cut lies in the air above it, where nothing scatters back down. The cut lies
+/// above the canopy, so the transmittance handed over is 1: its nesting through a
+/// canopy is the march's `outside` rule, tested in `sun.rs`.
+#[test]
+fn sun_responses_nest_like_a_hierarchy() {
+    use lightgrid_core::{SunBoundary, Sweeper, TopBoundary};
+    let dims = UVec3::new(12, 14, 12);
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, dims).unwrap();
+    let mut rng = fastrand::Rng::with_seed(5);
+    let cells: Vec<Material> = (0..desc.point_count())
+        .map(|i| {
+            let y = desc.coords(i).unwrap().y;
+            let pass = match y {
+                0 => 0.0,
+                1..=6 if rng.f32() < 0.5 => 0.3 + 0.6 * rng.f32(),
+                _ => 1.0,
+            };
+            Material {
+                reflectance: Vec3::new(0.3, 0.5, 0.2),
+                pass,
+            }
+        })
+        .collect();
+    let full_m = MaterialGrid::new(desc, cells.clone()).unwrap();
+    let s = sun(33.0, 25.0);
+    let mut cpu = sweep_cpu::CpuSweeper::new();
+    let full = cpu
+        .sweep_sun(
+            &full_m,
+            &SunBoundary {
+                to_sun: s,
+                scattered: dark_periodic(),
+                outside: &|_| 1.0,
+            },
+            &converged(),
+        )
+        .unwrap();
+    // The lower 10 levels on their own.
+    let ny = 10;
+    let sub_desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(12, ny, 12)).unwrap();
+    let sub_m = MaterialGrid::new(sub_desc, cells[..sub_desc.point_count()].to_vec()).unwrap();
+    let top: Vec<BinLight> = full
+        .scattered
+        .level(ny)
+        .iter()
+        .map(|b| {
+            // The strictly downward bins: the horizontal bins of a light grid hold both
+            // the light going slightly down and slightly up (the 4:1 channels), and
+            // above a sunlit canopy only the upward half is lit (no light goes down in
+            // the air here). Handing over half of each horizontal bin, as
+            // `split_vertical` does and terrain-lod's node tops do, adds 11 % of the
+            // largest value at the cut (13 % for the sky): a known defect of the
+            // top hand-over (ARCHITECTURE, known defects).
+            let mut d = b.split_vertical().0;
+            for k in 0..lightgrid_core::NUM_DIRS {
+                if lightgrid_core::dirs::dir_ivec(k).y == 0 {
+                    d.0[k] = Vec3::ZERO;
+                }
+            }
+            d
+        })
+        .collect();
+    let t_full = &full.transmittance;
+    let sub = cpu
+        .sweep_sun(
+            &sub_m,
+            &SunBoundary {
+                to_sun: s,
+                scattered: Boundary {
+                    top: TopBoundary::PerPoint(top),
+                    ..dark_periodic()
+                },
+                outside: &|p| t_full.sample(p).unwrap(),
+            },
+            &converged(),
+        )
+        .unwrap();
+    let scale = full
+        .scattered
+        .data()
+        .iter()
+        .map(|b| b.total().max_element())
+        .fold(0.0, f32::max);
+    let worst = sub
+        .scattered
+        .data()
+        .iter()
+        .zip(full.scattered.data())
+        .map(|(a, b)| (a.total() - b.total()).abs().max_element())
+        .fold(0.0, f32::max);
+    assert!(worst < 1e-4 * scale, "nesting error {}", worst / scale);
+    for (i, (a, b)) in sub
+        .transmittance
+        .data()
+        .iter()
+        .zip(t_full.data())
+        .enumerate()
+    {
+        assert!((a - b).abs() < 1e-5, "point {i}: T {a} vs {b}");
+    }
+}

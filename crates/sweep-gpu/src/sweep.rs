@@ -758,6 +758,14 @@ macro_rules! gpu_sweeper_impl {
             ) -> Result<SweepOutput, SweepError> {
                 self.run_with_source(material, boundary, Some(source), options)
             }
+            fn sweep_sun(
+                &mut self,
+                material: &MaterialGrid,
+                sun: &lightgrid_core::SunBoundary<'_>,
+                options: &SweepOptions,
+            ) -> Result<lightgrid_core::SunResponse, SweepError> {
+                sweep_cpu::sun::sweep_sun(self, material, sun, options)
+            }
         }
     };
 }
