@@ -61,9 +61,9 @@ use std::collections::HashMap;
 use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, Boundary, GridDesc, GridError, HALO_WIDTH, HaloLayout, LightField, LightGrid,
-    MaterialGrid, MaterialSource, Resident, SideBoundary, SweepError, SweepOptions, Sweeper,
-    TopBoundary,
+    BinLight, Boundary, Grid, GridDesc, GridError, HALO_WIDTH, HaloLayout, LightField, LightGrid,
+    MaterialGrid, MaterialSource, Resident, SideBoundary, SunBoundary, SweepError, SweepOptions,
+    Sweeper, TopBoundary,
 };
 
 /// Errors of the hierarchy.
@@ -250,8 +250,38 @@ impl PartialOrd for NodeKey {
     }
 }
 
+/// A sun kept apart from the sky ([`Hierarchy::set_sun`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunLight {
+    /// Direction toward the sun (normalised when set; at or below the horizon the sun
+    /// has no direct light and its scattered response is zero).
+    pub to_sun: Vec3,
+    /// The sun's irradiance on a surface facing it, RGB (multiplies the sun's responses:
+    /// changing it sweeps nothing).
+    pub irradiance: Vec3,
+}
+
+/// A grid's sun responses for unit sun irradiance, computed for `to_sun`.
+struct GridSun {
+    scattered: LightGrid,
+    transmittance: Grid<f32>,
+    to_sun: Vec3,
+}
+
+/// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.
+#[derive(Debug, Clone, Copy)]
+pub struct LayerSun<'a> {
+    /// The sun's light after at least one scattering (26 bins).
+    pub scattered: &'a LightGrid,
+    /// The sun beam's transmittance per point.
+    pub transmittance: &'a Grid<f32>,
+}
+
 struct Node {
     light: LightGrid,
+    /// The sun's responses for the current sun direction (`None`: not computed yet for
+    /// it; the coarser grids' light the node's points meanwhile).
+    sun: Option<GridSun>,
     /// The sweeper's device copy of `light`, if it keeps one.
     resident: Option<Resident>,
     input_hash: u64,
@@ -294,6 +324,12 @@ pub struct Layer<'a> {
     pub resident: Option<&'a Resident>,
     /// Which points it lights; `None`: all (the world grid).
     pub owner: Option<Owner>,
+    /// With the sun kept apart ([`Hierarchy::set_sun`]): the grid's sun responses for
+    /// the current sun direction; `None` while they wait to be computed, and then the
+    /// sun part of a point comes from the last *earlier* owning layer that has them
+    /// (the world grid always has). `grid` then holds the sky's light alone (times
+    /// [`Hierarchy::sky_scale`]).
+    pub sun: Option<LayerSun<'a>>,
 }
 
 /// Per-frame report.
@@ -315,6 +351,12 @@ pub struct FrameStats {
     pub alive_per_depth: Vec<u32>,
     /// Points of the ready grids per depth (index 0: the world grid).
     pub points_per_depth: Vec<u64>,
+    /// Node sun responses computed this frame (transmittance and scattered sun), with
+    /// the sun kept apart; their points count in `points_swept`.
+    pub sun_built: u32,
+    /// Ready nodes still without a sun response for the current sun direction (lit by
+    /// coarser grids' sun meanwhile).
+    pub sun_pending: u32,
 }
 
 impl FrameStats {
@@ -351,6 +393,39 @@ pub struct Hierarchy {
     world: LightGrid,
     world_resident: Option<Resident>,
     nodes: HashMap<NodeKey, Node>,
+    /// The sun kept apart (`None`: whatever sun there is lies in `sky`'s bins).
+    sun: Option<SunLight>,
+    world_sun: Option<GridSun>,
+    sky_scale: Vec3,
+}
+
+/// Stands in for the sweeper while a sun sweep borrows the hierarchy for its boundary.
+struct Lent;
+
+impl Sweeper for Lent {
+    fn name(&self) -> &'static str {
+        "lent"
+    }
+    fn sweep(
+        &mut self,
+        _: &MaterialGrid,
+        _: &Boundary,
+        _: &SweepOptions,
+    ) -> Result<lightgrid_core::SweepOutput, SweepError> {
+        Err(SweepError::Backend {
+            backend: "lent",
+            message: "the hierarchy's sweeper is in use".into(),
+        })
+    }
+}
+
+/// Which of a grid's responses a boundary is taken from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Response {
+    /// The sky's light (all light, without the sun apart).
+    Sky,
+    /// The sun's scattered light.
+    Sun,
 }
 
 fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
@@ -400,6 +475,9 @@ impl Hierarchy {
             world: LightGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE)?, BinLight::ZERO)?,
             world_resident: None,
             nodes: HashMap::new(),
+            sun: None,
+            world_sun: None,
+            sky_scale: Vec3::ONE,
         };
         let w = params.world_cell;
         let dims_xz = ((hi - lo) / w).ceil().as_uvec2() + lightgrid_core::glam::UVec2::ONE;
@@ -460,6 +538,169 @@ impl Hierarchy {
         }
         self.sky = sky_top;
         self.sweep_world()
+    }
+
+    /// Keeps the sun apart from the sky (issue 14), or stops doing so (`None`). With a
+    /// sun, every grid holds three responses: the sky's light (the bins swept from the
+    /// sky given to [`Hierarchy::new`] / [`Hierarchy::set_sky`], which must then hold no
+    /// sun), the sun's scattered light and its transmittance along the exact direction
+    /// (both for unit irradiance, by `Sweeper::sweep_sun`); the light read is
+    /// `sky × sky_scale + scattered × irradiance` and the direct sun
+    /// `irradiance × T × max(0, n · s)` ([`LightField::sun_transmittance`],
+    /// [`Hierarchy::sun`]).
+    ///
+    /// A new direction recomputes the world grid's sun responses at once and drops the
+    /// nodes' (their points take the sun from coarser grids until [`Hierarchy::update`]
+    /// or [`Hierarchy::refresh`] recompute them, coarse and near first, within the
+    /// budget); the sky's responses stay. The same direction with another irradiance
+    /// sweeps nothing. The sweeper must take cell sources (the CPU and GPU sweepers do).
+    pub fn set_sun(&mut self, sun: Option<SunLight>) -> Result<(), LodError> {
+        let Some(mut sun) = sun else {
+            self.sun = None;
+            self.world_sun = None;
+            for n in self.nodes.values_mut() {
+                n.sun = None;
+            }
+            return Ok(());
+        };
+        if !sun.to_sun.is_finite() || sun.to_sun.length_squared() == 0.0 {
+            return Err(GridError::invalid(
+                "sun.to_sun",
+                sun.to_sun,
+                "must be a finite, non-zero direction",
+            )
+            .into());
+        }
+        if !sun.irradiance.is_finite() || sun.irradiance.min_element() < 0.0 {
+            return Err(GridError::invalid(
+                "sun.irradiance",
+                sun.irradiance,
+                "must be finite and >= 0",
+            )
+            .into());
+        }
+        sun.to_sun = sun.to_sun.normalize();
+        let same = self.world_sun.as_ref().map(|w| w.to_sun) == Some(sun.to_sun);
+        self.sun = Some(sun);
+        if same {
+            return Ok(());
+        }
+        for n in self.nodes.values_mut() {
+            n.sun = None;
+        }
+        let desc = *self.world.desc();
+        let material = self.source.material(&desc)?;
+        let o = self.node_options(true);
+        let boundary = SunBoundary {
+            to_sun: sun.to_sun,
+            scattered: Boundary::open_sky(BinLight::ZERO),
+            outside: &|_| 1.0,
+        };
+        let r = self.sweeper.sweep_sun(&material, &boundary, &o)?;
+        self.world_sun = Some(GridSun {
+            scattered: r.scattered,
+            transmittance: r.transmittance,
+            to_sun: sun.to_sun,
+        });
+        Ok(())
+    }
+
+    /// The sun kept apart, if any ([`Hierarchy::set_sun`]).
+    pub fn sun(&self) -> Option<SunLight> {
+        self.sun
+    }
+
+    /// Multiplies the sky's light (RGB, finite and >= 0; 1 by default): its colour and
+    /// intensity change with no sweep. Only with the sun kept apart is the sky's light
+    /// alone in the bins; without, this scales all light.
+    pub fn set_sky_scale(&mut self, scale: Vec3) -> Result<(), LodError> {
+        if !scale.is_finite() || scale.min_element() < 0.0 {
+            return Err(GridError::invalid("sky_scale", scale, "must be finite and >= 0").into());
+        }
+        self.sky_scale = scale;
+        Ok(())
+    }
+
+    /// The sky's multiplier ([`Hierarchy::set_sky_scale`]).
+    pub fn sky_scale(&self) -> Vec3 {
+        self.sky_scale
+    }
+
+    /// Computes node `key`'s sun responses for the current sun (its boundary from the
+    /// coarser grids' sun responses). Returns the points swept.
+    fn sweep_node_sun(&mut self, key: NodeKey, material: &MaterialGrid) -> Result<u64, LodError> {
+        let Some(sun) = self.sun else {
+            return Ok(0);
+        };
+        let desc = *material.desc();
+        let o = self.node_options(self.nodes[&key].has_objects);
+        let scattered = self.node_boundary_of(&desc, key.depth, Response::Sun);
+        let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
+        let r = {
+            let this = &*self;
+            let outside = |p: Vec3| this.coarse_transmittance(p, key.depth);
+            sweeper.sweep_sun(
+                material,
+                &SunBoundary {
+                    to_sun: sun.to_sun,
+                    scattered,
+                    outside: &outside,
+                },
+                &o,
+            )
+        };
+        self.sweeper = sweeper;
+        let r = r?;
+        self.nodes.get_mut(&key).expect("ready node").sun = Some(GridSun {
+            scattered: r.scattered,
+            transmittance: r.transmittance,
+            to_sun: sun.to_sun,
+        });
+        Ok(desc.point_count() as u64)
+    }
+
+    /// Whether node `key` has sun responses for the current sun.
+    fn sun_current(&self, key: NodeKey) -> bool {
+        match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
+            (Some(s), Some(g)) => g.to_sun == s.to_sun,
+            _ => false,
+        }
+    }
+
+    /// Whether the coarser grids a node's sun boundary reads are current: its parent's
+    /// (the world grid's at depth 1, always current). A parent not built at all (bare
+    /// ground above) hands over from its own coarser grids.
+    fn sun_parent_ready(&self, key: NodeKey) -> bool {
+        let mut k = Self::parent(key);
+        while let Some(p) = k {
+            if self.nodes.contains_key(&p) {
+                return self.sun_current(p);
+            }
+            k = Self::parent(p);
+        }
+        true
+    }
+
+    /// The finest grid coarser than `depth` with a current sun response at `p` (the
+    /// world grid's at worst).
+    fn coarse_sun(&self, p: Vec3, depth: u32) -> Option<&GridSun> {
+        for d in (1..depth).rev() {
+            let key = self.node_at(d, Vec2::new(p.x, p.z));
+            if let Some(n) = self.nodes.get(&key)
+                && n.light.desc().contains(p)
+                && self.sun_current(key)
+            {
+                return n.sun.as_ref();
+            }
+        }
+        self.world_sun.as_ref()
+    }
+
+    /// The sun's transmittance at `p` from the grids coarser than `depth`.
+    fn coarse_transmittance(&self, p: Vec3, depth: u32) -> f32 {
+        self.coarse_sun(p, depth)
+            .and_then(|s| s.transmittance.sample(p).ok())
+            .unwrap_or(0.0)
     }
 
     /// The parameters.
@@ -608,8 +849,15 @@ impl Hierarchy {
         )
     }
 
-    /// Light (full bins) at `p` from the finest ready grid coarser than `depth`.
-    fn coarse_light(&self, p: Vec3, depth: u32) -> BinLight {
+    /// Light (full bins) at `p` from the finest ready grid coarser than `depth`: the
+    /// sky's (or all light, without the sun apart) or the sun's scattered response.
+    fn coarse_light(&self, p: Vec3, depth: u32, which: Response) -> BinLight {
+        if which == Response::Sun {
+            return self
+                .coarse_sun(p, depth)
+                .and_then(|s| s.scattered.sample(p).ok())
+                .unwrap_or_default();
+        }
         for d in (1..depth).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
             if let Some(n) = self.nodes.get(&key)
@@ -624,6 +872,11 @@ impl Hierarchy {
     /// The boundary of a node grid from the coarser grids: the top from the downward
     /// light just above it, the sides from the full light in the halo.
     fn node_boundary(&self, desc: &GridDesc, depth: u32) -> Boundary {
+        self.node_boundary_of(desc, depth, Response::Sky)
+    }
+
+    /// [`Hierarchy::node_boundary`] of one response.
+    fn node_boundary_of(&self, desc: &GridDesc, depth: u32, which: Response) -> Boundary {
         let dims = desc.dims();
         let h = desc.h();
         let top_y = dims.y - 1;
@@ -631,7 +884,7 @@ impl Hierarchy {
         for k in 0..dims.z {
             for i in 0..dims.x {
                 let p = desc.position(UVec3::new(i, top_y, k)) + Vec3::Y * h;
-                top.push(self.coarse_light(p, depth).split_vertical().0);
+                top.push(self.coarse_light(p, depth, which).split_vertical().0);
             }
         }
         let layout = HaloLayout::new(dims);
@@ -642,7 +895,7 @@ impl Hierarchy {
                 for x in -w..dims.x as i32 + w {
                     if let Some(i) = layout.index(x, j, z) {
                         let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
-                        halo[i] = self.coarse_light(p, depth);
+                        halo[i] = self.coarse_light(p, depth, which);
                     }
                 }
             }
@@ -676,6 +929,9 @@ impl Hierarchy {
         }
         for key in self.wanted(camera) {
             if self.nodes.contains_key(&key) {
+                if self.sun.is_some() && !self.sun_current(key) {
+                    self.update_sun(key, None, &mut stats)?;
+                }
                 continue;
             }
             // Coarse to fine: the parent must be ready and have objects worth refining.
@@ -717,12 +973,17 @@ impl Hierarchy {
                 key,
                 Node {
                     light: out.bins.expect("bins asked for"),
+                    sun: None,
                     resident: out.resident,
                     input_hash,
                     has_objects,
                 },
             );
+            if self.sun.is_some() {
+                self.update_sun(key, Some(&material), &mut stats)?;
+            }
         }
+        stats.sun_pending = self.sun_pending();
         let depths = self.params.depths() as usize;
         stats.alive_per_depth = vec![0; depths + 1];
         stats.points_per_depth = vec![0; depths + 1];
@@ -733,6 +994,42 @@ impl Hierarchy {
             stats.points_per_depth[k.depth as usize] += n.light.desc().point_count() as u64;
         }
         Ok(stats)
+    }
+
+    /// Computes a ready node's sun responses if its parent's are current and the budget
+    /// allows (else counts it pending).
+    fn update_sun(
+        &mut self,
+        key: NodeKey,
+        material: Option<&MaterialGrid>,
+        stats: &mut FrameStats,
+    ) -> Result<(), LodError> {
+        let desc = *self.nodes[&key].light.desc();
+        if !self.sun_parent_ready(key)
+            || stats.points_swept + desc.point_count() as u64 > self.params.budget_points
+        {
+            stats.pending += 1;
+            return Ok(());
+        }
+        let owned;
+        let material = match material {
+            Some(m) => m,
+            None => {
+                owned = self.source.material(&desc)?;
+                &owned
+            }
+        };
+        stats.points_swept += self.sweep_node_sun(key, material)?;
+        stats.sun_built += 1;
+        Ok(())
+    }
+
+    /// Ready nodes without a sun response for the current sun (0 without a sun).
+    fn sun_pending(&self) -> u32 {
+        if self.sun.is_none() {
+            return 0;
+        }
+        self.nodes.keys().filter(|k| !self.sun_current(**k)).count() as u32
     }
 
     /// The sweep options of a node: bins always on; one downward pass over bare ground
@@ -782,32 +1079,50 @@ impl Hierarchy {
             // (The node keeps its size; a changed scene may need a new size: evict it.)
             if self.params.skip.unchanged && hash == self.nodes[&key].input_hash {
                 stats.skipped_unchanged += 1;
-                continue;
+            } else {
+                let out = self.sweeper.sweep(&material, &boundary, &o)?;
+                stats.points_swept += desc.point_count() as u64;
+                stats.built += 1;
+                let n = self.nodes.get_mut(&key).expect("ready node");
+                n.light = out.bins.expect("bins asked for");
+                n.resident = out.resident;
+                n.input_hash = hash;
+                // The material may have changed: the sun's responses too.
+                n.sun = None;
             }
-            let out = self.sweeper.sweep(&material, &boundary, &o)?;
-            stats.points_swept += desc.point_count() as u64;
-            stats.built += 1;
-            let n = self.nodes.get_mut(&key).expect("ready node");
-            n.light = out.bins.expect("bins asked for");
-            n.resident = out.resident;
-            n.input_hash = hash;
+            if self.sun.is_some() && !self.sun_current(key) {
+                self.update_sun(key, Some(&material), &mut stats)?;
+            }
         }
+        stats.sun_pending = self.sun_pending();
         Ok(stats)
     }
 
     /// The grids for layered sampling: the world grid, then the ready nodes by depth
     /// (see [`Layer`]).
     pub fn layers(&self) -> Vec<Layer<'_>> {
+        fn layer_sun(g: &GridSun) -> LayerSun<'_> {
+            LayerSun {
+                scattered: &g.scattered,
+                transmittance: &g.transmittance,
+            }
+        }
         let mut v = vec![Layer {
             grid: &self.world,
             resident: self.world_resident.as_ref(),
             owner: None,
+            sun: self.world_sun.as_ref().map(layer_sun),
         }];
         for key in self.ready_nodes() {
             let n = &self.nodes[&key];
             v.push(Layer {
                 grid: &n.light,
                 resident: n.resident.as_ref(),
+                sun: if self.sun_current(key) {
+                    n.sun.as_ref().map(layer_sun)
+                } else {
+                    None
+                },
                 owner: Some(Owner {
                     origin: self.heightmap_lo,
                     size: self.params.node_size(key.depth),
@@ -832,8 +1147,26 @@ impl Hierarchy {
     }
 }
 
+/// The light of the finest ready grid at `p` ([`Hierarchy::grid_at`]) times the sky
+/// scale; with the sun kept apart, plus the sun's scattered light of the finest grid at
+/// `p` with a current sun response times the sun's irradiance, and the transmittance
+/// of that grid.
 impl LightField for Hierarchy {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
-        self.grid_at(p).light(p, n)
+        let sky = self.grid_at(p).light(p, n)? * self.sky_scale;
+        match (self.sun, self.coarse_sun(p, self.params.depths() + 1)) {
+            (Some(sun), Some(g)) => Ok(sky + g.scattered.light(p, n)? * sun.irradiance),
+            _ => Ok(sky),
+        }
+    }
+    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
+        if !p.is_finite() {
+            return Err(GridError::invalid("p", p, "must be finite"));
+        }
+        match (self.sun, self.coarse_sun(p, self.params.depths() + 1)) {
+            // (Trilinear weights may sum to 1 + 1 ulp.)
+            (Some(_), Some(g)) => Ok(g.transmittance.sample(p)?.clamp(0.0, 1.0)),
+            _ => Ok(0.0),
+        }
     }
 }

@@ -217,3 +217,113 @@ fn layers_pick_the_grid_that_grid_at_picks() {
     }
     assert!(fine > 1000, "{fine}");
 }
+
+/// The sun kept apart (issue 14): colours change with no sweep and combine linearly; a
+/// new sun direction recomputes the sun's responses only (the sky's grids stay bit for
+/// bit), coarse and near first within the budget, and ends equal to a hierarchy built
+/// under that sun from the start.
+#[test]
+fn sun_kept_apart_moves_without_sweeping_the_sky() {
+    use terrain_lod::SunLight;
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+    let p = params();
+    let build = |to_sun: Vec3| {
+        let mut h = Hierarchy::new(
+            &hm,
+            Box::new(composer.clone()),
+            Box::new(CpuSweeper::new()),
+            sky,
+            p,
+        )
+        .unwrap();
+        h.set_sun(Some(SunLight {
+            to_sun,
+            irradiance: Vec3::new(3.0, 2.8, 2.5),
+        }))
+        .unwrap();
+        h
+    };
+    let cam = Vec3::new(560.0, hm.height_at(560.0, 540.0) + 12.0, 540.0);
+    let settle = |h: &mut Hierarchy| {
+        for _ in 0..40 {
+            let s = h.update(cam).unwrap();
+            assert!(s.points_swept <= p.budget_points);
+            if s.pending == 0 {
+                assert_eq!(s.sun_pending, 0);
+                return;
+            }
+        }
+        panic!("never settled");
+    };
+    let s1 = Vec3::new(0.55, 0.6, 0.3);
+    let mut h = build(s1);
+    settle(&mut h);
+    let nodes = h.ready_nodes();
+    assert!(nodes.len() > 4, "{}", nodes.len());
+    assert!(h.layers().iter().all(|l| l.sun.is_some()));
+    let mut rng = fastrand::Rng::with_seed(11);
+    let points: Vec<(Vec3, Vec3)> = (0..400)
+        .map(|_| {
+            let (x, z) = (500.0 + 120.0 * rng.f32(), 480.0 + 120.0 * rng.f32());
+            let n = Vec3::new(rng.f32() - 0.5, rng.f32(), rng.f32() - 0.5).normalize();
+            (Vec3::new(x, hm.height_at(x, z) + 12.0 * rng.f32(), z), n)
+        })
+        .collect();
+    // Sky and sun apart add up to both; changing a colour sweeps nothing.
+    let read = |h: &Hierarchy| -> Vec<(Vec3, f32)> {
+        points
+            .iter()
+            .map(|&(q, n)| (h.irradiance(q, n).unwrap(), h.sun_transmittance(q).unwrap()))
+            .collect()
+    };
+    let both = read(&h);
+    h.set_sky_scale(Vec3::ZERO).unwrap();
+    let sun_only = read(&h);
+    h.set_sky_scale(Vec3::ONE).unwrap();
+    h.set_sun(Some(SunLight {
+        to_sun: s1 * 2.0, // the same direction
+        irradiance: Vec3::ZERO,
+    }))
+    .unwrap();
+    assert_eq!(h.update(cam).unwrap().points_swept, 0);
+    let sky_only = read(&h);
+    let mut shaded = 0;
+    for ((a, t), ((b, _), (c, _))) in both.iter().zip(sun_only.iter().zip(&sky_only)) {
+        assert!((*a - *b - *c).abs().max_element() <= 1e-5 * a.max_element(), "{a} {b} {c}");
+        assert!((0.0..=1.0).contains(t), "{t}");
+        shaded += (*t < 0.5) as u32;
+    }
+    assert!(shaded > 10, "trees shade {shaded} of 400 points");
+    // High above everything the beam is whole.
+    let top = Vec3::new(560.0, hm.range().1 + 30.0, 540.0);
+    assert!((h.sun_transmittance(top).unwrap() - 1.0).abs() < 1e-6);
+    // A new direction: the world's sun now, the nodes' later; the sky's grids stay.
+    let sky_before: Vec<_> = nodes.iter().map(|k| h.node(*k).unwrap().clone()).collect();
+    let s2 = Vec3::new(-0.3, 0.5, 0.7);
+    h.set_sun(Some(SunLight {
+        to_sun: s2,
+        irradiance: Vec3::new(3.0, 2.8, 2.5),
+    }))
+    .unwrap();
+    assert_eq!(h.layers().iter().filter(|l| l.sun.is_none()).count(), nodes.len());
+    for &(q, _) in &points {
+        let t = h.sun_transmittance(q).unwrap(); // the world grid's meanwhile
+        assert!((0.0..=1.0).contains(&t), "{t}");
+    }
+    let first = h.refresh(cam).unwrap();
+    assert_eq!(first.built, 0, "the sky's inputs did not change");
+    assert!(first.sun_built > 0 && first.points_swept <= p.budget_points);
+    settle(&mut h);
+    for (k, before) in nodes.iter().zip(&sky_before) {
+        assert_eq!(h.node(*k).unwrap(), before, "{k:?}");
+    }
+    let fresh = {
+        let mut f = build(s2);
+        settle(&mut f);
+        f
+    };
+    assert_eq!(fresh.ready_nodes(), h.ready_nodes());
+    assert_eq!(read(&fresh), read(&h));
+}
