@@ -544,10 +544,11 @@ pub trait LightField {
     /// The transmittance at `p` of a direct sun this field keeps apart from its bins
     /// (issue 14: the bins then hold sky and scattered sun light only, and the direct
     /// sun on a surface facing `n` is `E T(p) max(0, n · s)` with the field's own sun
-    /// colour `E` and direction `s`). 0 for fields whose bins hold all their light
-    /// (the default), so adding the direct term is always right.
-    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
-        let _ = p;
+    /// colour `E` and direction `s`), read like [`LightField::light`] (with a normal,
+    /// half a cell along it). 0 for fields whose bins hold all their light (the
+    /// default), so adding the direct term is always right.
+    fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
+        let _ = (p, n);
         Ok(0.0)
     }
 }
@@ -571,8 +572,8 @@ impl<A: LightField, B: LightField> LightField for SumField<A, B> {
         Ok(a + b)
     }
     /// The sum: the direct suns of both fields add (they must be the same sun).
-    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
-        Ok(self.0.sun_transmittance(p)? + self.1.sun_transmittance(p)?)
+    fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
+        Ok(self.0.sun_transmittance(p, n)? + self.1.sun_transmittance(p, n)?)
     }
 }
 
@@ -587,8 +588,8 @@ impl<A: LightField, B: LightField> LightField for DifferenceField<A, B> {
         Ok(self.0.light(p, n)?.saturating_sub(&self.1.light(p, n)?))
     }
     /// The difference, clamped at zero (as the bins).
-    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
-        Ok((self.0.sun_transmittance(p)? - self.1.sun_transmittance(p)?).max(0.0))
+    fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
+        Ok((self.0.sun_transmittance(p, n)? - self.1.sun_transmittance(p, n)?).max(0.0))
     }
 }
 
@@ -596,8 +597,8 @@ impl<T: LightField + ?Sized> LightField for &T {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         (**self).light(p, n)
     }
-    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
-        (**self).sun_transmittance(p)
+    fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
+        (**self).sun_transmittance(p, n)
     }
 }
 

@@ -34,6 +34,10 @@ lightgrid_gpu::gpu_struct! {
         pub sun_colour: [f32; 4] => "vec4<f32>",
         /// Mean sky radiance (rgb), for the view without the grid.
         pub sky_ambient: [f32; 4] => "vec4<f32>",
+        /// Irradiance of the sun kept apart from the grids' bins (rgb; along
+        /// `sun_direction`, times the transmittance the volume holds), 0 when the bins
+        /// hold the sun.
+        pub direct_sun: [f32; 4] => "vec4<f32>",
         /// Water level (x) and attenuation per metre (y; 0 = no water).
         pub water: [f32; 4] => "vec4<f32>",
         /// Light volume origin (xyz) and cell size (w).
@@ -276,6 +280,13 @@ pub struct View {
     pub sun_colour: Vec3,
     /// Mean sky radiance (for [`LightingMode::NoGrid`], and the background).
     pub sky_ambient: Vec3,
+    /// In [`LightingMode::Grid`], the irradiance of a sun the grids keep apart from their
+    /// bins (issue 14: `terrain_lod::Hierarchy::set_sun`), travelling along
+    /// `sun_direction` and shadowed by the transmittance the light volume holds
+    /// ([`crate::SampledLight::sun`]): surfaces and foliage read volume light add it
+    /// with its specular; vertex light must hold it already. Zero (the default in
+    /// spirit) when the bins hold all light.
+    pub direct_sun: Vec3,
     /// HDR multiplier before tone mapping.
     pub exposure: f32,
     /// Optional water.
@@ -1117,6 +1128,7 @@ impl Renderer {
             ("sun_direction", view.sun_direction),
             ("sun_colour", view.sun_colour),
             ("sky_ambient", view.sky_ambient),
+            ("direct_sun", view.direct_sun),
             ("background", view.background),
         ] {
             if !v.is_finite() {
@@ -1148,6 +1160,7 @@ impl Renderer {
                 .to_array(),
             sun_colour: view.sun_colour.extend(0.0).to_array(),
             sky_ambient: view.sky_ambient.extend(0.0).to_array(),
+            direct_sun: view.direct_sun.max(Vec3::ZERO).extend(0.0).to_array(),
             water,
             volume_origin_h: self.volume.1.origin_h,
             volume_dims: self.volume.1.dims,

@@ -25,8 +25,10 @@ use rayon::prelude::*;
 pub struct SampledLight {
     /// Irradiance on the point's normal (if it had one), else the average light.
     pub light: Vec3,
-    /// Unused (keeps the GPU layout, two `vec4`s a point).
-    pub _pad0: f32,
+    /// The transmittance of the direct sun the field keeps apart from its bins
+    /// ([`LightField::sun_transmittance`]; 0 where it keeps none), read like the light.
+    /// (The GPU layout: two `vec4`s a point, this the first one's `w`.)
+    pub sun: f32,
     /// The dominant direction of the light (travel direction; length = how directional).
     pub dominant: Vec3,
     /// Unused.
@@ -93,8 +95,14 @@ pub fn sample_points<F: LightField + Sync + ?Sized>(
                 Some(n) => table.irradiance(&bins, n),
                 None => bins.average(),
             };
+            let sun = field.sun_transmittance(p, n)?;
             Ok(SampledLight {
                 light: finite_or_zero(light),
+                sun: if sun.is_finite() {
+                    sun.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                },
                 dominant: bins.dominant(),
                 ..Default::default()
             })
@@ -201,7 +209,8 @@ impl IrradianceTable {
 pub struct LightVolume {
     /// Where the points are.
     pub desc: GridDesc,
-    /// Per point (x fastest, then z, then y): average light in `xyz`, `w` unused.
+    /// Per point (x fastest, then z, then y): average light in `xyz`, the transmittance
+    /// of the sun kept apart in `w` (0 where the field keeps none: [`SampledLight::sun`]).
     pub average: Vec<[f32; 4]>,
     /// Per point: dominant direction in `xyz`, `w` unused.
     pub dominant: Vec<[f32; 4]>,
@@ -225,7 +234,7 @@ impl LightVolume {
         )?;
         Ok(Self {
             desc,
-            average: s.iter().map(|s| s.light.extend(0.0).to_array()).collect(),
+            average: s.iter().map(|s| s.light.extend(s.sun).to_array()).collect(),
             dominant: s
                 .iter()
                 .map(|s| s.dominant.extend(0.0).to_array())

@@ -55,6 +55,36 @@ pub fn specular_dominant(
     average * (4.0 * PI * s * spec)
 }
 
+/// The direct sun kept apart from the bins (issue 14) on a surface facing `n`: its
+/// irradiance `E T max(0, n · s)` and its Blinn-Phong specular
+/// `E T (n·h)^shininess (shininess + 8) / (8π)` (`h` the half vector of `to_eye` and
+/// the exact direction toward the sun `to_sun`; zero when the sun is behind the
+/// surface). `sun` is the sun's irradiance `E` on a surface facing it, `t` its
+/// transmittance at the point. Returns (irradiance, specular radiance per unit albedo).
+pub fn direct_sun(
+    sun: Vec3,
+    t: f32,
+    to_sun: Vec3,
+    n: Vec3,
+    to_eye: Vec3,
+    shininess: f32,
+) -> (Vec3, Vec3) {
+    let (l, n) = (to_sun.normalize_or_zero(), n.normalize_or_zero());
+    let cos = n.dot(l);
+    if cos <= 0.0 || !(t > 0.0) {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    let h = (l + to_eye.normalize_or_zero()).normalize_or_zero();
+    let spec = n.dot(h).max(0.0).powf(shininess) * (shininess + 8.0) / (8.0 * PI);
+    (sun * (t * cos), sun * (t * spec))
+}
+
+/// The direct sun on foliage, lit by `π × average` as the seed lights leaves: a beam of
+/// irradiance `E T` has average light `E T / 4π`, so it adds `E T / 4`.
+pub fn direct_sun_foliage(sun: Vec3, t: f32) -> Vec3 {
+    sun * (t.max(0.0) * 0.25)
+}
+
 /// The seed's ground blend: an object's lighting becomes the ground's as its vertex gets
 /// closer to the ground. Returns the object's share `t = smoothstep(0, blend_height,
 /// height_above_ground)`: 0 on the ground (pure ground light), 1 at and above
@@ -146,6 +176,36 @@ mod tests {
             "{model} {exact}"
         );
         assert!(((model - PI * avg) / (PI * avg)).abs().max_element() < 2e-3);
+    }
+
+    #[test]
+    fn direct_sun_follows_the_cosine_law_and_is_linear() {
+        let e = Vec3::new(2.0, 1.0, 0.5);
+        let s = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let (d, _) = direct_sun(e, 0.5, s, Vec3::Y, Vec3::Y, 16.0);
+        assert!((d - e * 0.5 * s.y).abs().max_element() < 1e-6);
+        // Linear in E and T.
+        let (d2, sp2) = direct_sun(e * 3.0, 0.25, s, Vec3::Y, Vec3::Y, 16.0);
+        let (_, sp) = direct_sun(e, 0.5, s, Vec3::Y, Vec3::Y, 16.0);
+        assert!((d2 - d * 1.5).abs().max_element() < 1e-6);
+        assert!((sp2 - sp * 1.5).abs().max_element() < 1e-6);
+        // The specular peaks at the mirror direction.
+        let mirror = Vec3::new(-s.x, s.y, 0.0);
+        let peak = direct_sun(e, 1.0, s, Vec3::Y, mirror, 32.0).1.x;
+        let off = direct_sun(e, 1.0, s, Vec3::Y, Vec3::new(1.0, 0.2, 0.0), 32.0)
+            .1
+            .x;
+        assert!(peak > 10.0 * off, "{peak} {off}");
+        // Behind the surface, or no beam: nothing.
+        assert_eq!(
+            direct_sun(e, 1.0, -s, Vec3::Y, Vec3::Y, 8.0),
+            (Vec3::ZERO, Vec3::ZERO)
+        );
+        assert_eq!(
+            direct_sun(e, 0.0, s, Vec3::Y, Vec3::Y, 8.0),
+            (Vec3::ZERO, Vec3::ZERO)
+        );
+        assert_eq!(direct_sun_foliage(e, 0.4), e * 0.1);
     }
 
     #[test]

@@ -146,6 +146,7 @@ fn view(mode: LightingMode, meshes: Vec<lightgrid_render::MeshId>) -> View {
         sun_direction: Vec3::NEG_Y,
         sun_colour: Vec3::new(2.0, 1.5, 1.0),
         sky_ambient: Vec3::new(0.1, 0.2, 0.3),
+        direct_sun: Vec3::ZERO,
         exposure: 0.7,
         water: None,
         ground_blend: 0.0,
@@ -286,6 +287,78 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
     });
     let img = r.render(&v).unwrap();
     assert_all_pixels(&img, avg * (-0.6f32).exp(), "underwater");
+}
+
+/// The sun kept apart from the bins (issue 14): the volume's `w` is its transmittance
+/// `T`, and surfaces add `E T max(0, n·s)` with the exact direction plus its specular
+/// (shininess 0: the lobe is the constant 1/π, so every pixel has one known answer);
+/// foliage adds `E T / 4`. Behind the surface, with `T = 0` or with no sun apart
+/// (`direct_sun` zero), nothing is added.
+#[test]
+fn direct_sun_from_the_volume_gives_known_answers() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let avg = Vec3::new(0.2, 0.3, 0.1);
+    let t = 0.6;
+    let mut vol = uniform_volume(avg, Vec3::ZERO);
+    for a in &mut vol.average {
+        a[3] = t;
+    }
+    r.set_light_volume(&vol).unwrap();
+    let (k, albedo) = (0.7, Vec4::new(0.5, 0.8, 1.0, 1.0));
+    let surface = add_quad(
+        &mut r,
+        1.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            base_colour: albedo,
+            specular: k,
+            shininess: 0.0,
+            ..Default::default()
+        },
+    );
+    let foliage = lit_quad(&mut r, 1.0, Lighting::Foliage);
+    let e = Vec3::new(2.0, 1.5, 1.0);
+    let to_sun = Vec3::new(0.3, 1.0, 0.2).normalize();
+    let mut v = view(LightingMode::Grid, vec![surface]);
+    v.direct_sun = e;
+    v.sun_direction = -to_sun;
+    let img = r.render(&v).unwrap();
+    let diffuse = albedo.truncate() * (PI * avg + e * (t * to_sun.y)) / PI;
+    assert_all_pixels(
+        &img,
+        diffuse + k * e * t / PI,
+        "surface with the direct sun",
+    );
+    // The CPU specification at one normal and view (the WGSL's twin).
+    let (d, sp) =
+        lightgrid_render::shading::direct_sun(e, t, to_sun, Vec3::Y, Vec3::new(0.1, 1.0, 0.0), 0.0);
+    assert!((d - e * t * to_sun.y).abs().max_element() < 1e-6);
+    assert!((sp - e * t / PI).abs().max_element() < 1e-6);
+    // Foliage: pi x average plus E T / 4.
+    v.meshes = vec![foliage];
+    let img = r.render(&v).unwrap();
+    assert_all_pixels(
+        &img,
+        avg + e * t / (4.0 * PI),
+        "foliage with the direct sun",
+    );
+    // The sun below the surface's horizon, no transmittance, no sun apart: the bins only.
+    v.meshes = vec![surface];
+    v.sun_direction = Vec3::new(0.3, 1.0, 0.2).normalize();
+    let img = r.render(&v).unwrap();
+    assert_all_pixels(&img, albedo.truncate() * avg, "sun behind the surface");
+    v.sun_direction = -to_sun;
+    v.direct_sun = Vec3::ZERO;
+    let img = r.render(&v).unwrap();
+    assert_all_pixels(&img, albedo.truncate() * avg, "no sun apart");
+    for a in &mut vol.average {
+        a[3] = 0.0;
+    }
+    r.set_light_volume(&vol).unwrap();
+    v.direct_sun = e;
+    let img = r.render(&v).unwrap();
+    assert_all_pixels(&img, albedo.truncate() * avg, "full shadow");
 }
 
 #[test]

@@ -1159,14 +1159,18 @@ impl LightField for Hierarchy {
             _ => Ok(sky),
         }
     }
-    fn sun_transmittance(&self, p: Vec3) -> Result<f32, GridError> {
+    fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        match (self.sun, self.coarse_sun(p, self.params.depths() + 1)) {
-            // (Trilinear weights may sum to 1 + 1 ulp.)
-            (Some(_), Some(g)) => Ok(g.transmittance.sample(p)?.clamp(0.0, 1.0)),
-            _ => Ok(0.0),
-        }
+        let Some(g) = self.sun.and(self.coarse_sun(p, self.params.depths() + 1)) else {
+            return Ok(0.0);
+        };
+        let t = match n {
+            Some(n) => g.transmittance.sample_biased(p, n)?,
+            None => g.transmittance.sample(p)?,
+        };
+        // (Trilinear weights may sum to 1 + 1 ulp.)
+        Ok(t.clamp(0.0, 1.0))
     }
 }

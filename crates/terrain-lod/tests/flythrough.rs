@@ -275,7 +275,12 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
     let read = |h: &Hierarchy| -> Vec<(Vec3, f32)> {
         points
             .iter()
-            .map(|&(q, n)| (h.irradiance(q, n).unwrap(), h.sun_transmittance(q).unwrap()))
+            .map(|&(q, n)| {
+                (
+                    h.irradiance(q, n).unwrap(),
+                    h.sun_transmittance(q, Some(n)).unwrap(),
+                )
+            })
             .collect()
     };
     let both = read(&h);
@@ -291,14 +296,17 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
     let sky_only = read(&h);
     let mut shaded = 0;
     for ((a, t), ((b, _), (c, _))) in both.iter().zip(sun_only.iter().zip(&sky_only)) {
-        assert!((*a - *b - *c).abs().max_element() <= 1e-5 * a.max_element(), "{a} {b} {c}");
+        assert!(
+            (*a - *b - *c).abs().max_element() <= 1e-5 * a.max_element(),
+            "{a} {b} {c}"
+        );
         assert!((0.0..=1.0).contains(t), "{t}");
         shaded += (*t < 0.5) as u32;
     }
     assert!(shaded > 10, "trees shade {shaded} of 400 points");
     // High above everything the beam is whole.
     let top = Vec3::new(560.0, hm.range().1 + 30.0, 540.0);
-    assert!((h.sun_transmittance(top).unwrap() - 1.0).abs() < 1e-6);
+    assert!((h.sun_transmittance(top, None).unwrap() - 1.0).abs() < 1e-6);
     // A new direction: the world's sun now, the nodes' later; the sky's grids stay.
     let sky_before: Vec<_> = nodes.iter().map(|k| h.node(*k).unwrap().clone()).collect();
     let s2 = Vec3::new(-0.3, 0.5, 0.7);
@@ -307,9 +315,12 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
         irradiance: Vec3::new(3.0, 2.8, 2.5),
     }))
     .unwrap();
-    assert_eq!(h.layers().iter().filter(|l| l.sun.is_none()).count(), nodes.len());
+    assert_eq!(
+        h.layers().iter().filter(|l| l.sun.is_none()).count(),
+        nodes.len()
+    );
     for &(q, _) in &points {
-        let t = h.sun_transmittance(q).unwrap(); // the world grid's meanwhile
+        let t = h.sun_transmittance(q, None).unwrap(); // the world grid's meanwhile
         assert!((0.0..=1.0).contains(&t), "{t}");
     }
     let first = h.refresh(cam).unwrap();

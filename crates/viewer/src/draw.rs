@@ -478,6 +478,12 @@ pub fn make_view(world: &World, meshes: &SceneMeshes, camera: Camera, shot: Shot
         sun_direction: world.sun.0,
         sun_colour: world.sun.1,
         sky_ambient,
+        // The sun kept apart from the bins is added per pixel (its transmittance is in
+        // the volume); otherwise the bins hold it.
+        direct_sun: match world.hierarchy.sun() {
+            Some(s) if shot == Shot::Lit => s.irradiance,
+            _ => Vec3::ZERO,
+        },
         exposure: 0.6,
         water: None,
         ground_blend: 1.5,

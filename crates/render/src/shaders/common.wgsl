@@ -30,6 +30,28 @@ fn specular_dominant(average: vec3<f32>, dominant: vec3<f32>, n: vec3<f32>, to_e
     return average * (4.0 * PI * s * spec);
 }
 
+// lightgrid_render::shading::direct_sun: (irradiance, specular) of the sun kept apart.
+struct DirectSun {
+    irradiance: vec3<f32>,
+    specular: vec3<f32>,
+}
+
+fn direct_sun(sun: vec3<f32>, t: f32, to_sun: vec3<f32>, n: vec3<f32>, to_eye: vec3<f32>, shininess: f32) -> DirectSun {
+    var r: DirectSun;
+    r.irradiance = vec3<f32>(0.0);
+    r.specular = vec3<f32>(0.0);
+    let l = normalize(to_sun);
+    let cos = dot(n, l);
+    if (cos <= 0.0 || !(t > 0.0)) {
+        return r;
+    }
+    let h = normalize(l + to_eye);
+    let spec = pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / (8.0 * PI);
+    r.irradiance = sun * (t * cos);
+    r.specular = sun * (t * spec);
+    return r;
+}
+
 // lightgrid_render::shading::ground_blend_weight
 fn ground_blend_weight(height_above_ground: f32, blend_height: f32) -> f32 {
     if (!(blend_height > 0.0)) {

@@ -7,9 +7,10 @@
 // as light (grid points as balls); FLAT is a fixed key light (material cubes).
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
-// Light volume: two vec4 per point (grid order), (average light, 0) and (dominant
-// direction, 0): the layout the sampling kernel (sample.wgsl) writes, so a volume
-// sampled on the GPU is drawn from where it was written.
+// Light volume: two vec4 per point (grid order), (average light, sun transmittance) and
+// (dominant direction, written flag): the layout the sampling kernel (sample.wgsl)
+// writes, so a volume sampled on the GPU is drawn from where it was written. The sun
+// transmittance is that of a sun the grids keep apart (frame.direct_sun; 0 otherwise).
 @group(0) @binding(1) var<storage, read> volume: array<vec4<f32>>;
 // Ground: (irradiance rgb, height) per heightmap node, x fastest.
 @group(0) @binding(2) var<storage, read> ground: array<vec4<f32>>;
@@ -60,6 +61,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
 struct AverageDominant {
     average: vec3<f32>,
     dominant: vec3<f32>,
+    sun: f32,
 }
 
 // Trilinear lookup in the light volume (clamped at its edges).
@@ -69,10 +71,12 @@ fn sample_volume(p: vec3<f32>) -> AverageDominant {
     var r: AverageDominant;
     r.average = vec3<f32>(0.0);
     r.dominant = vec3<f32>(0.0);
+    r.sun = 0.0;
     for (var c = 0u; c < 8u; c++) {
         let w = corner_weight(t, c);
         let i = grid_index(dims, corner(t, c));
         r.average += volume[2u * i].xyz * w;
+        r.sun += volume[2u * i].w * w;
         r.dominant += volume[2u * i + 1u].xyz * w;
     }
     return r;
@@ -124,9 +128,18 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
         let bias = select(n * frame.volume_params.x, vec3<f32>(0.0), kind == LIGHTING_FOLIAGE);
         let s = sample_volume(in.world + bias);
         var e_obj = PI * s.average;
+        let to_sun = -frame.sun_direction.xyz;
         if (kind == LIGHTING_SURFACE) {
+            let to_eye = normalize(frame.eye.xyz - in.world);
             e_obj = irradiance_average_dominant(s.average, s.dominant, n);
-            spec = mesh.params.y * specular_dominant(s.average, s.dominant, n, normalize(frame.eye.xyz - in.world), mesh.params.z);
+            spec = mesh.params.y * specular_dominant(s.average, s.dominant, n, to_eye, mesh.params.z);
+            // The sun kept apart, along its exact direction.
+            let d = direct_sun(frame.direct_sun.rgb, s.sun, to_sun, n, to_eye, mesh.params.z);
+            e_obj += d.irradiance;
+            spec += mesh.params.y * d.specular;
+        } else {
+            // Foliage: pi x the beam's average light, E T / 4.
+            e_obj += frame.direct_sun.rgb * (max(s.sun, 0.0) * 0.25);
         }
         var t = 1.0;
         var e_ground = e_obj;
