@@ -71,7 +71,7 @@ pub fn direct_sun(
 ) -> (Vec3, Vec3) {
     let (l, n) = (to_sun.normalize_or_zero(), n.normalize_or_zero());
     let cos = n.dot(l);
-    if cos <= 0.0 || !(t > 0.0) {
+    if cos <= 0.0 || t.is_nan() || t <= 0.0 {
         return (Vec3::ZERO, Vec3::ZERO);
     }
     let h = (l + to_eye.normalize_or_zero()).normalize_or_zero();

@@ -4,9 +4,12 @@
 //! [`MAX_NEAR_VOLUMES`], Bevy's per-view limit with the world one) covering the ready
 //! nodes of that depth at its cell size. Each volume is sampled from the hierarchy,
 //! which answers with the finest ready grid at every point, so a volume is never coarser
-//! than the grids it covers. By default the light is indirect: the hierarchy's light
-//! minus a second hierarchy swept under the sun alone with no scattering, built only for
-//! the export (Bevy's `DirectionalLight` draws the direct sun).
+//! than the grids it covers. By default the light is indirect (Bevy's `DirectionalLight`
+//! draws the direct sun): with the sun kept apart (`sun.split`, the default) that is the
+//! hierarchy's bins as they are; with the sun in the bins, the hierarchy's light minus a
+//! second hierarchy swept under the sun alone with no scattering, built only for the
+//! export. With the direct sun asked for and kept apart, the sun's bins times the
+//! transmittance are added back ([`WithDirectSun`]).
 
 use std::path::{Path, PathBuf};
 
@@ -52,6 +55,27 @@ fn volume_descs(h: &Hierarchy) -> Result<Vec<GridDesc>> {
     Ok(descs)
 }
 
+/// A field that keeps the direct sun apart, with the sun put back into its bins: the
+/// sun's bins (its disc as the sweep reads it) times the field's transmittance, for
+/// consumers that only read bins.
+pub struct WithDirectSun<'a, F: ?Sized> {
+    /// The field (its bins without the direct sun).
+    pub field: &'a F,
+    /// The sun's bins at full strength.
+    pub sun_bins: lightgrid_core::BinLight,
+}
+
+impl<F: lightgrid_core::LightField + ?Sized> lightgrid_core::LightField for WithDirectSun<'_, F> {
+    fn light(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<lightgrid_core::BinLight, lightgrid_core::GridError> {
+        let t = self.field.sun_transmittance(p, n)?;
+        Ok(self.field.light(p, n)? + self.sun_bins * t)
+    }
+}
+
 /// Writes `<dir>/<name>.json` and a DDS and KTX2 file per volume for the camera at
 /// `eye` (the world's hierarchy must be prepared for it). Returns the files written.
 pub fn export(
@@ -63,7 +87,24 @@ pub fn export(
 ) -> Result<Vec<PathBuf>> {
     let descs = volume_descs(&world.hierarchy)?;
     let format = TexelFormat::Rgb9e5;
-    let (volumes, content) = if with_direct_sun || world.sun.1 == Vec3::ZERO {
+    let split = world.hierarchy.sun().is_some();
+    let (volumes, content) = if split && with_direct_sun {
+        let (elevation, azimuth) = world.scene.sun.angles();
+        let sun_bins = if elevation > 0.0 {
+            sweep_cpu::sky::Sun::at(elevation, azimuth, world.sun.1).bins()?
+        } else {
+            lightgrid_core::BinLight::ZERO
+        };
+        let field = WithDirectSun {
+            field: &world.hierarchy,
+            sun_bins,
+        };
+        let v = descs
+            .iter()
+            .map(|d| BevyVolume::from_field(&field, d, format))
+            .collect::<Result<Vec<_>, _>>()?;
+        (v, Content::All)
+    } else if split || with_direct_sun || world.sun.1 == Vec3::ZERO {
         let v = descs
             .iter()
             .map(|d| BevyVolume::from_field(&world.hierarchy, d, format))

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
-use lightgrid_core::{GridDesc, LightGrid, MaterialSource};
+use lightgrid_core::{GridDesc, LightField, LightGrid, MaterialSource};
 use lightgrid_render::shading::linear_to_srgb8;
 use lightgrid_render::{
     Camera, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight, LayerOwner,
@@ -307,20 +307,26 @@ impl SceneMeshes {
                 .collect(),
         };
         let volume_bytes = desc.point_count() as u64 * 32;
-        let device: Option<Vec<GpuSampleLayer>> = layers
-            .iter()
-            .map(|l| {
-                let grid = l.resident?.get::<GpuLightGrid>()?;
-                std::sync::Arc::ptr_eq(grid.context(), r.context()).then_some(GpuSampleLayer {
-                    grid,
-                    owner: l.owner.map(|o| LayerOwner {
-                        origin: o.origin,
-                        size: o.size,
-                        index: o.index,
-                    }),
+        // The device path samples the sky's bins alone; the sun kept apart (two more
+        // responses per grid) is sampled on the CPU.
+        let sun = world.hierarchy.sun();
+        let on_device = || -> Option<Vec<GpuSampleLayer>> {
+            layers
+                .iter()
+                .map(|l| {
+                    let grid = l.resident?.get::<GpuLightGrid>()?;
+                    std::sync::Arc::ptr_eq(grid.context(), r.context()).then_some(GpuSampleLayer {
+                        grid,
+                        owner: l.owner.map(|o| LayerOwner {
+                            origin: o.origin,
+                            size: o.size,
+                            index: o.index,
+                        }),
+                    })
                 })
-            })
-            .collect();
+                .collect()
+        };
+        let device = if sun.is_none() { on_device() } else { None };
         if let Some(device) = device {
             let lit = self
                 .sampler
@@ -339,7 +345,27 @@ impl SceneMeshes {
             });
         }
         let lit = sample_points(&world.hierarchy, terrain_points)?;
-        let light: Vec<Vec3> = lit.iter().map(|s| s.light).collect();
+        // Vertex and ground light hold everything, the direct sun kept apart included
+        // (E T max(0, n·s) with the exact direction and the vertex's own transmittance).
+        let light: Vec<Vec3> = lit
+            .iter()
+            .zip(&t.normals)
+            .map(|(s, n)| match sun {
+                Some(sun) => {
+                    s.light
+                        + lightgrid_render::shading::direct_sun(
+                            sun.irradiance,
+                            s.sun,
+                            sun.to_sun,
+                            *n,
+                            Vec3::Y,
+                            1.0,
+                        )
+                        .0
+                }
+                None => s.light,
+            })
+            .collect();
         r.update_vertices(self.terrain, &terrain_vertices(t, &light))?;
         r.set_ground(&ground(&light))?;
         r.set_light_volume(&LightVolume::from_field(&world.hierarchy, desc)?)?;
@@ -368,7 +394,19 @@ impl SceneMeshes {
             if p.y < ground(p) - 0.25 * h {
                 continue;
             }
-            let light = b.average() * std::f32::consts::PI * 0.18;
+            // All the point's light: with the sun kept apart, the hierarchy's bins (sky
+            // and scattered sun) and the direct beam's average, E T / 4π.
+            let average = match world.hierarchy.sun() {
+                Some(sun) => {
+                    world.hierarchy.average(p)?
+                        + lightgrid_render::shading::direct_sun_foliage(
+                            sun.irradiance,
+                            world.hierarchy.sun_transmittance(p, None)?,
+                        ) / std::f32::consts::PI
+                }
+                None => b.average(),
+            };
+            let light = average * std::f32::consts::PI * 0.18;
             balls.push(MeshInstance::new(
                 Mat4::from_scale_rotation_translation(Vec3::splat(0.18 * h), Default::default(), p),
                 light.extend(1.0),

@@ -10,6 +10,10 @@
 //!   points as lit balls; `<view>-material.png`: the material cells as cubes sized by
 //!   density (as in the seed's figures);
 //! - `<first view>.exr`: the lit view in linear HDR;
+//! - `<last view>-sun-moved.png`: with the sun kept apart (`sun.split`, the default),
+//!   the last view again after the sun moved [`SUN_MOVE_DEG`] in azimuth, through the
+//!   path the window's sun keys take (the summary says what was recomputed, and how
+//!   long it took);
 //! - `summary.txt` and `summary.json`: timings per stage, grids per depth, memory.
 //!
 //! `--scene file.toml` renders a user's scene, `--window` opens an interactive window.
@@ -72,9 +76,17 @@ pub struct Summary {
     pub dynamic_lights: (usize, usize),
     /// Bytes of the model material grids.
     pub model_grid_bytes: u64,
+    /// How the sun is lit: kept apart from the sky's bins or in them.
+    pub sun: String,
+    /// With the sun kept apart: the sun moved by [`SUN_MOVE_DEG`] in azimuth after the
+    /// last view, what was recomputed and how long it took.
+    pub sun_move: Option<String>,
     /// Files written.
     pub files: Vec<PathBuf>,
 }
+
+/// The headless run's sun move (degrees of azimuth), shown as `<view>-sun-moved.png`.
+pub const SUN_MOVE_DEG: f32 = 20.0;
 
 /// One view's figures.
 #[derive(Debug, Clone, Serialize)]
@@ -108,6 +120,10 @@ impl Summary {
         let _ = writeln!(s, "  grids swept by: {}", self.sweeper);
         let _ = writeln!(s, "  rendered on:    {}", self.renderer);
         let _ = writeln!(s, "  instances:      {}", self.instances);
+        let _ = writeln!(s, "  sun:            {}", self.sun);
+        if let Some(m) = &self.sun_move {
+            let _ = writeln!(s, "  sun moved:      {m}");
+        }
         if self.dynamic_lights.0 > 0 {
             let _ = writeln!(
                 s,
@@ -290,8 +306,56 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
             debug_instances: debug,
         });
     }
+    // The sun moves: what is recomputed, and the last view again under it.
+    let mut sun_move = None;
+    if let (Some(_), Some(spec)) = (world.hierarchy.sun(), world.scene.views.last().cloned()) {
+        let (eye, target) = world.view_points(world.scene.views.len() - 1);
+        let t = Instant::now();
+        let (e, a) = world.scene.sun.angles();
+        let sun = &mut world.scene.sun;
+        sun.time_of_day = None;
+        sun.elevation_deg = e.to_degrees();
+        sun.azimuth_deg = a.to_degrees() + SUN_MOVE_DEG;
+        let what = world.move_sun().context("moving the sun")?;
+        let (mut sun_built, mut built, mut points) = (0, 0, 0);
+        for _ in 0..400 {
+            let s = if what.sky_reswept {
+                world.hierarchy.refresh(eye)
+            } else {
+                world.hierarchy.update(eye)
+            }
+            .context("recomputing the grids for the moved sun")?;
+            (sun_built, built, points) = (
+                sun_built + s.sun_built,
+                built + s.built,
+                points + s.points_swept,
+            );
+            if s.pending == 0 {
+                break;
+            }
+        }
+        let seconds = t.elapsed().as_secs_f64();
+        timings.push(("sun move".into(), seconds));
+        meshes.relight(&mut r, &world)?;
+        let mut camera = Camera::look_at(eye, target);
+        camera.fov_y = spec.fov_deg.to_radians();
+        let img = r.render(&draw::make_view(&world, &meshes, camera, draw::Shot::Lit))?;
+        let path = opts.out.join(format!("{}-sun-moved.png", spec.name));
+        write_png(&path, &img)?;
+        files.push(path);
+        sun_move = Some(format!(
+            "{SUN_MOVE_DEG} deg in azimuth: {what}; then {sun_built} node sun responses and {built} node sky grids ({points} points) for view {}; {seconds:.2} s in all",
+            spec.name
+        ));
+    }
     timings.push(("total".into(), total.elapsed().as_secs_f64()));
     let mut summary = Summary {
+        sun: if world.hierarchy.sun().is_some() {
+            "kept apart from the sky's bins (exact direction: transmittance per grid point, direct light per pixel)".into()
+        } else {
+            "in the sky's bins (sun.split = false)".into()
+        },
+        sun_move,
         sweeper: world.sweeper.clone(),
         renderer: renderer_name,
         timings,

@@ -127,6 +127,17 @@ pub struct SunSpec {
     /// Irradiance on a surface facing the sun (linear RGB).
     #[serde(default = "default_sun")]
     pub illuminance: [f32; 3],
+    /// Keeps the sun apart from the sky's 26 bins (the default): its beam follows its
+    /// exact direction (transmittance per grid point, direct light per pixel), only its
+    /// scattered light enters the bins, and moving it recomputes the sun's responses
+    /// without sweeping the sky again (a clear sky, whose shape follows the sun, is
+    /// swept again after them). `false` puts the sun into the bins as the seed does.
+    #[serde(default = "yes")]
+    pub split: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for SunSpec {
@@ -136,6 +147,7 @@ impl Default for SunSpec {
             elevation_deg: default_elevation(),
             azimuth_deg: default_azimuth(),
             illuminance: default_sun(),
+            split: true,
         }
     }
 }

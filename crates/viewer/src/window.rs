@@ -2,12 +2,16 @@
 //! around the camera within the per-frame point budget while flying.
 //!
 //! Keys: W/S forward/back, A/D sideways, Q/E down/up, arrow keys turn, Shift faster;
-//! `[` / `]` time of day −/+ 15 min, `,` / `.` sun azimuth −/+ 10° (new sky; grids
-//! rebuild progressively);
+//! `[` / `]` time of day −/+ 15 min, `,` / `.` sun azimuth −/+ 10°: with the sun kept
+//! apart (`sun.split`, the default) the sun's responses are recomputed (the world grid's
+//! at once, the nodes' coarse and near first within the frame budget; a clear sky is
+//! swept again after them), else sky and sun are swept again; the console reports what
+//! was recomputed and how long it took;
 //! 1 lit, 2 without grids, 3 grid points, 4 material cells; Esc quits.
 //!
-//! `--frames N` (smoke tests, demos) flies forward on its own and quits after `N`
-//! frames, printing the frames drawn and the grids built while flying.
+//! `--frames N` (smoke tests, demos) flies forward on its own, moves the sun by 10° on
+//! its 10th frame (as `.` does) and quits after `N` frames, printing the frames drawn
+//! and the grids built while flying.
 
 use std::collections::HashSet;
 use std::sync::Arc;
@@ -24,7 +28,7 @@ use winit::window::{Window, WindowId};
 
 use crate::draw::{SceneMeshes, Shot, make_view};
 use crate::scene::SceneFile;
-use crate::world::{SweeperChoice, World, boundary_light, sky_and_sun};
+use crate::world::{SweeperChoice, World};
 
 /// Opens the window and runs until it closes. Errors (with a hint) where no display
 /// exists.
@@ -55,6 +59,7 @@ pub fn run(
         last: Instant::now(),
         last_relight: Instant::now(),
         dirty: true,
+        sun_move: None,
         frames_left: frames,
         drawn: 0,
         built: 0,
@@ -99,6 +104,9 @@ struct App {
     last: Instant,
     last_relight: Instant,
     dirty: bool,
+    /// A sun move in progress: when it began, what it did at once, and the node sweeps
+    /// (sky grids, sun responses) since.
+    sun_move: Option<(Instant, crate::world::SunMove, u32, u32)>,
     frames_left: Option<u32>,
     drawn: u32,
     built: u32,
@@ -212,10 +220,32 @@ impl App {
                 self.pitch = (self.pitch + dp).clamp(-1.5, 1.5);
             }
         }
-        // Rebuild grids around the camera within the budget.
-        let stats = self.world.hierarchy.update(self.eye)?;
+        // Rebuild grids around the camera within the budget; after a sun move, the ready
+        // grids whose inputs changed first.
+        let stats = match self.sun_move.as_mut() {
+            Some((since, what, built, sun_built)) => {
+                // Sky grids to sweep again: every ready node whose inputs changed;
+                // the sun alone: the wanted nodes' sun responses (update does those).
+                let s = if what.sky_reswept {
+                    self.world.hierarchy.refresh(self.eye)?
+                } else {
+                    self.world.hierarchy.update(self.eye)?
+                };
+                *built += s.built;
+                *sun_built += s.sun_built;
+                if s.pending == 0 {
+                    println!(
+                        "sun moved: {what}; then {sun_built} node sun responses and {built} node sky grids in {:.2} s",
+                        since.elapsed().as_secs_f64()
+                    );
+                    self.sun_move = None;
+                }
+                s
+            }
+            None => self.world.hierarchy.update(self.eye)?,
+        };
         self.built += stats.built;
-        if stats.built > 0 {
+        if stats.built + stats.sun_built > 0 {
             self.dirty = true;
         }
         let camera = Camera::look_at(self.eye, self.eye + self.forward());
@@ -292,13 +322,16 @@ impl App {
         Ok(())
     }
 
-    /// The sky and sun changed: new boundary light (grids rebuild progressively).
+    /// The sun moved: its responses (or sky and sun) are recomputed, the world grid's at
+    /// once, the nodes' progressively (reported when done).
     fn new_sky(&mut self) -> Result<()> {
-        let (sky, sun) = sky_and_sun(&self.world.scene)?;
-        self.world.sky_top = sky;
-        self.world.sun = sun;
-        let top = boundary_light(&sky, &self.world.scene)?;
-        self.world.hierarchy.set_sky(top)?;
+        let what = self.world.move_sun()?;
+        self.sun_move = Some((
+            Instant::now() - std::time::Duration::from_secs_f64(what.seconds),
+            what,
+            0,
+            0,
+        ));
         self.dirty = true;
         Ok(())
     }
@@ -377,6 +410,12 @@ impl ApplicationHandler for App {
                     *n = n.saturating_sub(1);
                     if *n == 0 {
                         event_loop.exit();
+                    }
+                    // The autopilot moves the sun once, on its 10th frame, as `.` does.
+                    if self.drawn == 10
+                        && let Err(e) = self.key(KeyCode::Period)
+                    {
+                        self.fail(event_loop, e);
                     }
                 }
             }

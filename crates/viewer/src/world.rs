@@ -144,6 +144,43 @@ pub fn sky_and_sun(scene: &SceneFile) -> Result<(BinLight, (Vec3, Vec3))> {
     Ok((sky, (-sun.direction.normalize(), sun_light)))
 }
 
+/// What [`World::move_sun`] recomputed at once (the world grid's part; the nodes follow
+/// within the hierarchy's budget).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunMove {
+    /// The sun is kept apart: only its responses were recomputed for it.
+    pub split: bool,
+    /// The sky's grids are swept again too (sun in the bins, or a clear sky).
+    pub sky_reswept: bool,
+    /// Seconds spent on the world grid.
+    pub seconds: f64,
+}
+
+impl std::fmt::Display for SunMove {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (self.split, self.sky_reswept) {
+            (true, false) => write!(
+                f,
+                "sun responses (transmittance, scattered sun) recomputed, sky's grids kept"
+            ),
+            (true, true) => write!(
+                f,
+                "sun responses recomputed; the clear sky's shape follows the sun, so its grids are swept again too"
+            ),
+            (false, _) => write!(f, "sky and sun swept again (the sun is in the bins)"),
+        }?;
+        write!(f, "; world grid {:.2} s", self.seconds)
+    }
+}
+
+/// The hierarchy's sun from [`sky_and_sun`]'s (travel direction, irradiance).
+pub fn sun_light(sun: (Vec3, Vec3)) -> terrain_lod::SunLight {
+    terrain_lod::SunLight {
+        to_sun: -sun.0,
+        irradiance: sun.1,
+    }
+}
+
 /// The sky top boundary with the sun disc in it (what the sweep reads).
 pub fn boundary_light(sky: &BinLight, scene: &SceneFile) -> Result<BinLight> {
     let (elevation, azimuth) = scene.sun.angles();
@@ -323,7 +360,12 @@ impl World {
         // Sky, sweeper, hierarchy (the world grid is swept here).
         let t = Instant::now();
         let (sky_top, sun) = sky_and_sun(&scene)?;
-        let top = boundary_light(&sky_top, &scene)?;
+        // With the sun kept apart the bins get the sky alone.
+        let top = if scene.sun.split {
+            sky_top
+        } else {
+            boundary_light(&sky_top, &scene)?
+        };
         // The GPU sweeper shares the renderer's device when one is given (one device per
         // process); otherwise it opens its own.
         let open = || -> Result<Arc<lightgrid_gpu::GpuContext>, lightgrid_gpu::GpuError> {
@@ -373,10 +415,17 @@ impl World {
             ..Default::default()
         };
         params.sweep.max_passes = g.passes;
-        let hierarchy =
+        let mut hierarchy =
             Hierarchy::new(&heightmap, Box::new(composer.clone()), sweeper, top, params)
                 .context("building the light grid hierarchy")?;
         timings.push(("world grid".to_string(), t.elapsed().as_secs_f64()));
+        if scene.sun.split {
+            let t = Instant::now();
+            hierarchy
+                .set_sun(Some(sun_light(sun)))
+                .context("the sun's responses in the world grid")?;
+            timings.push(("world grid sun".to_string(), t.elapsed().as_secs_f64()));
+        }
         let dynamic = dynamic_lights(&scene, &heightmap)?;
         Ok(Self {
             scene,
@@ -393,6 +442,33 @@ impl World {
             timings,
             model_grid_bytes,
             dynamic,
+        })
+    }
+
+    /// The scene's sun changed (angles, time of day or illuminance): with the sun kept
+    /// apart, the world grid's sun responses are recomputed now and the nodes' wait for
+    /// [`Hierarchy::refresh`] / [`Hierarchy::update`] (the sky's grids stay, unless a
+    /// clear sky, whose shape follows the sun, changed: then it is swept again too);
+    /// with the sun in the bins, the sky and sun are swept again together.
+    pub fn move_sun(&mut self) -> Result<SunMove> {
+        let t = Instant::now();
+        let (sky, sun) = sky_and_sun(&self.scene)?;
+        let sky_changed = sky != self.sky_top;
+        self.sky_top = sky;
+        self.sun = sun;
+        if self.scene.sun.split {
+            self.hierarchy.set_sun(Some(sun_light(sun)))?;
+            if sky_changed {
+                self.hierarchy.set_sky(sky)?;
+            }
+        } else {
+            let top = boundary_light(&sky, &self.scene)?;
+            self.hierarchy.set_sky(top)?;
+        }
+        Ok(SunMove {
+            split: self.scene.sun.split,
+            sky_reswept: sky_changed || !self.scene.sun.split,
+            seconds: t.elapsed().as_secs_f64(),
         })
     }
 

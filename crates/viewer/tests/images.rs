@@ -42,13 +42,19 @@ fn compare(a: &[u8], b: &[u8]) -> (f64, f64) {
 
 /// Renders `tests/data/tiny.toml` at 64 x 64 into `target/image-tests/<dir>`; `None`
 /// when no adapter exists and LIGHTGRID_ALLOW_NO_GPU=1 opts out.
-fn render_tiny(dir: &str, sweeper: SweeperChoice, extras: bool) -> Option<(PathBuf, Summary)> {
+fn render_tiny(
+    dir: &str,
+    sweeper: SweeperChoice,
+    extras: bool,
+    split: bool,
+) -> Option<(PathBuf, Summary)> {
     lightgrid_gpu::GpuContext::new_or_opt_out().unwrap_or_else(|e| {
         panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
     })?;
     let out = manifest().join("../../target/image-tests").join(dir);
     std::fs::create_dir_all(&out).unwrap();
-    let scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
+    let mut scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
+    scene.sun.split = split;
     let summary = viewer::run(
         scene,
         &Options {
@@ -66,10 +72,15 @@ fn render_tiny(dir: &str, sweeper: SweeperChoice, extras: bool) -> Option<(PathB
 
 #[test]
 fn tiny_scene_matches_the_reference_images() {
-    let Some((out, summary)) = render_tiny("", SweeperChoice::Cpu, true) else {
+    let Some((out, summary)) = render_tiny("", SweeperChoice::Cpu, true, true) else {
         return;
     };
     assert!(summary.text().contains("view tiny"));
+    // The sun kept apart (the default) and moved once after the view.
+    assert!(summary.sun.starts_with("kept apart"), "{}", summary.sun);
+    let moved = summary.sun_move.as_deref().expect("a sun move");
+    assert!(moved.contains("sun responses recomputed"), "{moved}");
+    assert!(out.join("tiny-sun-moved.png").is_file());
     // --bevy: the world volume first, then one per quadtree depth, indirect light.
     let side: lightgrid_export::Sidecar =
         serde_json::from_str(&std::fs::read_to_string(out.join("bevy/tiny.json")).unwrap())
@@ -106,7 +117,7 @@ fn tiny_scene_matches_the_reference_images() {
     assert!(hdr.iter().all(|v| v.is_finite()) && hdr.iter().sum::<f32>() > 1.0);
 
     let bless = std::env::var("LIGHTGRID_BLESS").as_deref() == Ok("1");
-    let failures = compare_with_references(&out, bless);
+    let failures = compare_with_references(&out, &manifest().join("tests/reference"), bless);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     // The grids light the scene differently from the no-grid comparison (shadows and
     // bounce): the two images must not be the same.
@@ -115,13 +126,13 @@ fn tiny_scene_matches_the_reference_images() {
     assert!(compare(&lit, &flat).0 > 2.0, "grid light changes nothing?");
 }
 
-/// Compares the four images in `out` with the references (or, with `bless`, replaces
-/// the references); returns the failures.
-fn compare_with_references(out: &Path, bless: bool) -> Vec<String> {
+/// Compares the four images in `out` with those in `references` (or, with `bless`,
+/// replaces them); returns the failures.
+fn compare_with_references(out: &Path, references: &Path, bless: bool) -> Vec<String> {
     let mut failures = Vec::new();
     for name in ["tiny", "tiny-no-grid", "tiny-grid-points", "tiny-material"] {
         let actual = out.join(format!("{name}.png"));
-        let reference = manifest().join(format!("tests/reference/{name}.png"));
+        let reference = references.join(format!("{name}.png"));
         if bless {
             std::fs::copy(&actual, &reference).unwrap();
             continue;
@@ -158,13 +169,16 @@ fn compare_with_references(out: &Path, bless: bool) -> Vec<String> {
 }
 
 /// The same scene swept on the GPU, with the grids left on the renderer's device and
-/// sampled and drawn there (no grid through the CPU), matches the same references.
+/// sampled and drawn there (no grid through the CPU), equals the CPU sweep's images. The
+/// device path samples bins alone, so both run with the sun in the bins
+/// (`sun.split = false`; the split samples its responses on the CPU).
 #[test]
-fn tiny_scene_swept_and_drawn_on_the_device_matches_the_references() {
-    let Some((out, summary)) = render_tiny("gpu", SweeperChoice::Gpu, false) else {
+fn tiny_scene_swept_and_drawn_on_the_device_matches_the_cpu() {
+    let Some((out, summary)) = render_tiny("gpu", SweeperChoice::Gpu, false, false) else {
         return;
     };
     assert!(summary.sweeper.starts_with("gpu"), "{}", summary.sweeper);
+    assert!(summary.sun_move.is_none() && summary.sun.starts_with("in the sky's bins"));
     for v in &summary.views {
         assert!(
             v.sampled_on.starts_with("device"),
@@ -173,6 +187,7 @@ fn tiny_scene_swept_and_drawn_on_the_device_matches_the_references() {
             v.sampled_on
         );
     }
-    let failures = compare_with_references(&out, false);
+    let (cpu, _) = render_tiny("cpu-bins", SweeperChoice::Cpu, false, false).unwrap();
+    let failures = compare_with_references(&out, &cpu, false);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -39,4 +39,11 @@ fn window_flies_and_rebuilds_grids() {
         .collect();
     assert_eq!(nums[0], 40, "{line}");
     assert!(nums[1] > 0, "no grid was built while flying: {line}");
+    // The autopilot moved the sun: the sun kept apart is recomputed (and the clear
+    // sky, whose shape follows the sun).
+    let moved = stdout
+        .lines()
+        .find(|l| l.starts_with("sun moved:"))
+        .unwrap_or_else(|| panic!("the sun move never finished: {stdout}"));
+    assert!(moved.contains("sun responses recomputed"), "{moved}");
 }
