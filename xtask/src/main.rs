@@ -21,6 +21,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod bench;
+mod sun;
 
 #[derive(Debug, Parser)]
 #[command(about = "lightgrid project chores")]
@@ -53,6 +54,17 @@ enum Task {
         /// Most passes per case.
         #[arg(long, default_value_t = 1024)]
         max_passes: u32,
+    },
+    /// The sun kept apart against the sun in the bins, against the Monte Carlo
+    /// reference: the bench forest at several sun elevations and azimuths, and a single
+    /// tree's shadow direction (target/bench/sun.txt, sun.png).
+    Sun {
+        /// Cells a side of the forest.
+        #[arg(long, default_value_t = 24)]
+        n: u32,
+        /// Reference paths per case.
+        #[arg(long, default_value_t = 1_000_000)]
+        paths: u64,
     },
     /// Feed every file reader generated bad inputs: panics, slow inputs, peak memory.
     Fuzz {
@@ -97,6 +109,19 @@ fn main() -> ExitCode {
             }
         }
         Task::Exact { max_passes } => exact(&root, max_passes),
+        Task::Sun { n, paths } => {
+            match sun::run(&root, &root.join("../shared/testdata"), n, paths) {
+                Ok(text) => {
+                    print!("{text}");
+                    println!("wrote target/bench/sun.txt and sun.png");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("xtask sun: {e:#}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Task::Fuzz {
             inputs,
             targets,

@@ -212,6 +212,7 @@ pub mod reference;
 pub mod scenes;
 pub mod sky;
 pub mod sun;
+pub mod sun_measure;
 pub mod sweep;
 
 pub use lightgrid_core::CellSource;

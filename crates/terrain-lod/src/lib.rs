@@ -33,6 +33,18 @@
 //! level); `sweep-gpu` will measure it there. `cargo bench -p terrain-lod` times an
 //! 8-frame fly-through for 16 and 32.
 //!
+//! ## The sun kept apart
+//!
+//! [`Hierarchy::set_sun`] keeps the sun out of the bins (issue 14): every grid then holds
+//! the sky's bins (swept from the sky alone), the sun's scattered bins and its
+//! transmittance along the exact direction, both for unit sun irradiance
+//! (`Sweeper::sweep_sun`; 312 + 312 + 4 bytes a point as `f32`). Sky and sun colours
+//! multiply ([`Hierarchy::set_sky_scale`], [`SunLight::irradiance`]); a new direction
+//! recomputes the sun's responses only, the world grid's at once and the nodes' coarse
+//! and near first within the budget (each costs a node's points, and its parent's must
+//! be current); meanwhile a node takes the sun from its coarser grids. The tests check
+//! that the result equals a hierarchy built under the new sun from the start.
+//!
 //! ```
 //! use lightgrid_core::glam::{Vec2, Vec3};
 //! use lightgrid_core::{BinLight, LightField};

@@ -9,7 +9,7 @@ use super::Report;
 
 /// Registers a system sans-serif font for the labels (plotters' `ab_glyph` backend needs
 /// one); false when none is found (the plot is then drawn without text).
-fn register_font() -> bool {
+pub(crate) fn register_font() -> bool {
     const PATHS: [&str; 4] = [
         "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
         "/usr/share/fonts/TTF/DejaVuSans.ttf",

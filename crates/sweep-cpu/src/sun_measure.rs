@@ -1,0 +1,239 @@
+//! Measuring the sun split against the sun in the bins (issue 14), both against the
+//! Monte Carlo reference with a collimated sun along its exact direction
+//! ([`crate::reference::trace_with_sun`], its uncollided light kept apart). Shared by
+//! `examples/sun_split.rs` (canonical scenes, a dense block's shadow) and
+//! `cargo xtask sun` (the bench forest, a single tree's shadow).
+//!
+//! - **Bins**: the sun's disc split over the bins of the top boundary, swept; its light
+//!   moves along the nearest bin and lands with the bin's mean cosine.
+//! - **Split**: the exact transmittance ([`SunTransmittance::march`]) for the direct
+//!   beam, its first collisions ([`first_collision`]) swept as a cell source for the
+//!   scattered light.
+//!
+//! Errors are relative RMSE over the points that are not solid and not dark (average
+//! above 1e-3 of the largest), of the luminance of the average light and of the
+//! irradiance on the six axes, sun light only.
+
+use std::time::Instant;
+
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::light::{AMBIENT_AXES, luminance};
+use lightgrid_core::{BinLight, Boundary, MaterialGrid, SideBoundary, SweepOptions};
+
+use crate::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
+use crate::sky::Sun;
+use crate::sun::{SunTransmittance, first_collision};
+use crate::{run, run_with_source};
+
+/// Average light and the six axis irradiances (luminance) of every point.
+pub type Field = Vec<(f32, [f32; 6])>;
+
+/// The field of `bins`, plus a direct beam `(transmittance per point, irradiance E,
+/// direction s toward the sun)` where one is kept apart: it adds `E T / 4π` to the
+/// average and `E T max(0, n · s)` to the irradiance on `n`.
+pub fn field(bins: &[BinLight], direct: Option<(&[f32], Vec3, Vec3)>) -> Field {
+    bins.iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let (mut avg, mut irr) = (b.average(), AMBIENT_AXES.map(|n| b.irradiance(n)));
+            if let Some((t, e, s)) = direct {
+                avg += e * t[i] / (4.0 * std::f32::consts::PI);
+                for (k, n) in AMBIENT_AXES.iter().enumerate() {
+                    irr[k] += e * t[i] * n.dot(s).max(0.0);
+                }
+            }
+            (luminance(avg), irr.map(luminance))
+        })
+        .collect()
+}
+
+/// Relative RMSE of average light and of irradiance of `a` against the reference `r`,
+/// over the points not `solid` and not dark.
+pub fn errors(a: &Field, r: &Field, solid: &[bool]) -> (f64, f64) {
+    let max = r.iter().map(|x| x.0).fold(0.0, f32::max);
+    let (mut na, mut da, mut ni, mut di) = (0.0, 0.0, 0.0, 0.0);
+    for ((x, y), &s) in a.iter().zip(r).zip(solid) {
+        if s || y.0 <= 1e-3 * max {
+            continue;
+        }
+        na += ((x.0 - y.0) as f64).powi(2);
+        da += (y.0 as f64).powi(2);
+        for k in 0..6 {
+            ni += ((x.1[k] - y.1[k]) as f64).powi(2);
+            di += (y.1[k] as f64).powi(2);
+        }
+    }
+    ((na / da.max(1e-300)).sqrt(), (ni / di.max(1e-300)).sqrt())
+}
+
+/// One case's figures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunErrors {
+    /// Relative RMSE of average light / irradiance with the sun in the bins.
+    pub bins: (f64, f64),
+    /// The same with the split.
+    pub split: (f64, f64),
+    /// The reference's own relative standard error of the average light.
+    pub noise: f64,
+    /// Seconds: the binned sweep, and the split (march, first collisions, sweep).
+    pub seconds: (f64, f64),
+}
+
+/// Sun light only (unit irradiance) at `elevation`/`azimuth` (radians) in `material`
+/// with `sides`: the bins and the split against a reference of `paths` paths.
+pub fn sun_errors(
+    material: &MaterialGrid,
+    sides: &SideBoundary,
+    elevation: f32,
+    azimuth: f32,
+    paths: u64,
+    options: &SweepOptions,
+) -> Result<SunErrors, Box<dyn std::error::Error>> {
+    let e = Vec3::ONE;
+    let sun = Sun::at(elevation, azimuth, e);
+    let s = sun.direction;
+    let dark = Boundary {
+        sides: sides.clone(),
+        ..Boundary::open_sky(BinLight::ZERO)
+    };
+    let periodic = matches!(sides, SideBoundary::Periodic);
+    let solid: Vec<bool> = material.data().iter().map(|c| c.pass <= 0.0).collect();
+    let reference = trace_with_sun(
+        material,
+        &dark,
+        Some(&CollimatedSun {
+            to_sun: s,
+            irradiance: e,
+        }),
+        &ReferenceOptions {
+            paths,
+            time_budget: None,
+            seed: 7,
+            max_events: 256,
+            max_track: 8.0,
+        },
+        &|_, _| {},
+    )?;
+    let ref_t: Vec<f32> = reference.direct.iter().map(|d| d.x / e.x).collect();
+    let r = field(reference.light.data(), Some((&ref_t, e, s)));
+    let t0 = Instant::now();
+    let in_bins = Boundary {
+        sides: sides.clone(),
+        ..Boundary::open_sky(sun.bins()?)
+    };
+    let binned = run(material, &in_bins, options)?.output.bins.expect("bins");
+    let t_bins = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let open = |_: Vec3| 1.0;
+    let t = SunTransmittance::march(material, s, periodic, &open)?;
+    let src = first_collision(material, &t, s, e, periodic, &open)?;
+    let scattered = run_with_source(material, &dark, Some(&src), options)?
+        .output
+        .bins
+        .expect("bins");
+    let t_split = t0.elapsed().as_secs_f64();
+    let fb = field(binned.data(), None);
+    let fs = field(scattered.data(), Some((t.values(), e, s)));
+    Ok(SunErrors {
+        bins: errors(&fb, &r, &solid),
+        split: errors(&fs, &r, &solid),
+        noise: reference.relative_std_error(0.0),
+        seconds: (t_bins, t_split),
+    })
+}
+
+/// Upward irradiance (luminance) at the points of `level`, with the sun in the bins and
+/// with the split, periodic sides.
+pub fn ground_light(
+    m: &MaterialGrid,
+    sun: &Sun,
+    level: u32,
+    o: &SweepOptions,
+) -> Result<(Vec<f32>, Vec<f32>), Box<dyn std::error::Error>> {
+    let periodic = SideBoundary::Periodic;
+    let range = m.desc().level_range(level);
+    let binned = run(
+        m,
+        &Boundary {
+            sides: periodic.clone(),
+            ..Boundary::open_sky(sun.bins()?)
+        },
+        o,
+    )?
+    .output
+    .bins
+    .expect("bins");
+    let s = sun.direction;
+    let open = |_: Vec3| 1.0;
+    let t = SunTransmittance::march(m, s, true, &open)?;
+    let src = first_collision(m, &t, s, sun.illuminance, true, &open)?;
+    let dark = Boundary {
+        sides: periodic,
+        ..Boundary::open_sky(BinLight::ZERO)
+    };
+    let scattered = run_with_source(m, &dark, Some(&src), o)?
+        .output
+        .bins
+        .expect("bins");
+    let b: Vec<f32> = binned.data()[range.clone()]
+        .iter()
+        .map(|l| luminance(l.irradiance(Vec3::Y)))
+        .collect();
+    let sp: Vec<f32> = scattered.data()[range.clone()]
+        .iter()
+        .zip(&t.values()[range])
+        .map(|(l, t)| luminance(l.irradiance(Vec3::Y) + sun.illuminance * (t * s.y)))
+        .collect();
+    Ok((b, sp))
+}
+
+/// The azimuth (degrees, from -Z toward +X as [`Sun::at`]) of the centroid of the light
+/// an object takes away from a periodic `nx × nz` level (`lit` with it, `open` without),
+/// seen from `centre` (the object's axis, in cell coordinates): the direction of its
+/// shadow.
+pub fn shadow_azimuth(lit: &[f32], open: &[f32], nx: u32, nz: u32, centre: Vec3) -> f32 {
+    let (mut sum, mut acc) = (0.0f32, Vec3::ZERO);
+    for (i, (a, b)) in lit.iter().zip(open).enumerate() {
+        let deficit = (b - a).max(0.0);
+        let p = Vec3::new((i as u32 % nx) as f32, 0.0, (i as u32 / nx) as f32);
+        // Periodic ground: the nearest image of the point.
+        let mut off = p - centre;
+        off.x -= nx as f32 * (off.x / nx as f32).round();
+        off.z -= nz as f32 * (off.z / nz as f32).round();
+        acc += off * deficit;
+        sum += deficit;
+    }
+    let v = acc / sum.max(1e-12);
+    v.x.atan2(-v.z).to_degrees()
+}
+
+/// The exact azimuth of a shadow (away from the sun) for a sun toward `to_sun`
+/// ([`Sun::direction`]).
+pub fn exact_shadow_azimuth(to_sun: Vec3) -> f32 {
+    (-to_sun.x).atan2(to_sun.z).to_degrees()
+}
+
+/// `|a - b|` in degrees, wrapped into `[0, 180]`.
+pub fn angle_error(a: f32, b: f32) -> f32 {
+    ((a - b + 540.0).rem_euclid(360.0) - 180.0).abs()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shadow_azimuth_of_a_known_deficit() {
+        // A shadow three cells toward +X of the centre: azimuth 90 degrees.
+        let (nx, nz) = (8u32, 8u32);
+        let open = vec![1.0; 64];
+        let mut lit = open.clone();
+        lit[(4 * nx + 7) as usize] = 0.0;
+        let a = shadow_azimuth(&lit, &open, nx, nz, Vec3::new(4.0, 0.0, 4.0));
+        assert!((a - 90.0).abs() < 1e-4, "{a}");
+        assert!((angle_error(179.0, -179.0) - 2.0).abs() < 1e-4);
+        // A sun in the -X sky casts its shadow toward +X.
+        let to_sun = Vec3::new(-1.0, 1.0, 0.0).normalize();
+        assert!((exact_shadow_azimuth(to_sun) - 90.0).abs() < 1e-4);
+    }
+}
