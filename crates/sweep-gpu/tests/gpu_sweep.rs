@@ -314,3 +314,41 @@ fn sun_split_on_the_gpu() {
     assert_close(&cpu.sun_scattered, &on_gpu.sun_scattered).unwrap();
     assert!(cpu.sun_scattered.max_value() > 0.0);
 }
+
+/// `Sweeper::sweep_sun` on the GPU sweeper (the first collisions swept on the device)
+/// equals the CPU's, with a hierarchy's kind of sun boundary: scattered light coming in
+/// through the top and a given halo, and a transmittance outside that varies.
+#[test]
+fn sweep_sun_on_the_gpu_equals_the_cpu() {
+    use lightgrid_core::{HaloLayout, SideBoundary, SunBoundary, Sweeper, TopBoundary};
+    let Some(mut gpu) = sweeper() else { return };
+    let (m, _) = sweep_cpu::scenes::Scene::Canopy.build(10);
+    let d = *m.desc();
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 0.0;
+    o.max_passes = 4;
+    let glow = |k: usize| BinLight::uniform(Vec3::new(0.02, 0.03, 0.01) * (1 + k % 5) as f32);
+    let top: Vec<BinLight> = (0..d.level_len())
+        .map(|k| glow(k).split_vertical().0)
+        .collect();
+    let halo: Vec<BinLight> = (0..HaloLayout::new(d.dims()).len()).map(glow).collect();
+    let outside = |p: Vec3| 0.4 + 0.5 * (0.3 * p.x).sin().abs();
+    let sun = SunBoundary {
+        to_sun: Vec3::new(0.5, 0.6, -0.3),
+        scattered: lightgrid_core::Boundary {
+            top: TopBoundary::PerPoint(top),
+            bottom: BinLight::ZERO,
+            sides: SideBoundary::Given(halo),
+        },
+        outside: &outside,
+    };
+    let cpu = sweep_cpu::CpuSweeper::new()
+        .sweep_sun(&m, &sun, &o)
+        .unwrap();
+    let on_gpu = gpu.sweep_sun(&m, &sun, &o).unwrap();
+    assert_close(&cpu.scattered, &on_gpu.scattered).unwrap();
+    assert!(cpu.scattered.max_value() > 0.0);
+    assert_eq!(cpu.transmittance, on_gpu.transmittance);
+    let t = cpu.transmittance.data();
+    assert!(t.iter().any(|&t| t > 0.3) && t.iter().all(|t| (0.0..=1.0).contains(t)));
+}
