@@ -142,6 +142,9 @@ pub(crate) fn run(root: &Path, testdata: &Path, n: u32, paths: u64) -> Result<St
     Ok(text)
 }
 
+/// A plotted series: name, colour, and the figure it shows.
+type Series = (&'static str, RGBColor, fn(&SunErrors) -> f64);
+
 /// Error against elevation, one panel per azimuth: bins and split, average light and
 /// irradiance, and the reference's noise.
 fn plot(rows: &[(f32, f32, SunErrors)], path: &Path) -> Result<()> {
@@ -180,7 +183,7 @@ fn plot(rows: &[(f32, f32, SunErrors)], path: &Path) -> Result<()> {
                     .draw()
                     .map_err(err)?;
             }
-            let series: [(&str, RGBColor, fn(&SunErrors) -> f64); 5] = [
+            let series: [Series; 5] = [
                 ("bins, average", RED, |e| e.bins.0),
                 ("bins, irradiance", MAGENTA, |e| e.bins.1),
                 ("split, average", BLUE, |e| e.split.0),
