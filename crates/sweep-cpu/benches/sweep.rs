@@ -1,32 +1,64 @@
-//! Points per second of the sweep on a 64³ grid: 26-bin and average-only outputs, one
-//! downward pass and repeated down/up passes. The error of each setting against the
-//! Monte Carlo reference is in the crate docs (`canonical` example for timings with
-//! errors side by side).
+//! Points per second of the sweep: the 64³ canopy with 26-bin and average-only
+//! outputs, one downward pass and four passes, and a small tall grid (16 × 64 × 16),
+//! each for the fast path (`sweep_cpu::run`) and, in the same run, the scalar oracle it
+//! equals bit for bit (`sweep_cpu::sweep::run_scalar`). The error of each setting against
+//! the Monte Carlo reference is in the crate docs (`canonical` example for timings with
+//! errors side by side); `cargo run --release -p sweep-cpu --example throughput` is the
+//! quick version of this.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use lightgrid_core::{Outputs, SweepOptions};
+use lightgrid_core::glam::UVec3;
+use lightgrid_core::{GridDesc, MaterialGrid, Outputs, SweepOptions};
 use sweep_cpu::scenes::Scene;
 
 fn bench(c: &mut Criterion) {
     let (m, b) = Scene::Canopy.build(64);
-    let mut g = c.benchmark_group("sweep 64³ canopy");
-    g.throughput(Throughput::Elements(m.desc().point_count() as u64));
-    g.sample_size(10);
-    for (name, outputs) in [
-        ("26 bins", Outputs::ALL),
-        ("average only", Outputs::AVERAGE_DOMINANT),
+    let d = *m.desc();
+    let small_desc = GridDesc::new(d.origin(), d.h(), UVec3::new(16, 64, 16)).expect("valid");
+    let small = MaterialGrid::new(
+        small_desc,
+        (0..small_desc.point_count())
+            .map(|i| {
+                *m.get(small_desc.coords(i).expect("in range"))
+                    .expect("inside")
+            })
+            .collect(),
+    )
+    .expect("valid");
+    for (group, m, outputs_list) in [
+        (
+            "sweep 64³ canopy",
+            &m,
+            vec![
+                ("26 bins", Outputs::ALL),
+                ("average only", Outputs::AVERAGE_DOMINANT),
+            ],
+        ),
+        (
+            "sweep 16×64×16 canopy",
+            &small,
+            vec![("26 bins", Outputs::ALL)],
+        ),
     ] {
-        for (passes_name, passes) in [("1 pass", 1), ("4 passes", 4)] {
-            let mut o = SweepOptions::multi_bounce();
-            o.outputs = outputs;
-            o.max_passes = passes;
-            o.tolerance = 0.0;
-            g.bench_function(format!("{name}, {passes_name}"), |bch| {
-                bch.iter(|| sweep_cpu::run(&m, &b, &o).expect("sweep"))
-            });
+        let mut g = c.benchmark_group(group);
+        g.throughput(Throughput::Elements(m.desc().point_count() as u64));
+        g.sample_size(10);
+        for (name, outputs) in outputs_list {
+            for (passes_name, passes) in [("1 pass", 1), ("4 passes", 4)] {
+                let mut o = SweepOptions::multi_bounce();
+                o.outputs = outputs;
+                o.max_passes = passes;
+                o.tolerance = 0.0;
+                g.bench_function(format!("{name}, {passes_name}"), |bch| {
+                    bch.iter(|| sweep_cpu::run(m, &b, &o).expect("sweep"))
+                });
+                g.bench_function(format!("{name}, {passes_name}, scalar oracle"), |bch| {
+                    bch.iter(|| sweep_cpu::sweep::run_scalar(m, &b, None, &o).expect("sweep"))
+                });
+            }
         }
+        g.finish();
     }
-    g.finish();
 }
 
 criterion_group!(benches, bench);

@@ -54,15 +54,49 @@
 //!
 //! ## Speed
 //!
-//! `cargo bench -p sweep-cpu` (criterion), 64³ canopy scene, 2-core x86-64 VM:
+//! `cargo bench -p sweep-cpu` (criterion, 10 samples, median), 64³ canopy scene (a
+//! two-level canopy half way up, two levels of ground; 30 levels above it are copied, not
+//! computed), all outputs, 2-core x86-64 VM (whose timings vary by ±20 % from run to
+//! run). The fast path ([`run`]) is the scalar oracle ([`sweep::run_scalar`], the steps
+//! below written out one by one) with shortcuts that change no arithmetic: equal bit for
+//! bit (`tests/fast_path.rs`, random sparse and dense grids, every boundary mode).
 //!
-//! | output | 1 downward pass | 4 passes (down, up, down, up) |
-//! |--------|----------------:|------------------------------:|
-//! | 26 bins | 135 ms (1.9 M points/s) | 341 ms (0.77 M points/s) |
-//! | average + dominant only | 62 ms (4.2 M points/s) | 289 ms (0.91 M points/s) |
+//! | case | fast path | scalar oracle | before (same bench, issue 15) |
+//! |------|----------:|--------------:|------------------------------:|
+//! | 64³, 26 bins, 1 downward pass | 104 ms (2.5 M points/s) | 144 ms (1.8 M/s) | 213 ms (1.2 M/s) |
+//! | 64³, 26 bins, 4 passes | 228 ms (1.15 M/s) | 583 ms (0.45 M/s) | 644 ms (0.41 M/s) |
+//! | 64³, average + dominant only, 1 pass | 53 ms (4.9 M/s) | 100 ms (2.6 M/s) | 151 ms (1.7 M/s) |
+//! | 64³, average + dominant only, 4 passes | 247 ms (1.06 M/s) | 424 ms (0.62 M/s) | 648 ms (0.40 M/s) |
+//! | 16 × 64 × 16, 26 bins, 1 pass | 7.6 ms (2.1 M/s) | 9.8 ms (1.7 M/s) | |
+//! | 16 × 64 × 16, 26 bins, 4 passes | 30.5 ms (0.54 M/s) | 41.5 ms (0.39 M/s) | |
 //!
-//! Error of these settings: see the accuracy table below (the canopy scene converges in
-//! 6 passes at tolerance 1e-4).
+//! ("Before" is criterion's own comparison with its stored baseline of the previous
+//! implementation on this machine; the oracle column shares the fast path's output and
+//! allocation work, below.) Where the time went, and what changed (perf, 1 pass):
+//!
+//! - **Allocation**: the output's 312 bytes a point (82 MB at 64³) are fresh pages the
+//!   kernel must fault in and zero, about 6 GB/s on this VM: 13 ms of every sweep, and
+//!   it was 50 ms when one thread filled them; now the fill runs on every core and the
+//!   per-point pending light (96 bytes a point) comes from zeroed pages that only cells
+//!   with material ever touch.
+//! - **Output**: the validity guard, the average and the dominant direction were three
+//!   sequential passes over 82 MB; now one parallel pass (a branch-free validity check).
+//! - **Gather and transmit** (phase 1): points with no material within two cells
+//!   (`quiet`) skip the transmit step, taps and path cells away from the sides are read
+//!   by index, and wrapped columns come from a table instead of a division.
+//! - **Small levels**: tasks of at least 512 points.
+//!
+//! **Roofline** (estimate, per point and pass, fast path, quiet point): 17 channels ×
+//! (5 taps × 6 flops gather + 9 flops energy tally in `f64` + 3 flops output) ≈ 700
+//! flops; memory: the output bins read and written (624 bytes; the level buffers, 1 KB
+//! a row of points, stay in cache). This VM streams about 34 GB/s (one core, a triad
+//! loop): memory allows some 50 M points/s, so the sweep is compute bound; two cores of
+//! scalar `f32` at ~4 GFlop/s each allow about 11 M points/s, of which the 1-pass figure
+//! (2.5 M/s, allocation and output included) is about a quarter; phase 1 alone runs at
+//! about half of it (the 139 k computed points of a pass in about 25 ms, profiled with
+//! timers). The issue's 20 M points/s needs the
+//! gather vectorised across a row (channel planes, structure of arrays) and the output
+//! written into reused memory instead of fresh pages; both remain to do.
 //!
 //! ## Semantics of the sweep
 //!

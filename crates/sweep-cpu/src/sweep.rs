@@ -79,6 +79,10 @@ pub fn path_exponents() -> &'static [f32] {
     })
 }
 
+/// Fewest points one parallel task of a level's fast phases handles (measured: below
+/// this, rayon's per-task cost shows on 16 × 16 levels).
+pub const MIN_POINTS_PER_TASK: usize = 512;
+
 /// Most distinct exponents (see [`path_exponents`]).
 pub const MAX_EXPONENTS: usize = 10;
 
@@ -218,7 +222,7 @@ pub struct Sweep {
 
 /// Scattered light a cell holds for emission: total flux `s` (RGB) and its first moment
 /// `m[axis]` (RGB) over the incoming directions.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Default, bytemuck::Zeroable)]
 struct Pending {
     s: Vec3,
     m: [Vec3; 3],
@@ -396,7 +400,7 @@ fn up_pass(ch: &[Channel; CHANNELS]) -> bool {
 
 /// Where the final light of a point goes: all 26 bins, or only what the average and the
 /// dominant direction need.
-trait Sink: Copy + Default + Send + Sync {
+trait Sink: Copy + Default + Send + Sync + bytemuck::Zeroable {
     fn add(&mut self, bin: usize, unit: Vec3, g: Vec3);
 }
 
@@ -408,7 +412,7 @@ impl Sink for BinLight {
 }
 
 /// Running sums for the average (`sum`) and dominant direction (`num / den`).
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Default, bytemuck::Zeroable)]
 struct AvgAcc {
     sum: Vec3,
     num: Vec3,
@@ -584,12 +588,66 @@ struct Ctx {
     periodic: bool,
     smoothing: f32,
     ch: &'static [Channel; CHANNELS],
+    /// The column index along x (then z) of every `x` in `-WRAP_PAD .. nx + WRAP_PAD`:
+    /// wrapped on periodic sides, -1 beyond open or given ones.
+    xcol: Vec<i32>,
+    zcol: Vec<i32>,
+}
+
+/// Offsets beyond the sides that [`Ctx::col`] looks up in a table instead of dividing:
+/// every tap and path cell of the sweep lies within this many columns of its point.
+const WRAP_PAD: i32 = 8;
+
+impl Ctx {
+    fn new(
+        nx: i32,
+        nz: i32,
+        periodic: bool,
+        smoothing: f32,
+        ch: &'static [Channel; CHANNELS],
+    ) -> Self {
+        let table = |n: i32| -> Vec<i32> {
+            (-WRAP_PAD..n + WRAP_PAD)
+                .map(|x| {
+                    if periodic {
+                        x.rem_euclid(n)
+                    } else if (0..n).contains(&x) {
+                        x
+                    } else {
+                        -1
+                    }
+                })
+                .collect()
+        };
+        Self {
+            nx,
+            nz,
+            periodic,
+            smoothing,
+            ch,
+            xcol: table(nx),
+            zcol: table(nz),
+        }
+    }
 }
 
 impl Ctx {
+    /// Rows per parallel task: at least [`MIN_POINTS_PER_TASK`] points, so that small
+    /// levels do not pay a task per row.
+    fn rows_per_task(&self) -> usize {
+        MIN_POINTS_PER_TASK.div_ceil(self.nx.max(1) as usize)
+    }
+
     /// Index of column (x, z) within a level, wrapping in periodic mode; `None` outside.
     #[inline]
     fn col(&self, x: i32, z: i32) -> Option<usize> {
+        let (tx, tz) = (x + WRAP_PAD, z + WRAP_PAD);
+        if let (Some(&cx), Some(&cz)) = (self.xcol.get(tx as usize), self.zcol.get(tz as usize))
+            && tx >= 0
+            && tz >= 0
+        {
+            return (cx >= 0 && cz >= 0).then(|| (cx + self.nx * cz) as usize);
+        }
         if self.periodic {
             Some((x.rem_euclid(self.nx) + self.nx * z.rem_euclid(self.nz)) as usize)
         } else if x >= 0 && x < self.nx && z >= 0 && z < self.nz {
@@ -601,8 +659,10 @@ impl Ctx {
 }
 
 impl Ctx {
+    /// Steps 1-2, written as the crate docs say them: the oracle of
+    /// [`Ctx::phase1_fast`] ([`run_scalar`]).
     #[allow(clippy::too_many_arguments)]
-    fn phase1<S: Sink>(
+    fn phase1_scalar<S: Sink>(
         &self,
         prev: &[Level],
         src: &Sources<'_>,
@@ -685,6 +745,176 @@ impl Ctx {
         sum_rows(rows)
     }
 
+    /// Steps 1-2 as [`Ctx::phase1_scalar`], bit for bit, faster: source taps and path
+    /// cells away from the sides are read by index without the side logic, and a point
+    /// whose 5 × 5 neighbourhood of cells is empty (`quiet`; every path cell of every
+    /// channel passes all light) skips the transmit step: its light passes unchanged,
+    /// nothing is removed (its removal slots are not written: only non-empty cells
+    /// read slots, and only those of points whose paths cross them, which are never
+    /// quiet).
+    #[allow(clippy::too_many_arguments)]
+    fn phase1_fast<S: Sink>(
+        &self,
+        prev: &[Level],
+        src: &Sources<'_>,
+        from_virtual: bool,
+        src_level: i32,
+        pows: &[[f32; MAX_EXPONENTS]],
+        quiet: &[bool],
+        cur: &mut [Level],
+        removed: &mut [[Vec3; SLOTS]],
+        t_after: &mut [[f32; CHANNELS]],
+        g: &mut [S],
+        rows: &mut [RowFlux],
+    ) -> RowFlux {
+        let nx = self.nx as usize;
+        let (nxi, nzi) = (self.nx, self.nz);
+        let s = self.smoothing;
+        let (w0, w1) = (1.0 - s, 0.25 * s);
+        cur.par_chunks_mut(nx)
+            .zip(removed.par_chunks_mut(nx))
+            .zip(t_after.par_chunks_mut(nx))
+            .zip(g.par_chunks_mut(nx))
+            .zip(rows.par_iter_mut())
+            .enumerate()
+            .with_min_len(self.rows_per_task())
+            .for_each(|(z, ((((cur_row, rem_row), ta_row), g_row), row_out))| {
+                let z = z as i32;
+                let mut rf = RowFlux::default();
+                let inner_z = z >= 2 && z < nzi - 2;
+                for x in 0..self.nx {
+                    let xi = x as usize;
+                    let pi = xi + nx * z as usize;
+                    let is_quiet = quiet[pi];
+                    let inner = inner_z && x >= 2 && x < nxi - 2;
+                    for (c, chn) in self.ch.iter().enumerate() {
+                        // Step 1.
+                        let (qx, qz) = (x - chn.step.x, z - chn.step.z);
+                        let light = if qx >= 1 && qx < nxi - 1 && qz >= 1 && qz < nzi - 1 {
+                            let q = (qx + nxi * qz) as usize;
+                            let mut ins = prev[q][c] * w0;
+                            if w1 != 0.0 {
+                                ins += prev[q + 1][c] * w1;
+                                ins += prev[q - 1][c] * w1;
+                                ins += prev[q + nx][c] * w1;
+                                ins += prev[q - nx][c] * w1;
+                            }
+                            rf.inside += ins.as_dvec3() * chn.mu as f64;
+                            ins
+                        } else {
+                            let (ins, outs) = self.gather_edge(
+                                prev,
+                                src,
+                                from_virtual,
+                                src_level,
+                                chn,
+                                c,
+                                qx,
+                                qz,
+                            );
+                            rf.inside += ins.as_dvec3() * chn.mu as f64;
+                            rf.outside += outs.as_dvec3() * chn.mu as f64;
+                            ins + outs
+                        };
+                        if is_quiet {
+                            cur_row[xi][c] = light;
+                            g_row[xi].add(chn.bin, chn.unit, light);
+                            continue;
+                        }
+                        // Step 2.
+                        let mut t = 1.0f32;
+                        let mut t_mid = 1.0f32;
+                        let mut after = 1.0f32;
+                        let mut past_centre = false;
+                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                            let ci = if inner {
+                                Some((pi as i32 + dx + nxi * dz) as usize)
+                            } else {
+                                self.col(x + dx, z + dz)
+                            };
+                            let (tr, half) = match ci {
+                                Some(ci) => (pows[ci][chn.pow[k]], pows[ci][chn.mid_pow]),
+                                None => (1.0, 1.0),
+                            };
+                            rem_row[xi][chn.first_slot + k] = light * (t * (1.0 - tr));
+                            if past_centre {
+                                after *= tr;
+                            }
+                            if dx == 0 && dz == 0 {
+                                t_mid = t * half;
+                                past_centre = true;
+                            }
+                            t *= tr;
+                        }
+                        ta_row[xi][c] = after;
+                        cur_row[xi][c] = light * t;
+                        g_row[xi].add(chn.bin, chn.unit, light * t_mid);
+                    }
+                }
+                *row_out = rf;
+            });
+        sum_rows(rows)
+    }
+
+    /// Step 1 for a source point near or beyond the sides: the taps one by one
+    /// (light from inside the grid, light from outside).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn gather_edge(
+        &self,
+        prev: &[Level],
+        src: &Sources<'_>,
+        from_virtual: bool,
+        src_level: i32,
+        chn: &Channel,
+        c: usize,
+        qx: i32,
+        qz: i32,
+    ) -> (Vec3, Vec3) {
+        let s = self.smoothing;
+        let taps = [
+            (qx, qz, 1.0 - s),
+            (qx + 1, qz, 0.25 * s),
+            (qx - 1, qz, 0.25 * s),
+            (qx, qz + 1, 0.25 * s),
+            (qx, qz - 1, 0.25 * s),
+        ];
+        let mut ins = Vec3::ZERO;
+        let mut outs = Vec3::ZERO;
+        for (tx, tz, w) in taps {
+            if w == 0.0 {
+                continue;
+            }
+            match self.col(tx, tz) {
+                Some(i) => ins += prev[i][c] * w,
+                None if from_virtual && src.halo.is_none() => {
+                    outs += src.virtual_light(tx, tz, chn) * w
+                }
+                None => outs += src.outside(tx, src_level, tz, chn) * w,
+            }
+        }
+        (ins, outs)
+    }
+
+    /// Points whose 5 × 5 neighbourhood of cells (wrapped on periodic sides; cells
+    /// beyond open sides count as empty) holds no material: `lnp` is the level's
+    /// `ln(pass)`, 0 for empty cells.
+    fn quiet(&self, lnp: &[f32], out: &mut [bool], rows_ok: &mut [bool]) {
+        let (nx, nz) = (self.nx, self.nz);
+        for z in 0..nz {
+            for x in 0..nx {
+                rows_ok[(x + nx * z) as usize] =
+                    (-2..=2).all(|dx| self.col(x + dx, z).is_none_or(|i| lnp[i] == 0.0));
+            }
+        }
+        for z in 0..nz {
+            for x in 0..nx {
+                out[(x + nx * z) as usize] =
+                    (-2..=2).all(|dz| self.col(x, z + dz).is_none_or(|i| rows_ok[i]));
+            }
+        }
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn phase2<S: Sink>(
         &self,
@@ -705,6 +935,7 @@ impl Ctx {
             .zip(g.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
             .enumerate()
+            .with_min_len(self.rows_per_task())
             .for_each(
                 |(z, ((((cur_row, same_row), other_row), g_row), row_out))| {
                     let z = z as i32;
@@ -855,6 +1086,28 @@ pub fn run_with_source(
     source: Option<&CellSource>,
     options: &SweepOptions,
 ) -> Result<Sweep, SweepError> {
+    run_impl(material, boundary, source, options, true)
+}
+
+/// The sweep written as the crate docs say it, step by step, with none of the fast
+/// path's shortcuts: the oracle the fast path ([`run`], [`run_with_source`]) is
+/// property-tested against (bit for bit) and benchmarked beside.
+pub fn run_scalar(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    source: Option<&CellSource>,
+    options: &SweepOptions,
+) -> Result<Sweep, SweepError> {
+    run_impl(material, boundary, source, options, false)
+}
+
+fn run_impl(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    source: Option<&CellSource>,
+    options: &SweepOptions,
+    fast: bool,
+) -> Result<Sweep, SweepError> {
     validate_inputs(material, boundary, options)?;
     let desc = *material.desc();
     if let Some(src) = source
@@ -868,12 +1121,31 @@ pub fn run_with_source(
         .into());
     }
     if options.outputs.bins {
-        let (g, balance, stats) = run_with::<BinLight>(material, boundary, source, options);
+        let (g, balance, stats) = run_with::<BinLight>(material, boundary, source, options, fast);
+        // One pass on every core: the validity guard of `finish`, and the average and
+        // dominant grids (as `LightGrid::average_grid` / `dominant_grid`) if asked for.
+        let (want_avg, want_dom) = (options.outputs.average, options.outputs.dominant);
+        let (valid, (avg, dom)): (Vec<bool>, (Vec<AverageLight>, Vec<DominantDir>)) = g
+            .par_iter()
+            .map(|b| {
+                (
+                    valid_bins(b),
+                    (
+                        AverageLight(if want_avg { b.average() } else { Vec3::ZERO }),
+                        DominantDir(if want_dom { b.dominant() } else { Vec3::ZERO }),
+                    ),
+                )
+            })
+            .unzip();
+        let bins_valid = valid.iter().all(|v| *v);
+        let average = want_avg.then(|| Grid::from_trusted(desc, avg));
+        let dominant = want_dom.then(|| Grid::from_trusted(desc, dom));
         let grid = Grid::from_trusted(desc, g);
-        finish(
+        finish_checked(
+            bins_valid,
             SweepOutput {
-                average: options.outputs.average.then(|| grid.average_grid()),
-                dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
+                average,
+                dominant,
                 bins: Some(grid),
                 stats,
                 resident: None,
@@ -881,7 +1153,7 @@ pub fn run_with_source(
             balance,
         )
     } else {
-        let (g, balance, stats) = run_with::<AvgAcc>(material, boundary, source, options);
+        let (g, balance, stats) = run_with::<AvgAcc>(material, boundary, source, options, fast);
         let average = options.outputs.average.then(|| {
             Grid::from_trusted(
                 desc,
@@ -917,10 +1189,29 @@ pub fn run_with_source(
 
 /// Last guard: no NaN or infinity leaves the sweep.
 fn finish(output: SweepOutput, balance: EnergyBalance) -> Result<Sweep, SweepError> {
-    let bad = output
+    let bins_valid = !output
         .bins
         .as_ref()
-        .is_some_and(|g| g.data().iter().any(|b| !b.is_valid()))
+        .is_some_and(|g| g.data().par_iter().any(|b| !valid_bins(b)));
+    finish_checked(bins_valid, output, balance)
+}
+
+/// `BinLight::is_valid` without early exit (every value finite and >= 0; NaN fails
+/// `v >= 0`), so that it vectorises.
+#[inline]
+fn valid_bins(b: &BinLight) -> bool {
+    let f: &[f32] = bytemuck::cast_slice(std::slice::from_ref(b));
+    f.iter()
+        .fold(true, |ok, v| ok & (0.0..f32::INFINITY).contains(v))
+}
+
+/// [`finish`] with the bins already checked.
+fn finish_checked(
+    bins_valid: bool,
+    output: SweepOutput,
+    balance: EnergyBalance,
+) -> Result<Sweep, SweepError> {
+    let bad = !bins_valid
         || output
             .average
             .as_ref()
@@ -943,13 +1234,17 @@ fn run_with<S: Sink>(
     boundary: &Boundary,
     source: Option<&CellSource>,
     options: &SweepOptions,
+    fast: bool,
 ) -> (Vec<S>, EnergyBalance, SweepStats) {
     let desc = *material.desc();
     let dims = desc.dims();
     let (nx, ny, nz) = (dims.x as i32, dims.y as i32, dims.z as i32);
     let cells = material.data();
     let fixed = Fixed::of(material, boundary);
-    let mut g: Vec<S> = vec![S::default(); desc.point_count()];
+    let mut g: Vec<S> = (0..desc.point_count())
+        .into_par_iter()
+        .map(|_| S::default())
+        .collect();
     let mut w = Work::new(desc.level_len(), desc.point_count(), nz as usize);
     let mut bal = EnergyBalance::default();
     let mut stats = SweepStats::default();
@@ -982,13 +1277,7 @@ fn run_with<S: Sink>(
             dims,
             halo: fixed.halo,
         };
-        let ctx = Ctx {
-            nx,
-            nz,
-            periodic: fixed.periodic,
-            smoothing: options.smoothing,
-            ch,
-        };
+        let ctx = Ctx::new(nx, nz, fixed.periodic, options.smoothing, ch);
         stats.passes += 1;
         let mut pending = DVec3::ZERO;
         for li in 0..ny {
@@ -1011,11 +1300,11 @@ fn run_with<S: Sink>(
                     bal.top_in += level_flux(&w.prev, ch);
                 }
                 if src.active {
-                    for gp in &mut g[range.clone()] {
+                    g[range.clone()].par_iter_mut().for_each(|gp| {
                         for (c, chn) in ch.iter().enumerate() {
                             gp.add(chn.bin, chn.unit, v[c]);
                         }
-                    }
+                    });
                 }
                 w.cur.iter_mut().for_each(|o| *o = v);
                 stats.levels_copied += 1;
@@ -1030,18 +1319,35 @@ fn run_with<S: Sink>(
                 level_flux(&w.prev, ch)
             };
             w.level_powers(&fixed.lnp[range.clone()]);
-            let f1 = ctx.phase1(
-                &w.prev,
-                &src,
-                from_virtual,
-                src_level,
-                &w.pows,
-                &mut w.cur,
-                &mut w.removed,
-                &mut w.t_after,
-                &mut g[range.clone()],
-                &mut w.rows,
-            );
+            let f1 = if fast {
+                ctx.quiet(&fixed.lnp[range.clone()], &mut w.quiet, &mut w.quiet_rows);
+                ctx.phase1_fast(
+                    &w.prev,
+                    &src,
+                    from_virtual,
+                    src_level,
+                    &w.pows,
+                    &w.quiet,
+                    &mut w.cur,
+                    &mut w.removed,
+                    &mut w.t_after,
+                    &mut g[range.clone()],
+                    &mut w.rows,
+                )
+            } else {
+                ctx.phase1_scalar(
+                    &w.prev,
+                    &src,
+                    from_virtual,
+                    src_level,
+                    &w.pows,
+                    &mut w.cur,
+                    &mut w.removed,
+                    &mut w.t_after,
+                    &mut g[range.clone()],
+                    &mut w.rows,
+                )
+            };
             if from_virtual {
                 if up {
                     bal.bottom_in += f1.inside;
@@ -1140,6 +1446,9 @@ struct Work {
     rows: Vec<RowFlux>,
     /// Transmittance of every cell of the level for each path exponent.
     pows: Vec<[f32; MAX_EXPONENTS]>,
+    /// Points of the level with no material within two cells ([`Ctx::quiet`]).
+    quiet: Vec<bool>,
+    quiet_rows: Vec<bool>,
     /// Scattered light waiting to be emitted in downward / upward channels.
     pend_down: Vec<Pending>,
     pend_up: Vec<Pending>,
@@ -1154,8 +1463,11 @@ impl Work {
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); rows],
             pows: vec![[1.0; MAX_EXPONENTS]; level_len],
-            pend_down: vec![Pending::default(); n],
-            pend_up: vec![Pending::default(); n],
+            quiet: vec![false; level_len],
+            quiet_rows: vec![false; level_len],
+            // Only cells with material touch these: pages of empty space stay unmapped.
+            pend_down: bytemuck::zeroed_vec(n),
+            pend_up: bytemuck::zeroed_vec(n),
         }
     }
 
@@ -1175,10 +1487,14 @@ impl Work {
     /// `pows` for the level whose cells have `ln(pass)` = `lnp`.
     fn level_powers(&mut self, lnp: &[f32]) {
         let exps = path_exponents();
-        self.pows.par_iter_mut().zip(lnp).for_each(|(pw, &l)| {
-            for (k, e) in exps.iter().enumerate() {
-                pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
-            }
-        });
+        self.pows
+            .par_iter_mut()
+            .zip(lnp)
+            .with_min_len(MIN_POINTS_PER_TASK)
+            .for_each(|(pw, &l)| {
+                for (k, e) in exps.iter().enumerate() {
+                    pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
+                }
+            });
     }
 }
