@@ -46,7 +46,7 @@ fn dependencies() -> BTreeMap<String, Vec<Dep>> {
 /// The crates in layer order, each with the workspace crates it may depend on (any kind
 /// of dependency); `None`: any crate below it (the applications at the top). A new crate
 /// or a new edge is a decision: add it here, and to ARCHITECTURE.md.
-const ALLOWED: [(&str, Option<&[&str]>); 12] = [
+const ALLOWED: [(&str, Option<&[&str]>); 13] = [
     ("lightgrid-core", Some(&[])),
     ("sweep-cpu", Some(&["lightgrid-core"])),
     ("lightgrid-gpu", Some(&["lightgrid-core"])),
@@ -57,6 +57,10 @@ const ALLOWED: [(&str, Option<&[&str]>); 12] = [
     ("material-voxelizer", Some(&["lightgrid-core"])),
     (
         "light-volumes",
+        Some(&["lightgrid-core", "material-voxelizer"]),
+    ),
+    (
+        "light-probes",
         Some(&["lightgrid-core", "material-voxelizer"]),
     ),
     ("terrain-lod", Some(&["lightgrid-core"])),
@@ -77,7 +81,11 @@ const ALLOWED: [(&str, Option<&[&str]>); 12] = [
 
 /// Edges allowed only as dev-dependencies (tests, benches and examples), never in the
 /// library: terrain-lod's demo forest is voxelized and swept by its tests only.
-const DEV_ONLY: [(&str, &[&str]); 1] = [("terrain-lod", &["material-voxelizer", "sweep-cpu"])];
+const DEV_ONLY: [(&str, &[&str]); 2] = [
+    ("terrain-lod", &["material-voxelizer", "sweep-cpu"]),
+    // light-probes' town test and example load the Kenney town from light-volumes' demo.
+    ("light-probes", &["light-volumes"]),
+];
 
 /// Whether `name` may depend on `dep` as a dev-dependency beyond its row.
 fn allowed_dev(name: &str, dep: &str) -> bool {

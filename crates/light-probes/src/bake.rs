@@ -1,0 +1,382 @@
+//! Baking a probe set: where probes go, what each one sees (surfels in bricks, and the
+//! sky), and which probes light each surfel.
+
+use std::collections::HashMap;
+
+use lightgrid_core::dirs::{self, NUM_DIRS};
+use lightgrid_core::glam::{IVec3, Vec3};
+use lightgrid_core::light::AMBIENT_AXES;
+use material_voxelizer::voxelize::RayScene;
+use rayon::prelude::*;
+
+use crate::{ProbeError, ProbeParams};
+
+/// A patch of surface the probes see: the mean of the ray hits in one surfel cell on
+/// faces turned the same way (the same dominant normal axis).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Surfel {
+    /// Mean hit position.
+    pub position: Vec3,
+    /// Mean normal (unit; facing the probes that hit it).
+    pub normal: Vec3,
+    /// Mean diffuse albedo.
+    pub albedo: Vec3,
+    /// Probe rays that hit it (its weight in its brick: a proxy of its visible area).
+    pub hits: u32,
+}
+
+/// What one probe sees of one brick: the irradiance weights on the six ambient-cube
+/// axes, `Σ_rays max(0, d · a_k) 4π / N` over the probe's rays that hit the brick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BrickFactor {
+    /// Brick index.
+    pub brick: u32,
+    /// Weight per axis (`+X, -X, +Y, -Y, +Z, -Z`), steradians.
+    pub weights: [f32; 6],
+}
+
+/// One probe: its position, the sky it sees and the bricks it sees.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Probe {
+    /// World position.
+    pub position: Vec3,
+    /// Sky visibility: `sky[k][b]` turns the sky's bin `b` (radiance × solid angle) into
+    /// irradiance on axis `k`: `Σ_missed rays max(0, d · a_k) (4π / N) / ω_b`. An
+    /// unoccluded probe under a uniform sky of radiance `L` gets `π L` on every axis.
+    pub sky: [[f32; NUM_DIRS]; 6],
+    /// Range of its factors in [`ProbeSet::factors`].
+    pub factors: std::ops::Range<u32>,
+}
+
+/// Probes, surfels, bricks and the links between them.
+///
+/// Memory (as stored): `624 + 12` bytes a probe (sky visibility and position), `28` bytes
+/// a brick factor, `40` bytes a surfel, `4` bytes a brick member, `8` bytes a
+/// surfel-to-probe link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProbeSet {
+    params: ProbeParams,
+    probes: Vec<Probe>,
+    surfels: Vec<Surfel>,
+    /// Surfel indices of brick `b`: `brick_surfels[brick_start[b]..brick_start[b + 1]]`.
+    brick_start: Vec<u32>,
+    brick_surfels: Vec<u32>,
+    factors: Vec<BrickFactor>,
+    /// Probes lighting surfel `s` and their weights (summing to 1):
+    /// `links[link_start[s]..link_start[s + 1]]`.
+    link_start: Vec<u32>,
+    links: Vec<(u32, f32)>,
+}
+
+/// Key of a surfel cell: its integer cell and the dominant axis of the hit normal.
+type CellKey = (IVec3, u8);
+
+fn axis_of(n: Vec3) -> u8 {
+    let a = n.abs();
+    let (axis, v) = if a.x >= a.y && a.x >= a.z {
+        (0, n.x)
+    } else if a.y >= a.z {
+        (1, n.y)
+    } else {
+        (2, n.z)
+    };
+    2 * axis + (v < 0.0) as u8
+}
+
+/// Direction `i` of `n` on a Fibonacci sphere (deterministic, near-uniform).
+pub fn fibonacci(i: u32, n: u32) -> Vec3 {
+    let y = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+    let r = (1.0 - y * y).max(0.0).sqrt();
+    let phi = i as f32 * 2.399_963_1;
+    Vec3::new(r * phi.cos(), y, r * phi.sin())
+}
+
+/// One probe ray's outcome.
+enum RayOut {
+    Hit {
+        key: CellKey,
+        point: Vec3,
+        normal: Vec3,
+        albedo: Vec3,
+        t: f32,
+        dir: Vec3,
+    },
+    Sky {
+        dir: Vec3,
+    },
+}
+
+/// The automatic probe positions (The Division's first rule): a grid of `spacing`
+/// over the box `lo..hi` in x and z; down each column a ray from above the box finds the
+/// first surface, and a probe goes `height` above it. Columns that hit nothing get none.
+pub fn place(scene: &RayScene<'_>, lo: Vec3, hi: Vec3, params: &ProbeParams) -> Vec<Vec3> {
+    let nx = ((hi.x - lo.x) / params.spacing).floor().max(0.0) as u32 + 1;
+    let nz = ((hi.z - lo.z) / params.spacing).floor().max(0.0) as u32 + 1;
+    let top = hi.y + 1.0;
+    let depth = hi.y - lo.y + 2.0;
+    (0..nz)
+        .flat_map(|k| (0..nx).map(move |i| (i, k)))
+        .filter_map(|(i, k)| {
+            let x = lo.x + (i as f32 + 0.5) * params.spacing - 0.5 * params.spacing;
+            let z = lo.z + (k as f32 + 0.5) * params.spacing - 0.5 * params.spacing;
+            let o = Vec3::new(x, top, z);
+            scene
+                .closest_hit(o, Vec3::NEG_Y, depth, 0.5)
+                .map(|h| o + Vec3::NEG_Y * h.t + Vec3::Y * params.height)
+        })
+        .collect()
+}
+
+impl ProbeSet {
+    /// Bakes probes at `positions` in `scene`: each casts `params.rays` rays; hits
+    /// become surfels (per cell and normal axis), grouped in bricks; misses become its
+    /// sky visibility. `progress(done, total)` is called as probes finish.
+    pub fn bake(
+        scene: &RayScene<'_>,
+        positions: &[Vec3],
+        params: &ProbeParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self, ProbeError> {
+        params.validate()?;
+        if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+            return Err(
+                lightgrid_core::GridError::invalid("positions", p, "must be finite").into(),
+            );
+        }
+        let n = params.rays;
+        let dw = 4.0 * std::f32::consts::PI / n as f32;
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        // Every probe's rays, in ray order (deterministic on any thread count).
+        let per_probe: Vec<Vec<RayOut>> = positions
+            .par_iter()
+            .map(|&p| {
+                let out = (0..n)
+                    .map(|i| {
+                        let d = fibonacci(i, n);
+                        match scene.closest_hit(p, d, params.max_distance, 0.5) {
+                            Some(h) => {
+                                let point = p + d * h.t;
+                                let cell = (point / params.cell).floor().as_ivec3();
+                                RayOut::Hit {
+                                    key: (cell, axis_of(h.normal)),
+                                    point,
+                                    normal: h.normal,
+                                    albedo: h.colour,
+                                    t: h.t,
+                                    dir: d,
+                                }
+                            }
+                            None => RayOut::Sky { dir: d },
+                        }
+                    })
+                    .collect();
+                let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                progress(k, positions.len());
+                out
+            })
+            .collect();
+
+        // Surfels: one per cell key, in order of first hit.
+        let mut surfel_of: HashMap<CellKey, u32> = HashMap::new();
+        let mut acc: Vec<(Vec3, Vec3, Vec3, u32)> = Vec::new();
+        for rays in &per_probe {
+            for r in rays {
+                if let RayOut::Hit {
+                    key,
+                    point,
+                    normal,
+                    albedo,
+                    ..
+                } = r
+                {
+                    let s = *surfel_of.entry(*key).or_insert_with(|| {
+                        acc.push((Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0));
+                        acc.len() as u32 - 1
+                    });
+                    let a = &mut acc[s as usize];
+                    a.0 += *point;
+                    a.1 += *normal;
+                    a.2 += *albedo;
+                    a.3 += 1;
+                }
+            }
+        }
+        let surfels: Vec<Surfel> = acc
+            .iter()
+            .map(|(p, nrm, alb, c)| {
+                let c = *c as f32;
+                Surfel {
+                    position: *p / c,
+                    normal: nrm.try_normalize().unwrap_or(Vec3::Y),
+                    albedo: (*alb / c).clamp(Vec3::ZERO, Vec3::ONE),
+                    hits: c as u32,
+                }
+            })
+            .collect();
+
+        // Bricks: `brick` cells a side, per normal axis.
+        let b = params.brick as i32;
+        let mut brick_of_key: HashMap<CellKey, u32> = HashMap::new();
+        let mut brick_members: Vec<Vec<u32>> = Vec::new();
+        let mut brick_of_surfel = vec![0u32; surfels.len()];
+        let mut keys: Vec<(CellKey, u32)> = surfel_of.iter().map(|(k, s)| (*k, *s)).collect();
+        keys.sort_by_key(|(_, s)| *s);
+        for ((cell, axis), s) in keys {
+            let bk = (cell.div_euclid(IVec3::splat(b)), axis);
+            let bi = *brick_of_key.entry(bk).or_insert_with(|| {
+                brick_members.push(Vec::new());
+                brick_members.len() as u32 - 1
+            });
+            brick_members[bi as usize].push(s);
+            brick_of_surfel[s as usize] = bi;
+        }
+        let mut brick_start = Vec::with_capacity(brick_members.len() + 1);
+        let mut brick_surfels = Vec::new();
+        for m in &brick_members {
+            brick_start.push(brick_surfels.len() as u32);
+            brick_surfels.extend_from_slice(m);
+        }
+        brick_start.push(brick_surfels.len() as u32);
+
+        // Per probe: brick factors and sky visibility; per surfel: the probes that saw
+        // it and how near.
+        let omega = dirs::solid_angles();
+        let mut probes = Vec::with_capacity(positions.len());
+        let mut factors = Vec::new();
+        let mut seen: Vec<Vec<(u32, f32)>> = vec![Vec::new(); surfels.len()];
+        for (pi, (rays, &p)) in per_probe.iter().zip(positions).enumerate() {
+            let mut sky = [[0.0f32; NUM_DIRS]; 6];
+            let mut by_brick: HashMap<u32, [f32; 6]> = HashMap::new();
+            let mut order: Vec<u32> = Vec::new();
+            for r in rays {
+                match r {
+                    RayOut::Hit { key, t, dir, .. } => {
+                        let s = surfel_of[key];
+                        let w = by_brick
+                            .entry(brick_of_surfel[s as usize])
+                            .or_insert_with(|| {
+                                order.push(brick_of_surfel[s as usize]);
+                                [0.0; 6]
+                            });
+                        for (k, a) in AMBIENT_AXES.iter().enumerate() {
+                            w[k] += dir.dot(*a).max(0.0) * dw;
+                        }
+                        let near = &mut seen[s as usize];
+                        match near.iter_mut().find(|(q, _)| *q == pi as u32) {
+                            Some(e) => e.1 = e.1.min(*t),
+                            None => near.push((pi as u32, *t)),
+                        }
+                    }
+                    RayOut::Sky { dir } => {
+                        // Light arriving from `dir` travels along `-dir`.
+                        let bin = dirs::nearest_dir(-*dir);
+                        for (k, a) in AMBIENT_AXES.iter().enumerate() {
+                            sky[k][bin] += dir.dot(*a).max(0.0) * dw / omega[bin];
+                        }
+                    }
+                }
+            }
+            let start = factors.len() as u32;
+            factors.extend(order.iter().map(|bi| BrickFactor {
+                brick: *bi,
+                weights: by_brick[bi],
+            }));
+            probes.push(Probe {
+                position: p,
+                sky,
+                factors: start..factors.len() as u32,
+            });
+        }
+        let mut link_start = Vec::with_capacity(surfels.len() + 1);
+        let mut links = Vec::new();
+        let floor = params.cell * params.cell;
+        for near in &mut seen {
+            link_start.push(links.len() as u32);
+            near.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            near.truncate(params.probes_per_surfel as usize);
+            let w: Vec<f32> = near.iter().map(|(_, t)| 1.0 / (t * t).max(floor)).collect();
+            let sum: f32 = w.iter().sum();
+            links.extend(near.iter().zip(&w).map(|((q, _), w)| (*q, w / sum)));
+        }
+        link_start.push(links.len() as u32);
+        Ok(Self {
+            params: *params,
+            probes,
+            surfels,
+            brick_start,
+            brick_surfels,
+            factors,
+            link_start,
+            links,
+        })
+    }
+
+    /// The parameters it was baked with.
+    pub fn params(&self) -> &ProbeParams {
+        &self.params
+    }
+
+    /// The probes.
+    pub fn probes(&self) -> &[Probe] {
+        &self.probes
+    }
+
+    /// The surfels.
+    pub fn surfels(&self) -> &[Surfel] {
+        &self.surfels
+    }
+
+    /// Number of bricks.
+    pub fn brick_count(&self) -> usize {
+        self.brick_start.len().saturating_sub(1)
+    }
+
+    /// The surfels of brick `b`.
+    pub fn brick(&self, b: usize) -> &[u32] {
+        &self.brick_surfels[self.brick_start[b] as usize..self.brick_start[b + 1] as usize]
+    }
+
+    /// All brick factors (each probe's are `factors[probe.factors]`).
+    pub fn factors(&self) -> &[BrickFactor] {
+        &self.factors
+    }
+
+    /// The probes lighting surfel `s`, with weights summing to 1.
+    pub fn surfel_links(&self, s: usize) -> &[(u32, f32)] {
+        &self.links[self.link_start[s] as usize..self.link_start[s + 1] as usize]
+    }
+
+    /// Bytes as stored (the figure of the crate docs' table).
+    pub fn bytes(&self) -> usize {
+        self.probes.len() * (NUM_DIRS * 6 * 4 + 12 + 8)
+            + self.factors.len() * 28
+            + self.surfels.len() * 40
+            + self.brick_surfels.len() * 4
+            + self.brick_start.len() * 4
+            + self.links.len() * 8
+            + self.link_start.len() * 4
+    }
+
+    /// Whether each surfel sees the sun toward `to_sun` (1 or 0, alpha-tested at the
+    /// mask's cutoff): one shadow ray from its position, lifted a twentieth of a cell
+    /// along its normal. Surfels facing away get 0. Recompute when the sun moves.
+    pub fn sun_visibility(&self, scene: &RayScene<'_>, to_sun: Vec3) -> Vec<f32> {
+        let Some(s) = to_sun.try_normalize() else {
+            return vec![0.0; self.surfels.len()];
+        };
+        let lift = 0.05 * self.params.cell;
+        self.surfels
+            .par_iter()
+            .map(|sf| {
+                if sf.normal.dot(s) <= 0.0 {
+                    return 0.0;
+                }
+                let o = sf.position + sf.normal * lift;
+                match scene.closest_hit(o, s, self.params.max_distance, 0.5) {
+                    Some(_) => 0.0,
+                    None => 1.0,
+                }
+            })
+            .collect()
+    }
+}

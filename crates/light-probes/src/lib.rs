@@ -1,0 +1,108 @@
+//! # light-probes
+//!
+//! Relightable light probes, the way The Division lights its cities (seed 004): what
+//! each probe sees is precomputed once — the surfaces (**surfels**, grouped in
+//! **bricks**) and the sky — and every frame the probes are relit from the sun, the sky
+//! and their own last frame, so time of day and weather change the bounce light of
+//! streets and walls without baking again. It complements the sweep: the sweep suits
+//! foliage and open terrain (light through media); probes suit buildings and streets
+//! (opaque surfaces bouncing light).
+//!
+//! ```text
+//! glTF meshes --RayScene (obvhs BVH)--> probe positions (place: a ray down each column)
+//! probes --rays (Fibonacci sphere)--> hits: surfels per 1 m cell and normal axis,
+//!                                      bricks of 4³ cells; misses: sky visibility
+//! per frame: surfels <- sun (shadow rays) + last frame's probes (ambient cube)
+//!            bricks  <- mean of their surfels
+//!            probes  <- Σ brick factors × brick light + sky visibility × sky bins
+//! ```
+//!
+//! Each probe stores irradiance in the Half-Life 2 ambient-cube basis (six axes,
+//! [`lightgrid_core::AmbientCube`]): The Division tried 2nd-order SH (loses opposite
+//! strong lights) and 8 directions (too dark without ±Y) before settling on it.
+//!
+//! ## Example
+//!
+//! ```
+//! use lightgrid_core::glam::{Vec2, Vec3, Vec4};
+//! use lightgrid_core::BinLight;
+//! use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
+//! use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+//! use material_voxelizer::voxelize::RayScene;
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // A 100 m ground of albedo 0.5 under a uniform sky of radiance 1.
+//! let q = |a: [f32; 3], b: [f32; 3], c: [f32; 3]| Triangle {
+//!     positions: [a.into(), b.into(), c.into()],
+//!     uvs: [Vec2::ZERO; 3],
+//!     material: 0,
+//!     part: 0,
+//! };
+//! let model = Model {
+//!     triangles: vec![
+//!         q([-50.0, 0.0, -50.0], [50.0, 0.0, 50.0], [50.0, 0.0, -50.0]),
+//!         q([-50.0, 0.0, -50.0], [-50.0, 0.0, 50.0], [50.0, 0.0, 50.0]),
+//!     ],
+//!     materials: vec![SurfaceMaterial {
+//!         base_colour: Vec4::new(0.5, 0.5, 0.5, 1.0),
+//!         ..Default::default()
+//!     }],
+//!     textures: vec![],
+//! };
+//! let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
+//! let params = ProbeParams::preview();
+//! let set = ProbeSet::bake(&scene, &[Vec3::new(0.0, 2.0, 0.0)], &params, &|_, _| {})?;
+//! let mut light = ProbeLight::new(&set);
+//! let lighting = Lighting { sky: BinLight::uniform(Vec3::ONE), sun: None };
+//! let visible = set.sun_visibility(&scene, Vec3::Y);
+//! for _ in 0..3 {
+//!     light.frame(&set, &lighting, &visible)?;
+//! }
+//! let up = light.probe(0).unwrap().irradiance(Vec3::Y);
+//! assert!((up.x - std::f32::consts::PI).abs() < 0.05); // the open sky: π L
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! ## Memory
+//!
+//! Per probe `6 × 26 × 4 + 12` bytes of sky visibility and position, plus 28 bytes per
+//! brick it sees; per surfel 40 bytes, plus 8 per probe link; per brick member 4 bytes
+//! ([`ProbeSet::bytes`]). The Division's choice of bricks (4³ cells) keeps the factor
+//! count per probe near the number of bricks in view instead of the number of surfels.
+//!
+//! | layout | per probe | relight cost | why |
+//! |--------|-----------|--------------|-----|
+//! | surfels per probe (brick = 1) | 28 B × surfels seen | one multiply-add per surfel seen | exact to the surfel |
+//! | bricks of 4³ cells (default) | 28 B × bricks seen | one per brick seen | 5–20× fewer factors; a brick's light is its surfels' mean |
+//! | sky visibility, 26 bins × 6 axes | 624 B | 156 multiply-adds | any sky the bins hold (clear, EXR), exact for light constant per bin |
+//!
+//! ## Known answers (tests)
+//!
+//! `tests/known_answers.rs`: an infinite Lambertian ground under a uniform sky and a sun
+//! (up `π L`, down `a (π L + E cos θ)`, sideways the mean of the two halves); a closed
+//! box stays dark; relighting is linear in sky and sun; baking is deterministic.
+//!
+//! ## Not yet here (issue 19)
+//!
+//! The GPU relight kernel, sectors streamed around the camera, interior volumes, probes
+//! along walls, the Kenney town measurement against the Monte Carlo reference, and the
+//! viewer's probe lighting and debug view.
+
+mod bake;
+mod params;
+pub mod reference;
+mod relight;
+
+pub use bake::{BrickFactor, Probe, ProbeSet, Surfel, fibonacci, place};
+pub use params::ProbeParams;
+pub use relight::{Lighting, ProbeLight};
+
+/// Errors of baking and relighting.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ProbeError {
+    /// A parameter or input is invalid (names the field).
+    #[error(transparent)]
+    Invalid(#[from] lightgrid_core::GridError),
+}
