@@ -71,6 +71,7 @@ const ALLOWED: [(&str, Option<&[&str]>); 13] = [
             "lightgrid-gpu",
             "material-voxelizer",
             "light-volumes",
+            "light-probes",
         ]),
     ),
     ("lightgrid-export", Some(&["lightgrid-core", "sweep-cpu"])),

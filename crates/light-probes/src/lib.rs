@@ -83,10 +83,21 @@
 //! (up `π L`, down `a (π L + E cos θ)`, sideways the mean of the two halves); a closed
 //! box stays dark; relighting is linear in sky and sun; baking is deterministic.
 //!
+//! ## Measured (Kenney town, 2-core VM)
+//!
+//! `cargo run --release -p light-probes --example town`: 100 probes (4 m), 4 099
+//! surfels; bake 0.02 s; relight 0.1–0.6 ms a frame; 5.5 KB a probe with bricks of 4,
+//! 10 KB with brick 1; relative RMSE of probe irradiance against [`mod@reference`] 0.026–0.033
+//! (bricks of 4) and 0.014–0.016 (brick 1), reference noise 0.003–0.004, suns at 15°,
+//! 40°, 65°. `tests/town.rs` guards it. On the GPU (`lightgrid_render::probes`, the same
+//! three stages as compute kernels; `cargo run --release -p lightgrid-render --example
+//! probes_town`): equal to the CPU (largest difference 0 on lavapipe), 1 600 probes at
+//! 1 m spacing in 0.65 ms a frame on the CPU (0.41 ms per 1 000 probes) and 5.3 ms on
+//! lavapipe (3.3 ms per 1 000).
+//!
 //! ## Not yet here (issue 19)
 //!
-//! The GPU relight kernel, sectors streamed around the camera, interior volumes, probes
-//! along walls, the Kenney town measurement against the Monte Carlo reference, and the
+//! Sectors streamed around the camera, interior volumes, probes along walls, and the
 //! viewer's probe lighting and debug view.
 
 mod bake;
