@@ -97,17 +97,19 @@
 //!
 //! ## Not yet here (issue 19)
 //!
-//! Sectors streamed around the camera, interior volumes, probes along walls, and the
-//! viewer's probe lighting and debug view.
+//! Interior volumes, probes along walls, and the viewer's probe lighting and debug view.
+//! ([`Sectors`] streams probe sectors around the camera within a memory budget.)
 
 mod bake;
 mod params;
 pub mod reference;
 mod relight;
+mod sectors;
 
 pub use bake::{BrickFactor, Probe, ProbeSet, Surfel, fibonacci, place};
 pub use params::ProbeParams;
 pub use relight::{Lighting, ProbeLight};
+pub use sectors::{LoadedSector, SectorStats, Sectors};
 
 /// Errors of baking and relighting.
 #[derive(Debug, thiserror::Error)]
