@@ -690,51 +690,14 @@ impl Ctx {
                     for (c, chn) in self.ch.iter().enumerate() {
                         // Step 1: gather from the source point and its smoothing taps.
                         let (qx, qz) = (x - chn.step.x, z - chn.step.z);
-                        let s = self.smoothing;
-                        let taps = [
-                            (qx, qz, 1.0 - s),
-                            (qx + 1, qz, 0.25 * s),
-                            (qx - 1, qz, 0.25 * s),
-                            (qx, qz + 1, 0.25 * s),
-                            (qx, qz - 1, 0.25 * s),
-                        ];
-                        let mut ins = Vec3::ZERO;
-                        let mut outs = Vec3::ZERO;
-                        for (tx, tz, w) in taps {
-                            if w == 0.0 {
-                                continue;
-                            }
-                            match self.col(tx, tz) {
-                                Some(i) => ins += prev[i][c] * w,
-                                None if from_virtual && src.halo.is_none() => {
-                                    outs += src.virtual_light(tx, tz, chn) * w
-                                }
-                                None => outs += src.outside(tx, src_level, tz, chn) * w,
-                            }
-                        }
+                        let (ins, outs) =
+                            self.gather_edge(prev, src, from_virtual, src_level, chn, c, qx, qz);
                         rf.inside += ins.as_dvec3() * chn.mu as f64;
                         rf.outside += outs.as_dvec3() * chn.mu as f64;
                         let light = ins + outs;
                         // Step 2: transmit along the path, recording what each cell removes.
-                        let mut t = 1.0f32;
-                        let mut t_mid = 1.0f32;
-                        let mut after = 1.0f32;
-                        let mut past_centre = false;
-                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                            let (tr, half) = match self.col(x + dx, z + dz) {
-                                Some(ci) => (pows[ci][chn.pow[k]], pows[ci][chn.mid_pow]),
-                                None => (1.0, 1.0),
-                            };
-                            rem_row[xi][chn.first_slot + k] = light * (t * (1.0 - tr));
-                            if past_centre {
-                                after *= tr;
-                            }
-                            if dx == 0 && dz == 0 {
-                                t_mid = t * half;
-                                past_centre = true;
-                            }
-                            t *= tr;
-                        }
+                        let (t, t_mid, after) =
+                            self.transmit(pows, chn, x, z, None, light, &mut rem_row[xi]);
                         ta_row[xi][c] = after;
                         cur_row[xi][c] = light * t;
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
@@ -743,6 +706,49 @@ impl Ctx {
                 *row_out = rf;
             });
         sum_rows(rows)
+    }
+
+    /// Step 2 for one point and channel: along the path cell by cell, each cell removes
+    /// `light T_k (1 - τ_k)` (written into `rem`); returns the path's transmittance
+    /// `T`, the transmittance to the point's centre `T_mid` and `T_after`. Path cells
+    /// are found by [`Ctx::col`], or by index from the point's index `inner` when every
+    /// cell of the path lies inside the grid.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn transmit(
+        &self,
+        pows: &[[f32; MAX_EXPONENTS]],
+        chn: &Channel,
+        x: i32,
+        z: i32,
+        inner: Option<usize>,
+        light: Vec3,
+        rem: &mut [Vec3; SLOTS],
+    ) -> (f32, f32, f32) {
+        let mut t = 1.0f32;
+        let mut t_mid = 1.0f32;
+        let mut after = 1.0f32;
+        let mut past_centre = false;
+        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+            let ci = match inner {
+                Some(pi) => Some((pi as i32 + dx + self.nx * dz) as usize),
+                None => self.col(x + dx, z + dz),
+            };
+            let (tr, half) = match ci {
+                Some(ci) => (pows[ci][chn.pow[k]], pows[ci][chn.mid_pow]),
+                None => (1.0, 1.0),
+            };
+            rem[chn.first_slot + k] = light * (t * (1.0 - tr));
+            if past_centre {
+                after *= tr;
+            }
+            if dx == 0 && dz == 0 {
+                t_mid = t * half;
+                past_centre = true;
+            }
+            t *= tr;
+        }
+        (t, t_mid, after)
     }
 
     /// Steps 1-2 as [`Ctx::phase1_scalar`], bit for bit, faster: source taps and path
@@ -822,30 +828,15 @@ impl Ctx {
                             continue;
                         }
                         // Step 2.
-                        let mut t = 1.0f32;
-                        let mut t_mid = 1.0f32;
-                        let mut after = 1.0f32;
-                        let mut past_centre = false;
-                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                            let ci = if inner {
-                                Some((pi as i32 + dx + nxi * dz) as usize)
-                            } else {
-                                self.col(x + dx, z + dz)
-                            };
-                            let (tr, half) = match ci {
-                                Some(ci) => (pows[ci][chn.pow[k]], pows[ci][chn.mid_pow]),
-                                None => (1.0, 1.0),
-                            };
-                            rem_row[xi][chn.first_slot + k] = light * (t * (1.0 - tr));
-                            if past_centre {
-                                after *= tr;
-                            }
-                            if dx == 0 && dz == 0 {
-                                t_mid = t * half;
-                                past_centre = true;
-                            }
-                            t *= tr;
-                        }
+                        let (t, t_mid, after) = self.transmit(
+                            pows,
+                            chn,
+                            x,
+                            z,
+                            inner.then_some(pi),
+                            light,
+                            &mut rem_row[xi],
+                        );
                         ta_row[xi][c] = after;
                         cur_row[xi][c] = light * t;
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
@@ -856,8 +847,8 @@ impl Ctx {
         sum_rows(rows)
     }
 
-    /// Step 1 for a source point near or beyond the sides: the taps one by one
-    /// (light from inside the grid, light from outside).
+    /// Step 1, tap by tap (light from inside the grid, light from outside): the
+    /// scalar oracle's gather everywhere, the fast path's near the sides.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn gather_edge(

@@ -246,23 +246,26 @@ fn sun_split_responses() {
     assert_eq!(split.transmittance, fresh.transmittance);
 }
 
+/// A sweeper that implements only `sweep` (no cell sources, no sun).
+struct Plain;
+
+impl lightgrid_core::Sweeper for Plain {
+    fn name(&self) -> &'static str {
+        "plain"
+    }
+    fn sweep(
+        &mut self,
+        m: &MaterialGrid,
+        b: &Boundary,
+        o: &SweepOptions,
+    ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
+        Ok(sweep_cpu::run(m, b, o)?.output)
+    }
+}
+
 /// A sweeper without cell sources says so by name instead of ignoring the source.
 #[test]
 fn sweepers_without_sources_refuse_them() {
-    struct Plain;
-    impl lightgrid_core::Sweeper for Plain {
-        fn name(&self) -> &'static str {
-            "plain"
-        }
-        fn sweep(
-            &mut self,
-            m: &MaterialGrid,
-            b: &Boundary,
-            o: &SweepOptions,
-        ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
-            Ok(sweep_cpu::run(m, b, o)?.output)
-        }
-    }
     let m = sweep_cpu::exact::ground_material(1, 0.3);
     let src = sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::ZERO; 512], Vec3::NEG_Y).unwrap();
     let e = lightgrid_core::Sweeper::sweep_with_source(
@@ -282,20 +285,6 @@ fn sweepers_without_sources_refuse_them() {
 /// scattered light of the boundary.
 #[test]
 fn sweep_sun_refusal_and_a_sun_below_the_horizon() {
-    struct Plain;
-    impl lightgrid_core::Sweeper for Plain {
-        fn name(&self) -> &'static str {
-            "plain"
-        }
-        fn sweep(
-            &mut self,
-            m: &MaterialGrid,
-            b: &Boundary,
-            o: &SweepOptions,
-        ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
-            Ok(sweep_cpu::run(m, b, o)?.output)
-        }
-    }
     use lightgrid_core::{SunBoundary, Sweeper};
     let m = sweep_cpu::exact::ground_material(1, 0.3);
     let sb = SunBoundary {
