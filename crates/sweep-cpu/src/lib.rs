@@ -63,12 +63,12 @@
 //!
 //! | case | fast path | scalar oracle | before (same bench, issue 15) |
 //! |------|----------:|--------------:|------------------------------:|
-//! | 64³, 26 bins, 1 downward pass | 104 ms (2.5 M points/s) | 144 ms (1.8 M/s) | 213 ms (1.2 M/s) |
-//! | 64³, 26 bins, 4 passes | 228 ms (1.15 M/s) | 583 ms (0.45 M/s) | 644 ms (0.41 M/s) |
-//! | 64³, average + dominant only, 1 pass | 53 ms (4.9 M/s) | 100 ms (2.6 M/s) | 151 ms (1.7 M/s) |
-//! | 64³, average + dominant only, 4 passes | 247 ms (1.06 M/s) | 424 ms (0.62 M/s) | 648 ms (0.40 M/s) |
-//! | 16 × 64 × 16, 26 bins, 1 pass | 7.6 ms (2.1 M/s) | 9.8 ms (1.7 M/s) | |
-//! | 16 × 64 × 16, 26 bins, 4 passes | 30.5 ms (0.54 M/s) | 41.5 ms (0.39 M/s) | |
+//! | 64³, 26 bins, 1 downward pass | 81 ms (3.2 M points/s) | 173 ms (1.5 M/s) | 213 ms (1.2 M/s) |
+//! | 64³, 26 bins, 4 passes | 265 ms (0.99 M/s) | 592 ms (0.44 M/s) | 644 ms (0.41 M/s) |
+//! | 64³, average + dominant only, 1 pass | 48 ms (5.5 M/s) | 147 ms (1.8 M/s) | 151 ms (1.7 M/s) |
+//! | 64³, average + dominant only, 4 passes | 197 ms (1.33 M/s) | 509 ms (0.51 M/s) | 648 ms (0.40 M/s) |
+//! | 16 × 64 × 16, 26 bins, 1 pass | 6.8 ms (2.4 M/s) | 12.3 ms (1.3 M/s) | |
+//! | 16 × 64 × 16, 26 bins, 4 passes | 29.4 ms (0.56 M/s) | 40.4 ms (0.41 M/s) | |
 //!
 //! ("Before" is criterion's own comparison with its stored baseline of the previous
 //! implementation on this machine; the oracle column shares the fast path's output and
@@ -92,11 +92,11 @@
 //! a row of points, stay in cache). This VM streams about 34 GB/s (one core, a triad
 //! loop): memory allows some 50 M points/s, so the sweep is compute bound; two cores of
 //! scalar `f32` at ~4 GFlop/s each allow about 11 M points/s, of which the 1-pass figure
-//! (2.5 M/s, allocation and output included) is about a quarter; phase 1 alone runs at
+//! (3.2 M/s, allocation and output included) is under a third; phase 1 alone runs at
 //! about half of it (the 139 k computed points of a pass in about 25 ms, profiled with
-//! timers). The issue's 20 M points/s needs the
-//! gather vectorised across a row (channel planes, structure of arrays) and the output
-//! written into reused memory instead of fresh pages; both remain to do.
+//! timers). The issue's 20 M points/s needs the gather vectorised across a row (channel
+//! planes, structure of arrays) and the output written into reused memory instead of
+//! fresh pages; both remain to do.
 //!
 //! ## Semantics of the sweep
 //!
