@@ -105,6 +105,9 @@ pub struct ViewSummary {
     pub grid_bytes: [u64; 3],
     /// Light volume bytes for per-pixel lighting.
     pub volume_bytes: u64,
+    /// With the sun kept apart: the sun's responses beside the sky's grids (scattered
+    /// bins as 26 `f32` bins, and the transmittance, 4 bytes a point); 0 otherwise.
+    pub sun_bytes: u64,
     /// Where the light was sampled: `"device"` (from the grids the GPU sweeper left on
     /// the renderer's device: nothing copied through the CPU) or `"cpu"`.
     pub sampled_on: String,
@@ -159,6 +162,13 @@ impl Summary {
                 v.grid_bytes[2] as f64 / 1e6,
                 v.volume_bytes as f64 / 1e6
             );
+            if v.sun_bytes > 0 {
+                let _ = writeln!(
+                    s,
+                    "  sun responses (scattered bins, transmittance): {:.1} MB beside the grids",
+                    v.sun_bytes as f64 / 1e6
+                );
+            }
             let _ = writeln!(s, "  light sampled on: {}", v.sampled_on);
             let _ = writeln!(
                 s,
@@ -298,6 +308,11 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
                 stats.bytes(BYTES_AVG_DOM),
             ],
             volume_bytes: relit.volume_bytes,
+            sun_bytes: if world.hierarchy.sun().is_some() {
+                stats.bytes(BYTES_26_F32 + 4)
+            } else {
+                0
+            },
             sampled_on: if relit.on_device {
                 format!("device ({} grids in place)", relit.grids)
             } else {

@@ -81,6 +81,11 @@ fn tiny_scene_matches_the_reference_images() {
     let moved = summary.sun_move.as_deref().expect("a sun move");
     assert!(moved.contains("sun responses recomputed"), "{moved}");
     assert!(out.join("tiny-sun-moved.png").is_file());
+    // The sun's responses are counted beside the sky's grids: 316 bytes a point.
+    for v in &summary.views {
+        let points: u64 = v.points_per_depth.iter().sum();
+        assert_eq!(v.sun_bytes, points * 316, "{}", v.name);
+    }
     // --bevy: the world volume first, then one per quadtree depth, indirect light.
     let side: lightgrid_export::Sidecar =
         serde_json::from_str(&std::fs::read_to_string(out.join("bevy/tiny.json")).unwrap())
@@ -179,6 +184,7 @@ fn tiny_scene_swept_and_drawn_on_the_device_matches_the_cpu() {
     };
     assert!(summary.sweeper.starts_with("gpu"), "{}", summary.sweeper);
     assert!(summary.sun_move.is_none() && summary.sun.starts_with("in the sky's bins"));
+    assert!(summary.views.iter().all(|v| v.sun_bytes == 0));
     for v in &summary.views {
         assert!(
             v.sampled_on.starts_with("device"),
