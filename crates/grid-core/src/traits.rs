@@ -456,6 +456,9 @@ pub struct SunResponse {
     pub transmittance: Grid<f32>,
     /// Work counters of the scattered-light sweep.
     pub stats: SweepStats,
+    /// The sweeper's device copy of `scattered`, if it keeps one (as
+    /// [`SweepOutput::resident`]).
+    pub resident: Option<Resident>,
 }
 
 /// Light a beam deposits in cells before a sweep's first pass (the first collisions of

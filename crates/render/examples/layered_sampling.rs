@@ -55,7 +55,11 @@ fn main() -> anyhow::Result<()> {
     let layers: Vec<GpuSampleLayer> = dev
         .iter()
         .zip(&cpu_layers)
-        .map(|(g, (_, o))| GpuSampleLayer { grid: g, owner: *o })
+        .map(|(g, (_, o))| GpuSampleLayer {
+            grid: g,
+            owner: *o,
+            sun: None,
+        })
         .collect();
     let sampler = GpuLightSampler::new(ctx.clone());
     let owning = |p: Vec3| -> usize {

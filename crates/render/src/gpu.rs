@@ -35,7 +35,53 @@ lightgrid_gpu::gpu_struct! {
         pub pad1: u32 => "u32",
         /// Padding.
         pub pad2: u32 => "u32",
+        /// Multiplier of the layer's bins (rgb): the sky's scale when the sun is kept
+        /// apart ([`LayerLight`]), 1 otherwise.
+        pub sky_scale: [f32; 4] => "vec4<f32>",
+        /// The sun kept apart: irradiance (rgb), w = 1 when the layer has its responses.
+        pub sun: [f32; 4] => "vec4<f32>",
+        /// Direction toward the sun (xyz).
+        pub to_sun: [f32; 4] => "vec4<f32>",
     }
+}
+
+/// The light of a layered sampling: the sky's scale, and the sun kept apart from the
+/// bins (`terrain_lod::Hierarchy::set_sun`) whose responses every layer then carries
+/// ([`GpuSampleLayer::sun`]). The default: scale 1, no sun (the bins hold all light).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LayerLight {
+    /// Multiplies every layer's bins.
+    pub sky_scale: Vec3,
+    /// Direction toward the sun and its irradiance.
+    pub sun: Option<(Vec3, Vec3)>,
+}
+
+impl Default for LayerLight {
+    fn default() -> Self {
+        Self {
+            sky_scale: Vec3::ONE,
+            sun: None,
+        }
+    }
+}
+
+/// A layer's sun responses on the device (for unit sun irradiance).
+#[derive(Debug, Clone, Copy)]
+pub struct GpuLayerSun<'a> {
+    /// The sun's scattered light (26 bins), on the layer grid's points.
+    pub scattered: &'a GpuLightGrid,
+    /// The beam's transmittance, one `f32` a point ([`transmittance_buffer`]).
+    pub transmittance: &'a wgpu::Buffer,
+}
+
+/// A transmittance grid's values in a storage buffer, for [`GpuLayerSun`].
+pub fn transmittance_buffer(ctx: &GpuContext, values: &[f32]) -> wgpu::Buffer {
+    buffer(
+        ctx,
+        "sun transmittance",
+        bytemuck::cast_slice(values),
+        wgpu::BufferUsages::STORAGE,
+    )
 }
 
 lightgrid_gpu::gpu_struct! {
@@ -115,6 +161,8 @@ pub struct GpuSampleLayer<'a> {
     pub grid: &'a GpuLightGrid,
     /// Which points it lights; `None`: all.
     pub owner: Option<LayerOwner>,
+    /// Its sun responses, when the sun is kept apart ([`LayerLight::sun`]).
+    pub sun: Option<GpuLayerSun<'a>>,
 }
 
 /// The points a GPU sampling lights.
@@ -188,7 +236,7 @@ impl GpuLightSampler {
             device,
             "sample",
             &crate::wgsl::sample_kernel(),
-            &[Uniform, Read, Read, Read, ReadWrite],
+            &[Uniform, Read, Read, Read, Read, Read, ReadWrite],
         );
         let table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("irradiance table"),
@@ -213,6 +261,7 @@ impl GpuLightSampler {
             &[GpuSampleLayer {
                 grid: &grid,
                 owner: None,
+                sun: None,
             }],
             GpuPoints::List(points),
         )?
@@ -230,7 +279,59 @@ impl GpuLightSampler {
         layers: &[GpuSampleLayer<'_>],
         points: GpuPoints<'_>,
     ) -> Result<GpuSamples, RenderError> {
+        self.sample_layers_lit(layers, points, &LayerLight::default())
+    }
+
+    /// [`GpuLightSampler::sample_layers`] with the sky scaled and a sun kept apart, as
+    /// `terrain_lod::Hierarchy`'s `LightField` reads it: the light is
+    /// `bins × sky_scale + scattered × irradiance`, the first `vec4`'s `w` the sun's
+    /// transmittance (read like the light, with the normal bias), and points with
+    /// normals get the direct sun `E T max(0, n · s)` added to their irradiance (what
+    /// vertex and ground light hold). Every layer must carry its sun responses when a
+    /// sun is given.
+    pub fn sample_layers_lit(
+        &self,
+        layers: &[GpuSampleLayer<'_>],
+        points: GpuPoints<'_>,
+        light: &LayerLight,
+    ) -> Result<GpuSamples, RenderError> {
         let device = &self.ctx.device;
+        if !light.sky_scale.is_finite() || light.sky_scale.min_element() < 0.0 {
+            return Err(GridError::invalid(
+                "sky_scale",
+                light.sky_scale,
+                "must be finite and >= 0",
+            )
+            .into());
+        }
+        let sun = match light.sun {
+            Some((s, e)) => {
+                let s = s.try_normalize().ok_or_else(|| {
+                    GridError::invalid("sun.to_sun", s, "must be a finite, non-zero direction")
+                })?;
+                if !e.is_finite() || e.min_element() < 0.0 {
+                    return Err(
+                        GridError::invalid("sun.irradiance", e, "must be finite and >= 0").into(),
+                    );
+                }
+                if let Some(i) = layers.iter().position(|l| {
+                    l.sun.is_none_or(|ls| {
+                        !Arc::ptr_eq(ls.scattered.context(), &self.ctx)
+                            || ls.scattered.desc() != l.grid.desc()
+                            || ls.transmittance.size() < l.grid.desc().point_count() as u64 * 4
+                    })
+                }) {
+                    return Err(GridError::invalid(
+                        format!("layers[{i}].sun"),
+                        "missing or unlike its grid",
+                        "every layer needs sun responses on this device, on its grid's points",
+                    )
+                    .into());
+                }
+                Some((s, e))
+            }
+            None => None,
+        };
         let limit = self.ctx.max_binding();
         if let Some(i) = layers
             .iter()
@@ -307,6 +408,12 @@ impl GpuLightSampler {
                 lattice_origin_h,
                 lattice_dims,
                 count: count as u32,
+                sky_scale: light.sky_scale.extend(0.0).to_array(),
+                sun: match sun {
+                    Some((_, e)) => e.extend(1.0).to_array(),
+                    None => [0.0; 4],
+                },
+                to_sun: sun.map_or([0.0; 4], |(s, _)| s.extend(0.0).to_array()),
                 ..Default::default()
             };
             let uniform = buffer(
@@ -315,9 +422,22 @@ impl GpuLightSampler {
                 bytemuck::bytes_of(&params),
                 wgpu::BufferUsages::UNIFORM,
             );
+            // Without a sun the sky's buffers stand in for the unread sun bindings.
+            let (scattered, transmittance) = match (sun, layer.sun) {
+                (Some(_), Some(ls)) => (ls.scattered.buffer(), ls.transmittance),
+                _ => (layer.grid.buffer(), &pts),
+            };
             let bind = self.kernel.bind(
                 device,
-                &[&uniform, layer.grid.buffer(), &pts, &self.table, &out],
+                &[
+                    &uniform,
+                    layer.grid.buffer(),
+                    scattered,
+                    transmittance,
+                    &pts,
+                    &self.table,
+                    &out,
+                ],
             );
             self.kernel.dispatch(&self.ctx, &bind, count as u32);
         }

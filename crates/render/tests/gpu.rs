@@ -706,7 +706,11 @@ fn layered_device_sampling_equals_the_cpu_rule() {
     let layers: Vec<GpuSampleLayer> = dev
         .iter()
         .zip(&cpu_layers)
-        .map(|(g, (_, o))| GpuSampleLayer { grid: g, owner: *o })
+        .map(|(g, (_, o))| GpuSampleLayer {
+            grid: g,
+            owner: *o,
+            sun: None,
+        })
         .collect();
     let mut rng = fastrand::Rng::with_seed(3);
     let positions: Vec<Vec3> = (0..3000)
@@ -811,6 +815,7 @@ fn layered_device_sampling_equals_the_cpu_rule() {
             &[GpuSampleLayer {
                 grid: &foreign,
                 owner: None,
+                sun: None,
             }],
             GpuPoints::Lattice(lattice),
         )
@@ -835,6 +840,7 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
     let layer = [GpuSampleLayer {
         grid: &dev,
         owner: None,
+        sun: None,
     }];
     let close = |a: &lightgrid_render::Image, b: &lightgrid_render::Image, what: &str| {
         let mut lit = 0;
@@ -1047,4 +1053,180 @@ fn probe_relight_on_the_gpu_equals_the_cpu() {
     // Bad input by name.
     let e = gpu.frame(&lighting, &vis[1..]).unwrap_err().to_string();
     assert!(e.contains("sun_visibility"), "{e}");
+}
+
+/// A layer lit as the hierarchy lights it with the sun kept apart: `sky × scale +
+/// scattered × E`, and the transmittance (the CPU rule of `sample_layers_lit`).
+struct LitLayer<'a> {
+    sky: &'a LightGrid,
+    scattered: &'a LightGrid,
+    t: &'a Grid<f32>,
+    scale: Vec3,
+    sun: Vec3,
+}
+
+impl lightgrid_core::LightField for LitLayer<'_> {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
+        Ok(self.sky.light(p, n)? * self.scale + self.scattered.light(p, n)? * self.sun)
+    }
+    fn sun_transmittance(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<f32, lightgrid_core::GridError> {
+        Ok(match n {
+            Some(n) => self.t.sample_biased(p, n)?,
+            None => self.t.sample(p)?,
+        }
+        .clamp(0.0, 1.0))
+    }
+}
+
+/// Layered device sampling with the sky scaled and the sun kept apart equals the CPU
+/// rule: per point the last owning layer's `sky × scale + scattered × E` through
+/// `sample_points`, the transmittance in `w`, and for points with normals the direct sun
+/// `E T max(0, n · s)` added (as vertex light holds it). A layer without sun responses
+/// is refused by name.
+#[test]
+fn layered_device_sampling_with_the_sun_apart() {
+    use lightgrid_render::gpu::{GpuLayerSun, LayerLight, transmittance_buffer};
+    let Some(ctx) = context() else { return };
+    let sampler = GpuLightSampler::new(ctx.clone());
+    let descs = [
+        GridDesc::new(Vec3::new(-8.0, 0.0, -8.0), 2.0, UVec3::new(9, 4, 9)).unwrap(),
+        GridDesc::new(Vec3::new(0.0, 0.0, 0.0), 0.5, UVec3::new(9, 9, 9)).unwrap(),
+    ];
+    let sky: Vec<LightGrid> = descs
+        .iter()
+        .enumerate()
+        .map(|(i, d)| varied_grid(*d, i))
+        .collect();
+    let scat: Vec<LightGrid> = descs
+        .iter()
+        .enumerate()
+        .map(|(i, d)| varied_grid(*d, 10 + i))
+        .collect();
+    let ts: Vec<Grid<f32>> = descs
+        .iter()
+        .map(|d| {
+            Grid::from_trusted(
+                *d,
+                (0..d.point_count())
+                    .map(|i| ((i * 37) % 101) as f32 / 100.0)
+                    .collect(),
+            )
+        })
+        .collect();
+    let owners = [
+        None,
+        Some(LayerOwner {
+            origin: Vec2::splat(-8.0),
+            size: 4.0,
+            index: lightgrid_core::glam::IVec2::new(2, 2),
+        }),
+    ];
+    let (scale, e, to_sun) = (
+        Vec3::new(0.5, 0.8, 1.2),
+        Vec3::new(3.0, 2.5, 2.0),
+        Vec3::new(0.3, 0.8, -0.4).normalize(),
+    );
+    let dev_sky: Vec<GpuLightGrid> = sky
+        .iter()
+        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
+        .collect();
+    let dev_scat: Vec<GpuLightGrid> = scat
+        .iter()
+        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
+        .collect();
+    let dev_t: Vec<wgpu::Buffer> = ts
+        .iter()
+        .map(|t| transmittance_buffer(&ctx, t.data()))
+        .collect();
+    let layers: Vec<GpuSampleLayer> = (0..2)
+        .map(|i| GpuSampleLayer {
+            grid: &dev_sky[i],
+            owner: owners[i],
+            sun: Some(GpuLayerSun {
+                scattered: &dev_scat[i],
+                transmittance: &dev_t[i],
+            }),
+        })
+        .collect();
+    let light = LayerLight {
+        sky_scale: scale,
+        sun: Some((to_sun, e)),
+    };
+    let mut rng = fastrand::Rng::with_seed(9);
+    let positions: Vec<Vec3> = (0..3000)
+        .map(|_| {
+            Vec3::new(
+                rng.f32() * 10.0 - 5.0,
+                rng.f32() * 5.0 - 0.5,
+                rng.f32() * 10.0 - 5.0,
+            )
+        })
+        .collect();
+    let normals: Vec<Vec3> = (0..3000)
+        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5).normalize())
+        .collect();
+    let cpu_layers: Vec<(&LightGrid, Option<LayerOwner>)> = sky.iter().zip(owners).collect();
+    for with_normals in [false, true] {
+        let ns = with_normals.then_some(&normals[..]);
+        let gpu = sampler
+            .sample_layers_lit(
+                &layers,
+                GpuPoints::List(SamplePoints {
+                    positions: &positions,
+                    normals: ns,
+                }),
+                &light,
+            )
+            .unwrap()
+            .read()
+            .unwrap();
+        for (i, p) in positions.iter().enumerate() {
+            let g = owning(&cpu_layers, *p).unwrap();
+            let k = sky.iter().position(|s| std::ptr::eq(s, g)).unwrap();
+            let field = LitLayer {
+                sky: &sky[k],
+                scattered: &scat[k],
+                t: &ts[k],
+                scale,
+                sun: e,
+            };
+            let c = sample_points(
+                &field,
+                SamplePoints {
+                    positions: &positions[i..i + 1],
+                    normals: ns.map(|n| &n[i..i + 1]),
+                },
+            )
+            .unwrap()[0];
+            let want = match ns {
+                Some(n) => c.light + e * (c.sun * n[i].dot(to_sun).max(0.0)),
+                None => c.light,
+            };
+            let got = gpu[i];
+            assert!(
+                (want - got.light).abs().max_element() <= 1e-5 * want.abs().max_element() + 1e-5
+                    && (c.sun - got.sun).abs() <= 1e-5,
+                "normals {with_normals} point {i}: cpu {want} T {} gpu {} T {}",
+                c.sun,
+                got.light,
+                got.sun
+            );
+        }
+    }
+    // A layer without its sun responses: refused by name.
+    let bare = [GpuSampleLayer {
+        grid: &dev_sky[0],
+        owner: None,
+        sun: None,
+    }];
+    let e = sampler
+        .sample_layers_lit(&bare, GpuPoints::Lattice(descs[0]), &light)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("layers[0].sun"), "{e}");
 }

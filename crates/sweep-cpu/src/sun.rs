@@ -418,6 +418,7 @@ pub fn sweep_sun(
         scattered: out.bins.expect("bins asked for"),
         transmittance: lightgrid_core::Grid::from_trusted(t.desc, t.values),
         stats: out.stats,
+        resident: out.resident,
     })
 }
 

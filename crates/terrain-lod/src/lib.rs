@@ -276,6 +276,8 @@ pub struct SunLight {
 /// A grid's sun responses for unit sun irradiance, computed for `to_sun`.
 struct GridSun {
     scattered: LightGrid,
+    /// The sweeper's device copy of `scattered`, if it keeps one.
+    resident: Option<Resident>,
     transmittance: Grid<f32>,
     to_sun: Vec3,
 }
@@ -287,6 +289,8 @@ pub struct LayerSun<'a> {
     pub scattered: &'a LightGrid,
     /// The sun beam's transmittance per point.
     pub transmittance: &'a Grid<f32>,
+    /// The sweeper's device copy of `scattered`, if it keeps one.
+    pub resident: Option<&'a Resident>,
 }
 
 struct Node {
@@ -537,7 +541,11 @@ impl Hierarchy {
     /// window draws with, once that device exists.
     pub fn set_sweeper(&mut self, sweeper: Box<dyn Sweeper + Send + Sync>) -> Result<(), LodError> {
         self.sweeper = sweeper;
-        self.sweep_world()
+        self.sweep_world()?;
+        if self.sun.is_some() {
+            self.sweep_world_sun()?;
+        }
+        Ok(())
     }
 
     /// Changes the sky: the world grid is swept again at once; ready nodes are rebuilt by
@@ -600,6 +608,14 @@ impl Hierarchy {
         for n in self.nodes.values_mut() {
             n.sun = None;
         }
+        self.sweep_world_sun()
+    }
+
+    /// The world grid's sun responses for the current sun.
+    fn sweep_world_sun(&mut self) -> Result<(), LodError> {
+        let Some(sun) = self.sun else {
+            return Ok(());
+        };
         let desc = *self.world.desc();
         let material = self.source.material(&desc)?;
         let o = self.node_options(true);
@@ -611,6 +627,7 @@ impl Hierarchy {
         let r = self.sweeper.sweep_sun(&material, &boundary, &o)?;
         self.world_sun = Some(GridSun {
             scattered: r.scattered,
+            resident: r.resident,
             transmittance: r.transmittance,
             to_sun: sun.to_sun,
         });
@@ -665,6 +682,7 @@ impl Hierarchy {
         let r = r?;
         self.nodes.get_mut(&key).expect("ready node").sun = Some(GridSun {
             scattered: r.scattered,
+            resident: r.resident,
             transmittance: r.transmittance,
             to_sun: sun.to_sun,
         });
@@ -1117,6 +1135,7 @@ impl Hierarchy {
             LayerSun {
                 scattered: &g.scattered,
                 transmittance: &g.transmittance,
+                resident: g.resident.as_ref(),
             }
         }
         let mut v = vec![Layer {

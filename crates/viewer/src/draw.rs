@@ -4,6 +4,7 @@
 use anyhow::{Context, Result};
 use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, LightField, LightGrid, MaterialSource};
+use lightgrid_render::gpu::{GpuLayerSun, LayerLight, transmittance_buffer};
 use lightgrid_render::shading::linear_to_srgb8;
 use lightgrid_render::{
     Camera, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight, LayerOwner,
@@ -307,36 +308,66 @@ impl SceneMeshes {
                 .collect(),
         };
         let volume_bytes = desc.point_count() as u64 * 32;
-        // The device path samples the sky's bins alone; the sun kept apart (two more
-        // responses per grid) is sampled on the CPU.
+        // On the device when every grid (and, with the sun kept apart, every grid's
+        // scattered sun) lies on the renderer's device; the transmittances are uploaded.
         let sun = world.hierarchy.sun();
-        let on_device = || -> Option<Vec<GpuSampleLayer>> {
-            layers
-                .iter()
-                .map(|l| {
-                    let grid = l.resident?.get::<GpuLightGrid>()?;
-                    std::sync::Arc::ptr_eq(grid.context(), r.context()).then_some(GpuSampleLayer {
-                        grid,
-                        owner: l.owner.map(|o| LayerOwner {
-                            origin: o.origin,
-                            size: o.size,
-                            index: o.index,
-                        }),
-                    })
+        fn on_device<'a>(
+            res: Option<&'a lightgrid_core::Resident>,
+            ctx: &std::sync::Arc<lightgrid_gpu::GpuContext>,
+        ) -> Option<&'a GpuLightGrid> {
+            res.and_then(|r| r.get::<GpuLightGrid>())
+                .filter(|g| std::sync::Arc::ptr_eq(g.context(), ctx))
+        }
+        let ctx = r.context().clone();
+        let on_this_device = |res| on_device(res, &ctx);
+        let t_buffers: Vec<Option<wgpu::Buffer>> = layers
+            .iter()
+            .map(|l| {
+                l.sun
+                    .filter(|_| sun.is_some())
+                    .map(|s| transmittance_buffer(r.context(), s.transmittance.data()))
+            })
+            .collect();
+        let device: Option<Vec<GpuSampleLayer>> = layers
+            .iter()
+            .zip(&t_buffers)
+            .map(|(l, t)| {
+                let grid = on_this_device(l.resident)?;
+                let layer_sun = match (sun, l.sun, t) {
+                    (None, _, _) => None,
+                    (Some(_), Some(s), Some(t)) => Some(GpuLayerSun {
+                        scattered: on_this_device(s.resident)?,
+                        transmittance: t,
+                    }),
+                    _ => return None,
+                };
+                Some(GpuSampleLayer {
+                    grid,
+                    owner: l.owner.map(|o| LayerOwner {
+                        origin: o.origin,
+                        size: o.size,
+                        index: o.index,
+                    }),
+                    sun: layer_sun,
                 })
-                .collect()
+            })
+            .collect();
+        let layer_light = LayerLight {
+            sky_scale: world.hierarchy.sky_scale(),
+            sun: sun.map(|s| (s.to_sun, s.irradiance)),
         };
-        let device = if sun.is_none() { on_device() } else { None };
         if let Some(device) = device {
-            let lit = self
-                .sampler
-                .sample_layers(&device, GpuPoints::List(terrain_points))?;
+            let lit = self.sampler.sample_layers_lit(
+                &device,
+                GpuPoints::List(terrain_points),
+                &layer_light,
+            )?;
             r.set_vertex_light_samples(self.terrain, &lit)?;
             r.set_ground(&ground(&vec![Vec3::ZERO; t.positions.len()]))?;
             r.set_ground_light_samples(&lit)?;
-            let volume = self
-                .sampler
-                .sample_layers(&device, GpuPoints::Lattice(desc))?;
+            let volume =
+                self.sampler
+                    .sample_layers_lit(&device, GpuPoints::Lattice(desc), &layer_light)?;
             r.set_light_volume_samples(desc, &volume)?;
             return Ok(Relit {
                 volume_bytes,

@@ -174,9 +174,8 @@ fn compare_with_references(out: &Path, references: &Path, bless: bool) -> Vec<St
 }
 
 /// The same scene swept on the GPU, with the grids left on the renderer's device and
-/// sampled and drawn there (no grid through the CPU), equals the CPU sweep's images. The
-/// device path samples bins alone, so both run with the sun in the bins
-/// (`sun.split = false`; the split samples its responses on the CPU).
+/// sampled and drawn there (no grid through the CPU), equals the CPU sweep's images, with
+/// the sun in the bins (`sun.split = false`).
 #[test]
 fn tiny_scene_swept_and_drawn_on_the_device_matches_the_cpu() {
     let Some((out, summary)) = render_tiny("gpu", SweeperChoice::Gpu, false, false) else {
@@ -195,5 +194,26 @@ fn tiny_scene_swept_and_drawn_on_the_device_matches_the_cpu() {
     }
     let (cpu, _) = render_tiny("cpu-bins", SweeperChoice::Cpu, false, false).unwrap();
     let failures = compare_with_references(&out, &cpu, false);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// With the sun kept apart (the default) the device path samples the three responses in
+/// place (sky bins scaled, scattered sun, transmittance uploaded) and matches the
+/// references the CPU path rendered.
+#[test]
+fn tiny_scene_with_the_sun_apart_drawn_on_the_device_matches_the_references() {
+    let Some((out, summary)) = render_tiny("gpu-split", SweeperChoice::Gpu, false, true) else {
+        return;
+    };
+    assert!(summary.sun.starts_with("kept apart"), "{}", summary.sun);
+    for v in &summary.views {
+        assert!(
+            v.sampled_on.starts_with("device"),
+            "{}: {}",
+            v.name,
+            v.sampled_on
+        );
+    }
+    let failures = compare_with_references(&out, &manifest().join("tests/reference"), false);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -6,12 +6,16 @@
 @group(0) @binding(0) var<uniform> params: SampleParams;
 // 26 RGB bins a point (78 floats), grid order.
 @group(0) @binding(1) var<storage, read> bins: array<f32>;
+// With the sun kept apart (params.sun.w = 1): its scattered bins on the same points, and
+// its transmittance (one float a point); unread otherwise.
+@group(0) @binding(2) var<storage, read> scattered: array<f32>;
+@group(0) @binding(3) var<storage, read> transmittance: array<f32>;
 // Two vec4 a point: (position, has_normal), (normal, 0).
-@group(0) @binding(2) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> points: array<vec4<f32>>;
 // lightgrid_render::sampling::IrradianceTable::weights.
-@group(0) @binding(3) var<storage, read> table: array<f32>;
-// Two vec4 a point: (light, 0), (dominant, written ? 1 : 0).
-@group(0) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> table: array<f32>;
+// Two vec4 a point: (light, sun transmittance), (dominant, written ? 1 : 0).
+@group(0) @binding(6) var<storage, read_write> out: array<vec4<f32>>;
 
 // lightgrid_render::sampling::octahedral_encode
 fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
@@ -63,16 +67,27 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var d = 0u; d < NUM_DIRS; d++) {
         acc[d] = vec3<f32>(0.0);
     }
+    let has_sun = params.sun.w > 0.5;
+    var t_sun = 0.0;
     for (var c = 0u; c < 8u; c++) {
         let w = corner_weight(t, c);
         if (w != 0.0) {
-            let base = grid_index(dims, corner(t, c)) * 78u;
+            let point = grid_index(dims, corner(t, c));
+            let base = point * 78u;
             for (var d = 0u; d < NUM_DIRS; d++) {
                 let o = base + 3u * d;
-                acc[d] += vec3<f32>(bins[o], bins[o + 1u], bins[o + 2u]) * w;
+                var v = vec3<f32>(bins[o], bins[o + 1u], bins[o + 2u]) * params.sky_scale.xyz;
+                if (has_sun) {
+                    v += vec3<f32>(scattered[o], scattered[o + 1u], scattered[o + 2u]) * params.sun.xyz;
+                }
+                acc[d] += v * w;
+            }
+            if (has_sun) {
+                t_sun += transmittance[point] * w;
             }
         }
     }
+    t_sun = clamp(t_sun, 0.0, 1.0);
     var light = vec3<f32>(0.0);
     if (has_normal) {
         let size = params.dims.w;
@@ -96,6 +111,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         light = light / (4.0 * PI);
     }
+    if (has_normal && has_sun) {
+        // The direct sun, as vertex light holds it (shading::direct_sun).
+        light += params.sun.xyz * (t_sun * max(dot(n, params.to_sun.xyz), 0.0));
+    }
     var dom = vec3<f32>(0.0);
     var sum = 0.0;
     for (var d = 0u; d < NUM_DIRS; d++) {
@@ -112,6 +131,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     } else {
         dom = vec3<f32>(0.0);
     }
-    out[2u * i] = vec4<f32>(light, 0.0);
+    out[2u * i] = vec4<f32>(light, t_sun);
     out[2u * i + 1u] = vec4<f32>(dom, 1.0);
 }
