@@ -250,6 +250,27 @@ fn ambient_weights() -> &'static [[f64; NUM_DIRS]; 6] {
     })
 }
 
+/// Checks a sun given as a direction toward it and its irradiance on a surface facing
+/// it (the form every crate passes a sun kept apart in): the direction must be finite and
+/// non-zero, the irradiance finite and >= 0. Returns the unit direction. Errors name
+/// `sun.to_sun` or `sun.irradiance`.
+pub fn check_sun(to_sun: Vec3, irradiance: Vec3) -> Result<Vec3, crate::GridError> {
+    let s = to_sun
+        .try_normalize()
+        .filter(|_| to_sun.is_finite())
+        .ok_or_else(|| {
+            crate::GridError::invalid("sun.to_sun", to_sun, "must be a finite, non-zero direction")
+        })?;
+    if !irradiance.is_finite() || irradiance.min_element() < 0.0 {
+        return Err(crate::GridError::invalid(
+            "sun.irradiance",
+            irradiance,
+            "must be finite and >= 0",
+        ));
+    }
+    Ok(s)
+}
+
 /// Rec. 709 luminance of linear RGB.
 pub fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::from_array(LUMA))
@@ -424,6 +445,20 @@ fn integrate_bin(d: usize, n: u32, mut f: impl FnMut(DVec3, f64)) {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn check_sun_names_the_bad_field() {
+        let s = check_sun(Vec3::new(0.0, 2.0, 0.0), Vec3::ONE).unwrap();
+        assert_eq!(s, Vec3::Y);
+        for bad in [Vec3::ZERO, Vec3::NAN, Vec3::new(f32::INFINITY, 1.0, 0.0)] {
+            let e = check_sun(bad, Vec3::ONE).unwrap_err().to_string();
+            assert!(e.contains("sun.to_sun"), "{e}");
+        }
+        for bad in [Vec3::new(-1.0, 0.0, 0.0), Vec3::splat(f32::NAN)] {
+            let e = check_sun(Vec3::Y, bad).unwrap_err().to_string();
+            assert!(e.contains("sun.irradiance"), "{e}");
+        }
+    }
     use super::*;
 
     #[test]

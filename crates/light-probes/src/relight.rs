@@ -29,20 +29,7 @@ impl Lighting {
             ));
         }
         if let Some((s, e)) = self.sun {
-            if !s.is_finite() || s.length_squared() == 0.0 {
-                return Err(GridError::invalid(
-                    "sun.to_sun",
-                    s,
-                    "must be a finite, non-zero direction",
-                ));
-            }
-            if !e.is_finite() || e.min_element() < 0.0 {
-                return Err(GridError::invalid(
-                    "sun.irradiance",
-                    e,
-                    "must be finite and >= 0",
-                ));
-            }
+            lightgrid_core::light::check_sun(s, e)?;
         }
         Ok(())
     }

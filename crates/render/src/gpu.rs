@@ -306,14 +306,7 @@ impl GpuLightSampler {
         }
         let sun = match light.sun {
             Some((s, e)) => {
-                let s = s.try_normalize().ok_or_else(|| {
-                    GridError::invalid("sun.to_sun", s, "must be a finite, non-zero direction")
-                })?;
-                if !e.is_finite() || e.min_element() < 0.0 {
-                    return Err(
-                        GridError::invalid("sun.irradiance", e, "must be finite and >= 0").into(),
-                    );
-                }
+                let s = lightgrid_core::light::check_sun(s, e)?;
                 if let Some(i) = layers.iter().position(|l| {
                     l.sun.is_none_or(|ls| {
                         !Arc::ptr_eq(ls.scattered.context(), &self.ctx)

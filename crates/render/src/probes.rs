@@ -165,14 +165,7 @@ impl GpuProbeRelight {
         }
         let (to_sun, irr) = match lighting.sun {
             Some((s, e)) => {
-                let s = s.try_normalize().ok_or_else(|| {
-                    GridError::invalid("sun.to_sun", s, "must be a finite, non-zero direction")
-                })?;
-                if !e.is_finite() || e.min_element() < 0.0 {
-                    return Err(
-                        GridError::invalid("sun.irradiance", e, "must be finite and >= 0").into(),
-                    );
-                }
+                let s = lightgrid_core::light::check_sun(s, e)?;
                 (s.extend(1.0), e)
             }
             None => (Vec3::ZERO.extend(0.0), Vec3::ZERO),

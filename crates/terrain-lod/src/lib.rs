@@ -583,23 +583,7 @@ impl Hierarchy {
             }
             return Ok(());
         };
-        if !sun.to_sun.is_finite() || sun.to_sun.length_squared() == 0.0 {
-            return Err(GridError::invalid(
-                "sun.to_sun",
-                sun.to_sun,
-                "must be a finite, non-zero direction",
-            )
-            .into());
-        }
-        if !sun.irradiance.is_finite() || sun.irradiance.min_element() < 0.0 {
-            return Err(GridError::invalid(
-                "sun.irradiance",
-                sun.irradiance,
-                "must be finite and >= 0",
-            )
-            .into());
-        }
-        sun.to_sun = sun.to_sun.normalize();
+        sun.to_sun = lightgrid_core::light::check_sun(sun.to_sun, sun.irradiance)?;
         let same = self.world_sun.as_ref().map(|w| w.to_sun) == Some(sun.to_sun);
         self.sun = Some(sun);
         if same {
