@@ -146,59 +146,119 @@ impl ProbeSet {
         let n = params.rays;
         let dw = 4.0 * std::f32::consts::PI / n as f32;
         let done = std::sync::atomic::AtomicUsize::new(0);
-        // Every probe's rays, in ray order (deterministic on any thread count).
-        let per_probe: Vec<Vec<RayOut>> = positions
-            .par_iter()
-            .map(|&p| {
-                let out = (0..n)
-                    .map(|i| {
-                        let d = fibonacci(i, n);
-                        match scene.closest_hit(p, d, params.max_distance, 0.5) {
-                            Some(h) => {
-                                let point = p + d * h.t;
-                                let cell = (point / params.cell).floor().as_ivec3();
-                                RayOut::Hit {
-                                    key: (cell, axis_of(h.normal)),
-                                    point,
-                                    normal: h.normal,
-                                    albedo: h.colour,
-                                    t: h.t,
-                                    dir: d,
-                                }
+        let trace = |p: Vec3| -> Vec<RayOut> {
+            let out = (0..n)
+                .map(|i| {
+                    let d = fibonacci(i, n);
+                    match scene.closest_hit(p, d, params.max_distance, 0.5) {
+                        Some(h) => {
+                            let point = p + d * h.t;
+                            let cell = (point / params.cell).floor().as_ivec3();
+                            RayOut::Hit {
+                                key: (cell, axis_of(h.normal)),
+                                point,
+                                normal: h.normal,
+                                albedo: h.colour,
+                                t: h.t,
+                                dir: d,
                             }
-                            None => RayOut::Sky { dir: d },
                         }
-                    })
-                    .collect();
-                let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                progress(k, positions.len());
-                out
-            })
-            .collect();
+                        None => RayOut::Sky { dir: d },
+                    }
+                })
+                .collect();
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(k, positions.len());
+            out
+        };
 
-        // Surfels: one per cell key, in order of first hit.
+        // Probes are traced a chunk at a time (in parallel) and folded in probe and ray
+        // order, so memory holds one chunk's rays and the result does not depend on the
+        // thread count. A surfel is created at its first hit, its brick (`brick` cells a
+        // side, per normal axis) with it.
+        let b = params.brick as i32;
+        let omega = dirs::solid_angles();
         let mut surfel_of: HashMap<CellKey, u32> = HashMap::new();
         let mut acc: Vec<(Vec3, Vec3, Vec3, u32)> = Vec::new();
-        for rays in &per_probe {
-            for r in rays {
-                if let RayOut::Hit {
-                    key,
-                    point,
-                    normal,
-                    albedo,
-                    ..
-                } = r
-                {
-                    let s = *surfel_of.entry(*key).or_insert_with(|| {
-                        acc.push((Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0));
-                        acc.len() as u32 - 1
-                    });
-                    let a = &mut acc[s as usize];
-                    a.0 += *point;
-                    a.1 += *normal;
-                    a.2 += *albedo;
-                    a.3 += 1;
+        let mut brick_of_key: HashMap<CellKey, u32> = HashMap::new();
+        let mut brick_members: Vec<Vec<u32>> = Vec::new();
+        let mut brick_of_surfel: Vec<u32> = Vec::new();
+        let mut probes = Vec::with_capacity(positions.len());
+        let mut factors = Vec::new();
+        let mut seen: Vec<Vec<(u32, f32)>> = Vec::new();
+        const CHUNK: usize = 64;
+        for (c, chunk) in positions.chunks(CHUNK).enumerate() {
+            let rays: Vec<Vec<RayOut>> = chunk.par_iter().map(|&p| trace(p)).collect();
+            for (j, (rays, &p)) in rays.iter().zip(chunk).enumerate() {
+                let pi = (c * CHUNK + j) as u32;
+                let mut sky = [[0.0f32; NUM_DIRS]; 6];
+                let mut by_brick: HashMap<u32, [f32; 6]> = HashMap::new();
+                let mut order: Vec<u32> = Vec::new();
+                for r in rays {
+                    match r {
+                        RayOut::Hit {
+                            key,
+                            point,
+                            normal,
+                            albedo,
+                            t,
+                            dir,
+                        } => {
+                            let s = match surfel_of.get(key) {
+                                Some(s) => *s,
+                                None => {
+                                    let s = acc.len() as u32;
+                                    surfel_of.insert(*key, s);
+                                    acc.push((Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0));
+                                    seen.push(Vec::new());
+                                    let bk = (key.0.div_euclid(IVec3::splat(b)), key.1);
+                                    let bi = *brick_of_key.entry(bk).or_insert_with(|| {
+                                        brick_members.push(Vec::new());
+                                        brick_members.len() as u32 - 1
+                                    });
+                                    brick_members[bi as usize].push(s);
+                                    brick_of_surfel.push(bi);
+                                    s
+                                }
+                            };
+                            let a = &mut acc[s as usize];
+                            a.0 += *point;
+                            a.1 += *normal;
+                            a.2 += *albedo;
+                            a.3 += 1;
+                            let bi = brick_of_surfel[s as usize];
+                            let w = by_brick.entry(bi).or_insert_with(|| {
+                                order.push(bi);
+                                [0.0; 6]
+                            });
+                            for (k, ax) in AMBIENT_AXES.iter().enumerate() {
+                                w[k] += dir.dot(*ax).max(0.0) * dw;
+                            }
+                            let near = &mut seen[s as usize];
+                            match near.iter_mut().find(|(q, _)| *q == pi) {
+                                Some(e) => e.1 = e.1.min(*t),
+                                None => near.push((pi, *t)),
+                            }
+                        }
+                        RayOut::Sky { dir } => {
+                            // Light arriving from `dir` travels along `-dir`.
+                            let bin = dirs::nearest_dir(-*dir);
+                            for (k, ax) in AMBIENT_AXES.iter().enumerate() {
+                                sky[k][bin] += dir.dot(*ax).max(0.0) * dw / omega[bin];
+                            }
+                        }
+                    }
                 }
+                let start = factors.len() as u32;
+                factors.extend(order.iter().map(|bi| BrickFactor {
+                    brick: *bi,
+                    weights: by_brick[bi],
+                }));
+                probes.push(Probe {
+                    position: p,
+                    sky,
+                    factors: start..factors.len() as u32,
+                });
             }
         }
         let surfels: Vec<Surfel> = acc
@@ -213,23 +273,6 @@ impl ProbeSet {
                 }
             })
             .collect();
-
-        // Bricks: `brick` cells a side, per normal axis.
-        let b = params.brick as i32;
-        let mut brick_of_key: HashMap<CellKey, u32> = HashMap::new();
-        let mut brick_members: Vec<Vec<u32>> = Vec::new();
-        let mut brick_of_surfel = vec![0u32; surfels.len()];
-        let mut keys: Vec<(CellKey, u32)> = surfel_of.iter().map(|(k, s)| (*k, *s)).collect();
-        keys.sort_by_key(|(_, s)| *s);
-        for ((cell, axis), s) in keys {
-            let bk = (cell.div_euclid(IVec3::splat(b)), axis);
-            let bi = *brick_of_key.entry(bk).or_insert_with(|| {
-                brick_members.push(Vec::new());
-                brick_members.len() as u32 - 1
-            });
-            brick_members[bi as usize].push(s);
-            brick_of_surfel[s as usize] = bi;
-        }
         let mut brick_start = Vec::with_capacity(brick_members.len() + 1);
         let mut brick_surfels = Vec::new();
         for m in &brick_members {
@@ -237,56 +280,6 @@ impl ProbeSet {
             brick_surfels.extend_from_slice(m);
         }
         brick_start.push(brick_surfels.len() as u32);
-
-        // Per probe: brick factors and sky visibility; per surfel: the probes that saw
-        // it and how near.
-        let omega = dirs::solid_angles();
-        let mut probes = Vec::with_capacity(positions.len());
-        let mut factors = Vec::new();
-        let mut seen: Vec<Vec<(u32, f32)>> = vec![Vec::new(); surfels.len()];
-        for (pi, (rays, &p)) in per_probe.iter().zip(positions).enumerate() {
-            let mut sky = [[0.0f32; NUM_DIRS]; 6];
-            let mut by_brick: HashMap<u32, [f32; 6]> = HashMap::new();
-            let mut order: Vec<u32> = Vec::new();
-            for r in rays {
-                match r {
-                    RayOut::Hit { key, t, dir, .. } => {
-                        let s = surfel_of[key];
-                        let w = by_brick
-                            .entry(brick_of_surfel[s as usize])
-                            .or_insert_with(|| {
-                                order.push(brick_of_surfel[s as usize]);
-                                [0.0; 6]
-                            });
-                        for (k, a) in AMBIENT_AXES.iter().enumerate() {
-                            w[k] += dir.dot(*a).max(0.0) * dw;
-                        }
-                        let near = &mut seen[s as usize];
-                        match near.iter_mut().find(|(q, _)| *q == pi as u32) {
-                            Some(e) => e.1 = e.1.min(*t),
-                            None => near.push((pi as u32, *t)),
-                        }
-                    }
-                    RayOut::Sky { dir } => {
-                        // Light arriving from `dir` travels along `-dir`.
-                        let bin = dirs::nearest_dir(-*dir);
-                        for (k, a) in AMBIENT_AXES.iter().enumerate() {
-                            sky[k][bin] += dir.dot(*a).max(0.0) * dw / omega[bin];
-                        }
-                    }
-                }
-            }
-            let start = factors.len() as u32;
-            factors.extend(order.iter().map(|bi| BrickFactor {
-                brick: *bi,
-                weights: by_brick[bi],
-            }));
-            probes.push(Probe {
-                position: p,
-                sky,
-                factors: start..factors.len() as u32,
-            });
-        }
         let mut link_start = Vec::with_capacity(surfels.len() + 1);
         let mut links = Vec::new();
         let floor = params.cell * params.cell;

@@ -320,11 +320,16 @@ impl SceneMeshes {
         }
         let ctx = r.context().clone();
         let on_this_device = |res| on_device(res, &ctx);
+        // (Uploaded only when every grid lies on this device: the CPU sweeper's never do.)
+        let all_here = layers.iter().all(|l| {
+            on_this_device(l.resident).is_some()
+                && (sun.is_none() || l.sun.is_some_and(|s| on_this_device(s.resident).is_some()))
+        });
         let t_buffers: Vec<Option<wgpu::Buffer>> = layers
             .iter()
             .map(|l| {
                 l.sun
-                    .filter(|_| sun.is_some())
+                    .filter(|_| sun.is_some() && all_here)
                     .map(|s| transmittance_buffer(r.context(), s.transmittance.data()))
             })
             .collect();
