@@ -9,6 +9,7 @@ use lightgrid_core::light::AMBIENT_AXES;
 use material_voxelizer::voxelize::RayScene;
 use rayon::prelude::*;
 
+use crate::interior::{InteriorBox, nearest_visible};
 use crate::{ProbeError, ProbeParams};
 
 /// A patch of surface the probes see: the mean of the ray hits in one surfel cell on
@@ -66,6 +67,12 @@ pub struct ProbeSet {
     /// `links[link_start[s]..link_start[s + 1]]`.
     link_start: Vec<u32>,
     links: Vec<(u32, f32)>,
+    /// Interior sets: the room's box, which surfels lie outside it (seen through
+    /// openings, lit by the exterior set's probes: `links` then index those), and how
+    /// many probes that exterior set has.
+    interior: Option<InteriorBox>,
+    outside: Vec<bool>,
+    exterior_probes: u32,
 }
 
 /// Key of a surfel cell: its integer cell and the dominant axis of the hit normal.
@@ -100,6 +107,8 @@ enum RayOut {
         albedo: Vec3,
         t: f32,
         dir: Vec3,
+        /// An interior probe's hit beyond its box (through an opening).
+        outside: bool,
     },
     Sky {
         dir: Vec3,
@@ -127,6 +136,68 @@ pub fn place(scene: &RayScene<'_>, lo: Vec3, hi: Vec3, params: &ProbeParams) -> 
         .collect()
 }
 
+/// Extra probes along walls (The Division's second rule, against flat-looking walls):
+/// from each of `columns` (the automatic probes of [`place`]), rays along ±X and ±Z find
+/// walls (surfaces steeper than 60°) within `1.5 × spacing`; a probe goes `wall_offset` in
+/// front of each, and again every `spacing` metres up while the wall goes on (at most 16
+/// storeys). A probe closer than half a spacing to one already placed (columns
+/// included) is dropped, so the result does not crowd. `wall_offset = 0`: none.
+pub fn place_walls(scene: &RayScene<'_>, columns: &[Vec3], params: &ProbeParams) -> Vec<Vec3> {
+    if params.wall_offset <= 0.0 || !params.spacing.is_finite() || params.spacing <= 0.0 {
+        return Vec::new();
+    }
+    let (spacing, offset) = (params.spacing, params.wall_offset);
+    let wall = |o: Vec3, d: Vec3, reach: f32| {
+        scene
+            .closest_hit(o, d, reach, 0.5)
+            .filter(|h| h.normal.y.abs() < 0.5 && h.t > 0.5 * offset)
+    };
+    let found: Vec<Vec<Vec3>> = columns
+        .par_iter()
+        .map(|&c| {
+            let mut out = Vec::new();
+            for d in [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z] {
+                let Some(h) = wall(c, d, 1.5 * spacing) else {
+                    continue;
+                };
+                let q = c + d * (h.t - offset);
+                for k in 0..16 {
+                    let qk = q + Vec3::Y * (k as f32 * spacing);
+                    if k > 0 && wall(qk - d * offset, d, 3.0 * offset).is_none() {
+                        break;
+                    }
+                    out.push(qk);
+                }
+            }
+            out
+        })
+        .collect();
+    // Sequential thinning in column order: deterministic.
+    let r = 0.5 * spacing;
+    let key = |p: Vec3| (p / r).floor().as_ivec3();
+    let mut hash: HashMap<IVec3, Vec<Vec3>> = HashMap::new();
+    for &c in columns {
+        hash.entry(key(c)).or_default().push(c);
+    }
+    let mut out = Vec::new();
+    for p in found.into_iter().flatten() {
+        let k = key(p);
+        let crowded = (-1..=1).any(|x| {
+            (-1..=1).any(|y| {
+                (-1..=1).any(|z| {
+                    hash.get(&(k + IVec3::new(x, y, z)))
+                        .is_some_and(|v| v.iter().any(|q| q.distance(p) < r))
+                })
+            })
+        });
+        if !crowded {
+            hash.entry(k).or_default().push(p);
+            out.push(p);
+        }
+    }
+    out
+}
+
 impl ProbeSet {
     /// Bakes probes at `positions` in `scene`: each casts `params.rays` rays; hits
     /// become surfels (per cell and normal axis), grouped in bricks; misses become its
@@ -136,6 +207,46 @@ impl ProbeSet {
         positions: &[Vec3],
         params: &ProbeParams,
         progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self, ProbeError> {
+        Self::bake_with(scene, positions, params, progress, None)
+    }
+
+    /// Bakes an interior volume (The Division's rooms): probes at `positions`, all
+    /// inside `room`. Their rays see the room's surfaces as the set's own surfels, lit by
+    /// the room's probes; through openings (windows, doors) they see the sky (their sky
+    /// visibility counts only what the openings let through) and the outside's surfaces,
+    /// which become surfels lit by the `exterior` set's probes (the nearest that see
+    /// them), since the room's probes know nothing of the outside's light. Relight with
+    /// [`crate::ProbeLight::frame_interior`] after the exterior set; [`crate::ProbeVolume`]
+    /// keeps each set's light to its side of the box's faces (no bleeding through
+    /// walls, a blend at openings). A surface up to a surfel cell beyond the box still
+    /// counts as the room's (the box may lie just inside its walls).
+    pub fn bake_interior(
+        scene: &RayScene<'_>,
+        positions: &[Vec3],
+        room: &InteriorBox,
+        exterior: &ProbeSet,
+        params: &ProbeParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self, ProbeError> {
+        room.validate()?;
+        if let Some(p) = positions.iter().find(|p| !room.contains(**p)) {
+            return Err(lightgrid_core::GridError::invalid(
+                "positions",
+                p,
+                "interior probes must lie inside the room's box",
+            )
+            .into());
+        }
+        Self::bake_with(scene, positions, params, progress, Some((room, exterior)))
+    }
+
+    fn bake_with(
+        scene: &RayScene<'_>,
+        positions: &[Vec3],
+        params: &ProbeParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        interior: Option<(&InteriorBox, &ProbeSet)>,
     ) -> Result<Self, ProbeError> {
         params.validate()?;
         if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
@@ -161,6 +272,8 @@ impl ProbeSet {
                                 albedo: h.colour,
                                 t: h.t,
                                 dir: d,
+                                outside: interior
+                                    .is_some_and(|(room, _)| room.distance(point) > params.cell),
                             }
                         }
                         None => RayOut::Sky { dir: d },
@@ -186,6 +299,7 @@ impl ProbeSet {
         let mut probes = Vec::with_capacity(positions.len());
         let mut factors = Vec::new();
         let mut seen: Vec<Vec<(u32, f32)>> = Vec::new();
+        let mut outside: Vec<bool> = Vec::new();
         const CHUNK: usize = 64;
         for (c, chunk) in positions.chunks(CHUNK).enumerate() {
             let rays: Vec<Vec<RayOut>> = chunk.par_iter().map(|&p| trace(p)).collect();
@@ -203,6 +317,7 @@ impl ProbeSet {
                             albedo,
                             t,
                             dir,
+                            outside: beyond,
                         } => {
                             let s = match surfel_of.get(key) {
                                 Some(s) => *s,
@@ -211,6 +326,7 @@ impl ProbeSet {
                                     surfel_of.insert(*key, s);
                                     acc.push((Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0));
                                     seen.push(Vec::new());
+                                    outside.push(*beyond);
                                     let bk = (key.0.div_euclid(IVec3::splat(b)), key.1);
                                     let bi = *brick_of_key.entry(bk).or_insert_with(|| {
                                         brick_members.push(Vec::new());
@@ -283,8 +399,18 @@ impl ProbeSet {
         let mut link_start = Vec::with_capacity(surfels.len() + 1);
         let mut links = Vec::new();
         let floor = params.cell * params.cell;
-        for near in &mut seen {
+        for (s, near) in seen.iter_mut().enumerate() {
             link_start.push(links.len() as u32);
+            if let (true, Some((room, ext))) = (outside[s], interior) {
+                // Seen through an opening: lit by the exterior probes that see it.
+                *near = nearest_visible(
+                    scene,
+                    ext,
+                    room,
+                    surfels[s].position + surfels[s].normal * (0.05 * params.cell),
+                    params.probes_per_surfel as usize,
+                );
+            }
             near.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
             near.truncate(params.probes_per_surfel as usize);
             let w: Vec<f32> = near.iter().map(|(_, t)| 1.0 / (t * t).max(floor)).collect();
@@ -301,7 +427,26 @@ impl ProbeSet {
             factors,
             link_start,
             links,
+            interior: interior.map(|(room, _)| *room),
+            outside,
+            exterior_probes: interior.map_or(0, |(_, e)| e.probes.len() as u32),
         })
+    }
+
+    /// The room's box of an interior set ([`ProbeSet::bake_interior`]); `None` outside.
+    pub fn interior(&self) -> Option<&InteriorBox> {
+        self.interior.as_ref()
+    }
+
+    /// Whether surfel `s` lies outside an interior set's box (seen through an opening;
+    /// its links index the exterior set's probes). Always false for an exterior set.
+    pub fn surfel_outside(&self, s: usize) -> bool {
+        self.outside.get(s).copied().unwrap_or(false)
+    }
+
+    /// Probes of the exterior set an interior set looks out to (0 for an exterior set).
+    pub fn exterior_probes(&self) -> usize {
+        self.exterior_probes as usize
     }
 
     /// The parameters it was baked with.
@@ -341,8 +486,9 @@ impl ProbeSet {
 
     /// Bytes as stored (the figure of the crate docs' table).
     pub fn bytes(&self) -> usize {
-        self.probes.len() * (NUM_DIRS * 6 * 4 + 12 + 8)
+        self.probes.len() * (NUM_DIRS * 6 * 4 + 12 + 16)
             + self.factors.len() * 28
+            + self.outside.len()
             + self.surfels.len() * 40
             + self.brick_surfels.len() * 4
             + self.brick_start.len() * 4

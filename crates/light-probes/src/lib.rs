@@ -101,15 +101,19 @@
 //! ([`Sectors`] streams probe sectors around the camera within a memory budget.)
 
 mod bake;
+mod interior;
 mod params;
 pub mod reference;
 mod relight;
 mod sectors;
+mod volume;
 
-pub use bake::{BrickFactor, Probe, ProbeSet, Surfel, fibonacci, place};
+pub use bake::{BrickFactor, Probe, ProbeSet, Surfel, fibonacci, place, place_walls};
+pub use interior::InteriorBox;
 pub use params::ProbeParams;
 pub use relight::{Lighting, ProbeLight};
 pub use sectors::{LoadedSector, SectorStats, Sectors};
+pub use volume::{ProbeVolume, ResolvedVolume, cube_to_bins};
 
 /// Errors of baking and relighting.
 #[derive(Debug, thiserror::Error)]

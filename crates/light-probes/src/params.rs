@@ -22,10 +22,15 @@ pub struct ProbeParams {
     pub brick: u32,
     /// Probes that light each surfel from their last frame (the nearest that saw it).
     pub probes_per_surfel: u32,
+    /// Distance of the extra probes along walls from the wall, metres (The Division's
+    /// second placement rule, against flat-looking walls; [`crate::place_walls`]).
+    /// 0: no wall probes.
+    pub wall_offset: f32,
 }
 
 impl ProbeParams {
-    /// Coarse and quick: 8 m spacing, 256 rays, 2 m cells, bricks of 2 cells.
+    /// Coarse and quick: 8 m spacing, 256 rays, 2 m cells, bricks of 2 cells, no wall
+    /// probes.
     pub const fn preview() -> Self {
         Self {
             spacing: 8.0,
@@ -35,10 +40,12 @@ impl ProbeParams {
             cell: 2.0,
             brick: 2,
             probes_per_surfel: 2,
+            wall_offset: 0.0,
         }
     }
 
-    /// The Division's figures: 4 m spacing, 1 m cells, 4³-cell bricks; 1024 rays.
+    /// The Division's figures: 4 m spacing, 1 m cells, 4³-cell bricks; 1024 rays; wall
+    /// probes 1 m from walls.
     pub const fn standard() -> Self {
         Self {
             spacing: 4.0,
@@ -48,10 +55,12 @@ impl ProbeParams {
             cell: 1.0,
             brick: 4,
             probes_per_surfel: 4,
+            wall_offset: 1.0,
         }
     }
 
-    /// Dense: 2 m spacing, 4096 rays, 0.5 m cells, every surfel its own brick.
+    /// Dense: 2 m spacing, 4096 rays, 0.5 m cells, every surfel its own brick; wall
+    /// probes 0.75 m from walls.
     pub const fn fine() -> Self {
         Self {
             spacing: 2.0,
@@ -61,6 +70,7 @@ impl ProbeParams {
             cell: 0.5,
             brick: 1,
             probes_per_surfel: 4,
+            wall_offset: 0.75,
         }
     }
 
@@ -75,12 +85,10 @@ impl ProbeParams {
                 return Err(GridError::invalid(name, v, "must be finite and > 0"));
             }
         }
-        if !(self.height.is_finite() && self.height >= 0.0) {
-            return Err(GridError::invalid(
-                "height",
-                self.height,
-                "must be finite and >= 0",
-            ));
+        for (name, v) in [("height", self.height), ("wall_offset", self.wall_offset)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(GridError::invalid(name, v, "must be finite and >= 0"));
+            }
         }
         if !(16..=1 << 20).contains(&self.rays) {
             return Err(GridError::invalid(
@@ -131,5 +139,13 @@ mod tests {
         let mut p = ProbeParams::standard();
         p.brick = 0;
         assert!(p.validate().unwrap_err().to_string().contains("brick"));
+        let mut p = ProbeParams::standard();
+        p.wall_offset = -1.0;
+        assert!(
+            p.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("wall_offset")
+        );
     }
 }

@@ -67,11 +67,52 @@ impl ProbeLight {
     ///    `Σ_bins sky[k][b] × sky_b`.
     ///
     /// The direct sun is not in the probes (renderers shade it with their own shadows).
+    /// An interior set ([`ProbeSet::bake_interior`]) needs [`ProbeLight::frame_interior`].
     pub fn frame(
         &mut self,
         set: &ProbeSet,
         lighting: &Lighting,
         sun_visibility: &[f32],
+    ) -> Result<(), ProbeError> {
+        if set.interior().is_some() {
+            return Err(GridError::invalid(
+                "set",
+                "interior set",
+                "its outside surfels need the exterior's light: relight it with frame_interior",
+            )
+            .into());
+        }
+        self.frame_with(set, lighting, sun_visibility, None)
+    }
+
+    /// One frame of an interior set ([`ProbeSet::bake_interior`]): as
+    /// [`ProbeLight::frame`], but the surfels outside the room's box (seen through its
+    /// openings) take their probe light from `exterior`, the exterior set's light (relit
+    /// first this frame).
+    pub fn frame_interior(
+        &mut self,
+        set: &ProbeSet,
+        lighting: &Lighting,
+        sun_visibility: &[f32],
+        exterior: &ProbeLight,
+    ) -> Result<(), ProbeError> {
+        if exterior.probes.len() != set.exterior_probes() || set.interior().is_none() {
+            return Err(GridError::LengthMismatch {
+                field: "exterior",
+                expected: set.exterior_probes(),
+                found: exterior.probes.len(),
+            }
+            .into());
+        }
+        self.frame_with(set, lighting, sun_visibility, Some(exterior))
+    }
+
+    fn frame_with(
+        &mut self,
+        set: &ProbeSet,
+        lighting: &Lighting,
+        sun_visibility: &[f32],
+        exterior: Option<&ProbeLight>,
     ) -> Result<(), ProbeError> {
         lighting.validate()?;
         if sun_visibility.len() != set.surfels().len() {
@@ -98,8 +139,12 @@ impl ProbeLight {
         self.surfels.par_iter_mut().enumerate().for_each(|(i, l)| {
             let sf = &set.surfels()[i];
             let mut e = Vec3::ZERO;
+            let probes = match exterior {
+                Some(ext) if set.surfel_outside(i) => &ext.probes,
+                _ => last,
+            };
             for &(p, w) in set.surfel_links(i) {
-                e += last[p as usize].irradiance(sf.normal) * w;
+                e += probes[p as usize].irradiance(sf.normal) * w;
             }
             if let Some((s, irr)) = sun {
                 e += irr * (sun_visibility[i].clamp(0.0, 1.0) * sf.normal.dot(s).max(0.0));

@@ -13,58 +13,17 @@
 
 use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
 use lightgrid_core::BinLight;
-use lightgrid_core::glam::{Vec2, Vec3, Vec4};
-use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+use lightgrid_core::glam::Vec3;
+use material_voxelizer::model::Model;
 use material_voxelizer::voxelize::RayScene;
+
+mod common;
+use common::{ground_triangles, model, quad, room};
 
 const PI: f32 = std::f32::consts::PI;
 
-fn tri(a: Vec3, b: Vec3, c: Vec3, material: u32) -> Triangle {
-    Triangle {
-        positions: [a, b, c],
-        uvs: [Vec2::ZERO; 3],
-        material,
-        part: material,
-    }
-}
-
-/// A quad from its four corners (counter-clockwise seen from its front).
-fn quad(c: [Vec3; 4], material: u32) -> [Triangle; 2] {
-    [
-        tri(c[0], c[1], c[2], material),
-        tri(c[0], c[2], c[3], material),
-    ]
-}
-
-fn model(triangles: Vec<Triangle>, albedos: &[f32]) -> Model {
-    Model {
-        triangles,
-        materials: albedos
-            .iter()
-            .map(|a| SurfaceMaterial {
-                base_colour: Vec4::new(*a, *a, *a, 1.0),
-                ..Default::default()
-            })
-            .collect(),
-        textures: vec![],
-    }
-}
-
 fn ground(albedo: f32) -> Model {
-    let s = 2000.0;
-    model(
-        quad(
-            [
-                Vec3::new(-s, 0.0, -s),
-                Vec3::new(-s, 0.0, s),
-                Vec3::new(s, 0.0, s),
-                Vec3::new(s, 0.0, -s),
-            ],
-            0,
-        )
-        .to_vec(),
-        &[albedo],
-    )
+    model(ground_triangles(2000.0, 0), &[albedo])
 }
 
 fn params() -> ProbeParams {
@@ -126,55 +85,7 @@ fn infinite_lambertian_ground_under_sky_and_sun() {
 /// after frame, whatever the light outside.
 #[test]
 fn a_closed_box_stays_dark() {
-    let (lo, hi) = (Vec3::splat(-3.0), Vec3::splat(3.0));
-    let p = |x: bool, y: bool, z: bool| {
-        Vec3::new(
-            if x { hi.x } else { lo.x },
-            if y { hi.y } else { lo.y },
-            if z { hi.z } else { lo.z },
-        )
-    };
-    let mut t = Vec::new();
-    for face in [
-        [
-            p(false, false, false),
-            p(true, false, false),
-            p(true, false, true),
-            p(false, false, true),
-        ],
-        [
-            p(false, true, false),
-            p(false, true, true),
-            p(true, true, true),
-            p(true, true, false),
-        ],
-        [
-            p(false, false, false),
-            p(false, false, true),
-            p(false, true, true),
-            p(false, true, false),
-        ],
-        [
-            p(true, false, false),
-            p(true, true, false),
-            p(true, true, true),
-            p(true, false, true),
-        ],
-        [
-            p(false, false, false),
-            p(false, true, false),
-            p(true, true, false),
-            p(true, false, false),
-        ],
-        [
-            p(false, false, true),
-            p(true, false, true),
-            p(true, true, true),
-            p(false, true, true),
-        ],
-    ] {
-        t.extend(quad(face, 0));
-    }
+    let t = room(Vec3::splat(-3.0), Vec3::splat(3.0), None, 0);
     let m = model(t, &[0.9]);
     let scene = RayScene::new(&m, obvhs::BvhBuildParams::fast_build());
     let set = ProbeSet::bake(
