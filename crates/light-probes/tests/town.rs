@@ -3,7 +3,7 @@
 //! ambient cubes of a dozen probes (luminance, all six axes), guarded 10 % above the
 //! measured value (deterministic: fixed seeds, a Fibonacci bake): 0.0342 with bricks of
 //! 4, 0.0159 with brick 1, the reference's own noise at 4000 samples an axis being
-//! 0.009. `examples/town.rs` prints the same at three sun positions with 16 000 samples
+//! 0.009. `examples/town_probes.rs` prints the same at three sun positions with 16 000 samples
 //! (bricks of 4: 0.026–0.033, brick 1: 0.014–0.016, noise 0.003–0.004).
 
 use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place, reference};
