@@ -51,7 +51,7 @@ pub struct Probe {
 
 /// Probes, surfels, bricks and the links between them.
 ///
-/// Memory (as stored): `624 + 12` bytes a probe (sky visibility and position), `28` bytes
+/// Memory (as stored): `624 + 20` bytes a probe (sky visibility, position, factor range), `28` bytes
 /// a brick factor, `40` bytes a surfel, `4` bytes a brick member, `8` bytes a
 /// surfel-to-probe link.
 #[derive(Debug, Clone, PartialEq)]
@@ -486,7 +486,7 @@ impl ProbeSet {
 
     /// Bytes as stored (the figure of the crate docs' table).
     pub fn bytes(&self) -> usize {
-        self.probes.len() * (NUM_DIRS * 6 * 4 + 12 + 16)
+        self.probes.len() * (NUM_DIRS * 6 * 4 + 12 + 8)
             + self.factors.len() * 28
             + self.outside.len()
             + self.surfels.len() * 40

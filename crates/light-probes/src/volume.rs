@@ -194,6 +194,7 @@ impl ProbeVolume {
             desc: self.desc,
             cubes,
             covered,
+            filled,
         })
     }
 }
@@ -282,6 +283,8 @@ pub struct ResolvedVolume {
     desc: GridDesc,
     cubes: Vec<AmbientCube>,
     covered: Vec<bool>,
+    /// Covered, or given its neighbours' mean.
+    filled: Vec<bool>,
 }
 
 impl ResolvedVolume {
@@ -299,6 +302,21 @@ impl ResolvedVolume {
     /// neighbours' mean; the rest are dark).
     pub fn covered(&self) -> &[bool] {
         &self.covered
+    }
+
+    /// How much of the trilinear lookup at `p` falls on points holding probe light
+    /// (covered or filled from covered neighbours): 1 where the probes light `p` fully,
+    /// 0 away from every probe. A renderer can fall back to another light by `1 - c`.
+    pub fn coverage(&self, p: Vec3) -> Result<f32, GridError> {
+        if !p.is_finite() {
+            return Err(GridError::invalid("p", p, "sample position must be finite"));
+        }
+        Ok(trilinear_corners(self.desc.dims(), self.desc.to_grid(p))
+            .iter()
+            .filter(|(c, _)| self.filled[self.desc.index_unchecked(*c)])
+            .map(|(_, w)| *w)
+            .sum::<f32>()
+            .clamp(0.0, 1.0))
     }
 
     /// The ambient cube at `p`, trilinear, clamped at the volume's edges; errors on a

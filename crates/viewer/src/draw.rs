@@ -192,6 +192,10 @@ pub struct SceneMeshes {
     pub balls: MeshId,
     /// Debug: a cube per material cell.
     pub cubes: MeshId,
+    /// Probes debug: a ball per probe, a cube per surfel.
+    pub probe_balls: MeshId,
+    /// Probes debug: a cube per surfel.
+    pub surfel_cubes: MeshId,
     /// Samples grids where they lie, on the renderer's device.
     sampler: GpuLightSampler,
 }
@@ -273,12 +277,22 @@ impl SceneMeshes {
                 ..Default::default()
             },
         )?;
+        let emissive = MeshMaterial {
+            lighting: Lighting::Emissive,
+            ..Default::default()
+        };
+        let (v, i) = sphere();
+        let probe_balls = r.add_mesh(&v, &i, &emissive)?;
+        let (v, i) = cube();
+        let surfel_cubes = r.add_mesh(&v, &i, &emissive)?;
         Ok(Self {
             terrain,
             terrain_mesh,
             models,
             balls,
             cubes,
+            probe_balls,
+            surfel_cubes,
             sampler: GpuLightSampler::new(r.context().clone()),
         })
     }
@@ -380,7 +394,26 @@ impl SceneMeshes {
                 grids: layers.len(),
             });
         }
-        let lit = sample_points(&world.hierarchy, terrain_points)?;
+        self.relight_cpu(r, world, &world.hierarchy)
+    }
+
+    /// Relights on the CPU from any light field (the hierarchy, or the probes with the
+    /// sweep's sun transmittance): terrain vertices and ground light from `field` plus
+    /// the direct sun kept apart, and the light volume.
+    pub fn relight_cpu<F: LightField + Sync>(
+        &self,
+        r: &mut Renderer,
+        world: &World,
+        field: &F,
+    ) -> Result<Relit> {
+        let desc = volume_desc(world)?;
+        let t = &self.terrain_mesh;
+        let terrain_points = SamplePoints {
+            positions: &t.positions,
+            normals: Some(&t.normals),
+        };
+        let sun = world.hierarchy.sun();
+        let lit = sample_points(field, terrain_points)?;
         // Vertex and ground light hold everything, the direct sun kept apart included
         // (E T max(0, n·s) with the exact direction and the vertex's own transmittance).
         let light: Vec<Vec3> = lit
@@ -403,13 +436,72 @@ impl SceneMeshes {
             })
             .collect();
         r.update_vertices(self.terrain, &terrain_vertices(t, &light))?;
-        r.set_ground(&ground(&light))?;
-        r.set_light_volume(&LightVolume::from_field(&world.hierarchy, desc)?)?;
+        r.set_ground(&GroundLight {
+            origin: t.origin,
+            spacing: t.spacing,
+            width: t.size.0,
+            depth: t.size.1,
+            nodes: t
+                .positions
+                .iter()
+                .zip(&light)
+                .map(|(p, e)| e.extend(p.y).to_array())
+                .collect(),
+        })?;
+        r.set_light_volume(&LightVolume::from_field(field, desc)?)?;
         Ok(Relit {
-            volume_bytes,
+            volume_bytes: desc.point_count() as u64 * 32,
             on_device: false,
-            grids: layers.len(),
+            grids: world.hierarchy.layers().len(),
         })
+    }
+
+    /// Instances for the probes' debug view: a ball per probe (radius a tenth of the
+    /// spacing, shown as a mid-grey card of albedo 0.18 under the probe's mean
+    /// irradiance) and a cube per surfel (half a surfel cell, glowing with the radiance
+    /// it had this frame).
+    pub fn set_probe_debug(
+        &self,
+        r: &mut Renderer,
+        probes: &crate::probes::Probes,
+    ) -> Result<(usize, usize)> {
+        let params = probes.set.params();
+        let balls: Vec<MeshInstance> = probes
+            .set
+            .probes()
+            .iter()
+            .zip(probes.light.probes())
+            .map(|(p, c)| {
+                let mean = c.0.iter().copied().sum::<Vec3>() / 6.0;
+                MeshInstance::new(
+                    Mat4::from_scale_rotation_translation(
+                        Vec3::splat(0.1 * params.spacing),
+                        Default::default(),
+                        p.position,
+                    ),
+                    (mean * 0.18).extend(1.0),
+                )
+            })
+            .collect();
+        let cubes: Vec<MeshInstance> = probes
+            .set
+            .surfels()
+            .iter()
+            .zip(probes.light.surfels())
+            .map(|(s, l)| {
+                MeshInstance::new(
+                    Mat4::from_scale_rotation_translation(
+                        Vec3::splat(0.5 * params.cell),
+                        Default::default(),
+                        s.position,
+                    ),
+                    l.extend(1.0),
+                )
+            })
+            .collect();
+        r.set_instances(self.probe_balls, &balls)?;
+        r.set_instances(self.surfel_cubes, &cubes)?;
+        Ok((balls.len(), cubes.len()))
     }
 
     /// Instances for the debug views of `grid`: balls at its points above the ground

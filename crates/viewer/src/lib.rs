@@ -14,6 +14,10 @@
 //!   the last view again after the sun moved [`SUN_MOVE_DEG`] in azimuth, through the
 //!   path the window's sun keys take (the summary says what was recomputed, and how
 //!   long it took);
+//! - with `[probes]` in the scene: `<view>-probes.png`, each view lit by the light
+//!   probes instead of the grids (the direct sun's shadow still from the sweep), and
+//!   `<view>-probes-debug.png`, the probes as balls and their surfels as glowing cubes
+//!   (`scenes/town.toml` is such a scene);
 //! - `summary.txt` and `summary.json`: timings per stage, grids per depth, memory.
 //!
 //! `--scene file.toml` renders a user's scene, `--window` opens an interactive window.
@@ -21,6 +25,7 @@
 
 pub mod bevy;
 pub mod draw;
+pub mod probes;
 pub mod scene;
 pub mod window;
 pub mod world;
@@ -81,6 +86,8 @@ pub struct Summary {
     /// With the sun kept apart: the sun moved by [`SUN_MOVE_DEG`] in azimuth after the
     /// last view, what was recomputed and how long it took.
     pub sun_move: Option<String>,
+    /// With `[probes]`: the probes' figures (count, surfels, bytes, bake, relight).
+    pub probes: Option<String>,
     /// Files written.
     pub files: Vec<PathBuf>,
 }
@@ -126,6 +133,9 @@ impl Summary {
         let _ = writeln!(s, "  sun:            {}", self.sun);
         if let Some(m) = &self.sun_move {
             let _ = writeln!(s, "  sun moved:      {m}");
+        }
+        if let Some(p) = &self.probes {
+            let _ = writeln!(s, "  light probes:   {p}");
         }
         if self.dynamic_lights.0 > 0 {
             let _ = writeln!(
@@ -296,6 +306,32 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
             }
         }
         timings.push((format!("render {}", spec.name), t.elapsed().as_secs_f64()));
+        if let Some(probes) = &world.probes {
+            // The same view lit by the probes (the direct sun's shadow from the sweep),
+            // and the probes' debug view; the next view samples the grids again.
+            let t = Instant::now();
+            let resolved = probes.resolved()?;
+            let field = probes::ProbeLit {
+                probes: &resolved,
+                sweep: &world.hierarchy,
+            };
+            meshes.relight_cpu(&mut r, &world, &field)?;
+            let img = r.render(&draw::make_view(&world, &meshes, camera, draw::Shot::Lit))?;
+            let path = opts.out.join(format!("{}-probes.png", spec.name));
+            write_png(&path, &img)?;
+            files.push(path);
+            meshes.set_probe_debug(&mut r, probes)?;
+            let mut view = draw::make_view(&world, &meshes, camera, draw::Shot::Points);
+            view.meshes = vec![meshes.terrain, meshes.probe_balls, meshes.surfel_cubes];
+            let img = r.render(&view)?;
+            let path = opts.out.join(format!("{}-probes-debug.png", spec.name));
+            write_png(&path, &img)?;
+            files.push(path);
+            timings.push((
+                format!("probes for {}", spec.name),
+                t.elapsed().as_secs_f64(),
+            ));
+        }
         views.push(ViewSummary {
             name: spec.name.clone(),
             frames,
@@ -378,6 +414,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
         instances: world.instances.len(),
         dynamic_lights: (world.dynamic.lights.len(), world.dynamic.indices.len()),
         model_grid_bytes: world.model_grid_bytes,
+        probes: world.probes.as_ref().map(|p| p.summary()),
         files,
     };
     let txt = opts.out.join("summary.txt");

@@ -41,6 +41,10 @@ pub struct SceneFile {
     pub views: Vec<ViewSpec>,
     /// Many small dynamic lights (fireflies, lamps), scattered at random.
     pub dynamic_lights: Option<DynamicLightsSpec>,
+    /// Relightable light probes (The Division's way) as a second light beside the
+    /// sweep's: each view is also rendered lit by them (`<view>-probes.png`), with a
+    /// debug view of probes and surfels (`<view>-probes-debug.png`).
+    pub probes: Option<ProbesSpec>,
     /// Folder relative paths resolve against (not in the file).
     #[serde(skip)]
     pub base: PathBuf,
@@ -276,6 +280,45 @@ pub struct DynamicLightsSpec {
     pub seed: u64,
 }
 
+/// Light probes over a region of the scene (`light_probes`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbesSpec {
+    /// `"preview"`, `"standard"` (The Division's 4 m) or `"fine"`.
+    #[serde(default = "default_probe_preset")]
+    pub preset: String,
+    /// Probe spacing, metres (overrides the preset's).
+    pub spacing: Option<f32>,
+    /// The region probed, world `[x0, z0, x1, z1]`; by default the instances' extent and
+    /// a spacing around it (the whole terrain without instances).
+    pub region: Option<[f32; 4]>,
+    /// Extra probes along walls (the preset's distance from them); `false`: columns only.
+    #[serde(default = "yes")]
+    pub walls: bool,
+}
+
+fn default_probe_preset() -> String {
+    "standard".into()
+}
+
+impl ProbesSpec {
+    /// The bake parameters.
+    pub fn params(&self) -> light_probes::ProbeParams {
+        let mut p = match self.preset.as_str() {
+            "preview" => light_probes::ProbeParams::preview(),
+            "fine" => light_probes::ProbeParams::fine(),
+            _ => light_probes::ProbeParams::standard(),
+        };
+        if let Some(s) = self.spacing {
+            p.spacing = s;
+        }
+        if !self.walls {
+            p.wall_offset = 0.0;
+        }
+        p
+    }
+}
+
 fn default_light_heights() -> [f32; 2] {
     [0.5, 4.0]
 }
@@ -494,6 +537,27 @@ impl SceneFile {
                 bail!(
                     "dynamic_lights.height = {:?}: need finite min <= max",
                     d.height
+                );
+            }
+        }
+        if let Some(p) = &self.probes {
+            if !matches!(p.preset.as_str(), "preview" | "standard" | "fine") {
+                bail!(
+                    "probes.preset = {:?}: must be \"preview\", \"standard\" or \"fine\"",
+                    p.preset
+                );
+            }
+            if let Some(s) = p.spacing {
+                positive("probes.spacing", s)?;
+            }
+            if let Some(r) = p.region
+                && !(r.iter().all(|v| v.is_finite()) && r[0] < r[2] && r[1] < r[3])
+            {
+                bail!("probes.region = {r:?}: need finite x0 < x1 and z0 < z1");
+            }
+            if !self.sun.split {
+                bail!(
+                    "probes: need sun.split = true (the probes hold no direct sun; its shadow comes from the sweep's transmittance)"
                 );
             }
         }

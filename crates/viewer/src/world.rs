@@ -71,6 +71,8 @@ pub struct World {
     pub model_grid_bytes: u64,
     /// Dynamic lights and their culling grid (empty without `[dynamic_lights]`).
     pub dynamic: lightgrid_render::DynamicLights,
+    /// The light probes (with `[probes]`).
+    pub probes: Option<crate::probes::Probes>,
 }
 
 fn bar(len: u64, what: &str) -> ProgressBar {
@@ -427,7 +429,7 @@ impl World {
             timings.push(("world grid sun".to_string(), t.elapsed().as_secs_f64()));
         }
         let dynamic = dynamic_lights(&scene, &heightmap)?;
-        Ok(Self {
+        let mut world = Self {
             scene,
             heightmap,
             ground,
@@ -442,14 +444,25 @@ impl World {
             timings,
             model_grid_bytes,
             dynamic,
-        })
+            probes: None,
+        };
+        if world.scene.probes.is_some() {
+            let t = Instant::now();
+            let desc = crate::draw::volume_desc(&world)?;
+            world.probes = Some(crate::probes::Probes::build(&world, desc)?);
+            world
+                .timings
+                .push(("light probes".to_string(), t.elapsed().as_secs_f64()));
+        }
+        Ok(world)
     }
 
     /// The scene's sun changed (angles, time of day or illuminance): with the sun kept
     /// apart, the world grid's sun responses are recomputed now and the nodes' wait for
     /// [`Hierarchy::refresh`] / [`Hierarchy::update`] (the sky's grids stay, unless a
     /// clear sky, whose shape follows the sun, changed: then it is swept again too);
-    /// with the sun in the bins, the sky and sun are swept again together.
+    /// with the sun in the bins, the sky and sun are swept again together. Probes are
+    /// relit (eight frames).
     pub fn move_sun(&mut self) -> Result<SunMove> {
         let t = Instant::now();
         let (sky, sun) = sky_and_sun(&self.scene)?;
@@ -464,6 +477,11 @@ impl World {
         } else {
             let top = boundary_light(&sky, &self.scene)?;
             self.hierarchy.set_sky(top)?;
+        }
+        if let Some(mut probes) = self.probes.take() {
+            let relit = probes.relight(self, 8);
+            self.probes = Some(probes);
+            relit.context("relighting the probes")?;
         }
         Ok(SunMove {
             split: self.scene.sun.split,

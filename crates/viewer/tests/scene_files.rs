@@ -130,3 +130,32 @@ target = [520.0, 520.0]
     assert!(above.x > inside.x, "above {above} inside {inside}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The shipped town scene with `[probes]`: probes over the instances (columns and
+/// along walls), and in the open street, away from the walls, the probes' sky light on
+/// a surface facing up agrees with the sweep's (both see the whole sky; the sun is kept
+/// apart in both); inside a house neither holds light.
+#[test]
+fn the_town_scene_lights_with_probes_beside_the_sweep() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/town.toml");
+    let scene = SceneFile::load(&path).unwrap();
+    let mut world = World::build(scene, SweeperChoice::Cpu).unwrap();
+    let probes = world.probes.as_ref().expect("[probes] in town.toml");
+    assert!(probes.wall_probes > 0 && probes.set.probes().len() > probes.wall_probes);
+    let (eye, _) = world.view_points(0);
+    world.prepare_view(eye, "test").unwrap();
+    let probes = world.probes.as_ref().unwrap();
+    let resolved = probes.resolved().unwrap();
+    let open = Vec3::new(48.0, 2.0, 33.0);
+    assert_eq!(resolved.coverage(open).unwrap(), 1.0);
+    let e_probes = resolved.irradiance(open, Vec3::Y).unwrap();
+    let e_sweep = world.hierarchy.irradiance(open, Vec3::Y).unwrap();
+    let rel = (e_probes - e_sweep).abs() / e_sweep;
+    eprintln!("open street, facing up: probes {e_probes} sweep {e_sweep} rel {rel}");
+    assert!(rel.max_element() < 0.1, "{e_probes} vs {e_sweep}");
+    let inside = Vec3::new(42.0, 1.0, 44.0);
+    assert_eq!(
+        resolved.cube_at(inside).unwrap().irradiance(Vec3::Y),
+        Vec3::ZERO
+    );
+}
