@@ -33,6 +33,22 @@ pub struct TerrainMesh {
 }
 
 impl TerrainMesh {
+    /// The renderer's ground light from the light at each vertex.
+    pub fn ground_light(&self, light: &[Vec3]) -> GroundLight {
+        GroundLight {
+            origin: self.origin,
+            spacing: self.spacing,
+            width: self.size.0,
+            depth: self.size.1,
+            nodes: self
+                .positions
+                .iter()
+                .zip(light)
+                .map(|(p, e)| e.extend(p.y).to_array())
+                .collect(),
+        }
+    }
+
     /// At most `max_side` vertices a side.
     pub fn new(world: &World, max_side: u32) -> Self {
         let hm = &world.heightmap;
@@ -309,18 +325,7 @@ impl SceneMeshes {
             positions: &t.positions,
             normals: Some(&t.normals),
         };
-        let ground = |light: &[Vec3]| GroundLight {
-            origin: t.origin,
-            spacing: t.spacing,
-            width: t.size.0,
-            depth: t.size.1,
-            nodes: t
-                .positions
-                .iter()
-                .zip(light)
-                .map(|(p, e)| e.extend(p.y).to_array())
-                .collect(),
-        };
+        let ground = |light: &[Vec3]| t.ground_light(light);
         let volume_bytes = desc.point_count() as u64 * 32;
         // On the device when every grid (and, with the sun kept apart, every grid's
         // scattered sun) lies on the renderer's device; the transmittances are uploaded.
@@ -436,18 +441,7 @@ impl SceneMeshes {
             })
             .collect();
         r.update_vertices(self.terrain, &terrain_vertices(t, &light))?;
-        r.set_ground(&GroundLight {
-            origin: t.origin,
-            spacing: t.spacing,
-            width: t.size.0,
-            depth: t.size.1,
-            nodes: t
-                .positions
-                .iter()
-                .zip(&light)
-                .map(|(p, e)| e.extend(p.y).to_array())
-                .collect(),
-        })?;
+        r.set_ground(&t.ground_light(&light))?;
         r.set_light_volume(&LightVolume::from_field(field, desc)?)?;
         Ok(Relit {
             volume_bytes: desc.point_count() as u64 * 32,
