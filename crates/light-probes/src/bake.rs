@@ -496,6 +496,36 @@ impl ProbeSet {
             + self.link_start.len() * 4
     }
 
+    /// Each surfel's sun visibility read from a light field's transmittance of the sun
+    /// it keeps apart (the sweep's sun channel, `LightField::sun_transmittance`, half a
+    /// cell along the surfel's normal): partial through foliage and media, where
+    /// [`ProbeSet::sun_visibility`]'s shadow rays see leaves as opaque or not at the
+    /// mask's cutoff. Surfels facing away from `to_sun` get 0. Errors name a bad
+    /// `to_sun`, or pass on the field's.
+    pub fn sun_visibility_from<F: lightgrid_core::LightField + Sync + ?Sized>(
+        &self,
+        field: &F,
+        to_sun: Vec3,
+    ) -> Result<Vec<f32>, ProbeError> {
+        let s = to_sun.try_normalize().ok_or_else(|| {
+            lightgrid_core::GridError::invalid("to_sun", to_sun, "must be finite and non-zero")
+        })?;
+        self.surfels
+            .par_iter()
+            .map(|sf| {
+                if sf.normal.dot(s) <= 0.0 {
+                    return Ok(0.0);
+                }
+                let t = field.sun_transmittance(sf.position, Some(sf.normal))?;
+                Ok(if t.is_finite() {
+                    t.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                })
+            })
+            .collect()
+    }
+
     /// Whether each surfel sees the sun toward `to_sun` (1 or 0, alpha-tested at the
     /// mask's cutoff): one shadow ray from its position, lifted a twentieth of a cell
     /// along its normal. Surfels facing away get 0. Recompute when the sun moves.

@@ -217,3 +217,51 @@ fn linear_deterministic_and_checked() {
             .contains("positions")
     );
 }
+
+/// The sun's visibility from a light field's transmittance (the sweep's sun channel):
+/// on the infinite ground under a field that lets half the sun through everywhere, a
+/// probe's downward irradiance is `a (π L + E sin θ / 2)` (to the ground test's 0.2 %);
+/// surfels facing away from the sun get 0; a zero `to_sun` is refused by name.
+#[test]
+fn sun_visibility_from_a_fields_transmittance() {
+    struct Half;
+    impl lightgrid_core::LightField for Half {
+        fn light(&self, _: Vec3, _: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
+            Ok(BinLight::ZERO)
+        }
+        fn sun_transmittance(
+            &self,
+            _: Vec3,
+            _: Option<Vec3>,
+        ) -> Result<f32, lightgrid_core::GridError> {
+            Ok(0.5)
+        }
+    }
+    let a = 0.4;
+    let m = ground(a);
+    let scene = RayScene::new(&m, obvhs::BvhBuildParams::fast_build());
+    let set = ProbeSet::bake(&scene, &[Vec3::new(0.0, 2.0, 0.0)], &params(), &|_, _| {}).unwrap();
+    let theta = 35f32.to_radians();
+    let to_sun = Vec3::new(theta.cos(), theta.sin(), 0.0);
+    let vis = set.sun_visibility_from(&Half, to_sun).unwrap();
+    assert!(vis.iter().all(|v| *v == 0.5));
+    let below = set.sun_visibility_from(&Half, -to_sun).unwrap();
+    assert!(below.iter().all(|v| *v == 0.0), "the ground faces away");
+    assert!(
+        set.sun_visibility_from(&Half, Vec3::ZERO)
+            .unwrap_err()
+            .to_string()
+            .contains("to_sun")
+    );
+    let (l, e) = (1.3f32, 5.0f32);
+    let lighting = Lighting {
+        sky: BinLight::uniform(Vec3::splat(l)),
+        sun: Some((to_sun, Vec3::splat(e))),
+    };
+    let mut light = ProbeLight::new(&set);
+    for _ in 0..3 {
+        light.frame(&set, &lighting, &vis).unwrap();
+    }
+    let down = light.probes()[0].0[3].x;
+    close(down, a * (PI * l + 0.5 * e * theta.sin()), 2e-3, "down");
+}

@@ -1,7 +1,8 @@
 //! Probe relighting on the GPU: [`GpuProbeRelight`] runs `light_probes::ProbeLight::frame`
 //! (the CPU specification) as three compute stages over the same data, uploaded once
 //! per probe set; each frame uploads only the sky, the sun and the surfels' sun
-//! visibility. `tests/gpu.rs` holds it equal to the CPU.
+//! visibility. Interior sets ([`GpuProbeRelight::frame_interior`]) read the exterior
+//! set's probes on the device. `tests/gpu.rs` holds both equal to the CPU.
 
 use std::sync::Arc;
 
@@ -43,6 +44,8 @@ pub struct GpuProbeRelight {
     probes: [wgpu::Buffer; 2],
     /// Which of `probes` holds the last frame.
     current: usize,
+    /// An interior set: the exterior set's probe count.
+    exterior: Option<usize>,
 }
 
 impl GpuProbeRelight {
@@ -61,6 +64,14 @@ impl GpuProbeRelight {
                     s.normal.extend(0.0).to_array(),
                     s.albedo.extend(0.0).to_array(),
                 ]
+            })
+            .enumerate()
+            .map(|(i, mut v)| {
+                // (normal, outside): an interior set's surfels beyond its room.
+                if i % 3 == 1 && set.surfel_outside(i / 3) {
+                    v[3] = 1.0;
+                }
+                v
             })
             .collect();
         // The index table: link ranges, links, brick starts, brick members, factor ranges.
@@ -119,6 +130,7 @@ impl GpuProbeRelight {
                 Binding::Read,
                 Binding::ReadWrite,
                 Binding::ReadWrite,
+                Binding::Read,
             ],
         );
         let b = |label: &str, bytes: &[u8]| buffer(&ctx, label, bytes, storage);
@@ -136,6 +148,7 @@ impl GpuProbeRelight {
             ),
             probes: [p("probes a"), p("probes b")],
             current: 0,
+            exterior: set.interior().map(|_| set.exterior_probes()),
             counts: [0, ns as u32, nb as u32, np as u32],
             offsets: [links_off, brick_start_off, members_off, ranges_off],
             kernel,
@@ -143,11 +156,50 @@ impl GpuProbeRelight {
         })
     }
 
-    /// One frame on the device (as `ProbeLight::frame`): surfels, bricks, probes.
+    /// One frame on the device (as `ProbeLight::frame`): surfels, bricks, probes. An
+    /// interior set needs [`GpuProbeRelight::frame_interior`].
     pub fn frame(
         &mut self,
         lighting: &Lighting,
         sun_visibility: &[f32],
+    ) -> Result<(), RenderError> {
+        if self.exterior.is_some() {
+            return Err(GridError::invalid(
+                "set",
+                "interior set",
+                "its outside surfels need the exterior's light: relight it with frame_interior",
+            )
+            .into());
+        }
+        self.frame_with(lighting, sun_visibility, None)
+    }
+
+    /// One frame of an interior set (as `ProbeLight::frame_interior`): its outside
+    /// surfels read `exterior`'s probes (the exterior set on the same device, relit
+    /// first this frame).
+    pub fn frame_interior(
+        &mut self,
+        lighting: &Lighting,
+        sun_visibility: &[f32],
+        exterior: &GpuProbeRelight,
+    ) -> Result<(), RenderError> {
+        let found = exterior.counts[3] as usize;
+        if self.exterior != Some(found) || !Arc::ptr_eq(&self.ctx, &exterior.ctx) {
+            return Err(GridError::LengthMismatch {
+                field: "exterior",
+                expected: self.exterior.unwrap_or(0),
+                found,
+            }
+            .into());
+        }
+        self.frame_with(lighting, sun_visibility, Some(exterior.buffer()))
+    }
+
+    fn frame_with(
+        &mut self,
+        lighting: &Lighting,
+        sun_visibility: &[f32],
+        exterior: Option<&wgpu::Buffer>,
     ) -> Result<(), RenderError> {
         let ns = self.counts[1] as usize;
         if sun_visibility.len() != ns {
@@ -213,6 +265,7 @@ impl GpuProbeRelight {
                     &self.probes[last],
                     &self.work,
                     &self.probes[next],
+                    exterior.unwrap_or(&self.probes[last]),
                 ],
             );
             let count = match stage {

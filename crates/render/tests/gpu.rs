@@ -1055,6 +1055,135 @@ fn probe_relight_on_the_gpu_equals_the_cpu() {
     assert!(e.contains("sun_visibility"), "{e}");
 }
 
+/// An interior probe set (a room with a window beside a street's probes) relit on the
+/// GPU (`frame_interior`, the outside surfels reading the exterior set's probes on the
+/// device) equals `ProbeLight::frame_interior`, to 1e-4 of the largest value.
+#[test]
+fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
+    use light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, place};
+    use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+    use material_voxelizer::voxelize::RayScene;
+    let Some(ctx) = context() else { return };
+    // An axis-aligned rectangle: `axis` fixed at `at`, the other two (in x, y, z order)
+    // spanning `u` and `v`.
+    let rect = |axis: usize, at: f32, u: [f32; 2], v: [f32; 2], m: u32| {
+        let p = |a: f32, b: f32| {
+            let mut q = [at; 3];
+            let (i, j) = [(1, 2), (0, 2), (0, 1)][axis];
+            q[i] = a;
+            q[j] = b;
+            Vec3::from(q)
+        };
+        let c = [p(u[0], v[0]), p(u[1], v[0]), p(u[1], v[1]), p(u[0], v[1])];
+        let t = |a: Vec3, b: Vec3, d: Vec3| Triangle {
+            positions: [a, b, d],
+            uvs: [Vec2::ZERO; 3],
+            material: m,
+            part: m,
+        };
+        [t(c[0], c[1], c[2]), t(c[0], c[2], c[3])]
+    };
+    let mut tris = Vec::new();
+    tris.extend(rect(1, 0.0, [-30.0, 30.0], [-30.0, 30.0], 0));
+    let (xs, ys, zs) = ([0.0, 6.0], [0.02, 3.0], [0.0, 6.0]);
+    tris.extend(rect(0, 0.0, ys, zs, 1));
+    tris.extend(rect(1, 0.02, xs, zs, 1));
+    tris.extend(rect(1, 3.0, xs, zs, 1));
+    tris.extend(rect(2, 0.0, xs, ys, 1));
+    tris.extend(rect(2, 6.0, xs, ys, 1));
+    // The +X wall with a window over y 0.9..2.1, z 2..4.
+    tris.extend(rect(0, 6.0, [0.02, 0.9], zs, 1));
+    tris.extend(rect(0, 6.0, [2.1, 3.0], zs, 1));
+    tris.extend(rect(0, 6.0, [0.9, 2.1], [0.0, 2.0], 1));
+    tris.extend(rect(0, 6.0, [0.9, 2.1], [4.0, 6.0], 1));
+    let model = Model {
+        triangles: tris,
+        materials: [0.4, 0.7]
+            .iter()
+            .map(|a| SurfaceMaterial {
+                base_colour: Vec4::new(*a, 0.9 * a, 0.8 * a, 1.0),
+                ..Default::default()
+            })
+            .collect(),
+        textures: vec![],
+    };
+    let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
+    let params = ProbeParams {
+        spacing: 3.0,
+        ..ProbeParams::preview()
+    };
+    let (lo, hi) = (Vec3::new(-9.0, 0.0, -9.0), Vec3::new(15.0, 3.0, 15.0));
+    let ext = ProbeSet::bake(&scene, &place(&scene, lo, hi, &params), &params, &|_, _| {}).unwrap();
+    let room = InteriorBox {
+        lo: Vec3::new(0.05, 0.07, 0.05),
+        hi: Vec3::new(5.95, 2.95, 5.95),
+        blend: 0.5,
+    };
+    let pi = ProbeParams {
+        spacing: 1.5,
+        cell: 0.5,
+        ..params
+    };
+    let int =
+        ProbeSet::bake_interior(&scene, &room.place(1.5), &room, &ext, &pi, &|_, _| {}).unwrap();
+    let outside = (0..int.surfels().len())
+        .filter(|s| int.surfel_outside(*s))
+        .count();
+    assert!(outside > 0 && outside < int.surfels().len(), "{outside}");
+    let e = 25f32.to_radians();
+    let to_sun = Vec3::new(e.cos(), e.sin(), -0.15);
+    let lighting = Lighting {
+        sky: BinLight::uniform(Vec3::new(0.3, 0.35, 0.45)),
+        sun: Some((to_sun, Vec3::new(6.0, 5.6, 5.0))),
+    };
+    let (ev, iv) = (
+        ext.sun_visibility(&scene, to_sun),
+        int.sun_visibility(&scene, to_sun),
+    );
+    let (mut ce, mut ci) = (ProbeLight::new(&ext), ProbeLight::new(&int));
+    let ge_ctx = ctx.clone();
+    let mut ge = lightgrid_render::probes::GpuProbeRelight::new(ctx.clone(), &ext).unwrap();
+    let mut gi = lightgrid_render::probes::GpuProbeRelight::new(ctx, &int).unwrap();
+    // An interior set refuses the exterior's frame, and an exterior of the wrong size.
+    assert!(
+        gi.frame(&lighting, &iv)
+            .unwrap_err()
+            .to_string()
+            .contains("frame_interior")
+    );
+    let wrong = lightgrid_render::probes::GpuProbeRelight::new(ge_ctx.clone(), &int).unwrap();
+    assert_ne!(int.probes().len(), ext.probes().len());
+    let e = gi
+        .frame_interior(&lighting, &iv, &wrong)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("exterior"), "{e}");
+    for frame in 0..4 {
+        ce.frame(&ext, &lighting, &ev).unwrap();
+        ci.frame_interior(&int, &lighting, &iv, &ce).unwrap();
+        ge.frame(&lighting, &ev).unwrap();
+        gi.frame_interior(&lighting, &iv, &ge).unwrap();
+        let (g, c) = (gi.read().unwrap(), ci.probes());
+        let scale = c
+            .iter()
+            .flat_map(|a| a.0)
+            .map(|v| v.max_element())
+            .fold(0.0, f32::max);
+        assert!(scale > 0.0);
+        for (i, (a, b)) in c.iter().zip(&g).enumerate() {
+            for k in 0..6 {
+                let d = (a.0[k] - b.0[k]).abs().max_element();
+                assert!(
+                    d <= 1e-4 * scale,
+                    "frame {frame} probe {i} axis {k}: cpu {} gpu {}",
+                    a.0[k],
+                    b.0[k]
+                );
+            }
+        }
+    }
+}
+
 /// A layer lit as the hierarchy lights it with the sun kept apart: `sky × scale +
 /// scattered × E`, and the transmittance (the CPU rule of `sample_layers_lit`).
 struct LitLayer<'a> {

@@ -450,6 +450,23 @@ impl SceneMeshes {
         })
     }
 
+    /// Relights from the world's light probes (the sweep's light where no probe
+    /// reaches, its transmittance for the direct sun; [`crate::probes::ProbeLit`]) and
+    /// sets the probes' debug instances. `None` without `[probes]`.
+    pub fn relight_probes(&self, r: &mut Renderer, world: &World) -> Result<Option<Relit>> {
+        let Some(probes) = &world.probes else {
+            return Ok(None);
+        };
+        let resolved = probes.resolved()?;
+        let field = crate::probes::ProbeLit {
+            probes: &resolved,
+            sweep: &world.hierarchy,
+        };
+        let relit = self.relight_cpu(r, world, &field)?;
+        self.set_probe_debug(r, probes)?;
+        Ok(Some(relit))
+    }
+
     /// Instances for the probes' debug view: a ball per probe (radius a tenth of the
     /// spacing, shown as a mid-grey card of albedo 0.18 under the probe's mean
     /// irradiance) and a cube per surfel (half a surfel cell, glowing with the radiance
@@ -602,10 +619,15 @@ pub enum Shot {
     Points,
     /// The material cells as cubes.
     Material,
+    /// The scene lit by the light probes (with `[probes]`; relight with
+    /// [`SceneMeshes::relight_probes`] first).
+    Probes,
+    /// Terrain, the probes as balls and their surfels as glowing cubes.
+    ProbesDebug,
 }
 
 impl Shot {
-    /// All shots.
+    /// The shots every view gets (the probes' two come with `[probes]`).
     pub const ALL: [Shot; 4] = [Shot::Lit, Shot::NoGrid, Shot::Points, Shot::Material];
 
     /// File name suffix.
@@ -615,6 +637,8 @@ impl Shot {
             Shot::NoGrid => "-no-grid",
             Shot::Points => "-grid-points",
             Shot::Material => "-material",
+            Shot::Probes => "-probes",
+            Shot::ProbesDebug => "-probes-debug",
         }
     }
 }
@@ -624,9 +648,10 @@ pub fn make_view(world: &World, meshes: &SceneMeshes, camera: Camera, shot: Shot
     let sky_ambient = world.sky_top.total() / (2.0 * std::f32::consts::PI);
     let mut list = vec![meshes.terrain];
     match shot {
-        Shot::Lit | Shot::NoGrid => list.extend(&meshes.models),
+        Shot::Lit | Shot::NoGrid | Shot::Probes => list.extend(&meshes.models),
         Shot::Points => list.push(meshes.balls),
         Shot::Material => list = vec![meshes.cubes],
+        Shot::ProbesDebug => list.extend([meshes.probe_balls, meshes.surfel_cubes]),
     }
     View {
         camera,
@@ -641,7 +666,7 @@ pub fn make_view(world: &World, meshes: &SceneMeshes, camera: Camera, shot: Shot
         // The sun kept apart from the bins is added per pixel (its transmittance is in
         // the volume); otherwise the bins hold it.
         direct_sun: match world.hierarchy.sun() {
-            Some(s) if shot == Shot::Lit => s.irradiance,
+            Some(s) if matches!(shot, Shot::Lit | Shot::Probes) => s.irradiance,
             _ => Vec3::ZERO,
         },
         exposure: 0.6,

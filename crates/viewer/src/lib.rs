@@ -306,27 +306,16 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
             }
         }
         timings.push((format!("render {}", spec.name), t.elapsed().as_secs_f64()));
-        if let Some(probes) = &world.probes {
-            // The same view lit by the probes (the direct sun's shadow from the sweep),
-            // and the probes' debug view; the next view samples the grids again.
+        if meshes.relight_probes(&mut r, &world)?.is_some() {
+            // The same view lit by the probes, and the probes' debug view; the next
+            // view samples the grids again.
             let t = Instant::now();
-            let resolved = probes.resolved()?;
-            let field = probes::ProbeLit {
-                probes: &resolved,
-                sweep: &world.hierarchy,
-            };
-            meshes.relight_cpu(&mut r, &world, &field)?;
-            let img = r.render(&draw::make_view(&world, &meshes, camera, draw::Shot::Lit))?;
-            let path = opts.out.join(format!("{}-probes.png", spec.name));
-            write_png(&path, &img)?;
-            files.push(path);
-            meshes.set_probe_debug(&mut r, probes)?;
-            let mut view = draw::make_view(&world, &meshes, camera, draw::Shot::Points);
-            view.meshes = vec![meshes.terrain, meshes.probe_balls, meshes.surfel_cubes];
-            let img = r.render(&view)?;
-            let path = opts.out.join(format!("{}-probes-debug.png", spec.name));
-            write_png(&path, &img)?;
-            files.push(path);
+            for shot in [draw::Shot::Probes, draw::Shot::ProbesDebug] {
+                let img = r.render(&draw::make_view(&world, &meshes, camera, shot))?;
+                let path = opts.out.join(format!("{}{}.png", spec.name, shot.suffix()));
+                write_png(&path, &img)?;
+                files.push(path);
+            }
             timings.push((
                 format!("probes for {}", spec.name),
                 t.elapsed().as_secs_f64(),

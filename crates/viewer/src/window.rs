@@ -7,7 +7,8 @@
 //! at once, the nodes' coarse and near first within the frame budget; a clear sky is
 //! swept again after them), else sky and sun are swept again; the console reports what
 //! was recomputed and how long it took;
-//! 1 lit, 2 without grids, 3 grid points, 4 material cells; Esc quits.
+//! 1 lit, 2 without grids, 3 grid points, 4 material cells; with `[probes]` in the
+//! scene, 5 lit by the light probes, 6 the probes and their surfels; Esc quits.
 //!
 //! `--frames N` (smoke tests, demos) flies forward on its own, moves the sun by 10° on
 //! its 10th frame (as `.` does) and quits after `N` frames, printing the frames drawn
@@ -255,7 +256,13 @@ impl App {
         // Resampling the light volume costs about a second on two cores: at most once a
         // second, and only after grids changed.
         if self.dirty && self.last_relight.elapsed().as_secs_f32() > 1.0 {
-            state.meshes.relight(&mut state.renderer, &self.world)?;
+            if self.shot == Shot::Probes {
+                state
+                    .meshes
+                    .relight_probes(&mut state.renderer, &self.world)?;
+            } else {
+                state.meshes.relight(&mut state.renderer, &self.world)?;
+            }
             let grid = self.world.hierarchy.grid_at(self.eye).clone();
             state
                 .meshes
@@ -294,10 +301,25 @@ impl App {
 
     fn key(&mut self, code: KeyCode) -> Result<()> {
         match code {
-            KeyCode::Digit1 => self.shot = Shot::Lit,
-            KeyCode::Digit2 => self.shot = Shot::NoGrid,
-            KeyCode::Digit3 => self.shot = Shot::Points,
-            KeyCode::Digit4 => self.shot = Shot::Material,
+            KeyCode::Digit1
+            | KeyCode::Digit2
+            | KeyCode::Digit3
+            | KeyCode::Digit4
+            | KeyCode::Digit5
+            | KeyCode::Digit6 => {
+                let next = match code {
+                    KeyCode::Digit1 => Shot::Lit,
+                    KeyCode::Digit2 => Shot::NoGrid,
+                    KeyCode::Digit3 => Shot::Points,
+                    KeyCode::Digit4 => Shot::Material,
+                    _ if self.world.probes.is_none() => return Ok(()),
+                    KeyCode::Digit5 => Shot::Probes,
+                    _ => Shot::ProbesDebug,
+                };
+                // The light volume follows: the probes' for 5, the grids' otherwise.
+                self.dirty |= (next == Shot::Probes) != (self.shot == Shot::Probes);
+                self.shot = next;
+            }
             KeyCode::BracketLeft | KeyCode::BracketRight => {
                 let step = if code == KeyCode::BracketLeft {
                     -0.25

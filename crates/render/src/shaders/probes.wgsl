@@ -3,7 +3,8 @@
 // six vec4 a probe (+X, -X, +Y, -Y, +Z, -Z).
 
 @group(0) @binding(0) var<uniform> params: ProbeParams;
-// Surfels: (position, hits), (normal, 0), (albedo, 0).
+// Surfels: (position, hits), (normal, outside), (albedo, 0); outside = 1 for an interior
+// set's surfels beyond its room (lit by the exterior set's probes).
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 // Every index table, at the offsets of params.offsets: per surfel its links' range
 // (from 0), links (probe, bitcast weight), brick_start (bricks + 1), brick_surfels, per
@@ -20,14 +21,30 @@
 // Surfel radiance (one vec4 each), then brick radiance.
 @group(0) @binding(7) var<storage, read_write> work: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> probes: array<vec4<f32>>;
+// The exterior set's probes this frame (an interior set's outside surfels read them; an
+// exterior set binds its own last frame here, unread).
+@group(0) @binding(9) var<storage, read> exterior: array<vec4<f32>>;
 
-// lightgrid_core::AmbientCube::irradiance of last frame's probe p.
-fn cube_irradiance(p: u32, n: vec3<f32>) -> vec3<f32> {
+// lightgrid_core::AmbientCube::irradiance of the cube with faces c (+X, -X, ... -Z).
+fn cube_eval(c: array<vec3<f32>, 6>, n: vec3<f32>) -> vec3<f32> {
     let n2 = n * n;
-    let x = select(last[6u * p + 1u].xyz, last[6u * p].xyz, n.x >= 0.0);
-    let y = select(last[6u * p + 3u].xyz, last[6u * p + 2u].xyz, n.y >= 0.0);
-    let z = select(last[6u * p + 5u].xyz, last[6u * p + 4u].xyz, n.z >= 0.0);
+    let x = select(c[1], c[0], n.x >= 0.0);
+    let y = select(c[3], c[2], n.y >= 0.0);
+    let z = select(c[5], c[4], n.z >= 0.0);
     return x * n2.x + y * n2.y + z * n2.z;
+}
+
+// Probe p's irradiance facing n: last frame's, or the exterior set's this frame.
+fn cube_irradiance(p: u32, n: vec3<f32>, outside: bool) -> vec3<f32> {
+    var c: array<vec3<f32>, 6>;
+    for (var k = 0u; k < 6u; k++) {
+        if (outside) {
+            c[k] = exterior[6u * p + k].xyz;
+        } else {
+            c[k] = last[6u * p + k].xyz;
+        }
+    }
+    return cube_eval(c, n);
 }
 
 @compute @workgroup_size(64)
@@ -40,11 +57,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             return;
         }
         let n = surfels[3u * i + 1u].xyz;
+        let outside = surfels[3u * i + 1u].w != 0.0;
         let albedo = surfels[3u * i + 2u].xyz;
         var e = vec3<f32>(0.0);
         for (var l = index[2u * i]; l < index[2u * i + 1u]; l++) {
             let o = params.offsets.x + 2u * l;
-            e += cube_irradiance(index[o], n) * bitcast<f32>(index[o + 1u]);
+            e += cube_irradiance(index[o], n, outside) * bitcast<f32>(index[o + 1u]);
         }
         if (params.to_sun.w != 0.0) {
             let v = frame_in[NUM_DIRS + i / 4u][i % 4u];
