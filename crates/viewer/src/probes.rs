@@ -176,17 +176,27 @@ impl Probes {
         Ok(probes)
     }
 
-    /// Relights for the world's sky and sun: the surfels' sun visibility, then `frames`
-    /// frames (each adds a bounce).
+    /// Relights for the world's sky and sun: the surfels' sun visibility (shadow rays, or
+    /// the sweep's transmittance with `probes.sun = "sweep"`), then `frames` frames (each
+    /// adds a bounce).
     pub fn relight(&mut self, world: &World, frames: u32) -> Result<()> {
         let t = Instant::now();
         let scene = RayScene::new(&self.model, bvh());
         let to_sun = -world.sun.0;
         let lit = world.sun.1.max_element() > 0.0;
-        let vis = if lit {
-            self.set.sun_visibility(&scene, to_sun)
-        } else {
+        let by_sweep = world
+            .scene
+            .probes
+            .as_ref()
+            .is_some_and(|p| p.sun == "sweep");
+        let vis = if !lit {
             vec![0.0; self.set.surfels().len()]
+        } else if by_sweep {
+            self.set
+                .sun_visibility_from(&world.hierarchy, to_sun)
+                .context("the surfels' sun from the sweep's transmittance")?
+        } else {
+            self.set.sun_visibility(&scene, to_sun)
         };
         let vis_ms = t.elapsed().as_secs_f64() * 1e3;
         let lighting = Lighting {

@@ -295,6 +295,14 @@ pub struct ProbesSpec {
     /// Extra probes along walls (the preset's distance from them); `false`: columns only.
     #[serde(default = "yes")]
     pub walls: bool,
+    /// How surfels see the sun: `"rays"` (a shadow ray each, alpha-tested leaves opaque
+    /// or not) or `"sweep"` (the sweep's sun transmittance, partial through foliage).
+    #[serde(default = "default_probe_sun")]
+    pub sun: String,
+}
+
+fn default_probe_sun() -> String {
+    "rays".into()
 }
 
 fn default_probe_preset() -> String {
@@ -549,6 +557,9 @@ impl SceneFile {
             }
             if let Some(s) = p.spacing {
                 positive("probes.spacing", s)?;
+            }
+            if !matches!(p.sun.as_str(), "rays" | "sweep") {
+                bail!("probes.sun = {:?}: must be \"rays\" or \"sweep\"", p.sun);
             }
             if let Some(r) = p.region
                 && !(r.iter().all(|v| v.is_finite()) && r[0] < r[2] && r[1] < r[3])
