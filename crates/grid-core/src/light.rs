@@ -148,9 +148,10 @@ impl BinLight {
     pub fn dominant(&self) -> Vec3 {
         let mut v = Vec3::ZERO;
         let mut sum = 0.0;
-        for d in 0..NUM_DIRS {
-            let l = luminance(self.0[d]);
-            v += dirs::dir_unit(d) * l;
+        // (The unit table fetched once: this runs for every point of every sweep.)
+        for (light, unit) in self.0.iter().zip(dirs::units()) {
+            let l = luminance(*light);
+            v += *unit * l;
             sum += l;
         }
         if sum > 0.0 && sum.is_finite() {
