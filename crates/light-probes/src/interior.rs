@@ -55,19 +55,6 @@ impl InteriorBox {
         (self.lo - p).max(p - self.hi).max(Vec3::ZERO).length()
     }
 
-    /// Distance along unit `d` from `p` (inside) to where the ray leaves the box.
-    pub fn exit(&self, p: Vec3, d: Vec3) -> f32 {
-        let mut t = f32::INFINITY;
-        for a in 0..3 {
-            if d[a] > 0.0 {
-                t = t.min((self.hi[a] - p[a]) / d[a]);
-            } else if d[a] < 0.0 {
-                t = t.min((self.lo[a] - p[a]) / d[a]);
-            }
-        }
-        t.max(0.0)
-    }
-
     /// The room's share of the light at `p`: 0 outside, rising linearly to 1 at `blend`
     /// metres inside (1 everywhere inside when `blend` is 0).
     pub fn weight(&self, p: Vec3) -> f32 {
@@ -156,15 +143,11 @@ mod tests {
     }
 
     #[test]
-    fn exit_weight_and_placement() {
+    fn distance_weight_and_placement() {
         let r = room();
         let c = Vec3::new(1.0, 1.0, 1.0);
-        assert!((r.exit(c, Vec3::X) - 3.0).abs() < 1e-6);
         assert_eq!(r.distance(c), 0.0);
         assert!((r.distance(Vec3::new(7.0, -4.0, 1.0)) - 5.0).abs() < 1e-6);
-        assert!((r.exit(c, Vec3::NEG_Y) - 1.0).abs() < 1e-6);
-        let d = Vec3::new(1.0, 1.0, 0.0).normalize();
-        assert!((r.exit(c, d) - 2.0 * 2f32.sqrt()).abs() < 1e-5);
         assert_eq!(r.weight(Vec3::new(-0.1, 1.0, 1.0)), 0.0);
         assert!((r.weight(Vec3::new(0.5, 1.5, 3.0)) - 0.5).abs() < 1e-6);
         assert_eq!(r.weight(Vec3::new(2.0, 1.5, 3.0)), 1.0);

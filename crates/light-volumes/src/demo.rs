@@ -6,30 +6,17 @@ use std::path::Path;
 use lightgrid_core::glam::{Vec2, Vec3, Vec4};
 use material_voxelizer::model::{Model, ModelError, SurfaceMaterial, Triangle};
 
-/// Appends `part` to `model`, scaled by `scale` and moved by `offset`.
+/// Appends `part` to `model`, scaled by `scale` and moved by `offset`
+/// ([`Model::append`]).
 pub fn append(model: &mut Model, part: &Model, scale: f32, offset: Vec3) {
-    let (m0, t0) = (model.materials.len() as u32, model.textures.len());
-    model.textures.extend(part.textures.iter().cloned());
-    model
-        .materials
-        .extend(part.materials.iter().cloned().map(|mut m| {
-            m.texture = m.texture.map(|t| t + t0);
-            m
-        }));
-    let p0 = model
-        .triangles
-        .iter()
-        .map(|t| t.part)
-        .max()
-        .map_or(0, |p| p + 1);
-    model
-        .triangles
-        .extend(part.triangles.iter().map(|t| Triangle {
-            positions: t.positions.map(|p| p * scale + offset),
-            uvs: t.uvs,
-            material: t.material + m0,
-            part: t.part + p0,
-        }));
+    model.append(
+        part,
+        lightgrid_core::glam::Mat4::from_scale_rotation_translation(
+            Vec3::splat(scale),
+            Default::default(),
+            offset,
+        ),
+    );
 }
 
 /// The town: `testdata` is the shipped `shared/testdata` folder.

@@ -152,6 +152,32 @@ pub struct Model {
 }
 
 impl Model {
+    /// Appends `part` placed by `transform`: its textures and materials after this
+    /// model's (indices shifted), its triangles transformed, their parts numbered after
+    /// this model's.
+    pub fn append(&mut self, part: &Model, transform: Mat4) {
+        let (m0, t0) = (self.materials.len() as u32, self.textures.len());
+        self.textures.extend(part.textures.iter().cloned());
+        self.materials
+            .extend(part.materials.iter().cloned().map(|mut m| {
+                m.texture = m.texture.map(|t| t + t0);
+                m
+            }));
+        let p0 = self
+            .triangles
+            .iter()
+            .map(|t| t.part)
+            .max()
+            .map_or(0, |p| p + 1);
+        self.triangles
+            .extend(part.triangles.iter().map(|t| Triangle {
+                positions: t.positions.map(|p| transform.transform_point3(p)),
+                uvs: t.uvs,
+                material: t.material + m0,
+                part: t.part + p0,
+            }));
+    }
+
     /// Bounds of all triangles: `(min, max)`; `None` for an empty model.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let mut it = self.triangles.iter().flat_map(|t| t.positions);
@@ -437,5 +463,49 @@ impl Model {
             message: e.to_string(),
         })?;
         Ok(model)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Appending shifts material, texture and part indices past the model's own and
+    /// places the triangles by the transform.
+    #[test]
+    fn append_shifts_indices_and_transforms() {
+        let part = Model {
+            triangles: vec![Triangle {
+                positions: [Vec3::ZERO, Vec3::X, Vec3::Z],
+                uvs: [Vec2::ZERO; 3],
+                material: 0,
+                part: 0,
+            }],
+            materials: vec![SurfaceMaterial {
+                texture: Some(0),
+                ..Default::default()
+            }],
+            textures: vec![Texture {
+                width: 1,
+                height: 1,
+                texels: vec![Vec4::ONE],
+            }],
+        };
+        let mut m = Model::default();
+        m.append(&part, Mat4::IDENTITY);
+        let t =
+            Mat4::from_scale_rotation_translation(Vec3::splat(2.0), Default::default(), Vec3::Y);
+        m.append(&part, t);
+        assert_eq!(
+            (m.triangles.len(), m.materials.len(), m.textures.len()),
+            (2, 2, 2)
+        );
+        let b = &m.triangles[1];
+        assert_eq!((b.material, b.part), (1, 1));
+        assert_eq!(m.materials[1].texture, Some(1));
+        assert_eq!(
+            b.positions,
+            [Vec3::Y, Vec3::new(2.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 2.0)]
+        );
     }
 }

@@ -954,6 +954,32 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
     assert!(e.unwrap_err().to_string().contains("samples.count()"));
 }
 
+/// The GPU's probe light equals the CPU's to 1e-4 of the largest value, and is not dark.
+fn probes_match(
+    cpu: &[lightgrid_core::AmbientCube],
+    gpu: &[lightgrid_core::AmbientCube],
+    frame: u32,
+) {
+    assert_eq!(gpu.len(), cpu.len());
+    let scale = cpu
+        .iter()
+        .flat_map(|a| a.0)
+        .map(|v| v.max_element())
+        .fold(0.0, f32::max);
+    assert!(scale > 0.0);
+    for (i, (a, b)) in cpu.iter().zip(gpu).enumerate() {
+        for k in 0..6 {
+            let d = (a.0[k] - b.0[k]).abs().max_element();
+            assert!(
+                d <= 1e-4 * scale,
+                "frame {frame} probe {i} axis {k}: cpu {} gpu {}",
+                a.0[k],
+                b.0[k]
+            );
+        }
+    }
+}
+
 /// Probe relighting on the GPU (`GpuProbeRelight`) equals `light_probes::ProbeLight`
 /// (the CPU specification) frame after frame, to 1e-4 of the largest value (float
 /// reassociation and fused multiply-adds are the only differences), on a ground with a
@@ -1029,26 +1055,7 @@ fn probe_relight_on_the_gpu_equals_the_cpu() {
     for frame in 0..4 {
         cpu.frame(&set, &lighting, &vis).unwrap();
         gpu.frame(&lighting, &vis).unwrap();
-        let g = gpu.read().unwrap();
-        let c = cpu.probes();
-        assert_eq!(g.len(), c.len());
-        let scale = c
-            .iter()
-            .flat_map(|a| a.0)
-            .map(|v| v.max_element())
-            .fold(0.0, f32::max);
-        assert!(scale > 0.0);
-        for (i, (a, b)) in c.iter().zip(&g).enumerate() {
-            for k in 0..6 {
-                let d = (a.0[k] - b.0[k]).abs().max_element();
-                assert!(
-                    d <= 1e-4 * scale,
-                    "frame {frame} probe {i} axis {k}: cpu {} gpu {}",
-                    a.0[k],
-                    b.0[k]
-                );
-            }
-        }
+        probes_match(cpu.probes(), &gpu.read().unwrap(), frame);
     }
     // Bad input by name.
     let e = gpu.frame(&lighting, &vis[1..]).unwrap_err().to_string();
@@ -1163,24 +1170,7 @@ fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
         ci.frame_interior(&int, &lighting, &iv, &ce).unwrap();
         ge.frame(&lighting, &ev).unwrap();
         gi.frame_interior(&lighting, &iv, &ge).unwrap();
-        let (g, c) = (gi.read().unwrap(), ci.probes());
-        let scale = c
-            .iter()
-            .flat_map(|a| a.0)
-            .map(|v| v.max_element())
-            .fold(0.0, f32::max);
-        assert!(scale > 0.0);
-        for (i, (a, b)) in c.iter().zip(&g).enumerate() {
-            for k in 0..6 {
-                let d = (a.0[k] - b.0[k]).abs().max_element();
-                assert!(
-                    d <= 1e-4 * scale,
-                    "frame {frame} probe {i} axis {k}: cpu {} gpu {}",
-                    a.0[k],
-                    b.0[k]
-                );
-            }
-        }
+        probes_match(ci.probes(), &gi.read().unwrap(), frame);
     }
 }
 

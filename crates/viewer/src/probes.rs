@@ -80,33 +80,19 @@ fn region_model(world: &World, lo: Vec2, hi: Vec2) -> Model {
             model.triangles.push(tri([b, c, d], 0, 0));
         }
     }
-    for (n, inst) in world.instances.iter().enumerate() {
+    for inst in &world.instances {
         let p = Vec2::new(inst.position.x, inst.position.z);
         if p.cmplt(lo).any() || p.cmpgt(hi).any() {
             continue;
         }
-        let part = &world.models[inst.model as usize].model;
-        let m = Mat4::from_scale_rotation_translation(
-            Vec3::splat(inst.scale),
-            inst.rotation,
-            inst.position,
+        model.append(
+            &world.models[inst.model as usize].model,
+            Mat4::from_scale_rotation_translation(
+                Vec3::splat(inst.scale),
+                inst.rotation,
+                inst.position,
+            ),
         );
-        let (m0, t0) = (model.materials.len() as u32, model.textures.len());
-        model.textures.extend(part.textures.iter().cloned());
-        model
-            .materials
-            .extend(part.materials.iter().cloned().map(|mut s| {
-                s.texture = s.texture.map(|t| t + t0);
-                s
-            }));
-        model
-            .triangles
-            .extend(part.triangles.iter().map(|t| Triangle {
-                positions: t.positions.map(|q| m.transform_point3(q)),
-                uvs: t.uvs,
-                material: t.material + m0,
-                part: n as u32 + 1,
-            }));
     }
     model
 }
