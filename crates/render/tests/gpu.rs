@@ -954,6 +954,24 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
     assert!(e.unwrap_err().to_string().contains("samples.count()"));
 }
 
+/// A model of `triangles` with warm grey materials of the given albedos.
+fn tinted(
+    triangles: Vec<material_voxelizer::model::Triangle>,
+    albedos: &[f32],
+) -> material_voxelizer::model::Model {
+    material_voxelizer::model::Model {
+        triangles,
+        materials: albedos
+            .iter()
+            .map(|a| material_voxelizer::model::SurfaceMaterial {
+                base_colour: Vec4::new(*a, 0.9 * a, 0.8 * a, 1.0),
+                ..Default::default()
+            })
+            .collect(),
+        textures: vec![],
+    }
+}
+
 /// The GPU's probe light equals the CPU's to 1e-4 of the largest value, and is not dark.
 fn probes_match(
     cpu: &[lightgrid_core::AmbientCube],
@@ -987,7 +1005,7 @@ fn probes_match(
 #[test]
 fn probe_relight_on_the_gpu_equals_the_cpu() {
     use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
-    use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+    use material_voxelizer::model::Triangle;
     use material_voxelizer::voxelize::RayScene;
     let Some(ctx) = context() else { return };
     let q = |c: [Vec3; 4], m: u32| {
@@ -1023,17 +1041,7 @@ fn probe_relight_on_the_gpu_equals_the_cpu() {
         ],
         2,
     ));
-    let model = Model {
-        triangles: tris,
-        materials: [0.4, 0.7, 0.6]
-            .iter()
-            .map(|a| SurfaceMaterial {
-                base_colour: Vec4::new(*a, 0.9 * a, 0.8 * a, 1.0),
-                ..Default::default()
-            })
-            .collect(),
-        textures: vec![],
-    };
+    let model = tinted(tris, &[0.4, 0.7, 0.6]);
     let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
     let params = ProbeParams {
         spacing: 6.0,
@@ -1068,7 +1076,7 @@ fn probe_relight_on_the_gpu_equals_the_cpu() {
 #[test]
 fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
     use light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, place};
-    use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+    use material_voxelizer::model::Triangle;
     use material_voxelizer::voxelize::RayScene;
     let Some(ctx) = context() else { return };
     // An axis-aligned rectangle: `axis` fixed at `at`, the other two (in x, y, z order)
@@ -1103,17 +1111,7 @@ fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
     tris.extend(rect(0, 6.0, [2.1, 3.0], zs, 1));
     tris.extend(rect(0, 6.0, [0.9, 2.1], [0.0, 2.0], 1));
     tris.extend(rect(0, 6.0, [0.9, 2.1], [4.0, 6.0], 1));
-    let model = Model {
-        triangles: tris,
-        materials: [0.4, 0.7]
-            .iter()
-            .map(|a| SurfaceMaterial {
-                base_colour: Vec4::new(*a, 0.9 * a, 0.8 * a, 1.0),
-                ..Default::default()
-            })
-            .collect(),
-        textures: vec![],
-    };
+    let model = tinted(tris, &[0.4, 0.7]);
     let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
     let params = ProbeParams {
         spacing: 3.0,
