@@ -110,6 +110,7 @@ impl ContentHash {
             max_passes,
             tolerance,
             skip_empty_levels,
+            medium,
         } = *o;
         self.u32(
             outputs.bins as u32 | (outputs.average as u32) << 1 | (outputs.dominant as u32) << 2,
@@ -117,6 +118,10 @@ impl ContentHash {
         .f32s(&[smoothing, tolerance])
         .u32(max_passes)
         .u32(skip_empty_levels as u32)
+        .u32(match medium {
+            crate::MediumEmission::Escape => 0,
+            crate::MediumEmission::Seed => 1,
+        })
     }
     /// The hash.
     pub fn finish(&self) -> u64 {

@@ -105,8 +105,9 @@ pub use sample::{Blend, trilinear_corners};
 pub use terrain::Heightmap;
 pub use traits::{
     Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES,
-    MaterialSource, NoScatter, Outputs, Resident, SideBoundary, SumField, SunBoundary, SunResponse,
-    SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial,
+    MaterialSource, MediumEmission, NoScatter, Outputs, Resident, SideBoundary, SumField,
+    SunBoundary, SunResponse, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
+    TopBoundary, UniformMaterial,
 };
 
 /// The README's examples, compiled and run as doc tests.

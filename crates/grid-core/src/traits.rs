@@ -227,6 +227,25 @@ pub struct SweepOptions {
     /// under a laterally uniform boundary (same result; on by default; off only to
     /// measure what the skip saves). GPU sweepers may compute them regardless.
     pub skip_empty_levels: bool,
+    /// How a medium cell emits the light it scatters (step 5 of the sweep's
+    /// specification, the `sweep-cpu` docs).
+    pub medium: MediumEmission,
+}
+
+/// How a medium cell of pass-through `p` sends scattered light `(S, M)` into a bin `b`:
+/// `ω_b / 4π · (A S − B u_b · M)`, with `(A, B)` by rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum MediumEmission {
+    /// A slab's exact escape probabilities for light scattered out of a vertical beam:
+    /// `τ p / (1 − p)` straight on (`τ = −ln p`), `(1 + p)/2` straight back
+    /// (`sweep_cpu::sweep::medium_emission`). Chandrasekhar's half-space albedo within
+    /// +10 % at any cell depth (the seed's: up to +74 %).
+    #[default]
+    Escape,
+    /// The seed's rule, `A = (1 + p)/2`, `B = (1 − p)/2`: everything straight back, `p`
+    /// straight on. Dense media reflect far too much, but on the thin-media canonical
+    /// scenes (uniform fog, canopy) it was measured 5–10 % closer to Monte Carlo.
+    Seed,
 }
 
 /// Most passes one sweep may run ([`SweepOptions::max_passes`]): bounds the run time of
@@ -242,6 +261,7 @@ impl SweepOptions {
             max_passes: 1,
             tolerance: 0.0,
             skip_empty_levels: true,
+            medium: MediumEmission::Escape,
         }
     }
     /// Repeated down/up passes for multiple bounces, until the light still to be
@@ -253,6 +273,7 @@ impl SweepOptions {
             max_passes: 16,
             tolerance: 1e-3,
             skip_empty_levels: true,
+            medium: MediumEmission::Escape,
         }
     }
     /// Checks every field; errors name it.

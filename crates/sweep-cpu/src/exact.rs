@@ -280,11 +280,16 @@ pub fn uniform_furnace(pass: f32) -> Case {
 /// to be a half-space (total optical depth `depth`), periodic sides, lit from above by
 /// a zenith beam; compared with [`half_space_albedo_beam`] at `μ₀ = 1`.
 pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
+    half_space_with(w, pass, depth, &options(max_passes, 1e-5))
+}
+
+/// [`half_space`] with any sweep options (the medium emission rule, say).
+pub fn half_space_with(w: f32, pass: f32, depth: f32, options: &SweepOptions) -> Case {
     let tau = -(pass as f64).ln();
     let levels = ((depth as f64 / tau).ceil() as u32).max(2);
     let (m, b) = beam_slab(w, pass, levels);
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, &options(max_passes, 1e-5)).expect("valid slab");
+    let s = crate::run(&m, &b, options).expect("valid slab");
     let secs = t.elapsed().as_secs_f64();
     let swept = s.balance.top_out.x / s.balance.top_in.x;
     case(

@@ -41,8 +41,8 @@ lightgrid_gpu::gpu_struct! {
         pub ny: u32 => "u32",
         /// Smoothing weight.
         pub smoothing: f32 => "f32",
-        /// Padding to 16 bytes.
-        pub _pad: u32 => "u32",
+        /// The medium emission rule: 0 a slab's escape (the default), 1 the seed's.
+        pub seed_medium: u32 => "u32",
     }
 }
 
@@ -363,7 +363,7 @@ impl GpuSweeper {
             let up = pass % 2 == 1;
             // Boundary light enters on the first downward and the first upward pass only.
             self.upload_boundary(&bufs, &shape, boundary, up, pass < 2);
-            let params = level_params(&shape, up, options.smoothing);
+            let params = level_params(&shape, up, options);
             self.ctx.queue.write_buffer(&bufs.params, 0, &params);
             self.encode_pass(&groups, shape.ny, up, workgroups);
             stats.passes += 1;
@@ -667,7 +667,7 @@ struct BindGroups {
 
 /// The per-level uniforms of one pass, at [`PARAM_STRIDE`]-byte strides, in the order the
 /// levels are computed.
-fn level_params(shape: &Shape, up: bool, smoothing: f32) -> Vec<u8> {
+fn level_params(shape: &Shape, up: bool, options: &SweepOptions) -> Vec<u8> {
     let ny = shape.ny;
     let mut bytes = vec![0u8; PARAM_STRIDE as usize * ny];
     for li in 0..ny {
@@ -683,8 +683,8 @@ fn level_params(shape: &Shape, up: bool, smoothing: f32) -> Vec<u8> {
             periodic: u32::from(shape.periodic),
             given: u32::from(shape.given),
             ny: ny as u32,
-            smoothing,
-            _pad: 0,
+            smoothing: options.smoothing,
+            seed_medium: u32::from(options.medium == lightgrid_core::MediumEmission::Seed),
         };
         let o = li * PARAM_STRIDE as usize;
         bytes[o..o + std::mem::size_of::<LevelParams>()].copy_from_slice(bytemuck::bytes_of(&p));

@@ -65,8 +65,18 @@ fn ch_bin(up: u32, c: u32) -> u32 {
 fn emission(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> {
     let bin = ch_bin(up, c);
     if (pass_through > 0.0) {
-        let a = (1.0 + pass_through) * 0.5;
-        let b = (1.0 - pass_through) * 0.5;
+        // sweep_cpu::sweep::medium_emission: a slab's escape forward and back.
+        var a = 1.0;
+        var b = 0.0;
+        if (P.seed_medium == 1u) {
+            a = (1.0 + pass_through) * 0.5;
+            b = (1.0 - pass_through) * 0.5;
+        } else if (pass_through < 1.0) {
+            let forward = -log(pass_through) * pass_through / (1.0 - pass_through);
+            let back = (1.0 + pass_through) * 0.5;
+            a = (forward + back) * 0.5;
+            b = (back - forward) * 0.5;
+        }
         let u = DIR_UNIT[bin];
         let w = SOLID_ANGLE[bin] / FOUR_PI;
         let um = p.m0 * u.x + p.m1 * u.y + p.m2 * u.z;
