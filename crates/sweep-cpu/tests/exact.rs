@@ -142,3 +142,26 @@ fn half_space_albedo_within_ten_percent_at_any_cell_depth() {
         );
     }
 }
+
+/// The medium emission weights' known answers: a slab of pass-through 0.5 lets
+/// `τ p / (1 − p) = ln 2` of a beam's scattered light out straight on and `(1 + p)/2 =
+/// 0.75` straight back; clear cells emit isotropically, opaque-like ones a quarter each
+/// way; finite everywhere.
+#[test]
+fn medium_emission_weights_known_answers() {
+    use sweep_cpu::sweep::medium_emission;
+    let (a, b) = medium_emission(0.5);
+    assert!((a - b - std::f32::consts::LN_2).abs() < 1e-6, "{a} {b}");
+    assert!((a + b - 0.75).abs() < 1e-6);
+    let (a, b) = medium_emission(1.0 - 1e-7);
+    assert!((a - 1.0).abs() < 1e-6 && b.abs() < 1e-6, "{a} {b}");
+    let (a, b) = medium_emission(1e-30);
+    assert!(
+        (a - 0.25).abs() < 1e-6 && (b - 0.25).abs() < 1e-6,
+        "{a} {b}"
+    );
+    for i in 1..1000 {
+        let (a, b) = medium_emission(i as f32 / 1000.0);
+        assert!(a.is_finite() && b.is_finite() && a >= b && b >= 0.0 && a <= 1.0);
+    }
+}
