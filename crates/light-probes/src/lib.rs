@@ -109,8 +109,8 @@
 //!
 //! Measured (`tests/interior.rs`, `examples/town_probes.rs`): in a 6 × 3 × 6 m room
 //! with a window (walls of albedo 0.7, a low sun through the window) the merged volume
-//! with the room's probes is off the reference by a relative RMSE of 0.33, with the
-//! exterior probes alone by 4.2 (street light through the window); surfels are lit by
+//! with the room's probes is off the reference by a relative RMSE of 0.23, with the
+//! exterior probes alone by 2.2 (street light through the window); surfels are lit by
 //! probe cubes evaluated where the probes are, which near a window overestimates (the
 //! remaining error). In the town the merged volume half a metre in front of walls is
 //! off by 0.131 with column probes, 0.128 with probes along walls too. The viewer's

@@ -9,8 +9,8 @@
 //!   dark.
 //! - **A room with a window against the Monte Carlo reference** (walls of albedo 0.7, a
 //!   low sun through the window): the merged volume inside the room with the room's
-//!   probes is off by a relative RMSE of 0.33 (guarded 10 % above), the exterior probes
-//!   alone by 4.2 (they light the room with the street's light through the window).
+//!   probes is off by a relative RMSE of 0.23 (guarded 10 % above; reference noise 0.031), the exterior probes
+//!   alone by 2.2 (they light the room with the street's light through the window).
 
 mod common;
 
@@ -278,9 +278,10 @@ fn a_room_with_a_window_against_the_reference() {
     eprintln!(
         "room with a window: relative RMSE {with:.4} with its probes, {without:.4} with the exterior's alone; reference noise {noise:.4}"
     );
-    // Measured 0.33 (reference noise 0.034): surfels are lit by probe cubes evaluated
+    // Measured 0.23 (reference noise 0.031): surfels are lit by probe cubes evaluated
     // where the probes are, and near a window light changes faster than probes 1.5 m
-    // apart see (surfels beside the window come out 1.2-2.5x too bright).
-    assert!(with <= 0.33 * 1.1, "{with}");
+    // apart see (in a diagnosis, surfels beside the window came out up to 2.5x too
+    // bright).
+    assert!(with <= 0.23 * 1.1, "{with}");
     assert!(with < 0.2 * without, "{with} vs {without}");
 }
