@@ -7,7 +7,7 @@ use lightgrid_core::{
     BinLight, Boundary, GridDesc, LightGrid, Material, MaterialGrid, SideBoundary,
 };
 
-/// The four canonical scenes (periodic sides, lit by a uniform sky of radiance 1 from
+/// The five canonical scenes (periodic sides, lit by a uniform sky of radiance 1 from
 /// above and a sun).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scene {
@@ -17,17 +17,21 @@ pub enum Scene {
     UniformFog,
     /// A dense block (pass-through 0.05, reflectance 0.5) standing on opaque ground.
     DenseBlock,
-    /// A layer of foliage (pass-through 0.6, green) over opaque ground.
+    /// A layer of foliage (pass-through 0.6, green) over opaque ground (two levels).
     Canopy,
+    /// The canopy over ground one level thick (issue 13: a bottom level of ground
+    /// once emitted half its bounce light downward into nothing).
+    CanopyOneLevelGround,
 }
 
 impl Scene {
-    /// All four, in order.
-    pub const ALL: [Scene; 4] = [
+    /// All five, in order.
+    pub const ALL: [Scene; 5] = [
         Scene::Empty,
         Scene::UniformFog,
         Scene::DenseBlock,
         Scene::Canopy,
+        Scene::CanopyOneLevelGround,
     ];
 
     /// Short name.
@@ -37,6 +41,7 @@ impl Scene {
             Scene::UniformFog => "uniform fog",
             Scene::DenseBlock => "dense block",
             Scene::Canopy => "canopy",
+            Scene::CanopyOneLevelGround => "canopy, 1-level ground",
         }
     }
 
@@ -70,7 +75,8 @@ impl Scene {
                         }
                     }
                     Scene::Canopy if p.y < 2 => ground,
-                    Scene::Canopy => {
+                    Scene::CanopyOneLevelGround if p.y < 1 => ground,
+                    Scene::Canopy | Scene::CanopyOneLevelGround => {
                         if (n / 2..n / 2 + 2).contains(&p.y) {
                             Material {
                                 reflectance: Vec3::new(0.1, 0.4, 0.1),

@@ -206,7 +206,7 @@ fn unsupported_boundaries_are_typed_errors() {
     assert!(e.contains("paths"), "{e}");
 }
 
-/// The sweep (multi-bounce defaults) against the reference on the four canonical scenes,
+/// The sweep (multi-bounce defaults) against the reference on the five canonical scenes,
 /// 12³ cells, 600k paths, seed 1: relative RMSE of the average light and of irradiance
 /// on the six axis normals. The run is deterministic, so these bounds (10 % over the
 /// measured values, table in the crate docs) guard against regressions.
@@ -214,9 +214,10 @@ fn unsupported_boundaries_are_typed_errors() {
 fn sweep_against_reference_on_canonical_scenes() {
     let bounds = [
         (Scene::Empty, 0.0126, 0.0139),
-        (Scene::UniformFog, 0.0495, 0.0475),
-        (Scene::DenseBlock, 0.0453, 0.0581),
-        (Scene::Canopy, 0.0270, 0.0286),
+        (Scene::UniformFog, 0.0519, 0.0516),
+        (Scene::DenseBlock, 0.0398, 0.0526),
+        (Scene::Canopy, 0.0296, 0.0303),
+        (Scene::CanopyOneLevelGround, 0.0308, 0.0319),
     ];
     let mut report = String::new();
     for (scene, avg_bound, irr_bound) in bounds {

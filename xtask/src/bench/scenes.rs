@@ -1,4 +1,4 @@
-//! The benchmark's scenes: sweep-cpu's four canonical scenes, a line source, a lattice
+//! The benchmark's scenes: sweep-cpu's five canonical scenes, a line source, a lattice
 //! (checkerboard absorber) and a forest composed from a real model over terrain.
 
 use std::path::Path;
