@@ -8,6 +8,9 @@ use material_voxelizer::voxelize::RayScene;
 
 use crate::ProbeSet;
 
+/// Most probes [`InteriorBox::place`] puts in one box.
+pub const MAX_INTERIOR_PROBES: usize = 1 << 20;
+
 /// A room's box.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InteriorBox {
@@ -70,13 +73,27 @@ impl InteriorBox {
     }
 
     /// Probe positions filling the box: the centres of cells of about `spacing` metres
-    /// (at least one a side).
-    pub fn place(&self, spacing: f32) -> Vec<Vec3> {
-        if !(spacing.is_finite() && spacing > 0.0) || self.validate().is_err() {
-            return Vec::new();
+    /// (at least one a side). Errors name a bad box or spacing, or one that would place
+    /// more than [`MAX_INTERIOR_PROBES`].
+    pub fn place(&self, spacing: f32) -> Result<Vec<Vec3>, GridError> {
+        self.validate()?;
+        if !(spacing.is_finite() && spacing > 0.0) {
+            return Err(GridError::invalid(
+                "spacing",
+                spacing,
+                "must be finite and > 0",
+            ));
         }
         let size = self.hi - self.lo;
-        let n = (size / spacing).ceil().max(Vec3::ONE).as_uvec3();
+        let cells = (size / spacing).ceil().max(Vec3::ONE);
+        if cells.x as f64 * cells.y as f64 * cells.z as f64 > MAX_INTERIOR_PROBES as f64 {
+            return Err(GridError::invalid(
+                "spacing",
+                spacing,
+                "places more than MAX_INTERIOR_PROBES probes in the box",
+            ));
+        }
+        let n = cells.as_uvec3();
         let cell = size / n.as_vec3();
         let mut out = Vec::new();
         for k in 0..n.z {
@@ -87,7 +104,7 @@ impl InteriorBox {
                 }
             }
         }
-        out
+        Ok(out)
     }
 }
 
@@ -151,8 +168,15 @@ mod tests {
         assert_eq!(r.weight(Vec3::new(-0.1, 1.0, 1.0)), 0.0);
         assert!((r.weight(Vec3::new(0.5, 1.5, 3.0)) - 0.5).abs() < 1e-6);
         assert_eq!(r.weight(Vec3::new(2.0, 1.5, 3.0)), 1.0);
-        let p = r.place(2.0);
+        let p = r.place(2.0).unwrap();
         assert_eq!(p.len(), 2 * 2 * 3);
+        assert!(r.place(1e-4).unwrap_err().to_string().contains("spacing"));
+        assert!(
+            r.place(f32::NAN)
+                .unwrap_err()
+                .to_string()
+                .contains("spacing")
+        );
         assert!(p.iter().all(|q| r.contains(*q)));
         let mut bad = r;
         bad.hi.y = -1.0;

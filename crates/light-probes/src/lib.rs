@@ -129,7 +129,7 @@ mod sectors;
 mod volume;
 
 pub use bake::{BrickFactor, Probe, ProbeSet, Surfel, fibonacci, place, place_walls};
-pub use interior::InteriorBox;
+pub use interior::{InteriorBox, MAX_INTERIOR_PROBES};
 pub use params::ProbeParams;
 pub use relight::{Lighting, ProbeLight};
 pub use sectors::{LoadedSector, SectorStats, Sectors};

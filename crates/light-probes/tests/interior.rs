@@ -51,7 +51,7 @@ fn openings_carry_uniform_light() {
         hi: Vec3::splat(1.5),
         blend: 1.0,
     };
-    let inner = roomb.place(1.0);
+    let inner = roomb.place(1.0).unwrap();
     assert_eq!(inner.len(), 27);
     let int = ProbeSet::bake_interior(&scene, &inner, &roomb, &ext, &p4, &|_, _| {}).unwrap();
     let l = 0.8f32;
@@ -168,8 +168,15 @@ fn bake(scene: &RayScene<'_>) -> Baked {
         brick: 1,
         ..p
     };
-    let int =
-        ProbeSet::bake_interior(scene, &rb.place(pi.spacing), &rb, &ext, &pi, &|_, _| {}).unwrap();
+    let int = ProbeSet::bake_interior(
+        scene,
+        &rb.place(pi.spacing).unwrap(),
+        &rb,
+        &ext,
+        &pi,
+        &|_, _| {},
+    )
+    .unwrap();
     let lt = lighting();
     let to_sun = lt.sun.unwrap().0;
     let (ev, iv) = (

@@ -1129,8 +1129,15 @@ fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
         cell: 0.5,
         ..params
     };
-    let int =
-        ProbeSet::bake_interior(&scene, &room.place(1.5), &room, &ext, &pi, &|_, _| {}).unwrap();
+    let int = ProbeSet::bake_interior(
+        &scene,
+        &room.place(1.5).unwrap(),
+        &room,
+        &ext,
+        &pi,
+        &|_, _| {},
+    )
+    .unwrap();
     let outside = (0..int.surfels().len())
         .filter(|s| int.surfel_outside(*s))
         .count();

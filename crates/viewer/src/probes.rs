@@ -19,6 +19,10 @@ use material_voxelizer::voxelize::RayScene;
 
 use crate::world::World;
 
+/// Most probe columns a scene's `[probes]` region may hold (a spacing far too fine for
+/// the region is refused, naming the field, before anything is baked).
+pub const MAX_PROBE_COLUMNS: usize = 1 << 18;
+
 /// Probes of a world and their current light.
 pub struct Probes {
     /// The probed region's triangles (terrain and instances), for ray queries.
@@ -130,6 +134,16 @@ impl Probes {
             None => (hm.origin, terrain_hi),
         };
         let (lo, hi) = (lo.max(hm.origin), hi.min(terrain_hi));
+        // Columns of probes over the region: bounded before anything is allocated.
+        let columns = ((hi - lo) / params.spacing).max(Vec2::ZERO) + Vec2::ONE;
+        if columns.x as f64 * columns.y as f64 > MAX_PROBE_COLUMNS as f64 {
+            anyhow::bail!(
+                "probes.spacing = {}: {:.0} x {:.0} probe columns over the region, at most {MAX_PROBE_COLUMNS}",
+                params.spacing,
+                columns.x,
+                columns.y
+            );
+        }
         let model = region_model(world, lo, hi);
         let (blo, bhi) = model
             .bounds()

@@ -127,3 +127,18 @@ fn non_finite_scene_values_name_their_field() {
     );
     assert!(e.contains("instances[0].height"), "{e}");
 }
+
+/// A probe spacing far too fine for the scene is refused by name, before any baking.
+#[test]
+fn a_probe_spacing_too_fine_is_refused_by_name() {
+    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/town.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("[probes]", "[probes]\nspacing = 0.01");
+    let scene = viewer::SceneFile::parse(&text, "town.toml", path.parent().unwrap()).unwrap();
+    let e = match viewer::World::build(scene, viewer::SweeperChoice::Cpu) {
+        Ok(_) => panic!("a 0.01 m probe spacing over the town must be refused"),
+        Err(e) => format!("{e:#}"),
+    };
+    assert!(e.contains("probes.spacing"), "{e}");
+}
