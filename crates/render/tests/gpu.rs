@@ -954,6 +954,17 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
     assert!(e.unwrap_err().to_string().contains("samples.count()"));
 }
 
+/// Two triangles of a quad from its corners in order, of material (and part) `m`.
+fn quad_triangles(c: [Vec3; 4], m: u32) -> [material_voxelizer::model::Triangle; 2] {
+    let t = |a: Vec3, b: Vec3, d: Vec3| material_voxelizer::model::Triangle {
+        positions: [a, b, d],
+        uvs: [Vec2::ZERO; 3],
+        material: m,
+        part: m,
+    };
+    [t(c[0], c[1], c[2]), t(c[0], c[2], c[3])]
+}
+
 /// A model of `triangles` with warm grey materials of the given albedos.
 fn tinted(
     triangles: Vec<material_voxelizer::model::Triangle>,
@@ -1005,18 +1016,9 @@ fn probes_match(
 #[test]
 fn probe_relight_on_the_gpu_equals_the_cpu() {
     use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
-    use material_voxelizer::model::Triangle;
     use material_voxelizer::voxelize::RayScene;
     let Some(ctx) = context() else { return };
-    let q = |c: [Vec3; 4], m: u32| {
-        let t = |a: Vec3, b: Vec3, d: Vec3| Triangle {
-            positions: [a, b, d],
-            uvs: [Vec2::ZERO; 3],
-            material: m,
-            part: m,
-        };
-        [t(c[0], c[1], c[2]), t(c[0], c[2], c[3])]
-    };
+    let q = quad_triangles;
     let v = Vec3::new;
     let mut tris = Vec::new();
     tris.extend(q(
@@ -1076,7 +1078,6 @@ fn probe_relight_on_the_gpu_equals_the_cpu() {
 #[test]
 fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
     use light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, place};
-    use material_voxelizer::model::Triangle;
     use material_voxelizer::voxelize::RayScene;
     let Some(ctx) = context() else { return };
     // An axis-aligned rectangle: `axis` fixed at `at`, the other two (in x, y, z order)
@@ -1089,14 +1090,10 @@ fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
             q[j] = b;
             Vec3::from(q)
         };
-        let c = [p(u[0], v[0]), p(u[1], v[0]), p(u[1], v[1]), p(u[0], v[1])];
-        let t = |a: Vec3, b: Vec3, d: Vec3| Triangle {
-            positions: [a, b, d],
-            uvs: [Vec2::ZERO; 3],
-            material: m,
-            part: m,
-        };
-        [t(c[0], c[1], c[2]), t(c[0], c[2], c[3])]
+        quad_triangles(
+            [p(u[0], v[0]), p(u[1], v[0]), p(u[1], v[1]), p(u[0], v[1])],
+            m,
+        )
     };
     let mut tris = Vec::new();
     tris.extend(rect(1, 0.0, [-30.0, 30.0], [-30.0, 30.0], 0));
