@@ -712,19 +712,7 @@ fn layered_device_sampling_equals_the_cpu_rule() {
             sun: None,
         })
         .collect();
-    let mut rng = fastrand::Rng::with_seed(3);
-    let positions: Vec<Vec3> = (0..3000)
-        .map(|_| {
-            Vec3::new(
-                rng.f32() * 10.0 - 5.0,
-                rng.f32() * 5.0 - 0.5,
-                rng.f32() * 10.0 - 5.0,
-            )
-        })
-        .collect();
-    let normals: Vec<Vec3> = (0..3000)
-        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5))
-        .collect();
+    let (positions, normals) = point_cloud(3);
     let compare = |cpu: &[lightgrid_render::SampledLight],
                    gpu: &[lightgrid_render::SampledLight],
                    what: &str| {
@@ -952,6 +940,24 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
             .unwrap(),
     );
     assert!(e.unwrap_err().to_string().contains("samples.count()"));
+}
+
+/// 3000 random points in a 10 x 5 x 10 m box and random (not unit) normals.
+fn point_cloud(seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let positions: Vec<Vec3> = (0..3000)
+        .map(|_| {
+            Vec3::new(
+                rng.f32() * 10.0 - 5.0,
+                rng.f32() * 5.0 - 0.5,
+                rng.f32() * 10.0 - 5.0,
+            )
+        })
+        .collect();
+    let normals: Vec<Vec3> = (0..3000)
+        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5))
+        .collect();
+    (positions, normals)
 }
 
 /// Two triangles of a quad from its corners in order, of material (and part) `m`.
@@ -1277,19 +1283,8 @@ fn layered_device_sampling_with_the_sun_apart() {
         sky_scale: scale,
         sun: Some((to_sun, e)),
     };
-    let mut rng = fastrand::Rng::with_seed(9);
-    let positions: Vec<Vec3> = (0..3000)
-        .map(|_| {
-            Vec3::new(
-                rng.f32() * 10.0 - 5.0,
-                rng.f32() * 5.0 - 0.5,
-                rng.f32() * 10.0 - 5.0,
-            )
-        })
-        .collect();
-    let normals: Vec<Vec3> = (0..3000)
-        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5).normalize())
-        .collect();
+    let (positions, normals) = point_cloud(9);
+    let normals: Vec<Vec3> = normals.iter().map(|n| n.normalize()).collect();
     let cpu_layers: Vec<(&LightGrid, Option<LayerOwner>)> = sky.iter().zip(owners).collect();
     for with_normals in [false, true] {
         let ns = with_normals.then_some(&normals[..]);
