@@ -62,6 +62,17 @@ impl Blend for DominantDir {
     }
 }
 
+impl Blend for crate::AmbientCube {
+    fn zero() -> Self {
+        crate::AmbientCube::default()
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        for (a, b) in self.0.iter_mut().zip(&other.0) {
+            *a += *b * w;
+        }
+    }
+}
+
 impl Blend for Material {
     fn zero() -> Self {
         Material {

@@ -10,7 +10,7 @@ use std::collections::HashMap;
 
 use lightgrid_core::glam::{IVec3, Vec3};
 use lightgrid_core::light::AmbientCube;
-use lightgrid_core::{BinLight, GridDesc, GridError, LightField, dirs, trilinear_corners};
+use lightgrid_core::{BinLight, Grid, GridDesc, GridError, LightField, dirs};
 use material_voxelizer::voxelize::RayScene;
 use rayon::prelude::*;
 
@@ -191,10 +191,12 @@ impl ProbeVolume {
             }
         }
         Ok(ResolvedVolume {
-            desc: self.desc,
-            cubes,
+            cubes: Grid::from_trusted(self.desc, cubes),
+            filled: Grid::from_trusted(
+                self.desc,
+                filled.iter().map(|f| if *f { 1.0 } else { 0.0 }).collect(),
+            ),
             covered,
-            filled,
         })
     }
 }
@@ -280,22 +282,21 @@ fn point_entries(scene: &RayScene<'_>, index: &[SetIndex<'_>], p: Vec3) -> Vec<E
 /// which reads the cube itself). It keeps no sun apart (`sun_transmittance` is 0).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ResolvedVolume {
-    desc: GridDesc,
-    cubes: Vec<AmbientCube>,
+    cubes: Grid<AmbientCube>,
     covered: Vec<bool>,
-    /// Covered, or given its neighbours' mean.
-    filled: Vec<bool>,
+    /// 1 where covered or given its neighbours' mean, else 0.
+    filled: Grid<f32>,
 }
 
 impl ResolvedVolume {
     /// The points.
     pub fn desc(&self) -> &GridDesc {
-        &self.desc
+        self.cubes.desc()
     }
 
     /// The ambient cube of every point (x fastest, then z, then y).
     pub fn cubes(&self) -> &[AmbientCube] {
-        &self.cubes
+        self.cubes.data()
     }
 
     /// Whether each point saw a probe (uncovered points near covered ones hold their
@@ -308,44 +309,20 @@ impl ResolvedVolume {
     /// (covered or filled from covered neighbours): 1 where the probes light `p` fully,
     /// 0 away from every probe. A renderer can fall back to another light by `1 - c`.
     pub fn coverage(&self, p: Vec3) -> Result<f32, GridError> {
-        if !p.is_finite() {
-            return Err(GridError::invalid("p", p, "sample position must be finite"));
-        }
-        Ok(trilinear_corners(self.desc.dims(), self.desc.to_grid(p))
-            .iter()
-            .filter(|(c, _)| self.filled[self.desc.index_unchecked(*c)])
-            .map(|(_, w)| *w)
-            .sum::<f32>()
-            .clamp(0.0, 1.0))
+        Ok(self.filled.sample(p)?.clamp(0.0, 1.0))
     }
 
     /// The ambient cube at `p`, trilinear, clamped at the volume's edges; errors on a
     /// non-finite `p`.
     pub fn cube_at(&self, p: Vec3) -> Result<AmbientCube, GridError> {
-        if !p.is_finite() {
-            return Err(GridError::invalid("p", p, "sample position must be finite"));
-        }
-        let mut e = [Vec3::ZERO; 6];
-        for (c, w) in trilinear_corners(self.desc.dims(), self.desc.to_grid(p)) {
-            if w != 0.0 {
-                let cube = &self.cubes[self.desc.index_unchecked(c)].0;
-                for (ek, ck) in e.iter_mut().zip(cube) {
-                    *ek += *ck * w;
-                }
-            }
-        }
-        Ok(AmbientCube(e))
+        self.cubes.sample(p)
     }
 
-    fn biased(&self, p: Vec3, n: Option<Vec3>) -> Result<Vec3, GridError> {
+    /// The cube at `p`, or half a cell along the normal `n` (as light grids are read).
+    fn cube_biased(&self, p: Vec3, n: Option<Vec3>) -> Result<AmbientCube, GridError> {
         match n {
-            None => Ok(p),
-            Some(n) => {
-                let n = n.try_normalize().ok_or_else(|| {
-                    GridError::invalid("n", n, "normal must be finite and non-zero")
-                })?;
-                Ok(p + n * (0.5 * self.desc.h()))
-            }
+            Some(n) => self.cubes.sample_biased(p, n),
+            None => self.cubes.sample(p),
         }
     }
 }
@@ -361,13 +338,11 @@ pub fn cube_to_bins(cube: &AmbientCube) -> BinLight {
 
 impl LightField for ResolvedVolume {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
-        let q = self.biased(p, n)?;
-        Ok(cube_to_bins(&self.cube_at(q)?))
+        Ok(cube_to_bins(&self.cube_biased(p, n)?))
     }
 
     /// The cube's own irradiance facing `n` (sharper than the bins').
     fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
-        let q = self.biased(p, Some(n))?;
-        Ok(self.cube_at(q)?.irradiance(n.normalize()))
+        Ok(self.cube_biased(p, Some(n))?.irradiance(n.normalize()))
     }
 }
