@@ -992,11 +992,12 @@ impl Ctx {
                         // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
                         let mut own = new.add(&same_row[xi]);
                         let mut other = other_row[xi].add(&new);
+                        // The cell's weights, once (a logarithm for a medium).
+                        let em = Emission::new(mat.pass, exposed[ci], self.medium);
                         for _ in 0..LOCAL_ROUNDS {
                             if own.s == Vec3::ZERO {
                                 break;
                             }
-                            let em = Emission::new(mat.pass, exposed[ci], self.medium);
                             let mut lost_s = Vec3::ZERO;
                             let mut lost_m = [Vec3::ZERO; 3];
                             for (c, chn) in self.ch.iter().enumerate() {
@@ -1021,7 +1022,6 @@ impl Ctx {
                         same_row[xi] = recycled;
                         other_row[xi] = other;
                         let other_ch = channels(!up_pass(self.ch));
-                        let em = Emission::new(mat.pass, exposed[ci], self.medium);
                         rf.pending += (em.budget(&recycled, self.ch) + em.budget(&other, other_ch))
                             .as_dvec3();
                     }

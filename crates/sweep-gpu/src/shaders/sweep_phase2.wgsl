@@ -61,22 +61,27 @@ fn ch_bin(up: u32, c: u32) -> u32 {
     return CH_BIN_DOWN[c];
 }
 
-// Flux sent into channel c before T_after (sweep-cpu's Emission::flux).
-fn emission(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> {
+// A medium cell's emission weights (A, B): sweep_cpu::sweep::medium_emission (a slab's
+// escape forward and back), or the seed's rule; computed once per cell.
+fn medium_weights(pass_through: f32) -> vec2<f32> {
+    if (P.seed_medium == 1u) {
+        return vec2<f32>((1.0 + pass_through) * 0.5, (1.0 - pass_through) * 0.5);
+    }
+    if (pass_through > 0.0 && pass_through < 1.0) {
+        let forward = -log(pass_through) * pass_through / (1.0 - pass_through);
+        let back = (1.0 + pass_through) * 0.5;
+        return vec2<f32>((forward + back) * 0.5, (back - forward) * 0.5);
+    }
+    return vec2<f32>(1.0, 0.0);
+}
+
+// Flux sent into channel c before T_after (sweep-cpu's Emission::flux); `ab` the cell's
+// medium_weights.
+fn emission(p: Pending, pass_through: f32, ab: vec2<f32>, mask: u32, up: u32, c: u32) -> vec3<f32> {
     let bin = ch_bin(up, c);
     if (pass_through > 0.0) {
-        // sweep_cpu::sweep::medium_emission: a slab's escape forward and back.
-        var a = 1.0;
-        var b = 0.0;
-        if (P.seed_medium == 1u) {
-            a = (1.0 + pass_through) * 0.5;
-            b = (1.0 - pass_through) * 0.5;
-        } else if (pass_through < 1.0) {
-            let forward = -log(pass_through) * pass_through / (1.0 - pass_through);
-            let back = (1.0 + pass_through) * 0.5;
-            a = (forward + back) * 0.5;
-            b = (back - forward) * 0.5;
-        }
+        let a = ab.x;
+        let b = ab.y;
         let u = DIR_UNIT[bin];
         let w = SOLID_ANGLE[bin] / FOUR_PI;
         let um = p.m0 * u.x + p.m1 * u.y + p.m2 * u.z;
@@ -161,6 +166,7 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     var own = add_p(fresh, load_pending(0u, gi));
     var other = add_p(load_pending(1u, gi), fresh);
     let mask = exposed[gi];
+    let ab = medium_weights(mat.w);
     for (var round = 0u; round < LOCAL_ROUNDS; round++) {
         if (all(own.s == vec3<f32>(0.0))) {
             break;
@@ -170,7 +176,7 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
         var l1 = vec3<f32>(0.0);
         var l2 = vec3<f32>(0.0);
         for (var c = 0u; c < CH; c++) {
-            let f = emission(own, mat.w, mask, P.up, c);
+            let f = emission(own, mat.w, ab, mask, P.up, c);
             let leaving = leaving(own, f, scratch[li * SCRATCH + T_AFTER_OFFSET + c], mat.w, mask, P.up, c);
             let lost = max(full(own, mat.w, mask, P.up, c) - leaving, vec3<f32>(0.0));
             let u = DIR_UNIT[ch_bin(P.up, c)];
