@@ -424,6 +424,9 @@ fn up_pass(ch: &[Channel; CHANNELS]) -> bool {
 /// dominant direction need.
 trait Sink: Copy + Default + Send + Sync + bytemuck::Zeroable {
     fn add(&mut self, bin: usize, unit: Vec3, g: Vec3);
+    /// The point's final values: every value finite and `>= 0`, the average, and the
+    /// dominant direction (if `dominant`; zero otherwise).
+    fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3);
 }
 
 impl Sink for BinLight {
@@ -431,6 +434,24 @@ impl Sink for BinLight {
     fn add(&mut self, bin: usize, _unit: Vec3, g: Vec3) {
         self.0[bin] += g;
     }
+    #[inline]
+    fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3) {
+        let d = if dominant {
+            self.dominant()
+        } else {
+            Vec3::ZERO
+        };
+        (valid_bins(self), self.average(), d)
+    }
+}
+
+/// `BinLight::is_valid` without early exit (every value finite and >= 0; NaN fails
+/// `v >= 0`), so that it vectorises.
+#[inline]
+fn valid_bins(b: &BinLight) -> bool {
+    let f: &[f32] = bytemuck::cast_slice(std::slice::from_ref(b));
+    f.iter()
+        .fold(true, |ok, v| ok & (0.0..f32::INFINITY).contains(v))
 }
 
 /// Running sums for the average (`sum`) and dominant direction (`num / den`).
@@ -449,6 +470,44 @@ impl Sink for AvgAcc {
         self.num += unit * l;
         self.den += l;
     }
+    #[inline]
+    fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3) {
+        let avg = self.sum / (4.0 * PI);
+        let d = if dominant && self.den > 0.0 && self.den.is_finite() {
+            (self.num / self.den).clamp_length_max(1.0)
+        } else {
+            Vec3::ZERO
+        };
+        (avg.is_finite() && d.is_finite(), avg, d)
+    }
+}
+
+/// Points per task of [`resolve`].
+const RESOLVE_CHUNK: usize = 512;
+
+/// Every point's final values into `avg` and `dom` (the grids `LightGrid::average_grid`
+/// and `dominant_grid` would give, for all 26 bins), on every core; `false` if any value
+/// is negative, NaN or infinite.
+fn resolve<S: Sink>(
+    g: &[S],
+    avg: &mut [AverageLight],
+    dom: &mut [DominantDir],
+    dominant: bool,
+) -> bool {
+    g.par_chunks(RESOLVE_CHUNK)
+        .zip(avg.par_chunks_mut(RESOLVE_CHUNK))
+        .zip(dom.par_chunks_mut(RESOLVE_CHUNK))
+        .map(|((g, a), d)| {
+            let mut ok = true;
+            for ((g, a), d) in g.iter().zip(a).zip(d) {
+                let (v, av, dv) = g.resolve(dominant);
+                ok &= v & av.is_finite() & dv.is_finite();
+                a.0 = av;
+                d.0 = dv;
+            }
+            ok
+        })
+        .reduce(|| true, |a, b| a & b)
 }
 
 /// Per-row flux sums, reduced in row order (deterministic for any thread count).
@@ -477,6 +536,94 @@ fn sum_rows(v: &[RowFlux]) -> RowFlux {
 }
 
 type Level = [Vec3; CHANNELS];
+
+/// One level's channel light (step 1's `O'`, and the level being built), row by row in
+/// planes: channel `c`, colour `k` of column `(x, z)` is at `((z·CHANNELS + c)·3 + k)·nx
+/// + x`. One channel's colour along a row is contiguous, so the fast path's gather over a
+/// row's interior is a loop over slices that the compiler vectorises, and a row of the
+/// level is one contiguous chunk (`row_len`) for the parallel tasks.
+struct LevelLight {
+    v: Vec<f32>,
+    nx: usize,
+}
+
+impl LevelLight {
+    fn new(nx: usize, nz: usize) -> Self {
+        Self {
+            v: vec![0.0; CHANNELS * 3 * nx * nz],
+            nx,
+        }
+    }
+    /// Floats per row of points.
+    #[inline]
+    fn row_len(&self) -> usize {
+        CHANNELS * 3 * self.nx
+    }
+    /// Channel `c` of the point with level index `i`.
+    #[inline]
+    fn at(&self, i: usize, c: usize) -> Vec3 {
+        let (x, z) = (i % self.nx, i / self.nx);
+        row_get(&self.v[z * self.row_len()..], self.nx, x, c)
+    }
+    /// Every point: the same channel values `v`.
+    fn fill(&mut self, v: &Level) {
+        let nx = self.nx;
+        self.v.par_chunks_mut(CHANNELS * 3 * nx).for_each(|row| {
+            for (c, val) in v.iter().enumerate() {
+                for k in 0..3 {
+                    row[(c * 3 + k) * nx..][..nx].fill(val[k]);
+                }
+            }
+        });
+    }
+    /// Flux through a horizontal plane (`Σ value × μ_c`).
+    fn flux(&self, ch: &[Channel; CHANNELS]) -> DVec3 {
+        let nx = self.nx;
+        let mut f = DVec3::ZERO;
+        for row in self.v.chunks(self.row_len()) {
+            for (c, chn) in ch.iter().enumerate() {
+                for k in 0..3 {
+                    f[k] += sum_f64(&row[(c * 3 + k) * nx..][..nx]) * chn.mu as f64;
+                }
+            }
+        }
+        f
+    }
+}
+
+/// Channel `c` of column `x` in one row of a [`LevelLight`].
+#[inline]
+fn row_get(row: &[f32], nx: usize, x: usize, c: usize) -> Vec3 {
+    let b = c * 3 * nx + x;
+    Vec3::new(row[b], row[b + nx], row[b + 2 * nx])
+}
+
+#[inline]
+fn row_set(row: &mut [f32], nx: usize, x: usize, c: usize, v: Vec3) {
+    let b = c * 3 * nx + x;
+    row[b] = v.x;
+    row[b + nx] = v.y;
+    row[b + 2 * nx] = v.z;
+}
+
+/// Sum in `f64`, four lanes (so that it vectorises; the order is fixed, so the result
+/// is deterministic).
+#[inline]
+fn sum_f64(v: &[f32]) -> f64 {
+    let mut lanes = [0f64; 4];
+    let chunks = v.chunks_exact(4);
+    let rest = chunks.remainder();
+    for ch in chunks {
+        for (l, x) in lanes.iter_mut().zip(ch) {
+            *l += *x as f64;
+        }
+    }
+    let mut s = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+    for x in rest {
+        s += *x as f64;
+    }
+    s
+}
 
 /// Channel `chn`'s value in bins `b`: horizontal bins halved where `b` is full-sphere
 /// light (a side halo), whole where it is a boundary's one-way light. Part of the
@@ -688,19 +835,22 @@ impl Ctx {
     #[allow(clippy::too_many_arguments)]
     fn phase1_scalar<S: Sink>(
         &self,
-        prev: &[Level],
+        prev: &LevelLight,
         src: &Sources<'_>,
         from_virtual: bool,
         src_level: i32,
         pows: &[[f32; MAX_EXPONENTS]],
-        cur: &mut [Level],
+        first: bool,
+        cur: &mut LevelLight,
         removed: &mut [[Vec3; SLOTS]],
         t_after: &mut [[f32; CHANNELS]],
         g: &mut [S],
         rows: &mut [RowFlux],
     ) -> RowFlux {
         let nx = self.nx as usize;
-        cur.par_chunks_mut(nx)
+        let row_len = cur.row_len();
+        cur.v
+            .par_chunks_mut(row_len)
             .zip(removed.par_chunks_mut(nx))
             .zip(t_after.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
@@ -709,6 +859,10 @@ impl Ctx {
             .for_each(|(z, ((((cur_row, rem_row), ta_row), g_row), row_out))| {
                 let z = z as i32;
                 let mut rf = RowFlux::default();
+                if first {
+                    // The first pass sets every point (its memory may hold anything).
+                    g_row.fill(S::default());
+                }
                 for x in 0..self.nx {
                     let xi = x as usize;
                     for (c, chn) in self.ch.iter().enumerate() {
@@ -723,7 +877,7 @@ impl Ctx {
                         let (t, t_mid, after) =
                             self.transmit(pows, chn, x, z, None, light, &mut rem_row[xi]);
                         ta_row[xi][c] = after;
-                        cur_row[xi][c] = light * t;
+                        row_set(cur_row, nx, xi, c, light * t);
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
                     }
                 }
@@ -775,33 +929,40 @@ impl Ctx {
         (t, t_mid, after)
     }
 
-    /// Steps 1-2 as [`Ctx::phase1_scalar`], bit for bit, faster: source taps and path
-    /// cells away from the sides are read by index without the side logic, and a point
-    /// whose 5 × 5 neighbourhood of cells is empty (`quiet`; every path cell of every
-    /// channel passes all light) skips the transmit step: its light passes unchanged,
-    /// nothing is removed (its removal slots are not written: only non-empty cells
-    /// read slots, and only those of points whose paths cross them, which are never
-    /// quiet).
+    /// Steps 1-2 as [`Ctx::phase1_scalar`], bit for bit in the light, faster: step 1
+    /// channel by channel over whole rows (the interior of a row, whose five source taps
+    /// all lie inside the grid, is a loop over [`LevelLight`]'s contiguous planes that
+    /// the compiler vectorises; the few columns near the sides take the oracle's
+    /// [`Ctx::gather_edge`]); then step 2 point by point, where a point whose 5 × 5
+    /// neighbourhood of cells is empty (`quiet`, or `None`: the whole level is empty;
+    /// every path cell of every channel passes all light) skips the transmit step: its
+    /// light passes unchanged, nothing is removed (its removal slots are not written:
+    /// only non-empty cells read slots, and only those of points whose paths cross
+    /// them, which are never quiet). Flux tallies sum in another order than the
+    /// oracle's (equal to `f64` rounding).
     #[allow(clippy::too_many_arguments)]
     fn phase1_fast<S: Sink>(
         &self,
-        prev: &[Level],
+        prev: &LevelLight,
         src: &Sources<'_>,
         from_virtual: bool,
         src_level: i32,
         pows: &[[f32; MAX_EXPONENTS]],
-        quiet: &[bool],
-        cur: &mut [Level],
+        quiet: Option<&[bool]>,
+        first: bool,
+        cur: &mut LevelLight,
         removed: &mut [[Vec3; SLOTS]],
         t_after: &mut [[f32; CHANNELS]],
         g: &mut [S],
         rows: &mut [RowFlux],
     ) -> RowFlux {
         let nx = self.nx as usize;
+        let row_len = cur.row_len();
         let (nxi, nzi) = (self.nx, self.nz);
         let s = self.smoothing;
         let (w0, w1) = (1.0 - s, 0.25 * s);
-        cur.par_chunks_mut(nx)
+        cur.v
+            .par_chunks_mut(row_len)
             .zip(removed.par_chunks_mut(nx))
             .zip(t_after.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
@@ -811,47 +972,77 @@ impl Ctx {
             .for_each(|(z, ((((cur_row, rem_row), ta_row), g_row), row_out))| {
                 let z = z as i32;
                 let mut rf = RowFlux::default();
+                if first {
+                    // The first pass sets every point (its memory may hold anything).
+                    g_row.fill(S::default());
+                }
+                // Step 1, channel by channel.
+                for (c, chn) in self.ch.iter().enumerate() {
+                    let (sx, qz) = (chn.step.x, z - chn.step.z);
+                    let mu = chn.mu as f64;
+                    // Columns whose taps all lie inside: 1 <= x - sx <= nx - 2.
+                    let (xa, xb) = if qz >= 1 && qz < nzi - 1 {
+                        let xa = (1 + sx).clamp(0, nxi);
+                        (xa, (nxi - 1 + sx).clamp(xa, nxi))
+                    } else {
+                        (0, 0)
+                    };
+                    for x in (0..xa).chain(xb.max(xa)..nxi) {
+                        let (ins, outs) = self.gather_edge(
+                            prev,
+                            src,
+                            from_virtual,
+                            src_level,
+                            chn,
+                            c,
+                            x - sx,
+                            qz,
+                        );
+                        rf.inside += ins.as_dvec3() * mu;
+                        rf.outside += outs.as_dvec3() * mu;
+                        row_set(cur_row, nx, x as usize, c, ins + outs);
+                    }
+                    if xa >= xb {
+                        continue;
+                    }
+                    let (xa, n) = (xa as usize, (xb - xa) as usize);
+                    let qa = (xa as i32 - sx) as usize;
+                    let qz = qz as usize;
+                    for k in 0..3 {
+                        let plane = (c * 3 + k) * nx;
+                        let row_at = |z: usize| &prev.v[z * row_len + plane..][..nx];
+                        let (mid, above, below) = (row_at(qz), row_at(qz + 1), row_at(qz - 1));
+                        let out = &mut cur_row[plane + xa..][..n];
+                        let m0 = &mid[qa..][..n];
+                        if w1 == 0.0 {
+                            for (o, v) in out.iter_mut().zip(m0) {
+                                *o = v * w0;
+                            }
+                        } else {
+                            let (mp, mm) = (&mid[qa + 1..][..n], &mid[qa - 1..][..n]);
+                            let (za, zb) = (&above[qa..][..n], &below[qa..][..n]);
+                            for i in 0..n {
+                                out[i] =
+                                    m0[i] * w0 + mp[i] * w1 + mm[i] * w1 + za[i] * w1 + zb[i] * w1;
+                            }
+                        }
+                        rf.inside[k] += sum_f64(out) * mu;
+                    }
+                }
+                // Step 2, point by point.
                 let inner_z = z >= 2 && z < nzi - 2;
-                for x in 0..self.nx {
-                    let xi = x as usize;
+                for (xi, g_pt) in g_row.iter_mut().enumerate() {
                     let pi = xi + nx * z as usize;
-                    let is_quiet = quiet[pi];
+                    if quiet.is_none_or(|q| q[pi]) {
+                        for (c, chn) in self.ch.iter().enumerate() {
+                            g_pt.add(chn.bin, chn.unit, row_get(cur_row, nx, xi, c));
+                        }
+                        continue;
+                    }
+                    let x = xi as i32;
                     let inner = inner_z && x >= 2 && x < nxi - 2;
                     for (c, chn) in self.ch.iter().enumerate() {
-                        // Step 1.
-                        let (qx, qz) = (x - chn.step.x, z - chn.step.z);
-                        let light = if qx >= 1 && qx < nxi - 1 && qz >= 1 && qz < nzi - 1 {
-                            let q = (qx + nxi * qz) as usize;
-                            let mut ins = prev[q][c] * w0;
-                            if w1 != 0.0 {
-                                ins += prev[q + 1][c] * w1;
-                                ins += prev[q - 1][c] * w1;
-                                ins += prev[q + nx][c] * w1;
-                                ins += prev[q - nx][c] * w1;
-                            }
-                            rf.inside += ins.as_dvec3() * chn.mu as f64;
-                            ins
-                        } else {
-                            let (ins, outs) = self.gather_edge(
-                                prev,
-                                src,
-                                from_virtual,
-                                src_level,
-                                chn,
-                                c,
-                                qx,
-                                qz,
-                            );
-                            rf.inside += ins.as_dvec3() * chn.mu as f64;
-                            rf.outside += outs.as_dvec3() * chn.mu as f64;
-                            ins + outs
-                        };
-                        if is_quiet {
-                            cur_row[xi][c] = light;
-                            g_row[xi].add(chn.bin, chn.unit, light);
-                            continue;
-                        }
-                        // Step 2.
+                        let light = row_get(cur_row, nx, xi, c);
                         let (t, t_mid, after) = self.transmit(
                             pows,
                             chn,
@@ -862,8 +1053,8 @@ impl Ctx {
                             &mut rem_row[xi],
                         );
                         ta_row[xi][c] = after;
-                        cur_row[xi][c] = light * t;
-                        g_row[xi].add(chn.bin, chn.unit, light * t_mid);
+                        row_set(cur_row, nx, xi, c, light * t);
+                        g_pt.add(chn.bin, chn.unit, light * t_mid);
                     }
                 }
                 *row_out = rf;
@@ -877,7 +1068,7 @@ impl Ctx {
     #[inline]
     fn gather_edge(
         &self,
-        prev: &[Level],
+        prev: &LevelLight,
         src: &Sources<'_>,
         from_virtual: bool,
         src_level: i32,
@@ -901,7 +1092,7 @@ impl Ctx {
                 continue;
             }
             match self.col(tx, tz) {
-                Some(i) => ins += prev[i][c] * w,
+                Some(i) => ins += prev.at(i, c) * w,
                 None if from_virtual && src.halo.is_none() => {
                     outs += src.virtual_light(tx, tz, chn) * w
                 }
@@ -937,14 +1128,16 @@ impl Ctx {
         t_after: &[[f32; CHANNELS]],
         cells: &[lightgrid_core::Material],
         exposed: &[u8],
-        cur: &mut [Level],
+        cur: &mut LevelLight,
         pend_same: &mut [Pending],
         pend_other: &mut [Pending],
         g: &mut [S],
         rows: &mut [RowFlux],
     ) -> RowFlux {
         let nx = self.nx as usize;
-        cur.par_chunks_mut(nx)
+        let row_len = cur.row_len();
+        cur.v
+            .par_chunks_mut(row_len)
             .zip(pend_same.par_chunks_mut(nx))
             .zip(pend_other.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
@@ -1008,7 +1201,11 @@ impl Ctx {
                                 lost_m[0] += lost * chn.unit.x;
                                 lost_m[1] += lost * chn.unit.y;
                                 lost_m[2] += lost * chn.unit.z;
-                                cur_row[xi][c] += leaving / chn.mu;
+                                let b = c * 3 * nx + xi;
+                                let add = leaving / chn.mu;
+                                cur_row[b] += add.x;
+                                cur_row[b + nx] += add.y;
+                                cur_row[b + 2 * nx] += add.z;
                                 g_row[xi].add(chn.bin, chn.unit, f * (0.5 / chn.mu));
                             }
                             rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
@@ -1074,17 +1271,6 @@ pub fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
         .collect()
 }
 
-fn level_flux(level: &[Level], ch: &[Channel; CHANNELS]) -> DVec3 {
-    level
-        .iter()
-        .map(|o| {
-            (0..CHANNELS)
-                .map(|c| o[c].as_dvec3() * ch[c].mu as f64)
-                .sum::<DVec3>()
-        })
-        .sum()
-}
-
 /// Runs the sweep; see the crate docs for the semantics.
 pub fn run(
     material: &MaterialGrid,
@@ -1123,6 +1309,56 @@ fn run_impl(
     options: &SweepOptions,
     fast: bool,
 ) -> Result<Sweep, SweepError> {
+    run_reusing(
+        material,
+        boundary,
+        source,
+        options,
+        fast,
+        &mut Spare::default(),
+    )
+}
+
+/// Output memory of an earlier sweep, reused by the next one of the same size (see
+/// [`crate::CpuSweeper::recycle`]): a fresh output's pages must be faulted in and
+/// zeroed by the kernel, some 13 ms of a 64³ sweep with 26 bins on the 2-core VM.
+#[derive(Clone, Default)]
+pub(crate) struct Spare {
+    pub(crate) bins: Vec<BinLight>,
+    pub(crate) average: Vec<AverageLight>,
+    pub(crate) dominant: Vec<DominantDir>,
+}
+
+impl std::fmt::Debug for Spare {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Spare")
+            .field("bins", &self.bins.len())
+            .field("average", &self.average.len())
+            .field("dominant", &self.dominant.len())
+            .finish()
+    }
+}
+
+/// `spare` if it holds `n` values (their contents are overwritten, never read), else a
+/// fresh zeroed vector (pages the kernel maps on first touch).
+fn take_buffer<T: bytemuck::Zeroable + Clone>(spare: &mut Vec<T>, n: usize) -> Vec<T> {
+    if spare.len() == n {
+        std::mem::take(spare)
+    } else {
+        bytemuck::zeroed_vec(n)
+    }
+}
+
+/// [`run_impl`] writing into `spare`'s memory where it fits (and leaving what the output
+/// does not use there).
+pub(crate) fn run_reusing(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    source: Option<&CellSource>,
+    options: &SweepOptions,
+    fast: bool,
+    spare: &mut Spare,
+) -> Result<Sweep, SweepError> {
     validate_inputs(material, boundary, options)?;
     let desc = *material.desc();
     if let Some(src) = source
@@ -1135,132 +1371,99 @@ fn run_impl(
         )
         .into());
     }
-    if options.outputs.bins {
-        let (g, balance, stats) = run_with::<BinLight>(material, boundary, source, options, fast);
-        // One pass on every core: the validity guard of `finish`, and the average and
-        // dominant grids (as `LightGrid::average_grid` / `dominant_grid`) if asked for.
-        let (want_avg, want_dom) = (options.outputs.average, options.outputs.dominant);
-        let (valid, (avg, dom)): (Vec<bool>, (Vec<AverageLight>, Vec<DominantDir>)) = g
-            .par_iter()
-            .map(|b| {
-                (
-                    valid_bins(b),
-                    (
-                        AverageLight(if want_avg { b.average() } else { Vec3::ZERO }),
-                        DominantDir(if want_dom { b.dominant() } else { Vec3::ZERO }),
-                    ),
-                )
-            })
-            .unzip();
-        let bins_valid = valid.iter().all(|v| *v);
-        let average = want_avg.then(|| Grid::from_trusted(desc, avg));
-        let dominant = want_dom.then(|| Grid::from_trusted(desc, dom));
-        let grid = Grid::from_trusted(desc, g);
-        finish_checked(
-            bins_valid,
-            SweepOutput {
-                average,
-                dominant,
-                bins: Some(grid),
-                stats,
-                resident: None,
-            },
-            balance,
-        )
+    let n = desc.point_count();
+    let mut avg = take_buffer(&mut spare.average, n);
+    let mut dom = take_buffer(&mut spare.dominant, n);
+    let (want_avg, want_dom) = (options.outputs.average, options.outputs.dominant);
+    let mut run = Run {
+        material,
+        boundary,
+        source,
+        options,
+        fast,
+        avg: &mut avg,
+        dom: &mut dom,
+    };
+    let (bins, ok, balance, stats) = if options.outputs.bins {
+        let (g, ok, balance, stats) = run.run(take_buffer(&mut spare.bins, n));
+        (Some(Grid::from_trusted(desc, g)), ok, balance, stats)
     } else {
-        let (g, balance, stats) = run_with::<AvgAcc>(material, boundary, source, options, fast);
-        let average = options.outputs.average.then(|| {
-            Grid::from_trusted(
-                desc,
-                g.iter().map(|a| AverageLight(a.sum / (4.0 * PI))).collect(),
-            )
-        });
-        let dominant = options.outputs.dominant.then(|| {
-            Grid::from_trusted(
-                desc,
-                g.iter()
-                    .map(|a| {
-                        DominantDir(if a.den > 0.0 && a.den.is_finite() {
-                            (a.num / a.den).clamp_length_max(1.0)
-                        } else {
-                            Vec3::ZERO
-                        })
-                    })
-                    .collect(),
-            )
-        });
-        finish(
-            SweepOutput {
-                bins: None,
-                average,
-                dominant,
-                stats,
-                resident: None,
-            },
-            balance,
-        )
-    }
-}
-
-/// Last guard: no NaN or infinity leaves the sweep.
-fn finish(output: SweepOutput, balance: EnergyBalance) -> Result<Sweep, SweepError> {
-    let bins_valid = !output
-        .bins
-        .as_ref()
-        .is_some_and(|g| g.data().par_iter().any(|b| !valid_bins(b)));
-    finish_checked(bins_valid, output, balance)
-}
-
-/// `BinLight::is_valid` without early exit (every value finite and >= 0; NaN fails
-/// `v >= 0`), so that it vectorises.
-#[inline]
-fn valid_bins(b: &BinLight) -> bool {
-    let f: &[f32] = bytemuck::cast_slice(std::slice::from_ref(b));
-    f.iter()
-        .fold(true, |ok, v| ok & (0.0..f32::INFINITY).contains(v))
-}
-
-/// [`finish`] with the bins already checked.
-fn finish_checked(
-    bins_valid: bool,
-    output: SweepOutput,
-    balance: EnergyBalance,
-) -> Result<Sweep, SweepError> {
-    let bad = !bins_valid
-        || output
-            .average
-            .as_ref()
-            .is_some_and(|g| g.data().iter().any(|a| !a.0.is_finite()))
-        || output
-            .dominant
-            .as_ref()
-            .is_some_and(|g| g.data().iter().any(|a| !a.0.is_finite()));
-    if bad {
+        let (_, ok, balance, stats) = run.run(bytemuck::zeroed_vec::<AvgAcc>(n));
+        (None, ok, balance, stats)
+    };
+    // Outputs not asked for keep their memory for the next sweep.
+    let average = if want_avg {
+        Some(Grid::from_trusted(desc, avg))
+    } else {
+        spare.average = avg;
+        None
+    };
+    let dominant = if want_dom {
+        Some(Grid::from_trusted(desc, dom))
+    } else {
+        spare.dominant = dom;
+        None
+    };
+    if !ok {
         return Err(SweepError::Backend {
             backend: "cpu",
             message: "light overflowed f32 (boundary light too large for this grid)".into(),
         });
     }
-    Ok(Sweep { output, balance })
+    Ok(Sweep {
+        output: SweepOutput {
+            bins,
+            average,
+            dominant,
+            stats,
+            resident: None,
+        },
+        balance,
+    })
+}
+
+/// The inputs of one sweep and where its resolved values go.
+struct Run<'a> {
+    material: &'a MaterialGrid,
+    boundary: &'a Boundary,
+    source: Option<&'a CellSource>,
+    options: &'a SweepOptions,
+    fast: bool,
+    avg: &'a mut [AverageLight],
+    dom: &'a mut [DominantDir],
+}
+
+impl Run<'_> {
+    /// The passes, accumulating into `g` (whose contents are overwritten: the first
+    /// pass sets every point), then [`resolve`]: level by level as the last pass (when it
+    /// is known to be the last: the pass limit) finishes each level, while its values
+    /// are still in cache, else over the grid afterwards. Returns `g`, whether every
+    /// value was valid, the balance and the stats.
+    fn run<S: Sink>(&mut self, g: Vec<S>) -> (Vec<S>, bool, EnergyBalance, SweepStats) {
+        run_with(self, g)
+    }
 }
 
 fn run_with<S: Sink>(
-    material: &MaterialGrid,
-    boundary: &Boundary,
-    source: Option<&CellSource>,
-    options: &SweepOptions,
-    fast: bool,
-) -> (Vec<S>, EnergyBalance, SweepStats) {
+    run: &mut Run<'_>,
+    mut g: Vec<S>,
+) -> (Vec<S>, bool, EnergyBalance, SweepStats) {
+    let (material, boundary, source, options, fast) = (
+        run.material,
+        run.boundary,
+        run.source,
+        run.options,
+        run.fast,
+    );
+    let want_dom = options.outputs.dominant;
+    let mut ok = true;
+    let mut resolved = false;
     let desc = *material.desc();
     let dims = desc.dims();
     let (nx, ny, nz) = (dims.x as i32, dims.y as i32, dims.z as i32);
     let cells = material.data();
     let fixed = Fixed::of(material, boundary);
-    let mut g: Vec<S> = (0..desc.point_count())
-        .into_par_iter()
-        .map(|_| S::default())
-        .collect();
-    let mut w = Work::new(desc.level_len(), desc.point_count(), nz as usize);
+    let mut w = Work::new(nx as usize, nz as usize, desc.point_count());
     let mut bal = EnergyBalance::default();
     let mut stats = SweepStats::default();
     if let Some(src) = source {
@@ -1284,6 +1487,7 @@ fn run_with<S: Sink>(
 
     for pass in 0..options.max_passes {
         let up = pass % 2 == 1;
+        let (first, last) = (pass == 0, pass + 1 == options.max_passes);
         let ch = channels(up);
         let src = Sources {
             boundary,
@@ -1312,18 +1516,33 @@ fn run_with<S: Sink>(
             {
                 let v: Level = std::array::from_fn(|c| src.virtual_light(0, 0, &ch[c]));
                 if from_virtual {
-                    bal.top_in += level_flux(&w.prev, ch);
+                    bal.top_in += w.prev.flux(ch);
                 }
                 if src.active {
-                    g[range.clone()].par_iter_mut().for_each(|gp| {
-                        for (c, chn) in ch.iter().enumerate() {
-                            gp.add(chn.bin, chn.unit, v[c]);
-                        }
-                    });
+                    g[range.clone()]
+                        .par_chunks_mut(MIN_POINTS_PER_TASK)
+                        .for_each(|gc| {
+                            for gp in gc {
+                                if first {
+                                    *gp = S::default();
+                                }
+                                for (c, chn) in ch.iter().enumerate() {
+                                    gp.add(chn.bin, chn.unit, v[c]);
+                                }
+                            }
+                        });
                 }
-                w.cur.iter_mut().for_each(|o| *o = v);
+                w.cur.fill(&v);
                 stats.levels_copied += 1;
                 std::mem::swap(&mut w.prev, &mut w.cur);
+                if last {
+                    ok &= resolve(
+                        &g[range.clone()],
+                        &mut run.avg[range.clone()],
+                        &mut run.dom[range],
+                        want_dom,
+                    );
+                }
                 continue;
             }
             stats.levels_computed += 1;
@@ -1331,18 +1550,26 @@ fn run_with<S: Sink>(
             let sent = if from_virtual {
                 DVec3::ZERO
             } else {
-                level_flux(&w.prev, ch)
+                w.prev.flux(ch)
             };
-            w.level_powers(&fixed.lnp[range.clone()]);
+            // A level without material: every point is quiet, and nothing scatters.
+            let material_here = fixed.level_material[j as usize] || !fast;
+            if material_here {
+                w.level_powers(&fixed.lnp[range.clone()]);
+            }
             let f1 = if fast {
-                ctx.quiet(&fixed.lnp[range.clone()], &mut w.quiet, &mut w.quiet_rows);
+                let quiet = material_here.then(|| {
+                    ctx.quiet(&fixed.lnp[range.clone()], &mut w.quiet, &mut w.quiet_rows);
+                    &w.quiet[..]
+                });
                 ctx.phase1_fast(
                     &w.prev,
                     &src,
                     from_virtual,
                     src_level,
                     &w.pows,
-                    &w.quiet,
+                    quiet,
+                    first,
                     &mut w.cur,
                     &mut w.removed,
                     &mut w.t_after,
@@ -1356,6 +1583,7 @@ fn run_with<S: Sink>(
                     from_virtual,
                     src_level,
                     &w.pows,
+                    first,
                     &mut w.cur,
                     &mut w.removed,
                     &mut w.t_after,
@@ -1375,6 +1603,18 @@ fn run_with<S: Sink>(
                 bal.side_out += (sent - f1.inside).max(DVec3::ZERO);
             }
             bal.side_in += f1.outside;
+            if !material_here {
+                std::mem::swap(&mut w.prev, &mut w.cur);
+                if last {
+                    ok &= resolve(
+                        &g[range.clone()],
+                        &mut run.avg[range.clone()],
+                        &mut run.dom[range],
+                        want_dom,
+                    );
+                }
+                continue;
+            }
             let (same, other) = if up {
                 (&mut w.pend_up, &mut w.pend_down)
             } else {
@@ -1394,9 +1634,18 @@ fn run_with<S: Sink>(
             bal.absorbed += f2.absorbed;
             pending += f2.pending;
             std::mem::swap(&mut w.prev, &mut w.cur);
+            if last {
+                ok &= resolve(
+                    &g[range.clone()],
+                    &mut run.avg[range.clone()],
+                    &mut run.dom[range],
+                    want_dom,
+                );
+            }
         }
+        resolved = last;
         // What leaves the last level leaves the grid.
-        let leaving = level_flux(&w.prev, ch);
+        let leaving = w.prev.flux(ch);
         if up {
             bal.top_out += leaving;
         } else {
@@ -1408,7 +1657,10 @@ fn run_with<S: Sink>(
             break;
         }
     }
-    (g, bal, stats)
+    if !resolved {
+        ok = resolve(&g, run.avg, run.dom, want_dom);
+    }
+    (g, ok, bal, stats)
 }
 
 /// What a sweep derives once from its inputs.
@@ -1420,6 +1672,8 @@ struct Fixed {
     exposed: Vec<u8>,
     /// The highest level holding material (-1: none).
     top_material: i32,
+    /// Per level: some cell of it holds material (`p < 1`).
+    level_material: Vec<bool>,
     /// The boundary is the same at every column (uniform top, open or periodic sides).
     laterally_uniform: bool,
     periodic: bool,
@@ -1434,6 +1688,9 @@ impl Fixed {
         Self {
             lnp: cells.iter().map(|m| m.pass.ln()).collect(),
             exposed: exposure(material, periodic),
+            level_material: (0..desc.levels())
+                .map(|j| cells[desc.level_range(j)].iter().any(|m| !m.is_empty()))
+                .collect(),
             top_material: (0..desc.levels() as i32)
                 .rev()
                 .find(|&j| {
@@ -1454,8 +1711,8 @@ impl Fixed {
 /// The working buffers of a sweep, allocated once (per level, and per point for the
 /// pending light).
 struct Work {
-    prev: Vec<Level>,
-    cur: Vec<Level>,
+    prev: LevelLight,
+    cur: LevelLight,
     removed: Vec<[Vec3; SLOTS]>,
     t_after: Vec<[f32; CHANNELS]>,
     rows: Vec<RowFlux>,
@@ -1470,13 +1727,14 @@ struct Work {
 }
 
 impl Work {
-    fn new(level_len: usize, n: usize, rows: usize) -> Self {
+    fn new(nx: usize, nz: usize, n: usize) -> Self {
+        let level_len = nx * nz;
         Self {
-            prev: vec![[Vec3::ZERO; CHANNELS]; level_len],
-            cur: vec![[Vec3::ZERO; CHANNELS]; level_len],
+            prev: LevelLight::new(nx, nz),
+            cur: LevelLight::new(nx, nz),
             removed: vec![[Vec3::ZERO; SLOTS]; level_len],
             t_after: vec![[1.0; CHANNELS]; level_len],
-            rows: vec![RowFlux::default(); rows],
+            rows: vec![RowFlux::default(); nz],
             pows: vec![[1.0; MAX_EXPONENTS]; level_len],
             quiet: vec![false; level_len],
             quiet_rows: vec![false; level_len],
@@ -1489,11 +1747,12 @@ impl Work {
     /// The first level of a pass gathers from the virtual level beyond the grid: its
     /// channel light goes into `prev`.
     fn fill_from_boundary(&mut self, src: &Sources, ctx: &Ctx) {
+        let (nx, row_len) = (self.prev.nx, self.prev.row_len());
         for z in 0..ctx.nz {
+            let row = &mut self.prev.v[z as usize * row_len..][..row_len];
             for x in 0..ctx.nx {
-                let o = &mut self.prev[(x + ctx.nx * z) as usize];
                 for (c, chn) in ctx.ch.iter().enumerate() {
-                    o[c] = src.virtual_light(x, z, chn);
+                    row_set(row, nx, x as usize, c, src.virtual_light(x, z, chn));
                 }
             }
         }
