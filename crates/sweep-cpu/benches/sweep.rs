@@ -1,14 +1,16 @@
 //! Points per second of the sweep: the 64³ canopy with 26-bin and average-only
 //! outputs, one downward pass and four passes, and a small tall grid (16 × 64 × 16),
-//! each for the fast path (`sweep_cpu::run`) and, in the same run, the scalar oracle it
-//! equals bit for bit (`sweep_cpu::sweep::run_scalar`). The error of each setting against
+//! each for the fast path into recycled memory (`CpuSweeper::sweep` after
+//! `CpuSweeper::recycle`: what a per-frame rebuild runs), the fast path into fresh memory
+//! (`sweep_cpu::run`) and, in the same run, the scalar oracle it equals bit for bit
+//! (`sweep_cpu::sweep::run_scalar`). The error of each setting against
 //! the Monte Carlo reference is in the crate docs (`canonical` example for timings with
 //! errors side by side); `cargo run --release -p sweep-cpu --example throughput` is the
 //! quick version of this.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lightgrid_core::glam::UVec3;
-use lightgrid_core::{GridDesc, MaterialGrid, Outputs, SweepOptions};
+use lightgrid_core::{GridDesc, MaterialGrid, Outputs, SweepOptions, Sweeper};
 use sweep_cpu::scenes::Scene;
 
 fn bench(c: &mut Criterion) {
@@ -49,6 +51,13 @@ fn bench(c: &mut Criterion) {
                 o.outputs = outputs;
                 o.max_passes = passes;
                 o.tolerance = 0.0;
+                let mut sweeper = sweep_cpu::CpuSweeper::new();
+                g.bench_function(format!("{name}, {passes_name}, recycled"), |bch| {
+                    bch.iter(|| {
+                        let out = sweeper.sweep(m, &b, &o).expect("sweep");
+                        sweeper.recycle(out);
+                    })
+                });
                 g.bench_function(format!("{name}, {passes_name}"), |bch| {
                     bch.iter(|| sweep_cpu::run(m, &b, &o).expect("sweep"))
                 });

@@ -1,16 +1,17 @@
 //! Points per second of the sweep, quickly (criterion's `cargo bench -p sweep-cpu` is
 //! the measurement of record): the 64³ canopy with 26-bin output, one downward pass and
-//! four passes, and a small tall grid (16 × 16 × 64), for the fast path and the scalar
-//! oracle it must equal.
+//! four passes, and a small tall grid (16 × 16 × 64), for the fast path into recycled
+//! memory (`CpuSweeper::recycle`), into fresh memory, and the scalar oracle it must
+//! equal.
 //!
 //! `cargo run --release -p sweep-cpu --example throughput`
 
 use std::time::Instant;
 
-use lightgrid_core::{MaterialGrid, Outputs, SweepOptions};
+use lightgrid_core::{MaterialGrid, Outputs, SweepOptions, Sweeper};
 use sweep_cpu::scenes::Scene;
 
-fn best_of(n: usize, f: impl Fn()) -> f64 {
+fn best_of(n: usize, mut f: impl FnMut()) -> f64 {
     (0..n)
         .map(|_| {
             let t = Instant::now();
@@ -36,7 +37,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect();
         (MaterialGrid::new(sub, cells)?, b)
     };
-    println!("{:34} {:>12} {:>12}", "case", "fast Mpt/s", "oracle Mpt/s");
+    println!(
+        "{:34} {:>14} {:>12} {:>12}",
+        "case", "recycled Mpt/s", "fast Mpt/s", "oracle Mpt/s"
+    );
     for (name, m, bd, passes) in [
         ("64^3 canopy, 26 bins, 1 pass", &canopy, &b, 1),
         ("64^3 canopy, 26 bins, 4 passes", &canopy, &b, 4),
@@ -47,6 +51,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         o.max_passes = passes;
         o.tolerance = 0.0;
         let pts = m.desc().point_count() as f64;
+        let mut sweeper = sweep_cpu::CpuSweeper::new();
+        let recycled = best_of(8, || {
+            let out = sweeper.sweep(m, bd, &o).expect("sweep");
+            sweeper.recycle(out);
+        });
         let fast = best_of(5, || {
             sweep_cpu::run(m, bd, &o).expect("sweep");
         });
@@ -54,7 +63,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             sweep_cpu::sweep::run_scalar(m, bd, None, &o).expect("sweep");
         });
         println!(
-            "{name:34} {:12.2} {:12.2}",
+            "{name:34} {:14.2} {:12.2} {:12.2}",
+            pts / recycled / 1e6,
             pts / fast / 1e6,
             pts / oracle / 1e6
         );

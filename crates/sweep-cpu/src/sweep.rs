@@ -367,30 +367,40 @@ impl Emission {
         }
     }
 
-    /// Flux sent into channel `chn`, before the path cells after the cell (`T_after`).
-    #[inline]
-    fn flux(&self, p: &Pending, chn: &Channel) -> Vec3 {
+    /// The cell's weights for every channel of a pass as lanes: a medium sends `ω_b/4π ×
+    /// share × (A S − B u·M)` (clamped at 0), all of it through `T_after`; a surface its
+    /// fixed weight `w S`, the `free` part of it past `T_after`.
+    fn lanes(
+        &self,
+        l: &PassLanes,
+        ch: &[Channel; CHANNELS],
+        t_after: &[f32; CHANNELS],
+    ) -> CellLanes {
+        let mut cl = CellLanes {
+            fa: [0.0; LANES],
+            fb: [0.0; LANES],
+            free: [0.0; LANES],
+            full: [0.0; LANES],
+            t_after: [0.0; LANES],
+        };
+        cl.t_after[..CHANNELS].copy_from_slice(t_after);
         match self {
             Emission::Medium { a, b } => {
-                let w = dirs::solid_angles()[chn.bin] / (4.0 * PI);
-                let um = p.m[0] * chn.unit.x + p.m[1] * chn.unit.y + p.m[2] * chn.unit.z;
-                ((p.s * *a - um * *b) * (w * chn.share)).max(Vec3::ZERO)
+                for c in 0..CHANNELS {
+                    cl.fa[c] = a * l.iso[c];
+                    cl.fb[c] = b * l.iso[c];
+                    cl.full[c] = l.iso[c];
+                }
             }
-            Emission::Surface { w } => p.s * w.w[chn.pass()][chn.bin],
-        }
-    }
-
-    /// What of `flux` (this channel's emission) leaves the cell's level along a path of
-    /// transmittance `t_after`.
-    #[inline]
-    fn leaving(&self, p: &Pending, chn: &Channel, flux: Vec3, t_after: f32) -> Vec3 {
-        match self {
-            Emission::Medium { .. } => flux * t_after,
             Emission::Surface { w } => {
-                let free = p.s * w.free[chn.pass()][chn.bin];
-                (flux - free) * t_after + free
+                for (c, chn) in ch.iter().enumerate() {
+                    cl.fa[c] = w.w[chn.pass()][chn.bin];
+                    cl.full[c] = cl.fa[c];
+                    cl.free[c] = w.free[chn.pass()][chn.bin];
+                }
             }
         }
+        cl
     }
 
     /// Channel `chn`'s share of the scattered flux before anything stops it.
@@ -414,6 +424,105 @@ impl Emission {
             Emission::Surface { .. } => ch.iter().map(|c| self.full(p, c)).sum(),
         }
     }
+}
+
+/// Channels of a pass as lanes of phase 2's per-cell loops (structure of arrays, padded
+/// with zeros to a multiple of 4 so that the loops vectorise).
+const LANES: usize = CHANNELS.next_multiple_of(4);
+
+/// The channels of one pass as [`LANES`]: unit vectors, isotropic shares (`ω_b / 4π`
+/// times the channel's share), path lengths and half of them.
+struct PassLanes {
+    u: [[f32; LANES]; 3],
+    iso: [f32; LANES],
+    length: [f32; LANES],
+    half_length: [f32; LANES],
+}
+
+fn pass_lanes(up: bool) -> &'static PassLanes {
+    static L: OnceLock<[PassLanes; 2]> = OnceLock::new();
+    let make = |up: bool| {
+        let ch = channels(up);
+        let mut l = PassLanes {
+            u: [[0.0; LANES]; 3],
+            iso: [0.0; LANES],
+            length: [0.0; LANES],
+            half_length: [0.0; LANES],
+        };
+        for (c, chn) in ch.iter().enumerate() {
+            for a in 0..3 {
+                l.u[a][c] = chn.unit[a];
+            }
+            l.iso[c] = dirs::solid_angles()[chn.bin] / (4.0 * PI) * chn.share;
+            l.length[c] = chn.length;
+            l.half_length[c] = 0.5 * chn.length;
+        }
+        l
+    };
+    &L.get_or_init(|| [make(false), make(true)])[up as usize]
+}
+
+/// One cell's emission weights as lanes (see [`Emission::lanes`]).
+struct CellLanes {
+    /// Flux into a channel: `max(0, S·fa − (u·M)·fb)`.
+    fa: [f32; LANES],
+    fb: [f32; LANES],
+    /// The part of that flux that leaves free of `T_after` (a top or bottom face's
+    /// horizontal light): `S·free`.
+    free: [f32; LANES],
+    /// The channel's share before anything stops it: `S·full`.
+    full: [f32; LANES],
+    /// `T_after` of each channel.
+    t_after: [f32; LANES],
+}
+
+impl CellLanes {
+    /// One round of step 6 for one colour (scattered flux `s`, moment `m`): adds what
+    /// leaves the level to `leave` and what is emitted to `emit`, returns what the
+    /// cell's own material stops, per channel.
+    #[inline]
+    fn round(
+        &self,
+        l: &PassLanes,
+        s: f32,
+        m: [f32; 3],
+        leave: &mut [f32; LANES],
+        emit: &mut [f32; LANES],
+    ) -> [f32; LANES] {
+        let mut lost = [0f32; LANES];
+        for c in 0..LANES {
+            let um = m[0] * l.u[0][c] + m[1] * l.u[1][c] + m[2] * l.u[2][c];
+            let f = (s * self.fa[c] - um * self.fb[c]).max(0.0);
+            let fr = s * self.free[c];
+            let leaving = (f - fr) * self.t_after[c] + fr;
+            lost[c] = (s * self.full[c] - leaving).max(0.0);
+            leave[c] += leaving;
+            emit[c] += f;
+        }
+        lost
+    }
+}
+
+#[inline]
+fn lanes_sum(v: &[f32; LANES]) -> f32 {
+    let mut a = [0f32; 4];
+    for ch in v.chunks_exact(4) {
+        for i in 0..4 {
+            a[i] += ch[i];
+        }
+    }
+    (a[0] + a[1]) + (a[2] + a[3])
+}
+
+#[inline]
+fn lanes_dot(v: &[f32; LANES], w: &[f32; LANES]) -> f32 {
+    let mut a = [0f32; 4];
+    for (x, y) in v.chunks_exact(4).zip(w.chunks_exact(4)) {
+        for i in 0..4 {
+            a[i] += x[i] * y[i];
+        }
+    }
+    (a[0] + a[1]) + (a[2] + a[3])
 }
 
 fn up_pass(ch: &[Channel; CHANNELS]) -> bool {
@@ -537,53 +646,118 @@ fn sum_rows(v: &[RowFlux]) -> RowFlux {
 
 type Level = [Vec3; CHANNELS];
 
+/// Columns (and rows) of the ring around a [`LevelLight`]: a tap of step 1 lies at most
+/// four columns (a horizontal channel's step) and one (the smoothing tap) beyond a point.
+const PAD: usize = 5;
+
 /// One level's channel light (step 1's `O'`, and the level being built), row by row in
-/// planes: channel `c`, colour `k` of column `(x, z)` is at `((z·CHANNELS + c)·3 + k)·nx
-/// + x`. One channel's colour along a row is contiguous, so the fast path's gather over a
-/// row's interior is a loop over slices that the compiler vectorises, and a row of the
-/// level is one contiguous chunk (`row_len`) for the parallel tasks.
+/// planes, with a ring of [`PAD`] columns and rows around the grid: channel `c`, colour
+/// `k` of column `(x, z)` (`-PAD <= x < nx + PAD`, the same for `z`) is at
+/// `((z + PAD)·CHANNELS·3 + c·3 + k)·pitch + x + PAD`, `pitch = nx + 2·PAD`. One
+/// channel's colour along a row is contiguous, so the fast path's gather over a row is
+/// a loop over slices that the compiler vectorises; a row is one contiguous chunk
+/// (`row_len`) for the parallel tasks. The ring holds the light of the columns a tap
+/// beyond the sides reads *from inside the grid*: the wrapped columns on periodic sides
+/// ([`LevelLight::wrap_ring`]), zero otherwise; light from outside (open sides, a given
+/// halo) comes from a second `LevelLight` whose inside is zero and whose ring holds it.
 struct LevelLight {
     v: Vec<f32>,
     nx: usize,
+    nz: usize,
 }
 
 impl LevelLight {
     fn new(nx: usize, nz: usize) -> Self {
         Self {
-            v: vec![0.0; CHANNELS * 3 * nx * nz],
+            v: vec![0.0; CHANNELS * 3 * (nx + 2 * PAD) * (nz + 2 * PAD)],
             nx,
+            nz,
         }
+    }
+    /// Floats from one column to the same column of the next plane.
+    #[inline]
+    fn pitch(&self) -> usize {
+        self.nx + 2 * PAD
     }
     /// Floats per row of points.
     #[inline]
     fn row_len(&self) -> usize {
-        CHANNELS * 3 * self.nx
+        CHANNELS * 3 * self.pitch()
+    }
+    /// The rows of the grid (the ring's rows left out), for the parallel tasks.
+    fn rows_mut(&mut self) -> &mut [f32] {
+        let r = self.row_len();
+        &mut self.v[PAD * r..(PAD + self.nz) * r]
+    }
+    /// Row `z` (`-PAD <= z < nz + PAD`).
+    #[inline]
+    fn row(&self, z: isize) -> &[f32] {
+        let r = self.row_len();
+        &self.v[(z + PAD as isize) as usize * r..][..r]
+    }
+    #[inline]
+    fn row_mut(&mut self, z: isize) -> &mut [f32] {
+        let r = self.row_len();
+        &mut self.v[(z + PAD as isize) as usize * r..][..r]
     }
     /// Channel `c` of the point with level index `i`.
     #[inline]
     fn at(&self, i: usize, c: usize) -> Vec3 {
         let (x, z) = (i % self.nx, i / self.nx);
-        row_get(&self.v[z * self.row_len()..], self.nx, x, c)
+        row_get(self.row(z as isize), self.pitch(), x, c)
     }
-    /// Every point: the same channel values `v`.
+    /// Every point of the grid: the same channel values `v` (the ring is left as it is).
     fn fill(&mut self, v: &Level) {
+        let p = self.pitch();
         let nx = self.nx;
-        self.v.par_chunks_mut(CHANNELS * 3 * nx).for_each(|row| {
+        let r = self.row_len();
+        self.rows_mut().par_chunks_mut(r).for_each(|row| {
             for (c, val) in v.iter().enumerate() {
                 for k in 0..3 {
-                    row[(c * 3 + k) * nx..][..nx].fill(val[k]);
+                    row[(c * 3 + k) * p + PAD..][..nx].fill(val[k]);
                 }
             }
         });
     }
-    /// Flux through a horizontal plane (`Σ value × μ_c`).
+    /// The ring from the wrapped columns and rows of the grid (periodic sides).
+    fn wrap_ring(&mut self) {
+        let (nx, nz, p, r) = (
+            self.nx as isize,
+            self.nz as isize,
+            self.pitch(),
+            self.row_len(),
+        );
+        for z in 0..nz {
+            let row = self.row_mut(z);
+            for plane in row.chunks_exact_mut(p) {
+                if nx >= PAD as isize {
+                    // Left ring: the last PAD columns; right ring: the first PAD.
+                    let n = nx as usize;
+                    plane.copy_within(n..n + PAD, 0);
+                    plane.copy_within(PAD..2 * PAD, n + PAD);
+                } else {
+                    for x in (-(PAD as isize)..0).chain(nx..nx + PAD as isize) {
+                        plane[(x + PAD as isize) as usize] =
+                            plane[(x.rem_euclid(nx) + PAD as isize) as usize];
+                    }
+                }
+            }
+        }
+        for z in (-(PAD as isize)..0).chain(nz..nz + PAD as isize) {
+            let from = (z.rem_euclid(nz) + PAD as isize) as usize * r;
+            let to = (z + PAD as isize) as usize * r;
+            self.v.copy_within(from..from + r, to);
+        }
+    }
+    /// Flux through a horizontal plane (`Σ value × μ_c` over the grid's points).
     fn flux(&self, ch: &[Channel; CHANNELS]) -> DVec3 {
-        let nx = self.nx;
+        let (nx, p) = (self.nx, self.pitch());
         let mut f = DVec3::ZERO;
-        for row in self.v.chunks(self.row_len()) {
+        for z in 0..self.nz {
+            let row = self.row(z as isize);
             for (c, chn) in ch.iter().enumerate() {
                 for k in 0..3 {
-                    f[k] += sum_f64(&row[(c * 3 + k) * nx..][..nx]) * chn.mu as f64;
+                    f[k] += sum_f64(&row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
                 }
             }
         }
@@ -591,19 +765,47 @@ impl LevelLight {
     }
 }
 
-/// Channel `c` of column `x` in one row of a [`LevelLight`].
+/// Channel `c` of grid column `x` in one row of a [`LevelLight`] of pitch `p`.
 #[inline]
-fn row_get(row: &[f32], nx: usize, x: usize, c: usize) -> Vec3 {
-    let b = c * 3 * nx + x;
-    Vec3::new(row[b], row[b + nx], row[b + 2 * nx])
+fn row_get(row: &[f32], p: usize, x: usize, c: usize) -> Vec3 {
+    let b = c * 3 * p + x + PAD;
+    Vec3::new(row[b], row[b + p], row[b + 2 * p])
 }
 
 #[inline]
-fn row_set(row: &mut [f32], nx: usize, x: usize, c: usize, v: Vec3) {
-    let b = c * 3 * nx + x;
+fn row_set(row: &mut [f32], p: usize, x: usize, c: usize, v: Vec3) {
+    let b = c * 3 * p + x + PAD;
     row[b] = v.x;
-    row[b + nx] = v.y;
-    row[b + 2 * nx] = v.z;
+    row[b + p] = v.y;
+    row[b + 2 * p] = v.z;
+}
+
+#[inline]
+fn row_add(row: &mut [f32], p: usize, x: usize, c: usize, v: Vec3) {
+    let b = c * 3 * p + x + PAD;
+    row[b] += v.x;
+    row[b + p] += v.y;
+    row[b + 2 * p] += v.z;
+}
+
+/// Step 1 along a row: `out[i] = (1 - w)·mid[i + 1] + (w/4)·(mid[i + 2] + mid[i] +
+/// above[i + 1] + below[i + 1])` (in that order, as the oracle adds its taps), where
+/// `mid`, `above` and `below` start one column before the source point of `out[0]`.
+#[inline]
+fn gather_row(out: &mut [f32], (mid, above, below): (&[f32], &[f32], &[f32]), w0: f32, w1: f32) {
+    let n = out.len();
+    let m0 = &mid[1..][..n];
+    if w1 == 0.0 {
+        for (o, v) in out.iter_mut().zip(m0) {
+            *o = v * w0;
+        }
+        return;
+    }
+    let (mp, mm) = (&mid[2..][..n], &mid[..n]);
+    let (za, zb) = (&above[1..][..n], &below[1..][..n]);
+    for i in 0..n {
+        out[i] = m0[i] * w0 + mp[i] * w1 + mm[i] * w1 + za[i] * w1 + zb[i] * w1;
+    }
 }
 
 /// Sum in `f64`, four lanes (so that it vectorises; the order is fixed, so the result
@@ -848,8 +1050,8 @@ impl Ctx {
         rows: &mut [RowFlux],
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let row_len = cur.row_len();
-        cur.v
+        let (row_len, p) = (cur.row_len(), cur.pitch());
+        cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(removed.par_chunks_mut(nx))
             .zip(t_after.par_chunks_mut(nx))
@@ -877,7 +1079,7 @@ impl Ctx {
                         let (t, t_mid, after) =
                             self.transmit(pows, chn, x, z, None, light, &mut rem_row[xi]);
                         ta_row[xi][c] = after;
-                        row_set(cur_row, nx, xi, c, light * t);
+                        row_set(cur_row, p, xi, c, light * t);
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
                     }
                 }
@@ -930,10 +1132,13 @@ impl Ctx {
     }
 
     /// Steps 1-2 as [`Ctx::phase1_scalar`], bit for bit in the light, faster: step 1
-    /// channel by channel over whole rows (the interior of a row, whose five source taps
-    /// all lie inside the grid, is a loop over [`LevelLight`]'s contiguous planes that
-    /// the compiler vectorises; the few columns near the sides take the oracle's
-    /// [`Ctx::gather_edge`]); then step 2 point by point, where a point whose 5 × 5
+    /// channel by channel over whole rows of [`LevelLight`]'s planes, a loop the
+    /// compiler vectorises, with no side logic: taps beyond the sides read `prev`'s ring
+    /// (wrapped light on periodic sides, zero otherwise) and, where light enters from
+    /// outside (`ghost`: open sides or a given halo, in a pass that takes boundary
+    /// light), the outside light from `ghost`'s ring, for the columns whose taps reach
+    /// it. Adding a zero is exact, so the sums equal the oracle's tap-by-tap sums that
+    /// skip those taps. Then step 2 point by point, where a point whose 5 × 5
     /// neighbourhood of cells is empty (`quiet`, or `None`: the whole level is empty;
     /// every path cell of every channel passes all light) skips the transmit step: its
     /// light passes unchanged, nothing is removed (its removal slots are not written:
@@ -944,9 +1149,7 @@ impl Ctx {
     fn phase1_fast<S: Sink>(
         &self,
         prev: &LevelLight,
-        src: &Sources<'_>,
-        from_virtual: bool,
-        src_level: i32,
+        ghost: Option<&LevelLight>,
         pows: &[[f32; MAX_EXPONENTS]],
         quiet: Option<&[bool]>,
         first: bool,
@@ -958,10 +1161,7 @@ impl Ctx {
     ) -> RowFlux {
         let nx = self.nx as usize;
         let row_len = cur.row_len();
-        let (nxi, nzi) = (self.nx, self.nz);
-        let s = self.smoothing;
-        let (w0, w1) = (1.0 - s, 0.25 * s);
-        cur.v
+        cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(removed.par_chunks_mut(nx))
             .zip(t_after.par_chunks_mut(nx))
@@ -976,90 +1176,120 @@ impl Ctx {
                     // The first pass sets every point (its memory may hold anything).
                     g_row.fill(S::default());
                 }
-                // Step 1, channel by channel.
-                for (c, chn) in self.ch.iter().enumerate() {
-                    let (sx, qz) = (chn.step.x, z - chn.step.z);
-                    let mu = chn.mu as f64;
-                    // Columns whose taps all lie inside: 1 <= x - sx <= nx - 2.
-                    let (xa, xb) = if qz >= 1 && qz < nzi - 1 {
-                        let xa = (1 + sx).clamp(0, nxi);
-                        (xa, (nxi - 1 + sx).clamp(xa, nxi))
-                    } else {
-                        (0, 0)
-                    };
-                    for x in (0..xa).chain(xb.max(xa)..nxi) {
-                        let (ins, outs) = self.gather_edge(
-                            prev,
-                            src,
-                            from_virtual,
-                            src_level,
-                            chn,
-                            c,
-                            x - sx,
-                            qz,
-                        );
-                        rf.inside += ins.as_dvec3() * mu;
-                        rf.outside += outs.as_dvec3() * mu;
-                        row_set(cur_row, nx, x as usize, c, ins + outs);
-                    }
-                    if xa >= xb {
-                        continue;
-                    }
-                    let (xa, n) = (xa as usize, (xb - xa) as usize);
-                    let qa = (xa as i32 - sx) as usize;
-                    let qz = qz as usize;
-                    for k in 0..3 {
-                        let plane = (c * 3 + k) * nx;
-                        let row_at = |z: usize| &prev.v[z * row_len + plane..][..nx];
-                        let (mid, above, below) = (row_at(qz), row_at(qz + 1), row_at(qz - 1));
-                        let out = &mut cur_row[plane + xa..][..n];
-                        let m0 = &mid[qa..][..n];
-                        if w1 == 0.0 {
-                            for (o, v) in out.iter_mut().zip(m0) {
-                                *o = v * w0;
-                            }
-                        } else {
-                            let (mp, mm) = (&mid[qa + 1..][..n], &mid[qa - 1..][..n]);
-                            let (za, zb) = (&above[qa..][..n], &below[qa..][..n]);
-                            for i in 0..n {
-                                out[i] =
-                                    m0[i] * w0 + mp[i] * w1 + mm[i] * w1 + za[i] * w1 + zb[i] * w1;
-                            }
-                        }
-                        rf.inside[k] += sum_f64(out) * mu;
-                    }
-                }
-                // Step 2, point by point.
-                let inner_z = z >= 2 && z < nzi - 2;
-                for (xi, g_pt) in g_row.iter_mut().enumerate() {
-                    let pi = xi + nx * z as usize;
-                    if quiet.is_none_or(|q| q[pi]) {
-                        for (c, chn) in self.ch.iter().enumerate() {
-                            g_pt.add(chn.bin, chn.unit, row_get(cur_row, nx, xi, c));
-                        }
-                        continue;
-                    }
-                    let x = xi as i32;
-                    let inner = inner_z && x >= 2 && x < nxi - 2;
-                    for (c, chn) in self.ch.iter().enumerate() {
-                        let light = row_get(cur_row, nx, xi, c);
-                        let (t, t_mid, after) = self.transmit(
-                            pows,
-                            chn,
-                            x,
-                            z,
-                            inner.then_some(pi),
-                            light,
-                            &mut rem_row[xi],
-                        );
-                        ta_row[xi][c] = after;
-                        row_set(cur_row, nx, xi, c, light * t);
-                        g_pt.add(chn.bin, chn.unit, light * t_mid);
-                    }
-                }
+                self.gather_row_channels(z, prev, ghost, cur_row, &mut rf);
+                self.transmit_row(z, pows, quiet, cur_row, rem_row, ta_row, g_row);
                 *row_out = rf;
             });
         sum_rows(rows)
+    }
+
+    /// Step 1 of [`Ctx::phase1_fast`] for row `z` (its own function, so that profiles
+    /// show it).
+    #[inline(never)]
+    fn gather_row_channels(
+        &self,
+        z: i32,
+        prev: &LevelLight,
+        ghost: Option<&LevelLight>,
+        cur_row: &mut [f32],
+        rf: &mut RowFlux,
+    ) {
+        let nx = self.nx as usize;
+        let p = prev.pitch();
+        let (nxi, nzi) = (self.nx, self.nz);
+        let s = self.smoothing;
+        let (w0, w1) = (1.0 - s, 0.25 * s);
+        let mut outs = [0f32; 2 * PAD];
+        // Step 1, channel by channel, over the whole row.
+        for (c, chn) in self.ch.iter().enumerate() {
+            let (sx, qz) = (chn.step.x, (z - chn.step.z) as isize);
+            let mu = chn.mu as f64;
+            // Source column of x = 0 in the planes (ring included).
+            let q0 = (PAD as i32 - sx - 1) as usize;
+            for k in 0..3 {
+                let plane = (c * 3 + k) * p;
+                let out = &mut cur_row[plane + PAD..][..nx];
+                fn taps(
+                    l: &LevelLight,
+                    at: usize,
+                    n: usize,
+                    qz: isize,
+                ) -> (&[f32], &[f32], &[f32]) {
+                    let row = |z: isize| &l.row(z)[at..][..n];
+                    (row(qz), row(qz + 1), row(qz - 1))
+                }
+                gather_row(out, taps(prev, plane + q0, nx + 2, qz), w0, w1);
+                rf.inside[k] += sum_f64(out) * mu;
+                let Some(gh) = ghost else { continue };
+                // Columns whose taps reach beyond the sides: all of them in a row
+                // whose source rows do; else the first and last few.
+                let (xa, xb) = if qz >= 1 && qz < nzi as isize - 1 {
+                    let xa = (1 + sx).clamp(0, nxi);
+                    (xa as usize, (nxi - 1 + sx).clamp(xa, nxi) as usize)
+                } else {
+                    (nx, nx)
+                };
+                let (mid, above, below) = taps(gh, plane + q0, nx + 2, qz);
+                for range in [0..xa.min(nx), xb.max(xa.min(nx))..nx] {
+                    for chunk in range.clone().step_by(outs.len()) {
+                        let n = (range.end - chunk).min(outs.len());
+                        let o = &mut outs[..n];
+                        gather_row(o, (&mid[chunk..], &above[chunk..], &below[chunk..]), w0, w1);
+                        rf.outside[k] += sum_f64(o) * mu;
+                        for (t, v) in out[chunk..][..n].iter_mut().zip(o.iter()) {
+                            *t += v;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Step 2 of [`Ctx::phase1_fast`] for row `z`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn transmit_row<S: Sink>(
+        &self,
+        z: i32,
+        pows: &[[f32; MAX_EXPONENTS]],
+        quiet: Option<&[bool]>,
+        cur_row: &mut [f32],
+        rem_row: &mut [[Vec3; SLOTS]],
+        ta_row: &mut [[f32; CHANNELS]],
+        g_row: &mut [S],
+    ) {
+        let nx = self.nx as usize;
+        let p = PAD * 2 + nx;
+        let nxi = self.nx;
+        let nzi = self.nz;
+        // Step 2, point by point.
+        let inner_z = z >= 2 && z < nzi - 2;
+        for (xi, g_pt) in g_row.iter_mut().enumerate() {
+            let pi = xi + nx * z as usize;
+            if quiet.is_none_or(|q| q[pi]) {
+                for (c, chn) in self.ch.iter().enumerate() {
+                    g_pt.add(chn.bin, chn.unit, row_get(cur_row, p, xi, c));
+                }
+                continue;
+            }
+            let x = xi as i32;
+            let inner = inner_z && x >= 2 && x < nxi - 2;
+            for (c, chn) in self.ch.iter().enumerate() {
+                let light = row_get(cur_row, p, xi, c);
+                let (t, t_mid, after) = self.transmit(
+                    pows,
+                    chn,
+                    x,
+                    z,
+                    inner.then_some(pi),
+                    light,
+                    &mut rem_row[xi],
+                );
+                ta_row[xi][c] = after;
+                row_set(cur_row, p, xi, c, light * t);
+                g_pt.add(chn.bin, chn.unit, light * t_mid);
+            }
+        }
     }
 
     /// Step 1, tap by tap (light from inside the grid, light from outside): the
@@ -1135,8 +1365,8 @@ impl Ctx {
         rows: &mut [RowFlux],
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let row_len = cur.row_len();
-        cur.v
+        let (row_len, p) = (cur.row_len(), cur.pitch());
+        cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(pend_same.par_chunks_mut(nx))
             .zip(pend_other.par_chunks_mut(nx))
@@ -1146,86 +1376,120 @@ impl Ctx {
             .with_min_len(self.rows_per_task())
             .for_each(
                 |(z, ((((cur_row, same_row), other_row), g_row), row_out))| {
-                    let z = z as i32;
-                    let mut rf = RowFlux::default();
-                    for x in 0..self.nx {
-                        let xi = x as usize;
-                        let ci = xi + nx * z as usize;
-                        if cells[ci].pass >= 1.0 {
-                            // An empty cell removes nothing, so it never holds scattered light.
-                            continue;
-                        }
-                        // Step 3: the flux this cell removed from every path crossing it.
-                        let mut s_raw = Vec3::ZERO;
-                        let mut m_raw = [Vec3::ZERO; 3];
-                        for chn in self.ch.iter() {
-                            let mut r = Vec3::ZERO;
-                            for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                                if let Some(p) = self.col(x - dx, z - dz) {
-                                    r += removed[p][chn.first_slot + k];
-                                }
-                            }
-                            let r = r * chn.mu;
-                            s_raw += r;
-                            m_raw[0] += r * chn.unit.x;
-                            m_raw[1] += r * chn.unit.y;
-                            m_raw[2] += r * chn.unit.z;
-                        }
-                        // Step 4: absorb (1 - albedo), keep albedo for scattering.
-                        let mat = cells[ci];
-                        let alb = mat.reflectance;
-                        rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
-                        let new = Pending {
-                            s: s_raw * alb,
-                            m: m_raw.map(|v| v * alb),
-                        };
-                        // Step 5: emit this pass's half of what the cell scatters now and of
-                        // what earlier passes left for this direction. Step 6: what the cell's
-                        // own material stops of that emission is removed again (absorbed or
-                        // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
-                        let mut own = new.add(&same_row[xi]);
-                        let mut other = other_row[xi].add(&new);
-                        // The cell's weights, once (a logarithm for a medium).
-                        let em = Emission::new(mat.pass, exposed[ci], self.medium);
-                        for _ in 0..LOCAL_ROUNDS {
-                            if own.s == Vec3::ZERO {
-                                break;
-                            }
-                            let mut lost_s = Vec3::ZERO;
-                            let mut lost_m = [Vec3::ZERO; 3];
-                            for (c, chn) in self.ch.iter().enumerate() {
-                                let f = em.flux(&own, chn);
-                                let leaving = em.leaving(&own, chn, f, t_after[ci][c]);
-                                let lost = (em.full(&own, chn) - leaving).max(Vec3::ZERO);
-                                lost_s += lost;
-                                lost_m[0] += lost * chn.unit.x;
-                                lost_m[1] += lost * chn.unit.y;
-                                lost_m[2] += lost * chn.unit.z;
-                                let b = c * 3 * nx + xi;
-                                let add = leaving / chn.mu;
-                                cur_row[b] += add.x;
-                                cur_row[b + nx] += add.y;
-                                cur_row[b + 2 * nx] += add.z;
-                                g_row[xi].add(chn.bin, chn.unit, f * (0.5 / chn.mu));
-                            }
-                            rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
-                            own = Pending {
-                                s: lost_s * alb,
-                                m: lost_m.map(|v| v * alb),
-                            };
-                            other = other.add(&own);
-                        }
-                        let recycled = own;
-                        same_row[xi] = recycled;
-                        other_row[xi] = other;
-                        let other_ch = channels(!up_pass(self.ch));
-                        rf.pending += (em.budget(&recycled, self.ch) + em.budget(&other, other_ch))
-                            .as_dvec3();
-                    }
-                    *row_out = rf;
+                    *row_out = self.phase2_row(
+                        z as i32, removed, t_after, cells, exposed, p, cur_row, same_row,
+                        other_row, g_row,
+                    );
                 },
             );
         sum_rows(rows)
+    }
+
+    /// [`Ctx::phase2`] for row `z` (its own function, so that profiles show it).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn phase2_row<S: Sink>(
+        &self,
+        z: i32,
+        removed: &[[Vec3; SLOTS]],
+        t_after: &[[f32; CHANNELS]],
+        cells: &[lightgrid_core::Material],
+        exposed: &[u8],
+        p: usize,
+        cur_row: &mut [f32],
+        same_row: &mut [Pending],
+        other_row: &mut [Pending],
+        g_row: &mut [S],
+    ) -> RowFlux {
+        let nx = self.nx as usize;
+        let lanes = pass_lanes(up_pass(self.ch));
+        let mut rf = RowFlux::default();
+        for x in 0..self.nx {
+            let xi = x as usize;
+            let ci = xi + nx * z as usize;
+            if cells[ci].pass >= 1.0 {
+                // An empty cell removes nothing, so it never holds scattered light.
+                continue;
+            }
+            // Step 3: the flux this cell removed from every path crossing it (path
+            // points found by index away from the sides).
+            let inner = z >= 2 && z < self.nz - 2 && x >= 2 && x < self.nx - 2;
+            let mut s_raw = Vec3::ZERO;
+            let mut m_raw = [Vec3::ZERO; 3];
+            for chn in self.ch.iter() {
+                let mut r = Vec3::ZERO;
+                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    let pt = if inner {
+                        Some((ci as i32 - dx - self.nx * dz) as usize)
+                    } else {
+                        self.col(x - dx, z - dz)
+                    };
+                    if let Some(pt) = pt {
+                        r += removed[pt][chn.first_slot + k];
+                    }
+                }
+                let r = r * chn.mu;
+                s_raw += r;
+                m_raw[0] += r * chn.unit.x;
+                m_raw[1] += r * chn.unit.y;
+                m_raw[2] += r * chn.unit.z;
+            }
+            // Step 4: absorb (1 - albedo), keep albedo for scattering.
+            let mat = cells[ci];
+            let alb = mat.reflectance;
+            rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
+            let new = Pending {
+                s: s_raw * alb,
+                m: m_raw.map(|v| v * alb),
+            };
+            // Step 5: emit this pass's half of what the cell scatters now and of
+            // what earlier passes left for this direction. Step 6: what the cell's
+            // own material stops of that emission is removed again (absorbed or
+            // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
+            let mut own = new.add(&same_row[xi]);
+            let mut other = other_row[xi].add(&new);
+            // The cell's weights, once (a logarithm for a medium), as lanes.
+            let em = Emission::new(mat.pass, exposed[ci], self.medium);
+            if own.s != Vec3::ZERO {
+                let cw = em.lanes(lanes, self.ch, &t_after[ci]);
+                // Per colour and channel: what leaves the level, what is emitted.
+                let mut leave = [[0f32; LANES]; 3];
+                let mut emit = [[0f32; LANES]; 3];
+                for _ in 0..LOCAL_ROUNDS {
+                    if own.s == Vec3::ZERO {
+                        break;
+                    }
+                    let mut lost_s = Vec3::ZERO;
+                    let mut lost_m = [Vec3::ZERO; 3];
+                    for k in 0..3 {
+                        let (sk, mk) = (own.s[k], [own.m[0][k], own.m[1][k], own.m[2][k]]);
+                        let lost = cw.round(lanes, sk, mk, &mut leave[k], &mut emit[k]);
+                        lost_s[k] = lanes_sum(&lost);
+                        for a in 0..3 {
+                            lost_m[a][k] = lanes_dot(&lost, &lanes.u[a]);
+                        }
+                    }
+                    rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
+                    own = Pending {
+                        s: lost_s * alb,
+                        m: lost_m.map(|v| v * alb),
+                    };
+                    other = other.add(&own);
+                }
+                for (c, chn) in self.ch.iter().enumerate() {
+                    let lv = Vec3::new(leave[0][c], leave[1][c], leave[2][c]);
+                    row_add(cur_row, p, xi, c, lv * lanes.length[c]);
+                    let ev = Vec3::new(emit[0][c], emit[1][c], emit[2][c]);
+                    g_row[xi].add(chn.bin, chn.unit, ev * lanes.half_length[c]);
+                }
+            }
+            let recycled = own;
+            same_row[xi] = recycled;
+            other_row[xi] = other;
+            let other_ch = channels(!up_pass(self.ch));
+            rf.pending += (em.budget(&recycled, self.ch) + em.budget(&other, other_ch)).as_dvec3();
+        }
+        rf
     }
 }
 
@@ -1439,8 +1703,12 @@ impl Run<'_> {
     /// is known to be the last: the pass limit) finishes each level, while its values
     /// are still in cache, else over the grid afterwards. Returns `g`, whether every
     /// value was valid, the balance and the stats.
+    ///
+    /// The passes run on a worker of rayon's pool (`rayon::scope`): a level's parallel
+    /// loops then start from inside the pool, and a level small enough for one task runs
+    /// on that worker at once instead of waking another thread for it.
     fn run<S: Sink>(&mut self, g: Vec<S>) -> (Vec<S>, bool, EnergyBalance, SweepStats) {
-        run_with(self, g)
+        rayon::scope(|_| run_with(self, g))
     }
 }
 
@@ -1518,14 +1786,20 @@ fn run_with<S: Sink>(
                 if from_virtual {
                     bal.top_in += w.prev.flux(ch);
                 }
-                if src.active {
+                // Every point of the level receives the same light: one sink value.
+                let mut one = S::default();
+                for (c, chn) in ch.iter().enumerate() {
+                    one.add(chn.bin, chn.unit, v[c]);
+                }
+                if first {
+                    g[range.clone()]
+                        .par_chunks_mut(MIN_POINTS_PER_TASK)
+                        .for_each(|gc| gc.fill(one));
+                } else if src.active {
                     g[range.clone()]
                         .par_chunks_mut(MIN_POINTS_PER_TASK)
                         .for_each(|gc| {
                             for gp in gc {
-                                if first {
-                                    *gp = S::default();
-                                }
                                 for (c, chn) in ch.iter().enumerate() {
                                     gp.add(chn.bin, chn.unit, v[c]);
                                 }
@@ -1535,7 +1809,13 @@ fn run_with<S: Sink>(
                 w.cur.fill(&v);
                 stats.levels_copied += 1;
                 std::mem::swap(&mut w.prev, &mut w.cur);
-                if last {
+                if last && first {
+                    // One pass: the level's points are all `one`.
+                    let (valid, a, d) = one.resolve(want_dom);
+                    ok &= valid & a.is_finite() & d.is_finite();
+                    run.avg[range.clone()].fill(AverageLight(a));
+                    run.dom[range].fill(DominantDir(d));
+                } else if last {
                     ok &= resolve(
                         &g[range.clone()],
                         &mut run.avg[range.clone()],
@@ -1558,15 +1838,21 @@ fn run_with<S: Sink>(
                 w.level_powers(&fixed.lnp[range.clone()]);
             }
             let f1 = if fast {
+                if fixed.periodic {
+                    w.prev.wrap_ring();
+                }
+                // Light from outside the sides: the ring of `ghost`.
+                let ghost_on = src.active && !fixed.periodic;
+                if ghost_on {
+                    w.fill_ghost(&src, &ctx, from_virtual, src_level);
+                }
                 let quiet = material_here.then(|| {
                     ctx.quiet(&fixed.lnp[range.clone()], &mut w.quiet, &mut w.quiet_rows);
                     &w.quiet[..]
                 });
                 ctx.phase1_fast(
                     &w.prev,
-                    &src,
-                    from_virtual,
-                    src_level,
+                    ghost_on.then_some(&w.ghost),
                     &w.pows,
                     quiet,
                     first,
@@ -1713,6 +1999,10 @@ impl Fixed {
 struct Work {
     prev: LevelLight,
     cur: LevelLight,
+    /// Light from outside the sides in its ring, zero inside ([`LevelLight`]), and the
+    /// source level it was last filled for (`None`: not filled).
+    ghost: LevelLight,
+    ghost_for: Option<(bool, i32)>,
     removed: Vec<[Vec3; SLOTS]>,
     t_after: Vec<[f32; CHANNELS]>,
     rows: Vec<RowFlux>,
@@ -1732,6 +2022,8 @@ impl Work {
         Self {
             prev: LevelLight::new(nx, nz),
             cur: LevelLight::new(nx, nz),
+            ghost: LevelLight::new(nx, nz),
+            ghost_for: None,
             removed: vec![[Vec3::ZERO; SLOTS]; level_len],
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); nz],
@@ -1747,12 +2039,47 @@ impl Work {
     /// The first level of a pass gathers from the virtual level beyond the grid: its
     /// channel light goes into `prev`.
     fn fill_from_boundary(&mut self, src: &Sources, ctx: &Ctx) {
-        let (nx, row_len) = (self.prev.nx, self.prev.row_len());
+        let p = self.prev.pitch();
         for z in 0..ctx.nz {
-            let row = &mut self.prev.v[z as usize * row_len..][..row_len];
+            let row = self.prev.row_mut(z as isize);
             for x in 0..ctx.nx {
                 for (c, chn) in ctx.ch.iter().enumerate() {
-                    row_set(row, nx, x as usize, c, src.virtual_light(x, z, chn));
+                    row_set(row, p, x as usize, c, src.virtual_light(x, z, chn));
+                }
+            }
+        }
+    }
+
+    /// The ring of `ghost`: what the oracle's [`Ctx::gather_edge`] reads for a tap at
+    /// each column beyond the sides. Without a halo that is the virtual level's light,
+    /// the same for every level of a pass (filled once a pass); with one, the halo's
+    /// light at the source level.
+    fn fill_ghost(&mut self, src: &Sources, ctx: &Ctx, from_virtual: bool, src_level: i32) {
+        let key = (src.up, if src.halo.is_none() { 0 } else { src_level });
+        if self.ghost_for == Some(key) {
+            return;
+        }
+        self.ghost_for = Some(key);
+        let (nx, nz) = (ctx.nx as isize, ctx.nz as isize);
+        let p = self.ghost.pitch();
+        let pad = PAD as isize;
+        for z in -pad..nz + pad {
+            let row = self.ghost.row_mut(z);
+            for x in -pad..nx + pad {
+                if (0..nx).contains(&x) && (0..nz).contains(&z) {
+                    continue;
+                }
+                let (xi, zi) = (x as i32, z as i32);
+                for (c, chn) in ctx.ch.iter().enumerate() {
+                    let v = if from_virtual && src.halo.is_none() {
+                        src.virtual_light(xi, zi, chn)
+                    } else {
+                        src.outside(xi, src_level, zi, chn)
+                    };
+                    let b = c * 3 * p + (x + pad) as usize;
+                    row[b] = v.x;
+                    row[b + p] = v.y;
+                    row[b + 2 * p] = v.z;
                 }
             }
         }
