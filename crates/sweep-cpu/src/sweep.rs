@@ -1172,8 +1172,12 @@ impl Ctx {
             .for_each(|(z, ((((cur_row, rem_row), ta_row), g_row), row_out))| {
                 let z = z as i32;
                 let mut rf = RowFlux::default();
+                if first {
+                    // The first pass sets every point (its memory may hold anything).
+                    g_row.fill(S::default());
+                }
                 self.gather_row_channels(z, prev, ghost, cur_row, &mut rf);
-                self.transmit_row(z, pows, quiet, first, cur_row, rem_row, ta_row, g_row);
+                self.transmit_row(z, pows, quiet, cur_row, rem_row, ta_row, g_row);
                 *row_out = rf;
             });
         sum_rows(rows)
@@ -1249,7 +1253,6 @@ impl Ctx {
         z: i32,
         pows: &[[f32; MAX_EXPONENTS]],
         quiet: Option<&[bool]>,
-        first: bool,
         cur_row: &mut [f32],
         rem_row: &mut [[Vec3; SLOTS]],
         ta_row: &mut [[f32; CHANNELS]],
@@ -1261,16 +1264,12 @@ impl Ctx {
         let nzi = self.nz;
         // Step 2, point by point.
         let inner_z = z >= 2 && z < nzi - 2;
-        for (xi, g_out) in g_row.iter_mut().enumerate() {
+        for (xi, g_pt) in g_row.iter_mut().enumerate() {
             let pi = xi + nx * z as usize;
-            // The point's sink in a local: the first pass sets every point (its memory
-            // may hold anything) without reading it.
-            let mut g_pt = if first { S::default() } else { *g_out };
             if quiet.is_none_or(|q| q[pi]) {
                 for (c, chn) in self.ch.iter().enumerate() {
                     g_pt.add(chn.bin, chn.unit, row_get(cur_row, p, xi, c));
                 }
-                *g_out = g_pt;
                 continue;
             }
             let x = xi as i32;
@@ -1290,7 +1289,6 @@ impl Ctx {
                 row_set(cur_row, p, xi, c, light * t);
                 g_pt.add(chn.bin, chn.unit, light * t_mid);
             }
-            *g_out = g_pt;
         }
     }
 
