@@ -660,6 +660,7 @@ const PAD: usize = 5;
 /// beyond the sides reads *from inside the grid*: the wrapped columns on periodic sides
 /// ([`LevelLight::wrap_ring`]), zero otherwise; light from outside (open sides, a given
 /// halo) comes from a second `LevelLight` whose inside is zero and whose ring holds it.
+#[derive(Clone)]
 struct LevelLight {
     v: Vec<f32>,
     nx: usize,
@@ -1591,6 +1592,7 @@ pub(crate) struct Spare {
     pub(crate) bins: Vec<BinLight>,
     pub(crate) average: Vec<AverageLight>,
     pub(crate) dominant: Vec<DominantDir>,
+    work: Option<Work>,
 }
 
 impl std::fmt::Debug for Spare {
@@ -1599,6 +1601,7 @@ impl std::fmt::Debug for Spare {
             .field("bins", &self.bins.len())
             .field("average", &self.average.len())
             .field("dominant", &self.dominant.len())
+            .field("work", &self.work.as_ref().map(|w| (w.prev.nx, w.prev.nz)))
             .finish()
     }
 }
@@ -1647,6 +1650,7 @@ pub(crate) fn run_reusing(
         fast,
         avg: &mut avg,
         dom: &mut dom,
+        work: spare.work.take(),
     };
     let (bins, ok, balance, stats) = if options.outputs.bins {
         let (g, ok, balance, stats) = run.run(take_buffer(&mut spare.bins, n));
@@ -1655,6 +1659,7 @@ pub(crate) fn run_reusing(
         let (_, ok, balance, stats) = run.run(bytemuck::zeroed_vec::<AvgAcc>(n));
         (None, ok, balance, stats)
     };
+    spare.work = run.work.take();
     // Outputs not asked for keep their memory for the next sweep.
     let average = if want_avg {
         Some(Grid::from_trusted(desc, avg))
@@ -1695,6 +1700,8 @@ struct Run<'a> {
     fast: bool,
     avg: &'a mut [AverageLight],
     dom: &'a mut [DominantDir],
+    /// Working buffers of an earlier sweep (taken, and given back after the passes).
+    work: Option<Work>,
 }
 
 impl Run<'_> {
@@ -1731,7 +1738,12 @@ fn run_with<S: Sink>(
     let (nx, ny, nz) = (dims.x as i32, dims.y as i32, dims.z as i32);
     let cells = material.data();
     let fixed = Fixed::of(material, boundary);
-    let mut w = Work::new(nx as usize, nz as usize, desc.point_count());
+    let mut w = Work::reuse(
+        run.work.take(),
+        nx as usize,
+        nz as usize,
+        desc.point_count(),
+    );
     let mut bal = EnergyBalance::default();
     let mut stats = SweepStats::default();
     if let Some(src) = source {
@@ -1750,6 +1762,7 @@ fn run_with<S: Sink>(
             };
             w.pend_down[i] = p;
             w.pend_up[i] = p;
+            w.pend_dirty[i / desc.level_len()] = true;
         }
     }
 
@@ -1901,6 +1914,7 @@ fn run_with<S: Sink>(
                 }
                 continue;
             }
+            w.pend_dirty[j as usize] = true;
             let (same, other) = if up {
                 (&mut w.pend_up, &mut w.pend_down)
             } else {
@@ -1946,6 +1960,7 @@ fn run_with<S: Sink>(
     if !resolved {
         ok = resolve(&g, run.avg, run.dom, want_dom);
     }
+    run.work = Some(w);
     (g, ok, bal, stats)
 }
 
@@ -1995,7 +2010,8 @@ impl Fixed {
 }
 
 /// The working buffers of a sweep, allocated once (per level, and per point for the
-/// pending light).
+/// pending light), and kept for the next sweep of the same size in [`Spare`].
+#[derive(Clone)]
 struct Work {
     prev: LevelLight,
     cur: LevelLight,
@@ -2014,6 +2030,8 @@ struct Work {
     /// Scattered light waiting to be emitted in downward / upward channels.
     pend_down: Vec<Pending>,
     pend_up: Vec<Pending>,
+    /// Per level: some pending light of it was written (zeroed again on reuse).
+    pend_dirty: Vec<bool>,
 }
 
 impl Work {
@@ -2033,6 +2051,32 @@ impl Work {
             // Only cells with material touch these: pages of empty space stay unmapped.
             pend_down: bytemuck::zeroed_vec(n),
             pend_up: bytemuck::zeroed_vec(n),
+            pend_dirty: vec![false; n / level_len.max(1)],
+        }
+    }
+
+    /// `old` made ready for a new sweep if it has the size (the level buffers and the
+    /// levels of pending light that were written zeroed), else new buffers. (Fresh
+    /// pending light would cost more: the allocator serves a freed block of this size
+    /// from its heap, and `calloc` then zeroes all of it.)
+    fn reuse(old: Option<Work>, nx: usize, nz: usize, n: usize) -> Self {
+        match old {
+            Some(mut w) if w.prev.nx == nx && w.prev.nz == nz && w.pend_down.len() == n => {
+                w.prev.v.fill(0.0);
+                w.cur.v.fill(0.0);
+                w.ghost.v.fill(0.0);
+                w.ghost_for = None;
+                let level_len = nx * nz;
+                for (j, dirty) in w.pend_dirty.iter_mut().enumerate() {
+                    if std::mem::take(dirty) {
+                        let r = j * level_len..(j + 1) * level_len;
+                        w.pend_down[r.clone()].fill(Pending::default());
+                        w.pend_up[r].fill(Pending::default());
+                    }
+                }
+                w
+            }
+            _ => Self::new(nx, nz, n),
         }
     }
 

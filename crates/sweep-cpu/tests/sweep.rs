@@ -430,6 +430,40 @@ fn recycled_memory_is_fully_overwritten() {
             assert!(fresh.bins == again.bins && fresh.dominant == again.dominant);
         }
     }
+    // One sweeper through scenes of one size but other material, sides and sources:
+    // each equals a fresh sweep (no light, pending scatter or side ring of an earlier
+    // sweep survives in the reused working buffers).
+    let mut sweeper = sweep_cpu::CpuSweeper::new();
+    let o = SweepOptions::multi_bounce();
+    for (k, scene) in [
+        sweep_cpu::scenes::Scene::Canopy,
+        sweep_cpu::scenes::Scene::DenseBlock,
+        sweep_cpu::scenes::Scene::UniformFog,
+        sweep_cpu::scenes::Scene::Canopy,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let (m, mut b) = scene.build(12);
+        if k % 2 == 1 {
+            b.sides = SideBoundary::Open;
+        }
+        let fresh = sweep_cpu::CpuSweeper::new().sweep(&m, &b, &o).unwrap();
+        let out = sweeper.sweep(&m, &b, &o).unwrap();
+        assert!(out.bins == fresh.bins, "{scene:?} after other scenes");
+        sweeper.recycle(out);
+        // With a cell source (pending light in cells the next scene may leave empty).
+        let removed = (0..d.point_count())
+            .map(|i| Vec3::splat((i % 7) as f32 * 0.1))
+            .collect();
+        let src = lightgrid_core::CellSource::new(d, removed, Vec3::new(0.2, -0.9, 0.1)).unwrap();
+        let fresh = sweep_cpu::CpuSweeper::new()
+            .sweep_with_source(&m, &b, &src, &o)
+            .unwrap();
+        let out = sweeper.sweep_with_source(&m, &b, &src, &o).unwrap();
+        assert!(out.bins == fresh.bins, "{scene:?} with a source");
+        sweeper.recycle(out);
+    }
     // Memory of another size is not used: a 12-level grid after an 8-level one.
     let mut sweeper = sweep_cpu::CpuSweeper::new();
     sweeper.recycle(garbage(desc(4, 8, 4)));
