@@ -536,6 +536,23 @@ trait Sink: Copy + Default + Send + Sync + bytemuck::Zeroable {
     /// The point's final values: every value finite and `>= 0`, the average, and the
     /// dominant direction (if `dominant`; zero otherwise).
     fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3);
+    /// [`Sink::resolve`] for every point of `g` into `avg` and `dom`; `false` if any
+    /// value is negative, NaN or infinite.
+    fn resolve_all(
+        g: &[Self],
+        avg: &mut [AverageLight],
+        dom: &mut [DominantDir],
+        dominant: bool,
+    ) -> bool {
+        let mut ok = true;
+        for ((g, a), d) in g.iter().zip(avg).zip(dom) {
+            let (v, av, dv) = g.resolve(dominant);
+            ok &= v & av.is_finite() & dv.is_finite();
+            a.0 = av;
+            d.0 = dv;
+        }
+        ok
+    }
 }
 
 impl Sink for BinLight {
@@ -543,14 +560,27 @@ impl Sink for BinLight {
     fn add(&mut self, bin: usize, _unit: Vec3, g: Vec3) {
         self.0[bin] += g;
     }
+    /// `BinLight::average` and `dominant` in one loop over the bins (each computed
+    /// the total on its own), equal to them to `f32` rounding.
     #[inline]
     fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3) {
-        let d = if dominant {
-            self.dominant()
+        let mut total = Vec3::ZERO;
+        let mut v = Vec3::ZERO;
+        let mut sum = 0.0;
+        for (light, unit) in self.0.iter().zip(dirs::units()) {
+            total += *light;
+            if dominant {
+                let l = luminance(*light);
+                v += *unit * l;
+                sum += l;
+            }
+        }
+        let d = if sum > 0.0 && sum.is_finite() {
+            (v / sum).clamp_length_max(1.0)
         } else {
             Vec3::ZERO
         };
-        (valid_bins(self), self.average(), d)
+        (valid_bins(self), total / (4.0 * PI), d)
     }
 }
 
@@ -606,16 +636,7 @@ fn resolve<S: Sink>(
     g.par_chunks(RESOLVE_CHUNK)
         .zip(avg.par_chunks_mut(RESOLVE_CHUNK))
         .zip(dom.par_chunks_mut(RESOLVE_CHUNK))
-        .map(|((g, a), d)| {
-            let mut ok = true;
-            for ((g, a), d) in g.iter().zip(a).zip(d) {
-                let (v, av, dv) = g.resolve(dominant);
-                ok &= v & av.is_finite() & dv.is_finite();
-                a.0 = av;
-                d.0 = dv;
-            }
-            ok
-        })
+        .map(|((g, a), d)| S::resolve_all(g, a, d, dominant))
         .reduce(|| true, |a, b| a & b)
 }
 
@@ -626,6 +647,10 @@ struct RowFlux {
     outside: DVec3,
     absorbed: DVec3,
     pending: DVec3,
+    /// Flux the row's final light sends on to the next level (or out of the grid).
+    sent: DVec3,
+    /// A resolved value was negative, NaN or infinite.
+    bad: bool,
 }
 
 impl std::ops::Add for RowFlux {
@@ -636,8 +661,23 @@ impl std::ops::Add for RowFlux {
             outside: self.outside + o.outside,
             absorbed: self.absorbed + o.absorbed,
             pending: self.pending + o.pending,
+            sent: self.sent + o.sent,
+            bad: self.bad | o.bad,
         }
     }
+}
+
+/// What the last phase of a level does for each of its rows once the row's light is
+/// final ([`Ctx::finish_row`]): sum the flux it sends on and, in the last pass, resolve
+/// the row's output into these rows of the average and dominant grids.
+struct Finish<'a> {
+    /// The level's rows of the average and dominant grids.
+    avg: &'a mut [AverageLight],
+    dom: &'a mut [DominantDir],
+    /// This phase is the level's last: sum `sent`, and resolve if `resolve`.
+    last_phase: bool,
+    /// `Some(dominant)`: resolve (the last pass).
+    resolve: Option<bool>,
 }
 
 fn sum_rows(v: &[RowFlux]) -> RowFlux {
@@ -1159,28 +1199,37 @@ impl Ctx {
         t_after: &mut [[f32; CHANNELS]],
         g: &mut [S],
         rows: &mut [RowFlux],
+        fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let row_len = cur.row_len();
+        let (row_len, p) = (cur.row_len(), cur.pitch());
+        let (last_phase, resolve, avg, dom) = (fin.last_phase, fin.resolve, fin.avg, fin.dom);
         cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(removed.par_chunks_mut(nx))
             .zip(t_after.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
+            .zip(avg.par_chunks_mut(nx))
+            .zip(dom.par_chunks_mut(nx))
             .enumerate()
             .with_min_len(self.rows_per_task())
-            .for_each(|(z, ((((cur_row, rem_row), ta_row), g_row), row_out))| {
-                let z = z as i32;
-                let mut rf = RowFlux::default();
-                if first {
-                    // The first pass sets every point (its memory may hold anything).
-                    g_row.fill(S::default());
-                }
-                self.gather_row_channels(z, prev, ghost, cur_row, &mut rf);
-                self.transmit_row(z, pows, quiet, cur_row, rem_row, ta_row, g_row);
-                *row_out = rf;
-            });
+            .for_each(
+                |(z, ((((((cur_row, rem_row), ta_row), g_row), row_out), avg_row), dom_row))| {
+                    let z = z as i32;
+                    let mut rf = RowFlux::default();
+                    if first {
+                        // The first pass sets every point (its memory may hold anything).
+                        g_row.fill(S::default());
+                    }
+                    self.gather_row_channels(z, prev, ghost, cur_row, &mut rf);
+                    self.transmit_row(z, pows, quiet, cur_row, rem_row, ta_row, g_row);
+                    if last_phase {
+                        self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
+                    }
+                    *row_out = rf;
+                },
+            );
         sum_rows(rows)
     }
 
@@ -1364,26 +1413,59 @@ impl Ctx {
         pend_other: &mut [Pending],
         g: &mut [S],
         rows: &mut [RowFlux],
+        fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
         let (row_len, p) = (cur.row_len(), cur.pitch());
+        let (resolve, avg, dom) = (fin.resolve, fin.avg, fin.dom);
         cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(pend_same.par_chunks_mut(nx))
             .zip(pend_other.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
+            .zip(avg.par_chunks_mut(nx))
+            .zip(dom.par_chunks_mut(nx))
             .enumerate()
             .with_min_len(self.rows_per_task())
             .for_each(
-                |(z, ((((cur_row, same_row), other_row), g_row), row_out))| {
-                    *row_out = self.phase2_row(
+                |(
+                    z,
+                    ((((((cur_row, same_row), other_row), g_row), row_out), avg_row), dom_row),
+                )| {
+                    let mut rf = self.phase2_row(
                         z as i32, removed, t_after, cells, exposed, p, cur_row, same_row,
                         other_row, g_row,
                     );
+                    self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
+                    *row_out = rf;
                 },
             );
         sum_rows(rows)
+    }
+
+    /// The end of a level's last phase for one row ([`Finish`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn finish_row<S: Sink>(
+        &self,
+        cur_row: &[f32],
+        p: usize,
+        g_row: &[S],
+        avg_row: &mut [AverageLight],
+        dom_row: &mut [DominantDir],
+        resolve: Option<bool>,
+        rf: &mut RowFlux,
+    ) {
+        let nx = self.nx as usize;
+        for (c, chn) in self.ch.iter().enumerate() {
+            for k in 0..3 {
+                rf.sent[k] += sum_f64(&cur_row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
+            }
+        }
+        if let Some(dominant) = resolve {
+            rf.bad |= !S::resolve_all(g_row, avg_row, dom_row, dominant);
+        }
     }
 
     /// [`Ctx::phase2`] for row `z` (its own function, so that profiles show it).
@@ -1780,6 +1862,8 @@ fn run_with<S: Sink>(
         let ctx = Ctx::new(nx, nz, fixed.periodic, options, ch);
         stats.passes += 1;
         let mut pending = DVec3::ZERO;
+        // The flux the last level's final light sends on.
+        let mut sent_on = DVec3::ZERO;
         for li in 0..ny {
             let j = if up { li } else { ny - 1 - li };
             let from_virtual = li == 0;
@@ -1820,6 +1904,10 @@ fn run_with<S: Sink>(
                         });
                 }
                 w.cur.fill(&v);
+                sent_on = (0..CHANNELS)
+                    .map(|c| v[c].as_dvec3() * ch[c].mu as f64)
+                    .sum::<DVec3>()
+                    * desc.level_len() as f64;
                 stats.levels_copied += 1;
                 std::mem::swap(&mut w.prev, &mut w.cur);
                 if last && first {
@@ -1840,11 +1928,7 @@ fn run_with<S: Sink>(
             }
             stats.levels_computed += 1;
             let src_level = if up { j - 1 } else { j + 1 };
-            let sent = if from_virtual {
-                DVec3::ZERO
-            } else {
-                w.prev.flux(ch)
-            };
+            let sent = sent_on;
             // A level without material: every point is quiet, and nothing scatters.
             let material_here = fixed.level_material[j as usize] || !fast;
             if material_here {
@@ -1874,6 +1958,12 @@ fn run_with<S: Sink>(
                     &mut w.t_after,
                     &mut g[range.clone()],
                     &mut w.rows,
+                    Finish {
+                        avg: &mut run.avg[range.clone()],
+                        dom: &mut run.dom[range.clone()],
+                        last_phase: !material_here,
+                        resolve: last.then_some(want_dom),
+                    },
                 )
             } else {
                 ctx.phase1_scalar(
@@ -1903,15 +1993,10 @@ fn run_with<S: Sink>(
             }
             bal.side_in += f1.outside;
             if !material_here {
+                // Phase 1 finished the level.
+                sent_on = f1.sent;
+                ok &= !f1.bad;
                 std::mem::swap(&mut w.prev, &mut w.cur);
-                if last {
-                    ok &= resolve(
-                        &g[range.clone()],
-                        &mut run.avg[range.clone()],
-                        &mut run.dom[range],
-                        want_dom,
-                    );
-                }
                 continue;
             }
             w.pend_dirty[j as usize] = true;
@@ -1930,22 +2015,22 @@ fn run_with<S: Sink>(
                 &mut other[range.clone()],
                 &mut g[range.clone()],
                 &mut w.rows,
+                Finish {
+                    avg: &mut run.avg[range.clone()],
+                    dom: &mut run.dom[range.clone()],
+                    last_phase: true,
+                    resolve: last.then_some(want_dom),
+                },
             );
             bal.absorbed += f2.absorbed;
             pending += f2.pending;
+            sent_on = f2.sent;
+            ok &= !f2.bad;
             std::mem::swap(&mut w.prev, &mut w.cur);
-            if last {
-                ok &= resolve(
-                    &g[range.clone()],
-                    &mut run.avg[range.clone()],
-                    &mut run.dom[range],
-                    want_dom,
-                );
-            }
         }
         resolved = last;
         // What leaves the last level leaves the grid.
-        let leaving = w.prev.flux(ch);
+        let leaving = sent_on;
         if up {
             bal.top_out += leaving;
         } else {
