@@ -54,49 +54,68 @@
 //!
 //! ## Speed
 //!
-//! `cargo bench -p sweep-cpu` (criterion, 10 samples, median), 64³ canopy scene (a
-//! two-level canopy half way up, two levels of ground; 30 levels above it are copied, not
-//! computed), all outputs, 2-core x86-64 VM (whose timings vary by ±20 % from run to
-//! run). The fast path ([`run`]) is the scalar oracle ([`sweep::run_scalar`], the steps
-//! below written out one by one) with shortcuts that change no arithmetic: equal bit for
-//! bit (`tests/fast_path.rs`, random sparse and dense grids, every boundary mode).
+//! `cargo bench -p sweep-cpu` (criterion, 10 samples, mean), 64³ canopy scene (a
+//! two-level canopy half way up, two levels of ground; in a downward pass under a
+//! uniform sky the 30 levels above it are copied, not computed), all outputs, 2-core
+//! x86-64 VM (AMD EPYC, 1 MB L2 a core, 32 MB L3; timings vary by ±20 % from run to run,
+//! more when the host is busy). Three ways to run the same sweep, in the same run:
+//! **recycled** (`CpuSweeper::sweep` after [`CpuSweeper::recycle`]: what a renderer
+//! rebuilding light every frame runs), **fresh** ([`run`]: new output memory every
+//! time), and the **scalar oracle** ([`sweep::run_scalar`], the steps below written out
+//! one by one). The fast path equals the oracle bit for bit in the light, to `f64`
+//! rounding in the energy balance (`tests/fast_path.rs`: random sparse and dense grids,
+//! every boundary mode, cell sources, any passes).
 //!
-//! | case | fast path | scalar oracle | before (same bench, issue 15) |
-//! |------|----------:|--------------:|------------------------------:|
-//! | 64³, 26 bins, 1 downward pass | 81 ms (3.2 M points/s) | 173 ms (1.5 M/s) | 213 ms (1.2 M/s) |
-//! | 64³, 26 bins, 4 passes | 265 ms (0.99 M/s) | 592 ms (0.44 M/s) | 644 ms (0.41 M/s) |
-//! | 64³, average + dominant only, 1 pass | 48 ms (5.5 M/s) | 147 ms (1.8 M/s) | 151 ms (1.7 M/s) |
-//! | 64³, average + dominant only, 4 passes | 197 ms (1.33 M/s) | 509 ms (0.51 M/s) | 648 ms (0.40 M/s) |
-//! | 16 × 64 × 16, 26 bins, 1 pass | 6.8 ms (2.4 M/s) | 12.3 ms (1.3 M/s) | |
-//! | 16 × 64 × 16, 26 bins, 4 passes | 29.4 ms (0.56 M/s) | 40.4 ms (0.41 M/s) | |
+//! | case | recycled | fresh | scalar oracle | before (issue 15) |
+//! |------|---------:|------:|--------------:|------------------:|
+//! | 64³, 26 bins, 1 downward pass | 23.6 ms (11.1 M points/s) | 51 ms (5.1 M/s) | 124 ms (2.1 M/s) | 81 ms (3.2 M/s) |
+//! | 64³, 26 bins, 4 passes | 104 ms (2.5 M/s) | 130 ms (2.0 M/s) | 696 ms (0.38 M/s) | 265 ms (0.99 M/s) |
+//! | 64³, average + dominant only, 1 pass | 17.6 ms (14.9 M/s) | 23 ms (11.4 M/s) | 125 ms (2.1 M/s) | 48 ms (5.5 M/s) |
+//! | 64³, average + dominant only, 4 passes | 86 ms (3.0 M/s) | 104 ms (2.5 M/s) | 573 ms (0.46 M/s) | 197 ms (1.33 M/s) |
+//! | 16 × 64 × 16, 26 bins, 1 pass | 2.9 ms (5.6 M/s) | 3.0 ms (5.4 M/s) | 9.0 ms (1.8 M/s) | 6.8 ms (2.4 M/s) |
+//! | 16 × 64 × 16, 26 bins, 4 passes | 11.3 ms (1.45 M/s) | 10.8 ms (1.5 M/s) | | 29.4 ms (0.56 M/s) |
 //!
-//! ("Before" is criterion's own comparison with its stored baseline of the previous
-//! implementation on this machine; the oracle column shares the fast path's output and
-//! allocation work, below.) Where the time went, and what changed (perf, 1 pass):
+//! ("Before": the fast path as it stood when issue 15 was filed, same bench and
+//! machine.) `cargo run --release -p sweep-cpu --example throughput` is the quick
+//! version. What made the difference (perf, one pass, one thread unless said):
 //!
-//! - **Allocation**: the output's 312 bytes a point (82 MB at 64³) are fresh pages the
-//!   kernel must fault in and zero, about 6 GB/s on this VM: 13 ms of every sweep, and
-//!   it was 50 ms when one thread filled them; now the fill runs on every core and the
-//!   per-point pending light (96 bytes a point) comes from zeroed pages that only cells
-//!   with material ever touch.
-//! - **Output**: the validity guard, the average and the dominant direction were three
-//!   sequential passes over 82 MB; now one parallel pass (a branch-free validity check).
-//! - **Gather and transmit** (phase 1): points with no material within two cells
-//!   (`quiet`) skip the transmit step, taps and path cells away from the sides are read
-//!   by index, and wrapped columns come from a table instead of a division.
-//! - **Small levels**: tasks of at least 512 points.
+//! - **Memory**: a fresh 26-bin output is 82 MB of pages the kernel faults in and zeroes
+//!   (some 25 ms at 64³); `CpuSweeper` keeps the output, and its working buffers, for
+//!   the next sweep of the same size. Freed 25 MB blocks of pending light came back from
+//!   the heap through `calloc` and were zeroed in full each sweep; now only levels that
+//!   held pending light are zeroed again.
+//! - **Gather** (step 1): level light in row planes with a ring of five
+//!   columns (wrapped light on periodic sides, zero otherwise; light from outside in a
+//!   second level's ring), so a row's gather is a branch-free loop over slices that the
+//!   compiler vectorises; adding the ring's zeros is exact, so the sums equal the
+//!   oracle's tap-by-tap ones. It was side logic per tap near the sides (a third of the
+//!   gather).
+//! - **Empty levels** skip the powers, the quiet mask and phase 2 altogether.
+//! - **Phase 2**: a cell's emission rounds over the 17 channels as lanes (structure of
+//!   arrays: one loop per colour that vectorises); removals found by index away from the
+//!   sides.
+//! - **Finishing**: a level's last phase sums the flux each row sends on and, in the last
+//!   pass, resolves the row's average and dominant direction in the same task while the
+//!   row is in cache (they were sequential passes over the grid: a quarter of the time,
+//!   and the second core idled); levels above all material are resolved once.
+//! - **Threads**: the passes run on a worker of rayon's pool, so a level's loops start
+//!   inside the pool (two cores: 1.8× one core at 64³, from about 1.3×).
 //!
-//! **Roofline** (estimate, per point and pass, fast path, quiet point): 17 channels ×
-//! (5 taps × 6 flops gather + 9 flops energy tally in `f64` + 3 flops output) ≈ 700
-//! flops; memory: the output bins read and written (624 bytes; the level buffers, 1 KB
-//! a row of points, stay in cache). This VM streams about 34 GB/s (one core, a triad
-//! loop): memory allows some 50 M points/s, so the sweep is compute bound; two cores of
-//! scalar `f32` at ~4 GFlop/s each allow about 11 M points/s, of which the 1-pass figure
-//! (3.2 M/s, allocation and output included) is under a third; phase 1 alone runs at
-//! about half of it (the 139 k computed points of a pass in about 25 ms, profiled with
-//! timers). The issue's 20 M points/s needs the gather vectorised across a row (channel
-//! planes, structure of arrays) and the output written into reused memory instead of
-//! fresh pages; both remain to do.
+//! **Roofline** (estimate per point and pass, quiet point, 26 bins): gather 17 channels
+//! × 3 colours × 9 flops ≈ 460 flops (vectorised, 4 lanes: ~115 operations), flux
+//! tallies and output adds ≈ 150, the last pass's resolve (26 bins × 15 flops, one
+//! dependent chain per sum) ≈ 390: about 650 scalar-equivalent operations, which two
+//! cores at ~3 GHz issuing two a cycle would run at some 18 M points/s. Memory: the
+//! output written (312 bytes) in the first pass, read and written (624 bytes) in later
+//! ones, plus the level planes (2 × 204 bytes, mostly from L2): about 20 GB/s on two
+//! cores allows some 55 M points/s for one pass, 25 M/s for later passes. The one-pass
+//! figure (11.1 M/s) is about 60 % of the compute estimate. Where a pass's time goes
+//! now (one thread, 37 ms): resolve 23 %, phase 2 on the 16 k material cells 18 %
+//! (half of it waiting on removals written by phase 1, which left L2 meanwhile), the
+//! transmit step and the output adds 19 %, the gather 10 %, zeroing the output rows in
+//! the first pass 6 %. Later passes are memory bound: the output's 82 MB are read and
+//! written once a pass (the output adds wait on those loads: half of the 4-pass time).
+//! The issue's targets (20 M points/s for one pass, 8 M/s for four) remain open.
 //!
 //! ## Semantics of the sweep
 //!

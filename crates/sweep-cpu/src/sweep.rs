@@ -561,7 +561,7 @@ impl Sink for BinLight {
         self.0[bin] += g;
     }
     /// `BinLight::average` and `dominant` in one loop over the bins (each computed
-    /// the total on its own), equal to them to `f32` rounding.
+    /// the total on its own), bit for bit as they compute.
     #[inline]
     fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3) {
         let mut total = Vec3::ZERO;
