@@ -1672,7 +1672,7 @@ fn run_impl(
 
 /// Output memory of an earlier sweep, reused by the next one of the same size (see
 /// [`crate::CpuSweeper::recycle`]): a fresh output's pages must be faulted in and
-/// zeroed by the kernel, some 13 ms of a 64³ sweep with 26 bins on the 2-core VM.
+/// zeroed by the kernel, some 25 ms of a 64³ sweep with 26 bins on the 2-core VM.
 #[derive(Clone, Default)]
 pub(crate) struct Spare {
     pub(crate) bins: Vec<BinLight>,
