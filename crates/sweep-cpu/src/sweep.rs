@@ -1227,7 +1227,7 @@ impl Ctx {
                         g_row.fill(S::default());
                     }
                     self.gather_row_channels(z, prev, ghost, cur_row, &mut rf);
-                    self.transmit_row(z, pows, quiet, cur_row, rem_row, ta_row, g_row);
+                    self.transmit_row(z, pows, quiet, p, cur_row, rem_row, ta_row, g_row);
                     if last_phase {
                         self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
                     }
@@ -1299,7 +1299,7 @@ impl Ctx {
         }
     }
 
-    /// Step 2 of [`Ctx::phase1_fast`] for row `z`.
+    /// Step 2 of [`Ctx::phase1_fast`] for row `z` of a level whose planes have pitch `p`.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn transmit_row<S: Sink>(
@@ -1307,13 +1307,13 @@ impl Ctx {
         z: i32,
         pows: &[[f32; MAX_EXPONENTS]],
         quiet: Option<&[bool]>,
+        p: usize,
         cur_row: &mut [f32],
         rem_row: &mut [[Vec3; SLOTS]],
         ta_row: &mut [[f32; CHANNELS]],
         g_row: &mut [S],
     ) {
         let nx = self.nx as usize;
-        let p = PAD * 2 + nx;
         let nxi = self.nx;
         let nzi = self.nz;
         // Step 2, point by point.
@@ -1643,7 +1643,8 @@ pub fn run_with_source(
 
 /// The sweep written as the crate docs say it, step by step, with none of the fast
 /// path's shortcuts: the oracle the fast path ([`run`], [`run_with_source`]) is
-/// property-tested against (bit for bit) and benchmarked beside.
+/// property-tested against (the light bit for bit, the energy balance to `f64` rounding)
+/// and benchmarked beside.
 pub fn run_scalar(
     material: &MaterialGrid,
     boundary: &Boundary,
