@@ -121,6 +121,7 @@ impl ContentHash {
         .u32(match medium {
             crate::MediumEmission::Escape => 0,
             crate::MediumEmission::Seed => 1,
+            crate::MediumEmission::Source => 2,
         })
     }
     /// The hash.

@@ -135,6 +135,8 @@ pub struct Case {
     pub pending: f64,
     /// Wall time of the sweep, seconds.
     pub seconds: f64,
+    /// The sweep's energy balance error ([`crate::EnergyBalance::relative_error`]).
+    pub balance: f64,
 }
 
 fn options(max_passes: u32, tolerance: f32) -> SweepOptions {
@@ -153,6 +155,7 @@ fn case(name: String, exact: f64, swept: f64, s: &crate::Sweep, seconds: f64) ->
         passes: s.output.stats.passes,
         pending: s.balance.pending.x / s.balance.input().x.max(1e-300),
         seconds,
+        balance: s.balance.relative_error(),
     }
 }
 
@@ -216,8 +219,12 @@ pub fn furnace(n: u32, seed: u64, smoothing: f32) -> (Case, Case) {
 }
 
 /// `levels` levels of 4 × 4 cells of a uniform medium (albedo `w`, pass-through `pass`),
-/// periodic sides, a zenith beam of 1 from above.
-fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary) {
+/// periodic sides, no boundary light, and a collimated beam of irradiance 1 travelling
+/// straight down, given as its exact first collisions (a [`crate::CellSource`]: level
+/// `k` from the top takes `p^k (1 − p)`), as the sun enters a sweep. (A beam in the
+/// vertical bin of the top boundary would be light spread over that bin, whose
+/// half-space albedo is not Chandrasekhar's `μ₀ = 1` value.)
+fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary, crate::CellSource) {
     let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, levels, 4)).expect("valid grid");
     let m = MaterialGrid::filled(
         d,
@@ -227,13 +234,18 @@ fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary) {
         },
     )
     .expect("valid material");
-    let mut top = BinLight::ZERO;
-    top.0[lightgrid_core::dirs::DOWN] = Vec3::ONE;
     let b = Boundary {
         sides: SideBoundary::Periodic,
-        ..Boundary::open_sky(top)
+        ..Boundary::open_sky(BinLight::ZERO)
     };
-    (m, b)
+    let removed = (0..d.point_count())
+        .map(|i| {
+            let k = levels - 1 - d.coords(i).expect("in range").y;
+            Vec3::splat((pass as f64).powi(k as i32) as f32 * (1.0 - pass))
+        })
+        .collect();
+    let src = crate::CellSource::new(d, removed, Vec3::NEG_Y).expect("valid source");
+    (m, b, src)
 }
 
 /// The white furnace in a uniform medium (every cell pass-through `pass`, albedo 1,
@@ -287,11 +299,13 @@ pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
 pub fn half_space_with(w: f32, pass: f32, depth: f32, options: &SweepOptions) -> Case {
     let tau = -(pass as f64).ln();
     let levels = ((depth as f64 / tau).ceil() as u32).max(2);
-    let (m, b) = beam_slab(w, pass, levels);
+    let (m, b, src) = beam_slab(w, pass, levels);
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, options).expect("valid slab");
+    let s = crate::run_with_source(&m, &b, Some(&src), options).expect("valid slab");
     let secs = t.elapsed().as_secs_f64();
-    let swept = s.balance.top_out.x / s.balance.top_in.x;
+    // The beam's irradiance is 1 on every column: what leaves through the top per
+    // column is the albedo.
+    let swept = s.balance.top_out.x / m.desc().level_len() as f64;
     case(
         format!("half-space w {w}, cell optical depth {tau:.2}, {levels} levels"),
         half_space_albedo_beam(w as f64, 1.0),
@@ -406,14 +420,15 @@ pub fn measure(max_passes: u32) -> Vec<Case> {
 /// iteration slows down as the slab thickens and `w` nears 1 (issue 13 item 4). The
 /// case's `exact` is the half-space albedo (the slab's own is lower when it is thin).
 pub fn convergence(depth: u32, w: f32, max_passes: u32) -> Case {
-    let (m, b) = beam_slab(w, (-1.0f32).exp(), depth.max(2));
+    let (m, b, src) = beam_slab(w, (-1.0f32).exp(), depth.max(2));
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, &options(max_passes, 1e-4)).expect("valid slab");
+    let s =
+        crate::run_with_source(&m, &b, Some(&src), &options(max_passes, 1e-4)).expect("valid slab");
     let secs = t.elapsed().as_secs_f64();
     case(
         format!("slab of optical depth {depth}, w {w}: passes to 1e-4"),
         half_space_albedo_beam(w as f64, 1.0),
-        s.balance.top_out.x / s.balance.top_in.x,
+        s.balance.top_out.x / m.desc().level_len() as f64,
         &s,
         secs,
     )

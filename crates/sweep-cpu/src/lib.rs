@@ -127,7 +127,11 @@
 //! between slabs along 17 *channels* per pass. The downward pass has the 17 sweep
 //! directions of `lightgrid_core::dirs::sweep_dirs`: channel `c` has step `s_c` = `(dx, -1, dz)`
 //! for the 9 downward bins and `(4dx, -1, 4dz)` for the 8 horizontal bins, path length
-//! `ℓ_c = |s_c|` (in `h`) per slab and `μ_c = 1/ℓ_c`. The upward pass mirrors it
+//! `ℓ_c = 1/μ_c` (in `h`) per slab, where `μ_c` is the bin's mean `|cos|` to the vertical
+//! (over the downward half of a horizontal bin; [`sweep::channel_length`]: 0.953, 0.679,
+//! 0.555, 0.184, 0.148 for the vertical, edge, corner and the two horizontal kinds; the
+//! step vectors' own cosines overstated them, by 30 % on the horizontal bins, and a
+//! thin-celled half-space reflected 5.5 % too much). The upward pass mirrors it
 //! (`y = +1`, upward bins, the same horizontal bins). A horizontal bin is split in two
 //! halves about the horizon: the downward pass carries one, the upward pass the other
 //! (share `σ_c` = 1/2 for horizontal channels, 1 otherwise).
@@ -165,25 +169,40 @@
 //!    and the downward halves of the horizontal bins hold half the sphere); the rest
 //!    waits for the next pass in the other direction. To `(S, M)` the cell adds what
 //!    earlier passes left for this direction.
-//! 5. **Emit.** Of scattered light `(S, M)` a cell with `p > 0` (a medium) sends into
-//!    channel `c` (bin `b`) the flux `F_c = σ_c ω_b / 4π · (A S - B u_b · M) · T_after`
-//!    with `(A, B)` = [`sweep::medium_emission`]: a slab's exact escape probabilities
-//!    for light scattered out of a vertical beam, `s = τ p / (1 − p)` straight on
-//!    (`τ = −ln p`) and `o = (1 + p)/2` straight back, `A = (s + o)/2`, `B = (o − s)/2`:
-//!    isotropic in a clear cell, and in a dense cell part of the light is stopped by the
-//!    cell's own material, more of it forward. (The seed's rule, `A = (1 + p)/2`,
-//!    `B = (1 − p)/2`, let everything out straight back: dense media reflected far too
-//!    much; issue 13.) A cell with `p = 0`
+//! 5. **Emit.** A cell with `0 < p < 1` (a medium) holds its scattered light as a flat,
+//!    isotropic *source* `J` (light per unit solid angle) ([`medium`], the default rule
+//!    [`MediumEmission::Source`](lightgrid_core::MediumEmission)): this pass's share of
+//!    it is `E = ½ (S ± β M_y)` (`+` downward, `−` upward; `β` = [`medium::split`] of the
+//!    cell's optical depth, 0 for thin cells: light that collided on its way down, near
+//!    the top of a thick cell, leaves upward more), and `J = E / (G + (1 − a) K)`, with `G
+//!    = Σ μ_c ω_b σ_c (1 − τ_k)` over the cell's path segments of the pass (what a unit
+//!    source sends out) and `K = τ Σ_c ω_b σ_c − G` (what the cell's own material stops
+//!    of it, scattered again `a` of it: `(1 − a) K J` is absorbed). Then, once every
+//!    cell of the level has its source (**phase 3**), every path segment `k` (a cell of
+//!    each channel's path, step 2) emits `J ω_b σ_c (1 − τ_k)` into its path, which the
+//!    later segments attenuate: the path's outgoing light gains `Σ_k J_k ω_b σ_c (1 −
+//!    τ_k) T_{>k}`, the point's light the same sum up to its centre (half of the centre
+//!    cell's segment, `1 − τ_mid`), and what a later segment's cell stops of it that cell
+//!    has removed, as in step 3 (absorbed `1 − a`, the rest waits for the next passes of
+//!    both directions). Segments of paths of points beyond an open or given side are not
+//!    traced: what a cell emits into them leaves through the side. The sums telescope:
+//!    a path that enters with its cells' source leaves with it, so a white furnace is
+//!    exact in any medium. (Older rules, `MediumEmission::Escape` and `Seed`: the cell
+//!    sends into channel `c` the flux `F_c = σ_c ω_b / 4π · (A S - B u_b · M) · T_after`
+//!    with `(A, B)` = [`sweep::medium_emission`] or the seed's `((1 + p)/2, (1 − p)/2)`,
+//!    and steps 6–7 as for surfaces; they fail the furnace, measured in [`exact`].) A
+//!    cell with `p = 0`
 //!    is opaque: its faces that border non-opaque cells or the outside through a side are
 //!    diffuse surfaces (below the bottom level is ground, never a surface), and it
 //!    sends `F_c = W_c S · T_after` with fixed weights `W_c`, the mean over those faces
 //!    of the exact Lambertian share of the channel's bin, `∫_b max(0, u · n) dω / π`; a
 //!    horizontal bin's share goes to the channel on the face's side of the horizon
 //!    (both halves for a side face) ([`sweep::surface_weights`]); the downward pass
-//!    emits its channels' share, the upward pass the rest. Neither rule depends on the
-//!    light, so the sweep is linear.
+//!    emits its channels' share, the upward pass the rest. No rule depends on the
+//!    light (the weights and `β` depend on the cell alone), so the sweep is linear.
 //!    The outgoing light gains `F_c / μ_c`.
-//! 6. **Re-absorb.** What the weights and `T_after` stopped, `σ_c ω_b/4π S - F_c`
+//! 6. **Re-absorb** (surfaces and the older medium rules). What the weights and
+//!    `T_after` stopped, `σ_c ω_b/4π S - F_c`
 //!    summed over the channels, was removed by the cell from light travelling along
 //!    `u_c`: it is absorbed and scattered again as in steps 3–5, up to
 //!    [`sweep::LOCAL_ROUNDS`] times within the pass; what is left waits for the next
@@ -280,6 +299,7 @@
 //! Periodic boundaries have no edge.
 
 pub mod exact;
+pub mod medium;
 pub mod reference;
 pub mod scenes;
 pub mod sky;

@@ -13,6 +13,8 @@ use lightgrid_core::{
 };
 use rayon::prelude::*;
 
+use crate::medium;
+
 /// Number of transport channels of one pass (9 vertical-ish bins + 8 horizontal halves).
 pub const CHANNELS: usize = NUM_SWEEP_DIRS;
 /// Largest boundary light value accepted: leaves room for path-length factors (≤ √33) and
@@ -27,7 +29,7 @@ pub struct Channel {
     pub bin: usize,
     /// Offset from source point to receiving point (y = -1 downward, +1 upward).
     pub step: IVec3,
-    /// Path length per level in units of `h`.
+    /// Path length per level in units of `h` ([`channel_length`]).
     pub length: f32,
     /// `1 / length`: `|cos|` of the path to the vertical, light to flux.
     pub mu: f32,
@@ -69,7 +71,7 @@ pub fn path_exponents() -> &'static [f32] {
                 &[1.0, 0.5]
             };
             for f in fracs {
-                let v = f * sd.length;
+                let v = f * channel_length(sd.bin);
                 if !e.iter().any(|x| (x - v).abs() < 1e-6) {
                     e.push(v);
                 }
@@ -77,6 +79,29 @@ pub fn path_exponents() -> &'static [f32] {
         }
         e
     })
+}
+
+/// Path length per level (in `h`) of the channels of bin `bin` (a downward or
+/// horizontal bin; the upward pass mirrors them): `1 / μ̄`, where `μ̄` is the bin's mean
+/// `|cos|` to the vertical over its solid angle (a horizontal bin's downward half). A
+/// channel's flux per unit of light, `μ_c = 1 / ℓ_c`, is then the exact flux of light
+/// constant within the bin, and its transmittance through a thin layer is the bin's
+/// mean. (The step vector's own length, `ℓ = |s_c|`, overstates `μ` by 5 % on the
+/// vertical bin and 30 % on the horizontal ones: the half-space albedo came out 5.5 %
+/// too high with thin cells, `w = 0.5`; measured in issue 13, `examples/do1d.rs`.)
+pub fn channel_length(bin: usize) -> f32 {
+    static L: OnceLock<[f32; NUM_SWEEP_DIRS]> = OnceLock::new();
+    L.get_or_init(|| {
+        let g = dirs::bins();
+        std::array::from_fn(|b| {
+            let omega = if dirs::dir_unit(b).y == 0.0 {
+                0.5 * g.omega[b]
+            } else {
+                g.omega[b]
+            };
+            (omega / dirs::clipped_cosine(b, -DVec3::Y)) as f32
+        })
+    })[bin]
 }
 
 /// Fewest points one parallel task of a level's fast phases handles (measured: below
@@ -123,9 +148,10 @@ pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
             };
             let first_slot = slot;
             slot += stencil.len();
+            let length = channel_length(sd.bin);
             let pow = stencil
                 .iter()
-                .map(|&(_, _, f)| exponent_index(f * sd.length))
+                .map(|&(_, _, f)| exponent_index(f * length))
                 .collect();
             let centre = stencil
                 .iter()
@@ -135,11 +161,11 @@ pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
             Channel {
                 bin,
                 step,
-                length: sd.length,
-                mu: 1.0 / sd.length,
+                length,
+                mu: 1.0 / length,
                 unit: dirs::dir_unit(bin),
                 pow,
-                mid_pow: exponent_index(0.5 * centre * sd.length),
+                mid_pow: exponent_index(0.5 * centre * length),
                 stencil,
                 first_slot,
                 share: if horizontal { 0.5 } else { 1.0 },
@@ -233,6 +259,12 @@ impl Pending {
         Pending {
             s: self.s + o.s,
             m: [self.m[0] + o.m[0], self.m[1] + o.m[1], self.m[2] + o.m[2]],
+        }
+    }
+    fn scaled(&self, a: Vec3) -> Pending {
+        Pending {
+            s: self.s * a,
+            m: self.m.map(|v| v * a),
         }
     }
 }
@@ -358,6 +390,8 @@ impl Emission {
             let (a, b) = match rule {
                 MediumEmission::Escape => medium_emission(pass),
                 MediumEmission::Seed => ((1.0 + pass) * 0.5, (1.0 - pass) * 0.5),
+                // Emitted by `crate::medium` in phase 3; isotropic budget here.
+                MediumEmission::Source => (1.0, 0.0),
             };
             Emission::Medium { a, b }
         } else {
@@ -649,6 +683,9 @@ struct RowFlux {
     pending: DVec3,
     /// Flux the row's final light sends on to the next level (or out of the grid).
     sent: DVec3,
+    /// Flux emitted into the paths of points beyond an open or given side (phase 3):
+    /// it leaves through the side.
+    side_out: DVec3,
     /// A resolved value was negative, NaN or infinite.
     bad: bool,
 }
@@ -662,6 +699,7 @@ impl std::ops::Add for RowFlux {
             absorbed: self.absorbed + o.absorbed,
             pending: self.pending + o.pending,
             sent: self.sent + o.sent,
+            side_out: self.side_out + o.side_out,
             bad: self.bad | o.bad,
         }
     }
@@ -1409,23 +1447,25 @@ impl Ctx {
     fn phase2<S: Sink>(
         &self,
         removed: &[[Vec3; SLOTS]],
-        t_after: &[[f32; CHANNELS]],
+        (t_after, pows): (&[[f32; CHANNELS]], &[[f32; MAX_EXPONENTS]]),
         cells: &[lightgrid_core::Material],
         exposed: &[u8],
         cur: &mut LevelLight,
         pend_same: &mut [Pending],
         pend_other: &mut [Pending],
+        (src, emits): (&mut [Vec3], &mut [bool]),
         g: &mut [S],
         rows: &mut [RowFlux],
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
         let (row_len, p) = (cur.row_len(), cur.pitch());
-        let (resolve, avg, dom) = (fin.resolve, fin.avg, fin.dom);
+        let (last_phase, resolve, avg, dom) = (fin.last_phase, fin.resolve, fin.avg, fin.dom);
         cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(pend_same.par_chunks_mut(nx))
             .zip(pend_other.par_chunks_mut(nx))
+            .zip(src.par_chunks_mut(nx).zip(emits.par_chunks_mut(nx)))
             .zip(g.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
             .zip(avg.par_chunks_mut(nx))
@@ -1435,13 +1475,27 @@ impl Ctx {
             .for_each(
                 |(
                     z,
-                    ((((((cur_row, same_row), other_row), g_row), row_out), avg_row), dom_row),
+                    (
+                        ((((((cur_row, same_row), other_row), em_rows), g_row), row_out), avg_row),
+                        dom_row,
+                    ),
                 )| {
                     let mut rf = self.phase2_row(
-                        z as i32, removed, t_after, cells, exposed, p, cur_row, same_row,
-                        other_row, g_row,
+                        z as i32,
+                        removed,
+                        (t_after, pows),
+                        cells,
+                        exposed,
+                        p,
+                        cur_row,
+                        same_row,
+                        other_row,
+                        em_rows,
+                        g_row,
                     );
-                    self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
+                    if last_phase {
+                        self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
+                    }
                     *row_out = rf;
                 },
             );
@@ -1479,18 +1533,22 @@ impl Ctx {
         &self,
         z: i32,
         removed: &[[Vec3; SLOTS]],
-        t_after: &[[f32; CHANNELS]],
+        (t_after, pows): (&[[f32; CHANNELS]], &[[f32; MAX_EXPONENTS]]),
         cells: &[lightgrid_core::Material],
         exposed: &[u8],
         p: usize,
         cur_row: &mut [f32],
         same_row: &mut [Pending],
         other_row: &mut [Pending],
+        (src_row, emits_row): (&mut [Vec3], &mut [bool]),
         g_row: &mut [S],
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let lanes = pass_lanes(up_pass(self.ch));
+        let up = up_pass(self.ch);
+        let lanes = pass_lanes(up);
+        let mw = medium::weights(up);
         let mut rf = RowFlux::default();
+        emits_row.fill(false);
         for x in 0..self.nx {
             let xi = x as usize;
             let ci = xi + nx * z as usize;
@@ -1501,6 +1559,7 @@ impl Ctx {
             // Step 3: the flux this cell removed from every path crossing it (path
             // points found by index away from the sides).
             let inner = z >= 2 && z < self.nz - 2 && x >= 2 && x < self.nx - 2;
+            let mat = cells[ci];
             let mut s_raw = Vec3::ZERO;
             let mut m_raw = [Vec3::ZERO; 3];
             for chn in self.ch.iter() {
@@ -1522,13 +1581,9 @@ impl Ctx {
                 m_raw[2] += r * chn.unit.z;
             }
             // Step 4: absorb (1 - albedo), keep albedo for scattering.
-            let mat = cells[ci];
             let alb = mat.reflectance;
             rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
-            let new = Pending {
-                s: s_raw * alb,
-                m: m_raw.map(|v| v * alb),
-            };
+            let new = Pending { s: s_raw, m: m_raw }.scaled(alb);
             // Step 5: emit this pass's half of what the cell scatters now and of
             // what earlier passes left for this direction. Step 6: what the cell's
             // own material stops of that emission is removed again (absorbed or
@@ -1537,7 +1592,23 @@ impl Ctx {
             let mut other = other_row[xi].add(&new);
             // The cell's weights, once (a logarithm for a medium), as lanes.
             let em = Emission::new(mat.pass, exposed[ci], self.medium);
-            if own.s != Vec3::ZERO {
+            if medium::applies(self.medium, mat.pass) {
+                // The source rule: this pass's half as the cell's source, which its
+                // path segments emit in phase 3 (`crate::medium`).
+                // This direction's share: ½ (S ∓ β M_y) (`medium::split`).
+                let beta = medium::split(mat.pass.ln()) * if up { -0.5 } else { 0.5 };
+                let share = (own.s * 0.5 + own.m[1] * beta).max(Vec3::ZERO);
+                let mut j = Vec3::ZERO;
+                for k in 0..3 {
+                    let (jk, absorbed) =
+                        medium::source(mw, mat.pass.ln(), &pows[ci], share[k], alb[k]);
+                    j[k] = jk;
+                    rf.absorbed[k] += absorbed as f64;
+                }
+                src_row[xi] = j;
+                emits_row[xi] = j != Vec3::ZERO;
+                own = Pending::default();
+            } else if own.s != Vec3::ZERO {
                 let cw = em.lanes(lanes, self.ch, &t_after[ci]);
                 // Per colour and channel: what leaves the level, what is emitted.
                 let mut leave = [[0f32; LANES]; 3];
@@ -1573,10 +1644,209 @@ impl Ctx {
             let recycled = own;
             same_row[xi] = recycled;
             other_row[xi] = other;
-            let other_ch = channels(!up_pass(self.ch));
-            rf.pending += (em.budget(&recycled, self.ch) + em.budget(&other, other_ch)).as_dvec3();
+            if medium::applies(self.medium, mat.pass) {
+                // What the other direction's pass will emit (`medium::split`); nothing
+                // waits for this one.
+                let beta = medium::split(mat.pass.ln()) * if up { 0.5 } else { -0.5 };
+                rf.pending += (other.s * 0.5 + other.m[1] * beta)
+                    .max(Vec3::ZERO)
+                    .as_dvec3();
+            } else {
+                let other_ch = channels(!up_pass(self.ch));
+                rf.pending +=
+                    (em.budget(&recycled, self.ch) + em.budget(&other, other_ch)).as_dvec3();
+            }
         }
         rf
+    }
+}
+
+impl Ctx {
+    /// Points with a cell of `busy` within `r` columns and rows (wrapped on periodic
+    /// sides; beyond open sides nothing is busy): `out[i]`; `tmp` is scratch.
+    fn near(&self, busy: &[bool], r: i32, out: &mut [bool], tmp: &mut [bool]) {
+        let (nx, nz) = (self.nx, self.nz);
+        for z in 0..nz {
+            for x in 0..nx {
+                tmp[(x + nx * z) as usize] =
+                    (-r..=r).any(|d| self.col(x + d, z).is_some_and(|i| busy[i]));
+            }
+        }
+        for z in 0..nz {
+            for x in 0..nx {
+                out[(x + nx * z) as usize] =
+                    (-r..=r).any(|d| self.col(x, z + d).is_some_and(|i| tmp[i]));
+            }
+        }
+    }
+
+    /// Phase 3 of a level under the source rule ([`crate::medium`]): every path
+    /// gains what its segments' sources emit, attenuated by the segments after them;
+    /// every medium cell collects what it stops of its level-mates' emission (scattered
+    /// light for the next passes); then the level is finished ([`Finish`]).
+    #[allow(clippy::too_many_arguments)]
+    fn phase3<S: Sink>(
+        &self,
+        (src, emits, near): (&[Vec3], &[bool], &[bool]),
+        pows: &[[f32; MAX_EXPONENTS]],
+        cells: &[lightgrid_core::Material],
+        cur: &mut LevelLight,
+        pend_same: &mut [Pending],
+        pend_other: &mut [Pending],
+        g: &mut [S],
+        rows: &mut [RowFlux],
+        fin: Finish<'_>,
+    ) -> RowFlux {
+        let nx = self.nx as usize;
+        let (row_len, p) = (cur.row_len(), cur.pitch());
+        let (resolve, avg, dom) = (fin.resolve, fin.avg, fin.dom);
+        cur.rows_mut()
+            .par_chunks_mut(row_len)
+            .zip(pend_same.par_chunks_mut(nx))
+            .zip(pend_other.par_chunks_mut(nx))
+            .zip(g.par_chunks_mut(nx))
+            .zip(rows.par_iter_mut())
+            .zip(avg.par_chunks_mut(nx))
+            .zip(dom.par_chunks_mut(nx))
+            .enumerate()
+            .with_min_len(self.rows_per_task())
+            .for_each(
+                |(
+                    z,
+                    ((((((cur_row, same_row), other_row), g_row), row_out), avg_row), dom_row),
+                )| {
+                    let mut rf = RowFlux::default();
+                    self.phase3_row(
+                        z as i32,
+                        (src, emits, near),
+                        pows,
+                        cells,
+                        p,
+                        cur_row,
+                        (same_row, other_row),
+                        g_row,
+                        &mut rf,
+                    );
+                    self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
+                    *row_out = rf;
+                },
+            );
+        sum_rows(rows)
+    }
+
+    /// [`Ctx::phase3`] for row `z`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn phase3_row<S: Sink>(
+        &self,
+        z: i32,
+        (src, emits, near): (&[Vec3], &[bool], &[bool]),
+        pows: &[[f32; MAX_EXPONENTS]],
+        cells: &[lightgrid_core::Material],
+        p: usize,
+        cur_row: &mut [f32],
+        (same_row, other_row): (&mut [Pending], &mut [Pending]),
+        g_row: &mut [S],
+        rf: &mut RowFlux,
+    ) {
+        let nx = self.nx as usize;
+        let mw = medium::weights(up_pass(self.ch));
+        // A segment's transmittance and emission (light per unit `ω_b σ_c`); beyond
+        // open sides empty.
+        let seg = |q: Option<usize>, pow: usize| -> (f32, Vec3) {
+            match q {
+                Some(q) if emits[q] => {
+                    let tr = pows[q][pow];
+                    (tr, src[q] * (1.0 - tr))
+                }
+                Some(q) => (pows[q][pow], Vec3::ZERO),
+                None => (1.0, Vec3::ZERO),
+            }
+        };
+        for x in 0..self.nx {
+            let xi = x as usize;
+            let ci = xi + nx * z as usize;
+            if !near[ci] {
+                continue;
+            }
+            let inner = z >= 4 && z < self.nz - 4 && x >= 4 && x < self.nx - 4;
+            let cell = |dx: i32, dz: i32| {
+                if inner {
+                    Some((ci as i32 + dx + self.nx * dz) as usize)
+                } else {
+                    self.col(x + dx, z + dz)
+                }
+            };
+            // The point's paths gain their segments' emission, each attenuated by the
+            // segments after it; its light gains the emission before its centre.
+            for (c, chn) in self.ch.iter().enumerate() {
+                let mut acc = Vec3::ZERO;
+                let mut centre = Vec3::ZERO;
+                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    let (tr, e) = seg(cell(dx, dz), chn.pow[k]);
+                    if dx == 0 && dz == 0 {
+                        let half = pows[ci][chn.mid_pow];
+                        centre = acc * half;
+                        if emits[ci] {
+                            centre += src[ci] * (1.0 - half);
+                        }
+                    }
+                    acc = acc * tr + e;
+                }
+                let om = mw.omega[c];
+                if acc != Vec3::ZERO {
+                    row_add(cur_row, p, xi, c, acc * om);
+                }
+                if centre != Vec3::ZERO {
+                    g_row[xi].add(chn.bin, chn.unit, centre * om);
+                }
+            }
+            let mat = cells[ci];
+            if mat.pass >= 1.0 {
+                continue;
+            }
+            // The cell (a medium, or an opaque cell: a surface) stops its level-mates'
+            // emission on the horizontal paths it crosses as segment `j` (the path of
+            // point `x − d_j`), and scatters it as what it removes in phase 1.
+            let mut got = Pending::default();
+            for (c, chn) in self.ch.iter().enumerate() {
+                let om = mw.omega[c] * chn.mu;
+                for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate() {
+                    if cell(-djx, -djz).is_none() {
+                        // The path of a point beyond an open side is not traced: what
+                        // the cell emits into it leaves through the side.
+                        if emits[ci] {
+                            let lost = src[ci] * ((1.0 - pows[ci][chn.pow[j]]) * om);
+                            rf.side_out += lost.as_dvec3();
+                        }
+                        continue;
+                    }
+                    let mut acc = Vec3::ZERO;
+                    for (m, &(dmx, dmz, _)) in chn.stencil.iter().enumerate().take(j) {
+                        let (tr, e) = seg(cell(dmx - djx, dmz - djz), chn.pow[m]);
+                        acc = acc * tr + e;
+                    }
+                    if acc == Vec3::ZERO {
+                        continue;
+                    }
+                    let r = acc * ((1.0 - pows[ci][chn.pow[j]]) * om);
+                    got.s += r;
+                    for a in 0..3 {
+                        got.m[a] += r * chn.unit[a];
+                    }
+                }
+            }
+            if got.s == Vec3::ZERO {
+                continue;
+            }
+            let alb = mat.reflectance;
+            rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
+            let sc = got.scaled(alb);
+            same_row[xi] = same_row[xi].add(&sc);
+            other_row[xi] = other_row[xi].add(&sc);
+            // Each direction's pass emits half of it.
+            rf.pending += sc.s.as_dvec3();
+        }
     }
 }
 
@@ -2010,20 +2280,23 @@ fn run_with<S: Sink>(
             } else {
                 (&mut w.pend_down, &mut w.pend_up)
             };
+            // The source rule emits from media in a third phase.
+            let phase3 = options.medium == MediumEmission::Source && fixed.level_medium[j as usize];
             let f2 = ctx.phase2(
                 &w.removed,
-                &w.t_after,
+                (&w.t_after, &w.pows),
                 &cells[range.clone()],
                 &fixed.exposed[range.clone()],
                 &mut w.cur,
                 &mut same[range.clone()],
                 &mut other[range.clone()],
+                (&mut w.src, &mut w.emits),
                 &mut g[range.clone()],
                 &mut w.rows,
                 Finish {
                     avg: &mut run.avg[range.clone()],
                     dom: &mut run.dom[range.clone()],
-                    last_phase: true,
+                    last_phase: !phase3,
                     resolve: last.then_some(want_dom),
                 },
             );
@@ -2031,6 +2304,30 @@ fn run_with<S: Sink>(
             pending += f2.pending;
             sent_on = f2.sent;
             ok &= !f2.bad;
+            if phase3 {
+                ctx.near(&w.emits, 4, &mut w.near, &mut w.quiet_rows);
+                let f3 = ctx.phase3(
+                    (&w.src, &w.emits, &w.near),
+                    &w.pows,
+                    &cells[range.clone()],
+                    &mut w.cur,
+                    &mut same[range.clone()],
+                    &mut other[range.clone()],
+                    &mut g[range.clone()],
+                    &mut w.rows,
+                    Finish {
+                        avg: &mut run.avg[range.clone()],
+                        dom: &mut run.dom[range.clone()],
+                        last_phase: true,
+                        resolve: last.then_some(want_dom),
+                    },
+                );
+                bal.absorbed += f3.absorbed;
+                bal.side_out += f3.side_out;
+                pending += f3.pending;
+                sent_on = f3.sent;
+                ok &= !f3.bad;
+            }
             std::mem::swap(&mut w.prev, &mut w.cur);
         }
         resolved = last;
@@ -2065,6 +2362,8 @@ struct Fixed {
     top_material: i32,
     /// Per level: some cell of it holds material (`p < 1`).
     level_material: Vec<bool>,
+    /// Per level: some cell of it is a medium (`0 < p < 1`).
+    level_medium: Vec<bool>,
     /// The boundary is the same at every column (uniform top, open or periodic sides).
     laterally_uniform: bool,
     periodic: bool,
@@ -2081,6 +2380,13 @@ impl Fixed {
             exposed: exposure(material, periodic),
             level_material: (0..desc.levels())
                 .map(|j| cells[desc.level_range(j)].iter().any(|m| !m.is_empty()))
+                .collect(),
+            level_medium: (0..desc.levels())
+                .map(|j| {
+                    cells[desc.level_range(j)]
+                        .iter()
+                        .any(|m| m.pass > 0.0 && m.pass < 1.0)
+                })
                 .collect(),
             top_material: (0..desc.levels() as i32)
                 .rev()
@@ -2117,6 +2423,11 @@ struct Work {
     /// Points of the level with no material within two cells ([`Ctx::quiet`]).
     quiet: Vec<bool>,
     quiet_rows: Vec<bool>,
+    /// The source rule's source per cell of the level ([`crate::medium`]), whether a
+    /// cell emits, and points near an emitting cell.
+    src: Vec<Vec3>,
+    emits: Vec<bool>,
+    near: Vec<bool>,
     /// Scattered light waiting to be emitted in downward / upward channels.
     pend_down: Vec<Pending>,
     pend_up: Vec<Pending>,
@@ -2138,6 +2449,9 @@ impl Work {
             pows: vec![[1.0; MAX_EXPONENTS]; level_len],
             quiet: vec![false; level_len],
             quiet_rows: vec![false; level_len],
+            src: vec![Vec3::ZERO; level_len],
+            emits: vec![false; level_len],
+            near: vec![false; level_len],
             // Only cells with material touch these: pages of empty space stay unmapped.
             pend_down: bytemuck::zeroed_vec(n),
             pend_up: bytemuck::zeroed_vec(n),

@@ -72,12 +72,12 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
                 assert!(b.bottom_out.max_element() < 1e-6 * input.x, "{case}");
                 // Above the ground: the field the sweep's rules give for a Lambertian
                 // ground lit with E cos(theta) (`exact::ground_fields` with that flux
-                // arriving straight down), at every level. It differs from the exact
-                // continuous field by the channel cosines only (issue 13's remainder:
-                // -10 % looking straight down with no sky), which the split inherits.
+                // arriving straight down), at every level: since the channels' cosines
+                // are the bins' mean cosines, the exact continuous field.
                 // (`ground_fields` is grey: run it for red and scale the colour.)
                 let mut straight = BinLight::ZERO;
-                straight.0[lightgrid_core::dirs::DOWN] = Vec3::splat(to_sun.y);
+                let mu = sweep_cpu::sweep::channels(false)[lightgrid_core::dirs::DOWN].mu;
+                straight.0[lightgrid_core::dirs::DOWN] = Vec3::splat(to_sun.y / mu);
                 let (_, rule) = sweep_cpu::exact::ground_fields(albedo, &straight);
                 let g = s.output.bins.unwrap();
                 for j in levels..d.levels() {

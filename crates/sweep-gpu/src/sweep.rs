@@ -41,8 +41,9 @@ lightgrid_gpu::gpu_struct! {
         pub ny: u32 => "u32",
         /// Smoothing weight.
         pub smoothing: f32 => "f32",
-        /// The medium emission rule: 0 a slab's escape (the default), 1 the seed's.
-        pub seed_medium: u32 => "u32",
+        /// The medium emission rule: 0 a slab's escape, 1 the seed's, 2 the source rule
+        /// (`sweep_cpu::medium`, the default).
+        pub medium: u32 => "u32",
     }
 }
 
@@ -56,6 +57,7 @@ pub struct GpuSweeper {
     ctx: Arc<GpuContext>,
     phase1: wgpu::ComputePipeline,
     phase2: wgpu::ComputePipeline,
+    phase3: wgpu::ComputePipeline,
     layout1: wgpu::BindGroupLayout,
     layout2: wgpu::BindGroupLayout,
     surface_w: wgpu::Buffer,
@@ -124,6 +126,7 @@ impl GpuSweeper {
                     },
                     count: None,
                 },
+                storage(10, false),
             ],
         });
         let pipeline = |name: &str, src: String, layout: &wgpu::BindGroupLayout, entry: &str| {
@@ -147,6 +150,7 @@ impl GpuSweeper {
         };
         let phase1 = pipeline("sweep phase 1", wgsl::sweep_phase1(), &layout1, "phase1");
         let phase2 = pipeline("sweep phase 2", wgsl::sweep_phase2(), &layout2, "phase2");
+        let phase3 = pipeline("sweep phase 3", wgsl::sweep_phase2(), &layout2, "phase3");
         let surface_w = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("surface weights"),
             contents: bytemuck::cast_slice(&wgsl::surface_weight_table()),
@@ -160,6 +164,7 @@ impl GpuSweeper {
             ctx,
             phase1,
             phase2,
+            phase3,
             layout1,
             layout2,
         }
@@ -365,7 +370,8 @@ impl GpuSweeper {
             self.upload_boundary(&bufs, &shape, boundary, up, pass < 2);
             let params = level_params(&shape, up, options);
             self.ctx.queue.write_buffer(&bufs.params, 0, &params);
-            self.encode_pass(&groups, shape.ny, up, workgroups);
+            let sources = options.medium == lightgrid_core::MediumEmission::Source;
+            self.encode_pass(&groups, shape.ny, (up, sources), workgroups);
             stats.passes += 1;
             stats.levels_computed += shape.ny as u64;
             if options.tolerance > 0.0 && pass >= 1 {
@@ -472,6 +478,7 @@ impl GpuSweeper {
                 zeros("pending up", n * 12, none),
             ],
             pend_flux: zeros("pending flux", n * 3, src),
+            srcj: zeros("level sources", level_len * 3, none),
             params: d.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("level params"),
                 size: PARAM_STRIDE * shape.ny as u64,
@@ -522,6 +529,7 @@ impl GpuSweeper {
                     b.pend[1 - up].as_entire_binding(),
                     b.pend_flux.as_entire_binding(),
                     self.surface_w.as_entire_binding(),
+                    b.srcj.as_entire_binding(),
                 ]),
             })
         };
@@ -588,9 +596,9 @@ impl GpuSweeper {
             .write_buffer(&b.ping[0], 0, bytemuck::cast_slice(&first));
     }
 
-    /// One pass in one command buffer: per level, phase 1 then phase 2, each level's
-    /// uniforms at its dynamic offset.
-    fn encode_pass(&self, g: &BindGroups, ny: usize, up: bool, workgroups: u32) {
+    /// One pass in one command buffer: per level, phase 1 then phase 2 (and phase 3
+    /// under the source rule, `sources`), each level's uniforms at its dynamic offset.
+    fn encode_pass(&self, g: &BindGroups, ny: usize, (up, sources): (bool, bool), workgroups: u32) {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         for li in 0..ny {
             let k = li % 2; // prev = ping[k], cur = ping[1 - k]
@@ -602,6 +610,10 @@ impl GpuSweeper {
             cp.set_pipeline(&self.phase2);
             cp.set_bind_group(0, &g.phase2[1 - k][usize::from(up)], &[off]);
             cp.dispatch_workgroups(workgroups, 1, 1);
+            if sources {
+                cp.set_pipeline(&self.phase3);
+                cp.dispatch_workgroups(workgroups, 1, 1);
+            }
         }
         self.ctx.queue.submit([enc.finish()]);
     }
@@ -657,6 +669,8 @@ struct Buffers {
     /// Pending light, downward and upward.
     pend: [wgpu::Buffer; 2],
     pend_flux: wgpu::Buffer,
+    /// The source rule's source per cell of the level.
+    srcj: wgpu::Buffer,
     params: wgpu::Buffer,
 }
 
@@ -684,7 +698,11 @@ fn level_params(shape: &Shape, up: bool, options: &SweepOptions) -> Vec<u8> {
             given: u32::from(shape.given),
             ny: ny as u32,
             smoothing: options.smoothing,
-            seed_medium: u32::from(options.medium == lightgrid_core::MediumEmission::Seed),
+            medium: match options.medium {
+                lightgrid_core::MediumEmission::Escape => 0,
+                lightgrid_core::MediumEmission::Seed => 1,
+                lightgrid_core::MediumEmission::Source => 2,
+            },
         };
         let o = li * PARAM_STRIDE as usize;
         bytes[o..o + std::mem::size_of::<LevelParams>()].copy_from_slice(bytemuck::bytes_of(&p));

@@ -9,7 +9,7 @@ use std::fmt::Write;
 /// specification): steps, flux factors, bins of both passes, stencils and their path
 /// exponents, and the opaque cells' surface weights.
 pub fn sweep_tables() -> String {
-    use sweep_cpu::sweep::{CHANNELS, SLOTS, channels, path_exponents};
+    use sweep_cpu::sweep::{CHANNELS, MAX_EXPONENTS, SLOTS, channels, path_exponents};
     let (down, up) = (channels(false), channels(true));
     let mut s = String::new();
     let list = |v: Vec<String>| v.join(", ");
@@ -85,6 +85,47 @@ pub fn sweep_tables() -> String {
         list(
             down.iter()
                 .flat_map(|c| c.pow.iter().map(|&k| format!("{:?}", e[k])))
+                .collect()
+        )
+    );
+    // The source rule (`sweep_cpu::medium`): per path exponent its value and the pass's
+    // weight (the same in both passes), the channels' `ω_b σ_c`, `O / τ`, the split
+    // table.
+    let w = sweep_cpu::medium::weights(false);
+    let _ = writeln!(
+        s,
+        "const PATH_E = array<f32, {MAX_EXPONENTS}>({});",
+        list(
+            (0..MAX_EXPONENTS)
+                .map(|k| format!("{:?}", e.get(k).copied().unwrap_or(0.0)))
+                .collect()
+        )
+    );
+    let _ = writeln!(
+        s,
+        "const SRC_W = array<f32, {MAX_EXPONENTS}>({});",
+        list(w.w.iter().map(|v| format!("{v:?}")).collect())
+    );
+    let _ = writeln!(
+        s,
+        "const SRC_OMEGA = array<f32, {CHANNELS}>({});",
+        list(w.omega.iter().map(|v| format!("{v:?}")).collect())
+    );
+    let _ = writeln!(s, "const SRC_O: f32 = {:?};", w.o);
+    let _ = writeln!(
+        s,
+        "const SPLIT_TAU_MAX: f32 = {:?};",
+        sweep_cpu::medium::SPLIT_TAU_MAX
+    );
+    let _ = writeln!(
+        s,
+        "const SPLIT_N: u32 = {}u;\nconst MAX_E: u32 = {MAX_EXPONENTS}u;\nconst SPLIT = array<f32, {}>({});",
+        sweep_cpu::medium::SPLIT_TABLE,
+        sweep_cpu::medium::SPLIT_TABLE,
+        list(
+            sweep_cpu::medium::split_table()
+                .iter()
+                .map(|v| format!("{v:?}"))
                 .collect()
         )
     );

@@ -56,16 +56,6 @@ fn outside(x: i32, z: i32, c: u32) -> vec3<f32> {
     return virt_at(x, z, c);
 }
 
-fn trans(pass_through: f32, e: f32) -> f32 {
-    if (pass_through >= 1.0) {
-        return 1.0;
-    }
-    if (pass_through <= 0.0) {
-        return 0.0;
-    }
-    return exp(e * log(pass_through));
-}
-
 fn ch_bin(c: u32) -> u32 {
     if (P.up == 1u) {
         return CH_BIN_UP[c];

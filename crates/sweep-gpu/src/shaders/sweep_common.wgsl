@@ -20,3 +20,14 @@ fn g_add(gi: u32, bin: u32, v: vec3<f32>) {
     g[i + 1u] += v.y;
     g[i + 2u] += v.z;
 }
+
+// Transmittance p^e of a path fraction through a cell of pass-through p.
+fn trans(pass_through: f32, e: f32) -> f32 {
+    if (pass_through >= 1.0) {
+        return 1.0;
+    }
+    if (pass_through <= 0.0) {
+        return 0.0;
+    }
+    return exp(e * log(pass_through));
+}

@@ -1,5 +1,7 @@
 // Phase 2 of a level: each cell collects what it removed, absorbs, emits into this
-// pass's channels and re-absorbs what its own material stops (sweep-cpu steps 3-7).
+// pass's channels and re-absorbs what its own material stops (sweep-cpu steps 3-7);
+// under the source rule a medium sets its source instead, and phase 3 (below) adds what
+// the sources emit along every path (sweep_cpu::medium).
 
 const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 
@@ -13,6 +15,8 @@ const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 @group(0) @binding(7) var<storage, read_write> pend_other: array<f32>;
 @group(0) @binding(8) var<storage, read_write> pend_flux: array<f32>;
 @group(0) @binding(9) var<uniform> SURFACE_W4: array<vec4<f32>, SURFACE_ROWS_GEN>;
+// The source rule's source per cell of the level (RGB; 0: none).
+@group(0) @binding(10) var<storage, read_write> srcj: array<f32>;
 
 fn surface_w(i: u32) -> f32 {
     return SURFACE_W4[i / 4u][i % 4u];
@@ -64,7 +68,7 @@ fn ch_bin(up: u32, c: u32) -> u32 {
 // A medium cell's emission weights (A, B): sweep_cpu::sweep::medium_emission (a slab's
 // escape forward and back), or the seed's rule; computed once per cell.
 fn medium_weights(pass_through: f32) -> vec2<f32> {
-    if (P.seed_medium == 1u) {
+    if (P.medium == 1u) {
         return vec2<f32>((1.0 + pass_through) * 0.5, (1.0 - pass_through) * 0.5);
     }
     if (pass_through > 0.0 && pass_through < 1.0) {
@@ -109,6 +113,36 @@ fn full(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> 
     return p.s * surface_w((mask * 2u + up) * NUM_DIRS + bin);
 }
 
+// sweep_cpu::medium::split: the share of a cell's scattered light between the passes.
+fn split(lnp: f32) -> f32 {
+    let n = f32(SPLIT_N - 1u);
+    let u = sqrt(max(-lnp / SPLIT_TAU_MAX, 0.0)) * n;
+    if (!(u < n)) {
+        return SPLIT[SPLIT_N - 1u];
+    }
+    let i = u32(u);
+    let f = u - f32(i);
+    return SPLIT[i] + (SPLIT[i + 1u] - SPLIT[i]) * f;
+}
+
+// sweep_cpu::medium::source for the three colours: the cell's source J.
+fn medium_source(pass_through: f32, share: vec3<f32>, alb: vec3<f32>) -> vec3<f32> {
+    let lnp = log(pass_through);
+    var g = 0.0;
+    for (var e = 0u; e < MAX_E; e++) {
+        g += SRC_W[e] * (1.0 - trans(pass_through, PATH_E[e]));
+    }
+    let k = max(-lnp * SRC_O - g, 0.0);
+    var j = vec3<f32>(0.0);
+    for (var c = 0u; c < 3u; c++) {
+        let d = g + (1.0 - alb[c]) * k;
+        if (share[c] > 0.0 && d > 0.0) {
+            j[c] = share[c] / d;
+        }
+    }
+    return j;
+}
+
 fn budget(p: Pending, pass_through: f32, mask: u32, up: u32) -> vec3<f32> {
     if (all(p.s == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
@@ -131,6 +165,9 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let gi = li + P.level_len * P.j;
     let mat = cells[gi];
+    srcj[li * 3u] = 0.0;
+    srcj[li * 3u + 1u] = 0.0;
+    srcj[li * 3u + 2u] = 0.0;
     if (mat.w >= 1.0) {
         return;
     }
@@ -165,6 +202,24 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     // Steps 5 and 6: emit, re-absorb in rounds.
     var own = add_p(fresh, load_pending(0u, gi));
     var other = add_p(load_pending(1u, gi), fresh);
+    if (P.medium == 2u && mat.w > 0.0) {
+        // The source rule: this direction's share ½ (S ∓ β M_y) as the cell's source.
+        let beta = split(log(mat.w));
+        let sgn = select(0.5, -0.5, P.up == 1u);
+        let share = max(own.s * 0.5 + own.m1 * (beta * sgn), vec3<f32>(0.0));
+        let j = medium_source(mat.w, share, alb);
+        srcj[li * 3u] = j.x;
+        srcj[li * 3u + 1u] = j.y;
+        srcj[li * 3u + 2u] = j.z;
+        let zero = vec3<f32>(0.0);
+        store_pending(0u, gi, Pending(zero, zero, zero, zero));
+        store_pending(1u, gi, other);
+        let pf = max(other.s * 0.5 + other.m1 * (beta * -sgn), zero);
+        pend_flux[gi * 3u] = pf.x;
+        pend_flux[gi * 3u + 1u] = pf.y;
+        pend_flux[gi * 3u + 2u] = pf.z;
+        return;
+    }
     let mask = exposed[gi];
     let ab = medium_weights(mat.w);
     for (var round = 0u; round < LOCAL_ROUNDS; round++) {
@@ -200,4 +255,88 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     pend_flux[gi * 3u] = pf.x;
     pend_flux[gi * 3u + 1u] = pf.y;
     pend_flux[gi * 3u + 2u] = pf.z;
+}
+
+fn src_at(i: u32) -> vec3<f32> {
+    return vec3<f32>(srcj[i * 3u], srcj[i * 3u + 1u], srcj[i * 3u + 2u]);
+}
+
+// Segment k of channel c's path from column (x, z) offset by (dx, dz): its
+// transmittance and emission (per unit ω_b σ_c); beyond open sides empty.
+fn segment(x: i32, z: i32, c: u32, k: u32) -> vec4<f32> {
+    let sd = STENCIL_D[CH_FIRST_SLOT[c] + k];
+    let col = column(x + sd.x, z + sd.y);
+    if (col < 0) {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let q = u32(col);
+    let tr = trans(cells[q + P.level_len * P.j].w, STENCIL_E[CH_FIRST_SLOT[c] + k]);
+    return vec4<f32>(src_at(q) * (1.0 - tr), tr);
+}
+
+// Phase 3 (the source rule, sweep-cpu's Ctx::phase3): every path gains what its
+// segments' sources emit, attenuated by the segments after them, the point's light the
+// emission before its centre; every cell with material collects what it stops of its
+// level-mates' emission, scattered for the next passes.
+@compute @workgroup_size(64)
+fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
+    let li = id.x;
+    if (li >= P.level_len || P.medium != 2u) {
+        return;
+    }
+    let gi = li + P.level_len * P.j;
+    let x = i32(li % P.nx);
+    let z = i32(li / P.nx);
+    let mat = cells[gi];
+    for (var c = 0u; c < CH; c++) {
+        var acc = vec3<f32>(0.0);
+        var centre = vec3<f32>(0.0);
+        for (var k = 0u; k < CH_NSTENCIL[c]; k++) {
+            let sd = STENCIL_D[CH_FIRST_SLOT[c] + k];
+            let s = segment(x, z, c, k);
+            if (sd.x == 0 && sd.y == 0) {
+                let half = trans(mat.w, CH_MID_E[c]);
+                centre = acc * half + src_at(li) * (1.0 - half);
+            }
+            acc = acc * s.w + s.xyz;
+        }
+        let om = SRC_OMEGA[c];
+        let oi = (li * CH + c) * 3u;
+        let add = acc * om;
+        cur[oi] += add.x;
+        cur[oi + 1u] += add.y;
+        cur[oi + 2u] += add.z;
+        g_add(gi, ch_bin(P.up, c), centre * om);
+    }
+    if (mat.w >= 1.0) {
+        return;
+    }
+    var got = Pending(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var c = 0u; c < CH; c++) {
+        let om = SRC_OMEGA[c] * CH_MU[c];
+        let u = DIR_UNIT[ch_bin(P.up, c)];
+        for (var j = 0u; j < CH_NSTENCIL[c]; j++) {
+            let sj = STENCIL_D[CH_FIRST_SLOT[c] + j];
+            if (column(x - sj.x, z - sj.y) < 0) {
+                continue;
+            }
+            var acc = vec3<f32>(0.0);
+            for (var m = 0u; m < j; m++) {
+                let s = segment(x - sj.x, z - sj.y, c, m);
+                acc = acc * s.w + s.xyz;
+            }
+            let r = acc * ((1.0 - trans(mat.w, STENCIL_E[CH_FIRST_SLOT[c] + j])) * om);
+            got = add_p(got, Pending(r, r * u.x, r * u.y, r * u.z));
+        }
+    }
+    if (all(got.s == vec3<f32>(0.0))) {
+        return;
+    }
+    let alb = mat.xyz;
+    let sc = Pending(got.s * alb, got.m0 * alb, got.m1 * alb, got.m2 * alb);
+    store_pending(0u, gi, add_p(load_pending(0u, gi), sc));
+    store_pending(1u, gi, add_p(load_pending(1u, gi), sc));
+    pend_flux[gi * 3u] += sc.s.x;
+    pend_flux[gi * 3u + 1u] += sc.s.y;
+    pend_flux[gi * 3u + 2u] += sc.s.z;
 }
