@@ -120,7 +120,6 @@ impl ContentHash {
         .u32(skip_empty_levels as u32)
         .u32(match medium {
             crate::MediumEmission::Escape => 0,
-            crate::MediumEmission::Seed => 1,
             crate::MediumEmission::Source => 2,
         })
     }

@@ -252,11 +252,10 @@ pub enum MediumEmission {
     /// (1 + p)/2` straight back (`sweep_cpu::sweep::medium_emission`). Fails the white
     /// furnace (horizontal bins too bright: +60 % at pass-through 0.5); kept because it
     /// is closer on thick dark cells (half-space −3 % at optical depth 3, albedo 0.1).
+    /// (The seed's rule, `A = (1 + p)/2`, `B = (1 − p)/2`, was removed: it reflected far
+    /// too much from dense media, +59 % at optical depth 3, and measured worse than the
+    /// source rule on every canonical scene.)
     Escape,
-    /// The seed's rule, `A = (1 + p)/2`, `B = (1 − p)/2`: everything straight back, `p`
-    /// straight on. Dense media reflect far too much (half-space +59 % at optical depth
-    /// 3); kept to compare with the seed.
-    Seed,
 }
 
 /// Most passes one sweep may run ([`SweepOptions::max_passes`]): bounds the run time of

@@ -1,10 +1,11 @@
-//! Sweeps the four canonical scenes and compares each with the Monte Carlo reference.
+//! Sweeps the canonical scenes and compares each with the Monte Carlo reference, with
+//! each medium emission rule (the default first).
 //!
 //! `cargo run --release -p sweep-cpu --example canonical -- [size] [paths] [smoothing]`
 
 use std::time::Instant;
 
-use lightgrid_core::SweepOptions;
+use lightgrid_core::{MediumEmission, SweepOptions};
 use sweep_cpu::reference::{ReferenceOptions, trace};
 use sweep_cpu::scenes::{Scene, compare};
 
@@ -29,9 +30,6 @@ fn main() {
         o.tolerance = 1e-4;
         o.smoothing = smoothing;
         let t = Instant::now();
-        let s = sweep_cpu::run(&m, &b, &o).expect("sweep");
-        let sweep_ms = t.elapsed().as_secs_f64() * 1e3;
-        let t = Instant::now();
         let r = trace(
             &m,
             &b,
@@ -43,16 +41,22 @@ fn main() {
         )
         .expect("reference");
         let mc_s = t.elapsed().as_secs_f64();
-        let e = compare(s.output.bins.as_ref().unwrap(), &r.light, &m);
-        println!(
-            "{:<12} {:>9.2} {:>9.2} {:>10.4} {:>10.4} {:>9.4} {:>7}",
-            scene.name(),
-            sweep_ms,
-            mc_s,
-            e.average,
-            e.irradiance,
-            r.relative_std_error(0.0),
-            s.output.stats.passes
-        );
+        for medium in [MediumEmission::Source, MediumEmission::Escape] {
+            o.medium = medium;
+            let t = Instant::now();
+            let s = sweep_cpu::run(&m, &b, &o).expect("sweep");
+            let sweep_ms = t.elapsed().as_secs_f64() * 1e3;
+            let e = compare(s.output.bins.as_ref().unwrap(), &r.light, &m);
+            println!(
+                "{:<12} {:>9.2} {:>9.2} {:>10.4} {:>10.4} {:>9.4} {:>7}  {medium:?}",
+                scene.name(),
+                sweep_ms,
+                mc_s,
+                e.average,
+                e.irradiance,
+                r.relative_std_error(0.0),
+                s.output.stats.passes
+            );
+        }
     }
 }

@@ -389,7 +389,6 @@ impl Emission {
         if pass > 0.0 {
             let (a, b) = match rule {
                 MediumEmission::Escape => medium_emission(pass),
-                MediumEmission::Seed => ((1.0 + pass) * 0.5, (1.0 - pass) * 0.5),
                 // Emitted by `crate::medium` in phase 3; isotropic budget here.
                 MediumEmission::Source => (1.0, 0.0),
             };

@@ -145,32 +145,31 @@ fn white_furnace_is_exact_in_random_media() {
     }
 }
 
-/// The seed's and the escape rule's emission (`MediumEmission::Seed`, `Escape`) fail the
-/// furnace: kept as options, they must still show it (this suite can tell them apart).
+/// The escape rule (`MediumEmission::Escape`) fails the furnace: kept as an option (it
+/// is closer on thick dark cells), it must still show it (this suite tells the rules
+/// apart).
 #[test]
-fn the_older_medium_rules_fail_the_furnace() {
+fn the_escape_rule_fails_the_furnace() {
     use lightgrid_core::MediumEmission;
     let m = sweep_cpu::exact::furnace_material(8, 7);
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&lightgrid_core::BinLight::uniform(Vec3::ONE))
     };
-    for rule in [MediumEmission::Escape, MediumEmission::Seed] {
-        let mut o = converged();
-        o.medium = rule;
-        o.max_passes = 200;
-        o.tolerance = 1e-6;
-        let s = sweep_cpu::run(&m, &b, &o).unwrap();
-        let worst = s
-            .output
-            .bins
-            .unwrap()
-            .data()
-            .iter()
-            .map(|l| (l.average().x - 1.0).abs())
-            .fold(0f32, f32::max);
-        assert!(worst > 0.05, "{rule:?}: worst deviation {worst}");
-    }
+    let mut o = converged();
+    o.medium = MediumEmission::Escape;
+    o.max_passes = 200;
+    o.tolerance = 1e-6;
+    let s = sweep_cpu::run(&m, &b, &o).unwrap();
+    let worst = s
+        .output
+        .bins
+        .unwrap()
+        .data()
+        .iter()
+        .map(|l| (l.average().x - 1.0).abs())
+        .fold(0f32, f32::max);
+    assert!(worst > 0.05, "worst deviation {worst}");
 }
 
 /// **Chandrasekhar's half-space albedo** (a thick slab of isotropic scatterers under a
@@ -207,22 +206,25 @@ fn half_space_albedo_within_two_percent() {
     check(0.5, 0.05, 0.17);
 }
 
-/// The seed's rule reflects far too much from thick cells (kept as an option; this is
-/// what it costs).
+/// The escape rule, kept for thick dark cells: there it is closer than the source rule
+/// (measured −3.3 % and −4.2 % at cell optical depth 3, `w` 0.1 and 0.5).
 #[test]
-fn the_seed_rule_reflects_too_much_from_thick_cells() {
+fn the_escape_rule_is_closer_on_thick_dark_cells() {
     use lightgrid_core::MediumEmission;
     let mut o = converged();
     o.tolerance = 1e-5;
     o.max_passes = 200;
-    o.medium = MediumEmission::Seed;
-    for w in [0.5f32, 0.9] {
-        let c = sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
+    for w in [0.1f32, 0.5] {
+        o.medium = MediumEmission::Escape;
+        let escape = sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
+        o.medium = MediumEmission::Source;
+        let source = sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
         assert!(
-            c.error > 0.25,
-            "the seed's rule, {}: {:+.3}",
-            c.name,
-            c.error
+            escape.error.abs() < 0.05 && escape.error.abs() < source.error.abs(),
+            "{}: escape {:+.3}, source {:+.3}",
+            escape.name,
+            escape.error,
+            source.error
         );
     }
 }

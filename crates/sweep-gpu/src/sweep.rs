@@ -41,7 +41,7 @@ lightgrid_gpu::gpu_struct! {
         pub ny: u32 => "u32",
         /// Smoothing weight.
         pub smoothing: f32 => "f32",
-        /// The medium emission rule: 0 a slab's escape, 1 the seed's, 2 the source rule
+        /// The medium emission rule: 0 a slab's escape, 2 the source rule
         /// (`sweep_cpu::medium`, the default).
         pub medium: u32 => "u32",
     }
@@ -700,7 +700,6 @@ fn level_params(shape: &Shape, up: bool, options: &SweepOptions) -> Vec<u8> {
             smoothing: options.smoothing,
             medium: match options.medium {
                 lightgrid_core::MediumEmission::Escape => 0,
-                lightgrid_core::MediumEmission::Seed => 1,
                 lightgrid_core::MediumEmission::Source => 2,
             },
         };

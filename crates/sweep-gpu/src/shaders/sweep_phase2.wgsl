@@ -65,12 +65,9 @@ fn ch_bin(up: u32, c: u32) -> u32 {
     return CH_BIN_DOWN[c];
 }
 
-// A medium cell's emission weights (A, B): sweep_cpu::sweep::medium_emission (a slab's
-// escape forward and back), or the seed's rule; computed once per cell.
+// A medium cell's emission weights (A, B) under the escape rule:
+// sweep_cpu::sweep::medium_emission (a slab's escape forward and back); once per cell.
 fn medium_weights(pass_through: f32) -> vec2<f32> {
-    if (P.medium == 1u) {
-        return vec2<f32>((1.0 + pass_through) * 0.5, (1.0 - pass_through) * 0.5);
-    }
     if (pass_through > 0.0 && pass_through < 1.0) {
         let forward = -log(pass_through) * pass_through / (1.0 - pass_through);
         let back = (1.0 + pass_through) * 0.5;
