@@ -1243,12 +1243,44 @@ impl Ctx {
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
+        let p = cur.pitch();
+        let extra = removed.par_chunks_mut(nx).zip(t_after.par_chunks_mut(nx));
+        self.level_rows(
+            cur,
+            extra,
+            g,
+            rows,
+            fin,
+            |z, cur_row, (rem_row, ta_row), g_row, rf| {
+                if first {
+                    // The first pass sets every point (its memory may hold anything).
+                    g_row.fill(S::default());
+                }
+                self.gather_row_channels(z, prev, ghost, cur_row, rf);
+                self.transmit_row(z, pows, quiet, p, cur_row, rem_row, ta_row, g_row);
+            },
+        )
+    }
+
+    /// The parallel loop over a level's rows (tasks of [`Ctx::rows_per_task`] rows):
+    /// `body(z, row of cur, extra's item, row of g, flux tallies)` for every row `z`,
+    /// then, in the level's last phase, [`Ctx::finish_row`]; the rows' tallies summed
+    /// in row order.
+    fn level_rows<S: Sink, T: Send>(
+        &self,
+        cur: &mut LevelLight,
+        extra: impl IndexedParallelIterator<Item = T>,
+        g: &mut [S],
+        rows: &mut [RowFlux],
+        fin: Finish<'_>,
+        body: impl Fn(i32, &mut [f32], T, &mut [S], &mut RowFlux) + Sync,
+    ) -> RowFlux {
+        let nx = self.nx as usize;
         let (row_len, p) = (cur.row_len(), cur.pitch());
         let (last_phase, resolve, avg, dom) = (fin.last_phase, fin.resolve, fin.avg, fin.dom);
         cur.rows_mut()
             .par_chunks_mut(row_len)
-            .zip(removed.par_chunks_mut(nx))
-            .zip(t_after.par_chunks_mut(nx))
+            .zip(extra)
             .zip(g.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
             .zip(avg.par_chunks_mut(nx))
@@ -1256,15 +1288,9 @@ impl Ctx {
             .enumerate()
             .with_min_len(self.rows_per_task())
             .for_each(
-                |(z, ((((((cur_row, rem_row), ta_row), g_row), row_out), avg_row), dom_row))| {
-                    let z = z as i32;
+                |(z, (((((cur_row, x), g_row), row_out), avg_row), dom_row))| {
                     let mut rf = RowFlux::default();
-                    if first {
-                        // The first pass sets every point (its memory may hold anything).
-                        g_row.fill(S::default());
-                    }
-                    self.gather_row_channels(z, prev, ghost, cur_row, &mut rf);
-                    self.transmit_row(z, pows, quiet, p, cur_row, rem_row, ta_row, g_row);
+                    body(z as i32, cur_row, x, g_row, &mut rf);
                     if last_phase {
                         self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
                     }
@@ -1458,47 +1484,33 @@ impl Ctx {
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let (row_len, p) = (cur.row_len(), cur.pitch());
-        let (last_phase, resolve, avg, dom) = (fin.last_phase, fin.resolve, fin.avg, fin.dom);
-        cur.rows_mut()
-            .par_chunks_mut(row_len)
-            .zip(pend_same.par_chunks_mut(nx))
+        let p = cur.pitch();
+        let extra = pend_same
+            .par_chunks_mut(nx)
             .zip(pend_other.par_chunks_mut(nx))
-            .zip(src.par_chunks_mut(nx).zip(emits.par_chunks_mut(nx)))
-            .zip(g.par_chunks_mut(nx))
-            .zip(rows.par_iter_mut())
-            .zip(avg.par_chunks_mut(nx))
-            .zip(dom.par_chunks_mut(nx))
-            .enumerate()
-            .with_min_len(self.rows_per_task())
-            .for_each(
-                |(
+            .zip(src.par_chunks_mut(nx).zip(emits.par_chunks_mut(nx)));
+        self.level_rows(
+            cur,
+            extra,
+            g,
+            rows,
+            fin,
+            |z, cur_row, ((same_row, other_row), em_rows), g_row, rf| {
+                *rf = self.phase2_row(
                     z,
-                    (
-                        ((((((cur_row, same_row), other_row), em_rows), g_row), row_out), avg_row),
-                        dom_row,
-                    ),
-                )| {
-                    let mut rf = self.phase2_row(
-                        z as i32,
-                        removed,
-                        (t_after, pows),
-                        cells,
-                        exposed,
-                        p,
-                        cur_row,
-                        same_row,
-                        other_row,
-                        em_rows,
-                        g_row,
-                    );
-                    if last_phase {
-                        self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
-                    }
-                    *row_out = rf;
-                },
-            );
-        sum_rows(rows)
+                    removed,
+                    (t_after, pows),
+                    cells,
+                    exposed,
+                    p,
+                    cur_row,
+                    same_row,
+                    other_row,
+                    em_rows,
+                    g_row,
+                );
+            },
+        )
     }
 
     /// The end of a level's last phase for one row ([`Finish`]).
@@ -1697,40 +1709,30 @@ impl Ctx {
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
-        let (row_len, p) = (cur.row_len(), cur.pitch());
-        let (resolve, avg, dom) = (fin.resolve, fin.avg, fin.dom);
-        cur.rows_mut()
-            .par_chunks_mut(row_len)
-            .zip(pend_same.par_chunks_mut(nx))
-            .zip(pend_other.par_chunks_mut(nx))
-            .zip(g.par_chunks_mut(nx))
-            .zip(rows.par_iter_mut())
-            .zip(avg.par_chunks_mut(nx))
-            .zip(dom.par_chunks_mut(nx))
-            .enumerate()
-            .with_min_len(self.rows_per_task())
-            .for_each(
-                |(
+        let p = cur.pitch();
+        let extra = pend_same
+            .par_chunks_mut(nx)
+            .zip(pend_other.par_chunks_mut(nx));
+        self.level_rows(
+            cur,
+            extra,
+            g,
+            rows,
+            fin,
+            |z, cur_row, (same_row, other_row), g_row, rf| {
+                self.phase3_row(
                     z,
-                    ((((((cur_row, same_row), other_row), g_row), row_out), avg_row), dom_row),
-                )| {
-                    let mut rf = RowFlux::default();
-                    self.phase3_row(
-                        z as i32,
-                        (src, emits, near),
-                        pows,
-                        cells,
-                        p,
-                        cur_row,
-                        (same_row, other_row),
-                        g_row,
-                        &mut rf,
-                    );
-                    self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
-                    *row_out = rf;
-                },
-            );
-        sum_rows(rows)
+                    (src, emits, near),
+                    pows,
+                    cells,
+                    p,
+                    cur_row,
+                    (same_row, other_row),
+                    g_row,
+                    rf,
+                );
+            },
+        )
     }
 
     /// [`Ctx::phase3`] for row `z`.
