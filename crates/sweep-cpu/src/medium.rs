@@ -19,8 +19,8 @@
 //! ones. The light at a point is likewise its path's light at the centre: the first half
 //! of the centre segment emits `J ω_b σ_c (1 − τ_mid)`.
 //!
-//! The source a cell holds follows from the flux it scatters in a pass, `S` (half of its
-//! scattered light, the other half goes to the other pass): its segments send out `G J`
+//! The source a cell holds follows from the flux it emits in a pass, `S` (its share of
+//! the scattered light, below; the rest goes to the other pass): its segments send out `G J`
 //! with `G = Σ μ_c ω_b σ_c (1 − τ_k)` over the cell's segments of the pass, and it emits
 //! `O J` in all, `O = Σ μ_c ω_b σ_c t_k` (`t_k = −ln τ_k`, so `O = τ Σ_c ω_b σ_c` with
 //! `τ = −ln p`); the rest, `K = O − G`, its own material stops again, and of that it
@@ -29,10 +29,17 @@
 //! ordinates transport: a flat source in each cell, exact attenuation along each
 //! ordinate.)
 //!
-//! What it leaves out: the source is flat within a cell. In optically thick cells
-//! (`τ` ≳ 1) light that enters through one face collides near it, so a flat source
-//! sends too much through the far faces: Chandrasekhar's half-space albedo comes out low
-//! for thick cells (measured in `sweep_cpu::exact`; the crate docs' table).
+//! Thick cells lit from one side: light that enters a cell of optical depth `τ` ≳ 1
+//! through one face collides near it, and a source there leaves back through that face
+//! more than on through the cell. The share of the scattered light each direction's
+//! pass emits is therefore `½ (S ∓ β M_y)` rather than `½ S` ([`split`]: `β` from exact
+//! integrals of a beam's first-collision profile along every segment, 0 for thin
+//! cells; `M_y` the vertical moment of the light's incoming directions). Linear in the
+//! light, and `M_y = 0` in a white furnace, so it stays exact there.
+//!
+//! What it leaves out: within each pass the source is still flat over the cell's
+//! height. In thick dark cells (optical depth 3, albedo ≤ 0.5) Chandrasekhar's
+//! half-space albedo comes out 15–23 % low (the crate docs' table; `sweep_cpu::exact`).
 
 use std::sync::OnceLock;
 

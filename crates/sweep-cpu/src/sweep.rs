@@ -961,9 +961,9 @@ pub fn validate_inputs(
 /// Most bytes [`run`] holds at once for a grid: per point the accumulated bins (312),
 /// two pending-scatter records (96), ln(pass) and exposure (8) and the output (312); per
 /// point of one level the level buffers (two 17-channel levels, removals, transmittance,
-/// powers: 1104).
+/// powers, the source rule's sources and masks: 1118).
 pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
-    desc.point_count() as u64 * (312 + 96 + 8 + 312) + desc.level_len() as u64 * 1104
+    desc.point_count() as u64 * (312 + 96 + 8 + 312) + desc.level_len() as u64 * 1118
 }
 
 pub(crate) fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
@@ -1693,8 +1693,8 @@ impl Ctx {
 
     /// Phase 3 of a level under the source rule ([`crate::medium`]): every path
     /// gains what its segments' sources emit, attenuated by the segments after them;
-    /// every medium cell collects what it stops of its level-mates' emission (scattered
-    /// light for the next passes); then the level is finished ([`Finish`]).
+    /// every cell with material collects what it stops of its level-mates' emission
+    /// (scattered light for the next passes); then the level is finished ([`Finish`]).
     #[allow(clippy::too_many_arguments)]
     fn phase3<S: Sink>(
         &self,
