@@ -92,11 +92,24 @@ fn make(up: bool) -> Weights {
 /// absorbed `(1 − a) K J` (module docs). Zero for `s ≤ 0`; finite always.
 #[inline]
 pub fn source(w: &Weights, lnp: f32, pows: &[f32; MAX_EXPONENTS], s: f32, a: f32) -> (f32, f32) {
+    let (g, k) = cell_sums(w, lnp, pows);
+    source_of(g, k, s, a)
+}
+
+/// A medium cell's `(G, K)` for a pass ([`source`]): what a unit source sends out of
+/// the cell's segments, and what the cell's own material stops of it.
+#[inline]
+pub fn cell_sums(w: &Weights, lnp: f32, pows: &[f32; MAX_EXPONENTS]) -> (f32, f32) {
+    let g: f32 = (0..MAX_EXPONENTS).map(|e| w.w[e] * (1.0 - pows[e])).sum();
+    (g, (-lnp * w.o - g).max(0.0))
+}
+
+/// [`source`] from the cell's [`cell_sums`] (the same for every colour).
+#[inline]
+pub fn source_of(g: f32, k: f32, s: f32, a: f32) -> (f32, f32) {
     if s.is_nan() || s <= 0.0 {
         return (0.0, 0.0);
     }
-    let g: f32 = (0..MAX_EXPONENTS).map(|e| w.w[e] * (1.0 - pows[e])).sum();
-    let k = (-lnp * w.o - g).max(0.0);
     let d = g + (1.0 - a) * k;
     if !(d > 0.0 && d.is_finite()) {
         return (0.0, 0.0);

@@ -1603,16 +1603,23 @@ impl Ctx {
             let mut other = other_row[xi].add(&new);
             // The cell's weights, once (a logarithm for a medium), as lanes.
             let em = Emission::new(mat.pass, exposed[ci], self.medium);
-            if medium::applies(self.medium, mat.pass) {
-                // The source rule: this pass's half as the cell's source, which its
-                // path segments emit in phase 3 (`crate::medium`).
-                // This direction's share: ½ (S ∓ β M_y) (`medium::split`).
-                let beta = medium::split(mat.pass.ln()) * if up { -0.5 } else { 0.5 };
-                let share = (own.s * 0.5 + own.m[1] * beta).max(Vec3::ZERO);
+            let source_rule = medium::applies(self.medium, mat.pass);
+            // The source rule's ½ β (`medium::split`), downward sign.
+            let half_beta = if source_rule {
+                let b = 0.5 * medium::split(mat.pass.ln());
+                if up { -b } else { b }
+            } else {
+                0.0
+            };
+            if source_rule {
+                // The source rule: this direction's share ½ (S ∓ β M_y) of the scattered
+                // light as the cell's source, which its path segments emit in phase 3
+                // (`crate::medium`).
+                let share = (own.s * 0.5 + own.m[1] * half_beta).max(Vec3::ZERO);
+                let (g, kk) = medium::cell_sums(mw, mat.pass.ln(), &pows[ci]);
                 let mut j = Vec3::ZERO;
                 for k in 0..3 {
-                    let (jk, absorbed) =
-                        medium::source(mw, mat.pass.ln(), &pows[ci], share[k], alb[k]);
+                    let (jk, absorbed) = medium::source_of(g, kk, share[k], alb[k]);
                     j[k] = jk;
                     rf.absorbed[k] += absorbed as f64;
                 }
@@ -1655,11 +1662,10 @@ impl Ctx {
             let recycled = own;
             same_row[xi] = recycled;
             other_row[xi] = other;
-            if medium::applies(self.medium, mat.pass) {
+            if source_rule {
                 // What the other direction's pass will emit (`medium::split`); nothing
                 // waits for this one.
-                let beta = medium::split(mat.pass.ln()) * if up { 0.5 } else { -0.5 };
-                rf.pending += (other.s * 0.5 + other.m[1] * beta)
+                rf.pending += (other.s * 0.5 - other.m[1] * half_beta)
                     .max(Vec3::ZERO)
                     .as_dvec3();
             } else {
