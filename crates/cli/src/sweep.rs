@@ -104,6 +104,10 @@ pub(crate) struct SweepArgs {
     /// Stop when the light still to transport is below this fraction of the input.
     #[arg(long, default_value_t = 1e-3)]
     tolerance: f32,
+    /// Diffusion acceleration of the passes (`Acceleration::Diffusion`): for thick,
+    /// bright media (snow, cloud, fog banks) that take many passes.
+    #[arg(long)]
+    accelerate: bool,
 }
 
 impl SweepArgs {
@@ -120,6 +124,9 @@ impl SweepArgs {
         o.max_passes = self.passes;
         o.smoothing = self.smoothing;
         o.tolerance = self.tolerance;
+        if self.accelerate {
+            o.acceleration = lightgrid_core::Acceleration::Diffusion;
+        }
         o.outputs = Outputs {
             bins: true,
             average: false,
@@ -317,10 +324,11 @@ pub(crate) fn run(command: Command) -> Result<()> {
             }
             let st = s.output.stats;
             println!(
-                "swept {} points in {:.1} ms: {} passes, {} levels computed, {} copied; energy balance error {:.2e}",
+                "swept {} points in {:.1} ms: {} passes ({} diffusion corrections), {} levels computed, {} copied; energy balance error {:.2e}",
                 m.desc().point_count(),
                 secs * 1e3,
                 st.passes,
+                st.corrections,
                 st.levels_computed,
                 st.levels_copied,
                 s.balance.relative_error()

@@ -111,6 +111,7 @@ impl ContentHash {
             tolerance,
             skip_empty_levels,
             medium,
+            acceleration,
         } = *o;
         self.u32(
             outputs.bins as u32 | (outputs.average as u32) << 1 | (outputs.dominant as u32) << 2,
@@ -121,6 +122,10 @@ impl ContentHash {
         .u32(match medium {
             crate::MediumEmission::Escape => 0,
             crate::MediumEmission::Source => 2,
+        })
+        .u32(match acceleration {
+            crate::Acceleration::Off => 0,
+            crate::Acceleration::Diffusion => 1,
         })
     }
     /// The hash.

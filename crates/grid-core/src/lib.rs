@@ -104,9 +104,9 @@ pub use rng::SeededRng;
 pub use sample::{Blend, trilinear_corners};
 pub use terrain::Heightmap;
 pub use traits::{
-    Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MAX_PASSES,
-    MaterialSource, MediumEmission, NoScatter, Outputs, Resident, SideBoundary, SumField,
-    SunBoundary, SunResponse, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
+    Acceleration, Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField,
+    MAX_PASSES, MaterialSource, MediumEmission, NoScatter, Outputs, Resident, SideBoundary,
+    SumField, SunBoundary, SunResponse, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
     TopBoundary, UniformMaterial,
 };
 

@@ -230,6 +230,30 @@ pub struct SweepOptions {
     /// How a medium cell emits the light it scatters (step 5 of the sweep's
     /// specification, the `sweep-cpu` docs).
     pub medium: MediumEmission,
+    /// How the passes converge: plain repetition ([`Acceleration::Off`]) or with a
+    /// diffusion correction between passes ([`Acceleration::Diffusion`]).
+    pub acceleration: Acceleration,
+}
+
+/// How a sweep's repeated passes converge ([`SweepOptions::acceleration`]).
+///
+/// The passes are source iteration: each sends on the light scattered in the one
+/// before, so light that scatters many times (albedo near 1 in thick media: snow, dense
+/// white cloud, fog banks) takes many passes. Measured by `cargo xtask exact`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Acceleration {
+    /// Every pass sends on what the one before scattered.
+    #[default]
+    Off,
+    /// Diffusion synthetic acceleration (the CPU sweep, `sweep_cpu::accel`): after each
+    /// downward and upward pair, the scattered light still waiting in media cells is
+    /// spread by a diffusion solve over the media, which estimates every later
+    /// generation of its scattering; the next passes send that on at once and take it
+    /// back as they go, so the converged light is the same and the passes to a
+    /// tolerance hardly grow with optical depth and albedo. Applies to media under
+    /// [`MediumEmission::Source`]; sweepers that do not implement it run as with `Off`
+    /// (`SweepStats` says which ran).
+    Diffusion,
 }
 
 /// How a medium cell (`0 < p < 1`) sends on the light it scatters (step 5 of the
@@ -272,6 +296,7 @@ impl SweepOptions {
             tolerance: 0.0,
             skip_empty_levels: true,
             medium: MediumEmission::Source,
+            acceleration: Acceleration::Off,
         }
     }
     /// Repeated down/up passes for multiple bounces, until the light still to be
@@ -284,6 +309,7 @@ impl SweepOptions {
             tolerance: 1e-3,
             skip_empty_levels: true,
             medium: MediumEmission::Source,
+            acceleration: Acceleration::Off,
         }
     }
     /// Checks every field; errors name it.
@@ -378,6 +404,9 @@ pub struct SweepStats {
     pub levels_copied: u64,
     /// Sweeps run (downward and upward passes counted separately).
     pub passes: u32,
+    /// Diffusion corrections applied between passes ([`Acceleration::Diffusion`]; 0
+    /// where the sweeper ran without).
+    pub corrections: u32,
 }
 
 /// Errors a sweeper returns.

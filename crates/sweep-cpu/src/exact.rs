@@ -193,15 +193,21 @@ pub fn furnace_material(n: u32, seed: u64) -> MaterialGrid {
 /// The white furnace on [`furnace_material`]: the largest deviation of the average
 /// light from 1 and of the irradiance on the six axes from π, over all points.
 pub fn furnace(n: u32, seed: u64, smoothing: f32) -> (Case, Case) {
+    let mut o = options(400, 1e-6);
+    o.smoothing = smoothing;
+    furnace_with(n, seed, &o)
+}
+
+/// [`furnace`] with any sweep options (acceleration on, say).
+pub fn furnace_with(n: u32, seed: u64, o: &SweepOptions) -> (Case, Case) {
+    let smoothing = o.smoothing;
     let m = furnace_material(n, seed);
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
     };
-    let mut o = options(400, 1e-6);
-    o.smoothing = smoothing;
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, &o).expect("valid furnace");
+    let s = crate::run(&m, &b, o).expect("valid furnace");
     let secs = t.elapsed().as_secs_f64();
     let g = s.output.bins.as_ref().expect("bins");
     let (mut avg, mut irr) = (0f64, 0f64);
@@ -420,10 +426,14 @@ pub fn measure(max_passes: u32) -> Vec<Case> {
 /// iteration slows down as the slab thickens and `w` nears 1 (issue 13 item 4). The
 /// case's `exact` is the half-space albedo (the slab's own is lower when it is thin).
 pub fn convergence(depth: u32, w: f32, max_passes: u32) -> Case {
+    convergence_with(depth, w, &options(max_passes, 1e-4))
+}
+
+/// [`convergence`] with any sweep options (acceleration on, say).
+pub fn convergence_with(depth: u32, w: f32, options: &SweepOptions) -> Case {
     let (m, b, src) = beam_slab(w, (-1.0f32).exp(), depth.max(2));
     let t = std::time::Instant::now();
-    let s =
-        crate::run_with_source(&m, &b, Some(&src), &options(max_passes, 1e-4)).expect("valid slab");
+    let s = crate::run_with_source(&m, &b, Some(&src), options).expect("valid slab");
     let secs = t.elapsed().as_secs_f64();
     case(
         format!("slab of optical depth {depth}, w {w}: passes to 1e-4"),

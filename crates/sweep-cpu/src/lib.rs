@@ -308,6 +308,7 @@
 //! leaving through a side skips the (at most two) edge cells its path would still cross.
 //! Periodic boundaries have no edge.
 
+pub mod accel;
 pub mod exact;
 pub mod medium;
 pub mod reference;

@@ -121,6 +121,18 @@ pub fn source_of(g: f32, k: f32, s: f32, a: f32) -> (f32, f32) {
     (j, (1.0 - a) * k * j)
 }
 
+/// [`source_of`] for light of either sign (the accelerated sweep's `signed` mode,
+/// [`crate::accel`]): linear in `s`, 0 only where the cell emits nothing.
+#[inline]
+pub fn source_signed(g: f32, k: f32, s: f32, a: f32) -> (f32, f32) {
+    let d = g + (1.0 - a) * k;
+    let j = s / d;
+    if !(d > 0.0 && j.is_finite()) {
+        return (0.0, 0.0);
+    }
+    (j, (1.0 - a) * k * j)
+}
+
 /// How a medium cell of optical depth `tau` (per level) shares its scattered light
 /// between the two directions' passes: the downward pass emits `½ (S + β M_y)`, the
 /// upward `½ (S − β M_y)` (`M_y` the vertical moment of the incoming directions of the

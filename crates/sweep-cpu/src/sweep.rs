@@ -519,16 +519,18 @@ impl CellLanes {
         l: &PassLanes,
         s: f32,
         m: [f32; 3],
-        leave: &mut [f32; LANES],
-        emit: &mut [f32; LANES],
+        (leave, emit): (&mut [f32; LANES], &mut [f32; LANES]),
+        signed: bool,
     ) -> [f32; LANES] {
         let mut lost = [0f32; LANES];
+        // Clamping at 0 only for light of one sign (see `Ctx::signed`).
+        let floor = if signed { f32::NEG_INFINITY } else { 0.0 };
         for c in 0..LANES {
             let um = m[0] * l.u[0][c] + m[1] * l.u[1][c] + m[2] * l.u[2][c];
-            let f = (s * self.fa[c] - um * self.fb[c]).max(0.0);
+            let f = (s * self.fa[c] - um * self.fb[c]).max(floor);
             let fr = s * self.free[c];
             let leaving = (f - fr) * self.t_after[c] + fr;
-            lost[c] = (s * self.full[c] - leaving).max(0.0);
+            lost[c] = (s * self.full[c] - leaving).max(floor);
             leave[c] += leaving;
             emit[c] += f;
         }
@@ -569,6 +571,8 @@ trait Sink: Copy + Default + Send + Sync + bytemuck::Zeroable {
     /// The point's final values: every value finite and `>= 0`, the average, and the
     /// dominant direction (if `dominant`; zero otherwise).
     fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3);
+    /// Light below 0 set to 0 (after accelerated passes, [`crate::accel`]).
+    fn clamp(&mut self);
     /// [`Sink::resolve`] for every point of `g` into `avg` and `dom`; `false` if any
     /// value is negative, NaN or infinite.
     fn resolve_all(
@@ -592,6 +596,11 @@ impl Sink for BinLight {
     #[inline]
     fn add(&mut self, bin: usize, _unit: Vec3, g: Vec3) {
         self.0[bin] += g;
+    }
+    fn clamp(&mut self) {
+        for v in &mut self.0 {
+            *v = v.max(Vec3::ZERO);
+        }
     }
     /// `BinLight::average` and `dominant` in one loop over the bins (each computed
     /// the total on its own), bit for bit as they compute.
@@ -643,6 +652,10 @@ impl Sink for AvgAcc {
         self.den += l;
     }
     #[inline]
+    fn clamp(&mut self) {
+        self.sum = self.sum.max(Vec3::ZERO);
+        self.den = self.den.max(0.0);
+    }
     fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3) {
         let avg = self.sum / (4.0 * PI);
         let d = if dominant && self.den > 0.0 && self.den.is_finite() {
@@ -1041,6 +1054,13 @@ struct Ctx {
     periodic: bool,
     smoothing: f32,
     medium: MediumEmission,
+    /// Light of either sign (diffusion acceleration, [`crate::accel`]): no clamping
+    /// at 0 anywhere, so the sweep stays linear when the light taken back makes a
+    /// cell's waiting light negative.
+    signed: bool,
+    /// Accelerated passes ([`crate::accel`]): a medium cell emits only what waited
+    /// before the pair of passes; what collides in it waits for the next pair.
+    jacobi: bool,
     ch: &'static [Channel; CHANNELS],
     /// The column index along x (then z) of every `x` in `-WRAP_PAD .. nx + WRAP_PAD`:
     /// wrapped on periodic sides, -1 beyond open or given ones.
@@ -1059,6 +1079,7 @@ impl Ctx {
         periodic: bool,
         options: &SweepOptions,
         ch: &'static [Channel; CHANNELS],
+        mode: Mode,
     ) -> Self {
         let table = |n: i32| -> Vec<i32> {
             (-WRAP_PAD..n + WRAP_PAD)
@@ -1079,6 +1100,8 @@ impl Ctx {
             periodic,
             smoothing: options.smoothing,
             medium: options.medium,
+            signed: mode != Mode::Plain,
+            jacobi: mode == Mode::Accelerated,
             ch,
             xcol: table(nx),
             zcol: table(nz),
@@ -1599,7 +1622,15 @@ impl Ctx {
             // what earlier passes left for this direction. Step 6: what the cell's
             // own material stops of that emission is removed again (absorbed or
             // scattered anew), in up to LOCAL_ROUNDS rounds; the rest waits.
-            let mut own = new.add(&same_row[xi]);
+            // Accelerated (`signed`): the media's collisions wait for the next pair of
+            // passes (one generation per pair, as diffusion acceleration assumes);
+            // `same_row` then keeps them.
+            let jacobi = self.jacobi && medium::applies(self.medium, mat.pass);
+            let mut own = if jacobi {
+                same_row[xi]
+            } else {
+                new.add(&same_row[xi])
+            };
             let mut other = other_row[xi].add(&new);
             // The cell's weights, once (a logarithm for a medium), as lanes.
             let em = Emission::new(mat.pass, exposed[ci], self.medium);
@@ -1615,11 +1646,15 @@ impl Ctx {
                 // The source rule: this direction's share ½ (S ∓ β M_y) of the scattered
                 // light as the cell's source, which its path segments emit in phase 3
                 // (`crate::medium`).
-                let share = (own.s * 0.5 + own.m[1] * half_beta).max(Vec3::ZERO);
+                let share = own.s * 0.5 + own.m[1] * half_beta;
                 let (g, kk) = medium::cell_sums(mw, mat.pass.ln(), &pows[ci]);
                 let mut j = Vec3::ZERO;
                 for k in 0..3 {
-                    let (jk, absorbed) = medium::source_of(g, kk, share[k], alb[k]);
+                    let (jk, absorbed) = if self.signed {
+                        medium::source_signed(g, kk, share[k], alb[k])
+                    } else {
+                        medium::source_of(g, kk, share[k].max(0.0), alb[k])
+                    };
                     j[k] = jk;
                     rf.absorbed[k] += absorbed as f64;
                 }
@@ -1639,7 +1674,8 @@ impl Ctx {
                     let mut lost_m = [Vec3::ZERO; 3];
                     for k in 0..3 {
                         let (sk, mk) = (own.s[k], [own.m[0][k], own.m[1][k], own.m[2][k]]);
-                        let lost = cw.round(lanes, sk, mk, &mut leave[k], &mut emit[k]);
+                        let lost =
+                            cw.round(lanes, sk, mk, (&mut leave[k], &mut emit[k]), self.signed);
                         lost_s[k] = lanes_sum(&lost);
                         for a in 0..3 {
                             lost_m[a][k] = lanes_dot(&lost, &lanes.u[a]);
@@ -1660,14 +1696,18 @@ impl Ctx {
                 }
             }
             let recycled = own;
-            same_row[xi] = recycled;
+            same_row[xi] = if jacobi { new } else { recycled };
             other_row[xi] = other;
             if source_rule {
                 // What the other direction's pass will emit (`medium::split`); nothing
                 // waits for this one.
-                rf.pending += (other.s * 0.5 - other.m[1] * half_beta)
-                    .max(Vec3::ZERO)
-                    .as_dvec3();
+                let share = other.s * 0.5 - other.m[1] * half_beta;
+                rf.pending += if self.signed {
+                    share
+                } else {
+                    share.max(Vec3::ZERO)
+                }
+                .as_dvec3();
             } else {
                 let other_ch = channels(!up_pass(self.ch));
                 rf.pending +=
@@ -2130,6 +2170,20 @@ fn run_with<S: Sink>(
         }
     }
 
+    // Diffusion acceleration (`crate::accel`): the correction added to the media's
+    // waiting light after the last pair of passes, taken back after the next.
+    let dsa = crate::accel::Diffusion::of(material, fixed.periodic, options);
+    let mut debt = Debt::new(dsa.as_ref());
+    // How the passes run (accelerated from the first pair whose light waiting fell
+    // slowly), the waiting light after the last pair, and for how many pairs in a row
+    // it grew.
+    let mut mode = Mode::Plain;
+    let mut waited = f64::INFINITY;
+    let mut grew = 0;
+    if dsa.is_some() && w.pend_next.len() != desc.point_count() {
+        w.pend_next = bytemuck::zeroed_vec(desc.point_count());
+    }
+
     for pass in 0..options.max_passes {
         let up = pass % 2 == 1;
         let (first, last) = (pass == 0, pass + 1 == options.max_passes);
@@ -2141,7 +2195,9 @@ fn run_with<S: Sink>(
             dims,
             halo: fixed.halo,
         };
-        let ctx = Ctx::new(nx, nz, fixed.periodic, options, ch);
+        let ctx = Ctx::new(nx, nz, fixed.periodic, options, ch, mode);
+        // Light of either sign is resolved after the sweep, once clamped at 0.
+        let last = last && mode == Mode::Plain;
         stats.passes += 1;
         let mut pending = DVec3::ZERO;
         // The flux the last level's final light sends on.
@@ -2271,7 +2327,13 @@ fn run_with<S: Sink>(
             } else {
                 // Light that left the previous level but reached no point of this one
                 // crossed a side face.
-                bal.side_out += (sent - f1.inside).max(DVec3::ZERO);
+                // (Clamped at 0 against rounding, unless light of either sign flows.)
+                let side = sent - f1.inside;
+                bal.side_out += if mode == Mode::Plain {
+                    side.max(DVec3::ZERO)
+                } else {
+                    side
+                };
             }
             bal.side_in += f1.outside;
             if !material_here {
@@ -2282,10 +2344,13 @@ fn run_with<S: Sink>(
                 continue;
             }
             w.pend_dirty[j as usize] = true;
-            let (same, other) = if up {
-                (&mut w.pend_up, &mut w.pend_down)
-            } else {
-                (&mut w.pend_down, &mut w.pend_up)
+            // Accelerated: a downward pass leaves the upward share of what collides in
+            // it in `pend_next` (the next pair's), so the upward pass emits only what
+            // the last pair left; its own collisions go to `pend_down` and `pend_up`.
+            let (same, other) = match (up, mode == Mode::Accelerated) {
+                (true, _) => (&mut w.pend_up, &mut w.pend_down),
+                (false, false) => (&mut w.pend_down, &mut w.pend_up),
+                (false, true) => (&mut w.pend_down, &mut w.pend_next),
             };
             // The source rule emits from media in a third phase.
             let phase3 = options.medium == MediumEmission::Source && fixed.level_medium[j as usize];
@@ -2345,11 +2410,60 @@ fn run_with<S: Sink>(
         } else {
             bal.bottom_out += leaving;
         }
-        bal.pending = pending;
+        // With acceleration: what waits net of the correction not yet taken back, and
+        // the convergence test on the largest waiting light of either sign, after
+        // each pair.
+        let waiting = match (&dsa, mode) {
+            (Some(d), Mode::Accelerated | Mode::Fallback) => {
+                let before = debt.waiting(d, &w, cells, &fixed, options.medium);
+                bal.pending = before.net;
+                if up && mode == Mode::Accelerated {
+                    // Two pairs in a row that left more waiting: the estimate does
+                    // not suit this medium; back to plain passes (light of either
+                    // sign now).
+                    let now = before.abs.max_element();
+                    grew = if now > waited { grew + 1 } else { 0 };
+                    waited = now;
+                    if grew >= 2 {
+                        debt.release(d, &mut w);
+                        mode = Mode::Fallback;
+                    } else {
+                        stats.corrections += 1;
+                        debt.correct(d, &mut w, &fixed.lnp);
+                    }
+                }
+                if up { before.abs } else { DVec3::INFINITY }
+            }
+            _ => {
+                bal.pending = pending;
+                if let Some(d) = dsa.as_ref().filter(|_| up) {
+                    // Plain passes while the light waiting falls fast; accelerated
+                    // from the first pair after which it fell by less than
+                    // `crate::accel::SWITCH`.
+                    let now = pending.max_element();
+                    if now > crate::accel::SWITCH * waited
+                        && now > options.tolerance as f64 * bal.input().max_element()
+                        && pass + 1 < options.max_passes
+                    {
+                        mode = Mode::Accelerated;
+                        stats.corrections += 1;
+                        debt.correct(d, &mut w, &fixed.lnp);
+                    }
+                    waited = now;
+                }
+                pending
+            }
+        };
         let input = bal.input().max_element();
-        if pending.max_element() <= options.tolerance as f64 * input && pass >= 1 {
+        if waiting.max_element() <= options.tolerance as f64 * input && pass >= 1 {
             break;
         }
+    }
+    if mode != Mode::Plain {
+        // What the accelerated passes left: light off by up to the tolerance either
+        // way, so a point in the dark may hold a little below 0.
+        g.par_chunks_mut(RESOLVE_CHUNK)
+            .for_each(|c| c.iter_mut().for_each(S::clamp));
     }
     if !resolved {
         ok = resolve(&g, run.avg, run.dom, want_dom);
@@ -2359,6 +2473,165 @@ fn run_with<S: Sink>(
 }
 
 /// What a sweep derives once from its inputs.
+/// How a sweep's passes run ([`crate::accel`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// The plain passes.
+    Plain,
+    /// Accelerated: one generation per pair, with the diffusion estimate.
+    Accelerated,
+    /// Plain passes again after acceleration failed to converge, with light of
+    /// either sign.
+    Fallback,
+}
+
+/// The diffusion correction outstanding in the media's waiting light
+/// ([`crate::accel`]), the waiting light held back from the next pair, and the
+/// solve's buffers.
+struct Debt {
+    /// Per media cell: the correction added after the last pair of passes.
+    delta: Vec<Vec3>,
+    /// Per media cell: the share `1 − ω` of its waiting light held back from the
+    /// next pair (downward, upward).
+    hold: Vec<(Pending, Pending)>,
+    q: Vec<Vec3>,
+    next: Vec<Vec3>,
+}
+
+/// The light still waiting in the cells of an accelerated sweep: the sum of every
+/// cell's shares (net of the outstanding correction), and the same with each cell's
+/// counted at its absolute value (for the convergence test).
+#[derive(Clone, Copy, Default)]
+struct Waiting {
+    net: DVec3,
+    abs: DVec3,
+}
+
+/// The shares of a medium cell's waiting light `(pd, pu)` that the downward and the
+/// upward pass emit (step 5), summed.
+#[inline]
+fn shares(beta: f32, pd: &Pending, pu: &Pending) -> Vec3 {
+    0.5 * (pd.s + beta * pd.m[1]) + 0.5 * (pu.s - beta * pu.m[1])
+}
+
+impl Debt {
+    fn new(d: Option<&crate::accel::Diffusion>) -> Self {
+        let (media, n) = d.map_or((0, 0), |d| (d.media, d.cells.len()));
+        Self {
+            delta: vec![Vec3::ZERO; media],
+            hold: vec![Default::default(); media],
+            q: vec![Vec3::ZERO; n],
+            next: vec![Vec3::ZERO; n],
+        }
+    }
+
+    /// What waits in `w` and here for the passes to come: per cell, the downward
+    /// pass's share of `pend_down` and the upward pass's of `pend_up` and `pend_next`,
+    /// with what is held back, less the outstanding correction.
+    fn waiting(
+        &self,
+        d: &crate::accel::Diffusion,
+        w: &Work,
+        cells: &[lightgrid_core::Material],
+        fixed: &Fixed,
+        rule: MediumEmission,
+    ) -> Waiting {
+        let level_len = w.prev.nx * w.prev.nz;
+        let (down, up) = (channels(false), channels(true));
+        let mut out = Waiting::default();
+        for (j, _) in w.pend_dirty.iter().enumerate().filter(|(_, d)| **d) {
+            for i in j * level_len..(j + 1) * level_len {
+                let mat = &cells[i];
+                if mat.is_empty() {
+                    continue;
+                }
+                let (pd, pu, pn) = (&w.pend_down[i], &w.pend_up[i], &w.pend_next[i]);
+                let v = if medium::applies(rule, mat.pass) {
+                    let beta = medium::split(fixed.lnp[i]);
+                    let mut v = shares(beta, pd, &pu.add(pn));
+                    if let Some(k) = d.slot.get(i).copied().filter(|&k| k != u32::MAX) {
+                        let (hd, hu) = &self.hold[k as usize];
+                        v += shares(beta, hd, hu) - self.delta[k as usize];
+                    }
+                    v
+                } else {
+                    let em = Emission::new(mat.pass, fixed.exposed[i], rule);
+                    em.budget(pd, down) + em.budget(pu, up) + em.budget(pn, up)
+                };
+                out.net += v.as_dvec3();
+                out.abs += v.abs().as_dvec3();
+            }
+        }
+        out
+    }
+
+    /// Ends acceleration after a pair of passes: what `pend_next`, the outstanding
+    /// correction and the held-back light stand for goes back to the waiting light.
+    fn release(&mut self, d: &crate::accel::Diffusion, w: &mut Work) {
+        self.merge_next(w);
+        for (k, &ci) in d.cells[..d.media].iter().enumerate() {
+            let i = ci as usize;
+            let (hd, hu) = std::mem::take(&mut self.hold[k]);
+            let delta = std::mem::take(&mut self.delta[k]);
+            let (pd, pu) = (&mut w.pend_down[i], &mut w.pend_up[i]);
+            pd.s -= delta;
+            pu.s -= delta;
+            *pd = pd.add(&hd);
+            *pu = pu.add(&hu);
+        }
+    }
+
+    /// `pend_next` added to `pend_up` (and cleared).
+    fn merge_next(&self, w: &mut Work) {
+        let level_len = w.prev.nx * w.prev.nz;
+        for (j, _) in w.pend_dirty.iter().enumerate().filter(|(_, d)| **d) {
+            for i in j * level_len..(j + 1) * level_len {
+                let n = std::mem::take(&mut w.pend_next[i]);
+                w.pend_up[i] = w.pend_up[i].add(&n);
+            }
+        }
+    }
+
+    /// After a pair of passes: moves the upward share of the downward pass's
+    /// collisions (`pend_next`) to `pend_up` for the next pair, takes back the last
+    /// correction (the pair emitted it), and sets the next pair's light in the media:
+    /// `ω` of what waits (the rest held back: a damped iteration, whose rate at the
+    /// media's alternating, cell-to-cell patterns stays well below 1) and the
+    /// diffusion correction for it.
+    fn correct(&mut self, d: &crate::accel::Diffusion, w: &mut Work, lnp: &[f32]) -> u32 {
+        let omega = crate::accel::DAMPING;
+        let level_len = w.prev.nx * w.prev.nz;
+        self.merge_next(w);
+        for (k, &ci) in d.cells[..d.media].iter().enumerate() {
+            let i = ci as usize;
+            let beta = medium::split(lnp[i]);
+            let (hd, hu) = std::mem::take(&mut self.hold[k]);
+            let (pd, pu) = (&mut w.pend_down[i], &mut w.pend_up[i]);
+            pd.s -= self.delta[k];
+            pu.s -= self.delta[k];
+            *pd = pd.add(&hd);
+            *pu = pu.add(&hu);
+            self.hold[k] = (
+                pd.scaled(Vec3::splat(1.0 - omega)),
+                pu.scaled(Vec3::splat(1.0 - omega)),
+            );
+            *pd = pd.scaled(Vec3::splat(omega));
+            *pu = pu.scaled(Vec3::splat(omega));
+            self.q[k] = shares(beta, pd, pu);
+        }
+        let c = d.correct(&self.q, &mut self.next);
+        for (k, &ci) in d.cells[..d.media].iter().enumerate() {
+            let i = ci as usize;
+            let delta = self.next[k] * crate::accel::GAIN;
+            w.pend_down[i].s += delta;
+            w.pend_up[i].s += delta;
+            w.pend_dirty[i / level_len] = true;
+            self.delta[k] = delta;
+        }
+        c.iterations
+    }
+}
+
 struct Fixed {
     /// ln(pass) per cell: -inf for opaque cells, whose exp(f * l * -inf) is exactly 0
     /// (f * l > 0 always, so no 0 * inf).
@@ -2438,6 +2711,9 @@ struct Work {
     /// Scattered light waiting to be emitted in downward / upward channels.
     pend_down: Vec<Pending>,
     pend_up: Vec<Pending>,
+    /// Accelerated sweeps ([`crate::accel`]): the upward share of what collides in a
+    /// downward pass, for the next pair of passes (empty otherwise).
+    pend_next: Vec<Pending>,
     /// Per level: some pending light of it was written (zeroed again on reuse).
     pend_dirty: Vec<bool>,
 }
@@ -2462,6 +2738,7 @@ impl Work {
             // Only cells with material touch these: pages of empty space stay unmapped.
             pend_down: bytemuck::zeroed_vec(n),
             pend_up: bytemuck::zeroed_vec(n),
+            pend_next: Vec::new(),
             pend_dirty: vec![false; n / level_len.max(1)],
         }
     }
@@ -2482,7 +2759,10 @@ impl Work {
                     if std::mem::take(dirty) {
                         let r = j * level_len..(j + 1) * level_len;
                         w.pend_down[r.clone()].fill(Pending::default());
-                        w.pend_up[r].fill(Pending::default());
+                        w.pend_up[r.clone()].fill(Pending::default());
+                        if let Some(n) = w.pend_next.get_mut(r) {
+                            n.fill(Pending::default());
+                        }
                     }
                 }
                 w

@@ -1,0 +1,234 @@
+//! Diffusion acceleration of the passes (`Acceleration::Diffusion`, issue 13 item 4,
+//! `sweep_cpu::accel`): the same converged light in fewer passes, whose number does not
+//! grow with optical depth and albedo; scenes that converge fast are left alone.
+
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{
+    Acceleration, BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
+};
+use sweep_cpu::exact;
+use sweep_cpu::scenes::Scene;
+use sweep_cpu::sky::Sun;
+
+fn options(acceleration: Acceleration, max_passes: u32, tolerance: f32) -> SweepOptions {
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = max_passes;
+    o.tolerance = tolerance;
+    o.acceleration = acceleration;
+    o
+}
+
+/// Largest difference of any bin between two light grids, relative to the largest bin
+/// of the first.
+fn worst_difference(a: &sweep_cpu::Sweep, b: &sweep_cpu::Sweep) -> f32 {
+    let (a, b) = (
+        a.output.bins.as_ref().expect("bins").data(),
+        b.output.bins.as_ref().expect("bins").data(),
+    );
+    let top = a
+        .iter()
+        .flat_map(|l| l.0.iter().map(|v| v.max_element()))
+        .fold(0f32, f32::max);
+    a.iter()
+        .zip(b)
+        .flat_map(|(x, y)| {
+            x.0.iter()
+                .zip(&y.0)
+                .map(|(u, v)| (*u - *v).abs().max_element())
+        })
+        .fold(0f32, f32::max)
+        / top
+}
+
+#[test]
+fn passes_to_tolerance_do_not_grow_with_depth_or_albedo() {
+    // Slabs of cells of optical depth 1 under a zenith beam: the plain passes take
+    // 8 / 33 / 264 / over 1000 at albedo 0.5 / 0.9 / 0.99 / 0.999 (depth 100); at
+    // albedo 0.9 they converge fast enough not to switch.
+    for depth in [10, 100, 1000] {
+        for w in [0.5, 0.9, 0.99, 0.999] {
+            let on =
+                exact::convergence_with(depth, w, &options(Acceleration::Diffusion, 400, 1e-4));
+            assert!(
+                on.passes <= 32,
+                "depth {depth}, albedo {w}: {} passes",
+                on.passes
+            );
+            assert!(on.pending.abs() <= 1e-4, "{on:?}");
+            assert!(on.balance < 1e-5, "{on:?}");
+        }
+    }
+    // Against the plain passes, where they converge in reasonable time.
+    let plain = exact::convergence_with(100, 0.99, &options(Acceleration::Off, 400, 1e-4));
+    let on = exact::convergence_with(100, 0.99, &options(Acceleration::Diffusion, 400, 1e-4));
+    assert!(plain.passes > 200, "{plain:?}");
+    assert!(
+        (on.swept - plain.swept).abs() < 2e-4 * plain.swept,
+        "{on:?} {plain:?}"
+    );
+}
+
+#[test]
+fn thin_and_thick_cells_converge_to_the_plain_answer() {
+    // Cells of optical depth 0.05, 0.69 and 3 (the walk of thick cells, the diffusion
+    // of thin ones), albedo 0.99: the half-space albedo, both ways.
+    for pass in [0.95f32, 0.5, 0.05] {
+        let plain =
+            exact::half_space_with(0.99, pass, 20.0, &options(Acceleration::Off, 1200, 1e-6));
+        let on = exact::half_space_with(
+            0.99,
+            pass,
+            20.0,
+            &options(Acceleration::Diffusion, 1200, 1e-6),
+        );
+        assert!(
+            on.passes * 2 < plain.passes,
+            "pass-through {pass}: {} accelerated against {} plain passes",
+            on.passes,
+            plain.passes
+        );
+        assert!(
+            (on.swept - plain.swept).abs() < 1e-4 * plain.swept,
+            "pass-through {pass}: {on:?} {plain:?}"
+        );
+        assert!(on.balance < 1e-5, "{on:?}");
+    }
+}
+
+#[test]
+fn white_furnace_stays_exact_accelerated() {
+    // Random white blobs in empty space inside uniform radiance: heterogeneous media,
+    // edges, thin and thick cells; every bin 1 to the tolerance.
+    for seed in [7, 8, 9] {
+        let (avg, irr) =
+            exact::furnace_with(12, seed, &options(Acceleration::Diffusion, 400, 1e-6));
+        assert!(avg.passes < 400, "seed {seed}: {avg:?}");
+        assert!((avg.swept - 1.0).abs() < 1e-4, "seed {seed}: {avg:?}");
+        assert!((irr.swept - 1.0).abs() < 1e-4, "seed {seed}: {irr:?}");
+        assert!(avg.balance < 1e-5, "seed {seed}: {avg:?}");
+    }
+}
+
+/// A bright cloud bank over snow, open sides, a low sun: media, surfaces and the
+/// grid's open faces together.
+fn cloud_over_snow() -> (MaterialGrid, Boundary) {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(12, 16, 10)).expect("valid");
+    let cells = (0..d.point_count())
+        .map(|i| {
+            let p = d.coords(i).expect("in range");
+            if p.y == 0 {
+                Material::opaque(Vec3::splat(0.9))
+            } else if (4..12).contains(&p.y) && (2..10).contains(&p.x) && p.z > 1 {
+                Material {
+                    reflectance: Vec3::new(0.999, 0.99, 0.95),
+                    pass: if p.x.is_multiple_of(3) { 0.05 } else { 0.4 },
+                }
+            } else {
+                Material::EMPTY
+            }
+        })
+        .collect();
+    let m = MaterialGrid::new(d, cells).expect("valid");
+    let sun = Sun::at(30f32.to_radians(), 0.4, Vec3::splat(3.0))
+        .bins()
+        .expect("valid sun");
+    let mut sky = BinLight::uniform(Vec3::splat(0.2));
+    for (s, k) in sky.0.iter_mut().zip(sun.0) {
+        *s += k;
+    }
+    (m, Boundary::open_sky(sky))
+}
+
+#[test]
+fn a_cloud_over_snow_converges_to_the_same_light() {
+    let (m, b) = cloud_over_snow();
+    let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 2000, 1e-7)).expect("valid");
+    let on = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 2000, 1e-7)).expect("valid");
+    assert!(on.output.stats.corrections > 0);
+    assert!(
+        on.output.stats.passes * 3 < plain.output.stats.passes * 2,
+        "{} accelerated against {} plain passes",
+        on.output.stats.passes,
+        plain.output.stats.passes
+    );
+    let diff = worst_difference(&plain, &on);
+    assert!(diff < 1e-4, "worst difference {diff}");
+    assert!(on.balance.relative_error() < 1e-5, "{:?}", on.balance);
+    // Stopped early, at the multi-bounce tolerance, the light is still valid
+    // (clamped at 0) and close.
+    let early = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 16, 1e-3)).expect("valid");
+    let diff = worst_difference(&plain, &early);
+    assert!(diff < 2e-2, "worst difference {diff}");
+    assert!(early.balance.relative_error() < 1e-5, "{:?}", early.balance);
+}
+
+#[test]
+fn scenes_that_converge_fast_are_left_alone() {
+    // The canonical scenes converge in a few passes: the acceleration never switches
+    // on, and the light is the plain sweep's bit for bit.
+    for scene in Scene::ALL {
+        let (m, b) = scene.build(12);
+        let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 64, 1e-4)).expect("valid");
+        let on =
+            sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 64, 1e-4)).expect("valid");
+        assert_eq!(on.output.stats.corrections, 0, "{}", scene.name());
+        assert_eq!(on.output.stats.passes, plain.output.stats.passes);
+        assert_eq!(on.output.bins, plain.output.bins, "{}", scene.name());
+    }
+}
+
+#[test]
+fn without_media_or_off_nothing_changes() {
+    // Surfaces only: nothing to accelerate. Periodic ground of albedo 1 converges
+    // slowly, and stays the plain sweep's.
+    let m = exact::ground_material(2, 1.0);
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(BinLight::uniform(Vec3::ONE))
+    };
+    let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 32, 1e-5)).expect("valid");
+    let on = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 32, 1e-5)).expect("valid");
+    assert_eq!(on.output.stats.corrections, 0);
+    assert_eq!(on.output.bins, plain.output.bins);
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(16))]
+
+    /// Random bright media (albedo 0.97 to 1, pass-through 0.02 to 0.92 cell by cell),
+    /// surfaces and empty cells, open or periodic sides: the accelerated sweep
+    /// converges to the plain sweep's light, keeps the balance, and costs at most a
+    /// few passes more where it does not help.
+    #[test]
+    fn random_media_converge_to_the_plain_light(
+        seed in 0u64..1_000_000,
+        periodic in proptest::bool::ANY,
+    ) {
+        let mut rng = fastrand::Rng::with_seed(seed);
+        let dims = UVec3::new(rng.u32(3..8), rng.u32(6..16), rng.u32(3..8));
+        let d = GridDesc::new(Vec3::ZERO, 1.0, dims).expect("valid");
+        let cells = (0..d.point_count())
+            .map(|_| match rng.u32(0..20) {
+                0 => Material::opaque(Vec3::splat(0.5 + 0.5 * rng.f32())),
+                1..=2 => Material::EMPTY,
+                _ => Material {
+                    reflectance: Vec3::new(0.97 + 0.03 * rng.f32(), 0.97 + 0.03 * rng.f32(), 0.99),
+                    pass: 0.02 + 0.9 * rng.f32(),
+                },
+            })
+            .collect();
+        let m = MaterialGrid::new(d, cells).expect("valid");
+        let sun = Sun::at(0.4 + rng.f32(), rng.f32() * 6.0, Vec3::ONE).bins().expect("sun");
+        let b = Boundary {
+            sides: if periodic { SideBoundary::Periodic } else { SideBoundary::Open },
+            ..Boundary::open_sky(sun)
+        };
+        let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 4000, 1e-7)).expect("valid");
+        let on = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 4000, 1e-7)).expect("valid");
+        proptest::prop_assert!(on.output.stats.passes <= plain.output.stats.passes + 8,
+            "{} accelerated against {} plain passes", on.output.stats.passes, plain.output.stats.passes);
+        let diff = worst_difference(&plain, &on);
+        proptest::prop_assert!(diff < 1e-4, "worst difference {}", diff);
+        proptest::prop_assert!(on.balance.relative_error() < 1e-5, "{:?}", on.balance);
+    }
+}
