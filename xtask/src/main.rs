@@ -18,9 +18,11 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::{Parser, Subcommand};
 
 pub mod bench;
+mod convergence;
 mod sun;
 
 #[derive(Debug, Parser)]
@@ -132,30 +134,32 @@ fn main() -> ExitCode {
 
 fn exact(root: &std::path::Path, max_passes: u32) -> ExitCode {
     use sweep_cpu::exact;
-    let mut cases = exact::measure(max_passes);
-    for depth in [1, 10, 100, 1000] {
-        for w in [0.5, 0.9, 0.99, 0.999] {
-            eprintln!("slab of optical depth {depth}, albedo {w}...");
-            cases.push(exact::convergence(depth, w, max_passes));
-        }
-    }
+    let cases = exact::measure(max_passes);
+    let rows = convergence::measure(max_passes);
+    let halves = convergence::half_spaces(max_passes);
     let text = format!(
-        "cargo xtask exact --max-passes {max_passes}\n{}",
-        exact::table(&cases)
+        "cargo xtask exact --max-passes {max_passes}\n{}\nPasses and time to tolerance 1e-4, slabs of cells of optical depth 1 under a zenith beam (plain | accelerated):\n{}\nHalf-spaces to tolerance 1e-5 (plain | accelerated):\n{}",
+        exact::table(&cases),
+        convergence::table(&rows),
+        convergence::half_space_table(&halves)
     );
     print!("{text}");
     let out = root.join("target/bench");
     let _ = std::fs::create_dir_all(&out);
-    match std::fs::write(out.join("exact.txt"), &text) {
+    let written = std::fs::write(out.join("exact.txt"), &text)
+        .with_context(|| format!("writing {}", out.join("exact.txt").display()))
+        .and_then(|()| convergence::plot(&rows, &out.join("convergence.png")));
+    match written {
         Ok(()) => {
-            println!("wrote {}", out.join("exact.txt").display());
+            println!(
+                "wrote {} and {}",
+                out.join("exact.txt").display(),
+                out.join("convergence.png").display()
+            );
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!(
-                "xtask exact: writing {}: {e}",
-                out.join("exact.txt").display()
-            );
+            eprintln!("xtask exact: {e:#}");
             ExitCode::FAILURE
         }
     }

@@ -35,8 +35,13 @@
 //!    quarter of the horizontal ones). Thin cells diffuse (`D = 1/(3τ)`, Marshak's
 //!    vacuum condition on faces to anything that is not medium); in cells thicker than
 //!    about 1 the sweep's flat source moves light one cell per generation, faster than
-//!    diffusion would, and the walk's coefficients take over. Surfaces, empty cells and
-//!    the grid's open sides are vacuum to the estimate (periodic sides wrap).
+//!    diffusion would, and the walk's coefficients take over. Empty cells beside
+//!    media join the estimate as free flight (`D = 1 / (3 × 0.1)`, no collisions), so
+//!    light crosses a gap and collides on the other side; surfaces, the empty space
+//!    beyond and the grid's open sides are vacuum to it (periodic sides wrap). The
+//!    solve is preconditioned by the vertical lines of cells (solved exactly) plus a
+//!    coarse problem of one unknown per level: a few iterations, where point-by-point
+//!    preconditioning took hundreds in a thin layer.
 //! 4. **Damping.** Of the light waiting, `ω` = [`DAMPING`] is emitted in the next pair
 //!    with the estimate `δ`; the rest is held back a pair. Cell-to-cell alternating
 //!    patterns, which a pair turns over (a thick cell's light lands in its
@@ -50,13 +55,13 @@
 //!    its absolute value, and the final light is clamped at 0 (a point in the dark may
 //!    be off by up to the tolerance).
 //!
-//! Measured (`cargo xtask exact`, tolerance 1e-4, cells of optical depth 1): passes
-//! 8 / 18 / 20 / 26 at albedo 0.5 / 0.9 / 0.99 / 0.999 for slabs of optical depth 10
-//! to 1000, where the plain passes take 8 / 33 / 264 / over 1000. Cost: a conjugate
-//! gradient solve over the media cells per pair (a 7-point stencil; tens of
-//! iterations), small against a pass over every point.
+//! Measured (`cargo xtask exact`, tolerance 1e-4, slabs of cells of optical depth 1):
+//! passes 8 / 30 / 26 / 24 at albedo 0.5 / 0.9 / 0.99 / 0.999 for a slab of optical
+//! depth 100 or 1000, where the plain passes take 8 / 33 / 264 / over 1024 (albedo 0.5
+//! and 0.9 converge fast enough not to switch). Each estimate costs a few
+//! conjugate-gradient iterations over the media cells, small against a pass.
 
-use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::glam::{DVec3, UVec3, Vec3};
 use lightgrid_core::{Acceleration, MaterialGrid, MediumEmission, SweepOptions};
 
 /// A sweep runs accelerated from the first pair of passes after which the light
@@ -126,6 +131,10 @@ fn faces(lnp: f32) -> Faces {
     }
 }
 
+/// Most conjugate-gradient iterations of one estimate (it needs no more than a rough
+/// answer: what it misses, the passes after it find).
+const MAX_ITERATIONS: u32 = 500;
+
 /// The optical depth the estimate gives an empty cell beside media (its diffusion
 /// coefficient `1 / (3 GAP_TAU)`: light crosses it all but freely).
 const GAP_TAU: f32 = 0.1;
@@ -165,6 +174,19 @@ pub struct Diffusion {
     scatter: Vec<Vec3>,
     /// Relative residual the solve stops at.
     tolerance: f32,
+    /// The preconditioner's vertical lines (slots bottom to top, one line after
+    /// another), where each starts, and its tridiagonal factors per slot.
+    lines: Vec<u32>,
+    line_start: Vec<u32>,
+    denom: Vec<DVec3>,
+    upper: Vec<DVec3>,
+    /// The coarse problem of the preconditioner: the operator summed over each level
+    /// (`Pᵀ A P`, `P` the level's cells alike), as tridiagonal factors per level, and
+    /// each slot's level.
+    level: Vec<u32>,
+    coarse_denom: Vec<DVec3>,
+    coarse_upper: Vec<DVec3>,
+    coarse_lower: Vec<DVec3>,
 }
 
 /// What a correction did.
@@ -306,37 +328,196 @@ impl Diffusion {
             diag.push(if gap { d } else { d + (Vec3::ONE - ae) * t });
             scatter.push(if gap { Vec3::ZERO } else { ae * t });
         }
-        Some(Self {
-            cells,
-            media,
-            slot,
-            nb,
-            k,
-            diag,
-            scatter,
-            tolerance: 1e-4,
-        })
+        Some(
+            Self {
+                cells,
+                media,
+                slot,
+                nb,
+                k,
+                diag,
+                scatter,
+                tolerance: 1e-3,
+                lines: Vec::new(),
+                line_start: Vec::new(),
+                denom: Vec::new(),
+                upper: Vec::new(),
+                level: Vec::new(),
+                coarse_denom: Vec::new(),
+                coarse_upper: Vec::new(),
+                coarse_lower: Vec::new(),
+            }
+            .with_lines()
+            .with_levels(desc.level_len(), desc.levels() as usize),
+        )
     }
 
-    fn apply(&self, x: &[Vec3], out: &mut [Vec3]) {
+    /// The vertical lines of the preconditioner: runs of cells joined bottom to top,
+    /// and the tridiagonal (Thomas) factors of each along it.
+    fn with_lines(mut self) -> Self {
+        let n = self.cells.len();
+        let (mut lines, mut start) = (Vec::with_capacity(n), Vec::new());
+        let (mut denom, mut upper) = (vec![DVec3::ONE; n], vec![DVec3::ZERO; n]);
+        for c in 0..n {
+            if self.nb[c][2] != OPEN {
+                continue;
+            }
+            start.push(lines.len() as u32);
+            let mut i = c;
+            let mut up_prev = DVec3::ZERO;
+            loop {
+                lines.push(i as u32);
+                // b_i − a_i c'_{i−1}, with a_i = −k_down, c'_{i−1} = −k_up(prev) / denom.
+                let below_k = self.k[i][2].as_dvec3();
+                let d = self.diag[i].as_dvec3() - below_k * up_prev;
+                denom[i] = d;
+                let up = self.nb[i][3];
+                let ku = self.k[i][3].as_dvec3();
+                upper[i] = ku / d;
+                up_prev = upper[i];
+                if up == OPEN {
+                    break;
+                }
+                i = up as usize;
+            }
+        }
+        start.push(lines.len() as u32);
+        self.lines = lines;
+        self.line_start = start;
+        self.denom = denom;
+        self.upper = upper;
+        self
+    }
+
+    /// The coarse problem: one unknown per level.
+    fn with_levels(mut self, level_len: usize, levels: usize) -> Self {
+        self.level = self
+            .cells
+            .iter()
+            .map(|&i| (i as usize / level_len) as u32)
+            .collect();
+        let (mut diag, mut lower, mut upper) = (
+            vec![DVec3::ZERO; levels],
+            vec![DVec3::ZERO; levels],
+            vec![DVec3::ZERO; levels],
+        );
+        for c in 0..self.cells.len() {
+            let j = self.level[c] as usize;
+            let mut d = self.diag[c].as_dvec3();
+            for f in [0, 1, 4, 5] {
+                if self.nb[c][f] != OPEN {
+                    d -= self.k[c][f].as_dvec3();
+                }
+            }
+            diag[j] += d;
+            if self.nb[c][2] != OPEN {
+                lower[j] += self.k[c][2].as_dvec3();
+            }
+            if self.nb[c][3] != OPEN {
+                upper[j] += self.k[c][3].as_dvec3();
+            }
+        }
+        // Thomas factors; a level without cells is left out (identity).
+        let (mut den, mut up) = (vec![DVec3::ONE; levels], vec![DVec3::ZERO; levels]);
+        let mut up_prev = DVec3::ZERO;
+        for j in 0..levels {
+            if diag[j] == DVec3::ZERO {
+                up_prev = DVec3::ZERO;
+                continue;
+            }
+            den[j] = diag[j] - lower[j] * up_prev;
+            up[j] = upper[j] / den[j];
+            up_prev = up[j];
+        }
+        self.coarse_denom = den;
+        self.coarse_upper = up;
+        self.coarse_lower = lower;
+        self
+    }
+
+    /// `z += P A_c⁻¹ Pᵀ r`: the coarse problem's answer spread over each level.
+    fn coarse(&self, r: &[DVec3], z: &mut [DVec3]) {
+        let levels = self.coarse_denom.len();
+        let mut rc = vec![DVec3::ZERO; levels];
+        for (c, v) in r.iter().enumerate() {
+            rc[self.level[c] as usize] += *v;
+        }
+        let mut prev = DVec3::ZERO;
+        for j in 0..levels {
+            prev = (rc[j] + self.coarse_lower[j] * prev) / self.coarse_denom[j];
+            rc[j] = prev;
+        }
+        let mut next = DVec3::ZERO;
+        for j in (0..levels).rev() {
+            next = rc[j] + self.coarse_upper[j] * next;
+            rc[j] = next;
+        }
+        for (c, v) in z.iter_mut().enumerate() {
+            *v += rc[self.level[c] as usize];
+        }
+    }
+
+    /// `z = M⁻¹ r`: the operator's vertical lines solved exactly, plus the coarse
+    /// problem's answer (a two-level additive preconditioner). A layer of thin media
+    /// couples over many levels and, laterally, over whole levels: point by point,
+    /// conjugate gradients took hundreds of iterations there; with both, a few.
+    fn precondition(&self, r: &[DVec3], z: &mut [DVec3]) {
+        for w in self.line_start.windows(2) {
+            let line = &self.lines[w[0] as usize..w[1] as usize];
+            let mut prev = DVec3::ZERO;
+            for (j, &c) in line.iter().enumerate() {
+                let c = c as usize;
+                // d'_i = (d_i − a_i d'_{i−1}) / denom_i, a_i = −k_down.
+                let below = if j > 0 {
+                    self.k[c][2].as_dvec3() * prev
+                } else {
+                    DVec3::ZERO
+                };
+                prev = (r[c] + below) / self.denom[c];
+                z[c] = prev;
+            }
+            let mut next = DVec3::ZERO;
+            for &c in line.iter().rev() {
+                let c = c as usize;
+                // x_i = d'_i − c'_i x_{i+1}, c'_i = −k_up / denom.
+                next = z[c] + self.upper[c] * next;
+                z[c] = next;
+            }
+        }
+        self.coarse(r, z);
+    }
+
+    fn apply(&self, x: &[DVec3], out: &mut [DVec3]) {
         for (c, o) in out.iter_mut().enumerate() {
-            let mut v = self.diag[c] * x[c];
+            let mut v = self.diag[c].as_dvec3() * x[c];
             for f in 0..6 {
                 let n = self.nb[c][f];
                 if n != OPEN {
-                    v -= self.k[c][f] * x[n as usize];
+                    v -= self.k[c][f].as_dvec3() * x[n as usize];
                 }
             }
             *o = v;
         }
     }
 
-    /// The later generations `δ` of waiting light `q` (per media cell, in the order of
-    /// [`Diffusion::cells`]), written to `delta`. Linear in `q`; `q ≥ 0` gives `δ ≥ 0`.
+    /// The later generations `δ` of waiting light `q` (per cell of the estimate, in
+    /// the order of [`Diffusion::cells`]; 0 for the empty ones), written to `delta`.
+    /// Linear in `q` up to the solver's tolerance; `q ≥ 0` gives `δ ≥ 0`.
     pub fn correct(&self, q: &[Vec3], delta: &mut [Vec3]) -> Correction {
+        let (x, iterations) = self.solve(&self.smooth(q));
+        for ((d, s), x) in delta.iter_mut().zip(&self.scatter).zip(&x) {
+            let v = *s * x.as_vec3();
+            *d = if v.is_finite() { v } else { Vec3::ZERO };
+        }
+        Correction { iterations }
+    }
+
+    /// `q` through [`SMOOTHING`] rounds of the 1-2-1 filter along each axis, over the
+    /// estimate's cells.
+    fn smooth(&self, q: &[Vec3]) -> Vec<DVec3> {
         let n = self.cells.len();
-        let mut sq = q.to_vec();
-        let mut tmp = vec![Vec3::ZERO; n];
+        let mut sq: Vec<DVec3> = q.iter().map(|v| v.as_dvec3()).collect();
+        let mut tmp = vec![DVec3::ZERO; n];
         for _ in 0..SMOOTHING {
             for axis in 0..3 {
                 for c in 0..n {
@@ -354,51 +535,46 @@ impl Diffusion {
                 std::mem::swap(&mut sq, &mut tmp);
             }
         }
-        let q = &sq[..];
-        // Jacobi-preconditioned conjugate gradients, the three colours side by side.
-        let mut x = vec![Vec3::ZERO; n];
-        let mut r = q.to_vec();
-        let mut z: Vec<Vec3> = r.iter().zip(&self.diag).map(|(r, d)| *r / *d).collect();
+        sq
+    }
+
+    /// `A⁻¹ b` by conjugate gradients preconditioned by [`Diffusion::precondition`],
+    /// the three colours side by side, in f64 (a thin medium's operator is
+    /// ill-conditioned for f32); and the iterations it took.
+    fn solve(&self, b: &[DVec3]) -> (Vec<DVec3>, u32) {
+        let n = self.cells.len();
+        let mut x = vec![DVec3::ZERO; n];
+        let mut r = b.to_vec();
+        let mut z = vec![DVec3::ZERO; n];
+        self.precondition(&r, &mut z);
         let mut p = z.clone();
-        let mut ap = vec![Vec3::ZERO; n];
-        let dot = |a: &[Vec3], b: &[Vec3]| -> Vec3 {
-            a.iter()
-                .zip(b)
-                .map(|(a, b)| (*a * *b).as_dvec3())
-                .sum::<lightgrid_core::glam::DVec3>()
-                .as_vec3()
-        };
-        let norm0 = dot(&r, &r);
-        let stop = norm0 * self.tolerance * self.tolerance;
+        let mut ap = vec![DVec3::ZERO; n];
+        let dot =
+            |a: &[DVec3], b: &[DVec3]| -> DVec3 { a.iter().zip(b).map(|(a, b)| *a * *b).sum() };
+        let stop = dot(&r, &r) * (self.tolerance as f64).powi(2);
         let mut rz = dot(&r, &z);
         let mut iterations = 0;
-        let limit = 50 + 20 * n as u32;
-        while iterations < limit.min(4000) {
-            let rr = dot(&r, &r);
-            if rr.cmple(stop).all() {
+        while iterations < MAX_ITERATIONS {
+            if dot(&r, &r).cmple(stop).all() {
                 break;
             }
             iterations += 1;
             self.apply(&p, &mut ap);
             let pap = dot(&p, &ap);
-            let alpha = Vec3::select(pap.cmpgt(Vec3::ZERO), rz / pap, Vec3::ZERO);
+            let alpha = DVec3::select(pap.cmpgt(DVec3::ZERO), rz / pap, DVec3::ZERO);
             for i in 0..n {
                 x[i] += alpha * p[i];
                 r[i] -= alpha * ap[i];
-                z[i] = r[i] / self.diag[i];
             }
+            self.precondition(&r, &mut z);
             let rz_new = dot(&r, &z);
-            let beta = Vec3::select(rz.cmpgt(Vec3::ZERO), rz_new / rz, Vec3::ZERO);
+            let beta = DVec3::select(rz.cmpgt(DVec3::ZERO), rz_new / rz, DVec3::ZERO);
             rz = rz_new;
             for i in 0..n {
                 p[i] = z[i] + beta * p[i];
             }
         }
-        for i in 0..n {
-            let d = self.scatter[i] * x[i];
-            delta[i] = if d.is_finite() { d } else { Vec3::ZERO };
-        }
-        Correction { iterations }
+        (x, iterations)
     }
 }
 
@@ -443,6 +619,70 @@ mod tests {
         assert!((mid - want).abs() < 1e-3 * want, "{mid} against {want}");
         // Near the open top and bottom less comes back.
         assert!(delta[0].x < 0.7 * mid);
+    }
+
+    #[test]
+    fn the_solve_equals_a_dense_elimination() {
+        // A heterogeneous grid: media of every optical depth, gaps, surfaces, open
+        // sides; the conjugate-gradient answer against Gaussian elimination of the
+        // same operator, per colour.
+        let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(5, 6, 4)).expect("valid");
+        let mut rng = fastrand::Rng::with_seed(3);
+        let cells = (0..d.point_count())
+            .map(|_| match rng.u32(0..8) {
+                0 => Material::EMPTY,
+                1 => Material::opaque(Vec3::splat(0.7)),
+                _ => Material {
+                    reflectance: Vec3::new(0.99, 0.9, 0.5 + 0.5 * rng.f32()),
+                    pass: 0.01 + 0.98 * rng.f32(),
+                },
+            })
+            .collect();
+        let m = MaterialGrid::new(d, cells).expect("valid");
+        for periodic in [false, true] {
+            let s = Diffusion::of(&m, periodic, &on()).expect("media");
+            assert!(s.cells.len() > s.media, "gap cells join the estimate");
+            let n = s.cells.len();
+            let b: Vec<DVec3> = (0..n)
+                .map(|i| DVec3::new(1.0 + (i % 3) as f64, 0.5, (i % 7) as f64))
+                .collect();
+            let (x, iterations) = s.solve(&b);
+            assert!(iterations < 40, "{iterations}");
+            for colour in 0..3 {
+                let mut a = vec![vec![0f64; n + 1]; n];
+                for c in 0..n {
+                    a[c][c] = s.diag[c][colour] as f64;
+                    for f in 0..6 {
+                        if s.nb[c][f] != OPEN {
+                            a[c][s.nb[c][f] as usize] -= s.k[c][f][colour] as f64;
+                        }
+                    }
+                    a[c][n] = b[c][colour];
+                }
+                for col in 0..n {
+                    let piv = (col..n)
+                        .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+                        .expect("rows");
+                    a.swap(col, piv);
+                    for row in 0..n {
+                        if row != col {
+                            let f = a[row][col] / a[col][col];
+                            for k in col..=n {
+                                a[row][k] -= f * a[col][k];
+                            }
+                        }
+                    }
+                }
+                for c in 0..n {
+                    let want = a[c][n] / a[c][c];
+                    assert!(
+                        (x[c][colour] - want).abs() <= 1e-2 * want.abs() + 1e-6,
+                        "{} against {want}",
+                        x[c][colour]
+                    );
+                }
+            }
+        }
     }
 
     #[test]

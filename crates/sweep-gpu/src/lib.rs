@@ -50,6 +50,11 @@
 //! light still to transport lies within rounding of the threshold. The GPU computes the
 //! levels sweep-cpu copies (the same values), so `SweepStats` differ.
 //!
+//! **Acceleration.** `SweepOptions::acceleration` is not implemented on the GPU: the
+//! passes run plain (`SweepStats::corrections` is 0), which for thick, bright media
+//! takes more passes to the tolerance than sweep-cpu's diffusion acceleration
+//! (`sweep_cpu::accel`); both converge to the same light.
+//!
 //! **Speed** (`cargo bench -p sweep-gpu`): on the CI machine the adapter is lavapipe,
 //! Mesa's software Vulkan on the same two cores: 32³ canopy, 4 passes, 0.90 s against
 //! sweep-cpu's 44 ms (upload 13 ms, readback 9 ms); 64³: about 6.4 s against 0.33 s. These
