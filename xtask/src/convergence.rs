@@ -4,7 +4,8 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use crate::bench::plot::err;
+use anyhow::Result;
 use lightgrid_core::{Acceleration, SweepOptions};
 use plotters::prelude::*;
 use sweep_cpu::exact::{self, Case};
@@ -158,21 +159,13 @@ pub(crate) fn plot(rows: &[Row], path: &Path) -> Result<()> {
                     } else {
                         colour.mix(0.5).stroke_width(1)
                     };
-                    let s = chart
-                        .draw_series(LineSeries::new(line.clone(), style))
-                        .map_err(err)?;
-                    if text {
-                        let name = format!(
+                    let label = text.then(|| {
+                        format!(
                             "albedo {albedo}, {}",
                             if accelerated { "accelerated" } else { "plain" }
-                        );
-                        s.label(name).legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 16, y)], style)
-                        });
-                    }
-                    chart
-                        .draw_series(line.iter().map(|p| Circle::new(*p, 3, colour.filled())))
-                        .map_err(err)?;
+                        )
+                    });
+                    crate::bench::plot::line_with_points(&mut chart, &line, style, label)?;
                 }
             }
             if text {
@@ -188,10 +181,5 @@ pub(crate) fn plot(rows: &[Row], path: &Path) -> Result<()> {
         }
         root.present().map_err(err)?;
     }
-    image::save_buffer(path, &buf, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
-}
-
-fn err<E: std::fmt::Display>(e: E) -> anyhow::Error {
-    anyhow::anyhow!("plotting: {e}")
+    crate::bench::plot::save_rgb(&buf, (w, h), path)
 }

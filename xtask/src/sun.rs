@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use crate::bench::plot::err;
+use anyhow::Result;
 use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, MaterialSource, SweepOptions};
 use material_voxelizer::compose::{
@@ -192,17 +193,12 @@ fn plot(rows: &[(f32, f32, SunErrors)], path: &Path) -> Result<()> {
             ];
             for (name, colour, f) in series {
                 let line: Vec<(f32, f64)> = pts.iter().map(|r| (r.0, f(&r.2))).collect();
-                let s = chart
-                    .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))
-                    .map_err(err)?;
-                if text {
-                    s.label(name).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
-                    });
-                }
-                chart
-                    .draw_series(line.iter().map(|p| Circle::new(*p, 3, colour.filled())))
-                    .map_err(err)?;
+                crate::bench::plot::line_with_points(
+                    &mut chart,
+                    &line,
+                    colour.stroke_width(2),
+                    text.then(|| name.to_string()),
+                )?;
             }
             if text {
                 chart
@@ -215,10 +211,5 @@ fn plot(rows: &[(f32, f32, SunErrors)], path: &Path) -> Result<()> {
         }
         root.present().map_err(err)?;
     }
-    image::save_buffer(path, &buf, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
-}
-
-fn err<E: std::fmt::Display>(e: E) -> anyhow::Error {
-    anyhow::anyhow!("plotting: {e}")
+    crate::bench::plot::save_rgb(&buf, (w, h), path)
 }

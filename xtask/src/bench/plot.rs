@@ -27,6 +27,44 @@ pub(crate) fn register_font() -> bool {
     false
 }
 
+/// A plotting error as an `anyhow` error.
+pub(crate) fn err<E: std::fmt::Display>(e: E) -> anyhow::Error {
+    anyhow::anyhow!("plotting: {e}")
+}
+
+/// An RGB8 picture of `w × h` written to `path` as PNG.
+pub(crate) fn save_rgb(buf: &[u8], (w, h): (u32, u32), path: &Path) -> Result<()> {
+    image::save_buffer(path, buf, w, h, image::ColorType::Rgb8)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// A line through `points`, a dot on each, and (with a `label`) its legend entry.
+pub(crate) fn line_with_points<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    points: &[(X::ValueType, Y::ValueType)],
+    style: ShapeStyle,
+    label: Option<String>,
+) -> Result<()>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    X: Ranged<ValueType: Clone + 'static>,
+    Y: Ranged<ValueType: Clone + 'static>,
+{
+    let s = chart
+        .draw_series(LineSeries::new(points.to_vec(), style))
+        .map_err(err)?;
+    if let Some(label) = label {
+        s.label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+    }
+    let dot = style.color.filled();
+    chart
+        .draw_series(points.iter().map(|p| Circle::new(p.clone(), 3, dot)))
+        .map_err(err)?;
+    Ok(())
+}
+
 /// Draws the plot into `path`.
 pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
     let text = register_font();
@@ -47,7 +85,7 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+        root.fill(&WHITE).map_err(err)?;
         let panels = root.split_evenly((rows, cols));
         for (scene, area) in scenes.iter().zip(panels.iter()) {
             let pts = |m: &str| -> Vec<(f64, f64)> {
@@ -84,7 +122,7 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
                     (tmin * 0.5..tmax * 2.0).log_scale(),
                     (emin * 0.5..emax * 2.0).log_scale(),
                 )
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
+                .map_err(err)?;
             if text {
                 chart
                     .configure_mesh()
@@ -95,7 +133,7 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
                     .light_line_style(WHITE)
                     .label_style(("sans-serif", 13))
                     .draw()
-                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                    .map_err(err)?;
             }
             for (m, colour) in [
                 ("sweep-cpu", BLUE),
@@ -112,7 +150,7 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
                         p.iter()
                             .map(|&(x, y)| Circle::new((x, y), 4, colour.filled())),
                     )
-                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                    .map_err(err)?;
                 if text {
                     series
                         .label(m)
@@ -121,7 +159,7 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
                 if m == "monte-carlo" {
                     chart
                         .draw_series(LineSeries::new(p.clone(), colour))
-                        .map_err(|e| anyhow::anyhow!("{e}"))?;
+                        .map_err(err)?;
                 }
             }
             if text {
@@ -131,11 +169,10 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
                     .border_style(BLACK)
                     .label_font(("sans-serif", 13))
                     .draw()
-                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+                    .map_err(err)?;
             }
         }
-        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+        root.present().map_err(err)?;
     }
-    image::save_buffer(path, &buf, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
+    save_rgb(&buf, (w, h), path)
 }
