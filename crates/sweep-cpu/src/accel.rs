@@ -9,9 +9,10 @@
 //!
 //! 1. **When.** The passes run plain while they converge fast; from the first pair of
 //!    passes after which the light waiting is more than [`SWITCH`] of what waited
-//!    after the pair before, they run accelerated. Scenes that converge in a few
-//!    passes (dark foliage, ground) never switch, and get the plain sweep's light bit
-//!    for bit.
+//!    after the pair before, they run accelerated (the estimate's operator is built
+//!    then). Scenes that converge in a few passes (dark foliage, ground) never switch,
+//!    and get the plain sweep's light bit for bit; if two accelerated pairs in a row
+//!    leave more waiting, the passes go back to plain ones.
 //! 2. **One generation per pair.** Accelerated, a medium cell emits in a pair of passes
 //!    only what waited before it; what collides during the pair waits for the next
 //!    (the plain passes emit half of it at once, which diffusion cannot model).
@@ -28,7 +29,8 @@
 //!    B_f = max(2 D / (1 + 4 D) with D = 1 / (3 τ_c), τ_c e_c s_f)
 //!    ```
 //!
-//!    `e_c = G / (G + (1 − a) K)` is the part of a cell's emission that leaves it (the
+//!    of which [`GAIN`] is added (diffusion over a few cells of optical depth about 1
+//!    foresees more than the passes then find). `e_c = G / (G + (1 − a) K)` is the part of a cell's emission that leaves it (the
 //!    sweep scatters what the cell's own material stops again at once,
 //!    [`crate::medium`]), and `s_f` the share of it leaving through face `f` in the
 //!    sweep's own paths (top and bottom: vertical and diagonal channels; each side: a

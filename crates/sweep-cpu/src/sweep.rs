@@ -2172,17 +2172,18 @@ fn run_with<S: Sink>(
 
     // Diffusion acceleration (`crate::accel`): the correction added to the media's
     // waiting light after the last pair of passes, taken back after the next.
-    let dsa = crate::accel::Diffusion::of(material, fixed.periodic, options);
-    let mut debt = Debt::new(dsa.as_ref());
+    // Built when the passes switch to it (a sweep that converges fast pays nothing).
+    let may_accelerate = options.acceleration == lightgrid_core::Acceleration::Diffusion
+        && options.medium == MediumEmission::Source
+        && fixed.level_medium.iter().any(|&m| m);
+    let mut dsa: Option<crate::accel::Diffusion> = None;
+    let mut debt = Debt::new(None);
     // How the passes run (accelerated from the first pair whose light waiting fell
     // slowly), the waiting light after the last pair, and for how many pairs in a row
     // it grew.
     let mut mode = Mode::Plain;
     let mut waited = f64::INFINITY;
     let mut grew = 0;
-    if dsa.is_some() && w.pend_next.len() != desc.point_count() {
-        w.pend_next = bytemuck::zeroed_vec(desc.point_count());
-    }
 
     for pass in 0..options.max_passes {
         let up = pass % 2 == 1;
@@ -2413,46 +2414,49 @@ fn run_with<S: Sink>(
         // With acceleration: what waits net of the correction not yet taken back, and
         // the convergence test on the largest waiting light of either sign, after
         // each pair.
-        let waiting = match (&dsa, mode) {
-            (Some(d), Mode::Accelerated | Mode::Fallback) => {
-                let before = debt.waiting(d, &w, cells, &fixed, options.medium);
-                bal.pending = before.net;
-                if up && mode == Mode::Accelerated {
-                    // Two pairs in a row that left more waiting: the estimate does
-                    // not suit this medium; back to plain passes (light of either
-                    // sign now).
-                    let now = before.abs.max_element();
-                    grew = if now > waited { grew + 1 } else { 0 };
-                    waited = now;
-                    if grew >= 2 {
-                        debt.release(d, &mut w);
-                        mode = Mode::Fallback;
-                    } else {
-                        stats.corrections += 1;
-                        debt.correct(d, &mut w, &fixed.lnp);
-                    }
+        let waiting = if let Some(d) = dsa.as_ref().filter(|_| mode != Mode::Plain) {
+            let before = debt.waiting(d, &w, cells, &fixed, options.medium);
+            bal.pending = before.net;
+            if up && mode == Mode::Accelerated {
+                // Two pairs in a row that left more waiting: the estimate does
+                // not suit this medium; back to plain passes (light of either
+                // sign now).
+                let now = before.abs.max_element();
+                grew = if now > waited { grew + 1 } else { 0 };
+                waited = now;
+                if grew >= 2 {
+                    debt.release(d, &mut w);
+                    mode = Mode::Fallback;
+                } else {
+                    stats.corrections += 1;
+                    debt.correct(d, &mut w, &fixed.lnp);
                 }
-                if up { before.abs } else { DVec3::INFINITY }
             }
-            _ => {
-                bal.pending = pending;
-                if let Some(d) = dsa.as_ref().filter(|_| up) {
-                    // Plain passes while the light waiting falls fast; accelerated
-                    // from the first pair after which it fell by less than
-                    // `crate::accel::SWITCH`.
-                    let now = pending.max_element();
-                    if now > crate::accel::SWITCH * waited
-                        && now > options.tolerance as f64 * bal.input().max_element()
-                        && pass + 1 < options.max_passes
-                    {
-                        mode = Mode::Accelerated;
-                        stats.corrections += 1;
-                        debt.correct(d, &mut w, &fixed.lnp);
+            if up { before.abs } else { DVec3::INFINITY }
+        } else {
+            bal.pending = pending;
+            if may_accelerate && up {
+                // Plain passes while the light waiting falls fast; accelerated from
+                // the first pair after which it fell by less than
+                // `crate::accel::SWITCH`.
+                let now = pending.max_element();
+                if now > crate::accel::SWITCH * waited
+                    && now > options.tolerance as f64 * bal.input().max_element()
+                    && pass + 1 < options.max_passes
+                    && let Some(d) = crate::accel::Diffusion::of(material, fixed.periodic, options)
+                {
+                    if w.pend_next.len() != desc.point_count() {
+                        w.pend_next = bytemuck::zeroed_vec(desc.point_count());
                     }
-                    waited = now;
+                    debt = Debt::new(Some(&d));
+                    mode = Mode::Accelerated;
+                    stats.corrections += 1;
+                    debt.correct(&d, &mut w, &fixed.lnp);
+                    dsa = Some(d);
                 }
-                pending
+                waited = now;
             }
+            pending
         };
         let input = bal.input().max_element();
         if waiting.max_element() <= options.tolerance as f64 * input && pass >= 1 {
