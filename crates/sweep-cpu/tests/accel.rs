@@ -232,3 +232,48 @@ proptest::proptest! {
         proptest::prop_assert!(on.balance.relative_error() < 1e-5, "{:?}", on.balance);
     }
 }
+
+#[test]
+fn given_sides_average_only_and_the_sun_split_converge_alike() {
+    // The cloud over snow with halo light at the sides, average and dominant outputs
+    // only, and the sun as the cell source of its first collisions: accelerated, the
+    // same averages as plain passes.
+    let (m, mut b) = cloud_over_snow();
+    let d = *m.desc();
+    b.sides = SideBoundary::Given(vec![
+        BinLight::uniform(Vec3::splat(0.3));
+        lightgrid_core::HaloLayout::new(d.dims()).len()
+    ]);
+    let removed: Vec<Vec3> = (0..d.point_count())
+        .map(|i| {
+            let c = m.data()[i];
+            if c.pass < 1.0 {
+                Vec3::splat(1.0 - c.pass)
+            } else {
+                Vec3::ZERO
+            }
+        })
+        .collect();
+    let src = lightgrid_core::CellSource::new(d, removed, Vec3::new(0.3, -0.9, 0.1).normalize())
+        .expect("valid source");
+    let run = |acceleration| {
+        let mut o = options(acceleration, 2000, 1e-7);
+        o.outputs = lightgrid_core::Outputs::AVERAGE_DOMINANT;
+        sweep_cpu::run_with_source(&m, &b, Some(&src), &o).expect("valid")
+    };
+    let (plain, on) = (run(Acceleration::Off), run(Acceleration::Diffusion));
+    assert!(on.output.stats.corrections > 0);
+    assert!(on.output.stats.passes < plain.output.stats.passes);
+    let (a, c) = (
+        plain.output.average.as_ref().expect("average").data(),
+        on.output.average.as_ref().expect("average").data(),
+    );
+    let top = a.iter().map(|v| v.0.max_element()).fold(0f32, f32::max);
+    let worst = a
+        .iter()
+        .zip(c)
+        .map(|(x, y)| (x.0 - y.0).abs().max_element())
+        .fold(0f32, f32::max);
+    assert!(worst < 1e-4 * top, "worst difference {worst} of {top}");
+    assert!(on.balance.relative_error() < 1e-5, "{:?}", on.balance);
+}
