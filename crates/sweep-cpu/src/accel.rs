@@ -141,6 +141,16 @@ const MAX_ITERATIONS: u32 = 500;
 /// coefficient `1 / (3 GAP_TAU)`: light crosses it all but freely).
 const GAP_TAU: f32 = 0.1;
 
+/// Whether `options` ask for acceleration that applies: [`Acceleration::Diffusion`]
+/// under the source rule (the only medium rule it models).
+pub fn wanted(options: &SweepOptions) -> bool {
+    options.acceleration == Acceleration::Diffusion && options.medium == MediumEmission::Source
+}
+
+/// Relative residual at which the estimate's solve stops (a rough answer does: what
+/// it misses, the passes after it find).
+const SOLVE_TOLERANCE: f64 = 1e-3;
+
 /// The six face neighbours' offsets, in the order of [`Diffusion`]'s neighbour slots
 /// (face `f` lies on axis `f / 2`).
 const FACES: [[i32; 3]; 6] = [
@@ -174,8 +184,6 @@ pub struct Diffusion {
     diag: Vec<Vec3>,
     /// Per media cell: `a τ` (what a unit of `φ` scatters), per colour.
     scatter: Vec<Vec3>,
-    /// Relative residual the solve stops at.
-    tolerance: f32,
     /// The preconditioner's vertical lines (slots bottom to top, one line after
     /// another), where each starts, and its tridiagonal factors per slot.
     lines: Vec<u32>,
@@ -203,9 +211,7 @@ impl Diffusion {
     /// acceleration is off, the medium rule is not [`MediumEmission::Source`], or the
     /// grid holds no scattering medium. `periodic`: the sides wrap.
     pub fn of(material: &MaterialGrid, periodic: bool, options: &SweepOptions) -> Option<Self> {
-        if options.acceleration != Acceleration::Diffusion
-            || options.medium != MediumEmission::Source
-        {
+        if !wanted(options) {
             return None;
         }
         let desc = material.desc();
@@ -339,7 +345,6 @@ impl Diffusion {
                 k,
                 diag,
                 scatter,
-                tolerance: 1e-3,
                 lines: Vec::new(),
                 line_start: Vec::new(),
                 denom: Vec::new(),
@@ -553,7 +558,7 @@ impl Diffusion {
         let mut ap = vec![DVec3::ZERO; n];
         let dot =
             |a: &[DVec3], b: &[DVec3]| -> DVec3 { a.iter().zip(b).map(|(a, b)| *a * *b).sum() };
-        let stop = dot(&r, &r) * (self.tolerance as f64).powi(2);
+        let stop = dot(&r, &r) * SOLVE_TOLERANCE * SOLVE_TOLERANCE;
         let mut rz = dot(&r, &z);
         let mut iterations = 0;
         while iterations < MAX_ITERATIONS {

@@ -307,12 +307,12 @@
 //!   0.0211 with this rule, 0.0175 with the escape rule. Where the light goes missing
 //!   (`examples/do1d.rs`, second table, a 1D slab): at depth 3 a flat source is −48 /
 //!   −41 / −23 / −7.5 % (w 0.1 / 0.5 / 0.9 / 0.99); with the *beam's* first collisions
-//!   emitted from their exact profile, −0.5 / −8.2 / −8.8 / −3.0 %. In the 3D sweep
-//!   (branch `wip/profile`, CPU only) the cell source's first collisions emitted from
-//!   their profile, and what the cell stops of them split by their own profile's
-//!   height, give +1.0 / −0.5 / +3.3 / +2.7 % at depth 3 and within 1.7 % at depth
-//!   1.6 and below; the high albedos' excess is the later generations' split (+2.5 %
-//!   at w 0.99 on main already).
+//!   emitted from their exact profile, −0.5 / −8.2 / −8.8 / −3.0 %. Tried in this
+//!   sweep, not kept yet: the cell source's first collisions emitted from their
+//!   profile, and what the cell stops of them split by their own profile's height,
+//!   give +1.0 / −0.5 / +3.3 / +2.7 % at depth 3 and within 1.7 % at depth 1.6 and
+//!   below; the high albedos' excess is the later generations' split (+2.5 % at
+//!   w 0.99 with this rule already).
 //! - **Convergence.** The plain passes are source iteration; they slow down as the
 //!   albedo nears 1 in thick media. [`Acceleration::Diffusion`](lightgrid_core::Acceleration)
 //!   ([`accel`]) keeps the passes to 1e-4 between 8 and 31 for slabs of optical depth

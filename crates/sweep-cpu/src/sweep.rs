@@ -2170,12 +2170,10 @@ fn run_with<S: Sink>(
         }
     }
 
-    // Diffusion acceleration (`crate::accel`): the correction added to the media's
-    // waiting light after the last pair of passes, taken back after the next.
-    // Built when the passes switch to it (a sweep that converges fast pays nothing).
-    let may_accelerate = options.acceleration == lightgrid_core::Acceleration::Diffusion
-        && options.medium == MediumEmission::Source
-        && fixed.level_medium.iter().any(|&m| m);
+    // Diffusion acceleration (`crate::accel`): its operator, built when the passes
+    // switch to it (a sweep that converges fast pays nothing), and the correction
+    // outstanding in the media's waiting light.
+    let may_accelerate = crate::accel::wanted(options) && fixed.level_medium.iter().any(|&m| m);
     let mut dsa: Option<crate::accel::Diffusion> = None;
     let mut debt = Debt::new(None);
     // How the passes run (accelerated from the first pair whose light waiting fell
@@ -2602,7 +2600,7 @@ impl Debt {
     /// `ω` of what waits (the rest held back: a damped iteration, whose rate at the
     /// media's alternating, cell-to-cell patterns stays well below 1) and the
     /// diffusion correction for it.
-    fn correct(&mut self, d: &crate::accel::Diffusion, w: &mut Work, lnp: &[f32]) -> u32 {
+    fn correct(&mut self, d: &crate::accel::Diffusion, w: &mut Work, lnp: &[f32]) {
         let omega = crate::accel::DAMPING;
         let level_len = w.prev.nx * w.prev.nz;
         self.merge_next(w);
@@ -2623,7 +2621,7 @@ impl Debt {
             *pu = pu.scaled(Vec3::splat(omega));
             self.q[k] = shares(beta, pd, pu);
         }
-        let c = d.correct(&self.q, &mut self.next);
+        d.correct(&self.q, &mut self.next);
         for (k, &ci) in d.cells[..d.media].iter().enumerate() {
             let i = ci as usize;
             let delta = self.next[k] * crate::accel::GAIN;
@@ -2632,7 +2630,6 @@ impl Debt {
             w.pend_dirty[i / level_len] = true;
             self.delta[k] = delta;
         }
-        c.iterations
     }
 }
 
