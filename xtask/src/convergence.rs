@@ -11,15 +11,15 @@ use plotters::prelude::*;
 use sweep_cpu::exact::{self, Case};
 
 /// Total optical depths of the slabs (cells of optical depth 1).
-pub(crate) const DEPTHS: [u32; 4] = [1, 10, 100, 1000];
+pub const DEPTHS: [u32; 4] = [1, 10, 100, 1000];
 /// Albedos of the slabs.
-pub(crate) const ALBEDOS: [f32; 4] = [0.5, 0.9, 0.99, 0.999];
+pub const ALBEDOS: [f32; 4] = [0.5, 0.9, 0.99, 0.999];
 
 /// One slab both ways: (depth, albedo, plain, accelerated).
-pub(crate) type Row = (u32, f32, Case, Case);
+pub type Row = (u32, f32, Case, Case);
 
 /// Sweeps every slab plain and accelerated, at most `max_passes` passes each.
-pub(crate) fn measure(max_passes: u32) -> Vec<Row> {
+pub fn measure(max_passes: u32) -> Vec<Row> {
     let mut rows = Vec::new();
     for depth in DEPTHS {
         for w in ALBEDOS {
@@ -39,7 +39,7 @@ pub(crate) fn measure(max_passes: u32) -> Vec<Row> {
 /// Half-spaces (total optical depth 40) of albedo 0.99 and 0.999 in cells of optical
 /// depth 0.05, 0.69 and 3, tolerance 1e-5, plain and accelerated: (albedo, cell
 /// pass-through, plain, accelerated).
-pub(crate) fn half_spaces(max_passes: u32) -> Vec<(f32, f32, Case, Case)> {
+pub fn half_spaces(max_passes: u32) -> Vec<(f32, f32, Case, Case)> {
     let mut rows = Vec::new();
     for w in [0.99f32, 0.999] {
         for pass in [0.95f32, 0.5, 0.05] {
@@ -57,7 +57,7 @@ pub(crate) fn half_spaces(max_passes: u32) -> Vec<(f32, f32, Case, Case)> {
 }
 
 /// [`half_spaces`] as a table.
-pub(crate) fn half_space_table(rows: &[(f32, f32, Case, Case)]) -> String {
+pub fn half_space_table(rows: &[(f32, f32, Case, Case)]) -> String {
     let mut s = format!(
         "{:>6} {:>10} | {:>6} {:>9} {:>7} | {:>6} {:>9} {:>7}\n",
         "albedo", "cell depth", "passes", "ms", "error", "passes", "ms", "error"
@@ -78,7 +78,7 @@ pub(crate) fn half_space_table(rows: &[(f32, f32, Case, Case)]) -> String {
 }
 
 /// The rows as a table: passes and milliseconds both ways, and the albedo each found.
-pub(crate) fn table(rows: &[Row]) -> String {
+pub fn table(rows: &[Row]) -> String {
     let mut s = format!(
         "{:>6} {:>6} | {:>6} {:>9} {:>8} | {:>6} {:>9} {:>8}\n",
         "depth", "albedo", "passes", "ms", "reflects", "passes", "ms", "reflects"
@@ -99,7 +99,7 @@ pub(crate) fn table(rows: &[Row]) -> String {
 }
 
 /// Passes (left) and time (right) against optical depth, one line per albedo and way.
-pub(crate) fn plot(rows: &[Row], path: &Path) -> Result<()> {
+pub fn plot(rows: &[Row], path: &Path) -> Result<()> {
     let text = crate::bench::plot::register_font();
     let (w, h) = (1100u32, 460u32);
     let mut buf = vec![0u8; (w * h * 3) as usize];

@@ -1,4 +1,7 @@
 //! Project chores for lightgrid, as a library so that tests can run them too; the
 //! `cargo xtask` command (`src/main.rs`) is the front end.
 
+pub mod bench;
+pub mod convergence;
 pub mod fuzz;
+pub mod sun;

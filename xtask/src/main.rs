@@ -21,9 +21,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 
-pub mod bench;
-mod convergence;
-mod sun;
+use xtask::{bench, convergence, sun};
 
 #[derive(Debug, Parser)]
 #[command(about = "lightgrid project chores")]

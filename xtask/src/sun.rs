@@ -21,9 +21,9 @@ use sweep_cpu::sun_measure::{
 };
 
 /// Sun elevations measured (degrees).
-pub(crate) const ELEVATIONS: [f32; 5] = [10.0, 25.0, 40.0, 60.0, 80.0];
+pub const ELEVATIONS: [f32; 5] = [10.0, 25.0, 40.0, 60.0, 80.0];
 /// Sun azimuths measured (degrees): between the bins' (multiples of 45).
-pub(crate) const AZIMUTHS: [f32; 2] = [20.0, 67.0];
+pub const AZIMUTHS: [f32; 2] = [20.0, 67.0];
 
 fn options() -> SweepOptions {
     let mut o = SweepOptions::multi_bounce();
@@ -43,7 +43,7 @@ fn tree_model() -> Result<lightgrid_core::MaterialGrid> {
 }
 
 /// Runs the measurement; `n` cells a side for the forest, `paths` reference paths.
-pub(crate) fn run(root: &Path, testdata: &Path, n: u32, paths: u64) -> Result<String> {
+pub fn run(root: &Path, testdata: &Path, n: u32, paths: u64) -> Result<String> {
     use std::fmt::Write;
     let o = options();
     let mut text = format!(

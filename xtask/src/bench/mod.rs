@@ -22,7 +22,7 @@
 //! centres also differ inside strong absorbers (pass 0.02: light falls 50× across a
 //! cell).
 
-pub(crate) mod plot;
+pub mod plot;
 pub mod scenes;
 mod skips;
 

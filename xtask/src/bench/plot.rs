@@ -9,7 +9,7 @@ use super::Report;
 
 /// Registers a system sans-serif font for the labels (plotters' `ab_glyph` backend needs
 /// one); false when none is found (the plot is then drawn without text).
-pub(crate) fn register_font() -> bool {
+pub fn register_font() -> bool {
     const PATHS: [&str; 4] = [
         "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
         "/usr/share/fonts/TTF/DejaVuSans.ttf",
@@ -28,18 +28,18 @@ pub(crate) fn register_font() -> bool {
 }
 
 /// A plotting error as an `anyhow` error.
-pub(crate) fn err<E: std::fmt::Display>(e: E) -> anyhow::Error {
+pub fn err<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow::anyhow!("plotting: {e}")
 }
 
 /// An RGB8 picture of `w × h` written to `path` as PNG.
-pub(crate) fn save_rgb(buf: &[u8], (w, h): (u32, u32), path: &Path) -> Result<()> {
+pub fn save_rgb(buf: &[u8], (w, h): (u32, u32), path: &Path) -> Result<()> {
     image::save_buffer(path, buf, w, h, image::ColorType::Rgb8)
         .with_context(|| format!("writing {}", path.display()))
 }
 
 /// A line through `points`, a dot on each, and (with a `label`) its legend entry.
-pub(crate) fn line_with_points<'a, DB, X, Y>(
+pub fn line_with_points<'a, DB, X, Y>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
     points: &[(X::ValueType, Y::ValueType)],
     style: ShapeStyle,
