@@ -104,9 +104,10 @@ pub fn channel_length(bin: usize) -> f32 {
     })[bin]
 }
 
-/// Fewest points one parallel task of a level's fast phases handles (measured: below
-/// this, rayon's per-task cost shows on 16 × 16 levels).
-pub const MIN_POINTS_PER_TASK: usize = 512;
+/// Fewest points one parallel task of a level's fast phases handles: a 16 × 16 level
+/// runs as two tasks, one a core (the bench forest, 16³, 4 passes: 6.8 ms at 512 points,
+/// one task a level, 4.4 ms at 128; below 64, rayon's per-task cost shows).
+pub const MIN_POINTS_PER_TASK: usize = 128;
 
 /// Most distinct exponents (see [`path_exponents`]).
 pub const MAX_EXPONENTS: usize = 10;
@@ -1738,9 +1739,10 @@ impl Ctx {
     }
 
     /// Phase 3 of a level under the source rule ([`crate::medium`]): every path
-    /// gains what its segments' sources emit, attenuated by the segments after them;
-    /// every cell with material collects what it stops of its level-mates' emission
-    /// (scattered light for the next passes); then the level is finished ([`Finish`]).
+    /// gains what its segments' sources emit, attenuated by the segments after them
+    /// (and `pre` keeps what each path carries into each of its segments); the level is
+    /// finished ([`Finish`]); then every cell with material collects what it stops of
+    /// its level-mates' emission (scattered light for the next passes).
     #[allow(clippy::too_many_arguments)]
     fn phase3<S: Sink>(
         &self,
@@ -1748,40 +1750,53 @@ impl Ctx {
         pows: &[[f32; MAX_EXPONENTS]],
         cells: &[lightgrid_core::Material],
         cur: &mut LevelLight,
-        pend_same: &mut [Pending],
-        pend_other: &mut [Pending],
+        pre: &mut [[Vec3; SLOTS]],
+        (pend_same, pend_other): (&mut [Pending], &mut [Pending]),
         g: &mut [S],
         rows: &mut [RowFlux],
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
         let p = cur.pitch();
-        let extra = pend_same
-            .par_chunks_mut(nx)
-            .zip(pend_other.par_chunks_mut(nx));
-        self.level_rows(
+        let emitted = self.level_rows(
             cur,
-            extra,
+            pre.par_chunks_mut(nx),
             g,
             rows,
             fin,
-            |z, cur_row, (same_row, other_row), g_row, rf| {
-                self.phase3_row(
-                    z,
+            |z, cur_row, pre_row, g_row, _| {
+                self.phase3_row(z, (src, emits, near), pows, p, cur_row, pre_row, g_row);
+            },
+        );
+        let pre = &*pre;
+        pend_same
+            .par_chunks_mut(nx)
+            .zip(pend_other.par_chunks_mut(nx))
+            .zip(rows.par_iter_mut())
+            .enumerate()
+            .with_min_len(self.rows_per_task())
+            .for_each(|(z, ((same_row, other_row), rf))| {
+                *rf = RowFlux::default();
+                self.collide_row(
+                    z as i32,
                     (src, emits, near),
                     pows,
                     cells,
-                    p,
-                    cur_row,
+                    pre,
                     (same_row, other_row),
-                    g_row,
                     rf,
                 );
-            },
-        )
+            });
+        RowFlux {
+            sent: emitted.sent,
+            bad: emitted.bad,
+            ..sum_rows(rows)
+        }
     }
 
-    /// [`Ctx::phase3`] for row `z`.
+    /// [`Ctx::phase3`]'s emission for row `z`: the row's paths gain their segments'
+    /// emission; `pre_row[x][slot]` is what the path of point `x` carries into the
+    /// segment of stencil slot `slot` (written for points `near` an emitting cell).
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn phase3_row<S: Sink>(
@@ -1789,27 +1804,14 @@ impl Ctx {
         z: i32,
         (src, emits, near): (&[Vec3], &[bool], &[bool]),
         pows: &[[f32; MAX_EXPONENTS]],
-        cells: &[lightgrid_core::Material],
         p: usize,
         cur_row: &mut [f32],
-        (same_row, other_row): (&mut [Pending], &mut [Pending]),
+        pre_row: &mut [[Vec3; SLOTS]],
         g_row: &mut [S],
-        rf: &mut RowFlux,
     ) {
         let nx = self.nx as usize;
         let mw = medium::weights(up_pass(self.ch));
-        // A segment's transmittance and emission (light per unit `ω_b σ_c`); beyond
-        // open sides empty.
-        let seg = |q: Option<usize>, pow: usize| -> (f32, Vec3) {
-            match q {
-                Some(q) if emits[q] => {
-                    let tr = pows[q][pow];
-                    (tr, src[q] * (1.0 - tr))
-                }
-                Some(q) => (pows[q][pow], Vec3::ZERO),
-                None => (1.0, Vec3::ZERO),
-            }
-        };
+        let seg = |q: Option<usize>, pow: usize| segment(src, emits, pows, q, pow);
         for x in 0..self.nx {
             let xi = x as usize;
             let ci = xi + nx * z as usize;
@@ -1826,10 +1828,12 @@ impl Ctx {
             };
             // The point's paths gain their segments' emission, each attenuated by the
             // segments after it; its light gains the emission before its centre.
+            let pre_pt = &mut pre_row[xi];
             for (c, chn) in self.ch.iter().enumerate() {
                 let mut acc = Vec3::ZERO;
                 let mut centre = Vec3::ZERO;
                 for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    pre_pt[chn.first_slot + k] = acc;
                     let (tr, e) = seg(cell(dx, dz), chn.pow[k]);
                     if dx == 0 && dz == 0 {
                         let half = pows[ci][chn.mid_pow];
@@ -1848,18 +1852,45 @@ impl Ctx {
                     g_row[xi].add(chn.bin, chn.unit, centre * om);
                 }
             }
+        }
+    }
+
+    /// [`Ctx::phase3`]'s collisions for row `z`: each cell with material (a medium, or
+    /// an opaque cell: a surface) stops its level-mates' emission on the horizontal
+    /// paths it crosses as segment `j` (the path of point `x − d_j`, which carries
+    /// `pre[x − d_j][slot j]` into it), and scatters it as what it removes in phase 1.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn collide_row(
+        &self,
+        z: i32,
+        (src, emits, near): (&[Vec3], &[bool], &[bool]),
+        pows: &[[f32; MAX_EXPONENTS]],
+        cells: &[lightgrid_core::Material],
+        pre: &[[Vec3; SLOTS]],
+        (same_row, other_row): (&mut [Pending], &mut [Pending]),
+        rf: &mut RowFlux,
+    ) {
+        let nx = self.nx as usize;
+        let mw = medium::weights(up_pass(self.ch));
+        for x in 0..self.nx {
+            let xi = x as usize;
+            let ci = xi + nx * z as usize;
             let mat = cells[ci];
             if mat.pass >= 1.0 {
                 continue;
             }
-            // The cell (a medium, or an opaque cell: a surface) stops its level-mates'
-            // emission on the horizontal paths it crosses as segment `j` (the path of
-            // point `x − d_j`), and scatters it as what it removes in phase 1.
+            let inner = z >= 4 && z < self.nz - 4 && x >= 4 && x < self.nx - 4;
             let mut got = Pending::default();
             for (c, chn) in self.ch.iter().enumerate() {
                 let om = mw.omega[c] * chn.mu;
                 for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate() {
-                    if cell(-djx, -djz).is_none() {
+                    let q = if inner {
+                        Some((ci as i32 - djx - self.nx * djz) as usize)
+                    } else {
+                        self.col(x - djx, z - djz)
+                    };
+                    let Some(q) = q else {
                         // The path of a point beyond an open side is not traced: what
                         // the cell emits into it leaves through the side.
                         if emits[ci] {
@@ -1867,12 +1898,13 @@ impl Ctx {
                             rf.side_out += lost.as_dvec3();
                         }
                         continue;
+                    };
+                    // A path carries nothing into its first segment, and nothing at
+                    // all far from every emitting cell.
+                    if j == 0 || !near[q] {
+                        continue;
                     }
-                    let mut acc = Vec3::ZERO;
-                    for (m, &(dmx, dmz, _)) in chn.stencil.iter().enumerate().take(j) {
-                        let (tr, e) = seg(cell(dmx - djx, dmz - djz), chn.pow[m]);
-                        acc = acc * tr + e;
-                    }
+                    let acc = pre[q][chn.first_slot + j];
                     if acc == Vec3::ZERO {
                         continue;
                     }
@@ -1894,6 +1926,27 @@ impl Ctx {
             // Each direction's pass emits half of it.
             rf.pending += sc.s.as_dvec3();
         }
+    }
+}
+
+/// A path segment through cell `q` (`None`: beyond an open side, empty) of path
+/// exponent `pow`: its transmittance and its emission under the source rule (light per
+/// unit `ω_b σ_c`, [`crate::medium`]).
+#[inline]
+fn segment(
+    src: &[Vec3],
+    emits: &[bool],
+    pows: &[[f32; MAX_EXPONENTS]],
+    q: Option<usize>,
+    pow: usize,
+) -> (f32, Vec3) {
+    match q {
+        Some(q) if emits[q] => {
+            let tr = pows[q][pow];
+            (tr, src[q] * (1.0 - tr))
+        }
+        Some(q) => (pows[q][pow], Vec3::ZERO),
+        None => (1.0, Vec3::ZERO),
     }
 }
 
@@ -2382,8 +2435,8 @@ fn run_with<S: Sink>(
                     &w.pows,
                     &cells[range.clone()],
                     &mut w.cur,
-                    &mut same[range.clone()],
-                    &mut other[range.clone()],
+                    &mut w.pre,
+                    (&mut same[range.clone()], &mut other[range.clone()]),
                     &mut g[range.clone()],
                     &mut w.rows,
                     Finish {
@@ -2697,6 +2750,8 @@ struct Work {
     ghost: LevelLight,
     ghost_for: Option<(bool, i32)>,
     removed: Vec<[Vec3; SLOTS]>,
+    /// Phase 3: what each point's path carries into each of its segments.
+    pre: Vec<[Vec3; SLOTS]>,
     t_after: Vec<[f32; CHANNELS]>,
     rows: Vec<RowFlux>,
     /// Transmittance of every cell of the level for each path exponent.
@@ -2728,6 +2783,7 @@ impl Work {
             ghost: LevelLight::new(nx, nz),
             ghost_for: None,
             removed: vec![[Vec3::ZERO; SLOTS]; level_len],
+            pre: vec![[Vec3::ZERO; SLOTS]; level_len],
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); nz],
             pows: vec![[1.0; MAX_EXPONENTS]; level_len],
