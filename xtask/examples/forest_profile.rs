@@ -12,7 +12,10 @@ fn main() -> anyhow::Result<()> {
     let s = xtask::bench::scenes::forest(n, &root.join("../shared/testdata"))?;
     println!("{}", s.about);
     let mut o = SweepOptions::multi_bounce();
-    o.max_passes = 4;
+    o.max_passes = std::env::var("PASSES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(4);
     o.tolerance = 0.0;
     o.smoothing = 0.25;
     let mut sweeper = sweep_cpu::CpuSweeper::new();

@@ -1256,7 +1256,7 @@ impl Ctx {
         &self,
         prev: &LevelLight,
         ghost: Option<&LevelLight>,
-        pows: &[[f32; MAX_EXPONENTS]],
+        planes: &Planes,
         quiet: Option<&[bool]>,
         first: bool,
         cur: &mut LevelLight,
@@ -1281,7 +1281,7 @@ impl Ctx {
                     g_row.fill(S::default());
                 }
                 self.gather_row_channels(z, prev, ghost, cur_row, rf);
-                self.transmit_row(z, pows, quiet, p, cur_row, rem_row, ta_row, g_row);
+                self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row);
             },
         )
     }
@@ -1386,13 +1386,17 @@ impl Ctx {
         }
     }
 
-    /// Step 2 of [`Ctx::phase1_fast`] for row `z` of a level whose planes have pitch `p`.
+    /// Step 2 of [`Ctx::phase1_fast`] for row `z` of a level whose planes have pitch `p`:
+    /// [`Ctx::transmit`] for every point and channel, the same operations in the same
+    /// order, run channel by channel over blocks of the row and segment by segment
+    /// (`planes`: the level's transmittances with a ring) so that the loops vectorise.
+    /// A row whose points are all quiet passes its light unchanged.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn transmit_row<S: Sink>(
         &self,
         z: i32,
-        pows: &[[f32; MAX_EXPONENTS]],
+        planes: &Planes,
         quiet: Option<&[bool]>,
         p: usize,
         cur_row: &mut [f32],
@@ -1400,36 +1404,59 @@ impl Ctx {
         ta_row: &mut [[f32; CHANNELS]],
         g_row: &mut [S],
     ) {
+        const B: usize = 64;
         let nx = self.nx as usize;
-        let nxi = self.nx;
-        let nzi = self.nz;
-        // Step 2, point by point.
-        let inner_z = z >= 2 && z < nzi - 2;
-        for (xi, g_pt) in g_row.iter_mut().enumerate() {
-            let pi = xi + nx * z as usize;
-            if quiet.is_none_or(|q| q[pi]) {
+        let all_quiet = quiet.is_none_or(|q| q[nx * z as usize..][..nx].iter().all(|&b| b));
+        if all_quiet {
+            for (xi, g_pt) in g_row.iter_mut().enumerate() {
                 for (c, chn) in self.ch.iter().enumerate() {
                     g_pt.add(chn.bin, chn.unit, row_get(cur_row, p, xi, c));
                 }
-                continue;
             }
-            let x = xi as i32;
-            let inner = inner_z && x >= 2 && x < nxi - 2;
+            return;
+        }
+        let mut x0 = 0;
+        while x0 < nx {
+            let b = B.min(nx - x0);
             for (c, chn) in self.ch.iter().enumerate() {
-                let light = row_get(cur_row, p, xi, c);
-                let (t, t_mid, after) = self.transmit(
-                    pows,
-                    chn,
-                    x,
-                    z,
-                    inner.then_some(pi),
-                    light,
-                    &mut rem_row[xi],
-                );
-                ta_row[xi][c] = after;
-                row_set(cur_row, p, xi, c, light * t);
-                g_pt.add(chn.bin, chn.unit, light * t_mid);
+                let mut t = [1f32; B];
+                let mut t_mid = [1f32; B];
+                let mut after = [1f32; B];
+                let mut past_centre = false;
+                let light: [&[f32]; 3] =
+                    std::array::from_fn(|col| &cur_row[(c * 3 + col) * p + PAD + x0..][..b]);
+                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    let tr = planes.row(Planes::POW + chn.pow[k], z + dz, x0 as i32 + dx, b);
+                    let slot = chn.first_slot + k;
+                    for i in 0..b {
+                        let f = t[i] * (1.0 - tr[i]);
+                        rem_row[x0 + i][slot] =
+                            Vec3::new(light[0][i] * f, light[1][i] * f, light[2][i] * f);
+                    }
+                    if past_centre {
+                        for i in 0..b {
+                            after[i] *= tr[i];
+                        }
+                    }
+                    if dx == 0 && dz == 0 {
+                        let half = planes.row(Planes::POW + chn.mid_pow, z, x0 as i32, b);
+                        for i in 0..b {
+                            t_mid[i] = t[i] * half[i];
+                        }
+                        past_centre = true;
+                    }
+                    for i in 0..b {
+                        t[i] *= tr[i];
+                    }
+                }
+                for i in 0..b {
+                    ta_row[x0 + i][c] = after[i];
+                    let l = row_get(cur_row, p, x0 + i, c);
+                    row_set(cur_row, p, x0 + i, c, l * t[i]);
+                    g_row[x0 + i].add(chn.bin, chn.unit, l * t_mid[i]);
+                }
             }
+            x0 += b;
         }
     }
 
@@ -1743,29 +1770,41 @@ impl Ctx {
     /// (and `pre` keeps what each path carries into each of its segments); the level is
     /// finished ([`Finish`]); then every cell with material collects what it stops of
     /// its level-mates' emission (scattered light for the next passes).
+    ///
+    /// The emission runs channel by channel over blocks of a row, segment by segment
+    /// ([`Planes`] of the level's transmittances and sources, with a ring beyond the
+    /// sides), so that its loops vectorise; each point's sums are the same operations
+    /// in the same order as a walk along its paths, so the light is the same bit for bit.
     #[allow(clippy::too_many_arguments)]
     fn phase3<S: Sink>(
         &self,
         (src, emits, near): (&[Vec3], &[bool], &[bool]),
-        pows: &[[f32; MAX_EXPONENTS]],
+        (pows, planes): (&[[f32; MAX_EXPONENTS]], &mut Planes),
         cells: &[lightgrid_core::Material],
         cur: &mut LevelLight,
-        pre: &mut [[Vec3; SLOTS]],
+        pre: &mut [f32],
         (pend_same, pend_other): (&mut [Pending], &mut [Pending]),
         g: &mut [S],
         rows: &mut [RowFlux],
         fin: Finish<'_>,
+        scalar: bool,
     ) -> RowFlux {
         let nx = self.nx as usize;
         let p = cur.pitch();
+        planes.fill_src(self, src, emits);
+        let planes = &*planes;
         let emitted = self.level_rows(
             cur,
-            pre.par_chunks_mut(nx),
+            pre.par_chunks_mut(nx * SLOTS * 3),
             g,
             rows,
             fin,
             |z, cur_row, pre_row, g_row, _| {
-                self.phase3_row(z, (src, emits, near), pows, p, cur_row, pre_row, g_row);
+                if scalar {
+                    self.phase3_row_scalar(z, (src, emits), pows, p, cur_row, pre_row, g_row);
+                } else if near[z as usize * nx..][..nx].iter().any(|&b| b) {
+                    self.phase3_row(z, planes, p, cur_row, pre_row, g_row);
+                }
             },
         );
         let pre = &*pre;
@@ -1795,46 +1834,107 @@ impl Ctx {
     }
 
     /// [`Ctx::phase3`]'s emission for row `z`: the row's paths gain their segments'
-    /// emission; `pre_row[x][slot]` is what the path of point `x` carries into the
-    /// segment of stencil slot `slot` (written for points `near` an emitting cell).
-    #[allow(clippy::too_many_arguments)]
+    /// emission; `pre_row[(slot · 3 + colour) · nx + x]` is what the path of point `x`
+    /// carries into the segment of stencil slot `slot`.
     #[inline(never)]
     fn phase3_row<S: Sink>(
         &self,
         z: i32,
-        (src, emits, near): (&[Vec3], &[bool], &[bool]),
+        planes: &Planes,
+        p: usize,
+        cur_row: &mut [f32],
+        pre_row: &mut [f32],
+        g_row: &mut [S],
+    ) {
+        const B: usize = 64;
+        let nx = self.nx as usize;
+        let mw = medium::weights(up_pass(self.ch));
+        let mut x0 = 0;
+        while x0 < nx {
+            let b = B.min(nx - x0);
+            for (c, chn) in self.ch.iter().enumerate() {
+                let mut acc = [[0f32; B]; 3];
+                let mut centre = [[0f32; B]; 3];
+                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    let slot = chn.first_slot + k;
+                    let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
+                    let tr = at(Planes::POW + chn.pow[k]);
+                    for (col, a) in acc.iter_mut().enumerate() {
+                        pre_row[(slot * 3 + col) * nx + x0..][..b].copy_from_slice(&a[..b]);
+                    }
+                    if dx == 0 && dz == 0 {
+                        let half = at(Planes::POW + chn.mid_pow);
+                        for col in 0..3 {
+                            let sv = at(Planes::SRC + col);
+                            let (a, ce) = (&acc[col], &mut centre[col]);
+                            for i in 0..b {
+                                ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
+                            }
+                        }
+                    }
+                    for (col, a) in acc.iter_mut().enumerate() {
+                        let sv = at(Planes::SRC + col);
+                        for i in 0..b {
+                            a[i] = a[i] * tr[i] + sv[i] * (1.0 - tr[i]);
+                        }
+                    }
+                }
+                let om = mw.omega[c];
+                for (col, a) in acc.iter().enumerate() {
+                    let out = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
+                    for i in 0..b {
+                        out[i] += a[i] * om;
+                    }
+                }
+                for i in 0..b {
+                    let ce = Vec3::new(centre[0][i], centre[1][i], centre[2][i]);
+                    if ce != Vec3::ZERO {
+                        g_row[x0 + i].add(chn.bin, chn.unit, ce * om);
+                    }
+                }
+            }
+            x0 += b;
+        }
+    }
+
+    /// [`Ctx::phase3_row`] written out for the scalar oracle ([`run_scalar`]): point by
+    /// point, channel by channel, along each path cell by cell ([`Ctx::col`]).
+    #[allow(clippy::too_many_arguments)]
+    fn phase3_row_scalar<S: Sink>(
+        &self,
+        z: i32,
+        (src, emits): (&[Vec3], &[bool]),
         pows: &[[f32; MAX_EXPONENTS]],
         p: usize,
         cur_row: &mut [f32],
-        pre_row: &mut [[Vec3; SLOTS]],
+        pre_row: &mut [f32],
         g_row: &mut [S],
     ) {
         let nx = self.nx as usize;
         let mw = medium::weights(up_pass(self.ch));
-        let seg = |q: Option<usize>, pow: usize| segment(src, emits, pows, q, pow);
+        // A segment's transmittance and emission (light per unit `ω_b σ_c`); beyond
+        // open sides empty.
+        let seg = |q: Option<usize>, pow: usize| -> (f32, Vec3) {
+            match q {
+                Some(q) if emits[q] => {
+                    let tr = pows[q][pow];
+                    (tr, src[q] * (1.0 - tr))
+                }
+                Some(q) => (pows[q][pow], Vec3::ZERO),
+                None => (1.0, Vec3::ZERO),
+            }
+        };
         for x in 0..self.nx {
             let xi = x as usize;
             let ci = xi + nx * z as usize;
-            if !near[ci] {
-                continue;
-            }
-            let inner = z >= 4 && z < self.nz - 4 && x >= 4 && x < self.nx - 4;
-            let cell = |dx: i32, dz: i32| {
-                if inner {
-                    Some((ci as i32 + dx + self.nx * dz) as usize)
-                } else {
-                    self.col(x + dx, z + dz)
-                }
-            };
-            // The point's paths gain their segments' emission, each attenuated by the
-            // segments after it; its light gains the emission before its centre.
-            let pre_pt = &mut pre_row[xi];
             for (c, chn) in self.ch.iter().enumerate() {
                 let mut acc = Vec3::ZERO;
                 let mut centre = Vec3::ZERO;
                 for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                    pre_pt[chn.first_slot + k] = acc;
-                    let (tr, e) = seg(cell(dx, dz), chn.pow[k]);
+                    for col in 0..3 {
+                        pre_row[((chn.first_slot + k) * 3 + col) * nx + xi] = acc[col];
+                    }
+                    let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k]);
                     if dx == 0 && dz == 0 {
                         let half = pows[ci][chn.mid_pow];
                         centre = acc * half;
@@ -1867,7 +1967,7 @@ impl Ctx {
         (src, emits, near): (&[Vec3], &[bool], &[bool]),
         pows: &[[f32; MAX_EXPONENTS]],
         cells: &[lightgrid_core::Material],
-        pre: &[[Vec3; SLOTS]],
+        pre: &[f32],
         (same_row, other_row): (&mut [Pending], &mut [Pending]),
         rf: &mut RowFlux,
     ) {
@@ -1904,7 +2004,11 @@ impl Ctx {
                     if j == 0 || !near[q] {
                         continue;
                     }
-                    let acc = pre[q][chn.first_slot + j];
+                    let (qx, qz) = (q % nx, q / nx);
+                    let at = |col: usize| {
+                        pre[(qz * SLOTS + (chn.first_slot + j)) * 3 * nx + col * nx + qx]
+                    };
+                    let acc = Vec3::new(at(0), at(1), at(2));
                     if acc == Vec3::ZERO {
                         continue;
                     }
@@ -1926,27 +2030,6 @@ impl Ctx {
             // Each direction's pass emits half of it.
             rf.pending += sc.s.as_dvec3();
         }
-    }
-}
-
-/// A path segment through cell `q` (`None`: beyond an open side, empty) of path
-/// exponent `pow`: its transmittance and its emission under the source rule (light per
-/// unit `ω_b σ_c`, [`crate::medium`]).
-#[inline]
-fn segment(
-    src: &[Vec3],
-    emits: &[bool],
-    pows: &[[f32; MAX_EXPONENTS]],
-    q: Option<usize>,
-    pow: usize,
-) -> (f32, Vec3) {
-    match q {
-        Some(q) if emits[q] => {
-            let tr = pows[q][pow];
-            (tr, src[q] * (1.0 - tr))
-        }
-        Some(q) => (pows[q][pow], Vec3::ZERO),
-        None => (1.0, Vec3::ZERO),
     }
 }
 
@@ -2323,6 +2406,7 @@ fn run_with<S: Sink>(
             let material_here = fixed.level_material[j as usize] || !fast;
             if material_here {
                 w.level_powers(&fixed.lnp[range.clone()]);
+                w.planes.fill_pows(&ctx, &w.pows);
             }
             let f1 = if fast {
                 if fixed.periodic {
@@ -2340,7 +2424,7 @@ fn run_with<S: Sink>(
                 ctx.phase1_fast(
                     &w.prev,
                     ghost_on.then_some(&w.ghost),
-                    &w.pows,
+                    &w.planes,
                     quiet,
                     first,
                     &mut w.cur,
@@ -2432,7 +2516,7 @@ fn run_with<S: Sink>(
                 ctx.near(&w.emits, 4, &mut w.near, &mut w.quiet_rows);
                 let f3 = ctx.phase3(
                     (&w.src, &w.emits, &w.near),
-                    &w.pows,
+                    (&w.pows, &mut w.planes),
                     &cells[range.clone()],
                     &mut w.cur,
                     &mut w.pre,
@@ -2445,6 +2529,7 @@ fn run_with<S: Sink>(
                         last_phase: true,
                         resolve: last.then_some(want_dom),
                     },
+                    !fast,
                 );
                 bal.absorbed += f3.absorbed;
                 bal.side_out += f3.side_out;
@@ -2741,6 +2826,99 @@ impl Fixed {
 
 /// The working buffers of a sweep, allocated once (per level, and per point for the
 /// pending light), and kept for the next sweep of the same size in [`Spare`].
+/// A level's per-cell values as padded planes for phase 3's row loops: the
+/// transmittance of every path exponent ([`Planes::POW`] + exponent) and the source
+/// rule's source per colour ([`Planes::SRC`] + colour; 0 where a cell does not emit),
+/// each a plane of `(nx + 2R) × (nz + 2R)` with a ring of `R` cells beyond the sides:
+/// wrapped on periodic sides, else empty space (transmittance 1, no source), as
+/// [`Ctx::col`] resolves a cell beyond a side.
+#[derive(Clone)]
+struct Planes {
+    v: Vec<f32>,
+    nx: usize,
+    nz: usize,
+}
+
+impl Planes {
+    /// The ring: the farthest stencil offset.
+    const R: usize = 4;
+    const POW: usize = 0;
+    const SRC: usize = MAX_EXPONENTS;
+    const COUNT: usize = MAX_EXPONENTS + 3;
+
+    fn new(nx: usize, nz: usize) -> Self {
+        Self {
+            v: vec![0.0; Self::COUNT * (nx + 2 * Self::R) * (nz + 2 * Self::R)],
+            nx,
+            nz,
+        }
+    }
+
+    #[inline]
+    fn width(&self) -> usize {
+        self.nx + 2 * Self::R
+    }
+
+    /// `len` values of `plane` from column `x` of row `z` (`-R ≤ x`, `x + len ≤ nx + R`,
+    /// `-R ≤ z < nz + R`).
+    #[inline]
+    fn row(&self, plane: usize, z: i32, x: i32, len: usize) -> &[f32] {
+        let w = self.width();
+        let r = (plane * (self.nz + 2 * Self::R) + (z + Self::R as i32) as usize) * w;
+        &self.v[r + (x + Self::R as i32) as usize..][..len]
+    }
+
+    /// Fills the transmittance planes from the level's `pows`.
+    fn fill_pows(&mut self, ctx: &Ctx, pows: &[[f32; MAX_EXPONENTS]]) {
+        self.fill(ctx, Self::POW, MAX_EXPONENTS, 1.0, |q, e| pows[q][e]);
+    }
+
+    /// Fills the source planes from the level's sources (0 where a cell does not emit).
+    fn fill_src(&mut self, ctx: &Ctx, src: &[Vec3], emits: &[bool]) {
+        self.fill(ctx, Self::SRC, 3, 0.0, |q, col| {
+            if emits[q] { src[q][col] } else { 0.0 }
+        });
+    }
+
+    /// Planes `first..first + count`: `value(cell, plane - first)` at every cell of
+    /// the ring and the level (the cell [`Ctx::col`] finds), `outside` beyond open sides.
+    fn fill(
+        &mut self,
+        ctx: &Ctx,
+        first: usize,
+        count: usize,
+        outside: f32,
+        value: impl Fn(usize, usize) -> f32,
+    ) {
+        let (w, h) = (self.width(), self.nz + 2 * Self::R);
+        let r = Self::R as i32;
+        // Column and row of the level each ring position reads (`None`: outside).
+        let axis = |i: usize, n: i32| -> Option<usize> {
+            let v = i as i32 - r;
+            if ctx.periodic {
+                Some(v.rem_euclid(n) as usize)
+            } else {
+                (0..n).contains(&v).then_some(v as usize)
+            }
+        };
+        let xs: Vec<Option<usize>> = (0..w).map(|i| axis(i, ctx.nx)).collect();
+        for zz in 0..h {
+            let zs = axis(zz, ctx.nz);
+            for k in 0..count {
+                let dst = &mut self.v[((first + k) * h + zz) * w..][..w];
+                match zs {
+                    None => dst.fill(outside),
+                    Some(z) => {
+                        for (d, x) in dst.iter_mut().zip(&xs) {
+                            *d = x.map_or(outside, |x| value(x + self.nx * z, k));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[derive(Clone)]
 struct Work {
     prev: LevelLight,
@@ -2750,8 +2928,10 @@ struct Work {
     ghost: LevelLight,
     ghost_for: Option<(bool, i32)>,
     removed: Vec<[Vec3; SLOTS]>,
-    /// Phase 3: what each point's path carries into each of its segments.
-    pre: Vec<[Vec3; SLOTS]>,
+    /// Phase 3: what each point's path carries into each of its segments (per row:
+    /// slot, colour, column), and the level's transmittances and sources with a ring.
+    pre: Vec<f32>,
+    planes: Planes,
     t_after: Vec<[f32; CHANNELS]>,
     rows: Vec<RowFlux>,
     /// Transmittance of every cell of the level for each path exponent.
@@ -2783,7 +2963,8 @@ impl Work {
             ghost: LevelLight::new(nx, nz),
             ghost_for: None,
             removed: vec![[Vec3::ZERO; SLOTS]; level_len],
-            pre: vec![[Vec3::ZERO; SLOTS]; level_len],
+            pre: vec![0.0; level_len * SLOTS * 3],
+            planes: Planes::new(nx, nz),
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); nz],
             pows: vec![[1.0; MAX_EXPONENTS]; level_len],
