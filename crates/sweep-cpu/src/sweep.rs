@@ -1793,6 +1793,11 @@ impl Ctx {
         let p = cur.pitch();
         planes.fill_src(self, src, emits);
         let planes = &*planes;
+        // Rows whose paths carry anything: near an emitting cell (every row, scalar).
+        let pre_rows: Vec<bool> = near
+            .chunks(nx)
+            .map(|r| scalar || r.iter().any(|&b| b))
+            .collect();
         let emitted = self.level_rows(
             cur,
             pre.par_chunks_mut(nx * SLOTS * 3),
@@ -1802,12 +1807,13 @@ impl Ctx {
             |z, cur_row, pre_row, g_row, _| {
                 if scalar {
                     self.phase3_row_scalar(z, (src, emits), pows, p, cur_row, pre_row, g_row);
-                } else if near[z as usize * nx..][..nx].iter().any(|&b| b) {
+                } else if pre_rows[z as usize] {
                     self.phase3_row(z, planes, p, cur_row, pre_row, g_row);
                 }
             },
         );
         let pre = &*pre;
+        let pre_rows: &[bool] = &pre_rows;
         pend_same
             .par_chunks_mut(nx)
             .zip(pend_other.par_chunks_mut(nx))
@@ -1818,10 +1824,10 @@ impl Ctx {
                 *rf = RowFlux::default();
                 self.collide_row(
                     z as i32,
-                    (src, emits, near),
-                    pows,
+                    (src, emits),
+                    (pows, planes),
                     cells,
-                    pre,
+                    (pre, pre_rows),
                     (same_row, other_row),
                     rf,
                 );
@@ -1958,77 +1964,141 @@ impl Ctx {
     /// [`Ctx::phase3`]'s collisions for row `z`: each cell with material (a medium, or
     /// an opaque cell: a surface) stops its level-mates' emission on the horizontal
     /// paths it crosses as segment `j` (the path of point `x − d_j`, which carries
-    /// `pre[x − d_j][slot j]` into it), and scatters it as what it removes in phase 1.
+    /// `pre` at slot `j` into it), and scatters it as what it removes in phase 1. Run
+    /// channel by channel over blocks of the row (rows of `pre` not written this level,
+    /// `!pre_rows[z]`, carry nothing); what a cell emits into the paths of points beyond
+    /// an open side leaves through the side.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn collide_row(
         &self,
         z: i32,
-        (src, emits, near): (&[Vec3], &[bool], &[bool]),
-        pows: &[[f32; MAX_EXPONENTS]],
+        (src, emits): (&[Vec3], &[bool]),
+        (pows, planes): (&[[f32; MAX_EXPONENTS]], &Planes),
         cells: &[lightgrid_core::Material],
-        pre: &[f32],
+        (pre, pre_rows): (&[f32], &[bool]),
         (same_row, other_row): (&mut [Pending], &mut [Pending]),
         rf: &mut RowFlux,
     ) {
+        const B: usize = 64;
         let nx = self.nx as usize;
+        let row_cells = &cells[nx * z as usize..][..nx];
+        if row_cells.iter().all(|m| m.pass >= 1.0) {
+            return;
+        }
         let mw = medium::weights(up_pass(self.ch));
-        for x in 0..self.nx {
-            let xi = x as usize;
-            let ci = xi + nx * z as usize;
-            let mat = cells[ci];
-            if mat.pass >= 1.0 {
-                continue;
-            }
-            let inner = z >= 4 && z < self.nz - 4 && x >= 4 && x < self.nx - 4;
-            let mut got = Pending::default();
+        let mut x0 = 0;
+        while x0 < nx {
+            let b = B.min(nx - x0);
+            let mut got_s = [[0f32; B]; 3];
+            let mut got_m = [[[0f32; B]; 3]; 3];
             for (c, chn) in self.ch.iter().enumerate() {
                 let om = mw.omega[c] * chn.mu;
-                for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate() {
-                    let q = if inner {
-                        Some((ci as i32 - djx - self.nx * djz) as usize)
-                    } else {
-                        self.col(x - djx, z - djz)
+                // A path carries nothing into its first segment.
+                for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate().skip(1) {
+                    let Some(zr) = self.row_of(z - djz).filter(|&zr| pre_rows[zr]) else {
+                        continue;
                     };
-                    let Some(q) = q else {
-                        // The path of a point beyond an open side is not traced: what
-                        // the cell emits into it leaves through the side.
-                        if emits[ci] {
-                            let lost = src[ci] * ((1.0 - pows[ci][chn.pow[j]]) * om);
-                            rf.side_out += lost.as_dvec3();
+                    let slot = chn.first_slot + j;
+                    let base = (zr * SLOTS + slot) * 3 * nx;
+                    let pw = planes.row(Planes::POW + chn.pow[j], z, x0 as i32, b);
+                    // Columns of the points `x − d_j`: inside the row for `i` in
+                    // `lo..hi`, wrapped or beyond an open side (nothing) for the rest.
+                    let first = x0 as i32 - djx;
+                    let lo = (-first).clamp(0, b as i32) as usize;
+                    let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
+                    let add = |got_s: &mut [[f32; B]; 3],
+                               got_m: &mut [[[f32; B]; 3]; 3],
+                               col: usize,
+                               i: usize,
+                               v: f32| {
+                        let r = v * ((1.0 - pw[i]) * om);
+                        got_s[col][i] += r;
+                        for a in 0..3 {
+                            got_m[a][col][i] += r * chn.unit[a];
                         }
-                        continue;
                     };
-                    // A path carries nothing into its first segment, and nothing at
-                    // all far from every emitting cell.
-                    if j == 0 || !near[q] {
-                        continue;
-                    }
-                    let (qx, qz) = (q % nx, q / nx);
-                    let at = |col: usize| {
-                        pre[(qz * SLOTS + (chn.first_slot + j)) * 3 * nx + col * nx + qx]
-                    };
-                    let acc = Vec3::new(at(0), at(1), at(2));
-                    if acc == Vec3::ZERO {
-                        continue;
-                    }
-                    let r = acc * ((1.0 - pows[ci][chn.pow[j]]) * om);
-                    got.s += r;
-                    for a in 0..3 {
-                        got.m[a] += r * chn.unit[a];
+                    for col in 0..3 {
+                        let plane = &pre[base + col * nx..][..nx];
+                        if hi > lo {
+                            let from = &plane[(first + lo as i32) as usize..][..hi - lo];
+                            for (i, &v) in (lo..hi).zip(from) {
+                                add(&mut got_s, &mut got_m, col, i, v);
+                            }
+                        }
+                        if self.periodic {
+                            for i in (0..lo).chain(hi..b) {
+                                let q = (first + i as i32).rem_euclid(nx as i32) as usize;
+                                add(&mut got_s, &mut got_m, col, i, plane[q]);
+                            }
+                        }
                     }
                 }
             }
-            if got.s == Vec3::ZERO {
-                continue;
+            for i in 0..b {
+                let xi = x0 + i;
+                let ci = xi + nx * z as usize;
+                let mat = cells[ci];
+                if mat.pass >= 1.0 {
+                    continue;
+                }
+                if !self.periodic && emits[ci] {
+                    self.lost_through_sides(xi as i32, z, src[ci], &pows[ci], rf);
+                }
+                let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
+                let got = Pending {
+                    s: v(&got_s),
+                    m: [v(&got_m[0]), v(&got_m[1]), v(&got_m[2])],
+                };
+                if got.s == Vec3::ZERO {
+                    continue;
+                }
+                let alb = mat.reflectance;
+                rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
+                let sc = got.scaled(alb);
+                same_row[xi] = same_row[xi].add(&sc);
+                other_row[xi] = other_row[xi].add(&sc);
+                // Each direction's pass emits half of it.
+                rf.pending += sc.s.as_dvec3();
             }
-            let alb = mat.reflectance;
-            rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
-            let sc = got.scaled(alb);
-            same_row[xi] = same_row[xi].add(&sc);
-            other_row[xi] = other_row[xi].add(&sc);
-            // Each direction's pass emits half of it.
-            rf.pending += sc.s.as_dvec3();
+            x0 += b;
+        }
+    }
+
+    /// What an emitting cell at `(x, z)` with source `src` sends into the paths of
+    /// points beyond an open side: their paths are not traced, so it leaves through the
+    /// side (`rf.side_out`).
+    fn lost_through_sides(
+        &self,
+        x: i32,
+        z: i32,
+        src: Vec3,
+        pows: &[f32; MAX_EXPONENTS],
+        rf: &mut RowFlux,
+    ) {
+        let r = Planes::R as i32;
+        if x >= r && x < self.nx - r && z >= r && z < self.nz - r {
+            return;
+        }
+        let mw = medium::weights(up_pass(self.ch));
+        for (c, chn) in self.ch.iter().enumerate() {
+            let om = mw.omega[c] * chn.mu;
+            for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate() {
+                if self.col(x - djx, z - djz).is_none() {
+                    let lost = src * ((1.0 - pows[chn.pow[j]]) * om);
+                    rf.side_out += lost.as_dvec3();
+                }
+            }
+        }
+    }
+
+    /// The level row that row `z` resolves to ([`Ctx::col`]'s rule).
+    #[inline]
+    fn row_of(&self, z: i32) -> Option<usize> {
+        if self.periodic {
+            Some(z.rem_euclid(self.nz) as usize)
+        } else {
+            (0..self.nz).contains(&z).then_some(z as usize)
         }
     }
 }
