@@ -861,6 +861,17 @@ impl LevelLight {
     }
 }
 
+/// Points of a row that the row loops of phases 2 and 3 take at a time.
+const GATHER_BLOCK: usize = 64;
+
+/// Index of point `pt`'s value for stencil slot `slot` and colour `col` in a level's
+/// slot planes (`removed`, `pre`): per row of `nx` points, slot, colour, column.
+#[inline]
+fn plane_index(nx: usize, pt: usize, slot: usize, col: usize) -> usize {
+    let (x, z) = (pt % nx, pt / nx);
+    ((z * SLOTS + slot) * 3 + col) * nx + x
+}
+
 /// Channel `c` of grid column `x` in one row of a [`LevelLight`] of pitch `p`.
 #[inline]
 fn row_get(row: &[f32], p: usize, x: usize, c: usize) -> Vec3 {
@@ -1150,7 +1161,7 @@ impl Ctx {
         pows: &[[f32; MAX_EXPONENTS]],
         first: bool,
         cur: &mut LevelLight,
-        removed: &mut [[Vec3; SLOTS]],
+        removed: &mut [f32],
         t_after: &mut [[f32; CHANNELS]],
         g: &mut [S],
         rows: &mut [RowFlux],
@@ -1159,7 +1170,7 @@ impl Ctx {
         let (row_len, p) = (cur.row_len(), cur.pitch());
         cur.rows_mut()
             .par_chunks_mut(row_len)
-            .zip(removed.par_chunks_mut(nx))
+            .zip(removed.par_chunks_mut(nx * SLOTS * 3))
             .zip(t_after.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
@@ -1173,6 +1184,7 @@ impl Ctx {
                 }
                 for x in 0..self.nx {
                     let xi = x as usize;
+                    let mut rem = [Vec3::ZERO; SLOTS];
                     for (c, chn) in self.ch.iter().enumerate() {
                         // Step 1: gather from the source point and its smoothing taps.
                         let (qx, qz) = (x - chn.step.x, z - chn.step.z);
@@ -1183,10 +1195,15 @@ impl Ctx {
                         let light = ins + outs;
                         // Step 2: transmit along the path, recording what each cell removes.
                         let (t, t_mid, after) =
-                            self.transmit(pows, chn, x, z, None, light, &mut rem_row[xi]);
+                            self.transmit(pows, chn, x, z, None, light, &mut rem);
                         ta_row[xi][c] = after;
                         row_set(cur_row, p, xi, c, light * t);
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
+                    }
+                    for (slot, v) in rem.iter().enumerate() {
+                        for col in 0..3 {
+                            rem_row[plane_index(nx, xi, slot, col)] = v[col];
+                        }
                     }
                 }
                 *row_out = rf;
@@ -1260,7 +1277,7 @@ impl Ctx {
         quiet: Option<&[bool]>,
         first: bool,
         cur: &mut LevelLight,
-        removed: &mut [[Vec3; SLOTS]],
+        removed: &mut [f32],
         t_after: &mut [[f32; CHANNELS]],
         g: &mut [S],
         rows: &mut [RowFlux],
@@ -1268,7 +1285,9 @@ impl Ctx {
     ) -> RowFlux {
         let nx = self.nx as usize;
         let p = cur.pitch();
-        let extra = removed.par_chunks_mut(nx).zip(t_after.par_chunks_mut(nx));
+        let extra = removed
+            .par_chunks_mut(nx * SLOTS * 3)
+            .zip(t_after.par_chunks_mut(nx));
         self.level_rows(
             cur,
             extra,
@@ -1400,11 +1419,11 @@ impl Ctx {
         quiet: Option<&[bool]>,
         p: usize,
         cur_row: &mut [f32],
-        rem_row: &mut [[Vec3; SLOTS]],
+        rem_row: &mut [f32],
         ta_row: &mut [[f32; CHANNELS]],
         g_row: &mut [S],
     ) {
-        const B: usize = 64;
+        const B: usize = GATHER_BLOCK;
         let nx = self.nx as usize;
         let all_quiet = quiet.is_none_or(|q| q[nx * z as usize..][..nx].iter().all(|&b| b));
         if all_quiet {
@@ -1428,10 +1447,11 @@ impl Ctx {
                 for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                     let tr = planes.row(Planes::POW + chn.pow[k], z + dz, x0 as i32 + dx, b);
                     let slot = chn.first_slot + k;
-                    for i in 0..b {
-                        let f = t[i] * (1.0 - tr[i]);
-                        rem_row[x0 + i][slot] =
-                            Vec3::new(light[0][i] * f, light[1][i] * f, light[2][i] * f);
+                    for (col, l) in light.iter().enumerate() {
+                        let out = &mut rem_row[plane_index(nx, x0, slot, col)..][..b];
+                        for i in 0..b {
+                            out[i] = l[i] * (t[i] * (1.0 - tr[i]));
+                        }
                     }
                     if past_centre {
                         for i in 0..b {
@@ -1522,7 +1542,7 @@ impl Ctx {
     #[allow(clippy::too_many_arguments)]
     fn phase2<S: Sink>(
         &self,
-        removed: &[[Vec3; SLOTS]],
+        removed: (&[f32], bool),
         (t_after, pows): (&[[f32; CHANNELS]], &[[f32; MAX_EXPONENTS]]),
         cells: &[lightgrid_core::Material],
         exposed: &[u8],
@@ -1588,13 +1608,57 @@ impl Ctx {
         }
     }
 
+    /// Step 3 for the block `x0..x0 + b` of row `z`: per channel and colour, what each
+    /// cell removed from the paths crossing it, `Σ_k removed[x − d_k][slot k]` over the
+    /// channel's stencil in order (points beyond an open side add nothing), read from
+    /// whole rows of the planes `removed` (per row: slot, colour, column).
+    #[inline(never)]
+    fn gather_removed(
+        &self,
+        z: i32,
+        x0: usize,
+        b: usize,
+        removed: &[f32],
+        out: &mut [[[f32; GATHER_BLOCK]; 3]; CHANNELS],
+    ) {
+        let nx = self.nx as usize;
+        for (c, chn) in self.ch.iter().enumerate() {
+            let o = &mut out[c];
+            for col in o.iter_mut() {
+                col[..b].fill(0.0);
+            }
+            for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                let Some(zr) = self.row_of(z - dz) else {
+                    continue;
+                };
+                let first = x0 as i32 - dx;
+                let lo = (-first).clamp(0, b as i32) as usize;
+                let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
+                for (col, oc) in o.iter_mut().enumerate() {
+                    let plane = &removed[plane_index(nx, zr * nx, chn.first_slot + k, col)..][..nx];
+                    if hi > lo {
+                        let from = &plane[(first + lo as i32) as usize..][..hi - lo];
+                        for (v, &f) in oc[lo..hi].iter_mut().zip(from) {
+                            *v += f;
+                        }
+                    }
+                    if self.periodic {
+                        for i in (0..lo).chain(hi..b) {
+                            oc[i] += plane[(first + i as i32).rem_euclid(nx as i32) as usize];
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// [`Ctx::phase2`] for row `z` (its own function, so that profiles show it).
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn phase2_row<S: Sink>(
         &self,
         z: i32,
-        removed: &[[Vec3; SLOTS]],
+        (removed, scalar): (&[f32], bool),
         (t_after, pows): (&[[f32; CHANNELS]], &[[f32; MAX_EXPONENTS]]),
         cells: &[lightgrid_core::Material],
         exposed: &[u8],
@@ -1611,31 +1675,42 @@ impl Ctx {
         let mw = medium::weights(up);
         let mut rf = RowFlux::default();
         emits_row.fill(false);
+        let row_cells = &cells[nx * z as usize..][..nx];
+        let mut by_row = [[[0f32; GATHER_BLOCK]; 3]; CHANNELS];
         for x in 0..self.nx {
             let xi = x as usize;
             let ci = xi + nx * z as usize;
+            let (i, x0) = (xi % GATHER_BLOCK, xi - xi % GATHER_BLOCK);
+            if i == 0 && !scalar {
+                let b = GATHER_BLOCK.min(nx - x0);
+                if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
+                    self.gather_removed(z, x0, b, removed, &mut by_row);
+                }
+            }
             if cells[ci].pass >= 1.0 {
                 // An empty cell removes nothing, so it never holds scattered light.
                 continue;
             }
-            // Step 3: the flux this cell removed from every path crossing it (path
-            // points found by index away from the sides).
-            let inner = z >= 2 && z < self.nz - 2 && x >= 2 && x < self.nx - 2;
+            // Step 3: the flux this cell removed from every path crossing it: gathered
+            // for the block of the row, or (the scalar oracle) path point by path point.
             let mat = cells[ci];
             let mut s_raw = Vec3::ZERO;
             let mut m_raw = [Vec3::ZERO; 3];
-            for chn in self.ch.iter() {
-                let mut r = Vec3::ZERO;
-                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                    let pt = if inner {
-                        Some((ci as i32 - dx - self.nx * dz) as usize)
-                    } else {
-                        self.col(x - dx, z - dz)
-                    };
-                    if let Some(pt) = pt {
-                        r += removed[pt][chn.first_slot + k];
+            for (c, chn) in self.ch.iter().enumerate() {
+                let r = if scalar {
+                    let mut r = Vec3::ZERO;
+                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                        if let Some(pt) = self.col(x - dx, z - dz) {
+                            let at =
+                                |col: usize| removed[plane_index(nx, pt, chn.first_slot + k, col)];
+                            r += Vec3::new(at(0), at(1), at(2));
+                        }
                     }
-                }
+                    r
+                } else {
+                    let g = &by_row[c];
+                    Vec3::new(g[0][i], g[1][i], g[2][i])
+                };
                 let r = r * chn.mu;
                 s_raw += r;
                 m_raw[0] += r * chn.unit.x;
@@ -2561,7 +2636,7 @@ fn run_with<S: Sink>(
             // The source rule emits from media in a third phase.
             let phase3 = options.medium == MediumEmission::Source && fixed.level_medium[j as usize];
             let f2 = ctx.phase2(
-                &w.removed,
+                (&w.removed, !fast),
                 (&w.t_after, &w.pows),
                 &cells[range.clone()],
                 &fixed.exposed[range.clone()],
@@ -2997,7 +3072,9 @@ struct Work {
     /// source level it was last filled for (`None`: not filled).
     ghost: LevelLight,
     ghost_for: Option<(bool, i32)>,
-    removed: Vec<[Vec3; SLOTS]>,
+    /// Phase 1: what every point's path lost in each of its segments (per row: slot,
+    /// colour, column).
+    removed: Vec<f32>,
     /// Phase 3: what each point's path carries into each of its segments (per row:
     /// slot, colour, column), and the level's transmittances and sources with a ring.
     pre: Vec<f32>,
@@ -3032,7 +3109,7 @@ impl Work {
             cur: LevelLight::new(nx, nz),
             ghost: LevelLight::new(nx, nz),
             ghost_for: None,
-            removed: vec![[Vec3::ZERO; SLOTS]; level_len],
+            removed: vec![0.0; level_len * SLOTS * 3],
             pre: vec![0.0; level_len * SLOTS * 3],
             planes: Planes::new(nx, nz),
             t_after: vec![[1.0; CHANNELS]; level_len],
