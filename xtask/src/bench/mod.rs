@@ -293,6 +293,11 @@ fn sweep_settings() -> Vec<(String, SweepOptions, bool)> {
     v
 }
 
+/// Least time the repeats of one CPU sweep setting take in all ([`sweep_recycled`]).
+pub const MIN_SWEEP_SECONDS: f64 = 0.3;
+/// Most repeats of one CPU sweep setting.
+pub const MAX_REPEATS: u32 = 100;
+
 fn fastest<T>(repeats: u32, mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
     let mut best = f64::INFINITY;
     let mut out = None;
@@ -305,9 +310,12 @@ fn fastest<T>(repeats: u32, mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)
     Ok((out.expect("ran once"), best))
 }
 
-/// The fastest of `repeats` sweeps by one `CpuSweeper` that gets each output back
-/// (`CpuSweeper::recycle`), as a renderer rebuilding light every frame runs it: the
-/// sweep writes into the memory of the last one instead of fresh pages.
+/// The fastest of `repeats` sweeps (more, up to [`MAX_REPEATS`], until they took
+/// [`MIN_SWEEP_SECONDS`] in all: a sweep of a few milliseconds on a shared two-core
+/// machine is often slowed by half, and five tries did not find a quiet moment) by one
+/// `CpuSweeper` that gets each output back (`CpuSweeper::recycle`), as a renderer
+/// rebuilding light every frame runs it: the sweep writes into the memory of the last
+/// one instead of fresh pages.
 fn sweep_recycled(
     repeats: u32,
     m: &lightgrid_core::MaterialGrid,
@@ -318,7 +326,11 @@ fn sweep_recycled(
     let mut sweeper = sweep_cpu::CpuSweeper::new();
     let mut best = f64::INFINITY;
     let mut out = None;
-    for _ in 0..repeats.max(1) {
+    let start = Instant::now();
+    let mut runs = 0;
+    while runs < repeats.max(1)
+        || (runs < MAX_REPEATS && start.elapsed().as_secs_f64() < MIN_SWEEP_SECONDS)
+    {
         if let Some(prev) = out.take() {
             sweeper.recycle(prev);
         }
@@ -326,6 +338,7 @@ fn sweep_recycled(
         let output = sweeper.sweep(m, b, o)?;
         best = best.min(t.elapsed().as_secs_f64());
         out = Some(output);
+        runs += 1;
     }
     let balance = *sweeper.last_balance().context("a sweep ran")?;
     let output = out.context("a sweep ran")?;
