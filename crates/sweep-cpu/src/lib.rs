@@ -77,7 +77,27 @@
 //!
 //! ("Before": the fast path as it stood when issue 15 was filed, same bench and
 //! machine.) `cargo run --release -p sweep-cpu --example throughput` is the quick
-//! version. What made the difference (perf, one pass, one thread unless said):
+//! version.
+//!
+//! **Foliage in many levels.** The canopy has media in two levels; the bench forest
+//! (`cargo xtask bench`; Kenney trees on rolling ground, media in most levels) spends
+//! its time in phases 2 and 3. `cargo run --release -p xtask --example forest_profile
+//! -- N REPEATS` times its headline sweep (4 passes, smoothing 0.25); measured in the
+//! same minutes against the build before these changes (fastest of 200–300, the VM
+//! was about 1.8 times slower than on the day of the table above: the scalar oracle
+//! took 226 ms for one 64³ pass, not 124):
+//!
+//! | case | before | now |
+//! |------|-------:|----:|
+//! | forest 16³, 4 passes, two threads | 7.7 ms | 3.6–4.4 ms |
+//! | forest 16³, 4 passes, one thread | 7.6 ms | 5.0 ms |
+//! | forest 48³, 4 passes, one thread | 102 ms | 71–78 ms |
+//! | 16 × 64 × 16 canopy, 26 bins, 1 pass (throughput example) | 3.6 M points/s | 7.0 M/s |
+//! | 64³ canopy, 26 bins, 1 pass / 4 passes (same) | 7.2–10.3 / 1.9–3.2 M/s | 9.1–11.4 / 2.5–2.8 M/s |
+//!
+//! The error is unchanged (the light is the same bit for bit): the forest's time to
+//! its error against Monte Carlo went from 85× to about 150× (`cargo xtask bench`,
+//! forest line). What made the difference (perf, one pass, one thread unless said):
 //!
 //! - **Memory**: a fresh 26-bin output is 82 MB of pages the kernel faults in and zeroes
 //!   (some 25 ms at 64³); `CpuSweeper` keeps the output, and its working buffers, for
@@ -99,7 +119,22 @@
 //!   row is in cache (they were sequential passes over the grid: a quarter of the time,
 //!   and the second core idled); levels above all material are resolved once.
 //! - **Threads**: the passes run on a worker of rayon's pool, so a level's loops start
-//!   inside the pool (two cores: 1.8× one core at 64³, from about 1.3×).
+//!   inside the pool (two cores: 1.8× one core at 64³, from about 1.3×). Tasks take
+//!   at least 128 points ([`sweep::MIN_POINTS_PER_TASK`]): a 16 × 16 level runs on
+//!   both cores (at 512 it was one task; the forest at 16³ gained 1.5×, though a
+//!   fifth of the two threads' time is then the kernel's scheduling).
+//! - **Phase 3 as rows**: a cell's collisions with its level-mates' emission read
+//!   what each path carries into each segment from the emission loop (`pre`), instead
+//!   of walking every path's earlier segments again (quadratic in the five segments of
+//!   a horizontal channel). The emission, the transmit step, phase 2's collection of
+//!   removed light and phase 3's collisions run channel by channel over blocks of a
+//!   row from planes: the level's transmittances and sources with a ring of 4 cells
+//!   (`Planes`, wrapped or empty as [`sweep::run`]'s sides say), and what each path
+//!   lost or carries per segment as planes per row (slot, colour, column). Each
+//!   point's sums keep their order, so the light is the same bit for bit; the scalar
+//!   oracle walks each point's paths cell by cell for phase 3 and collects phase 2
+//!   point by point, so `tests/fast_path.rs` compares two implementations of every
+//!   phase but phase 3's collisions (shared, reading the slot planes both write).
 //!
 //! **Roofline** (estimate per point and pass, quiet point, 26 bins): gather 17 channels
 //! × 3 colours × 9 flops ≈ 460 flops (vectorised, 4 lanes: ~115 operations), flux
@@ -115,7 +150,11 @@
 //! transmit step and the output adds 19 %, the gather 10 %, zeroing the output rows in
 //! the first pass 6 %. Later passes are memory bound: the output's 82 MB are read and
 //! written once a pass (the output adds wait on those loads: half of the 4-pass time).
-//! The issue's targets (20 M points/s for one pass, 8 M/s for four) remain open.
+//! The issue's targets (20 M points/s for one pass, 8 M/s for four, a forest 380× faster
+//! than Monte Carlo to its error) remain open. Where the forest's time goes now (16³,
+//! one thread, perf): the transmit step 20 %, phase 3's emission 11 %, phase 2 17 %
+//! (its collection 6 %), phase 3's collisions 10 %, the gather 9 %, resolving 5 %;
+//! rows of 16 points make short loops.
 //!
 //! ## Semantics of the sweep
 //!
