@@ -293,7 +293,7 @@ fn sweep_settings() -> Vec<(String, SweepOptions, bool)> {
     v
 }
 
-/// Least time the repeats of one CPU sweep setting take in all ([`sweep_recycled`]).
+/// Least time the repeats of one CPU sweep setting take in all.
 pub const MIN_SWEEP_SECONDS: f64 = 0.3;
 /// Most repeats of one CPU sweep setting.
 pub const MAX_REPEATS: u32 = 100;
