@@ -28,14 +28,22 @@ fn main() -> anyhow::Result<()> {
     o.tolerance = 0.0;
     o.smoothing = 0.25;
     let only: Option<String> = args.get(3).cloned();
-    for (name, b) in [("sky and sun", &both), ("sky only", &sky_only), ("sun in a bin only", &sun)] {
+    for (name, b) in [
+        ("sky and sun", &both),
+        ("sky only", &sky_only),
+        ("sun in a bin only", &sun),
+    ] {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
         }
         let r = trace(
             &s.material,
             b,
-            &ReferenceOptions { paths, seed: 0x5eed, ..Default::default() },
+            &ReferenceOptions {
+                paths,
+                seed: 0x5eed,
+                ..Default::default()
+            },
             &|_, _| {},
         )?;
         let noise = {
@@ -72,7 +80,10 @@ fn main() -> anyhow::Result<()> {
                 });
                 if near { 1 } else { 2 }
             };
-            for rule in [lightgrid_core::MediumEmission::Source, lightgrid_core::MediumEmission::Escape] {
+            for rule in [
+                lightgrid_core::MediumEmission::Source,
+                lightgrid_core::MediumEmission::Escape,
+            ] {
                 let mut o2 = o.clone();
                 o2.smoothing = 0.25;
                 o2.medium = rule;
@@ -91,7 +102,10 @@ fn main() -> anyhow::Result<()> {
                     acc[k][2] += a - rr;
                     acc[k][3] += rr;
                 }
-                for (k, label) in ["in media", "air beside media", "other air"].iter().enumerate() {
+                for (k, label) in ["in media", "air beside media", "other air"]
+                    .iter()
+                    .enumerate()
+                {
                     println!(
                         "  {rule:?} rule, {label:17}: relative RMSE {:.4}, bias {:+.2} %",
                         (acc[k][0] / acc[k][1].max(1e-30)).sqrt(),
@@ -103,7 +117,11 @@ fn main() -> anyhow::Result<()> {
         for smoothing in [0.0f32, 0.25, 0.5] {
             o.smoothing = smoothing;
             let sw = sweep_cpu::run(&s.material, b, &o)?;
-            let e = sweep_cpu::scenes::compare(sw.output.bins.as_ref().expect("bins"), &r.light, &s.material);
+            let e = sweep_cpu::scenes::compare(
+                sw.output.bins.as_ref().expect("bins"),
+                &r.light,
+                &s.material,
+            );
             println!(
                 "{name:18} smoothing {smoothing:4}: average {:.4}, irradiance {:.4} (reference noise {noise:.4})",
                 e.average, e.irradiance

@@ -16,8 +16,9 @@
 //! `Σ_k (1 − τ_k) Π_{m>k} τ_m = 1 − Π τ` telescopes, so a path that enters with the
 //! radiance of its cells' sources leaves with it, whatever cells it crossed: **the white
 //! furnace is exact in any medium** (every source 1, every path 1), not only in uniform
-//! ones. The light at a point is likewise its path's light at the centre: the first half
-//! of the centre segment emits `J ω_b σ_c (1 − τ_mid)`.
+//! ones. The light at a point is likewise the mean of its path's light over the segment
+//! through its own cell (`L_in m + J (1 − m)`, `m` the segment's mean transmittance,
+//! [`crate::sweep::seg_mean`]; 1 in a white furnace).
 //!
 //! The source a cell holds follows from the flux it emits in a pass, `S` (its share of
 //! the scattered light, below; the rest goes to the other pass): its segments send out `G J`

@@ -39,8 +39,6 @@ pub struct Channel {
     pub stencil: Vec<(i32, i32, f32)>,
     /// For each stencil cell, the index in [`path_exponents`] of `fraction × length`.
     pub pow: Vec<usize>,
-    /// Index in [`path_exponents`] of half the centre cell's `fraction × length`.
-    pub mid_pow: usize,
     /// Path fraction from the slab's entry to the receiving point's centre (always 1/2).
     pub first_slot: usize,
     /// Share of the bin's isotropic emission this channel carries: 1, or 1/2 for a
@@ -154,11 +152,6 @@ pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
                 .iter()
                 .map(|&(_, _, f)| exponent_index(f * length))
                 .collect();
-            let centre = stencil
-                .iter()
-                .find(|s| s.0 == 0 && s.1 == 0)
-                .expect("centre cell")
-                .2;
             Channel {
                 bin,
                 step,
@@ -166,7 +159,6 @@ pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
                 mu: 1.0 / length,
                 unit: dirs::dir_unit(bin),
                 pow,
-                mid_pow: exponent_index(0.5 * centre * length),
                 stencil,
                 first_slot,
                 share: if horizontal { 0.5 } else { 1.0 },
@@ -861,6 +853,26 @@ impl LevelLight {
     }
 }
 
+/// The mean over a segment of transmittance `tr` of the transmittance from its start,
+/// `(1 − tr) / (−ln tr)`: a point's light is the mean of its path's light over the
+/// segment through its own cell (the crate docs, step 2), as the Monte Carlo reference
+/// tallies a cell's mean. 1 for an empty segment, 0 for an opaque one, in `[tr, 1]`.
+#[inline]
+pub fn seg_mean(tr: f32) -> f32 {
+    if tr.is_nan() || tr <= 0.0 {
+        return 0.0;
+    }
+    if tr >= 1.0 {
+        return 1.0;
+    }
+    // Near 1, the series `1 − x/2 + x²/6` with `x = −ln tr ≈ 1 − tr`: `ln` loses digits.
+    let x = -tr.ln();
+    if x < 1e-3 {
+        return 1.0 - x * (0.5 - x / 6.0);
+    }
+    (1.0 - tr) / x
+}
+
 /// Points of a row that the row loops of phases 2 and 3 take at a time.
 const GATHER_BLOCK: usize = 64;
 
@@ -1238,7 +1250,7 @@ impl Ctx {
                 None => self.col(x + dx, z + dz),
             };
             let (tr, half) = match ci {
-                Some(ci) => (pows[ci][chn.pow[k]], pows[ci][chn.mid_pow]),
+                Some(ci) => (pows[ci][chn.pow[k]], seg_mean(pows[ci][chn.pow[k]])),
                 None => (1.0, 1.0),
             };
             rem[chn.first_slot + k] = light * (t * (1.0 - tr));
@@ -1459,9 +1471,8 @@ impl Ctx {
                         }
                     }
                     if dx == 0 && dz == 0 {
-                        let half = planes.row(Planes::POW + chn.mid_pow, z, x0 as i32, b);
                         for i in 0..b {
-                            t_mid[i] = t[i] * half[i];
+                            t_mid[i] = t[i] * seg_mean(tr[i]);
                         }
                         past_centre = true;
                     }
@@ -1944,7 +1955,11 @@ impl Ctx {
                         pre_row[(slot * 3 + col) * nx + x0..][..b].copy_from_slice(&a[..b]);
                     }
                     if dx == 0 && dz == 0 {
-                        let half = at(Planes::POW + chn.mid_pow);
+                        let mut mean = [0f32; B];
+                        for i in 0..b {
+                            mean[i] = seg_mean(tr[i]);
+                        }
+                        let half = &mean[..b];
                         for col in 0..3 {
                             let sv = at(Planes::SRC + col);
                             let (a, ce) = (&acc[col], &mut centre[col]);
@@ -2017,7 +2032,7 @@ impl Ctx {
                     }
                     let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k]);
                     if dx == 0 && dz == 0 {
-                        let half = pows[ci][chn.mid_pow];
+                        let half = seg_mean(pows[ci][chn.pow[k]]);
                         centre = acc * half;
                         if emits[ci] {
                             centre += src[ci] * (1.0 - half);

@@ -64,11 +64,6 @@ pub fn sweep_tables() -> String {
     let e = path_exponents();
     let _ = writeln!(
         s,
-        "const CH_MID_E = array<f32, {CHANNELS}>({});",
-        list(down.iter().map(|c| format!("{:?}", e[c.mid_pow])).collect())
-    );
-    let _ = writeln!(
-        s,
         "const STENCIL_D = array<vec2<i32>, {SLOTS}>({});",
         list(
             down.iter()
