@@ -84,7 +84,7 @@ fn main() -> anyhow::Result<()> {
                 lightgrid_core::MediumEmission::Source,
                 lightgrid_core::MediumEmission::Escape,
             ] {
-                let mut o2 = o.clone();
+                let mut o2 = o;
                 o2.smoothing = 0.25;
                 o2.medium = rule;
                 let sw = sweep_cpu::run(&s.material, b, &o2)?;
