@@ -356,7 +356,8 @@
 //!   linear profile (negative light in thick cells, or clamped: not linear), the first
 //!   generation's escape by profile with later generations flat (−17 / −20 / −15 /
 //!   −5 % at depth 3). The forest of `cargo xtask bench` has such cells: its error is
-//!   0.0211 with this rule, 0.0175 with the escape rule. Where the light goes missing
+//!   0.0211 with this rule (0.0180 since points hold their cell's mean), 0.0175 with
+//!   the escape rule (the centre's light). Where the light goes missing
 //!   (`examples/do1d.rs`, second table, a 1D slab): at depth 3 a flat source is −48 /
 //!   −41 / −23 / −7.5 % (w 0.1 / 0.5 / 0.9 / 0.99); with the *beam's* first collisions
 //!   emitted from their exact profile, −0.5 / −8.2 / −8.8 / −3.0 %. Tried in this
