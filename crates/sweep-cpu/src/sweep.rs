@@ -1868,7 +1868,7 @@ impl Ctx {
         (pows, planes): (&[[f32; MAX_EXPONENTS]], &mut Planes),
         cells: &[lightgrid_core::Material],
         cur: &mut LevelLight,
-        pre: &mut [f32],
+        (pre, pre_rows): (&mut [f32], &mut [bool]),
         (pend_same, pend_other): (&mut [Pending], &mut [Pending]),
         g: &mut [S],
         rows: &mut [RowFlux],
@@ -1880,10 +1880,10 @@ impl Ctx {
         planes.fill_src(self, src, emits);
         let planes = &*planes;
         // Rows whose paths carry anything: near an emitting cell (every row, scalar).
-        let pre_rows: Vec<bool> = near
-            .chunks(nx)
-            .map(|r| scalar || r.iter().any(|&b| b))
-            .collect();
+        for (r, near_row) in pre_rows.iter_mut().zip(near.chunks(nx)) {
+            *r = scalar || near_row.iter().any(|&b| b);
+        }
+        let pre_rows = &*pre_rows;
         let emitted = self.level_rows(
             cur,
             pre.par_chunks_mut(nx * SLOTS * 3),
@@ -1899,7 +1899,6 @@ impl Ctx {
             },
         );
         let pre = &*pre;
-        let pre_rows: &[bool] = &pre_rows;
         pend_same
             .par_chunks_mut(nx)
             .zip(pend_other.par_chunks_mut(nx))
@@ -2679,7 +2678,7 @@ fn run_with<S: Sink>(
                     (&w.pows, &mut w.planes),
                     &cells[range.clone()],
                     &mut w.cur,
-                    &mut w.pre,
+                    (&mut w.pre, &mut w.pre_rows),
                     (&mut same[range.clone()], &mut other[range.clone()]),
                     &mut g[range.clone()],
                     &mut w.rows,
@@ -3093,6 +3092,9 @@ struct Work {
     /// Phase 3: what each point's path carries into each of its segments (per row:
     /// slot, colour, column), and the level's transmittances and sources with a ring.
     pre: Vec<f32>,
+    /// Per row: `pre` was written this level (some point of the row is near an
+    /// emitting cell).
+    pre_rows: Vec<bool>,
     planes: Planes,
     t_after: Vec<[f32; CHANNELS]>,
     rows: Vec<RowFlux>,
@@ -3126,6 +3128,7 @@ impl Work {
             ghost_for: None,
             removed: vec![0.0; level_len * SLOTS * 3],
             pre: vec![0.0; level_len * SLOTS * 3],
+            pre_rows: vec![false; nz],
             planes: Planes::new(nx, nz),
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); nz],
