@@ -3,7 +3,8 @@
 //! each for the fast path into recycled memory (`CpuSweeper::sweep` after
 //! `CpuSweeper::recycle`: what a per-frame rebuild runs), the fast path into fresh memory
 //! (`sweep_cpu::run`) and, in the same run, the scalar oracle it equals bit for bit
-//! (`sweep_cpu::sweep::run_scalar`). The error of each setting against
+//! (`sweep_cpu::sweep::run_scalar`); and the uniform fog at 16³ and 48³, media in every
+//! level, where phases 2 and 3 take the time. The error of each setting against
 //! the Monte Carlo reference is in the crate docs (`canonical` example for timings with
 //! errors side by side); `cargo run --release -p sweep-cpu --example throughput` is the
 //! quick version of this.
@@ -70,5 +71,31 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// Media in every level (the uniform fog, 16³ and 48³, 4 passes): where phases 2 and
+/// 3 dominate, as in the bench forest's foliage (`cargo run --release -p xtask --example
+/// forest_profile` times the forest itself).
+fn bench_media(c: &mut Criterion) {
+    let mut g = c.benchmark_group("sweep uniform fog, 4 passes");
+    g.sample_size(10);
+    for n in [16u32, 48] {
+        let (m, b) = Scene::UniformFog.build(n);
+        g.throughput(Throughput::Elements(m.desc().point_count() as u64));
+        let mut o = SweepOptions::multi_bounce();
+        o.max_passes = 4;
+        o.tolerance = 0.0;
+        let mut sweeper = sweep_cpu::CpuSweeper::new();
+        g.bench_function(format!("{n}³, recycled"), |bch| {
+            bch.iter(|| {
+                let out = sweeper.sweep(&m, &b, &o).expect("sweep");
+                sweeper.recycle(out);
+            })
+        });
+        g.bench_function(format!("{n}³, scalar oracle"), |bch| {
+            bch.iter(|| sweep_cpu::sweep::run_scalar(&m, &b, None, &o).expect("sweep"))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_media);
 criterion_main!(benches);

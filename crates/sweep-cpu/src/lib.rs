@@ -250,7 +250,7 @@
 //! 7. **Outgoing and final light.** `O(x, c) = I T + Σ F_c / μ_c`. The light grid gets
 //!    `I T_mid + F_c / (2 μ_c)` (before `T_after`) in bin `b_c`, summed over all passes
 //!    (horizontal bins sum both halves), where `T_mid` is the transmittance to the
-//!    point's own cell times `m = (1 − τ_own) / (−ln τ_own)` ([`sweep::seg_mean`]), the
+//!    point's own cell times `m = (1 − τ_own) / d_own` (`d_own` its optical depth, [`sweep::seg_mean`]), the
 //!    mean transmittance over the path's segment through that cell: **a point's light is
 //!    the mean of its paths' light over its own cell**, as the Monte Carlo reference
 //!    tallies it (the cell's mean over its volume). In empty cells that is the light at

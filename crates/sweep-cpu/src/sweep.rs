@@ -853,24 +853,24 @@ impl LevelLight {
     }
 }
 
-/// The mean over a segment of transmittance `tr` of the transmittance from its start,
-/// `(1 − tr) / (−ln tr)`: a point's light is the mean of its path's light over the
-/// segment through its own cell (the crate docs, step 2), as the Monte Carlo reference
-/// tallies a cell's mean. 1 for an empty segment, 0 for an opaque one, in `[tr, 1]`.
+/// The mean over a segment of optical depth `depth` (transmittance `tr = e^−depth`) of
+/// the transmittance from its start, `(1 − tr) / depth`: a point's light is the mean of
+/// its path's light over the segment through its own cell (the crate docs, step 7), as
+/// the Monte Carlo reference tallies a cell's mean. 1 for an empty segment, 0 for an
+/// opaque one (`depth` infinite), `1 / depth` where `tr` underflows; in `[tr, 1]`. Taken
+/// from the depth, not from `tr` alone, so that it stays right (and the GPU's equal)
+/// where `tr` is below `f32`'s normal range.
 #[inline]
-pub fn seg_mean(tr: f32) -> f32 {
-    if tr.is_nan() || tr <= 0.0 {
-        return 0.0;
-    }
-    if tr >= 1.0 {
+pub fn seg_mean(tr: f32, depth: f32) -> f32 {
+    if depth.is_nan() || depth <= 0.0 {
         return 1.0;
     }
-    // Near 1, the series `1 − x/2 + x²/6` with `x = −ln tr ≈ 1 − tr`: `ln` loses digits.
-    let x = -tr.ln();
-    if x < 1e-3 {
-        return 1.0 - x * (0.5 - x / 6.0);
+    // Below 0.02, the series `1 − x/2 + x²/6 − x³/24` (within 2e-9): `1 − tr` loses
+    // digits in `f32`.
+    if depth < 0.02 {
+        return 1.0 - depth * (0.5 - depth * (1.0 / 6.0 - depth / 24.0));
     }
-    (1.0 - tr) / x
+    (1.0 - tr) / depth
 }
 
 /// Points of a row that the row loops of phases 2 and 3 take at a time.
@@ -1170,7 +1170,7 @@ impl Ctx {
         src: &Sources<'_>,
         from_virtual: bool,
         src_level: i32,
-        pows: &[[f32; MAX_EXPONENTS]],
+        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
         first: bool,
         cur: &mut LevelLight,
         removed: &mut [f32],
@@ -1207,7 +1207,7 @@ impl Ctx {
                         let light = ins + outs;
                         // Step 2: transmit along the path, recording what each cell removes.
                         let (t, t_mid, after) =
-                            self.transmit(pows, chn, x, z, None, light, &mut rem);
+                            self.transmit((pows, lnp), chn, x, z, None, light, &mut rem);
                         ta_row[xi][c] = after;
                         row_set(cur_row, p, xi, c, light * t);
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
@@ -1232,7 +1232,7 @@ impl Ctx {
     #[inline]
     fn transmit(
         &self,
-        pows: &[[f32; MAX_EXPONENTS]],
+        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
         chn: &Channel,
         x: i32,
         z: i32,
@@ -1240,6 +1240,7 @@ impl Ctx {
         light: Vec3,
         rem: &mut [Vec3; SLOTS],
     ) -> (f32, f32, f32) {
+        let exps = path_exponents();
         let mut t = 1.0f32;
         let mut t_mid = 1.0f32;
         let mut after = 1.0f32;
@@ -1250,7 +1251,10 @@ impl Ctx {
                 None => self.col(x + dx, z + dz),
             };
             let (tr, half) = match ci {
-                Some(ci) => (pows[ci][chn.pow[k]], seg_mean(pows[ci][chn.pow[k]])),
+                Some(ci) => {
+                    let tr = pows[ci][chn.pow[k]];
+                    (tr, seg_mean(tr, -exps[chn.pow[k]] * lnp[ci]))
+                }
                 None => (1.0, 1.0),
             };
             rem[chn.first_slot + k] = light * (t * (1.0 - tr));
@@ -1471,8 +1475,10 @@ impl Ctx {
                         }
                     }
                     if dx == 0 && dz == 0 {
+                        let lnp = planes.row(Planes::LNP, z, x0 as i32, b);
+                        let e = path_exponents()[chn.pow[k]];
                         for i in 0..b {
-                            t_mid[i] = t[i] * seg_mean(tr[i]);
+                            t_mid[i] = t[i] * seg_mean(tr[i], -e * lnp[i]);
                         }
                         past_centre = true;
                     }
@@ -1865,7 +1871,7 @@ impl Ctx {
     fn phase3<S: Sink>(
         &self,
         (src, emits, near): (&[Vec3], &[bool], &[bool]),
-        (pows, planes): (&[[f32; MAX_EXPONENTS]], &mut Planes),
+        (pows, lnp, planes): (&[[f32; MAX_EXPONENTS]], &[f32], &mut Planes),
         cells: &[lightgrid_core::Material],
         cur: &mut LevelLight,
         (pre, pre_rows): (&mut [f32], &mut [bool]),
@@ -1892,7 +1898,15 @@ impl Ctx {
             fin,
             |z, cur_row, pre_row, g_row, _| {
                 if scalar {
-                    self.phase3_row_scalar(z, (src, emits), pows, p, cur_row, pre_row, g_row);
+                    self.phase3_row_scalar(
+                        z,
+                        (src, emits),
+                        (pows, lnp),
+                        p,
+                        cur_row,
+                        pre_row,
+                        g_row,
+                    );
                 } else if pre_rows[z as usize] {
                     self.phase3_row(z, planes, p, cur_row, pre_row, g_row);
                 }
@@ -1955,8 +1969,10 @@ impl Ctx {
                     }
                     if dx == 0 && dz == 0 {
                         let mut mean = [0f32; B];
+                        let lnp = at(Planes::LNP);
+                        let e = path_exponents()[chn.pow[k]];
                         for i in 0..b {
-                            mean[i] = seg_mean(tr[i]);
+                            mean[i] = seg_mean(tr[i], -e * lnp[i]);
                         }
                         let half = &mean[..b];
                         for col in 0..3 {
@@ -1999,7 +2015,7 @@ impl Ctx {
         &self,
         z: i32,
         (src, emits): (&[Vec3], &[bool]),
-        pows: &[[f32; MAX_EXPONENTS]],
+        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
         p: usize,
         cur_row: &mut [f32],
         pre_row: &mut [f32],
@@ -2031,7 +2047,10 @@ impl Ctx {
                     }
                     let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k]);
                     if dx == 0 && dz == 0 {
-                        let half = seg_mean(pows[ci][chn.pow[k]]);
+                        let half = seg_mean(
+                            pows[ci][chn.pow[k]],
+                            -path_exponents()[chn.pow[k]] * lnp[ci],
+                        );
                         centre = acc * half;
                         if emits[ci] {
                             centre += src[ci] * (1.0 - half);
@@ -2565,7 +2584,7 @@ fn run_with<S: Sink>(
             let material_here = fixed.level_material[j as usize] || !fast;
             if material_here {
                 w.level_powers(&fixed.lnp[range.clone()]);
-                w.planes.fill_pows(&ctx, &w.pows);
+                w.planes.fill_pows(&ctx, &w.pows, &fixed.lnp[range.clone()]);
             }
             let f1 = if fast {
                 if fixed.periodic {
@@ -2604,7 +2623,7 @@ fn run_with<S: Sink>(
                     &src,
                     from_virtual,
                     src_level,
-                    &w.pows,
+                    (&w.pows, &fixed.lnp[range.clone()]),
                     first,
                     &mut w.cur,
                     &mut w.removed,
@@ -2675,7 +2694,7 @@ fn run_with<S: Sink>(
                 ctx.near(&w.emits, 4, &mut w.near, &mut w.quiet_rows);
                 let f3 = ctx.phase3(
                     (&w.src, &w.emits, &w.near),
-                    (&w.pows, &mut w.planes),
+                    (&w.pows, &fixed.lnp[range.clone()], &mut w.planes),
                     &cells[range.clone()],
                     &mut w.cur,
                     (&mut w.pre, &mut w.pre_rows),
@@ -3003,7 +3022,9 @@ impl Planes {
     const R: usize = 4;
     const POW: usize = 0;
     const SRC: usize = MAX_EXPONENTS;
-    const COUNT: usize = MAX_EXPONENTS + 3;
+    /// The cells' `ln(pass)` (0 beyond open sides), for [`seg_mean`].
+    const LNP: usize = MAX_EXPONENTS + 3;
+    const COUNT: usize = MAX_EXPONENTS + 4;
 
     fn new(nx: usize, nz: usize) -> Self {
         Self {
@@ -3028,8 +3049,9 @@ impl Planes {
     }
 
     /// Fills the transmittance planes from the level's `pows`.
-    fn fill_pows(&mut self, ctx: &Ctx, pows: &[[f32; MAX_EXPONENTS]]) {
+    fn fill_pows(&mut self, ctx: &Ctx, pows: &[[f32; MAX_EXPONENTS]], lnp: &[f32]) {
         self.fill(ctx, Self::POW, MAX_EXPONENTS, 1.0, |q, e| pows[q][e]);
+        self.fill(ctx, Self::LNP, 1, 0.0, |q, _| lnp[q]);
     }
 
     /// Fills the source planes from the level's sources (0 where a cell does not emit).

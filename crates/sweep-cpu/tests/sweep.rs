@@ -474,29 +474,29 @@ fn recycled_memory_is_fully_overwritten() {
 }
 
 /// A point's light is the mean of its paths' light over its own cell: the segment mean
-/// of the transmittance, `(1 − τ) / (−ln τ)`, has its known answers and limits.
+/// of the transmittance, `(1 − τ) / d` at optical depth `d`, has its known answers and
+/// limits, also where `τ` underflows.
 #[test]
 fn segment_mean_known_answers() {
     use sweep_cpu::sweep::seg_mean;
-    assert_eq!(seg_mean(1.0), 1.0);
-    assert_eq!(seg_mean(0.0), 0.0);
-    assert_eq!(seg_mean(f32::NAN), 0.0);
-    let e1 = (-1.0f32).exp();
-    assert!((seg_mean(e1) - (1.0 - e1)).abs() < 1e-6);
-    // Continuous where the series takes over, monotonic, within [τ, 1], and below the
-    // light at the centre for a thick cell lit from one face (the mean includes the far
-    // half): τ = e^-3 gives 0.317 against the centre's 0.223.
-    let mut last = 0.0;
-    for i in 1..=2000 {
-        let tr = i as f32 / 2000.0;
-        let m = seg_mean(tr);
-        assert!(m >= tr && m <= 1.0 && m >= last, "{tr}: {m}");
-        last = m;
+    let m = |d: f32| seg_mean((-d).exp(), d);
+    assert_eq!(m(0.0), 1.0);
+    assert_eq!(seg_mean(0.0, f32::INFINITY), 0.0);
+    assert_eq!(seg_mean(1.0, f32::NAN), 1.0);
+    assert!((m(1.0) - (1.0 - (-1.0f32).exp())).abs() < 1e-6);
+    // Continuous where the series takes over, monotonic, within [τ, 1].
+    let mut last = 1.0;
+    for i in 1..=4000 {
+        let d = i as f32 * 0.01;
+        let v = m(d);
+        assert!(v >= (-d).exp() && v <= 1.0 && v <= last, "{d}: {v}");
+        last = v;
     }
-    let x = 1e-3f32;
-    let (a, b) = (seg_mean((-x * 0.999).exp()), seg_mean((-x * 1.001).exp()));
-    assert!((a - b).abs() < 1e-5, "{a} {b}");
-    let t3 = (-3.0f32).exp();
-    assert!((seg_mean(t3) - (1.0 - t3) / 3.0).abs() < 1e-6);
-    assert!(seg_mean(t3) > 1.4 * (-1.5f32).exp());
+    let (a, b) = (m(0.02 * 0.999), m(0.02 * 1.001));
+    assert!((a - b).abs() < 2e-5 && a >= b, "{a} {b}");
+    // A thick cell lit from one face: the mean (0.317) above the centre's light (0.223);
+    // past `f32`'s range of `τ` the mean is still `1 / d`.
+    assert!((m(3.0) - (1.0 - (-3.0f32).exp()) / 3.0).abs() < 1e-6);
+    assert!(m(3.0) > 1.4 * (-1.5f32).exp());
+    assert!((seg_mean(0.0, 120.0) - 1.0 / 120.0).abs() < 1e-9);
 }

@@ -127,7 +127,7 @@ fn phase1(@builtin(global_invocation_id) id: vec3<u32>) {
             if (col >= 0) {
                 let p = cells[u32(col) + P.level_len * P.j].w;
                 tr = trans(p, STENCIL_E[first + k]);
-                half = seg_mean(tr);
+                half = seg_mean(tr, depth(p, STENCIL_E[first + k]));
             }
             let r = light * (t * (1.0 - tr));
             let ri = li * SCRATCH + (first + k) * 3u;

@@ -32,19 +32,28 @@ fn trans(pass_through: f32, e: f32) -> f32 {
     return exp(e * log(pass_through));
 }
 
-// Mean over a segment of transmittance tr of the transmittance from its start,
-// (1 - tr) / (-ln tr): a point's light is the mean of its path's light over its own
-// cell's segment (sweep_cpu::sweep::seg_mean).
-fn seg_mean(tr: f32) -> f32 {
-    if (tr <= 0.0) {
-        return 0.0;
-    }
-    if (tr >= 1.0) {
+// Mean over a segment of optical depth x (transmittance tr = e^-x) of the transmittance
+// from its start, (1 - tr) / x: a point's light is the mean of its path's light over its
+// own cell's segment (sweep_cpu::sweep::seg_mean, from the depth: right where tr
+// underflows).
+fn seg_mean(tr: f32, x: f32) -> f32 {
+    if (!(x > 0.0)) {
         return 1.0;
     }
-    let x = -log(tr);
-    if (x < 1e-3) {
-        return 1.0 - x * (0.5 - x / 6.0);
+    if (x < 0.02) {
+        return 1.0 - x * (0.5 - x * (1.0 / 6.0 - x / 24.0));
     }
     return (1.0 - tr) / x;
+}
+
+// Optical depth of a path fraction e through a cell of pass-through p (infinite for an
+// opaque cell).
+fn depth(pass_through: f32, e: f32) -> f32 {
+    if (pass_through >= 1.0) {
+        return 0.0;
+    }
+    if (pass_through <= 0.0) {
+        return 1e30;
+    }
+    return -e * log(pass_through);
 }

@@ -292,7 +292,7 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
             let sd = STENCIL_D[CH_FIRST_SLOT[c] + k];
             let s = segment(x, z, c, k);
             if (sd.x == 0 && sd.y == 0) {
-                let half = seg_mean(s.w);
+                let half = seg_mean(s.w, depth(mat.w, STENCIL_E[CH_FIRST_SLOT[c] + k]));
                 centre = acc * half + src_at(li) * (1.0 - half);
             }
             acc = acc * s.w + s.xyz;
