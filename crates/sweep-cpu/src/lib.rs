@@ -384,6 +384,7 @@
 pub mod accel;
 pub mod exact;
 pub mod medium;
+pub mod profile;
 pub mod reference;
 pub mod scenes;
 pub mod sky;

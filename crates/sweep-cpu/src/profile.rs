@@ -1,0 +1,483 @@
+//! A medium cell's source as a **quadratic in height**: the segment integrals and the
+//! per-pass sums it needs (issue 13's thick cells). Groundwork: the sweep does not use
+//! this module yet; the crate docs' rule (a flat source in each cell, [`crate::medium`])
+//! is still the one the sweep runs.
+//!
+//! ## Why
+//!
+//! With a flat source, Chandrasekhar's half-space albedo comes out 15–23 % low in cells
+//! of optical depth 3 and albedo ≤ 0.5: a beam entering a thick cell collides near the
+//! face it entered by, and a flat source sends too little of that back out. The 1-D
+//! study `cargo run --release -p sweep-cpu --example do1d` solves the half-space with
+//! the sweep's own channel cosines as ordinates and the cell's whole source expanded in
+//! Legendre polynomials of height up to order 0, 1 or 2 (each coefficient the cell's
+//! moment of its collisions, so the scheme stays **linear in the light** and exact in a
+//! white furnace, where the moments above 0 vanish). At cell depth 3 (w 0.1 / 0.5 / 0.9 /
+//! 0.99):
+//!
+//! | source in height | error |
+//! |------------------|------:|
+//! | flat (order 0) | −48 / −41 / −23 / −7.5 % |
+//! | linear (order 1) | −7.5 / −3.5 / +0.9 / +0.3 % |
+//! | quadratic (order 2) | +0.7 / +1.1 / +0.4 / −0.0 % |
+//! | the channels' own angular error (fine mesh) | +1.7 / +1.1 / +0.2 / −0.1 % |
+//!
+//! So a quadratic source in height leaves no spatial error at depths 0.69 to 3: the
+//! issue's 2 % is within reach with two more moments per cell and colour.
+//!
+//! ## The rule this module prepares
+//!
+//! Height in a cell: `y ∈ [−1, 1]` (bottom to top). A medium cell's source radiance in a
+//! pass is `j(y) = Σ_m J_m P_m(y)`, `m = 0..2` (Legendre polynomials, [`legendre`]).
+//! A path segment through the cell (optical length `t`, height running linearly from
+//! `y0` where the path enters to `y1` where it leaves, [`Segment`]):
+//!
+//! - **collides** light entering it with the height moments [`Segment::collided`]
+//!   `C_n = ∫₀ᵗ P_n(y(s)) e^{−s} ds` (`C_0 = 1 − e^{−t}`, the removed fraction): the
+//!   cell tallies `R_n = Σ μ_c × removed × C_n / C_0` over its segments in phases 2
+//!   and 3;
+//! - **emits** `ω_b σ_c Σ_m J_m E_m` into its path, [`Segment::emitted`] `E_m =
+//!   ∫₀ᵗ P_m(y(s)) e^{−(t−s)} ds` (`E_0 = 1 − e^{−t}`, today's flat rule);
+//! - **stops again** of its own emission the moments [`Segment::self_collided`] `K_nm`;
+//! - gives the point whose own cell it is the mean light `L_in m + Σ_m J_m (U_m − E_m)
+//!   / t`, with [`Segment::uniform`] `U_m = ∫₀ᵗ P_m(y(s)) ds`.
+//!
+//! Summed over a pass's segments through one cell (weights `μ_c ω_b σ_c`,
+//! [`PassSums`]): the pass emits the moments `O J_n / (2n + 1)` (`O = τ Σ_c ω_b σ_c`:
+//! each channel's segments through a cell cover its height evenly), sends `G·J` out of
+//! the cell and stops `K J` again, of which it scatters `a` once more. With `E_n` the
+//! scattered light's moments this pass emits (half of the cell's collisions' `a R_n`,
+//! the source being isotropic), the source solves the 3 × 3 system ([`PassSums::solve`])
+//!
+//! ```text
+//! O J_n / (2n + 1) − a Σ_m K_nm J_m = E_n,   n = 0, 1, 2.
+//! ```
+//!
+//! Its `n = 0` row is today's `J = E / (G + (1 − a) K)` when `J_1 = J_2 = 0`, and flux
+//! is conserved exactly (`K_0m = O δ_m0 − G_m`, by construction). In a white furnace the
+//! collisions of light entering a segment and of the segment's own flat source add up
+//! to an even density, `C_n + K_n0 = U_n`, whose moments above 0 vanish over a pass
+//! ([`PassSums::furnace_moments`]): `J = (1, 0, 0)` exactly, as today. The up/down split
+//! of [`crate::medium::split`] becomes unnecessary: a source heavy at the top sends
+//! more out through the top by itself.
+
+use std::f64::consts::PI;
+
+use lightgrid_core::dirs;
+
+use crate::sweep::{channels, path_exponents};
+
+/// Legendre polynomials `P_0, P_1, P_2` at `y`.
+#[inline]
+pub fn legendre(y: f64) -> [f64; 3] {
+    [1.0, y, 0.5 * (3.0 * y * y - 1.0)]
+}
+
+/// `∫₀ᵗ s^(k−1) e^{−s} ds` for `k` = 1, 2, 3 (the lower incomplete gamma function
+/// `γ(k, t)`): a series below `t = 2` (no cancellation for small `t`), the closed form
+/// above. 0 for `t ≤ 0` or NaN; `(k − 1)!` for `t = ∞`.
+pub fn lower_gamma(k: u32, t: f64) -> f64 {
+    assert!(
+        (1..=3).contains(&k),
+        "lower_gamma: k = {k} is not 1, 2 or 3"
+    );
+    if t.is_nan() || t <= 0.0 {
+        return 0.0;
+    }
+    if t < 2.0 {
+        // Σ_j (−t)^j / j! × t^k / (k + j)
+        let mut term = t.powi(k as i32);
+        let mut sum = 0.0;
+        for j in 0..40 {
+            sum += term / (k + j) as f64;
+            term *= -t / (j + 1) as f64;
+            if term.abs() < 1e-19 * sum.abs() {
+                break;
+            }
+        }
+        return sum;
+    }
+    let e = (-t).exp();
+    if e == 0.0 {
+        return [1.0, 1.0, 2.0][k as usize - 1];
+    }
+    match k {
+        1 => 1.0 - e,
+        2 => 1.0 - e * (1.0 + t),
+        _ => 2.0 * (1.0 - e * (1.0 + t + 0.5 * t * t)),
+    }
+}
+
+/// One path segment through a cell: optical length `t`, height `y0` where the path
+/// enters the cell and `y1` where it leaves (`y ∈ [−1, 1]`, linear along the path).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Segment {
+    /// Optical length along the path.
+    pub t: f64,
+    /// Height where the path enters.
+    pub y0: f64,
+    /// Height where the path leaves.
+    pub y1: f64,
+}
+
+/// Quadrature points per segment for [`Segment::self_collided`]'s outer integral.
+const SELF_POINTS: usize = 48;
+
+impl Segment {
+    /// `∫₀ᵗ P_n(y0 + δ s) e^{−s} ds`, `δ = (y1 − y0)/t`: the height moments of where
+    /// light entering at `y0` collides (a beam decays as `e^{−s}`).
+    fn decay_moments(t: f64, y0: f64, y1: f64) -> [f64; 3] {
+        if t.is_nan() || t <= 0.0 {
+            return [0.0; 3];
+        }
+        let d = (y1 - y0) / t;
+        let (g1, g2, g3) = (lower_gamma(1, t), lower_gamma(2, t), lower_gamma(3, t));
+        // P_2(y0 + δ s) = (3 y0² − 1)/2 + 3 y0 δ s + 3/2 δ² s²
+        [
+            g1,
+            y0 * g1 + d * g2,
+            0.5 * (3.0 * y0 * y0 - 1.0) * g1 + 3.0 * y0 * d * g2 + 1.5 * d * d * g3,
+        ]
+    }
+
+    /// `C_n = ∫₀ᵗ P_n(y(s)) e^{−s} ds`: the height moments of the collisions of light
+    /// entering the segment (per unit of it; `C_0 = 1 − e^{−t}`).
+    pub fn collided(&self) -> [f64; 3] {
+        Self::decay_moments(self.t, self.y0, self.y1)
+    }
+
+    /// `E_m = ∫₀ᵗ P_m(y(s)) e^{−(t−s)} ds`: what a source `P_m(y)` (per unit of
+    /// radiance) along the segment sends out of its end (`E_0 = 1 − e^{−t}`).
+    pub fn emitted(&self) -> [f64; 3] {
+        Self::decay_moments(self.t, self.y1, self.y0)
+    }
+
+    /// `U_n = ∫₀ᵗ P_n(y(s)) ds`: the moments of an even density along the segment.
+    pub fn uniform(&self) -> [f64; 3] {
+        let (a, b) = (self.y0, self.y1);
+        // Means of P_n over [a, b] (exact for polynomials up to degree 2 by Simpson).
+        let (pa, pm, pb) = (legendre(a), legendre(0.5 * (a + b)), legendre(b));
+        std::array::from_fn(|n| self.t * (pa[n] + 4.0 * pm[n] + pb[n]) / 6.0)
+    }
+
+    /// `K_nm = ∫₀ᵗ P_m(y(s')) ∫_{s'}^t P_n(y(s)) e^{−(s−s')} ds ds'`: the height
+    /// moments `n` of where the segment's own source `P_m` collides further along it.
+    /// `K_n0 = U_n − C_n` exactly; the other columns by Gauss–Legendre quadrature of
+    /// the outer integral (each point a beam starting at `s'`).
+    pub fn self_collided(&self) -> [[f64; 3]; 3] {
+        let (u, c) = (self.uniform(), self.collided());
+        let mut k = [[0.0; 3]; 3];
+        for n in 0..3 {
+            k[n][0] = u[n] - c[n];
+        }
+        if self.t.is_nan() || self.t <= 0.0 {
+            return k;
+        }
+        let y = |s: f64| self.y0 + (self.y1 - self.y0) * s / self.t;
+        for &(x, w) in gauss_nodes() {
+            let s = x * self.t;
+            let pm = legendre(y(s));
+            let inner = Self::decay_moments(self.t - s, y(s), self.y1);
+            for n in 0..3 {
+                for m in 1..3 {
+                    k[n][m] += w * self.t * pm[m] * inner[n];
+                }
+            }
+        }
+        k
+    }
+}
+
+fn gauss_nodes() -> &'static [(f64, f64)] {
+    static Q: std::sync::OnceLock<Vec<(f64, f64)>> = std::sync::OnceLock::new();
+    Q.get_or_init(|| crate::exact::gauss_legendre_01(SELF_POINTS))
+}
+
+/// The segments of a pass through one cell of optical depth `tau` (per level), each
+/// with its weight `μ_c ω_b σ_c`: for every channel of the pass, one segment a stencil
+/// cell (the cell is crossed once by each, by the paths of different points).
+pub fn pass_segments(up: bool, tau: f64) -> Vec<(f64, Segment)> {
+    let exps = path_exponents();
+    let omega = dirs::solid_angles();
+    let mut out = Vec::new();
+    for chn in channels(up).iter() {
+        let w = (chn.mu * omega[chn.bin] * chn.share) as f64;
+        let mut along = 0.0f64;
+        for (k, &(_, _, f)) in chn.stencil.iter().enumerate() {
+            // Height: downward paths run from the top (y = 1) to the bottom.
+            let y = |a: f64| if up { 2.0 * a - 1.0 } else { 1.0 - 2.0 * a };
+            let seg = Segment {
+                t: exps[chn.pow[k]] as f64 * tau,
+                y0: y(along),
+                y1: y(along + f as f64),
+            };
+            along += f as f64;
+            out.push((w, seg));
+        }
+    }
+    out
+}
+
+/// A pass's sums over a cell's segments ([`pass_segments`]), weighted `μ_c ω_b σ_c`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PassSums {
+    /// `O = τ Σ_c ω_b σ_c`: the flux a unit flat source emits in the pass's directions.
+    pub o: f64,
+    /// `G_m = Σ w E_m`: what a source `P_m` sends out of the cell.
+    pub g: [f64; 3],
+    /// `K_nm = Σ w K_nm(segment)`, with `K_0m = O δ_m0 − G_m` set exactly (flux).
+    pub k: [[f64; 3]; 3],
+}
+
+impl PassSums {
+    /// The sums of the downward (`up = false`) or upward pass for a cell of optical
+    /// depth `tau` per level.
+    pub fn new(up: bool, tau: f64) -> Self {
+        let mut g = [0.0; 3];
+        let mut k = [[0.0; 3]; 3];
+        let mut half = 0.0;
+        for (w, seg) in pass_segments(up, tau) {
+            let (e, kk) = (seg.emitted(), seg.self_collided());
+            for n in 0..3 {
+                g[n] += w * e[n];
+                for m in 0..3 {
+                    k[n][m] += w * kk[n][m];
+                }
+            }
+            half += w * seg.t;
+        }
+        // Σ μ ω σ f ℓ τ = τ Σ ω σ: each channel's fractions sum to 1 and μ ℓ = 1.
+        let o = half;
+        for m in 0..3 {
+            k[0][m] = if m == 0 { o } else { 0.0 } - g[m];
+        }
+        Self { o, g, k }
+    }
+
+    /// The moments `Σ w (C_n + K_n0)` of a white furnace's collisions in the pass (light
+    /// 1 entering every segment and a flat source 1): `(O, 0, 0)` when the pass's
+    /// segments cover the cell's height evenly.
+    pub fn furnace_moments(up: bool, tau: f64) -> [f64; 3] {
+        let mut v = [0.0; 3];
+        for (w, seg) in pass_segments(up, tau) {
+            let (c, k) = (seg.collided(), seg.self_collided());
+            for n in 0..3 {
+                v[n] += w * (c[n] + k[n][0]);
+            }
+        }
+        v
+    }
+
+    /// The source `J` (Legendre coefficients in height) that emits the scattered
+    /// moments `e` this pass, albedo `a`: `O J_n / (2n + 1) − a Σ_m K_nm J_m = e_n`.
+    /// `None` where the system is singular (an empty cell, `O = 0`).
+    pub fn solve(&self, a: f64, e: [f64; 3]) -> Option<[f64; 3]> {
+        let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
+            std::array::from_fn(|c| {
+                let diag = if n == c {
+                    self.o / (2 * n + 1) as f64
+                } else {
+                    0.0
+                };
+                diag - a * self.k[n][c]
+            })
+        });
+        let det = |m: &[[f64; 3]; 3]| {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        };
+        let d = det(&m);
+        if d.is_nan() || d.abs() <= 1e-300 || !d.is_finite() {
+            return None;
+        }
+        let j: [f64; 3] = std::array::from_fn(|c| {
+            let mut mc = m;
+            for n in 0..3 {
+                mc[n][c] = e[n];
+            }
+            det(&mc) / d
+        });
+        j.iter().all(|v| v.is_finite()).then_some(j)
+    }
+
+    /// Flux the source `j` sends out of the cell (`G·J`) and the flux its own material
+    /// absorbs of it (`(1 − a)(O J_0 − G·J)`).
+    pub fn escaped_absorbed(&self, a: f64, j: [f64; 3]) -> (f64, f64) {
+        let out: f64 = (0..3).map(|m| self.g[m] * j[m]).sum();
+        (out, (1.0 - a) * (self.o * j[0] - out))
+    }
+}
+
+/// `4π`: the flux both passes of a unit flat source emit per unit optical depth
+/// (`O_down + O_up = 4π τ`).
+pub const FULL_SPHERE: f64 = 4.0 * PI;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Midpoint-rule reference for `∫₀ᵗ f(s) ds`.
+    fn brute(t: f64, f: impl Fn(f64) -> f64) -> f64 {
+        let n = 200_000;
+        let h = t / n as f64;
+        (0..n).map(|i| f((i as f64 + 0.5) * h) * h).sum()
+    }
+
+    fn segs() -> Vec<Segment> {
+        let mut v = Vec::new();
+        for t in [1e-7, 1e-3, 0.05, 0.69, 1.9, 2.1, 3.0, 12.0, 60.0] {
+            for (y0, y1) in [
+                (1.0, -1.0),
+                (-1.0, 1.0),
+                (1.0, 0.75),
+                (0.25, -0.25),
+                (-0.75, -1.0),
+            ] {
+                v.push(Segment { t, y0, y1 });
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn lower_gamma_known_answers() {
+        for t in [1e-9, 0.01, 0.5, 1.99, 2.0, 2.01, 7.0, 50.0] {
+            for k in 1..=3u32 {
+                let want = brute(t, |s| s.powi(k as i32 - 1) * (-s).exp());
+                let got = lower_gamma(k, t);
+                assert!(
+                    (got - want).abs() <= 1e-8 * want.abs() + 1e-300,
+                    "k {k} t {t}: {got} vs {want}"
+                );
+            }
+        }
+        assert_eq!(lower_gamma(3, f64::INFINITY), 2.0);
+        assert_eq!(lower_gamma(2, -1.0), 0.0);
+        assert_eq!(lower_gamma(1, f64::NAN), 0.0);
+    }
+
+    #[test]
+    fn segment_integrals_against_brute_force() {
+        for s in segs() {
+            let y = |u: f64| s.y0 + (s.y1 - s.y0) * u / s.t;
+            let (c, e, u) = (s.collided(), s.emitted(), s.uniform());
+            for n in 0..3 {
+                let bc = brute(s.t, |v| legendre(y(v))[n] * (-v).exp());
+                let be = brute(s.t, |v| legendre(y(v))[n] * (-(s.t - v)).exp());
+                let bu = brute(s.t, |v| legendre(y(v))[n]);
+                let tol = |b: f64| 1e-7 * b.abs().max(s.t.min(1.0)) + 1e-15;
+                assert!((c[n] - bc).abs() < tol(bc), "{s:?} C{n}: {} vs {bc}", c[n]);
+                assert!((e[n] - be).abs() < tol(be), "{s:?} E{n}: {} vs {be}", e[n]);
+                assert!((u[n] - bu).abs() < tol(bu), "{s:?} U{n}: {} vs {bu}", u[n]);
+            }
+            // A flat source's emission is today's 1 − e^{−t}, and so is a beam's removal.
+            let removed = -(-s.t).exp_m1();
+            assert!((c[0] - removed).abs() < 1e-12 && (e[0] - removed).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn self_collisions_against_brute_force() {
+        for s in [
+            Segment {
+                t: 0.3,
+                y0: 1.0,
+                y1: -1.0,
+            },
+            Segment {
+                t: 3.0,
+                y0: 0.75,
+                y1: 0.25,
+            },
+            Segment {
+                t: 20.0,
+                y0: -1.0,
+                y1: 1.0,
+            },
+        ] {
+            let y = |u: f64| s.y0 + (s.y1 - s.y0) * u / s.t;
+            let k = s.self_collided();
+            let n_pts = 2000;
+            let h = s.t / n_pts as f64;
+            for n in 0..3 {
+                for m in 0..3 {
+                    // Double midpoint sum over s' < s.
+                    let mut b = 0.0;
+                    for i in 0..n_pts {
+                        let sp = (i as f64 + 0.5) * h;
+                        let pm = legendre(y(sp))[m];
+                        // Inner integral from s' to t, analytic in the decay.
+                        let inner = Segment::decay_moments(s.t - sp, y(sp), s.y1)[n];
+                        b += pm * inner * h;
+                    }
+                    assert!(
+                        (k[n][m] - b).abs() < 1e-5 * b.abs().max(1e-3),
+                        "{s:?} K{n}{m}: {} vs {b}",
+                        k[n][m]
+                    );
+                }
+            }
+        }
+    }
+
+    /// Each channel's segments cover a cell's height evenly: a white furnace's
+    /// collisions have no height moments, in either pass and at any depth.
+    #[test]
+    fn furnace_collisions_are_even_in_height() {
+        for up in [false, true] {
+            for tau in [1e-4, 0.05, 0.69, 3.0, 30.0] {
+                let v = PassSums::furnace_moments(up, tau);
+                let o = PassSums::new(up, tau).o;
+                assert!((v[0] - o).abs() < 1e-9 * o, "{up} {tau}: {v:?} vs {o}");
+                assert!(
+                    v[1].abs() < 1e-9 * o && v[2].abs() < 1e-9 * o,
+                    "{up} {tau}: {v:?}"
+                );
+                // O is τ times half the sphere's solid angle.
+                assert!((o / tau - FULL_SPHERE / 2.0).abs() < 1e-4, "{}", o / tau);
+            }
+        }
+    }
+
+    /// A white furnace's source is flat and 1; flux is conserved for any albedo and
+    /// any scattered moments; a source heavy at the top sends more out upward.
+    #[test]
+    fn solve_known_answers_and_energy() {
+        for tau in [0.01, 0.69, 3.0, 10.0] {
+            let down = PassSums::new(false, tau);
+            let up = PassSums::new(true, tau);
+            // Furnace: the scattered moments of light 1 entering every segment.
+            let mut e = [0.0; 3];
+            for (w, seg) in pass_segments(false, tau) {
+                let c = seg.collided();
+                for n in 0..3 {
+                    e[n] += w * c[n];
+                }
+            }
+            let j = down.solve(1.0, e).unwrap();
+            assert!((j[0] - 1.0).abs() < 1e-9, "{tau}: {j:?}");
+            assert!(j[1].abs() < 1e-9 && j[2].abs() < 1e-9, "{tau}: {j:?}");
+            for a in [0.0, 0.3, 0.9, 1.0] {
+                for e in [[1.0, 0.0, 0.0], [1.0, 0.3, -0.1], [2.0, -0.9, 0.4]] {
+                    let j = down.solve(a, e).unwrap();
+                    let (out, absorbed) = down.escaped_absorbed(a, j);
+                    assert!(
+                        (out + absorbed - e[0]).abs() < 1e-9 * e[0],
+                        "tau {tau} a {a} e {e:?}: {out} + {absorbed}"
+                    );
+                }
+            }
+            // Top-heavy source (P_1 > 0): the upward pass's segments send out more.
+            if tau > 0.5 {
+                let j = [1.0, 0.5, 0.0];
+                let (gu, gd) = (
+                    up.escaped_absorbed(1.0, j).0,
+                    down.escaped_absorbed(1.0, j).0,
+                );
+                assert!(gu > gd * 1.05, "tau {tau}: up {gu} down {gd}");
+            }
+        }
+        assert_eq!(PassSums::new(false, 0.0).solve(0.5, [1.0, 0.0, 0.0]), None);
+    }
+}
