@@ -122,6 +122,7 @@ impl ContentHash {
         .u32(match medium {
             crate::MediumEmission::Escape => 0,
             crate::MediumEmission::Source => 2,
+            crate::MediumEmission::Profile => 3,
         })
         .u32(match acceleration {
             crate::Acceleration::Off => 0,

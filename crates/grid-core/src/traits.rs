@@ -280,6 +280,17 @@ pub enum MediumEmission {
     /// too much from dense media, +59 % at optical depth 3, and measured worse than the
     /// source rule on every canonical scene.)
     Escape,
+    /// [`MediumEmission::Source`] with each cell's source a **quadratic in height**
+    /// instead of flat (`sweep_cpu::profile`, issue 13): a cell tallies the height
+    /// moments of where light collides in it, and each batch of scattered light becomes
+    /// an isotropic source whose Legendre coefficients in height solve the cell's 3 × 3
+    /// balance with its own re-collisions; each pass's segments emit what that source
+    /// sends along them. Still exact in a white furnace and linear in the light; on a
+    /// laterally uniform half-space it is within the channels' own angular error at
+    /// every cell depth (model: `cargo run --release -p sweep-cpu --example
+    /// profile_slab`). A first version: the CPU sweeper runs it on its scalar path (no
+    /// row kernels) without diffusion acceleration; `sweep-gpu` refuses it.
+    Profile,
 }
 
 /// Most passes one sweep may run ([`SweepOptions::max_passes`]): bounds the run time of

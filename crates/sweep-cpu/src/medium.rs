@@ -214,7 +214,7 @@ pub fn split(lnp: f32) -> f32 {
 /// under `rule`.
 #[inline]
 pub fn applies(rule: MediumEmission, p: f32) -> bool {
-    rule == MediumEmission::Source && p > 0.0 && p < 1.0
+    matches!(rule, MediumEmission::Source | MediumEmission::Profile) && p > 0.0 && p < 1.0
 }
 
 #[cfg(test)]

@@ -63,9 +63,11 @@
 
 use std::f64::consts::PI;
 
+use lightgrid_core::Material;
 use lightgrid_core::dirs;
+use lightgrid_core::glam::{DVec3, Vec3};
 
-use crate::sweep::{channels, path_exponents};
+use crate::sweep::{SLOTS, channels, path_exponents};
 
 /// Legendre polynomials `P_0, P_1, P_2` at `y`.
 #[inline]
@@ -307,6 +309,258 @@ impl PassSums {
         let out: f64 = (0..3).map(|m| self.g[m] * j[m]).sum();
         (out, (1.0 - a) * (self.o * j[0] - out))
     }
+}
+
+/// Nodes of the tables behind [`CellProfile::new`]: optical depths `τ = TAU_MAX (i /
+/// (TABLE − 1))²`, interpolated linearly in `√τ`.
+pub const TABLE: usize = 1025;
+/// Largest optical depth per level in the tables (thicker cells take its values).
+pub const TAU_MAX: f64 = 64.0;
+
+/// One table node: per pass and stencil slot `[C_1/C_0, C_2/C_0, E_1, E_2, M_1, M_2]`
+/// (`M_m = (U_m − E_m)/t`, a source `P_m`'s share of the mean light over the segment),
+/// and both passes' self-collisions `K_nm`, `n, m ∈ {1, 2}`.
+struct Node {
+    slot: [[[f32; 6]; SLOTS]; 2],
+    k: [[f32; 2]; 2],
+}
+
+fn tables() -> &'static [Node] {
+    static T: std::sync::OnceLock<Vec<Node>> = std::sync::OnceLock::new();
+    T.get_or_init(|| {
+        (0..TABLE)
+            .map(|i| {
+                let u = i as f64 / (TABLE - 1) as f64;
+                // τ = 0 as a vanishing depth: the ratios' limits.
+                let tau = (TAU_MAX * u * u).max(1e-9);
+                let mut node = Node {
+                    slot: [[[0.0; 6]; SLOTS]; 2],
+                    k: [[0.0; 2]; 2],
+                };
+                let mut k = [[0.0f64; 2]; 2];
+                for (pass, up) in [false, true].into_iter().enumerate() {
+                    for (sl, (w, seg)) in pass_segments(up, tau).into_iter().enumerate() {
+                        let (c, e, uu) = (seg.collided(), seg.emitted(), seg.uniform());
+                        node.slot[pass][sl] = [
+                            (c[1] / c[0]) as f32,
+                            (c[2] / c[0]) as f32,
+                            e[1] as f32,
+                            e[2] as f32,
+                            ((uu[1] - e[1]) / seg.t) as f32,
+                            ((uu[2] - e[2]) / seg.t) as f32,
+                        ];
+                        let kk = seg.self_collided();
+                        for n in 0..2 {
+                            for m in 0..2 {
+                                k[n][m] += w * kk[n + 1][m + 1];
+                            }
+                        }
+                    }
+                }
+                node.k = k.map(|r| r.map(|v| v as f32));
+                node
+            })
+            .collect()
+    })
+}
+
+type SlotGeometry = (f32, f32, [f32; 2]);
+
+/// Per stencil slot of a pass: `μ_c ω_b σ_c`, the path exponent `e` (the segment's
+/// optical length is `e τ`) and the mean of `P_1`, `P_2` over its height range.
+fn slot_geometry(up: bool) -> &'static [SlotGeometry; SLOTS] {
+    static G: std::sync::OnceLock<[[SlotGeometry; SLOTS]; 2]> = std::sync::OnceLock::new();
+    &G.get_or_init(|| {
+        [false, true].map(|up| {
+            let segs = pass_segments(up, 1.0);
+            std::array::from_fn(|sl| {
+                let (w, seg) = segs[sl];
+                let u = seg.uniform();
+                (
+                    w as f32,
+                    seg.t as f32,
+                    [(u[1] / seg.t) as f32, (u[2] / seg.t) as f32],
+                )
+            })
+        })
+    })[up as usize]
+}
+
+/// A medium cell's profile values for one pass (interpolated from the tables at its
+/// optical depth) and its full-sphere balance: what the sweep's source rule with a
+/// quadratic source in height ([`lightgrid_core::MediumEmission::Profile`]) reads.
+#[derive(Debug, Clone, Copy)]
+pub struct CellProfile {
+    /// Per slot of this pass: `C_1/C_0`, `C_2/C_0` (a collision's height moments per
+    /// unit of the light it removed).
+    pub coll: [[f32; 2]; SLOTS],
+    /// Per slot of this pass: `E_1`, `E_2` (emission of sources `P_1`, `P_2`).
+    pub emit: [[f32; 2]; SLOTS],
+    /// Per slot of this pass: `M_1`, `M_2` (their share of the segment's mean light).
+    pub mean: [[f32; 2]; SLOTS],
+    /// `G_m` of this pass and of the other one.
+    pub g: [[f32; 3]; 2],
+    /// Both passes: `O` (a flat unit source's whole emission).
+    pub o: f32,
+    /// Both passes: `K_nm`, with `K_0m = O δ_m0 − G_m` and `K_n0 = Σ w (U_n − C_n)` from
+    /// the same interpolated values the tallies use, so that flux is conserved and a
+    /// white furnace stays flat to rounding.
+    pub k: [[f32; 3]; 3],
+}
+
+impl CellProfile {
+    /// The profile of a medium cell of `ln(pass)` `lnp` for the downward (`up = false`)
+    /// or upward pass. Finite for any `lnp` (thicker than [`TAU_MAX`]: its values).
+    pub fn new(up: bool, lnp: f32) -> Self {
+        let tau = (-lnp as f64).clamp(0.0, f64::MAX);
+        let t = tables();
+        let u = (tau.min(TAU_MAX) / TAU_MAX).sqrt() * (TABLE - 1) as f64;
+        let i = (u as usize).min(TABLE - 2);
+        let f = (u - i as f64).clamp(0.0, 1.0) as f32;
+        let lerp = |a: f32, b: f32| a + (b - a) * f;
+        let mut out = CellProfile {
+            coll: [[0.0; 2]; SLOTS],
+            emit: [[0.0; 2]; SLOTS],
+            mean: [[0.0; 2]; SLOTS],
+            g: [[0.0; 3]; 2],
+            o: 0.0,
+            k: [[0.0; 3]; 3],
+        };
+        let tau32 = tau.min(f32::MAX as f64) as f32;
+        let mut kn0 = [0.0f32; 2];
+        for pass in 0..2 {
+            let this = pass == up as usize;
+            let geo = slot_geometry(pass == 1);
+            let gi = if this { 0 } else { 1 };
+            for sl in 0..SLOTS {
+                let (a, b) = (&t[i].slot[pass][sl], &t[i + 1].slot[pass][sl]);
+                let v: [f32; 6] = std::array::from_fn(|q| lerp(a[q], b[q]));
+                let (w, e, ubar) = geo[sl];
+                let seg_t = e * tau32;
+                let c0 = -(-seg_t).exp_m1();
+                out.g[gi][0] += w * c0;
+                out.g[gi][1] += w * v[2];
+                out.g[gi][2] += w * v[3];
+                out.o += w * seg_t;
+                for n in 0..2 {
+                    kn0[n] += w * (seg_t * ubar[n] - v[n] * c0);
+                }
+                if this {
+                    out.coll[sl] = [v[0], v[1]];
+                    out.emit[sl] = [v[2], v[3]];
+                    out.mean[sl] = [v[4], v[5]];
+                }
+            }
+        }
+        for m in 0..3 {
+            out.k[0][m] = if m == 0 { out.o } else { 0.0 } - (out.g[0][m] + out.g[1][m]);
+        }
+        for n in 0..2 {
+            out.k[n + 1][0] = kn0[n];
+            for m in 0..2 {
+                out.k[n + 1][m + 1] = lerp(t[i].k[n][m], t[i + 1].k[n][m]);
+            }
+        }
+        out
+    }
+
+    /// The isotropic source (Legendre coefficients in height) into which the cell
+    /// scatters collisions of height moments `r` (flux, one colour), albedo `a`, and the
+    /// flux its own material absorbs of it (the collisions' `1 − a` not included):
+    /// `O J_n / (2n + 1) − a Σ_m K_nm J_m = a r_n`. Zero where `r_0 = 0`, `a = 0` or
+    /// the balance is singular; finite always.
+    pub fn source(&self, a: f32, r: [f32; 3]) -> ([f32; 3], f32) {
+        if !(a > 0.0 && r[0] != 0.0 && r.iter().all(|v| v.is_finite())) {
+            return ([0.0; 3], 0.0);
+        }
+        let (a, o) = (a as f64, self.o as f64);
+        let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
+            std::array::from_fn(|c| {
+                let diag = if n == c { o / (2 * n + 1) as f64 } else { 0.0 };
+                diag - a * self.k[n][c] as f64
+            })
+        });
+        let e = r.map(|v| a * v as f64);
+        let det = |m: &[[f64; 3]; 3]| {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        };
+        let d = det(&m);
+        if d.is_nan() || d.abs() <= 1e-300 || !d.is_finite() {
+            return ([0.0; 3], 0.0);
+        }
+        let j: [f64; 3] = std::array::from_fn(|c| {
+            let mut mc = m;
+            for n in 0..3 {
+                mc[n][c] = e[n];
+            }
+            det(&mc) / d
+        });
+        if !j.iter().all(|v| v.is_finite()) {
+            return ([0.0; 3], 0.0);
+        }
+        let out: f64 = (0..3)
+            .map(|q| (self.g[0][q] + self.g[1][q]) as f64 * j[q])
+            .sum();
+        let absorbed = (1.0 - a) * (o * j[0] - out);
+        (j.map(|v| v as f32), absorbed as f32)
+    }
+
+    /// What the source `j` sends out of the cell through this pass's segments (`which`
+    /// 0) or the other pass's (1).
+    #[inline]
+    pub fn flux_out(&self, which: usize, j: [f32; 3]) -> f32 {
+        (0..3).map(|m| self.g[which][m] * j[m]).sum()
+    }
+}
+
+/// [`CellProfile::source`] per colour: the source coefficients (`[J_0, J_1, J_2]`, RGB
+/// each) for collisions of height moments `r` (RGB each), albedo `alb`; the flux the
+/// cell's own material absorbs of it is added to `absorbed`.
+pub fn source_rgb(pr: &CellProfile, alb: Vec3, r: [Vec3; 3], absorbed: &mut DVec3) -> [Vec3; 3] {
+    let mut j = [Vec3::ZERO; 3];
+    for k in 0..3 {
+        let (jk, ab) = pr.source(alb[k], [r[0][k], r[1][k], r[2][k]]);
+        for n in 0..3 {
+            j[n][k] = jk[n];
+        }
+        absorbed[k] += ab as f64;
+    }
+    j
+}
+
+/// [`CellProfile::flux_out`] per colour.
+pub fn flux_rgb(pr: &CellProfile, which: usize, j: &[Vec3; 3]) -> Vec3 {
+    Vec3::from_array(std::array::from_fn(|k| {
+        pr.flux_out(which, [j[0][k], j[1][k], j[2][k]])
+    }))
+}
+
+/// The source of a medium cell's share of a beam's first collisions `r` (flux, RGB;
+/// a `CellSource`), the beam travelling along `dir`: collisions with the height moments
+/// of a beam entering through the top face (downward `dir`) or the bottom face, along
+/// `dir`'s slant (flat for a horizontal beam). Returns the coefficients and the flux
+/// the source's own re-collisions absorb (the collisions' `1 − a` not included).
+pub fn beam_source(mat: &Material, dir: Vec3, r: Vec3) -> ([Vec3; 3], Vec3) {
+    let tau = -(mat.pass as f64).ln();
+    let mu = dir.y.abs() as f64;
+    let c = if mu > 1e-3 && tau > 0.0 {
+        let down = dir.y < 0.0;
+        let seg = Segment {
+            t: (tau / mu).min(4.0 * TAU_MAX),
+            y0: if down { 1.0 } else { -1.0 },
+            y1: if down { -1.0 } else { 1.0 },
+        };
+        let c = seg.collided();
+        [(c[1] / c[0]) as f32, (c[2] / c[0]) as f32]
+    } else {
+        [0.0; 2]
+    };
+    let pr = CellProfile::new(false, mat.pass.ln());
+    let mut absorbed = DVec3::ZERO;
+    let j = source_rgb(&pr, mat.reflectance, [r, r * c[0], r * c[1]], &mut absorbed);
+    (j, absorbed.as_vec3())
 }
 
 /// `4π`: the flux both passes of a unit flat source emit per unit optical depth

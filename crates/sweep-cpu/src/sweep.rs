@@ -241,10 +241,15 @@ pub struct Sweep {
 
 /// Scattered light a cell holds for emission: total flux `s` (RGB) and its first moment
 /// `m[axis]` (RGB) over the incoming directions.
+///
+/// Under [`MediumEmission::Profile`] a medium cell holds instead, in `j`, the source
+/// (Legendre coefficients in height, RGB each) still to be emitted through the
+/// segments of this direction's passes ([`crate::profile`]); `s` and `m` stay 0.
 #[derive(Clone, Copy, Default, bytemuck::Zeroable)]
 struct Pending {
     s: Vec3,
     m: [Vec3; 3],
+    j: [Vec3; 3],
 }
 
 impl Pending {
@@ -252,15 +257,27 @@ impl Pending {
         Pending {
             s: self.s + o.s,
             m: [self.m[0] + o.m[0], self.m[1] + o.m[1], self.m[2] + o.m[2]],
+            j: [self.j[0] + o.j[0], self.j[1] + o.j[1], self.j[2] + o.j[2]],
         }
     }
     fn scaled(&self, a: Vec3) -> Pending {
         Pending {
             s: self.s * a,
             m: self.m.map(|v| v * a),
+            j: self.j.map(|v| v * a),
         }
     }
 }
+
+/// Phase 2's outputs for the source rules, per cell of a level (or row): the flat
+/// source `J_0`, whether the cell emits, the `P_1`, `P_2` coefficients of a quadratic
+/// source in height (empty unless [`MediumEmission::Profile`]) and the cells' profiles.
+type EmitRows<'a> = (
+    &'a mut [Vec3],
+    &'a mut [bool],
+    &'a mut [[Vec3; 2]],
+    &'a [crate::profile::CellProfile],
+);
 
 /// How a cell distributes scattered light `(S, M)` over the bins (step 5).
 enum Emission {
@@ -383,7 +400,7 @@ impl Emission {
             let (a, b) = match rule {
                 MediumEmission::Escape => medium_emission(pass),
                 // Emitted by `crate::medium` in phase 3; isotropic budget here.
-                MediumEmission::Source => (1.0, 0.0),
+                MediumEmission::Source | MediumEmission::Profile => (1.0, 0.0),
             };
             Emission::Medium { a, b }
         } else {
@@ -1566,24 +1583,34 @@ impl Ctx {
         cur: &mut LevelLight,
         pend_same: &mut [Pending],
         pend_other: &mut [Pending],
-        (src, emits): (&mut [Vec3], &mut [bool]),
+        (src, emits, src_hi, prof): EmitRows<'_>,
         g: &mut [S],
         rows: &mut [RowFlux],
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
         let p = cur.pitch();
+        // Under other rules than Profile `src_hi` is empty: rows of nothing.
+        let hi_rows: Vec<&mut [[Vec3; 2]]> = if src_hi.is_empty() {
+            (0..self.nz).map(|_| Default::default()).collect()
+        } else {
+            src_hi.chunks_mut(nx).collect()
+        };
         let extra = pend_same
             .par_chunks_mut(nx)
             .zip(pend_other.par_chunks_mut(nx))
-            .zip(src.par_chunks_mut(nx).zip(emits.par_chunks_mut(nx)));
+            .zip(
+                src.par_chunks_mut(nx)
+                    .zip(emits.par_chunks_mut(nx))
+                    .zip(hi_rows),
+            );
         self.level_rows(
             cur,
             extra,
             g,
             rows,
             fin,
-            |z, cur_row, ((same_row, other_row), em_rows), g_row, rf| {
+            |z, cur_row, ((same_row, other_row), ((src_row, emits_row), hi_row)), g_row, rf| {
                 *rf = self.phase2_row(
                     z,
                     removed,
@@ -1594,7 +1621,7 @@ impl Ctx {
                     cur_row,
                     same_row,
                     other_row,
-                    em_rows,
+                    (src_row, emits_row, hi_row, prof),
                     g_row,
                 );
             },
@@ -1683,7 +1710,7 @@ impl Ctx {
         cur_row: &mut [f32],
         same_row: &mut [Pending],
         other_row: &mut [Pending],
-        (src_row, emits_row): (&mut [Vec3], &mut [bool]),
+        (src_row, emits_row, hi_row, prof): EmitRows<'_>,
         g_row: &mut [S],
     ) -> RowFlux {
         let nx = self.nx as usize;
@@ -1737,7 +1764,12 @@ impl Ctx {
             // Step 4: absorb (1 - albedo), keep albedo for scattering.
             let alb = mat.reflectance;
             rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
-            let new = Pending { s: s_raw, m: m_raw }.scaled(alb);
+            let new = Pending {
+                s: s_raw,
+                m: m_raw,
+                j: [Vec3::ZERO; 3],
+            }
+            .scaled(alb);
             // Step 5: emit this pass's half of what the cell scatters now and of
             // what earlier passes left for this direction. Step 6: what the cell's
             // own material stops of that emission is removed again (absorbed or
@@ -1745,6 +1777,45 @@ impl Ctx {
             // Accelerated (`signed`): the media's collisions wait for the next pair of
             // passes (one generation per pair, as diffusion acceleration assumes);
             // `same_row` then keeps them.
+            if self.medium == MediumEmission::Profile && medium::applies(self.medium, mat.pass) {
+                // A quadratic source in height (`crate::profile`): the collisions'
+                // height moments, walked path point by path point, become an isotropic
+                // source; this pass emits what waits for it, the other pass's waits.
+                let pr = &prof[xi + nx * z as usize];
+                let mut r = [Vec3::ZERO; 3];
+                for chn in self.ch.iter() {
+                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                        if let Some(pt) = self.col(x - dx, z - dz) {
+                            let slot = chn.first_slot + k;
+                            let at = |col: usize| removed[plane_index(nx, pt, slot, col)];
+                            let v = Vec3::new(at(0), at(1), at(2)) * chn.mu;
+                            r[0] += v;
+                            r[1] += v * pr.coll[slot][0];
+                            r[2] += v * pr.coll[slot][1];
+                        }
+                    }
+                }
+                let dj = crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed);
+                let emit = same_row[xi]
+                    .add(&Pending {
+                        j: dj,
+                        ..Pending::default()
+                    })
+                    .j;
+                src_row[xi] = emit[0];
+                hi_row[xi] = [emit[1], emit[2]];
+                emits_row[xi] = emit.iter().any(|v| *v != Vec3::ZERO);
+                same_row[xi] = Pending::default();
+                let other = other_row[xi].add(&Pending {
+                    j: dj,
+                    ..Pending::default()
+                });
+                other_row[xi] = other;
+                rf.pending += crate::profile::flux_rgb(pr, 1, &other.j)
+                    .max(Vec3::ZERO)
+                    .as_dvec3();
+                continue;
+            }
             let jacobi = self.jacobi && medium::applies(self.medium, mat.pass);
             let mut own = if jacobi {
                 same_row[xi]
@@ -1805,6 +1876,7 @@ impl Ctx {
                     own = Pending {
                         s: lost_s * alb,
                         m: lost_m.map(|v| v * alb),
+                        j: [Vec3::ZERO; 3],
                     };
                     other = other.add(&own);
                 }
@@ -1871,6 +1943,7 @@ impl Ctx {
     fn phase3<S: Sink>(
         &self,
         (src, emits, near): (&[Vec3], &[bool], &[bool]),
+        hi: (&[[Vec3; 2]], &[crate::profile::CellProfile]),
         (pows, lnp, planes): (&[[f32; MAX_EXPONENTS]], &[f32], &mut Planes),
         cells: &[lightgrid_core::Material],
         cur: &mut LevelLight,
@@ -1901,6 +1974,7 @@ impl Ctx {
                     self.phase3_row_scalar(
                         z,
                         (src, emits),
+                        hi,
                         (pows, lnp),
                         p,
                         cur_row,
@@ -1924,6 +1998,7 @@ impl Ctx {
                 self.collide_row(
                     z as i32,
                     (src, emits),
+                    hi,
                     (pows, planes),
                     cells,
                     (pre, pre_rows),
@@ -2015,6 +2090,7 @@ impl Ctx {
         &self,
         z: i32,
         (src, emits): (&[Vec3], &[bool]),
+        (src_hi, prof): (&[[Vec3; 2]], &[crate::profile::CellProfile]),
         (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
         p: usize,
         cur_row: &mut [f32],
@@ -2025,11 +2101,17 @@ impl Ctx {
         let mw = medium::weights(up_pass(self.ch));
         // A segment's transmittance and emission (light per unit `ω_b σ_c`); beyond
         // open sides empty.
-        let seg = |q: Option<usize>, pow: usize| -> (f32, Vec3) {
+        let profile = self.medium == MediumEmission::Profile;
+        let seg = |q: Option<usize>, pow: usize, slot: usize| -> (f32, Vec3) {
             match q {
                 Some(q) if emits[q] => {
                     let tr = pows[q][pow];
-                    (tr, src[q] * (1.0 - tr))
+                    let mut e = src[q] * (1.0 - tr);
+                    if profile {
+                        let w = prof[q].emit[slot];
+                        e += src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
+                    }
+                    (tr, e)
                 }
                 Some(q) => (pows[q][pow], Vec3::ZERO),
                 None => (1.0, Vec3::ZERO),
@@ -2045,7 +2127,8 @@ impl Ctx {
                     for col in 0..3 {
                         pre_row[((chn.first_slot + k) * 3 + col) * nx + xi] = acc[col];
                     }
-                    let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k]);
+                    let slot = chn.first_slot + k;
+                    let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k], slot);
                     if dx == 0 && dz == 0 {
                         let half = seg_mean(
                             pows[ci][chn.pow[k]],
@@ -2054,6 +2137,10 @@ impl Ctx {
                         centre = acc * half;
                         if emits[ci] {
                             centre += src[ci] * (1.0 - half);
+                            if profile {
+                                let w = prof[ci].mean[slot];
+                                centre += src_hi[ci][0] * w[0] + src_hi[ci][1] * w[1];
+                            }
                         }
                     }
                     acc = acc * tr + e;
@@ -2082,6 +2169,7 @@ impl Ctx {
         &self,
         z: i32,
         (src, emits): (&[Vec3], &[bool]),
+        (src_hi, prof): (&[[Vec3; 2]], &[crate::profile::CellProfile]),
         (pows, planes): (&[[f32; MAX_EXPONENTS]], &Planes),
         cells: &[lightgrid_core::Material],
         (pre, pre_rows): (&[f32], &[bool]),
@@ -2095,11 +2183,14 @@ impl Ctx {
             return;
         }
         let mw = medium::weights(up_pass(self.ch));
+        let profile = self.medium == MediumEmission::Profile;
         let mut x0 = 0;
         while x0 < nx {
             let b = B.min(nx - x0);
             let mut got_s = [[0f32; B]; 3];
             let mut got_m = [[[0f32; B]; 3]; 3];
+            // Profile: the collisions' height moments (P_1, P_2) per colour.
+            let mut got_h = [[[0f32; B]; 3]; 2];
             for (c, chn) in self.ch.iter().enumerate() {
                 let om = mw.omega[c] * chn.mu;
                 // A path carries nothing into its first segment.
@@ -2117,6 +2208,7 @@ impl Ctx {
                     let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                     let add = |got_s: &mut [[f32; B]; 3],
                                got_m: &mut [[[f32; B]; 3]; 3],
+                               got_h: &mut [[[f32; B]; 3]; 2],
                                col: usize,
                                i: usize,
                                v: f32| {
@@ -2125,19 +2217,25 @@ impl Ctx {
                         for a in 0..3 {
                             got_m[a][col][i] += r * chn.unit[a];
                         }
+                        let ci = x0 + i + nx * z as usize;
+                        if profile && medium::applies(self.medium, cells[ci].pass) {
+                            let c = prof[ci].coll[slot];
+                            got_h[0][col][i] += r * c[0];
+                            got_h[1][col][i] += r * c[1];
+                        }
                     };
                     for col in 0..3 {
                         let plane = &pre[base + col * nx..][..nx];
                         if hi > lo {
                             let from = &plane[(first + lo as i32) as usize..][..hi - lo];
                             for (i, &v) in (lo..hi).zip(from) {
-                                add(&mut got_s, &mut got_m, col, i, v);
+                                add(&mut got_s, &mut got_m, &mut got_h, col, i, v);
                             }
                         }
                         if self.periodic {
                             for i in (0..lo).chain(hi..b) {
                                 let q = (first + i as i32).rem_euclid(nx as i32) as usize;
-                                add(&mut got_s, &mut got_m, col, i, plane[q]);
+                                add(&mut got_s, &mut got_m, &mut got_h, col, i, plane[q]);
                             }
                         }
                     }
@@ -2151,17 +2249,38 @@ impl Ctx {
                     continue;
                 }
                 if !self.periodic && emits[ci] {
-                    self.lost_through_sides(xi as i32, z, src[ci], &pows[ci], rf);
+                    let hi = profile.then(|| (src_hi[ci], &prof[ci]));
+                    self.lost_through_sides(xi as i32, z, src[ci], hi, &pows[ci], rf);
                 }
                 let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
                 let got = Pending {
                     s: v(&got_s),
                     m: [v(&got_m[0]), v(&got_m[1]), v(&got_m[2])],
+                    j: [Vec3::ZERO; 3],
                 };
                 if got.s == Vec3::ZERO {
                     continue;
                 }
                 let alb = mat.reflectance;
+                if profile && medium::applies(self.medium, mat.pass) {
+                    // Waits for the next passes of both directions, as an isotropic
+                    // source.
+                    let r = [got.s, v(&got_h[0]), v(&got_h[1])];
+                    rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
+                    let pr = &prof[ci];
+                    let dj = crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed);
+                    let add = Pending {
+                        j: dj,
+                        ..Pending::default()
+                    };
+                    same_row[xi] = same_row[xi].add(&add);
+                    other_row[xi] = other_row[xi].add(&add);
+                    rf.pending += (crate::profile::flux_rgb(pr, 0, &dj)
+                        + crate::profile::flux_rgb(pr, 1, &dj))
+                    .max(Vec3::ZERO)
+                    .as_dvec3();
+                    continue;
+                }
                 rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
                 let sc = got.scaled(alb);
                 same_row[xi] = same_row[xi].add(&sc);
@@ -2181,6 +2300,7 @@ impl Ctx {
         x: i32,
         z: i32,
         src: Vec3,
+        hi: Option<([Vec3; 2], &crate::profile::CellProfile)>,
         pows: &[f32; MAX_EXPONENTS],
         rf: &mut RowFlux,
     ) {
@@ -2193,8 +2313,12 @@ impl Ctx {
             let om = mw.omega[c] * chn.mu;
             for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate() {
                 if self.col(x - djx, z - djz).is_none() {
-                    let lost = src * ((1.0 - pows[chn.pow[j]]) * om);
-                    rf.side_out += lost.as_dvec3();
+                    let mut e = src * (1.0 - pows[chn.pow[j]]);
+                    if let Some((h, pr)) = hi {
+                        let w = pr.emit[chn.first_slot + j];
+                        e += h[0] * w[0] + h[1] * w[1];
+                    }
+                    rf.side_out += (e * om).as_dvec3();
                 }
             }
         }
@@ -2356,6 +2480,8 @@ pub(crate) fn run_reusing(
         )
         .into());
     }
+    // The quadratic source in height runs on the scalar path (no row kernels yet).
+    let fast = fast && options.medium != MediumEmission::Profile;
     let n = desc.point_count();
     let mut avg = take_buffer(&mut spare.average, n);
     let mut dom = take_buffer(&mut spare.dominant, n);
@@ -2473,10 +2599,23 @@ fn run_with<S: Sink>(
             }
             bal.source_in += r.as_dvec3();
             bal.absorbed += (r * (Vec3::ONE - mat.reflectance)).as_dvec3();
+            if options.medium == MediumEmission::Profile
+                && medium::applies(options.medium, mat.pass)
+            {
+                // The beam's first collisions have the height moments of a beam
+                // entering the cell through its top (or bottom) face.
+                let (j, absorbed) = crate::profile::beam_source(mat, src.dir(), r);
+                bal.absorbed += absorbed.as_dvec3();
+                w.pend_down[i].j = j;
+                w.pend_up[i].j = j;
+                w.pend_dirty[i / desc.level_len()] = true;
+                continue;
+            }
             let s = r * mat.reflectance;
             let p = Pending {
                 s,
                 m: [s * src.dir().x, s * src.dir().y, s * src.dir().z],
+                j: [Vec3::ZERO; 3],
             };
             w.pend_down[i] = p;
             w.pend_up[i] = p;
@@ -2494,6 +2633,9 @@ fn run_with<S: Sink>(
     // slowly), the waiting light after the last pair, and for how many pairs in a row
     // it grew.
     let mut mode = Mode::Plain;
+    // The quadratic source in height (`crate::profile`) is not positive everywhere: its
+    // light is resolved after the sweep, clamped at 0, as an accelerated sweep's.
+    let signed_light = options.medium == MediumEmission::Profile;
     let mut waited = f64::INFINITY;
     let mut grew = 0;
 
@@ -2510,7 +2652,7 @@ fn run_with<S: Sink>(
         };
         let ctx = Ctx::new(nx, nz, fixed.periodic, options, ch, mode);
         // Light of either sign is resolved after the sweep, once clamped at 0.
-        let last = last && mode == Mode::Plain;
+        let last = last && mode == Mode::Plain && !signed_light;
         stats.passes += 1;
         let mut pending = DVec3::ZERO;
         // The flux the last level's final light sends on.
@@ -2666,8 +2808,27 @@ fn run_with<S: Sink>(
                 (false, false) => (&mut w.pend_down, &mut w.pend_up),
                 (false, true) => (&mut w.pend_down, &mut w.pend_next),
             };
-            // The source rule emits from media in a third phase.
-            let phase3 = options.medium == MediumEmission::Source && fixed.level_medium[j as usize];
+            // The source rules emit from media in a third phase.
+            let phase3 = matches!(
+                options.medium,
+                MediumEmission::Source | MediumEmission::Profile
+            ) && fixed.level_medium[j as usize];
+            if options.medium == MediumEmission::Profile && fixed.level_medium[j as usize] {
+                let n = range.len();
+                if w.prof.len() != n {
+                    w.prof = vec![crate::profile::CellProfile::new(up, 0.0); n];
+                    w.src_hi = vec![[Vec3::ZERO; 2]; n];
+                }
+                for (q, (mat, &lnp)) in cells[range.clone()]
+                    .iter()
+                    .zip(&fixed.lnp[range.clone()])
+                    .enumerate()
+                {
+                    if medium::applies(options.medium, mat.pass) {
+                        w.prof[q] = crate::profile::CellProfile::new(up, lnp);
+                    }
+                }
+            }
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
                 (&w.t_after, &w.pows),
@@ -2676,7 +2837,7 @@ fn run_with<S: Sink>(
                 &mut w.cur,
                 &mut same[range.clone()],
                 &mut other[range.clone()],
-                (&mut w.src, &mut w.emits),
+                (&mut w.src, &mut w.emits, &mut w.src_hi, &w.prof),
                 &mut g[range.clone()],
                 &mut w.rows,
                 Finish {
@@ -2694,6 +2855,7 @@ fn run_with<S: Sink>(
                 ctx.near(&w.emits, 4, &mut w.near, &mut w.quiet_rows);
                 let f3 = ctx.phase3(
                     (&w.src, &w.emits, &w.near),
+                    (&w.src_hi, &w.prof),
                     (&w.pows, &fixed.lnp[range.clone()], &mut w.planes),
                     &cells[range.clone()],
                     &mut w.cur,
@@ -2777,9 +2939,11 @@ fn run_with<S: Sink>(
             break;
         }
     }
-    if mode != Mode::Plain {
+    if mode != Mode::Plain || signed_light {
         // What the accelerated passes left: light off by up to the tolerance either
-        // way, so a point in the dark may hold a little below 0.
+        // way, so a point in the dark may hold a little below 0. (A quadratic source
+        // in height may dip below 0 within a cell, and a near-transparent cell's mean
+        // light round below 0.)
         g.par_chunks_mut(RESOLVE_CHUNK)
             .for_each(|c| c.iter_mut().for_each(S::clamp));
     }
@@ -3130,6 +3294,10 @@ struct Work {
     src: Vec<Vec3>,
     emits: Vec<bool>,
     near: Vec<bool>,
+    /// [`MediumEmission::Profile`]: the level's cells' profiles for this pass and the
+    /// source's coefficients of `P_1`, `P_2` in height (empty under other rules).
+    prof: Vec<crate::profile::CellProfile>,
+    src_hi: Vec<[Vec3; 2]>,
     /// Scattered light waiting to be emitted in downward / upward channels.
     pend_down: Vec<Pending>,
     pend_up: Vec<Pending>,
@@ -3160,6 +3328,8 @@ impl Work {
             src: vec![Vec3::ZERO; level_len],
             emits: vec![false; level_len],
             near: vec![false; level_len],
+            prof: Vec::new(),
+            src_hi: Vec::new(),
             // Only cells with material touch these: pages of empty space stay unmapped.
             pend_down: bytemuck::zeroed_vec(n),
             pend_up: bytemuck::zeroed_vec(n),

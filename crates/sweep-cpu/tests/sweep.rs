@@ -118,11 +118,13 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     /// Input = absorbed + escaped + pending, to 1e-4, for any material, sides, smoothing
-    /// and number of passes, and whichever outputs are asked for.
+    /// and number of passes, whichever outputs are asked for, with media's sources flat
+    /// or quadratic in height (`MediumEmission::Profile`).
     #[test]
-    fn energy_is_accounted(m in material_strategy(9), sides in sides_strategy(), smoothing in 0f32..0.9, passes in 1u32..6, bins_out in any::<bool>()) {
+    fn energy_is_accounted(m in material_strategy(9), sides in sides_strategy(), smoothing in 0f32..0.9, passes in 1u32..6, bins_out in any::<bool>(), profile in any::<bool>()) {
         let b = boundary_for(m.desc(), sides, &lumpy_sky());
         let mut o = opts(passes, smoothing);
+        if profile { o.medium = lightgrid_core::MediumEmission::Profile; }
         if !bins_out { o.outputs = Outputs::AVERAGE_DOMINANT; }
         let out = run(&m, &b, &o).unwrap();
         let bal = out.balance;
@@ -130,20 +132,35 @@ proptest! {
         prop_assert!(bal.input().min_element() > 0.0);
     }
 
-    /// The sweep is linear in the boundary light.
+    /// The sweep is linear in the boundary light (media's sources flat or quadratic in
+    /// height). A quadratic source may send light below 0 in places, which the sweep
+    /// clamps at 0 in its output (`MediumEmission::Profile`): there, and only there, the
+    /// output is not linear; so with it, values clamped to 0 in any of the three sweeps
+    /// are left out (its light before the clamp is linear: the clamp is the last step).
     #[test]
-    fn linear_in_the_sky(m in material_strategy(7), sides in 0u8..2, a in 0.1f32..3.0, c in 0.1f32..3.0) {
+    fn linear_in_the_sky(m in material_strategy(7), sides in 0u8..2, a in 0.1f32..3.0, c in 0.1f32..3.0, profile in any::<bool>()) {
         let s1 = lumpy_sky();
         let s2 = BinLight::uniform(Vec3::new(0.3, 1.0, 2.0));
         let mix = BinLight(std::array::from_fn(|d| s1.0[d] * a + s2.0[d] * c));
-        let o = opts(3, 0.25);
+        let mut o = opts(3, 0.25);
+        if profile { o.medium = lightgrid_core::MediumEmission::Profile; }
         let r1 = run(&m, &boundary_for(m.desc(), sides, &s1), &o).unwrap();
         let r2 = run(&m, &boundary_for(m.desc(), sides, &s2), &o).unwrap();
         let rm = run(&m, &boundary_for(m.desc(), sides, &mix), &o).unwrap();
         for ((p1, p2), pm) in bins(&r1).data().iter().zip(bins(&r2).data()).zip(bins(&rm).data()) {
             for d in 0..NUM_DIRS {
                 let expect = p1.0[d] * a + p2.0[d] * c;
-                prop_assert!((pm.0[d] - expect).abs().max_element() <= 1e-4 * expect.max_element() + 1e-6);
+                let scale = expect.max_element();
+                for k in 0..3 {
+                    let clamped = [p1.0[d][k], p2.0[d][k], pm.0[d][k]].contains(&0.0);
+                    if profile && clamped {
+                        continue;
+                    }
+                    prop_assert!(
+                        (pm.0[d][k] - expect[k]).abs() <= 1e-4 * scale + 1e-6,
+                        "bin {d} colour {k}: {} vs {}", pm.0[d][k], expect[k]
+                    );
+                }
             }
         }
     }

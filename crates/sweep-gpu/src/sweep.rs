@@ -349,6 +349,14 @@ impl GpuSweeper {
         let start = std::time::Instant::now();
         let mut timings = GpuTimings::default();
         sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
+        if options.medium == lightgrid_core::MediumEmission::Profile {
+            return Err(SweepError::Backend {
+                backend: "gpu",
+                message: "options.medium = Profile (a quadratic source in height) runs on the \
+                          CPU sweeper only so far (issue 13); use MediumEmission::Source"
+                    .into(),
+            });
+        }
         let backend = |e: GpuError| SweepError::Backend {
             backend: "gpu",
             message: e.to_string(),
@@ -700,7 +708,9 @@ fn level_params(shape: &Shape, up: bool, options: &SweepOptions) -> Vec<u8> {
             smoothing: options.smoothing,
             medium: match options.medium {
                 lightgrid_core::MediumEmission::Escape => 0,
-                lightgrid_core::MediumEmission::Source => 2,
+                // Profile is refused before any level runs (`execute`).
+                lightgrid_core::MediumEmission::Source
+                | lightgrid_core::MediumEmission::Profile => 2,
             },
         };
         let o = li * PARAM_STRIDE as usize;
