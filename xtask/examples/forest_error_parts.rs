@@ -76,6 +76,7 @@ fn main() -> anyhow::Result<()> {
             };
             for rule in [
                 lightgrid_core::MediumEmission::Source,
+                lightgrid_core::MediumEmission::Profile,
                 lightgrid_core::MediumEmission::Escape,
             ] {
                 let mut o2 = o;
@@ -108,8 +109,14 @@ fn main() -> anyhow::Result<()> {
                 }
             }
         }
-        for smoothing in [0.0f32, 0.25, 0.5] {
+        for (smoothing, rule) in [
+            (0.0f32, lightgrid_core::MediumEmission::Source),
+            (0.25, lightgrid_core::MediumEmission::Source),
+            (0.5, lightgrid_core::MediumEmission::Source),
+            (0.25, lightgrid_core::MediumEmission::Profile),
+        ] {
             o.smoothing = smoothing;
+            o.medium = rule;
             let sw = sweep_cpu::run(&s.material, b, &o)?;
             let e = sweep_cpu::scenes::compare(
                 sw.output.bins.as_ref().expect("bins"),
@@ -117,7 +124,7 @@ fn main() -> anyhow::Result<()> {
                 &s.material,
             );
             println!(
-                "{name:18} smoothing {smoothing:4}: average {:.4}, irradiance {:.4} (reference noise {noise:.4})",
+                "{name:18} smoothing {smoothing:4}, {rule:?}: average {:.4}, irradiance {:.4} (reference noise {noise:.4})",
                 e.average, e.irradiance
             );
         }

@@ -267,7 +267,7 @@ pub enum MediumEmission {
     /// of it back up. A white furnace is exact in any medium (random media of
     /// pass-through 0.02 to 1: within 1e-6), Chandrasekhar's half-space albedo within 2 %
     /// for cells of optical depth up to 0.7 (thick dark cells reflect too little: −23 %
-    /// at depth 3, albedo 0.1).
+    /// at depth 3, albedo 0.1; [`MediumEmission::Profile`] fixes that).
     #[default]
     Source,
     /// `ω_b / 4π · (A S − B u_b · M)` into bin `b` (`M` the first moment of the light's

@@ -41,7 +41,11 @@ fn main() {
         )
         .expect("reference");
         let mc_s = t.elapsed().as_secs_f64();
-        for medium in [MediumEmission::Source, MediumEmission::Escape] {
+        for medium in [
+            MediumEmission::Source,
+            MediumEmission::Profile,
+            MediumEmission::Escape,
+        ] {
             o.medium = medium;
             let t = Instant::now();
             let s = sweep_cpu::run(&m, &b, &o).expect("sweep");

@@ -331,6 +331,7 @@
 //! | half-space albedo, w 0.5, same cells | 0.1152 | +1.1 / −0.4 / −15 % | +6.3 / +8.7 / −4.0 % |
 //! | half-space albedo, w 0.9, same cells | 0.4149 | +0.2 / +0.3 / +0.4 % | +3.1 / +5.1 / −1.5 % |
 //! | half-space albedo, w 0.99, same cells | 0.7527 | −0.1 / +0.1 / +2.5 % | +1.0 / +1.9 / +0.2 % |
+//! | the same four albedos with [`MediumEmission::Profile`](lightgrid_core::MediumEmission), cells of depth 0.05 / 0.69 / 3 | | +1.7 / +1.7 / +0.8 %, +1.1 / +1.1 / +1.1 %, +0.2 / +0.2 / +0.5 %, −0.1 / −0.1 / −0.0 % | |
 //! | passes to tolerance 1e-4, slab of optical depth 100, w 0.5 / 0.9 / 0.99 / 0.999 | | 8 / 33 / 264 / over 1024 | 8 / 38 / 326 / over 400 |
 //! | the same, accelerated ([`accel`]) | | 8 / 30 / 26 / 24 | |
 //!
@@ -346,7 +347,25 @@
 //! +2.7 / +0.9 % with the step vectors' cosines, which is where the old thin-cell error
 //! came from). What is open:
 //!
-//! - **Thick dark cells.** A flat source in a cell of optical depth 3 lit from above
+//! - **Thick dark cells: solved by [`MediumEmission::Profile`](lightgrid_core::MediumEmission),
+//!   not yet the default.** Each medium cell's source is a quadratic in height
+//!   ([`profile`]: the collisions' height moments, each batch of scattered light an
+//!   isotropic source solving the cell's 3 × 3 balance with its own re-collisions). The
+//!   half-space is then within 1.7 % at every albedo and every cell depth from 0.05 to
+//!   3: the channels' own angular error (`cargo run --release -p sweep-cpu --example
+//!   hs_depths -- profile`; the 1-D model `examples/profile_slab.rs` predicts the same
+//!   figures to 0.01 %). The white furnace stays exact and flux is conserved; the light
+//!   is linear except where the quadratic dips below 0 and the output is clamped (26 of
+//!   319 488 values of the bench forest, none on the canonical scenes). On the
+//!   canonical scenes (12³, 600 000 paths, `examples/canonical.rs`): dense block 0.0374 /
+//!   0.0454 (flat 0.0365 / 0.0451: its error is not the vertical profile), canopy 0.0112
+//!   / 0.0144 (0.0128 / 0.0151), fog unchanged; the bench forest at 4 passes (`cargo run
+//!   --release -p xtask --example forest_error_parts`) 0.0179 against 0.0183 under sky
+//!   and sun, but 0.0195 against 0.0176 under the sky alone. It runs on the scalar path
+//!   without acceleration (2.5–4 times the flat rule's time on the canonical scenes) and
+//!   not on the GPU: the row kernels, the GPU port and the forest's sky-only loss come
+//!   before it can be the default. The flat rule's account follows.
+//! - **Thick dark cells, flat rule.** A flat source in a cell of optical depth 3 lit from above
 //!   sends too much of its light through the cell: `medium::split` moves the share of
 //!   light that collided on its way down to the upward pass, which fixes albedos ≥ 0.9,
 //!   but the emission within each pass is still spread flat over the cell's height, and

@@ -1,7 +1,8 @@
-//! A medium cell's source as a **quadratic in height**: the segment integrals and the
-//! per-pass sums it needs (issue 13's thick cells). Groundwork: the sweep does not use
-//! this module yet; the crate docs' rule (a flat source in each cell, [`crate::medium`])
-//! is still the one the sweep runs.
+//! A medium cell's source as a **quadratic in height**: the segment integrals, the
+//! per-cell tables and the source solve of [`lightgrid_core::MediumEmission::Profile`]
+//! (issue 13's thick cells). The default rule is still the flat source of
+//! [`crate::medium`]; this one runs on the CPU sweeper's scalar path, without diffusion
+//! acceleration, and not on the GPU (see the crate docs, "Against exact answers").
 //!
 //! ## Why
 //!
@@ -25,7 +26,7 @@
 //! So a quadratic source in height leaves no spatial error at depths 0.69 to 3: the
 //! issue's 2 % is within reach with two more moments per cell and colour.
 //!
-//! ## The rule this module prepares
+//! ## The rule
 //!
 //! Height in a cell: `y ∈ [−1, 1]` (bottom to top). A medium cell's source radiance in a
 //! pass is `j(y) = Σ_m J_m P_m(y)`, `m = 0..2` (Legendre polynomials, [`legendre`]).
@@ -60,6 +61,22 @@
 //! ([`PassSums::furnace_moments`]): `J = (1, 0, 0)` exactly, as today. The up/down split
 //! of [`crate::medium::split`] becomes unnecessary: a source heavy at the top sends
 //! more out through the top by itself.
+//!
+//! ## How the sweep runs it
+//!
+//! Solving each pass's half separately (its own self-collisions only) was measured
+//! worse, up to +3.0 % (`examples/profile_slab.rs`, "per pass"): the source must be
+//! isotropic. So each batch of collisions a cell tallies (phase 2's, and phase 3's from
+//! its level-mates) is solved at once over **both** passes' segments
+//! ([`CellProfile::source`], `O` and `K` of the full sphere): the pass that found it
+//! emits its own segments' part at once, and the same coefficients wait, as Legendre
+//! coefficients in the cell's pending light, for the other direction's next pass
+//! (phase 3's collisions wait for both). Per level and pass, each medium cell's
+//! [`CellProfile`] is interpolated from tables over `√τ` ([`TABLE`] nodes up to
+//! [`TAU_MAX`]); `K_0m` and `K_n0` are rebuilt from the interpolated values so that flux
+//! balances and a furnace stays flat to rounding. A quadratic is not positive
+//! everywhere: where a point's light comes out below 0 the output clamps it (the light
+//! before the clamp is linear in the boundary light).
 
 use std::f64::consts::PI;
 

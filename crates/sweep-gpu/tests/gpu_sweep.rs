@@ -169,6 +169,30 @@ fn invalid_input_is_the_same_typed_error() {
     assert!(e.contains("top"), "{e}");
 }
 
+/// The quadratic source in height (`MediumEmission::Profile`) is not on the GPU yet: a
+/// typed backend error naming the option, not a sweep by another rule.
+#[test]
+fn the_profile_rule_is_refused_by_name() {
+    let Some(gpu) = sweeper() else { return };
+    let m = MaterialGrid::filled(
+        GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap(),
+        Material {
+            reflectance: Vec3::splat(0.5),
+            pass: 0.5,
+        },
+    )
+    .unwrap();
+    let mut o = SweepOptions::default();
+    o.medium = lightgrid_core::MediumEmission::Profile;
+    let e = gpu
+        .run(&m, &Boundary::open_sky(BinLight::uniform(Vec3::ONE)), &o)
+        .unwrap_err();
+    assert!(
+        matches!(&e, lightgrid_core::SweepError::Backend { message, .. } if message.contains("Profile")),
+        "{e}"
+    );
+}
+
 /// The final grid packed on the GPU equals sweep-cpu's grid packed by grid-core within
 /// one code per channel, with the same exposure.
 #[test]
