@@ -332,6 +332,8 @@
 //! | half-space albedo, w 0.9, same cells | 0.4149 | +0.2 / +0.3 / +0.4 % | +3.1 / +5.1 / −1.5 % |
 //! | half-space albedo, w 0.99, same cells | 0.7527 | −0.1 / +0.1 / +2.5 % | +1.0 / +1.9 / +0.2 % |
 //! | the same four albedos with [`MediumEmission::Profile`](lightgrid_core::MediumEmission), cells of depth 0.05 / 0.69 / 3 | | +1.7 / +1.7 / +0.8 %, +1.1 / +1.1 / +1.1 %, +0.2 / +0.2 / +0.5 %, −0.1 / −0.1 / −0.0 % | |
+//! | half-space under a uniform sky (diffuse albedo), w 0.1 / 0.5 / 0.9 / 0.99, cells of depth 3 (`examples/hs_diffuse.rs`) | 0.0087–0.73 | flat −47 / −39 / −18 / −5.4 %; Profile −0.1 / +1.4 / +1.6 / +0.6 % | |
+//! | the same, cells of depth 0.05 (the channels' angular error under diffuse light) | | flat +4.4 / +3.5 / +1.7 / +0.6 %; Profile +4.5 / +3.5 / +1.7 / +0.6 % | |
 //! | passes to tolerance 1e-4, slab of optical depth 100, w 0.5 / 0.9 / 0.99 / 0.999 | | 8 / 33 / 264 / over 1024 | 8 / 38 / 326 / over 400 |
 //! | the same, accelerated ([`accel`]) | | 8 / 30 / 26 / 24 | |
 //!
@@ -361,7 +363,12 @@
 //!   0.0454 (flat 0.0365 / 0.0451: its error is not the vertical profile), canopy 0.0112
 //!   / 0.0144 (0.0128 / 0.0151), fog unchanged; the bench forest at 4 passes (`cargo run
 //!   --release -p xtask --example forest_error_parts`) 0.0179 against 0.0183 under sky
-//!   and sun, but 0.0195 against 0.0176 under the sky alone. It runs on the scalar path
+//!   and sun, but 0.0195 against 0.0176 under the sky alone (the same at 40 passes).
+//!   Under a uniform sky the flat rule's thick cells reflect far too little (−7.5 % at
+//!   depth 0.69, −47 % at depth 3, albedo 0.1, table above), against the channels'
+//!   angular error of +4.4 %: in the forest the two errors partly cancel, and the
+//!   profile rule leaves the angular one (its air far from media +0.5 % bright, the
+//!   flat rule's +0.0 %). It runs on the scalar path
 //!   without acceleration (2.5–4 times the flat rule's time on the canonical scenes) and
 //!   not on the GPU: the row kernels, the GPU port and the forest's sky-only loss come
 //!   before it can be the default. The flat rule's account follows.
