@@ -418,6 +418,16 @@ pub fn measure(max_passes: u32) -> Vec<Case> {
             out.push(half_space(w, pass, 40.0, max_passes));
         }
     }
+    // The option of a quadratic source in height (`crate::profile`).
+    let mut o = options(max_passes.max(1000), 1e-5);
+    o.medium = lightgrid_core::MediumEmission::Profile;
+    for w in [0.1, 0.5, 0.9, 0.99] {
+        for pass in [0.95f32, 0.5, 0.05] {
+            let mut c = half_space_with(w, pass, 40.0, &o);
+            c.name += ", quadratic source in height";
+            out.push(c);
+        }
+    }
     out
 }
 

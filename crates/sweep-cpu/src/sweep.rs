@@ -242,14 +242,14 @@ pub struct Sweep {
 /// Scattered light a cell holds for emission: total flux `s` (RGB) and its first moment
 /// `m[axis]` (RGB) over the incoming directions.
 ///
-/// Under [`MediumEmission::Profile`] a medium cell holds instead, in `j`, the source
-/// (Legendre coefficients in height, RGB each) still to be emitted through the
-/// segments of this direction's passes ([`crate::profile`]); `s` and `m` stay 0.
+/// Under [`MediumEmission::Profile`] a medium cell holds instead the source still to be
+/// emitted through the segments of this direction's passes, as Legendre coefficients in
+/// height ([`crate::profile`]): `J_0` in `s`, `J_1` and `J_2` in `m[0]` and `m[1]`
+/// ([`Pending::coeffs`]), so that the pending light keeps its size under every rule.
 #[derive(Clone, Copy, Default, bytemuck::Zeroable)]
 struct Pending {
     s: Vec3,
     m: [Vec3; 3],
-    j: [Vec3; 3],
 }
 
 impl Pending {
@@ -257,14 +257,23 @@ impl Pending {
         Pending {
             s: self.s + o.s,
             m: [self.m[0] + o.m[0], self.m[1] + o.m[1], self.m[2] + o.m[2]],
-            j: [self.j[0] + o.j[0], self.j[1] + o.j[1], self.j[2] + o.j[2]],
         }
     }
     fn scaled(&self, a: Vec3) -> Pending {
         Pending {
             s: self.s * a,
             m: self.m.map(|v| v * a),
-            j: self.j.map(|v| v * a),
+        }
+    }
+    /// [`MediumEmission::Profile`]: the source coefficients `[J_0, J_1, J_2]` held.
+    fn coeffs(&self) -> [Vec3; 3] {
+        [self.s, self.m[0], self.m[1]]
+    }
+    /// [`MediumEmission::Profile`]: pending light holding the coefficients `j`.
+    fn of_coeffs(j: [Vec3; 3]) -> Pending {
+        Pending {
+            s: j[0],
+            m: [j[1], j[2], Vec3::ZERO],
         }
     }
 }
@@ -1764,12 +1773,7 @@ impl Ctx {
             // Step 4: absorb (1 - albedo), keep albedo for scattering.
             let alb = mat.reflectance;
             rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
-            let new = Pending {
-                s: s_raw,
-                m: m_raw,
-                j: [Vec3::ZERO; 3],
-            }
-            .scaled(alb);
+            let new = Pending { s: s_raw, m: m_raw }.scaled(alb);
             // Step 5: emit this pass's half of what the cell scatters now and of
             // what earlier passes left for this direction. Step 6: what the cell's
             // own material stops of that emission is removed again (absorbed or
@@ -1796,22 +1800,14 @@ impl Ctx {
                     }
                 }
                 let dj = crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed);
-                let emit = same_row[xi]
-                    .add(&Pending {
-                        j: dj,
-                        ..Pending::default()
-                    })
-                    .j;
+                let emit = same_row[xi].add(&Pending::of_coeffs(dj)).coeffs();
                 src_row[xi] = emit[0];
                 hi_row[xi] = [emit[1], emit[2]];
                 emits_row[xi] = emit.iter().any(|v| *v != Vec3::ZERO);
                 same_row[xi] = Pending::default();
-                let other = other_row[xi].add(&Pending {
-                    j: dj,
-                    ..Pending::default()
-                });
+                let other = other_row[xi].add(&Pending::of_coeffs(dj));
                 other_row[xi] = other;
-                rf.pending += crate::profile::flux_rgb(pr, 1, &other.j)
+                rf.pending += crate::profile::flux_rgb(pr, 1, &other.coeffs())
                     .max(Vec3::ZERO)
                     .as_dvec3();
                 continue;
@@ -1876,7 +1872,6 @@ impl Ctx {
                     own = Pending {
                         s: lost_s * alb,
                         m: lost_m.map(|v| v * alb),
-                        j: [Vec3::ZERO; 3],
                     };
                     other = other.add(&own);
                 }
@@ -2256,7 +2251,6 @@ impl Ctx {
                 let got = Pending {
                     s: v(&got_s),
                     m: [v(&got_m[0]), v(&got_m[1]), v(&got_m[2])],
-                    j: [Vec3::ZERO; 3],
                 };
                 if got.s == Vec3::ZERO {
                     continue;
@@ -2269,10 +2263,7 @@ impl Ctx {
                     rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
                     let pr = &prof[ci];
                     let dj = crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed);
-                    let add = Pending {
-                        j: dj,
-                        ..Pending::default()
-                    };
+                    let add = Pending::of_coeffs(dj);
                     same_row[xi] = same_row[xi].add(&add);
                     other_row[xi] = other_row[xi].add(&add);
                     rf.pending += (crate::profile::flux_rgb(pr, 0, &dj)
@@ -2606,8 +2597,8 @@ fn run_with<S: Sink>(
                 // entering the cell through its top (or bottom) face.
                 let (j, absorbed) = crate::profile::beam_source(mat, src.dir(), r);
                 bal.absorbed += absorbed.as_dvec3();
-                w.pend_down[i].j = j;
-                w.pend_up[i].j = j;
+                w.pend_down[i] = Pending::of_coeffs(j);
+                w.pend_up[i] = Pending::of_coeffs(j);
                 w.pend_dirty[i / desc.level_len()] = true;
                 continue;
             }
@@ -2615,7 +2606,6 @@ fn run_with<S: Sink>(
             let p = Pending {
                 s,
                 m: [s * src.dir().x, s * src.dir().y, s * src.dir().z],
-                j: [Vec3::ZERO; 3],
             };
             w.pend_down[i] = p;
             w.pend_up[i] = p;
