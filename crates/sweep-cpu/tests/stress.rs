@@ -169,9 +169,10 @@ fn nan_and_infinity_in_every_input_are_typed_errors() {
     }
 }
 
-/// Pass-through 0, 1 and 1 − 1e-7 with albedo 0 and 1: finite, energy accounted; fully
-/// clear cells (1) give exactly the empty sweep's light and 1 − 1e-7 within 1e-5 of it;
-/// black opaque cells (0, 0) absorb everything that enters the top.
+/// Pass-through 0, 1 and 1 − 1e-7 (and 1e-30, optical depth 69 a cell) with albedo 0
+/// and 1, under either medium rule (flat or quadratic source in height): finite, energy
+/// accounted; fully clear cells (1) give exactly the empty sweep's light and 1 − 1e-7
+/// within 1e-5 of it; black opaque cells (0, 0) absorb everything that enters the top.
 #[test]
 fn extreme_pass_through_and_albedo() {
     let (top, _) = BinLight::uniform(Vec3::new(1.0, 0.5, 0.25)).split_vertical();
@@ -179,18 +180,25 @@ fn extreme_pass_through_and_albedo() {
     let dims = UVec3::new(5, 6, 5);
     let empty = run(&fog(dims, 1.0, 0.0, 1.0), &b, &SweepOptions::multi_bounce()).unwrap();
     let empty_g = empty.output.bins.as_ref().unwrap();
-    for albedo in [0.0, 1.0] {
-        for pass in [0.0, 1.0, 1.0 - 1e-7] {
-            let s = run(
-                &fog(dims, 1.0, albedo, pass),
-                &b,
-                &SweepOptions::multi_bounce(),
-            )
-            .unwrap();
-            assert!(all_finite(&s), "albedo {albedo} pass {pass}");
+    for (albedo, pass, rule) in [0.0, 1.0]
+        .into_iter()
+        .flat_map(|a| [0.0, 1.0, 1.0 - 1e-7, 1e-30].map(|p| (a, p)))
+        .flat_map(|(a, p)| {
+            [
+                lightgrid_core::MediumEmission::Source,
+                lightgrid_core::MediumEmission::Profile,
+            ]
+            .map(|r| (a, p, r))
+        })
+    {
+        {
+            let mut o = SweepOptions::multi_bounce();
+            o.medium = rule;
+            let s = run(&fog(dims, 1.0, albedo, pass), &b, &o).unwrap();
+            assert!(all_finite(&s), "albedo {albedo} pass {pass} {rule:?}");
             assert!(
                 s.balance.relative_error() < 1e-4,
-                "albedo {albedo} pass {pass}: {}",
+                "albedo {albedo} pass {pass} {rule:?}: {}",
                 s.balance.relative_error()
             );
             let g = s.output.bins.as_ref().unwrap();
