@@ -424,7 +424,7 @@ pub fn measure(max_passes: u32) -> Vec<Case> {
     for w in [0.1, 0.5, 0.9, 0.99] {
         for pass in [0.95f32, 0.5, 0.05] {
             let mut c = half_space_with(w, pass, 40.0, &o);
-            c.name += ", quadratic source in height";
+            c.name += ", MediumEmission::Profile";
             out.push(c);
         }
     }
@@ -458,13 +458,13 @@ pub fn convergence_with(depth: u32, w: f32, options: &SweepOptions) -> Case {
 pub fn table(cases: &[Case]) -> String {
     use std::fmt::Write;
     let mut s = format!(
-        "{:64} {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}\n",
+        "{:80} {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}\n",
         "case", "exact", "sweep", "error", "passes", "pending", "ms"
     );
     for c in cases {
         let _ = writeln!(
             s,
-            "{:64} {:>8.4} {:>8.4} {:>+7.1}% {:>6} {:>9.1e} {:>9.1}",
+            "{:80} {:>8.4} {:>8.4} {:>+7.1}% {:>6} {:>9.1e} {:>9.1}",
             c.name,
             c.exact,
             c.swept,
