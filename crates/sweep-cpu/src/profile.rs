@@ -2,7 +2,8 @@
 //! per-cell tables and the source solve of [`lightgrid_core::MediumEmission::Profile`]
 //! (issue 13's thick cells). The default rule is still the flat source of
 //! [`crate::medium`]; this one runs on the CPU sweeper's scalar path, without diffusion
-//! acceleration, and not on the GPU (see the crate docs, "Against exact answers").
+//! acceleration, and on the GPU (`sweep-gpu`, from [`table_floats`] and
+//! [`slot_geometry`]); see the crate docs, "Against exact answers".
 //!
 //! ## Why
 //!
@@ -381,11 +382,32 @@ fn tables() -> &'static [Node] {
     })
 }
 
-type SlotGeometry = (f32, f32, [f32; 2]);
+/// `(μ_c ω_b σ_c, e, [ū_1, ū_2])` of a stencil slot ([`slot_geometry`]).
+pub type SlotGeometry = (f32, f32, [f32; 2]);
+
+/// Floats of one table node in [`table_floats`]: per pass and slot six values, then
+/// the four `K_nm` (`n, m ∈ {1, 2}`).
+pub const NODE_FLOATS: usize = 2 * SLOTS * 6 + 4;
+
+/// The tables behind [`CellProfile::new`], node by node ([`NODE_FLOATS`] each: per
+/// pass (downward first) and slot `[C_1/C_0, C_2/C_0, E_1, E_2, M_1, M_2]`, then `K_11,
+/// K_12, K_21, K_22`), for a GPU buffer.
+pub fn table_floats() -> Vec<f32> {
+    tables()
+        .iter()
+        .flat_map(|n| {
+            n.slot
+                .iter()
+                .flat_map(|p| p.iter().flatten().copied())
+                .chain(n.k.iter().flatten().copied())
+                .collect::<Vec<f32>>()
+        })
+        .collect()
+}
 
 /// Per stencil slot of a pass: `μ_c ω_b σ_c`, the path exponent `e` (the segment's
 /// optical length is `e τ`) and the mean of `P_1`, `P_2` over its height range.
-fn slot_geometry(up: bool) -> &'static [SlotGeometry; SLOTS] {
+pub fn slot_geometry(up: bool) -> &'static [SlotGeometry; SLOTS] {
     static G: std::sync::OnceLock<[[SlotGeometry; SLOTS]; 2]> = std::sync::OnceLock::new();
     &G.get_or_init(|| {
         [false, true].map(|up| {
@@ -453,8 +475,10 @@ impl CellProfile {
                 let (a, b) = (&t[i].slot[pass][sl], &t[i + 1].slot[pass][sl]);
                 let v: [f32; 6] = std::array::from_fn(|q| lerp(a[q], b[q]));
                 let (w, e, ubar) = geo[sl];
+                // The segment's depth and the fraction it removes, as the sweep computes
+                // its transmittance (`p^e = exp(e ln p)`), so that flux balances exactly.
                 let seg_t = e * tau32;
-                let c0 = -(-seg_t).exp_m1();
+                let c0 = 1.0 - (e * lnp.max(-f32::MAX)).exp();
                 out.g[gi][0] += w * c0;
                 out.g[gi][1] += w * v[2];
                 out.g[gi][2] += w * v[3];

@@ -42,7 +42,8 @@ lightgrid_gpu::gpu_struct! {
         /// Smoothing weight.
         pub smoothing: f32 => "f32",
         /// The medium emission rule: 0 a slab's escape, 2 the source rule
-        /// (`sweep_cpu::medium`, the default).
+        /// (`sweep_cpu::medium`, the default), 3 its quadratic source in height
+        /// (`sweep_cpu::profile`).
         pub medium: u32 => "u32",
     }
 }
@@ -58,9 +59,12 @@ pub struct GpuSweeper {
     phase1: wgpu::ComputePipeline,
     phase2: wgpu::ComputePipeline,
     phase3: wgpu::ComputePipeline,
+    clamp: wgpu::ComputePipeline,
     layout1: wgpu::BindGroupLayout,
     layout2: wgpu::BindGroupLayout,
     surface_w: wgpu::Buffer,
+    /// `sweep_cpu::profile::table_floats`, uploaded once.
+    profile_tab: wgpu::Buffer,
     packer: crate::GpuPacker,
     keep_resident: bool,
 }
@@ -127,6 +131,7 @@ impl GpuSweeper {
                     count: None,
                 },
                 storage(10, false),
+                storage(11, true),
             ],
         });
         let pipeline = |name: &str, src: String, layout: &wgpu::BindGroupLayout, entry: &str| {
@@ -151,6 +156,12 @@ impl GpuSweeper {
         let phase1 = pipeline("sweep phase 1", wgsl::sweep_phase1(), &layout1, "phase1");
         let phase2 = pipeline("sweep phase 2", wgsl::sweep_phase2(), &layout2, "phase2");
         let phase3 = pipeline("sweep phase 3", wgsl::sweep_phase2(), &layout2, "phase3");
+        let clamp = pipeline("sweep clamp", wgsl::sweep_phase2(), &layout2, "clamp_light");
+        let profile_tab = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("profile tables"),
+            contents: bytemuck::cast_slice(&sweep_cpu::profile::table_floats()),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
         let surface_w = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("surface weights"),
             contents: bytemuck::cast_slice(&wgsl::surface_weight_table()),
@@ -165,8 +176,10 @@ impl GpuSweeper {
             phase1,
             phase2,
             phase3,
+            clamp,
             layout1,
             layout2,
+            profile_tab,
         }
     }
 
@@ -349,14 +362,6 @@ impl GpuSweeper {
         let start = std::time::Instant::now();
         let mut timings = GpuTimings::default();
         sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
-        if options.medium == lightgrid_core::MediumEmission::Profile {
-            return Err(SweepError::Backend {
-                backend: "gpu",
-                message: "options.medium = Profile (a quadratic source in height) runs on the \
-                          CPU sweeper only so far (issue 13); use MediumEmission::Source"
-                    .into(),
-            });
-        }
         let backend = |e: GpuError| SweepError::Backend {
             backend: "gpu",
             message: e.to_string(),
@@ -364,7 +369,12 @@ impl GpuSweeper {
         let shape = Shape::of(material, boundary);
         let bufs = self.buffers(material, &shape).map_err(backend)?;
         let source_in = match source {
-            Some(src) => self.upload_source(&bufs, material, src)?,
+            Some(src) => self.upload_source(
+                &bufs,
+                material,
+                src,
+                options.medium == lightgrid_core::MediumEmission::Profile,
+            )?,
             None => [0.0; 3],
         };
         let groups = self.bind_groups(&bufs);
@@ -378,7 +388,10 @@ impl GpuSweeper {
             self.upload_boundary(&bufs, &shape, boundary, up, pass < 2);
             let params = level_params(&shape, up, options);
             self.ctx.queue.write_buffer(&bufs.params, 0, &params);
-            let sources = options.medium == lightgrid_core::MediumEmission::Source;
+            let sources = matches!(
+                options.medium,
+                lightgrid_core::MediumEmission::Source | lightgrid_core::MediumEmission::Profile
+            );
             self.encode_pass(&groups, shape.ny, (up, sources), workgroups);
             stats.passes += 1;
             stats.levels_computed += shape.ny as u64;
@@ -393,6 +406,20 @@ impl GpuSweeper {
                     break;
                 }
             }
+        }
+        if options.medium == lightgrid_core::MediumEmission::Profile {
+            // A quadratic source may send light below 0: clamped, as sweep-cpu does.
+            let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut cp = enc.begin_compute_pass(&Default::default());
+                cp.set_pipeline(&self.clamp);
+                for li in 0..shape.ny {
+                    let off = (li as u64 * PARAM_STRIDE) as u32;
+                    cp.set_bind_group(0, &groups.phase2[0][0], &[off]);
+                    cp.dispatch_workgroups(workgroups, 1, 1);
+                }
+            }
+            self.ctx.queue.submit([enc.finish()]);
         }
         self.ctx
             .device
@@ -409,6 +436,7 @@ impl GpuSweeper {
         bufs: &Buffers,
         material: &MaterialGrid,
         src: &CellSource,
+        profile_rule: bool,
     ) -> Result<[f64; 3], SweepError> {
         if src.removed().len() != material.data().len() {
             return Err(lightgrid_core::GridError::invalid(
@@ -427,6 +455,16 @@ impl GpuSweeper {
             .flat_map(|(&r, m)| {
                 for k in 0..3 {
                     input[k] += r[k] as f64;
+                }
+                if profile_rule && r != Vec3::ZERO && m.pass > 0.0 && m.pass < 1.0 {
+                    // The profile rule: the beam's collisions as source coefficients,
+                    // computed as sweep-cpu computes them.
+                    let (j, _) = sweep_cpu::profile::beam_source(m, d, r);
+                    let z = 0.0;
+                    return [
+                        j[0].x, j[0].y, j[0].z, j[1].x, j[1].y, j[1].z, j[2].x, j[2].y, j[2].z, z,
+                        z, z,
+                    ];
                 }
                 let s = r * m.reflectance;
                 let (a, b, c) = (s * d.x, s * d.y, s * d.z);
@@ -486,7 +524,7 @@ impl GpuSweeper {
                 zeros("pending up", n * 12, none),
             ],
             pend_flux: zeros("pending flux", n * 3, src),
-            srcj: zeros("level sources", level_len * 3, none),
+            srcj: zeros("level sources", level_len * 9, none),
             params: d.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("level params"),
                 size: PARAM_STRIDE * shape.ny as u64,
@@ -538,6 +576,7 @@ impl GpuSweeper {
                     b.pend_flux.as_entire_binding(),
                     self.surface_w.as_entire_binding(),
                     b.srcj.as_entire_binding(),
+                    self.profile_tab.as_entire_binding(),
                 ]),
             })
         };
@@ -708,9 +747,8 @@ fn level_params(shape: &Shape, up: bool, options: &SweepOptions) -> Vec<u8> {
             smoothing: options.smoothing,
             medium: match options.medium {
                 lightgrid_core::MediumEmission::Escape => 0,
-                // Profile is refused before any level runs (`execute`).
-                lightgrid_core::MediumEmission::Source
-                | lightgrid_core::MediumEmission::Profile => 2,
+                lightgrid_core::MediumEmission::Source => 2,
+                lightgrid_core::MediumEmission::Profile => 3,
             },
         };
         let o = li * PARAM_STRIDE as usize;

@@ -124,6 +124,27 @@ pub fn sweep_tables() -> String {
                 .collect()
         )
     );
+    // The quadratic source in height (`sweep_cpu::profile`): its table's layout, and
+    // per pass and slot `(μ_c ω_b σ_c, e, ū_1, ū_2)`.
+    let _ = writeln!(
+        s,
+        "const PROF_N: u32 = {}u;\nconst PROF_TAU_MAX: f32 = {:?};\nconst PROF_NODE: u32 = {}u;\nconst SLOTS: u32 = {SLOTS}u;",
+        sweep_cpu::profile::TABLE,
+        sweep_cpu::profile::TAU_MAX as f32,
+        sweep_cpu::profile::NODE_FLOATS
+    );
+    let _ = writeln!(
+        s,
+        "const PROF_GEO = array<vec4<f32>, {}>({});",
+        2 * SLOTS,
+        list(
+            [false, true]
+                .iter()
+                .flat_map(|&up| sweep_cpu::profile::slot_geometry(up).iter())
+                .map(|(w, e, u)| format!("vec4<f32>({w:?}, {e:?}, {:?}, {:?})", u[0], u[1]))
+                .collect()
+        )
+    );
     s
 }
 

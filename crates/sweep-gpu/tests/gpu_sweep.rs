@@ -55,9 +55,10 @@ fn canonical_scenes_match_the_cpu() {
         let mut o = SweepOptions::multi_bounce();
         o.tolerance = 0.0;
         o.max_passes = 5;
-        // Both medium emission rules (the source rule has its own third phase).
+        // Every medium emission rule (the source rules have their own third phase).
         for medium in [
             lightgrid_core::MediumEmission::Source,
+            lightgrid_core::MediumEmission::Profile,
             lightgrid_core::MediumEmission::Escape,
         ] {
             o.medium = medium;
@@ -95,7 +96,7 @@ proptest! {
     /// 0 and 1), every side mode and a per-point top, random sky and sun, smoothing and
     /// pass count.
     #[test]
-    fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17) {
+    fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17, profile in any::<bool>()) {
         let Some(gpu) = sweeper() else { return Ok(()) };
         let d = *m.desc();
         let mut sky = lumpy_sky();
@@ -114,6 +115,7 @@ proptest! {
         o.smoothing = smoothing;
         o.max_passes = passes;
         o.tolerance = 0.0;
+        if profile { o.medium = lightgrid_core::MediumEmission::Profile; }
         let cpu = sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
         let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
         if let Err(e) = assert_close(&cpu, &g) {
@@ -167,30 +169,6 @@ fn invalid_input_is_the_same_typed_error() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("top"), "{e}");
-}
-
-/// The quadratic source in height (`MediumEmission::Profile`) is not on the GPU yet: a
-/// typed backend error naming the option, not a sweep by another rule.
-#[test]
-fn the_profile_rule_is_refused_by_name() {
-    let Some(gpu) = sweeper() else { return };
-    let m = MaterialGrid::filled(
-        GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap(),
-        Material {
-            reflectance: Vec3::splat(0.5),
-            pass: 0.5,
-        },
-    )
-    .unwrap();
-    let mut o = SweepOptions::default();
-    o.medium = lightgrid_core::MediumEmission::Profile;
-    let e = gpu
-        .run(&m, &Boundary::open_sky(BinLight::uniform(Vec3::ONE)), &o)
-        .unwrap_err();
-    assert!(
-        matches!(&e, lightgrid_core::SweepError::Backend { message, .. } if message.contains("Profile")),
-        "{e}"
-    );
 }
 
 /// The final grid packed on the GPU equals sweep-cpu's grid packed by grid-core within
@@ -311,12 +289,22 @@ fn white_furnace_is_exact_on_the_gpu() {
     o.max_passes = 400;
     o.tolerance = 1e-6;
     o.smoothing = 0.25;
-    let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
-    let omega = lightgrid_core::dirs::solid_angles();
-    for (i, l) in g.data().iter().enumerate() {
-        for bin in 0..26 {
-            let v = l.0[bin].x / omega[bin];
-            assert!((v - 1.0).abs() < 1e-3, "point {i}, bin {bin}: radiance {v}");
+    // Both source rules: flat, and quadratic in height (`MediumEmission::Profile`).
+    for medium in [
+        lightgrid_core::MediumEmission::Source,
+        lightgrid_core::MediumEmission::Profile,
+    ] {
+        o.medium = medium;
+        let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
+        let omega = lightgrid_core::dirs::solid_angles();
+        for (i, l) in g.data().iter().enumerate() {
+            for bin in 0..26 {
+                let v = l.0[bin].x / omega[bin];
+                assert!(
+                    (v - 1.0).abs() < 1e-3,
+                    "{medium:?}: point {i}, bin {bin}: radiance {v}"
+                );
+            }
         }
     }
 }
@@ -331,6 +319,7 @@ proptest! {
         periodic in any::<bool>(),
         sun in (-1.0f32..1.0, 0.05f32..1.0, -1.0f32..1.0),
         passes in 1u32..5,
+        profile in any::<bool>(),
     ) {
         let Some(gpu) = sweeper() else { return Ok(()) };
         let to_sun = Vec3::new(sun.0, sun.1, sun.2);
@@ -344,6 +333,7 @@ proptest! {
         let mut o = SweepOptions::multi_bounce();
         o.max_passes = passes;
         o.tolerance = 0.0;
+        if profile { o.medium = lightgrid_core::MediumEmission::Profile; }
         let cpu = sweep_cpu::run_with_source(&m, &b, Some(&src), &o).unwrap().output.bins.unwrap();
         let g = gpu.run_with_source(&m, &b, Some(&src), &o).unwrap().bins.unwrap();
         if let Err(e) = assert_close(&cpu, &g) {

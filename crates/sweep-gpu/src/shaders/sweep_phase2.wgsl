@@ -15,8 +15,128 @@ const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 @group(0) @binding(7) var<storage, read_write> pend_other: array<f32>;
 @group(0) @binding(8) var<storage, read_write> pend_flux: array<f32>;
 @group(0) @binding(9) var<uniform> SURFACE_W4: array<vec4<f32>, SURFACE_ROWS_GEN>;
-// The source rule's source per cell of the level (RGB; 0: none).
+// The source rules' source per cell of the level: J_0 (RGB), then (the profile rule,
+// medium 3) J_1 and J_2; 0: none.
 @group(0) @binding(10) var<storage, read_write> srcj: array<f32>;
+// The profile rule's tables (sweep_cpu::profile::table_floats).
+@group(0) @binding(11) var<storage, read> prof_tab: array<f32>;
+
+// --- The quadratic source in height (sweep_cpu::profile, P.medium == 3) ---
+
+struct ProfNode {
+    i: u32,
+    f: f32,
+}
+
+// The table node of a cell of ln(pass) lnp (CellProfile::new's interpolation).
+fn prof_node(lnp: f32) -> ProfNode {
+    let tau = max(-lnp, 0.0);
+    let u = sqrt(min(tau, PROF_TAU_MAX) / PROF_TAU_MAX) * f32(PROF_N - 1u);
+    let i = min(u32(u), PROF_N - 2u);
+    return ProfNode(i, clamp(u - f32(i), 0.0, 1.0));
+}
+
+// Value q (0..6: C_1/C_0, C_2/C_0, E_1, E_2, M_1, M_2) of slot `slot` of pass `pass`.
+fn prof_val(n: ProfNode, ps: u32, slot: u32, q: u32) -> f32 {
+    let o = (ps * SLOTS + slot) * 6u + q;
+    let a = prof_tab[n.i * PROF_NODE + o];
+    let b = prof_tab[(n.i + 1u) * PROF_NODE + o];
+    return a + (b - a) * n.f;
+}
+
+// A cell's full-sphere sums for the pass `up`: O, G of this pass and of the other, K.
+struct ProfSums {
+    o: f32,
+    g_this: vec3<f32>,
+    g_other: vec3<f32>,
+    k: array<vec3<f32>, 3>,
+}
+
+fn prof_sums(pass_through: f32, up: u32) -> ProfSums {
+    let lnp = log(pass_through);
+    let n = prof_node(lnp);
+    let tau = max(-lnp, 0.0);
+    var o = 0.0;
+    var g_this = vec3<f32>(0.0);
+    var g_other = vec3<f32>(0.0);
+    var kn0 = vec2<f32>(0.0);
+    for (var ps = 0u; ps < 2u; ps++) {
+        for (var sl = 0u; sl < SLOTS; sl++) {
+            let geo = PROF_GEO[ps * SLOTS + sl];
+            let seg_t = geo.y * tau;
+            let c0 = 1.0 - exp(geo.y * lnp);
+            let c = vec2<f32>(prof_val(n, ps, sl, 0u), prof_val(n, ps, sl, 1u));
+            let g = geo.x * vec3<f32>(c0, prof_val(n, ps, sl, 2u), prof_val(n, ps, sl, 3u));
+            if (ps == up) {
+                g_this += g;
+            } else {
+                g_other += g;
+            }
+            o += geo.x * seg_t;
+            kn0 += geo.x * (seg_t * geo.zw - c * c0);
+        }
+    }
+    let gt = g_this + g_other;
+    let kb = n.i * PROF_NODE + 2u * SLOTS * 6u;
+    var kk: array<f32, 4>;
+    for (var q = 0u; q < 4u; q++) {
+        kk[q] = prof_tab[kb + q] + (prof_tab[kb + PROF_NODE + q] - prof_tab[kb + q]) * n.f;
+    }
+    var k: array<vec3<f32>, 3>;
+    k[0] = vec3<f32>(o, 0.0, 0.0) - gt;
+    k[1] = vec3<f32>(kn0.x, kk[0], kk[1]);
+    k[2] = vec3<f32>(kn0.y, kk[2], kk[3]);
+    return ProfSums(o, g_this, g_other, k);
+}
+
+fn det3(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
+    // rows a, b, c
+    return a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) + a.z * (b.x * c.y - b.y * c.x);
+}
+
+// CellProfile::source for one colour: O J_n / (2n + 1) - a Σ K_nm J_m = a r_n.
+fn prof_solve(s: ProfSums, a: f32, r: vec3<f32>) -> vec3<f32> {
+    if (!(a > 0.0) || r.x == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let m0 = vec3<f32>(s.o, 0.0, 0.0) - a * s.k[0];
+    let m1 = vec3<f32>(0.0, s.o / 3.0, 0.0) - a * s.k[1];
+    let m2 = vec3<f32>(0.0, 0.0, s.o / 5.0) - a * s.k[2];
+    let e = a * r;
+    let d = det3(m0, m1, m2);
+    if (!(abs(d) > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let j = vec3<f32>(
+        det3(vec3<f32>(e.x, m0.y, m0.z), vec3<f32>(e.y, m1.y, m1.z), vec3<f32>(e.z, m2.y, m2.z)),
+        det3(vec3<f32>(m0.x, e.x, m0.z), vec3<f32>(m1.x, e.y, m1.z), vec3<f32>(m2.x, e.z, m2.z)),
+        det3(vec3<f32>(m0.x, m0.y, e.x), vec3<f32>(m1.x, m1.y, e.y), vec3<f32>(m2.x, m2.y, e.z)),
+    ) / d;
+    if (any(j != j) || any(abs(j) > vec3<f32>(3.0e38))) {
+        return vec3<f32>(0.0);
+    }
+    return j;
+}
+
+// Per colour: the source coefficients (J_0, J_1, J_2 as Pending's s, m0, m1) for
+// collisions of moments (r0, r1, r2) (RGB each), albedo alb.
+fn prof_source(s: ProfSums, alb: vec3<f32>, r0: vec3<f32>, r1: vec3<f32>, r2: vec3<f32>) -> Pending {
+    var j0 = vec3<f32>(0.0);
+    var j1 = vec3<f32>(0.0);
+    var j2 = vec3<f32>(0.0);
+    for (var c = 0u; c < 3u; c++) {
+        let j = prof_solve(s, alb[c], vec3<f32>(r0[c], r1[c], r2[c]));
+        j0[c] = j.x;
+        j1[c] = j.y;
+        j2[c] = j.z;
+    }
+    return Pending(j0, j1, j2, vec3<f32>(0.0));
+}
+
+// G·J per colour for the coefficients held in p.
+fn prof_flux(g: vec3<f32>, p: Pending) -> vec3<f32> {
+    return p.s * g.x + p.m0 * g.y + p.m1 * g.z;
+}
 
 fn surface_w(i: u32) -> f32 {
     return SURFACE_W4[i / 4u][i % 4u];
@@ -162,19 +282,27 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let gi = li + P.level_len * P.j;
     let mat = cells[gi];
-    srcj[li * 3u] = 0.0;
-    srcj[li * 3u + 1u] = 0.0;
-    srcj[li * 3u + 2u] = 0.0;
+    for (var q = 0u; q < 9u; q++) {
+        srcj[li * 9u + q] = 0.0;
+    }
     if (mat.w >= 1.0) {
         return;
     }
     let x = i32(li % P.nx);
     let z = i32(li / P.nx);
-    // Step 3: the flux this cell removed from every path crossing it.
+    let profile = P.medium == 3u && mat.w > 0.0;
+    var node = ProfNode(0u, 0.0);
+    if (profile) {
+        node = prof_node(log(mat.w));
+    }
+    // Step 3: the flux this cell removed from every path crossing it (and, the profile
+    // rule, its height moments).
     var s_raw = vec3<f32>(0.0);
     var m0 = vec3<f32>(0.0);
     var m1 = vec3<f32>(0.0);
     var m2 = vec3<f32>(0.0);
+    var h1 = vec3<f32>(0.0);
+    var h2 = vec3<f32>(0.0);
     for (var c = 0u; c < CH; c++) {
         var r = vec3<f32>(0.0);
         let first = CH_FIRST_SLOT[c];
@@ -183,7 +311,13 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
             let col = column(x - sd.x, z - sd.y);
             if (col >= 0) {
                 let i = u32(col) * SCRATCH + (first + k) * 3u;
-                r += vec3<f32>(scratch[i], scratch[i + 1u], scratch[i + 2u]);
+                let v = vec3<f32>(scratch[i], scratch[i + 1u], scratch[i + 2u]);
+                r += v;
+                if (profile) {
+                    let vm = v * CH_MU[c];
+                    h1 += vm * prof_val(node, P.up, first + k, 0u);
+                    h2 += vm * prof_val(node, P.up, first + k, 1u);
+                }
             }
         }
         r = r * CH_MU[c];
@@ -197,6 +331,28 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     let alb = mat.xyz;
     let fresh = Pending(s_raw * alb, m0 * alb, m1 * alb, m2 * alb);
     // Steps 5 and 6: emit, re-absorb in rounds.
+    if (profile) {
+        // The profile rule: the collisions become an isotropic source (coefficients in
+        // height); this pass emits what waits for it, the other pass's waits.
+        let sums = prof_sums(mat.w, P.up);
+        let dj = prof_source(sums, alb, s_raw, h1, h2);
+        let emit = add_p(load_pending(0u, gi), dj);
+        let v = array<vec3<f32>, 3>(emit.s, emit.m0, emit.m1);
+        for (var q = 0u; q < 3u; q++) {
+            srcj[li * 9u + q * 3u] = v[q].x;
+            srcj[li * 9u + q * 3u + 1u] = v[q].y;
+            srcj[li * 9u + q * 3u + 2u] = v[q].z;
+        }
+        let zero = vec3<f32>(0.0);
+        store_pending(0u, gi, Pending(zero, zero, zero, zero));
+        let other = add_p(load_pending(1u, gi), dj);
+        store_pending(1u, gi, other);
+        let pf = max(prof_flux(sums.g_other, other), zero);
+        pend_flux[gi * 3u] = pf.x;
+        pend_flux[gi * 3u + 1u] = pf.y;
+        pend_flux[gi * 3u + 2u] = pf.z;
+        return;
+    }
     var own = add_p(fresh, load_pending(0u, gi));
     var other = add_p(load_pending(1u, gi), fresh);
     if (P.medium == 2u && mat.w > 0.0) {
@@ -205,9 +361,9 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
         let sgn = select(0.5, -0.5, P.up == 1u);
         let share = max(own.s * 0.5 + own.m1 * (beta * sgn), vec3<f32>(0.0));
         let j = medium_source(mat.w, share, alb);
-        srcj[li * 3u] = j.x;
-        srcj[li * 3u + 1u] = j.y;
-        srcj[li * 3u + 2u] = j.z;
+        srcj[li * 9u] = j.x;
+        srcj[li * 9u + 1u] = j.y;
+        srcj[li * 9u + 2u] = j.z;
         let zero = vec3<f32>(0.0);
         store_pending(0u, gi, Pending(zero, zero, zero, zero));
         store_pending(1u, gi, other);
@@ -254,8 +410,14 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     pend_flux[gi * 3u + 2u] = pf.z;
 }
 
+// Coefficient q (0: J_0, 1: J_1, 2: J_2) of the source of cell i of the level.
+fn src_q(i: u32, q: u32) -> vec3<f32> {
+    let b = i * 9u + q * 3u;
+    return vec3<f32>(srcj[b], srcj[b + 1u], srcj[b + 2u]);
+}
+
 fn src_at(i: u32) -> vec3<f32> {
-    return vec3<f32>(srcj[i * 3u], srcj[i * 3u + 1u], srcj[i * 3u + 2u]);
+    return src_q(i, 0u);
 }
 
 // Segment k of channel c's path from column (x, z) offset by (dx, dz): its
@@ -267,8 +429,15 @@ fn segment(x: i32, z: i32, c: u32, k: u32) -> vec4<f32> {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     let q = u32(col);
-    let tr = trans(cells[q + P.level_len * P.j].w, STENCIL_E[CH_FIRST_SLOT[c] + k]);
-    return vec4<f32>(src_at(q) * (1.0 - tr), tr);
+    let slot = CH_FIRST_SLOT[c] + k;
+    let pt = cells[q + P.level_len * P.j].w;
+    let tr = trans(pt, STENCIL_E[slot]);
+    var e = src_at(q) * (1.0 - tr);
+    if (P.medium == 3u && pt > 0.0 && pt < 1.0) {
+        let n = prof_node(log(pt));
+        e += src_q(q, 1u) * prof_val(n, P.up, slot, 2u) + src_q(q, 2u) * prof_val(n, P.up, slot, 3u);
+    }
+    return vec4<f32>(e, tr);
 }
 
 // Phase 3 (the source rule, sweep-cpu's Ctx::phase3): every path gains what its
@@ -278,13 +447,18 @@ fn segment(x: i32, z: i32, c: u32, k: u32) -> vec4<f32> {
 @compute @workgroup_size(64)
 fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
     let li = id.x;
-    if (li >= P.level_len || P.medium != 2u) {
+    if (li >= P.level_len || P.medium < 2u) {
         return;
     }
     let gi = li + P.level_len * P.j;
     let x = i32(li % P.nx);
     let z = i32(li / P.nx);
     let mat = cells[gi];
+    let profile = P.medium == 3u && mat.w > 0.0 && mat.w < 1.0;
+    var node = ProfNode(0u, 0.0);
+    if (profile) {
+        node = prof_node(log(mat.w));
+    }
     for (var c = 0u; c < CH; c++) {
         var acc = vec3<f32>(0.0);
         var centre = vec3<f32>(0.0);
@@ -294,6 +468,10 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
             if (sd.x == 0 && sd.y == 0) {
                 let half = seg_mean(s.w, depth(mat.w, STENCIL_E[CH_FIRST_SLOT[c] + k]));
                 centre = acc * half + src_at(li) * (1.0 - half);
+                if (profile) {
+                    let slot = CH_FIRST_SLOT[c] + k;
+                    centre += src_q(li, 1u) * prof_val(node, P.up, slot, 4u) + src_q(li, 2u) * prof_val(node, P.up, slot, 5u);
+                }
             }
             acc = acc * s.w + s.xyz;
         }
@@ -309,6 +487,8 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var got = Pending(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    var h1 = vec3<f32>(0.0);
+    var h2 = vec3<f32>(0.0);
     for (var c = 0u; c < CH; c++) {
         let om = SRC_OMEGA[c] * CH_MU[c];
         let u = DIR_UNIT[ch_bin(P.up, c)];
@@ -324,16 +504,46 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             let r = acc * ((1.0 - trans(mat.w, STENCIL_E[CH_FIRST_SLOT[c] + j])) * om);
             got = add_p(got, Pending(r, r * u.x, r * u.y, r * u.z));
+            if (profile) {
+                h1 += r * prof_val(node, P.up, CH_FIRST_SLOT[c] + j, 0u);
+                h2 += r * prof_val(node, P.up, CH_FIRST_SLOT[c] + j, 1u);
+            }
         }
     }
     if (all(got.s == vec3<f32>(0.0))) {
         return;
     }
     let alb = mat.xyz;
+    if (profile) {
+        // Waits for the next passes of both directions, as an isotropic source.
+        let sums = prof_sums(mat.w, P.up);
+        let dj = prof_source(sums, alb, got.s, h1, h2);
+        store_pending(0u, gi, add_p(load_pending(0u, gi), dj));
+        store_pending(1u, gi, add_p(load_pending(1u, gi), dj));
+        let pf = max(prof_flux(sums.g_this, dj) + prof_flux(sums.g_other, dj), vec3<f32>(0.0));
+        pend_flux[gi * 3u] += pf.x;
+        pend_flux[gi * 3u + 1u] += pf.y;
+        pend_flux[gi * 3u + 2u] += pf.z;
+        return;
+    }
     let sc = Pending(got.s * alb, got.m0 * alb, got.m1 * alb, got.m2 * alb);
     store_pending(0u, gi, add_p(load_pending(0u, gi), sc));
     store_pending(1u, gi, add_p(load_pending(1u, gi), sc));
     pend_flux[gi * 3u] += sc.s.x;
     pend_flux[gi * 3u + 1u] += sc.s.y;
     pend_flux[gi * 3u + 2u] += sc.s.z;
+}
+
+// The profile rule's output: light a quadratic source sent below 0 clamped at 0, as
+// sweep-cpu does after its last pass (one level per dispatch).
+@compute @workgroup_size(64)
+fn clamp_light(@builtin(global_invocation_id) id: vec3<u32>) {
+    let li = id.x;
+    if (li >= P.level_len) {
+        return;
+    }
+    let b = (li + P.level_len * P.j) * NUM_DIRS * 3u;
+    for (var q = 0u; q < NUM_DIRS * 3u; q++) {
+        g[b + q] = max(g[b + q], 0.0);
+    }
 }
