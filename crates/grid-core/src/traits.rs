@@ -289,7 +289,8 @@ pub enum MediumEmission {
     /// laterally uniform half-space it is within the channels' own angular error at
     /// every cell depth (model: `cargo run --release -p sweep-cpu --example
     /// profile_slab`). A first version: the CPU sweeper runs it on its scalar path (no
-    /// row kernels) without diffusion acceleration; `sweep-gpu` runs it as the CPU does.
+    /// row kernels yet), with diffusion acceleration when asked; `sweep-gpu` runs it as
+    /// the CPU does.
     Profile,
 }
 

@@ -1,9 +1,11 @@
 //! A medium cell's source as a **quadratic in height**: the segment integrals, the
 //! per-cell tables and the source solve of [`lightgrid_core::MediumEmission::Profile`]
 //! (issue 13's thick cells). The default rule is still the flat source of
-//! [`crate::medium`]; this one runs on the CPU sweeper's scalar path, without diffusion
-//! acceleration, and on the GPU (`sweep-gpu`, from [`table_floats`] and
-//! [`slot_geometry`]); see the crate docs, "Against exact answers".
+//! [`crate::medium`]; this one runs on the CPU sweeper's scalar path (with diffusion
+//! acceleration, [`crate::accel`]: its corrections become flat sources,
+//! [`CellProfile::source_of_scattered`]) and on the GPU (`sweep-gpu`, from
+//! [`table_floats`] and [`slot_geometry`]); see the crate docs, "Against exact
+//! answers".
 //!
 //! ## Why
 //!
@@ -466,7 +468,11 @@ impl CellProfile {
             k: [[0.0; 3]; 3],
         };
         let tau32 = tau.min(f32::MAX as f64) as f32;
-        let mut kn0 = [0.0f32; 2];
+        // Sums in f64: in f32 a cell's 98 terms rounded its outflow 7e-7 away from what
+        // its segments emit, and a bright medium's balance drifted by that every pass.
+        let mut kn0 = [0.0f64; 2];
+        let mut g = [[0.0f64; 3]; 2];
+        let mut o = 0.0f64;
         for pass in 0..2 {
             let this = pass == up as usize;
             let geo = slot_geometry(pass == 1);
@@ -479,12 +485,13 @@ impl CellProfile {
                 // its transmittance (`p^e = exp(e ln p)`), so that flux balances exactly.
                 let seg_t = e * tau32;
                 let c0 = 1.0 - (e * lnp.max(-f32::MAX)).exp();
-                out.g[gi][0] += w * c0;
-                out.g[gi][1] += w * v[2];
-                out.g[gi][2] += w * v[3];
-                out.o += w * seg_t;
+                let w64 = w as f64;
+                g[gi][0] += (w * c0) as f64;
+                g[gi][1] += (w * v[2]) as f64;
+                g[gi][2] += (w * v[3]) as f64;
+                o += w64 * seg_t as f64;
                 for n in 0..2 {
-                    kn0[n] += w * (seg_t * ubar[n] - v[n] * c0);
+                    kn0[n] += w64 * (seg_t as f64 * ubar[n] as f64 - v[n] as f64 * c0 as f64);
                 }
                 if this {
                     out.coll[sl] = [v[0], v[1]];
@@ -493,11 +500,13 @@ impl CellProfile {
                 }
             }
         }
+        out.o = o as f32;
+        out.g = g.map(|r| r.map(|v| v as f32));
         for m in 0..3 {
-            out.k[0][m] = if m == 0 { out.o } else { 0.0 } - (out.g[0][m] + out.g[1][m]);
+            out.k[0][m] = (if m == 0 { o } else { 0.0 } - (g[0][m] + g[1][m])) as f32;
         }
         for n in 0..2 {
-            out.k[n + 1][0] = kn0[n];
+            out.k[n + 1][0] = kn0[n] as f32;
             for m in 0..2 {
                 out.k[n + 1][m + 1] = lerp(t[i].k[n][m], t[i + 1].k[n][m]);
             }
@@ -541,11 +550,34 @@ impl CellProfile {
         if !j.iter().all(|v| v.is_finite()) {
             return ([0.0; 3], 0.0);
         }
+        // The coefficients as the sweep will emit them (f32), and as absorbed whatever
+        // of the scattered light they do not send out: flux balances to rounding
+        // however the solve rounds (`(1 − a)(O J_0 − G·J)` in exact arithmetic).
+        let j32 = j.map(|v| v as f32);
         let out: f64 = (0..3)
-            .map(|q| (self.g[0][q] + self.g[1][q]) as f64 * j[q])
+            .map(|q| (self.g[0][q] + self.g[1][q]) as f64 * j32[q] as f64)
             .sum();
-        let absorbed = (1.0 - a) * (o * j[0] - out);
-        (j.map(|v| v as f32), absorbed as f32)
+        let absorbed = e[0] - out;
+        (j32, absorbed as f32)
+    }
+
+    /// The source that scatters flux `e0` in all (one colour, albedo `a`), flat in
+    /// height: the solve of [`CellProfile::source`] with right side `(e0, 0, 0)`, of
+    /// either sign (the accelerated sweep's diffusion correction, [`crate::accel`]).
+    pub fn source_of_scattered(&self, a: f32, e0: f32) -> [f32; 3] {
+        if !e0.is_finite() || e0 == 0.0 || a <= 0.0 {
+            return [0.0; 3];
+        }
+        // `source` solves for `a r`: r = e0 / a.
+        self.source(a, [e0 / a, 0.0, 0.0]).0
+    }
+
+    /// The scattered flux a source `j` stands for: `O J_0 − a Σ_m K_0m J_m` (its
+    /// emission less what its own material scatters again), so that
+    /// `scattered(source(a, r)) = a r_0`.
+    pub fn scattered(&self, a: f32, j: [f32; 3]) -> f32 {
+        let k0: f32 = (0..3).map(|m| self.k[0][m] * j[m]).sum();
+        self.o * j[0] - a * k0
     }
 
     /// What the source `j` sends out of the cell through this pass's segments (`which`
@@ -569,6 +601,13 @@ pub fn source_rgb(pr: &CellProfile, alb: Vec3, r: [Vec3; 3], absorbed: &mut DVec
         absorbed[k] += ab as f64;
     }
     j
+}
+
+/// [`CellProfile::scattered`] per colour (albedo `alb`).
+pub fn scattered_rgb(pr: &CellProfile, alb: Vec3, j: &[Vec3; 3]) -> Vec3 {
+    Vec3::from_array(std::array::from_fn(|k| {
+        pr.scattered(alb[k], [j[0][k], j[1][k], j[2][k]])
+    }))
 }
 
 /// [`CellProfile::flux_out`] per colour.

@@ -1799,17 +1799,29 @@ impl Ctx {
                         }
                     }
                 }
-                let dj = crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed);
-                let emit = same_row[xi].add(&Pending::of_coeffs(dj)).coeffs();
+                let dj =
+                    Pending::of_coeffs(crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed));
+                // Accelerated (`jacobi`): only what waited is emitted; the new source
+                // waits for the next pair, as under the flat rule.
+                let emit = if self.jacobi {
+                    same_row[xi]
+                } else {
+                    same_row[xi].add(&dj)
+                }
+                .coeffs();
                 src_row[xi] = emit[0];
                 hi_row[xi] = [emit[1], emit[2]];
                 emits_row[xi] = emit.iter().any(|v| *v != Vec3::ZERO);
-                same_row[xi] = Pending::default();
-                let other = other_row[xi].add(&Pending::of_coeffs(dj));
+                same_row[xi] = if self.jacobi { dj } else { Pending::default() };
+                let other = other_row[xi].add(&dj);
                 other_row[xi] = other;
-                rf.pending += crate::profile::flux_rgb(pr, 1, &other.coeffs())
-                    .max(Vec3::ZERO)
-                    .as_dvec3();
+                let waits = crate::profile::flux_rgb(pr, 1, &other.coeffs());
+                rf.pending += if self.signed {
+                    waits
+                } else {
+                    waits.max(Vec3::ZERO)
+                }
+                .as_dvec3();
                 continue;
             }
             let jacobi = self.jacobi && medium::applies(self.medium, mat.pass);
@@ -2266,9 +2278,13 @@ impl Ctx {
                     let add = Pending::of_coeffs(dj);
                     same_row[xi] = same_row[xi].add(&add);
                     other_row[xi] = other_row[xi].add(&add);
-                    rf.pending += (crate::profile::flux_rgb(pr, 0, &dj)
-                        + crate::profile::flux_rgb(pr, 1, &dj))
-                    .max(Vec3::ZERO)
+                    let waits =
+                        crate::profile::flux_rgb(pr, 0, &dj) + crate::profile::flux_rgb(pr, 1, &dj);
+                    rf.pending += if self.signed {
+                        waits
+                    } else {
+                        waits.max(Vec3::ZERO)
+                    }
                     .as_dvec3();
                     continue;
                 }
@@ -2891,11 +2907,11 @@ fn run_with<S: Sink>(
                 grew = if now > waited { grew + 1 } else { 0 };
                 waited = now;
                 if grew >= 2 {
-                    debt.release(d, &mut w);
+                    debt.release(d, &mut w, (&fixed.lnp, cells, options.medium));
                     mode = Mode::Fallback;
                 } else {
                     stats.corrections += 1;
-                    debt.correct(d, &mut w, &fixed.lnp);
+                    debt.correct(d, &mut w, (&fixed.lnp, cells, options.medium));
                 }
             }
             if up { before.abs } else { DVec3::INFINITY }
@@ -2917,7 +2933,7 @@ fn run_with<S: Sink>(
                     debt = Debt::new(Some(&d));
                     mode = Mode::Accelerated;
                     stats.corrections += 1;
-                    debt.correct(&d, &mut w, &fixed.lnp);
+                    debt.correct(&d, &mut w, (&fixed.lnp, cells, options.medium));
                     dsa = Some(d);
                 }
                 waited = now;
@@ -2979,6 +2995,30 @@ struct Waiting {
     abs: DVec3,
 }
 
+/// What the diffusion correction `delta` (scattered flux, RGB) adds to a medium cell's
+/// waiting light in each direction: flux `delta` under the flat rule (each pass emits
+/// half of it), the source coefficients that scatter `delta` under the profile rule
+/// ([`crate::profile::CellProfile::source_of_scattered`]).
+fn correction(
+    (lnp, cells, rule): (&[f32], &[lightgrid_core::Material], MediumEmission),
+    i: usize,
+    delta: Vec3,
+) -> Pending {
+    if rule == MediumEmission::Profile {
+        let pr = crate::profile::CellProfile::new(false, lnp[i]);
+        let a = cells[i].reflectance;
+        let j: [[f32; 3]; 3] = std::array::from_fn(|k| pr.source_of_scattered(a[k], delta[k]));
+        Pending::of_coeffs(std::array::from_fn(|n| {
+            Vec3::new(j[0][n], j[1][n], j[2][n])
+        }))
+    } else {
+        Pending {
+            s: delta,
+            m: [Vec3::ZERO; 3],
+        }
+    }
+}
+
 /// The shares of a medium cell's waiting light `(pd, pu)` that the downward and the
 /// upward pass emit (step 5), summed.
 #[inline]
@@ -3018,7 +3058,23 @@ impl Debt {
                     continue;
                 }
                 let (pd, pu, pn) = (&w.pend_down[i], &w.pend_up[i], &w.pend_next[i]);
-                let v = if medium::applies(rule, mat.pass) {
+                let v = if rule == MediumEmission::Profile && medium::applies(rule, mat.pass) {
+                    // What the waiting sources will send out of the cell (their own
+                    // material's share was absorbed when they were solved for), less
+                    // the outstanding correction's.
+                    let pr = crate::profile::CellProfile::new(false, fixed.lnp[i]);
+                    let out = |which: usize, p: &Pending| {
+                        crate::profile::flux_rgb(&pr, which, &p.coeffs())
+                    };
+                    let mut v = out(0, pd) + out(1, &pu.add(pn));
+                    if let Some(k) = d.slot.get(i).copied().filter(|&k| k != u32::MAX) {
+                        let (hd, hu) = &self.hold[k as usize];
+                        let fx = (&fixed.lnp[..], cells, rule);
+                        let c = correction(fx, i, self.delta[k as usize]);
+                        v += out(0, hd) + out(1, hu) - out(0, &c) - out(1, &c);
+                    }
+                    v
+                } else if medium::applies(rule, mat.pass) {
                     let beta = medium::split(fixed.lnp[i]);
                     let mut v = shares(beta, pd, &pu.add(pn));
                     if let Some(k) = d.slot.get(i).copied().filter(|&k| k != u32::MAX) {
@@ -3039,15 +3095,21 @@ impl Debt {
 
     /// Ends acceleration after a pair of passes: what `pend_next`, the outstanding
     /// correction and the held-back light stand for goes back to the waiting light.
-    fn release(&mut self, d: &crate::accel::Diffusion, w: &mut Work) {
+    fn release(
+        &mut self,
+        d: &crate::accel::Diffusion,
+        w: &mut Work,
+        fx: (&[f32], &[lightgrid_core::Material], MediumEmission),
+    ) {
         self.merge_next(w);
         for (k, &ci) in d.cells[..d.media].iter().enumerate() {
             let i = ci as usize;
             let (hd, hu) = std::mem::take(&mut self.hold[k]);
             let delta = std::mem::take(&mut self.delta[k]);
+            let back = correction(fx, i, delta);
             let (pd, pu) = (&mut w.pend_down[i], &mut w.pend_up[i]);
-            pd.s -= delta;
-            pu.s -= delta;
+            *pd = pd.add(&back.scaled(Vec3::splat(-1.0)));
+            *pu = pu.add(&back.scaled(Vec3::splat(-1.0)));
             *pd = pd.add(&hd);
             *pu = pu.add(&hu);
         }
@@ -3070,17 +3132,23 @@ impl Debt {
     /// `ω` of what waits (the rest held back: a damped iteration, whose rate at the
     /// media's alternating, cell-to-cell patterns stays well below 1) and the
     /// diffusion correction for it.
-    fn correct(&mut self, d: &crate::accel::Diffusion, w: &mut Work, lnp: &[f32]) {
+    fn correct(
+        &mut self,
+        d: &crate::accel::Diffusion,
+        w: &mut Work,
+        fx: (&[f32], &[lightgrid_core::Material], MediumEmission),
+    ) {
+        let (lnp, cells, rule) = fx;
         let omega = crate::accel::DAMPING;
         let level_len = w.prev.nx * w.prev.nz;
         self.merge_next(w);
         for (k, &ci) in d.cells[..d.media].iter().enumerate() {
             let i = ci as usize;
-            let beta = medium::split(lnp[i]);
             let (hd, hu) = std::mem::take(&mut self.hold[k]);
+            let back = correction(fx, i, self.delta[k]);
             let (pd, pu) = (&mut w.pend_down[i], &mut w.pend_up[i]);
-            pd.s -= self.delta[k];
-            pu.s -= self.delta[k];
+            *pd = pd.add(&back.scaled(Vec3::splat(-1.0)));
+            *pu = pu.add(&back.scaled(Vec3::splat(-1.0)));
             *pd = pd.add(&hd);
             *pu = pu.add(&hu);
             self.hold[k] = (
@@ -3089,14 +3157,22 @@ impl Debt {
             );
             *pd = pd.scaled(Vec3::splat(omega));
             *pu = pu.scaled(Vec3::splat(omega));
-            self.q[k] = shares(beta, pd, pu);
+            self.q[k] = if rule == MediumEmission::Profile {
+                let pr = crate::profile::CellProfile::new(false, lnp[i]);
+                let a = cells[i].reflectance;
+                let sc = |p: &Pending| crate::profile::scattered_rgb(&pr, a, &p.coeffs());
+                0.5 * (sc(pd) + sc(pu))
+            } else {
+                shares(medium::split(lnp[i]), pd, pu)
+            };
         }
         d.correct(&self.q, &mut self.next);
         for (k, &ci) in d.cells[..d.media].iter().enumerate() {
             let i = ci as usize;
             let delta = self.next[k] * crate::accel::GAIN;
-            w.pend_down[i].s += delta;
-            w.pend_up[i].s += delta;
+            let add = correction(fx, i, delta);
+            w.pend_down[i] = w.pend_down[i].add(&add);
+            w.pend_up[i] = w.pend_up[i].add(&add);
             w.pend_dirty[i / level_len] = true;
             self.delta[k] = delta;
         }

@@ -4,7 +4,8 @@
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
-    Acceleration, BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
+    Acceleration, BinLight, Boundary, GridDesc, Material, MaterialGrid, MediumEmission,
+    SideBoundary, SweepOptions,
 };
 use sweep_cpu::exact;
 use sweep_cpu::scenes::Scene;
@@ -15,6 +16,14 @@ fn options(acceleration: Acceleration, max_passes: u32, tolerance: f32) -> Sweep
     o.max_passes = max_passes;
     o.tolerance = tolerance;
     o.acceleration = acceleration;
+    o
+}
+
+/// Both source rules: the flat one (the default) and the quadratic source in height.
+const RULES: [MediumEmission; 2] = [MediumEmission::Source, MediumEmission::Profile];
+
+fn with(mut o: SweepOptions, rule: MediumEmission) -> SweepOptions {
+    o.medium = rule;
     o
 }
 
@@ -45,13 +54,20 @@ fn passes_to_tolerance_do_not_grow_with_depth_or_albedo() {
     // Slabs of cells of optical depth 1 under a zenith beam: the plain passes take
     // 8 / 33 / 264 / over 1000 at albedo 0.5 / 0.9 / 0.99 / 0.999 (depth 100); at
     // albedo 0.9 they converge fast enough not to switch.
-    for depth in [10, 100, 1000] {
-        for w in [0.5, 0.9, 0.99, 0.999] {
-            let on =
-                exact::convergence_with(depth, w, &options(Acceleration::Diffusion, 400, 1e-4));
+    for (depth, w, rule) in [10, 100, 1000]
+        .into_iter()
+        .flat_map(|d| [0.5, 0.9, 0.99, 0.999].map(|w| (d, w)))
+        .flat_map(|(d, w)| RULES.map(|r| (d, w, r)))
+    {
+        {
+            let on = exact::convergence_with(
+                depth,
+                w,
+                &with(options(Acceleration::Diffusion, 400, 1e-4), rule),
+            );
             assert!(
                 on.passes <= 32,
-                "depth {depth}, albedo {w}: {} passes",
+                "{rule:?}, depth {depth}, albedo {w}: {} passes",
                 on.passes
             );
             assert!(on.pending.abs() <= 1e-4, "{on:?}");
@@ -72,24 +88,40 @@ fn passes_to_tolerance_do_not_grow_with_depth_or_albedo() {
 fn thin_and_thick_cells_converge_to_the_plain_answer() {
     // Cells of optical depth 0.05, 0.69 and 3 (the walk of thick cells, the diffusion
     // of thin ones), albedo 0.99: the half-space albedo, both ways.
-    for pass in [0.95f32, 0.5, 0.05] {
-        let plain =
-            exact::half_space_with(0.99, pass, 20.0, &options(Acceleration::Off, 1200, 1e-6));
+    for (pass, rule) in [0.95f32, 0.5, 0.05]
+        .into_iter()
+        .flat_map(|p| RULES.map(|r| (p, r)))
+    {
+        let plain = exact::half_space_with(
+            0.99,
+            pass,
+            20.0,
+            &with(options(Acceleration::Off, 1200, 1e-6), rule),
+        );
         let on = exact::half_space_with(
             0.99,
             pass,
             20.0,
-            &options(Acceleration::Diffusion, 1200, 1e-6),
+            &with(options(Acceleration::Diffusion, 1200, 1e-6), rule),
         );
+        eprintln!(
+            "{rule:?} pass-through {pass}: {} accelerated, {} plain",
+            on.passes, plain.passes
+        );
+        // The estimate's walk through thick cells models the flat rule: under the
+        // profile rule cells of optical depth 3 gain less (measured 100 accelerated
+        // against 176 plain passes; 46 / 42 against 393 / 364 at depths 0.05 / 0.69).
+        let thick_profile = rule == MediumEmission::Profile && pass < 0.1;
+        let factor = if thick_profile { 3 } else { 2 };
         assert!(
-            on.passes * 2 < plain.passes,
-            "pass-through {pass}: {} accelerated against {} plain passes",
+            on.passes * factor < plain.passes * (factor - 1),
+            "{rule:?}, pass-through {pass}: {} accelerated against {} plain passes",
             on.passes,
             plain.passes
         );
         assert!(
             (on.swept - plain.swept).abs() < 1e-4 * plain.swept,
-            "pass-through {pass}: {on:?} {plain:?}"
+            "{rule:?}, pass-through {pass}: {on:?} {plain:?}"
         );
         assert!(on.balance < 1e-5, "{on:?}");
     }
@@ -99,9 +131,12 @@ fn thin_and_thick_cells_converge_to_the_plain_answer() {
 fn white_furnace_stays_exact_accelerated() {
     // Random white blobs in empty space inside uniform radiance: heterogeneous media,
     // edges, thin and thick cells; every bin 1 to the tolerance.
-    for seed in [7, 8, 9] {
-        let (avg, irr) =
-            exact::furnace_with(12, seed, &options(Acceleration::Diffusion, 400, 1e-6));
+    for (seed, rule) in [7, 8, 9].into_iter().flat_map(|s| RULES.map(|r| (s, r))) {
+        let (avg, irr) = exact::furnace_with(
+            12,
+            seed,
+            &with(options(Acceleration::Diffusion, 400, 1e-6), rule),
+        );
         assert!(avg.passes < 400, "seed {seed}: {avg:?}");
         assert!((avg.swept - 1.0).abs() < 1e-4, "seed {seed}: {avg:?}");
         assert!((irr.swept - 1.0).abs() < 1e-4, "seed {seed}: {irr:?}");
@@ -225,9 +260,19 @@ fn random_media(seed: u64, periodic: bool) -> (MaterialGrid, Boundary) {
 
 /// Plain and accelerated sweeps of `random_media` to 1e-7.
 fn both(seed: u64, periodic: bool) -> (sweep_cpu::Sweep, sweep_cpu::Sweep) {
+    both_with(seed, periodic, MediumEmission::Source)
+}
+
+/// [`both`] under a medium rule.
+fn both_with(
+    seed: u64,
+    periodic: bool,
+    rule: MediumEmission,
+) -> (sweep_cpu::Sweep, sweep_cpu::Sweep) {
     let (m, b) = random_media(seed, periodic);
-    let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 4000, 1e-7)).expect("valid");
-    let on = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 4000, 1e-7)).expect("valid");
+    let o = |a| with(options(a, 4000, 1e-7), rule);
+    let plain = sweep_cpu::run(&m, &b, &o(Acceleration::Off)).expect("valid");
+    let on = sweep_cpu::run(&m, &b, &o(Acceleration::Diffusion)).expect("valid");
     (plain, on)
 }
 
@@ -264,13 +309,15 @@ proptest::proptest! {
 
     /// Random bright media: the accelerated sweep converges to the plain sweep's light
     /// and keeps the balance; where it does not help it falls back or costs some
-    /// passes, never twice the plain ones.
+    /// passes, never twice the plain ones; under either source rule.
     #[test]
     fn random_media_converge_to_the_plain_light(
         seed in 0u64..1_000_000,
         periodic in proptest::bool::ANY,
+        profile in proptest::bool::ANY,
     ) {
-        let (plain, on) = both(seed, periodic);
+        let rule = if profile { MediumEmission::Profile } else { MediumEmission::Source };
+        let (plain, on) = both_with(seed, periodic, rule);
         proptest::prop_assert!(on.output.stats.passes < 2 * plain.output.stats.passes,
             "{} accelerated against {} plain passes", on.output.stats.passes, plain.output.stats.passes);
         let diff = worst_difference(&plain, &on);

@@ -299,8 +299,8 @@ fn half_space_albedo_within_two_percent_with_the_profile_rule() {
 }
 
 /// The same at `w` 0.99 (measured −0.06 % at depth 0.05, −0.02 % at depth 3; the flat
-/// source is +2.5 % at depth 3). Hundreds of passes: the profile rule has no diffusion
-/// acceleration yet.
+/// source is +2.5 % at depth 3). Plain passes (hundreds): the rule itself, not the
+/// acceleration (`tests/accel.rs` runs that).
 #[test]
 fn bright_half_space_within_two_percent_with_the_profile_rule() {
     let mut o = converged();
