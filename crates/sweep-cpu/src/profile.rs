@@ -143,7 +143,7 @@ pub struct Segment {
 }
 
 /// Quadrature points per segment for [`Segment::self_collided`]'s outer integral.
-const SELF_POINTS: usize = 48;
+const SELF_POINTS: usize = 32;
 
 impl Segment {
     /// `∫₀ᵗ P_n(y0 + δ s) e^{−s} ds`, `δ = (y1 − y0)/t`: the height moments of where
@@ -348,7 +348,9 @@ struct Node {
 fn tables() -> &'static [Node] {
     static T: std::sync::OnceLock<Vec<Node>> = std::sync::OnceLock::new();
     T.get_or_init(|| {
+        use rayon::prelude::*;
         (0..TABLE)
+            .into_par_iter()
             .map(|i| {
                 let u = i as f64 / (TABLE - 1) as f64;
                 // τ = 0 as a vanishing depth: the ratios' limits.

@@ -1963,11 +1963,13 @@ impl Ctx {
     ) -> RowFlux {
         let nx = self.nx as usize;
         let p = cur.pitch();
+        let profile = self.medium == MediumEmission::Profile;
         planes.fill_src(self, src, emits);
         let planes = &*planes;
-        // Rows whose paths carry anything: near an emitting cell (every row, scalar).
+        // Rows whose paths carry anything: near an emitting cell (every row, scalar, or
+        // the profile rule's walk).
         for (r, near_row) in pre_rows.iter_mut().zip(near.chunks(nx)) {
-            *r = scalar || near_row.iter().any(|&b| b);
+            *r = scalar || profile || near_row.iter().any(|&b| b);
         }
         let pre_rows = &*pre_rows;
         let emitted = self.level_rows(
@@ -1977,7 +1979,9 @@ impl Ctx {
             rows,
             fin,
             |z, cur_row, pre_row, g_row, _| {
-                if scalar {
+                // The quadratic source in height has no row kernel yet: its emission
+                // walks each point's paths, as the oracle does.
+                if scalar || profile {
                     self.phase3_row_scalar(
                         z,
                         (src, emits),
@@ -2487,8 +2491,6 @@ pub(crate) fn run_reusing(
         )
         .into());
     }
-    // The quadratic source in height runs on the scalar path (no row kernels yet).
-    let fast = fast && options.medium != MediumEmission::Profile;
     let n = desc.point_count();
     let mut avg = take_buffer(&mut spare.average, n);
     let mut dom = take_buffer(&mut spare.dominant, n);

@@ -61,6 +61,8 @@ struct Case {
     smoothing: f32,
     passes: u32,
     bins: bool,
+    /// `MediumEmission::Profile` (a quadratic source in height) instead of the flat rule.
+    profile: bool,
 }
 
 fn case() -> impl Strategy<Value = Case> {
@@ -72,9 +74,10 @@ fn case() -> impl Strategy<Value = Case> {
         prop_oneof![Just(0.0f32), 0.0f32..0.9],
         1u32..6,
         any::<bool>(),
+        any::<bool>(),
     )
         .prop_map(
-            |(sides, per_point_top, bottom, source, smoothing, passes, bins)| Case {
+            |(sides, per_point_top, bottom, source, smoothing, passes, bins, profile)| Case {
                 sides,
                 per_point_top,
                 bottom,
@@ -82,6 +85,7 @@ fn case() -> impl Strategy<Value = Case> {
                 smoothing,
                 passes,
                 bins,
+                profile,
             },
         )
 }
@@ -132,6 +136,9 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
     o.tolerance = 0.0;
     if !c.bins {
         o.outputs = Outputs::AVERAGE_DOMINANT;
+    }
+    if c.profile {
+        o.medium = lightgrid_core::MediumEmission::Profile;
     }
     let fast = sweep_cpu::run_with_source(m, &b, source.as_ref(), &o).unwrap();
     let oracle = sweep_cpu::sweep::run_scalar(m, &b, source.as_ref(), &o).unwrap();
@@ -193,14 +200,17 @@ fn one_cell_in_empty_space() {
         pass: 0.2,
     };
     let m = MaterialGrid::new(d, cells).unwrap();
-    let c = Case {
-        sides: 0,
-        per_point_top: false,
-        bottom: false,
-        source: false,
-        smoothing: 0.25,
-        passes: 4,
-        bins: true,
-    };
-    check(&m, c).unwrap();
+    for profile in [false, true] {
+        let c = Case {
+            sides: 0,
+            per_point_top: false,
+            bottom: false,
+            source: false,
+            smoothing: 0.25,
+            passes: 4,
+            bins: true,
+            profile,
+        };
+        check(&m, c).unwrap();
+    }
 }
