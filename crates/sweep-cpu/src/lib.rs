@@ -368,8 +368,10 @@
 //!   depth 0.69, −47 % at depth 3, albedo 0.1, table above), against the channels'
 //!   angular error of +4.4 %: in the forest the two errors partly cancel, and the
 //!   profile rule leaves the angular one (its air far from media +0.5 % bright, the
-//!   flat rule's +0.0 %). On the CPU it runs on the scalar path (2.5–4 times the flat
-//!   rule's time on the canonical scenes); `sweep-gpu` runs it too, and so does
+//!   flat rule's +0.0 %). On the CPU its phases 1 and 2 run their row kernels and its
+//!   phase-3 emission walks each point's paths (canopy 12³: 7.4 ms against the flat
+//!   rule's 4.1; dense block 4.1 against 4.0; plus 125 ms once per process for the
+//!   tables); `sweep-gpu` runs it too, and so does
 //!   [`accel`] (slabs of cells of optical depth 1, depth 10 to 1000, albedo 0.5 to
 //!   0.999: at most 32 passes to 1e-4; cells of optical depth 3, albedo 0.99: 100
 //!   passes to 1e-6 against 176 plain, where the estimate's walk through thick cells

@@ -1,11 +1,13 @@
 //! A medium cell's source as a **quadratic in height**: the segment integrals, the
 //! per-cell tables and the source solve of [`lightgrid_core::MediumEmission::Profile`]
 //! (issue 13's thick cells). The default rule is still the flat source of
-//! [`crate::medium`]; this one runs on the CPU sweeper's scalar path (with diffusion
-//! acceleration, [`crate::accel`]: its corrections become flat sources,
+//! [`crate::medium`]; this one runs on the CPU sweeper (its phase-3 emission walking
+//! each point's paths, no row kernel yet; with diffusion acceleration,
+//! [`crate::accel`]: its corrections become flat sources,
 //! [`CellProfile::source_of_scattered`]) and on the GPU (`sweep-gpu`, from
 //! [`table_floats`] and [`slot_geometry`]); see the crate docs, "Against exact
-//! answers".
+//! answers". Cost: the tables, built once per process, 125 ms on the 2-core VM; a
+//! medium cell's [`CellProfile`], 1.2 µs a level and pass.
 //!
 //! ## Why
 //!
