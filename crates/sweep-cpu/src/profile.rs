@@ -296,33 +296,7 @@ impl PassSums {
     /// moments `e` this pass, albedo `a`: `O J_n / (2n + 1) − a Σ_m K_nm J_m = e_n`.
     /// `None` where the system is singular (an empty cell, `O = 0`).
     pub fn solve(&self, a: f64, e: [f64; 3]) -> Option<[f64; 3]> {
-        let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
-            std::array::from_fn(|c| {
-                let diag = if n == c {
-                    self.o / (2 * n + 1) as f64
-                } else {
-                    0.0
-                };
-                diag - a * self.k[n][c]
-            })
-        });
-        let det = |m: &[[f64; 3]; 3]| {
-            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-        };
-        let d = det(&m);
-        if d.is_nan() || d.abs() <= 1e-300 || !d.is_finite() {
-            return None;
-        }
-        let j: [f64; 3] = std::array::from_fn(|c| {
-            let mut mc = m;
-            for n in 0..3 {
-                mc[n][c] = e[n];
-            }
-            det(&mc) / d
-        });
-        j.iter().all(|v| v.is_finite()).then_some(j)
+        solve_balance(self.o, &self.k, a, e)
     }
 
     /// Flux the source `j` sends out of the cell (`G·J`) and the flux its own material
@@ -350,41 +324,47 @@ struct Node {
 fn tables() -> &'static [Node] {
     static T: std::sync::OnceLock<Vec<Node>> = std::sync::OnceLock::new();
     T.get_or_init(|| {
-        use rayon::prelude::*;
-        (0..TABLE)
-            .into_par_iter()
-            .map(|i| {
-                let u = i as f64 / (TABLE - 1) as f64;
-                // τ = 0 as a vanishing depth: the ratios' limits.
-                let tau = (TAU_MAX * u * u).max(1e-9);
-                let mut node = Node {
-                    slot: [[[0.0; 6]; SLOTS]; 2],
-                    k: [[0.0; 2]; 2],
-                };
-                let mut k = [[0.0f64; 2]; 2];
-                for (pass, up) in [false, true].into_iter().enumerate() {
-                    for (sl, (w, seg)) in pass_segments(up, tau).into_iter().enumerate() {
-                        let (c, e, uu) = (seg.collided(), seg.emitted(), seg.uniform());
-                        node.slot[pass][sl] = [
-                            (c[1] / c[0]) as f32,
-                            (c[2] / c[0]) as f32,
-                            e[1] as f32,
-                            e[2] as f32,
-                            ((uu[1] - e[1]) / seg.t) as f32,
-                            ((uu[2] - e[2]) / seg.t) as f32,
-                        ];
-                        let kk = seg.self_collided();
-                        for n in 0..2 {
-                            for m in 0..2 {
-                                k[n][m] += w * kk[n + 1][m + 1];
-                            }
+        // Two plain threads, not rayon: this runs inside a `OnceLock`'s initializer, and
+        // a rayon worker that waits in it while stealing a job that needs the tables
+        // again deadlocks (a test sweep hung so).
+        let node = |i: usize| -> Node {
+            let u = i as f64 / (TABLE - 1) as f64;
+            // τ = 0 as a vanishing depth: the ratios' limits.
+            let tau = (TAU_MAX * u * u).max(1e-9);
+            let mut node = Node {
+                slot: [[[0.0; 6]; SLOTS]; 2],
+                k: [[0.0; 2]; 2],
+            };
+            let mut k = [[0.0f64; 2]; 2];
+            for (pass, up) in [false, true].into_iter().enumerate() {
+                for (sl, (w, seg)) in pass_segments(up, tau).into_iter().enumerate() {
+                    let (c, e, uu) = (seg.collided(), seg.emitted(), seg.uniform());
+                    node.slot[pass][sl] = [
+                        (c[1] / c[0]) as f32,
+                        (c[2] / c[0]) as f32,
+                        e[1] as f32,
+                        e[2] as f32,
+                        ((uu[1] - e[1]) / seg.t) as f32,
+                        ((uu[2] - e[2]) / seg.t) as f32,
+                    ];
+                    let kk = seg.self_collided();
+                    for n in 0..2 {
+                        for m in 0..2 {
+                            k[n][m] += w * kk[n + 1][m + 1];
                         }
                     }
                 }
-                node.k = k.map(|r| r.map(|v| v as f32));
-                node
-            })
-            .collect()
+            }
+            node.k = k.map(|r| r.map(|v| v as f32));
+            node
+        };
+        let half = TABLE / 2;
+        std::thread::scope(|s| {
+            let upper = s.spawn(|| (half..TABLE).map(node).collect::<Vec<Node>>());
+            let mut v: Vec<Node> = (0..half).map(node).collect();
+            v.extend(upper.join().expect("profile table thread"));
+            v
+        })
     })
 }
 
@@ -527,33 +507,12 @@ impl CellProfile {
         if !(a > 0.0 && r[0] != 0.0 && r.iter().all(|v| v.is_finite())) {
             return ([0.0; 3], 0.0);
         }
-        let (a, o) = (a as f64, self.o as f64);
-        let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
-            std::array::from_fn(|c| {
-                let diag = if n == c { o / (2 * n + 1) as f64 } else { 0.0 };
-                diag - a * self.k[n][c] as f64
-            })
-        });
+        let a = a as f64;
         let e = r.map(|v| a * v as f64);
-        let det = |m: &[[f64; 3]; 3]| {
-            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        let k = self.k.map(|row| row.map(|v| v as f64));
+        let Some(j) = solve_balance(self.o as f64, &k, a, e) else {
+            return ([0.0; 3], 0.0);
         };
-        let d = det(&m);
-        if d.is_nan() || d.abs() <= 1e-300 || !d.is_finite() {
-            return ([0.0; 3], 0.0);
-        }
-        let j: [f64; 3] = std::array::from_fn(|c| {
-            let mut mc = m;
-            for n in 0..3 {
-                mc[n][c] = e[n];
-            }
-            det(&mc) / d
-        });
-        if !j.iter().all(|v| v.is_finite()) {
-            return ([0.0; 3], 0.0);
-        }
         // The coefficients as the sweep will emit them (f32), and as absorbed whatever
         // of the scattered light they do not send out: flux balances to rounding
         // however the solve rounds (`(1 − a)(O J_0 − G·J)` in exact arithmetic).
@@ -645,6 +604,34 @@ pub fn beam_source(mat: &Material, dir: Vec3, r: Vec3) -> ([Vec3; 3], Vec3) {
     let mut absorbed = DVec3::ZERO;
     let j = source_rgb(&pr, mat.reflectance, [r, r * c[0], r * c[1]], &mut absorbed);
     (j, absorbed.as_vec3())
+}
+
+/// The source balance `O J_n / (2n + 1) − a Σ_m K_nm J_m = e_n` solved for `J` (Cramer's
+/// rule); `None` where it is singular or the answer not finite.
+fn solve_balance(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> Option<[f64; 3]> {
+    let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
+        std::array::from_fn(|c| {
+            let diag = if n == c { o / (2 * n + 1) as f64 } else { 0.0 };
+            diag - a * k[n][c]
+        })
+    });
+    let det = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(&m);
+    if d.is_nan() || d.abs() <= 1e-300 || !d.is_finite() {
+        return None;
+    }
+    let j: [f64; 3] = std::array::from_fn(|c| {
+        let mut mc = m;
+        for n in 0..3 {
+            mc[n][c] = e[n];
+        }
+        det(&mc) / d
+    });
+    j.iter().all(|v| v.is_finite()).then_some(j)
 }
 
 /// `4π`: the flux both passes of a unit flat source emit per unit optical depth

@@ -1815,13 +1815,7 @@ impl Ctx {
                 same_row[xi] = if self.jacobi { dj } else { Pending::default() };
                 let other = other_row[xi].add(&dj);
                 other_row[xi] = other;
-                let waits = crate::profile::flux_rgb(pr, 1, &other.coeffs());
-                rf.pending += if self.signed {
-                    waits
-                } else {
-                    waits.max(Vec3::ZERO)
-                }
-                .as_dvec3();
+                rf.pending += self.waiting(crate::profile::flux_rgb(pr, 1, &other.coeffs()));
                 continue;
             }
             let jacobi = self.jacobi && medium::applies(self.medium, mat.pass);
@@ -2282,14 +2276,9 @@ impl Ctx {
                     let add = Pending::of_coeffs(dj);
                     same_row[xi] = same_row[xi].add(&add);
                     other_row[xi] = other_row[xi].add(&add);
-                    let waits =
-                        crate::profile::flux_rgb(pr, 0, &dj) + crate::profile::flux_rgb(pr, 1, &dj);
-                    rf.pending += if self.signed {
-                        waits
-                    } else {
-                        waits.max(Vec3::ZERO)
-                    }
-                    .as_dvec3();
+                    rf.pending += self.waiting(
+                        crate::profile::flux_rgb(pr, 0, &dj) + crate::profile::flux_rgb(pr, 1, &dj),
+                    );
                     continue;
                 }
                 rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
@@ -2333,6 +2322,13 @@ impl Ctx {
                 }
             }
         }
+    }
+
+    /// Light waiting `v` as the pass counts it: of either sign in accelerated passes
+    /// (`signed`), else clamped at 0.
+    #[inline]
+    fn waiting(&self, v: Vec3) -> DVec3 {
+        if self.signed { v } else { v.max(Vec3::ZERO) }.as_dvec3()
     }
 
     /// The level row that row `z` resolves to ([`Ctx::col`]'s rule).
