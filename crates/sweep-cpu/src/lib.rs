@@ -241,6 +241,15 @@
 //!    emits its channels' share, the upward pass the rest. No rule depends on the
 //!    light (the weights and `β` depend on the cell alone), so the sweep is linear.
 //!    The outgoing light gains `F_c / μ_c`.
+//!    **The option [`MediumEmission::Profile`](lightgrid_core::MediumEmission)**
+//!    replaces the medium's flat source by one quadratic in height, `j(y) = Σ_m J_m
+//!    P_m(y)` ([`profile`], where the rule is written out): steps 3 and phase 3's
+//!    collisions also tally the height moments of where each segment's light collides;
+//!    each batch of collisions becomes an isotropic source solving the cell's 3 × 3
+//!    balance over both passes' segments (no `β` split); this pass's segments emit `Σ_m
+//!    J_m E_m` along their paths, the point's own segment adds `Σ_m J_m M_m` to its
+//!    light (step 7), and the same coefficients wait for the other direction's pass.
+//!    Linear up to the output, which clamps at 0 light the quadratic sent below 0.
 //! 6. **Re-absorb** (surfaces and the older medium rules). What the weights and
 //!    `T_after` stopped, `σ_c ω_b/4π S - F_c`
 //!    summed over the channels, was removed by the cell from light travelling along
