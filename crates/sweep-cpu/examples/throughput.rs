@@ -4,7 +4,8 @@
 //! memory (`CpuSweeper::recycle`), into fresh memory, and the scalar oracle it must
 //! equal.
 //!
-//! `cargo run --release -p sweep-cpu --example throughput`
+//! `cargo run --release -p sweep-cpu --example throughput [source|profile|escape]`
+//! (the medium emission rule; the default rule when left out).
 
 use std::time::Instant;
 
@@ -22,6 +23,14 @@ fn best_of(n: usize, mut f: impl FnMut()) -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let medium = match std::env::args().nth(1).as_deref() {
+        None => SweepOptions::multi_bounce().medium,
+        Some("source") => lightgrid_core::MediumEmission::Source,
+        Some("profile") => lightgrid_core::MediumEmission::Profile,
+        Some("escape") => lightgrid_core::MediumEmission::Escape,
+        Some(other) => return Err(format!("unknown medium rule {other:?}").into()),
+    };
+    println!("medium rule: {medium:?}");
     let (canopy, b) = Scene::Canopy.build(64);
     let (tall, tb) = {
         let (m, b) = Scene::Canopy.build(64);
@@ -50,6 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         o.outputs = Outputs::ALL;
         o.max_passes = passes;
         o.tolerance = 0.0;
+        o.medium = medium;
         let pts = m.desc().point_count() as f64;
         let mut sweeper = sweep_cpu::CpuSweeper::new();
         let recycled = best_of(8, || {

@@ -638,6 +638,66 @@ fn solve_balance(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> Option<[f64;
 /// (`O_down + O_up = 4π τ`).
 pub const FULL_SPHERE: f64 = 4.0 * PI;
 
+/// The profiles of one level's cells for one pass, as the sweep reads them
+/// ([`Profiles::get`]). [`CellProfile::new`] costs about a microsecond: each distinct
+/// `(pass, ln p)` is computed once, on every core, and kept across levels, passes and
+/// sweeps while at most [`Profiles::KEEP`] are held (a level with more distinct values
+/// starts the set afresh). The values are [`CellProfile::new`]'s, bit for bit.
+#[derive(Clone, Default)]
+pub(crate) struct Profiles {
+    /// The distinct profiles computed.
+    all: Vec<CellProfile>,
+    /// Index in `all` of `(up, ln p bits)`.
+    memo: std::collections::HashMap<(bool, u32), u32>,
+    /// Per cell of the level: index in `all`.
+    of: Vec<u32>,
+}
+
+impl Profiles {
+    /// Profiles kept (1.2 KiB each).
+    pub(crate) const KEEP: usize = 4096;
+
+    /// Sets the level's profiles: cell `q` gets the profile of `ln p` `lnp[q]` where
+    /// `medium(q)`, of a clear cell (`ln p = 0`) elsewhere.
+    pub(crate) fn level(&mut self, up: bool, lnp: &[f32], medium: impl Fn(usize) -> bool) {
+        use rayon::prelude::*;
+        if self.all.len() + lnp.len() > Self::KEEP.max(lnp.len()) {
+            self.all.clear();
+            self.memo.clear();
+        }
+        // The tables, once, outside rayon's workers.
+        let _ = tables();
+        self.of.clear();
+        let mut todo: Vec<f32> = Vec::new();
+        let mut last: Option<(u32, u32)> = None;
+        for (q, &l) in lnp.iter().enumerate() {
+            let l = if medium(q) { l } else { 0.0 };
+            let bits = l.to_bits();
+            let id = match last {
+                Some((b, id)) if b == bits => id,
+                _ => {
+                    let next = (self.all.len() + todo.len()) as u32;
+                    let id = *self.memo.entry((up, bits)).or_insert_with(|| {
+                        todo.push(l);
+                        next
+                    });
+                    last = Some((bits, id));
+                    id
+                }
+            };
+            self.of.push(id);
+        }
+        let fresh: Vec<CellProfile> = todo.par_iter().map(|&l| CellProfile::new(up, l)).collect();
+        self.all.extend(fresh);
+    }
+
+    /// The profile of cell `q` of the level last set.
+    #[inline]
+    pub(crate) fn get(&self, q: usize) -> &CellProfile {
+        &self.all[self.of[q] as usize]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -804,5 +864,51 @@ mod tests {
             }
         }
         assert_eq!(PassSums::new(false, 0.0).solve(0.5, [1.0, 0.0, 0.0]), None);
+    }
+
+    /// The level set hands out `CellProfile::new`'s values bit for bit, for media and
+    /// clear cells, both passes, across levels that evict what it kept.
+    #[test]
+    fn profiles_match_new_across_levels() {
+        let same = |a: &CellProfile, b: &CellProfile| {
+            let f = |p: &CellProfile| {
+                let mut v: Vec<u32> = Vec::new();
+                for s in 0..SLOTS {
+                    for m in [p.coll[s], p.emit[s], p.mean[s]] {
+                        v.extend(m.iter().map(|x| x.to_bits()));
+                    }
+                }
+                v.extend(p.g.iter().flatten().map(|x| x.to_bits()));
+                v.extend(p.k.iter().flatten().map(|x| x.to_bits()));
+                v.push(p.o.to_bits());
+                v
+            };
+            f(a) == f(b)
+        };
+        let mut set = Profiles::default();
+        // Runs of equal values, repeats across levels, and a level of all-distinct
+        // values larger than `KEEP`.
+        let small: Vec<f32> = (0..64).map(|i| -0.1 * (i / 8) as f32).collect();
+        let large: Vec<f32> = (0..Profiles::KEEP + 10)
+            .map(|i| -(i as f32) * 1e-3)
+            .collect();
+        for (up, lnp) in [
+            (false, &small),
+            (true, &small),
+            (false, &large),
+            (true, &small),
+        ] {
+            let medium = |q: usize| q % 5 != 3;
+            set.level(up, lnp, medium);
+            for (q, &l) in lnp.iter().enumerate() {
+                let want = CellProfile::new(up, if medium(q) { l } else { 0.0 });
+                assert!(same(set.get(q), &want), "cell {q} up {up}");
+            }
+        }
+        // A clear cell's profile is the transparent one, not whatever was there.
+        assert!(!same(
+            &CellProfile::new(false, -1.0),
+            &CellProfile::new(false, 0.0)
+        ));
     }
 }

@@ -285,7 +285,7 @@ type EmitRows<'a> = (
     &'a mut [Vec3],
     &'a mut [bool],
     &'a mut [[Vec3; 2]],
-    &'a [crate::profile::CellProfile],
+    &'a crate::profile::Profiles,
 );
 
 /// How a cell distributes scattered light `(S, M)` over the bins (step 5).
@@ -747,6 +747,8 @@ struct Finish<'a> {
     last_phase: bool,
     /// `Some(dominant)`: resolve (the last pass).
     resolve: Option<bool>,
+    /// Light below 0 set to 0 before it is resolved (light of either sign flows).
+    clamp: bool,
 }
 
 fn sum_rows(v: &[RowFlux]) -> RowFlux {
@@ -1362,7 +1364,8 @@ impl Ctx {
     ) -> RowFlux {
         let nx = self.nx as usize;
         let (row_len, p) = (cur.row_len(), cur.pitch());
-        let (last_phase, resolve, avg, dom) = (fin.last_phase, fin.resolve, fin.avg, fin.dom);
+        let (last_phase, avg, dom) = (fin.last_phase, fin.avg, fin.dom);
+        let resolve = fin.resolve.map(|d| (d, fin.clamp));
         cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(extra)
@@ -1644,10 +1647,10 @@ impl Ctx {
         &self,
         cur_row: &[f32],
         p: usize,
-        g_row: &[S],
+        g_row: &mut [S],
         avg_row: &mut [AverageLight],
         dom_row: &mut [DominantDir],
-        resolve: Option<bool>,
+        resolve: Option<(bool, bool)>,
         rf: &mut RowFlux,
     ) {
         let nx = self.nx as usize;
@@ -1656,7 +1659,10 @@ impl Ctx {
                 rf.sent[k] += sum_f64(&cur_row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
             }
         }
-        if let Some(dominant) = resolve {
+        if let Some((dominant, clamp)) = resolve {
+            if clamp {
+                g_row.iter_mut().for_each(S::clamp);
+            }
             rf.bad |= !S::resolve_all(g_row, avg_row, dom_row, dominant);
         }
     }
@@ -1785,7 +1791,7 @@ impl Ctx {
                 // A quadratic source in height (`crate::profile`): the collisions'
                 // height moments, walked path point by path point, become an isotropic
                 // source; this pass emits what waits for it, the other pass's waits.
-                let pr = &prof[xi + nx * z as usize];
+                let pr = prof.get(xi + nx * z as usize);
                 let mut r = [Vec3::ZERO; 3];
                 for chn in self.ch.iter() {
                     for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
@@ -1944,7 +1950,7 @@ impl Ctx {
     fn phase3<S: Sink>(
         &self,
         (src, emits, near): (&[Vec3], &[bool], &[bool]),
-        hi: (&[[Vec3; 2]], &[crate::profile::CellProfile]),
+        hi: (&[[Vec3; 2]], &crate::profile::Profiles),
         (pows, lnp, planes): (&[[f32; MAX_EXPONENTS]], &[f32], &mut Planes),
         cells: &[lightgrid_core::Material],
         cur: &mut LevelLight,
@@ -2095,7 +2101,7 @@ impl Ctx {
         &self,
         z: i32,
         (src, emits): (&[Vec3], &[bool]),
-        (src_hi, prof): (&[[Vec3; 2]], &[crate::profile::CellProfile]),
+        (src_hi, prof): (&[[Vec3; 2]], &crate::profile::Profiles),
         (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
         p: usize,
         cur_row: &mut [f32],
@@ -2113,7 +2119,7 @@ impl Ctx {
                     let tr = pows[q][pow];
                     let mut e = src[q] * (1.0 - tr);
                     if profile {
-                        let w = prof[q].emit[slot];
+                        let w = prof.get(q).emit[slot];
                         e += src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
                     }
                     (tr, e)
@@ -2143,7 +2149,7 @@ impl Ctx {
                         if emits[ci] {
                             centre += src[ci] * (1.0 - half);
                             if profile {
-                                let w = prof[ci].mean[slot];
+                                let w = prof.get(ci).mean[slot];
                                 centre += src_hi[ci][0] * w[0] + src_hi[ci][1] * w[1];
                             }
                         }
@@ -2174,7 +2180,7 @@ impl Ctx {
         &self,
         z: i32,
         (src, emits): (&[Vec3], &[bool]),
-        (src_hi, prof): (&[[Vec3; 2]], &[crate::profile::CellProfile]),
+        (src_hi, prof): (&[[Vec3; 2]], &crate::profile::Profiles),
         (pows, planes): (&[[f32; MAX_EXPONENTS]], &Planes),
         cells: &[lightgrid_core::Material],
         (pre, pre_rows): (&[f32], &[bool]),
@@ -2224,7 +2230,7 @@ impl Ctx {
                         }
                         let ci = x0 + i + nx * z as usize;
                         if profile && medium::applies(self.medium, cells[ci].pass) {
-                            let c = prof[ci].coll[slot];
+                            let c = prof.get(ci).coll[slot];
                             got_h[0][col][i] += r * c[0];
                             got_h[1][col][i] += r * c[1];
                         }
@@ -2254,7 +2260,7 @@ impl Ctx {
                     continue;
                 }
                 if !self.periodic && emits[ci] {
-                    let hi = profile.then(|| (src_hi[ci], &prof[ci]));
+                    let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
                     self.lost_through_sides(xi as i32, z, src[ci], hi, &pows[ci], rf);
                 }
                 let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
@@ -2271,7 +2277,7 @@ impl Ctx {
                     // source.
                     let r = [got.s, v(&got_h[0]), v(&got_h[1])];
                     rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
-                    let pr = &prof[ci];
+                    let pr = prof.get(ci);
                     let dj = crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed);
                     let add = Pending::of_coeffs(dj);
                     same_row[xi] = same_row[xi].add(&add);
@@ -2655,8 +2661,10 @@ fn run_with<S: Sink>(
             halo: fixed.halo,
         };
         let ctx = Ctx::new(nx, nz, fixed.periodic, options, ch, mode);
-        // Light of either sign is resolved after the sweep, once clamped at 0.
-        let last = last && mode == Mode::Plain && !signed_light;
+        // The last plain pass resolves each level as it ends (clamping light of either
+        // sign at 0 first); after accelerated passes the light is resolved after the
+        // sweep.
+        let last = last && mode == Mode::Plain;
         stats.passes += 1;
         let mut pending = DVec3::ZERO;
         // The flux the last level's final light sends on.
@@ -2761,6 +2769,7 @@ fn run_with<S: Sink>(
                         dom: &mut run.dom[range.clone()],
                         last_phase: !material_here,
                         resolve: last.then_some(want_dom),
+                        clamp: signed_light,
                     },
                 )
             } else {
@@ -2819,19 +2828,13 @@ fn run_with<S: Sink>(
             ) && fixed.level_medium[j as usize];
             if options.medium == MediumEmission::Profile && fixed.level_medium[j as usize] {
                 let n = range.len();
-                if w.prof.len() != n {
-                    w.prof = vec![crate::profile::CellProfile::new(up, 0.0); n];
+                if w.src_hi.len() != n {
                     w.src_hi = vec![[Vec3::ZERO; 2]; n];
                 }
-                for (q, (mat, &lnp)) in cells[range.clone()]
-                    .iter()
-                    .zip(&fixed.lnp[range.clone()])
-                    .enumerate()
-                {
-                    if medium::applies(options.medium, mat.pass) {
-                        w.prof[q] = crate::profile::CellProfile::new(up, lnp);
-                    }
-                }
+                let level = &cells[range.clone()];
+                w.prof.level(up, &fixed.lnp[range.clone()], |q| {
+                    medium::applies(options.medium, level[q].pass)
+                });
             }
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
@@ -2849,6 +2852,7 @@ fn run_with<S: Sink>(
                     dom: &mut run.dom[range.clone()],
                     last_phase: !phase3,
                     resolve: last.then_some(want_dom),
+                    clamp: signed_light,
                 },
             );
             bal.absorbed += f2.absorbed;
@@ -2872,6 +2876,7 @@ fn run_with<S: Sink>(
                         dom: &mut run.dom[range.clone()],
                         last_phase: true,
                         resolve: last.then_some(want_dom),
+                        clamp: signed_light,
                     },
                     !fast,
                 );
@@ -2943,7 +2948,7 @@ fn run_with<S: Sink>(
             break;
         }
     }
-    if mode != Mode::Plain || signed_light {
+    if !resolved && (mode != Mode::Plain || signed_light) {
         // What the accelerated passes left: light off by up to the tolerance either
         // way, so a point in the dark may hold a little below 0. (A quadratic source
         // in height may dip below 0 within a cell, and a near-transparent cell's mean
@@ -3360,7 +3365,7 @@ struct Work {
     near: Vec<bool>,
     /// [`MediumEmission::Profile`]: the level's cells' profiles for this pass and the
     /// source's coefficients of `P_1`, `P_2` in height (empty under other rules).
-    prof: Vec<crate::profile::CellProfile>,
+    prof: crate::profile::Profiles,
     src_hi: Vec<[Vec3; 2]>,
     /// Scattered light waiting to be emitted in downward / upward channels.
     pend_down: Vec<Pending>,
@@ -3392,7 +3397,7 @@ impl Work {
             src: vec![Vec3::ZERO; level_len],
             emits: vec![false; level_len],
             near: vec![false; level_len],
-            prof: Vec::new(),
+            prof: Default::default(),
             src_hi: Vec::new(),
             // Only cells with material touch these: pages of empty space stay unmapped.
             pend_down: bytemuck::zeroed_vec(n),
