@@ -1711,6 +1711,63 @@ impl Ctx {
         }
     }
 
+    /// [`MediumEmission::Profile`]: step 3's height moments for the block `x0..x0 + b`
+    /// of row `z`: per moment `h` and colour, `Σ_c μ_c Σ_k removed[x − d_k][slot k] ·
+    /// w[slot k][h][x]` (taps in stencil order, points beyond an open side adding
+    /// nothing), `w` the block's cells' collision moments per slot
+    /// ([`crate::profile::CellProfile::coll`]).
+    #[inline(never)]
+    fn gather_moments(
+        &self,
+        z: i32,
+        (x0, b): (usize, usize),
+        removed: &[f32],
+        w: &[[[f32; GATHER_BLOCK]; 2]; SLOTS],
+        out: &mut [[[f32; GATHER_BLOCK]; 3]; 2],
+    ) {
+        let nx = self.nx as usize;
+        for o in out.iter_mut().flatten() {
+            o[..b].fill(0.0);
+        }
+        for chn in self.ch.iter() {
+            let mut t = [[[0f32; GATHER_BLOCK]; 3]; 2];
+            for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                let Some(zr) = self.row_of(z - dz) else {
+                    continue;
+                };
+                let slot = chn.first_slot + k;
+                let first = x0 as i32 - dx;
+                let lo = (-first).clamp(0, b as i32) as usize;
+                let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
+                for col in 0..3 {
+                    let plane = &removed[plane_index(nx, zr * nx, slot, col)..][..nx];
+                    for (th, wh) in t.iter_mut().zip(&w[slot]) {
+                        let tc = &mut th[col];
+                        if hi > lo {
+                            let from = &plane[(first + lo as i32) as usize..][..hi - lo];
+                            for ((v, &f), &wi) in tc[lo..hi].iter_mut().zip(from).zip(&wh[lo..hi]) {
+                                *v += f * wi;
+                            }
+                        }
+                        if self.periodic {
+                            for i in (0..lo).chain(hi..b) {
+                                tc[i] += plane[(first + i as i32).rem_euclid(nx as i32) as usize]
+                                    * wh[i];
+                            }
+                        }
+                    }
+                }
+            }
+            for (oh, th) in out.iter_mut().zip(&t) {
+                for (oc, tc) in oh.iter_mut().zip(th) {
+                    for (o, &v) in oc[..b].iter_mut().zip(&tc[..b]) {
+                        *o += v * chn.mu;
+                    }
+                }
+            }
+        }
+    }
+
     /// [`Ctx::phase2`] for row `z` (its own function, so that profiles show it).
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
@@ -1736,6 +1793,16 @@ impl Ctx {
         emits_row.fill(false);
         let row_cells = &cells[nx * z as usize..][..nx];
         let mut by_row = [[[0f32; GATHER_BLOCK]; 3]; CHANNELS];
+        let profile = self.medium == MediumEmission::Profile;
+        let is_profile =
+            |m: &lightgrid_core::Material| profile && medium::applies(self.medium, m.pass);
+        // Profile: the block's collision moments per slot, and what they weigh.
+        let mut coll = if profile {
+            vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS]
+        } else {
+            Vec::new()
+        };
+        let mut by_row_h = [[[0f32; GATHER_BLOCK]; 3]; 2];
         for x in 0..self.nx {
             let xi = x as usize;
             let ci = xi + nx * z as usize;
@@ -1744,6 +1811,18 @@ impl Ctx {
                 let b = GATHER_BLOCK.min(nx - x0);
                 if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
                     self.gather_removed(z, x0, b, removed, &mut by_row);
+                }
+                if row_cells[x0..x0 + b].iter().any(is_profile) {
+                    for (j, m) in row_cells[x0..x0 + b].iter().enumerate() {
+                        let c = is_profile(m).then(|| &prof.get(x0 + j + nx * z as usize).coll);
+                        for (slot, w) in coll.iter_mut().enumerate() {
+                            let v = c.map_or([0.0; 2], |c| c[slot]);
+                            (w[0][j], w[1][j]) = (v[0], v[1]);
+                        }
+                    }
+                    let coll: &[[[f32; GATHER_BLOCK]; 2]; SLOTS] =
+                        coll.as_slice().try_into().expect("SLOTS moments");
+                    self.gather_moments(z, (x0, b), removed, coll, &mut by_row_h);
                 }
             }
             if cells[ci].pass >= 1.0 {
@@ -1792,19 +1871,27 @@ impl Ctx {
                 // height moments, walked path point by path point, become an isotropic
                 // source; this pass emits what waits for it, the other pass's waits.
                 let pr = prof.get(xi + nx * z as usize);
-                let mut r = [Vec3::ZERO; 3];
-                for chn in self.ch.iter() {
-                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                        if let Some(pt) = self.col(x - dx, z - dz) {
-                            let slot = chn.first_slot + k;
-                            let at = |col: usize| removed[plane_index(nx, pt, slot, col)];
-                            let v = Vec3::new(at(0), at(1), at(2)) * chn.mu;
-                            r[0] += v;
-                            r[1] += v * pr.coll[slot][0];
-                            r[2] += v * pr.coll[slot][1];
+                let r = if scalar {
+                    let mut r = [s_raw, Vec3::ZERO, Vec3::ZERO];
+                    for chn in self.ch.iter() {
+                        let mut t = [Vec3::ZERO; 2];
+                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                            if let Some(pt) = self.col(x - dx, z - dz) {
+                                let slot = chn.first_slot + k;
+                                let at = |col: usize| removed[plane_index(nx, pt, slot, col)];
+                                let v = Vec3::new(at(0), at(1), at(2));
+                                t[0] += v * pr.coll[slot][0];
+                                t[1] += v * pr.coll[slot][1];
+                            }
                         }
+                        r[1] += t[0] * chn.mu;
+                        r[2] += t[1] * chn.mu;
                     }
-                }
+                    r
+                } else {
+                    let v = |a: &[[f32; GATHER_BLOCK]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
+                    [s_raw, v(&by_row_h[0]), v(&by_row_h[1])]
+                };
                 let dj =
                     Pending::of_coeffs(crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed));
                 // Accelerated (`jacobi`): only what waited is emitted; the new source
@@ -2217,6 +2304,18 @@ impl Ctx {
                     let first = x0 as i32 - djx;
                     let lo = (-first).clamp(0, b as i32) as usize;
                     let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
+                    // Profile: the block's media's collision moments for this slot
+                    // (0 elsewhere: what is tallied there is not read).
+                    let mut cw = [[0f32; B]; 2];
+                    if profile {
+                        for i in 0..b {
+                            let ci = x0 + i + nx * z as usize;
+                            if medium::applies(self.medium, cells[ci].pass) {
+                                let c = prof.get(ci).coll[slot];
+                                (cw[0][i], cw[1][i]) = (c[0], c[1]);
+                            }
+                        }
+                    }
                     let add = |got_s: &mut [[f32; B]; 3],
                                got_m: &mut [[[f32; B]; 3]; 3],
                                got_h: &mut [[[f32; B]; 3]; 2],
@@ -2228,11 +2327,9 @@ impl Ctx {
                         for a in 0..3 {
                             got_m[a][col][i] += r * chn.unit[a];
                         }
-                        let ci = x0 + i + nx * z as usize;
-                        if profile && medium::applies(self.medium, cells[ci].pass) {
-                            let c = prof.get(ci).coll[slot];
-                            got_h[0][col][i] += r * c[0];
-                            got_h[1][col][i] += r * c[1];
+                        if profile {
+                            got_h[0][col][i] += r * cw[0][i];
+                            got_h[1][col][i] += r * cw[1][i];
                         }
                     };
                     for col in 0..3 {
