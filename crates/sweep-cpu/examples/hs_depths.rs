@@ -1,12 +1,13 @@
 //! Half-space albedo error against cell optical depth, for a medium rule
-//! (`cargo run --release -p sweep-cpu --example hs_depths -- [source|profile|escape]`),
+//! (`cargo run --release -p sweep-cpu --example hs_depths -- [profile|source|escape]`;
+//! the default rule, profile, when left out),
 //! with the balance and passes of each case.
 use lightgrid_core::{MediumEmission, SweepOptions};
 fn main() {
     let rule = match std::env::args().nth(1).as_deref() {
-        Some("profile") => MediumEmission::Profile,
+        Some("source") => MediumEmission::Source,
         Some("escape") => MediumEmission::Escape,
-        _ => MediumEmission::Source,
+        _ => MediumEmission::Profile,
     };
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 4000;

@@ -2,7 +2,8 @@
 //! radiance, `sweep_cpu::exact::half_space_albedo_diffuse`): the light enters through
 //! the top boundary's bins, not as a cell source, so this checks the medium rules on
 //! the sweep's own channel light. Periodic sides, cells of optical depth `τ`, total
-//! depth 40. `cargo run --release -p sweep-cpu --example hs_diffuse -- [source|profile]`
+//! depth 40. `cargo run --release -p sweep-cpu --example hs_diffuse -- [profile|source]`
+//! (the default rule, profile, when left out)
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, Material, MaterialGrid, MediumEmission, SideBoundary,
@@ -10,8 +11,8 @@ use lightgrid_core::{
 };
 fn main() {
     let rule = match std::env::args().nth(1).as_deref() {
-        Some("profile") => MediumEmission::Profile,
-        _ => MediumEmission::Source,
+        Some("source") => MediumEmission::Source,
+        _ => MediumEmission::Profile,
     };
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 2000;

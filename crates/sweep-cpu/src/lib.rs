@@ -208,9 +208,11 @@
 //!    and the downward halves of the horizontal bins hold half the sphere); the rest
 //!    waits for the next pass in the other direction. To `(S, M)` the cell adds what
 //!    earlier passes left for this direction.
-//! 5. **Emit.** A cell with `0 < p < 1` (a medium) holds its scattered light as a flat,
-//!    isotropic *source* `J` (light per unit solid angle) ([`medium`], the default rule
-//!    [`MediumEmission::Source`](lightgrid_core::MediumEmission)): this pass's share of
+//! 5. **Emit.** A cell with `0 < p < 1` (a medium) holds its scattered light as an
+//!    isotropic *source* `J` (light per unit solid angle). Under the flat rule
+//!    ([`medium`], the option [`MediumEmission::Source`](lightgrid_core::MediumEmission);
+//!    the default, `MediumEmission::Profile`, makes the source quadratic in height,
+//!    below) the source is the same throughout the cell: this pass's share of
 //!    it is `E = ½ (S ± β M_y)` (`+` downward, `−` upward; `β` = [`medium::split`] of the
 //!    cell's optical depth, 0 for thin cells: light that collided on its way down, near
 //!    the top of a thick cell, leaves upward more), and `J = E / (G + (1 − a) K)`, with `G
@@ -241,7 +243,7 @@
 //!    emits its channels' share, the upward pass the rest. No rule depends on the
 //!    light (the weights and `β` depend on the cell alone), so the sweep is linear.
 //!    The outgoing light gains `F_c / μ_c`.
-//!    **The option [`MediumEmission::Profile`](lightgrid_core::MediumEmission)**
+//!    **The default, [`MediumEmission::Profile`](lightgrid_core::MediumEmission)**,
 //!    replaces the medium's flat source by one quadratic in height, `j(y) = Σ_m J_m
 //!    P_m(y)` ([`profile`], where the rule is written out): steps 3 and phase 3's
 //!    collisions also tally the height moments of where each segment's light collides;
@@ -298,26 +300,30 @@
 //! empty scene's error is that noise alone (the sweep is exact there). The test
 //! `sweep_against_reference_on_canonical_scenes` holds each figure within 10 %.
 //!
-//! | scene | average light | irradiance (6 axes) | reference noise | escape rule | seed's rule (removed) |
-//! |-------|--------------:|--------------------:|----------------:|------------:|------------:|
-//! | empty | 0.0114 | 0.0126 | 0.0117 | same | same |
-//! | uniform fog | 0.0167 | 0.0198 | 0.0165 | 0.0393 / 0.0376 | 0.0392 / 0.0376 |
-//! | dense block | 0.0365 | 0.0451 | 0.0117 | 0.0404 / 0.0509 | 0.0490 / 0.0583 |
-//! | canopy | 0.0128 | 0.0151 | 0.0133 | 0.0197 / 0.0206 | 0.0184 / 0.0212 |
-//! | canopy, 1-level ground | 0.0130 | 0.0153 | 0.0136 | 0.0198 / 0.0209 | 0.0183 / 0.0213 |
+//! | scene | average light | irradiance (6 axes) | reference noise | flat source | escape rule | seed's rule (removed) |
+//! |-------|--------------:|--------------------:|----------------:|------------:|------------:|------------:|
+//! | empty | 0.0114 | 0.0126 | 0.0117 | same | same | same |
+//! | uniform fog | 0.0169 | 0.0202 | 0.0165 | 0.0167 / 0.0198 | 0.0430 / 0.0408 | 0.0392 / 0.0376 |
+//! | dense block | 0.0374 | 0.0454 | 0.0117 | 0.0365 / 0.0451 | 0.0420 / 0.0491 | 0.0490 / 0.0583 |
+//! | canopy | 0.0112 | 0.0144 | 0.0133 | 0.0128 / 0.0151 | 0.0256 / 0.0238 | 0.0184 / 0.0212 |
+//! | canopy, 1-level ground | 0.0112 | 0.0146 | 0.0136 | 0.0130 / 0.0153 | 0.0256 / 0.0241 | 0.0183 / 0.0213 |
 //!
-//! With the source rule for media ([`medium`], issue 13; the default) and the channels'
-//! cosines the bins' mean cosines. On the fog and the canopies the sweep's error is now
-//! the reference's own noise (it was 0.0472 / 0.0469 on the fog and 0.0269 / 0.0275 on
-//! the canopy with the escape rule and the step vectors' cosines); the dense block
-//! (cells of optical depth 3) is the one scene clearly above it: a flat source within a
-//! thick cell. Points hold the mean of their cell (step 7): the dense block was 0.0394 /
-//! 0.0490 with the centre's light; the fog and canopies moved within the reference's
-//! noise (0.0160 / 0.0189, 0.0125 / 0.0148, 0.0127 / 0.0151 before). The older rules
+//! With the default rule for media (a quadratic source in height, [`profile`], issue
+//! 13) and the channels' cosines the bins' mean cosines, the sweep's error on the fog
+//! and the canopies is the reference's own noise (it was 0.0472 / 0.0469 on the fog
+//! and 0.0269 / 0.0275 on the canopy with the escape rule and the step vectors'
+//! cosines); the canopies are 12 % closer than with the flat source. The dense block
+//! (cells of optical depth 3) is the one scene clearly above the noise, under both
+//! source rules: its error is not the vertical profile within a cell (the profile rule
+//! moved it by +0.0009). Points hold the mean of their cell (step 7): the dense block
+//! was 0.0394 / 0.0490 with the centre's light. The older rules
 //! (`SweepOptions::medium = MediumEmission::Escape`; the seed's, measured before it was
-//! removed; average / irradiance, both columns measured with the centre's light) are
-//! worse on every scene. The source rule's third phase costs time on
-//! levels with media (fog: 37 ms against 24 ms with the escape rule, 12³).
+//! removed with the centre's light) are worse on every scene. Time (fastest of three,
+//! 2-core VM, `examples/canonical.rs`): the fog 43 ms against 20 ms with the flat
+//! source and 21 ms with the escape rule, the canopies 5.5 against 3.6 ms, the dense
+//! block 3.9 against 4.0 ms (fewer passes); the source rules' third phase costs time
+//! on levels with media, the profile rule's emission there still walks each point's
+//! paths.
 //!
 //! Opaque surfaces emit with the exact Lambertian share of each bin (step 5) since the
 //! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its

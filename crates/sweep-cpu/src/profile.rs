@@ -1,13 +1,14 @@
 //! A medium cell's source as a **quadratic in height**: the segment integrals, the
 //! per-cell tables and the source solve of [`lightgrid_core::MediumEmission::Profile`]
-//! (issue 13's thick cells). The default rule is still the flat source of
-//! [`crate::medium`]; this one runs on the CPU sweeper (its phase-3 emission walking
-//! each point's paths, no row kernel yet; with diffusion acceleration,
-//! [`crate::accel`]: its corrections become flat sources,
-//! [`CellProfile::source_of_scattered`]) and on the GPU (`sweep-gpu`, from
-//! [`table_floats`] and [`slot_geometry`]); see the crate docs, "Against exact
-//! answers". Cost: the tables, built once per process, 125 ms on the 2-core VM; a
-//! medium cell's [`CellProfile`], 1.2 µs a level and pass.
+//! (issue 13's thick cells), **the default rule** (the flat source of [`crate::medium`]
+//! is the option `MediumEmission::Source`). It runs on the CPU sweeper (phases 2 and 3
+//! gather the collisions' height moments over blocks of a row; phase 3's emission still
+//! walks each point's paths; with diffusion acceleration, [`crate::accel`]: its
+//! corrections become flat sources, [`CellProfile::source_of_scattered`]) and on the GPU
+//! (`sweep-gpu`, from [`table_floats`] and [`slot_geometry`]); see the crate docs,
+//! "Against exact answers". Cost: the tables, built once per process, 125 ms on the
+//! 2-core VM; a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
+//! direction and kept across levels, passes and sweeps (up to 4096 of them).
 //!
 //! ## Why
 //!
@@ -600,9 +601,10 @@ pub fn beam_source(mat: &Material, dir: Vec3, r: Vec3) -> ([Vec3; 3], Vec3) {
     } else {
         [0.0; 2]
     };
-    let pr = CellProfile::new(false, mat.pass.ln());
     let mut absorbed = DVec3::ZERO;
-    let j = source_rgb(&pr, mat.reflectance, [r, r * c[0], r * c[1]], &mut absorbed);
+    let j = with_profile(false, mat.pass.ln(), |pr| {
+        source_rgb(pr, mat.reflectance, [r, r * c[0], r * c[1]], &mut absorbed)
+    });
     (j, absorbed.as_vec3())
 }
 
@@ -637,6 +639,34 @@ fn solve_balance(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> Option<[f64;
 /// `4π`: the flux both passes of a unit flat source emit per unit optical depth
 /// (`O_down + O_up = 4π τ`).
 pub const FULL_SPHERE: f64 = 4.0 * PI;
+
+/// Runs `f` on [`CellProfile::new`]`(up, lnp)`, computed once per thread and kept (up
+/// to [`Profiles::KEEP`] of them, then the cache starts afresh): for the serial code that
+/// reads one cell's profile at a time (diffusion acceleration's corrections, a beam's
+/// first collisions). The values are [`CellProfile::new`]'s, bit for bit.
+pub(crate) fn with_profile<R>(up: bool, lnp: f32, f: impl FnOnce(&CellProfile) -> R) -> R {
+    use std::cell::RefCell;
+    use std::collections::HashMap;
+    thread_local! {
+        static CACHE: RefCell<HashMap<(bool, u32), Box<CellProfile>>> =
+            RefCell::new(HashMap::new());
+    }
+    let key = (up, lnp.to_bits());
+    // A copy (1.2 KiB): `f` may read another profile.
+    let pr = CACHE.with(|c| c.borrow().get(&key).map(|p| **p));
+    let pr = pr.unwrap_or_else(|| {
+        let pr = CellProfile::new(up, lnp);
+        CACHE.with(|c| {
+            let mut c = c.borrow_mut();
+            if c.len() >= Profiles::KEEP {
+                c.clear();
+            }
+            c.insert(key, Box::new(pr));
+        });
+        pr
+    });
+    f(&pr)
+}
 
 /// The profiles of one level's cells for one pass, as the sweep reads them
 /// ([`Profiles::get`]). [`CellProfile::new`] costs about a microsecond: each distinct

@@ -3105,9 +3105,10 @@ fn correction(
     delta: Vec3,
 ) -> Pending {
     if rule == MediumEmission::Profile {
-        let pr = crate::profile::CellProfile::new(false, lnp[i]);
         let a = cells[i].reflectance;
-        let j: [[f32; 3]; 3] = std::array::from_fn(|k| pr.source_of_scattered(a[k], delta[k]));
+        let j: [[f32; 3]; 3] = crate::profile::with_profile(false, lnp[i], |pr| {
+            std::array::from_fn(|k| pr.source_of_scattered(a[k], delta[k]))
+        });
         Pending::of_coeffs(std::array::from_fn(|n| {
             Vec3::new(j[0][n], j[1][n], j[2][n])
         }))
@@ -3162,7 +3163,7 @@ impl Debt {
                     // What the waiting sources will send out of the cell (their own
                     // material's share was absorbed when they were solved for), less
                     // the outstanding correction's.
-                    let pr = crate::profile::CellProfile::new(false, fixed.lnp[i]);
+                    let pr = crate::profile::with_profile(false, fixed.lnp[i], |pr| *pr);
                     let out = |which: usize, p: &Pending| {
                         crate::profile::flux_rgb(&pr, which, &p.coeffs())
                     };
@@ -3258,10 +3259,11 @@ impl Debt {
             *pd = pd.scaled(Vec3::splat(omega));
             *pu = pu.scaled(Vec3::splat(omega));
             self.q[k] = if rule == MediumEmission::Profile {
-                let pr = crate::profile::CellProfile::new(false, lnp[i]);
                 let a = cells[i].reflectance;
-                let sc = |p: &Pending| crate::profile::scattered_rgb(&pr, a, &p.coeffs());
-                0.5 * (sc(pd) + sc(pu))
+                crate::profile::with_profile(false, lnp[i], |pr| {
+                    let sc = |p: &Pending| crate::profile::scattered_rgb(pr, a, &p.coeffs());
+                    0.5 * (sc(pd) + sc(pu))
+                })
             } else {
                 shares(medium::split(lnp[i]), pd, pu)
             };

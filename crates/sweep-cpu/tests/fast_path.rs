@@ -137,9 +137,11 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
     if !c.bins {
         o.outputs = Outputs::AVERAGE_DOMINANT;
     }
-    if c.profile {
-        o.medium = lightgrid_core::MediumEmission::Profile;
-    }
+    o.medium = if c.profile {
+        lightgrid_core::MediumEmission::Profile
+    } else {
+        lightgrid_core::MediumEmission::Source
+    };
     let fast = sweep_cpu::run_with_source(m, &b, source.as_ref(), &o).unwrap();
     let oracle = sweep_cpu::sweep::run_scalar(m, &b, source.as_ref(), &o).unwrap();
     prop_assert!(fast.output.bins == oracle.output.bins, "bins differ");

@@ -41,9 +41,9 @@ lightgrid_gpu::gpu_struct! {
         pub ny: u32 => "u32",
         /// Smoothing weight.
         pub smoothing: f32 => "f32",
-        /// The medium emission rule: 0 a slab's escape, 2 the source rule
-        /// (`sweep_cpu::medium`, the default), 3 its quadratic source in height
-        /// (`sweep_cpu::profile`).
+        /// The medium emission rule: 0 a slab's escape, 2 the flat source rule
+        /// (`sweep_cpu::medium`), 3 its quadratic source in height (`sweep_cpu::profile`,
+        /// the default).
         pub medium: u32 => "u32",
     }
 }

@@ -115,7 +115,7 @@ proptest! {
         o.smoothing = smoothing;
         o.max_passes = passes;
         o.tolerance = 0.0;
-        if profile { o.medium = lightgrid_core::MediumEmission::Profile; }
+        o.medium = if profile { lightgrid_core::MediumEmission::Profile } else { lightgrid_core::MediumEmission::Source };
         let cpu = sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
         let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
         if let Err(e) = assert_close(&cpu, &g) {
@@ -333,7 +333,7 @@ proptest! {
         let mut o = SweepOptions::multi_bounce();
         o.max_passes = passes;
         o.tolerance = 0.0;
-        if profile { o.medium = lightgrid_core::MediumEmission::Profile; }
+        o.medium = if profile { lightgrid_core::MediumEmission::Profile } else { lightgrid_core::MediumEmission::Source };
         let cpu = sweep_cpu::run_with_source(&m, &b, Some(&src), &o).unwrap().output.bins.unwrap();
         let g = gpu.run_with_source(&m, &b, Some(&src), &o).unwrap().bins.unwrap();
         if let Err(e) = assert_close(&cpu, &g) {
