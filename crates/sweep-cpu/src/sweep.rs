@@ -288,6 +288,10 @@ type EmitRows<'a> = (
     &'a crate::profile::Profiles,
 );
 
+/// [`MediumEmission::Profile`] in phase 3's row kernel: the level's `P_1`, `P_2` source
+/// coefficients, its cells' profiles, and which cells emit.
+type ProfileRows<'a> = (&'a [[Vec3; 2]], &'a crate::profile::Profiles, &'a [bool]);
+
 /// How a cell distributes scattered light `(S, M)` over the bins (step 5).
 enum Emission {
     /// A medium (`p > 0`): `omega_b / 4pi * (A S - B u_b · M)` with `(A, B)` of
@@ -2052,11 +2056,13 @@ impl Ctx {
         let p = cur.pitch();
         let profile = self.medium == MediumEmission::Profile;
         planes.fill_src(self, src, emits);
+        if profile && !scalar {
+            planes.fill_profile(hi.0, hi.1, emits);
+        }
         let planes = &*planes;
-        // Rows whose paths carry anything: near an emitting cell (every row, scalar, or
-        // the profile rule's walk).
+        // Rows whose paths carry anything: near an emitting cell (every row, scalar).
         for (r, near_row) in pre_rows.iter_mut().zip(near.chunks(nx)) {
-            *r = scalar || profile || near_row.iter().any(|&b| b);
+            *r = scalar || near_row.iter().any(|&b| b);
         }
         let pre_rows = &*pre_rows;
         let emitted = self.level_rows(
@@ -2066,9 +2072,7 @@ impl Ctx {
             rows,
             fin,
             |z, cur_row, pre_row, g_row, _| {
-                // The quadratic source in height has no row kernel yet: its emission
-                // walks each point's paths, as the oracle does.
-                if scalar || profile {
+                if scalar {
                     self.phase3_row_scalar(
                         z,
                         (src, emits),
@@ -2080,7 +2084,8 @@ impl Ctx {
                         g_row,
                     );
                 } else if pre_rows[z as usize] {
-                    self.phase3_row(z, planes, p, cur_row, pre_row, g_row);
+                    let hi = profile.then_some((hi.0, hi.1, emits));
+                    self.phase3_row(z, (planes, hi), p, cur_row, pre_row, g_row);
                 }
             },
         );
@@ -2118,7 +2123,7 @@ impl Ctx {
     fn phase3_row<S: Sink>(
         &self,
         z: i32,
-        planes: &Planes,
+        (planes, hi): (&Planes, Option<ProfileRows<'_>>),
         p: usize,
         cur_row: &mut [f32],
         pre_row: &mut [f32],
@@ -2155,6 +2160,30 @@ impl Ctx {
                                 ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
                             }
                         }
+                        // The point's own cell's `P_1`, `P_2` share of its mean light.
+                        if let Some((src_hi, prof, emits)) = hi {
+                            for i in 0..b {
+                                let q = x0 + i + nx * z as usize;
+                                if emits[q] {
+                                    let w = prof.get(q).mean[slot];
+                                    let m = src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
+                                    for (col, ce) in centre.iter_mut().enumerate() {
+                                        ce[i] += m[col];
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if hi.is_some() {
+                        let mut ex = [0f32; B];
+                        for (col, a) in acc.iter_mut().enumerate() {
+                            let sv = at(Planes::SRC + col);
+                            planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, &mut ex[..b]);
+                            for i in 0..b {
+                                a[i] = a[i] * tr[i] + (sv[i] * (1.0 - tr[i]) + ex[i]);
+                            }
+                        }
+                        continue;
                     }
                     for (col, a) in acc.iter_mut().enumerate() {
                         let sv = at(Planes::SRC + col);
@@ -3347,6 +3376,10 @@ struct Planes {
     v: Vec<f32>,
     nx: usize,
     nz: usize,
+    /// [`MediumEmission::Profile`]: what each cell's `P_1`, `P_2` source terms emit into
+    /// the segment of each stencil slot; per row of the level: slot, colour, column (no
+    /// ring; 0 where the cell does not emit; empty under other rules).
+    ex: Vec<f32>,
 }
 
 impl Planes {
@@ -3363,6 +3396,7 @@ impl Planes {
             v: vec![0.0; Self::COUNT * (nx + 2 * Self::R) * (nz + 2 * Self::R)],
             nx,
             nz,
+            ex: Vec::new(),
         }
     }
 
@@ -3391,6 +3425,66 @@ impl Planes {
         self.fill(ctx, Self::SRC, 3, 0.0, |q, col| {
             if emits[q] { src[q][col] } else { 0.0 }
         });
+    }
+
+    /// Fills [`Planes::ex`] from the level's profile coefficients `hi` (`J_1`, `J_2`),
+    /// its cells' profiles and which cells emit, row by row on every core.
+    fn fill_profile(&mut self, hi: &[[Vec3; 2]], prof: &crate::profile::Profiles, emits: &[bool]) {
+        let (nx, n) = (self.nx, self.nx * self.nz);
+        self.ex.resize(SLOTS * 3 * n, 0.0);
+        // Row by row (per row: slot, colour, column; each cell reads its profile once),
+        // on every core for levels of more than 4096 cells.
+        let fill_row = |z: usize, ex: &mut [f32]| {
+            for x in 0..nx {
+                let q = x + nx * z;
+                if !emits[q] {
+                    for k in 0..SLOTS * 3 {
+                        ex[k * nx + x] = 0.0;
+                    }
+                    continue;
+                }
+                let (pr, h) = (prof.get(q), &hi[q]);
+                for (slot, w) in pr.emit.iter().enumerate() {
+                    for col in 0..3 {
+                        ex[(slot * 3 + col) * nx + x] = h[0][col] * w[0] + h[1][col] * w[1];
+                    }
+                }
+            }
+        };
+        let rows = self.ex.chunks_mut(SLOTS * 3 * nx).enumerate();
+        if n <= 4096 {
+            rows.for_each(|(z, ex)| fill_row(z, ex));
+        } else {
+            self.ex
+                .par_chunks_mut(SLOTS * 3 * nx)
+                .enumerate()
+                .for_each(|(z, ex)| fill_row(z, ex));
+        }
+    }
+
+    /// `len` values of [`Planes::ex`] for `slot`, colour `col`, row `z`, columns `x..x +
+    /// len` (wrapped on periodic sides, 0 beyond open ones), into `out`.
+    #[inline]
+    fn ex_row(&self, ctx: &Ctx, (slot, col): (usize, usize), z: i32, x: i32, out: &mut [f32]) {
+        let nx = self.nx;
+        let len = out.len();
+        let Some(zr) = ctx.row_of(z) else {
+            out.fill(0.0);
+            return;
+        };
+        let plane = &self.ex[((zr * SLOTS + slot) * 3 + col) * nx..][..nx];
+        let lo = (-x).clamp(0, len as i32) as usize;
+        let hi = (nx as i32 - x).clamp(lo as i32, len as i32) as usize;
+        if hi > lo {
+            out[lo..hi].copy_from_slice(&plane[(x + lo as i32) as usize..][..hi - lo]);
+        }
+        for i in (0..lo).chain(hi..len) {
+            out[i] = if ctx.periodic {
+                plane[(x + i as i32).rem_euclid(nx as i32) as usize]
+            } else {
+                0.0
+            };
+        }
     }
 
     /// Planes `first..first + count`: `value(cell, plane - first)` at every cell of

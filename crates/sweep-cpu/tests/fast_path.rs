@@ -216,3 +216,35 @@ fn one_cell_in_empty_space() {
         check(&m, c).unwrap();
     }
 }
+
+/// Levels of more than 4096 cells (the profile rule's emission planes filled on every
+/// core, rows of more than one block): a 72 × 3 × 72 grid of mixed media and surfaces,
+/// each side mode, both source rules, equal to the oracle bit for bit.
+#[test]
+fn wide_levels() {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, lightgrid_core::glam::UVec3::new(72, 3, 72)).unwrap();
+    let cells = (0..d.point_count())
+        .map(|i| match (i * 7919) % 13 {
+            0 => Material::opaque(Vec3::splat(0.4)),
+            1..=5 => Material {
+                reflectance: Vec3::new(0.2, 0.6, 0.9),
+                pass: 0.05 + 0.15 * ((i % 5) as f32),
+            },
+            _ => Material::EMPTY,
+        })
+        .collect();
+    let m = MaterialGrid::new(d, cells).unwrap();
+    for (sides, profile) in [(0, true), (1, true), (2, true), (1, false)] {
+        let c = Case {
+            sides,
+            per_point_top: false,
+            bottom: true,
+            source: false,
+            smoothing: 0.25,
+            passes: 2,
+            bins: true,
+            profile,
+        };
+        check(&m, c).unwrap();
+    }
+}
