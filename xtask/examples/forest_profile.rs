@@ -1,6 +1,7 @@
 //! Times the bench forest's sweep (16³, 4 passes, smoothing 0.25: the headline setting
 //! of `cargo xtask bench`) many times over, for a profiler:
-//! `cargo run --release -p xtask --example forest_profile -- [n] [repeats]`.
+//! `cargo run --release -p xtask --example forest_profile -- [n] [repeats] [rule]`
+//! (`rule`: `profile`, the default, or `source`, the flat source).
 use lightgrid_core::{SweepOptions, Sweeper};
 use std::time::Instant;
 
@@ -18,6 +19,11 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or(4);
     o.tolerance = 0.0;
     o.smoothing = 0.25;
+    o.medium = match args.get(3).map(String::as_str) {
+        None | Some("profile") => lightgrid_core::MediumEmission::Profile,
+        Some("source") => lightgrid_core::MediumEmission::Source,
+        Some(other) => anyhow::bail!("unknown medium rule {other:?} (profile or source)"),
+    };
     let mut sweeper = sweep_cpu::CpuSweeper::new();
     let mut out = None;
     let mut times = Vec::new();
@@ -31,7 +37,9 @@ fn main() -> anyhow::Result<()> {
     }
     times.sort_by(f64::total_cmp);
     println!(
-        "{n}³, 4 passes: fastest {:.2} ms, median {:.2} ms over {repeats}",
+        "{n}³, {} passes, {:?}: fastest {:.2} ms, median {:.2} ms over {repeats}",
+        o.max_passes,
+        o.medium,
         times[0],
         times[times.len() / 2]
     );

@@ -280,12 +280,15 @@ impl Pending {
 
 /// Phase 2's outputs for the source rules, per cell of a level (or row): the flat
 /// source `J_0`, whether the cell emits, the `P_1`, `P_2` coefficients of a quadratic
-/// source in height (empty unless [`MediumEmission::Profile`]) and the cells' profiles.
+/// source in height (empty unless [`MediumEmission::Profile`]), the cells' profiles, and
+/// what the `P_1`, `P_2` terms emit into each slot's segment (phase 3's [`Planes::ex`];
+/// empty unless the profile rule on the fast path).
 type EmitRows<'a> = (
     &'a mut [Vec3],
     &'a mut [bool],
     &'a mut [[Vec3; 2]],
     &'a crate::profile::Profiles,
+    &'a mut [f32],
 );
 
 /// [`MediumEmission::Profile`] in phase 3's row kernel: the level's `P_1`, `P_2` source
@@ -1599,18 +1602,26 @@ impl Ctx {
         cur: &mut LevelLight,
         pend_same: &mut [Pending],
         pend_other: &mut [Pending],
-        (src, emits, src_hi, prof): EmitRows<'_>,
+        (src, emits, src_hi, prof, ex): EmitRows<'_>,
         g: &mut [S],
         rows: &mut [RowFlux],
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
         let p = cur.pitch();
-        // Under other rules than Profile `src_hi` is empty: rows of nothing.
-        let hi_rows: Vec<&mut [[Vec3; 2]]> = if src_hi.is_empty() {
+        // Under other rules than Profile `src_hi` and `ex` are empty: rows of nothing.
+        let hi_rows: Vec<(&mut [[Vec3; 2]], &mut [f32])> = if src_hi.is_empty() {
             (0..self.nz).map(|_| Default::default()).collect()
+        } else if ex.is_empty() {
+            src_hi
+                .chunks_mut(nx)
+                .map(|h| (h, Default::default()))
+                .collect()
         } else {
-            src_hi.chunks_mut(nx).collect()
+            src_hi
+                .chunks_mut(nx)
+                .zip(ex.chunks_mut(SLOTS * 3 * nx))
+                .collect()
         };
         let extra = pend_same
             .par_chunks_mut(nx)
@@ -1626,7 +1637,11 @@ impl Ctx {
             g,
             rows,
             fin,
-            |z, cur_row, ((same_row, other_row), ((src_row, emits_row), hi_row)), g_row, rf| {
+            |z,
+             cur_row,
+             ((same_row, other_row), ((src_row, emits_row), (hi_row, ex_row))),
+             g_row,
+             rf| {
                 *rf = self.phase2_row(
                     z,
                     removed,
@@ -1637,7 +1652,7 @@ impl Ctx {
                     cur_row,
                     same_row,
                     other_row,
-                    (src_row, emits_row, hi_row, prof),
+                    (src_row, emits_row, hi_row, prof, ex_row),
                     g_row,
                 );
             },
@@ -1786,7 +1801,7 @@ impl Ctx {
         cur_row: &mut [f32],
         same_row: &mut [Pending],
         other_row: &mut [Pending],
-        (src_row, emits_row, hi_row, prof): EmitRows<'_>,
+        (src_row, emits_row, hi_row, prof, ex_row): EmitRows<'_>,
         g_row: &mut [S],
     ) -> RowFlux {
         let nx = self.nx as usize;
@@ -1795,6 +1810,7 @@ impl Ctx {
         let mw = medium::weights(up);
         let mut rf = RowFlux::default();
         emits_row.fill(false);
+        ex_row.fill(0.0);
         let row_cells = &cells[nx * z as usize..][..nx];
         let mut by_row = [[[0f32; GATHER_BLOCK]; 3]; CHANNELS];
         let profile = self.medium == MediumEmission::Profile;
@@ -1909,6 +1925,15 @@ impl Ctx {
                 src_row[xi] = emit[0];
                 hi_row[xi] = [emit[1], emit[2]];
                 emits_row[xi] = emit.iter().any(|v| *v != Vec3::ZERO);
+                if emits_row[xi] && !ex_row.is_empty() {
+                    // Phase 3's emission planes (`Planes::ex`) for this cell.
+                    for (slot, w) in pr.emit.iter().enumerate() {
+                        for col in 0..3 {
+                            ex_row[(slot * 3 + col) * nx + xi] =
+                                emit[1][col] * w[0] + emit[2][col] * w[1];
+                        }
+                    }
+                }
                 same_row[xi] = if self.jacobi { dj } else { Pending::default() };
                 let other = other_row[xi].add(&dj);
                 other_row[xi] = other;
@@ -2056,9 +2081,6 @@ impl Ctx {
         let p = cur.pitch();
         let profile = self.medium == MediumEmission::Profile;
         planes.fill_src(self, src, emits);
-        if profile && !scalar {
-            planes.fill_profile(hi.0, hi.1, emits);
-        }
         let planes = &*planes;
         // Rows whose paths carry anything: near an emitting cell (every row, scalar).
         for (r, near_row) in pre_rows.iter_mut().zip(near.chunks(nx)) {
@@ -2961,6 +2983,12 @@ fn run_with<S: Sink>(
                 w.prof.level(up, &fixed.lnp[range.clone()], |q| {
                     medium::applies(options.medium, level[q].pass)
                 });
+                // Phase 3's emission planes, written by phase 2 (the fast path's).
+                w.planes
+                    .ex
+                    .resize(if fast { SLOTS * 3 * n } else { 0 }, 0.0);
+            } else {
+                w.planes.ex.clear();
             }
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
@@ -2970,7 +2998,13 @@ fn run_with<S: Sink>(
                 &mut w.cur,
                 &mut same[range.clone()],
                 &mut other[range.clone()],
-                (&mut w.src, &mut w.emits, &mut w.src_hi, &w.prof),
+                (
+                    &mut w.src,
+                    &mut w.emits,
+                    &mut w.src_hi,
+                    &w.prof,
+                    &mut w.planes.ex,
+                ),
                 &mut g[range.clone()],
                 &mut w.rows,
                 Finish {
@@ -3378,7 +3412,8 @@ struct Planes {
     nz: usize,
     /// [`MediumEmission::Profile`]: what each cell's `P_1`, `P_2` source terms emit into
     /// the segment of each stencil slot; per row of the level: slot, colour, column (no
-    /// ring; 0 where the cell does not emit; empty under other rules).
+    /// ring; 0 where the cell does not emit; empty under other rules). Written by phase
+    /// 2 as it solves each cell's source ([`Ctx::phase2_row`]).
     ex: Vec<f32>,
 }
 
@@ -3425,41 +3460,6 @@ impl Planes {
         self.fill(ctx, Self::SRC, 3, 0.0, |q, col| {
             if emits[q] { src[q][col] } else { 0.0 }
         });
-    }
-
-    /// Fills [`Planes::ex`] from the level's profile coefficients `hi` (`J_1`, `J_2`),
-    /// its cells' profiles and which cells emit, row by row on every core.
-    fn fill_profile(&mut self, hi: &[[Vec3; 2]], prof: &crate::profile::Profiles, emits: &[bool]) {
-        let (nx, n) = (self.nx, self.nx * self.nz);
-        self.ex.resize(SLOTS * 3 * n, 0.0);
-        // Row by row (per row: slot, colour, column; each cell reads its profile once),
-        // on every core for levels of more than 4096 cells.
-        let fill_row = |z: usize, ex: &mut [f32]| {
-            for x in 0..nx {
-                let q = x + nx * z;
-                if !emits[q] {
-                    for k in 0..SLOTS * 3 {
-                        ex[k * nx + x] = 0.0;
-                    }
-                    continue;
-                }
-                let (pr, h) = (prof.get(q), &hi[q]);
-                for (slot, w) in pr.emit.iter().enumerate() {
-                    for col in 0..3 {
-                        ex[(slot * 3 + col) * nx + x] = h[0][col] * w[0] + h[1][col] * w[1];
-                    }
-                }
-            }
-        };
-        let rows = self.ex.chunks_mut(SLOTS * 3 * nx).enumerate();
-        if n <= 4096 {
-            rows.for_each(|(z, ex)| fill_row(z, ex));
-        } else {
-            self.ex
-                .par_chunks_mut(SLOTS * 3 * nx)
-                .enumerate()
-                .for_each(|(z, ex)| fill_row(z, ex));
-        }
     }
 
     /// `len` values of [`Planes::ex`] for `slot`, colour `col`, row `z`, columns `x..x +
