@@ -97,7 +97,12 @@
 //!
 //! The error is unchanged (the light is the same bit for bit): the forest's time to
 //! its error against Monte Carlo went from 85× to about 150× (`cargo xtask bench`,
-//! forest line). What made the difference (perf, one pass, one thread unless said):
+//! forest line). These figures are the flat source's (`MediumEmission::Source`, the
+//! default when they were taken). Under the default since issue 13, the quadratic source
+//! in height, the 64³ canopy runs at the same speed (10.2 against 10.2 M points/s, one
+//! pass, throughput example), the bench forest takes 5.9–6.0 ms against 3.7–3.8 ms
+//! (error 0.0175 against 0.0180; 131–143× Monte Carlo), uniform fog 12³ 38 against
+//! 19–20 ms: see "Against exact answers". What made the difference (perf, one pass, one thread unless said):
 //!
 //! - **Memory**: a fresh 26-bin output is 82 MB of pages the kernel faults in and zeroes
 //!   (some 25 ms at 64³); `CpuSweeper` keeps the output, and its working buffers, for
@@ -319,11 +324,11 @@
 //! was 0.0394 / 0.0490 with the centre's light. The older rules
 //! (`SweepOptions::medium = MediumEmission::Escape`; the seed's, measured before it was
 //! removed with the centre's light) are worse on every scene. Time (fastest of three,
-//! 2-core VM, `examples/canonical.rs`): the fog 43 ms against 20 ms with the flat
-//! source and 21 ms with the escape rule, the canopies 5.5 against 3.6 ms, the dense
-//! block 3.9 against 4.0 ms (fewer passes); the source rules' third phase costs time
-//! on levels with media, the profile rule's emission there still walks each point's
-//! paths.
+//! 2-core VM, `examples/canonical.rs`, before phase 3's profile emission had its row
+//! kernel): the fog 43 ms against 20 ms with the flat source and 21 ms with the escape
+//! rule, the canopies 5.5 against 3.6 ms, the dense block 3.9 against 4.0 ms (fewer
+//! passes); the source rules' third phase costs time on levels with media, and the
+//! profile rule carries three coefficients a cell (fog 38 ms with the row kernel).
 //!
 //! Opaque surfaces emit with the exact Lambertian share of each bin (step 5) since the
 //! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its
@@ -342,19 +347,19 @@
 //! | one-level Lambertian ground, albedo 0.3, zenith sun | 0.3000 | 0.3000 | 0.3000 |
 //! | white furnace, random white blobs (pass-through 0.02–1), 12³, smoothing 0 / 0.25: largest deviation of the average light, of irradiance | 0 | 0.0 % / 0.0 % | 36 % / 81 %, 22 % / 45 % |
 //! | white furnace, uniform white medium of pass-through 0.9 / 0.5 / 0.1: largest bin deviation | 0 | 0.0 / 0.0 / 0.0 % | 1.6 / 44 / 119 % |
-//! | half-space albedo, w 0.1, cells of optical depth 0.05 / 0.69 / 3 | 0.0164 | +1.6 / −1.4 / −23 % | +8.0 / +10.1 / −3.1 % |
-//! | half-space albedo, w 0.5, same cells | 0.1152 | +1.1 / −0.4 / −15 % | +6.3 / +8.7 / −4.0 % |
-//! | half-space albedo, w 0.9, same cells | 0.4149 | +0.2 / +0.3 / +0.4 % | +3.1 / +5.1 / −1.5 % |
-//! | half-space albedo, w 0.99, same cells | 0.7527 | −0.1 / +0.1 / +2.5 % | +1.0 / +1.9 / +0.2 % |
-//! | the same four albedos with [`MediumEmission::Profile`](lightgrid_core::MediumEmission), cells of depth 0.05 / 0.69 / 3 | | +1.7 / +1.7 / +0.8 %, +1.1 / +1.1 / +1.1 %, +0.2 / +0.2 / +0.5 %, −0.1 / −0.1 / −0.0 % | |
-//! | half-space under a uniform sky (diffuse albedo), w 0.1 / 0.5 / 0.9 / 0.99, cells of depth 3 (`examples/hs_diffuse.rs`) | 0.0087–0.73 | flat −47 / −39 / −18 / −5.4 %; Profile −0.1 / +1.4 / +1.6 / +0.6 % | |
-//! | the same, cells of depth 0.05 (the channels' angular error under diffuse light) | | flat +4.4 / +3.5 / +1.7 / +0.6 %; Profile +4.5 / +3.5 / +1.7 / +0.6 % | |
-//! | passes to tolerance 1e-4, slab of optical depth 100, w 0.5 / 0.9 / 0.99 / 0.999 | | 8 / 33 / 264 / over 1024 | 8 / 38 / 326 / over 400 |
-//! | the same, accelerated ([`accel`]) | | 8 / 30 / 26 / 24 | |
+//! | half-space albedo, w 0.1, cells of optical depth 0.05 / 0.69 / 3 | 0.0164 | +1.7 / +1.7 / +0.8 % | +8.0 / +10.1 / −3.1 % |
+//! | half-space albedo, w 0.5, same cells | 0.1152 | +1.1 / +1.1 / +1.1 % | +6.3 / +8.7 / −4.0 % |
+//! | half-space albedo, w 0.9, same cells | 0.4149 | +0.2 / +0.2 / +0.5 % | +3.1 / +5.1 / −1.5 % |
+//! | half-space albedo, w 0.99, same cells | 0.7527 | −0.1 / −0.1 / −0.0 % | +1.0 / +1.9 / +0.2 % |
+//! | the same four albedos with the flat source ([`MediumEmission::Source`](lightgrid_core::MediumEmission)), same cells | | +1.6 / −1.4 / −23 %, +1.1 / −0.4 / −15 %, +0.2 / +0.3 / +0.4 %, −0.1 / +0.1 / +2.5 % | |
+//! | half-space under a uniform sky (diffuse albedo), w 0.1 / 0.5 / 0.9 / 0.99, cells of depth 3 (`examples/hs_diffuse.rs`) | 0.0087–0.73 | −0.1 / +1.4 / +1.6 / +0.6 %; flat source −47 / −39 / −18 / −5.4 % | |
+//! | the same, cells of depth 0.05 (the channels' angular error under diffuse light) | | +4.5 / +3.5 / +1.7 / +0.6 %; flat source +4.4 / +3.5 / +1.7 / +0.6 % | |
+//! | passes to tolerance 1e-4, slab of optical depth 100, w 0.5 / 0.9 / 0.99 / 0.999 | | 8 / 34 / 275 / over 1024 (flat source: 8 / 33 / 264 / over 1024) | 8 / 38 / 326 / over 400 |
+//! | the same, accelerated ([`accel`]) | | 8 / 30 / 30 / 30 (flat source: 8 / 30 / 26 / 24) | |
 //!
-//! Surfaces are exact, and so is the white furnace in any medium: the source rule
-//! ([`medium`]) emits from every path segment what a flat source in its cell sends along
-//! it, and the later segments of the path attenuate and collect it, so a path that
+//! Surfaces are exact, and so is the white furnace in any medium: the source rules
+//! ([`profile`], the default, and [`medium`]) emit from every path segment what the
+//! cell's source sends along it, and the later segments of the path attenuate and collect it, so a path that
 //! enters with its cells' source radiance leaves with it (the escape rule, which sent a
 //! cell's light into its own points' paths alone, put too much into the long horizontal
 //! channels and could not balance a horizontal path through several cells). The
@@ -362,37 +367,42 @@
 //! `examples/do1d.rs` solves the same slab with a fine mesh and the channels as
 //! ordinates: +1.65 / +1.07 / +0.20 / −0.06 % with the bins' mean cosines, +6.9 / +5.5 /
 //! +2.7 / +0.9 % with the step vectors' cosines, which is where the old thin-cell error
-//! came from). What is open:
+//! came from). Where the rules stand:
 //!
-//! - **Thick dark cells: solved by [`MediumEmission::Profile`](lightgrid_core::MediumEmission),
-//!   not yet the default.** Each medium cell's source is a quadratic in height
-//!   ([`profile`]: the collisions' height moments, each batch of scattered light an
-//!   isotropic source solving the cell's 3 × 3 balance with its own re-collisions). The
-//!   half-space is then within 1.7 % at every albedo and every cell depth from 0.05 to
-//!   3: the channels' own angular error (`cargo run --release -p sweep-cpu --example
-//!   hs_depths -- profile`; the 1-D model `examples/profile_slab.rs` predicts the same
-//!   figures to 0.01 %). The white furnace stays exact and flux is conserved; the light
-//!   is linear except where the quadratic dips below 0 and the output is clamped (26 of
-//!   319 488 values of the bench forest, none on the canonical scenes). On the
-//!   canonical scenes (12³, 600 000 paths, `examples/canonical.rs`): dense block 0.0374 /
-//!   0.0454 (flat 0.0365 / 0.0451: its error is not the vertical profile), canopy 0.0112
-//!   / 0.0144 (0.0128 / 0.0151), fog unchanged; the bench forest at 4 passes (`cargo run
-//!   --release -p xtask --example forest_error_parts`) 0.0179 against 0.0183 under sky
-//!   and sun, but 0.0195 against 0.0176 under the sky alone (the same at 40 passes).
-//!   Under a uniform sky the flat rule's thick cells reflect far too little (−7.5 % at
-//!   depth 0.69, −47 % at depth 3, albedo 0.1, table above), against the channels'
-//!   angular error of +4.4 %: in the forest the two errors partly cancel, and the
-//!   profile rule leaves the angular one (its air far from media +0.5 % bright, the
-//!   flat rule's +0.0 %). On the CPU its phases 1 and 2 run their row kernels and its
-//!   phase-3 emission walks each point's paths (canopy 12³: 7.4 ms against the flat
-//!   rule's 4.1; dense block 4.1 against 4.0; plus 125 ms once per process for the
-//!   tables); `sweep-gpu` runs it too, and so does
-//!   [`accel`] (slabs of cells of optical depth 1, depth 10 to 1000, albedo 0.5 to
-//!   0.999: at most 32 passes to 1e-4; cells of optical depth 3, albedo 0.99: 100
-//!   passes to 1e-6 against 176 plain, where the estimate's walk through thick cells
-//!   models the flat rule). The row kernels and a look at the forest's sky-only loss
-//!   come before it can be the default. The flat rule's account follows.
-//! - **Thick dark cells, flat rule.** A flat source in a cell of optical depth 3 lit from above
+//! - **Thick dark cells: solved by the default rule, a quadratic source in height**
+//!   ([`MediumEmission::Profile`](lightgrid_core::MediumEmission), [`profile`]: the
+//!   collisions' height moments, each batch of scattered light an isotropic source
+//!   solving the cell's 3 × 3 balance with its own re-collisions). The half-space is
+//!   within 1.7 % at every albedo and every cell depth from 0.05 to 3: the channels' own
+//!   angular error (`cargo run --release -p sweep-cpu --example hs_depths`; the 1-D model
+//!   `examples/profile_slab.rs` predicts the same figures to 0.01 %). The white furnace
+//!   stays exact and flux is conserved; the light is linear except where the quadratic
+//!   dips below 0 and the output is clamped (26 of 319 488 values of the bench forest,
+//!   none on the canonical scenes), and it is not a positive scheme: darkening one cell
+//!   can brighten another value by about 1e-6 of the grid's brightest light
+//!   (`tests/sweep.rs`, monotonicity; the flat rule is exactly monotone). Measured
+//!   against the flat source: canonical scenes (table above) canopy 0.0112 / 0.0144
+//!   against 0.0128 / 0.0151, dense block 0.0374 / 0.0454 against 0.0365 / 0.0451 (its
+//!   error is not the vertical profile), fog the same; the bench forest at 4 passes
+//!   (`cargo xtask bench`) 0.0175 against 0.0180 under sky and sun, but 0.0195 against
+//!   0.0176 under the sky alone (`cargo run --release -p xtask --example
+//!   forest_error_parts`; the same at 40 passes): under a uniform sky the flat rule's
+//!   thick cells reflect far too little (−47 % at depth 3, albedo 0.1, table above)
+//!   against the channels' angular error of +4.4 %, and in the forest the two errors
+//!   partly cancel; the profile rule leaves the angular one (its air far from media
+//!   +0.5 % bright, the flat rule's +0.0 %). That is the flat rule's one measured win
+//!   besides speed, and why it stays an option. Cost on the CPU (2-core VM): the bench
+//!   forest 16³, 4 passes, 5.9–6.0 ms against 3.7–3.8 ms (`cargo run --release -p xtask
+//!   --example forest_profile -- 16 300 [profile|source]`), uniform fog 12³ 38 against
+//!   19–20 ms, a 64³ canopy (two levels of media) at the same speed; its row kernels
+//!   carry three source coefficients per cell instead of one and solve a 3 × 3 balance
+//!   per cell and colour; plus 125 ms once per process for the tables. Plain passes
+//!   converge a little slower in thick white media (uniform furnace of pass-through
+//!   0.02: 868 passes to 1e-7 against 524); [`accel`] runs it (slabs of cells of optical
+//!   depth 1, depth 10 to 1000, albedo 0.5 to 0.999: at most 30 passes to 1e-4; cells
+//!   of optical depth 3, albedo 0.999: 102 passes to 1e-5 against 794 plain, where the
+//!   estimate's walk through thick cells models the flat rule). `sweep-gpu` runs it too.
+//! - **Thick dark cells, the flat rule (the option).** A flat source in a cell of optical depth 3 lit from above
 //!   sends too much of its light through the cell: `medium::split` moves the share of
 //!   light that collided on its way down to the upward pass, which fixes albedos ≥ 0.9,
 //!   but the emission within each pass is still spread flat over the cell's height, and
@@ -414,10 +424,11 @@
 //!   w 0.99 with this rule already).
 //! - **Convergence.** The plain passes are source iteration; they slow down as the
 //!   albedo nears 1 in thick media. [`Acceleration::Diffusion`](lightgrid_core::Acceleration)
-//!   ([`accel`]) keeps the passes to 1e-4 between 8 and 31 for slabs of optical depth
+//!   ([`accel`]) keeps the passes to 1e-4 between 8 and 30 for slabs of optical depth
 //!   10 to 1000 and albedo 0.5 to 0.999 (`cargo xtask exact`: table and
-//!   `target/bench/convergence.png`; albedo 0.999, depth 1000: 24 passes, 0.78 s,
-//!   against over 1024 passes, 34 s). It helps least where its diffusion estimate
+//!   `target/bench/convergence.png`; albedo 0.999, depth 1000: 30 passes, 2.9 s,
+//!   against over 1024 passes, 53 s; with the flat source 24 passes, 0.78 s, against
+//!   over 1024, 34 s). It helps least where its diffusion estimate
 //!   knows least: cells of optical depth 3 at albedo 0.99 (52 passes to 1e-5 against
 //!   169), speckled random bright media with surfaces (0.64 to 1.16 times
 //!   the plain passes, 0.88 on average, where it switches on), scenes whose

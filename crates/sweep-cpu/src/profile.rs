@@ -1,9 +1,10 @@
 //! A medium cell's source as a **quadratic in height**: the segment integrals, the
 //! per-cell tables and the source solve of [`lightgrid_core::MediumEmission::Profile`]
 //! (issue 13's thick cells), **the default rule** (the flat source of [`crate::medium`]
-//! is the option `MediumEmission::Source`). It runs on the CPU sweeper (phases 2 and 3
-//! gather the collisions' height moments over blocks of a row; phase 3's emission still
-//! walks each point's paths; with diffusion acceleration, [`crate::accel`]: its
+//! is the option `MediumEmission::Source`). It runs on the CPU sweeper (row kernels:
+//! phases 2 and 3 gather the collisions' height moments over blocks of a row, phase 2
+//! writes what each cell's `P_1`, `P_2` terms emit into each slot's segment for phase
+//! 3's emission; with diffusion acceleration, [`crate::accel`]: its
 //! corrections become flat sources, [`CellProfile::source_of_scattered`]) and on the GPU
 //! (`sweep-gpu`, from [`table_floats`] and [`slot_geometry`]); see the crate docs,
 //! "Against exact answers". Cost: the tables, built once per process, 125 ms on the
