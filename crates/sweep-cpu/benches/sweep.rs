@@ -4,7 +4,8 @@
 //! `CpuSweeper::recycle`: what a per-frame rebuild runs), the fast path into fresh memory
 //! (`sweep_cpu::run`) and, in the same run, the scalar oracle it equals bit for bit
 //! (`sweep_cpu::sweep::run_scalar`); and the uniform fog at 16³ and 48³, media in every
-//! level, where phases 2 and 3 take the time. The error of each setting against
+//! level, where phases 2 and 3 take the time, under the default medium rule and the
+//! flat source. The error of each setting against
 //! the Monte Carlo reference is in the crate docs (`canonical` example for timings with
 //! errors side by side); `cargo run --release -p sweep-cpu --example throughput` is the
 //! quick version of this.
@@ -87,6 +88,15 @@ fn bench_media(c: &mut Criterion) {
         g.bench_function(format!("{n}³, recycled"), |bch| {
             bch.iter(|| {
                 let out = sweeper.sweep(&m, &b, &o).expect("sweep");
+                sweeper.recycle(out);
+            })
+        });
+        // The flat source (the option), against the default quadratic source in height.
+        let mut flat = o;
+        flat.medium = lightgrid_core::MediumEmission::Source;
+        g.bench_function(format!("{n}³, recycled, flat source"), |bch| {
+            bch.iter(|| {
+                let out = sweeper.sweep(&m, &b, &flat).expect("sweep");
                 sweeper.recycle(out);
             })
         });

@@ -99,10 +99,22 @@
 //! its error against Monte Carlo went from 85× to about 150× (`cargo xtask bench`,
 //! forest line). These figures are the flat source's (`MediumEmission::Source`, the
 //! default when they were taken). Under the default since issue 13, the quadratic source
-//! in height, the 64³ canopy runs at the same speed (10.2 against 10.2 M points/s, one
-//! pass, throughput example), the bench forest takes 5.9–6.0 ms against 3.7–3.8 ms
-//! (error 0.0175 against 0.0180; 131–143× Monte Carlo), uniform fog 12³ 38 against
-//! 19–20 ms: see "Against exact answers". What made the difference (perf, one pass, one thread unless said):
+//! in height (criterion, same bench, means):
+//!
+//! | case | default rule | flat source |
+//! |------|-------------:|------------:|
+//! | 64³, 26 bins, 1 pass, recycled | 25.9 ms (10.1 M/s) | the table above (criterion: +2.7 %, p = 0.65, no change) |
+//! | 64³, 26 bins, 4 passes, recycled | 106 ms (2.5 M/s) | the same (+3.3 %, p = 0.61) |
+//! | 64³, average + dominant only, 1 / 4 passes, recycled | 22.4 / 84.8 ms | the same |
+//! | 16 × 64 × 16, 26 bins, 1 / 4 passes, recycled | 2.6 / 10.3 ms (6.4 / 1.6 M/s) | |
+//! | uniform fog, 4 passes, 16³, recycled | 22.4 ms | 11.3 ms |
+//! | uniform fog, 4 passes, 48³, recycled (scalar oracle) | 373 ms (829 ms) | 206 ms |
+//!
+//! The canopy has media in two levels of 64: there the rule costs nothing measurable.
+//! Media in every level cost about 1.8 times the flat source (three source coefficients
+//! a cell, a 3 × 3 balance per cell and colour); the bench forest takes 5.9–6.0 ms
+//! against 3.7–3.8 ms (error 0.0175 against 0.0180; 131–169× Monte Carlo over three
+//! runs): see "Against exact answers". What made the difference (perf, one pass, one thread unless said):
 //!
 //! - **Memory**: a fresh 26-bin output is 82 MB of pages the kernel faults in and zeroes
 //!   (some 25 ms at 64³); `CpuSweeper` keeps the output, and its working buffers, for
