@@ -2983,13 +2983,15 @@ fn run_with<S: Sink>(
                 w.prof.level(up, &fixed.lnp[range.clone()], |q| {
                     medium::applies(options.medium, level[q].pass)
                 });
-                // Phase 3's emission planes, written by phase 2 (the fast path's).
+                // Phase 3's emission planes, written (zeroed row by row first) by phase
+                // 2 on the fast path; grown once, kept across levels.
                 w.planes
                     .ex
                     .resize(if fast { SLOTS * 3 * n } else { 0 }, 0.0);
-            } else {
-                w.planes.ex.clear();
             }
+            // Only levels with media under the profile rule write the emission planes.
+            let profile_level =
+                options.medium == MediumEmission::Profile && fixed.level_medium[j as usize];
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
                 (&w.t_after, &w.pows),
@@ -3003,7 +3005,11 @@ fn run_with<S: Sink>(
                     &mut w.emits,
                     &mut w.src_hi,
                     &w.prof,
-                    &mut w.planes.ex,
+                    if profile_level {
+                        &mut w.planes.ex[..]
+                    } else {
+                        &mut []
+                    },
                 ),
                 &mut g[range.clone()],
                 &mut w.rows,
