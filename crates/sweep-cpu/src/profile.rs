@@ -692,12 +692,24 @@ impl Profiles {
     /// `medium(q)`, of a clear cell (`ln p = 0`) elsewhere.
     pub(crate) fn level(&mut self, up: bool, lnp: &[f32], medium: impl Fn(usize) -> bool) {
         use rayon::prelude::*;
-        if self.all.len() + lnp.len() > Self::KEEP.max(lnp.len()) {
-            self.all.clear();
-            self.memo.clear();
-        }
         // The tables, once, outside rayon's workers.
         let _ = tables();
+        let todo = self.assign(up, lnp, &medium);
+        // Too many to keep: start afresh (the level's own distinct values always fit).
+        let todo = if self.all.len() + todo.len() > Self::KEEP.max(todo.len()) {
+            self.all.clear();
+            self.memo.clear();
+            self.assign(up, lnp, &medium)
+        } else {
+            todo
+        };
+        let fresh: Vec<CellProfile> = todo.par_iter().map(|&l| CellProfile::new(up, l)).collect();
+        self.all.extend(fresh);
+    }
+
+    /// Sets `of` for the level and enters its values not yet held in `memo` (at the
+    /// indices they will have in `all`); returns those values, in that order.
+    fn assign(&mut self, up: bool, lnp: &[f32], medium: &impl Fn(usize) -> bool) -> Vec<f32> {
         self.of.clear();
         let mut todo: Vec<f32> = Vec::new();
         let mut last: Option<(u32, u32)> = None;
@@ -718,8 +730,7 @@ impl Profiles {
             };
             self.of.push(id);
         }
-        let fresh: Vec<CellProfile> = todo.par_iter().map(|&l| CellProfile::new(up, l)).collect();
-        self.all.extend(fresh);
+        todo
     }
 
     /// The profile of cell `q` of the level last set.
@@ -936,6 +947,13 @@ mod tests {
                 assert!(same(set.get(q), &want), "cell {q} up {up}");
             }
         }
+        // Profiles are kept across levels while they fit: a level of values already
+        // held computes nothing, even when the level has more cells than `KEEP`.
+        let held = set.all.len();
+        let wide: Vec<f32> = (0..Profiles::KEEP + 10).map(|i| small[i % 64]).collect();
+        set.level(true, &wide, |_| true);
+        set.level(true, &small, |_| true);
+        assert_eq!(set.all.len(), held, "profiles recomputed for values held");
         // A clear cell's profile is the transparent one, not whatever was there.
         assert!(!same(
             &CellProfile::new(false, -1.0),

@@ -592,7 +592,7 @@ fn up_pass(ch: &[Channel; CHANNELS]) -> bool {
 
 /// Where the final light of a point goes: all 26 bins, or only what the average and the
 /// dominant direction need.
-trait Sink: Copy + Default + Send + Sync + bytemuck::Zeroable {
+trait Sink: Copy + Default + Send + Sync + bytemuck::Pod {
     fn add(&mut self, bin: usize, unit: Vec3, g: Vec3);
     /// The point's final values: every value finite and `>= 0`, the average, and the
     /// dominant direction (if `dominant`; zero otherwise).
@@ -650,6 +650,73 @@ impl Sink for BinLight {
         };
         (valid_bins(self), total / (4.0 * PI), d)
     }
+    /// [`BinLight::resolve`] four points at a time (the same operations in the same
+    /// order for each point, so bit for bit its values): one point's sums are chains of
+    /// 26 dependent adds, four points' chains overlap.
+    fn resolve_all(
+        g: &[Self],
+        avg: &mut [AverageLight],
+        dom: &mut [DominantDir],
+        dominant: bool,
+    ) -> bool {
+        const N: usize = 4;
+        let mut ok = true;
+        let (g4, g_rest) = g.as_chunks::<N>();
+        let (a4, a_rest) = avg.as_chunks_mut::<N>();
+        let (d4, d_rest) = dom.as_chunks_mut::<N>();
+        let [wr, wg, wb] = lightgrid_core::light::LUMA;
+        for ((g, a), d) in g4.iter().zip(a4).zip(d4) {
+            // Lane j is point j; each sum is the `Vec3` operations of `resolve`
+            // written out per component, in its order.
+            let mut t = [[0f32; N]; 3];
+            let mut v = [[0f32; N]; 3];
+            let mut sum = [0f32; N];
+            for (b, unit) in dirs::units().iter().enumerate() {
+                let c: [[f32; N]; 3] = std::array::from_fn(|k| std::array::from_fn(|j| g[j].0[b][k]));
+                for k in 0..3 {
+                    for j in 0..N {
+                        t[k][j] += c[k][j];
+                    }
+                }
+                if dominant {
+                    let mut l = [0f32; N];
+                    for j in 0..N {
+                        l[j] = c[0][j] * wr + c[1][j] * wg + c[2][j] * wb;
+                    }
+                    for k in 0..3 {
+                        for j in 0..N {
+                            v[k][j] += unit[k] * l[j];
+                        }
+                    }
+                    for j in 0..N {
+                        sum[j] += l[j];
+                    }
+                }
+            }
+            for j in 0..N {
+                let (total, v) = (
+                    Vec3::new(t[0][j], t[1][j], t[2][j]),
+                    Vec3::new(v[0][j], v[1][j], v[2][j]),
+                );
+                let dv = if sum[j] > 0.0 && sum[j].is_finite() {
+                    (v / sum[j]).clamp_length_max(1.0)
+                } else {
+                    Vec3::ZERO
+                };
+                let av = total / (4.0 * PI);
+                ok &= valid_bins(&g[j]) & av.is_finite() & dv.is_finite();
+                a[j].0 = av;
+                d[j].0 = dv;
+            }
+        }
+        for ((g, a), d) in g_rest.iter().zip(a_rest).zip(d_rest) {
+            let (v, av, dv) = g.resolve(dominant);
+            ok &= v & av.is_finite() & dv.is_finite();
+            a.0 = av;
+            d.0 = dv;
+        }
+        ok
+    }
 }
 
 /// `BinLight::is_valid` without early exit (every value finite and >= 0; NaN fails
@@ -662,7 +729,8 @@ fn valid_bins(b: &BinLight) -> bool {
 }
 
 /// Running sums for the average (`sum`) and dominant direction (`num / den`).
-#[derive(Clone, Copy, Default, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Default, bytemuck::Zeroable, bytemuck::Pod)]
+#[repr(C)]
 struct AvgAcc {
     sum: Vec3,
     num: Vec3,
@@ -960,6 +1028,20 @@ fn gather_row(out: &mut [f32], (mid, above, below): (&[f32], &[f32], &[f32]), w0
     for i in 0..n {
         out[i] = m0[i] * w0 + mp[i] * w1 + mm[i] * w1 + za[i] * w1 + zb[i] * w1;
     }
+}
+
+/// Reads one value of every cache line of `v` in a loop of independent loads, so that
+/// the lines come from memory many at a time before the row's loops add to them (those
+/// loops waited on one point's lines at a time: half of a later pass's adds to the
+/// 26-bin output).
+#[inline]
+fn touch<T: bytemuck::Pod>(v: &[T]) {
+    let bytes: &[u8] = bytemuck::cast_slice(v);
+    let mut x = 0u8;
+    for line in bytes.chunks(64) {
+        x ^= line[0];
+    }
+    std::hint::black_box(x);
 }
 
 /// Sum in `f64`, four lanes (so that it vectorises; the order is fixed, so the result
@@ -1349,6 +1431,8 @@ impl Ctx {
                 if first {
                     // The first pass sets every point (its memory may hold anything).
                     g_row.fill(S::default());
+                } else {
+                    touch(g_row);
                 }
                 self.gather_row_channels(z, prev, ghost, cur_row, rf);
                 self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row);
@@ -1479,10 +1563,14 @@ impl Ctx {
         let nx = self.nx as usize;
         let all_quiet = quiet.is_none_or(|q| q[nx * z as usize..][..nx].iter().all(|&b| b));
         if all_quiet {
+            // The point's sums in a local: adding to `g_pt` in place made each
+            // channel's add wait on the store of the one before.
             for (xi, g_pt) in g_row.iter_mut().enumerate() {
+                let mut acc = *g_pt;
                 for (c, chn) in self.ch.iter().enumerate() {
-                    g_pt.add(chn.bin, chn.unit, row_get(cur_row, p, xi, c));
+                    acc.add(chn.bin, chn.unit, row_get(cur_row, p, xi, c));
                 }
+                *g_pt = acc;
             }
             return;
         }
@@ -3695,5 +3783,61 @@ impl Work {
                     pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
                 }
             });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `BinLight`'s four-point `resolve_all` gives `BinLight::average` and `dominant`
+    /// bit for bit, and flags what `is_valid` rejects, for any number of points (the
+    /// tail after the last four too).
+    #[test]
+    fn resolve_all_equals_average_and_dominant() {
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for n in 0..=11 {
+            for bad in [None, Some(f32::NAN), Some(-1e-3), Some(f32::INFINITY)] {
+                let mut g: Vec<BinLight> = (0..n)
+                    .map(|_| {
+                        BinLight(std::array::from_fn(|_| {
+                            Vec3::from_array(std::array::from_fn(|_| {
+                                let r = next();
+                                // Zeros, and values over many magnitudes.
+                                if r % 5 == 0 {
+                                    0.0
+                                } else {
+                                    (r >> 40) as f32 * 2f32.powi((r % 40) as i32 - 30)
+                                }
+                            }))
+                        }))
+                    })
+                    .collect();
+                if let (Some(v), true) = (bad, n > 0) {
+                    let i = (next() % n as u64) as usize;
+                    g[i].0[(next() % NUM_DIRS as u64) as usize].y = v;
+                }
+                for dominant in [false, true] {
+                    let mut avg = vec![AverageLight(Vec3::splat(7.0)); n];
+                    let mut dom = vec![DominantDir(Vec3::splat(7.0)); n];
+                    let ok = BinLight::resolve_all(&g, &mut avg, &mut dom, dominant);
+                    assert_eq!(ok, g.iter().all(|b| b.is_valid()), "n {n} bad {bad:?}");
+                    if !ok {
+                        continue;
+                    }
+                    for (i, b) in g.iter().enumerate() {
+                        assert_eq!(avg[i].0.to_array().map(f32::to_bits), b.average().to_array().map(f32::to_bits));
+                        let want = if dominant { b.dominant() } else { Vec3::ZERO };
+                        assert_eq!(dom[i].0.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits));
+                    }
+                }
+            }
+        }
     }
 }
