@@ -594,6 +594,14 @@ fn up_pass(ch: &[Channel; CHANNELS]) -> bool {
 /// dominant direction need.
 trait Sink: Copy + Default + Send + Sync + bytemuck::Pod {
     fn add(&mut self, bin: usize, unit: Vec3, g: Vec3);
+    /// [`Sink::add`] of every channel of a pass, in channel order: `light(c)` into
+    /// channel `c`'s bin.
+    #[inline]
+    fn add_channels(&mut self, ch: &[Channel; CHANNELS], light: impl Fn(usize) -> Vec3) {
+        for (c, chn) in ch.iter().enumerate() {
+            self.add(chn.bin, chn.unit, light(c));
+        }
+    }
     /// The point's final values: every value finite and `>= 0`, the average, and the
     /// dominant direction (if `dominant`; zero otherwise).
     fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3);
@@ -672,7 +680,8 @@ impl Sink for BinLight {
             let mut v = [[0f32; N]; 3];
             let mut sum = [0f32; N];
             for (b, unit) in dirs::units().iter().enumerate() {
-                let c: [[f32; N]; 3] = std::array::from_fn(|k| std::array::from_fn(|j| g[j].0[b][k]));
+                let c: [[f32; N]; 3] =
+                    std::array::from_fn(|k| std::array::from_fn(|j| g[j].0[b][k]));
                 for k in 0..3 {
                     for j in 0..N {
                         t[k][j] += c[k][j];
@@ -744,6 +753,16 @@ impl Sink for AvgAcc {
         let l = luminance(g);
         self.num += unit * l;
         self.den += l;
+    }
+    /// The sums in a local: adding in place made each channel's add wait on the
+    /// store of the one before (one chain through memory per point).
+    #[inline]
+    fn add_channels(&mut self, ch: &[Channel; CHANNELS], light: impl Fn(usize) -> Vec3) {
+        let mut acc = *self;
+        for (c, chn) in ch.iter().enumerate() {
+            acc.add(chn.bin, chn.unit, light(c));
+        }
+        *self = acc;
     }
     #[inline]
     fn clamp(&mut self) {
@@ -1563,14 +1582,8 @@ impl Ctx {
         let nx = self.nx as usize;
         let all_quiet = quiet.is_none_or(|q| q[nx * z as usize..][..nx].iter().all(|&b| b));
         if all_quiet {
-            // The point's sums in a local: adding to `g_pt` in place made each
-            // channel's add wait on the store of the one before.
             for (xi, g_pt) in g_row.iter_mut().enumerate() {
-                let mut acc = *g_pt;
-                for (c, chn) in self.ch.iter().enumerate() {
-                    acc.add(chn.bin, chn.unit, row_get(cur_row, p, xi, c));
-                }
-                *g_pt = acc;
+                g_pt.add_channels(self.ch, |c| row_get(cur_row, p, xi, c));
             }
             return;
         }
@@ -1818,11 +1831,13 @@ impl Ctx {
         }
     }
 
-    /// [`MediumEmission::Profile`]: step 3's height moments for the block `x0..x0 + b`
+    /// [`MediumEmission::Profile`]: [`Ctx::gather_removed`] into `removed_out` and, from
+    /// the same reads of the planes, step 3's height moments for the block `x0..x0 + b`
     /// of row `z`: per moment `h` and colour, `Σ_c μ_c Σ_k removed[x − d_k][slot k] ·
     /// w[slot k][h][x]` (taps in stencil order, points beyond an open side adding
     /// nothing), `w` the block's cells' collision moments per slot
-    /// ([`crate::profile::CellProfile::coll`]).
+    /// ([`crate::profile::CellProfile::coll`]). Every sum takes its terms in the order
+    /// the two gathers took them on their own.
     #[inline(never)]
     fn gather_moments(
         &self,
@@ -1830,13 +1845,17 @@ impl Ctx {
         (x0, b): (usize, usize),
         removed: &[f32],
         w: &[[[f32; GATHER_BLOCK]; 2]; SLOTS],
+        removed_out: &mut [[[f32; GATHER_BLOCK]; 3]; CHANNELS],
         out: &mut [[[f32; GATHER_BLOCK]; 3]; 2],
     ) {
         let nx = self.nx as usize;
         for o in out.iter_mut().flatten() {
             o[..b].fill(0.0);
         }
-        for chn in self.ch.iter() {
+        for (chn, ro) in self.ch.iter().zip(removed_out.iter_mut()) {
+            for col in ro.iter_mut() {
+                col[..b].fill(0.0);
+            }
             let mut t = [[[0f32; GATHER_BLOCK]; 3]; 2];
             for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                 let Some(zr) = self.row_of(z - dz) else {
@@ -1848,6 +1867,18 @@ impl Ctx {
                 let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                 for col in 0..3 {
                     let plane = &removed[plane_index(nx, zr * nx, slot, col)..][..nx];
+                    let rc = &mut ro[col];
+                    if hi > lo {
+                        let from = &plane[(first + lo as i32) as usize..][..hi - lo];
+                        for (v, &f) in rc[lo..hi].iter_mut().zip(from) {
+                            *v += f;
+                        }
+                    }
+                    if self.periodic {
+                        for i in (0..lo).chain(hi..b) {
+                            rc[i] += plane[(first + i as i32).rem_euclid(nx as i32) as usize];
+                        }
+                    }
                     for (th, wh) in t.iter_mut().zip(&w[slot]) {
                         let tc = &mut th[col];
                         if hi > lo {
@@ -1904,12 +1935,9 @@ impl Ctx {
         let profile = self.medium == MediumEmission::Profile;
         let is_profile =
             |m: &lightgrid_core::Material| profile && medium::applies(self.medium, m.pass);
-        // Profile: the block's collision moments per slot, and what they weigh.
-        let mut coll = if profile {
-            vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS]
-        } else {
-            Vec::new()
-        };
+        // Profile: the block's collision moments per slot, and what they weigh
+        // (allocated by the first block with such cells).
+        let mut coll = Vec::new();
         let mut by_row_h = [[[0f32; GATHER_BLOCK]; 3]; 2];
         for x in 0..self.nx {
             let xi = x as usize;
@@ -1917,10 +1945,10 @@ impl Ctx {
             let (i, x0) = (xi % GATHER_BLOCK, xi - xi % GATHER_BLOCK);
             if i == 0 && !scalar {
                 let b = GATHER_BLOCK.min(nx - x0);
-                if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
-                    self.gather_removed(z, x0, b, removed, &mut by_row);
-                }
                 if row_cells[x0..x0 + b].iter().any(is_profile) {
+                    if coll.is_empty() {
+                        coll = vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS];
+                    }
                     for (j, m) in row_cells[x0..x0 + b].iter().enumerate() {
                         let c = is_profile(m).then(|| &prof.get(x0 + j + nx * z as usize).coll);
                         for (slot, w) in coll.iter_mut().enumerate() {
@@ -1930,7 +1958,9 @@ impl Ctx {
                     }
                     let coll: &[[[f32; GATHER_BLOCK]; 2]; SLOTS] =
                         coll.as_slice().try_into().expect("SLOTS moments");
-                    self.gather_moments(z, (x0, b), removed, coll, &mut by_row_h);
+                    self.gather_moments(z, (x0, b), removed, coll, &mut by_row, &mut by_row_h);
+                } else if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
+                    self.gather_removed(z, x0, b, removed, &mut by_row);
                 }
             }
             if cells[ci].pass >= 1.0 {
@@ -2937,10 +2967,9 @@ fn run_with<S: Sink>(
                     g[range.clone()]
                         .par_chunks_mut(MIN_POINTS_PER_TASK)
                         .for_each(|gc| {
+                            touch(gc);
                             for gp in gc {
-                                for (c, chn) in ch.iter().enumerate() {
-                                    gp.add(chn.bin, chn.unit, v[c]);
-                                }
+                                gp.add_channels(ch, |c| v[c]);
                             }
                         });
                 }
@@ -3832,9 +3861,15 @@ mod tests {
                         continue;
                     }
                     for (i, b) in g.iter().enumerate() {
-                        assert_eq!(avg[i].0.to_array().map(f32::to_bits), b.average().to_array().map(f32::to_bits));
+                        assert_eq!(
+                            avg[i].0.to_array().map(f32::to_bits),
+                            b.average().to_array().map(f32::to_bits)
+                        );
                         let want = if dominant { b.dominant() } else { Vec3::ZERO };
-                        assert_eq!(dom[i].0.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits));
+                        assert_eq!(
+                            dom[i].0.to_array().map(f32::to_bits),
+                            want.to_array().map(f32::to_bits)
+                        );
                     }
                 }
             }
