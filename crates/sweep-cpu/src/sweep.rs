@@ -631,9 +631,13 @@ impl Sink for BinLight {
     fn add(&mut self, bin: usize, _unit: Vec3, g: Vec3) {
         self.0[bin] += g;
     }
+    /// `Vec3::max(ZERO)` on every bin, as flat floats (the same comparison, `v > 0 ?
+    /// v : 0`, so NaN and -0 become +0 as there; as `Vec3`s it did not vectorise).
+    #[inline]
     fn clamp(&mut self) {
-        for v in &mut self.0 {
-            *v = v.max(Vec3::ZERO);
+        let f: &mut [f32] = bytemuck::cast_slice_mut(std::slice::from_mut(self));
+        for v in f {
+            *v = if *v > 0.0 { *v } else { 0.0 };
         }
     }
     /// `BinLight::average` and `dominant` in one loop over the bins (each computed
@@ -676,32 +680,35 @@ impl Sink for BinLight {
         for ((g, a), d) in g4.iter().zip(a4).zip(d4) {
             // Lane j is point j; each sum is the `Vec3` operations of `resolve`
             // written out per component, in its order.
-            let mut t = [[0f32; N]; 3];
-            let mut v = [[0f32; N]; 3];
-            let mut sum = [0f32; N];
-            for (b, unit) in dirs::units().iter().enumerate() {
-                let c: [[f32; N]; 3] =
-                    std::array::from_fn(|k| std::array::from_fn(|j| g[j].0[b][k]));
-                for k in 0..3 {
+            let (mut tr, mut tg, mut tb) = ([0f32; N], [0f32; N], [0f32; N]);
+            let (mut vx, mut vy, mut vz, mut sum) = ([0f32; N], [0f32; N], [0f32; N], [0f32; N]);
+            let units = dirs::units();
+            if dominant {
+                for (b, u) in units.iter().enumerate() {
+                    let r: [f32; N] = std::array::from_fn(|j| g[j].0[b].x);
+                    let gg: [f32; N] = std::array::from_fn(|j| g[j].0[b].y);
+                    let bb: [f32; N] = std::array::from_fn(|j| g[j].0[b].z);
                     for j in 0..N {
-                        t[k][j] += c[k][j];
+                        tr[j] += r[j];
+                        tg[j] += gg[j];
+                        tb[j] += bb[j];
+                        let l = r[j] * wr + gg[j] * wg + bb[j] * wb;
+                        vx[j] += u.x * l;
+                        vy[j] += u.y * l;
+                        vz[j] += u.z * l;
+                        sum[j] += l;
                     }
                 }
-                if dominant {
-                    let mut l = [0f32; N];
+            } else {
+                for b in 0..NUM_DIRS {
                     for j in 0..N {
-                        l[j] = c[0][j] * wr + c[1][j] * wg + c[2][j] * wb;
-                    }
-                    for k in 0..3 {
-                        for j in 0..N {
-                            v[k][j] += unit[k] * l[j];
-                        }
-                    }
-                    for j in 0..N {
-                        sum[j] += l[j];
+                        tr[j] += g[j].0[b].x;
+                        tg[j] += g[j].0[b].y;
+                        tb[j] += g[j].0[b].z;
                     }
                 }
             }
+            let (t, v) = ([tr, tg, tb], [vx, vy, vz]);
             for j in 0..N {
                 let (total, v) = (
                     Vec3::new(t[0][j], t[1][j], t[2][j]),
@@ -733,8 +740,23 @@ impl Sink for BinLight {
 #[inline]
 fn valid_bins(b: &BinLight) -> bool {
     let f: &[f32] = bytemuck::cast_slice(std::slice::from_ref(b));
-    f.iter()
-        .fold(true, |ok, v| ok & (0.0..f32::INFINITY).contains(v))
+    // Lanes of the least and greatest value and of "any NaN" (NaN fails every
+    // comparison, so it moves neither bound): branch-free, so that it vectorises
+    // (`fold` with `Range::contains`, whose `&&` branches, ran 2.5 times slower).
+    let (chunks, rest) = f.as_chunks::<4>();
+    let (mut lo, mut hi, mut nan) = ([0f32; 4], [0f32; 4], [false; 4]);
+    for c in chunks {
+        for j in 0..4 {
+            let v = c[j];
+            lo[j] = if v < lo[j] { v } else { lo[j] };
+            hi[j] = if v > hi[j] { v } else { hi[j] };
+            nan[j] |= v.is_nan();
+        }
+    }
+    let ok = |v: f32| (v >= 0.0) & (v < f32::INFINITY);
+    (0..4).fold(true, |a, j| {
+        a & (lo[j] >= 0.0) & (hi[j] < f32::INFINITY) & !nan[j]
+    }) & rest.iter().fold(true, |a, &v| a & ok(v))
 }
 
 /// Running sums for the average (`sum`) and dominant direction (`num / den`).
@@ -3832,7 +3854,14 @@ mod tests {
             seed
         };
         for n in 0..=11 {
-            for bad in [None, Some(f32::NAN), Some(-1e-3), Some(f32::INFINITY)] {
+            for bad in [
+                None,
+                Some(f32::NAN),
+                Some(-1e-3),
+                Some(f32::INFINITY),
+                Some(-0.0),
+                Some(f32::MAX),
+            ] {
                 let mut g: Vec<BinLight> = (0..n)
                     .map(|_| {
                         BinLight(std::array::from_fn(|_| {
@@ -3873,6 +3902,34 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// `BinLight`'s `clamp` (flat floats) is `Vec3::max(ZERO)` on every bin, bit for bit:
+    /// NaN and -0 become +0, negative values 0, the rest stay.
+    #[test]
+    fn clamp_equals_vec3_max() {
+        let vals = [
+            f32::NAN,
+            -0.0,
+            0.0,
+            -1e-30,
+            -5.0,
+            1e-40,
+            3.5,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        let mut b = BinLight(std::array::from_fn(|d| {
+            Vec3::from_array(std::array::from_fn(|k| vals[(d * 3 + k) % vals.len()]))
+        }));
+        let want = b.0.map(|v| v.max(Vec3::ZERO));
+        Sink::clamp(&mut b);
+        for (got, want) in b.0.iter().zip(&want) {
+            assert_eq!(
+                got.to_array().map(f32::to_bits),
+                want.to_array().map(f32::to_bits)
+            );
         }
     }
 }
