@@ -323,50 +323,58 @@ struct Node {
     k: [[f32; 2]; 2],
 }
 
-fn tables() -> &'static [Node] {
-    static T: std::sync::OnceLock<Vec<Node>> = std::sync::OnceLock::new();
-    T.get_or_init(|| {
-        // Two plain threads, not rayon: this runs inside a `OnceLock`'s initializer, and
-        // a rayon worker that waits in it while stealing a job that needs the tables
-        // again deadlocks (a test sweep hung so).
-        let node = |i: usize| -> Node {
-            let u = i as f64 / (TABLE - 1) as f64;
-            // τ = 0 as a vanishing depth: the ratios' limits.
-            let tau = (TAU_MAX * u * u).max(1e-9);
-            let mut node = Node {
-                slot: [[[0.0; 6]; SLOTS]; 2],
-                k: [[0.0; 2]; 2],
-            };
-            let mut k = [[0.0f64; 2]; 2];
-            for (pass, up) in [false, true].into_iter().enumerate() {
-                for (sl, (w, seg)) in pass_segments(up, tau).into_iter().enumerate() {
-                    let (c, e, uu) = (seg.collided(), seg.emitted(), seg.uniform());
-                    node.slot[pass][sl] = [
-                        (c[1] / c[0]) as f32,
-                        (c[2] / c[0]) as f32,
-                        e[1] as f32,
-                        e[2] as f32,
-                        ((uu[1] - e[1]) / seg.t) as f32,
-                        ((uu[2] - e[2]) / seg.t) as f32,
-                    ];
-                    let kk = seg.self_collided();
-                    for n in 0..2 {
-                        for m in 0..2 {
-                            k[n][m] += w * kk[n + 1][m + 1];
-                        }
-                    }
+/// Node `i` of the tables, computed on first use (about 0.3 ms each): a scene reads
+/// the nodes around its media's optical depths, a few of the [`TABLE`] (all of them
+/// took some 180 ms before a process's first sweep). The computation runs no rayon
+/// jobs, so a worker never waits in one node's initializer while stealing work that
+/// needs the same node.
+fn node(i: usize) -> &'static Node {
+    static T: std::sync::OnceLock<Vec<std::sync::OnceLock<Node>>> = std::sync::OnceLock::new();
+    T.get_or_init(|| (0..TABLE).map(|_| std::sync::OnceLock::new()).collect())[i]
+        .get_or_init(|| compute_node(i))
+}
+
+/// Node `i` of the tables, from the segments' integrals.
+fn compute_node(i: usize) -> Node {
+    let u = i as f64 / (TABLE - 1) as f64;
+    // τ = 0 as a vanishing depth: the ratios' limits.
+    let tau = (TAU_MAX * u * u).max(1e-9);
+    let mut node = Node {
+        slot: [[[0.0; 6]; SLOTS]; 2],
+        k: [[0.0; 2]; 2],
+    };
+    let mut k = [[0.0f64; 2]; 2];
+    for (pass, up) in [false, true].into_iter().enumerate() {
+        for (sl, (w, seg)) in pass_segments(up, tau).into_iter().enumerate() {
+            let (c, e, uu) = (seg.collided(), seg.emitted(), seg.uniform());
+            node.slot[pass][sl] = [
+                (c[1] / c[0]) as f32,
+                (c[2] / c[0]) as f32,
+                e[1] as f32,
+                e[2] as f32,
+                ((uu[1] - e[1]) / seg.t) as f32,
+                ((uu[2] - e[2]) / seg.t) as f32,
+            ];
+            let kk = seg.self_collided();
+            for n in 0..2 {
+                for m in 0..2 {
+                    k[n][m] += w * kk[n + 1][m + 1];
                 }
             }
-            node.k = k.map(|r| r.map(|v| v as f32));
-            node
-        };
-        let half = TABLE / 2;
-        std::thread::scope(|s| {
-            let upper = s.spawn(|| (half..TABLE).map(node).collect::<Vec<Node>>());
-            let mut v: Vec<Node> = (0..half).map(node).collect();
-            v.extend(upper.join().expect("profile table thread"));
-            v
-        })
+        }
+    }
+    node.k = k.map(|r| r.map(|v| v as f32));
+    node
+}
+
+/// Every node of the tables (for the GPU's copy), on two plain threads.
+fn tables() -> Vec<&'static Node> {
+    let half = TABLE / 2;
+    std::thread::scope(|s| {
+        let upper = s.spawn(|| (half..TABLE).map(node).collect::<Vec<_>>());
+        let mut v: Vec<&'static Node> = (0..half).map(node).collect();
+        v.extend(upper.join().expect("profile table thread"));
+        v
     })
 }
 
@@ -440,9 +448,9 @@ impl CellProfile {
     /// or upward pass. Finite for any `lnp` (thicker than [`TAU_MAX`]: its values).
     pub fn new(up: bool, lnp: f32) -> Self {
         let tau = (-lnp as f64).clamp(0.0, f64::MAX);
-        let t = tables();
         let u = (tau.min(TAU_MAX) / TAU_MAX).sqrt() * (TABLE - 1) as f64;
         let i = (u as usize).min(TABLE - 2);
+        let t = [node(i), node(i + 1)];
         let f = (u - i as f64).clamp(0.0, 1.0) as f32;
         let lerp = |a: f32, b: f32| a + (b - a) * f;
         let mut out = CellProfile {
@@ -464,7 +472,7 @@ impl CellProfile {
             let geo = slot_geometry(pass == 1);
             let gi = if this { 0 } else { 1 };
             for sl in 0..SLOTS {
-                let (a, b) = (&t[i].slot[pass][sl], &t[i + 1].slot[pass][sl]);
+                let (a, b) = (&t[0].slot[pass][sl], &t[1].slot[pass][sl]);
                 let v: [f32; 6] = std::array::from_fn(|q| lerp(a[q], b[q]));
                 let (w, e, ubar) = geo[sl];
                 // The segment's depth and the fraction it removes, as the sweep computes
@@ -494,7 +502,7 @@ impl CellProfile {
         for n in 0..2 {
             out.k[n + 1][0] = kn0[n] as f32;
             for m in 0..2 {
-                out.k[n + 1][m + 1] = lerp(t[i].k[n][m], t[i + 1].k[n][m]);
+                out.k[n + 1][m + 1] = lerp(t[0].k[n][m], t[1].k[n][m]);
             }
         }
         out
@@ -692,8 +700,6 @@ impl Profiles {
     /// `medium(q)`, of a clear cell (`ln p = 0`) elsewhere.
     pub(crate) fn level(&mut self, up: bool, lnp: &[f32], medium: impl Fn(usize) -> bool) {
         use rayon::prelude::*;
-        // The tables, once, outside rayon's workers.
-        let _ = tables();
         let todo = self.assign(up, lnp, &medium);
         // Too many to keep: start afresh (the level's own distinct values always fit).
         let todo = if self.all.len() + todo.len() > Self::KEEP.max(todo.len()) {
