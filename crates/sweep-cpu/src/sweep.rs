@@ -835,6 +835,9 @@ struct RowFlux {
     side_out: DVec3,
     /// A resolved value was negative, NaN or infinite.
     bad: bool,
+    /// `sent` is already set (a row that passed its light on unchanged: what it
+    /// gathered, summed in the same order); [`Ctx::finish_row`] leaves it.
+    sent_known: bool,
 }
 
 impl std::ops::Add for RowFlux {
@@ -848,6 +851,7 @@ impl std::ops::Add for RowFlux {
             sent: self.sent + o.sent,
             side_out: self.side_out + o.side_out,
             bad: self.bad | o.bad,
+            sent_known: false,
         }
     }
 }
@@ -1476,7 +1480,14 @@ impl Ctx {
                     touch(g_row);
                 }
                 self.gather_row_channels(z, prev, ghost, cur_row, rf);
-                self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row);
+                let unchanged =
+                    self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row);
+                if unchanged && ghost.is_none() {
+                    // The light it sends on is what it gathered (no light from
+                    // outside was added after the sum of `inside`).
+                    rf.sent = rf.inside;
+                    rf.sent_known = true;
+                }
             },
         )
     }
@@ -1586,7 +1597,7 @@ impl Ctx {
     /// [`Ctx::transmit`] for every point and channel, the same operations in the same
     /// order, run channel by channel over blocks of the row and segment by segment
     /// (`planes`: the level's transmittances with a ring) so that the loops vectorise.
-    /// A row whose points are all quiet passes its light unchanged.
+    /// A row whose points are all quiet passes its light unchanged (and `true` says so).
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn transmit_row<S: Sink>(
@@ -1599,7 +1610,7 @@ impl Ctx {
         rem_row: &mut [f32],
         ta_row: &mut [[f32; CHANNELS]],
         g_row: &mut [S],
-    ) {
+    ) -> bool {
         const B: usize = GATHER_BLOCK;
         let nx = self.nx as usize;
         let all_quiet = quiet.is_none_or(|q| q[nx * z as usize..][..nx].iter().all(|&b| b));
@@ -1607,7 +1618,7 @@ impl Ctx {
             for (xi, g_pt) in g_row.iter_mut().enumerate() {
                 g_pt.add_channels(self.ch, |c| row_get(cur_row, p, xi, c));
             }
-            return;
+            return true;
         }
         let mut x0 = 0;
         while x0 < nx {
@@ -1654,6 +1665,7 @@ impl Ctx {
             }
             x0 += b;
         }
+        false
     }
 
     /// Step 1, tap by tap (light from inside the grid, light from outside): the
@@ -1796,9 +1808,11 @@ impl Ctx {
         rf: &mut RowFlux,
     ) {
         let nx = self.nx as usize;
-        for (c, chn) in self.ch.iter().enumerate() {
-            for k in 0..3 {
-                rf.sent[k] += sum_f64(&cur_row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
+        if !rf.sent_known {
+            for (c, chn) in self.ch.iter().enumerate() {
+                for k in 0..3 {
+                    rf.sent[k] += sum_f64(&cur_row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
+                }
             }
         }
         if let Some((dominant, clamp)) = resolve {
