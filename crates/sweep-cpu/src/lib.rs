@@ -153,25 +153,66 @@
 //!   point by point, so `tests/fast_path.rs` compares two implementations of every
 //!   phase but phase 3's collisions (shared, reading the slot planes both write).
 //!
-//! **Roofline** (estimate per point and pass, quiet point, 26 bins): gather 17 channels
-//! × 3 colours × 9 flops ≈ 460 flops (vectorised, 4 lanes: ~115 operations), flux
-//! tallies and output adds ≈ 150, the last pass's resolve (26 bins × 15 flops, one
-//! dependent chain per sum) ≈ 390: about 650 scalar-equivalent operations, which two
-//! cores at ~3 GHz issuing two a cycle would run at some 18 M points/s. Memory: the
-//! output written (312 bytes) in the first pass, read and written (624 bytes) in later
-//! ones, plus the level planes (2 × 204 bytes, mostly from L2): about 20 GB/s on two
-//! cores allows some 55 M points/s for one pass, 25 M/s for later passes. The one-pass
-//! figure (11.1 M/s) is about 60 % of the compute estimate. Where a pass's time goes
-//! now (one thread, 37 ms): resolve 23 %, phase 2 on the 16 k material cells 18 %
-//! (half of it waiting on removals written by phase 1, which left L2 meanwhile), the
-//! transmit step and the output adds 19 %, the gather 10 %, zeroing the output rows in
-//! the first pass 6 %. Later passes are memory bound: the output's 82 MB are read and
-//! written once a pass (the output adds wait on those loads: half of the 4-pass time).
-//! The issue's targets (20 M points/s for one pass, 8 M/s for four, a forest 380× faster
-//! than Monte Carlo to its error) remain open. Where the forest's time goes now (16³,
-//! one thread, perf): the transmit step 20 %, phase 3's emission 11 %, phase 2 17 %
-//! (its collection 6 %), phase 3's collisions 10 %, the gather 9 %, resolving 5 %;
-//! rows of 16 points make short loops.
+//! **Since (issue 15, third round; default rule; criterion, same bench, means, against
+//! the table just above):**
+//!
+//! | case | now, recycled | change (criterion) |
+//! |------|--------------:|-------------------:|
+//! | 64³, 26 bins, 1 pass | 24.4 ms (10.7 M/s) | −9.8 % (p = 0.08: within noise) |
+//! | 64³, 26 bins, 4 passes | 75.3 ms (3.5 M/s) | −33 % |
+//! | 64³, average + dominant only, 1 / 4 passes | 16.7 / 63.8 ms (15.7 / 4.1 M/s) | −24 % / −21 % |
+//! | 16 × 64 × 16, 26 bins, 1 / 4 passes | 1.90 / 7.7 ms (8.6 / 2.1 M/s) | −25 % / −31 % |
+//! | uniform fog 16³, 4 passes | 17.5 ms | −26 % |
+//!
+//! (The scalar oracle, which shares the resolve and the clamp, moved −4 to −15 % in the
+//! same run; the VM's speed moves by as much.) What changed, found with perf:
+//!
+//! - **The clamp** every last pass under the default rule (light of either sign) was
+//!   `Vec3::max` per bin and did not vectorise: most of `finish_row`. Now flat floats,
+//!   `v > 0 ? v : 0`, the same value bit for bit (unit test).
+//! - **The validity check** (`valid_bins`, 78 floats a point) was a `fold` over
+//!   `Range::contains`, whose `&&` branches: lanes of the least and greatest value and
+//!   of "any NaN" now (2× faster). The resolve's sums run four points as lanes.
+//! - **Later passes' output adds** waited on the output's cache lines one point at a
+//!   time (the 82 MB grid is not in cache after the first pass): each row's lines are
+//!   now read ahead in a loop of independent loads (`touch`) before the adds. The
+//!   average-only sink's adds went through memory (a store then a load per channel);
+//!   they sum in a local now.
+//! - **A row that passes its light on unchanged** (all points quiet, no light from
+//!   outside) takes the flux it sends on from what it gathered instead of summing its
+//!   51 planes again (same terms, same order).
+//! - **Profile rule**: the removed light and its height moments are gathered from one
+//!   read of the planes; the per-cell profiles are kept across levels (a 64 × 64 level
+//!   cleared the set every level: the check counted cells, not distinct values), and
+//!   each table node is computed on first use (a process's first sweep paid ~180 ms
+//!   for all 1025).
+//!
+//! Tried and dropped: `-C target-cpu=x86-64-v3` (AVX2) gives no measurable change, and
+//! sixteen lanes in the `f64` flux sums none either (they already run at the adder's
+//! throughput, 0.2 ns a float): the loops are not bound by vector width.
+//!
+//! **Roofline** (per point and pass, quiet point, 26 bins). Compute: gather 17 channels
+//! × 3 colours × 9 flops ≈ 460 flops (~115 four-lane operations), flux tallies and
+//! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
+//! scalar-equivalent operations, which two cores at ~3 GHz issuing two a cycle would
+//! run at ~18 M points/s. Memory, measured on this VM with two threads: a read-modify-write
+//! of the 82 MB output takes 4–5 ms (~35 GB/s moved), writing it 4.3 ms; a pass that
+//! adds to the output therefore costs ≥ 4–5 ms at 64³ (≥ 55 M points/s), the first
+//! pass's write ≥ 4.3 ms. So one pass is bound by neither: 10.7 M/s is 60 % of the
+//! compute estimate; four passes at 3.5 M/s spend 19 ms a pass against ~4.5 ms of
+//! memory traffic and ~15 ms of compute. Where one pass goes now (perf, two threads):
+//! resolve 12 %, the transmit step and output adds 11 %, filling the 30 levels above
+//! the canopy (38 MB written) 8 %, zeroing the first pass's rows 6 %, phase 2 6 %,
+//! the gather 9 %, phase 3 and its collisions 9 %, `finish_row` 5 %, scheduling 3 %.
+//! Measured per level: an empty 64 × 64 level costs about 0.23 ms a pass (gather,
+//! adds, flux sums) on two threads. The issue's targets (20 M points/s for one pass,
+//! 8 M/s for four) remain open: they need the per-point work of the empty levels
+//! (most of the canopy's 64) cut by half again, not one more hot spot.
+//!
+//! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
+//! reaches error 0.0175 in 6.0 ms, 150× Monte Carlo's time to that error (91–169×
+//! over runs on this VM); the bench now also names the cheapest setting for its error:
+//! 2 passes reach the same 0.0175 in 2.9–3.1 ms, about 310–400×.
 //!
 //! ## Semantics of the sweep
 //!
