@@ -211,7 +211,7 @@
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
 //! reaches error 0.0175 in 6.0–6.5 ms, 150–184× Monte Carlo's time to that error (91×
-//! over runs on this VM); the bench now also names the cheapest setting for its error:
+//! once, on a busy VM); the bench now also names the cheapest setting for its error:
 //! 2 passes reach the same 0.0175 in 2.9–3.2 ms, 305–396× over three runs.
 //!
 //! ## Semantics of the sweep
