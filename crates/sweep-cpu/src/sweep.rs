@@ -1851,18 +1851,27 @@ impl Ctx {
                 let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                 for (col, oc) in o.iter_mut().enumerate() {
                     let plane = &removed[plane_index(nx, zr * nx, chn.first_slot + k, col)..][..nx];
-                    if hi > lo {
-                        let from = &plane[(first + lo as i32) as usize..][..hi - lo];
-                        for (v, &f) in oc[lo..hi].iter_mut().zip(from) {
-                            *v += f;
-                        }
-                    }
-                    if self.periodic {
-                        for i in (0..lo).chain(hi..b) {
-                            oc[i] += plane[(first + i as i32).rem_euclid(nx as i32) as usize];
-                        }
-                    }
+                    self.add_tap(&mut oc[..b], plane, first, (lo, hi));
                 }
+            }
+        }
+    }
+
+    /// One tap of a block's gather: `out[i] += plane[first + i]` for the block's points
+    /// `lo..hi` whose source lies in the row, and, on periodic sides, the others from
+    /// the wrapped column (beyond an open side they add nothing).
+    #[inline]
+    fn add_tap(&self, out: &mut [f32], plane: &[f32], first: i32, (lo, hi): (usize, usize)) {
+        if hi > lo {
+            let from = &plane[(first + lo as i32) as usize..][..hi - lo];
+            for (v, &f) in out[lo..hi].iter_mut().zip(from) {
+                *v += f;
+            }
+        }
+        if self.periodic {
+            let nx = plane.len() as i32;
+            for i in (0..lo).chain(hi..out.len()) {
+                out[i] += plane[(first + i as i32).rem_euclid(nx) as usize];
             }
         }
     }
@@ -1903,18 +1912,7 @@ impl Ctx {
                 let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                 for col in 0..3 {
                     let plane = &removed[plane_index(nx, zr * nx, slot, col)..][..nx];
-                    let rc = &mut ro[col];
-                    if hi > lo {
-                        let from = &plane[(first + lo as i32) as usize..][..hi - lo];
-                        for (v, &f) in rc[lo..hi].iter_mut().zip(from) {
-                            *v += f;
-                        }
-                    }
-                    if self.periodic {
-                        for i in (0..lo).chain(hi..b) {
-                            rc[i] += plane[(first + i as i32).rem_euclid(nx as i32) as usize];
-                        }
-                    }
+                    self.add_tap(&mut ro[col][..b], plane, first, (lo, hi));
                     for (th, wh) in t.iter_mut().zip(&w[slot]) {
                         let tc = &mut th[col];
                         if hi > lo {
