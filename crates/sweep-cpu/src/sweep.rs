@@ -615,15 +615,26 @@ trait Sink: Copy + Default + Send + Sync + bytemuck::Pod {
         dom: &mut [DominantDir],
         dominant: bool,
     ) -> bool {
-        let mut ok = true;
-        for ((g, a), d) in g.iter().zip(avg).zip(dom) {
-            let (v, av, dv) = g.resolve(dominant);
-            ok &= v & av.is_finite() & dv.is_finite();
-            a.0 = av;
-            d.0 = dv;
-        }
-        ok
+        resolve_each(g, avg, dom, dominant)
     }
+}
+
+/// [`Sink::resolve`] point by point (what [`Sink::resolve_all`] does unless a sink
+/// does better).
+fn resolve_each<S: Sink>(
+    g: &[S],
+    avg: &mut [AverageLight],
+    dom: &mut [DominantDir],
+    dominant: bool,
+) -> bool {
+    let mut ok = true;
+    for ((g, a), d) in g.iter().zip(avg).zip(dom) {
+        let (v, av, dv) = g.resolve(dominant);
+        ok &= v & av.is_finite() & dv.is_finite();
+        a.0 = av;
+        d.0 = dv;
+    }
+    ok
 }
 
 impl Sink for BinLight {
@@ -725,13 +736,7 @@ impl Sink for BinLight {
                 d[j].0 = dv;
             }
         }
-        for ((g, a), d) in g_rest.iter().zip(a_rest).zip(d_rest) {
-            let (v, av, dv) = g.resolve(dominant);
-            ok &= v & av.is_finite() & dv.is_finite();
-            a.0 = av;
-            d.0 = dv;
-        }
-        ok
+        ok & resolve_each(g_rest, a_rest, d_rest, dominant)
     }
 }
 
