@@ -758,7 +758,8 @@ fn valid_bins(b: &BinLight) -> bool {
             nan[j] |= v.is_nan();
         }
     }
-    let ok = |v: f32| (v >= 0.0) & (v < f32::INFINITY);
+    // (The two values after the last four: `contains` is as good there.)
+    let ok = |v: f32| (0.0..f32::INFINITY).contains(&v);
     (0..4).fold(true, |a, j| {
         a & (lo[j] >= 0.0) & (hi[j] < f32::INFINITY) & !nan[j]
     }) & rest.iter().fold(true, |a, &v| a & ok(v))
