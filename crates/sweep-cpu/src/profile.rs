@@ -7,8 +7,9 @@
 //! 3's emission; with diffusion acceleration, [`crate::accel`]: its
 //! corrections become flat sources, [`CellProfile::source_of_scattered`]) and on the GPU
 //! (`sweep-gpu`, from [`table_floats`] and [`slot_geometry`]); see the crate docs,
-//! "Against exact answers". Cost: the tables, built once per process, 125 ms on the
-//! 2-core VM; a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
+//! "Against exact answers". Cost: each table node, computed on first use, about 0.3 ms
+//! on the 2-core VM (a scene reads the few around its media's depths; all 1025, as the
+//! GPU's copy needs, take some 180 ms); a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
 //! direction and kept across levels, passes and sweeps (up to 4096 of them).
 //!
 //! ## Why

@@ -719,11 +719,10 @@ impl Sink for BinLight {
                     }
                 }
             }
-            let (t, v) = ([tr, tg, tb], [vx, vy, vz]);
             for j in 0..N {
                 let (total, v) = (
-                    Vec3::new(t[0][j], t[1][j], t[2][j]),
-                    Vec3::new(v[0][j], v[1][j], v[2][j]),
+                    Vec3::new(tr[j], tg[j], tb[j]),
+                    Vec3::new(vx[j], vy[j], vz[j]),
                 );
                 let dv = if sum[j] > 0.0 && sum[j].is_finite() {
                     (v / sum[j]).clamp_length_max(1.0)
