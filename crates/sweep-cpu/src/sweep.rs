@@ -1902,11 +1902,13 @@ impl Ctx {
         for o in out.iter_mut().flatten() {
             o[..b].fill(0.0);
         }
+        // (Zeroed per channel for the block's `b` points only: a row of 16 points
+        // zeroed the whole 64 at every channel.)
+        let mut t = [[[0f32; GATHER_BLOCK]; 3]; 2];
         for (chn, ro) in self.ch.iter().zip(removed_out.iter_mut()) {
-            for col in ro.iter_mut() {
+            for col in ro.iter_mut().chain(t.iter_mut().flatten()) {
                 col[..b].fill(0.0);
             }
-            let mut t = [[[0f32; GATHER_BLOCK]; 3]; 2];
             for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                 let Some(zr) = self.row_of(z - dz) else {
                     continue;
@@ -1970,14 +1972,15 @@ impl Ctx {
         emits_row.fill(false);
         ex_row.fill(0.0);
         let row_cells = &cells[nx * z as usize..][..nx];
-        let mut by_row = [[[0f32; GATHER_BLOCK]; 3]; CHANNELS];
+        let mut scratch = Phase2Scratch::take();
+        let Phase2Scratch {
+            by_row,
+            by_row_h,
+            coll,
+        } = &mut *scratch;
         let profile = self.medium == MediumEmission::Profile;
         let is_profile =
             |m: &lightgrid_core::Material| profile && medium::applies(self.medium, m.pass);
-        // Profile: the block's collision moments per slot, and what they weigh
-        // (allocated by the first block with such cells).
-        let mut coll = Vec::new();
-        let mut by_row_h = [[[0f32; GATHER_BLOCK]; 3]; 2];
         for x in 0..self.nx {
             let xi = x as usize;
             let ci = xi + nx * z as usize;
@@ -1986,7 +1989,7 @@ impl Ctx {
                 let b = GATHER_BLOCK.min(nx - x0);
                 if row_cells[x0..x0 + b].iter().any(is_profile) {
                     if coll.is_empty() {
-                        coll = vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS];
+                        *coll = vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS];
                     }
                     for (j, m) in row_cells[x0..x0 + b].iter().enumerate() {
                         let c = is_profile(m).then(|| &prof.get(x0 + j + nx * z as usize).coll);
@@ -1997,9 +2000,9 @@ impl Ctx {
                     }
                     let coll: &[[[f32; GATHER_BLOCK]; 2]; SLOTS] =
                         coll.as_slice().try_into().expect("SLOTS moments");
-                    self.gather_moments(z, (x0, b), removed, coll, &mut by_row, &mut by_row_h);
+                    self.gather_moments(z, (x0, b), removed, coll, by_row, by_row_h);
                 } else if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
-                    self.gather_removed(z, x0, b, removed, &mut by_row);
+                    self.gather_removed(z, x0, b, removed, by_row);
                 }
             }
             if cells[ci].pass >= 1.0 {
@@ -2186,7 +2189,102 @@ impl Ctx {
                     (em.budget(&recycled, self.ch) + em.budget(&other, other_ch)).as_dvec3();
             }
         }
+        Phase2Scratch::give_back(scratch);
         rf
+    }
+}
+
+/// [`Ctx::phase2_row`]'s blocks of gathered removed light, one per thread, kept from
+/// row to row: as locals they were zeroed in full for every row (13 KiB, and 25 KiB of
+/// profile moments, for a row of 16 points that reads 16 of each 64). Only the points
+/// a block gathers are read, and the gathers write them first.
+struct Phase2Scratch {
+    /// Per channel and colour: what each cell of the block removed ([`Ctx::gather_removed`]).
+    by_row: [[[f32; GATHER_BLOCK]; 3]; CHANNELS],
+    /// Profile: the height moments of what each cell removed ([`Ctx::gather_moments`]).
+    by_row_h: [[[f32; GATHER_BLOCK]; 3]; 2],
+    /// Profile: the block's cells' collision moments per slot (empty until a block
+    /// has such cells).
+    coll: Vec<[[f32; GATHER_BLOCK]; 2]>,
+}
+
+thread_local! {
+    static PHASE2_SCRATCH: std::cell::Cell<Option<Box<Phase2Scratch>>> =
+        const { std::cell::Cell::new(None) };
+}
+
+impl Phase2Scratch {
+    /// This thread's scratch (a new one the first time).
+    fn take() -> Box<Self> {
+        PHASE2_SCRATCH.take().unwrap_or_else(|| {
+            Box::new(Self {
+                by_row: [[[0.0; GATHER_BLOCK]; 3]; CHANNELS],
+                by_row_h: [[[0.0; GATHER_BLOCK]; 3]; 2],
+                coll: Vec::new(),
+            })
+        })
+    }
+    fn give_back(s: Box<Self>) {
+        PHASE2_SCRATCH.set(Some(s));
+    }
+}
+
+/// [`Ctx::collide_row`]'s running sums for one colour of a block of points: what the
+/// points' cells stopped (`s`), its first moment (`m`, per axis) and, under the profile
+/// rule, its height moments (`h`).
+struct Tally<'a> {
+    s: &'a mut [f32],
+    m: [&'a mut [f32]; 3],
+    h: Option<[&'a mut [f32]; 2]>,
+}
+
+impl Tally<'_> {
+    /// For the block's points `range` (and `v`, what their paths carry into the
+    /// segment, one value a point): `r = v·((1 − pw)·om)` joins `s`, `r·unit` joins `m`,
+    /// `r·cw` joins `h`, in that order. Slices of one length and no closure, so that
+    /// the loop vectorises (as a closure indexing `unit[a]` it ran one float at a
+    /// time, a bounds check a term).
+    #[inline(always)]
+    fn add(
+        &mut self,
+        range: std::ops::Range<usize>,
+        v: &[f32],
+        (pw, om, unit): (&[f32], f32, [f32; 3]),
+        cw: &[[f32; GATHER_BLOCK]; 2],
+    ) {
+        let n = range.len();
+        let (v, pw) = (&v[..n], &pw[range.clone()][..n]);
+        let s = &mut self.s[range.clone()][..n];
+        let [m0, m1, m2] = &mut self.m;
+        let (m0, m1, m2) = (
+            &mut m0[range.clone()][..n],
+            &mut m1[range.clone()][..n],
+            &mut m2[range.clone()][..n],
+        );
+        match &mut self.h {
+            None => {
+                for i in 0..n {
+                    let r = v[i] * ((1.0 - pw[i]) * om);
+                    s[i] += r;
+                    m0[i] += r * unit[0];
+                    m1[i] += r * unit[1];
+                    m2[i] += r * unit[2];
+                }
+            }
+            Some([h0, h1]) => {
+                let (h0, h1) = (&mut h0[range.clone()][..n], &mut h1[range.clone()][..n]);
+                let (c0, c1) = (&cw[0][range.clone()][..n], &cw[1][range][..n]);
+                for i in 0..n {
+                    let r = v[i] * ((1.0 - pw[i]) * om);
+                    s[i] += r;
+                    m0[i] += r * unit[0];
+                    m1[i] += r * unit[1];
+                    m2[i] += r * unit[2];
+                    h0[i] += r * c0[i];
+                    h1[i] += r * c1[i];
+                }
+            }
+        }
     }
 }
 
@@ -2312,11 +2410,16 @@ impl Ctx {
         let nx = self.nx as usize;
         let mw = medium::weights(up_pass(self.ch));
         let mut x0 = 0;
+        // Zeroed per channel for the block's `b` points only (a short row zeroed all
+        // `B` at every channel).
+        let (mut acc, mut centre) = ([[0f32; B]; 3], [[0f32; B]; 3]);
+        let (mut mean, mut ex) = ([0f32; B], [0f32; B]);
         while x0 < nx {
             let b = B.min(nx - x0);
             for (c, chn) in self.ch.iter().enumerate() {
-                let mut acc = [[0f32; B]; 3];
-                let mut centre = [[0f32; B]; 3];
+                for a in acc.iter_mut().chain(centre.iter_mut()) {
+                    a[..b].fill(0.0);
+                }
                 for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                     let slot = chn.first_slot + k;
                     let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
@@ -2325,7 +2428,6 @@ impl Ctx {
                         pre_row[(slot * 3 + col) * nx + x0..][..b].copy_from_slice(&a[..b]);
                     }
                     if dx == 0 && dz == 0 {
-                        let mut mean = [0f32; B];
                         let lnp = at(Planes::LNP);
                         let e = path_exponents()[chn.pow[k]];
                         for i in 0..b {
@@ -2354,7 +2456,6 @@ impl Ctx {
                         }
                     }
                     if hi.is_some() {
-                        let mut ex = [0f32; B];
                         for (col, a) in acc.iter_mut().enumerate() {
                             let sv = at(Planes::SRC + col);
                             planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, &mut ex[..b]);
@@ -2482,7 +2583,7 @@ impl Ctx {
         (same_row, other_row): (&mut [Pending], &mut [Pending]),
         rf: &mut RowFlux,
     ) {
-        const B: usize = 64;
+        const B: usize = GATHER_BLOCK;
         let nx = self.nx as usize;
         let row_cells = &cells[nx * z as usize..][..nx];
         if row_cells.iter().all(|m| m.pass >= 1.0) {
@@ -2491,12 +2592,26 @@ impl Ctx {
         let mw = medium::weights(up_pass(self.ch));
         let profile = self.medium == MediumEmission::Profile;
         let mut x0 = 0;
+        // Zeroed per block for its `b` points only.
+        let mut got_s = [[0f32; B]; 3];
+        let mut got_m = [[[0f32; B]; 3]; 3];
+        // Profile: the collisions' height moments (P_1, P_2) per colour.
+        let mut got_h = [[[0f32; B]; 3]; 2];
+        let mut cw = [[0f32; B]; 2];
         while x0 < nx {
             let b = B.min(nx - x0);
-            let mut got_s = [[0f32; B]; 3];
-            let mut got_m = [[[0f32; B]; 3]; 3];
-            // Profile: the collisions' height moments (P_1, P_2) per colour.
-            let mut got_h = [[[0f32; B]; 3]; 2];
+            for a in got_s.iter_mut().chain(got_m.iter_mut().flatten()) {
+                a[..b].fill(0.0);
+            }
+            for a in got_h.iter_mut().flatten() {
+                a[..b].fill(0.0);
+            }
+            // Profile: the block's media's profiles (found once, read for every slot).
+            let block_prof: [Option<&crate::profile::CellProfile>; B] = std::array::from_fn(|i| {
+                let ci = x0 + i + nx * z as usize;
+                (profile && i < b && medium::applies(self.medium, cells[ci].pass))
+                    .then(|| prof.get(ci))
+            });
             for (c, chn) in self.ch.iter().enumerate() {
                 let om = mw.omega[c] * chn.mu;
                 // A path carries nothing into its first segment.
@@ -2514,44 +2629,34 @@ impl Ctx {
                     let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                     // Profile: the block's media's collision moments for this slot
                     // (0 elsewhere: what is tallied there is not read).
-                    let mut cw = [[0f32; B]; 2];
                     if profile {
-                        for i in 0..b {
-                            let ci = x0 + i + nx * z as usize;
-                            if medium::applies(self.medium, cells[ci].pass) {
-                                let c = prof.get(ci).coll[slot];
-                                (cw[0][i], cw[1][i]) = (c[0], c[1]);
+                        for w in cw.iter_mut() {
+                            w[..b].fill(0.0);
+                        }
+                        for (i, pr) in block_prof[..b].iter().enumerate() {
+                            if let Some(pr) = pr {
+                                (cw[0][i], cw[1][i]) = (pr.coll[slot][0], pr.coll[slot][1]);
                             }
                         }
                     }
-                    let add = |got_s: &mut [[f32; B]; 3],
-                               got_m: &mut [[[f32; B]; 3]; 3],
-                               got_h: &mut [[[f32; B]; 3]; 2],
-                               col: usize,
-                               i: usize,
-                               v: f32| {
-                        let r = v * ((1.0 - pw[i]) * om);
-                        got_s[col][i] += r;
-                        for a in 0..3 {
-                            got_m[a][col][i] += r * chn.unit[a];
-                        }
-                        if profile {
-                            got_h[0][col][i] += r * cw[0][i];
-                            got_h[1][col][i] += r * cw[1][i];
-                        }
-                    };
+                    let unit = chn.unit.to_array();
+                    let [m0, m1, m2] = &mut got_m;
+                    let [h0, h1] = &mut got_h;
                     for col in 0..3 {
                         let plane = &pre[base + col * nx..][..nx];
+                        let mut sums = Tally {
+                            s: &mut got_s[col][..b],
+                            m: [&mut m0[col][..b], &mut m1[col][..b], &mut m2[col][..b]],
+                            h: profile.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
+                        };
                         if hi > lo {
                             let from = &plane[(first + lo as i32) as usize..][..hi - lo];
-                            for (i, &v) in (lo..hi).zip(from) {
-                                add(&mut got_s, &mut got_m, &mut got_h, col, i, v);
-                            }
+                            sums.add(lo..hi, from, (&pw[..b], om, unit), &cw);
                         }
                         if self.periodic {
                             for i in (0..lo).chain(hi..b) {
                                 let q = (first + i as i32).rem_euclid(nx as i32) as usize;
-                                add(&mut got_s, &mut got_m, &mut got_h, col, i, plane[q]);
+                                sums.add(i..i + 1, &plane[q..q + 1], (&pw[..b], om, unit), &cw);
                             }
                         }
                     }
