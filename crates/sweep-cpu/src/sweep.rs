@@ -1626,22 +1626,30 @@ impl Ctx {
             return true;
         }
         let mut x0 = 0;
+        // Set per channel for the block's `b` points only.
+        let (mut t, mut t_mid, mut after) = ([1f32; B], [1f32; B], [1f32; B]);
+        let (mut lost, mut mean) = ([0f32; B], [[0f32; B]; 3]);
         while x0 < nx {
             let b = B.min(nx - x0);
             for (c, chn) in self.ch.iter().enumerate() {
-                let mut t = [1f32; B];
-                let mut t_mid = [1f32; B];
-                let mut after = [1f32; B];
+                for a in [&mut t, &mut t_mid, &mut after] {
+                    a[..b].fill(1.0);
+                }
                 let mut past_centre = false;
                 let light: [&[f32]; 3] =
                     std::array::from_fn(|col| &cur_row[(c * 3 + col) * p + PAD + x0..][..b]);
                 for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                     let tr = planes.row(Planes::POW + chn.pow[k], z + dz, x0 as i32 + dx, b);
                     let slot = chn.first_slot + k;
+                    // What the segment takes of the light entering the path (once,
+                    // not per colour).
+                    for i in 0..b {
+                        lost[i] = t[i] * (1.0 - tr[i]);
+                    }
                     for (col, l) in light.iter().enumerate() {
                         let out = &mut rem_row[plane_index(nx, x0, slot, col)..][..b];
                         for i in 0..b {
-                            out[i] = l[i] * (t[i] * (1.0 - tr[i]));
+                            out[i] = l[i] * lost[i];
                         }
                     }
                     if past_centre {
@@ -1661,11 +1669,20 @@ impl Ctx {
                         t[i] *= tr[i];
                     }
                 }
+                // The point's mean light into its bin, and the light that leaves, colour
+                // by colour along the block (as `Vec3`s, point by point, these ran one
+                // float at a time).
+                for (col, m) in mean.iter_mut().enumerate() {
+                    let l = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
+                    for i in 0..b {
+                        m[i] = l[i] * t_mid[i];
+                        l[i] *= t[i];
+                    }
+                }
                 for i in 0..b {
                     ta_row[x0 + i][c] = after[i];
-                    let l = row_get(cur_row, p, x0 + i, c);
-                    row_set(cur_row, p, x0 + i, c, l * t[i]);
-                    g_row[x0 + i].add(chn.bin, chn.unit, l * t_mid[i]);
+                    let m = Vec3::new(mean[0][i], mean[1][i], mean[2][i]);
+                    g_row[x0 + i].add(chn.bin, chn.unit, m);
                 }
             }
             x0 += b;
@@ -1991,9 +2008,14 @@ impl Ctx {
                     if coll.is_empty() {
                         *coll = vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS];
                     }
-                    for (j, m) in row_cells[x0..x0 + b].iter().enumerate() {
-                        let c = is_profile(m).then(|| &prof.get(x0 + j + nx * z as usize).coll);
-                        for (slot, w) in coll.iter_mut().enumerate() {
+                    // Slot by slot, so that the stores run along the block (point
+                    // by point they went to 98 lines a point).
+                    let c: [Option<&[[f32; 2]; SLOTS]>; GATHER_BLOCK] = std::array::from_fn(|j| {
+                        (j < b && is_profile(&row_cells[x0 + j]))
+                            .then(|| &prof.get(x0 + j + nx * z as usize).coll)
+                    });
+                    for (slot, w) in coll.iter_mut().enumerate() {
+                        for (j, c) in c[..b].iter().enumerate() {
                             let v = c.map_or([0.0; 2], |c| c[slot]);
                             (w[0][j], w[1][j]) = (v[0], v[1]);
                         }
