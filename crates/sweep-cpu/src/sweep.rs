@@ -593,6 +593,10 @@ fn up_pass(ch: &[Channel; CHANNELS]) -> bool {
 /// Where the final light of a point goes: all 26 bins, or only what the average and the
 /// dominant direction need.
 trait Sink: Copy + Default + Send + Sync + bytemuck::Pod {
+    /// The sink holds every bin (so [`resolve_planes`] computes what its `resolve`
+    /// would, from the level's planes, where a point's bins hold exactly one pass's
+    /// channel light).
+    const ALL_BINS: bool = false;
     fn add(&mut self, bin: usize, unit: Vec3, g: Vec3);
     /// [`Sink::add`] of every channel of a pass, in channel order: `light(c)` into
     /// channel `c`'s bin.
@@ -638,6 +642,7 @@ fn resolve_each<S: Sink>(
 }
 
 impl Sink for BinLight {
+    const ALL_BINS: bool = true;
     #[inline]
     fn add(&mut self, bin: usize, _unit: Vec3, g: Vec3) {
         self.0[bin] += g;
@@ -764,6 +769,102 @@ fn valid_bins(b: &BinLight) -> bool {
     }) & rest.iter().fold(true, |a, &v| a & ok(v))
 }
 
+/// [`BinLight`]'s `resolve` (after its `clamp` if `clamp`) of every point of a row
+/// whose bins hold exactly the light of pass channels `ch` (zero in the other bins),
+/// computed from the row's planes (`cur_row`, pitch `p`: [`LevelLight`]'s layout) as
+/// lanes along the row: the same operations, per point, in the same order (bins in
+/// order; a zero bin adds `+0`, which leaves a sum that starts at `+0` as it is), so
+/// bit for bit its values. `false` if a value is negative, NaN or infinite. A level's
+/// point after the first pass's gather is such a point: this is the one-pass sweep's
+/// resolve without reading its bins (one point's bins at a time, as `BinLight`s, the
+/// sums do not vectorise).
+#[allow(clippy::too_many_arguments)]
+fn resolve_planes(
+    ch: &[Channel; CHANNELS],
+    cur_row: &[f32],
+    p: usize,
+    (clamp, dominant): (bool, bool),
+    avg: &mut [AverageLight],
+    dom: &mut [DominantDir],
+) -> bool {
+    match (clamp, dominant) {
+        (false, false) => resolve_planes_as::<false, false>(ch, cur_row, p, avg, dom),
+        (false, true) => resolve_planes_as::<false, true>(ch, cur_row, p, avg, dom),
+        (true, false) => resolve_planes_as::<true, false>(ch, cur_row, p, avg, dom),
+        (true, true) => resolve_planes_as::<true, true>(ch, cur_row, p, avg, dom),
+    }
+}
+
+#[inline(always)]
+fn resolve_planes_as<const CLAMP: bool, const DOMINANT: bool>(
+    ch: &[Channel; CHANNELS],
+    cur_row: &[f32],
+    p: usize,
+    avg: &mut [AverageLight],
+    dom: &mut [DominantDir],
+) -> bool {
+    const B: usize = GATHER_BLOCK;
+    let nx = avg.len();
+    let mut of_bin = [None; NUM_DIRS];
+    for (c, chn) in ch.iter().enumerate() {
+        of_bin[chn.bin] = Some(c);
+    }
+    let units = dirs::units();
+    let [wr, wg, wb] = lightgrid_core::light::LUMA;
+    let mut ok = true;
+    let mut x0 = 0;
+    while x0 < nx {
+        let b = B.min(nx - x0);
+        let (mut tr, mut tg, mut tb) = ([0f32; B], [0f32; B], [0f32; B]);
+        let (mut vx, mut vy, mut vz, mut sum) = ([0f32; B], [0f32; B], [0f32; B], [0f32; B]);
+        // Lanes of the least and greatest value and of "any NaN" ([`valid_bins`]).
+        let (mut lo, mut hi, mut nan) = ([0f32; B], [0f32; B], [false; B]);
+        for (bin, c) in of_bin.iter().enumerate() {
+            let Some(c) = *c else { continue };
+            let u = units[bin];
+            let plane = |k: usize| &cur_row[(c * 3 + k) * p + PAD + x0..][..b];
+            let (pr, pg, pb) = (plane(0), plane(1), plane(2));
+            for i in 0..b {
+                let cl = |v: f32| if !CLAMP || v > 0.0 { v } else { 0.0 };
+                let (r, g, bl) = (cl(pr[i]), cl(pg[i]), cl(pb[i]));
+                tr[i] += r;
+                tg[i] += g;
+                tb[i] += bl;
+                for v in [r, g, bl] {
+                    lo[i] = if v < lo[i] { v } else { lo[i] };
+                    hi[i] = if v > hi[i] { v } else { hi[i] };
+                    nan[i] |= v.is_nan();
+                }
+                if DOMINANT {
+                    let l = r * wr + g * wg + bl * wb;
+                    vx[i] += u.x * l;
+                    vy[i] += u.y * l;
+                    vz[i] += u.z * l;
+                    sum[i] += l;
+                }
+            }
+        }
+        for i in 0..b {
+            let (total, v) = (
+                Vec3::new(tr[i], tg[i], tb[i]),
+                Vec3::new(vx[i], vy[i], vz[i]),
+            );
+            let dv = if sum[i] > 0.0 && sum[i].is_finite() {
+                (v / sum[i]).clamp_length_max(1.0)
+            } else {
+                Vec3::ZERO
+            };
+            let av = total / (4.0 * PI);
+            let valid = (lo[i] >= 0.0) & (hi[i] < f32::INFINITY) & !nan[i];
+            ok &= valid & av.is_finite() & dv.is_finite();
+            avg[x0 + i].0 = av;
+            dom[x0 + i].0 = dv;
+        }
+        x0 += b;
+    }
+    ok
+}
+
 /// Running sums for the average (`sum`) and dominant direction (`num / den`).
 #[derive(Clone, Copy, Default, bytemuck::Zeroable, bytemuck::Pod)]
 #[repr(C)]
@@ -874,6 +975,10 @@ struct Finish<'a> {
     resolve: Option<bool>,
     /// Light below 0 set to 0 before it is resolved (light of either sign flows).
     clamp: bool,
+    /// Each point's output holds exactly this pass's channel light, the level's
+    /// final light (the first pass's phase 1 of a level without material): resolve
+    /// from the level's planes ([`resolve_planes`]).
+    from_planes: bool,
 }
 
 fn sum_rows(v: &[RowFlux]) -> RowFlux {
@@ -1513,7 +1618,7 @@ impl Ctx {
         let nx = self.nx as usize;
         let (row_len, p) = (cur.row_len(), cur.pitch());
         let (last_phase, avg, dom) = (fin.last_phase, fin.avg, fin.dom);
-        let resolve = fin.resolve.map(|d| (d, fin.clamp));
+        let resolve = fin.resolve.map(|d| (d, fin.clamp, fin.from_planes));
         cur.rows_mut()
             .par_chunks_mut(row_len)
             .zip(extra)
@@ -1826,7 +1931,7 @@ impl Ctx {
         g_row: &mut [S],
         avg_row: &mut [AverageLight],
         dom_row: &mut [DominantDir],
-        resolve: Option<(bool, bool)>,
+        resolve: Option<(bool, bool, bool)>,
         rf: &mut RowFlux,
     ) {
         let nx = self.nx as usize;
@@ -1837,11 +1942,15 @@ impl Ctx {
                 }
             }
         }
-        if let Some((dominant, clamp)) = resolve {
+        if let Some((dominant, clamp, from_planes)) = resolve {
             if clamp {
                 g_row.iter_mut().for_each(S::clamp);
             }
-            rf.bad |= !S::resolve_all(g_row, avg_row, dom_row, dominant);
+            rf.bad |= !if S::ALL_BINS && from_planes {
+                resolve_planes(self.ch, cur_row, p, (clamp, dominant), avg_row, dom_row)
+            } else {
+                S::resolve_all(g_row, avg_row, dom_row, dominant)
+            };
         }
     }
 
@@ -3101,6 +3210,8 @@ fn run_with<S: Sink>(
         let mut pending = DVec3::ZERO;
         // The flux the last level's final light sends on.
         let mut sent_on = DVec3::ZERO;
+        // Levels copied in a row just before this one (all with the same light).
+        let mut copied_in_row = 0;
         for li in 0..ny {
             let j = if up { li } else { ny - 1 - li };
             let from_virtual = li == 0;
@@ -3139,7 +3250,13 @@ fn run_with<S: Sink>(
                             }
                         });
                 }
-                w.cur.fill(&v);
+                // From the third copied level on, `cur` is the level two back, which
+                // holds `v` already (nothing writes a level's light while it is `prev`
+                // of a copied level).
+                if copied_in_row < 2 {
+                    w.cur.fill(&v);
+                }
+                copied_in_row += 1;
                 sent_on = (0..CHANNELS)
                     .map(|c| v[c].as_dvec3() * ch[c].mu as f64)
                     .sum::<DVec3>()
@@ -3163,6 +3280,7 @@ fn run_with<S: Sink>(
                 continue;
             }
             stats.levels_computed += 1;
+            copied_in_row = 0;
             let src_level = if up { j - 1 } else { j + 1 };
             let sent = sent_on;
             // A level without material: every point is quiet, and nothing scatters.
@@ -3201,6 +3319,7 @@ fn run_with<S: Sink>(
                         last_phase: !material_here,
                         resolve: last.then_some(want_dom),
                         clamp: signed_light,
+                        from_planes: first && !material_here,
                     },
                 )
             } else {
@@ -3302,6 +3421,7 @@ fn run_with<S: Sink>(
                     last_phase: !phase3,
                     resolve: last.then_some(want_dom),
                     clamp: signed_light,
+                    from_planes: false,
                 },
             );
             bal.absorbed += f2.absorbed;
@@ -3326,6 +3446,7 @@ fn run_with<S: Sink>(
                         last_phase: true,
                         resolve: last.then_some(want_dom),
                         clamp: signed_light,
+                        from_planes: false,
                     },
                     !fast,
                 );
@@ -4043,6 +4164,105 @@ mod tests {
                             dom[i].0.to_array().map(f32::to_bits),
                             want.to_array().map(f32::to_bits)
                         );
+                    }
+                }
+            }
+        }
+    }
+
+    /// `resolve_planes` (a row's resolve from its planes) gives what `BinLight`'s
+    /// `clamp` then `resolve_all` give on the bins the pass's channels fill, bit for bit,
+    /// with the same verdict on bad values, for rows of any length (block tails too),
+    /// both passes, with and without the clamp and the dominant direction.
+    #[test]
+    fn resolve_planes_equals_resolve_all() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for nx in [1, 3, 16, 63, 64, 65, 130] {
+            for up in [false, true] {
+                let ch = channels(up);
+                for bad in [
+                    None,
+                    Some(f32::NAN),
+                    Some(-1e-3),
+                    Some(f32::INFINITY),
+                    Some(-0.0),
+                ] {
+                    let mut level = LevelLight::new(nx, 1);
+                    let p = level.pitch();
+                    let row = level.row_mut(0);
+                    for c in 0..CHANNELS {
+                        for k in 0..3 {
+                            for x in 0..nx {
+                                let r = next();
+                                row[(c * 3 + k) * p + PAD + x] = match r % 7 {
+                                    0 => 0.0,
+                                    // Light of either sign (the profile rule's).
+                                    1 => -((r >> 40) as f32) * 1e-9,
+                                    _ => (r >> 40) as f32 * 2f32.powi((r % 40) as i32 - 30),
+                                };
+                            }
+                        }
+                    }
+                    if let Some(v) = bad {
+                        let (c, k, x) = (
+                            next() as usize % CHANNELS,
+                            next() as usize % 3,
+                            next() as usize % nx,
+                        );
+                        row[(c * 3 + k) * p + PAD + x] = v;
+                    }
+                    let row = level.row(0);
+                    for clamp in [false, true] {
+                        for dominant in [false, true] {
+                            let mut g = vec![BinLight::default(); nx];
+                            for (x, gp) in g.iter_mut().enumerate() {
+                                gp.add_channels(ch, |c| row_get(row, p, x, c));
+                                if clamp {
+                                    Sink::clamp(gp);
+                                }
+                            }
+                            let mut want = (
+                                vec![AverageLight(Vec3::splat(7.0)); nx],
+                                vec![DominantDir(Vec3::splat(7.0)); nx],
+                            );
+                            let mut got = want.clone();
+                            let ok_want =
+                                BinLight::resolve_all(&g, &mut want.0, &mut want.1, dominant);
+                            let ok_got = resolve_planes(
+                                ch,
+                                row,
+                                p,
+                                (clamp, dominant),
+                                &mut got.0,
+                                &mut got.1,
+                            );
+                            let case = format!(
+                                "nx {nx} up {up} bad {bad:?} clamp {clamp} dominant {dominant}"
+                            );
+                            assert_eq!(ok_got, ok_want, "{case}");
+                            // A bad value can leave the clamp (NaN -> 0): valid again.
+                            assert_eq!(ok_want, g.iter().all(|b| b.is_valid()), "{case}");
+                            let bits = |v: &[AverageLight]| {
+                                v.iter()
+                                    .map(|a| a.0.to_array().map(f32::to_bits))
+                                    .collect::<Vec<_>>()
+                            };
+                            let dbits = |v: &[DominantDir]| {
+                                v.iter()
+                                    .map(|a| a.0.to_array().map(f32::to_bits))
+                                    .collect::<Vec<_>>()
+                            };
+                            if ok_want {
+                                assert_eq!(bits(&got.0), bits(&want.0), "{case}");
+                                assert_eq!(dbits(&got.1), dbits(&want.1), "{case}");
+                            }
+                        }
                     }
                 }
             }
