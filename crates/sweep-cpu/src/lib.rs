@@ -191,6 +191,52 @@
 //! sixteen lanes in the `f64` flux sums none either (they already run at the adder's
 //! throughput, 0.2 ns a float): the loops are not bound by vector width.
 //!
+//! **Fourth round (issue 15).** Criterion's means moved by up to a third between runs
+//! of one build this time (the 16 × 64 × 16 grid's four passes read +32 %, its fresh
+//! memory run −20 %, in one run), so the figures of record are the fastest of many
+//! runs, old and new builds alternating in the same minutes (`throughput`-style loops
+//! of `CpuSweeper::sweep` after `recycle`; the old build is `f066d27`):
+//!
+//! | case | before | now |
+//! |------|-------:|----:|
+//! | 64³, 26 bins, 1 pass | 19.1–19.3 ms (13.7 M/s) | 16.6 ms (15.8 M/s) |
+//! | 64³, 26 bins, 4 passes | 68.9–71.9 ms (3.7 M/s) | 65.0–70.0 ms (3.9 M/s) |
+//! | 16 × 64 × 16, 26 bins, 1 pass | 1.66 ms (9.9 M/s) | 1.47 ms (11.1 M/s) |
+//! | 16 × 64 × 16, 26 bins, 4 passes | 6.5–6.7 ms | 6.2 ms |
+//! | forest 16³, 4 passes (`forest_profile`) | 5.8 ms | 5.3 ms |
+//!
+//! (Criterion, the same run's means: 64³ one pass 18.6 ms, −17.6 %, p < 0.01; four
+//! passes 69.3 ms, −10.9 %, p < 0.01.) The light is the same bit for bit; besides
+//! `tests/fast_path.rs`, hashes of every output over the five scenes × periodic and open
+//! sides × both medium rules × 1, 2 and 5 passes × both outputs × two smoothings equal
+//! the old build's. What changed, found with perf:
+//!
+//! - **The one-pass resolve from the planes** ([`sweep`]'s `resolve_planes`): where a
+//!   point's bins hold exactly the first pass's channel light (levels without material,
+//!   whose phase 1 is their last), its average and dominant direction are summed along
+//!   the row's planes as lanes, bins in order, the same operations per point as
+//!   `BinLight`'s resolve (unit test, bit for bit, bad values included). Point by point
+//!   from the bins it was 12 % of a one-pass sweep and did not vectorise.
+//! - **Phase 3's collision tally** ran one float at a time (a closure that indexed
+//!   `unit[a]`, a bounds check a term): slices now, which vectorise; the media's
+//!   profiles are found once a block.
+//! - **Blocks of 64 points zeroed in full** for every channel or row (phases 2 and 3,
+//!   the gather of removed light), though a 16-wide grid reads 16 of them: zeroed for
+//!   the block's points only; phase 2's blocks (13 KiB, and 25 KiB of profile moments)
+//!   kept per thread.
+//! - **The transmit step** takes a segment's removal factor once, not once a colour,
+//!   and updates the light colour by colour along the block (as `Vec3`s point by point
+//!   it did not vectorise).
+//! - **A sweep's fixed per-cell values** (`ln p` a cell, which faces are exposed, the
+//!   levels' scans) on every core: a millisecond of one core at 64³ every sweep.
+//! - Copied levels above all material fill the level light only twice in a row (the
+//!   third on finds it filled).
+//!
+//! Tried and dropped (no measurable change): the clamp applied as the first pass adds
+//! (instead of a pass over the bins); `wrap` without a division for the side columns'
+//! `rem_euclid` (perf put a sixth of the profile rule's gather on it; removing it moved
+//! nothing).
+//!
 //! **Roofline** (per point and pass, quiet point, 26 bins). Compute: gather 17 channels
 //! × 3 colours × 9 flops ≈ 460 flops (~115 four-lane operations), flux tallies and
 //! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
@@ -198,21 +244,29 @@
 //! run at ~18 M points/s. Memory, measured on this VM with two threads: a read-modify-write
 //! of the 82 MB output takes 4–5 ms (~35 GB/s moved), writing it 4.3 ms; a pass that
 //! adds to the output therefore costs ≥ 4–5 ms at 64³ (≥ 55 M points/s), the first
-//! pass's write ≥ 4.3 ms. So one pass is bound by neither: 10.7 M/s is 60 % of the
-//! compute estimate; four passes at 3.5 M/s spend 19 ms a pass against ~4.5 ms of
-//! memory traffic and ~15 ms of compute. Where one pass goes now (perf, two threads):
-//! resolve 12 %, the transmit step and output adds 11 %, filling the 30 levels above
-//! the canopy (38 MB written) 8 %, zeroing the first pass's rows 6 %, phase 2 6 %,
-//! the gather 9 %, phase 3 and its collisions 9 %, `finish_row` 5 %, scheduling 3 %.
-//! Measured per level: an empty 64 × 64 level costs about 0.23 ms a pass (gather,
-//! adds, flux sums) on two threads. The issue's targets (20 M points/s for one pass,
-//! 8 M/s for four) remain open: they need the per-point work of the empty levels
-//! (most of the canopy's 64) cut by half again, not one more hot spot.
+//! pass's write ≥ 4.3 ms. So one pass is bound by neither: 15.8 M/s (fastest run) is
+//! 88 % of the compute estimate (whose resolve, 390 operations, the resolve from the
+//! planes now undercuts); four passes at 3.9 M/s spend ~16 ms a pass against ~4.5 ms of
+//! memory traffic. Where one pass goes now (perf, two threads): the transmit step's
+//! output adds 12 % (a transpose: 17 channels' planes into each point's 26 bins),
+//! writing the output 17 % (zeroing the first pass's rows 8 %, filling the 30 levels
+//! above the canopy 9 %: at the memory's write speed), the gather 15 %, `finish_row`
+//! 10 % (the clamp, the resolve), phases 2 and 3 of the four levels with material
+//! 20 %, scheduling 3 %. One thread runs the pass in 30 ms: two give 1.7×. The issue's
+//! targets (20 M points/s for one pass, 8 M/s for four) remain open: one pass needs
+//! the compute cut by a third again; four passes are bound by adding each pass into
+//! the 82 MB output of bins (read ahead, transposed) and by its resolve.
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
-//! reaches error 0.0175 in 6.0–6.5 ms, 150–184× Monte Carlo's time to that error (91×
-//! once, on a busy VM); the bench now also names the cheapest setting for its error:
-//! 2 passes reach the same 0.0175 in 2.9–3.2 ms, 305–396× over three runs.
+//! reaches error 0.0175 in 5.3–5.6 ms (6.0–6.5 ms before the fourth round), 160–168×
+//! Monte Carlo's time to that error in two runs where Monte Carlo took 845–939 ms
+//! (150–184× before, with Monte Carlo at up to 1206 ms: its time moves more than the
+//! sweep's); the bench also names the cheapest setting for its error: 2 passes reach
+//! the same 0.0175 in 2.7–2.8 ms, 310–339×. Where the forest's time goes (perf, one thread, 8.5–9 ms): phase 2
+//! 14 %, phase 3's emission 12 % and collisions 12 %, the transmit step 10 %, the
+//! profile rule's gather of removed light 8 % and its 3 × 3 solves 7 %; two threads
+//! give 1.6× (its levels have 256 points: four parallel loops a level, each a few
+//! microseconds of work a thread).
 //!
 //! ## Semantics of the sweep
 //!
