@@ -778,7 +778,6 @@ fn valid_bins(b: &BinLight) -> bool {
 /// point after the first pass's gather is such a point: this is the one-pass sweep's
 /// resolve without reading its bins (one point's bins at a time, as `BinLight`s, the
 /// sums do not vectorise).
-#[allow(clippy::too_many_arguments)]
 fn resolve_planes(
     ch: &[Channel; CHANNELS],
     cur_row: &[f32],
@@ -2392,28 +2391,23 @@ impl Tally<'_> {
             &mut m1[range.clone()][..n],
             &mut m2[range.clone()][..n],
         );
-        match &mut self.h {
-            None => {
-                for i in 0..n {
-                    let r = v[i] * ((1.0 - pw[i]) * om);
-                    s[i] += r;
-                    m0[i] += r * unit[0];
-                    m1[i] += r * unit[1];
-                    m2[i] += r * unit[2];
-                }
-            }
-            Some([h0, h1]) => {
-                let (h0, h1) = (&mut h0[range.clone()][..n], &mut h1[range.clone()][..n]);
-                let (c0, c1) = (&cw[0][range.clone()][..n], &cw[1][range][..n]);
-                for i in 0..n {
-                    let r = v[i] * ((1.0 - pw[i]) * om);
-                    s[i] += r;
-                    m0[i] += r * unit[0];
-                    m1[i] += r * unit[1];
-                    m2[i] += r * unit[2];
-                    h0[i] += r * c0[i];
-                    h1[i] += r * c1[i];
-                }
+        let r = |i: usize| v[i] * ((1.0 - pw[i]) * om);
+        for i in 0..n {
+            let r = r(i);
+            s[i] += r;
+            m0[i] += r * unit[0];
+            m1[i] += r * unit[1];
+            m2[i] += r * unit[2];
+        }
+        // (A loop of its own, `r` computed again, the same value: each sum still takes
+        // its terms in order.)
+        if let Some([h0, h1]) = &mut self.h {
+            let (h0, h1) = (&mut h0[range.clone()][..n], &mut h1[range.clone()][..n]);
+            let (c0, c1) = (&cw[0][range.clone()][..n], &cw[1][range][..n]);
+            for i in 0..n {
+                let r = r(i);
+                h0[i] += r * c0[i];
+                h1[i] += r * c1[i];
             }
         }
     }
