@@ -671,12 +671,8 @@ impl Sink for BinLight {
                 sum += l;
             }
         }
-        let d = if sum > 0.0 && sum.is_finite() {
-            (v / sum).clamp_length_max(1.0)
-        } else {
-            Vec3::ZERO
-        };
-        (valid_bins(self), total / (4.0 * PI), d)
+        let (av, d) = resolved(total, v, sum);
+        (valid_bins(self), av, d)
     }
     /// [`BinLight::resolve`] four points at a time (the same operations in the same
     /// order for each point, so bit for bit its values): one point's sums are chains of
@@ -725,16 +721,11 @@ impl Sink for BinLight {
                 }
             }
             for j in 0..N {
-                let (total, v) = (
+                let (av, dv) = resolved(
                     Vec3::new(tr[j], tg[j], tb[j]),
                     Vec3::new(vx[j], vy[j], vz[j]),
+                    sum[j],
                 );
-                let dv = if sum[j] > 0.0 && sum[j].is_finite() {
-                    (v / sum[j]).clamp_length_max(1.0)
-                } else {
-                    Vec3::ZERO
-                };
-                let av = total / (4.0 * PI);
                 ok &= valid_bins(&g[j]) & av.is_finite() & dv.is_finite();
                 a[j].0 = av;
                 d[j].0 = dv;
@@ -742,6 +733,20 @@ impl Sink for BinLight {
         }
         ok & resolve_each(g_rest, a_rest, d_rest, dominant)
     }
+}
+
+/// The average and the dominant direction from a point's sums over its bins: the
+/// total, and the luminance-weighted sum of the bins' directions `v` and of their
+/// luminances `sum` (`BinLight::average` and `dominant`'s last steps; zero where no
+/// light has a direction).
+#[inline]
+fn resolved(total: Vec3, v: Vec3, sum: f32) -> (Vec3, Vec3) {
+    let d = if sum > 0.0 && sum.is_finite() {
+        (v / sum).clamp_length_max(1.0)
+    } else {
+        Vec3::ZERO
+    };
+    (total / (4.0 * PI), d)
 }
 
 /// `BinLight::is_valid` without early exit (every value finite and >= 0; NaN fails
@@ -844,16 +849,11 @@ fn resolve_planes_as<const CLAMP: bool, const DOMINANT: bool>(
             }
         }
         for i in 0..b {
-            let (total, v) = (
+            let (av, dv) = resolved(
                 Vec3::new(tr[i], tg[i], tb[i]),
                 Vec3::new(vx[i], vy[i], vz[i]),
+                sum[i],
             );
-            let dv = if sum[i] > 0.0 && sum[i].is_finite() {
-                (v / sum[i]).clamp_length_max(1.0)
-            } else {
-                Vec3::ZERO
-            };
-            let av = total / (4.0 * PI);
             let valid = (lo[i] >= 0.0) & (hi[i] < f32::INFINITY) & !nan[i];
             ok &= valid & av.is_finite() & dv.is_finite();
             avg[x0 + i].0 = av;
@@ -4105,27 +4105,35 @@ impl Work {
 mod tests {
     use super::*;
 
+    /// One value put into a point's light by the resolve tests (none, invalid ones, and
+    /// the valid extremes -0 and the largest `f32`, whose sums overflow).
+    const BAD_VALUES: [Option<f32>; 6] = [
+        None,
+        Some(f32::NAN),
+        Some(-1e-3),
+        Some(f32::INFINITY),
+        Some(-0.0),
+        Some(f32::MAX),
+    ];
+
+    /// A xorshift generator of test values from `seed` (not 0).
+    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        }
+    }
+
     /// `BinLight`'s four-point `resolve_all` gives `BinLight::average` and `dominant`
     /// bit for bit, and flags what `is_valid` rejects, for any number of points (the
     /// tail after the last four too).
     #[test]
     fn resolve_all_equals_average_and_dominant() {
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d_u64);
         for n in 0..=11 {
-            for bad in [
-                None,
-                Some(f32::NAN),
-                Some(-1e-3),
-                Some(f32::INFINITY),
-                Some(-0.0),
-                Some(f32::MAX),
-            ] {
+            for bad in BAD_VALUES {
                 let mut g: Vec<BinLight> = (0..n)
                     .map(|_| {
                         BinLight(std::array::from_fn(|_| {
@@ -4175,23 +4183,11 @@ mod tests {
     /// both passes, with and without the clamp and the dominant direction.
     #[test]
     fn resolve_planes_equals_resolve_all() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15_u64);
         for nx in [1, 3, 16, 63, 64, 65, 130] {
             for up in [false, true] {
                 let ch = channels(up);
-                for bad in [
-                    None,
-                    Some(f32::NAN),
-                    Some(-1e-3),
-                    Some(f32::INFINITY),
-                    Some(-0.0),
-                ] {
+                for bad in BAD_VALUES {
                     let mut level = LevelLight::new(nx, 1);
                     let p = level.pitch();
                     let row = level.row_mut(0);
