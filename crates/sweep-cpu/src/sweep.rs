@@ -4140,7 +4140,7 @@ mod tests {
                             Vec3::from_array(std::array::from_fn(|_| {
                                 let r = next();
                                 // Zeros, and values over many magnitudes.
-                                if r % 5 == 0 {
+                                if r.is_multiple_of(5) {
                                     0.0
                                 } else {
                                     (r >> 40) as f32 * 2f32.powi((r % 40) as i32 - 30)
