@@ -1,7 +1,7 @@
 //! Properties of the sweep: known answers, energy, linearity, symmetry, monotonicity.
 
 use lightgrid_core::dirs::{self, NUM_DIRS, dir_index, dir_ivec};
-use lightgrid_core::glam::{IVec3, UVec3, Vec3};
+use lightgrid_core::glam::{DVec3, IVec3, UVec3, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, HaloLayout, LightGrid, Material, MaterialGrid, MediumEmission,
     Outputs, SideBoundary, SweepOptions, TopBoundary,
@@ -211,9 +211,16 @@ proptest! {
     /// height is not a positive scheme (as linear-discontinuous schemes in
     /// discrete-ordinates codes are not): its `P_1`, `P_2` terms move a cell's emission
     /// between its upper and lower segments, so less light colliding in one part of a
-    /// cell can send a little more along another path. Measured: a rise of 2.5e-5 on a
-    /// value of 0.50, 1e-6 of the grid's brightest light, when an opaque cell's
-    /// reflectance fell to a fifth; held to 1e-5 of the brightest light.
+    /// cell can send a little more along another path. What holds there: the grid's
+    /// total light falls (per colour, to `f32` rounding: 1e-6 relative; measured rises
+    /// of 7e-10), and a value rises by at most 1e-3 of the largest fall the darker cell
+    /// causes (the negative part of the scheme's response against the response). Measured: 2.2e-4 of it in both
+    /// cases found (the regression seeds `991050c3…` and `4f15354f…`: an opaque cell
+    /// darkened beside a medium of optical depth 3; rises of 6.3e-4 on 3.41 and 5.9e-3
+    /// on 14.8, where the fall reached 2.8 and 27), at most 1e-4 over 300 random cases.
+    /// (The bound this test held before, 1e-5 of the grid's brightest light, came from
+    /// one measured case and failed on about one run in six (2 of 12 here): those two rose 2.4e-5
+    /// and 1.6e-4 of it.)
     #[test]
     fn monotonic_in_reflectance_and_density(m in material_strategy(7), pick in any::<prop::sample::Index>(), factor in 0f32..1.0) {
         let d = *m.desc();
@@ -226,16 +233,21 @@ proptest! {
             let mut darker = m.data().to_vec();
             darker[i].reflectance *= factor;
             let dk = run(&MaterialGrid::new(d, darker).unwrap(), &boundary_for(&d, 0, &sky), &o).unwrap();
-            let top = bins(&base).data().iter().flat_map(|l| l.0.iter().map(|v| v.max_element())).fold(0f32, f32::max);
-            for (a, b) in bins(&base).data().iter().zip(bins(&dk).data()) {
-                for k in 0..NUM_DIRS {
-                    let allowed = if rule == MediumEmission::Source {
-                        a.0[k] * (1.0 + 1e-5) + Vec3::splat(1e-6)
-                    } else {
-                        a.0[k] + Vec3::splat(1e-5 * top + 1e-6)
-                    };
-                    prop_assert!(b.0[k].cmple(allowed).all(), "{rule:?}: {} rose to {}", a.0[k], b.0[k]);
-                }
+            let pairs = || bins(&base).data().iter().zip(bins(&dk).data()).flat_map(|(a, b)| a.0.iter().zip(b.0.iter()));
+            // Profile: the largest fall, and the totals.
+            let fall = pairs().map(|(a, b)| (*a - *b).max_element()).fold(0f32, f32::max);
+            if rule == MediumEmission::Profile {
+                let total = |g: &LightGrid| g.data().iter().flat_map(|l| l.0.iter()).map(|v| v.as_dvec3()).sum::<DVec3>();
+                let (ta, tb) = (total(bins(&base)), total(bins(&dk)));
+                prop_assert!(tb.cmple(ta * (1.0 + 1e-6) + DVec3::splat(1e-6)).all(), "total light rose: {ta} to {tb}");
+            }
+            for (a, b) in pairs() {
+                let allowed = if rule == MediumEmission::Source {
+                    *a * (1.0 + 1e-5) + Vec3::splat(1e-6)
+                } else {
+                    *a * (1.0 + 1e-5) + Vec3::splat(1e-3 * fall + 1e-6)
+                };
+                prop_assert!(b.cmple(allowed).all(), "{rule:?}: {a} rose to {b} (largest fall {fall})");
             }
         }
         let o = opts(4, 0.25);
