@@ -237,6 +237,32 @@
 //! `rem_euclid` (perf put a sixth of the profile rule's gather on it; removing it moved
 //! nothing).
 //!
+//! Tried and dropped in a fifth round (each bit for bit the same light; old and new
+//! builds alternating, fastest of 40–400 runs; none moved the time beyond the runs'
+//! spread):
+//!
+//! - A quiet row's adds into the 26-bin output as 4 × 4 transposes (a pass's
+//!   channels fill one or two runs of consecutive bins, so four points × four planes
+//!   can go through one register transpose): perf still put the same share on the
+//!   adds, now on the stores, which wait on the output's memory.
+//! - Non-temporal (streaming) stores for the first pass's output: filling 82 MB on two
+//!   threads took 2.5–3.2 ms with plain stores and 3.1–3.2 ms streaming on this VM;
+//!   the output's first write runs at the memory's speed either way (some 2.7 ms of a
+//!   16.3 ms pass).
+//! - Each level's transmittance powers once a sweep instead of once a level and pass
+//!   (the forest at 16³, four passes: 5.06–5.14 ms before, 5.00–5.05 ms after, for
+//!   40 bytes a cell with material kept a sweep), and one tally loop over a block's
+//!   wrapped columns in phase 3 (the forest, two passes, one thread: 4.23–4.31 ms
+//!   before, 4.15–4.35 ms after).
+//! - What two threads lose on the forest (16³, two passes: 4.2–4.4 ms on one thread,
+//!   2.6–2.8 ms on two, 1.6×, some 1 ms of the two threads' time): perf puts about
+//!   a fifth of both threads' samples in the kernel's scheduler and `sched_yield`, the
+//!   pool's threads sleeping and waking between a level's parallel loops (some 150 of
+//!   them a sweep). Not mended: fewer, longer parallel loops per level would need the
+//!   phases' sequential steps (the quiet mask, the planes' rings) inside them.
+//! - Sixteen `f64` lanes in the flux sums, again (64³, one pass: 16.2–16.6 ms either
+//!   way).
+//!
 //! **Roofline** (per point and pass, quiet point, 26 bins). Compute: gather 17 channels
 //! × 3 colours × 9 flops ≈ 460 flops (~115 four-lane operations), flux tallies and
 //! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
