@@ -139,7 +139,9 @@
 //!   inside the pool (two cores: 1.8× one core at 64³, from about 1.3×). Tasks take
 //!   at least 128 points ([`sweep::MIN_POINTS_PER_TASK`]): a 16 × 16 level runs on
 //!   both cores (at 512 it was one task; the forest at 16³ gained 1.5×, though a
-//!   fifth of the two threads' time is then the kernel's scheduling).
+//!   fifth of the two threads' time is then the kernel's scheduling); levels with
+//!   material, whose rows differ in cost, in tasks of at most 32 points
+//!   ([`sweep::MAX_POINTS_PER_UNEVEN_TASK`], fifth round below).
 //! - **Phase 3 as rows**: a cell's collisions with its level-mates' emission read
 //!   what each path carries into each segment from the emission loop (`pre`), instead
 //!   of walking every path's earlier segments again (quadratic in the five segments of
@@ -237,7 +239,18 @@
 //! `rem_euclid` (perf put a sixth of the profile rule's gather on it; removing it moved
 //! nothing).
 //!
-//! Tried and dropped in a fifth round (each bit for bit the same light; old and new
+//! **Fifth round (issue 15).** Kept: a level with material runs its phases as tasks of
+//! at most 32 points ([`sweep::MAX_POINTS_PER_UNEVEN_TASK`]) that the threads take as
+//! they free up; the two tasks of 128 points a 16 × 16 level had before left one
+//! thread waiting on the other, as its rows' material differs (timed phase by phase,
+//! phases 2 and 3 ran 1.6× faster on two threads than on one). The forest (16³,
+//! `forest_profile`, fastest of 300–400, old and new builds alternating): two passes
+//! 2.64–2.79 → 2.54–2.56 ms, four passes 5.10–5.15 → 4.89–4.93 ms; the 64³ canopy
+//! unchanged (one pass 16.35–16.40 against 16.43–16.57 ms, four passes 61.9–62.2
+//! against 61.4–61.7 ms), the 16 × 64 × 16 canopy's pass 1.44 → 1.47 ms. The light is
+//! the same bit for bit (the rows' tallies are summed in row order as before).
+//!
+//! Tried and dropped in the fifth round (each bit for bit the same light; old and new
 //! builds alternating, fastest of 40–400 runs; none moved the time beyond the runs'
 //! spread):
 //!
@@ -254,8 +267,8 @@
 //!   40 bytes a cell with material kept a sweep), and one tally loop over a block's
 //!   wrapped columns in phase 3 (the forest, two passes, one thread: 4.23–4.31 ms
 //!   before, 4.15–4.35 ms after).
-//! - What two threads lose on the forest (16³, two passes: 4.2–4.4 ms on one thread,
-//!   2.6–2.8 ms on two, 1.6×, some 1 ms of the two threads' time): perf puts about
+//! - What two threads still lose on the forest (16³, two passes: 4.2–4.4 ms on one
+//!   thread, 2.6–2.8 ms on two before the split above, 1.6×): perf puts about
 //!   a fifth of both threads' samples in the kernel's scheduler and `sched_yield`, the
 //!   pool's threads sleeping and waking between a level's parallel loops (some 150 of
 //!   them a sweep). Not mended: fewer, longer parallel loops per level would need the

@@ -107,6 +107,14 @@ pub fn channel_length(bin: usize) -> f32 {
 /// one task a level, 4.4 ms at 128; below 64, rayon's per-task cost shows).
 pub const MIN_POINTS_PER_TASK: usize = 128;
 
+/// Most points one parallel task of a level with material handles in phases 2 and 3
+/// (and phase 1 there): its rows differ in cost with the material they hold, so the
+/// level is cut into many small tasks that the threads take as they free up (two tasks
+/// of 128 points left one thread waiting on the other: the bench forest, 16³, two
+/// passes, 2.64–2.79 ms before, 2.54–2.56 ms after). Levels without material, whose
+/// rows cost alike, keep [`MIN_POINTS_PER_TASK`].
+pub const MAX_POINTS_PER_UNEVEN_TASK: usize = 32;
+
 /// Most distinct exponents (see [`path_exponents`]).
 pub const MAX_EXPONENTS: usize = 10;
 
@@ -1405,10 +1413,17 @@ impl Ctx {
 }
 
 impl Ctx {
-    /// Rows per parallel task: at least [`MIN_POINTS_PER_TASK`] points, so that small
-    /// levels do not pay a task per row.
-    fn rows_per_task(&self) -> usize {
-        MIN_POINTS_PER_TASK.div_ceil(self.nx.max(1) as usize)
+    /// Least and most rows a parallel task takes: at least [`MIN_POINTS_PER_TASK`]
+    /// points, so that small levels do not pay a task per row; where the rows' cost is
+    /// `uneven` (a level with material), at most [`MAX_POINTS_PER_UNEVEN_TASK`] (at
+    /// least a row).
+    fn rows_per_task(&self, uneven: bool) -> (usize, usize) {
+        let nx = self.nx.max(1) as usize;
+        if uneven {
+            (1, MAX_POINTS_PER_UNEVEN_TASK.div_ceil(nx))
+        } else {
+            (MIN_POINTS_PER_TASK.div_ceil(nx), usize::MAX)
+        }
     }
 
     /// Index of column (x, z) within a level, wrapping in periodic mode; `None` outside.
@@ -1580,7 +1595,7 @@ impl Ctx {
             extra,
             g,
             rows,
-            fin,
+            (fin, quiet.is_some()),
             |z, cur_row, (rem_row, ta_row), g_row, rf| {
                 if first {
                     // The first pass sets every point (its memory may hold anything).
@@ -1601,7 +1616,8 @@ impl Ctx {
         )
     }
 
-    /// The parallel loop over a level's rows (tasks of [`Ctx::rows_per_task`] rows):
+    /// The parallel loop over a level's rows (tasks of [`Ctx::rows_per_task`] rows,
+    /// `uneven` as there):
     /// `body(z, row of cur, extra's item, row of g, flux tallies)` for every row `z`,
     /// then, in the level's last phase, [`Ctx::finish_row`]; the rows' tallies summed
     /// in row order.
@@ -1611,10 +1627,11 @@ impl Ctx {
         extra: impl IndexedParallelIterator<Item = T>,
         g: &mut [S],
         rows: &mut [RowFlux],
-        fin: Finish<'_>,
+        (fin, uneven): (Finish<'_>, bool),
         body: impl Fn(i32, &mut [f32], T, &mut [S], &mut RowFlux) + Sync,
     ) -> RowFlux {
         let nx = self.nx as usize;
+        let (min_rows, max_rows) = self.rows_per_task(uneven);
         let (row_len, p) = (cur.row_len(), cur.pitch());
         let (last_phase, avg, dom) = (fin.last_phase, fin.avg, fin.dom);
         let resolve = fin.resolve.map(|d| (d, fin.clamp, fin.from_planes));
@@ -1626,7 +1643,8 @@ impl Ctx {
             .zip(avg.par_chunks_mut(nx))
             .zip(dom.par_chunks_mut(nx))
             .enumerate()
-            .with_min_len(self.rows_per_task())
+            .with_min_len(min_rows)
+            .with_max_len(max_rows)
             .for_each(
                 |(z, (((((cur_row, x), g_row), row_out), avg_row), dom_row))| {
                     let mut rf = RowFlux::default();
@@ -1897,7 +1915,7 @@ impl Ctx {
             extra,
             g,
             rows,
-            fin,
+            (fin, true),
             |z,
              cur_row,
              ((same_row, other_row), ((src_row, emits_row), (hi_row, ex_row))),
@@ -2472,7 +2490,7 @@ impl Ctx {
             pre.par_chunks_mut(nx * SLOTS * 3),
             g,
             rows,
-            fin,
+            (fin, true),
             |z, cur_row, pre_row, g_row, _| {
                 if scalar {
                     self.phase3_row_scalar(
@@ -2497,7 +2515,7 @@ impl Ctx {
             .zip(pend_other.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
             .enumerate()
-            .with_min_len(self.rows_per_task())
+            .with_max_len(self.rows_per_task(true).1)
             .for_each(|(z, ((same_row, other_row), rf))| {
                 *rf = RowFlux::default();
                 self.collide_row(
