@@ -139,8 +139,8 @@
 //!   inside the pool (two cores: 1.8× one core at 64³, from about 1.3×). Tasks take
 //!   at least 128 points ([`sweep::MIN_POINTS_PER_TASK`]): a 16 × 16 level runs on
 //!   both cores (at 512 it was one task; the forest at 16³ gained 1.5×, though a
-//!   fifth of the two threads' time is then the kernel's scheduling); levels with
-//!   material, whose rows differ in cost, in tasks of at most 32 points
+//!   fifth of the two threads' time is then the kernel's scheduling); phases 2 and 3,
+//!   whose rows differ in cost, in tasks of at most 32 points
 //!   ([`sweep::MAX_POINTS_PER_UNEVEN_TASK`], fifth round below).
 //! - **Phase 3 as rows**: a cell's collisions with its level-mates' emission read
 //!   what each path carries into each segment from the emission loop (`pre`), instead
@@ -239,16 +239,19 @@
 //! `rem_euclid` (perf put a sixth of the profile rule's gather on it; removing it moved
 //! nothing).
 //!
-//! **Fifth round (issue 15).** Kept: a level with material runs its phases as tasks of
-//! at most 32 points ([`sweep::MAX_POINTS_PER_UNEVEN_TASK`]) that the threads take as
-//! they free up; the two tasks of 128 points a 16 × 16 level had before left one
-//! thread waiting on the other, as its rows' material differs (timed phase by phase,
-//! phases 2 and 3 ran 1.6× faster on two threads than on one). The forest (16³,
-//! `forest_profile`, fastest of 300–400, old and new builds alternating): two passes
-//! 2.64–2.79 → 2.54–2.56 ms, four passes 5.10–5.15 → 4.89–4.93 ms; the 64³ canopy
-//! unchanged (one pass 16.35–16.40 against 16.43–16.57 ms, four passes 61.9–62.2
-//! against 61.4–61.7 ms), the 16 × 64 × 16 canopy's pass 1.44 → 1.47 ms. The light is
-//! the same bit for bit (the rows' tallies are summed in row order as before).
+//! **Fifth round (issue 15).** Kept: phases 2 and 3 run as tasks of at most 32 points
+//! ([`sweep::MAX_POINTS_PER_UNEVEN_TASK`]) that the threads take as they free up; the
+//! two tasks of 128 points a 16 × 16 level had before left one thread waiting on the
+//! other, as its rows' material differs (timed phase by phase on the forest, phases 2
+//! and 3 ran 1.6× faster on two threads than on one; phase 1, which keeps its tasks,
+//! 1.5×). The forest (16³, `forest_profile`, fastest of 300–400, old and new builds
+//! alternating): two passes 2.63–2.67 → 2.51–2.55 ms, four passes 5.16–5.34 →
+//! 4.91–4.99 ms; the canopies no slower (64³, in minutes when the VM was slow: one
+//! pass 17.15–17.43 against 17.14–17.54 ms, four passes 66.1–69.4 against 64.3–65.4
+//! ms; 16 × 64 × 16, one pass 1.47–1.48 against 1.46–1.48 ms). The light is the same bit for bit (the rows'
+//! tallies are summed in row order as before). `cargo xtask bench` after it: the
+//! forest's four passes reach 0.0175 in 5.5 ms, 161× Monte Carlo (876 ms for that
+//! error); two passes reach the same 0.0175 in 2.6 ms, 337×.
 //!
 //! Tried and dropped in the fifth round (each bit for bit the same light; old and new
 //! builds alternating, fastest of 40–400 runs; none moved the time beyond the runs'

@@ -107,12 +107,13 @@ pub fn channel_length(bin: usize) -> f32 {
 /// one task a level, 4.4 ms at 128; below 64, rayon's per-task cost shows).
 pub const MIN_POINTS_PER_TASK: usize = 128;
 
-/// Most points one parallel task of a level with material handles in phases 2 and 3
-/// (and phase 1 there): its rows differ in cost with the material they hold, so the
-/// level is cut into many small tasks that the threads take as they free up (two tasks
-/// of 128 points left one thread waiting on the other: the bench forest, 16³, two
-/// passes, 2.64–2.79 ms before, 2.54–2.56 ms after). Levels without material, whose
-/// rows cost alike, keep [`MIN_POINTS_PER_TASK`].
+/// Most points one parallel task of phases 2 and 3 handles: their rows differ in cost
+/// with the material they hold, so the level is cut into many small tasks that the
+/// threads take as they free up (two tasks of 128 points left one thread waiting on
+/// the other: the bench forest, 16³, two passes, 2.63–2.67 ms before, 2.51–2.55 ms
+/// after). Phase 1 keeps [`MIN_POINTS_PER_TASK`]: each thread then gathers from the
+/// rows it wrote a level before (small tasks there, which move rows between cores,
+/// gained nothing).
 pub const MAX_POINTS_PER_UNEVEN_TASK: usize = 32;
 
 /// Most distinct exponents (see [`path_exponents`]).
@@ -1415,8 +1416,8 @@ impl Ctx {
 impl Ctx {
     /// Least and most rows a parallel task takes: at least [`MIN_POINTS_PER_TASK`]
     /// points, so that small levels do not pay a task per row; where the rows' cost is
-    /// `uneven` (a level with material), at most [`MAX_POINTS_PER_UNEVEN_TASK`] (at
-    /// least a row).
+    /// `uneven` (phases 2 and 3), at most [`MAX_POINTS_PER_UNEVEN_TASK`] (at least a
+    /// row).
     fn rows_per_task(&self, uneven: bool) -> (usize, usize) {
         let nx = self.nx.max(1) as usize;
         if uneven {
@@ -1595,7 +1596,7 @@ impl Ctx {
             extra,
             g,
             rows,
-            (fin, quiet.is_some()),
+            (fin, false),
             |z, cur_row, (rem_row, ta_row), g_row, rf| {
                 if first {
                     // The first pass sets every point (its memory may hold anything).
