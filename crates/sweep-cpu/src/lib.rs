@@ -249,7 +249,12 @@
 //! 4.91–4.99 ms; the canopies no slower (64³, in minutes when the VM was slow: one
 //! pass 17.15–17.43 against 17.14–17.54 ms, four passes 66.1–69.4 against 64.3–65.4
 //! ms; 16 × 64 × 16, one pass 1.47–1.48 against 1.46–1.48 ms). The light is the same bit for bit (the rows'
-//! tallies are summed in row order as before). `cargo xtask bench` after it: the
+//! tallies are summed in row order as before). Kept too: a level's short sequential
+//! steps before phase 1 run as two at once (`rayon::join`: the transmittances and
+//! their planes on one thread; the ring of periodic light, the quiet mask and the
+//! media's profiles on the other), which a 16³ level's timing put at a tenth of the
+//! forest's sweep: two passes 2.54 → 2.46–2.48 ms, four 4.88–4.96 → 4.76–4.79 ms.
+//! `cargo xtask bench` after the first of these changes: the
 //! forest's four passes reach 0.0175 in 5.5 ms, 161× Monte Carlo (876 ms for that
 //! error); two passes reach the same 0.0175 in 2.6 ms, 337×.
 //!
@@ -271,11 +276,13 @@
 //!   wrapped columns in phase 3 (the forest, two passes, one thread: 4.23–4.31 ms
 //!   before, 4.15–4.35 ms after).
 //! - What two threads still lose on the forest (16³, two passes: 4.2–4.4 ms on one
-//!   thread, 2.6–2.8 ms on two before the split above, 1.6×): perf puts about
-//!   a fifth of both threads' samples in the kernel's scheduler and `sched_yield`, the
-//!   pool's threads sleeping and waking between a level's parallel loops (some 150 of
-//!   them a sweep). Not mended: fewer, longer parallel loops per level would need the
-//!   phases' sequential steps (the quiet mask, the planes' rings) inside them.
+//!   thread, 2.5 ms on two, 1.7×): perf puts about a fifth of both threads' samples
+//!   in the kernel's scheduler and `sched_yield`, the pool's threads waiting between
+//!   a level's parallel loops (some 150 of them a sweep); a microbenchmark of rayon
+//!   here: 1.3–1.5 µs a loop of two tasks back to back, 8–12 µs once 20 µs of one
+//!   thread's work come between loops (the idle thread has gone to sleep). Fewer,
+//!   longer loops per level would need phase 3's setup (`near`, the source planes)
+//!   inside phase 2's loop.
 //! - Sixteen `f64` lanes in the flux sums, again (64³, one pass: 16.2–16.6 ms either
 //!   way).
 //!

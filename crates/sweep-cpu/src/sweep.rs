@@ -3299,23 +3299,51 @@ fn run_with<S: Sink>(
             let sent = sent_on;
             // A level without material: every point is quiet, and nothing scatters.
             let material_here = fixed.level_material[j as usize] || !fast;
-            if material_here {
-                w.level_powers(&fixed.lnp[range.clone()]);
-                w.planes.fill_pows(&ctx, &w.pows, &fixed.lnp[range.clone()]);
+            let profile_level =
+                options.medium == MediumEmission::Profile && fixed.level_medium[j as usize];
+            // The level's per-cell values and the ring of the light it gathers from:
+            // the transmittances on one thread while the other wraps the ring, finds
+            // the quiet points and the media's profiles (each a short step of one
+            // thread that left the other waiting, a tenth of a 16³ sweep).
+            {
+                let lnp = &fixed.lnp[range.clone()];
+                let level = &cells[range.clone()];
+                let Work {
+                    pows,
+                    planes,
+                    prev,
+                    quiet,
+                    quiet_rows,
+                    prof,
+                    ..
+                } = &mut w;
+                rayon::join(
+                    || {
+                        if material_here {
+                            level_powers(pows, lnp);
+                            planes.fill_pows(&ctx, pows, lnp);
+                        }
+                    },
+                    || {
+                        if fast && fixed.periodic {
+                            prev.wrap_ring();
+                        }
+                        if fast && material_here {
+                            ctx.quiet(lnp, quiet, quiet_rows);
+                        }
+                        if profile_level {
+                            prof.level(up, lnp, |q| medium::applies(options.medium, level[q].pass));
+                        }
+                    },
+                );
             }
             let f1 = if fast {
-                if fixed.periodic {
-                    w.prev.wrap_ring();
-                }
                 // Light from outside the sides: the ring of `ghost`.
                 let ghost_on = src.active && !fixed.periodic;
                 if ghost_on {
                     w.fill_ghost(&src, &ctx, from_virtual, src_level);
                 }
-                let quiet = material_here.then(|| {
-                    ctx.quiet(&fixed.lnp[range.clone()], &mut w.quiet, &mut w.quiet_rows);
-                    &w.quiet[..]
-                });
+                let quiet = material_here.then_some(&w.quiet[..]);
                 ctx.phase1_fast(
                     &w.prev,
                     ghost_on.then_some(&w.ghost),
@@ -3390,15 +3418,11 @@ fn run_with<S: Sink>(
                 options.medium,
                 MediumEmission::Source | MediumEmission::Profile
             ) && fixed.level_medium[j as usize];
-            if options.medium == MediumEmission::Profile && fixed.level_medium[j as usize] {
+            if profile_level {
                 let n = range.len();
                 if w.src_hi.len() != n {
                     w.src_hi = vec![[Vec3::ZERO; 2]; n];
                 }
-                let level = &cells[range.clone()];
-                w.prof.level(up, &fixed.lnp[range.clone()], |q| {
-                    medium::applies(options.medium, level[q].pass)
-                });
                 // Phase 3's emission planes, written (zeroed row by row first) by phase
                 // 2 on the fast path; grown once, kept across levels.
                 w.planes
@@ -3406,8 +3430,6 @@ fn run_with<S: Sink>(
                     .resize(if fast { SLOTS * 3 * n } else { 0 }, 0.0);
             }
             // Only levels with media under the profile rule write the emission planes.
-            let profile_level =
-                options.medium == MediumEmission::Profile && fixed.level_medium[j as usize];
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
                 (&w.t_after, &w.pows),
@@ -4104,20 +4126,19 @@ impl Work {
             }
         }
     }
+}
 
-    /// `pows` for the level whose cells have `ln(pass)` = `lnp`.
-    fn level_powers(&mut self, lnp: &[f32]) {
-        let exps = path_exponents();
-        self.pows
-            .par_iter_mut()
-            .zip(lnp)
-            .with_min_len(MIN_POINTS_PER_TASK)
-            .for_each(|(pw, &l)| {
-                for (k, e) in exps.iter().enumerate() {
-                    pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
-                }
-            });
-    }
+/// `pows` for the level whose cells have `ln(pass)` = `lnp`.
+fn level_powers(pows: &mut [[f32; MAX_EXPONENTS]], lnp: &[f32]) {
+    let exps = path_exponents();
+    pows.par_iter_mut()
+        .zip(lnp)
+        .with_min_len(MIN_POINTS_PER_TASK)
+        .for_each(|(pw, &l)| {
+            for (k, e) in exps.iter().enumerate() {
+                pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
+            }
+        });
 }
 
 #[cfg(test)]
