@@ -255,8 +255,8 @@
 //! media's profiles on the other), which a 16³ level's timing put at a tenth of the
 //! forest's sweep: two passes 2.54 → 2.46–2.48 ms, four 4.88–4.96 → 4.76–4.79 ms.
 //! `cargo xtask bench` after both: the forest's four passes reach 0.0175 in 4.8 ms,
-//! 175× Monte Carlo (841 ms for that error; 161–168× before); two passes reach the
-//! same 0.0175 in 2.5 ms, 339×.
+//! 175× Monte Carlo (841 ms for that error; 160–168× on the build before this
+//! round); two passes reach the same 0.0175 in 2.5 ms, 339×.
 //!
 //! Tried and dropped in the fifth round (each bit for bit the same light; old and new
 //! builds alternating, fastest of 40–400 runs; none moved the time beyond the runs'
