@@ -3299,6 +3299,8 @@ fn run_with<S: Sink>(
             let sent = sent_on;
             // A level without material: every point is quiet, and nothing scatters.
             let material_here = fixed.level_material[j as usize] || !fast;
+            // Levels with media under the profile rule: their cells' profiles, and
+            // the emission planes phase 2 writes.
             let profile_level =
                 options.medium == MediumEmission::Profile && fixed.level_medium[j as usize];
             // The level's per-cell values and the ring of the light it gathers from:
@@ -3429,7 +3431,6 @@ fn run_with<S: Sink>(
                     .ex
                     .resize(if fast { SLOTS * 3 * n } else { 0 }, 0.0);
             }
-            // Only levels with media under the profile rule write the emission planes.
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
                 (&w.t_after, &w.pows),
