@@ -3816,7 +3816,7 @@ impl Fixed {
         let periodic = matches!(boundary.sides, SideBoundary::Periodic);
         // On every core: a logarithm a cell and the levels' scans took a millisecond of
         // one core at 64³ every sweep.
-        let (level_material, level_medium) = (0..desc.levels())
+        let (level_material, level_medium): (Vec<bool>, Vec<bool>) = (0..desc.levels())
             .into_par_iter()
             .map(|j| {
                 let level = &cells[desc.level_range(j)];
@@ -3826,19 +3826,16 @@ impl Fixed {
                 )
             })
             .unzip();
+        let top_material = level_material
+            .iter()
+            .rposition(|&m| m)
+            .map_or(-1, |j| j as i32);
         Self {
+            top_material,
             lnp: cells.par_iter().map(|m| m.pass.ln()).collect(),
             exposed: exposure(material, periodic),
             level_material,
             level_medium,
-            top_material: (0..desc.levels() as i32)
-                .rev()
-                .find(|&j| {
-                    cells[desc.level_range(j as u32)]
-                        .iter()
-                        .any(|m| !m.is_empty())
-                })
-                .unwrap_or(-1),
             laterally_uniform: matches!(boundary.top, TopBoundary::Uniform(_))
                 && matches!(boundary.sides, SideBoundary::Open | SideBoundary::Periodic),
             periodic,
