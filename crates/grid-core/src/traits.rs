@@ -224,8 +224,9 @@ pub struct SweepOptions {
     /// Stop repeating passes when a pass changes the light by less than this fraction.
     pub tolerance: f32,
     /// Copy, instead of computing, the levels above all material in a downward pass
-    /// under a laterally uniform boundary (same result; on by default; off only to
-    /// measure what the skip saves). GPU sweepers may compute them regardless.
+    /// under a laterally uniform boundary, and carry the light of all upward passes
+    /// through those levels once (the same result up to rounding; on by default; off
+    /// only to measure what the skips save). GPU sweepers may compute them regardless.
     pub skip_empty_levels: bool,
     /// How a medium cell emits the light it scatters (step 5 of the sweep's
     /// specification, the `sweep-cpu` docs).

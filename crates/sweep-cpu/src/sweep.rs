@@ -1069,6 +1069,14 @@ impl LevelLight {
             }
         });
     }
+    /// Adds `o`'s light, ring and all.
+    fn add(&mut self, o: &LevelLight) {
+        let r = self.row_len();
+        self.v
+            .par_chunks_mut(r)
+            .zip(o.v.par_chunks(r))
+            .for_each(|(a, b)| a.iter_mut().zip(b).for_each(|(a, b)| *a += b));
+    }
     /// The ring from the wrapped columns and rows of the grid (periodic sides).
     fn wrap_ring(&mut self) {
         let (nx, nz, p, r) = (
@@ -1102,20 +1110,6 @@ impl LevelLight {
             let to = (z + PAD as isize) as usize * r;
             self.v.copy_within(from..from + r, to);
         }
-    }
-    /// Flux through a horizontal plane (`Σ value × μ_c` over the grid's points).
-    fn flux(&self, ch: &[Channel; CHANNELS]) -> DVec3 {
-        let (nx, p) = (self.nx, self.pitch());
-        let mut f = DVec3::ZERO;
-        for z in 0..self.nz {
-            let row = self.row(z as isize);
-            for (c, chn) in ch.iter().enumerate() {
-                for k in 0..3 {
-                    f[k] += sum_f64(&row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
-                }
-            }
-        }
-        f
     }
 }
 
@@ -1418,6 +1412,33 @@ impl Ctx {
     /// points, so that small levels do not pay a task per row; where the rows' cost is
     /// `uneven` (phases 2 and 3), at most [`MAX_POINTS_PER_UNEVEN_TASK`] (at least a
     /// row).
+    /// The flux that the points of a level gather when every source point holds the
+    /// channel light `v`, split into what comes from inside the grid and what from
+    /// beyond its sides (none on periodic sides): the sums of phase 1's
+    /// [`RowFlux::inside`] and [`RowFlux::outside`], counted instead of summed.
+    fn uniform_gather(&self, v: &Level) -> (DVec3, DVec3) {
+        let (w0, w1) = (1.0 - self.smoothing as f64, 0.25 * self.smoothing as f64);
+        // Points whose source point, offset by (a, b), lies inside the grid.
+        let count = |a: i32, b: i32| {
+            ((self.nx - a.abs()).max(0) as i64 * (self.nz - b.abs()).max(0) as i64) as f64
+        };
+        let n = count(0, 0);
+        let (mut inside, mut all) = (DVec3::ZERO, DVec3::ZERO);
+        for (c, chn) in self.ch.iter().enumerate() {
+            let flux = v[c].as_dvec3() * chn.mu as f64;
+            let (a, b) = (chn.step.x, chn.step.z);
+            let share = if self.periodic {
+                n
+            } else {
+                w0 * count(a, b)
+                    + w1 * (count(a - 1, b) + count(a + 1, b) + count(a, b - 1) + count(a, b + 1))
+            };
+            inside += flux * share;
+            all += flux * n;
+        }
+        (inside, all - inside)
+    }
+
     fn rows_per_task(&self, uneven: bool) -> (usize, usize) {
         let nx = self.nx.max(1) as usize;
         if uneven {
@@ -3204,13 +3225,32 @@ fn run_with<S: Sink>(
     let mut waited = f64::INFINITY;
     let mut grew = 0;
 
-    for pass in 0..options.max_passes {
-        let up = pass % 2 == 1;
-        let (first, last) = (pass == 0, pass + 1 == options.max_passes);
+    // Upward light above all material (the crate docs, "Skipped work"): the levels
+    // above the top level with material only carry light up, so an upward pass that
+    // another upward pass follows, and in which no light enters them from the sides,
+    // stops below them and leaves what it sends on in `w.above` (`above`: its flux);
+    // the last upward pass carries the sum through them once. If the sweep ends
+    // otherwise (converged, or a last downward pass, which resolves those levels,
+    // comes next), a run of its own carries it first.
+    let defer = options.skip_empty_levels && fixed.top_material >= 0 && fixed.top_material + 1 < ny;
+    let mut above: Option<DVec3> = None;
+    let mut pass = 0;
+    let mut converged = false;
+    loop {
+        let ends = converged || pass >= options.max_passes;
+        let carry = above.is_some() && (ends || (pass + 1 == options.max_passes && pass % 2 == 0));
+        if ends && !carry {
+            break;
+        }
+        let up = carry || pass % 2 == 1;
+        let (first, final_pass) = (
+            pass == 0 && !carry,
+            pass + 1 == options.max_passes && !carry,
+        );
         let ch = channels(up);
         let src = Sources {
             boundary,
-            active: pass < 2,
+            active: pass < 2 && !carry,
             up,
             dims,
             halo: fixed.halo,
@@ -3219,15 +3259,51 @@ fn run_with<S: Sink>(
         // The last plain pass resolves each level as it ends (clamping light of either
         // sign at 0 first); after accelerated passes the light is resolved after the
         // sweep.
-        let last = last && mode == Mode::Plain;
-        stats.passes += 1;
+        let last = final_pass && mode == Mode::Plain;
+        if !carry {
+            stats.passes += 1;
+        }
+        // This upward pass stops below the levels above all material (unless light
+        // enters them from the sides: the passes' convergence test counts it as it
+        // enters).
+        let side_light = src.active
+            && match &boundary.sides {
+                SideBoundary::Periodic => false,
+                SideBoundary::Open => boundary.bottom != BinLight::ZERO,
+                SideBoundary::Given(_) => true,
+            };
+        let stops = up && defer && !carry && !final_pass && !side_light;
         let mut pending = DVec3::ZERO;
         // The flux the last level's final light sends on.
         let mut sent_on = DVec3::ZERO;
         // Levels copied in a row just before this one (all with the same light).
         let mut copied_in_row = 0;
-        for li in 0..ny {
+        let start = if carry { fixed.top_material + 1 } else { 0 };
+        for li in start..ny {
             let j = if up { li } else { ny - 1 - li };
+            if up && defer && j == fixed.top_material + 1 {
+                if stops {
+                    match above.as_mut() {
+                        Some(sent) => {
+                            w.above.add(&w.prev);
+                            *sent += sent_on;
+                        }
+                        None => {
+                            w.above.v.copy_from_slice(&w.prev.v);
+                            above = Some(sent_on);
+                        }
+                    }
+                    break;
+                }
+                if let Some(sent) = above.take() {
+                    if carry {
+                        std::mem::swap(&mut w.prev, &mut w.above);
+                    } else {
+                        w.prev.add(&w.above);
+                    }
+                    sent_on += sent;
+                }
+            }
             let from_virtual = li == 0;
             let range = desc.level_range(j as u32);
             if from_virtual {
@@ -3242,9 +3318,16 @@ fn run_with<S: Sink>(
                 && (fixed.laterally_uniform || !src.active)
             {
                 let v: Level = std::array::from_fn(|c| src.virtual_light(0, 0, &ch[c]));
+                // Booked as a computed level books it: of what its points gather, the
+                // share from source points beyond open sides enters through the sides,
+                // and as much of what the level above sent on left through them.
+                let (inside, outside) = ctx.uniform_gather(&v);
                 if from_virtual {
-                    bal.top_in += w.prev.flux(ch);
+                    bal.top_in += inside;
+                } else {
+                    bal.side_out += outside;
                 }
+                bal.side_in += outside;
                 // Every point of the level receives the same light: one sink value.
                 let mut one = S::default();
                 for (c, chn) in ch.iter().enumerate() {
@@ -3495,13 +3578,17 @@ fn run_with<S: Sink>(
             }
             std::mem::swap(&mut w.prev, &mut w.cur);
         }
-        resolved = last;
         // What leaves the last level leaves the grid.
         let leaving = sent_on;
-        if up {
+        if carry {
             bal.top_out += leaving;
-        } else {
+            continue;
+        }
+        resolved = last;
+        if !up {
             bal.bottom_out += leaving;
+        } else if !stops {
+            bal.top_out += leaving;
         }
         // With acceleration: what waits net of the correction not yet taken back, and
         // the convergence test on the largest waiting light of either sign, after
@@ -3551,9 +3638,8 @@ fn run_with<S: Sink>(
             pending
         };
         let input = bal.input().max_element();
-        if waiting.max_element() <= options.tolerance as f64 * input && pass >= 1 {
-            break;
-        }
+        converged = waiting.max_element() <= options.tolerance as f64 * input && pass >= 1;
+        pass += 1;
     }
     if !resolved && (mode != Mode::Plain || signed_light) {
         // What the accelerated passes left: light off by up to the tolerance either
@@ -3978,6 +4064,9 @@ impl Planes {
 struct Work {
     prev: LevelLight,
     cur: LevelLight,
+    /// The upward light left at the levels above all material for a later pass to
+    /// carry (its ring as `prev`'s).
+    above: LevelLight,
     /// Light from outside the sides in its ring, zero inside ([`LevelLight`]), and the
     /// source level it was last filled for (`None`: not filled).
     ghost: LevelLight,
@@ -4024,6 +4113,7 @@ impl Work {
         Self {
             prev: LevelLight::new(nx, nz),
             cur: LevelLight::new(nx, nz),
+            above: LevelLight::new(nx, nz),
             ghost: LevelLight::new(nx, nz),
             ghost_for: None,
             removed: vec![0.0; level_len * SLOTS * 3],

@@ -1,0 +1,215 @@
+//! The skips of `SweepOptions::skip_empty_levels` against the sweep without them: in
+//! downward passes the levels above all material copied instead of computed, and in
+//! upward passes those levels carrying the light of every upward pass at once (an
+//! upward pass that another follows stops below them; the crate docs, "Skipped work").
+//! Both are exact up to rounding (copying a uniform level skips the smoothing's
+//! re-weighting; carrying the sum of the passes' light adds before transporting instead
+//! of after), so the light must agree to 1e-5 of each value, over random grids with
+//! empty levels on top, every side mode, bottom light on and off, both medium rules,
+//! plain and accelerated passes, any number of passes, and tolerances that end the
+//! sweep early. The passes run and the energy balance, term by term, must agree too (a
+//! copied level books what crosses its sides as the computed level would: else the
+//! convergence test, which divides by the input, ended the passes elsewhere).
+
+use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::{
+    Acceleration, BinLight, Boundary, GridDesc, HaloLayout, Material, MaterialGrid, MediumEmission,
+    SideBoundary, SweepOptions, TopBoundary,
+};
+use proptest::prelude::*;
+
+/// Grids up to 10 × 9 × 10 whose top `empty` levels (at least one) hold no material.
+fn grid() -> impl Strategy<Value = MaterialGrid> {
+    (1u32..=10, 2u32..=9, 1u32..=10)
+        .prop_flat_map(|(nx, ny, nz)| (Just((nx, ny, nz)), 1..ny))
+        .prop_flat_map(|((nx, ny, nz), empty)| {
+            let level = (nx * nz) as usize;
+            let low = level * (ny - empty) as usize;
+            let cell = (
+                prop::bool::weighted(0.4),
+                0.0f32..1.0,
+                prop_oneof![Just(0.0f32), 0.0f32..1.0],
+            )
+                .prop_map(|(full, a, p)| {
+                    if full {
+                        Material {
+                            reflectance: Vec3::new(a, 0.5 * a, 1.0 - a),
+                            pass: p,
+                        }
+                    } else {
+                        Material::EMPTY
+                    }
+                });
+            prop::collection::vec(cell, low).prop_map(move |mut cells| {
+                cells.resize(level * ny as usize, Material::EMPTY);
+                let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(nx, ny, nz)).unwrap();
+                MaterialGrid::new(d, cells).unwrap()
+            })
+        })
+}
+
+fn light(seed: usize) -> BinLight {
+    BinLight(std::array::from_fn(|d| {
+        Vec3::new(0.1, 0.2, 0.3) * (1 + (d * 7 + seed * 3) % 11) as f32
+    }))
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Case {
+    sides: u8,
+    bottom: bool,
+    smoothing: f32,
+    passes: u32,
+    tolerance: f32,
+    profile: bool,
+    accelerate: bool,
+}
+
+fn case() -> impl Strategy<Value = Case> {
+    (
+        0u8..3,
+        any::<bool>(),
+        prop_oneof![Just(0.0f32), 0.0f32..0.9],
+        1u32..9,
+        prop_oneof![Just(0.0f32), Just(1e-3), Just(3e-2)],
+        any::<bool>(),
+        any::<bool>(),
+    )
+        .prop_map(
+            |(sides, bottom, smoothing, passes, tolerance, profile, accelerate)| Case {
+                sides,
+                bottom,
+                smoothing,
+                passes,
+                tolerance,
+                profile,
+                accelerate,
+            },
+        )
+}
+
+fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
+    let d = *m.desc();
+    let b = Boundary {
+        top: TopBoundary::Uniform(Box::new(light(1).split_vertical().0)),
+        bottom: if c.bottom {
+            light(2).split_vertical().1
+        } else {
+            BinLight::ZERO
+        },
+        sides: match c.sides {
+            0 => SideBoundary::Open,
+            1 => SideBoundary::Periodic,
+            _ => SideBoundary::Given(
+                (0..HaloLayout::new(d.dims()).len())
+                    .map(|i| light(i).scaled(0.5))
+                    .collect(),
+            ),
+        },
+    };
+    let mut on = SweepOptions::multi_bounce();
+    on.smoothing = c.smoothing;
+    on.max_passes = c.passes;
+    on.tolerance = c.tolerance;
+    on.medium = if c.profile {
+        MediumEmission::Profile
+    } else {
+        MediumEmission::Source
+    };
+    on.acceleration = if c.accelerate {
+        Acceleration::Diffusion
+    } else {
+        Acceleration::Off
+    };
+    let mut off = on;
+    off.skip_empty_levels = false;
+    let a = sweep_cpu::run(m, &b, &on).unwrap();
+    let r = sweep_cpu::run(m, &b, &off).unwrap();
+    prop_assert_eq!(a.output.stats.passes, r.output.stats.passes);
+    prop_assert!(a.output.stats.levels_computed <= r.output.stats.levels_computed);
+    let (x, y) = (a.output.bins.unwrap(), r.output.bins.unwrap());
+    for (i, (p, q)) in x.data().iter().zip(y.data()).enumerate() {
+        for k in 0..p.0.len() {
+            let (u, v) = (p.0[k], q.0[k]);
+            let diff = (u - v).abs().max_element();
+            let scale = u.abs().max(v.abs()).max_element();
+            prop_assert!(
+                diff <= 1e-5 * scale,
+                "point {} bin {}: {} with the skips, {} without",
+                i,
+                k,
+                u,
+                v
+            );
+        }
+    }
+    let (f, g) = (a.balance, r.balance);
+    let scale = g.input().max_element().max(1e-30);
+    for (name, u, v) in [
+        ("top_in", f.top_in, g.top_in),
+        ("bottom_in", f.bottom_in, g.bottom_in),
+        ("side_in", f.side_in, g.side_in),
+        ("top_out", f.top_out, g.top_out),
+        ("bottom_out", f.bottom_out, g.bottom_out),
+        ("side_out", f.side_out, g.side_out),
+        ("absorbed", f.absorbed, g.absorbed),
+        ("pending", f.pending, g.pending),
+    ] {
+        let d = (u - v).abs().max_element() / scale;
+        prop_assert!(d <= 1e-5, "{}: {} vs {} (relative {:e})", name, u, v, d);
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    #[test]
+    fn the_skips_change_the_light_by_rounding_only(m in grid(), c in case()) {
+        check(&m, c)?;
+    }
+}
+
+/// The upward skip is taken where it applies, and not where light enters the levels
+/// above all material from the sides: a 6 × 8 × 6 grid with material in its lowest
+/// two levels, four passes.
+#[test]
+fn upward_passes_carry_the_levels_above_once() {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(6, 8, 6)).unwrap();
+    let cells = (0..d.point_count())
+        .map(|i| {
+            if i < 2 * d.level_len() && i % 3 == 0 {
+                Material {
+                    reflectance: Vec3::splat(0.6),
+                    pass: 0.3,
+                }
+            } else {
+                Material::EMPTY
+            }
+        })
+        .collect();
+    let m = MaterialGrid::new(d, cells).unwrap();
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 4;
+    o.tolerance = 0.0;
+    let sky = light(1).split_vertical().0;
+    let run = |sides: SideBoundary, bottom: BinLight| {
+        let b = Boundary {
+            top: TopBoundary::Uniform(Box::new(sky)),
+            bottom,
+            sides,
+        };
+        sweep_cpu::run(&m, &b, &o).unwrap().output.stats
+    };
+    // Down: 2 levels computed (6 copied); up: 8; down: 2 (6 copied); up: 8, the six
+    // above the material once for both upward passes.
+    let periodic = run(SideBoundary::Periodic, BinLight::ZERO);
+    assert_eq!(periodic.levels_copied, 12);
+    assert_eq!(periodic.levels_computed, 2 + 2 + 2 + 8);
+    let open = run(SideBoundary::Open, BinLight::ZERO);
+    assert_eq!(open.levels_computed, 2 + 2 + 2 + 8);
+    // Bottom light enters the first upward pass's levels from the open sides: that
+    // pass runs to the top.
+    let lit = run(SideBoundary::Open, light(2).split_vertical().1);
+    assert_eq!(lit.levels_computed, 2 + 8 + 2 + 8);
+}
