@@ -2454,24 +2454,6 @@ impl Tally<'_> {
 }
 
 impl Ctx {
-    /// Points with a cell of `busy` within `r` columns and rows (wrapped on periodic
-    /// sides; beyond open sides nothing is busy): `out[i]`; `tmp` is scratch.
-    fn near(&self, busy: &[bool], r: i32, out: &mut [bool], tmp: &mut [bool]) {
-        let (nx, nz) = (self.nx, self.nz);
-        for z in 0..nz {
-            for x in 0..nx {
-                tmp[(x + nx * z) as usize] =
-                    (-r..=r).any(|d| self.col(x + d, z).is_some_and(|i| busy[i]));
-            }
-        }
-        for z in 0..nz {
-            for x in 0..nx {
-                out[(x + nx * z) as usize] =
-                    (-r..=r).any(|d| self.col(x, z + d).is_some_and(|i| tmp[i]));
-            }
-        }
-    }
-
     /// Phase 3 of a level under the source rule ([`crate::medium`]): every path
     /// gains what its segments' sources emit, attenuated by the segments after them
     /// (and `pre` keeps what each path carries into each of its segments); the level is
@@ -2485,7 +2467,7 @@ impl Ctx {
     #[allow(clippy::too_many_arguments)]
     fn phase3<S: Sink>(
         &self,
-        (src, emits, near): (&[Vec3], &[bool], &[bool]),
+        (src, emits): (&[Vec3], &[bool]),
         hi: (&[[Vec3; 2]], &crate::profile::Profiles),
         (pows, lnp, planes): (&[[f32; MAX_EXPONENTS]], &[f32], &mut Planes),
         cells: &[lightgrid_core::Material],
@@ -2502,9 +2484,13 @@ impl Ctx {
         let profile = self.medium == MediumEmission::Profile;
         planes.fill_src(self, src, emits);
         let planes = &*planes;
-        // Rows whose paths carry anything: near an emitting cell (every row, scalar).
-        for (r, near_row) in pre_rows.iter_mut().zip(near.chunks(nx)) {
-            *r = scalar || near_row.iter().any(|&b| b);
+        // Rows whose paths carry anything: within 4 rows of an emitting cell (every
+        // row, scalar). (The rows of the points within 4 cells of one: a point's row
+        // holds such a point if a row within 4 of it holds an emitting cell.)
+        let emitting: Vec<bool> = emits.chunks(nx).map(|r| r.contains(&true)).collect();
+        for (z, r) in pre_rows.iter_mut().enumerate() {
+            *r = scalar
+                || (-4..=4).any(|d| self.row_of(z as i32 + d).is_some_and(|zr| emitting[zr]));
         }
         let pre_rows = &*pre_rows;
         let emitted = self.level_rows(
@@ -3549,9 +3535,8 @@ fn run_with<S: Sink>(
             sent_on = f2.sent;
             ok &= !f2.bad;
             if phase3 {
-                ctx.near(&w.emits, 4, &mut w.near, &mut w.quiet_rows);
                 let f3 = ctx.phase3(
-                    (&w.src, &w.emits, &w.near),
+                    (&w.src, &w.emits),
                     (&w.src_hi, &w.prof),
                     (&w.pows, &fixed.lnp[range.clone()], &mut w.planes),
                     &cells[range.clone()],
@@ -4088,11 +4073,10 @@ struct Work {
     /// Points of the level with no material within two cells ([`Ctx::quiet`]).
     quiet: Vec<bool>,
     quiet_rows: Vec<bool>,
-    /// The source rule's source per cell of the level ([`crate::medium`]), whether a
-    /// cell emits, and points near an emitting cell.
+    /// The source rule's source per cell of the level ([`crate::medium`]) and whether a
+    /// cell emits.
     src: Vec<Vec3>,
     emits: Vec<bool>,
-    near: Vec<bool>,
     /// [`MediumEmission::Profile`]: the level's cells' profiles for this pass and the
     /// source's coefficients of `P_1`, `P_2` in height (empty under other rules).
     prof: crate::profile::Profiles,
@@ -4127,7 +4111,6 @@ impl Work {
             quiet_rows: vec![false; level_len],
             src: vec![Vec3::ZERO; level_len],
             emits: vec![false; level_len],
-            near: vec![false; level_len],
             prof: Default::default(),
             src_hi: Vec::new(),
             // Only cells with material touch these: pages of empty space stay unmapped.
