@@ -286,6 +286,40 @@
 //! - Sixteen `f64` lanes in the flux sums, again (64³, one pass: 16.2–16.6 ms either
 //!   way).
 //!
+//! **Sixth round (issue 15): work a scene does not need.** Upward passes carry the
+//! levels above all material once for all of them ("Skipped work" below): an upward
+//! pass that another follows stops below those levels, and the last upward pass
+//! carries the sum of their light. Four passes over the 64³ canopy compute 166 levels
+//! where they computed 196; over the forest 34 where they computed 44. This one changes
+//! the light by rounding (a sum transported instead of two transports summed; within
+//! 1e-5 of each value, `tests/skips.rs`), the oracle does the same, and the fast path
+//! still equals it bit for bit. Fastest of many, old (`6bc1aa7`) and new builds
+//! alternating:
+//!
+//! | case | before | now |
+//! |------|-------:|----:|
+//! | 64³, 26 bins, 4 passes | 64.9–65.7 ms (4.0 M/s) | 58.7–60.6 ms (4.5 M/s) |
+//! | 64³, 26 bins, 1 pass | 17.1–17.3 ms | 16.6–17.0 ms (no change expected: the VM was slow that hour) |
+//! | 16 × 64 × 16, 26 bins, 4 passes | 6.26–6.29 ms | 5.64–5.85 ms |
+//! | 16 × 64 × 16, 26 bins, 1 pass | 1.45–1.46 ms | 1.45 ms |
+//! | forest 16³, 4 passes (`forest_profile`) | 4.88–4.96 ms | 4.59–4.74 ms |
+//! | forest 16³, 2 passes | 2.47–2.54 ms | 2.48–2.52 ms (its one upward pass carries them anyway) |
+//!
+//! The new test found that the copy skip (levels above all material in a downward
+//! pass) booked a copied level's input differently from a computed one under open
+//! sides: all of it as entering through the top, where a computed level books what its
+//! smoothing taps take from beyond the sides as side input (and as much leaving through
+//! them). The passes' convergence test divides by the input, so with a tolerance the
+//! sweep could run a different number of passes with the skip than without (5 against
+//! 4 in the case it found). A copied level now books its input as a computed one would
+//! (counted, `Ctx::uniform_gather`). Also: phase 3 picks its rows from the rows of
+//! emitting cells instead of a per-point dilation of 9 × 9 cells that was only read per
+//! row (bit for bit the same light).
+//!
+//! Tried this round and dropped: `BinLight`'s four-point resolve reading 4 × 4 blocks
+//! and transposing them (6 % faster on 4096 points in cache, 0.150 → 0.141 ms; the
+//! resolve is 8 % of four passes, so 0.5 %: not worth the code).
+//!
 //! **Roofline** (per point and pass, quiet point, 26 bins). Compute: gather 17 channels
 //! × 3 colours × 9 flops ≈ 460 flops (~115 four-lane operations), flux tallies and
 //! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
