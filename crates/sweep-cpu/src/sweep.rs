@@ -1408,10 +1408,6 @@ impl Ctx {
 }
 
 impl Ctx {
-    /// Least and most rows a parallel task takes: at least [`MIN_POINTS_PER_TASK`]
-    /// points, so that small levels do not pay a task per row; where the rows' cost is
-    /// `uneven` (phases 2 and 3), at most [`MAX_POINTS_PER_UNEVEN_TASK`] (at least a
-    /// row).
     /// The flux that the points of a level gather when every source point holds the
     /// channel light `v`, split into what comes from inside the grid and what from
     /// beyond its sides (none on periodic sides): the sums of phase 1's
@@ -1439,6 +1435,10 @@ impl Ctx {
         (inside, all - inside)
     }
 
+    /// Least and most rows a parallel task takes: at least [`MIN_POINTS_PER_TASK`]
+    /// points, so that small levels do not pay a task per row; where the rows' cost is
+    /// `uneven` (phases 2 and 3), at most [`MAX_POINTS_PER_UNEVEN_TASK`] (at least a
+    /// row).
     fn rows_per_task(&self, uneven: bool) -> (usize, usize) {
         let nx = self.nx.max(1) as usize;
         if uneven {
