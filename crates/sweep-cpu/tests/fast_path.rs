@@ -10,30 +10,19 @@
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
-    BinLight, Boundary, CellSource, GridDesc, HaloLayout, Material, MaterialGrid, Outputs,
-    SideBoundary, SweepOptions, TopBoundary,
+    BinLight, Boundary, CellSource, GridDesc, Material, MaterialGrid, Outputs, SweepOptions,
+    TopBoundary,
 };
 use proptest::prelude::*;
+
+mod common;
+use common::light;
 
 /// Grids up to 14 × 6 × 14 whose cells are empty with probability `1 - density`.
 fn grid(density: f64) -> impl Strategy<Value = MaterialGrid> {
     (1u32..=14, 1u32..=6, 1u32..=14).prop_flat_map(move |(nx, ny, nz)| {
         let n = (nx * ny * nz) as usize;
-        let cell = (
-            prop::bool::weighted(density),
-            0.0f32..1.0,
-            prop_oneof![Just(0.0f32), 0.0f32..1.0],
-        )
-            .prop_map(|(full, a, p)| {
-                if full {
-                    Material {
-                        reflectance: Vec3::new(a, 0.5 * a, 1.0 - a),
-                        pass: p,
-                    }
-                } else {
-                    Material::EMPTY
-                }
-            });
+        let cell = common::cell(density);
         prop::collection::vec(cell, n).prop_map(move |cells| {
             let d = GridDesc::new(
                 Vec3::ZERO,
@@ -44,12 +33,6 @@ fn grid(density: f64) -> impl Strategy<Value = MaterialGrid> {
             MaterialGrid::new(d, cells).unwrap()
         })
     })
-}
-
-fn light(seed: usize) -> BinLight {
-    BinLight(std::array::from_fn(|d| {
-        Vec3::new(0.1, 0.2, 0.3) * (1 + (d * 7 + seed * 3) % 11) as f32
-    }))
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -108,15 +91,7 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
         } else {
             BinLight::ZERO
         },
-        sides: match c.sides {
-            0 => SideBoundary::Open,
-            1 => SideBoundary::Periodic,
-            _ => SideBoundary::Given(
-                (0..HaloLayout::new(d.dims()).len())
-                    .map(|i| light(i).scaled(0.5))
-                    .collect(),
-            ),
-        },
+        sides: common::sides(&d, c.sides),
     };
     let source = c.source.then(|| {
         let removed = (0..d.point_count())
@@ -156,22 +131,7 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
     prop_assert_eq!(fast.output.stats, oracle.output.stats);
     // The flux tallies sum in another order (rows of channel planes): equal to `f64`
     // rounding of the input, term by term.
-    let (f, r) = (fast.balance, oracle.balance);
-    let scale = r.input().max_element().max(1e-30);
-    for (name, a, b) in [
-        ("top_in", f.top_in, r.top_in),
-        ("bottom_in", f.bottom_in, r.bottom_in),
-        ("side_in", f.side_in, r.side_in),
-        ("top_out", f.top_out, r.top_out),
-        ("bottom_out", f.bottom_out, r.bottom_out),
-        ("side_out", f.side_out, r.side_out),
-        ("absorbed", f.absorbed, r.absorbed),
-        ("pending", f.pending, r.pending),
-        ("source_in", f.source_in, r.source_in),
-    ] {
-        let d = (a - b).abs().max_element() / scale;
-        prop_assert!(d <= 1e-12, "{name}: {a} vs {b} (relative {d:e})");
-    }
+    common::balances_agree(&fast.balance, &oracle.balance, 1e-12)?;
     Ok(())
 }
 

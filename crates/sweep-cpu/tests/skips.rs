@@ -13,10 +13,13 @@
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
-    Acceleration, BinLight, Boundary, GridDesc, HaloLayout, Material, MaterialGrid, MediumEmission,
+    Acceleration, BinLight, Boundary, GridDesc, Material, MaterialGrid, MediumEmission,
     SideBoundary, SweepOptions, TopBoundary,
 };
 use proptest::prelude::*;
+
+mod common;
+use common::light;
 
 /// Grids up to 10 × 9 × 10 whose top `empty` levels (at least one) hold no material.
 fn grid() -> impl Strategy<Value = MaterialGrid> {
@@ -25,33 +28,13 @@ fn grid() -> impl Strategy<Value = MaterialGrid> {
         .prop_flat_map(|((nx, ny, nz), empty)| {
             let level = (nx * nz) as usize;
             let low = level * (ny - empty) as usize;
-            let cell = (
-                prop::bool::weighted(0.4),
-                0.0f32..1.0,
-                prop_oneof![Just(0.0f32), 0.0f32..1.0],
-            )
-                .prop_map(|(full, a, p)| {
-                    if full {
-                        Material {
-                            reflectance: Vec3::new(a, 0.5 * a, 1.0 - a),
-                            pass: p,
-                        }
-                    } else {
-                        Material::EMPTY
-                    }
-                });
+            let cell = common::cell(0.4);
             prop::collection::vec(cell, low).prop_map(move |mut cells| {
                 cells.resize(level * ny as usize, Material::EMPTY);
                 let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(nx, ny, nz)).unwrap();
                 MaterialGrid::new(d, cells).unwrap()
             })
         })
-}
-
-fn light(seed: usize) -> BinLight {
-    BinLight(std::array::from_fn(|d| {
-        Vec3::new(0.1, 0.2, 0.3) * (1 + (d * 7 + seed * 3) % 11) as f32
-    }))
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -97,15 +80,7 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
         } else {
             BinLight::ZERO
         },
-        sides: match c.sides {
-            0 => SideBoundary::Open,
-            1 => SideBoundary::Periodic,
-            _ => SideBoundary::Given(
-                (0..HaloLayout::new(d.dims()).len())
-                    .map(|i| light(i).scaled(0.5))
-                    .collect(),
-            ),
-        },
+        sides: common::sides(&d, c.sides),
     };
     let mut on = SweepOptions::multi_bounce();
     on.smoothing = c.smoothing;
@@ -143,21 +118,7 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
             );
         }
     }
-    let (f, g) = (a.balance, r.balance);
-    let scale = g.input().max_element().max(1e-30);
-    for (name, u, v) in [
-        ("top_in", f.top_in, g.top_in),
-        ("bottom_in", f.bottom_in, g.bottom_in),
-        ("side_in", f.side_in, g.side_in),
-        ("top_out", f.top_out, g.top_out),
-        ("bottom_out", f.bottom_out, g.bottom_out),
-        ("side_out", f.side_out, g.side_out),
-        ("absorbed", f.absorbed, g.absorbed),
-        ("pending", f.pending, g.pending),
-    ] {
-        let d = (u - v).abs().max_element() / scale;
-        prop_assert!(d <= 1e-5, "{}: {} vs {} (relative {:e})", name, u, v, d);
-    }
+    common::balances_agree(&a.balance, &r.balance, 1e-5)?;
     Ok(())
 }
 
