@@ -1271,10 +1271,11 @@ pub fn validate_inputs(
 
 /// Most bytes [`run`] holds at once for a grid: per point the accumulated bins (312),
 /// two pending-scatter records (96), ln(pass) and exposure (8) and the output (312); per
-/// point of one level the level buffers (two 17-channel levels, removals, transmittance,
-/// powers, the source rule's sources and masks: 1118).
+/// point of one level the level buffers (four 17-channel levels: the two in use, light
+/// from outside, the upward light waiting above all material; removals, transmittance,
+/// powers, the source rule's sources and masks: 1526).
 pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
-    desc.point_count() as u64 * (312 + 96 + 8 + 312) + desc.level_len() as u64 * 1118
+    desc.point_count() as u64 * (312 + 96 + 8 + 312) + desc.level_len() as u64 * 1526
 }
 
 pub(crate) fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
