@@ -48,7 +48,10 @@
 //! boundary mode, with `tolerance = 0`. With `tolerance > 0` the stopping test sums `f32`
 //! on the GPU where sweep-cpu sums `f64`, so the two may stop one pass apart when the
 //! light still to transport lies within rounding of the threshold. The GPU computes the
-//! levels sweep-cpu copies (the same values), so `SweepStats` differ.
+//! levels above all material that sweep-cpu copies in a downward pass and carries once
+//! for all upward passes (the same values up to rounding; sweep-cpu books their input
+//! as the GPU does, so both stopping tests divide by the same input), so `SweepStats`
+//! differ.
 //!
 //! **Acceleration.** `SweepOptions::acceleration` is not implemented on the GPU: the
 //! passes run plain (`SweepStats::corrections` is 0), which for thick, bright media
