@@ -1596,7 +1596,7 @@ impl Ctx {
     #[allow(clippy::too_many_arguments)]
     fn phase1_fast<S: Sink>(
         &self,
-        prev: &LevelLight,
+        (prev, count): (&LevelLight, bool),
         ghost: Option<&LevelLight>,
         planes: &Planes,
         quiet: Option<&[bool]>,
@@ -1626,7 +1626,7 @@ impl Ctx {
                 } else {
                     touch(g_row);
                 }
-                self.gather_row_channels(z, prev, ghost, cur_row, rf);
+                self.gather_row_channels(z, (prev, count), ghost, cur_row, rf);
                 let unchanged =
                     self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row);
                 if unchanged && ghost.is_none() {
@@ -1682,12 +1682,13 @@ impl Ctx {
     }
 
     /// Step 1 of [`Ctx::phase1_fast`] for row `z` (its own function, so that profiles
-    /// show it).
+    /// show it); the flux gathered from inside the grid summed into `rf.inside` if
+    /// `count` (a level whose flux is known, [`conserves_flux`], leaves it).
     #[inline(never)]
     fn gather_row_channels(
         &self,
         z: i32,
-        prev: &LevelLight,
+        (prev, count): (&LevelLight, bool),
         ghost: Option<&LevelLight>,
         cur_row: &mut [f32],
         rf: &mut RowFlux,
@@ -1717,7 +1718,9 @@ impl Ctx {
                     (row(qz), row(qz + 1), row(qz - 1))
                 }
                 gather_row(out, taps(prev, plane + q0, nx + 2, qz), w0, w1);
-                rf.inside[k] += sum_f64(out) * mu;
+                if count {
+                    rf.inside[k] += sum_f64(out) * mu;
+                }
                 let Some(gh) = ghost else { continue };
                 // Columns whose taps reach beyond the sides: all of them in a row
                 // whose source rows do; else the first and last few.
@@ -2547,7 +2550,8 @@ impl Ctx {
 
     /// [`Ctx::phase3`]'s emission for row `z`: the row's paths gain their segments'
     /// emission; `pre_row[(slot · 3 + colour) · nx + x]` is what the path of point `x`
-    /// carries into the segment of stencil slot `slot`.
+    /// carries into the segment of stencil slot `slot` (written for the segments after
+    /// a path's first, the only ones [`Ctx::collide_row`] reads).
     #[inline(never)]
     fn phase3_row<S: Sink>(
         &self,
@@ -2576,8 +2580,12 @@ impl Ctx {
                     let slot = chn.first_slot + k;
                     let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
                     let tr = at(Planes::POW + chn.pow[k]);
-                    for (col, a) in acc.iter_mut().enumerate() {
-                        pre_row[(slot * 3 + col) * nx + x0..][..b].copy_from_slice(&a[..b]);
+                    // (A path carries nothing into its first segment, and the
+                    // collisions read only the later ones.)
+                    if k > 0 {
+                        for (col, a) in acc.iter_mut().enumerate() {
+                            pre_row[(slot * 3 + col) * nx + x0..][..b].copy_from_slice(&a[..b]);
+                        }
                     }
                     if dx == 0 && dz == 0 {
                         let lnp = at(Planes::LNP);
@@ -2908,6 +2916,16 @@ impl Ctx {
             (0..self.nz).contains(&z).then_some(z as usize)
         }
     }
+}
+
+/// A level conserves the flux it gathers, so the passes book its flux as what the
+/// level before it sent on instead of summing its values (the crate docs, "Skipped
+/// work"): a level without material (every point passes its light on unchanged, and
+/// nothing scatters) under periodic sides (every source point of its gather is a grid
+/// point, and the gather's weights, `1 − w` and four times `w/4`, sum to 1), other
+/// than the first of a pass (which gathers from the boundary).
+pub fn conserves_flux(periodic: bool, material: bool, first_level: bool) -> bool {
+    periodic && !material && !first_level
 }
 
 /// Mask of each opaque cell's faces that can receive light (bit order of
@@ -3409,7 +3427,13 @@ fn run_with<S: Sink>(
                     },
                 );
             }
-            let f1 = if fast {
+            // Its flux is what the level before it sent on: booked so, not summed.
+            let conserved = conserves_flux(
+                fixed.periodic,
+                fixed.level_material[j as usize],
+                from_virtual,
+            );
+            let mut f1 = if fast {
                 // Light from outside the sides: the ring of `ghost`.
                 let ghost_on = src.active && !fixed.periodic;
                 if ghost_on {
@@ -3417,7 +3441,7 @@ fn run_with<S: Sink>(
                 }
                 let quiet = material_here.then_some(&w.quiet[..]);
                 ctx.phase1_fast(
-                    &w.prev,
+                    (&w.prev, !conserved),
                     ghost_on.then_some(&w.ghost),
                     &w.planes,
                     quiet,
@@ -3451,6 +3475,9 @@ fn run_with<S: Sink>(
                     &mut w.rows,
                 )
             };
+            if conserved {
+                (f1.inside, f1.sent) = (sent, sent);
+            }
             if from_virtual {
                 if up {
                     bal.bottom_in += f1.inside;
@@ -3533,7 +3560,8 @@ fn run_with<S: Sink>(
             );
             bal.absorbed += f2.absorbed;
             pending += f2.pending;
-            sent_on = f2.sent;
+            // (The scalar oracle runs phase 2 on levels without material too.)
+            sent_on = if conserved { sent } else { f2.sent };
             ok &= !f2.bad;
             if phase3 {
                 let f3 = ctx.phase3(
