@@ -330,6 +330,41 @@
 //! and transposing them (6 % faster on 4096 points in cache, 0.150 → 0.141 ms; the
 //! resolve is 8 % of four passes, so 0.5 %: not worth the code).
 //!
+//! **Seventh round (issue 15): flux known without summing.** Of the 166 levels four
+//! passes over the 64³ canopy compute, 150 hold no material, and each summed its 51
+//! planes of gathered light in `f64` for the energy balance. Under periodic sides such a
+//! level gathers exactly the flux the level before it sent on, and sends it on: it is
+//! now booked as that ([`sweep::conserves_flux`]; "Energy" below), and the sums are
+//! not run. The light is the same bit for bit (only the balance changed: it no longer
+//! books the sums' rounding as side loss); `tests/skips.rs` checks that the flux booked
+//! as leaving through the bottom is what the lowest level's light carries, under
+//! periodic and open sides. Also: phase 3 no longer writes what a path carries into
+//! its first segment (nothing, and never read). This session the VM ran at two speeds,
+//! switching every few minutes, one 1.3–1.5 times the other (the forest's four passes:
+//! 3.1 ms or 4.7–4.9 ms; Monte Carlo moves less, 620–730 ms), so each figure below is
+//! old (`d471002`) and new builds alternating within one of them:
+//!
+//! | case | slow hours: before → now | fast hours: before → now |
+//! |------|-------------------------:|-------------------------:|
+//! | 64³, 26 bins, 4 passes | 55.8–56.8 → 49.1–50.8 ms | 41.3–41.9 → 39.6–40.4 ms (6.6 M/s) |
+//! | 64³, 26 bins, 1 pass | | 11.5–11.7 → 11.3 ms (23 M/s) |
+//! | forest 16³, 4 passes (`forest_profile`) | 4.81–4.87 → 4.64–4.73 ms | 3.08–3.12 → 3.08–3.09 ms |
+//!
+//! `cargo bench -p sweep-cpu` after it (criterion means, a fast hour), each against the
+//! scalar oracle in the same run: 64³ one pass **11.9 ms (22.0 M points/s)** against
+//! 114 ms, 9.6×; four passes 52.2 ms (5.0 M/s) against 430 ms, 8.2×; 16 × 64 × 16 one
+//! pass 1.60 ms (10.2 M/s), four passes 3.52 ms (4.7 M/s); the uniform fog 16³ four
+//! passes 14.0 ms against 23.6 ms, 48³ 226 ms against 476 ms. `cargo xtask bench`: the
+//! forest's four passes reach 0.0175 in 3.1 ms, 199× Monte Carlo (623 ms); two passes
+//! in 1.6 ms, 387×. In a slow hour the same build gave 4.7 ms, 146–153× (Monte Carlo
+//! 687–726 ms), and 2.5 ms, 275–291×.
+//!
+//! Tried and dropped: the gather summing its row as it writes it (instead of reading
+//! it back, in cache): slower, 13.0–13.9 against 11.9–12.2 ms for one pass (it
+//! vectorised worse); eight `f64` lanes in those sums (no change, as sixteen before);
+//! the one-pass resolve from the planes four points at a time, all bins, its sums in
+//! registers (timed only together with the first, and not faster with it).
+//!
 //! **Roofline** (per point and pass, quiet point, 26 bins). Compute: gather 17 channels
 //! × 3 colours × 9 flops ≈ 460 flops (~115 four-lane operations), flux tallies and
 //! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
@@ -346,9 +381,10 @@
 //! above the canopy 9 %: at the memory's write speed), the gather 15 %, `finish_row`
 //! 10 % (the clamp, the resolve), phases 2 and 3 of the four levels with material
 //! 20 %, scheduling 3 %. One thread runs the pass in 30 ms: two give 1.7×. The issue's
-//! targets (20 M points/s for one pass, 8 M/s for four) remain open: one pass needs
-//! the compute cut by a third again; four passes are bound by adding each pass into
-//! the 82 MB output of bins (read ahead, transposed) and by its resolve.
+//! targets (20 M points/s for one pass, 8 M/s for four): one pass reaches 22 M/s in
+//! the VM's fast hours (criterion, seventh round above) and 15–18 M/s in its slow
+//! ones; four passes (5.0–6.6 M/s) are bound by adding each pass into the 82 MB output
+//! of bins (read ahead, transposed) and by its resolve.
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
 //! reaches error 0.0175 in 5.3–5.6 ms (6.0–6.5 ms before the fourth round), 160–168×
