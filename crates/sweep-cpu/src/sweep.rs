@@ -2260,11 +2260,14 @@ impl Ctx {
                 hi_row[xi] = [emit[1], emit[2]];
                 emits_row[xi] = emit.iter().any(|v| *v != Vec3::ZERO);
                 if emits_row[xi] && !ex_row.is_empty() {
-                    // Phase 3's emission planes (`Planes::ex`) for this cell.
-                    for (slot, w) in pr.emit.iter().enumerate() {
-                        for col in 0..3 {
-                            ex_row[(slot * 3 + col) * nx + xi] =
-                                emit[1][col] * w[0] + emit[2][col] * w[1];
+                    // Phase 3's emission planes (`Planes::ex`) for this cell: per slot,
+                    // three rows of `nx`. (Indexed as `(slot · 3 + colour) · nx + x`,
+                    // each colour of a `Vec3` looked up and every store checked, the
+                    // 147 stores were a quarter of phase 2 on the forest.)
+                    let (e1, e2) = (emit[1].to_array(), emit[2].to_array());
+                    for (rows, w) in ex_row.chunks_exact_mut(3 * nx).zip(&pr.emit) {
+                        for ((row, a), b) in rows.chunks_exact_mut(nx).zip(e1).zip(e2) {
+                            row[xi] = a * w[0] + b * w[1];
                         }
                     }
                 }
