@@ -339,7 +339,11 @@
 //! books the sums' rounding as side loss); `tests/skips.rs` checks that the flux booked
 //! as leaving through the bottom is what the lowest level's light carries, under
 //! periodic and open sides. Also: phase 3 no longer writes what a path carries into
-//! its first segment (nothing, and never read). This session the VM ran at two speeds,
+//! its first segment (nothing, and never read); phase 2 writes a medium cell's
+//! emission planes for phase 3 slot by slot from whole rows (store by store, each
+//! colour looked up and checked, they were a quarter of phase 2 on the forest: perf
+//! put phase 2 at 7.6 % of the forest's samples after, 10.2 % before, but the wall
+//! time moved within the runs' spread, 4.58–4.79 against 4.65–4.70 ms). This session the VM ran at two speeds,
 //! switching every few minutes, one 1.3–1.5 times the other (the forest's four passes:
 //! 3.1 ms or 4.7–4.9 ms; Monte Carlo moves less, 620–730 ms), so each figure below is
 //! old (`d471002`) and new builds alternating within one of them:
