@@ -2922,8 +2922,8 @@ impl Ctx {
 }
 
 /// A level conserves the flux it gathers, so the passes book its flux as what the
-/// level before it sent on instead of summing its values (the crate docs, "Skipped
-/// work"): a level without material (every point passes its light on unchanged, and
+/// level before it sent on instead of summing its values (the crate docs, "Energy"):
+/// a level without material (every point passes its light on unchanged, and
 /// nothing scatters) under periodic sides (every source point of its gather is a grid
 /// point, and the gather's weights, `1 − w` and four times `w/4`, sum to 1), other
 /// than the first of a pass (which gathers from the boundary).
