@@ -9,7 +9,10 @@
 //! plain and accelerated passes, any number of passes, and tolerances that end the
 //! sweep early. The passes run and the energy balance, term by term, must agree too (a
 //! copied level books what crosses its sides as the computed level would: else the
-//! convergence test, which divides by the input, ended the passes elsewhere).
+//! convergence test, which divides by the input, ended the passes elsewhere). Last,
+//! the sums the balance skips: empty levels under periodic sides book the flux the
+//! level above sent on (`sweep::conserves_flux`), which must be what their light
+//! carries.
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
