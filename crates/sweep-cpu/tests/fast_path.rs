@@ -208,3 +208,39 @@ fn wide_levels() {
         check(&m, c).unwrap();
     }
 }
+
+/// A sink too large to stay in cache between passes (`FETCH_AHEAD_BYTES`: each row's
+/// gather hints the next row's bins into cache): a 72 × 11 × 72 grid of mixed media and
+/// surfaces, equal to the oracle bit for bit.
+#[test]
+fn sinks_fetched_ahead() {
+    let d = GridDesc::new(
+        Vec3::ZERO,
+        1.0,
+        lightgrid_core::glam::UVec3::new(72, 11, 72),
+    )
+    .unwrap();
+    assert!(d.point_count() * size_of::<BinLight>() >= sweep_cpu::sweep::FETCH_AHEAD_BYTES);
+    let cells = (0..d.point_count())
+        .map(|i| match (i * 7919) % 29 {
+            0 => Material::opaque(Vec3::splat(0.4)),
+            1..=3 => Material {
+                reflectance: Vec3::new(0.2, 0.6, 0.9),
+                pass: 0.05 + 0.15 * ((i % 5) as f32),
+            },
+            _ => Material::EMPTY,
+        })
+        .collect();
+    let m = MaterialGrid::new(d, cells).unwrap();
+    let c = Case {
+        sides: 0,
+        per_point_top: false,
+        bottom: true,
+        source: false,
+        smoothing: 0.25,
+        passes: 3,
+        bins: true,
+        profile: true,
+    };
+    check(&m, c).unwrap();
+}
