@@ -369,37 +369,85 @@
 //! the one-pass resolve from the planes four points at a time, all bins, its sums in
 //! registers (timed only together with the first, and not faster with it).
 //!
+//! **Eighth round (issue 15): wider vectors, rows fetched ahead.** Two changes, the
+//! light bit for bit the same:
+//!
+//! - The workspace's own builds (tests, benches, the demo, CI) target x86-64-v3
+//!   (`.cargo/config.toml`: AVX2 and FMA, every x86-64 CPU since 2013–2017), so the
+//!   row loops run eight floats wide instead of four. Rust fuses no multiply-add and
+//!   reorders no sum by itself, so the results do not change:
+//!   `tests/build_flags.rs` holds the hashes of twenty sweeps' outputs from a baseline
+//!   build and checks them (`.ci/test` falls back to the baseline on a CPU without
+//!   v3). A crate that depends on this one builds with its own flags: add
+//!   `-C target-cpu=x86-64-v3` (or `native`) to get these figures. Monte Carlo gains
+//!   too (its ratio to the sweep moves little).
+//! - Each row's gather hints the next row's bins into cache, a share per channel
+//!   ([`sweep::FETCH_AHEAD_BYTES`]: sinks of 16 MiB or more, which stay in no cache
+//!   between passes). Before, the sweep's `touch` read a row's lines while nothing else
+//!   ran: 12 % of four passes at 64³. All hinted at once at the row's start they
+//!   stalled the gather (5 % slower); a share a channel overlaps them with it. Hints
+//!   for the previous level's rows gained nothing; on grids whose sink fits the cache
+//!   (16 × 64 × 16, 5 MB) they cost 3 %, so they are left out there. This is the
+//!   workspace's one `unsafe` (`_mm_prefetch`, which cannot fault).
+//!
+//! Same spell, fastest runs of a loop of `CpuSweeper::sweep` after `recycle` (64³
+//! canopy, 26 bins), builds alternating: one pass 11.5–11.8 ms (the seventh round's
+//! build) → 10.5–10.6 ms (x86-64-v3) → 9.8–10.2 ms (and fetched ahead), **26 M
+//! points/s**; four passes 38.7–40.4 → 36.5–37.4 → 33.8–35.2 ms, **7.5–7.8 M/s**. The
+//! 16 × 64 × 16 canopy: 0.865 → 0.82 ms one pass (20 M/s), 3.24 → 3.19 ms four. The
+//! forest (16³, `forest_profile`): 3.01 → 2.85 ms (x86-64-v3), unchanged by the hints.
+//! In the VM's slow spells (it switches speed every few minutes, the slow one
+//! 1.3–1.4× slower) the new build took 12.1–12.4 ms for one pass (21 M/s) and
+//! 47.2–47.3 ms for four (5.5 M/s), against 12.9–13.1 and 49.1–50.0 ms with
+//! x86-64-v3 alone.
+//! `cargo bench -p sweep-cpu` (criterion means, one run), each against the scalar
+//! oracle in the same run: 64³ one pass (recycled) **10.1 ms, 25.9 M points/s**,
+//! against 104 ms (10.3×); four passes (recycled) **34.7 ms, 7.6 M/s**, against 405 ms
+//! (11.7×); 16 × 64 × 16 one pass 0.84 ms (19.5 M/s), four 3.26 ms (5.0 M/s); uniform
+//! fog four passes 16³ 8.5 ms against 17.5 ms, 48³ 183 ms against 465 ms. Without
+//! `recycle` a sweep's fresh 82 MB output costs its page faults: 33 ms for one pass,
+//! 63 ms for four. `cargo xtask bench`: the forest's four passes reach 0.0175 in
+//! 3.0 ms, 216× Monte Carlo (651 ms), two passes in 1.6 ms, 409×.
+//!
+//! Tried and dropped (measured): the 26 bins kept as planes along each row while the
+//! passes run (a `RowBins` sink: the adds vectorise and read 17 of 26 bins; transposed
+//! once, as the last pass resolves a row): the transpose cost what the adds saved
+//! (four passes 47.5–48.2 → 48.2–50.3 ms) and one pass, which has no adds to save,
+//! lost 20 % to it; the transmit step's adds as 8 × 8 blocks transposed in registers
+//! (no change: the stores wait, not the loads); the resolve's validity check from the
+//! least value alone (no change).
+//!
 //! **Roofline** (per point and pass, quiet point, 26 bins). Compute: gather 17 channels
-//! × 3 colours × 9 flops ≈ 460 flops (~115 four-lane operations), flux tallies and
+//! × 3 colours × 9 flops ≈ 460 flops (~60 eight-lane operations), flux tallies and
 //! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
 //! scalar-equivalent operations, which two cores at ~3 GHz issuing two a cycle would
-//! run at ~18 M points/s. Memory, measured on this VM with two threads: a read-modify-write
-//! of the 82 MB output takes 4–5 ms (~35 GB/s moved), writing it 4.3 ms; a pass that
-//! adds to the output therefore costs ≥ 4–5 ms at 64³ (≥ 55 M points/s), the first
-//! pass's write ≥ 4.3 ms. So one pass is bound by neither: 15.8 M/s (fastest run) is
-//! 88 % of the compute estimate (whose resolve, 390 operations, the resolve from the
-//! planes now undercuts); four passes at 3.9 M/s spend ~16 ms a pass against ~4.5 ms of
-//! memory traffic. Where one pass goes now (perf, two threads): the transmit step's
-//! output adds 12 % (a transpose: 17 channels' planes into each point's 26 bins),
-//! writing the output 17 % (zeroing the first pass's rows 8 %, filling the 30 levels
-//! above the canopy 9 %: at the memory's write speed), the gather 15 %, `finish_row`
-//! 10 % (the clamp, the resolve), phases 2 and 3 of the four levels with material
-//! 20 %, scheduling 3 %. One thread runs the pass in 30 ms: two give 1.7×. The issue's
-//! targets (20 M points/s for one pass, 8 M/s for four): one pass reaches 22 M/s in
-//! the VM's fast hours (criterion, seventh round above) and 15–18 M/s in its slow
-//! ones; four passes (5.0–6.6 M/s) are bound by adding each pass into the 82 MB output
-//! of bins (read ahead, transposed) and by its resolve.
+//! run at ~18 M points/s with four-lane vectors, more with eight. Memory
+//! (`cargo run --release -p sweep-cpu --example memory_floor`, two threads, eighth
+//! round): writing the 82 MB output takes 0.9–2.2 ms, a read-modify-write of it
+//! 1.1–2.1 ms (the seventh round measured 4–5 ms in a slow spell); four passes move
+//! about one write and three partial read-modify-writes of it, ≤ 7 ms of their
+//! 34 ms. So neither pass count is bound by bandwidth: what costs is the latency of
+//! bringing each row's bins in (now fetched ahead) and compute. Where four passes go
+//! now (perf, two threads): the transmit step 17 % (on quiet rows, adding the 17
+//! channels' planes into each point's bins, a transpose), the gather 15 % (it now
+//! waits for part of what the hints bring), phase 2 7 %, the resolve 6 %, reading a
+//! row's bins 5 % (12 % before the hints), phases 3 and the profile rule's solves
+//! 7 %, the ring 3 %. The issue's targets: one pass 20 M points/s, **met** (25.9 M/s,
+//! criterion; 21 M/s in the VM's slow spells); four passes 8 M/s, **not met** (7.6 M/s
+//! criterion, 7.8 M/s fastest, 5.5 M/s in slow spells); small grids 5 M/s, met
+//! (19.5 M/s one pass, 5.0 M/s four).
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
-//! reaches error 0.0175 in 5.3–5.6 ms (6.0–6.5 ms before the fourth round), 160–168×
-//! Monte Carlo's time to that error in two runs where Monte Carlo took 845–939 ms
-//! (150–184× before, with Monte Carlo at up to 1206 ms: its time moves more than the
-//! sweep's); the bench also names the cheapest setting for its error: 2 passes reach
-//! the same 0.0175 in 2.7–2.8 ms, 310–339×. Where the forest's time goes (perf, one thread, 8.5–9 ms): phase 2
-//! 14 %, phase 3's emission 12 % and collisions 12 %, the transmit step 10 %, the
-//! profile rule's gather of removed light 8 % and its 3 × 3 solves 7 %; two threads
-//! give 1.6× (its levels have 256 points: four parallel loops a level, each a few
-//! microseconds of work a thread).
+//! reaches error 0.0175 in 3.0 ms, 216× Monte Carlo's 651 ms to that error (eighth
+//! round, x86-64-v3 builds of both); the bench also names the cheapest setting for its
+//! error: 2 passes reach the same 0.0175 in 1.6 ms, 409×. The VM's slow spells give
+//! 4.7 ms and 146–153× (seventh round). Earlier rounds: 5.3–5.6 ms, 160–168× (fifth);
+//! 6.0–6.5 ms (fourth); Monte Carlo's time moves more than the sweep's between runs
+//! (620–1206 ms). Where the forest's two passes go (perf, two threads, eighth round):
+//! phase 3's emission 10 % and collisions 9 %, the transmit step 10 %, phase 2 8 %,
+//! the profile rule's moments, 3 × 3 solves and sources 12 %, threads sleeping and
+//! waking 8 % (its levels have 256 points: four parallel loops a level, each a few
+//! microseconds of work a thread; two threads give 1.6× one).
 //!
 //! ## Semantics of the sweep
 //!

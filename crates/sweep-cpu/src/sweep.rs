@@ -1201,10 +1201,11 @@ fn touch<T: bytemuck::Pod>(v: &[T]) {
     std::hint::black_box(x);
 }
 
-/// Sinks of at least this many bytes have each row's next row fetched ahead
-/// ([`Ahead`]): they do not stay in cache between passes (a 64³ grid's 26 bins take
-/// 82 MB; four passes 5–7 % faster). Smaller ones do, and the hints only cost (the
-/// 16 × 64 × 16 canopy's 5 MB: 3 % slower with them).
+/// Sinks (a sweep's output while its passes run) of at least this many bytes have
+/// each row's next row hinted into cache as the row's gather runs, a share per channel
+/// (the crate docs, "Eighth round"): they do not stay in cache between passes (a 64³
+/// grid's 26 bins take 82 MB; four passes 5–7 % faster). Smaller ones do, and the
+/// hints only cost (the 16 × 64 × 16 canopy's 5 MB: 3 % slower with them).
 pub const FETCH_AHEAD_BYTES: usize = 16 << 20;
 
 /// Memory a row's loops will add to after the current row's: the next row of a level's
