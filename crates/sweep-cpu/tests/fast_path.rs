@@ -182,18 +182,7 @@ fn one_cell_in_empty_space() {
 /// each side mode, both source rules, equal to the oracle bit for bit.
 #[test]
 fn wide_levels() {
-    let d = GridDesc::new(Vec3::ZERO, 1.0, lightgrid_core::glam::UVec3::new(72, 3, 72)).unwrap();
-    let cells = (0..d.point_count())
-        .map(|i| match (i * 7919) % 13 {
-            0 => Material::opaque(Vec3::splat(0.4)),
-            1..=5 => Material {
-                reflectance: Vec3::new(0.2, 0.6, 0.9),
-                pass: 0.05 + 0.15 * ((i % 5) as f32),
-            },
-            _ => Material::EMPTY,
-        })
-        .collect();
-    let m = MaterialGrid::new(d, cells).unwrap();
+    let m = mixed(72, 3, 13);
     for (sides, profile) in [(0, true), (1, true), (2, true), (1, false)] {
         let c = Case {
             sides,
@@ -214,24 +203,9 @@ fn wide_levels() {
 /// surfaces, equal to the oracle bit for bit.
 #[test]
 fn sinks_fetched_ahead() {
-    let d = GridDesc::new(
-        Vec3::ZERO,
-        1.0,
-        lightgrid_core::glam::UVec3::new(72, 11, 72),
-    )
-    .unwrap();
-    assert!(d.point_count() * size_of::<BinLight>() >= sweep_cpu::sweep::FETCH_AHEAD_BYTES);
-    let cells = (0..d.point_count())
-        .map(|i| match (i * 7919) % 29 {
-            0 => Material::opaque(Vec3::splat(0.4)),
-            1..=3 => Material {
-                reflectance: Vec3::new(0.2, 0.6, 0.9),
-                pass: 0.05 + 0.15 * ((i % 5) as f32),
-            },
-            _ => Material::EMPTY,
-        })
-        .collect();
-    let m = MaterialGrid::new(d, cells).unwrap();
+    let m = mixed(72, 11, 29);
+    let n = m.desc().point_count();
+    assert!(n * size_of::<BinLight>() >= sweep_cpu::sweep::FETCH_AHEAD_BYTES);
     let c = Case {
         sides: 0,
         per_point_top: false,
@@ -243,4 +217,26 @@ fn sinks_fetched_ahead() {
         profile: true,
     };
     check(&m, c).unwrap();
+}
+
+/// An `nxz × ny × nxz` grid of mixed cells: of every `period` cells (in a scrambled
+/// order) one opaque and five media of five depths, the rest empty.
+fn mixed(nxz: u32, ny: u32, period: usize) -> MaterialGrid {
+    let d = GridDesc::new(
+        Vec3::ZERO,
+        1.0,
+        lightgrid_core::glam::UVec3::new(nxz, ny, nxz),
+    )
+    .unwrap();
+    let cells = (0..d.point_count())
+        .map(|i| match (i * 7919) % period {
+            0 => Material::opaque(Vec3::splat(0.4)),
+            1..=5 => Material {
+                reflectance: Vec3::new(0.2, 0.6, 0.9),
+                pass: 0.05 + 0.15 * ((i % 5) as f32),
+            },
+            _ => Material::EMPTY,
+        })
+        .collect();
+    MaterialGrid::new(d, cells).unwrap()
 }
