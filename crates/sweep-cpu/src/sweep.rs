@@ -3285,12 +3285,12 @@ fn run_with<S: Sink>(
         }
     }
 
+    // A sink this large stays in no cache between passes: each row's next row is
+    // fetched ahead (`Ahead`).
+    let fetch_ahead = std::mem::size_of_val(&g[..]) >= FETCH_AHEAD_BYTES;
     // Diffusion acceleration (`crate::accel`): its operator, built when the passes
     // switch to it (a sweep that converges fast pays nothing), and the correction
     // outstanding in the media's waiting light.
-    // Sinks this large stay in no cache between passes: each row's next row is
-    // fetched ahead ([`Ahead`]).
-    let fetch_ahead = std::mem::size_of_val(&g[..]) >= FETCH_AHEAD_BYTES;
     let may_accelerate = crate::accel::wanted(options) && fixed.level_medium.iter().any(|&m| m);
     let mut dsa: Option<crate::accel::Diffusion> = None;
     let mut debt = Debt::new(None);
