@@ -395,7 +395,10 @@
 //! build) → 10.5–10.6 ms (x86-64-v3) → 9.8–10.2 ms (and fetched ahead), **26 M
 //! points/s**; four passes 38.7–40.4 → 36.5–37.4 → 33.8–35.2 ms, **7.5–7.8 M/s**. The
 //! 16 × 64 × 16 canopy: 0.865 → 0.82 ms one pass (20 M/s), 3.24 → 3.19 ms four. The
-//! forest (16³, `forest_profile`): 3.01 → 2.85 ms (x86-64-v3), unchanged by the hints.
+//! forest (16³, `forest_profile`, all three builds alternating): four passes
+//! 3.03–3.11 → 3.00–3.02 → 3.00–3.05 ms, two passes 1.62–1.64 → 1.57–1.62 →
+//! 1.59–1.62 ms (1–3 %: its levels are small, its time per-cell work and scheduling;
+//! its sink is not fetched ahead).
 //! In the VM's slow spells (it switches speed every few minutes, the slow one
 //! 1.3–1.4× slower) the new build took 12.1–12.4 ms for one pass (21 M/s) and
 //! 47.2–47.3 ms for four (5.5 M/s), against 12.9–13.1 and 49.1–50.0 ms with
