@@ -1249,8 +1249,9 @@ impl Ahead {
     }
 }
 
-/// The workspace's one `unsafe`: `prefetcht1`, a hint that loads nothing into a register
-/// and never faults, whatever the address (so `at` may lie past an allocation's end).
+/// One of the workspace's two `unsafe` blocks (the other: [`advise_huge_pages`]):
+/// `prefetcht1`, a hint that loads nothing into a register and never faults, whatever
+/// the address (so `at` may lie past an allocation's end).
 /// `std` offers no safe prefetch (`core::intrinsics::prefetch_read_data` is unstable),
 /// and the crates that wrap one need nightly or expose `unsafe` themselves.
 #[cfg(target_arch = "x86_64")]
@@ -3113,14 +3114,51 @@ impl std::fmt::Debug for Spare {
     }
 }
 
-/// `spare` if it holds `n` values (their contents are overwritten, never read), else a
-/// fresh zeroed vector (pages the kernel maps on first touch).
+/// `spare` if it holds `n` values (their contents are overwritten, never read), else
+/// [`fresh_buffer`].
 fn take_buffer<T: bytemuck::Zeroable + Clone>(spare: &mut Vec<T>, n: usize) -> Vec<T> {
     if spare.len() == n {
         std::mem::take(spare)
     } else {
-        bytemuck::zeroed_vec(n)
+        fresh_buffer(n)
     }
+}
+
+/// A zeroed vector of `n` values from pages the kernel maps on first touch, by the
+/// threads that first write them; on Linux advised to be backed by 2 MB pages
+/// ([`advise_huge_pages`]). A sweep without `recycle` writes a fresh 82 MB output at
+/// 64³ (26 bins): with 4 KB pages its 20 000 page faults took about 23 ms of a 33 ms
+/// one-pass sweep (19 ms with 2 MB pages; 10 ms recycled).
+fn fresh_buffer<T: bytemuck::Zeroable + Clone>(n: usize) -> Vec<T> {
+    let mut v = bytemuck::zeroed_vec(n);
+    advise_huge_pages(&mut v);
+    v
+}
+
+/// `madvise(MADV_HUGEPAGE)` on the whole 2 MB pages inside `v` (Linux; a no-op
+/// elsewhere, for buffers holding no such page, and where the kernel has transparent
+/// huge pages off). Touching 82 MB of fresh memory: 31 ms with 4 KB pages, 4.5 ms with
+/// 2 MB ones (one thread, this VM, whose kernel backs only advised ranges with them).
+#[allow(unsafe_code)]
+fn advise_huge_pages<T>(v: &mut [T]) {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let start = v.as_mut_ptr() as usize;
+        let (a, b) = (
+            start.next_multiple_of(HUGE),
+            (start + std::mem::size_of_val(v)) / HUGE * HUGE,
+        );
+        if b > a {
+            // SAFETY: `a..b` lies inside `v`'s allocation, which this function borrows
+            // mutably; MADV_HUGEPAGE changes how the kernel backs those pages, never
+            // their contents, and the result (an error where huge pages are off) is
+            // advice only.
+            unsafe { libc::madvise(a as *mut libc::c_void, b - a, libc::MADV_HUGEPAGE) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = v;
 }
 
 /// [`run_impl`] writing into `spare`'s memory where it fits (and leaving what the output
@@ -3163,7 +3201,7 @@ pub(crate) fn run_reusing(
         let (g, ok, balance, stats) = run.run(take_buffer(&mut spare.bins, n));
         (Some(Grid::from_trusted(desc, g)), ok, balance, stats)
     } else {
-        let (_, ok, balance, stats) = run.run(bytemuck::zeroed_vec::<AvgAcc>(n));
+        let (_, ok, balance, stats) = run.run(fresh_buffer::<AvgAcc>(n));
         (None, ok, balance, stats)
     };
     spare.work = run.work.take();
@@ -4337,6 +4375,23 @@ mod tests {
             seed ^= seed >> 7;
             seed ^= seed << 17;
             seed
+        }
+    }
+
+    /// The huge-page advice leaves a buffer's contents as they are (it only changes how
+    /// the kernel backs its pages), for buffers with whole 2 MB pages inside and
+    /// without; `fresh_buffer` gives zeros.
+    #[test]
+    fn huge_page_advice_keeps_contents() {
+        for n in [0usize, 1000, 1 << 20, 3 << 20] {
+            let mut v: Vec<u32> = (0..n as u32)
+                .map(|i| i.wrapping_mul(2_654_435_761))
+                .collect();
+            let want = v.clone();
+            advise_huge_pages(&mut v);
+            assert!(v == want, "{n} values");
+            let z: Vec<u32> = fresh_buffer(n);
+            assert!(z.len() == n && z.iter().all(|&x| x == 0), "{n} zeros");
         }
     }
 
