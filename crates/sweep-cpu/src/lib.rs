@@ -443,8 +443,10 @@
 //! channels' planes into each point's bins, a transpose), the gather 15 % (it now
 //! waits for part of what the hints bring), phase 2 7 %, the resolve 6 %, reading a
 //! row's bins 5 % (12 % before the hints), phases 3 and the profile rule's solves
-//! 7 %, the ring 3 %. The targets: one pass 20 M points/s, **met** (25.9 M/s,
-//! criterion; 21 M/s in the VM's slow spells); four passes 8 M/s, **not met** (7.6 M/s
+//! 7 %, the ring 3 %. The targets: one pass 20 M points/s, **met** by a
+//! per-frame rebuild that recycles its output (25.9 M/s, criterion; 21 M/s in the VM's
+//! slow spells), not by a sweep into fresh memory (criterion's plain bench, 19.3 ms,
+//! 13.6 M/s: the kernel zeroing 82 MB); four passes 8 M/s, **not met** (7.6 M/s
 //! criterion, 7.8 M/s fastest, 5.5 M/s in slow spells); small grids 5 M/s, met
 //! (19.5 M/s one pass, 5.0 M/s four).
 //!
