@@ -3142,23 +3142,23 @@ fn fresh_buffer<T: bytemuck::Zeroable + Clone>(n: usize) -> Vec<T> {
 #[allow(unsafe_code)]
 fn advise_huge_pages<T>(v: &mut [T]) {
     #[cfg(target_os = "linux")]
-    {
-        const HUGE: usize = 2 << 20;
-        let start = v.as_mut_ptr() as usize;
-        let (a, b) = (
-            start.next_multiple_of(HUGE),
-            (start + std::mem::size_of_val(v)) / HUGE * HUGE,
-        );
-        if b > a {
-            // SAFETY: `a..b` lies inside `v`'s allocation, which this function borrows
-            // mutably; MADV_HUGEPAGE changes how the kernel backs those pages, never
-            // their contents, and the result (an error where huge pages are off) is
-            // advice only.
-            unsafe { libc::madvise(a as *mut libc::c_void, b - a, libc::MADV_HUGEPAGE) };
-        }
+    if let Some(r) = huge_pages_inside(v.as_mut_ptr() as usize, std::mem::size_of_val(v)) {
+        // SAFETY: `r` lies inside `v`'s allocation ([`huge_pages_inside`]), which this
+        // function borrows mutably; MADV_HUGEPAGE changes how the kernel backs those
+        // pages, never their contents, and the result (an error where huge pages are
+        // off) is advice only.
+        unsafe { libc::madvise(r.start as *mut libc::c_void, r.len(), libc::MADV_HUGEPAGE) };
     }
     #[cfg(not(target_os = "linux"))]
     let _ = v;
+}
+
+/// The addresses of the whole 2 MB pages inside `bytes` bytes from address `start`
+/// (`None` if none fits).
+fn huge_pages_inside(start: usize, bytes: usize) -> Option<std::ops::Range<usize>> {
+    const HUGE: usize = 2 << 20;
+    let (a, b) = (start.next_multiple_of(HUGE), (start + bytes) / HUGE * HUGE);
+    (b > a).then_some(a..b)
 }
 
 /// [`run_impl`] writing into `spare`'s memory where it fits (and leaving what the output
@@ -4375,6 +4375,24 @@ mod tests {
             seed ^= seed >> 7;
             seed ^= seed << 17;
             seed
+        }
+    }
+
+    /// The range the huge-page advice covers is the whole 2 MB pages inside a buffer,
+    /// all of them, and nothing outside it (checked against counting the pages one by
+    /// one), for buffers at any alignment and of any size.
+    #[test]
+    fn huge_page_range_is_every_whole_page_inside() {
+        const HUGE: usize = 2 << 20;
+        for start in [0, 1, 4096, HUGE - 16, HUGE, 3 * HUGE + 12_288] {
+            for bytes in [0, 1, HUGE - 1, HUGE, HUGE + 1, 2 * HUGE, 5 * HUGE + 777] {
+                let pages: Vec<usize> = (0..=(start + bytes) / HUGE)
+                    .map(|p| p * HUGE)
+                    .filter(|&p| p >= start && p + HUGE <= start + bytes)
+                    .collect();
+                let want = (!pages.is_empty()).then(|| pages[0]..pages[pages.len() - 1] + HUGE);
+                assert_eq!(huge_pages_inside(start, bytes), want, "{start} + {bytes}");
+            }
         }
     }
 
