@@ -369,16 +369,16 @@
 //! the one-pass resolve from the planes four points at a time, all bins, its sums in
 //! registers (timed only together with the first, and not faster with it).
 //!
-//! **Eighth round (issue 15): wider vectors, rows fetched ahead, huge pages.** Three changes,
-//! the light bit for bit the same:
+//! **Eighth round (issue 15): wider vectors, rows fetched ahead, huge pages.** Three
+//! changes, the light bit for bit the same:
 //!
 //! - The workspace's own builds (tests, benches, the demo, CI) target x86-64-v3
 //!   (`.cargo/config.toml`: AVX2 and FMA, every x86-64 CPU since 2013–2017), so the
 //!   row loops run eight floats wide instead of four. Rust fuses no multiply-add and
 //!   reorders no sum by itself, so the results do not change:
 //!   `tests/build_flags.rs` holds the hashes of twenty sweeps' outputs from a baseline
-//!   build and checks them (`.ci/test` falls back to the baseline on a CPU without
-//!   v3). A crate that depends on this one builds with its own flags: add
+//!   build and checks them (`.ci/cpu-target` falls back to the baseline on a CPU
+//!   without v3). A crate that depends on this one builds with its own flags: add
 //!   `-C target-cpu=x86-64-v3` (or `native`) to get these figures. Monte Carlo gains
 //!   too (its ratio to the sweep moves little).
 //! - Each row's gather hints the next row's bins into cache, a share per channel
@@ -389,7 +389,6 @@
 //!   for the previous level's rows gained nothing; on grids whose sink fits the cache
 //!   (16 × 64 × 16, 5 MB) they cost 3 %, so they are left out there. This is the
 //!   workspace's first `unsafe` (`_mm_prefetch`, which cannot fault).
-//!
 //! - A sweep's fresh buffers (its output, where the caller gives none back with
 //!   `recycle`) are advised to be backed by 2 MB pages on Linux (`madvise`; the kernel
 //!   here backs only advised ranges with them). The 82 MB of a 64³ grid's bins took
