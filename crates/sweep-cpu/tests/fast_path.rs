@@ -182,7 +182,7 @@ fn one_cell_in_empty_space() {
 /// each side mode, both source rules, equal to the oracle bit for bit.
 #[test]
 fn wide_levels() {
-    let m = mixed(72, 3, 13);
+    let m = mixed(72, 3, 72, 13);
     for (sides, profile) in [(0, true), (1, true), (2, true), (1, false)] {
         let c = Case {
             sides,
@@ -198,12 +198,36 @@ fn wide_levels() {
     }
 }
 
+/// Rows whose blocks have the widths the row loops are compiled for as constants
+/// (`with_width`: 16, 32 and 64 points) and others: rows of 16, 32, 80 (64 + 16), 96
+/// (64 + 32) and 21 points, of mixed media and surfaces, open and periodic sides, both
+/// source rules, equal to the oracle bit for bit.
+#[test]
+fn block_widths() {
+    for nx in [16, 32, 80, 96, 21] {
+        let m = mixed(nx, 3, 5, 7);
+        for (sides, profile) in [(0, true), (1, true), (1, false)] {
+            let c = Case {
+                sides,
+                per_point_top: true,
+                bottom: true,
+                source: false,
+                smoothing: 0.25,
+                passes: 3,
+                bins: true,
+                profile,
+            };
+            check(&m, c).unwrap_or_else(|e| panic!("rows of {nx}: {e}"));
+        }
+    }
+}
+
 /// A sink too large to stay in cache between passes (`FETCH_AHEAD_BYTES`: each row's
 /// gather hints the next row's bins into cache): a 72 × 11 × 72 grid of mixed media and
 /// surfaces, equal to the oracle bit for bit.
 #[test]
 fn sinks_fetched_ahead() {
-    let m = mixed(72, 11, 29);
+    let m = mixed(72, 11, 72, 29);
     let n = m.desc().point_count();
     assert!(n * size_of::<BinLight>() >= sweep_cpu::sweep::FETCH_AHEAD_BYTES);
     let c = Case {
@@ -219,13 +243,13 @@ fn sinks_fetched_ahead() {
     check(&m, c).unwrap();
 }
 
-/// An `nxz × ny × nxz` grid of mixed cells: of every `period` cells (in a scrambled
+/// An `nx × ny × nz` grid of mixed cells: of every `period` cells (in a scrambled
 /// order) one opaque and five media of five depths, the rest empty.
-fn mixed(nxz: u32, ny: u32, period: usize) -> MaterialGrid {
+fn mixed(nx: u32, ny: u32, nz: u32, period: usize) -> MaterialGrid {
     let d = GridDesc::new(
         Vec3::ZERO,
         1.0,
-        lightgrid_core::glam::UVec3::new(nxz, ny, nxz),
+        lightgrid_core::glam::UVec3::new(nx, ny, nz),
     )
     .unwrap();
     let cells = (0..d.point_count())
