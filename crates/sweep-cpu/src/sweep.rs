@@ -1047,6 +1047,11 @@ struct Finish<'a> {
     /// final light (the first pass's phase 1 of a level without material): resolve
     /// from the level's planes ([`resolve_planes`]).
     from_planes: bool,
+    /// Write each row's ring columns ([`wrap_columns`], periodic sides) as the row
+    /// ends, while it is in cache: for a next level without material, which would
+    /// otherwise wrap them on one thread while the other waits. (A level with material
+    /// wraps them beside its transmittances, [`LevelLight::wrap_ring`].)
+    wrap_columns: bool,
 }
 
 fn sum_rows(v: &[RowFlux]) -> RowFlux {
@@ -1067,7 +1072,8 @@ const PAD: usize = 5;
 /// a loop over slices that the compiler vectorises; a row is one contiguous chunk
 /// (`row_len`) for the parallel tasks. The ring holds the light of the columns a tap
 /// beyond the sides reads *from inside the grid*: the wrapped columns on periodic sides
-/// ([`LevelLight::wrap_ring`]), zero otherwise; light from outside (open sides, a given
+/// ([`LevelLight::wrap_ring`], or row by row as a level ends, [`Finish::wrap_columns`]),
+/// zero otherwise; light from outside (open sides, a given
 /// halo) comes from a second `LevelLight` whose inside is zero and whose ring holds it.
 #[derive(Clone)]
 struct LevelLight {
@@ -1139,36 +1145,43 @@ impl LevelLight {
     }
     /// The ring from the wrapped columns and rows of the grid (periodic sides).
     fn wrap_ring(&mut self) {
-        let (nx, nz, p, r) = (
-            self.nx as isize,
-            self.nz as isize,
-            self.pitch(),
-            self.row_len(),
-        );
-        for z in 0..nz {
-            let row = self.row_mut(z);
-            for plane in row.chunks_exact_mut(p) {
-                if nx >= PAD as isize {
-                    // Left ring: the last PAD columns; right ring: the first PAD.
-                    // (Element by element: a call to memmove for five floats cost
-                    // more than the copy.)
-                    let n = nx as usize;
-                    for i in 0..PAD {
-                        plane[i] = plane[n + i];
-                        plane[n + PAD + i] = plane[PAD + i];
-                    }
-                } else {
-                    for x in (-(PAD as isize)..0).chain(nx..nx + PAD as isize) {
-                        plane[(x + PAD as isize) as usize] =
-                            plane[(x.rem_euclid(nx) + PAD as isize) as usize];
-                    }
-                }
-            }
+        let (nx, p) = (self.nx, self.pitch());
+        for z in 0..self.nz as isize {
+            wrap_columns(self.row_mut(z), p, nx);
         }
+        self.wrap_ring_rows();
+    }
+    /// The ring's rows from the wrapped rows of the grid (periodic sides), where each
+    /// row's ring columns hold its wrapped columns already ([`wrap_columns`]).
+    fn wrap_ring_rows(&mut self) {
+        let (nz, r) = (self.nz as isize, self.row_len());
         for z in (-(PAD as isize)..0).chain(nz..nz + PAD as isize) {
             let from = (z.rem_euclid(nz) + PAD as isize) as usize * r;
             let to = (z + PAD as isize) as usize * r;
             self.v.copy_within(from..from + r, to);
+        }
+    }
+}
+
+/// The ring columns of one row of a [`LevelLight`] (planes of pitch `p`, `nx` columns
+/// each) from the row's wrapped columns (periodic sides): left the last [`PAD`], right
+/// the first.
+#[inline]
+fn wrap_columns(row: &mut [f32], p: usize, nx: usize) {
+    for plane in row.chunks_exact_mut(p) {
+        if nx >= PAD {
+            // (Element by element: a call to memmove for five floats cost more than
+            // the copy.)
+            for i in 0..PAD {
+                plane[i] = plane[nx + i];
+                plane[nx + PAD + i] = plane[PAD + i];
+            }
+        } else {
+            let n = nx as isize;
+            for x in (-(PAD as isize)..0).chain(n..n + PAD as isize) {
+                plane[(x + PAD as isize) as usize] =
+                    plane[(x.rem_euclid(n) + PAD as isize) as usize];
+            }
         }
     }
 }
@@ -1797,7 +1810,7 @@ impl Ctx {
         let nx = self.nx as usize;
         let (min_rows, max_rows) = self.rows_per_task(uneven);
         let (row_len, p) = (cur.row_len(), cur.pitch());
-        let (last_phase, avg, dom) = (fin.last_phase, fin.avg, fin.dom);
+        let (last_phase, avg, dom, wrap) = (fin.last_phase, fin.avg, fin.dom, fin.wrap_columns);
         let resolve = fin.resolve.map(|d| (d, fin.clamp, fin.from_planes));
         cur.rows_mut()
             .par_chunks_mut(row_len)
@@ -1815,6 +1828,9 @@ impl Ctx {
                     body(z as i32, cur_row, x, g_row, &mut rf);
                     if last_phase {
                         self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
+                        if wrap {
+                            wrap_columns(cur_row, p, nx);
+                        }
                     }
                     *row_out = rf;
                 },
@@ -3485,6 +3501,9 @@ fn run_with<S: Sink>(
         let mut sent_on = DVec3::ZERO;
         // Levels copied in a row just before this one (all with the same light).
         let mut copied_in_row = 0;
+        // `w.prev`'s rows hold their wrapped columns in the ring already
+        // ([`Finish::wrap_columns`]; sums with `w.above` keep that).
+        let mut prev_columns_wrapped = false;
         let start = if carry { fixed.top_material + 1 } else { 0 };
         for li in start..ny {
             let j = if up { li } else { ny - 1 - li };
@@ -3515,6 +3534,7 @@ fn run_with<S: Sink>(
             let range = desc.level_range(j as u32);
             if from_virtual {
                 w.fill_from_boundary(&src, &ctx);
+                prev_columns_wrapped = false;
             }
             // Skip: a level above all material, in a downward pass, under a laterally
             // uniform boundary (or with no boundary light at all), receives exactly what
@@ -3567,6 +3587,7 @@ fn run_with<S: Sink>(
                     * desc.level_len() as f64;
                 stats.levels_copied += 1;
                 std::mem::swap(&mut w.prev, &mut w.cur);
+                prev_columns_wrapped = false;
                 if last && first {
                     // One pass: the level's points are all `one`.
                     let (valid, a, d) = one.resolve(want_dom);
@@ -3585,6 +3606,12 @@ fn run_with<S: Sink>(
             }
             stats.levels_computed += 1;
             copied_in_row = 0;
+            // The next level of this pass has no material: this level's rows wrap
+            // their ring columns for it as they end ([`Finish::wrap_columns`]).
+            let wrap_in_rows = fast
+                && fixed.periodic
+                && li + 1 < ny
+                && !fixed.level_material[(if up { j + 1 } else { j - 1 }) as usize];
             let src_level = if up { j - 1 } else { j + 1 };
             let sent = sent_on;
             // A level without material: every point is quiet, and nothing scatters.
@@ -3618,7 +3645,13 @@ fn run_with<S: Sink>(
                     },
                     || {
                         if fast && fixed.periodic {
-                            prev.wrap_ring();
+                            // The level before wrapped its rows' columns as they
+                            // ended if this level has no material (`Finish::wrap_columns`).
+                            if prev_columns_wrapped {
+                                prev.wrap_ring_rows();
+                            } else {
+                                prev.wrap_ring();
+                            }
                         }
                         if fast && material_here {
                             ctx.quiet(lnp, quiet, quiet_rows);
@@ -3660,6 +3693,7 @@ fn run_with<S: Sink>(
                         resolve: last.then_some(want_dom),
                         clamp: signed_light,
                         from_planes: first && !material_here,
+                        wrap_columns: wrap_in_rows,
                     },
                 )
             } else {
@@ -3703,6 +3737,7 @@ fn run_with<S: Sink>(
                 sent_on = f1.sent;
                 ok &= !f1.bad;
                 std::mem::swap(&mut w.prev, &mut w.cur);
+                prev_columns_wrapped = wrap_in_rows;
                 continue;
             }
             w.pend_dirty[j as usize] = true;
@@ -3758,6 +3793,7 @@ fn run_with<S: Sink>(
                     resolve: last.then_some(want_dom),
                     clamp: signed_light,
                     from_planes: false,
+                    wrap_columns: wrap_in_rows,
                 },
             );
             bal.absorbed += f2.absorbed;
@@ -3783,6 +3819,7 @@ fn run_with<S: Sink>(
                         resolve: last.then_some(want_dom),
                         clamp: signed_light,
                         from_planes: false,
+                        wrap_columns: wrap_in_rows,
                     },
                     !fast,
                 );
@@ -3793,6 +3830,7 @@ fn run_with<S: Sink>(
                 ok &= !f3.bad;
             }
             std::mem::swap(&mut w.prev, &mut w.cur);
+            prev_columns_wrapped = wrap_in_rows;
         }
         // What leaves the last level leaves the grid.
         let leaving = sent_on;
