@@ -427,6 +427,58 @@
 //! (no change: the stores wait, not the loads); the resolve's validity check from the
 //! least value alone (no change).
 //!
+//! **Ninth round (issue 15): constant row widths, the ring wrapped as rows end.** Two
+//! changes, the light bit for bit the same:
+//!
+//! - The row loops over a block of `b` points (the transmit step, phase 3, the
+//!   collisions, the planes' resolve) run with `b` a constant for blocks of 64, 32 and
+//!   16 points (`sweep::with_width`, each arm inlining the block), so they compile
+//!   without remainder loops. The forest's rows are 16 points: its four passes
+//!   3.03–3.10 → 2.76–2.80 ms (`forest_profile`, fast spell, builds alternating); the
+//!   64³ canopy's four passes 34.9 → 33.7 ms. `tests/fast_path.rs::block_widths` checks
+//!   rows of 16, 32, 80, 96 and 21 points against the oracle (it fails if an arm runs
+//!   the wrong width).
+//! - Each level began by wrapping the ring of the light it gathers from (periodic
+//!   sides: 51 planes × 10 columns a row, and 10 ring rows) on one thread, beside the
+//!   transmittances on the other; a level without material has none, so the other
+//!   thread waited. A level whose next level has no material now wraps each row's
+//!   ring columns as the row ends, in cache, on the row's thread
+//!   (`Finish::wrap_columns`); the next level copies only the ring rows. Canopy four
+//!   passes 33.1–33.9 → **32.2–32.4 ms, 8.1 M points/s** (fast spell), and
+//!   45.6–47.1 → 40.1–42.1 ms in slow spells, where the waiting cost most. The forest
+//!   is unchanged: its levels have material, whose transmittances hide the wrap.
+//!
+//! Also: a sweep's pending scattered light is kept per level and allocated when a
+//! level first holds some (`PendingLevels`): fresh work (`sweep_cpu::run`, or the
+//! first sweep of a `CpuSweeper`) no longer reserves 25–38 MB at 64³ that the
+//! allocator, serving a freed block of that size from its heap, zeroed in full.
+//! Repeated fresh four-pass sweeps: peak memory 134.5 → 126.3 MB; their time moves
+//! within the kernel's noise (fresh sweeps vary by 2× from run to run with how fast the
+//! kernel finds huge pages).
+//!
+//! Where the time goes, per pass of four over the 64³ canopy (before these changes):
+//! the first (downward: 34 levels computed, 30 copied) 7.7 ms, the second and third
+//! (34 levels each) 6.9 and 6.6 ms, the last (upward: 64 levels and the resolve of all
+//! 262 144 points) 12.8 ms. `cargo bench -p sweep-cpu` (criterion means, a fast
+//! spell), each against the scalar oracle in the same run: 64³ one pass (recycled)
+//! **9.75 ms, 26.9 M points/s**, against 94.8 ms (9.7×); four passes (recycled)
+//! **32.3 ms, 8.1 M/s**, against 411 ms (12.7×); without `recycle` 18.3 ms (14.3 M/s)
+//! and 47.7 ms (5.5 M/s); 16 × 64 × 16 one pass 0.87 ms (18.9 M/s), four 3.08 ms
+//! (5.3 M/s). A whole run of the bench in mixed spells gave 11.7 ms and 34.0 ms, and
+//! the small grid's four passes 6.1 ms in a slow spell: on this VM a figure means
+//! little without its spell. `cargo xtask bench`: the forest's four passes reach
+//! 0.0175 in 2.8 ms, 250× Monte Carlo (704.5 ms), two passes in 1.5 ms, 479×.
+//!
+//! Tried and dropped (measured, builds alternating): phase 2 writing phase 3's
+//! emission planes slot by slot after the row instead of cell by cell (0.9 ms slower
+//! on four passes: the per-cell weights are gathered instead of read in a run); the
+//! quiet rows' adds channel by channel along the row (no change); constant widths for
+//! the gather and for phase 2's gathers, whose loops run over tap ranges (no change, or
+//! 1–2 % slower); the gather reading rows beyond the sides as the wrapped rows instead
+//! of the ring's copies (canopy 2 %, forest 3 % slower); no `rayon::join` for levels
+//! without material (forest 5 % slower, likely the pool's second thread sleeping
+//! between levels).
+//!
 //! **Roofline** (per point and pass, quiet point, 26 bins). Compute: gather 17 channels
 //! × 3 colours × 9 flops ≈ 460 flops (~60 eight-lane operations), flux tallies and
 //! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
@@ -438,21 +490,22 @@
 //! about one write and three partial read-modify-writes of it, ≤ 7 ms of their
 //! 34 ms. So neither pass count is bound by bandwidth: what costs is the latency of
 //! bringing each row's bins in (now fetched ahead) and compute. Where four passes go
-//! now (perf, two threads): the transmit step 17 % (on quiet rows, adding the 17
-//! channels' planes into each point's bins, a transpose), the gather 15 % (it now
-//! waits for part of what the hints bring), phase 2 7 %, the resolve 6 %, reading a
-//! row's bins 5 % (12 % before the hints), phases 3 and the profile rule's solves
-//! 7 %, the ring 3 %. The issue's targets: one pass 20 M points/s, **met** by a
-//! per-frame rebuild that recycles its output (25.9 M/s, criterion; 21 M/s in the VM's
-//! slow spells), not by a sweep into fresh memory (criterion's plain bench, 19.3 ms,
-//! 13.6 M/s: the kernel zeroing 82 MB); four passes 8 M/s, **not met** (7.6 M/s
-//! criterion, 7.8 M/s fastest, 5.5 M/s in slow spells); small grids 5 M/s, met
-//! (19.5 M/s one pass, 5.0 M/s four).
+//! (perf, two threads, ninth round): the transmit step 19 % (on quiet rows, adding the
+//! 17 channels' planes into each point's bins, a transpose), the gather 15 %, phase 2
+//! 10 %, the resolve 9 %, phase 3, the collisions and the profile rule's moments,
+//! solves and sources 18 %, reading a row's bins 5 %, copies (the ring's rows, phase
+//! 3's emission rows) 4.5 %, the ring's columns 1.4 %. The issue's targets: one pass 20 M points/s,
+//! **met** by a per-frame rebuild that recycles its output (26.9 M/s, criterion; 21
+//! M/s in the VM's slow spells), not by a sweep into fresh memory (criterion's plain
+//! bench, 18.3 ms, 14.3 M/s: the kernel zeroing 82 MB); four passes 8 M/s, **met in
+//! fast spells** by a recycling rebuild (criterion 32.3 ms, 8.1 M/s; slow spells
+//! 40–42 ms, 6.3 M/s; fresh memory 47.7 ms); small grids 5 M/s, met (18.9 M/s one
+//! pass, 5.3 M/s four).
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
-//! reaches error 0.0175 in 3.0 ms, 216× Monte Carlo's 651 ms to that error (eighth
-//! round, x86-64-v3 builds of both); the bench also names the cheapest setting for its
-//! error: 2 passes reach the same 0.0175 in 1.6 ms, 409×. The VM's slow spells give
+//! reaches error 0.0175 in 2.8 ms, 250× Monte Carlo's 704.5 ms to that error (ninth
+//! round; eighth: 3.0 ms, 216×); the bench also names the cheapest setting for its
+//! error: 2 passes reach the same 0.0175 in 1.5 ms, 479× (eighth: 1.6 ms, 409×). The VM's slow spells give
 //! 4.7 ms and 146–153× (seventh round). Earlier rounds: 5.3–5.6 ms, 160–168× (fifth);
 //! 6.0–6.5 ms (fourth); Monte Carlo's time moves more than the sweep's between runs
 //! (620–1206 ms). Where the forest's two passes go (perf, two threads, eighth round):
