@@ -290,10 +290,10 @@ impl Pending {
 /// Scattered light waiting in one direction ([`Pending`] per grid point), level by
 /// level: a level's records are allocated (zeroed) when one of them is first written,
 /// and a level never written holds none and reads as zero. Only levels with material
-/// hold scattered light, so a sweep over mostly empty space (the 64³ canopy: 16 of 64
-/// levels) neither allocates nor clears records for the rest. (One vector of all points
-/// cost a fresh sweep of the canopy 25–38 MB that the allocator, serving freed blocks
-/// of that size from its heap, zeroed in full: 7–17 ms of a 4-pass sweep.)
+/// hold scattered light, so a sweep over mostly empty space (the 64³ canopy: ground and
+/// leaves in 4 of 64 levels) neither allocates nor clears records for the rest. (One
+/// vector of all points cost fresh work at 64³ 25–38 MB, which the allocator, serving
+/// freed blocks of that size from its heap, zeroed in full.)
 #[derive(Clone, Default)]
 struct PendingLevels {
     level_len: usize,
@@ -4555,8 +4555,9 @@ mod tests {
     }
 
     /// A sweep keeps pending light only for levels that hold material: four passes over
-    /// the canopy (16 of 64 levels with leaves) allocate those levels' records and no
-    /// others, and the same sweep into the reused buffers gives the same light.
+    /// the 16³ canopy (ground and leaves in 4 of 16 levels) allocate those levels'
+    /// records and no others, and the same sweep into the reused buffers gives the same
+    /// light.
     #[test]
     fn pending_light_held_only_where_material_is() {
         let (m, b) = crate::scenes::Scene::Canopy.build(16);
