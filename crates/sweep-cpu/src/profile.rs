@@ -10,7 +10,8 @@
 //! "Against exact answers". Cost: each table node, computed on first use, about 0.3 ms
 //! on the 2-core VM (a scene reads the few around its media's depths; all 1025, as the
 //! GPU's copy needs, take some 180 ms); a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
-//! direction and kept across levels, passes and sweeps (up to 4096 of them).
+//! direction and kept across levels, passes and sweeps (up to 16 384 of them, 19 MiB; a
+//! scene with more distinct depths computes the others once per level that holds them).
 //!
 //! ## Why
 //!
@@ -650,8 +651,11 @@ fn solve_balance(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> Option<[f64;
 /// (`O_down + O_up = 4π τ`).
 pub const FULL_SPHERE: f64 = 4.0 * PI;
 
+/// Profiles [`with_profile`] keeps per thread (1.2 KiB each).
+const THREAD_KEEP: usize = 4096;
+
 /// Runs `f` on [`CellProfile::new`]`(up, lnp)`, computed once per thread and kept (up
-/// to [`Profiles::KEEP`] of them, then the cache starts afresh): for the serial code that
+/// to [`THREAD_KEEP`] of them, then the cache starts afresh): for the serial code that
 /// reads one cell's profile at a time (diffusion acceleration's corrections, a beam's
 /// first collisions). The values are [`CellProfile::new`]'s, bit for bit.
 pub(crate) fn with_profile<R>(up: bool, lnp: f32, f: impl FnOnce(&CellProfile) -> R) -> R {
@@ -668,7 +672,7 @@ pub(crate) fn with_profile<R>(up: bool, lnp: f32, f: impl FnOnce(&CellProfile) -
         let pr = CellProfile::new(up, lnp);
         CACHE.with(|c| {
             let mut c = c.borrow_mut();
-            if c.len() >= Profiles::KEEP {
+            if c.len() >= THREAD_KEEP {
                 c.clear();
             }
             c.insert(key, Box::new(pr));
@@ -681,41 +685,46 @@ pub(crate) fn with_profile<R>(up: bool, lnp: f32, f: impl FnOnce(&CellProfile) -
 /// The profiles of one level's cells for one pass, as the sweep reads them
 /// ([`Profiles::get`]). [`CellProfile::new`] costs about a microsecond: each distinct
 /// `(pass, ln p)` is computed once, on every core, and kept across levels, passes and
-/// sweeps while at most [`Profiles::KEEP`] are held (a level with more distinct values
-/// starts the set afresh). The values are [`CellProfile::new`]'s, bit for bit.
+/// sweeps, up to [`Profiles::KEEP`] of them; once that many are kept, a level's values
+/// not among them are computed for that level alone (the kept ones stay: a sweep that
+/// visits more distinct values than fit, in the same order every pass, computes only
+/// those beyond the kept ones again, instead of the whole set as each level evicted
+/// the last). The values are [`CellProfile::new`]'s, bit for bit.
 #[derive(Clone, Default)]
 pub(crate) struct Profiles {
-    /// The distinct profiles computed.
+    /// The kept profiles (`all[..memo.len()]`), then the current level's others.
     all: Vec<CellProfile>,
-    /// Index in `all` of `(up, ln p bits)`.
+    /// Index in `all` of the kept `(up, ln p bits)`.
     memo: std::collections::HashMap<(bool, u32), u32>,
+    /// The current level's values not kept: index in `all`.
+    extra: std::collections::HashMap<(bool, u32), u32>,
     /// Per cell of the level: index in `all`.
     of: Vec<u32>,
+    /// Profiles computed so far ([`CellProfile::new`] calls).
+    computed: u64,
 }
 
 impl Profiles {
-    /// Profiles kept (1.2 KiB each).
-    pub(crate) const KEEP: usize = 4096;
+    /// Profiles kept (1.2 KiB each: 19 MiB).
+    pub(crate) const KEEP: usize = 16384;
 
     /// Sets the level's profiles: cell `q` gets the profile of `ln p` `lnp[q]` where
     /// `medium(q)`, of a clear cell (`ln p = 0`) elsewhere.
     pub(crate) fn level(&mut self, up: bool, lnp: &[f32], medium: impl Fn(usize) -> bool) {
         use rayon::prelude::*;
+        // The last level's values that were not kept go.
+        self.all.truncate(self.memo.len());
+        self.extra.clear();
         let todo = self.assign(up, lnp, &medium);
-        // Too many to keep: start afresh (the level's own distinct values always fit).
-        let todo = if self.all.len() + todo.len() > Self::KEEP.max(todo.len()) {
-            self.all.clear();
-            self.memo.clear();
-            self.assign(up, lnp, &medium)
-        } else {
-            todo
-        };
+        self.computed += todo.len() as u64;
         let fresh: Vec<CellProfile> = todo.par_iter().map(|&l| CellProfile::new(up, l)).collect();
         self.all.extend(fresh);
     }
 
-    /// Sets `of` for the level and enters its values not yet held in `memo` (at the
-    /// indices they will have in `all`); returns those values, in that order.
+    /// Sets `of` for the level and enters its values not held yet, in `memo` while
+    /// fewer than [`Profiles::KEEP`] are kept, else in `extra` (at the indices they will
+    /// have in `all`: the kept ones first, as `memo` only grows); returns those values,
+    /// in that order.
     fn assign(&mut self, up: bool, lnp: &[f32], medium: &impl Fn(usize) -> bool) -> Vec<f32> {
         self.of.clear();
         let mut todo: Vec<f32> = Vec::new();
@@ -726,11 +735,20 @@ impl Profiles {
             let id = match last {
                 Some((b, id)) if b == bits => id,
                 _ => {
+                    let key = (up, bits);
                     let next = (self.all.len() + todo.len()) as u32;
-                    let id = *self.memo.entry((up, bits)).or_insert_with(|| {
-                        todo.push(l);
-                        next
-                    });
+                    let id = match self.memo.get(&key).or_else(|| self.extra.get(&key)) {
+                        Some(&id) => id,
+                        None => {
+                            if self.memo.len() < Self::KEEP {
+                                self.memo.insert(key, next);
+                            } else {
+                                self.extra.insert(key, next);
+                            }
+                            todo.push(l);
+                            next
+                        }
+                    };
                     last = Some((bits, id));
                     id
                 }
@@ -961,10 +979,47 @@ mod tests {
         set.level(true, &wide, |_| true);
         set.level(true, &small, |_| true);
         assert_eq!(set.all.len(), held, "profiles recomputed for values held");
+        let computed = set.computed;
+        set.level(false, &wide, |_| true);
+        assert_eq!(
+            set.computed, computed,
+            "profiles recomputed for values held"
+        );
         // A clear cell's profile is the transparent one, not whatever was there.
         assert!(!same(
             &CellProfile::new(false, -1.0),
             &CellProfile::new(false, 0.0)
         ));
+    }
+
+    /// A sweep whose levels hold more distinct values than fit, visited in the same
+    /// order every pass (a downward level, an upward one), computes again only the
+    /// values beyond the kept ones, not the whole set (each level evicted everything
+    /// before), and hands out `CellProfile::new`'s values bit for bit all along.
+    #[test]
+    fn profiles_beyond_keep_computed_again_alone() {
+        let n = Profiles::KEEP / 2 + 800;
+        let lnp: Vec<f32> = (0..n).map(|i| -(i as f32 + 1.0) * 1e-4).collect();
+        let mut set = Profiles::default();
+        let mut per_cycle = Vec::new();
+        for cycle in 0..3 {
+            let before = set.computed;
+            for up in [false, true] {
+                set.level(up, &lnp, |_| true);
+                if cycle == 1 {
+                    for (q, &l) in lnp.iter().enumerate().step_by(7) {
+                        let (a, b) = (set.get(q), CellProfile::new(up, l));
+                        assert_eq!(a.o.to_bits(), b.o.to_bits(), "cell {q} up {up}");
+                        assert_eq!(a.k, b.k, "cell {q} up {up}");
+                        assert_eq!(a.emit, b.emit, "cell {q} up {up}");
+                        assert_eq!(a.coll, b.coll, "cell {q} up {up}");
+                        assert_eq!(a.mean, b.mean, "cell {q} up {up}");
+                    }
+                }
+            }
+            per_cycle.push(set.computed - before);
+        }
+        let beyond = (2 * n - Profiles::KEEP) as u64;
+        assert_eq!(per_cycle, [2 * n as u64, beyond, beyond]);
     }
 }
