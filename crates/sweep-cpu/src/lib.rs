@@ -514,6 +514,47 @@
 //! waking 8 % (its levels have 256 points: four parallel loops a level, each a few
 //! microseconds of work a thread; two threads give 1.6× one).
 //!
+//! **Tenth round (issue 15): the profile set, and where the forest's time goes.** The
+//! per-cell profiles of the default rule ([`profile`]) were kept in a set of at most 4096
+//! that cleared itself whenever a level brought more than fitted. A 32³ forest holds
+//! about 6000 distinct (depth, direction) pairs, so every level of every pass cleared the
+//! set and computed its own again (some 700 at 1.2 µs each). The set now holds 16 384
+//! (19 MiB at most), and once full it keeps what it holds and computes a level's others
+//! for that level alone. Forests under `forest_profile` (builds alternating, fastest of
+//! 150 and 40 sweeps): 32³ four passes 14.1–14.5 → **10.9–11.1 ms**, 48³ 37.0–37.7 →
+//! **29.4–29.7 ms**; 16³ and 24³ unchanged, since theirs fit; the light is the same bit for bit
+//! (`profile::tests::profiles_beyond_keep_computed_again_alone`).
+//!
+//! Where the bench forest's 2.8 ms go. The forest has material in its six lowest levels
+//! only (levels 0–5: 256, 256, 232, 181, 121 and 12 cells of 256). The ten above are
+//! copied in downward passes and carried once upward ("Skipped work"), so the time is
+//! the six levels' 24 runs. Timed per level and phase in one upward pass (fast spell;
+//! the timers are not kept in the code), levels 0–4 take 115–137 µs each and level 5
+//! 63 µs. Of that time the set-up (transmittances, quiet points, profiles; a
+//! `rayon::join`) is 7 %, phase 1 (gather and transmit) 15 %, phase 2 (removed light,
+//! the profile rule's moments and 3 × 3 solves, the emission planes) 34 % and phase 3
+//! (emission, collisions) 44 %. In slow spells phase 1 slows most (2.2×, the others
+//! 1.3×). Level 5, with 12 cells of medium, costs half a full level: phase 3's row loops
+//! run over every point of a row within 4 rows of an emitting cell, whatever the number
+//! of emitters. **Rows of 16 points are the limit:**
+//! `TILE=4 forest_profile` lays four copies of the forest side by side. Under periodic
+//! sides each copy gets the same light, and the work per point is the same, but rows
+//! are 64 points long. A copy then takes 1.77 ms against 2.78 ms (`TILE=2`: 2.06 ms).
+//! Per phase, in one upward pass: phase 1 −42 %, phase 2 −29 %, phase 3 −40 %, the
+//! set-up −10 %. Each channel, stencil slot and colour sets up a loop over a block of
+//! the row (slices, bounds, offsets), and at 16 points that set-up costs about as
+//! much as the arithmetic. The forest's four-pass target (380× Monte Carlo, ≤ 1.85
+//! ms) therefore needs blocks of several rows. The transmittance and source planes
+//! are already padded 2-D arrays ([`sweep`]'s `Planes`), where a tap is a fixed offset
+//! for every point of a level. The level's light, the removed light and the emission
+//! planes are still per row, and they would have to follow. That is the next round,
+//! not this one.
+//!
+//! Tried and dropped: the periodic tails of the taps (the columns beyond the row, up
+//! to 4 of a 16-point row's) read as one run of wrapped columns a side instead of
+//! point by point with a remainder: no change where only the collisions did it, 4 %
+//! slower everywhere (the short runs' loops cost more than the division they saved).
+//!
 //! ## Semantics of the sweep
 //!
 //! Notation: grid of `nx × ny × nz` points, cell size `h`; `p_c` the pass-through and
