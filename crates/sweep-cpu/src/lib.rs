@@ -518,11 +518,21 @@
 //! per-cell profiles of the default rule ([`profile`]) were kept in a set of at most 4096
 //! that cleared itself whenever a level brought more than fitted. A 32³ forest holds
 //! about 6000 distinct (depth, direction) pairs, so every level of every pass cleared the
-//! set and computed its own again (some 700 at 1.2 µs each). The set now holds 16 384
-//! (19 MiB at most), and once full it keeps what it holds and computes a level's others
-//! for that level alone. Forests under `forest_profile` (builds alternating, fastest of
-//! 150 and 40 sweeps): 32³ four passes 14.1–14.5 → **10.9–11.1 ms**, 48³ 37.0–37.7 →
-//! **29.4–29.7 ms**; 16³ and 24³ unchanged, since theirs fit; the light is the same bit for bit
+//! set and computed its own again (some 700 at 1.2 µs each). Once full, the set now
+//! keeps what it holds and computes a level's other profiles for that level alone. It
+//! also holds up to 65 536 of them, 77.5 MiB at most. A scene uses only as many as it
+//! has distinct depths of medium times two directions, and [`sweep::sweep_bytes`] now
+//! counts them. Forests under `forest_profile`, four passes, three builds alternating,
+//! fastest of 100, 30 and 20 sweeps:
+//!
+//! | forest | before | cap 16 384 | now |
+//! |--------|-------:|-----------:|----:|
+//! | 32³ | 13.4–13.9 ms | 10.9–11.1 ms (another spell: old 14.1–14.5) | **9.7–10.5 ms** |
+//! | 48³ | 33.5–33.8 ms | 29.4–29.7 ms (another spell: old 37.0–37.7) | **28.1–28.5 ms** |
+//! | 64³ (more profiles than 16 384) | 70.1–73.4 ms | 62.2–63.2 ms | **56.7–57.8 ms** |
+//!
+//! The 16³ and 24³ forests are unchanged, since their profiles fit either way. The
+//! light is the same bit for bit
 //! (`profile::tests::profiles_beyond_keep_computed_again_alone`).
 //!
 //! Where the bench forest's 2.8 ms go. The forest has material in its six lowest levels

@@ -10,8 +10,9 @@
 //! "Against exact answers". Cost: each table node, computed on first use, about 0.3 ms
 //! on the 2-core VM (a scene reads the few around its media's depths; all 1025, as the
 //! GPU's copy needs, take some 180 ms); a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
-//! direction and kept across levels, passes and sweeps (up to 16 384 of them, 19 MiB; a
-//! scene with more distinct depths computes the others once per level that holds them).
+//! direction and kept across levels, passes and sweeps (up to 65 536 of them, 77.5 MiB;
+//! a scene with more distinct depths computes the others once per level that holds
+//! them).
 //!
 //! ## Why
 //!
@@ -705,8 +706,10 @@ pub(crate) struct Profiles {
 }
 
 impl Profiles {
-    /// Profiles kept (1.2 KiB each: 19 MiB).
-    pub(crate) const KEEP: usize = 16384;
+    /// Profiles kept (1240 bytes each: 77.5 MiB at most; a scene holds as many as it
+    /// has distinct depths of medium times two directions, [`crate::sweep::sweep_bytes`]
+    /// counts them).
+    pub(crate) const KEEP: usize = 65536;
 
     /// Sets the level's profiles: cell `q` gets the profile of `ln p` `lnp[q]` where
     /// `medium(q)`, of a clear cell (`ln p = 0`) elsewhere.

@@ -1425,9 +1425,13 @@ pub fn validate_inputs(
 /// only levels with material hold them), ln(pass) and exposure (8) and the output (312); per
 /// point of one level the level buffers (four 17-channel levels: the two in use, light
 /// from outside, the upward light waiting above all material; removals, transmittance,
-/// powers, the source rule's sources and masks: 1526).
+/// powers, the source rule's sources and masks: 1526); and the profile rule's set of
+/// cell profiles, one per distinct depth of medium and direction, at most two a point
+/// and [`crate::profile`]'s cap.
 pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
-    desc.point_count() as u64 * (312 + 144 + 8 + 312) + desc.level_len() as u64 * 1526
+    let profiles = (2 * desc.point_count()).min(crate::profile::Profiles::KEEP) as u64
+        * std::mem::size_of::<crate::profile::CellProfile>() as u64;
+    desc.point_count() as u64 * (312 + 144 + 8 + 312) + desc.level_len() as u64 * 1526 + profiles
 }
 
 pub(crate) fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
