@@ -117,8 +117,9 @@ pub const MIN_POINTS_PER_TASK: usize = 128;
 pub const MAX_POINTS_PER_UNEVEN_TASK: usize = 32;
 
 /// Levels of more points than this fetch each block's cell profiles ahead of the
-/// profile rule's slot-major loops ([`Ctx::fetch_profiles`]): 512 cells' profiles take
-/// 635 KB.
+/// profile rule's loops over the stencil slots, which read each profile one value at a
+/// time: 512 cells' profiles take 635 KB, and a level's that outgrow the 1 MB L2 came
+/// from farther out (the crate docs, "Tenth round").
 pub const FETCH_PROFILES_ABOVE: usize = 512;
 
 /// Most distinct exponents (see [`path_exponents`]).
