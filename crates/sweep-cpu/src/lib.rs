@@ -519,8 +519,11 @@
 //! that cleared itself whenever a level brought more than fitted. A 32³ forest holds
 //! about 6000 distinct (depth, direction) pairs, so every level of every pass cleared the
 //! set and computed its own again (some 700 at 1.2 µs each). Once full, the set now
-//! keeps what it holds and computes a level's other profiles for that level alone. It
-//! also holds up to 65 536 of them, 77.5 MiB at most. A scene uses only as many as it
+//! keeps what it holds and computes a level's other profiles for that level alone. A
+//! sweep that begins with a full set of which the last sweep read less than half (a
+//! renderer sweeping one area after another) starts it afresh
+//! (`profile::tests::profiles_of_another_scene_replace_a_full_set`). The set
+//! also holds up to 65 536 profiles, 77.5 MiB at most. A scene uses only as many as it
 //! has distinct depths of medium times two directions, and [`sweep::sweep_bytes`] now
 //! counts them. Forests under `forest_profile`, four passes, three builds alternating,
 //! fastest of 100, 30 and 20 sweeps:

@@ -736,6 +736,11 @@ pub(crate) struct Profiles {
     of: Vec<u32>,
     /// Profiles computed so far ([`CellProfile::new`] calls).
     computed: u64,
+    /// Per kept profile: the last sweep that read it ([`Profiles::begin_sweep`]).
+    used: Vec<u32>,
+    /// The current sweep's number, and how many kept profiles it has read.
+    sweep: u32,
+    used_now: usize,
 }
 
 impl Profiles {
@@ -743,6 +748,20 @@ impl Profiles {
     /// has distinct depths of medium times two directions, [`crate::sweep::sweep_bytes`]
     /// counts them).
     pub(crate) const KEEP: usize = 65536;
+
+    /// A sweep begins. A full set that the last sweep read less than half of holds
+    /// another scene's profiles (a renderer sweeping one area after another): it starts
+    /// afresh, so that this sweep's own are kept. A scene with more distinct values
+    /// than fit reads every kept one each sweep and keeps them.
+    pub(crate) fn begin_sweep(&mut self) {
+        if self.memo.len() >= Self::KEEP && self.used_now < self.memo.len() / 2 {
+            self.all.clear();
+            self.memo.clear();
+            self.used.clear();
+        }
+        self.sweep = self.sweep.wrapping_add(1);
+        self.used_now = 0;
+    }
 
     /// Sets the level's profiles: cell `q` gets the profile of `ln p` `lnp[q]` where
     /// `medium(q)`, of a clear cell (`ln p = 0`) elsewhere.
@@ -773,11 +792,20 @@ impl Profiles {
                 _ => {
                     let key = (up, bits);
                     let next = (self.all.len() + todo.len()) as u32;
-                    let id = match self.memo.get(&key).or_else(|| self.extra.get(&key)) {
-                        Some(&id) => id,
+                    let kept = self.memo.get(&key).copied();
+                    if let Some(id) = kept
+                        && self.used[id as usize] != self.sweep
+                    {
+                        self.used[id as usize] = self.sweep;
+                        self.used_now += 1;
+                    }
+                    let id = match kept.or_else(|| self.extra.get(&key).copied()) {
+                        Some(id) => id,
                         None => {
                             if self.memo.len() < Self::KEEP {
                                 self.memo.insert(key, next);
+                                self.used.push(self.sweep);
+                                self.used_now += 1;
                             } else {
                                 self.extra.insert(key, next);
                             }
@@ -1057,5 +1085,36 @@ mod tests {
         }
         let beyond = (2 * n - Profiles::KEEP) as u64;
         assert_eq!(per_cycle, [2 * n as u64, beyond, beyond]);
+    }
+
+    /// A full set of one scene's profiles gives way to the next scene's: the first
+    /// sweep of the new scene computes its values level by level, the second starts
+    /// afresh and keeps them, the third computes nothing. A scene that reads most of
+    /// a full set every sweep keeps it.
+    #[test]
+    fn profiles_of_another_scene_replace_a_full_set() {
+        let n = Profiles::KEEP;
+        let a: Vec<f32> = (0..n).map(|i| -(i as f32 + 1.0) * 1e-4).collect();
+        // (Beyond `a`'s range: no value of one is the other's.)
+        let b: Vec<f32> = (0..64).map(|i| -7.0 - i as f32 * 0.01).collect();
+        let mut set = Profiles::default();
+        let sweep = |set: &mut Profiles, lnp: &[f32]| {
+            set.begin_sweep();
+            let before = set.computed;
+            set.level(false, lnp, |_| true);
+            set.level(false, lnp, |_| true);
+            set.computed - before
+        };
+        // Scene A fills the set, and keeps it while it reads it all.
+        assert_eq!(sweep(&mut set, &a), n as u64);
+        assert_eq!(sweep(&mut set, &a), 0);
+        // Scene B: computed per level (the set is full of A's), then kept.
+        assert_eq!(sweep(&mut set, &b), 2 * b.len() as u64);
+        assert_eq!(sweep(&mut set, &b), b.len() as u64);
+        assert_eq!(sweep(&mut set, &b), 0);
+        for (q, &l) in b.iter().enumerate() {
+            let (x, y) = (set.get(q), CellProfile::new(false, l));
+            assert_eq!((x.o.to_bits(), x.k, x.mean), (y.o.to_bits(), y.k, y.mean));
+        }
     }
 }

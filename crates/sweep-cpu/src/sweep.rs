@@ -3429,6 +3429,7 @@ fn run_with<S: Sink>(
         nz as usize,
         desc.point_count(),
     );
+    w.prof.begin_sweep();
     let mut bal = EnergyBalance::default();
     let mut stats = SweepStats::default();
     if let Some(src) = source {
