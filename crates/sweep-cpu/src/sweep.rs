@@ -2346,21 +2346,21 @@ impl Ctx {
                     }
                     // Slot by slot, so that the stores run along the block (point
                     // by point they went to 98 lines a point).
-                    let c: [Option<&[[f32; 2]; SLOTS]>; GATHER_BLOCK] = std::array::from_fn(|j| {
-                        (j < b && is_profile(&row_cells[x0 + j]))
-                            .then(|| &prof.get(x0 + j + nx * z as usize).coll)
-                    });
+                    let c: [Option<&crate::profile::CellProfile>; GATHER_BLOCK] =
+                        std::array::from_fn(|j| {
+                            (j < b && is_profile(&row_cells[x0 + j]))
+                                .then(|| prof.get(x0 + j + nx * z as usize))
+                        });
                     if self.fetch_profiles() {
-                        for (j, c) in c[..b].iter().enumerate() {
-                            if let Some(c) = c {
-                                touch(&c[..]);
-                                touch(&prof.get(x0 + j + nx * z as usize).emit[..]);
-                            }
+                        // (The emission planes below read `emit`.)
+                        for pr in c[..b].iter().flatten() {
+                            touch(&pr.coll[..]);
+                            touch(&pr.emit[..]);
                         }
                     }
                     for (slot, w) in coll.iter_mut().enumerate() {
                         for (j, c) in c[..b].iter().enumerate() {
-                            let v = c.map_or([0.0; 2], |c| c[slot]);
+                            let v = c.map_or([0.0; 2], |c| c.coll[slot]);
                             (w[0][j], w[1][j]) = (v[0], v[1]);
                         }
                     }
