@@ -1230,12 +1230,80 @@ fn with_width(b: usize, mut block: impl FnMut(usize)) {
     }
 }
 
+/// Columns of ring each side of a row of a level's slot planes ([`Planes::ex`]): the
+/// farthest reach of a stencil along a row (`channels_reach_no_farther_than_the_ring`).
+const RING: usize = 2;
+
+/// The pitch of a row of `nx` points in a slot plane with its ring ([`RING`]).
+#[inline]
+fn ring_pitch(nx: usize) -> usize {
+    nx + 2 * RING
+}
+
+/// The stencil slots whose tap lies beside the point's column (`dx ≠ 0`): the only
+/// ones a reader takes ring columns of. The same in both passes (they mirror the
+/// vertical only).
+fn ring_slots() -> &'static [usize] {
+    static SLOTS_OFF_COLUMN: OnceLock<Vec<usize>> = OnceLock::new();
+    SLOTS_OFF_COLUMN.get_or_init(|| {
+        channels(false)
+            .iter()
+            .flat_map(|c| {
+                let off = c.stencil.iter().enumerate().filter(|(_, t)| t.0 != 0);
+                off.map(move |(k, _)| c.first_slot + k)
+            })
+            .collect()
+    })
+}
+
+/// Fills the ring of one level row's slot planes (`row`: per slot and colour a row of
+/// `nx` points with its ring, [`ring_pitch`]), for the slots that read it
+/// ([`ring_slots`]): the wrapped columns on periodic sides, 0 on open ones (a tap
+/// beyond an open side adds nothing). A reader then takes a stencil tap's values for
+/// a block of a row as one slice, with no columns to wrap or leave out (the bench
+/// forest's rows of 16 points ran each tap beside the column as a vector loop over
+/// 14 or 15 points, their scalar remainder and one or two wrapped points).
+fn fill_rings(row: &mut [f32], nx: usize, periodic: bool) {
+    let w = ring_pitch(nx);
+    for &slot in ring_slots() {
+        for plane in row[slot * 3 * w..][..3 * w].chunks_exact_mut(w) {
+            if !periodic {
+                plane[..RING].fill(0.0);
+                plane[nx + RING..].fill(0.0);
+            } else if nx >= RING {
+                plane.copy_within(nx..nx + RING, 0);
+                plane.copy_within(RING..2 * RING, nx + RING);
+            } else {
+                for i in (0..RING).chain(nx + RING..w) {
+                    let x = (i as isize - RING as isize).rem_euclid(nx as isize) as usize;
+                    plane[i] = plane[RING + x];
+                }
+            }
+        }
+    }
+}
+
 /// Index of point `pt`'s value for stencil slot `slot` and colour `col` in a level's
-/// slot planes (`removed`, `pre`): per row of `nx` points, slot, colour, column.
+/// slot planes of removed light: per row of `nx` points, slot, colour, column, each
+/// row of a slot and colour with its ring ([`ring_pitch`]).
 #[inline]
 fn plane_index(nx: usize, pt: usize, slot: usize, col: usize) -> usize {
     let (x, z) = (pt % nx, pt / nx);
-    ((z * SLOTS + slot) * 3 + col) * nx + x
+    ((z * SLOTS + slot) * 3 + col) * ring_pitch(nx) + RING + x
+}
+
+/// `len` values of a level's slot planes of removed light ([`plane_index`]) for row
+/// `zr`, slot and colour, from column `x` (`-RING ≤ x`, `x + len ≤ nx + RING`: the
+/// ring's wrapped columns, or zeros beyond an open side, [`fill_rings`]).
+#[inline]
+fn tap(
+    planes: &[f32],
+    nx: usize,
+    (zr, slot, col): (usize, usize, usize),
+    x: i32,
+    len: usize,
+) -> &[f32] {
+    &planes[(plane_index(nx, zr * nx, slot, col) as isize + x as isize) as usize..][..len]
 }
 
 /// Channel `c` of grid column `x` in one row of a [`LevelLight`] of pitch `p`.
@@ -1431,13 +1499,19 @@ pub fn validate_inputs(
 /// only levels with material hold them), ln(pass) and exposure (8) and the output (312); per
 /// point of one level the level buffers (four 17-channel levels: the two in use, light
 /// from outside, the upward light waiting above all material; removals, transmittance,
-/// powers, the source rule's sources and masks: 1526); and the profile rule's set of
-/// cell profiles, one per distinct depth of medium and direction, at most two a point
-/// and [`crate::profile`]'s cap.
+/// powers, the source rule's sources and masks: 1526), with per row of a level the
+/// rings of its three sets of slot planes (removed light, what paths carry, the
+/// profile rule's emission: 3 × 2 × 2 columns × 147 planes × 4 bytes); and the profile
+/// rule's set of cell profiles, one per distinct depth of medium and direction, at most
+/// two a point and [`crate::profile`]'s cap.
 pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
     let profiles = (2 * desc.point_count()).min(crate::profile::Profiles::KEEP) as u64
         * std::mem::size_of::<crate::profile::CellProfile>() as u64;
-    desc.point_count() as u64 * (312 + 144 + 8 + 312) + desc.level_len() as u64 * 1526 + profiles
+    let rings = desc.dims().z as u64 * (3 * 2 * RING * SLOTS * 3 * 4) as u64;
+    desc.point_count() as u64 * (312 + 144 + 8 + 312)
+        + desc.level_len() as u64 * 1526
+        + rings
+        + profiles
 }
 
 pub(crate) fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
@@ -1664,7 +1738,7 @@ impl Ctx {
         let (row_len, p) = (cur.row_len(), cur.pitch());
         cur.rows_mut()
             .par_chunks_mut(row_len)
-            .zip(removed.par_chunks_mut(nx * SLOTS * 3))
+            .zip(removed.par_chunks_mut(ring_pitch(nx) * SLOTS * 3))
             .zip(t_after.par_chunks_mut(nx))
             .zip(g.par_chunks_mut(nx))
             .zip(rows.par_iter_mut())
@@ -1700,6 +1774,7 @@ impl Ctx {
                         }
                     }
                 }
+                fill_rings(rem_row, nx, self.periodic);
                 *row_out = rf;
             });
         sum_rows(rows)
@@ -1785,7 +1860,7 @@ impl Ctx {
         let nx = self.nx as usize;
         let p = cur.pitch();
         let extra = removed
-            .par_chunks_mut(nx * SLOTS * 3)
+            .par_chunks_mut(ring_pitch(nx) * SLOTS * 3)
             .zip(t_after.par_chunks_mut(nx));
         self.level_rows(
             cur,
@@ -2019,6 +2094,7 @@ impl Ctx {
             });
             x0 += b;
         }
+        fill_rings(rem_row, nx, self.periodic);
         false
     }
 
@@ -2109,7 +2185,7 @@ impl Ctx {
         } else {
             src_hi
                 .chunks_mut(nx)
-                .zip(ex.chunks_mut(SLOTS * 3 * nx))
+                .zip(ex.chunks_mut(SLOTS * 3 * ring_pitch(nx)))
                 .collect()
         };
         let extra = pend_same
@@ -2205,31 +2281,12 @@ impl Ctx {
                     continue;
                 };
                 let first = x0 as i32 - dx;
-                let lo = (-first).clamp(0, b as i32) as usize;
-                let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                 for (col, oc) in o.iter_mut().enumerate() {
-                    let plane = &removed[plane_index(nx, zr * nx, chn.first_slot + k, col)..][..nx];
-                    self.add_tap(&mut oc[..b], plane, first, (lo, hi));
+                    let from = tap(removed, nx, (zr, chn.first_slot + k, col), first, b);
+                    for (v, &f) in oc[..b].iter_mut().zip(from) {
+                        *v += f;
+                    }
                 }
-            }
-        }
-    }
-
-    /// One tap of a block's gather: `out[i] += plane[first + i]` for the block's points
-    /// `lo..hi` whose source lies in the row, and, on periodic sides, the others from
-    /// the wrapped column (beyond an open side they add nothing).
-    #[inline]
-    fn add_tap(&self, out: &mut [f32], plane: &[f32], first: i32, (lo, hi): (usize, usize)) {
-        if hi > lo {
-            let from = &plane[(first + lo as i32) as usize..][..hi - lo];
-            for (v, &f) in out[lo..hi].iter_mut().zip(from) {
-                *v += f;
-            }
-        }
-        if self.periodic {
-            let nx = plane.len() as i32;
-            for i in (0..lo).chain(hi..out.len()) {
-                out[i] += plane[(first + i as i32).rem_euclid(nx) as usize];
             }
         }
     }
@@ -2268,24 +2325,14 @@ impl Ctx {
                 };
                 let slot = chn.first_slot + k;
                 let first = x0 as i32 - dx;
-                let lo = (-first).clamp(0, b as i32) as usize;
-                let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                 for col in 0..3 {
-                    let plane = &removed[plane_index(nx, zr * nx, slot, col)..][..nx];
-                    self.add_tap(&mut ro[col][..b], plane, first, (lo, hi));
+                    let from = tap(removed, nx, (zr, slot, col), first, b);
+                    for (v, &f) in ro[col][..b].iter_mut().zip(from) {
+                        *v += f;
+                    }
                     for (th, wh) in t.iter_mut().zip(&w[slot]) {
-                        let tc = &mut th[col];
-                        if hi > lo {
-                            let from = &plane[(first + lo as i32) as usize..][..hi - lo];
-                            for ((v, &f), &wi) in tc[lo..hi].iter_mut().zip(from).zip(&wh[lo..hi]) {
-                                *v += f * wi;
-                            }
-                        }
-                        if self.periodic {
-                            for i in (0..lo).chain(hi..b) {
-                                tc[i] += plane[(first + i as i32).rem_euclid(nx as i32) as usize]
-                                    * wh[i];
-                            }
+                        for ((v, &f), &wi) in th[col][..b].iter_mut().zip(from).zip(&wh[..b]) {
+                            *v += f * wi;
                         }
                     }
                 }
@@ -2453,13 +2500,15 @@ impl Ctx {
                 emits_row[xi] = emit.iter().any(|v| *v != Vec3::ZERO);
                 if emits_row[xi] && !ex_row.is_empty() {
                     // Phase 3's emission planes (`Planes::ex`) for this cell: per slot,
-                    // three rows of `nx`. (Indexed as `(slot · 3 + colour) · nx + x`,
-                    // each colour of a `Vec3` looked up and every store checked, the
-                    // 147 stores were a quarter of phase 2 on the forest.)
+                    // three rows of `nx` and their ring. (Indexed as `(slot · 3 +
+                    // colour) · pitch + x`, each colour of a `Vec3` looked up and every
+                    // store checked, the 147 stores were a quarter of phase 2 on the
+                    // forest.)
                     let (e1, e2) = (emit[1].to_array(), emit[2].to_array());
-                    for (rows, w) in ex_row.chunks_exact_mut(3 * nx).zip(&pr.emit) {
-                        for ((row, a), b) in rows.chunks_exact_mut(nx).zip(e1).zip(e2) {
-                            row[xi] = a * w[0] + b * w[1];
+                    let w = ring_pitch(nx);
+                    for (rows, wt) in ex_row.chunks_exact_mut(3 * w).zip(&pr.emit) {
+                        for ((row, a), b) in rows.chunks_exact_mut(w).zip(e1).zip(e2) {
+                            row[RING + xi] = a * wt[0] + b * wt[1];
                         }
                     }
                 }
@@ -2559,6 +2608,9 @@ impl Ctx {
             }
         }
         Phase2Scratch::give_back(scratch);
+        if emits_row.contains(&true) && !ex_row.is_empty() {
+            fill_rings(ex_row, nx, self.periodic);
+        }
         rf
     }
 }
@@ -2694,7 +2746,7 @@ impl Ctx {
         let pre_rows = &*pre_rows;
         let emitted = self.level_rows(
             cur,
-            pre.par_chunks_mut(nx * SLOTS * 3),
+            pre.par_chunks_mut(ring_pitch(nx) * SLOTS * 3),
             g,
             rows,
             (fin, true),
@@ -2713,7 +2765,10 @@ impl Ctx {
                 } else if pre_rows[z as usize] {
                     let hi = profile.then_some((hi.0, hi.1, emits));
                     self.phase3_row(z, (planes, hi), p, cur_row, pre_row, g_row);
+                } else {
+                    return;
                 }
+                fill_rings(pre_row, nx, self.periodic);
             },
         );
         let pre = &*pre;
@@ -2744,7 +2799,8 @@ impl Ctx {
     }
 
     /// [`Ctx::phase3`]'s emission for row `z`: the row's paths gain their segments'
-    /// emission; `pre_row[(slot · 3 + colour) · nx + x]` is what the path of point `x`
+    /// emission; `pre_row[(slot · 3 + colour) · ring_pitch + RING + x]` ([`plane_index`]'s
+    /// layout) is what the path of point `x`
     /// carries into the segment of stencil slot `slot` (written for the segments after
     /// a path's first, the only ones [`Ctx::collide_row`] reads).
     #[inline(never)]
@@ -2764,7 +2820,7 @@ impl Ctx {
         // Zeroed per channel for the block's `b` points only (a short row zeroed all
         // `B` at every channel).
         let (mut acc, mut centre) = ([[0f32; B]; 3], [[0f32; B]; 3]);
-        let (mut mean, mut ex) = ([0f32; B], [0f32; B]);
+        let mut mean = [0f32; B];
         while x0 < nx {
             let b = B.min(nx - x0);
             with_width(b, |b| {
@@ -2780,7 +2836,8 @@ impl Ctx {
                         // collisions read only the later ones.)
                         if k > 0 {
                             for (col, a) in acc.iter_mut().enumerate() {
-                                pre_row[(slot * 3 + col) * nx + x0..][..b].copy_from_slice(&a[..b]);
+                                pre_row[plane_index(nx, x0, slot, col)..][..b]
+                                    .copy_from_slice(&a[..b]);
                             }
                         }
                         if dx == 0 && dz == 0 {
@@ -2814,13 +2871,8 @@ impl Ctx {
                         if hi.is_some() {
                             for (col, a) in acc.iter_mut().enumerate() {
                                 let sv = at(Planes::SRC + col);
-                                planes.ex_row(
-                                    self,
-                                    (slot, col),
-                                    z + dz,
-                                    x0 as i32 + dx,
-                                    &mut ex[..b],
-                                );
+                                let ex =
+                                    planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, b);
                                 for i in 0..b {
                                     a[i] = a[i] * tr[i] + (sv[i] * (1.0 - tr[i]) + ex[i]);
                                 }
@@ -2895,7 +2947,7 @@ impl Ctx {
                 let mut centre = Vec3::ZERO;
                 for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                     for col in 0..3 {
-                        pre_row[((chn.first_slot + k) * 3 + col) * nx + xi] = acc[col];
+                        pre_row[plane_index(nx, xi, chn.first_slot + k, col)] = acc[col];
                     }
                     let slot = chn.first_slot + k;
                     let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k], slot);
@@ -2990,13 +3042,10 @@ impl Ctx {
                             continue;
                         };
                         let slot = chn.first_slot + j;
-                        let base = (zr * SLOTS + slot) * 3 * nx;
                         let pw = planes.row(Planes::POW + chn.pow[j], z, x0 as i32, b);
-                        // Columns of the points `x − d_j`: inside the row for `i` in
-                        // `lo..hi`, wrapped or beyond an open side (nothing) for the rest.
+                        // Columns of the points `x − d_j` (the ring beyond the row's
+                        // ends: wrapped, or nothing beyond an open side).
                         let first = x0 as i32 - djx;
-                        let lo = (-first).clamp(0, b as i32) as usize;
-                        let hi = (nx as i32 - first).clamp(lo as i32, b as i32) as usize;
                         // Profile: the block's media's collision moments for this slot
                         // (0 elsewhere: what is tallied there is not read).
                         if profile {
@@ -3013,22 +3062,13 @@ impl Ctx {
                         let [m0, m1, m2] = &mut got_m;
                         let [h0, h1] = &mut got_h;
                         for col in 0..3 {
-                            let plane = &pre[base + col * nx..][..nx];
                             let mut sums = Tally {
                                 s: &mut got_s[col][..b],
                                 m: [&mut m0[col][..b], &mut m1[col][..b], &mut m2[col][..b]],
                                 h: profile.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
                             };
-                            if hi > lo {
-                                let from = &plane[(first + lo as i32) as usize..][..hi - lo];
-                                sums.add(lo..hi, from, (&pw[..b], om, unit), &cw);
-                            }
-                            if self.periodic {
-                                for i in (0..lo).chain(hi..b) {
-                                    let q = (first + i as i32).rem_euclid(nx as i32) as usize;
-                                    sums.add(i..i + 1, &plane[q..q + 1], (&pw[..b], om, unit), &cw);
-                                }
-                            }
+                            let from = tap(pre, nx, (zr, slot, col), first, b);
+                            sums.add(0..b, from, (&pw[..b], om, unit), &cw);
                         }
                     }
                 }
@@ -3796,9 +3836,14 @@ fn run_with<S: Sink>(
                 }
                 // Phase 3's emission planes, written (zeroed row by row first) by phase
                 // 2 on the fast path; grown once, kept across levels.
-                w.planes
-                    .ex
-                    .resize(if fast { SLOTS * 3 * n } else { 0 }, 0.0);
+                w.planes.ex.resize(
+                    if fast {
+                        SLOTS * 3 * nz as usize * ring_pitch(nx as usize)
+                    } else {
+                        0
+                    },
+                    0.0,
+                );
             }
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
@@ -4291,28 +4336,16 @@ impl Planes {
     }
 
     /// `len` values of [`Planes::ex`] for `slot`, colour `col`, row `z`, columns `x..x +
-    /// len` (wrapped on periodic sides, 0 beyond open ones), into `out`.
+    /// len` (`-RING ≤ x`, `x + len ≤ nx + RING`; the ring holds the wrapped columns on
+    /// periodic sides, 0 beyond open ones; a row beyond an open side is 0).
     #[inline]
-    fn ex_row(&self, ctx: &Ctx, (slot, col): (usize, usize), z: i32, x: i32, out: &mut [f32]) {
-        let nx = self.nx;
-        let len = out.len();
+    fn ex_row(&self, ctx: &Ctx, (slot, col): (usize, usize), z: i32, x: i32, len: usize) -> &[f32] {
+        static ZERO: [f32; GATHER_BLOCK] = [0.0; GATHER_BLOCK];
         let Some(zr) = ctx.row_of(z) else {
-            out.fill(0.0);
-            return;
+            return &ZERO[..len];
         };
-        let plane = &self.ex[((zr * SLOTS + slot) * 3 + col) * nx..][..nx];
-        let lo = (-x).clamp(0, len as i32) as usize;
-        let hi = (nx as i32 - x).clamp(lo as i32, len as i32) as usize;
-        if hi > lo {
-            out[lo..hi].copy_from_slice(&plane[(x + lo as i32) as usize..][..hi - lo]);
-        }
-        for i in (0..lo).chain(hi..len) {
-            out[i] = if ctx.periodic {
-                plane[(x + i as i32).rem_euclid(nx as i32) as usize]
-            } else {
-                0.0
-            };
-        }
+        let w = ring_pitch(self.nx);
+        &self.ex[((zr * SLOTS + slot) * 3 + col) * w + (RING as i32 + x) as usize..][..len]
     }
 
     /// Planes `first..first + count`: `value(cell, plane - first)` at every cell of
@@ -4409,8 +4442,8 @@ impl Work {
             above: LevelLight::new(nx, nz),
             ghost: LevelLight::new(nx, nz),
             ghost_for: None,
-            removed: vec![0.0; level_len * SLOTS * 3],
-            pre: vec![0.0; level_len * SLOTS * 3],
+            removed: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
+            pre: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
             pre_rows: vec![false; nz],
             planes: Planes::new(nx, nz),
             t_after: vec![[1.0; CHANNELS]; level_len],
@@ -4538,6 +4571,69 @@ mod tests {
             seed ^= seed >> 7;
             seed ^= seed << 17;
             seed
+        }
+    }
+
+    /// Every stencil tap lies within [`RING`] columns of its point (the slot planes'
+    /// rings hold all a tap reads beyond a row's ends), and [`ring_slots`] names
+    /// exactly the slots of taps beside the column, in both passes.
+    #[test]
+    fn channels_reach_no_farther_than_the_ring() {
+        for up in [false, true] {
+            let mut beside = Vec::new();
+            for chn in channels(up) {
+                for (k, &(dx, _, _)) in chn.stencil.iter().enumerate() {
+                    assert!(
+                        dx.unsigned_abs() as usize <= RING,
+                        "tap {dx} beyond the ring"
+                    );
+                    if dx != 0 {
+                        beside.push(chn.first_slot + k);
+                    }
+                }
+            }
+            assert_eq!(beside, ring_slots(), "up {up}");
+        }
+        assert!(!ring_slots().is_empty());
+    }
+
+    /// [`fill_rings`]: on periodic sides each ring column holds the row's wrapped
+    /// column (rows shorter than the ring included), on open sides 0; the row itself
+    /// and the planes of slots that read no ring are left as they were.
+    #[test]
+    fn rings_hold_the_wrapped_columns_or_zeros() {
+        let mut next = xorshift(0x5eed);
+        for nx in [1usize, 2, 3, 5, 16] {
+            let w = ring_pitch(nx);
+            for periodic in [true, false] {
+                let row: Vec<f32> = (0..SLOTS * 3 * w)
+                    .map(|_| (next() % 1000) as f32 + 1.0)
+                    .collect();
+                let mut filled = row.clone();
+                fill_rings(&mut filled, nx, periodic);
+                for slot in 0..SLOTS {
+                    let reads = ring_slots().contains(&slot);
+                    for col in 0..3 {
+                        let at = (slot * 3 + col) * w;
+                        let (before, after) = (&row[at..][..w], &filled[at..][..w]);
+                        assert_eq!(before[RING..RING + nx], after[RING..RING + nx]);
+                        for i in (0..RING).chain(nx + RING..w) {
+                            let want = if !reads {
+                                before[i]
+                            } else if periodic {
+                                let x = (i as i64 - RING as i64).rem_euclid(nx as i64);
+                                before[RING + x as usize]
+                            } else {
+                                0.0
+                            };
+                            assert_eq!(
+                                after[i], want,
+                                "nx {nx} periodic {periodic} slot {slot} col {i}"
+                            );
+                        }
+                    }
+                }
+            }
         }
     }
 
