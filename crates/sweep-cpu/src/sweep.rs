@@ -1288,7 +1288,12 @@ fn fill_rings(row: &mut [f32], nx: usize, periodic: bool) {
 /// row of a slot and colour with its ring ([`ring_pitch`]).
 #[inline]
 fn plane_index(nx: usize, pt: usize, slot: usize, col: usize) -> usize {
-    let (x, z) = (pt % nx, pt / nx);
+    slot_index(nx, (pt / nx, pt % nx), slot, col)
+}
+
+/// [`plane_index`] of column `x` of level row `z` (no division: the row loops').
+#[inline]
+fn slot_index(nx: usize, (z, x): (usize, usize), slot: usize, col: usize) -> usize {
     ((z * SLOTS + slot) * 3 + col) * ring_pitch(nx) + RING + x
 }
 
@@ -1303,7 +1308,7 @@ fn tap(
     x: i32,
     len: usize,
 ) -> &[f32] {
-    &planes[(plane_index(nx, zr * nx, slot, col) as isize + x as isize) as usize..][..len]
+    &planes[(slot_index(nx, (zr, 0), slot, col) as isize + x as isize) as usize..][..len]
 }
 
 /// Channel `c` of grid column `x` in one row of a [`LevelLight`] of pitch `p`.
@@ -1770,7 +1775,7 @@ impl Ctx {
                     }
                     for (slot, v) in rem.iter().enumerate() {
                         for col in 0..3 {
-                            rem_row[plane_index(nx, xi, slot, col)] = v[col];
+                            rem_row[slot_index(nx, (0, xi), slot, col)] = v[col];
                         }
                     }
                 }
@@ -2053,7 +2058,7 @@ impl Ctx {
                             lost[i] = t[i] * (1.0 - tr[i]);
                         }
                         for (col, l) in light.iter().enumerate() {
-                            let out = &mut rem_row[plane_index(nx, x0, slot, col)..][..b];
+                            let out = &mut rem_row[slot_index(nx, (0, x0), slot, col)..][..b];
                             for i in 0..b {
                                 out[i] = l[i] * lost[i];
                             }
@@ -2871,8 +2876,9 @@ impl Ctx {
                             let ex = hi.map(|_| {
                                 planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, b)
                             });
-                            let out = next
-                                .then(|| &mut pre_row[plane_index(nx, x0, slot + 1, col)..][..b]);
+                            let out = next.then(|| {
+                                &mut pre_row[slot_index(nx, (0, x0), slot + 1, col)..][..b]
+                            });
                             Self::segment(&mut a[..b], (tr, sv, ex), out);
                         }
                     }
@@ -2937,7 +2943,7 @@ impl Ctx {
                 let mut centre = Vec3::ZERO;
                 for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                     for col in 0..3 {
-                        pre_row[plane_index(nx, xi, chn.first_slot + k, col)] = acc[col];
+                        pre_row[slot_index(nx, (0, xi), chn.first_slot + k, col)] = acc[col];
                     }
                     let slot = chn.first_slot + k;
                     let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k], slot);
