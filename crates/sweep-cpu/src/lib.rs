@@ -503,9 +503,10 @@
 //! pass, 5.3 M/s four).
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
-//! reaches error 0.0175 in 2.8 ms, 250× Monte Carlo's 704.5 ms to that error (ninth
-//! round; eighth: 3.0 ms, 216×); the bench also names the cheapest setting for its
-//! error: 2 passes reach the same 0.0175 in 1.5 ms, 479× (eighth: 1.6 ms, 409×). The VM's slow spells give
+//! reaches error 0.0175 in 2.4 ms, 279× Monte Carlo's 668 ms to that error (eleventh
+//! round, below; ninth: 2.8 ms, 250×; eighth: 3.0 ms, 216×); the bench also names the
+//! cheapest setting for its error: 2 passes reach the same 0.0175 in 1.3 ms, 515×
+//! (ninth: 1.5 ms, 479×; eighth: 1.6 ms, 409×). The VM's slow spells give
 //! 4.7 ms and 146–153× (seventh round). Earlier rounds: 5.3–5.6 ms, 160–168× (fifth);
 //! 6.0–6.5 ms (fourth); Monte Carlo's time moves more than the sweep's between runs
 //! (620–1206 ms). Where the forest's two passes go (perf, two threads, eighth round):
@@ -574,6 +575,48 @@
 //! to 4 of a 16-point row's) read as one run of wrapped columns a side instead of
 //! point by point with a remainder: no change where only the collisions did it, 4 %
 //! slower everywhere (the short runs' loops cost more than the division they saved).
+//!
+//! **Eleventh round (issue 15): rings on the slot planes.** A level's slot planes (the
+//! light each cell removed from each path, what each path carries into each segment,
+//! and the profile rule's emission per segment) are kept per row, slot and colour. Each
+//! row of them now carries a ring of [`sweep`]'s two columns a side (the stencil's
+//! reach along a row), filled as the row is written: the wrapped columns on periodic
+//! sides, zeros on open ones, and only for the slots whose tap lies beside the column.
+//! So every tap of phase 2's gathers and of phase 3's emission and collisions reads one
+//! slice of the block's points. Before, on a row of 16 points, a tap beside the column
+//! ran as a vector loop over 14 or 15 points, then its scalar remainder and one or two
+//! wrapped points (a division each), and the emission first copied each tap's row out
+//! of the emission planes. Three smaller changes went with it. Phase 3 stores what a
+//! path carries into its next segment as the segment's loop computes it (a copy
+//! afterwards was a `memcpy` call per slot and colour, 2.3 % of the forest). The
+//! emission runs on the rows within two of an emitting cell (a path's reach), not
+//! four. The transmittance planes' ring is two columns, not four, and the row loops
+//! index the slot planes by row and column instead of dividing a point index by `nx`.
+//! The light is the same bit for bit (`tests/fast_path.rs`; its oracle tests fail if
+//! the emission's reach is cut to one row). Four passes, fastest of 100 (10 at 64³),
+//! builds alternating in one spell:
+//!
+//! | scene | before | now |
+//! |-------|-------:|----:|
+//! | forest 16³ | 2.91–2.92 ms | **2.40–2.46 ms** |
+//! | forest 32³ | 10.1–10.3 ms | **8.9–9.0 ms** |
+//! | forest 64³ | 48.3–49.5 ms | **46.4–46.5 ms** |
+//! | canopy 64³, four passes (one pass) | 32.9–33.3 (9.46) ms | **32.0–32.2 (9.2–9.3) ms** |
+//!
+//! `cargo xtask bench`: the forest's four passes reach 0.0175 in 2.4 ms, **279×**
+//! Monte Carlo (668 ms); two passes 1.3 ms, 515×. The 380× target is not met: it needs
+//! about 1.76 ms at that Monte Carlo time. Timed per level and phase (the timers are not
+//! kept), a sweep now spends 6 % in the levels' set-up, 18 % in phase 1, 33 % in phase 2
+//! and 39 % in phase 3. What remains per row is still the cost of setting up each short
+//! loop (`TILE=4` copies of the forest take 27 % less per copy, down from 35 %).
+//!
+//! Tried and dropped: the block's width as a constant for rows of 16 (the block body
+//! written out twice by a macro, since the optimiser compiled the large closures of
+//! `with_width` once for any width). With the width known, each loop compiles to two
+//! eight-lane operations, where with it unknown the loops take 32 points per iteration
+//! and a 16-point row runs their four-lane remainder. It was still 1–3 % slower, before
+//! and after the rings: the unrolled bodies hold their arrays in registers and shuffle
+//! them.
 //!
 //! ## Semantics of the sweep
 //!
