@@ -1287,8 +1287,9 @@ fn fill_rings(row: &mut [f32], nx: usize, periodic: bool) {
 }
 
 /// Index of point `pt`'s value for stencil slot `slot` and colour `col` in a level's
-/// slot planes of removed light: per row of `nx` points, slot, colour, column, each
-/// row of a slot and colour with its ring ([`ring_pitch`]).
+/// slot planes (removed light, what paths carry, [`Planes::ex`]): per row of `nx`
+/// points, slot, colour, column, each row of a slot and colour with its ring
+/// ([`ring_pitch`]).
 #[inline]
 fn plane_index(nx: usize, pt: usize, slot: usize, col: usize) -> usize {
     slot_index(nx, (pt / nx, pt % nx), slot, col)
@@ -1300,7 +1301,7 @@ fn slot_index(nx: usize, (z, x): (usize, usize), slot: usize, col: usize) -> usi
     ((z * SLOTS + slot) * 3 + col) * ring_pitch(nx) + RING + x
 }
 
-/// `len` values of a level's slot planes of removed light ([`plane_index`]) for row
+/// `len` values of a level's slot planes ([`plane_index`]) for row
 /// `zr`, slot and colour, from column `x` (`-RING ≤ x`, `x + len ≤ nx + RING`: the
 /// ring's wrapped columns, or zeros beyond an open side, [`fill_rings`]).
 #[inline]
@@ -4386,8 +4387,7 @@ impl Planes {
         let Some(zr) = ctx.row_of(z) else {
             return &ZERO[..len];
         };
-        let w = ring_pitch(self.nx);
-        &self.ex[((zr * SLOTS + slot) * 3 + col) * w + (RING as i32 + x) as usize..][..len]
+        tap(&self.ex, self.nx, (zr, slot, col), x, len)
     }
 
     /// Planes `first..first + count`: `value(cell, plane - first)` at every cell of
