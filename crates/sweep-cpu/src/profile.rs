@@ -548,34 +548,37 @@ impl CellProfile {
         if !ok.contains(&true) {
             return (j, absorbed);
         }
-        let al: Lanes = std::array::from_fn(|l| if l < 3 && ok[l] { a[l] as f64 } else { 0.0 });
-        let rl = |r: [f32; 3]| -> Lanes {
-            std::array::from_fn(|l| {
-                if l < 3 && ok[l] {
-                    al[l] * r[l] as f64
-                } else {
-                    0.0
-                }
-            })
-        };
-        let e = [rl(r0), rl(r1), rl(r2)];
         let k = self.k.map(|row| row.map(|v| v as f64));
-        let solved = solve_balance_lanes(self.o as f64, &k, al, e);
-        for c in 0..3 {
-            let Some(jc) = solved[c].filter(|_| ok[c]) else {
-                continue;
-            };
+        let o = self.o as f64;
+        let gsum: [f64; 3] = std::array::from_fn(|q| (self.g[0][q] + self.g[1][q]) as f64);
+        // Lane by lane (the colours, and a spare): one loop that compiles to vectors.
+        let mut jl = [[0.0f32; 4]; 3];
+        let mut al = [0.0f32; 4];
+        let mut valid = [false; 4];
+        for l in 0..4 {
+            let take = l < 3 && ok[l.min(2)];
+            let alb = if take { a[l.min(2)] as f64 } else { 0.0 };
+            let r = |v: [f32; 3]| if take { alb * v[l.min(2)] as f64 } else { 0.0 };
+            let e = [r(r0), r(r1), r(r2)];
+            let (d, j) = balance_lane(o, &k, alb, e);
             // The coefficients as the sweep will emit them (f32), and as absorbed
             // whatever of the scattered light they do not send out: flux balances to
             // rounding however the solve rounds (`(1 − a)(O J_0 − G·J)` in exact
             // arithmetic).
-            let j32 = jc.map(|v| v as f32);
-            let out: f64 = (0..3)
-                .map(|q| (self.g[0][q] + self.g[1][q]) as f64 * j32[q] as f64)
-                .sum();
-            absorbed[c] = (e[0][c] - out) as f32;
+            let j32 = j.map(|v| v as f32);
+            let out = gsum[0] * j32[0] as f64 + gsum[1] * j32[1] as f64 + gsum[2] * j32[2] as f64;
+            valid[l] = take && balance_ok(d, j);
+            al[l] = (e[0] - out) as f32;
             for n in 0..3 {
-                j[n][c] = j32[n];
+                jl[n][l] = j32[n];
+            }
+        }
+        for c in 0..3 {
+            if valid[c] {
+                absorbed[c] = al[c];
+                for n in 0..3 {
+                    j[n][c] = jl[n][c];
+                }
             }
         }
         (j, absorbed)
@@ -676,53 +679,69 @@ fn solve_balance(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> Option<[f64;
 /// by lane: [`solve_balance`]'s answer for albedo `a[l]` and right side `e[·][l]`.
 type Lanes = [f64; 4];
 
-/// The source balance solved for four albedos at once: Cramer's rule with the
-/// cofactors shared, `J = adj(M) e / det M` (each of Cramer's determinants expanded
-/// along its replaced column), as a loop over the lanes so that the colours run as one
-/// vector. Every lane runs the same operations in the same order, so a lane's answer
-/// is the one-lane solve's bit for bit. (Four determinants per colour, one colour at
-/// a time, took 6 % of a forest sweep.)
+/// The source balance solved for four albedos at once, lane by lane
+/// ([`balance_lane`], in a loop that compiles to vectors).
 fn solve_balance_lanes(
     o: f64,
     k: &[[f64; 3]; 3],
     a: Lanes,
     e: [Lanes; 3],
 ) -> [Option<[f64; 3]>; 4] {
-    let diag = [o, o / 3.0, o / 5.0];
     let mut d = [0.0; 4];
     let mut j = [[0.0; 4]; 3];
     for l in 0..4 {
-        let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
-            std::array::from_fn(|c| (if n == c { diag[n] } else { 0.0 }) - a[l] * k[n][c])
-        });
-        // cof[n][c]: the cofactor of m[n][c].
-        let cof = [
-            [
-                m[1][1] * m[2][2] - m[1][2] * m[2][1],
-                m[1][2] * m[2][0] - m[1][0] * m[2][2],
-                m[1][0] * m[2][1] - m[1][1] * m[2][0],
-            ],
-            [
-                m[0][2] * m[2][1] - m[0][1] * m[2][2],
-                m[0][0] * m[2][2] - m[0][2] * m[2][0],
-                m[0][1] * m[2][0] - m[0][0] * m[2][1],
-            ],
-            [
-                m[0][1] * m[1][2] - m[0][2] * m[1][1],
-                m[0][2] * m[1][0] - m[0][0] * m[1][2],
-                m[0][0] * m[1][1] - m[0][1] * m[1][0],
-            ],
-        ];
-        d[l] = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
+        let (dl, jl) = balance_lane(o, k, a[l], [e[0][l], e[1][l], e[2][l]]);
+        d[l] = dl;
         for c in 0..3 {
-            j[c][l] = (e[0][l] * cof[0][c] + e[1][l] * cof[1][c] + e[2][l] * cof[2][c]) / d[l];
+            j[c][l] = jl[c];
         }
     }
     std::array::from_fn(|l| {
         let jl = [j[0][l], j[1][l], j[2][l]];
-        let dl = d[l];
-        (dl.is_finite() && dl.abs() > 1e-300 && jl.iter().all(|v| v.is_finite())).then_some(jl)
+        balance_ok(d[l], jl).then_some(jl)
     })
+}
+
+/// One system of the source balance, albedo `a`, right side `e`: Cramer's rule with
+/// the cofactors shared, `J = adj(M) e / det M` (each of Cramer's determinants
+/// expanded along its replaced column); `(det M, J)`. Inlined into loops over a
+/// cell's colours, so that they run as one vector, each colour the same operations
+/// in the same order as alone. (Four determinants per colour, one colour at a time,
+/// took 6 % of a forest sweep.)
+#[inline(always)]
+fn balance_lane(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> (f64, [f64; 3]) {
+    let diag = [o, o / 3.0, o / 5.0];
+    let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
+        std::array::from_fn(|c| (if n == c { diag[n] } else { 0.0 }) - a * k[n][c])
+    });
+    // cof[n][c]: the cofactor of m[n][c].
+    let cof = [
+        [
+            m[1][1] * m[2][2] - m[1][2] * m[2][1],
+            m[1][2] * m[2][0] - m[1][0] * m[2][2],
+            m[1][0] * m[2][1] - m[1][1] * m[2][0],
+        ],
+        [
+            m[0][2] * m[2][1] - m[0][1] * m[2][2],
+            m[0][0] * m[2][2] - m[0][2] * m[2][0],
+            m[0][1] * m[2][0] - m[0][0] * m[2][1],
+        ],
+        [
+            m[0][1] * m[1][2] - m[0][2] * m[1][1],
+            m[0][2] * m[1][0] - m[0][0] * m[1][2],
+            m[0][0] * m[1][1] - m[0][1] * m[1][0],
+        ],
+    ];
+    let d = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
+    let j = std::array::from_fn(|c| (e[0] * cof[0][c] + e[1] * cof[1][c] + e[2] * cof[2][c]) / d);
+    (d, j)
+}
+
+/// Whether [`balance_lane`]'s answer stands: the system not singular, the answer
+/// finite.
+#[inline(always)]
+fn balance_ok(d: f64, j: [f64; 3]) -> bool {
+    d.is_finite() && d.abs() > 1e-300 && j.iter().all(|v| v.is_finite())
 }
 
 /// `4π`: the flux both passes of a unit flat source emit per unit optical depth
