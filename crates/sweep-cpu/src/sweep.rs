@@ -2321,29 +2321,42 @@ impl Ctx {
         for o in out.iter_mut().flatten() {
             o[..b].fill(0.0);
         }
-        // (Zeroed per channel for the block's `b` points only: a row of 16 points
-        // zeroed the whole 64 at every channel.)
         let mut t = [[[0f32; GATHER_BLOCK]; 3]; 2];
         for (chn, ro) in self.ch.iter().zip(removed_out.iter_mut()) {
-            for col in ro.iter_mut().chain(t.iter_mut().flatten()) {
-                col[..b].fill(0.0);
-            }
+            // The first tap sets the channel's sums, the others add to them (zeroed
+            // first, each array was a call to `memset` per channel: 1.6 % of the
+            // forest). `0 + v` is `v` but for the sign of a zero.
+            let mut set = false;
             for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                 let Some(zr) = self.row_of(z - dz) else {
                     continue;
                 };
                 let slot = chn.first_slot + k;
                 let first = x0 as i32 - dx;
+                let (w0, w1) = (&w[slot][0][..b], &w[slot][1][..b]);
+                let [t0, t1] = &mut t;
                 for col in 0..3 {
                     let from = tap(removed, nx, (zr, slot, col), first, b);
-                    for (v, &f) in ro[col][..b].iter_mut().zip(from) {
-                        *v += f;
-                    }
-                    for (th, wh) in t.iter_mut().zip(&w[slot]) {
-                        for ((v, &f), &wi) in th[col][..b].iter_mut().zip(from).zip(&wh[..b]) {
-                            *v += f * wi;
+                    let (r, a0, a1) = (&mut ro[col][..b], &mut t0[col][..b], &mut t1[col][..b]);
+                    if set {
+                        for i in 0..b {
+                            r[i] += from[i];
+                            a0[i] += from[i] * w0[i];
+                            a1[i] += from[i] * w1[i];
+                        }
+                    } else {
+                        for i in 0..b {
+                            r[i] = from[i];
+                            a0[i] = from[i] * w0[i];
+                            a1[i] = from[i] * w1[i];
                         }
                     }
+                }
+                set = true;
+            }
+            if !set {
+                for col in ro.iter_mut().chain(t.iter_mut().flatten()) {
+                    col[..b].fill(0.0);
                 }
             }
             for (oh, th) in out.iter_mut().zip(&t) {
