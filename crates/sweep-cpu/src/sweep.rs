@@ -2840,17 +2840,15 @@ impl Ctx {
         let nx = self.nx as usize;
         let mw = medium::weights(up_pass(self.ch));
         let mut x0 = 0;
-        // Zeroed per channel for the block's `b` points only (a short row zeroed all
-        // `B` at every channel).
+        // Set by each channel's first segment (`acc`) and its own cell's (`centre`:
+        // every stencil holds it), not zeroed first (a call to `memset` per array and
+        // channel).
         let (mut acc, mut centre) = ([[0f32; B]; 3], [[0f32; B]; 3]);
         let mut mean = [0f32; B];
         while x0 < nx {
             let b = B.min(nx - x0);
             with_width(b, |b| {
                 for (c, chn) in self.ch.iter().enumerate() {
-                    for a in acc.iter_mut().chain(centre.iter_mut()) {
-                        a[..b].fill(0.0);
-                    }
                     for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                         let slot = chn.first_slot + k;
                         let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
@@ -2870,8 +2868,16 @@ impl Ctx {
                             for col in 0..3 {
                                 let sv = at(Planes::SRC + col);
                                 let (a, ce) = (&acc[col], &mut centre[col]);
-                                for i in 0..b {
-                                    ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
+                                if k == 0 {
+                                    // Nothing carried in: `0 · h + v` is `v` (but for
+                                    // the sign of a zero).
+                                    for i in 0..b {
+                                        ce[i] = sv[i] * (1.0 - half[i]);
+                                    }
+                                } else {
+                                    for i in 0..b {
+                                        ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
+                                    }
                                 }
                             }
                             // The point's own cell's `P_1`, `P_2` share of its mean light.
@@ -2896,7 +2902,11 @@ impl Ctx {
                             let out = next.then(|| {
                                 &mut pre_row[slot_index(nx, (0, x0), slot + 1, col)..][..b]
                             });
-                            Self::segment(&mut a[..b], (tr, sv, ex), out);
+                            if k == 0 {
+                                Self::segment::<true>(&mut a[..b], (tr, sv, ex), out);
+                            } else {
+                                Self::segment::<false>(&mut a[..b], (tr, sv, ex), out);
+                            }
                         }
                     }
                     let om = mw.omega[c];
@@ -2995,10 +3005,13 @@ impl Ctx {
     /// carries) becomes `a·τ + (s·(1 − τ) + e)` with the segment's transmittances `tr`,
     /// sources `sv` and the profile rule's emission `e` (or `a·τ + s·(1 − τ)` without it),
     /// also stored into `next` (what the paths carry into their next segment) where given.
-    /// One loop a case, so that each vectorises and stores as it goes (a copy of `a`
-    /// afterwards was a call to `memcpy` per slot and colour: 2.3 % of the bench forest).
+    /// `FIRST`: a path's first segment, which nothing enters: `a` set to `s·(1 − τ) +
+    /// e` (`0·τ + v` is `v` but for the sign of a zero; zeroing `a` first was a call to
+    /// `memset` per channel and colour). One loop a case, so that each vectorises and
+    /// stores as it goes (a copy of `a` afterwards was a call to `memcpy` per slot and
+    /// colour: 2.3 % of the bench forest).
     #[inline(always)]
-    fn segment(
+    fn segment<const FIRST: bool>(
         a: &mut [f32],
         (tr, sv, ex): (&[f32], &[f32], Option<&[f32]>),
         next: Option<&mut [f32]>,
@@ -3009,26 +3022,30 @@ impl Ctx {
             (Some(ex), Some(next)) => {
                 let (ex, next) = (&ex[..b], &mut next[..b]);
                 for i in 0..b {
-                    a[i] = a[i] * tr[i] + (sv[i] * (1.0 - tr[i]) + ex[i]);
+                    let own = sv[i] * (1.0 - tr[i]) + ex[i];
+                    a[i] = if FIRST { own } else { a[i] * tr[i] + own };
                     next[i] = a[i];
                 }
             }
             (Some(ex), None) => {
                 let ex = &ex[..b];
                 for i in 0..b {
-                    a[i] = a[i] * tr[i] + (sv[i] * (1.0 - tr[i]) + ex[i]);
+                    let own = sv[i] * (1.0 - tr[i]) + ex[i];
+                    a[i] = if FIRST { own } else { a[i] * tr[i] + own };
                 }
             }
             (None, Some(next)) => {
                 let next = &mut next[..b];
                 for i in 0..b {
-                    a[i] = a[i] * tr[i] + sv[i] * (1.0 - tr[i]);
+                    let own = sv[i] * (1.0 - tr[i]);
+                    a[i] = if FIRST { own } else { a[i] * tr[i] + own };
                     next[i] = a[i];
                 }
             }
             (None, None) => {
                 for i in 0..b {
-                    a[i] = a[i] * tr[i] + sv[i] * (1.0 - tr[i]);
+                    let own = sv[i] * (1.0 - tr[i]);
+                    a[i] = if FIRST { own } else { a[i] * tr[i] + own };
                 }
             }
         }
@@ -4631,12 +4648,16 @@ mod tests {
 
     /// Every stencil tap lies within [`RING`] columns of its point (the slot planes'
     /// rings hold all a tap reads beyond a row's ends), and [`ring_slots`] names
-    /// exactly the slots of taps beside the column, in both passes.
+    /// exactly the slots of taps beside the column, in both passes. Every stencil holds
+    /// its point's own cell once ([`Ctx::phase3_row`] sets its mean light there, without
+    /// zeroing it first).
     #[test]
     fn channels_reach_no_farther_than_the_ring() {
         for up in [false, true] {
             let mut beside = Vec::new();
             for chn in channels(up) {
+                let own = chn.stencil.iter().filter(|t| (t.0, t.1) == (0, 0)).count();
+                assert_eq!(own, 1, "bin {}", chn.bin);
                 for (k, &(dx, _, _)) in chn.stencil.iter().enumerate() {
                     assert!(
                         dx.unsigned_abs() as usize <= RING,
