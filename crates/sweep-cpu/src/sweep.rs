@@ -3122,13 +3122,9 @@ impl Ctx {
                         // Profile: the block's media's collision moments for this slot
                         // (0 elsewhere: what is tallied there is not read).
                         if profile {
-                            for w in cw.iter_mut() {
-                                w[..b].fill(0.0);
-                            }
                             for (i, pr) in block_prof[..b].iter().enumerate() {
-                                if let Some(pr) = pr {
-                                    (cw[0][i], cw[1][i]) = (pr.coll[slot][0], pr.coll[slot][1]);
-                                }
+                                (cw[0][i], cw[1][i]) = pr
+                                    .map_or((0.0, 0.0), |pr| (pr.coll[slot][0], pr.coll[slot][1]));
                             }
                         }
                         let unit = chn.unit.to_array();
