@@ -2325,7 +2325,7 @@ impl Ctx {
         for (chn, ro) in self.ch.iter().zip(removed_out.iter_mut()) {
             // The first tap sets the channel's sums, the others add to them (zeroed
             // first, each array was a call to `memset` per channel: 1.6 % of the
-            // forest). `0 + v` is `v` but for the sign of a zero.
+            // forest). `0 + v·w` is `v·w` but for the sign of a zero.
             let mut set = false;
             for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                 let Some(zr) = self.row_of(z - dz) else {
@@ -2346,7 +2346,9 @@ impl Ctx {
                         }
                     } else {
                         for i in 0..b {
-                            r[i] = from[i];
+                            // (`0 + v`, as the sum from zero: a bare copy compiled to
+                            // a call to `memcpy`.)
+                            r[i] = 0.0 + from[i];
                             a0[i] = from[i] * w0[i];
                             a1[i] = from[i] * w1[i];
                         }
