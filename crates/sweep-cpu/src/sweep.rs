@@ -1505,21 +1505,29 @@ pub fn validate_inputs(
 
 /// Most bytes [`run`] holds at once for a grid: per point the accumulated bins (312),
 /// up to three pending-scatter records (144: two, and a third in accelerated passes;
-/// only levels with material hold them), ln(pass) and exposure (8) and the output (312); per
-/// point of one level the level buffers (four 17-channel levels: the two in use, light
-/// from outside, the upward light waiting above all material; removals, transmittance,
-/// powers, the source rule's sources and masks: 1526), with per row of a level the
-/// rings of its three sets of slot planes (removed light, what paths carry, the
-/// profile rule's emission: 3 × 2 × 2 columns × 147 planes × 4 bytes); and the profile
-/// rule's set of cell profiles, one per distinct depth of medium and direction, at most
-/// two a point and [`crate::profile`]'s cap.
+/// only levels with material hold them), ln(pass) and exposure (8), the output (312),
+/// and the transmittances of every path exponent and the quiet mask, kept for the
+/// sweep's later passes (41); per level its transmittance planes with their ring
+/// (eleven planes of `(nx + 4) × (nz + 4)` floats); per point of one level the level
+/// buffers (four 17-channel levels: the two in use, light from outside, the upward
+/// light waiting above all material; removals, transmittance, the source rule's
+/// sources and masks: 1441), with per row of a level the rings of its three sets of
+/// slot planes (removed light, what paths carry, the profile rule's emission: 3 × 2 ×
+/// 2 columns × 147 planes × 4 bytes); and the profile rule's set of cell profiles, one
+/// per distinct depth of medium and direction, at most two a point and
+/// [`crate::profile`]'s cap.
 pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
     let profiles = (2 * desc.point_count()).min(crate::profile::Profiles::KEEP) as u64
         * std::mem::size_of::<crate::profile::CellProfile>() as u64;
-    let rings = desc.dims().z as u64 * (3 * 2 * RING * SLOTS * 3 * 4) as u64;
-    desc.point_count() as u64 * (312 + 144 + 8 + 312)
-        + desc.level_len() as u64 * 1526
+    let d = desc.dims();
+    let rings = d.z as u64 * (3 * 2 * RING * SLOTS * 3 * 4) as u64;
+    let planes = d.y as u64
+        * ((d.x as usize + 2 * Planes::R) * (d.z as usize + 2 * Planes::R) * Planes::PER_LEVEL * 4)
+            as u64;
+    desc.point_count() as u64 * (312 + 144 + 8 + 312 + 41)
+        + desc.level_len() as u64 * 1441
         + rings
+        + planes
         + profiles
 }
 
@@ -3769,10 +3777,16 @@ fn run_with<S: Sink>(
             // The level's per-cell values and the ring of the light it gathers from:
             // the transmittances on one thread while the other wraps the ring, finds
             // the quiet points and the media's profiles (each a short step of one
-            // thread that left the other waiting, a tenth of a 16³ sweep).
+            // thread that left the other waiting, a tenth of a 16³ sweep). The
+            // transmittances, their planes and the quiet points are the same in every
+            // pass: found at a level's first visit of the sweep, kept for the others
+            // (`Work::set_up`).
             {
                 let lnp = &fixed.lnp[range.clone()];
                 let level = &cells[range.clone()];
+                let first_visit = material_here && !w.set_up[j as usize];
+                w.set_up[j as usize] |= material_here;
+                w.planes.level = j as usize;
                 let Work {
                     pows,
                     planes,
@@ -3782,31 +3796,37 @@ fn run_with<S: Sink>(
                     prof,
                     ..
                 } = &mut w;
-                rayon::join(
-                    || {
-                        if material_here {
+                let (pows, quiet) = (&mut pows[range.clone()], &mut quiet[range.clone()]);
+                let mut each_pass = || {
+                    if fast && fixed.periodic {
+                        // The level before wrapped its rows' columns as they ended if
+                        // this level has no material (`Finish::wrap_columns`).
+                        if prev_columns_wrapped {
+                            prev.wrap_ring_rows();
+                        } else {
+                            prev.wrap_ring();
+                        }
+                    }
+                    if profile_level {
+                        prof.level(up, lnp, |q| medium::applies(options.medium, level[q].pass));
+                    }
+                };
+                if first_visit {
+                    rayon::join(
+                        || {
                             level_powers(pows, lnp);
                             planes.fill_pows(&ctx, pows, lnp);
-                        }
-                    },
-                    || {
-                        if fast && fixed.periodic {
-                            // The level before wrapped its rows' columns as they
-                            // ended if this level has no material (`Finish::wrap_columns`).
-                            if prev_columns_wrapped {
-                                prev.wrap_ring_rows();
-                            } else {
-                                prev.wrap_ring();
+                        },
+                        || {
+                            each_pass();
+                            if fast {
+                                ctx.quiet(lnp, quiet, quiet_rows);
                             }
-                        }
-                        if fast && material_here {
-                            ctx.quiet(lnp, quiet, quiet_rows);
-                        }
-                        if profile_level {
-                            prof.level(up, lnp, |q| medium::applies(options.medium, level[q].pass));
-                        }
-                    },
-                );
+                        },
+                    );
+                } else {
+                    each_pass();
+                }
             }
             // Its flux is what the level before it sent on: booked so, not summed.
             let conserved = conserves_flux(
@@ -3820,7 +3840,7 @@ fn run_with<S: Sink>(
                 if ghost_on {
                     w.fill_ghost(&src, &ctx, from_virtual, src_level);
                 }
-                let quiet = material_here.then_some(&w.quiet[..]);
+                let quiet = material_here.then_some(&w.quiet[range.clone()]);
                 ctx.phase1_fast(
                     (&w.prev, !conserved, fetch_ahead),
                     ghost_on.then_some(&w.ghost),
@@ -3848,7 +3868,7 @@ fn run_with<S: Sink>(
                     &src,
                     from_virtual,
                     src_level,
-                    (&w.pows, &fixed.lnp[range.clone()]),
+                    (&w.pows[range.clone()], &fixed.lnp[range.clone()]),
                     first,
                     &mut w.cur,
                     &mut w.removed,
@@ -3918,7 +3938,7 @@ fn run_with<S: Sink>(
             }
             let f2 = ctx.phase2(
                 (&w.removed, !fast),
-                (&w.t_after, &w.pows),
+                (&w.t_after, &w.pows[range.clone()]),
                 &cells[range.clone()],
                 &fixed.exposed[range.clone()],
                 &mut w.cur,
@@ -3956,7 +3976,11 @@ fn run_with<S: Sink>(
                 let f3 = ctx.phase3(
                     (&w.src, &w.emits),
                     (&w.src_hi, &w.prof),
-                    (&w.pows, &fixed.lnp[range.clone()], &mut w.planes),
+                    (
+                        &w.pows[range.clone()],
+                        &fixed.lnp[range.clone()],
+                        &mut w.planes,
+                    ),
                     &cells[range.clone()],
                     &mut w.cur,
                     (&mut w.pre, &mut w.pre_rows),
@@ -4351,7 +4375,13 @@ impl Fixed {
 /// [`Ctx::col`] resolves a cell beyond a side.
 #[derive(Clone)]
 struct Planes {
+    /// Every level's transmittance and `ln(pass)` planes ([`Planes::PER_LEVEL`] a
+    /// level), written at the level's first visit of a sweep (`Work::set_up`).
     v: Vec<f32>,
+    /// The source planes of the level being swept.
+    src: Vec<f32>,
+    /// The level whose planes [`Planes::row`] reads.
+    level: usize,
     nx: usize,
     nz: usize,
     /// [`MediumEmission::Profile`]: what each cell's `P_1`, `P_2` source terms emit into
@@ -4365,17 +4395,48 @@ impl Planes {
     /// The ring: the farthest stencil offset.
     const R: usize = RING;
     const POW: usize = 0;
-    const SRC: usize = MAX_EXPONENTS;
     /// The cells' `ln(pass)` (0 beyond open sides), for [`seg_mean`].
-    const LNP: usize = MAX_EXPONENTS + 3;
-    const COUNT: usize = MAX_EXPONENTS + 4;
+    const LNP: usize = MAX_EXPONENTS;
+    /// Planes kept per level.
+    const PER_LEVEL: usize = MAX_EXPONENTS + 1;
+    const SRC: usize = Self::PER_LEVEL;
 
-    fn new(nx: usize, nz: usize) -> Self {
+    fn new(nx: usize, nz: usize, levels: usize) -> Self {
+        let plane = (nx + 2 * Self::R) * (nz + 2 * Self::R);
         Self {
-            v: vec![0.0; Self::COUNT * (nx + 2 * Self::R) * (nz + 2 * Self::R)],
+            v: vec![0.0; levels * Self::PER_LEVEL * plane],
+            src: vec![0.0; 3 * plane],
+            level: 0,
             nx,
             nz,
             ex: Vec::new(),
+        }
+    }
+
+    /// Floats of one plane.
+    #[inline]
+    fn plane_len(&self) -> usize {
+        self.width() * (self.nz + 2 * Self::R)
+    }
+
+    /// Plane `plane` of the current level, and the vector it lies in.
+    #[inline]
+    fn plane(&self, plane: usize) -> &[f32] {
+        let n = self.plane_len();
+        if plane >= Self::SRC {
+            &self.src[(plane - Self::SRC) * n..][..n]
+        } else {
+            &self.v[(self.level * Self::PER_LEVEL + plane) * n..][..n]
+        }
+    }
+
+    #[inline]
+    fn plane_mut(&mut self, plane: usize) -> &mut [f32] {
+        let n = self.plane_len();
+        if plane >= Self::SRC {
+            &mut self.src[(plane - Self::SRC) * n..][..n]
+        } else {
+            &mut self.v[(self.level * Self::PER_LEVEL + plane) * n..][..n]
         }
     }
 
@@ -4389,11 +4450,11 @@ impl Planes {
     #[inline]
     fn row(&self, plane: usize, z: i32, x: i32, len: usize) -> &[f32] {
         let w = self.width();
-        let r = (plane * (self.nz + 2 * Self::R) + (z + Self::R as i32) as usize) * w;
-        &self.v[r + (x + Self::R as i32) as usize..][..len]
+        let r = (z + Self::R as i32) as usize * w;
+        &self.plane(plane)[r + (x + Self::R as i32) as usize..][..len]
     }
 
-    /// Fills the transmittance planes from the level's `pows`.
+    /// Fills the current level's transmittance planes from its `pows`.
     fn fill_pows(&mut self, ctx: &Ctx, pows: &[[f32; MAX_EXPONENTS]], lnp: &[f32]) {
         self.fill(ctx, Self::POW, MAX_EXPONENTS, 1.0, |q, e| pows[q][e]);
         self.fill(ctx, Self::LNP, 1, 0.0, |q, _| lnp[q]);
@@ -4440,15 +4501,17 @@ impl Planes {
             }
         };
         let xs: Vec<Option<usize>> = (0..w).map(|i| axis(i, ctx.nx)).collect();
-        for zz in 0..h {
-            let zs = axis(zz, ctx.nz);
-            for k in 0..count {
-                let dst = &mut self.v[((first + k) * h + zz) * w..][..w];
+        let nx = self.nx;
+        for k in 0..count {
+            let plane = self.plane_mut(first + k);
+            for zz in 0..h {
+                let zs = axis(zz, ctx.nz);
+                let dst = &mut plane[zz * w..][..w];
                 match zs {
                     None => dst.fill(outside),
                     Some(z) => {
                         for (d, x) in dst.iter_mut().zip(&xs) {
-                            *d = x.map_or(outside, |x| value(x + self.nx * z, k));
+                            *d = x.map_or(outside, |x| value(x + nx * z, k));
                         }
                     }
                 }
@@ -4480,11 +4543,16 @@ struct Work {
     planes: Planes,
     t_after: Vec<[f32; CHANNELS]>,
     rows: Vec<RowFlux>,
-    /// Transmittance of every cell of the level for each path exponent.
+    /// Transmittance of every cell for each path exponent (a level's written at its
+    /// first visit of a sweep, `set_up`).
     pows: Vec<[f32; MAX_EXPONENTS]>,
-    /// Points of the level with no material within two cells ([`Ctx::quiet`]).
+    /// Points with no material within two cells of their level ([`Ctx::quiet`];
+    /// written with `pows`).
     quiet: Vec<bool>,
     quiet_rows: Vec<bool>,
+    /// Per level: `pows`, `quiet` and the level's transmittance planes
+    /// ([`Planes::level`]) hold its values this sweep.
+    set_up: Vec<bool>,
     /// The source rule's source per cell of the level ([`crate::medium`]) and whether a
     /// cell emits.
     src: Vec<Vec3>,
@@ -4515,12 +4583,13 @@ impl Work {
             removed: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
             pre: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
             pre_rows: vec![false; nz],
-            planes: Planes::new(nx, nz),
+            planes: Planes::new(nx, nz, n / level_len.max(1)),
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); nz],
-            pows: vec![[1.0; MAX_EXPONENTS]; level_len],
-            quiet: vec![false; level_len],
+            pows: vec![[1.0; MAX_EXPONENTS]; n],
+            quiet: vec![false; n],
             quiet_rows: vec![false; level_len],
+            set_up: vec![false; n / level_len.max(1)],
             src: vec![Vec3::ZERO; level_len],
             emits: vec![false; level_len],
             prof: Default::default(),
@@ -4541,6 +4610,7 @@ impl Work {
                 w.cur.v.fill(0.0);
                 w.ghost.v.fill(0.0);
                 w.ghost_for = None;
+                w.set_up.fill(false);
                 for (j, dirty) in w.pend_dirty.iter_mut().enumerate() {
                     if std::mem::take(dirty) {
                         w.pend_down.clear_level(j);
