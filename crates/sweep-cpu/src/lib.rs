@@ -503,10 +503,11 @@
 //! pass, 5.3 M/s four).
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
-//! reaches error 0.0175 in 2.4 ms, 279× Monte Carlo's 668 ms to that error (eleventh
-//! round, below; ninth: 2.8 ms, 250×; eighth: 3.0 ms, 216×); the bench also names the
-//! cheapest setting for its error: 2 passes reach the same 0.0175 in 1.3 ms, 515×
-//! (ninth: 1.5 ms, 479×; eighth: 1.6 ms, 409×). The VM's slow spells give
+//! reaches error 0.0175 in 2.0 ms, 325× Monte Carlo's 650 ms to that error (twelfth
+//! round, below; eleventh: 2.4 ms, 279×; ninth: 2.8 ms, 250×; eighth: 3.0 ms, 216×);
+//! the bench also names the cheapest setting for its error: 2 passes reach the same
+//! 0.0175 in 1.1 ms, 586× (eleventh: 1.3 ms, 515×; ninth: 1.5 ms, 479×; eighth: 1.6 ms,
+//! 409×). The VM's slow spells give
 //! 4.7 ms and 146–153× (seventh round). Earlier rounds: 5.3–5.6 ms, 160–168× (fifth);
 //! 6.0–6.5 ms (fourth); Monte Carlo's time moves more than the sweep's between runs
 //! (620–1206 ms). Where the forest's two passes go (perf, two threads, eighth round):
@@ -622,9 +623,71 @@
 //! canopy 16³ four passes 1.62–1.64 → 1.53–1.55 ms, the forest 16³ 3–4 % faster (a slow
 //! spell), canopy 64³ unchanged, the light the same. A flag for every crate of the
 //! build does not reach a crate that depends on ours; loops written as eight-lane
-//! chunks would, and are left for the next round with the multi-row blocks. (A first
+//! chunks would, and are left for the next round with the multi-row blocks. (The
+//! twelfth round, below, took the flag all the same, as the CPU target was.) (A first
 //! try, phase 3's segment loops run through a helper calling `f(i)` for `i` in `j..j +
 //! 8`, made the forest 8 % slower: chunks of fixed-size arrays remain to try.)
+//!
+//! **Twelfth round (issue 15): fewer calls, the colours of a solve together, set-up
+//! kept.** Six changes, the light the same bit for bit (`tests/build_flags.rs`'
+//! hashes did not move, `tests/fast_path.rs`):
+//!
+//! - The workspace's builds tell LLVM not to interleave its vector loops
+//!   (`.cargo/config.toml`, beside x86-64-v3; above, "Tried and dropped"): a loop of
+//!   unknown length took four vectors (32 floats) an iteration, so a 16-point row ran
+//!   its four-lane remainder. Like the CPU target it does not reach a crate that
+//!   depends on ours.
+//! - The profile rule's 3 × 3 source balance ([`profile`]) is solved with its
+//!   cofactors shared (`J = adj(M) e / det M`: Cramer's four determinants expanded
+//!   along the replaced column), a cell's three colours as lanes of one loop that
+//!   compiles to four-wide `f64` vectors, the emission and absorbed flux in the same
+//!   loop (the wrappers around the solve, `f64` conversions and the flux sums, had
+//!   cost more than the solve): the solve's share of a forest sweep 8.3 → 5.4 %.
+//! - Three row loops no longer zero their sums first: `gather_moments`' first tap,
+//!   phase 3's first segment and a point's own cell set them (`0 + v` is `v`, but for
+//!   the sign of a zero; every stencil holds its own cell, which the stencil test
+//!   checks). Each `fill(0.0)` over a block of unknown width was a call to `memset`,
+//!   once per array, channel and colour: 4.4 → 1.1 % of the samples.
+//! - A level's transmittances (ten exponentials a cell), their padded planes and its
+//!   quiet points depend on its material alone: found at the level's first visit of a
+//!   sweep and kept for the later passes (`Work::set_up`; 41 bytes a point and the
+//!   planes, [`sweep::sweep_bytes`]), so later passes drop a `rayon::join` a level.
+//!
+//! The forest 16³, four passes (`forest_profile`, fastest of 300–500, builds
+//! alternating within one spell):
+//!
+//! | step | one thread | two threads (fast spell) |
+//! |------|-----------:|-------------------------:|
+//! | eleventh round | 4.27–4.35 ms | 2.34–2.41 ms |
+//! | the solve's cofactors, colours as lanes | 3.92–3.95 ms | 2.27–2.29 ms |
+//! | loops not interleaved | 3.75–3.76 ms | 2.13–2.16 ms |
+//! | the solve's wrappers in the lane loop | 3.79–3.86 ms (a slower spell; ~1 %) | 2.08–2.10 ms |
+//! | no zeroing (moments, emission, collisions) | 3.42–3.51 ms | |
+//! | set-up kept across passes | **3.30–3.43 ms** | **1.92–1.98 ms** |
+//!
+//! The 64³ forest is unchanged (40–42 ms). `cargo xtask bench --scene forest`: the
+//! four passes reach 0.0175 in **2.0 ms, 325×** Monte Carlo (650 ms; 2.1 ms, 320×,
+//! with the first two changes); two passes 1.1 ms, 586×. The 380× target is still
+//! not met: it needs about 1.7 ms at that Monte Carlo time.
+//!
+//! **The VM's spells are its cores' distance.** A ping-pong of one cache line between
+//! two threads takes 80 ns a round trip in the fast spells and 380–500 ns in the slow
+//! ones (the hypervisor places the two virtual cores near or far; the spell changes
+//! every few minutes). One thread runs at the same speed in both, and two independent
+//! processes do not slow each other: what slows is the threads' talk. At 16³ two
+//! threads take 1.95 ms in a fast spell and 3.4 ms in a slow one, no faster than one
+//! thread (3.4 ms); a bench run in a slow spell reported 3.4 ms and 218×. Each level
+//! runs three or four parallel loops of a few microseconds, each a fork and a join
+//! across the cores, and the rows a core wrote move to the other when the next step
+//! reads them. Tried and dropped: phase 1 in small tasks like phases 2 and 3 (worse
+//! in both spells); the ring's rows read wrapped instead of copied (80 KB a level no
+//! longer copied; no change); the profiles found beside phase 1 on the other thread
+//! (no change); the emission planes' 147 stores a cell with one bounds check, and the
+//! collisions' tallies without a range (no change); phase 3's segments with the three
+//! colours in one loop (5 % slower); whole arrays zeroed in one call instead of
+//! per-width fills (no change). Fewer joins a level (one parallel loop over a level's
+//! phases with the threads' rows fixed and a spin barrier between phases) or blocks of
+//! several rows (longer loops, fewer of them) are what remains.
 //!
 //! ## Semantics of the sweep
 //!
