@@ -528,7 +528,9 @@ impl CellProfile {
 
     /// [`CellProfile::source`] for three albedos and collision moments at once (a
     /// cell's colours: `r_n` per colour), each colour's answer [`CellProfile::source`]'s
-    /// bit for bit ([`solve_balance_lanes`]).
+    /// bit for bit: [`balance_lane`] for every colour in one loop that compiles to
+    /// vectors, the emission and absorbed flux in the same loop (their `f64`
+    /// conversions and sums, one colour at a time, had cost more than the solve).
     fn sources(
         &self,
         a: [f32; 3],
@@ -551,15 +553,18 @@ impl CellProfile {
         let k = self.k.map(|row| row.map(|v| v as f64));
         let o = self.o as f64;
         let gsum: [f64; 3] = std::array::from_fn(|q| (self.g[0][q] + self.g[1][q]) as f64);
-        // Lane by lane (the colours, and a spare): one loop that compiles to vectors.
+        // Lane by lane (the colours, and a spare lane of nothing so that the loop
+        // compiles to four-wide vectors).
+        let pad = |v: [f32; 3]| [v[0], v[1], v[2], 0.0];
+        let (a4, r4) = (pad(a), [pad(r0), pad(r1), pad(r2)]);
+        let take = [ok[0], ok[1], ok[2], false];
         let mut jl = [[0.0f32; 4]; 3];
         let mut al = [0.0f32; 4];
         let mut valid = [false; 4];
         for l in 0..4 {
-            let take = l < 3 && ok[l.min(2)];
-            let alb = if take { a[l.min(2)] as f64 } else { 0.0 };
-            let r = |v: [f32; 3]| if take { alb * v[l.min(2)] as f64 } else { 0.0 };
-            let e = [r(r0), r(r1), r(r2)];
+            let alb = if take[l] { a4[l] as f64 } else { 0.0 };
+            let r = |n: usize| if take[l] { alb * r4[n][l] as f64 } else { 0.0 };
+            let e = [r(0), r(1), r(2)];
             let (d, j) = balance_lane(o, &k, alb, e);
             // The coefficients as the sweep will emit them (f32), and as absorbed
             // whatever of the scattered light they do not send out: flux balances to
@@ -567,7 +572,7 @@ impl CellProfile {
             // arithmetic).
             let j32 = j.map(|v| v as f32);
             let out = gsum[0] * j32[0] as f64 + gsum[1] * j32[1] as f64 + gsum[2] * j32[2] as f64;
-            valid[l] = take && balance_ok(d, j);
+            valid[l] = take[l] && balance_ok(d, j);
             al[l] = (e[0] - out) as f32;
             for n in 0..3 {
                 jl[n][l] = j32[n];
@@ -669,37 +674,10 @@ pub fn beam_source(mat: &Material, dir: Vec3, r: Vec3) -> ([Vec3; 3], Vec3) {
 }
 
 /// The source balance `O J_n / (2n + 1) − a Σ_m K_nm J_m = e_n` solved for `J`
-/// ([`solve_balance_lanes`], one lane); `None` where it is singular or the answer not
-/// finite.
+/// ([`balance_lane`]); `None` where it is singular or the answer not finite.
 fn solve_balance(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> Option<[f64; 3]> {
-    solve_balance_lanes(o, k, [a; 4], e.map(|v| [v; 4]))[0]
-}
-
-/// Four systems that share `O` and `K` (a cell's three colours, and a spare lane), lane
-/// by lane: [`solve_balance`]'s answer for albedo `a[l]` and right side `e[·][l]`.
-type Lanes = [f64; 4];
-
-/// The source balance solved for four albedos at once, lane by lane
-/// ([`balance_lane`], in a loop that compiles to vectors).
-fn solve_balance_lanes(
-    o: f64,
-    k: &[[f64; 3]; 3],
-    a: Lanes,
-    e: [Lanes; 3],
-) -> [Option<[f64; 3]>; 4] {
-    let mut d = [0.0; 4];
-    let mut j = [[0.0; 4]; 3];
-    for l in 0..4 {
-        let (dl, jl) = balance_lane(o, k, a[l], [e[0][l], e[1][l], e[2][l]]);
-        d[l] = dl;
-        for c in 0..3 {
-            j[c][l] = jl[c];
-        }
-    }
-    std::array::from_fn(|l| {
-        let jl = [j[0][l], j[1][l], j[2][l]];
-        balance_ok(d[l], jl).then_some(jl)
-    })
+    let (d, j) = balance_lane(o, k, a, e);
+    balance_ok(d, j).then_some(j)
 }
 
 /// One system of the source balance, albedo `a`, right side `e`: Cramer's rule with
