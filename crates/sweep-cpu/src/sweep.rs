@@ -4419,7 +4419,8 @@ impl Planes {
         self.width() * (self.nz + 2 * Self::R)
     }
 
-    /// Plane `plane` of the current level, and the vector it lies in.
+    /// Plane `plane` of the current level ([`Planes::level`]; the source planes are
+    /// the level being swept's).
     #[inline]
     fn plane(&self, plane: usize) -> &[f32] {
         let n = self.plane_len();
@@ -4430,6 +4431,7 @@ impl Planes {
         }
     }
 
+    /// [`Planes::plane`], to write.
     #[inline]
     fn plane_mut(&mut self, plane: usize) -> &mut [f32] {
         let n = self.plane_len();
