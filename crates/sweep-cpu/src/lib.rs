@@ -503,11 +503,11 @@
 //! pass, 5.3 M/s four).
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
-//! reaches error 0.0175 in 2.0 ms, 325× Monte Carlo's 650 ms to that error (twelfth
-//! round, below; eleventh: 2.4 ms, 279×; ninth: 2.8 ms, 250×; eighth: 3.0 ms, 216×);
-//! the bench also names the cheapest setting for its error: 2 passes reach the same
-//! 0.0175 in 1.1 ms, 586× (eleventh: 1.3 ms, 515×; ninth: 1.5 ms, 479×; eighth: 1.6 ms,
-//! 409×). The VM's slow spells give
+//! reaches error 0.0175 in 1.9 ms, 310–365× Monte Carlo's 579–698 ms to that error
+//! (twelfth round, below; eleventh: 2.4 ms, 279×; ninth: 2.8 ms, 250×; eighth: 3.0 ms,
+//! 216×); the bench also names the cheapest setting for its error: 2 passes reach the
+//! same 0.0175 in 1.0–1.1 ms, 560–660× (eleventh: 1.3 ms, 515×; ninth: 1.5 ms, 479×;
+//! eighth: 1.6 ms, 409×). The VM's slow spells give
 //! 4.7 ms and 146–153× (seventh round). Earlier rounds: 5.3–5.6 ms, 160–168× (fifth);
 //! 6.0–6.5 ms (fourth); Monte Carlo's time moves more than the sweep's between runs
 //! (620–1206 ms). Where the forest's two passes go (perf, two threads, eighth round):
@@ -665,10 +665,14 @@
 //! | no zeroing (moments, emission, collisions) | 3.42–3.51 ms | |
 //! | set-up kept across passes | **3.30–3.43 ms** | **1.92–1.98 ms** |
 //!
-//! The 64³ forest is unchanged (40–42 ms). `cargo xtask bench --scene forest`: the
-//! four passes reach 0.0175 in **2.0 ms, 325×** Monte Carlo (650 ms; 2.1 ms, 320×,
-//! with the first two changes); two passes 1.1 ms, 586×. The 380× target is still
-//! not met: it needs about 1.7 ms at that Monte Carlo time.
+//! Against the eleventh round's build (a worktree, alternating): forest 16³ one thread
+//! 4.20–4.21 → 3.45–3.49 ms, two 2.34–2.42 → 1.97–2.02 ms; 32³ 8.44–8.53 → 7.55–7.58
+//! ms; 64³ 44.1–44.3 → 39.7–41.0 ms; the canopy (`throughput`, recycled) 64³ one pass
+//! 26.2 → 27.3 M points/s, four passes 8.25 → 8.74 M/s. `cargo xtask bench --scene
+//! forest`: the four passes reach 0.0175 in **1.9 ms, 365×** Monte Carlo (698 ms; the
+//! next run 1.9 ms against 579 ms, 310×; earlier in the round 2.0 ms, 325×); two
+//! passes 1.1 ms, 560–660×. The 380× target is met in no run: 1.9 ms needs 720 ms of
+//! Monte Carlo, whose time moved 579–698 ms between these runs.
 //!
 //! **The VM's spells are its cores' distance.** A ping-pong of one cache line between
 //! two threads takes 80 ns a round trip in the fast spells and 380–500 ns in the slow
@@ -676,7 +680,7 @@
 //! every few minutes). One thread runs at the same speed in both, and two independent
 //! processes do not slow each other: what slows is the threads' talk. At 16³ two
 //! threads take 1.95 ms in a fast spell and 3.4 ms in a slow one, no faster than one
-//! thread (3.4 ms); a bench run in a slow spell reported 3.4 ms and 218×. Each level
+//! thread (3.4 ms); bench runs in slow spells reported 3.4 ms, 193× and 218×. Each level
 //! runs three or four parallel loops of a few microseconds, each a fork and a join
 //! across the cores, and the rows a core wrote move to the other when the next step
 //! reads them. Tried and dropped: phase 1 in small tasks like phases 2 and 3 (worse
