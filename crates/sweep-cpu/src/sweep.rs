@@ -2290,9 +2290,9 @@ impl Ctx {
         let nx = self.nx as usize;
         for (c, chn) in self.ch.iter().enumerate() {
             let o = &mut out[c];
-            for col in o.iter_mut() {
-                col[..b].fill(0.0);
-            }
+            // The first tap sets the sums (as [`Ctx::gather_moments`]: no `memset` per
+            // colour and channel).
+            let mut set = false;
             for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
                 let Some(zr) = self.row_of(z - dz) else {
                     continue;
@@ -2300,9 +2300,23 @@ impl Ctx {
                 let first = x0 as i32 - dx;
                 for (col, oc) in o.iter_mut().enumerate() {
                     let from = tap(removed, nx, (zr, chn.first_slot + k, col), first, b);
-                    for (v, &f) in oc[..b].iter_mut().zip(from) {
-                        *v += f;
+                    let oc = &mut oc[..b];
+                    if set {
+                        for i in 0..b {
+                            oc[i] += from[i];
+                        }
+                    } else {
+                        // (`0 + v`, the sum from zero: a bare copy was a `memcpy` call.)
+                        for i in 0..b {
+                            oc[i] = 0.0 + from[i];
+                        }
                     }
+                }
+                set = true;
+            }
+            if !set {
+                for col in o.iter_mut() {
+                    col[..b].fill(0.0);
                 }
             }
         }
