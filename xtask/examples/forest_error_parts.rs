@@ -1,4 +1,4 @@
-//! Where the bench forest's error comes from: the sweep (4 passes, smoothing 0.25, as the
+//! Where the bench forest's error comes from: the sweep (4 passes, the default smoothing, as the
 //! bench's headline) against a Monte Carlo reference for the sky alone, the bin-spread
 //! sun alone, and both (`sky_and_sun`), on the same forest.
 //! `cargo run --release -p xtask --example forest_error_parts -- [n] [paths]`.
@@ -31,7 +31,6 @@ fn main() -> anyhow::Result<()> {
         .and_then(|v| v.parse().ok())
         .unwrap_or(4);
     o.tolerance = 0.0;
-    o.smoothing = 0.25;
     let only: Option<String> = args.get(3).cloned();
     for (name, b) in [
         ("sky and sun", &both),
@@ -85,7 +84,6 @@ fn main() -> anyhow::Result<()> {
                 lightgrid_core::MediumEmission::Escape,
             ] {
                 let mut o2 = o;
-                o2.smoothing = 0.25;
                 o2.medium = rule;
                 let sw = sweep_cpu::run(&s.material, b, &o2)?;
                 let bins = sw.output.bins.as_ref().expect("bins");
@@ -119,6 +117,7 @@ fn main() -> anyhow::Result<()> {
             (0.25, lightgrid_core::MediumEmission::Source),
             (0.5, lightgrid_core::MediumEmission::Source),
             (0.25, lightgrid_core::MediumEmission::Profile),
+            (0.5, lightgrid_core::MediumEmission::Profile),
         ] {
             o.smoothing = smoothing;
             o.medium = rule;

@@ -1,4 +1,4 @@
-//! Times the bench forest's sweep (16³, 4 passes, smoothing 0.25: the headline setting
+//! Times the bench forest's sweep (16³, 4 passes, the default smoothing: the headline setting
 //! of `cargo xtask bench`) many times over, for a profiler:
 //! `cargo run --release -p xtask --example forest_profile -- [n] [repeats] [rule]`
 //! (`rule`: `profile`, the default, or `source`, the flat source). `TILE=k` lays `k`
@@ -39,7 +39,6 @@ fn main() -> anyhow::Result<()> {
         .and_then(|v| v.parse().ok())
         .unwrap_or(4);
     o.tolerance = 0.0;
-    o.smoothing = 0.25;
     o.medium = match args.get(3).map(String::as_str) {
         None | Some("profile") => lightgrid_core::MediumEmission::Profile,
         Some("source") => lightgrid_core::MediumEmission::Source,

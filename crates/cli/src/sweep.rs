@@ -96,13 +96,13 @@ pub(crate) enum SidesArg {
 #[derive(clap::Args)]
 pub(crate) struct SweepArgs {
     /// Most passes (alternating down and up).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = SweepOptions::multi_bounce().max_passes)]
     passes: u32,
     /// Smoothing weight in [0, 1).
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, default_value_t = SweepOptions::multi_bounce().smoothing)]
     smoothing: f32,
     /// Stop when the light still to transport is below this fraction of the input.
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(long, default_value_t = SweepOptions::multi_bounce().tolerance)]
     tolerance: f32,
     /// Diffusion acceleration of the passes (`Acceleration::Diffusion`): for thick,
     /// bright media (snow, cloud, fog banks) that take many passes.

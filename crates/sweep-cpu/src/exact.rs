@@ -408,7 +408,7 @@ pub fn lambertian_ground(a: f32) -> Case {
 /// under the flat source (`MediumEmission::Source`).
 pub fn measure(max_passes: u32) -> Vec<Case> {
     let mut out = Vec::new();
-    for smoothing in [0.0, 0.25] {
+    for smoothing in [0.0, SweepOptions::multi_bounce().smoothing] {
         let (a, i) = furnace(12, 7, smoothing);
         out.push(a);
         out.push(i);

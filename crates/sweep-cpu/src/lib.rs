@@ -82,7 +82,7 @@
 //! **Foliage in many levels.** The canopy has media in two levels; the bench forest
 //! (`cargo xtask bench`; Kenney trees on rolling ground, media in most levels) spends
 //! its time in phases 2 and 3. `cargo run --release -p xtask --example forest_profile
-//! -- N REPEATS` times its headline sweep (4 passes, smoothing 0.25); measured in the
+//! -- N REPEATS` times its headline sweep (4 passes, smoothing 0.25 then); measured in the
 //! same minutes against the build before these changes (fastest of 200–300, the VM
 //! was about 1.8 times slower than on the day of the table above: the scalar oracle
 //! took 226 ms for one 64³ pass, not 124):
@@ -502,9 +502,12 @@
 //! 40–42 ms, 6.3 M/s; fresh memory 47.7 ms); small grids 5 M/s, met (18.9 M/s one
 //! pass, 5.3 M/s four).
 //!
-//! **The forest** (`cargo xtask bench`): its headline (4 passes, smoothing 0.25)
-//! reaches error 0.0175 in 1.9 ms, 310–365× Monte Carlo's 579–698 ms to that error
-//! (twelfth round, below; eleventh: 2.4 ms, 279×; ninth: 2.8 ms, 250×; eighth: 3.0 ms,
+//! **The forest** (`cargo xtask bench`): its headline (4 passes, the presets' smoothing,
+//! 0.5 since the thirteenth round: **Smoothing** under "Accuracy") reaches error 0.0160
+//! in 1.9–2.0 ms, 396–408× Monte Carlo's 785–794 ms to that error in four runs (the same
+//! runs' 0.25: 0.0175, about 350×; the cheapest setting, 2 passes at 0.5, 0.0161 in 1.1
+//! ms, 728–738×). At smoothing 0.25 it reached error 0.0175 in 1.9 ms, 310–365× Monte
+//! Carlo's 579–698 ms to that error on earlier days (twelfth round, below; eleventh: 2.4 ms, 279×; ninth: 2.8 ms, 250×; eighth: 3.0 ms,
 //! 216×); the bench also names the cheapest setting for its error: 2 passes reach the
 //! same 0.0175 in 1.0–1.1 ms, 560–660× (eleventh: 1.3 ms, 515×; ninth: 1.5 ms, 479×;
 //! eighth: 1.6 ms, 409×). The VM's slow spells give
@@ -858,11 +861,13 @@
 //! |-------|--------------:|--------------------:|----------------:|------------:|------------:|------------:|
 //! | empty | 0.0114 | 0.0126 | 0.0117 | same | same | same |
 //! | uniform fog | 0.0169 | 0.0202 | 0.0165 | 0.0167 / 0.0198 | 0.0430 / 0.0408 | 0.0392 / 0.0376 |
-//! | dense block | 0.0374 | 0.0454 | 0.0117 | 0.0365 / 0.0451 | 0.0420 / 0.0491 | 0.0490 / 0.0583 |
+//! | dense block | 0.0306 | 0.0374 | 0.0117 | 0.0365 / 0.0451 | 0.0420 / 0.0491 | 0.0490 / 0.0583 |
 //! | canopy | 0.0112 | 0.0144 | 0.0133 | 0.0128 / 0.0151 | 0.0256 / 0.0238 | 0.0184 / 0.0212 |
 //! | canopy, 1-level ground | 0.0112 | 0.0146 | 0.0136 | 0.0130 / 0.0153 | 0.0256 / 0.0241 | 0.0183 / 0.0213 |
 //!
-//! With the default rule for media (a quadratic source in height, [`profile`], issue
+//! (The dense block at the presets' smoothing 0.5, **Smoothing** below; 0.0374 / 0.0454
+//! at 0.25, where the other rules' columns were measured.) With the default rule for
+//! media (a quadratic source in height, [`profile`], issue
 //! 13) and the channels' cosines the bins' mean cosines, the sweep's error on the fog
 //! and the canopies is the reference's own noise (it was 0.0472 / 0.0469 on the fog
 //! and 0.0269 / 0.0275 on the canopy with the escape rule and the step vectors'
@@ -878,6 +883,29 @@
 //! rule, the canopies 5.5 against 3.6 ms, the dense block 3.9 against 4.0 ms (fewer
 //! passes); the source rules' third phase costs time on levels with media, and the
 //! profile rule carries three coefficients a cell (fog 38 ms with the row kernel).
+//!
+//! **Smoothing.** The presets' smoothing weight (step 1's `w`,
+//! [`lightgrid_core::SweepOptions::smoothing`]) is 0.5 since issue 15's thirteenth round
+//! (0.25 before, a guess). Relative RMSE of the average light, 4 passes, against a
+//! Monte Carlo reference (16³: 4 M paths, 24³: 8 M; `cargo run --release -p xtask
+//! --example smoothing -- 16 4000000`, about a minute), at smoothing 0 / 0.25 / 0.35 /
+//! 0.5 / 0.6:
+//!
+//! | scene | 16³ | 24³ |
+//! |-------|-----|-----|
+//! | forest (Kenney trees, sky and sun) | 0.0224 / 0.0179 / 0.0170 / **0.0165** / 0.0167 | 0.0174 / 0.0140 / 0.0134 / **0.0129** / 0.0130 |
+//! | dense block | 0.0516 / 0.0350 / 0.0313 / 0.0278 / 0.0266 | 0.0581 / 0.0395 / 0.0358 / 0.0320 / 0.0305 |
+//! | line source through a slit | 0.224 / 0.162 / 0.147 / 0.133 / 0.129 | 0.243 / 0.188 / 0.173 / 0.160 / 0.156 |
+//! | checkerboard lattice | 0.702 / 0.532 / 0.491 / 0.450 / 0.434 | 0.456 / 0.355 / 0.331 / 0.305 / 0.294 |
+//!
+//! The forest's least error is at 0.5 at both sizes (against `cargo xtask bench`'s
+//! cached reference: 0.0175 at 0.25, 0.0160 at 0.5); the other scenes it changes gain
+//! up to 0.6 and beyond (the fog, the canopies and the empty scene are laterally
+//! uniform: no change). One pass (16³): the lattice 0.393 → 0.315, the slit 0.474 →
+//! 0.458, the dense block and the forest within 0.0004. Exact answers do not move (the
+//! white furnace is exact at any smoothing; the Lambertian ground and the half-space
+//! are laterally uniform). More smoothing blurs a shadow's edge by about `√(n w / 2)`
+//! cells after `n` levels, which shrinks in metres as cells do.
 //!
 //! Opaque surfaces emit with the exact Lambertian share of each bin (step 5) since the
 //! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its

@@ -215,7 +215,7 @@ fn sweep_against_reference_on_canonical_scenes() {
     let bounds = [
         (Scene::Empty, 0.0126, 0.0139),
         (Scene::UniformFog, 0.0186, 0.0222),
-        (Scene::DenseBlock, 0.0411, 0.0499),
+        (Scene::DenseBlock, 0.0337, 0.0411),
         (Scene::Canopy, 0.0123, 0.0158),
         (Scene::CanopyOneLevelGround, 0.0123, 0.0161),
     ];
