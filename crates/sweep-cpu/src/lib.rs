@@ -905,7 +905,11 @@
 //! 0.458, the dense block and the forest within 0.0004. Exact answers do not move (the
 //! white furnace is exact at any smoothing; the Lambertian ground and the half-space
 //! are laterally uniform). More smoothing blurs a shadow's edge by about `√(n w / 2)`
-//! cells after `n` levels, which shrinks in metres as cells do.
+//! cells after `n` levels, which shrinks in metres as cells do. The bench's relMSE
+//! (per point, ε 1e-4, the darkest points weigh most) moves the other way on the dense
+//! block (0.025 → 0.057) and the forest (0.0033 → 0.0043): more smoothing carries more
+//! light into deep shadow; SMAPE falls with the RMSEs (dense block 0.0365 → 0.0322,
+//! forest 0.0211 → 0.0198, the slit 0.250 → 0.184).
 //!
 //! Opaque surfaces emit with the exact Lambertian share of each bin (step 5) since the
 //! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its
