@@ -906,10 +906,14 @@
 //! white furnace is exact at any smoothing; the Lambertian ground and the half-space
 //! are laterally uniform). More smoothing blurs a shadow's edge by about `√(n w / 2)`
 //! cells after `n` levels, which shrinks in metres as cells do. The bench's relMSE
-//! (per point, ε 1e-4, the darkest points weigh most) moves the other way on the dense
+//! (a per-point relative error, ε 1e-4: dim points count as much as bright ones, where
+//! the RMSEs weigh by brightness) moves the other way on the dense
 //! block (0.025 → 0.057) and the forest (0.0033 → 0.0043): more smoothing carries more
 //! light into deep shadow; SMAPE falls with the RMSEs (dense block 0.0365 → 0.0322,
-//! forest 0.0211 → 0.0198, the slit 0.250 → 0.184).
+//! forest 0.0211 → 0.0198, the slit 0.250 → 0.184). Shadows of the sun (`cargo xtask
+//! sun`, 24³, 1 M reference paths): the sun kept apart has the same error at 0.25 and
+//! 0.5 (within 0.0002 at every elevation and azimuth), a single tree's shadow the same
+//! azimuth (to 0.1°); the sun in the bins moves by −0.002 to +0.0013.
 //!
 //! Opaque surfaces emit with the exact Lambertian share of each bin (step 5) since the
 //! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its
