@@ -504,9 +504,9 @@
 //!
 //! **The forest** (`cargo xtask bench`): its headline (4 passes, the presets' smoothing,
 //! 0.5 since the thirteenth round: **Smoothing** under "Accuracy") reaches error 0.0160
-//! in 1.9–2.0 ms, 396–408× Monte Carlo's 785–794 ms to that error in four runs (the same
-//! runs' 0.25: 0.0175, about 350×; the cheapest setting, 2 passes at 0.5, 0.0161 in 1.1
-//! ms, 728–738×). At smoothing 0.25 it reached error 0.0175 in 1.9 ms, 310–365× Monte
+//! in 1.9–2.0 ms, 389–417× Monte Carlo's 767–799 ms to that error in seven runs (the
+//! same runs' 0.25: 0.0175, about 350×; the cheapest setting, 2 passes at 0.5, 0.0161 in
+//! 1.1 ms, 712–750×; slow spells 3.3–3.4 ms, 230–245×). At smoothing 0.25 it reached error 0.0175 in 1.9 ms, 310–365× Monte
 //! Carlo's 579–698 ms to that error on earlier days (twelfth round, below; eleventh: 2.4 ms, 279×; ninth: 2.8 ms, 250×; eighth: 3.0 ms,
 //! 216×); the bench also names the cheapest setting for its error: 2 passes reach the
 //! same 0.0175 in 1.0–1.1 ms, 560–660× (eleventh: 1.3 ms, 515×; ninth: 1.5 ms, 479×;
