@@ -3,14 +3,14 @@
 //! sun alone, and both (`sky_and_sun`), on the same forest.
 //! `cargo run --release -p xtask --example forest_error_parts -- [n] [paths]`.
 use lightgrid_core::{BinLight, Boundary, SideBoundary, SweepOptions, glam::Vec3};
-use sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let n: u32 = args.get(1).map_or(Ok(16), |s| s.parse())?;
     let paths: u64 = args.get(2).map_or(Ok(4_000_000), |s| s.parse())?;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let s = xtask::bench::scenes::forest(n, &root.join("../shared/testdata"))?;
+    let s = xtask::bench::scenes::forest(n, &root.join("assets"))?;
     let both = s.boundary.clone();
     let (sky, _) = BinLight::uniform(Vec3::ONE).split_vertical();
     let sky_only = Boundary {
@@ -85,7 +85,7 @@ fn main() -> anyhow::Result<()> {
             ] {
                 let mut o2 = o;
                 o2.medium = rule;
-                let sw = sweep_cpu::run(&s.material, b, &o2)?;
+                let sw = lightgrid_sweep_cpu::run(&s.material, b, &o2)?;
                 let bins = sw.output.bins.as_ref().expect("bins");
                 let mut acc = [[0f64; 4]; 3];
                 for i in 0..d.point_count() {
@@ -121,8 +121,8 @@ fn main() -> anyhow::Result<()> {
         ] {
             o.smoothing = smoothing;
             o.medium = rule;
-            let sw = sweep_cpu::run(&s.material, b, &o)?;
-            let e = sweep_cpu::scenes::compare(
+            let sw = lightgrid_sweep_cpu::run(&s.material, b, &o)?;
+            let e = lightgrid_sweep_cpu::scenes::compare(
                 sw.output.bins.as_ref().expect("bins"),
                 &r.light,
                 &s.material,

@@ -13,7 +13,7 @@ fn main() -> anyhow::Result<()> {
     let n: u32 = args.get(1).map_or(Ok(16), |s| s.parse())?;
     let repeats: u32 = args.get(2).map_or(Ok(200), |s| s.parse())?;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let mut s = xtask::bench::scenes::forest(n, &root.join("../shared/testdata"))?;
+    let mut s = xtask::bench::scenes::forest(n, &root.join("assets"))?;
     let tile: u32 = std::env::var("TILE")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -44,7 +44,7 @@ fn main() -> anyhow::Result<()> {
         Some("source") => lightgrid_core::MediumEmission::Source,
         Some(other) => anyhow::bail!("unknown medium rule {other:?} (profile or source)"),
     };
-    let mut sweeper = sweep_cpu::CpuSweeper::new();
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
     let mut out = None;
     let mut times = Vec::new();
     for _ in 0..repeats {

@@ -6,7 +6,7 @@
 //! `cargo run --release -p xtask --example smoothing -- [n] [paths] [passes]`
 //! (defaults 16, 4 000 000, 4; about a minute at 24³ and 8 M paths on two cores).
 use lightgrid_core::{SweepOptions, Sweeper};
-use sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
 
 /// Smoothing weights compared.
 const WEIGHTS: [f32; 5] = [0.0, 0.25, 0.35, 0.5, 0.6];
@@ -17,7 +17,7 @@ fn main() -> anyhow::Result<()> {
     let paths: u64 = arg(2).map_or(Ok(4_000_000), |s| s.parse())?;
     let passes: u32 = arg(3).map_or(Ok(4), |s| s.parse())?;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let scenes = xtask::bench::scenes::all(n, &root.join("../shared/testdata"))?;
+    let scenes = xtask::bench::scenes::all(n, &root.join("assets"))?;
     println!(
         "{n}³, {passes} passes, {paths} reference paths; relative RMSE of the average light at smoothing {WEIGHTS:?} (default {})",
         SweepOptions::multi_bounce().smoothing
@@ -38,12 +38,12 @@ fn main() -> anyhow::Result<()> {
             o.max_passes = passes;
             o.tolerance = 0.0;
             o.smoothing = w;
-            let out = sweep_cpu::CpuSweeper::new().sweep(&s.material, &s.boundary, &o)?;
+            let out = lightgrid_sweep_cpu::CpuSweeper::new().sweep(&s.material, &s.boundary, &o)?;
             let bins = out
                 .bins
                 .as_ref()
                 .ok_or_else(|| anyhow::anyhow!("no bins"))?;
-            let e = sweep_cpu::scenes::compare(bins, &r.light, &s.material);
+            let e = lightgrid_sweep_cpu::scenes::compare(bins, &r.light, &s.material);
             line += &format!("  {w}: {:.4}", e.average);
         }
         println!("{line}");

@@ -373,14 +373,14 @@ fn run_grid(b: &[u8]) -> bool {
 fn scene_seeds() -> Vec<Vec<u8>> {
     let tiny = include_str!("../../crates/viewer/tests/data/tiny.toml");
     vec![
-        viewer::scene::DEMO.as_bytes().to_vec(),
+        lightgrid_viewer::scene::DEMO.as_bytes().to_vec(),
         tiny.as_bytes().to_vec(),
     ]
 }
 
 fn run_scene(b: &[u8]) -> bool {
     let text = String::from_utf8_lossy(b);
-    viewer::SceneFile::parse(&text, "fuzz.toml", Path::new("/nonexistent")).is_ok()
+    lightgrid_viewer::SceneFile::parse(&text, "fuzz.toml", Path::new("/nonexistent")).is_ok()
 }
 
 fn volume_seeds() -> Vec<Vec<u8>> {
@@ -392,13 +392,13 @@ fn volume_seeds() -> Vec<Vec<u8>> {
     let g = lightgrid_core::LightGrid::new(d, data).expect("valid");
     let empty = lightgrid_core::LightGrid::filled(d, BinLight::ZERO).expect("valid");
     vec![
-        light_volumes::CompressedVolume::compress(&g, VOLUME_KEY).to_bytes(),
-        light_volumes::CompressedVolume::compress(&empty, VOLUME_KEY).to_bytes(),
+        lightgrid_light_volumes::CompressedVolume::compress(&g, VOLUME_KEY).to_bytes(),
+        lightgrid_light_volumes::CompressedVolume::compress(&empty, VOLUME_KEY).to_bytes(),
     ]
 }
 
 fn run_volume(b: &[u8]) -> bool {
-    light_volumes::CompressedVolume::from_bytes(b, VOLUME_KEY).is_ok()
+    lightgrid_light_volumes::CompressedVolume::from_bytes(b, VOLUME_KEY).is_ok()
 }
 
 /// A one-triangle glTF with an embedded buffer and a 1 × 1 PNG texture.
@@ -444,14 +444,14 @@ fn gltf_seeds() -> Vec<Vec<u8>> {
     let path = dir.join("rock.glb");
     let mut seeds = vec![triangle_gltf()];
     // A procedural rock with a texture, written by the library's own GLB writer.
-    let mut rock = material_voxelizer::procedural::rock(3, 1.0).expect("valid rock");
-    rock.textures.push(material_voxelizer::model::Texture {
+    let mut rock = lightgrid_material_voxelizer::procedural::rock(3, 1.0).expect("valid rock");
+    rock.textures.push(lightgrid_material_voxelizer::model::Texture {
         width: 2,
         height: 2,
         texels: vec![Vec4::new(0.5, 0.4, 0.3, 1.0); 4],
     });
     rock.materials[0].texture = Some(0);
-    if material_voxelizer::procedural::write_glb(&rock, &path).is_ok()
+    if lightgrid_material_voxelizer::procedural::write_glb(&rock, &path).is_ok()
         && let Ok(b) = std::fs::read(&path)
     {
         seeds.push(b);
@@ -461,14 +461,14 @@ fn gltf_seeds() -> Vec<Vec<u8>> {
 }
 
 fn run_gltf(b: &[u8]) -> bool {
-    material_voxelizer::model::Model::from_gltf_slice(b, "fuzz.glb").is_ok()
+    lightgrid_material_voxelizer::model::Model::from_gltf_slice(b, "fuzz.glb").is_ok()
 }
 
 fn exr_seeds() -> Vec<Vec<u8>> {
     let dir = scratch_dir("exr");
     let _ = std::fs::create_dir_all(&dir);
     let path = dir.join("sky.exr");
-    let map = sweep_cpu::sky::EnvMap::from_fn(8, 4, |d| Vec3::new(0.2, 0.4, 1.0) * (1.0 + d.y))
+    let map = lightgrid_sweep_cpu::sky::EnvMap::from_fn(8, 4, |d| Vec3::new(0.2, 0.4, 1.0) * (1.0 + d.y))
         .expect("valid sky");
     map.save_exr(&path).expect("writes");
     let b = std::fs::read(&path).expect("reads");
@@ -477,7 +477,7 @@ fn exr_seeds() -> Vec<Vec<u8>> {
 }
 
 fn run_exr(b: &[u8]) -> bool {
-    sweep_cpu::sky::EnvMap::from_exr_bytes(b).is_ok()
+    lightgrid_sweep_cpu::sky::EnvMap::from_exr_bytes(b).is_ok()
 }
 
 fn png_seeds() -> Vec<Vec<u8>> {
@@ -499,7 +499,7 @@ fn png_seeds() -> Vec<Vec<u8>> {
 }
 
 fn run_png(b: &[u8]) -> bool {
-    material_voxelizer::compose::decode_limited(b, 1 << 16, 8).is_ok()
+    lightgrid_material_voxelizer::compose::decode_limited(b, 1 << 16, 8).is_ok()
 }
 
 /// Every target.

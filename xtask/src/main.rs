@@ -7,7 +7,7 @@
 //!   cores; `--full` uses larger grids and a longer reference.
 //! * `exact [--max-passes N]`: the sweep against problems with exact answers (white
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
-//!   tolerance against optical depth and albedo (`sweep_cpu::exact`); writes
+//!   tolerance against optical depth and albedo (`lightgrid_sweep_cpu::exact`); writes
 //!   `target/bench/exact.txt`.
 //! * `fuzz [--inputs N] [--target NAME]... [--seed S]`: every reader of user files (grid,
 //!   scene, volume, gltf, exr, png) over N generated inputs (default one million per
@@ -82,6 +82,7 @@ enum Task {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    lightgrid_viewer::init_logs();
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     match args.task {
         Task::Bench {
@@ -110,7 +111,7 @@ fn main() -> ExitCode {
         }
         Task::Exact { max_passes } => exact(&root, max_passes),
         Task::Sun { n, paths } => {
-            match sun::run(&root, &root.join("../shared/testdata"), n, paths) {
+            match sun::run(&root, &root.join("assets"), n, paths) {
                 Ok(text) => {
                     print!("{text}");
                     println!("wrote target/bench/sun.txt and sun.png");
@@ -131,7 +132,7 @@ fn main() -> ExitCode {
 }
 
 fn exact(root: &std::path::Path, max_passes: u32) -> ExitCode {
-    use sweep_cpu::exact;
+    use lightgrid_sweep_cpu::exact;
     let cases = exact::measure(max_passes);
     let rows = convergence::measure(max_passes);
     let halves = convergence::half_spaces(max_passes);

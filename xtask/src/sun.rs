@@ -1,6 +1,6 @@
 //! `cargo xtask sun`: the sun kept apart (issue 14) against the sun in the bins, on the
 //! bench forest and under a single tree, both against the Monte Carlo reference with a
-//! collimated sun along its exact direction (`sweep_cpu::sun_measure`). Writes
+//! collimated sun along its exact direction (`lightgrid_sweep_cpu::sun_measure`). Writes
 //! `target/bench/sun.txt` and `sun.png` (error against sun elevation).
 
 use std::path::Path;
@@ -9,14 +9,14 @@ use crate::bench::plot::err;
 use anyhow::Result;
 use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, MaterialSource, SweepOptions};
-use material_voxelizer::compose::{
+use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };
-use material_voxelizer::procedural::{TreeParams, tree};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use plotters::prelude::*;
-use sweep_cpu::sky::Sun;
-use sweep_cpu::sun_measure::{
+use lightgrid_sweep_cpu::sky::Sun;
+use lightgrid_sweep_cpu::sun_measure::{
     SunErrors, angle_error, exact_shadow_azimuth, ground_light, shadow_azimuth, sun_errors,
 };
 
@@ -43,7 +43,7 @@ fn tree_model() -> Result<lightgrid_core::MaterialGrid> {
 }
 
 /// Runs the measurement; `n` cells a side for the forest, `paths` reference paths.
-pub fn run(root: &Path, testdata: &Path, n: u32, paths: u64) -> Result<String> {
+pub fn run(root: &Path, assets: &Path, n: u32, paths: u64) -> Result<String> {
     use std::fmt::Write;
     let o = options();
     let mut text = format!(
@@ -51,7 +51,7 @@ pub fn run(root: &Path, testdata: &Path, n: u32, paths: u64) -> Result<String> {
          sun light only, unit irradiance; relative RMSE of average light / irradiance on the six axes\n\
          against the Monte Carlo reference (collimated sun, exact direction); seconds of the sweep\n\n"
     );
-    let forest = crate::bench::scenes::forest(n, testdata)?;
+    let forest = crate::bench::scenes::forest(n, assets)?;
     let _ = writeln!(text, "forest: {} ({n}^3 cells of 1 m)", forest.about);
     let _ = writeln!(
         text,

@@ -123,7 +123,7 @@ pub(crate) fn bake(a: BakeArgs) -> Result<()> {
     };
     let t = Instant::now();
     let light = indirect_light(
-        &mut sweep_cpu::CpuSweeper::new(),
+        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
         &m,
         &sky_and_sun,
         sun.as_ref(),

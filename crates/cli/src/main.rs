@@ -58,6 +58,15 @@ enum Command {
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
+    // The libraries' logs to stderr: RUST_LOG sets the levels (`debug`, or per crate as
+    // `lightgrid_sweep_cpu=trace,info`), `info` without it.
+    {
+        use tracing_subscriber::{filter::Targets, layer::SubscriberExt, util::SubscriberInitExt};
+        let level = Targets::new().with_default(tracing::Level::INFO);
+        let env = std::env::var("RUST_LOG").ok().and_then(|s| s.parse().ok());
+        let layer = tracing_subscriber::fmt::layer().with_writer(std::io::stderr);
+        tracing_subscriber::registry().with(layer).with(env.unwrap_or(level)).init();
+    }
     if let Some(limit) = cli.memory_limit {
         lightgrid_core::limits::set_memory_limit(limit);
     }

@@ -10,9 +10,9 @@ use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
     BinLight, Boundary, GridFile, Outputs, SideBoundary, SweepOptions, TopBoundary,
 };
-use sweep_cpu::reference::{ReferenceOptions, trace};
-use sweep_cpu::scenes::Scene;
-use sweep_cpu::{ClearSky, EnvMap, Sun, sky};
+use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_sweep_cpu::{ClearSky, EnvMap, Sun, sky};
 
 #[derive(Subcommand)]
 pub(crate) enum Command {
@@ -308,7 +308,7 @@ pub(crate) fn run(command: Command) -> Result<()> {
             let m = load_material(&material)?;
             let b = light.boundary()?;
             let t = Instant::now();
-            let s = sweep_cpu::run(&m, &b, &o).context("sweeping")?;
+            let s = lightgrid_sweep_cpu::run(&m, &b, &o).context("sweeping")?;
             let secs = t.elapsed().as_secs_f64();
             let g = s.output.bins.expect("bins were asked for");
             // The grid first: a bad preview path must not throw the sweep away.
@@ -353,7 +353,7 @@ pub(crate) fn run(command: Command) -> Result<()> {
                     _ => bail!("--seconds must be a positive number of seconds, got {s}"),
                 },
             };
-            if !(1..=sweep_cpu::reference::MAX_PATHS).contains(&paths) {
+            if !(1..=lightgrid_sweep_cpu::reference::MAX_PATHS).contains(&paths) {
                 bail!("--paths must be in 1..=2^40 (1099511627776), got {paths}");
             }
             let bar = indicatif::ProgressBar::new(paths);

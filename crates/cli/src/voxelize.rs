@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use lightgrid_core::GridFile;
-use material_voxelizer::model::Model;
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::model::Model;
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {

@@ -4,7 +4,7 @@
 use std::process::Command;
 
 use lightgrid_core::GridFile;
-use material_voxelizer::procedural::{rock, write_glb};
+use lightgrid_material_voxelizer::procedural::{rock, write_glb};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_lightgrid"))

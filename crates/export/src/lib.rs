@@ -373,6 +373,7 @@ impl BevyVolume {
     /// Returns the paths written.
     pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, ExportError> {
         check_stem(stem)?;
+        let _span = tracing::info_span!("export volume", dir = %dir.display(), stem).entered();
         std::fs::create_dir_all(dir).map_err(|source| GridError::Io {
             path: dir.to_path_buf(),
             source,

@@ -293,7 +293,7 @@ fn the_sidecar_describes_the_files() {
 #[test]
 fn indirect_light_is_the_ground_bounce_alone() {
     use lightgrid_core::{Boundary, SideBoundary, SweepOptions, TopBoundary};
-    let sun = sweep_cpu::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
+    let sun = lightgrid_sweep_cpu::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
         .bins()
         .unwrap();
     let b = Boundary {
@@ -304,9 +304,9 @@ fn indirect_light_is_the_ground_bounce_alone() {
     let mut o = SweepOptions::multi_bounce();
     o.tolerance = 1e-7;
     o.max_passes = 64;
-    let mut cpu = sweep_cpu::CpuSweeper::new();
+    let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     for (levels, albedo) in [(1, 0.3f32), (1, 0.9), (0, 0.3)] {
-        let m = sweep_cpu::exact::ground_material(levels, albedo);
+        let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo);
         let full = lightgrid_export::indirect_light(&mut cpu, &m, &b, None, &o).unwrap();
         let ind = lightgrid_export::indirect_light(&mut cpu, &m, &b, Some(&b), &o).unwrap();
         let d = m.desc();

@@ -3,7 +3,7 @@
 //! The GPU home of lightgrid, shared by `sweep-gpu` and `lightgrid-render`:
 //!
 //! * [`GpuContext`]: one device and queue per process. Create it once, wrap it in an
-//!   `Arc`, and hand it to the sweeper (`sweep_gpu::GpuSweeper::with_context`) and the
+//!   `Arc`, and hand it to the sweeper (`lightgrid_sweep_gpu::GpuSweeper::with_context`) and the
 //!   renderer (`lightgrid_render::Renderer::new`) alike.
 //! * [`GpuError`]: what can go wrong (no adapter, device refused, a buffer over the
 //!   binding limit, readback).
@@ -45,9 +45,7 @@ pub use grid::GpuLightGrid;
 #[non_exhaustive]
 pub enum GpuError {
     /// No GPU adapter was found (callers fall back to the CPU sweeper).
-    #[error(
-        "no GPU adapter found ({0}); use sweep-cpu, or install a Vulkan driver (Mesa's lavapipe: mesa-vulkan-drivers)"
-    )]
+    #[error("no GPU adapter found ({0}); use the CPU sweeper, or {hint}", hint = driver_hint())]
     NoAdapter(String),
     /// The adapter refused to create a device.
     #[error("the GPU adapter {adapter} refused a device: {message}")]
@@ -77,6 +75,23 @@ pub enum GpuError {
     Grid(#[from] lightgrid_core::GridError),
 }
 
+/// What to install for a GPU adapter, for the operating system this runs on.
+pub fn driver_hint() -> &'static str {
+    if cfg!(target_os = "macos") || cfg!(target_os = "ios") {
+        "check that this Mac's GPU supports Metal (every Mac since 2012 does)"
+    } else if cfg!(target_os = "windows") {
+        "install or update the GPU's driver (DX12 or Vulkan); without a GPU, Windows 10+ \
+         brings WARP, DX12's software adapter"
+    } else if cfg!(target_os = "linux") {
+        "install a Vulkan driver: the GPU vendor's, or Mesa's software driver lavapipe \
+         (Debian/Ubuntu: apt-get install mesa-vulkan-drivers; Fedora: dnf install \
+         mesa-vulkan-drivers; Arch: pacman -S vulkan-swrast); an OpenGL ES 3.1 driver \
+         is used where no Vulkan one is found"
+    } else {
+        "install a Vulkan, Metal, DX12 or OpenGL ES 3.1 driver"
+    }
+}
+
 /// A device and queue, created once and reused.
 pub struct GpuContext {
     /// The device.
@@ -88,17 +103,42 @@ pub struct GpuContext {
 }
 
 impl GpuContext {
-    /// The first adapter wgpu finds (a discrete GPU preferred; lavapipe in CI).
+    /// The first adapter wgpu finds, a discrete GPU preferred: Vulkan, Metal or DX12
+    /// first, OpenGL (ES) only where none of those has an adapter; lavapipe in CI.
+    /// `WGPU_BACKEND` (`vulkan`, `metal`, `dx12`, `gl`, comma-separated) picks the
+    /// backends instead.
     pub fn new() -> Result<Self, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let tries = match wgpu::Backends::from_env() {
+            Some(b) => vec![b],
+            None => vec![wgpu::Backends::PRIMARY, wgpu::Backends::SECONDARY],
+        };
+        let mut failures = Vec::new();
+        for backends in tries {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = backends;
+            let instance = wgpu::Instance::new(desc);
+            match pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter: false,
+                compatible_surface: None,
+                apply_limit_buckets: false,
+            })) {
+                Ok(adapter) => return Self::on(&adapter),
+                Err(e) => failures.push(format!("{backends:?}: {e}")),
+            }
+        }
+        Err(GpuError::NoAdapter(failures.join("; ")))
+    }
+
+    /// A device and queue on `adapter` (the window's, found for its surface).
+    pub fn on(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
         let info = adapter.get_info();
+        tracing::info!(
+            adapter = %info.name,
+            device_type = ?info.device_type,
+            backend = ?info.backend,
+            "GPU device"
+        );
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("lightgrid"),
             required_features: wgpu::Features::empty(),
@@ -122,14 +162,10 @@ impl GpuContext {
     /// tests never skip in silence.
     pub fn new_or_opt_out() -> Result<Option<Self>, GpuError> {
         match Self::new() {
-            Ok(c) => {
-                eprintln!(
-                    "GPU adapter: {} ({:?}, {:?})",
-                    c.info.name, c.info.device_type, c.info.backend
-                );
-                Ok(Some(c))
-            }
+            Ok(c) => Ok(Some(c)),
             Err(e) if std::env::var("LIGHTGRID_ALLOW_NO_GPU").as_deref() == Ok("1") => {
+                // Straight to stderr, not through `tracing`: a test binary has no
+                // subscriber, and this must be seen in the test log.
                 eprintln!("!!! GPU TEST NOT RUN: {e} (LIGHTGRID_ALLOW_NO_GPU=1) !!!");
                 Ok(None)
             }

@@ -66,7 +66,7 @@ pub fn memory_limit() -> u64 {
         match std::env::var(MEMORY_LIMIT_ENV) {
             Ok(text) => parse_size(&text).unwrap_or_else(|e| {
                 // Said once, on stderr: a limit the user meant to set must not vanish.
-                eprintln!("warning: {MEMORY_LIMIT_ENV}: {e}; using half the machine's memory");
+                tracing::warn!("{MEMORY_LIMIT_ENV}: {e}; using half the machine's memory");
                 half()
             }),
             Err(_) => half(),

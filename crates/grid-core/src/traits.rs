@@ -249,7 +249,7 @@ pub enum Acceleration {
     /// Every pass sends on what the one before scattered.
     #[default]
     Off,
-    /// Diffusion synthetic acceleration (the CPU sweep, `sweep_cpu::accel`): after each
+    /// Diffusion synthetic acceleration (the CPU sweep, `lightgrid_sweep_cpu::accel`): after each
     /// downward and upward pair, the scattered light still waiting in media cells is
     /// spread by a diffusion solve over the media, which estimates every later
     /// generation of its scattering; the next passes send that on at once and take it
@@ -262,12 +262,12 @@ pub enum Acceleration {
 
 /// How a medium cell (`0 < p < 1`) sends on the light it scatters (step 5 of the
 /// sweep's specification, the `sweep-cpu` crate docs). Measured against exact answers in
-/// `sweep_cpu::exact` (`cargo xtask exact`).
+/// `lightgrid_sweep_cpu::exact` (`cargo xtask exact`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub enum MediumEmission {
     /// The scattered light is a flat, isotropic source inside the cell, and every path
     /// segment through the cell emits what such a source sends along it, attenuated by
-    /// the segments after it (`sweep_cpu::medium`); thick cells lit from above send more
+    /// the segments after it (`lightgrid_sweep_cpu::medium`); thick cells lit from above send more
     /// of it back up. A white furnace is exact in any medium (random media of
     /// pass-through 0.02 to 1: within 1e-6), Chandrasekhar's half-space albedo within 2 %
     /// for cells of optical depth up to 0.7 (thick dark cells reflect too little: −23 %
@@ -279,7 +279,7 @@ pub enum MediumEmission {
     /// `ω_b / 4π · (A S − B u_b · M)` into bin `b` (`M` the first moment of the light's
     /// incoming directions) with a slab's exact escape probabilities for light scattered
     /// out of a vertical beam: `A − B = τ p / (1 − p)` straight on (`τ = −ln p`), `A + B =
-    /// (1 + p)/2` straight back (`sweep_cpu::sweep::medium_emission`). Fails the white
+    /// (1 + p)/2` straight back (`lightgrid_sweep_cpu::sweep::medium_emission`). Fails the white
     /// furnace (horizontal bins too bright: +60 % at pass-through 0.5); kept because it
     /// is closer than the flat source on thick dark cells (half-space −3 % at optical
     /// depth 3, albedo 0.1, against −23 %; the default is +0.8 %) and the fastest rule
@@ -290,13 +290,13 @@ pub enum MediumEmission {
     /// source rule on every canonical scene.)
     Escape,
     /// [`MediumEmission::Source`] with each cell's source a **quadratic in height**
-    /// instead of flat (`sweep_cpu::profile`, issue 13): a cell tallies the height
+    /// instead of flat (`lightgrid_sweep_cpu::profile`, issue 13): a cell tallies the height
     /// moments of where light collides in it, and each batch of scattered light becomes
     /// an isotropic source whose Legendre coefficients in height solve the cell's 3 × 3
     /// balance with its own re-collisions; each pass's segments emit what that source
     /// sends along them. Still exact in a white furnace and linear in the light; on a
     /// laterally uniform half-space it is within the channels' own angular error at
-    /// every cell depth (model: `cargo run --release -p sweep-cpu --example
+    /// every cell depth (model: `cargo run --release -p lightgrid-sweep-cpu --example
     /// profile_slab`); Chandrasekhar's half-space albedo within 2 % at every albedo and
     /// cell depth from 0.05 to 3. Both sweepers run it, with diffusion acceleration when
     /// asked. The default: a 64³ canopy sweeps at the flat rule's speed; on the CPU the
@@ -483,7 +483,7 @@ pub trait Sweeper {
     /// The sun's responses in `material` (see [`SunResponse`]): the transmittance along
     /// the exact direction, and the light of the sun's first collisions swept into the
     /// bins with `sun.scattered` as boundary. Sweepers that cannot keep the sun apart say
-    /// so (the default); `sweep_cpu::sun::sweep_sun` is the implementation the CPU and
+    /// so (the default); `lightgrid_sweep_cpu::sun::sweep_sun` is the implementation the CPU and
     /// GPU sweepers share.
     fn sweep_sun(
         &mut self,
@@ -546,7 +546,7 @@ pub struct SunResponse {
 }
 
 /// Light a beam deposits in cells before a sweep's first pass (the first collisions of
-/// the sun, `sweep_cpu::sun::first_collision`; [`Sweeper::sweep_with_source`]): per
+/// the sun, `lightgrid_sweep_cpu::sun::first_collision`; [`Sweeper::sweep_with_source`]): per
 /// cell the flux taken from the beam (RGB, per `h²`, the sweep's flux unit), and the beam's direction of travel. A sweep
 /// absorbs `(1 - a)` of it and scatters the rest as if the cell had removed it from a
 /// channel along that direction (sweep-cpu's steps 4-7), so only scattered sun light

@@ -1,19 +1,19 @@
 //! Probes in the shipped Kenney town (two buildings and two tree tiles on a 40 m
 //! ground, from `light-volumes`): bake time and bytes per probe, relight time per frame
 //! per 1000 probes, and the error of probe irradiance against the Monte Carlo
-//! reference (`light_probes::reference`) at several sun positions.
+//! reference (`lightgrid_light_probes::reference`) at several sun positions.
 //!
-//! `cargo run --release -p light-probes --example town_probes -- [samples per axis]` (4000)
+//! `cargo run --release -p lightgrid-light-probes --example town_probes -- [samples per axis]` (4000)
 
 use std::time::Instant;
 
-use light_probes::{
+use lightgrid_light_probes::{
     Lighting, ProbeLight, ProbeParams, ProbeSet, ProbeVolume, place, place_walls, reference,
 };
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::light::{AMBIENT_AXES, luminance};
 use lightgrid_core::{BinLight, GridDesc, LightField};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let samples: u32 = std::env::args()
@@ -21,7 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|s| s.parse())
         .transpose()?
         .unwrap_or(4000);
-    let model = light_volumes::demo::town(&light_volumes::demo::testdata_dir())?;
+    let model = lightgrid_light_volumes::demo::town(&lightgrid_light_volumes::demo::assets_dir())?;
     let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
     let (lo, hi) = model.bounds().ok_or("empty town")?;
     let sky = BinLight::uniform(Vec3::new(0.25, 0.3, 0.4));

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use lightgrid_core::dirs::{self, NUM_DIRS};
 use lightgrid_core::glam::{IVec3, Vec3};
 use lightgrid_core::light::AMBIENT_AXES;
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 use rayon::prelude::*;
 
 use crate::interior::{InteriorBox, nearest_visible};
@@ -249,6 +249,13 @@ impl ProbeSet {
         interior: Option<(&InteriorBox, &ProbeSet)>,
     ) -> Result<Self, ProbeError> {
         params.validate()?;
+        let _span = tracing::info_span!(
+            "bake probes",
+            probes = positions.len(),
+            rays = params.rays,
+            interior = interior.is_some()
+        )
+        .entered();
         if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
             return Err(
                 lightgrid_core::GridError::invalid("positions", p, "must be finite").into(),

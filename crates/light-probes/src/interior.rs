@@ -4,7 +4,7 @@
 
 use lightgrid_core::GridError;
 use lightgrid_core::glam::Vec3;
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 use crate::ProbeSet;
 

@@ -26,9 +26,9 @@
 //! ```
 //! use lightgrid_core::glam::{Vec2, Vec3, Vec4};
 //! use lightgrid_core::BinLight;
-//! use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
-//! use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
-//! use material_voxelizer::voxelize::RayScene;
+//! use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
+//! use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+//! use lightgrid_material_voxelizer::voxelize::RayScene;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! // A 100 m ground of albedo 0.5 under a uniform sky of radiance 1.
@@ -85,7 +85,7 @@
 //!
 //! ## Measured (Kenney town, 2-core VM)
 //!
-//! `cargo run --release -p light-probes --example town_probes`: 100 probes (4 m), 4 099
+//! `cargo run --release -p lightgrid-light-probes --example town_probes`: 100 probes (4 m), 4 099
 //! surfels; bake 0.02 s; relight 0.1–0.6 ms a frame; 5.5 KB a probe with bricks of 4,
 //! 10 KB with brick 1; relative RMSE of probe irradiance against [`mod@reference`] 0.026–0.033
 //! (bricks of 4) and 0.014–0.016 (brick 1), reference noise 0.003–0.004, suns at 15°,

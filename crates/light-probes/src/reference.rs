@@ -6,7 +6,7 @@
 use lightgrid_core::dirs;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::{AMBIENT_AXES, AmbientCube};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 use rayon::prelude::*;
 
 use crate::Lighting;

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use lightgrid_core::GridError;
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 use crate::{Lighting, ProbeError, ProbeLight, ProbeParams, ProbeSet};
 

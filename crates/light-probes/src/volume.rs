@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use lightgrid_core::glam::{IVec3, Vec3};
 use lightgrid_core::light::AmbientCube;
 use lightgrid_core::{BinLight, Grid, GridDesc, GridError, LightField, dirs};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 use rayon::prelude::*;
 
 use crate::{ProbeError, ProbeLight, ProbeSet};

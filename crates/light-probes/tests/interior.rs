@@ -15,12 +15,12 @@
 mod common;
 
 use common::{ground_triangles, model, room, tri};
-use light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, ProbeVolume};
-use light_probes::{place, place_walls, reference};
+use lightgrid_light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, ProbeVolume};
+use lightgrid_light_probes::{place, place_walls, reference};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{BinLight, GridDesc, LightField};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 const PI: f32 = std::f32::consts::PI;
 
@@ -110,7 +110,7 @@ fn openings_carry_uniform_light() {
 
 /// The room of the last two tests: 6 x 3 x 6 m on the ground, walls of albedo 0.7,
 /// optionally a 2 x 1.2 m window in the +X wall.
-fn room_scene(window: bool) -> material_voxelizer::model::Model {
+fn room_scene(window: bool) -> lightgrid_material_voxelizer::model::Model {
     let mut t = ground_triangles(60.0, 0);
     // (The floor a little above the ground, so that no two faces coincide.)
     t.extend(room(

@@ -11,11 +11,11 @@
 //! frames: the first lights the ground, the second the probes from it; later frames
 //! change nothing (the ground sees no ground).
 
-use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
+use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::Vec3;
-use material_voxelizer::model::Model;
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::model::Model;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 mod common;
 use common::{ground_triangles, model, quad, room};
@@ -135,7 +135,7 @@ fn linear_deterministic_and_checked() {
     let hi = Vec3::new(10.0, 8.0, 10.0);
     let mut params = ProbeParams::preview();
     params.spacing = 5.0;
-    let positions = light_probes::place(&scene, lo, hi, &params);
+    let positions = lightgrid_light_probes::place(&scene, lo, hi, &params);
     assert!(positions.len() >= 9, "{}", positions.len());
     let set = ProbeSet::bake(&scene, &positions, &params, &|_, _| {}).unwrap();
     let again = ProbeSet::bake(&scene, &positions, &params, &|_, _| {}).unwrap();

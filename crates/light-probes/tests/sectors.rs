@@ -1,11 +1,11 @@
 //! Sectors stream around the camera within the memory budget, nearest first; a sector
 //! bakes the same probes whether streamed or baked alone; relighting runs per sector.
 
-use light_probes::{Lighting, ProbeParams, ProbeSet, Sectors};
+use lightgrid_light_probes::{Lighting, ProbeParams, ProbeSet, Sectors};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::{Vec2, Vec3, Vec4};
-use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn ground(size: f32) -> Model {
     let t = |a: Vec3, b: Vec3, c: Vec3| Triangle {

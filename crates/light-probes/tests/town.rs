@@ -6,15 +6,15 @@
 //! 0.009. `examples/town_probes.rs` prints the same at three sun positions with 16 000 samples
 //! (bricks of 4: 0.026–0.033, brick 1: 0.014–0.016, noise 0.003–0.004).
 
-use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place, reference};
+use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place, reference};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::luminance;
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn error(brick: u32) -> f64 {
-    let model = light_volumes::demo::town(&light_volumes::demo::testdata_dir())
-        .expect("the shipped Kenney town (shared/testdata)");
+    let model = lightgrid_light_volumes::demo::town(&lightgrid_light_volumes::demo::assets_dir())
+        .expect("the shipped Kenney town (assets)");
     let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
     let (lo, hi) = model.bounds().unwrap();
     let params = ProbeParams {

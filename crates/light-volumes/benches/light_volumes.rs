@@ -1,13 +1,13 @@
 //! Ray casts in the town's BVH (alone and with deposits) and toggling one light of 100.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
+use lightgrid_light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
 use lightgrid_core::GridDesc;
 use lightgrid_core::glam::{UVec3, Vec3};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn bench(c: &mut Criterion) {
-    let model = demo::town(&demo::testdata_dir()).expect("shipped models");
+    let model = demo::town(&demo::assets_dir()).expect("shipped models");
     let scene = RayScene::new(&model, obvhs::BvhBuildParams::medium_build());
     let desc =
         GridDesc::new(Vec3::new(-24.0, -0.5, -24.0), 1.0, UVec3::new(49, 17, 49)).expect("valid");

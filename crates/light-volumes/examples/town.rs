@@ -2,17 +2,17 @@
 //! deposits), the cached volume's size before and after compression and the error it
 //! costs, and the time to toggle one light among 100.
 //!
-//! `cargo run --release -p light-volumes --example town`
+//! `cargo run --release -p lightgrid-light-volumes --example town`
 
 use std::time::Instant;
 
-use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
+use lightgrid_light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{GridDesc, NUM_DIRS};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let model = demo::town(&demo::testdata_dir())?;
+    let model = demo::town(&demo::assets_dir())?;
     let t = Instant::now();
     let scene = RayScene::new(&model, obvhs::BvhBuildParams::medium_build());
     println!(
@@ -52,7 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         stats.rays_per_second_bvh() / 1e6,
         stats.rays_per_second() / 1e6
     );
-    let key = light_volumes::volume_key(&lamp, &model, &desc, &params);
+    let key = lightgrid_light_volumes::volume_key(&lamp, &model, &desc, &params);
     let packed = CompressedVolume::compress(&volume, key);
     let full = desc.point_count() * NUM_DIRS * 12;
     let back = packed.decode().expect("lit");

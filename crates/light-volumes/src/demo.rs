@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use lightgrid_core::glam::{Vec2, Vec3, Vec4};
-use material_voxelizer::model::{Model, ModelError, SurfaceMaterial, Triangle};
+use lightgrid_material_voxelizer::model::{Model, ModelError, SurfaceMaterial, Triangle};
 
 /// Appends `part` to `model`, scaled by `scale` and moved by `offset`
 /// ([`Model::append`]).
@@ -19,9 +19,9 @@ pub fn append(model: &mut Model, part: &Model, scale: f32, offset: Vec3) {
     );
 }
 
-/// The town: `testdata` is the shipped `shared/testdata` folder.
-pub fn town(testdata: &Path) -> Result<Model, ModelError> {
-    let dir = testdata.join("kenney-city-builder");
+/// The town: `assets` is the shipped `assets` folder.
+pub fn town(assets: &Path) -> Result<Model, ModelError> {
+    let dir = assets.join("kenney-city-builder");
     let mut model = Model::default();
     // Ground: two triangles, grey-green.
     let g = |x: f32, z: f32| Vec3::new(x, 0.0, z);
@@ -53,7 +53,8 @@ pub fn town(testdata: &Path) -> Result<Model, ModelError> {
     Ok(model)
 }
 
-/// The shipped test data folder, beside the repository.
-pub fn testdata_dir() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata")
+/// The repository's `assets/` folder (CC0 Kenney models, the Jacksboro DEM; see its
+/// `LICENSES.md`). It exists in a clone of the workspace, not in a published crate.
+pub fn assets_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets")
 }

@@ -12,10 +12,10 @@
 //! ```
 //! use lightgrid_core::glam::{UVec3, Vec3};
 //! use lightgrid_core::{GridDesc, LightField};
-//! use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
-//! use material_voxelizer::model::Model;
-//! use material_voxelizer::procedural::rock;
-//! use material_voxelizer::voxelize::RayScene;
+//! use lightgrid_light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
+//! use lightgrid_material_voxelizer::model::Model;
+//! use lightgrid_material_voxelizer::procedural::rock;
+//! use lightgrid_material_voxelizer::voxelize::RayScene;
 //!
 //! // A rock lit by a point light above it.
 //! let model: Model = rock(1, 1.0)?;
@@ -29,7 +29,7 @@
 //! let params = TraceParams { rays: 20_000, ..TraceParams::preview() };
 //! let (volume, stats) = trace_light(&scene, &desc, &light, &params, &|_, _| {})?;
 //! assert!(stats.hits > 0);
-//! let key = light_volumes::volume_key(&light, &model, &desc, &params);
+//! let key = lightgrid_light_volumes::volume_key(&light, &model, &desc, &params);
 //! let packed = CompressedVolume::compress(&volume, key);
 //! let mut set = LightSet::new(desc)?;
 //! let id = set.add(&packed, light.colour, light.intensity)?;
@@ -51,7 +51,7 @@ pub use trace::{TraceParams, TraceStats, trace_light};
 pub use volume::{CacheOutcome, CompressedVolume, THRESHOLD, load_or_make};
 
 use lightgrid_core::GridDesc;
-use material_voxelizer::model::Model;
+use lightgrid_material_voxelizer::model::Model;
 
 /// The cache key of a light's volume: its shape (not colour or intensity: volumes are
 /// white), the scene's triangles, materials and textures, the grid and the trace
@@ -81,9 +81,9 @@ pub fn volume_key(light: &Light, model: &Model, desc: &GridDesc, params: &TraceP
             .f32s(&[m.uv_transform.rotation])
             .f32s(&m.uv_transform.scale.to_array());
         match m.alpha {
-            material_voxelizer::model::AlphaMode::Opaque => h.u32(0),
-            material_voxelizer::model::AlphaMode::Mask(c) => h.u32(1).f32s(&[c]),
-            material_voxelizer::model::AlphaMode::Blend => h.u32(2),
+            lightgrid_material_voxelizer::model::AlphaMode::Opaque => h.u32(0),
+            lightgrid_material_voxelizer::model::AlphaMode::Mask(c) => h.u32(1).f32s(&[c]),
+            lightgrid_material_voxelizer::model::AlphaMode::Blend => h.u32(2),
         };
     }
     for tex in &model.textures {

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, GridDesc, GridError, LightGrid, NUM_DIRS, dda, dirs};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 use rayon::prelude::*;
 
 use crate::light::{Light, cosine};
@@ -100,6 +100,7 @@ pub fn trace_light(
     if params.rays == 0 {
         return Err(GridError::invalid("rays", 0, "must be at least 1"));
     }
+    let _span = tracing::info_span!("trace light", rays = params.rays).entered();
     let start = Instant::now();
     let dims = desc.dims().as_ivec3();
     let h = desc.h();

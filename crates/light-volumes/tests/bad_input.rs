@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use light_volumes::{CompressedVolume, LightSet};
+use lightgrid_light_volumes::{CompressedVolume, LightSet};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{BinLight, GridDesc, LightGrid};
 

@@ -1,14 +1,14 @@
 //! Light volumes: known answers for tracing, linearity in albedo, determinism, the
 //! compressed cache (error bound, corruption, staleness) and the light set's toggles.
 
-use light_volumes::{
+use lightgrid_light_volumes::{
     CacheOutcome, CompressedVolume, Light, LightKind, LightSet, TraceParams, load_or_make,
     trace_light,
 };
 use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, LightField, LightGrid, NUM_DIRS, SumField, dirs};
-use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+use lightgrid_material_voxelizer::voxelize::RayScene;
 use obvhs::BvhBuildParams;
 
 fn quad(y: f32, half: f32, albedo: f32) -> Model {
@@ -144,7 +144,7 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
     };
     let p = params(50_000);
     let (g, _) = trace_light(&scene, &desc, &light, &p, &|_, _| {}).unwrap();
-    let key = light_volumes::volume_key(&light, &model, &desc, &p);
+    let key = lightgrid_light_volumes::volume_key(&light, &model, &desc, &p);
     let c = CompressedVolume::compress(&g, key);
     let cd = c.desc.unwrap();
     assert!(
@@ -176,7 +176,7 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
                     assert!((q[c] - v).abs() <= bound, "{} vs {v}", q[c]);
                 }
             } else {
-                assert!(v <= max * light_volumes::THRESHOLD, "{v} outside the box");
+                assert!(v <= max * lightgrid_light_volumes::THRESHOLD, "{v} outside the box");
             }
         }
     }
@@ -204,7 +204,7 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
     moved.kind = LightKind::Point {
         position: Vec3::ONE,
     };
-    assert_ne!(key, light_volumes::volume_key(&moved, &model, &desc, &p));
+    assert_ne!(key, lightgrid_light_volumes::volume_key(&moved, &model, &desc, &p));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -5,15 +5,15 @@ use std::path::Path;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lightgrid_core::GridDesc;
 use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
-use material_voxelizer::compose::{
+use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };
-use material_voxelizer::model::Model;
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::model::Model;
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 
 fn models() -> Vec<(String, Model)> {
     let dir =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata/kenney-city-builder");
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/kenney-city-builder");
     [
         "grass-trees.glb",
         "grass-trees-tall.glb",

@@ -1,9 +1,9 @@
 //! Writes the procedural demo assets as glTF and their material grids.
 //!
-//! `cargo run --release -p material-voxelizer --example assets -- [out-dir]`
+//! `cargo run --release -p lightgrid-material-voxelizer --example assets -- [out-dir]`
 
-use material_voxelizer::procedural::{TreeParams, bush, rock, tree, write_glb};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::procedural::{TreeParams, bush, rock, tree, write_glb};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::path::PathBuf::from(

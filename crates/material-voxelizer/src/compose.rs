@@ -342,6 +342,7 @@ impl AreaComposer {
 
     /// Composes the area `desc`, with counters.
     pub fn compose(&self, desc: &GridDesc) -> Result<(MaterialGrid, ComposeStats), GridError> {
+        let _span = tracing::debug_span!("compose", points = desc.point_count()).entered();
         let (alo, ahi) = desc.cell_bounds();
         // Candidates: instances in the tiles the area overlaps.
         let t0 = (Vec2::new(alo.x, alo.z) / self.params.tile)

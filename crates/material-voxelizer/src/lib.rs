@@ -5,8 +5,8 @@
 //!
 //! ```
 //! use lightgrid_core::glam::{Vec2, Vec3, Vec4};
-//! use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
-//! use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+//! use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+//! use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! // A red square, 1 m on a side, lying flat at y = 0.

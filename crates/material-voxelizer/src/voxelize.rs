@@ -460,6 +460,7 @@ pub fn voxelize(
 ) -> Result<(MaterialGrid, VoxelizeStats), ModelError> {
     params.validate()?;
     model.validate()?;
+    let _span = tracing::info_span!("voxelize", cell = params.cell).entered();
     let start = Instant::now();
     let (lo, hi) = model
         .bounds()

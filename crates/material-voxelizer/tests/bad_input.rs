@@ -6,9 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use lightgrid_core::glam::{Quat, Vec2, Vec3};
-use material_voxelizer::compose::{AreaComposer, ComposeParams, Heightmap, Instance};
-use material_voxelizer::model::Model;
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, Heightmap, Instance};
+use lightgrid_material_voxelizer::model::Model;
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use serde_json::json;
 
 fn scratch(name: &str) -> PathBuf {
@@ -248,14 +248,14 @@ fn png_header(w: u32, h: u32) -> Vec<u8> {
 
 #[test]
 fn huge_image_headers_are_refused_before_decoding() {
-    let e = material_voxelizer::compose::decode_limited(&png_header(100_000, 100_000), 1 << 16, 8)
+    let e = lightgrid_material_voxelizer::compose::decode_limited(&png_header(100_000, 100_000), 1 << 16, 8)
         .unwrap_err();
     assert!(e.contains("100000 x 100000"), "{e}");
-    let e = material_voxelizer::gltf_read::decode_texture(&png_header(40_000, 2)).unwrap_err();
+    let e = lightgrid_material_voxelizer::gltf_read::decode_texture(&png_header(40_000, 2)).unwrap_err();
     assert!(e.contains("40000 x 2"), "{e}");
     // Within the sides but over the memory limit: 60000² × 8 bytes = 27 GiB.
     lightgrid_core::limits::set_memory_limit(1 << 30);
-    let e = material_voxelizer::compose::decode_limited(&png_header(60_000, 60_000), 1 << 16, 8)
+    let e = lightgrid_material_voxelizer::compose::decode_limited(&png_header(60_000, 60_000), 1 << 16, 8)
         .unwrap_err();
     lightgrid_core::limits::set_memory_limit(0);
     assert!(e.contains("memory"), "{e}");
@@ -276,7 +276,7 @@ fn huge_image_headers_are_refused_before_decoding() {
         bad.push(fifo);
     }
     for p in bad {
-        let e = material_voxelizer::compose::load_heightmap_png(&p, Vec2::ZERO, 1.0, 1.0, 0.0)
+        let e = lightgrid_material_voxelizer::compose::load_heightmap_png(&p, Vec2::ZERO, 1.0, 1.0, 0.0)
             .unwrap_err()
             .to_string();
         assert!(!e.is_empty(), "{}", p.display());
@@ -300,7 +300,7 @@ fn padding_near_two_to_the_31_is_an_error_not_a_wrap() {
 
 #[test]
 fn huge_instances_do_not_fill_the_tile_table() {
-    let rock = material_voxelizer::procedural::rock(2, 1.0).unwrap();
+    let rock = lightgrid_material_voxelizer::procedural::rock(2, 1.0).unwrap();
     let (grid, _) = voxelize(&rock, &VoxelizeParams::preview(0.25), &|_, _| {}).unwrap();
     // Scale 1e6 covers about 10^10 tiles of 16 m: it must go to the unbinned list.
     let inst = |scale: f32| Instance {

@@ -2,7 +2,7 @@
 
 use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, Material, MaterialGrid, MaterialSource};
-use material_voxelizer::compose::{
+use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };
 
@@ -236,14 +236,14 @@ fn invalid_instances_name_the_field() {
 #[test]
 fn shipped_dem_loads_as_a_heightmap() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/testdata/dem-jacksboro/jacksboro_fault_dem_u16.png");
+        .join("../../assets/dem-jacksboro/jacksboro_fault_dem_u16.png");
     let hm =
-        material_voxelizer::compose::load_heightmap_png(&path, Vec2::ZERO, 30.0, 1.0, 0.0).unwrap();
+        lightgrid_material_voxelizer::compose::load_heightmap_png(&path, Vec2::ZERO, 30.0, 1.0, 0.0).unwrap();
     assert_eq!((hm.width, hm.depth), (403, 344));
     let (lo, hi) = hm.range();
     assert_eq!((lo, hi), (236.0, 1076.0));
     assert!(
-        material_voxelizer::compose::load_heightmap_png(
+        lightgrid_material_voxelizer::compose::load_heightmap_png(
             "/nonexistent.png",
             Vec2::ZERO,
             1.0,

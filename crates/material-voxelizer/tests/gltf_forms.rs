@@ -1,7 +1,7 @@
 //! `.gltf` with external and embedded buffers, node transforms, unsupported features.
 
-use material_voxelizer::model::Model;
-use material_voxelizer::procedural::{rock, write_glb};
+use lightgrid_material_voxelizer::model::Model;
+use lightgrid_material_voxelizer::procedural::{rock, write_glb};
 
 /// Splits a GLB into its JSON and binary chunks.
 fn split_glb(bytes: &[u8]) -> (serde_json::Value, Vec<u8>) {

@@ -1,9 +1,9 @@
 //! Procedural assets: deterministic, written and read back as glTF, voxelized sensibly.
 
 use lightgrid_core::glam::Vec3;
-use material_voxelizer::model::{AlphaMode, Model};
-use material_voxelizer::procedural::{TreeParams, bush, rock, tree, write_glb};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::model::{AlphaMode, Model};
+use lightgrid_material_voxelizer::procedural::{TreeParams, bush, rock, tree, write_glb};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 
 #[test]
 fn same_seed_same_tree_other_seed_other_tree() {
@@ -57,7 +57,7 @@ fn glb_round_trip_keeps_geometry_materials_and_leaf_mask() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-fn key(t: &material_voxelizer::model::Triangle) -> [u32; 9] {
+fn key(t: &lightgrid_material_voxelizer::model::Triangle) -> [u32; 9] {
     let p = t.positions;
     [
         p[0].x.to_bits(),

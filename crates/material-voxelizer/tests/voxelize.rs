@@ -1,8 +1,8 @@
 //! The voxelizer against known answers and brute force.
 
 use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
-use material_voxelizer::model::{AlphaMode, Model, SurfaceMaterial, Texture, Triangle};
-use material_voxelizer::voxelize::{RayScene, VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::model::{AlphaMode, Model, SurfaceMaterial, Texture, Triangle};
+use lightgrid_material_voxelizer::voxelize::{RayScene, VoxelizeParams, voxelize};
 use obvhs::BvhBuildParams;
 use proptest::prelude::*;
 
@@ -333,7 +333,7 @@ fn empty_space_is_not_traced() {
 #[test]
 fn shipped_kenney_models_load_and_voxelize() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/testdata/kenney-city-builder");
+        .join("../../assets/kenney-city-builder");
     assert!(dir.exists(), "test data missing at {}", dir.display());
     for name in [
         "grass-trees.glb",

@@ -1,4 +1,4 @@
-//! Probe relighting in the Kenney town on the CPU (`light_probes::ProbeLight`, rayon)
+//! Probe relighting in the Kenney town on the CPU (`lightgrid_light_probes::ProbeLight`, rayon)
 //! and on the GPU (`lightgrid_render::probes::GpuProbeRelight`, any adapter): time per
 //! frame and per 1 000 probes, and the largest difference between the two.
 //!
@@ -7,13 +7,13 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
+use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::Vec3;
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let model = light_volumes::demo::town(&light_volumes::demo::testdata_dir())?;
+    let model = lightgrid_light_volumes::demo::town(&lightgrid_light_volumes::demo::assets_dir())?;
     let scene = RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
     let (lo, hi) = model.bounds().ok_or("empty town")?;
     let ctx = Arc::new(lightgrid_gpu::GpuContext::new()?);

@@ -46,7 +46,7 @@ lightgrid_gpu::gpu_struct! {
 }
 
 /// The light of a layered sampling: the sky's scale, and the sun kept apart from the
-/// bins (`terrain_lod::Hierarchy::set_sun`) whose responses every layer then carries
+/// bins (`lightgrid_terrain_lod::Hierarchy::set_sun`) whose responses every layer then carries
 /// ([`GpuSampleLayer::sun`]). The default: scale 1, no sun (the bins hold all light).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LayerLight {
@@ -140,7 +140,7 @@ impl LightScatter {
     }
 }
 
-/// Which points a layer lights, as `terrain_lod::Owner` states it: those whose `(x, z)`
+/// Which points a layer lights, as `lightgrid_terrain_lod::Owner` states it: those whose `(x, z)`
 /// fall in quadtree cell `index` (`floor((p.xz - origin) / size) == index`) and inside
 /// the layer grid's point bounds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -283,7 +283,7 @@ impl GpuLightSampler {
     }
 
     /// [`GpuLightSampler::sample_layers`] with the sky scaled and a sun kept apart, as
-    /// `terrain_lod::Hierarchy`'s `LightField` reads it: the light is
+    /// `lightgrid_terrain_lod::Hierarchy`'s `LightField` reads it: the light is
     /// `bins × sky_scale + scattered × irradiance`, the first `vec4`'s `w` the sun's
     /// transmittance (read like the light, with the normal bias), and points with
     /// normals get the direct sun `E T max(0, n · s)` added to their irradiance (what

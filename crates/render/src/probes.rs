@@ -1,4 +1,4 @@
-//! Probe relighting on the GPU: [`GpuProbeRelight`] runs `light_probes::ProbeLight::frame`
+//! Probe relighting on the GPU: [`GpuProbeRelight`] runs `lightgrid_light_probes::ProbeLight::frame`
 //! (the CPU specification) as three compute stages over the same data, uploaded once
 //! per probe set; each frame uploads only the sky, the sun and the surfels' sun
 //! visibility. Interior sets ([`GpuProbeRelight::frame_interior`]) read the exterior
@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use light_probes::{Lighting, ProbeSet};
+use lightgrid_light_probes::{Lighting, ProbeSet};
 use lightgrid_core::GridError;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::AmbientCube;

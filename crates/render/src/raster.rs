@@ -116,7 +116,7 @@ pub struct Vertex {
 
 /// One instance of a mesh as the GPU draws it: model matrix and a colour multiplier.
 /// (A model's *placement* in a scene, with model index, position, rotation and scale, is
-/// `material_voxelizer::compose::Instance`; the viewer turns placements into these.)
+/// `lightgrid_material_voxelizer::compose::Instance`; the viewer turns placements into these.)
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MeshInstance {
@@ -281,7 +281,7 @@ pub struct View {
     /// Mean sky radiance (for [`LightingMode::NoGrid`], and the background).
     pub sky_ambient: Vec3,
     /// In [`LightingMode::Grid`], the irradiance of a sun the grids keep apart from their
-    /// bins (issue 14: `terrain_lod::Hierarchy::set_sun`), travelling along
+    /// bins (issue 14: `lightgrid_terrain_lod::Hierarchy::set_sun`), travelling along
     /// `sun_direction` and shadowed by the transmittance the light volume holds
     /// ([`crate::SampledLight::sun`]): surfaces and foliage read volume light add it
     /// with its specular; vertex light must hold it already. Zero (the default in

@@ -84,6 +84,7 @@ pub fn sample_points<F: LightField + Sync + ?Sized>(
     points: SamplePoints<'_>,
 ) -> Result<Vec<SampledLight>, GridError> {
     points.validate()?;
+    let _span = tracing::debug_span!("sample light", points = points.positions.len()).entered();
     let table = IrradianceTable::get();
     (0..points.positions.len())
         .into_par_iter()

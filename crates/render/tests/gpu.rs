@@ -583,8 +583,8 @@ fn bin_grid_uploads_only_the_changed_box() {
 
 #[test]
 fn toggling_a_local_light_uploads_only_its_box() {
-    use light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
-    use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+    use lightgrid_light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
+    use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
     let Some(ctx) = context() else { return };
     let p = |x: f32, z: f32| Vec3::new(x, 0.0, z);
     let tri = |a, b, c| Triangle {
@@ -602,7 +602,7 @@ fn toggling_a_local_light_uploads_only_its_box() {
         textures: Vec::new(),
     };
     let scene =
-        material_voxelizer::voxelize::RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
+        lightgrid_material_voxelizer::voxelize::RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
     let desc = GridDesc::new(Vec3::new(-4.0, -0.25, -4.0), 0.5, UVec3::new(17, 8, 17)).unwrap();
     let mut set = LightSet::new(desc).unwrap();
     let mut ids = Vec::new();
@@ -657,7 +657,7 @@ fn varied_grid(desc: GridDesc, seed: usize) -> LightGrid {
     Grid::from_trusted(desc, data)
 }
 
-/// The layer rule, on the CPU: the last layer owning `p` (terrain_lod::Owner::owns).
+/// The layer rule, on the CPU: the last layer owning `p` (lightgrid_terrain_lod::Owner::owns).
 fn owning<'a>(layers: &[(&'a LightGrid, Option<LayerOwner>)], p: Vec3) -> Option<&'a LightGrid> {
     layers.iter().rev().find_map(|(g, o)| {
         let owns = o.is_none_or(|o| {
@@ -961,8 +961,8 @@ fn point_cloud(seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
 }
 
 /// Two triangles of a quad from its corners in order, of material (and part) `m`.
-fn quad_triangles(c: [Vec3; 4], m: u32) -> [material_voxelizer::model::Triangle; 2] {
-    let t = |a: Vec3, b: Vec3, d: Vec3| material_voxelizer::model::Triangle {
+fn quad_triangles(c: [Vec3; 4], m: u32) -> [lightgrid_material_voxelizer::model::Triangle; 2] {
+    let t = |a: Vec3, b: Vec3, d: Vec3| lightgrid_material_voxelizer::model::Triangle {
         positions: [a, b, d],
         uvs: [Vec2::ZERO; 3],
         material: m,
@@ -973,14 +973,14 @@ fn quad_triangles(c: [Vec3; 4], m: u32) -> [material_voxelizer::model::Triangle;
 
 /// A model of `triangles` with warm grey materials of the given albedos.
 fn tinted(
-    triangles: Vec<material_voxelizer::model::Triangle>,
+    triangles: Vec<lightgrid_material_voxelizer::model::Triangle>,
     albedos: &[f32],
-) -> material_voxelizer::model::Model {
-    material_voxelizer::model::Model {
+) -> lightgrid_material_voxelizer::model::Model {
+    lightgrid_material_voxelizer::model::Model {
         triangles,
         materials: albedos
             .iter()
-            .map(|a| material_voxelizer::model::SurfaceMaterial {
+            .map(|a| lightgrid_material_voxelizer::model::SurfaceMaterial {
                 base_colour: Vec4::new(*a, 0.9 * a, 0.8 * a, 1.0),
                 ..Default::default()
             })
@@ -1015,14 +1015,14 @@ fn probes_match(
     }
 }
 
-/// Probe relighting on the GPU (`GpuProbeRelight`) equals `light_probes::ProbeLight`
+/// Probe relighting on the GPU (`GpuProbeRelight`) equals `lightgrid_light_probes::ProbeLight`
 /// (the CPU specification) frame after frame, to 1e-4 of the largest value (float
 /// reassociation and fused multiply-adds are the only differences), on a ground with a
 /// wall and a box (bounce light, shadows, several probes per surfel, bricks of 2).
 #[test]
 fn probe_relight_on_the_gpu_equals_the_cpu() {
-    use light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
-    use material_voxelizer::voxelize::RayScene;
+    use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
+    use lightgrid_material_voxelizer::voxelize::RayScene;
     let Some(ctx) = context() else { return };
     let q = quad_triangles;
     let v = Vec3::new;
@@ -1083,8 +1083,8 @@ fn probe_relight_on_the_gpu_equals_the_cpu() {
 /// device) equals `ProbeLight::frame_interior`, to 1e-4 of the largest value.
 #[test]
 fn interior_probe_relight_on_the_gpu_equals_the_cpu() {
-    use light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, place};
-    use material_voxelizer::voxelize::RayScene;
+    use lightgrid_light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, place};
+    use lightgrid_material_voxelizer::voxelize::RayScene;
     let Some(ctx) = context() else { return };
     // An axis-aligned rectangle: `axis` fixed at `at`, the other two (in x, y, z order)
     // spanning `u` and `v`.

@@ -2,18 +2,18 @@
 //! outputs, one downward pass and four passes, and a small tall grid (16 × 64 × 16),
 //! each for the fast path into recycled memory (`CpuSweeper::sweep` after
 //! `CpuSweeper::recycle`: what a per-frame rebuild runs), the fast path into fresh memory
-//! (`sweep_cpu::run`) and, in the same run, the scalar oracle it equals bit for bit
-//! (`sweep_cpu::sweep::run_scalar`); and the uniform fog at 16³ and 48³, media in every
+//! (`lightgrid_sweep_cpu::run`) and, in the same run, the scalar oracle it equals bit for bit
+//! (`lightgrid_sweep_cpu::sweep::run_scalar`); and the uniform fog at 16³ and 48³, media in every
 //! level, where phases 2 and 3 take the time, under the default medium rule and the
 //! flat source. The error of each setting against
 //! the Monte Carlo reference is in the crate docs (`canonical` example for timings with
-//! errors side by side); `cargo run --release -p sweep-cpu --example throughput` is the
+//! errors side by side); `cargo run --release -p lightgrid-sweep-cpu --example throughput` is the
 //! quick version of this.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lightgrid_core::glam::UVec3;
 use lightgrid_core::{GridDesc, MaterialGrid, Outputs, SweepOptions, Sweeper};
-use sweep_cpu::scenes::Scene;
+use lightgrid_sweep_cpu::scenes::Scene;
 
 fn bench(c: &mut Criterion) {
     let (m, b) = Scene::Canopy.build(64);
@@ -53,7 +53,7 @@ fn bench(c: &mut Criterion) {
                 o.outputs = outputs;
                 o.max_passes = passes;
                 o.tolerance = 0.0;
-                let mut sweeper = sweep_cpu::CpuSweeper::new();
+                let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
                 g.bench_function(format!("{name}, {passes_name}, recycled"), |bch| {
                     bch.iter(|| {
                         let out = sweeper.sweep(m, &b, &o).expect("sweep");
@@ -61,10 +61,12 @@ fn bench(c: &mut Criterion) {
                     })
                 });
                 g.bench_function(format!("{name}, {passes_name}"), |bch| {
-                    bch.iter(|| sweep_cpu::run(m, &b, &o).expect("sweep"))
+                    bch.iter(|| lightgrid_sweep_cpu::run(m, &b, &o).expect("sweep"))
                 });
                 g.bench_function(format!("{name}, {passes_name}, scalar oracle"), |bch| {
-                    bch.iter(|| sweep_cpu::sweep::run_scalar(m, &b, None, &o).expect("sweep"))
+                    bch.iter(|| {
+                        lightgrid_sweep_cpu::sweep::run_scalar(m, &b, None, &o).expect("sweep")
+                    })
                 });
             }
         }
@@ -84,7 +86,7 @@ fn bench_media(c: &mut Criterion) {
         let mut o = SweepOptions::multi_bounce();
         o.max_passes = 4;
         o.tolerance = 0.0;
-        let mut sweeper = sweep_cpu::CpuSweeper::new();
+        let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
         g.bench_function(format!("{n}³, recycled"), |bch| {
             bch.iter(|| {
                 let out = sweeper.sweep(&m, &b, &o).expect("sweep");
@@ -101,7 +103,7 @@ fn bench_media(c: &mut Criterion) {
             })
         });
         g.bench_function(format!("{n}³, scalar oracle"), |bch| {
-            bch.iter(|| sweep_cpu::sweep::run_scalar(&m, &b, None, &o).expect("sweep"))
+            bch.iter(|| lightgrid_sweep_cpu::sweep::run_scalar(&m, &b, None, &o).expect("sweep"))
         });
     }
     g.finish();

@@ -1,13 +1,13 @@
 //! Sweeps the canonical scenes and compares each with the Monte Carlo reference, with
 //! each medium emission rule (the default first).
 //!
-//! `cargo run --release -p sweep-cpu --example canonical -- [size] [paths] [smoothing]`
+//! `cargo run --release -p lightgrid-sweep-cpu --example canonical -- [size] [paths] [smoothing]`
 
 use std::time::Instant;
 
 use lightgrid_core::{MediumEmission, SweepOptions};
-use sweep_cpu::reference::{ReferenceOptions, trace};
-use sweep_cpu::scenes::{Scene, compare};
+use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_sweep_cpu::scenes::{Scene, compare};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -53,7 +53,7 @@ fn main() {
             let mut s = None;
             for _ in 0..3 {
                 let t = Instant::now();
-                s = Some(sweep_cpu::run(&m, &b, &o).expect("sweep"));
+                s = Some(lightgrid_sweep_cpu::run(&m, &b, &o).expect("sweep"));
                 sweep_ms = sweep_ms.min(t.elapsed().as_secs_f64() * 1e3);
             }
             let s = s.expect("swept");

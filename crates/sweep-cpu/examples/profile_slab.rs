@@ -1,18 +1,18 @@
 //! The half-space of `tests/exact.rs` (a thick slab of isotropic scatterers under a
 //! zenith beam of irradiance 1) on the sweep's own channel geometry, laterally uniform
 //! (every cell of a level alike, as with periodic sides, so each level is one cell),
-//! with each cell's source flat or quadratic in height ([`sweep_cpu::profile`]): what
+//! with each cell's source flat or quadratic in height ([`lightgrid_sweep_cpu::profile`]): what
 //! the quadratic rule would give in the 3-D sweep before the sweep is changed. Each
 //! channel's path crosses its stencil's segments in order; a cell's collisions are the
 //! light entering its segments (moments `C_n`) and its own source's (`K_nm`); the
 //! beam's first collisions have the moments of a vertical beam entering at the top.
 //! Source iteration to convergence. Issue 13.
 //!
-//! `cargo run --release -p sweep-cpu --example profile_slab`
+//! `cargo run --release -p lightgrid-sweep-cpu --example profile_slab`
 
-use sweep_cpu::exact::half_space_albedo_beam;
-use sweep_cpu::profile::{PassSums, Segment, pass_segments};
-use sweep_cpu::sweep::channels;
+use lightgrid_sweep_cpu::exact::half_space_albedo_beam;
+use lightgrid_sweep_cpu::profile::{PassSums, Segment, pass_segments};
+use lightgrid_sweep_cpu::sweep::channels;
 
 /// One segment's weight `μ_c ω_b σ_c` and integrals.
 struct Seg {
@@ -31,7 +31,7 @@ fn albedo(a: f64, tau: f64, order: usize) -> (f64, usize) {
 
 /// [`albedo`] with each pass's own source (`per_pass`): the pass's half of the
 /// collisions' moments, solved with that pass's self-collisions alone
-/// ([`sweep_cpu::profile::PassSums::solve`]), as the sweep's passes would emit it.
+/// ([`lightgrid_sweep_cpu::profile::PassSums::solve`]), as the sweep's passes would emit it.
 fn albedo_with(a: f64, tau: f64, order: usize, per_pass: bool) -> (f64, usize) {
     let sums = [PassSums::new(false, tau), PassSums::new(true, tau)];
     let levels = (40.0 / tau).ceil() as usize;

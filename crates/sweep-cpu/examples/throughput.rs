@@ -1,16 +1,16 @@
-//! Points per second of the sweep, quickly (criterion's `cargo bench -p sweep-cpu` is
+//! Points per second of the sweep, quickly (criterion's `cargo bench -p lightgrid-sweep-cpu` is
 //! the measurement of record): the 64³ canopy with 26-bin output, one downward pass and
 //! four passes, and a small tall grid (16 × 16 × 64), for the fast path into recycled
 //! memory (`CpuSweeper::recycle`), into fresh memory, and the scalar oracle it must
 //! equal.
 //!
-//! `cargo run --release -p sweep-cpu --example throughput [source|profile|escape]`
+//! `cargo run --release -p lightgrid-sweep-cpu --example throughput [source|profile|escape]`
 //! (the medium emission rule; the default rule when left out).
 
 use std::time::Instant;
 
 use lightgrid_core::{MaterialGrid, Outputs, SweepOptions, Sweeper};
-use sweep_cpu::scenes::Scene;
+use lightgrid_sweep_cpu::scenes::Scene;
 
 fn best_of(n: usize, mut f: impl FnMut()) -> f64 {
     (0..n)
@@ -61,16 +61,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         o.tolerance = 0.0;
         o.medium = medium;
         let pts = m.desc().point_count() as f64;
-        let mut sweeper = sweep_cpu::CpuSweeper::new();
+        let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
         let recycled = best_of(8, || {
             let out = sweeper.sweep(m, bd, &o).expect("sweep");
             sweeper.recycle(out);
         });
         let fast = best_of(5, || {
-            sweep_cpu::run(m, bd, &o).expect("sweep");
+            lightgrid_sweep_cpu::run(m, bd, &o).expect("sweep");
         });
         let oracle = best_of(3, || {
-            sweep_cpu::sweep::run_scalar(m, bd, None, &o).expect("sweep");
+            lightgrid_sweep_cpu::sweep::run_scalar(m, bd, None, &o).expect("sweep");
         });
         println!(
             "{name:34} {:14.2} {:12.2} {:12.2}",

@@ -9,7 +9,7 @@
 //! ```
 //! use lightgrid_core::glam::{UVec3, Vec3};
 //! use lightgrid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, Sweeper, SweepOptions};
-//! use sweep_cpu::CpuSweeper;
+//! use lightgrid_sweep_cpu::CpuSweeper;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! // A 16 x 12 x 16 grid of 1 m cells: a dense green block on a grey ground layer.
@@ -54,7 +54,7 @@
 //!
 //! ## Speed
 //!
-//! `cargo bench -p sweep-cpu` (criterion, 10 samples, mean), 64³ canopy scene (a
+//! `cargo bench -p lightgrid-sweep-cpu` (criterion, 10 samples, mean), 64³ canopy scene (a
 //! two-level canopy half way up, two levels of ground; in a downward pass under a
 //! uniform sky the 30 levels above it are copied, not computed), all outputs, 2-core
 //! x86-64 VM (AMD EPYC, 1 MB L2 a core, 32 MB L3; timings vary by ±20 % from run to run,
@@ -76,7 +76,7 @@
 //! | 16 × 64 × 16, 26 bins, 4 passes | 11.3 ms (1.45 M/s) | 10.8 ms (1.5 M/s) | | 29.4 ms (0.56 M/s) |
 //!
 //! ("Before": the fast path as it stood when issue 15 was filed, same bench and
-//! machine.) `cargo run --release -p sweep-cpu --example throughput` is the quick
+//! machine.) `cargo run --release -p lightgrid-sweep-cpu --example throughput` is the quick
 //! version.
 //!
 //! **Foliage in many levels.** The canopy has media in two levels; the bench forest
@@ -316,7 +316,7 @@
 //! emitting cells instead of a per-point dilation of 9 × 9 cells that was only read per
 //! row (bit for bit the same light).
 //!
-//! `cargo bench -p sweep-cpu` after this round (criterion means, a noisy hour: its
+//! `cargo bench -p lightgrid-sweep-cpu` after this round (criterion means, a noisy hour: its
 //! intervals spanned up to ±10 %), each against the scalar oracle in the same run:
 //! 64³ one pass 17.2 ms (15.3 M points/s) against 189 ms, 11.0×; four passes 68.9 ms
 //! against 778 ms, 11.3×; 16 × 64 × 16 one pass 1.88 ms against 10.8 ms, 5.8×, four
@@ -354,7 +354,7 @@
 //! | 64³, 26 bins, 1 pass | | 11.5–11.7 → 11.3 ms (23 M/s) |
 //! | forest 16³, 4 passes (`forest_profile`) | 4.81–4.87 → 4.64–4.73 ms | 3.08–3.12 → 3.08–3.09 ms |
 //!
-//! `cargo bench -p sweep-cpu` after it (criterion means, a fast hour), each against the
+//! `cargo bench -p lightgrid-sweep-cpu` after it (criterion means, a fast hour), each against the
 //! scalar oracle in the same run: 64³ one pass **11.9 ms (22.0 M points/s)** against
 //! 114 ms, 9.6×; four passes 52.2 ms (5.0 M/s) against 430 ms, 8.2×; 16 × 64 × 16 one
 //! pass 1.60 ms (10.2 M/s), four passes 3.52 ms (4.7 M/s); the uniform fog 16³ four
@@ -411,7 +411,7 @@
 //! 1.3–1.4× slower) the new build took 12.1–12.4 ms for one pass (21 M/s) and
 //! 47.2–47.3 ms for four (5.5 M/s), against 12.9–13.1 and 49.1–50.0 ms with
 //! x86-64-v3 alone.
-//! `cargo bench -p sweep-cpu` (criterion means, one run), each against the scalar
+//! `cargo bench -p lightgrid-sweep-cpu` (criterion means, one run), each against the scalar
 //! oracle in the same run: 64³ one pass (recycled) **10.1 ms, 25.9 M points/s**,
 //! against 104 ms (10.3×); four passes (recycled) **34.7 ms, 7.6 M/s**, against 405 ms
 //! (11.7×); 16 × 64 × 16 one pass 0.84 ms (19.5 M/s), four 3.26 ms (5.0 M/s); uniform
@@ -449,7 +449,7 @@
 //!   is unchanged: its levels have material, whose transmittances hide the wrap.
 //!
 //! Also: a sweep's pending scattered light is kept per level and allocated when a
-//! level first holds some (`PendingLevels`): fresh work (`sweep_cpu::run`, or the
+//! level first holds some (`PendingLevels`): fresh work (`lightgrid_sweep_cpu::run`, or the
 //! first sweep of a `CpuSweeper`) no longer reserves 25–38 MB at 64³ that the
 //! allocator, serving a freed block of that size from its heap, zeroed in full.
 //! Repeated fresh four-pass sweeps: peak memory 134.5 → 126.3 MB; their time moves
@@ -459,7 +459,7 @@
 //! Where the time goes, per pass of four over the 64³ canopy (before these changes):
 //! the first (downward: 34 levels computed, 30 copied) 7.7 ms, the second and third
 //! (34 levels each) 6.9 and 6.6 ms, the last (upward: 64 levels and the resolve of all
-//! 262 144 points) 12.8 ms. `cargo bench -p sweep-cpu` (criterion means, a fast
+//! 262 144 points) 12.8 ms. `cargo bench -p lightgrid-sweep-cpu` (criterion means, a fast
 //! spell), each against the scalar oracle in the same run: 64³ one pass (recycled)
 //! **9.75 ms, 26.9 M points/s**, against 94.8 ms (9.7×); four passes (recycled)
 //! **32.3 ms, 8.1 M/s**, against 411 ms (12.7×); without `recycle` 18.3 ms (14.3 M/s)
@@ -484,7 +484,7 @@
 //! output adds ≈ 150, the last pass's resolve ≈ 390 (26 bins × 15): some 650
 //! scalar-equivalent operations, which two cores at ~3 GHz issuing two a cycle would
 //! run at ~18 M points/s with four-lane vectors, more with eight. Memory
-//! (`cargo run --release -p sweep-cpu --example memory_floor`, two threads, eighth
+//! (`cargo run --release -p lightgrid-sweep-cpu --example memory_floor`, two threads, eighth
 //! round): writing the 82 MB output takes 0.9–2.2 ms, a read-modify-write of it
 //! 1.1–2.1 ms (the seventh round measured 4–5 ms in a slow spell); four passes move
 //! about one write and three partial read-modify-writes of it, ≤ 7 ms of their
@@ -919,7 +919,7 @@
 //! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its
 //! albedo to 1e-3, at any number of ground levels, sun angle or sky).
 //!
-//! `cargo run --release -p sweep-cpu --example canonical -- 16 1000000` prints the same
+//! `cargo run --release -p lightgrid-sweep-cpu --example canonical -- 16 1000000` prints the same
 //! comparison with timings.
 //!
 //! ## Against exact answers
@@ -959,7 +959,7 @@
 //!   collisions' height moments, each batch of scattered light an isotropic source
 //!   solving the cell's 3 × 3 balance with its own re-collisions). The half-space is
 //!   within 1.7 % at every albedo and every cell depth from 0.05 to 3: the channels' own
-//!   angular error (`cargo run --release -p sweep-cpu --example hs_depths`; the 1-D model
+//!   angular error (`cargo run --release -p lightgrid-sweep-cpu --example hs_depths`; the 1-D model
 //!   `examples/profile_slab.rs` predicts the same figures to 0.01 %). The white furnace
 //!   stays exact and flux is conserved; the light is linear except where the quadratic
 //!   dips below 0 and the output is clamped (26 of 319 488 values of the bench forest,
@@ -1027,6 +1027,7 @@
 
 pub mod accel;
 pub mod exact;
+pub mod isa;
 pub mod medium;
 pub mod profile;
 pub mod reference;
@@ -1186,7 +1187,7 @@ pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -
 /// ```
 /// use lightgrid_core::{BinLight, Boundary, Sweeper, SweepOptions};
 /// use lightgrid_core::glam::Vec3;
-/// use sweep_cpu::{CpuSweeper, scenes::Scene};
+/// use lightgrid_sweep_cpu::{CpuSweeper, scenes::Scene};
 ///
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// let (material, boundary) = Scene::Canopy.build(16);
@@ -1231,6 +1232,15 @@ impl CpuSweeper {
     }
 }
 
+/// The `tracing` span of one sweep (debug level: a hierarchy runs hundreds a second).
+fn sweep_span(material: &MaterialGrid, options: &SweepOptions) -> tracing::Span {
+    tracing::debug_span!(
+        "cpu sweep",
+        points = material.desc().point_count(),
+        passes = options.max_passes
+    )
+}
+
 impl Sweeper for CpuSweeper {
     fn name(&self) -> &'static str {
         "cpu"
@@ -1241,6 +1251,7 @@ impl Sweeper for CpuSweeper {
         boundary: &Boundary,
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
+        let _span = sweep_span(material, options).entered();
         let s = sweep::run_reusing(material, boundary, None, options, true, &mut self.spare)?;
         self.last_balance = Some(s.balance);
         Ok(s.output)
@@ -1252,6 +1263,7 @@ impl Sweeper for CpuSweeper {
         source: &CellSource,
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
+        let _span = sweep_span(material, options).entered();
         let s = sweep::run_reusing(
             material,
             boundary,

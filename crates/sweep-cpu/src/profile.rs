@@ -19,7 +19,7 @@
 //! With a flat source, Chandrasekhar's half-space albedo comes out 15–23 % low in cells
 //! of optical depth 3 and albedo ≤ 0.5: a beam entering a thick cell collides near the
 //! face it entered by, and a flat source sends too little of that back out. The 1-D
-//! study `cargo run --release -p sweep-cpu --example do1d` solves the half-space with
+//! study `cargo run --release -p lightgrid-sweep-cpu --example do1d` solves the half-space with
 //! the sweep's own channel cosines as ordinates and the cell's whole source expanded in
 //! Legendre polynomials of height up to order 0, 1 or 2 (each coefficient the cell's
 //! moment of its collisions, so the scheme stays **linear in the light** and exact in a
@@ -531,6 +531,7 @@ impl CellProfile {
     /// bit for bit: [`balance_lane`] for every colour in one loop that compiles to
     /// vectors, the emission and absorbed flux in the same loop (their `f64`
     /// conversions and sums, one colour at a time, had cost more than the solve).
+    #[inline(always)]
     fn sources(
         &self,
         a: [f32; 3],
@@ -618,7 +619,9 @@ impl CellProfile {
 
 /// [`CellProfile::source`] per colour: the source coefficients (`[J_0, J_1, J_2]`, RGB
 /// each) for collisions of height moments `r` (RGB each), albedo `alb`; the flux the
-/// cell's own material absorbs of it is added to `absorbed`.
+/// cell's own material absorbs of it is added to `absorbed`. Inlined into the sweep's
+/// row kernels, so that it runs on their vector path ([`crate::isa`]).
+#[inline(always)]
 pub fn source_rgb(pr: &CellProfile, alb: Vec3, r: [Vec3; 3], absorbed: &mut DVec3) -> [Vec3; 3] {
     let (j, ab) = pr.sources(
         alb.to_array(),

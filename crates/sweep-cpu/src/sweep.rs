@@ -13,6 +13,8 @@ use lightgrid_core::{
 };
 use rayon::prelude::*;
 
+use crate::isa::vectorised;
+
 use crate::medium;
 
 /// Number of transport channels of one pass (9 vertical-ish bins + 8 horizontal halves).
@@ -473,7 +475,7 @@ pub const FACE_NORMALS: [Vec3; 6] = lightgrid_core::light::AMBIENT_AXES;
 /// (The seed's rule, `A = (1 + p)/2`, `B = (1 − p)/2`, lets everything out straight back
 /// and `p` straight on: dense media reflected far too much, Chandrasekhar's half-space
 /// albedo +26 % at cells of optical depth 0.69 and +59 % at 3 for `w = 0.5`, against
-/// +9 % and −4 % with this rule; `sweep_cpu::exact`.)
+/// +9 % and −4 % with this rule; `lightgrid_sweep_cpu::exact`.)
 pub fn medium_emission(pass: f32) -> (f32, f32) {
     if !(pass > 0.0 && pass < 1.0) {
         return (1.0, 0.0);
@@ -686,6 +688,7 @@ trait Sink: Copy + Default + Send + Sync + bytemuck::Pod {
     fn clamp(&mut self);
     /// [`Sink::resolve`] for every point of `g` into `avg` and `dom`; `false` if any
     /// value is negative, NaN or infinite.
+    #[inline(always)]
     fn resolve_all(
         g: &[Self],
         avg: &mut [AverageLight],
@@ -750,6 +753,7 @@ impl Sink for BinLight {
     /// [`BinLight::resolve`] four points at a time (the same operations in the same
     /// order for each point, so bit for bit its values): one point's sums are chains of
     /// 26 dependent adds, four points' chains overlap.
+    #[inline(always)]
     fn resolve_all(
         g: &[Self],
         avg: &mut [AverageLight],
@@ -856,6 +860,7 @@ fn valid_bins(b: &BinLight) -> bool {
 /// point after the first pass's gather is such a point: this is the one-pass sweep's
 /// resolve without reading its bins (one point's bins at a time, as `BinLight`s, the
 /// sums do not vectorise).
+#[inline(always)]
 fn resolve_planes(
     ch: &[Channel; CHANNELS],
     cur_row: &[f32],
@@ -892,48 +897,53 @@ fn resolve_planes_as<const CLAMP: bool, const DOMINANT: bool>(
     let mut x0 = 0;
     while x0 < nx {
         let b = B.min(nx - x0);
-        with_width(b, |b| {
-            let (mut tr, mut tg, mut tb) = ([0f32; B], [0f32; B], [0f32; B]);
-            let (mut vx, mut vy, mut vz, mut sum) = ([0f32; B], [0f32; B], [0f32; B], [0f32; B]);
-            // Lanes of the least and greatest value and of "any NaN" ([`valid_bins`]).
-            let (mut lo, mut hi, mut nan) = ([0f32; B], [0f32; B], [false; B]);
-            for (bin, c) in of_bin.iter().enumerate() {
-                let Some(c) = *c else { continue };
-                let u = units[bin];
-                let plane = |k: usize| &cur_row[(c * 3 + k) * p + PAD + x0..][..b];
-                let (pr, pg, pb) = (plane(0), plane(1), plane(2));
-                for i in 0..b {
-                    let cl = |v: f32| if !CLAMP || v > 0.0 { v } else { 0.0 };
-                    let (r, g, bl) = (cl(pr[i]), cl(pg[i]), cl(pb[i]));
-                    tr[i] += r;
-                    tg[i] += g;
-                    tb[i] += bl;
-                    for v in [r, g, bl] {
-                        lo[i] = if v < lo[i] { v } else { lo[i] };
-                        hi[i] = if v > hi[i] { v } else { hi[i] };
-                        nan[i] |= v.is_nan();
-                    }
-                    if DOMINANT {
-                        let l = r * wr + g * wg + bl * wb;
-                        vx[i] += u.x * l;
-                        vy[i] += u.y * l;
-                        vz[i] += u.z * l;
-                        sum[i] += l;
+        with_width(
+            b,
+            #[inline(always)]
+            |b| {
+                let (mut tr, mut tg, mut tb) = ([0f32; B], [0f32; B], [0f32; B]);
+                let (mut vx, mut vy, mut vz, mut sum) =
+                    ([0f32; B], [0f32; B], [0f32; B], [0f32; B]);
+                // Lanes of the least and greatest value and of "any NaN" ([`valid_bins`]).
+                let (mut lo, mut hi, mut nan) = ([0f32; B], [0f32; B], [false; B]);
+                for (bin, c) in of_bin.iter().enumerate() {
+                    let Some(c) = *c else { continue };
+                    let u = units[bin];
+                    let plane = |k: usize| &cur_row[(c * 3 + k) * p + PAD + x0..][..b];
+                    let (pr, pg, pb) = (plane(0), plane(1), plane(2));
+                    for i in 0..b {
+                        let cl = |v: f32| if !CLAMP || v > 0.0 { v } else { 0.0 };
+                        let (r, g, bl) = (cl(pr[i]), cl(pg[i]), cl(pb[i]));
+                        tr[i] += r;
+                        tg[i] += g;
+                        tb[i] += bl;
+                        for v in [r, g, bl] {
+                            lo[i] = if v < lo[i] { v } else { lo[i] };
+                            hi[i] = if v > hi[i] { v } else { hi[i] };
+                            nan[i] |= v.is_nan();
+                        }
+                        if DOMINANT {
+                            let l = r * wr + g * wg + bl * wb;
+                            vx[i] += u.x * l;
+                            vy[i] += u.y * l;
+                            vz[i] += u.z * l;
+                            sum[i] += l;
+                        }
                     }
                 }
-            }
-            for i in 0..b {
-                let (av, dv) = resolved(
-                    Vec3::new(tr[i], tg[i], tb[i]),
-                    Vec3::new(vx[i], vy[i], vz[i]),
-                    sum[i],
-                );
-                let valid = (lo[i] >= 0.0) & (hi[i] < f32::INFINITY) & !nan[i];
-                ok &= valid & av.is_finite() & dv.is_finite();
-                avg[x0 + i].0 = av;
-                dom[x0 + i].0 = dv;
-            }
-        });
+                for i in 0..b {
+                    let (av, dv) = resolved(
+                        Vec3::new(tr[i], tg[i], tb[i]),
+                        Vec3::new(vx[i], vy[i], vz[i]),
+                        sum[i],
+                    );
+                    let valid = (lo[i] >= 0.0) & (hi[i] < f32::INFINITY) & !nan[i];
+                    ok &= valid & av.is_finite() & dv.is_finite();
+                    avg[x0 + i].0 = av;
+                    dom[x0 + i].0 = dv;
+                }
+            },
+        );
         x0 += b;
     }
     ok
@@ -997,7 +1007,7 @@ fn resolve<S: Sink>(
     g.par_chunks(RESOLVE_CHUNK)
         .zip(avg.par_chunks_mut(RESOLVE_CHUNK))
         .zip(dom.par_chunks_mut(RESOLVE_CHUNK))
-        .map(|((g, a), d)| S::resolve_all(g, a, d, dominant))
+        .map(|((g, a), d)| vectorised!(S::resolve_all(g, a, d, dominant)))
         .reduce(|| true, |a, b| a & b)
 }
 
@@ -1341,7 +1351,7 @@ fn row_add(row: &mut [f32], p: usize, x: usize, c: usize, v: Vec3) {
 /// Step 1 along a row: `out[i] = (1 - w)·mid[i + 1] + (w/4)·(mid[i + 2] + mid[i] +
 /// above[i + 1] + below[i + 1])` (in that order, as the oracle adds its taps), where
 /// `mid`, `above` and `below` start one column before the source point of `out[0]`.
-#[inline]
+#[inline(always)]
 fn gather_row(out: &mut [f32], (mid, above, below): (&[f32], &[f32], &[f32]), w0: f32, w1: f32) {
     let n = out.len();
     let m0 = &mid[1..][..n];
@@ -1893,9 +1903,10 @@ impl Ctx {
                     touch(g_row);
                 }
                 let ahead = fetch_ahead.then(|| Ahead::after(g_row));
-                self.gather_row_channels(z, (prev, count, ahead), ghost, cur_row, rf);
-                let unchanged =
-                    self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row);
+                vectorised!(self.gather_row_channels(z, (prev, count, ahead), ghost, cur_row, rf));
+                let unchanged = vectorised!(
+                    self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row)
+                );
                 if unchanged && ghost.is_none() {
                     // The light it sends on is what it gathered (no light from
                     // outside was added after the sum of `inside`).
@@ -1955,7 +1966,7 @@ impl Ctx {
     /// show it); the flux gathered from inside the grid summed into `rf.inside` if
     /// `count` (a level whose flux is known, [`conserves_flux`], leaves it); `ahead`
     /// fetched a share a channel.
-    #[inline(never)]
+    #[inline(always)]
     fn gather_row_channels(
         &self,
         z: i32,
@@ -1982,6 +1993,7 @@ impl Ctx {
             for k in 0..3 {
                 let plane = (c * 3 + k) * p;
                 let out = &mut cur_row[plane + PAD..][..nx];
+                #[inline(always)]
                 fn taps(
                     l: &LevelLight,
                     at: usize,
@@ -2026,7 +2038,7 @@ impl Ctx {
     /// (`planes`: the level's transmittances with a ring) so that the loops vectorise.
     /// A row whose points are all quiet passes its light unchanged (and `true` says so).
     #[allow(clippy::too_many_arguments)]
-    #[inline(never)]
+    #[inline(always)]
     fn transmit_row<S: Sink>(
         &self,
         z: i32,
@@ -2053,62 +2065,68 @@ impl Ctx {
         let (mut lost, mut mean) = ([0f32; B], [[0f32; B]; 3]);
         while x0 < nx {
             let b = B.min(nx - x0);
-            with_width(b, |b| {
-                for (c, chn) in self.ch.iter().enumerate() {
-                    for a in [&mut t, &mut t_mid, &mut after] {
-                        a[..b].fill(1.0);
-                    }
-                    let mut past_centre = false;
-                    let light: [&[f32]; 3] =
-                        std::array::from_fn(|col| &cur_row[(c * 3 + col) * p + PAD + x0..][..b]);
-                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                        let tr = planes.row(Planes::POW + chn.pow[k], z + dz, x0 as i32 + dx, b);
-                        let slot = chn.first_slot + k;
-                        // What the segment takes of the light entering the path (once,
-                        // not per colour).
-                        for i in 0..b {
-                            lost[i] = t[i] * (1.0 - tr[i]);
+            with_width(
+                b,
+                #[inline(always)]
+                |b| {
+                    for (c, chn) in self.ch.iter().enumerate() {
+                        for a in [&mut t, &mut t_mid, &mut after] {
+                            a[..b].fill(1.0);
                         }
-                        for (col, l) in light.iter().enumerate() {
-                            let out = &mut rem_row[slot_index(nx, (0, x0), slot, col)..][..b];
+                        let mut past_centre = false;
+                        let light: [&[f32]; 3] = std::array::from_fn(|col| {
+                            &cur_row[(c * 3 + col) * p + PAD + x0..][..b]
+                        });
+                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                            let tr =
+                                planes.row(Planes::POW + chn.pow[k], z + dz, x0 as i32 + dx, b);
+                            let slot = chn.first_slot + k;
+                            // What the segment takes of the light entering the path (once,
+                            // not per colour).
                             for i in 0..b {
-                                out[i] = l[i] * lost[i];
+                                lost[i] = t[i] * (1.0 - tr[i]);
+                            }
+                            for (col, l) in light.iter().enumerate() {
+                                let out = &mut rem_row[slot_index(nx, (0, x0), slot, col)..][..b];
+                                for i in 0..b {
+                                    out[i] = l[i] * lost[i];
+                                }
+                            }
+                            if past_centre {
+                                for i in 0..b {
+                                    after[i] *= tr[i];
+                                }
+                            }
+                            if dx == 0 && dz == 0 {
+                                let lnp = planes.row(Planes::LNP, z, x0 as i32, b);
+                                let e = path_exponents()[chn.pow[k]];
+                                for i in 0..b {
+                                    t_mid[i] = t[i] * seg_mean(tr[i], -e * lnp[i]);
+                                }
+                                past_centre = true;
+                            }
+                            for i in 0..b {
+                                t[i] *= tr[i];
                             }
                         }
-                        if past_centre {
+                        // The point's mean light into its bin, and the light that leaves, colour
+                        // by colour along the block (as `Vec3`s, point by point, these ran one
+                        // float at a time).
+                        for (col, m) in mean.iter_mut().enumerate() {
+                            let l = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
                             for i in 0..b {
-                                after[i] *= tr[i];
+                                m[i] = l[i] * t_mid[i];
+                                l[i] *= t[i];
                             }
                         }
-                        if dx == 0 && dz == 0 {
-                            let lnp = planes.row(Planes::LNP, z, x0 as i32, b);
-                            let e = path_exponents()[chn.pow[k]];
-                            for i in 0..b {
-                                t_mid[i] = t[i] * seg_mean(tr[i], -e * lnp[i]);
-                            }
-                            past_centre = true;
-                        }
                         for i in 0..b {
-                            t[i] *= tr[i];
+                            ta_row[x0 + i][c] = after[i];
+                            let m = Vec3::new(mean[0][i], mean[1][i], mean[2][i]);
+                            g_row[x0 + i].add(chn.bin, chn.unit, m);
                         }
                     }
-                    // The point's mean light into its bin, and the light that leaves, colour
-                    // by colour along the block (as `Vec3`s, point by point, these ran one
-                    // float at a time).
-                    for (col, m) in mean.iter_mut().enumerate() {
-                        let l = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
-                        for i in 0..b {
-                            m[i] = l[i] * t_mid[i];
-                            l[i] *= t[i];
-                        }
-                    }
-                    for i in 0..b {
-                        ta_row[x0 + i][c] = after[i];
-                        let m = Vec3::new(mean[0][i], mean[1][i], mean[2][i]);
-                        g_row[x0 + i].add(chn.bin, chn.unit, m);
-                    }
-                }
-            });
+                },
+            );
             x0 += b;
         }
         fill_rings(rem_row, nx, self.periodic);
@@ -2224,7 +2242,7 @@ impl Ctx {
              ((same_row, other_row), ((src_row, emits_row), (hi_row, ex_row))),
              g_row,
              rf| {
-                *rf = self.phase2_row(
+                *rf = vectorised!(self.phase2_row(
                     z,
                     removed,
                     (t_after, pows),
@@ -2236,7 +2254,7 @@ impl Ctx {
                     other_row,
                     (src_row, emits_row, hi_row, prof, ex_row),
                     g_row,
-                );
+                ));
             },
         )
     }
@@ -2267,9 +2285,16 @@ impl Ctx {
                 g_row.iter_mut().for_each(S::clamp);
             }
             rf.bad |= !if S::ALL_BINS && from_planes {
-                resolve_planes(self.ch, cur_row, p, (clamp, dominant), avg_row, dom_row)
+                vectorised!(resolve_planes(
+                    self.ch,
+                    cur_row,
+                    p,
+                    (clamp, dominant),
+                    avg_row,
+                    dom_row
+                ))
             } else {
-                S::resolve_all(g_row, avg_row, dom_row, dominant)
+                vectorised!(S::resolve_all(g_row, avg_row, dom_row, dominant))
             };
         }
     }
@@ -2278,7 +2303,7 @@ impl Ctx {
     /// cell removed from the paths crossing it, `Σ_k removed[x − d_k][slot k]` over the
     /// channel's stencil in order (points beyond an open side add nothing), read from
     /// whole rows of the planes `removed` (per row: slot, colour, column).
-    #[inline(never)]
+    #[inline(always)]
     fn gather_removed(
         &self,
         z: i32,
@@ -2329,7 +2354,7 @@ impl Ctx {
     /// nothing), `w` the block's cells' collision moments per slot
     /// ([`crate::profile::CellProfile::coll`]). Every sum takes its terms in the order
     /// the two gathers took them on their own.
-    #[inline(never)]
+    #[inline(always)]
     fn gather_moments(
         &self,
         z: i32,
@@ -2395,7 +2420,7 @@ impl Ctx {
 
     /// [`Ctx::phase2`] for row `z` (its own function, so that profiles show it).
     #[allow(clippy::too_many_arguments)]
-    #[inline(never)]
+    #[inline(always)]
     fn phase2_row<S: Sink>(
         &self,
         z: i32,
@@ -2459,9 +2484,9 @@ impl Ctx {
                     }
                     let coll: &[[[f32; GATHER_BLOCK]; 2]; SLOTS] =
                         coll.as_slice().try_into().expect("SLOTS moments");
-                    self.gather_moments(z, (x0, b), removed, coll, by_row, by_row_h);
+                    vectorised!(self.gather_moments(z, (x0, b), removed, coll, by_row, by_row_h));
                 } else if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
-                    self.gather_removed(z, x0, b, removed, by_row);
+                    vectorised!(self.gather_removed(z, x0, b, removed, by_row));
                 }
             }
             if cells[ci].pass >= 1.0 {
@@ -2531,8 +2556,12 @@ impl Ctx {
                     let v = |a: &[[f32; GATHER_BLOCK]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
                     [s_raw, v(&by_row_h[0]), v(&by_row_h[1])]
                 };
-                let dj =
-                    Pending::of_coeffs(crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed));
+                let dj = Pending::of_coeffs(vectorised!(crate::profile::source_rgb(
+                    pr,
+                    alb,
+                    r,
+                    &mut rf.absorbed
+                )));
                 // Accelerated (`jacobi`): only what waited is emitted; the new source
                 // waits for the next pair, as under the flat rule.
                 let emit = if self.jacobi {
@@ -2811,7 +2840,7 @@ impl Ctx {
                     );
                 } else if pre_rows[z as usize] {
                     let hi = profile.then_some((hi.0, hi.1, emits));
-                    self.phase3_row(z, (planes, hi), p, cur_row, pre_row, g_row);
+                    vectorised!(self.phase3_row(z, (planes, hi), p, cur_row, pre_row, g_row));
                 } else {
                     return;
                 }
@@ -2827,7 +2856,7 @@ impl Ctx {
             .with_max_len(self.rows_per_task(true).1)
             .for_each(|(z, ((same_row, other_row), rf))| {
                 *rf = RowFlux::default();
-                self.collide_row(
+                vectorised!(self.collide_row(
                     z as i32,
                     (src, emits),
                     hi,
@@ -2836,7 +2865,7 @@ impl Ctx {
                     (pre, pre_rows),
                     (same_row, other_row),
                     rf,
-                );
+                ));
             });
         RowFlux {
             sent: emitted.sent,
@@ -2850,7 +2879,7 @@ impl Ctx {
     /// layout) is what the path of point `x`
     /// carries into the segment of stencil slot `slot` (written for the segments after
     /// a path's first, the only ones [`Ctx::collide_row`] reads).
-    #[inline(never)]
+    #[inline(always)]
     fn phase3_row<S: Sink>(
         &self,
         z: i32,
@@ -2871,83 +2900,87 @@ impl Ctx {
         let mut mean = [0f32; B];
         while x0 < nx {
             let b = B.min(nx - x0);
-            with_width(b, |b| {
-                for (c, chn) in self.ch.iter().enumerate() {
-                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                        let slot = chn.first_slot + k;
-                        let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
-                        let tr = at(Planes::POW + chn.pow[k]);
-                        // What the path carries out of this segment is what it carries
-                        // into the next one: stored as it is computed (a path carries
-                        // nothing into its first segment, and the collisions read only
-                        // the later ones).
-                        let next = k + 1 < chn.stencil.len();
-                        if dx == 0 && dz == 0 {
-                            let lnp = at(Planes::LNP);
-                            let e = path_exponents()[chn.pow[k]];
-                            for i in 0..b {
-                                mean[i] = seg_mean(tr[i], -e * lnp[i]);
-                            }
-                            let half = &mean[..b];
-                            for col in 0..3 {
-                                let sv = at(Planes::SRC + col);
-                                let (a, ce) = (&acc[col], &mut centre[col]);
-                                if k == 0 {
-                                    // Nothing carried in: `0 · h + v` is `v` (but for
-                                    // the sign of a zero).
-                                    for i in 0..b {
-                                        ce[i] = sv[i] * (1.0 - half[i]);
-                                    }
-                                } else {
-                                    for i in 0..b {
-                                        ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
+            with_width(
+                b,
+                #[inline(always)]
+                |b| {
+                    for (c, chn) in self.ch.iter().enumerate() {
+                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                            let slot = chn.first_slot + k;
+                            let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
+                            let tr = at(Planes::POW + chn.pow[k]);
+                            // What the path carries out of this segment is what it carries
+                            // into the next one: stored as it is computed (a path carries
+                            // nothing into its first segment, and the collisions read only
+                            // the later ones).
+                            let next = k + 1 < chn.stencil.len();
+                            if dx == 0 && dz == 0 {
+                                let lnp = at(Planes::LNP);
+                                let e = path_exponents()[chn.pow[k]];
+                                for i in 0..b {
+                                    mean[i] = seg_mean(tr[i], -e * lnp[i]);
+                                }
+                                let half = &mean[..b];
+                                for col in 0..3 {
+                                    let sv = at(Planes::SRC + col);
+                                    let (a, ce) = (&acc[col], &mut centre[col]);
+                                    if k == 0 {
+                                        // Nothing carried in: `0 · h + v` is `v` (but for
+                                        // the sign of a zero).
+                                        for i in 0..b {
+                                            ce[i] = sv[i] * (1.0 - half[i]);
+                                        }
+                                    } else {
+                                        for i in 0..b {
+                                            ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
+                                        }
                                     }
                                 }
-                            }
-                            // The point's own cell's `P_1`, `P_2` share of its mean light.
-                            if let Some((src_hi, prof, emits)) = hi {
-                                for i in 0..b {
-                                    let q = x0 + i + nx * z as usize;
-                                    if emits[q] {
-                                        let w = prof.get(q).mean[slot];
-                                        let m = src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
-                                        for (col, ce) in centre.iter_mut().enumerate() {
-                                            ce[i] += m[col];
+                                // The point's own cell's `P_1`, `P_2` share of its mean light.
+                                if let Some((src_hi, prof, emits)) = hi {
+                                    for i in 0..b {
+                                        let q = x0 + i + nx * z as usize;
+                                        if emits[q] {
+                                            let w = prof.get(q).mean[slot];
+                                            let m = src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
+                                            for (col, ce) in centre.iter_mut().enumerate() {
+                                                ce[i] += m[col];
+                                            }
                                         }
                                     }
                                 }
                             }
+                            for (col, a) in acc.iter_mut().enumerate() {
+                                let sv = at(Planes::SRC + col);
+                                let ex = hi.map(|_| {
+                                    planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, b)
+                                });
+                                let out = next.then(|| {
+                                    &mut pre_row[slot_index(nx, (0, x0), slot + 1, col)..][..b]
+                                });
+                                if k == 0 {
+                                    Self::segment::<true>(&mut a[..b], (tr, sv, ex), out);
+                                } else {
+                                    Self::segment::<false>(&mut a[..b], (tr, sv, ex), out);
+                                }
+                            }
                         }
-                        for (col, a) in acc.iter_mut().enumerate() {
-                            let sv = at(Planes::SRC + col);
-                            let ex = hi.map(|_| {
-                                planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, b)
-                            });
-                            let out = next.then(|| {
-                                &mut pre_row[slot_index(nx, (0, x0), slot + 1, col)..][..b]
-                            });
-                            if k == 0 {
-                                Self::segment::<true>(&mut a[..b], (tr, sv, ex), out);
-                            } else {
-                                Self::segment::<false>(&mut a[..b], (tr, sv, ex), out);
+                        let om = mw.omega[c];
+                        for (col, a) in acc.iter().enumerate() {
+                            let out = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
+                            for i in 0..b {
+                                out[i] += a[i] * om;
+                            }
+                        }
+                        for i in 0..b {
+                            let ce = Vec3::new(centre[0][i], centre[1][i], centre[2][i]);
+                            if ce != Vec3::ZERO {
+                                g_row[x0 + i].add(chn.bin, chn.unit, ce * om);
                             }
                         }
                     }
-                    let om = mw.omega[c];
-                    for (col, a) in acc.iter().enumerate() {
-                        let out = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
-                        for i in 0..b {
-                            out[i] += a[i] * om;
-                        }
-                    }
-                    for i in 0..b {
-                        let ce = Vec3::new(centre[0][i], centre[1][i], centre[2][i]);
-                        if ce != Vec3::ZERO {
-                            g_row[x0 + i].add(chn.bin, chn.unit, ce * om);
-                        }
-                    }
-                }
-            });
+                },
+            );
             x0 += b;
         }
     }
@@ -3083,7 +3116,7 @@ impl Ctx {
     /// `!pre_rows[z]`, carry nothing); what a cell emits into the paths of points beyond
     /// an open side leaves through the side.
     #[allow(clippy::too_many_arguments)]
-    #[inline(never)]
+    #[inline(always)]
     fn collide_row(
         &self,
         z: i32,
@@ -3112,103 +3145,113 @@ impl Ctx {
         let mut cw = [[0f32; B]; 2];
         while x0 < nx {
             let b = B.min(nx - x0);
-            with_width(b, |b| {
-                for a in got_s.iter_mut().chain(got_m.iter_mut().flatten()) {
-                    a[..b].fill(0.0);
-                }
-                for a in got_h.iter_mut().flatten() {
-                    a[..b].fill(0.0);
-                }
-                // Profile: the block's media's profiles (found once, read for every slot).
-                let block_prof: [Option<&crate::profile::CellProfile>; B] =
-                    std::array::from_fn(|i| {
-                        let ci = x0 + i + nx * z as usize;
-                        (profile && i < b && medium::applies(self.medium, cells[ci].pass))
-                            .then(|| prof.get(ci))
-                    });
-                if self.fetch_profiles() {
-                    for pr in block_prof[..b].iter().flatten() {
-                        touch(&pr.coll[..]);
+            with_width(
+                b,
+                #[inline(always)]
+                |b| {
+                    for a in got_s.iter_mut().chain(got_m.iter_mut().flatten()) {
+                        a[..b].fill(0.0);
                     }
-                }
-                for (c, chn) in self.ch.iter().enumerate() {
-                    let om = mw.omega[c] * chn.mu;
-                    // A path carries nothing into its first segment.
-                    for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate().skip(1) {
-                        let Some(zr) = self.row_of(z - djz).filter(|&zr| pre_rows[zr]) else {
-                            continue;
-                        };
-                        let slot = chn.first_slot + j;
-                        let pw = planes.row(Planes::POW + chn.pow[j], z, x0 as i32, b);
-                        // Columns of the points `x − d_j` (the ring beyond the row's
-                        // ends: wrapped, or nothing beyond an open side).
-                        let first = x0 as i32 - djx;
-                        // Profile: the block's media's collision moments for this slot
-                        // (0 elsewhere: what is tallied there is not read).
-                        if profile {
-                            for (i, pr) in block_prof[..b].iter().enumerate() {
-                                (cw[0][i], cw[1][i]) = pr
-                                    .map_or((0.0, 0.0), |pr| (pr.coll[slot][0], pr.coll[slot][1]));
+                    for a in got_h.iter_mut().flatten() {
+                        a[..b].fill(0.0);
+                    }
+                    // Profile: the block's media's profiles (found once, read for every slot).
+                    let block_prof: [Option<&crate::profile::CellProfile>; B] =
+                        std::array::from_fn(|i| {
+                            let ci = x0 + i + nx * z as usize;
+                            (profile && i < b && medium::applies(self.medium, cells[ci].pass))
+                                .then(|| prof.get(ci))
+                        });
+                    if self.fetch_profiles() {
+                        for pr in block_prof[..b].iter().flatten() {
+                            touch(&pr.coll[..]);
+                        }
+                    }
+                    for (c, chn) in self.ch.iter().enumerate() {
+                        let om = mw.omega[c] * chn.mu;
+                        // A path carries nothing into its first segment.
+                        for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate().skip(1) {
+                            let Some(zr) = self.row_of(z - djz).filter(|&zr| pre_rows[zr]) else {
+                                continue;
+                            };
+                            let slot = chn.first_slot + j;
+                            let pw = planes.row(Planes::POW + chn.pow[j], z, x0 as i32, b);
+                            // Columns of the points `x − d_j` (the ring beyond the row's
+                            // ends: wrapped, or nothing beyond an open side).
+                            let first = x0 as i32 - djx;
+                            // Profile: the block's media's collision moments for this slot
+                            // (0 elsewhere: what is tallied there is not read).
+                            if profile {
+                                for (i, pr) in block_prof[..b].iter().enumerate() {
+                                    (cw[0][i], cw[1][i]) = pr.map_or((0.0, 0.0), |pr| {
+                                        (pr.coll[slot][0], pr.coll[slot][1])
+                                    });
+                                }
+                            }
+                            let unit = chn.unit.to_array();
+                            let [m0, m1, m2] = &mut got_m;
+                            let [h0, h1] = &mut got_h;
+                            for col in 0..3 {
+                                let mut sums = Tally {
+                                    s: &mut got_s[col][..b],
+                                    m: [&mut m0[col][..b], &mut m1[col][..b], &mut m2[col][..b]],
+                                    h: profile.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
+                                };
+                                let from = tap(pre, nx, (zr, slot, col), first, b);
+                                sums.add(0..b, from, (&pw[..b], om, unit), &cw);
                             }
                         }
-                        let unit = chn.unit.to_array();
-                        let [m0, m1, m2] = &mut got_m;
-                        let [h0, h1] = &mut got_h;
-                        for col in 0..3 {
-                            let mut sums = Tally {
-                                s: &mut got_s[col][..b],
-                                m: [&mut m0[col][..b], &mut m1[col][..b], &mut m2[col][..b]],
-                                h: profile.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
-                            };
-                            let from = tap(pre, nx, (zr, slot, col), first, b);
-                            sums.add(0..b, from, (&pw[..b], om, unit), &cw);
+                    }
+                    for i in 0..b {
+                        let xi = x0 + i;
+                        let ci = xi + nx * z as usize;
+                        let mat = cells[ci];
+                        if mat.pass >= 1.0 {
+                            continue;
                         }
-                    }
-                }
-                for i in 0..b {
-                    let xi = x0 + i;
-                    let ci = xi + nx * z as usize;
-                    let mat = cells[ci];
-                    if mat.pass >= 1.0 {
-                        continue;
-                    }
-                    if !self.periodic && emits[ci] {
-                        let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
-                        self.lost_through_sides(xi as i32, z, src[ci], hi, &pows[ci], rf);
-                    }
-                    let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
-                    let got = Pending {
-                        s: v(&got_s),
-                        m: [v(&got_m[0]), v(&got_m[1]), v(&got_m[2])],
-                    };
-                    if got.s == Vec3::ZERO {
-                        continue;
-                    }
-                    let alb = mat.reflectance;
-                    if profile && medium::applies(self.medium, mat.pass) {
-                        // Waits for the next passes of both directions, as an isotropic
-                        // source.
-                        let r = [got.s, v(&got_h[0]), v(&got_h[1])];
+                        if !self.periodic && emits[ci] {
+                            let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
+                            self.lost_through_sides(xi as i32, z, src[ci], hi, &pows[ci], rf);
+                        }
+                        let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
+                        let got = Pending {
+                            s: v(&got_s),
+                            m: [v(&got_m[0]), v(&got_m[1]), v(&got_m[2])],
+                        };
+                        if got.s == Vec3::ZERO {
+                            continue;
+                        }
+                        let alb = mat.reflectance;
+                        if profile && medium::applies(self.medium, mat.pass) {
+                            // Waits for the next passes of both directions, as an isotropic
+                            // source.
+                            let r = [got.s, v(&got_h[0]), v(&got_h[1])];
+                            rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
+                            let pr = prof.get(ci);
+                            let dj = vectorised!(crate::profile::source_rgb(
+                                pr,
+                                alb,
+                                r,
+                                &mut rf.absorbed
+                            ));
+                            let add = Pending::of_coeffs(dj);
+                            same_row[xi] = same_row[xi].add(&add);
+                            other_row[xi] = other_row[xi].add(&add);
+                            rf.pending += self.waiting(
+                                crate::profile::flux_rgb(pr, 0, &dj)
+                                    + crate::profile::flux_rgb(pr, 1, &dj),
+                            );
+                            continue;
+                        }
                         rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
-                        let pr = prof.get(ci);
-                        let dj = crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed);
-                        let add = Pending::of_coeffs(dj);
-                        same_row[xi] = same_row[xi].add(&add);
-                        other_row[xi] = other_row[xi].add(&add);
-                        rf.pending += self.waiting(
-                            crate::profile::flux_rgb(pr, 0, &dj)
-                                + crate::profile::flux_rgb(pr, 1, &dj),
-                        );
-                        continue;
+                        let sc = got.scaled(alb);
+                        same_row[xi] = same_row[xi].add(&sc);
+                        other_row[xi] = other_row[xi].add(&sc);
+                        // Each direction's pass emits half of it.
+                        rf.pending += sc.s.as_dvec3();
                     }
-                    rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
-                    let sc = got.scaled(alb);
-                    same_row[xi] = same_row[xi].add(&sc);
-                    other_row[xi] = other_row[xi].add(&sc);
-                    // Each direction's pass emits half of it.
-                    rf.pending += sc.s.as_dvec3();
-                }
-            });
+                },
+            );
             x0 += b;
         }
     }

@@ -1,5 +1,5 @@
 //! Diffusion acceleration of the passes (`Acceleration::Diffusion`, issue 13 item 4,
-//! `sweep_cpu::accel`): the same converged light in fewer passes, whose number does not
+//! `lightgrid_sweep_cpu::accel`): the same converged light in fewer passes, whose number does not
 //! grow with optical depth and albedo; scenes that converge fast are left alone.
 
 use lightgrid_core::glam::{UVec3, Vec3};
@@ -7,9 +7,9 @@ use lightgrid_core::{
     Acceleration, BinLight, Boundary, GridDesc, Material, MaterialGrid, MediumEmission,
     SideBoundary, SweepOptions,
 };
-use sweep_cpu::exact;
-use sweep_cpu::scenes::Scene;
-use sweep_cpu::sky::Sun;
+use lightgrid_sweep_cpu::exact;
+use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_sweep_cpu::sky::Sun;
 
 fn options(acceleration: Acceleration, max_passes: u32, tolerance: f32) -> SweepOptions {
     let mut o = SweepOptions::multi_bounce();
@@ -29,7 +29,7 @@ fn with(mut o: SweepOptions, rule: MediumEmission) -> SweepOptions {
 
 /// Largest difference of any bin between two light grids, relative to the largest bin
 /// of the first.
-fn worst_difference(a: &sweep_cpu::Sweep, b: &sweep_cpu::Sweep) -> f32 {
+fn worst_difference(a: &lightgrid_sweep_cpu::Sweep, b: &lightgrid_sweep_cpu::Sweep) -> f32 {
     let (a, b) = (
         a.output.bins.as_ref().expect("bins").data(),
         b.output.bins.as_ref().expect("bins").data(),
@@ -177,8 +177,10 @@ fn cloud_over_snow() -> (MaterialGrid, Boundary) {
 #[test]
 fn a_cloud_over_snow_converges_to_the_same_light() {
     let (m, b) = cloud_over_snow();
-    let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 2000, 1e-7)).expect("valid");
-    let on = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 2000, 1e-7)).expect("valid");
+    let plain =
+        lightgrid_sweep_cpu::run(&m, &b, &options(Acceleration::Off, 2000, 1e-7)).expect("valid");
+    let on = lightgrid_sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 2000, 1e-7))
+        .expect("valid");
     assert!(on.output.stats.corrections > 0);
     assert!(
         on.output.stats.passes * 3 < plain.output.stats.passes * 2,
@@ -191,7 +193,8 @@ fn a_cloud_over_snow_converges_to_the_same_light() {
     assert!(on.balance.relative_error() < 1e-5, "{:?}", on.balance);
     // Stopped early, at the multi-bounce tolerance, the light is still valid
     // (clamped at 0) and close.
-    let early = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 16, 1e-3)).expect("valid");
+    let early = lightgrid_sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 16, 1e-3))
+        .expect("valid");
     let diff = worst_difference(&plain, &early);
     assert!(diff < 2e-2, "worst difference {diff}");
     assert!(early.balance.relative_error() < 1e-5, "{:?}", early.balance);
@@ -203,9 +206,10 @@ fn scenes_that_converge_fast_are_left_alone() {
     // on, and the light is the plain sweep's bit for bit.
     for scene in Scene::ALL {
         let (m, b) = scene.build(12);
-        let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 64, 1e-4)).expect("valid");
-        let on =
-            sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 64, 1e-4)).expect("valid");
+        let plain =
+            lightgrid_sweep_cpu::run(&m, &b, &options(Acceleration::Off, 64, 1e-4)).expect("valid");
+        let on = lightgrid_sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 64, 1e-4))
+            .expect("valid");
         assert_eq!(on.output.stats.corrections, 0, "{}", scene.name());
         assert_eq!(on.output.stats.passes, plain.output.stats.passes);
         assert_eq!(on.output.bins, plain.output.bins, "{}", scene.name());
@@ -221,8 +225,10 @@ fn without_media_or_off_nothing_changes() {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(BinLight::uniform(Vec3::ONE))
     };
-    let plain = sweep_cpu::run(&m, &b, &options(Acceleration::Off, 32, 1e-5)).expect("valid");
-    let on = sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 32, 1e-5)).expect("valid");
+    let plain =
+        lightgrid_sweep_cpu::run(&m, &b, &options(Acceleration::Off, 32, 1e-5)).expect("valid");
+    let on = lightgrid_sweep_cpu::run(&m, &b, &options(Acceleration::Diffusion, 32, 1e-5))
+        .expect("valid");
     assert_eq!(on.output.stats.corrections, 0);
     assert_eq!(on.output.bins, plain.output.bins);
 }
@@ -259,7 +265,7 @@ fn random_media(seed: u64, periodic: bool) -> (MaterialGrid, Boundary) {
 }
 
 /// Plain and accelerated sweeps of `random_media` to 1e-7.
-fn both(seed: u64, periodic: bool) -> (sweep_cpu::Sweep, sweep_cpu::Sweep) {
+fn both(seed: u64, periodic: bool) -> (lightgrid_sweep_cpu::Sweep, lightgrid_sweep_cpu::Sweep) {
     both_with(seed, periodic, MediumEmission::Source)
 }
 
@@ -268,11 +274,11 @@ fn both_with(
     seed: u64,
     periodic: bool,
     rule: MediumEmission,
-) -> (sweep_cpu::Sweep, sweep_cpu::Sweep) {
+) -> (lightgrid_sweep_cpu::Sweep, lightgrid_sweep_cpu::Sweep) {
     let (m, b) = random_media(seed, periodic);
     let o = |a| with(options(a, 4000, 1e-7), rule);
-    let plain = sweep_cpu::run(&m, &b, &o(Acceleration::Off)).expect("valid");
-    let on = sweep_cpu::run(&m, &b, &o(Acceleration::Diffusion)).expect("valid");
+    let plain = lightgrid_sweep_cpu::run(&m, &b, &o(Acceleration::Off)).expect("valid");
+    let on = lightgrid_sweep_cpu::run(&m, &b, &o(Acceleration::Diffusion)).expect("valid");
     (plain, on)
 }
 
@@ -352,7 +358,7 @@ fn given_sides_average_only_and_the_sun_split_converge_alike() {
     let run = |acceleration| {
         let mut o = options(acceleration, 2000, 1e-7);
         o.outputs = lightgrid_core::Outputs::AVERAGE_DOMINANT;
-        sweep_cpu::run_with_source(&m, &b, Some(&src), &o).expect("valid")
+        lightgrid_sweep_cpu::run_with_source(&m, &b, Some(&src), &o).expect("valid")
     };
     let (plain, on) = (run(Acceleration::Off), run(Acceleration::Diffusion));
     assert!(on.output.stats.corrections > 0);

@@ -7,9 +7,9 @@ use std::process::Command;
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, Boundary, SweepOptions};
-use sweep_cpu::reference::{ReferenceOptions, trace};
-use sweep_cpu::scenes::Scene;
-use sweep_cpu::sky::EnvMap;
+use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_sweep_cpu::sky::EnvMap;
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("sweep-cpu-bad-{name}-{}", std::process::id()));
@@ -108,7 +108,7 @@ fn texels_and_sizes_that_would_overflow_are_errors() {
     let mut s = SweepOptions::multi_bounce();
     s.max_passes = u32::MAX;
     s.tolerance = 0.0;
-    let e = sweep_cpu::run(&m, &ok, &s)
+    let e = lightgrid_sweep_cpu::run(&m, &ok, &s)
         .map(|_| ())
         .unwrap_err()
         .to_string();

@@ -4,8 +4,8 @@
 //! **White furnace.** White media (albedo 1) inside uniform radiance 1: the light is 1
 //! from every direction at every point, whatever the medium. Random blobs of pass-through
 //! 0.02 to 1 and uniform media, any smoothing: to 1e-3, under the default rule (a
-//! quadratic source in height, `sweep_cpu::profile`) and the flat one (the telescoping
-//! emission along each path, `sweep_cpu::medium`).
+//! quadratic source in height, `lightgrid_sweep_cpu::profile`) and the flat one (the telescoping
+//! emission along each path, `lightgrid_sweep_cpu::medium`).
 //!
 //! **Chandrasekhar's half-space albedo**, under a beam and under a uniform sky, at every
 //! albedo and cell depth from 0.05 to 3 (the default rule; the flat rule's thick dark
@@ -20,10 +20,10 @@
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{Boundary, SideBoundary, SweepOptions};
-use sweep_cpu::sky::{Sun, uniform_sky};
+use lightgrid_sweep_cpu::sky::{Sun, uniform_sky};
 
 fn ground(levels: u32, albedo: f32) -> lightgrid_core::MaterialGrid {
-    sweep_cpu::exact::ground_material(levels, albedo)
+    lightgrid_sweep_cpu::exact::ground_material(levels, albedo)
 }
 
 fn converged() -> SweepOptions {
@@ -60,7 +60,7 @@ fn infinite_lambertian_ground_reflects_exactly_its_albedo() {
                     sides: SideBoundary::Periodic,
                     ..Boundary::open_sky(top)
                 };
-                let s = sweep_cpu::run(&m, &b, &converged()).unwrap();
+                let s = lightgrid_sweep_cpu::run(&m, &b, &converged()).unwrap();
                 let bal = s.balance;
                 let input = bal.input().x;
                 let case = format!("{levels} ground levels, albedo {albedo}, {name}");
@@ -83,7 +83,7 @@ fn infinite_lambertian_ground_reflects_exactly_its_albedo() {
 
 #[test]
 fn light_above_lambertian_ground_is_the_exact_field() {
-    // See `sweep_cpu::exact::ground_fields`: the sweep must hold the rule's field to
+    // See `lightgrid_sweep_cpu::exact::ground_fields`: the sweep must hold the rule's field to
     // 1e-4 at every point and level above the ground, and since the channels' cosines
     // are the bins' mean cosines (`sweep::channel_length`) the rule's field is the exact
     // continuous one (it was off by up to 2.1 % with the step vectors' cosines).
@@ -95,9 +95,9 @@ fn light_above_lambertian_ground_is_the_exact_field() {
                 sides: SideBoundary::Periodic,
                 ..Boundary::open_sky(top)
             };
-            let s = sweep_cpu::run(&m, &b, &converged()).unwrap();
+            let s = lightgrid_sweep_cpu::run(&m, &b, &converged()).unwrap();
             let g = s.output.bins.unwrap();
-            let (exact, rule) = sweep_cpu::exact::ground_fields(albedo, &top);
+            let (exact, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top);
             for bin in 0..lightgrid_core::NUM_DIRS {
                 let (r, e) = (rule.0[bin].x, exact.0[bin].x);
                 assert!(
@@ -126,7 +126,7 @@ fn light_above_lambertian_ground_is_the_exact_field() {
 fn white_furnace_is_exact_in_random_media() {
     for seed in [7u64, 11, 23] {
         for smoothing in [0.0f32, 0.25, 0.6] {
-            let (avg, irr) = sweep_cpu::exact::furnace(10, seed, smoothing);
+            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace(10, seed, smoothing);
             for c in [avg, irr] {
                 assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
                 assert!(c.pending < 1e-5, "{}: not converged", c.name);
@@ -140,7 +140,7 @@ fn white_furnace_is_exact_in_random_media() {
         }
     }
     for pass in [0.95f32, 0.5, 0.1, 0.02] {
-        let c = sweep_cpu::exact::uniform_furnace(pass);
+        let c = lightgrid_sweep_cpu::exact::uniform_furnace(pass);
         assert!(c.pending < 1e-5, "{}: not converged", c.name);
         assert!(
             c.balance < 1e-5 && c.error.abs() < 1e-3,
@@ -157,7 +157,7 @@ fn white_furnace_is_exact_in_random_media() {
 #[test]
 fn the_escape_rule_fails_the_furnace() {
     use lightgrid_core::MediumEmission;
-    let m = sweep_cpu::exact::furnace_material(8, 7);
+    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 7);
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&lightgrid_core::BinLight::uniform(Vec3::ONE))
@@ -166,7 +166,7 @@ fn the_escape_rule_fails_the_furnace() {
     o.medium = MediumEmission::Escape;
     o.max_passes = 200;
     o.tolerance = 1e-6;
-    let s = sweep_cpu::run(&m, &b, &o).unwrap();
+    let s = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap();
     let worst = s
         .output
         .bins
@@ -183,7 +183,7 @@ fn the_escape_rule_fails_the_furnace() {
 /// depth 0.05 and 0.69 (measured +1.6 / +1.1 / +0.2 / −0.1 % and −1.4 / −0.4 / +0.3 /
 /// +0.1 %), and at depth 3 for `w` ≥ 0.9 (+0.4 %, +2.5 % allowed 3 %). At depth 3 it
 /// reflects too little for `w` 0.1 and 0.5 (measured −23 % and −15 %: a flat source
-/// within a cell, shared up and down by a beam's profile, `sweep_cpu::medium`), which
+/// within a cell, shared up and down by a beam's profile, `lightgrid_sweep_cpu::medium`), which
 /// is why the default is the quadratic source in height; the bound below holds them
 /// there so that a change that makes them worse fails.
 #[test]
@@ -193,7 +193,7 @@ fn flat_rule_half_space_albedo() {
     o.tolerance = 1e-5;
     o.max_passes = 400;
     let check = |w: f32, pass: f32, tol: f64| {
-        let c = sweep_cpu::exact::half_space_with(w, pass, 40.0, &o);
+        let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o);
         assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
         assert!(
             c.error.abs() < tol,
@@ -223,9 +223,9 @@ fn the_escape_rule_is_closer_on_thick_dark_cells() {
     o.max_passes = 200;
     for w in [0.1f32, 0.5] {
         o.medium = MediumEmission::Escape;
-        let escape = sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
+        let escape = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
         o.medium = MediumEmission::Source;
-        let source = sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
+        let source = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
         assert!(
             escape.error.abs() < 0.05 && escape.error.abs() < source.error.abs(),
             "{}: escape {:+.3}, source {:+.3}",
@@ -242,7 +242,7 @@ fn the_escape_rule_is_closer_on_thick_dark_cells() {
 /// way; finite everywhere.
 #[test]
 fn medium_emission_weights_known_answers() {
-    use sweep_cpu::sweep::medium_emission;
+    use lightgrid_sweep_cpu::sweep::medium_emission;
     let (a, b) = medium_emission(0.5);
     assert!((a - b - std::f32::consts::LN_2).abs() < 1e-6, "{a} {b}");
     assert!((a + b - 0.75).abs() < 1e-6);
@@ -270,7 +270,7 @@ fn white_furnace_is_exact_with_the_flat_rule() {
     for seed in [7u64, 23] {
         for smoothing in [0.0f32, 0.25] {
             o.smoothing = smoothing;
-            let (avg, irr) = sweep_cpu::exact::furnace_with(10, seed, &o);
+            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace_with(10, seed, &o);
             for c in [avg, irr] {
                 assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
                 assert!(
@@ -302,7 +302,7 @@ fn half_space_albedo_within_two_percent() {
     o.max_passes = 400;
     for w in [0.1f32, 0.5, 0.9] {
         for pass in [0.95f32, 0.5, 0.2, 0.05] {
-            let c = sweep_cpu::exact::half_space_with(w, pass, 40.0, &o);
+            let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o);
             assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
             assert!(c.error.abs() < 0.02, "{}: {:+.4}", c.name, c.error);
         }
@@ -318,7 +318,7 @@ fn bright_half_space_within_two_percent() {
     o.tolerance = 1e-5;
     o.max_passes = 1000;
     for pass in [0.95f32, 0.5, 0.05] {
-        let c = sweep_cpu::exact::half_space_with(0.99, pass, 40.0, &o);
+        let c = lightgrid_sweep_cpu::exact::half_space_with(0.99, pass, 40.0, &o);
         assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
         assert!(c.error.abs() < 0.02, "{}: {:+.4}", c.name, c.error);
     }
@@ -351,9 +351,9 @@ fn sky_lit_half_space() {
         o.medium = rule;
         o.tolerance = 1e-6;
         o.max_passes = 400;
-        let s = sweep_cpu::run(&m, &b, &o).unwrap();
+        let s = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap();
         assert!(s.balance.relative_error() < 1e-5, "{:?}", s.balance);
-        let exact = sweep_cpu::exact::half_space_albedo_diffuse(w as f64);
+        let exact = lightgrid_sweep_cpu::exact::half_space_albedo_diffuse(w as f64);
         s.balance.top_out.x / s.balance.top_in.x / exact - 1.0
     };
     for w in [0.1f32, 0.5, 0.9] {

@@ -1,6 +1,6 @@
-//! The fast path (`sweep_cpu::run`: index reads away from the sides, quiet points
+//! The fast path (`lightgrid_sweep_cpu::run`: index reads away from the sides, quiet points
 //! without material within two cells skip the transmit step) against the scalar oracle
-//! (`sweep_cpu::sweep::run_scalar`, the crate docs step by step): equal **bit for bit**
+//! (`lightgrid_sweep_cpu::sweep::run_scalar`, the crate docs step by step): equal **bit for bit**
 //! (light, average, dominant direction; the energy balance to `f64` rounding, as its
 //! tallies sum in another order) over random sparse and dense
 //! grids, every side mode (open, periodic, given halo), uniform and per-point tops,
@@ -117,8 +117,8 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
     } else {
         lightgrid_core::MediumEmission::Source
     };
-    let fast = sweep_cpu::run_with_source(m, &b, source.as_ref(), &o).unwrap();
-    let oracle = sweep_cpu::sweep::run_scalar(m, &b, source.as_ref(), &o).unwrap();
+    let fast = lightgrid_sweep_cpu::run_with_source(m, &b, source.as_ref(), &o).unwrap();
+    let oracle = lightgrid_sweep_cpu::sweep::run_scalar(m, &b, source.as_ref(), &o).unwrap();
     prop_assert!(fast.output.bins == oracle.output.bins, "bins differ");
     prop_assert!(
         fast.output.average == oracle.output.average,
@@ -229,7 +229,7 @@ fn block_widths() {
 fn sinks_fetched_ahead() {
     let m = mixed(72, 11, 72, 29);
     let n = m.desc().point_count();
-    assert!(n * size_of::<BinLight>() >= sweep_cpu::sweep::FETCH_AHEAD_BYTES);
+    assert!(n * size_of::<BinLight>() >= lightgrid_sweep_cpu::sweep::FETCH_AHEAD_BYTES);
     let c = Case {
         sides: 0,
         per_point_top: false,

@@ -6,8 +6,8 @@ use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, LightGrid, Material, MaterialGrid, SideBoundary, SweepOptions,
 };
-use sweep_cpu::reference::{Reference, ReferenceOptions, trace};
-use sweep_cpu::scenes::{Scene, compare};
+use lightgrid_sweep_cpu::reference::{Reference, ReferenceOptions, trace};
+use lightgrid_sweep_cpu::scenes::{Scene, compare};
 
 fn fog(dims: UVec3, albedo: f32, pass: f32) -> MaterialGrid {
     let d = GridDesc::new(Vec3::ZERO, 1.0, dims).unwrap();
@@ -224,7 +224,7 @@ fn sweep_against_reference_on_canonical_scenes() {
         let (m, b) = scene.build(12);
         let mut o = SweepOptions::multi_bounce();
         o.tolerance = 1e-4;
-        let s = sweep_cpu::run(&m, &b, &o).unwrap();
+        let s = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap();
         let r = mc(&m, &b, 600_000, 1);
         let e = compare(s.output.bins.as_ref().unwrap(), &r.light, &m);
         report += &format!(

@@ -106,8 +106,8 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
     };
     let mut off = on;
     off.skip_empty_levels = false;
-    let a = sweep_cpu::run(m, &b, &on).unwrap();
-    let r = sweep_cpu::run(m, &b, &off).unwrap();
+    let a = lightgrid_sweep_cpu::run(m, &b, &on).unwrap();
+    let r = lightgrid_sweep_cpu::run(m, &b, &off).unwrap();
     prop_assert_eq!(a.output.stats.passes, r.output.stats.passes);
     prop_assert!(a.output.stats.levels_computed <= r.output.stats.levels_computed);
     let (x, y) = (a.output.bins.unwrap(), r.output.bins.unwrap());
@@ -168,7 +168,7 @@ fn upward_passes_carry_the_levels_above_once() {
             bottom,
             sides,
         };
-        sweep_cpu::run(&m, &b, &o).unwrap().output.stats
+        lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output.stats
     };
     // Down: 2 levels computed (6 copied); up: 8; down: 2 (6 copied); up: 8, the six
     // above the material once for both upward passes.
@@ -209,9 +209,9 @@ proptest! {
         // Light of one sign (the quadratic source's bins may dip below 0, and the
         // output is clamped).
         o.medium = MediumEmission::Source;
-        let s = sweep_cpu::run(&m, &b, &o).unwrap();
+        let s = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap();
         let bins = s.output.bins.unwrap();
-        let ch = sweep_cpu::sweep::channels(false);
+        let ch = lightgrid_sweep_cpu::sweep::channels(false);
         let level = m.desc().level_len();
         let carried: lightgrid_core::glam::DVec3 = bins.data()[..level]
             .iter()

@@ -3,7 +3,7 @@
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{BinLight, Boundary, GridDesc, Material, MaterialGrid, SweepOptions};
-use sweep_cpu::run;
+use lightgrid_sweep_cpu::run;
 
 fn fog(dims: UVec3, h: f32, albedo: f32, pass: f32) -> MaterialGrid {
     MaterialGrid::filled(
@@ -16,7 +16,7 @@ fn fog(dims: UVec3, h: f32, albedo: f32, pass: f32) -> MaterialGrid {
     .unwrap()
 }
 
-fn all_finite(s: &sweep_cpu::Sweep) -> bool {
+fn all_finite(s: &lightgrid_sweep_cpu::Sweep) -> bool {
     s.output
         .bins
         .as_ref()
@@ -161,10 +161,14 @@ fn nan_and_infinity_in_every_input_are_typed_errors() {
                 .contains("reflectance.x")
         );
         assert!(GridDesc::new(Vec3::ZERO, bad, UVec3::ONE).is_err());
-        assert!(sweep_cpu::sky::uniform_sky(Vec3::splat(bad)).is_err());
+        assert!(lightgrid_sweep_cpu::sky::uniform_sky(Vec3::splat(bad)).is_err());
         if !bad.is_finite() {
             assert!(GridDesc::new(Vec3::splat(bad), 1.0, UVec3::ONE).is_err());
-            assert!(sweep_cpu::Sun::at(bad, 0.0, Vec3::ONE).bins().is_err());
+            assert!(
+                lightgrid_sweep_cpu::Sun::at(bad, 0.0, Vec3::ONE)
+                    .bins()
+                    .is_err()
+            );
         }
     }
 }
@@ -268,7 +272,7 @@ fn light_beyond_the_packed_format_range() {
 fn ten_million_equal_deposits_into_one_cell() {
     let n = 10_000_000u32;
     let v = Vec3::new(0.1, 0.3, 7.0);
-    let mut t = sweep_cpu::reference::Tally::new(2);
+    let mut t = lightgrid_sweep_cpu::reference::Tally::new(2);
     let mut naive = 0f32;
     for _ in 0..n {
         t.add(1, v);

@@ -12,8 +12,8 @@ use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
 };
-use sweep_cpu::sun::first_collision;
-use sweep_cpu::{SunTransmittance, run_with_source};
+use lightgrid_sweep_cpu::sun::first_collision;
+use lightgrid_sweep_cpu::{SunTransmittance, run_with_source};
 
 fn converged() -> SweepOptions {
     let mut o = SweepOptions::multi_bounce();
@@ -40,7 +40,7 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
     for levels in [1, 2] {
         for albedo in [0.3f32, 0.8] {
             for (elev, azim) in [(90.0, 0.0), (37.0, 20.0), (12.0, 63.0)] {
-                let m = sweep_cpu::exact::ground_material(levels, albedo);
+                let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo);
                 let to_sun = sun(elev, azim);
                 let open = |_: Vec3| 1.0;
                 let t = SunTransmittance::march(&m, to_sun, true, &open).unwrap();
@@ -76,9 +76,9 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
                 // are the bins' mean cosines, the exact continuous field.
                 // (`ground_fields` is grey: run it for red and scale the colour.)
                 let mut straight = BinLight::ZERO;
-                let mu = sweep_cpu::sweep::channels(false)[lightgrid_core::dirs::DOWN].mu;
+                let mu = lightgrid_sweep_cpu::sweep::channels(false)[lightgrid_core::dirs::DOWN].mu;
                 straight.0[lightgrid_core::dirs::DOWN] = Vec3::splat(to_sun.y / mu);
-                let (_, rule) = sweep_cpu::exact::ground_fields(albedo, &straight);
+                let (_, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &straight);
                 let g = s.output.bins.unwrap();
                 for j in levels..d.levels() {
                     let l = g.get(UVec3::new(3, j, 5)).unwrap();
@@ -136,8 +136,8 @@ fn deposits_telescope_to_the_beams_loss_and_energy_balances() {
 
 #[test]
 fn bad_sources_are_refused_by_name() {
-    let m = sweep_cpu::exact::ground_material(1, 0.5);
-    let other = sweep_cpu::exact::ground_material(2, 0.5);
+    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.5);
+    let other = lightgrid_sweep_cpu::exact::ground_material(2, 0.5);
     let open = |_: Vec3| 1.0;
     let t = SunTransmittance::march(&other, Vec3::Y, true, &open).unwrap();
     let e = first_collision(&m, &t, Vec3::Y, Vec3::ONE, true, &open);
@@ -158,7 +158,8 @@ fn bad_sources_are_refused_by_name() {
     let e =
         first_collision(&m, &t, Vec3::Y, Vec3::new(f32::NAN, 1.0, 1.0), true, &open).unwrap_err();
     assert!(e.to_string().contains("irradiance"), "{e}");
-    let e = sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::NEG_ONE; 512], Vec3::Y).unwrap_err();
+    let e = lightgrid_sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::NEG_ONE; 512], Vec3::Y)
+        .unwrap_err();
     assert!(e.to_string().contains("removed[0]"), "{e}");
 }
 
@@ -167,7 +168,7 @@ fn bad_sources_are_refused_by_name() {
 /// scattered; over a Lambertian ground the reflected fraction is the albedo.
 #[test]
 fn reference_collimated_sun_known_answers() {
-    use sweep_cpu::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
+    use lightgrid_sweep_cpu::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
     // 1 M paths: with open sides a cell is crossed by about 30 000 of them, a relative
     // standard error near 0.7 %; the bound below is about 5 of those.
     let opts = ReferenceOptions {
@@ -201,7 +202,7 @@ fn reference_collimated_sun_known_answers() {
         }
         assert!(r.light.data().iter().all(|b| *b == BinLight::ZERO));
     }
-    let ground = sweep_cpu::exact::ground_material(1, 0.4);
+    let ground = lightgrid_sweep_cpu::exact::ground_material(1, 0.4);
     let r = trace_with_sun(&ground, &dark_periodic(), Some(&sun), &opts, &|_, _| {}).unwrap();
     let reflected = r.balance.top_out.x / r.balance.input().x;
     assert!((reflected - 0.4).abs() < 0.005, "reflected {reflected}");
@@ -211,13 +212,17 @@ fn reference_collimated_sun_known_answers() {
 /// ground, moving the sun recomputes the sun's responses and keeps the sky's.
 #[test]
 fn sun_split_responses() {
-    use sweep_cpu::sun::SunSplit;
-    let m = sweep_cpu::exact::ground_material(1, 0.3);
+    use lightgrid_sweep_cpu::sun::SunSplit;
+    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.3);
     let sky = Boundary {
         sides: SideBoundary::Periodic,
-        ..Boundary::open_sky(sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top)
+        ..Boundary::open_sky(
+            lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE)
+                .unwrap()
+                .top,
+        )
     };
-    let mut cpu = sweep_cpu::CpuSweeper::new();
+    let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     let s1 = sun(37.0, 20.0);
     let mut split = SunSplit::compute(&mut cpu, &m, &sky, s1, &converged()).unwrap();
     let p = Vec3::new(3.0, 1.0, 4.0);
@@ -259,15 +264,16 @@ impl lightgrid_core::Sweeper for Plain {
         b: &Boundary,
         o: &SweepOptions,
     ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
-        Ok(sweep_cpu::run(m, b, o)?.output)
+        Ok(lightgrid_sweep_cpu::run(m, b, o)?.output)
     }
 }
 
 /// A sweeper without cell sources says so by name instead of ignoring the source.
 #[test]
 fn sweepers_without_sources_refuse_them() {
-    let m = sweep_cpu::exact::ground_material(1, 0.3);
-    let src = sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::ZERO; 512], Vec3::NEG_Y).unwrap();
+    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.3);
+    let src = lightgrid_sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::ZERO; 512], Vec3::NEG_Y)
+        .unwrap();
     let e = lightgrid_core::Sweeper::sweep_with_source(
         &mut Plain,
         &m,
@@ -286,7 +292,7 @@ fn sweepers_without_sources_refuse_them() {
 #[test]
 fn sweep_sun_refusal_and_a_sun_below_the_horizon() {
     use lightgrid_core::{SunBoundary, Sweeper};
-    let m = sweep_cpu::exact::ground_material(1, 0.3);
+    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.3);
     let sb = SunBoundary {
         to_sun: sun(40.0, 20.0),
         scattered: dark_periodic(),
@@ -300,14 +306,18 @@ fn sweep_sun_refusal_and_a_sun_below_the_horizon() {
     // Below the horizon, with some scattered light coming in from above.
     let lit = Boundary {
         sides: SideBoundary::Periodic,
-        ..Boundary::open_sky(sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top)
+        ..Boundary::open_sky(
+            lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE)
+                .unwrap()
+                .top,
+        )
     };
     let below = SunBoundary {
         to_sun: Vec3::new(1.0, -0.2, 0.0),
         scattered: lit.clone(),
         outside: &|_| 1.0,
     };
-    let mut cpu = sweep_cpu::CpuSweeper::new();
+    let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     let r = cpu.sweep_sun(&m, &below, &converged()).unwrap();
     assert!(r.transmittance.data().iter().all(|&t| t == 0.0));
     let plain = cpu.sweep(&m, &lit, &converged()).unwrap().bins.unwrap();
@@ -343,7 +353,7 @@ fn sun_responses_nest_like_a_hierarchy() {
         .collect();
     let full_m = MaterialGrid::new(desc, cells.clone()).unwrap();
     let s = sun(33.0, 25.0);
-    let mut cpu = sweep_cpu::CpuSweeper::new();
+    let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     let full = cpu
         .sweep_sun(
             &full_m,

@@ -6,8 +6,8 @@ use lightgrid_core::{
     BinLight, Boundary, GridDesc, HaloLayout, LightGrid, Material, MaterialGrid, MediumEmission,
     Outputs, SideBoundary, SweepOptions, TopBoundary,
 };
+use lightgrid_sweep_cpu::run;
 use proptest::prelude::*;
-use sweep_cpu::run;
 
 fn desc(nx: u32, ny: u32, nz: u32) -> GridDesc {
     GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(nx, ny, nz)).unwrap()
@@ -28,7 +28,7 @@ fn lumpy_sky() -> BinLight {
     }))
 }
 
-fn bins(out: &sweep_cpu::Sweep) -> &LightGrid {
+fn bins(out: &lightgrid_sweep_cpu::Sweep) -> &LightGrid {
     out.output.bins.as_ref().unwrap()
 }
 
@@ -390,8 +390,8 @@ fn invalid_input_is_a_typed_error() {
 
 #[test]
 fn sun_and_sky_responses_combine_exactly() {
-    use sweep_cpu::{ClearSky, Sun, sweep_responses};
-    let (m, _) = sweep_cpu::scenes::Scene::Canopy.build(8);
+    use lightgrid_sweep_cpu::{ClearSky, Sun, sweep_responses};
+    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(8);
     let sun = Sun::at(0.6, 0.4, Vec3::ONE);
     let sky = ClearSky::blue(sun.direction).bins().unwrap();
     let sun_bins = sun.bins().unwrap();
@@ -439,7 +439,7 @@ fn sun_and_sky_responses_combine_exactly() {
 #[test]
 fn recycled_memory_is_fully_overwritten() {
     use lightgrid_core::{AverageLight, DominantDir, Grid, SweepOutput, Sweeper};
-    let (m, b) = sweep_cpu::scenes::Scene::Canopy.build(12);
+    let (m, b) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(12);
     let d = *m.desc();
     let garbage = |d: GridDesc| SweepOutput {
         bins: Some(Grid::from_trusted(
@@ -462,8 +462,10 @@ fn recycled_memory_is_fully_overwritten() {
             let mut o = SweepOptions::multi_bounce();
             o.outputs = outputs;
             o.max_passes = passes;
-            let fresh = sweep_cpu::CpuSweeper::new().sweep(&m, &b, &o).unwrap();
-            let mut sweeper = sweep_cpu::CpuSweeper::new();
+            let fresh = lightgrid_sweep_cpu::CpuSweeper::new()
+                .sweep(&m, &b, &o)
+                .unwrap();
+            let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
             sweeper.recycle(garbage(d));
             let reused = sweeper.sweep(&m, &b, &o).unwrap();
             assert!(fresh.bins == reused.bins, "{outputs:?}, {passes} passes");
@@ -479,13 +481,13 @@ fn recycled_memory_is_fully_overwritten() {
     // One sweeper through scenes of one size but other material, sides and sources:
     // each equals a fresh sweep (no light, pending scatter or side ring of an earlier
     // sweep survives in the reused working buffers).
-    let mut sweeper = sweep_cpu::CpuSweeper::new();
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
     let o = SweepOptions::multi_bounce();
     for (k, scene) in [
-        sweep_cpu::scenes::Scene::Canopy,
-        sweep_cpu::scenes::Scene::DenseBlock,
-        sweep_cpu::scenes::Scene::UniformFog,
-        sweep_cpu::scenes::Scene::Canopy,
+        lightgrid_sweep_cpu::scenes::Scene::Canopy,
+        lightgrid_sweep_cpu::scenes::Scene::DenseBlock,
+        lightgrid_sweep_cpu::scenes::Scene::UniformFog,
+        lightgrid_sweep_cpu::scenes::Scene::Canopy,
     ]
     .into_iter()
     .enumerate()
@@ -494,7 +496,9 @@ fn recycled_memory_is_fully_overwritten() {
         if k % 2 == 1 {
             b.sides = SideBoundary::Open;
         }
-        let fresh = sweep_cpu::CpuSweeper::new().sweep(&m, &b, &o).unwrap();
+        let fresh = lightgrid_sweep_cpu::CpuSweeper::new()
+            .sweep(&m, &b, &o)
+            .unwrap();
         let out = sweeper.sweep(&m, &b, &o).unwrap();
         assert!(out.bins == fresh.bins, "{scene:?} after other scenes");
         sweeper.recycle(out);
@@ -503,7 +507,7 @@ fn recycled_memory_is_fully_overwritten() {
             .map(|i| Vec3::splat((i % 7) as f32 * 0.1))
             .collect();
         let src = lightgrid_core::CellSource::new(d, removed, Vec3::new(0.2, -0.9, 0.1)).unwrap();
-        let fresh = sweep_cpu::CpuSweeper::new()
+        let fresh = lightgrid_sweep_cpu::CpuSweeper::new()
             .sweep_with_source(&m, &b, &src, &o)
             .unwrap();
         let out = sweeper.sweep_with_source(&m, &b, &src, &o).unwrap();
@@ -511,11 +515,13 @@ fn recycled_memory_is_fully_overwritten() {
         sweeper.recycle(out);
     }
     // Memory of another size is not used: a 12-level grid after an 8-level one.
-    let mut sweeper = sweep_cpu::CpuSweeper::new();
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
     sweeper.recycle(garbage(desc(4, 8, 4)));
     let o = SweepOptions::multi_bounce();
     let out = sweeper.sweep(&m, &b, &o).unwrap();
-    let fresh = sweep_cpu::CpuSweeper::new().sweep(&m, &b, &o).unwrap();
+    let fresh = lightgrid_sweep_cpu::CpuSweeper::new()
+        .sweep(&m, &b, &o)
+        .unwrap();
     assert!(out.bins == fresh.bins);
 }
 
@@ -524,7 +530,7 @@ fn recycled_memory_is_fully_overwritten() {
 /// limits, also where `τ` underflows.
 #[test]
 fn segment_mean_known_answers() {
-    use sweep_cpu::sweep::seg_mean;
+    use lightgrid_sweep_cpu::sweep::seg_mean;
     let m = |d: f32| seg_mean((-d).exp(), d);
     assert_eq!(m(0.0), 1.0);
     assert_eq!(seg_mean(0.0, f32::INFINITY), 0.0);

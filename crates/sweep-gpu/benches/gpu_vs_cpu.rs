@@ -4,8 +4,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lightgrid_core::SweepOptions;
-use sweep_cpu::scenes::Scene;
-use sweep_gpu::GpuSweeper;
+use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_sweep_gpu::GpuSweeper;
 
 fn bench(c: &mut Criterion) {
     let gpu = match GpuSweeper::new() {
@@ -36,7 +36,7 @@ fn bench(c: &mut Criterion) {
         g.sample_size(10);
         g.throughput(Throughput::Elements(m.desc().point_count() as u64));
         g.bench_function("cpu", |bch| {
-            bch.iter(|| sweep_cpu::run(&m, &b, &o).expect("cpu sweep"))
+            bch.iter(|| lightgrid_sweep_cpu::run(&m, &b, &o).expect("cpu sweep"))
         });
         g.bench_function("gpu (upload + compute + readback)", |bch| {
             bch.iter(|| gpu.run(&m, &b, &o).expect("gpu sweep"))

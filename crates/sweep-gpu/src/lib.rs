@@ -6,11 +6,11 @@
 //!
 //! ```no_run
 //! use lightgrid_core::{Sweeper, SweepOptions};
-//! use sweep_cpu::scenes::Scene;
-//! use sweep_gpu::GpuSweeper;
+//! use lightgrid_sweep_cpu::scenes::Scene;
+//! use lightgrid_sweep_gpu::GpuSweeper;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! // Err(GpuError::NoAdapter) without a GPU or lavapipe: fall back to sweep_cpu::CpuSweeper.
+//! // Err(GpuError::NoAdapter) without a GPU or lavapipe: fall back to lightgrid_sweep_cpu::CpuSweeper.
 //! let mut gpu = GpuSweeper::new()?;
 //! let (material, boundary) = Scene::Canopy.build(32);
 //! let light = gpu.sweep(&material, &boundary, &SweepOptions::multi_bounce())?;
@@ -56,9 +56,9 @@
 //! **Acceleration.** `SweepOptions::acceleration` is not implemented on the GPU: the
 //! passes run plain (`SweepStats::corrections` is 0), which for thick, bright media
 //! takes more passes to the tolerance than sweep-cpu's diffusion acceleration
-//! (`sweep_cpu::accel`); both converge to the same light.
+//! (`lightgrid_sweep_cpu::accel`); both converge to the same light.
 //!
-//! **Speed** (`cargo bench -p sweep-gpu`): on the CI machine the adapter is lavapipe,
+//! **Speed** (`cargo bench -p lightgrid-sweep-gpu`): on the CI machine the adapter is lavapipe,
 //! Mesa's software Vulkan on the same two cores: 32³ canopy, 4 passes, 0.90 s against
 //! sweep-cpu's 44 ms (upload 13 ms, readback 9 ms); 64³: about 6.4 s against 0.33 s. These
 //! figures measure lavapipe, not a GPU; no GPU was available to this session.

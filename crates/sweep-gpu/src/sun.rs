@@ -1,4 +1,4 @@
-//! The sun transmittance march on the GPU: `sweep_cpu::SunTransmittance::march` with one
+//! The sun transmittance march on the GPU: `lightgrid_sweep_cpu::SunTransmittance::march` with one
 //! thread per point (`shaders/sun.wgsl`), equal to it within `f32` rounding of `log` and
 //! `exp` (property-tested on lavapipe). What arrives where a ray leaves the grid is one
 //! constant here (1 for open sky); the CPU march also takes a function of the exit point.
@@ -8,7 +8,7 @@ use std::sync::Arc;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{GridError, MaterialGrid};
 use lightgrid_gpu::kernel::{Binding, Kernel, buffer};
-use sweep_cpu::SunTransmittance;
+use lightgrid_sweep_cpu::SunTransmittance;
 
 use crate::{GpuContext, GpuError};
 
@@ -66,7 +66,7 @@ impl GpuSunTransmittance {
         outside: f32,
     ) -> Result<SunTransmittance, SunError> {
         let desc = *material.desc();
-        let Some(dir) = sweep_cpu::sun::sun_direction(to_sun)? else {
+        let Some(dir) = lightgrid_sweep_cpu::sun::sun_direction(to_sun)? else {
             return Ok(SunTransmittance::zero(desc));
         };
         let outside = if outside.is_nan() {
@@ -89,7 +89,7 @@ impl GpuSunTransmittance {
             dims: d.extend(periodic as u32).to_array(),
             dir_outside: dir.extend(outside).to_array(),
             steps: [
-                sweep_cpu::sun::MAX_STEPS_PER_CELL * (d.x + d.y + d.z),
+                lightgrid_sweep_cpu::sun::MAX_STEPS_PER_CELL * (d.x + d.y + d.z),
                 0,
                 0,
                 0,

@@ -6,7 +6,7 @@ use lightgrid_core::{
     PackedLightGrid, Resident, SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats,
     Sweeper,
 };
-use sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
+use lightgrid_sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
 use wgpu::util::DeviceExt;
 
 use std::sync::Arc;
@@ -42,7 +42,7 @@ lightgrid_gpu::gpu_struct! {
         /// Smoothing weight.
         pub smoothing: f32 => "f32",
         /// The medium emission rule: 0 a slab's escape, 2 the flat source rule
-        /// (`sweep_cpu::medium`), 3 its quadratic source in height (`sweep_cpu::profile`,
+        /// (`lightgrid_sweep_cpu::medium`), 3 its quadratic source in height (`lightgrid_sweep_cpu::profile`,
         /// the default).
         pub medium: u32 => "u32",
     }
@@ -63,7 +63,7 @@ pub struct GpuSweeper {
     layout1: wgpu::BindGroupLayout,
     layout2: wgpu::BindGroupLayout,
     surface_w: wgpu::Buffer,
-    /// `sweep_cpu::profile::table_floats`, uploaded once.
+    /// `lightgrid_sweep_cpu::profile::table_floats`, uploaded once.
     profile_tab: wgpu::Buffer,
     packer: crate::GpuPacker,
     keep_resident: bool,
@@ -159,7 +159,7 @@ impl GpuSweeper {
         let clamp = pipeline("sweep clamp", wgsl::sweep_phase2(), &layout2, "clamp_light");
         let profile_tab = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("profile tables"),
-            contents: bytemuck::cast_slice(&sweep_cpu::profile::table_floats()),
+            contents: bytemuck::cast_slice(&lightgrid_sweep_cpu::profile::table_floats()),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let surface_w = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -251,7 +251,7 @@ impl GpuSweeper {
     }
 
     /// [`GpuSweeper::run`] with light already deposited in cells
-    /// (`sweep_cpu::run_with_source`: the sun's first collisions).
+    /// (`lightgrid_sweep_cpu::run_with_source`: the sun's first collisions).
     pub fn run_with_source(
         &self,
         material: &MaterialGrid,
@@ -361,7 +361,7 @@ impl GpuSweeper {
     ) -> Result<(wgpu::Buffer, SweepStats, GpuTimings), SweepError> {
         let start = std::time::Instant::now();
         let mut timings = GpuTimings::default();
-        sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
+        lightgrid_sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
         let backend = |e: GpuError| SweepError::Backend {
             backend: "gpu",
             message: e.to_string(),
@@ -459,7 +459,7 @@ impl GpuSweeper {
                 if profile_rule && r != Vec3::ZERO && m.pass > 0.0 && m.pass < 1.0 {
                     // The profile rule: the beam's collisions as source coefficients,
                     // computed as sweep-cpu computes them.
-                    let (j, _) = sweep_cpu::profile::beam_source(m, d, r);
+                    let (j, _) = lightgrid_sweep_cpu::profile::beam_source(m, d, r);
                     let z = 0.0;
                     return [
                         j[0].x, j[0].y, j[0].z, j[1].x, j[1].y, j[1].z, j[2].x, j[2].y, j[2].z, z,
@@ -496,7 +496,7 @@ impl GpuSweeper {
             .iter()
             .flat_map(|m| [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass])
             .collect();
-        let exposed: Vec<u32> = sweep_cpu::sweep::exposure(material, shape.periodic)
+        let exposed: Vec<u32> = lightgrid_sweep_cpu::sweep::exposure(material, shape.periodic)
             .iter()
             .map(|&m| m as u32)
             .collect();
@@ -812,6 +812,12 @@ macro_rules! gpu_sweeper_impl {
                 boundary: &Boundary,
                 options: &SweepOptions,
             ) -> Result<SweepOutput, SweepError> {
+                let _span = tracing::debug_span!(
+                    "gpu sweep",
+                    points = material.desc().point_count(),
+                    passes = options.max_passes
+                )
+                .entered();
                 self.run(material, boundary, options)
             }
             fn sweep_with_source(
@@ -829,7 +835,7 @@ macro_rules! gpu_sweeper_impl {
                 sun: &lightgrid_core::SunBoundary<'_>,
                 options: &SweepOptions,
             ) -> Result<lightgrid_core::SunResponse, SweepError> {
-                sweep_cpu::sun::sweep_sun(self, material, sun, options)
+                lightgrid_sweep_cpu::sun::sweep_sun(self, material, sun, options)
             }
         }
     };

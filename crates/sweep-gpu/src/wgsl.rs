@@ -5,11 +5,11 @@
 
 use std::fmt::Write;
 
-/// The sweep's channel tables, generated from `sweep_cpu::sweep::channels` (the
+/// The sweep's channel tables, generated from `lightgrid_sweep_cpu::sweep::channels` (the
 /// specification): steps, flux factors, bins of both passes, stencils and their path
 /// exponents, and the opaque cells' surface weights.
 pub fn sweep_tables() -> String {
-    use sweep_cpu::sweep::{CHANNELS, MAX_EXPONENTS, SLOTS, channels, path_exponents};
+    use lightgrid_sweep_cpu::sweep::{CHANNELS, MAX_EXPONENTS, SLOTS, channels, path_exponents};
     let (down, up) = (channels(false), channels(true));
     let mut s = String::new();
     let list = |v: Vec<String>| v.join(", ");
@@ -83,10 +83,10 @@ pub fn sweep_tables() -> String {
                 .collect()
         )
     );
-    // The source rule (`sweep_cpu::medium`): per path exponent its value and the pass's
+    // The source rule (`lightgrid_sweep_cpu::medium`): per path exponent its value and the pass's
     // weight (the same in both passes), the channels' `ω_b σ_c`, `O / τ`, the split
     // table.
-    let w = sweep_cpu::medium::weights(false);
+    let w = lightgrid_sweep_cpu::medium::weights(false);
     let _ = writeln!(
         s,
         "const PATH_E = array<f32, {MAX_EXPONENTS}>({});",
@@ -110,28 +110,28 @@ pub fn sweep_tables() -> String {
     let _ = writeln!(
         s,
         "const SPLIT_TAU_MAX: f32 = {:?};",
-        sweep_cpu::medium::SPLIT_TAU_MAX
+        lightgrid_sweep_cpu::medium::SPLIT_TAU_MAX
     );
     let _ = writeln!(
         s,
         "const SPLIT_N: u32 = {}u;\nconst MAX_E: u32 = {MAX_EXPONENTS}u;\nconst SPLIT = array<f32, {}>({});",
-        sweep_cpu::medium::SPLIT_TABLE,
-        sweep_cpu::medium::SPLIT_TABLE,
+        lightgrid_sweep_cpu::medium::SPLIT_TABLE,
+        lightgrid_sweep_cpu::medium::SPLIT_TABLE,
         list(
-            sweep_cpu::medium::split_table()
+            lightgrid_sweep_cpu::medium::split_table()
                 .iter()
                 .map(|v| format!("{v:?}"))
                 .collect()
         )
     );
-    // The quadratic source in height (`sweep_cpu::profile`): its table's layout, and
+    // The quadratic source in height (`lightgrid_sweep_cpu::profile`): its table's layout, and
     // per pass and slot `(μ_c ω_b σ_c, e, ū_1, ū_2)`.
     let _ = writeln!(
         s,
         "const PROF_N: u32 = {}u;\nconst PROF_TAU_MAX: f32 = {:?};\nconst PROF_NODE: u32 = {}u;\nconst SLOTS: u32 = {SLOTS}u;",
-        sweep_cpu::profile::TABLE,
-        sweep_cpu::profile::TAU_MAX as f32,
-        sweep_cpu::profile::NODE_FLOATS
+        lightgrid_sweep_cpu::profile::TABLE,
+        lightgrid_sweep_cpu::profile::TAU_MAX as f32,
+        lightgrid_sweep_cpu::profile::NODE_FLOATS
     );
     let _ = writeln!(
         s,
@@ -140,7 +140,7 @@ pub fn sweep_tables() -> String {
         list(
             [false, true]
                 .iter()
-                .flat_map(|&up| sweep_cpu::profile::slot_geometry(up).iter())
+                .flat_map(|&up| lightgrid_sweep_cpu::profile::slot_geometry(up).iter())
                 .map(|(w, e, u)| format!("vec4<f32>({w:?}, {e:?}, {:?}, {:?})", u[0], u[1]))
                 .collect()
         )
@@ -151,7 +151,7 @@ pub fn sweep_tables() -> String {
 /// Where the `free` half of [`surface_weight_table`] starts.
 pub const SURFACE_FREE_OFFSET: usize = 64 * 2 * lightgrid_core::NUM_DIRS;
 
-/// The opaque cells' surface weights (`sweep_cpu::sweep::surface_weights`) for all 64
+/// The opaque cells' surface weights (`lightgrid_sweep_cpu::sweep::surface_weights`) for all 64
 /// exposure masks and both passes: `w` at `(mask * 2 + up) * 26 + bin`, then `free` at
 /// `SURFACE_FREE_OFFSET` plus the same index, padded to 16-byte rows:
 /// the contents of phase 2's uniform buffer (a uniform, not a constant: a dynamically
@@ -159,17 +159,17 @@ pub const SURFACE_FREE_OFFSET: usize = 64 * 2 * lightgrid_core::NUM_DIRS;
 /// per invocation).
 pub fn surface_weight_table() -> Vec<f32> {
     let mut v: Vec<f32> = (0..64u8)
-        .flat_map(|m| sweep_cpu::sweep::surface_weights(m).w.concat())
+        .flat_map(|m| lightgrid_sweep_cpu::sweep::surface_weights(m).w.concat())
         .collect();
     debug_assert_eq!(v.len(), SURFACE_FREE_OFFSET);
-    v.extend((0..64u8).flat_map(|m| sweep_cpu::sweep::surface_weights(m).free.concat()));
+    v.extend((0..64u8).flat_map(|m| lightgrid_sweep_cpu::sweep::surface_weights(m).free.concat()));
     v.resize(v.len().div_ceil(4) * 4, 0.0);
     v
 }
 
 /// Floats of a point's level scratch: the removals of every stencil slot (RGB) and the
 /// `T_after` of every channel.
-pub const SCRATCH: usize = sweep_cpu::sweep::SLOTS * 3 + sweep_cpu::sweep::CHANNELS;
+pub const SCRATCH: usize = lightgrid_sweep_cpu::sweep::SLOTS * 3 + lightgrid_sweep_cpu::sweep::CHANNELS;
 
 /// The part both sweep phases share: `struct LevelParams`, sizes, helpers.
 fn sweep_common() -> String {
@@ -178,9 +178,9 @@ fn sweep_common() -> String {
     let _ = writeln!(
         s,
         "const T_AFTER_OFFSET: u32 = {}u;",
-        sweep_cpu::sweep::SLOTS * 3
+        lightgrid_sweep_cpu::sweep::SLOTS * 3
     );
-    let _ = writeln!(s, "const CH: u32 = {}u;", sweep_cpu::sweep::CHANNELS);
+    let _ = writeln!(s, "const CH: u32 = {}u;", lightgrid_sweep_cpu::sweep::CHANNELS);
     s.push_str(include_str!("shaders/sweep_common.wgsl"));
     s
 }
@@ -201,7 +201,7 @@ pub fn sweep_phase2() -> String {
     let body = include_str!("shaders/sweep_phase2.wgsl")
         .replace(
             "LOCAL_ROUNDS_GEN",
-            &format!("{}u", sweep_cpu::sweep::LOCAL_ROUNDS),
+            &format!("{}u", lightgrid_sweep_cpu::sweep::LOCAL_ROUNDS),
         )
         .replace(
             "SURFACE_ROWS_GEN",

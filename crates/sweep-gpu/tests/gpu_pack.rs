@@ -3,7 +3,7 @@
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::pack::{pack_r11g11b10, uf10_to_f32, uf11_to_f32};
-use sweep_gpu::{GpuContext, GpuPacker};
+use lightgrid_sweep_gpu::{GpuContext, GpuPacker};
 
 fn context() -> Option<GpuContext> {
     GpuContext::new_or_opt_out().unwrap_or_else(|e| {

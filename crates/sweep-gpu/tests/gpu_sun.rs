@@ -7,8 +7,8 @@ use std::sync::Arc;
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{Grid, GridDesc, Material, MaterialGrid};
 use proptest::prelude::*;
-use sweep_cpu::SunTransmittance;
-use sweep_gpu::{GpuContext, GpuSunTransmittance};
+use lightgrid_sweep_cpu::SunTransmittance;
+use lightgrid_sweep_gpu::{GpuContext, GpuSunTransmittance};
 
 fn march() -> Option<&'static GpuSunTransmittance> {
     static S: std::sync::OnceLock<Option<GpuSunTransmittance>> = std::sync::OnceLock::new();
@@ -52,7 +52,7 @@ fn close(cpu: &SunTransmittance, gpu: &SunTransmittance) -> Result<(), String> {
 #[test]
 fn canopy_at_several_suns_matches_the_cpu() {
     let Some(gpu) = march() else { return };
-    let (m, _) = sweep_cpu::scenes::Scene::Canopy.build(24);
+    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(24);
     for to_sun in [
         Vec3::Y,
         Vec3::new(0.766, 0.643, 0.0),

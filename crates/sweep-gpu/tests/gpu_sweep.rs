@@ -7,7 +7,7 @@ use lightgrid_core::{
     TopBoundary,
 };
 use proptest::prelude::*;
-use sweep_gpu::{GpuContext, GpuSweeper};
+use lightgrid_sweep_gpu::{GpuContext, GpuSweeper};
 
 /// One sweeper for all tests of this binary: pipelines compile once.
 fn sweeper() -> Option<&'static GpuSweeper> {
@@ -50,7 +50,7 @@ fn lumpy_sky() -> BinLight {
 #[test]
 fn canonical_scenes_match_the_cpu() {
     let Some(gpu) = sweeper() else { return };
-    for scene in sweep_cpu::scenes::Scene::ALL {
+    for scene in lightgrid_sweep_cpu::scenes::Scene::ALL {
         let (m, b) = scene.build(10);
         let mut o = SweepOptions::multi_bounce();
         o.tolerance = 0.0;
@@ -62,7 +62,7 @@ fn canonical_scenes_match_the_cpu() {
             lightgrid_core::MediumEmission::Escape,
         ] {
             o.medium = medium;
-            let cpu = sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
+            let cpu = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
             let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
             assert_close(&cpu, &g).unwrap_or_else(|e| panic!("{} ({medium:?}): {e}", scene.name()));
         }
@@ -116,7 +116,7 @@ proptest! {
         o.max_passes = passes;
         o.tolerance = 0.0;
         o.medium = if profile { lightgrid_core::MediumEmission::Profile } else { lightgrid_core::MediumEmission::Source };
-        let cpu = sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
+        let cpu = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
         let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
         if let Err(e) = assert_close(&cpu, &g) {
             prop_assert!(false, "{e}");
@@ -176,12 +176,12 @@ fn invalid_input_is_the_same_typed_error() {
 #[test]
 fn packed_on_the_gpu_within_one_code() {
     let Some(gpu) = sweeper() else { return };
-    for scene in sweep_cpu::scenes::Scene::ALL {
+    for scene in lightgrid_sweep_cpu::scenes::Scene::ALL {
         let (m, b) = scene.build(9);
         let mut o = SweepOptions::multi_bounce();
         o.tolerance = 0.0;
         o.max_passes = 3;
-        let cpu = sweep_cpu::run(&m, &b, &o)
+        let cpu = lightgrid_sweep_cpu::run(&m, &b, &o)
             .unwrap()
             .output
             .bins
@@ -208,8 +208,8 @@ fn packed_on_the_gpu_within_one_code() {
 #[test]
 fn sun_and_sky_responses_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    use sweep_cpu::{ClearSky, Sun, combine_outputs, responses_with};
-    let (m, _) = sweep_cpu::scenes::Scene::Canopy.build(8);
+    use lightgrid_sweep_cpu::{ClearSky, Sun, combine_outputs, responses_with};
+    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(8);
     let sun = Sun::at(0.6, 0.4, Vec3::ONE);
     let sky = ClearSky::blue(sun.direction).bins().unwrap();
     let sun_bins = sun.bins().unwrap();
@@ -221,7 +221,7 @@ fn sun_and_sky_responses_on_the_gpu() {
         responses_with(&mut shared, &m, &sky, &sun_bins, SideBoundary::Periodic, &o).unwrap();
     let (cs, cu) = (Vec3::new(0.5, 0.7, 1.2), Vec3::new(3000.0, 2800.0, 2500.0));
     let combined = combine_outputs(&a, &b, cs, cu).bins.unwrap();
-    let direct = sweep_cpu::run(
+    let direct = lightgrid_sweep_cpu::run(
         &m,
         &Boundary {
             top: TopBoundary::Uniform(Box::new(BinLight(std::array::from_fn(|d| {
@@ -241,11 +241,11 @@ fn sun_and_sky_responses_on_the_gpu() {
 
 /// The exact-answer case of `sweep-cpu/tests/exact.rs` on the GPU: above an infinite
 /// Lambertian ground (one and two levels, albedo 0.3 and 0.9) under a uniform sky, every
-/// bin at every point holds the rules' field (`sweep_cpu::exact::ground_fields`).
+/// bin at every point holds the rules' field (`lightgrid_sweep_cpu::exact::ground_fields`).
 #[test]
 fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let top = sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top;
+    let top = lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(top)
@@ -255,9 +255,9 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     o.tolerance = 0.0;
     for levels in [1, 2] {
         for albedo in [0.3f32, 0.9] {
-            let m = sweep_cpu::exact::ground_material(levels, albedo);
+            let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo);
             let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
-            let (_, rule) = sweep_cpu::exact::ground_fields(albedo, &top);
+            let (_, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top);
             for j in levels..g.desc().levels() {
                 let l = g.get(UVec3::new(3, j, 5)).unwrap();
                 for bin in 0..26 {
@@ -280,7 +280,7 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
 #[test]
 fn white_furnace_is_exact_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let m = sweep_cpu::exact::furnace_material(8, 11);
+    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 11);
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
@@ -324,8 +324,8 @@ proptest! {
         let Some(gpu) = sweeper() else { return Ok(()) };
         let to_sun = Vec3::new(sun.0, sun.1, sun.2);
         let open = |_: Vec3| 1.0;
-        let t = sweep_cpu::SunTransmittance::march(&m, to_sun, periodic, &open).unwrap();
-        let src = sweep_cpu::sun::first_collision(&m, &t, to_sun, Vec3::new(3.0, 2.0, 1.0), periodic, &open).unwrap();
+        let t = lightgrid_sweep_cpu::SunTransmittance::march(&m, to_sun, periodic, &open).unwrap();
+        let src = lightgrid_sweep_cpu::sun::first_collision(&m, &t, to_sun, Vec3::new(3.0, 2.0, 1.0), periodic, &open).unwrap();
         let b = Boundary {
             sides: if periodic { SideBoundary::Periodic } else { SideBoundary::Open },
             ..Boundary::open_sky(lumpy_sky().scaled(0.1))
@@ -334,7 +334,7 @@ proptest! {
         o.max_passes = passes;
         o.tolerance = 0.0;
         o.medium = if profile { lightgrid_core::MediumEmission::Profile } else { lightgrid_core::MediumEmission::Source };
-        let cpu = sweep_cpu::run_with_source(&m, &b, Some(&src), &o).unwrap().output.bins.unwrap();
+        let cpu = lightgrid_sweep_cpu::run_with_source(&m, &b, Some(&src), &o).unwrap().output.bins.unwrap();
         let g = gpu.run_with_source(&m, &b, Some(&src), &o).unwrap().bins.unwrap();
         if let Err(e) = assert_close(&cpu, &g) {
             prop_assert!(false, "{e}");
@@ -346,16 +346,16 @@ proptest! {
 #[test]
 fn sun_split_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let (m, b) = sweep_cpu::scenes::Scene::DenseBlock.build(10);
+    let (m, b) = lightgrid_sweep_cpu::scenes::Scene::DenseBlock.build(10);
     let mut o = SweepOptions::multi_bounce();
     o.tolerance = 0.0;
     o.max_passes = 4;
     let to_sun = Vec3::new(0.5, 0.6, -0.3);
     let cpu =
-        sweep_cpu::sun::SunSplit::compute(&mut sweep_cpu::CpuSweeper::new(), &m, &b, to_sun, &o)
+        lightgrid_sweep_cpu::sun::SunSplit::compute(&mut lightgrid_sweep_cpu::CpuSweeper::new(), &m, &b, to_sun, &o)
             .unwrap();
     let mut g = gpu;
-    let on_gpu = sweep_cpu::sun::SunSplit::compute(&mut g, &m, &b, to_sun, &o).unwrap();
+    let on_gpu = lightgrid_sweep_cpu::sun::SunSplit::compute(&mut g, &m, &b, to_sun, &o).unwrap();
     assert_close(&cpu.sky, &on_gpu.sky).unwrap();
     assert_close(&cpu.sun_scattered, &on_gpu.sun_scattered).unwrap();
     assert!(cpu.sun_scattered.max_value() > 0.0);
@@ -368,7 +368,7 @@ fn sun_split_on_the_gpu() {
 fn sweep_sun_on_the_gpu_equals_the_cpu() {
     use lightgrid_core::{HaloLayout, SideBoundary, SunBoundary, Sweeper, TopBoundary};
     let Some(mut gpu) = sweeper() else { return };
-    let (m, _) = sweep_cpu::scenes::Scene::Canopy.build(10);
+    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(10);
     let d = *m.desc();
     let mut o = SweepOptions::multi_bounce();
     o.tolerance = 0.0;
@@ -388,7 +388,7 @@ fn sweep_sun_on_the_gpu_equals_the_cpu() {
         },
         outside: &outside,
     };
-    let cpu = sweep_cpu::CpuSweeper::new()
+    let cpu = lightgrid_sweep_cpu::CpuSweeper::new()
         .sweep_sun(&m, &sun, &o)
         .unwrap();
     let on_gpu = gpu.sweep_sun(&m, &sun, &o).unwrap();

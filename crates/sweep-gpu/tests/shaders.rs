@@ -1,7 +1,7 @@
 //! Every WGSL source parses and validates with naga (no GPU needed), and the generated
 //! constants carry grid-core's values exactly.
 
-use sweep_gpu::wgsl;
+use lightgrid_sweep_gpu::wgsl;
 
 fn validate(name: &str, src: &str) -> naga::Module {
     lightgrid_gpu::check::validate(name, src).unwrap_or_else(|e| panic!("{e}"))

@@ -4,17 +4,17 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::{Vec2, Vec3};
-use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
-use material_voxelizer::procedural::{TreeParams, tree};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use sweep_cpu::CpuSweeper;
-use terrain_lod::{Hierarchy, HierarchyParams};
+use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 
 #[path = "../tests/demo/mod.rs"]
 mod demo;
 
 fn bench(c: &mut Criterion) {
-    let hm = demo::jacksboro(&demo::testdata_dir()).expect("dem");
+    let hm = demo::jacksboro(&demo::assets_dir()).expect("dem");
     let (tree_grid, _) = voxelize(
         &tree(&TreeParams::young(3)).expect("tree"),
         &VoxelizeParams::preview(0.5),

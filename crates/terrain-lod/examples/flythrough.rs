@@ -2,23 +2,23 @@
 //! points swept, grids alive per depth, memory and skipped work; then the same path with
 //! node grids of 16, 32 and 64 points for the time/memory table in the crate docs.
 //!
-//! `cargo run --release -p terrain-lod --example flythrough`
+//! `cargo run --release -p lightgrid-terrain-lod --example flythrough`
 
 use std::time::Instant;
 
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::{Vec2, Vec3};
-use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
-use material_voxelizer::procedural::{TreeParams, tree};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use sweep_cpu::CpuSweeper;
-use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams};
+use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams};
 
 #[path = "../tests/demo/mod.rs"]
 mod demo;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let hm = demo::jacksboro(&demo::testdata_dir())?;
+    let hm = demo::jacksboro(&demo::assets_dir())?;
     let (tree_grid, _) = voxelize(
         &tree(&TreeParams::broadleaf(3))?,
         &VoxelizeParams::standard(0.5),

@@ -16,7 +16,7 @@
 //!
 //! ## Node size: time and memory
 //!
-//! `cargo run --release -p terrain-lod --example flythrough`: 30 frames along a 300 m
+//! `cargo run --release -p lightgrid-terrain-lod --example flythrough`: 30 frames along a 300 m
 //! path over the shipped DEM (4 m a pixel, heights × 0.05) with 4000 procedural 8 m
 //! trees, world grid 16 m, nodes down to 1 m, budget `node_points² × 96` points a frame,
 //! CPU sweeper (4 passes), 2-core VM. Memory is that of the grids alive after the last
@@ -30,7 +30,7 @@
 //!
 //! On the CPU sweeper 16-point nodes win on both counts: smaller nodes overlap the
 //! wanted area more tightly. Seed 000 chose 32 for GPU occupancy (one dispatch per
-//! level); `sweep-gpu` will measure it there. `cargo bench -p terrain-lod` times an
+//! level); `sweep-gpu` will measure it there. `cargo bench -p lightgrid-terrain-lod` times an
 //! 8-frame fly-through for 16 and 32.
 //!
 //! ## The sun kept apart
@@ -48,9 +48,9 @@
 //! ```
 //! use lightgrid_core::glam::{Vec2, Vec3};
 //! use lightgrid_core::{BinLight, LightField};
-//! use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
-//! use sweep_cpu::CpuSweeper;
-//! use terrain_lod::{Hierarchy, HierarchyParams};
+//! use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
+//! use lightgrid_sweep_cpu::CpuSweeper;
+//! use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 129, 129, |x, z| 3.0 * (x * 0.02).sin() * (z * 0.03).cos())?;
@@ -642,6 +642,7 @@ impl Hierarchy {
     /// Computes node `key`'s sun responses for the current sun (its boundary from the
     /// coarser grids' sun responses). Returns the points swept.
     fn sweep_node_sun(&mut self, key: NodeKey, material: &MaterialGrid) -> Result<u64, LodError> {
+        let _span = tracing::trace_span!("node sun", ?key).entered();
         let Some(sun) = self.sun else {
             return Ok(0);
         };
@@ -926,6 +927,7 @@ impl Hierarchy {
         if !camera.is_finite() {
             return Err(GridError::invalid("camera", camera, "must be finite").into());
         }
+        let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         let mut stats = FrameStats::default();
         // Evict far nodes.
         let evict: Vec<NodeKey> = self
@@ -969,6 +971,7 @@ impl Hierarchy {
                     }
                 }
             }
+            let _node = tracing::trace_span!("node", ?key).entered();
             // Material first (composing is cheap next to sweeping): it sizes the grid.
             let (material, has_objects) = self.node_material(key)?;
             let desc = *material.desc();
@@ -998,6 +1001,14 @@ impl Hierarchy {
             }
         }
         stats.sun_pending = self.sun_pending();
+        tracing::debug!(
+            built = stats.built,
+            sun_built = stats.sun_built,
+            evicted = stats.evicted,
+            pending = stats.pending,
+            points_swept = stats.points_swept,
+            "frame done"
+        );
         let depths = self.params.depths() as usize;
         stats.alive_per_depth = vec![0; depths + 1];
         stats.points_per_depth = vec![0; depths + 1];
@@ -1072,6 +1083,7 @@ impl Hierarchy {
     /// Rebuilds every ready node whose inputs changed (after the scene or sky changed),
     /// within the budget; nodes whose inputs hash as before are counted as skipped.
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
+        let _span = tracing::debug_span!("refresh", camera = %camera).entered();
         let mut stats = FrameStats::default();
         let mut keys = self.ready_nodes();
         keys.sort_by(|a, b| {

@@ -2,11 +2,11 @@
 
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{BinLight, LightField};
-use material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
-use material_voxelizer::procedural::{TreeParams, tree};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use sweep_cpu::CpuSweeper;
-use terrain_lod::{Hierarchy, HierarchyParams, NodeKey};
+use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, NodeKey};
 
 #[path = "demo/mod.rs"]
 mod demo;
@@ -14,7 +14,7 @@ mod demo;
 /// The Jacksboro DEM at 4 m a pixel, heights × 0.05 (12–54 m of relief over 1.6 km), with
 /// 1500 trees scattered over 300 m × 300 m around the path.
 fn scene() -> (Heightmap, AreaComposer) {
-    let hm = demo::jacksboro(&demo::testdata_dir()).unwrap();
+    let hm = demo::jacksboro(&demo::assets_dir()).unwrap();
     let (tree_grid, _) = voxelize(
         &tree(&TreeParams::young(3)).unwrap(),
         &VoxelizeParams::preview(0.5),
@@ -224,7 +224,7 @@ fn layers_pick_the_grid_that_grid_at_picks() {
 /// under that sun from the start.
 #[test]
 fn sun_kept_apart_moves_without_sweeping_the_sky() {
-    use terrain_lod::SunLight;
+    use lightgrid_terrain_lod::SunLight;
     let (hm, composer) = scene();
     let composer = std::sync::Arc::new(composer);
     let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();

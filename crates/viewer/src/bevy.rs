@@ -17,7 +17,7 @@ use anyhow::{Context, Result};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{DifferenceField, GridDesc, NoScatter};
 use lightgrid_export::{BevyVolume, Content, TexelFormat, write_volumes};
-use terrain_lod::Hierarchy;
+use lightgrid_terrain_lod::Hierarchy;
 
 use crate::world::World;
 
@@ -91,7 +91,7 @@ pub fn export(
     let (volumes, content) = if split && with_direct_sun {
         let (elevation, azimuth) = world.scene.sun.angles();
         let sun_bins = if elevation > 0.0 {
-            sweep_cpu::sky::Sun::at(elevation, azimuth, world.sun.1).bins()?
+            lightgrid_sweep_cpu::sky::Sun::at(elevation, azimuth, world.sun.1).bins()?
         } else {
             lightgrid_core::BinLight::ZERO
         };
@@ -121,7 +121,7 @@ pub fn export(
         let mut direct = Hierarchy::new(
             &world.heightmap,
             Box::new(NoScatter(world.composer.clone())),
-            Box::new(sweep_cpu::CpuSweeper::new()),
+            Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
             crate::world::boundary_light(&lightgrid_core::BinLight::ZERO, &world.scene)?,
             *world.hierarchy.params(),
         )

@@ -11,7 +11,7 @@ use lightgrid_render::{
     LightVolume, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial, Renderer,
     SamplePoints, TextureRgba8, Vertex, View, sample_points,
 };
-use material_voxelizer::model::{AlphaMode, Model};
+use lightgrid_material_voxelizer::model::{AlphaMode, Model};
 
 use crate::world::World;
 
@@ -90,7 +90,7 @@ impl TerrainMesh {
     }
 }
 
-fn srgb_texture(t: &material_voxelizer::model::Texture) -> TextureRgba8 {
+fn srgb_texture(t: &lightgrid_material_voxelizer::model::Texture) -> TextureRgba8 {
     TextureRgba8 {
         width: t.width,
         height: t.height,
@@ -158,7 +158,7 @@ pub fn model_meshes(r: &mut Renderer, model: &Model, foliage: bool) -> Result<Ve
 
 /// An icosphere of radius 1 (two subdivisions, 320 triangles).
 pub fn sphere() -> (Vec<Vertex>, Vec<u32>) {
-    let (p, f) = material_voxelizer::procedural::icosphere(2);
+    let (p, f) = lightgrid_material_voxelizer::procedural::icosphere(2);
     let v = p
         .iter()
         .map(|q| Vertex {
@@ -233,7 +233,7 @@ impl SceneMeshes {
     pub fn new(r: &mut Renderer, world: &World) -> Result<Self> {
         let terrain_mesh = TerrainMesh::new(world, 320);
         let ground = match &world.ground {
-            material_voxelizer::compose::GroundColour::Uniform(c) => c.extend(1.0),
+            lightgrid_material_voxelizer::compose::GroundColour::Uniform(c) => c.extend(1.0),
             _ => Vec4::new(0.25, 0.22, 0.16, 1.0),
         };
         let vertices = terrain_vertices(

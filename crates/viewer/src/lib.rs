@@ -38,7 +38,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use lightgrid_render::{Camera, Renderer};
 use serde::Serialize;
-use terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM};
+use lightgrid_terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM};
 
 pub use scene::SceneFile;
 pub use world::{SweeperChoice, World};
@@ -229,11 +229,22 @@ pub fn write_exr(path: &Path, img: &lightgrid_render::Image) -> Result<()> {
         .with_context(|| format!("writing {}", path.display()))
 }
 
+/// Sends the libraries' `tracing` logs to stderr, at the levels `RUST_LOG` sets (`debug`,
+/// `lightgrid_terrain_lod=trace,info`; a bare level is the default), `info` without it.
+/// The viewer's and xtask's `main` call it once.
+pub fn init_logs() {
+    use tracing_subscriber::{filter::Targets, layer::SubscriberExt, util::SubscriberInitExt};
+    let filter = std::env::var("RUST_LOG").ok().and_then(|s| s.parse::<Targets>().ok());
+    let filter = filter.unwrap_or_else(|| Targets::new().with_default(tracing::Level::INFO));
+    let fmt = tracing_subscriber::fmt::layer().with_writer(std::io::stderr);
+    tracing_subscriber::registry().with(fmt).with(filter).init();
+}
+
 /// The GPU context for rendering (any adapter, lavapipe included).
 pub fn render_context() -> Result<Arc<lightgrid_gpu::GpuContext>> {
-    Ok(Arc::new(lightgrid_gpu::GpuContext::new().context(
-        "rendering needs a GPU adapter (any Vulkan driver; Mesa's lavapipe works: apt-get install mesa-vulkan-drivers)",
-    )?))
+    Ok(Arc::new(
+        lightgrid_gpu::GpuContext::new().context("rendering needs a GPU adapter")?,
+    ))
 }
 
 /// Builds `scene`, computes the grids around every view and writes the images and

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Parser;
-use viewer::{Options, SceneFile, SweeperChoice};
+use lightgrid_viewer::{Options, SceneFile, SweeperChoice};
 
 /// Render a scene lit by lightgrid's volumetric light grids.
 #[derive(Debug, Parser)]
@@ -47,12 +47,13 @@ struct Args {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    lightgrid_viewer::init_logs();
     if let Some(limit) = args.memory_limit {
         lightgrid_core::limits::set_memory_limit(limit);
     }
     for (name, v) in [("--width", args.width), ("--height", args.height)] {
-        if !(1..=viewer::MAX_IMAGE_SIDE).contains(&v) {
-            anyhow::bail!("{name} {v}: must be in 1..={}", viewer::MAX_IMAGE_SIDE);
+        if !(1..=lightgrid_viewer::MAX_IMAGE_SIDE).contains(&v) {
+            anyhow::bail!("{name} {v}: must be in 1..={}", lightgrid_viewer::MAX_IMAGE_SIDE);
         }
     }
     let mut scene = match &args.scene {
@@ -71,9 +72,9 @@ fn main() -> Result<()> {
         scene.views.retain(|v| args.views.contains(&v.name));
     }
     if args.window {
-        return viewer::window::run(scene, args.sweeper, args.width, args.height, args.frames);
+        return lightgrid_viewer::window::run(scene, args.sweeper, args.width, args.height, args.frames);
     }
-    let summary = viewer::run(
+    let summary = lightgrid_viewer::run(
         scene,
         &Options {
             out: args.out.clone(),

@@ -2,20 +2,20 @@
 //! probes as a second light beside the sweep's. The probed region's terrain and
 //! instances become one triangle model; probes are placed over it (columns, and along
 //! walls), baked, relit for the scene's sky and sun, and merged into the renderer's
-//! light volume box ([`light_probes::ProbeVolume`]). The direct sun is not in the
+//! light volume box ([`lightgrid_light_probes::ProbeVolume`]). The direct sun is not in the
 //! probes: its shadow comes from the sweep's transmittance (so `[probes]` needs
 //! `sun.split`).
 
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use light_probes::{
+use lightgrid_light_probes::{
     Lighting, ProbeLight, ProbeSet, ProbeVolume, ResolvedVolume, place, place_walls,
 };
 use lightgrid_core::glam::{Mat4, Vec2, Vec3};
 use lightgrid_core::{BinLight, GridDesc, GridError, LightField};
-use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
-use material_voxelizer::voxelize::RayScene;
+use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+use lightgrid_material_voxelizer::voxelize::RayScene;
 
 use crate::world::World;
 
@@ -50,7 +50,7 @@ fn bvh() -> obvhs::BvhBuildParams {
 fn region_model(world: &World, lo: Vec2, hi: Vec2) -> Model {
     let mut model = Model::default();
     let ground = match &world.ground {
-        material_voxelizer::compose::GroundColour::Uniform(c) => *c,
+        lightgrid_material_voxelizer::compose::GroundColour::Uniform(c) => *c,
         _ => Vec3::new(0.25, 0.22, 0.16),
     };
     model.materials.push(SurfaceMaterial {
@@ -121,7 +121,7 @@ impl Probes {
         let (lo, hi) = match spec.region {
             Some(r) => (Vec2::new(r[0], r[1]), Vec2::new(r[2], r[3])),
             None if !world.instances.is_empty() => {
-                let xz = |i: &material_voxelizer::compose::Instance| {
+                let xz = |i: &lightgrid_material_voxelizer::compose::Instance| {
                     Vec2::new(i.position.x, i.position.z)
                 };
                 let (lo, hi) = world.instances.iter().fold(
@@ -247,7 +247,7 @@ pub struct ProbeLit<'a> {
     /// The probes' light.
     pub probes: &'a ResolvedVolume,
     /// The sweep, for the sun's transmittance.
-    pub sweep: &'a terrain_lod::Hierarchy,
+    pub sweep: &'a lightgrid_terrain_lod::Hierarchy,
 }
 
 impl LightField for ProbeLit<'_> {

@@ -175,7 +175,7 @@ impl SunSpec {
     }
 }
 
-/// Light grid settings (see `terrain_lod::HierarchyParams`).
+/// Light grid settings (see `lightgrid_terrain_lod::HierarchyParams`).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
@@ -280,7 +280,7 @@ pub struct DynamicLightsSpec {
     pub seed: u64,
 }
 
-/// Light probes over a region of the scene (`light_probes`).
+/// Light probes over a region of the scene (`lightgrid_light_probes`).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProbesSpec {
@@ -311,11 +311,11 @@ fn default_probe_preset() -> String {
 
 impl ProbesSpec {
     /// The bake parameters.
-    pub fn params(&self) -> light_probes::ProbeParams {
+    pub fn params(&self) -> lightgrid_light_probes::ProbeParams {
         let mut p = match self.preset.as_str() {
-            "preview" => light_probes::ProbeParams::preview(),
-            "fine" => light_probes::ProbeParams::fine(),
-            _ => light_probes::ProbeParams::standard(),
+            "preview" => lightgrid_light_probes::ProbeParams::preview(),
+            "fine" => lightgrid_light_probes::ProbeParams::fine(),
+            _ => lightgrid_light_probes::ProbeParams::standard(),
         };
         if let Some(s) = self.spacing {
             p.spacing = s;

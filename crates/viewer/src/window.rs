@@ -44,9 +44,9 @@ pub fn run(
         "--window needs a display (X11 or Wayland); run without --window for headless images",
     )?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    println!("building the scene (grids swept by the {sweeper:?} choice)...");
+    tracing::info!("building the scene (grids swept by the {sweeper:?} choice)");
     let world = World::build(scene, sweeper)?;
-    println!("grids swept by: {}", world.sweeper);
+    tracing::info!("grids swept by: {}", world.sweeper);
     let mut app = App {
         world,
         size: (width, height),
@@ -77,7 +77,7 @@ pub fn run(
     if let Some(e) = app.error {
         return Err(e);
     }
-    println!(
+    tracing::info!(
         "frames drawn: {}, grids built while flying: {}",
         app.drawn, app.built
     );
@@ -124,9 +124,13 @@ impl App {
                 )
                 .context("creating the window")?,
         );
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle(
-            Box::new(event_loop.owned_display_handle()),
-        ));
+        // WGPU_BACKEND picks the backends; by default wgpu tries every one it was built with.
+        let instance = wgpu::Instance::new(
+            wgpu::InstanceDescriptor::new_with_display_handle(Box::new(
+                event_loop.owned_display_handle(),
+            ))
+            .with_env(),
+        );
         let surface = instance
             .create_surface(window.clone())
             .context("creating the window surface")?;
@@ -136,14 +140,13 @@ impl App {
             compatible_surface: Some(&surface),
             apply_limit_buckets: false,
         }))
-        .context("no GPU adapter can draw to this window")?;
-        let info = adapter.get_info();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("lightgrid viewer"),
-            required_limits: adapter.limits(),
-            ..Default::default()
-        }))
-        .context("creating the GPU device")?;
+        .with_context(|| {
+            format!(
+                "no GPU adapter can draw to this window; {}",
+                lightgrid_gpu::driver_hint()
+            )
+        })?;
+        let ctx = Arc::new(lightgrid_gpu::GpuContext::on(&adapter).context("the window's GPU")?);
         let size = window.inner_size();
         let mut config = surface
             .get_default_config(&adapter, size.width.max(1), size.height.max(1))
@@ -152,16 +155,11 @@ impl App {
         if let Some(f) = caps.formats.iter().find(|f| f.is_srgb()) {
             config.format = *f;
         }
-        surface.configure(&device, &config);
-        println!("rendering on {} ({:?})", info.name, info.device_type);
-        let ctx = Arc::new(lightgrid_gpu::GpuContext {
-            device,
-            queue,
-            info,
-        });
+        surface.configure(&ctx.device, &config);
+        tracing::info!(adapter = %ctx.info.name, device_type = ?ctx.info.device_type, "rendering");
         // One device: the grids built from now on are swept on the window's device.
         if self.world.gpu_sweeps {
-            let mut sweeper = sweep_gpu::GpuSweeper::with_context(ctx.clone());
+            let mut sweeper = lightgrid_sweep_gpu::GpuSweeper::with_context(ctx.clone());
             // Swept grids stay on the device and are drawn from there (SceneMeshes::relight).
             sweeper.keep_resident(true);
             self.world.hierarchy.set_sweeper(Box::new(sweeper))?;
@@ -235,7 +233,7 @@ impl App {
                 *built += s.built;
                 *sun_built += s.sun_built;
                 if s.pending == 0 {
-                    println!(
+                    tracing::info!(
                         "sun moved: {what}; then {sun_built} node sun responses and {built} node sky grids in {:.2} s",
                         since.elapsed().as_secs_f64()
                     );

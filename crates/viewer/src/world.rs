@@ -8,14 +8,14 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lightgrid_core::glam::{Quat, Vec2, Vec3};
 use lightgrid_core::{BinLight, LightKind, MaterialGrid, Sweeper};
-use material_voxelizer::compose::{
+use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };
-use material_voxelizer::model::{Model, Texture};
-use material_voxelizer::procedural::{TreeParams, bush, rock, tree};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use sweep_cpu::sky::{ClearSky, EnvMap, Sun, uniform_sky};
-use terrain_lod::{Hierarchy, HierarchyParams};
+use lightgrid_material_voxelizer::model::{Model, Texture};
+use lightgrid_material_voxelizer::procedural::{TreeParams, bush, rock, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_sweep_cpu::sky::{ClearSky, EnvMap, Sun, uniform_sky};
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 
 use crate::scene::SceneFile;
 
@@ -116,8 +116,8 @@ fn procedural_heightmap(p: &crate::scene::ProceduralTerrain, spacing: f32) -> Re
 
 fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
     let bytes =
-        lightgrid_core::limits::read_file(path, material_voxelizer::gltf_read::MAX_MODEL_BYTES)?;
-    material_voxelizer::gltf_read::decode_texture(&bytes)
+        lightgrid_core::limits::read_file(path, lightgrid_material_voxelizer::gltf_read::MAX_MODEL_BYTES)?;
+    lightgrid_material_voxelizer::gltf_read::decode_texture(&bytes)
         .map_err(|e| anyhow::anyhow!("decoding {}: {e}", path.display()))
 }
 
@@ -176,8 +176,8 @@ impl std::fmt::Display for SunMove {
 }
 
 /// The hierarchy's sun from [`sky_and_sun`]'s (travel direction, irradiance).
-pub fn sun_light(sun: (Vec3, Vec3)) -> terrain_lod::SunLight {
-    terrain_lod::SunLight {
+pub fn sun_light(sun: (Vec3, Vec3)) -> lightgrid_terrain_lod::SunLight {
+    lightgrid_terrain_lod::SunLight {
         to_sun: -sun.0,
         irradiance: sun.1,
     }
@@ -244,7 +244,7 @@ impl World {
         let heightmap = match (&ts.heightmap, &ts.procedural) {
             (Some(path), _) => {
                 let p = scene.resolve(path);
-                material_voxelizer::compose::load_heightmap_png(
+                lightgrid_material_voxelizer::compose::load_heightmap_png(
                     &p,
                     Vec2::ZERO,
                     ts.spacing,
@@ -288,7 +288,7 @@ impl World {
                     let foliage = model
                         .materials
                         .iter()
-                        .any(|s| !matches!(s.alpha, material_voxelizer::model::AlphaMode::Opaque));
+                        .any(|s| !matches!(s.alpha, lightgrid_material_voxelizer::model::AlphaMode::Opaque));
                     (model, foliage)
                 }
                 (None, Some("broadleaf")) => (tree(&TreeParams::broadleaf(m.seed))?, true),
@@ -379,12 +379,12 @@ impl World {
         // On the renderer's device the sweeper keeps its grids there, and the renderer
         // samples and draws them in place (SceneMeshes::relight).
         let gpu_sweeper = |c: Arc<lightgrid_gpu::GpuContext>| {
-            let mut s = sweep_gpu::GpuSweeper::with_context(c);
+            let mut s = lightgrid_sweep_gpu::GpuSweeper::with_context(c);
             s.keep_resident(gpu.is_some());
             Box::new(s)
         };
         let (sweeper, name): (Box<dyn Sweeper + Send + Sync>, String) = match sweeper {
-            SweeperChoice::Cpu => (Box::new(sweep_cpu::CpuSweeper::new()), "cpu".into()),
+            SweeperChoice::Cpu => (Box::new(lightgrid_sweep_cpu::CpuSweeper::new()), "cpu".into()),
             SweeperChoice::Gpu => {
                 let c = open().context("--sweeper gpu")?;
                 let name = format!("gpu ({})", c.info.name);
@@ -396,14 +396,14 @@ impl World {
                     (gpu_sweeper(c), name)
                 }
                 Ok(c) => (
-                    Box::new(sweep_cpu::CpuSweeper::new()),
+                    Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
                     format!(
                         "cpu (auto: the only GPU adapter, {}, is a software one)",
                         c.info.name
                     ),
                 ),
                 Err(_) => (
-                    Box::new(sweep_cpu::CpuSweeper::new()),
+                    Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
                     "cpu (auto: no GPU adapter)".into(),
                 ),
             },
@@ -505,7 +505,7 @@ impl World {
         &mut self,
         eye: Vec3,
         label: &str,
-    ) -> Result<(u32, u64, terrain_lod::FrameStats)> {
+    ) -> Result<(u32, u64, lightgrid_terrain_lod::FrameStats)> {
         let pb = bar(0, label);
         let mut swept = 0;
         let mut frames = 0;

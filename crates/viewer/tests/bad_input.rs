@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use viewer::{SceneFile, SweeperChoice, World};
+use lightgrid_viewer::{SceneFile, SweeperChoice, World};
 
 /// `body` plus one view (every scene needs one).
 fn scene(body: &str) -> SceneFile {
@@ -70,7 +70,7 @@ fn scene_files_that_are_not_files_or_too_large_are_errors() {
     let big = dir.join("big.toml");
     std::fs::write(
         &big,
-        vec![b'#'; (viewer::scene::MAX_SCENE_BYTES + 1) as usize],
+        vec![b'#'; (lightgrid_viewer::scene::MAX_SCENE_BYTES + 1) as usize],
     )
     .unwrap();
     bad.push(big);
@@ -83,7 +83,7 @@ fn scene_files_that_are_not_files_or_too_large_are_errors() {
 
 #[test]
 fn image_sizes_out_of_range_are_refused() {
-    let opts = |w, h| viewer::Options {
+    let opts = |w, h| lightgrid_viewer::Options {
         out: std::env::temp_dir().join("viewer-bad-size"),
         width: w,
         height: h,
@@ -92,7 +92,7 @@ fn image_sizes_out_of_range_are_refused() {
         bevy: false,
     };
     for (w, h) in [(0, 10), (10, 0), (100_000, 10)] {
-        let e = viewer::run(SceneFile::demo().unwrap(), &opts(w, h))
+        let e = lightgrid_viewer::run(SceneFile::demo().unwrap(), &opts(w, h))
             .map(|_| ())
             .unwrap_err();
         assert!(e.to_string().contains("must be in 1..="), "{e}");
@@ -102,7 +102,7 @@ fn image_sizes_out_of_range_are_refused() {
 #[test]
 fn non_finite_scene_values_name_their_field() {
     // TOML can spell nan and inf; every float that places something must be finite.
-    let demo = viewer::scene::DEMO;
+    let demo = lightgrid_viewer::scene::DEMO;
     for (from, to, field) in [
         ("target_height = ", "target_height = nan #", "target_height"),
         ("spacing = ", "spacing = inf #", "terrain.spacing"),
@@ -135,8 +135,8 @@ fn a_probe_spacing_too_fine_is_refused_by_name() {
     let text = std::fs::read_to_string(&path)
         .unwrap()
         .replace("[probes]", "[probes]\nspacing = 0.01");
-    let scene = viewer::SceneFile::parse(&text, "town.toml", path.parent().unwrap()).unwrap();
-    let e = match viewer::World::build(scene, viewer::SweeperChoice::Cpu) {
+    let scene = lightgrid_viewer::SceneFile::parse(&text, "town.toml", path.parent().unwrap()).unwrap();
+    let e = match lightgrid_viewer::World::build(scene, lightgrid_viewer::SweeperChoice::Cpu) {
         Ok(_) => panic!("a 0.01 m probe spacing over the town must be refused"),
         Err(e) => format!("{e:#}"),
     };

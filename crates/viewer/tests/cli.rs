@@ -8,7 +8,7 @@ fn bad_scene_file_names_file_line_and_field() {
     let dir = std::env::temp_dir().join(format!("viewer-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let scene = dir.join("broken.toml");
-    let text = viewer::scene::DEMO
+    let text = lightgrid_viewer::scene::DEMO
         .replacen("elevation_deg", "x", 0)
         .replacen(
             "illuminance = [8.0, 7.5, 6.5]",

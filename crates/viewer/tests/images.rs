@@ -9,7 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
-use viewer::{Options, SceneFile, Summary, SweeperChoice};
+use lightgrid_viewer::{Options, SceneFile, Summary, SweeperChoice};
 
 fn manifest() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -55,7 +55,7 @@ fn render_tiny(
     std::fs::create_dir_all(&out).unwrap();
     let mut scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
     scene.sun.split = split;
-    let summary = viewer::run(
+    let summary = lightgrid_viewer::run(
         scene,
         &Options {
             out: out.clone(),

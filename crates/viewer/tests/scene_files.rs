@@ -6,12 +6,12 @@ use std::path::PathBuf;
 
 use lightgrid_core::LightField;
 use lightgrid_core::glam::Vec3;
-use sweep_cpu::sky::ClearSky;
-use viewer::{SceneFile, SweeperChoice, World};
+use lightgrid_sweep_cpu::sky::ClearSky;
+use lightgrid_viewer::{SceneFile, SweeperChoice, World};
 
 #[test]
 fn scene_with_heightmap_gltf_texture_and_exr_sky_builds() {
-    let testdata = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata");
+    let assets = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../assets");
     let dir = std::env::temp_dir().join(format!("viewer-scene-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     ClearSky::blue(Vec3::new(0.3, 0.8, 0.2))
@@ -83,13 +83,13 @@ position = [540.0, 500.0]
 height = 10.0
 target = [520.0, 520.0]
 "#,
-        dem = testdata
+        dem = assets
             .join("dem-jacksboro/jacksboro_fault_dem_u16.png")
             .display(),
-        trees = testdata
+        trees = assets
             .join("kenney-city-builder/grass-trees.glb")
             .display(),
-        house = testdata
+        house = assets
             .join("kenney-city-builder/building-small-a.glb")
             .display(),
     );
@@ -164,7 +164,7 @@ fn the_town_scene_lights_with_probes_beside_the_sweep() {
     // sunlit share of surfels to within the voxels' blur at shadow edges (measured 8 %
     // less with the sweep: a voxel half in shadow dims the surfels on its lit side).
     let to_sun = -world.sun.0;
-    let scene = material_voxelizer::voxelize::RayScene::new(
+    let scene = lightgrid_material_voxelizer::voxelize::RayScene::new(
         &probes.model,
         obvhs::BvhBuildParams::fast_build(),
     );

@@ -4,7 +4,7 @@
 //! with and without each skip.
 //!
 //! Errors are over the points outside opaque cells whose reference average light exceeds
-//! 1e-3 of the largest (as `sweep_cpu::scenes::compare`), on luminance:
+//! 1e-3 of the largest (as `lightgrid_sweep_cpu::scenes::compare`), on luminance:
 //! - `rel_rmse_avg`: `sqrt(Σ (a − r)² / Σ r²)` of the average light (the plotted error);
 //! - `rel_rmse_irr`: the same for irradiance on the six axis normals;
 //! - `rel_mse`: mean of `(a − r)² / (r² + ε)`, with `ε = 1e-4` (light units; the sky has
@@ -34,8 +34,8 @@ use anyhow::{Context, Result};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{GridFile, LightField, LightGrid, MaterialGrid, SweepOptions};
 use serde::Serialize;
-use sweep_cpu::reference::{ReferenceOptions, trace};
-use sweep_cpu::scenes::compare;
+use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_sweep_cpu::scenes::compare;
 
 use scenes::BenchScene;
 
@@ -58,7 +58,7 @@ pub struct BenchConfig {
     /// Reference cache folder.
     pub cache: PathBuf,
     /// Shipped test data (the forest's model).
-    pub testdata: PathBuf,
+    pub assets: PathBuf,
     /// Only these scenes (all when empty).
     pub only: Vec<String>,
     /// Repetitions of each sweep (the fastest counts).
@@ -77,7 +77,7 @@ impl BenchConfig {
             gpu: true,
             out: root.join("target/bench"),
             cache: root.join("target/bench-cache"),
-            testdata: root.join("../shared/testdata"),
+            assets: root.join("assets"),
             only: Vec::new(),
             repeats: 5,
             skips: true,
@@ -337,9 +337,9 @@ fn sweep_recycled(
     m: &lightgrid_core::MaterialGrid,
     b: &lightgrid_core::Boundary,
     o: &SweepOptions,
-) -> Result<(sweep_cpu::Sweep, f64)> {
+) -> Result<(lightgrid_sweep_cpu::Sweep, f64)> {
     use lightgrid_core::Sweeper;
-    let mut sweeper = sweep_cpu::CpuSweeper::new();
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
     let mut best = f64::INFINITY;
     let mut out = None;
     let start = Instant::now();
@@ -358,22 +358,22 @@ fn sweep_recycled(
     }
     let balance = *sweeper.last_balance().context("a sweep ran")?;
     let output = out.context("a sweep ran")?;
-    Ok((sweep_cpu::Sweep { output, balance }, best))
+    Ok((lightgrid_sweep_cpu::Sweep { output, balance }, best))
 }
 
 /// Runs everything and writes `bench.json`, `bench.png` and `bench.txt` into `cfg.out`.
 pub fn run(cfg: &BenchConfig) -> Result<Report> {
     std::fs::create_dir_all(&cfg.out).with_context(|| format!("{}", cfg.out.display()))?;
-    let mut all = scenes::all(cfg.n, &cfg.testdata)?;
+    let mut all = scenes::all(cfg.n, &cfg.assets)?;
     if !cfg.only.is_empty() {
         all.retain(|s| cfg.only.contains(&s.name));
         anyhow::ensure!(!all.is_empty(), "--scene {:?}: no such scene", cfg.only);
     }
     let gpu = if cfg.gpu {
-        match sweep_gpu::GpuContext::new() {
+        match lightgrid_sweep_gpu::GpuContext::new() {
             Ok(c) => {
                 let name = format!("{} ({:?})", c.info.name, c.info.device_type);
-                Some((sweep_gpu::GpuSweeper::with_context(c), name))
+                Some((lightgrid_sweep_gpu::GpuSweeper::with_context(c), name))
             }
             Err(e) => {
                 println!("no GPU adapter ({e}): the GPU sweep is left out");

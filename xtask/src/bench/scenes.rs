@@ -8,13 +8,13 @@ use lightgrid_core::glam::{Quat, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     Boundary, GridDesc, Material, MaterialGrid, MaterialSource, SideBoundary, TopBoundary,
 };
-use material_voxelizer::compose::{
+use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
 };
-use material_voxelizer::model::Model;
-use material_voxelizer::procedural::{TreeParams, tree};
-use material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use sweep_cpu::scenes::{Scene, sky_and_sun};
+use lightgrid_material_voxelizer::model::Model;
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_sweep_cpu::scenes::{Scene, sky_and_sun};
 
 /// A benchmark problem: material and boundary light.
 pub struct BenchScene {
@@ -28,8 +28,8 @@ pub struct BenchScene {
     pub boundary: Boundary,
 }
 
-/// Every scene at `n` cells a side (the forest reads `testdata` if present).
-pub fn all(n: u32, testdata: &Path) -> Result<Vec<BenchScene>> {
+/// Every scene at `n` cells a side (the forest reads `assets` if present).
+pub fn all(n: u32, assets: &Path) -> Result<Vec<BenchScene>> {
     let mut v: Vec<BenchScene> = Scene::ALL
         .iter()
         .map(|s| {
@@ -44,7 +44,7 @@ pub fn all(n: u32, testdata: &Path) -> Result<Vec<BenchScene>> {
         .collect();
     v.push(line_source(n));
     v.push(lattice(n));
-    v.push(forest(n, testdata)?);
+    v.push(forest(n, assets)?);
     Ok(v)
 }
 
@@ -116,8 +116,8 @@ pub fn lattice(n: u32) -> BenchScene {
 /// A forest on rolling ground: the shipped Kenney `grass-trees.glb` (a real CC0 model;
 /// a procedural broadleaf tree where the test data is missing), 0.25 m voxels, scattered
 /// over an `n × n` m area of 1 m cells, lit by the sky and sun, periodic sides.
-pub fn forest(n: u32, testdata: &Path) -> Result<BenchScene> {
-    let path = testdata.join("kenney-city-builder/grass-trees.glb");
+pub fn forest(n: u32, assets: &Path) -> Result<BenchScene> {
+    let path = assets.join("kenney-city-builder/grass-trees.glb");
     let (model, source) = if path.exists() {
         (
             Model::load_gltf(&path).with_context(|| format!("{}", path.display()))?,

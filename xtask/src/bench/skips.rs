@@ -11,9 +11,9 @@ use lightgrid_core::{
     SweepOptions,
 };
 use serde::Serialize;
-use sweep_cpu::scenes::{Scene, sky_and_sun};
-use terrain_lod::{Hierarchy, HierarchyParams, LodSkips};
-use viewer::{SceneFile, SweeperChoice, World};
+use lightgrid_sweep_cpu::scenes::{Scene, sky_and_sun};
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, LodSkips};
+use lightgrid_viewer::{SceneFile, SweeperChoice, World};
 
 use super::BenchConfig;
 
@@ -121,12 +121,12 @@ fn hierarchy_once(world: &World, eye: Vec3, skip: LodSkips) -> Result<(Hierarchy
         ..Default::default()
     };
     params.sweep.max_passes = g.passes;
-    let top = viewer::world::boundary_light(&world.sky_top, &world.scene)?;
+    let top = lightgrid_viewer::world::boundary_light(&world.sky_top, &world.scene)?;
     let t = Instant::now();
     let mut h = Hierarchy::new(
         &world.heightmap,
         Box::new(world.composer.clone()),
-        Box::new(sweep_cpu::CpuSweeper::new()),
+        Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
         top,
         params,
     )?;
@@ -150,8 +150,8 @@ pub(super) fn measure(cfg: &BenchConfig) -> Result<Vec<SkipRow>> {
     on.max_passes = 4;
     let mut off = on;
     off.skip_empty_levels = false;
-    let (a, t_on) = super::fastest(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &on)?))?;
-    let (c, t_off) = super::fastest(cfg.repeats, || Ok(sweep_cpu::run(&m, &b, &off)?))?;
+    let (a, t_on) = super::fastest(cfg.repeats, || Ok(lightgrid_sweep_cpu::run(&m, &b, &on)?))?;
+    let (c, t_off) = super::fastest(cfg.repeats, || Ok(lightgrid_sweep_cpu::run(&m, &b, &off)?))?;
     rows.push(SkipRow {
         skip: format!("levels above all material ({n}x{}x{n}, 3/4 air)", 4 * n),
         with_skip: t_on,
@@ -166,14 +166,14 @@ pub(super) fn measure(cfg: &BenchConfig) -> Result<Vec<SkipRow>> {
 
     // Outputs not asked for: average + dominant only, instead of 26 bins (a forest of
     // four times the bench size: the saving is per point).
-    let forest = super::scenes::forest(4 * n, &cfg.testdata)?;
+    let forest = super::scenes::forest(4 * n, &cfg.assets)?;
     let mut avg = on;
     avg.outputs = Outputs::AVERAGE_DOMINANT;
     let (a, t_on) = super::fastest(cfg.repeats, || {
-        Ok(sweep_cpu::run(&forest.material, &forest.boundary, &avg)?)
+        Ok(lightgrid_sweep_cpu::run(&forest.material, &forest.boundary, &avg)?)
     })?;
     let (c, t_off) = super::fastest(cfg.repeats, || {
-        Ok(sweep_cpu::run(&forest.material, &forest.boundary, &on)?)
+        Ok(lightgrid_sweep_cpu::run(&forest.material, &forest.boundary, &on)?)
     })?;
     let (x, y) = (
         a.output.average.expect("average"),

@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use lightgrid_core::glam::{Vec2, Vec3, Vec4};
-use material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
+use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
 
 pub(crate) fn tri(a: Vec3, b: Vec3, c: Vec3, material: u32) -> Triangle {
     Triangle {

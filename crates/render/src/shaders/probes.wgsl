@@ -1,4 +1,4 @@
-// Probe relighting (light_probes::ProbeLight::frame, the CPU specification), three
+// Probe relighting (lightgrid_light_probes::ProbeLight::frame, the CPU specification), three
 // stages selected by params.counts.x: 0 surfels, 1 bricks, 2 probes. Ambient cubes are
 // six vec4 a probe (+X, -X, +Y, -Y, +Z, -Z).
 

@@ -1,7 +1,7 @@
 // The light sampling buffer on the GPU: lightgrid_render::sampling::sample_points for one
 // grid, dispatched once per layer, finest first: a point already written (out[2i + 1].w =
 // 1) or not owned by the layer is skipped, so each point is sampled once, from the last
-// layer in hierarchy order that owns it (terrain_lod::Owner, Hierarchy::grid_at).
+// layer in hierarchy order that owns it (lightgrid_terrain_lod::Owner, Hierarchy::grid_at).
 
 @group(0) @binding(0) var<uniform> params: SampleParams;
 // 26 RGB bins a point (78 floats), grid order.
@@ -47,7 +47,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         p = head.xyz;
     }
     if (params.own.w > 0.5) {
-        // terrain_lod::Owner::owns: the point's quadtree cell is the layer's node, and
+        // lightgrid_terrain_lod::Owner::owns: the point's quadtree cell is the layer's node, and
         // the layer grid's point bounds contain it.
         let cell = vec2<i32>(floor((p.xz - params.own.xy) / params.own.z));
         let lo = params.origin_h.xyz;

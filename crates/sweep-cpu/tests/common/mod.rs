@@ -4,8 +4,8 @@
 
 use lightgrid_core::glam::{DVec3, Vec3};
 use lightgrid_core::{BinLight, GridDesc, HaloLayout, Material, SideBoundary};
+use lightgrid_sweep_cpu::EnergyBalance;
 use proptest::prelude::*;
-use sweep_cpu::EnergyBalance;
 
 /// A cell that holds material with probability `density` (reflectance `(a, a/2, 1 - a)`,
 /// opaque often), else empty.

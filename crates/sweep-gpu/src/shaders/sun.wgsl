@@ -1,4 +1,4 @@
-// Sun transmittance by exact DDA march, one thread per point: sweep_cpu::sun::
+// Sun transmittance by exact DDA march, one thread per point: lightgrid_sweep_cpu::sun::
 // SunTransmittance::march (lightgrid_core::dda::{exit, cross}) step for step, periodic
 // sides wrapping, with a constant transmittance where the ray leaves the grid.
 

@@ -34,7 +34,7 @@ fn trans(pass_through: f32, e: f32) -> f32 {
 
 // Mean over a segment of optical depth x (transmittance tr = e^-x) of the transmittance
 // from its start, (1 - tr) / x: a point's light is the mean of its path's light over its
-// own cell's segment (sweep_cpu::sweep::seg_mean, from the depth: right where tr
+// own cell's segment (lightgrid_sweep_cpu::sweep::seg_mean, from the depth: right where tr
 // underflows).
 fn seg_mean(tr: f32, x: f32) -> f32 {
     if (!(x > 0.0)) {

@@ -1,7 +1,7 @@
 // Phase 2 of a level: each cell collects what it removed, absorbs, emits into this
 // pass's channels and re-absorbs what its own material stops (sweep-cpu steps 3-7);
 // under the source rule a medium sets its source instead, and phase 3 (below) adds what
-// the sources emit along every path (sweep_cpu::medium).
+// the sources emit along every path (lightgrid_sweep_cpu::medium).
 
 const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 
@@ -18,10 +18,10 @@ const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 // The source rules' source per cell of the level: J_0 (RGB), then (the profile rule,
 // medium 3) J_1 and J_2; 0: none.
 @group(0) @binding(10) var<storage, read_write> srcj: array<f32>;
-// The profile rule's tables (sweep_cpu::profile::table_floats).
+// The profile rule's tables (lightgrid_sweep_cpu::profile::table_floats).
 @group(0) @binding(11) var<storage, read> prof_tab: array<f32>;
 
-// --- The quadratic source in height (sweep_cpu::profile, P.medium == 3) ---
+// --- The quadratic source in height (lightgrid_sweep_cpu::profile, P.medium == 3) ---
 
 struct ProfNode {
     i: u32,
@@ -186,7 +186,7 @@ fn ch_bin(up: u32, c: u32) -> u32 {
 }
 
 // A medium cell's emission weights (A, B) under the escape rule:
-// sweep_cpu::sweep::medium_emission (a slab's escape forward and back); once per cell.
+// lightgrid_sweep_cpu::sweep::medium_emission (a slab's escape forward and back); once per cell.
 fn medium_weights(pass_through: f32) -> vec2<f32> {
     if (pass_through > 0.0 && pass_through < 1.0) {
         let forward = -log(pass_through) * pass_through / (1.0 - pass_through);
@@ -230,7 +230,7 @@ fn full(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> 
     return p.s * surface_w((mask * 2u + up) * NUM_DIRS + bin);
 }
 
-// sweep_cpu::medium::split: the share of a cell's scattered light between the passes.
+// lightgrid_sweep_cpu::medium::split: the share of a cell's scattered light between the passes.
 fn split(lnp: f32) -> f32 {
     let n = f32(SPLIT_N - 1u);
     let u = sqrt(max(-lnp / SPLIT_TAU_MAX, 0.0)) * n;
@@ -242,7 +242,7 @@ fn split(lnp: f32) -> f32 {
     return SPLIT[i] + (SPLIT[i + 1u] - SPLIT[i]) * f;
 }
 
-// sweep_cpu::medium::source for the three colours: the cell's source J.
+// lightgrid_sweep_cpu::medium::source for the three colours: the cell's source J.
 fn medium_source(pass_through: f32, share: vec3<f32>, alb: vec3<f32>) -> vec3<f32> {
     let lnp = log(pass_through);
     var g = 0.0;

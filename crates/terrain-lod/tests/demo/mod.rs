@@ -6,13 +6,13 @@ use std::path::Path;
 
 use lightgrid_core::GridError;
 use lightgrid_core::glam::{Quat, Vec2, Vec3};
-use material_voxelizer::compose::{Heightmap, Instance, load_heightmap_png};
+use lightgrid_material_voxelizer::compose::{Heightmap, Instance, load_heightmap_png};
 
-/// The shipped Jacksboro DEM (`shared/testdata/dem-jacksboro`) at 4 m a pixel with
+/// The shipped Jacksboro DEM (`assets/dem-jacksboro`) at 4 m a pixel with
 /// heights × 0.05: 1.6 km × 1.4 km, 12–54 m of relief.
-pub(crate) fn jacksboro(testdata: &Path) -> Result<Heightmap, GridError> {
+pub(crate) fn jacksboro(assets: &Path) -> Result<Heightmap, GridError> {
     load_heightmap_png(
-        testdata.join("dem-jacksboro/jacksboro_fault_dem_u16.png"),
+        assets.join("dem-jacksboro/jacksboro_fault_dem_u16.png"),
         Vec2::ZERO,
         4.0,
         0.05,
@@ -57,6 +57,6 @@ pub(crate) fn scatter_forest(
 }
 
 /// The folder of the shipped test data, beside the repository.
-pub(crate) fn testdata_dir() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata")
+pub(crate) fn assets_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets")
 }

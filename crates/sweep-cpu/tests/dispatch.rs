@@ -1,23 +1,23 @@
-//! The sweep's results do not depend on the CPU features a build targets: this
-//! workspace builds for x86-64-v3 (`.cargo/config.toml`: AVX2 and FMA, eight floats a
-//! vector), and the outputs must equal, bit for bit, those of a baseline x86-64 build
-//! (SSE2, four). They do because Rust never fuses a multiply and an add, nor reorders
-//! float sums, by itself: wider vectors run the same operations in the same order.
+//! The sweep's results do not depend on the vector instructions its row kernels run on:
+//! they are compiled for the baseline (SSE2, four floats a vector) and for x86-64-v3
+//! (AVX2 and FMA, eight), chosen at run time (`lightgrid_sweep_cpu::isa`), and both
+//! paths must give, bit for bit, the same outputs. They do because Rust never fuses a
+//! multiply and an add, nor reorders float sums, by itself: wider vectors run the same
+//! operations in the same order.
 //!
 //! The table below holds the hashes ([`ContentHash`] of the bins, average light and
-//! dominant direction) that a baseline build gives for the five test scenes at 12³, one
-//! and four passes, both medium rules. A sweep whose semantics change on purpose
-//! changes them: run `RUSTFLAGS= cargo test -p sweep-cpu --test build_flags` (an empty
-//! `RUSTFLAGS` replaces the config's flags: the baseline build), which fails and prints
-//! the new table, and paste it here. Only on x86-64 Linux, where the table was made
-//! (the sweep calls the C library's `expf`; another libm may round differently).
+//! dominant direction) for the five test scenes at 12³, one and four passes, both medium
+//! rules; each test checks one path against it. A sweep whose semantics change on
+//! purpose changes them: the test fails and prints the new table, to paste here. Only
+//! on x86-64 Linux, where the table was made (the sweep calls the C library's `expf`;
+//! another libm may round differently).
 #![cfg(all(target_arch = "x86_64", target_os = "linux"))]
 
 use lightgrid_core::hash::ContentHash;
 use lightgrid_core::{MediumEmission, Outputs, SweepOptions, Sweeper};
-use sweep_cpu::scenes::Scene;
+use lightgrid_sweep_cpu::scenes::Scene;
 
-/// (scene, passes, medium rule, hash) from a baseline build.
+/// (scene, passes, medium rule, hash), the same on every path.
 const BASELINE: &[(&str, u32, &str, u64)] = &[
     ("empty", 1, "profile", 0xeb694ebdb12aeee1),
     ("empty", 1, "source", 0xeb694ebdb12aeee1),
@@ -55,7 +55,9 @@ fn hashes() -> Vec<(&'static str, u32, &'static str, u64)> {
                 o.max_passes = passes;
                 o.tolerance = 0.0;
                 o.medium = medium;
-                let s = sweep_cpu::CpuSweeper::new().sweep(&m, &b, &o).unwrap();
+                let s = lightgrid_sweep_cpu::CpuSweeper::new()
+                    .sweep(&m, &b, &o)
+                    .unwrap();
                 let mut h = ContentHash::new(b"build-flags-v1");
                 for b in s.bins.as_ref().unwrap().data() {
                     h.bins(b);
@@ -73,8 +75,8 @@ fn hashes() -> Vec<(&'static str, u32, &'static str, u64)> {
     out
 }
 
-#[test]
-fn outputs_equal_a_baseline_builds_bit_for_bit() {
+/// Fails with this path's table if it differs from [`BASELINE`].
+fn check(path: &str) {
     let got = hashes();
     if got != BASELINE {
         let table: String = got
@@ -82,9 +84,27 @@ fn outputs_equal_a_baseline_builds_bit_for_bit() {
             .map(|(s, p, r, h)| format!("    ({s:?}, {p}, {r:?}, 0x{h:016x}),\n"))
             .collect();
         panic!(
-            "the sweep's outputs differ from the baseline build's (a build flag changed a \
-             result, or the semantics changed: see this file's docs). This build's table:\n\
-             {table}"
+            "the sweep's outputs on the {path} path differ from the table (a vector path \
+             changed a result, or the semantics changed: see this file's docs). This \
+             path's table:\n{table}"
         );
+    }
+}
+
+/// One test for both paths: the choice is process-wide, and tests run in parallel.
+#[test]
+fn every_vector_path_gives_the_same_outputs_bit_for_bit() {
+    use lightgrid_sweep_cpu::isa::{VectorIsa, force_baseline, vector_isa};
+    let widest = vector_isa();
+    eprintln!("this CPU's widest path: {widest:?}");
+    check(&format!("{widest:?}"));
+    force_baseline(true);
+    assert_eq!(vector_isa(), VectorIsa::Baseline);
+    check("baseline");
+    force_baseline(false);
+    // On a CPU without AVX2 both checks ran the baseline: say so rather than pass in
+    // silence as if both paths had been compared.
+    if widest == VectorIsa::Baseline && std::env::var("LIGHTGRID_SIMD").is_err() {
+        eprintln!("note: this CPU has no x86-64-v3; only the baseline path was checked");
     }
 }
