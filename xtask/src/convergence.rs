@@ -7,8 +7,8 @@ use std::path::Path;
 use crate::bench::plot::err;
 use anyhow::Result;
 use lightgrid_core::{Acceleration, SweepOptions};
-use plotters::prelude::*;
 use lightgrid_sweep_cpu::exact::{self, Case};
+use plotters::prelude::*;
 
 /// Total optical depths of the slabs (cells of optical depth 1).
 pub const DEPTHS: [u32; 4] = [1, 10, 100, 1000];

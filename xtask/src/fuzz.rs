@@ -445,11 +445,12 @@ fn gltf_seeds() -> Vec<Vec<u8>> {
     let mut seeds = vec![triangle_gltf()];
     // A procedural rock with a texture, written by the library's own GLB writer.
     let mut rock = lightgrid_material_voxelizer::procedural::rock(3, 1.0).expect("valid rock");
-    rock.textures.push(lightgrid_material_voxelizer::model::Texture {
-        width: 2,
-        height: 2,
-        texels: vec![Vec4::new(0.5, 0.4, 0.3, 1.0); 4],
-    });
+    rock.textures
+        .push(lightgrid_material_voxelizer::model::Texture {
+            width: 2,
+            height: 2,
+            texels: vec![Vec4::new(0.5, 0.4, 0.3, 1.0); 4],
+        });
     rock.materials[0].texture = Some(0);
     if lightgrid_material_voxelizer::procedural::write_glb(&rock, &path).is_ok()
         && let Ok(b) = std::fs::read(&path)
@@ -468,8 +469,9 @@ fn exr_seeds() -> Vec<Vec<u8>> {
     let dir = scratch_dir("exr");
     let _ = std::fs::create_dir_all(&dir);
     let path = dir.join("sky.exr");
-    let map = lightgrid_sweep_cpu::sky::EnvMap::from_fn(8, 4, |d| Vec3::new(0.2, 0.4, 1.0) * (1.0 + d.y))
-        .expect("valid sky");
+    let map =
+        lightgrid_sweep_cpu::sky::EnvMap::from_fn(8, 4, |d| Vec3::new(0.2, 0.4, 1.0) * (1.0 + d.y))
+            .expect("valid sky");
     map.save_exr(&path).expect("writes");
     let b = std::fs::read(&path).expect("reads");
     let _ = std::fs::remove_dir_all(&dir);

@@ -110,19 +110,17 @@ fn main() -> ExitCode {
             }
         }
         Task::Exact { max_passes } => exact(&root, max_passes),
-        Task::Sun { n, paths } => {
-            match sun::run(&root, &root.join("assets"), n, paths) {
-                Ok(text) => {
-                    print!("{text}");
-                    println!("wrote target/bench/sun.txt and sun.png");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("xtask sun: {e:#}");
-                    ExitCode::FAILURE
-                }
+        Task::Sun { n, paths } => match sun::run(&root, &root.join("assets"), n, paths) {
+            Ok(text) => {
+                print!("{text}");
+                println!("wrote target/bench/sun.txt and sun.png");
+                ExitCode::SUCCESS
             }
-        }
+            Err(e) => {
+                eprintln!("xtask sun: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
         Task::Fuzz {
             inputs,
             targets,

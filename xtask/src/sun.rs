@@ -14,11 +14,11 @@ use lightgrid_material_voxelizer::compose::{
 };
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use plotters::prelude::*;
 use lightgrid_sweep_cpu::sky::Sun;
 use lightgrid_sweep_cpu::sun_measure::{
     SunErrors, angle_error, exact_shadow_azimuth, ground_light, shadow_azimuth, sun_errors,
 };
+use plotters::prelude::*;
 
 /// Sun elevations measured (degrees).
 pub const ELEVATIONS: [f32; 5] = [10.0, 25.0, 40.0, 60.0, 80.0];

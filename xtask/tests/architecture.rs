@@ -74,7 +74,10 @@ const ALLOWED: [(&str, Option<&[&str]>); 13] = [
             "lightgrid-light-probes",
         ]),
     ),
-    ("lightgrid-export", Some(&["lightgrid-core", "lightgrid-sweep-cpu"])),
+    (
+        "lightgrid-export",
+        Some(&["lightgrid-core", "lightgrid-sweep-cpu"]),
+    ),
     ("lightgrid", None),
     ("lightgrid-viewer", None),
     ("xtask", None),
@@ -83,7 +86,10 @@ const ALLOWED: [(&str, Option<&[&str]>); 13] = [
 /// Edges allowed only as dev-dependencies (tests, benches and examples), never in the
 /// library: terrain-lod's demo forest is voxelized and swept by its tests only.
 const DEV_ONLY: [(&str, &[&str]); 2] = [
-    ("lightgrid-terrain-lod", &["lightgrid-material-voxelizer", "lightgrid-sweep-cpu"]),
+    (
+        "lightgrid-terrain-lod",
+        &["lightgrid-material-voxelizer", "lightgrid-sweep-cpu"],
+    ),
     // light-probes' town test and example load the Kenney town from light-volumes' demo.
     ("lightgrid-light-probes", &["lightgrid-light-volumes"]),
 ];

@@ -126,7 +126,8 @@ fn no_path_climbs_out_of_the_repository() {
 fn the_climb_rule_catches_the_old_test_data_path() {
     let root = root();
     let test = root.join("crates/viewer/tests/scene_files.rs");
-    let line = r#"    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/x");"#;
+    let line =
+        r#"    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/x");"#;
     assert_eq!(climbs(line), vec![3]);
     assert!(climbs(line)[0] > allowed_climb(&test, line, &root));
     let ok = r#"    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../assets");"#;

@@ -65,7 +65,10 @@ fn main() -> Result<()> {
         let level = Targets::new().with_default(tracing::Level::INFO);
         let env = std::env::var("RUST_LOG").ok().and_then(|s| s.parse().ok());
         let layer = tracing_subscriber::fmt::layer().with_writer(std::io::stderr);
-        tracing_subscriber::registry().with(layer).with(env.unwrap_or(level)).init();
+        tracing_subscriber::registry()
+            .with(layer)
+            .with(env.unwrap_or(level))
+            .init();
     }
     if let Some(limit) = cli.memory_limit {
         lightgrid_core::limits::set_memory_limit(limit);

@@ -7,12 +7,12 @@
 
 use std::time::Instant;
 
-use lightgrid_light_probes::{
-    Lighting, ProbeLight, ProbeParams, ProbeSet, ProbeVolume, place, place_walls, reference,
-};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::light::{AMBIENT_AXES, luminance};
 use lightgrid_core::{BinLight, GridDesc, LightField};
+use lightgrid_light_probes::{
+    Lighting, ProbeLight, ProbeParams, ProbeSet, ProbeVolume, place, place_walls, reference,
+};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

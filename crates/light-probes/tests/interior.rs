@@ -15,11 +15,13 @@
 mod common;
 
 use common::{ground_triangles, model, room, tri};
-use lightgrid_light_probes::{InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, ProbeVolume};
-use lightgrid_light_probes::{place, place_walls, reference};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{BinLight, GridDesc, LightField};
+use lightgrid_light_probes::{
+    InteriorBox, Lighting, ProbeLight, ProbeParams, ProbeSet, ProbeVolume,
+};
+use lightgrid_light_probes::{place, place_walls, reference};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 
 const PI: f32 = std::f32::consts::PI;

@@ -11,9 +11,9 @@
 //! frames: the first lights the ground, the second the probes from it; later frames
 //! change nothing (the ground sees no ground).
 
-use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::Vec3;
+use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet};
 use lightgrid_material_voxelizer::model::Model;
 use lightgrid_material_voxelizer::voxelize::RayScene;
 

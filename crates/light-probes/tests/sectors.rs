@@ -1,9 +1,9 @@
 //! Sectors stream around the camera within the memory budget, nearest first; a sector
 //! bakes the same probes whether streamed or baked alone; relighting runs per sector.
 
-use lightgrid_light_probes::{Lighting, ProbeParams, ProbeSet, Sectors};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::{Vec2, Vec3, Vec4};
+use lightgrid_light_probes::{Lighting, ProbeParams, ProbeSet, Sectors};
 use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 

@@ -6,10 +6,10 @@
 //! 0.009. `examples/town_probes.rs` prints the same at three sun positions with 16 000 samples
 //! (bricks of 4: 0.026–0.033, brick 1: 0.014–0.016, noise 0.003–0.004).
 
-use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place, reference};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::luminance;
+use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place, reference};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn error(brick: u32) -> f64 {

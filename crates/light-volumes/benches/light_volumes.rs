@@ -1,9 +1,11 @@
 //! Ray casts in the town's BVH (alone and with deposits) and toggling one light of 100.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use lightgrid_light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
 use lightgrid_core::GridDesc;
 use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_light_volumes::{
+    CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light,
+};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn bench(c: &mut Criterion) {

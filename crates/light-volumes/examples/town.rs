@@ -6,9 +6,11 @@
 
 use std::time::Instant;
 
-use lightgrid_light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{GridDesc, NUM_DIRS};
+use lightgrid_light_volumes::{
+    CompressedVolume, Light, LightKind, LightSet, TraceParams, demo, trace_light,
+};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

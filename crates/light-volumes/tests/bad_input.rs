@@ -2,9 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
-use lightgrid_light_volumes::{CompressedVolume, LightSet};
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{BinLight, GridDesc, LightGrid};
+use lightgrid_light_volumes::{CompressedVolume, LightSet};
 
 const KEY: u64 = 77;
 

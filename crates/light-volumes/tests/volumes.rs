@@ -1,12 +1,12 @@
 //! Light volumes: known answers for tracing, linearity in albedo, determinism, the
 //! compressed cache (error bound, corruption, staleness) and the light set's toggles.
 
+use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
+use lightgrid_core::{GridDesc, LightField, LightGrid, NUM_DIRS, SumField, dirs};
 use lightgrid_light_volumes::{
     CacheOutcome, CompressedVolume, Light, LightKind, LightSet, TraceParams, load_or_make,
     trace_light,
 };
-use lightgrid_core::glam::{UVec3, Vec2, Vec3, Vec4};
-use lightgrid_core::{GridDesc, LightField, LightGrid, NUM_DIRS, SumField, dirs};
 use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 use obvhs::BvhBuildParams;
@@ -176,7 +176,10 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
                     assert!((q[c] - v).abs() <= bound, "{} vs {v}", q[c]);
                 }
             } else {
-                assert!(v <= max * lightgrid_light_volumes::THRESHOLD, "{v} outside the box");
+                assert!(
+                    v <= max * lightgrid_light_volumes::THRESHOLD,
+                    "{v} outside the box"
+                );
             }
         }
     }
@@ -204,7 +207,10 @@ fn compression_bounds_the_error_and_the_cache_rejects_corrupt_and_stale_files() 
     moved.kind = LightKind::Point {
         position: Vec3::ONE,
     };
-    assert_ne!(key, lightgrid_light_volumes::volume_key(&moved, &model, &desc, &p));
+    assert_ne!(
+        key,
+        lightgrid_light_volumes::volume_key(&moved, &model, &desc, &p)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -12,8 +12,7 @@ use lightgrid_material_voxelizer::model::Model;
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 
 fn models() -> Vec<(String, Model)> {
-    let dir =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/kenney-city-builder");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/kenney-city-builder");
     [
         "grass-trees.glb",
         "grass-trees-tall.glb",

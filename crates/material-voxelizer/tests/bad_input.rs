@@ -248,15 +248,24 @@ fn png_header(w: u32, h: u32) -> Vec<u8> {
 
 #[test]
 fn huge_image_headers_are_refused_before_decoding() {
-    let e = lightgrid_material_voxelizer::compose::decode_limited(&png_header(100_000, 100_000), 1 << 16, 8)
-        .unwrap_err();
+    let e = lightgrid_material_voxelizer::compose::decode_limited(
+        &png_header(100_000, 100_000),
+        1 << 16,
+        8,
+    )
+    .unwrap_err();
     assert!(e.contains("100000 x 100000"), "{e}");
-    let e = lightgrid_material_voxelizer::gltf_read::decode_texture(&png_header(40_000, 2)).unwrap_err();
+    let e = lightgrid_material_voxelizer::gltf_read::decode_texture(&png_header(40_000, 2))
+        .unwrap_err();
     assert!(e.contains("40000 x 2"), "{e}");
     // Within the sides but over the memory limit: 60000² × 8 bytes = 27 GiB.
     lightgrid_core::limits::set_memory_limit(1 << 30);
-    let e = lightgrid_material_voxelizer::compose::decode_limited(&png_header(60_000, 60_000), 1 << 16, 8)
-        .unwrap_err();
+    let e = lightgrid_material_voxelizer::compose::decode_limited(
+        &png_header(60_000, 60_000),
+        1 << 16,
+        8,
+    )
+    .unwrap_err();
     lightgrid_core::limits::set_memory_limit(0);
     assert!(e.contains("memory"), "{e}");
     // Heightmaps from files: devices, FIFOs and folders are errors, not hangs.
@@ -276,9 +285,15 @@ fn huge_image_headers_are_refused_before_decoding() {
         bad.push(fifo);
     }
     for p in bad {
-        let e = lightgrid_material_voxelizer::compose::load_heightmap_png(&p, Vec2::ZERO, 1.0, 1.0, 0.0)
-            .unwrap_err()
-            .to_string();
+        let e = lightgrid_material_voxelizer::compose::load_heightmap_png(
+            &p,
+            Vec2::ZERO,
+            1.0,
+            1.0,
+            0.0,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(!e.is_empty(), "{}", p.display());
     }
     // Sizes whose product would wrap in u32.

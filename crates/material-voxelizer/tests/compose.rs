@@ -237,8 +237,14 @@ fn invalid_instances_name_the_field() {
 fn shipped_dem_loads_as_a_heightmap() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../assets/dem-jacksboro/jacksboro_fault_dem_u16.png");
-    let hm =
-        lightgrid_material_voxelizer::compose::load_heightmap_png(&path, Vec2::ZERO, 30.0, 1.0, 0.0).unwrap();
+    let hm = lightgrid_material_voxelizer::compose::load_heightmap_png(
+        &path,
+        Vec2::ZERO,
+        30.0,
+        1.0,
+        0.0,
+    )
+    .unwrap();
     assert_eq!((hm.width, hm.depth), (403, 344));
     let (lo, hi) = hm.range();
     assert_eq!((lo, hi), (236.0, 1076.0));

@@ -332,8 +332,8 @@ fn empty_space_is_not_traced() {
 
 #[test]
 fn shipped_kenney_models_load_and_voxelize() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../assets/kenney-city-builder");
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/kenney-city-builder");
     assert!(dir.exists(), "test data missing at {}", dir.display());
     for name in [
         "grass-trees.glb",

@@ -7,9 +7,9 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::Vec3;
+use lightgrid_light_probes::{Lighting, ProbeLight, ProbeParams, ProbeSet, place};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

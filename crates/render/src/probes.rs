@@ -6,12 +6,12 @@
 
 use std::sync::Arc;
 
-use lightgrid_light_probes::{Lighting, ProbeSet};
 use lightgrid_core::GridError;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::AmbientCube;
 use lightgrid_gpu::GpuContext;
 use lightgrid_gpu::kernel::{Binding, Kernel, buffer};
+use lightgrid_light_probes::{Lighting, ProbeSet};
 
 use crate::RenderError;
 

@@ -583,7 +583,9 @@ fn bin_grid_uploads_only_the_changed_box() {
 
 #[test]
 fn toggling_a_local_light_uploads_only_its_box() {
-    use lightgrid_light_volumes::{CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light};
+    use lightgrid_light_volumes::{
+        CompressedVolume, Light, LightKind, LightSet, TraceParams, trace_light,
+    };
     use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
     let Some(ctx) = context() else { return };
     let p = |x: f32, z: f32| Vec3::new(x, 0.0, z);
@@ -601,8 +603,10 @@ fn toggling_a_local_light_uploads_only_its_box() {
         materials: vec![SurfaceMaterial::default()],
         textures: Vec::new(),
     };
-    let scene =
-        lightgrid_material_voxelizer::voxelize::RayScene::new(&model, obvhs::BvhBuildParams::fast_build());
+    let scene = lightgrid_material_voxelizer::voxelize::RayScene::new(
+        &model,
+        obvhs::BvhBuildParams::fast_build(),
+    );
     let desc = GridDesc::new(Vec3::new(-4.0, -0.25, -4.0), 0.5, UVec3::new(17, 8, 17)).unwrap();
     let mut set = LightSet::new(desc).unwrap();
     let mut ids = Vec::new();

@@ -169,7 +169,8 @@ pub fn surface_weight_table() -> Vec<f32> {
 
 /// Floats of a point's level scratch: the removals of every stencil slot (RGB) and the
 /// `T_after` of every channel.
-pub const SCRATCH: usize = lightgrid_sweep_cpu::sweep::SLOTS * 3 + lightgrid_sweep_cpu::sweep::CHANNELS;
+pub const SCRATCH: usize =
+    lightgrid_sweep_cpu::sweep::SLOTS * 3 + lightgrid_sweep_cpu::sweep::CHANNELS;
 
 /// The part both sweep phases share: `struct LevelParams`, sizes, helpers.
 fn sweep_common() -> String {
@@ -180,7 +181,11 @@ fn sweep_common() -> String {
         "const T_AFTER_OFFSET: u32 = {}u;",
         lightgrid_sweep_cpu::sweep::SLOTS * 3
     );
-    let _ = writeln!(s, "const CH: u32 = {}u;", lightgrid_sweep_cpu::sweep::CHANNELS);
+    let _ = writeln!(
+        s,
+        "const CH: u32 = {}u;",
+        lightgrid_sweep_cpu::sweep::CHANNELS
+    );
     s.push_str(include_str!("shaders/sweep_common.wgsl"));
     s
 }

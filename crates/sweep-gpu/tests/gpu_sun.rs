@@ -6,9 +6,9 @@ use std::sync::Arc;
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{Grid, GridDesc, Material, MaterialGrid};
-use proptest::prelude::*;
 use lightgrid_sweep_cpu::SunTransmittance;
 use lightgrid_sweep_gpu::{GpuContext, GpuSunTransmittance};
+use proptest::prelude::*;
 
 fn march() -> Option<&'static GpuSunTransmittance> {
     static S: std::sync::OnceLock<Option<GpuSunTransmittance>> = std::sync::OnceLock::new();

@@ -6,8 +6,8 @@ use lightgrid_core::{
     BinLight, Boundary, GridDesc, HaloLayout, Material, MaterialGrid, SideBoundary, SweepOptions,
     TopBoundary,
 };
-use proptest::prelude::*;
 use lightgrid_sweep_gpu::{GpuContext, GpuSweeper};
+use proptest::prelude::*;
 
 /// One sweeper for all tests of this binary: pipelines compile once.
 fn sweeper() -> Option<&'static GpuSweeper> {
@@ -62,7 +62,11 @@ fn canonical_scenes_match_the_cpu() {
             lightgrid_core::MediumEmission::Escape,
         ] {
             o.medium = medium;
-            let cpu = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
+            let cpu = lightgrid_sweep_cpu::run(&m, &b, &o)
+                .unwrap()
+                .output
+                .bins
+                .unwrap();
             let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
             assert_close(&cpu, &g).unwrap_or_else(|e| panic!("{} ({medium:?}): {e}", scene.name()));
         }
@@ -245,7 +249,9 @@ fn sun_and_sky_responses_on_the_gpu() {
 #[test]
 fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let top = lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE).unwrap().top;
+    let top = lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE)
+        .unwrap()
+        .top;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(top)
@@ -351,9 +357,14 @@ fn sun_split_on_the_gpu() {
     o.tolerance = 0.0;
     o.max_passes = 4;
     let to_sun = Vec3::new(0.5, 0.6, -0.3);
-    let cpu =
-        lightgrid_sweep_cpu::sun::SunSplit::compute(&mut lightgrid_sweep_cpu::CpuSweeper::new(), &m, &b, to_sun, &o)
-            .unwrap();
+    let cpu = lightgrid_sweep_cpu::sun::SunSplit::compute(
+        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
+        &m,
+        &b,
+        to_sun,
+        &o,
+    )
+    .unwrap();
     let mut g = gpu;
     let on_gpu = lightgrid_sweep_cpu::sun::SunSplit::compute(&mut g, &m, &b, to_sun, &o).unwrap();
     assert_close(&cpu.sky, &on_gpu.sky).unwrap();

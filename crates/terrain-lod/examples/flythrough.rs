@@ -12,7 +12,9 @@ use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundC
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use lightgrid_sweep_cpu::CpuSweeper;
-use lightgrid_terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams};
+use lightgrid_terrain_lod::{
+    BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams,
+};
 
 #[path = "../tests/demo/mod.rs"]
 mod demo;

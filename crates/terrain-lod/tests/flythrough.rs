@@ -2,7 +2,9 @@
 
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{BinLight, LightField};
-use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain};
+use lightgrid_material_voxelizer::compose::{
+    AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain,
+};
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use lightgrid_sweep_cpu::CpuSweeper;

@@ -37,8 +37,8 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use lightgrid_render::{Camera, Renderer};
-use serde::Serialize;
 use lightgrid_terrain_lod::{BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM};
+use serde::Serialize;
 
 pub use scene::SceneFile;
 pub use world::{SweeperChoice, World};
@@ -234,7 +234,9 @@ pub fn write_exr(path: &Path, img: &lightgrid_render::Image) -> Result<()> {
 /// The viewer's and xtask's `main` call it once.
 pub fn init_logs() {
     use tracing_subscriber::{filter::Targets, layer::SubscriberExt, util::SubscriberInitExt};
-    let filter = std::env::var("RUST_LOG").ok().and_then(|s| s.parse::<Targets>().ok());
+    let filter = std::env::var("RUST_LOG")
+        .ok()
+        .and_then(|s| s.parse::<Targets>().ok());
     let filter = filter.unwrap_or_else(|| Targets::new().with_default(tracing::Level::INFO));
     let fmt = tracing_subscriber::fmt::layer().with_writer(std::io::stderr);
     tracing_subscriber::registry().with(fmt).with(filter).init();

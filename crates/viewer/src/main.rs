@@ -53,7 +53,10 @@ fn main() -> Result<()> {
     }
     for (name, v) in [("--width", args.width), ("--height", args.height)] {
         if !(1..=lightgrid_viewer::MAX_IMAGE_SIDE).contains(&v) {
-            anyhow::bail!("{name} {v}: must be in 1..={}", lightgrid_viewer::MAX_IMAGE_SIDE);
+            anyhow::bail!(
+                "{name} {v}: must be in 1..={}",
+                lightgrid_viewer::MAX_IMAGE_SIDE
+            );
         }
     }
     let mut scene = match &args.scene {
@@ -72,7 +75,13 @@ fn main() -> Result<()> {
         scene.views.retain(|v| args.views.contains(&v.name));
     }
     if args.window {
-        return lightgrid_viewer::window::run(scene, args.sweeper, args.width, args.height, args.frames);
+        return lightgrid_viewer::window::run(
+            scene,
+            args.sweeper,
+            args.width,
+            args.height,
+            args.frames,
+        );
     }
     let summary = lightgrid_viewer::run(
         scene,

@@ -9,11 +9,11 @@
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use lightgrid_core::glam::{Mat4, Vec2, Vec3};
+use lightgrid_core::{BinLight, GridDesc, GridError, LightField};
 use lightgrid_light_probes::{
     Lighting, ProbeLight, ProbeSet, ProbeVolume, ResolvedVolume, place, place_walls,
 };
-use lightgrid_core::glam::{Mat4, Vec2, Vec3};
-use lightgrid_core::{BinLight, GridDesc, GridError, LightField};
 use lightgrid_material_voxelizer::model::{Model, SurfaceMaterial, Triangle};
 use lightgrid_material_voxelizer::voxelize::RayScene;
 

@@ -79,7 +79,8 @@ pub fn run(
     }
     tracing::info!(
         "frames drawn: {}, grids built while flying: {}",
-        app.drawn, app.built
+        app.drawn,
+        app.built
     );
     Ok(())
 }

@@ -115,8 +115,10 @@ fn procedural_heightmap(p: &crate::scene::ProceduralTerrain, spacing: f32) -> Re
 }
 
 fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
-    let bytes =
-        lightgrid_core::limits::read_file(path, lightgrid_material_voxelizer::gltf_read::MAX_MODEL_BYTES)?;
+    let bytes = lightgrid_core::limits::read_file(
+        path,
+        lightgrid_material_voxelizer::gltf_read::MAX_MODEL_BYTES,
+    )?;
     lightgrid_material_voxelizer::gltf_read::decode_texture(&bytes)
         .map_err(|e| anyhow::anyhow!("decoding {}: {e}", path.display()))
 }
@@ -285,10 +287,12 @@ impl World {
                     let p = scene.resolve(path);
                     let model = Model::load_gltf(&p)
                         .with_context(|| format!("models[{i}].gltf {}", p.display()))?;
-                    let foliage = model
-                        .materials
-                        .iter()
-                        .any(|s| !matches!(s.alpha, lightgrid_material_voxelizer::model::AlphaMode::Opaque));
+                    let foliage = model.materials.iter().any(|s| {
+                        !matches!(
+                            s.alpha,
+                            lightgrid_material_voxelizer::model::AlphaMode::Opaque
+                        )
+                    });
                     (model, foliage)
                 }
                 (None, Some("broadleaf")) => (tree(&TreeParams::broadleaf(m.seed))?, true),
@@ -384,7 +388,10 @@ impl World {
             Box::new(s)
         };
         let (sweeper, name): (Box<dyn Sweeper + Send + Sync>, String) = match sweeper {
-            SweeperChoice::Cpu => (Box::new(lightgrid_sweep_cpu::CpuSweeper::new()), "cpu".into()),
+            SweeperChoice::Cpu => (
+                Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+                "cpu".into(),
+            ),
             SweeperChoice::Gpu => {
                 let c = open().context("--sweeper gpu")?;
                 let name = format!("gpu ({})", c.info.name);

@@ -135,7 +135,8 @@ fn a_probe_spacing_too_fine_is_refused_by_name() {
     let text = std::fs::read_to_string(&path)
         .unwrap()
         .replace("[probes]", "[probes]\nspacing = 0.01");
-    let scene = lightgrid_viewer::SceneFile::parse(&text, "town.toml", path.parent().unwrap()).unwrap();
+    let scene =
+        lightgrid_viewer::SceneFile::parse(&text, "town.toml", path.parent().unwrap()).unwrap();
     let e = match lightgrid_viewer::World::build(scene, lightgrid_viewer::SweeperChoice::Cpu) {
         Ok(_) => panic!("a 0.01 m probe spacing over the town must be refused"),
         Err(e) => format!("{e:#}"),

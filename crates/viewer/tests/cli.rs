@@ -16,7 +16,7 @@ fn bad_scene_file_names_file_line_and_field() {
             1,
         );
     std::fs::write(&scene, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_viewer"))
+    let out = Command::new(env!("CARGO_BIN_EXE_lightgrid-viewer"))
         .args(["--scene", scene.to_str().unwrap(), "--out"])
         .arg(dir.join("out"))
         .output()
@@ -31,7 +31,7 @@ fn bad_scene_file_names_file_line_and_field() {
         "nothing may be written for a bad scene"
     );
     // A missing file is named too.
-    let out = Command::new(env!("CARGO_BIN_EXE_viewer"))
+    let out = Command::new(env!("CARGO_BIN_EXE_lightgrid-viewer"))
         .args(["--scene", "no/such/scene.toml"])
         .output()
         .unwrap();

@@ -86,9 +86,7 @@ target = [520.0, 520.0]
         dem = assets
             .join("dem-jacksboro/jacksboro_fault_dem_u16.png")
             .display(),
-        trees = assets
-            .join("kenney-city-builder/grass-trees.glb")
-            .display(),
+        trees = assets.join("kenney-city-builder/grass-trees.glb").display(),
         house = assets
             .join("kenney-city-builder/building-small-a.glb")
             .display(),

@@ -19,7 +19,7 @@ fn window_flies_and_rebuilds_grids() {
         );
     }
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tiny.toml");
-    let out = Command::new(env!("CARGO_BIN_EXE_viewer"))
+    let out = Command::new(env!("CARGO_BIN_EXE_lightgrid-viewer"))
         .args([
             "--scene", scene, "--window", "--frames", "40", "--width", "160", "--height", "120",
         ])

@@ -33,9 +33,9 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{GridFile, LightField, LightGrid, MaterialGrid, SweepOptions};
-use serde::Serialize;
 use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
 use lightgrid_sweep_cpu::scenes::compare;
+use serde::Serialize;
 
 use scenes::BenchScene;
 

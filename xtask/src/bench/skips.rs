@@ -10,10 +10,10 @@ use lightgrid_core::{
     Boundary, GridDesc, LightField, LightGrid, Material, MaterialGrid, Outputs, SideBoundary,
     SweepOptions,
 };
-use serde::Serialize;
 use lightgrid_sweep_cpu::scenes::{Scene, sky_and_sun};
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, LodSkips};
 use lightgrid_viewer::{SceneFile, SweeperChoice, World};
+use serde::Serialize;
 
 use super::BenchConfig;
 
@@ -170,10 +170,18 @@ pub(super) fn measure(cfg: &BenchConfig) -> Result<Vec<SkipRow>> {
     let mut avg = on;
     avg.outputs = Outputs::AVERAGE_DOMINANT;
     let (a, t_on) = super::fastest(cfg.repeats, || {
-        Ok(lightgrid_sweep_cpu::run(&forest.material, &forest.boundary, &avg)?)
+        Ok(lightgrid_sweep_cpu::run(
+            &forest.material,
+            &forest.boundary,
+            &avg,
+        )?)
     })?;
     let (c, t_off) = super::fastest(cfg.repeats, || {
-        Ok(lightgrid_sweep_cpu::run(&forest.material, &forest.boundary, &on)?)
+        Ok(lightgrid_sweep_cpu::run(
+            &forest.material,
+            &forest.boundary,
+            &on,
+        )?)
     })?;
     let (x, y) = (
         a.output.average.expect("average"),

@@ -1,0 +1,365 @@
+//! A sweep's working memory: what a sweeper keeps between sweeps (`Spare`), the
+//! per-level planes, the per-sweep work buffers.
+
+use super::*;
+
+/// Output memory of an earlier sweep, reused by the next one of the same size (see
+/// [`crate::CpuSweeper::recycle`]): a fresh output's pages must be faulted in and
+/// zeroed by the kernel, some 25 ms of a 64³ sweep with 26 bins on the 2-core VM.
+#[derive(Clone, Default)]
+pub(crate) struct Spare {
+    pub(crate) bins: Vec<BinLight>,
+    pub(crate) average: Vec<AverageLight>,
+    pub(crate) dominant: Vec<DominantDir>,
+    pub(crate) work: Option<Work>,
+}
+
+impl std::fmt::Debug for Spare {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Spare")
+            .field("bins", &self.bins.len())
+            .field("average", &self.average.len())
+            .field("dominant", &self.dominant.len())
+            .field("work", &self.work.as_ref().map(|w| (w.prev.nx, w.prev.nz)))
+            .finish()
+    }
+}
+
+/// The working buffers of a sweep, allocated once (per level, and per point for the
+/// pending light), and kept for the next sweep of the same size in [`Spare`].
+/// A level's per-cell values as padded planes for phase 3's row loops: the
+/// transmittance of every path exponent ([`Planes::POW`] + exponent) and the source
+/// rule's source per colour ([`Planes::SRC`] + colour; 0 where a cell does not emit),
+/// each a plane of `(nx + 2R) × (nz + 2R)` with a ring of `R` cells beyond the sides:
+/// wrapped on periodic sides, else empty space (transmittance 1, no source), as
+/// [`Ctx::col`] resolves a cell beyond a side.
+#[derive(Clone)]
+pub(crate) struct Planes {
+    /// Every level's transmittance and `ln(pass)` planes ([`Planes::PER_LEVEL`] a
+    /// level), written at the level's first visit of a sweep (`Work::set_up`).
+    pub(crate) v: Vec<f32>,
+    /// The source planes of the level being swept.
+    pub(crate) src: Vec<f32>,
+    /// The level whose planes [`Planes::row`] reads.
+    pub(crate) level: usize,
+    pub(crate) nx: usize,
+    pub(crate) nz: usize,
+    /// [`MediumEmission::Profile`]: what each cell's `P_1`, `P_2` source terms emit into
+    /// the segment of each stencil slot; per row of the level: slot, colour, column (no
+    /// ring; 0 where the cell does not emit; empty under other rules). Written by phase
+    /// 2 as it solves each cell's source ([`Ctx::phase2_row`]).
+    pub(crate) ex: Vec<f32>,
+}
+
+impl Planes {
+    /// The ring: the farthest stencil offset.
+    pub(crate) const R: usize = RING;
+    pub(crate) const POW: usize = 0;
+    /// The cells' `ln(pass)` (0 beyond open sides), for [`seg_mean`].
+    pub(crate) const LNP: usize = MAX_EXPONENTS;
+    /// Planes kept per level.
+    pub(crate) const PER_LEVEL: usize = MAX_EXPONENTS + 1;
+    pub(crate) const SRC: usize = Self::PER_LEVEL;
+
+    pub(crate) fn new(nx: usize, nz: usize, levels: usize) -> Self {
+        let plane = (nx + 2 * Self::R) * (nz + 2 * Self::R);
+        Self {
+            v: vec![0.0; levels * Self::PER_LEVEL * plane],
+            src: vec![0.0; 3 * plane],
+            level: 0,
+            nx,
+            nz,
+            ex: Vec::new(),
+        }
+    }
+
+    /// Floats of one plane.
+    #[inline]
+    pub(crate) fn plane_len(&self) -> usize {
+        self.width() * (self.nz + 2 * Self::R)
+    }
+
+    /// Plane `plane` of the current level ([`Planes::level`]; the source planes are
+    /// the level being swept's).
+    #[inline]
+    pub(crate) fn plane(&self, plane: usize) -> &[f32] {
+        let n = self.plane_len();
+        if plane >= Self::SRC {
+            &self.src[(plane - Self::SRC) * n..][..n]
+        } else {
+            &self.v[(self.level * Self::PER_LEVEL + plane) * n..][..n]
+        }
+    }
+
+    /// [`Planes::plane`], to write.
+    #[inline]
+    pub(crate) fn plane_mut(&mut self, plane: usize) -> &mut [f32] {
+        let n = self.plane_len();
+        if plane >= Self::SRC {
+            &mut self.src[(plane - Self::SRC) * n..][..n]
+        } else {
+            &mut self.v[(self.level * Self::PER_LEVEL + plane) * n..][..n]
+        }
+    }
+
+    #[inline]
+    pub(crate) fn width(&self) -> usize {
+        self.nx + 2 * Self::R
+    }
+
+    /// `len` values of `plane` from column `x` of row `z` (`-R ≤ x`, `x + len ≤ nx + R`,
+    /// `-R ≤ z < nz + R`).
+    #[inline]
+    pub(crate) fn row(&self, plane: usize, z: i32, x: i32, len: usize) -> &[f32] {
+        let w = self.width();
+        let r = (z + Self::R as i32) as usize * w;
+        &self.plane(plane)[r + (x + Self::R as i32) as usize..][..len]
+    }
+
+    /// Fills the current level's transmittance planes from its `pows`.
+    pub(crate) fn fill_pows(&mut self, ctx: &Ctx, pows: &[[f32; MAX_EXPONENTS]], lnp: &[f32]) {
+        self.fill(ctx, Self::POW, MAX_EXPONENTS, 1.0, |q, e| pows[q][e]);
+        self.fill(ctx, Self::LNP, 1, 0.0, |q, _| lnp[q]);
+    }
+
+    /// Fills the source planes from the level's sources (0 where a cell does not emit).
+    pub(crate) fn fill_src(&mut self, ctx: &Ctx, src: &[Vec3], emits: &[bool]) {
+        self.fill(ctx, Self::SRC, 3, 0.0, |q, col| {
+            if emits[q] { src[q][col] } else { 0.0 }
+        });
+    }
+
+    /// `len` values of [`Planes::ex`] for `slot`, colour `col`, row `z`, columns `x..x +
+    /// len` (`-RING ≤ x`, `x + len ≤ nx + RING`; the ring holds the wrapped columns on
+    /// periodic sides, 0 beyond open ones; a row beyond an open side is 0).
+    #[inline]
+    pub(crate) fn ex_row(
+        &self,
+        ctx: &Ctx,
+        (slot, col): (usize, usize),
+        z: i32,
+        x: i32,
+        len: usize,
+    ) -> &[f32] {
+        static ZERO: [f32; GATHER_BLOCK] = [0.0; GATHER_BLOCK];
+        let Some(zr) = ctx.row_of(z) else {
+            return &ZERO[..len];
+        };
+        tap(&self.ex, self.nx, (zr, slot, col), x, len)
+    }
+
+    /// Planes `first..first + count`: `value(cell, plane - first)` at every cell of
+    /// the ring and the level (the cell [`Ctx::col`] finds), `outside` beyond open sides.
+    pub(crate) fn fill(
+        &mut self,
+        ctx: &Ctx,
+        first: usize,
+        count: usize,
+        outside: f32,
+        value: impl Fn(usize, usize) -> f32,
+    ) {
+        let (w, h) = (self.width(), self.nz + 2 * Self::R);
+        let r = Self::R as i32;
+        // Column and row of the level each ring position reads (`None`: outside).
+        let axis = |i: usize, n: i32| -> Option<usize> {
+            let v = i as i32 - r;
+            if ctx.periodic {
+                Some(v.rem_euclid(n) as usize)
+            } else {
+                (0..n).contains(&v).then_some(v as usize)
+            }
+        };
+        let xs: Vec<Option<usize>> = (0..w).map(|i| axis(i, ctx.nx)).collect();
+        let nx = self.nx;
+        for k in 0..count {
+            let plane = self.plane_mut(first + k);
+            for zz in 0..h {
+                let zs = axis(zz, ctx.nz);
+                let dst = &mut plane[zz * w..][..w];
+                match zs {
+                    None => dst.fill(outside),
+                    Some(z) => {
+                        for (d, x) in dst.iter_mut().zip(&xs) {
+                            *d = x.map_or(outside, |x| value(x + nx * z, k));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[derive(Clone)]
+pub(crate) struct Work {
+    pub(crate) prev: LevelLight,
+    pub(crate) cur: LevelLight,
+    /// The upward light left at the levels above all material for a later pass to
+    /// carry (its ring as `prev`'s).
+    pub(crate) above: LevelLight,
+    /// Light from outside the sides in its ring, zero inside ([`LevelLight`]), and the
+    /// source level it was last filled for (`None`: not filled).
+    pub(crate) ghost: LevelLight,
+    pub(crate) ghost_for: Option<(bool, i32)>,
+    /// Phase 1: what every point's path lost in each of its segments (per row: slot,
+    /// colour, column).
+    pub(crate) removed: Vec<f32>,
+    /// Phase 3: what each point's path carries into each of its segments (per row:
+    /// slot, colour, column), and the level's transmittances and sources with a ring.
+    pub(crate) pre: Vec<f32>,
+    /// Per row: `pre` was written this level (some point of the row is near an
+    /// emitting cell).
+    pub(crate) pre_rows: Vec<bool>,
+    pub(crate) planes: Planes,
+    pub(crate) t_after: Vec<[f32; CHANNELS]>,
+    pub(crate) rows: Vec<RowFlux>,
+    /// Transmittance of every cell for each path exponent (a level's written at its
+    /// first visit of a sweep, `set_up`).
+    pub(crate) pows: Vec<[f32; MAX_EXPONENTS]>,
+    /// Points with no material within two cells of their level ([`Ctx::quiet`];
+    /// written with `pows`).
+    pub(crate) quiet: Vec<bool>,
+    pub(crate) quiet_rows: Vec<bool>,
+    /// Per level: `pows`, `quiet` and the level's transmittance planes
+    /// ([`Planes::level`]) hold its values this sweep.
+    pub(crate) set_up: Vec<bool>,
+    /// The source rule's source per cell of the level ([`crate::medium`]) and whether a
+    /// cell emits.
+    pub(crate) src: Vec<Vec3>,
+    pub(crate) emits: Vec<bool>,
+    /// [`MediumEmission::Profile`]: the level's cells' profiles for this pass and the
+    /// source's coefficients of `P_1`, `P_2` in height (empty under other rules).
+    pub(crate) prof: crate::profile::Profiles,
+    pub(crate) src_hi: Vec<[Vec3; 2]>,
+    /// Scattered light waiting to be emitted in downward / upward channels.
+    pub(crate) pend_down: PendingLevels,
+    pub(crate) pend_up: PendingLevels,
+    /// Accelerated sweeps ([`crate::accel`]): the upward share of what collides in a
+    /// downward pass, for the next pair of passes (empty otherwise).
+    pub(crate) pend_next: PendingLevels,
+    /// Per level: some pending light of it was written (zeroed again on reuse).
+    pub(crate) pend_dirty: Vec<bool>,
+}
+
+impl Work {
+    pub(crate) fn new(nx: usize, nz: usize, n: usize) -> Self {
+        let level_len = nx * nz;
+        Self {
+            prev: LevelLight::new(nx, nz),
+            cur: LevelLight::new(nx, nz),
+            above: LevelLight::new(nx, nz),
+            ghost: LevelLight::new(nx, nz),
+            ghost_for: None,
+            removed: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
+            pre: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
+            pre_rows: vec![false; nz],
+            planes: Planes::new(nx, nz, n / level_len.max(1)),
+            t_after: vec![[1.0; CHANNELS]; level_len],
+            rows: vec![RowFlux::default(); nz],
+            pows: vec![[1.0; MAX_EXPONENTS]; n],
+            quiet: vec![false; n],
+            quiet_rows: vec![false; level_len],
+            set_up: vec![false; n / level_len.max(1)],
+            src: vec![Vec3::ZERO; level_len],
+            emits: vec![false; level_len],
+            prof: Default::default(),
+            src_hi: Vec::new(),
+            pend_down: PendingLevels::new(level_len, n / level_len.max(1)),
+            pend_up: PendingLevels::new(level_len, n / level_len.max(1)),
+            pend_next: PendingLevels::default(),
+            pend_dirty: vec![false; n / level_len.max(1)],
+        }
+    }
+
+    /// `old` made ready for a new sweep if it has the size (the level buffers and the
+    /// levels of pending light that were written zeroed), else new buffers.
+    pub(crate) fn reuse(old: Option<Work>, nx: usize, nz: usize, n: usize) -> Self {
+        match old {
+            Some(mut w) if w.prev.nx == nx && w.prev.nz == nz && w.pend_down.len() == n => {
+                w.prev.v.fill(0.0);
+                w.cur.v.fill(0.0);
+                w.ghost.v.fill(0.0);
+                w.ghost_for = None;
+                w.set_up.fill(false);
+                for (j, dirty) in w.pend_dirty.iter_mut().enumerate() {
+                    if std::mem::take(dirty) {
+                        w.pend_down.clear_level(j);
+                        w.pend_up.clear_level(j);
+                        if w.pend_next.len() == n {
+                            w.pend_next.clear_level(j);
+                        }
+                    }
+                }
+                w
+            }
+            _ => Self::new(nx, nz, n),
+        }
+    }
+
+    /// The first level of a pass gathers from the virtual level beyond the grid: its
+    /// channel light goes into `prev`.
+    pub(crate) fn fill_from_boundary(&mut self, src: &Sources, ctx: &Ctx) {
+        let p = self.prev.pitch();
+        for z in 0..ctx.nz {
+            let row = self.prev.row_mut(z as isize);
+            for x in 0..ctx.nx {
+                for (c, chn) in ctx.ch.iter().enumerate() {
+                    row_set(row, p, x as usize, c, src.virtual_light(x, z, chn));
+                }
+            }
+        }
+    }
+
+    /// The ring of `ghost`: what the oracle's [`Ctx::gather_edge`] reads for a tap at
+    /// each column beyond the sides. Without a halo that is the virtual level's light,
+    /// the same for every level of a pass (filled once a pass); with one, the halo's
+    /// light at the source level.
+    pub(crate) fn fill_ghost(
+        &mut self,
+        src: &Sources,
+        ctx: &Ctx,
+        from_virtual: bool,
+        src_level: i32,
+    ) {
+        let key = (src.up, if src.halo.is_none() { 0 } else { src_level });
+        if self.ghost_for == Some(key) {
+            return;
+        }
+        self.ghost_for = Some(key);
+        let (nx, nz) = (ctx.nx as isize, ctx.nz as isize);
+        let p = self.ghost.pitch();
+        let pad = PAD as isize;
+        for z in -pad..nz + pad {
+            let row = self.ghost.row_mut(z);
+            for x in -pad..nx + pad {
+                if (0..nx).contains(&x) && (0..nz).contains(&z) {
+                    continue;
+                }
+                let (xi, zi) = (x as i32, z as i32);
+                for (c, chn) in ctx.ch.iter().enumerate() {
+                    let v = if from_virtual && src.halo.is_none() {
+                        src.virtual_light(xi, zi, chn)
+                    } else {
+                        src.outside(xi, src_level, zi, chn)
+                    };
+                    let b = c * 3 * p + (x + pad) as usize;
+                    row[b] = v.x;
+                    row[b + p] = v.y;
+                    row[b + 2 * p] = v.z;
+                }
+            }
+        }
+    }
+}
+
+/// `pows` for the level whose cells have `ln(pass)` = `lnp`.
+pub(crate) fn level_powers(pows: &mut [[f32; MAX_EXPONENTS]], lnp: &[f32]) {
+    let exps = path_exponents();
+    pows.par_iter_mut()
+        .zip(lnp)
+        .with_min_len(MIN_POINTS_PER_TASK)
+        .for_each(|(pw, &l)| {
+            for (k, e) in exps.iter().enumerate() {
+                pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
+            }
+        });
+}

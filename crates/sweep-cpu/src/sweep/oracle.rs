@@ -1,0 +1,233 @@
+//! The scalar oracle: phase 1 and phase 3 point by point, as the specification
+//! reads; the fast path must equal it (`tests/fast_path.rs`).
+
+use super::*;
+
+impl Ctx {
+    /// Steps 1-2, written as the crate docs say them: the oracle of
+    /// [`Ctx::phase1_fast`] ([`run_scalar`]).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn phase1_scalar<S: Sink>(
+        &self,
+        prev: &LevelLight,
+        src: &Sources<'_>,
+        from_virtual: bool,
+        src_level: i32,
+        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
+        first: bool,
+        cur: &mut LevelLight,
+        removed: &mut [f32],
+        t_after: &mut [[f32; CHANNELS]],
+        g: &mut [S],
+        rows: &mut [RowFlux],
+    ) -> RowFlux {
+        let nx = self.nx as usize;
+        let (row_len, p) = (cur.row_len(), cur.pitch());
+        cur.rows_mut()
+            .par_chunks_mut(row_len)
+            .zip(removed.par_chunks_mut(ring_pitch(nx) * SLOTS * 3))
+            .zip(t_after.par_chunks_mut(nx))
+            .zip(g.par_chunks_mut(nx))
+            .zip(rows.par_iter_mut())
+            .enumerate()
+            .for_each(|(z, ((((cur_row, rem_row), ta_row), g_row), row_out))| {
+                let z = z as i32;
+                let mut rf = RowFlux::default();
+                if first {
+                    // The first pass sets every point (its memory may hold anything).
+                    g_row.fill(S::default());
+                }
+                for x in 0..self.nx {
+                    let xi = x as usize;
+                    let mut rem = [Vec3::ZERO; SLOTS];
+                    for (c, chn) in self.ch.iter().enumerate() {
+                        // Step 1: gather from the source point and its smoothing taps.
+                        let (qx, qz) = (x - chn.step.x, z - chn.step.z);
+                        let (ins, outs) =
+                            self.gather_edge(prev, src, from_virtual, src_level, chn, c, qx, qz);
+                        rf.inside += ins.as_dvec3() * chn.mu as f64;
+                        rf.outside += outs.as_dvec3() * chn.mu as f64;
+                        let light = ins + outs;
+                        // Step 2: transmit along the path, recording what each cell removes.
+                        let (t, t_mid, after) =
+                            self.transmit((pows, lnp), chn, x, z, None, light, &mut rem);
+                        ta_row[xi][c] = after;
+                        row_set(cur_row, p, xi, c, light * t);
+                        g_row[xi].add(chn.bin, chn.unit, light * t_mid);
+                    }
+                    for (slot, v) in rem.iter().enumerate() {
+                        for col in 0..3 {
+                            rem_row[slot_index(nx, (0, xi), slot, col)] = v[col];
+                        }
+                    }
+                }
+                fill_rings(rem_row, nx, self.periodic);
+                *row_out = rf;
+            });
+        sum_rows(rows)
+    }
+
+    /// Step 2 for one point and channel: along the path cell by cell, each cell removes
+    /// `light T_k (1 - τ_k)` (written into `rem`); returns the path's transmittance
+    /// `T`, the transmittance to the point's centre `T_mid` and `T_after`. Path cells
+    /// are found by [`Ctx::col`], or by index from the point's index `inner` when every
+    /// cell of the path lies inside the grid.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn transmit(
+        &self,
+        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
+        chn: &Channel,
+        x: i32,
+        z: i32,
+        inner: Option<usize>,
+        light: Vec3,
+        rem: &mut [Vec3; SLOTS],
+    ) -> (f32, f32, f32) {
+        let exps = path_exponents();
+        let mut t = 1.0f32;
+        let mut t_mid = 1.0f32;
+        let mut after = 1.0f32;
+        let mut past_centre = false;
+        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+            let ci = match inner {
+                Some(pi) => Some((pi as i32 + dx + self.nx * dz) as usize),
+                None => self.col(x + dx, z + dz),
+            };
+            let (tr, half) = match ci {
+                Some(ci) => {
+                    let tr = pows[ci][chn.pow[k]];
+                    (tr, seg_mean(tr, -exps[chn.pow[k]] * lnp[ci]))
+                }
+                None => (1.0, 1.0),
+            };
+            rem[chn.first_slot + k] = light * (t * (1.0 - tr));
+            if past_centre {
+                after *= tr;
+            }
+            if dx == 0 && dz == 0 {
+                t_mid = t * half;
+                past_centre = true;
+            }
+            t *= tr;
+        }
+        (t, t_mid, after)
+    }
+}
+
+impl Ctx {
+    /// Step 1, tap by tap (light from inside the grid, light from outside): the
+    /// scalar oracle's gather everywhere, the fast path's near the sides.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn gather_edge(
+        &self,
+        prev: &LevelLight,
+        src: &Sources<'_>,
+        from_virtual: bool,
+        src_level: i32,
+        chn: &Channel,
+        c: usize,
+        qx: i32,
+        qz: i32,
+    ) -> (Vec3, Vec3) {
+        let s = self.smoothing;
+        let taps = [
+            (qx, qz, 1.0 - s),
+            (qx + 1, qz, 0.25 * s),
+            (qx - 1, qz, 0.25 * s),
+            (qx, qz + 1, 0.25 * s),
+            (qx, qz - 1, 0.25 * s),
+        ];
+        let mut ins = Vec3::ZERO;
+        let mut outs = Vec3::ZERO;
+        for (tx, tz, w) in taps {
+            if w == 0.0 {
+                continue;
+            }
+            match self.col(tx, tz) {
+                Some(i) => ins += prev.at(i, c) * w,
+                None if from_virtual && src.halo.is_none() => {
+                    outs += src.virtual_light(tx, tz, chn) * w
+                }
+                None => outs += src.outside(tx, src_level, tz, chn) * w,
+            }
+        }
+        (ins, outs)
+    }
+}
+
+impl Ctx {
+    /// [`Ctx::phase3_row`] written out for the scalar oracle ([`run_scalar`]): point by
+    /// point, channel by channel, along each path cell by cell ([`Ctx::col`]).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn phase3_row_scalar<S: Sink>(
+        &self,
+        z: i32,
+        (src, emits): (&[Vec3], &[bool]),
+        (src_hi, prof): (&[[Vec3; 2]], &crate::profile::Profiles),
+        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
+        p: usize,
+        cur_row: &mut [f32],
+        pre_row: &mut [f32],
+        g_row: &mut [S],
+    ) {
+        let nx = self.nx as usize;
+        let mw = medium::weights(up_pass(self.ch));
+        // A segment's transmittance and emission (light per unit `ω_b σ_c`); beyond
+        // open sides empty.
+        let profile = self.medium == MediumEmission::Profile;
+        let seg = |q: Option<usize>, pow: usize, slot: usize| -> (f32, Vec3) {
+            match q {
+                Some(q) if emits[q] => {
+                    let tr = pows[q][pow];
+                    let mut e = src[q] * (1.0 - tr);
+                    if profile {
+                        let w = prof.get(q).emit[slot];
+                        e += src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
+                    }
+                    (tr, e)
+                }
+                Some(q) => (pows[q][pow], Vec3::ZERO),
+                None => (1.0, Vec3::ZERO),
+            }
+        };
+        for x in 0..self.nx {
+            let xi = x as usize;
+            let ci = xi + nx * z as usize;
+            for (c, chn) in self.ch.iter().enumerate() {
+                let mut acc = Vec3::ZERO;
+                let mut centre = Vec3::ZERO;
+                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    for col in 0..3 {
+                        pre_row[slot_index(nx, (0, xi), chn.first_slot + k, col)] = acc[col];
+                    }
+                    let slot = chn.first_slot + k;
+                    let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k], slot);
+                    if dx == 0 && dz == 0 {
+                        let half = seg_mean(
+                            pows[ci][chn.pow[k]],
+                            -path_exponents()[chn.pow[k]] * lnp[ci],
+                        );
+                        centre = acc * half;
+                        if emits[ci] {
+                            centre += src[ci] * (1.0 - half);
+                            if profile {
+                                let w = prof.get(ci).mean[slot];
+                                centre += src_hi[ci][0] * w[0] + src_hi[ci][1] * w[1];
+                            }
+                        }
+                    }
+                    acc = acc * tr + e;
+                }
+                let om = mw.omega[c];
+                if acc != Vec3::ZERO {
+                    row_add(cur_row, p, xi, c, acc * om);
+                }
+                if centre != Vec3::ZERO {
+                    g_row[xi].add(chn.bin, chn.unit, centre * om);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,363 @@
+//! Unit tests of the sweep's parts.
+
+use super::*;
+
+/// One value put into a point's light by the resolve tests (none, invalid ones, and
+/// the valid extremes -0 and the largest `f32`, whose sums overflow).
+const BAD_VALUES: [Option<f32>; 6] = [
+    None,
+    Some(f32::NAN),
+    Some(-1e-3),
+    Some(f32::INFINITY),
+    Some(-0.0),
+    Some(f32::MAX),
+];
+
+/// A xorshift generator of test values from `seed` (not 0).
+fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    }
+}
+
+/// Every stencil tap lies within [`RING`] columns of its point (the slot planes'
+/// rings hold all a tap reads beyond a row's ends), and [`ring_slots`] names
+/// exactly the slots of taps beside the column, in both passes. Every stencil holds
+/// its point's own cell once ([`Ctx::phase3_row`] sets its mean light there, without
+/// zeroing it first).
+#[test]
+fn channels_reach_no_farther_than_the_ring() {
+    for up in [false, true] {
+        let mut beside = Vec::new();
+        for chn in channels(up) {
+            let own = chn.stencil.iter().filter(|t| (t.0, t.1) == (0, 0)).count();
+            assert_eq!(own, 1, "bin {}", chn.bin);
+            for (k, &(dx, _, _)) in chn.stencil.iter().enumerate() {
+                assert!(
+                    dx.unsigned_abs() as usize <= RING,
+                    "tap {dx} beyond the ring"
+                );
+                if dx != 0 {
+                    beside.push(chn.first_slot + k);
+                }
+            }
+        }
+        assert_eq!(beside, ring_slots(), "up {up}");
+    }
+    assert!(!ring_slots().is_empty());
+}
+
+/// [`fill_rings`]: on periodic sides each ring column holds the row's wrapped
+/// column (rows shorter than the ring included), on open sides 0; the row itself
+/// and the planes of slots that read no ring are left as they were.
+#[test]
+fn rings_hold_the_wrapped_columns_or_zeros() {
+    let mut next = xorshift(0x5eed);
+    for nx in [1usize, 2, 3, 5, 16] {
+        let w = ring_pitch(nx);
+        for periodic in [true, false] {
+            let row: Vec<f32> = (0..SLOTS * 3 * w)
+                .map(|_| (next() % 1000) as f32 + 1.0)
+                .collect();
+            let mut filled = row.clone();
+            fill_rings(&mut filled, nx, periodic);
+            for slot in 0..SLOTS {
+                let reads = ring_slots().contains(&slot);
+                for col in 0..3 {
+                    let at = (slot * 3 + col) * w;
+                    let (before, after) = (&row[at..][..w], &filled[at..][..w]);
+                    assert_eq!(before[RING..RING + nx], after[RING..RING + nx]);
+                    for i in (0..RING).chain(nx + RING..w) {
+                        let want = if !reads {
+                            before[i]
+                        } else if periodic {
+                            let x = (i as i64 - RING as i64).rem_euclid(nx as i64);
+                            before[RING + x as usize]
+                        } else {
+                            0.0
+                        };
+                        assert_eq!(
+                            after[i], want,
+                            "nx {nx} periodic {periodic} slot {slot} col {i}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The range the huge-page advice covers is the whole 2 MB pages inside a buffer,
+/// all of them, and nothing outside it (checked against counting the pages one by
+/// one), for buffers at any alignment and of any size.
+#[test]
+fn huge_page_range_is_every_whole_page_inside() {
+    const HUGE: usize = 2 << 20;
+    for start in [0, 1, 4096, HUGE - 16, HUGE, 3 * HUGE + 12_288] {
+        for bytes in [0, 1, HUGE - 1, HUGE, HUGE + 1, 2 * HUGE, 5 * HUGE + 777] {
+            let pages: Vec<usize> = (0..=(start + bytes) / HUGE)
+                .map(|p| p * HUGE)
+                .filter(|&p| p >= start && p + HUGE <= start + bytes)
+                .collect();
+            let want = (!pages.is_empty()).then(|| pages[0]..pages[pages.len() - 1] + HUGE);
+            assert_eq!(huge_pages_inside(start, bytes), want, "{start} + {bytes}");
+        }
+    }
+}
+
+/// Pending light per level: a level never written reads as zero and holds no
+/// records; writing one point allocates its level only; a cleared level reads as
+/// zero again and stays allocated.
+#[test]
+fn pending_levels_allocate_the_levels_written() {
+    let mut p = PendingLevels::new(6, 4);
+    assert_eq!(p.len(), 24);
+    assert!(p.levels.iter().all(Vec::is_empty));
+    assert!((0..24).all(|i| p[i].s == Vec3::ZERO && p[i].m == [Vec3::ZERO; 3]));
+    let v = Pending {
+        s: Vec3::new(1.0, 2.0, 3.0),
+        m: [Vec3::X, Vec3::Y, Vec3::Z],
+    };
+    p[14] = v;
+    let sizes: Vec<usize> = p.levels.iter().map(Vec::len).collect();
+    assert_eq!(sizes, [0, 0, 6, 0]);
+    for i in 0..24 {
+        let want = if i == 14 { v.s } else { Vec3::ZERO };
+        assert_eq!(p[i].s, want, "point {i}");
+    }
+    assert_eq!(p.level_mut(2)[2].m, v.m);
+    p.clear_level(2);
+    p.clear_level(3);
+    assert_eq!(
+        p.levels.iter().map(Vec::len).collect::<Vec<_>>(),
+        [0, 0, 6, 0]
+    );
+    assert!((0..24).all(|i| p[i].s == Vec3::ZERO && p[i].m == [Vec3::ZERO; 3]));
+}
+
+/// A sweep keeps pending light only for levels that hold material: four passes over
+/// the 16³ canopy (ground and leaves in 4 of 16 levels) allocate those levels'
+/// records and no others, and the same sweep into the reused buffers gives the same
+/// light.
+#[test]
+fn pending_light_held_only_where_material_is() {
+    let (m, b) = crate::scenes::Scene::Canopy.build(16);
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 4;
+    o.tolerance = 0.0;
+    let mut spare = Spare::default();
+    let first = run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
+    let w = spare.work.as_ref().expect("work kept");
+    let level_len = m.desc().level_len();
+    let with_material: Vec<bool> = m
+        .data()
+        .chunks(level_len)
+        .map(|l| l.iter().any(|c| !c.is_empty()))
+        .collect();
+    assert!(with_material.iter().any(|&b| b) && !with_material.iter().all(|&b| b));
+    for p in [&w.pend_down, &w.pend_up] {
+        let held: Vec<bool> = p.levels.iter().map(|l| !l.is_empty()).collect();
+        assert_eq!(held, with_material);
+    }
+    let again = run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
+    let bits = |s: &Sweep| -> Vec<u32> {
+        let g = s.output.bins.as_ref().expect("bins");
+        bytemuck::cast_slice::<BinLight, u32>(g.data()).to_vec()
+    };
+    assert!(bits(&first) == bits(&again));
+}
+
+/// The huge-page advice leaves a buffer's contents as they are (it only changes how
+/// the kernel backs its pages), for buffers with whole 2 MB pages inside and
+/// without; `fresh_buffer` gives zeros.
+#[test]
+fn huge_page_advice_keeps_contents() {
+    for n in [0usize, 1000, 1 << 20, 3 << 20] {
+        let mut v: Vec<u32> = (0..n as u32)
+            .map(|i| i.wrapping_mul(2_654_435_761))
+            .collect();
+        let want = v.clone();
+        advise_huge_pages(&mut v);
+        assert!(v == want, "{n} values");
+        let z: Vec<u32> = fresh_buffer(n);
+        assert!(z.len() == n && z.iter().all(|&x| x == 0), "{n} zeros");
+    }
+}
+
+/// `Ahead`'s shares cover the lines of the bytes after a row once each, in order,
+/// for rows of any size and any number of shares (more shares than lines too).
+#[test]
+fn fetch_ahead_shares_cover_every_line_once() {
+    for bytes in [0usize, 1, 63, 64, 65, 312, 20 * 312, 64 * 312, 1000] {
+        let row = vec![0u8; bytes];
+        let a = Ahead::after(&row);
+        assert_eq!(a.start, row.as_ptr_range().end);
+        for n in [1usize, 2, 7, CHANNELS, 200] {
+            let offs: Vec<usize> = (0..n).flat_map(|i| a.share(i, n).step_by(64)).collect();
+            let want: Vec<usize> = (0..bytes.div_ceil(64)).map(|l| l * 64).collect();
+            assert_eq!(offs, want, "{bytes} bytes in {n} shares");
+        }
+    }
+}
+
+/// `BinLight`'s four-point `resolve_all` gives `BinLight::average` and `dominant`
+/// bit for bit, and flags what `is_valid` rejects, for any number of points (the
+/// tail after the last four too).
+#[test]
+fn resolve_all_equals_average_and_dominant() {
+    let mut next = xorshift(0x2545_f491_4f6c_dd1d_u64);
+    for n in 0..=11 {
+        for bad in BAD_VALUES {
+            let mut g: Vec<BinLight> = (0..n)
+                .map(|_| {
+                    BinLight(std::array::from_fn(|_| {
+                        Vec3::from_array(std::array::from_fn(|_| {
+                            let r = next();
+                            // Zeros, and values over many magnitudes.
+                            if r.is_multiple_of(5) {
+                                0.0
+                            } else {
+                                (r >> 40) as f32 * 2f32.powi((r % 40) as i32 - 30)
+                            }
+                        }))
+                    }))
+                })
+                .collect();
+            if let (Some(v), true) = (bad, n > 0) {
+                let i = (next() % n as u64) as usize;
+                g[i].0[(next() % NUM_DIRS as u64) as usize].y = v;
+            }
+            for dominant in [false, true] {
+                let mut avg = vec![AverageLight(Vec3::splat(7.0)); n];
+                let mut dom = vec![DominantDir(Vec3::splat(7.0)); n];
+                let ok = BinLight::resolve_all(&g, &mut avg, &mut dom, dominant);
+                assert_eq!(ok, g.iter().all(|b| b.is_valid()), "n {n} bad {bad:?}");
+                if !ok {
+                    continue;
+                }
+                for (i, b) in g.iter().enumerate() {
+                    assert_eq!(
+                        avg[i].0.to_array().map(f32::to_bits),
+                        b.average().to_array().map(f32::to_bits)
+                    );
+                    let want = if dominant { b.dominant() } else { Vec3::ZERO };
+                    assert_eq!(
+                        dom[i].0.to_array().map(f32::to_bits),
+                        want.to_array().map(f32::to_bits)
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// `resolve_planes` (a row's resolve from its planes) gives what `BinLight`'s
+/// `clamp` then `resolve_all` give on the bins the pass's channels fill, bit for bit,
+/// with the same verdict on bad values, for rows of any length (block tails too),
+/// both passes, with and without the clamp and the dominant direction.
+#[test]
+fn resolve_planes_equals_resolve_all() {
+    let mut next = xorshift(0x9e37_79b9_7f4a_7c15_u64);
+    for nx in [1, 3, 16, 63, 64, 65, 130] {
+        for up in [false, true] {
+            let ch = channels(up);
+            for bad in BAD_VALUES {
+                let mut level = LevelLight::new(nx, 1);
+                let p = level.pitch();
+                let row = level.row_mut(0);
+                for c in 0..CHANNELS {
+                    for k in 0..3 {
+                        for x in 0..nx {
+                            let r = next();
+                            row[(c * 3 + k) * p + PAD + x] = match r % 7 {
+                                0 => 0.0,
+                                // Light of either sign (the profile rule's).
+                                1 => -((r >> 40) as f32) * 1e-9,
+                                _ => (r >> 40) as f32 * 2f32.powi((r % 40) as i32 - 30),
+                            };
+                        }
+                    }
+                }
+                if let Some(v) = bad {
+                    let (c, k, x) = (
+                        next() as usize % CHANNELS,
+                        next() as usize % 3,
+                        next() as usize % nx,
+                    );
+                    row[(c * 3 + k) * p + PAD + x] = v;
+                }
+                let row = level.row(0);
+                for clamp in [false, true] {
+                    for dominant in [false, true] {
+                        let mut g = vec![BinLight::default(); nx];
+                        for (x, gp) in g.iter_mut().enumerate() {
+                            gp.add_channels(ch, |c| row_get(row, p, x, c));
+                            if clamp {
+                                Sink::clamp(gp);
+                            }
+                        }
+                        let mut want = (
+                            vec![AverageLight(Vec3::splat(7.0)); nx],
+                            vec![DominantDir(Vec3::splat(7.0)); nx],
+                        );
+                        let mut got = want.clone();
+                        let ok_want = BinLight::resolve_all(&g, &mut want.0, &mut want.1, dominant);
+                        let ok_got =
+                            resolve_planes(ch, row, p, (clamp, dominant), &mut got.0, &mut got.1);
+                        let case = format!(
+                            "nx {nx} up {up} bad {bad:?} clamp {clamp} dominant {dominant}"
+                        );
+                        assert_eq!(ok_got, ok_want, "{case}");
+                        // A bad value can leave the clamp (NaN -> 0): valid again.
+                        assert_eq!(ok_want, g.iter().all(|b| b.is_valid()), "{case}");
+                        let bits = |v: &[AverageLight]| {
+                            v.iter()
+                                .map(|a| a.0.to_array().map(f32::to_bits))
+                                .collect::<Vec<_>>()
+                        };
+                        let dbits = |v: &[DominantDir]| {
+                            v.iter()
+                                .map(|a| a.0.to_array().map(f32::to_bits))
+                                .collect::<Vec<_>>()
+                        };
+                        if ok_want {
+                            assert_eq!(bits(&got.0), bits(&want.0), "{case}");
+                            assert_eq!(dbits(&got.1), dbits(&want.1), "{case}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `BinLight`'s `clamp` (flat floats) is `Vec3::max(ZERO)` on every bin, bit for bit:
+/// NaN and -0 become +0, negative values 0, the rest stay.
+#[test]
+fn clamp_equals_vec3_max() {
+    let vals = [
+        f32::NAN,
+        -0.0,
+        0.0,
+        -1e-30,
+        -5.0,
+        1e-40,
+        3.5,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    let mut b = BinLight(std::array::from_fn(|d| {
+        Vec3::from_array(std::array::from_fn(|k| vals[(d * 3 + k) % vals.len()]))
+    }));
+    let want = b.0.map(|v| v.max(Vec3::ZERO));
+    Sink::clamp(&mut b);
+    for (got, want) in b.0.iter().zip(&want) {
+        assert_eq!(
+            got.to_array().map(f32::to_bits),
+            want.to_array().map(f32::to_bits)
+        );
+    }
+}
