@@ -109,6 +109,33 @@ fn run_v3<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// `[f(0), f(1), …]`, as `std::array::from_fn` gives, for code the row kernels inline:
+/// std's version calls `f` through generic code that LLVM will not inline into a
+/// function compiled for other target features ([`run_v3`]), so a kernel using it
+/// would call out to the baseline path for it; this one inlines.
+#[inline(always)]
+pub(crate) fn array_from<T: Copy + Default, const N: usize>(
+    mut f: impl FnMut(usize) -> T,
+) -> [T; N] {
+    let mut out = [T::default(); N];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = f(i);
+    }
+    out
+}
+
+/// `a.map(f)` for code the row kernels inline (see [`array_from`]).
+#[inline(always)]
+pub(crate) fn array_map<T: Copy, U: Copy + Default, const N: usize>(
+    a: [T; N],
+    mut f: impl FnMut(T) -> U,
+) -> [U; N] {
+    array_from(
+        #[inline(always)]
+        |i| f(a[i]),
+    )
+}
+
 /// Calls a row kernel (an `#[inline(always)]` function) through [`run`]: compiled for
 /// the widest instruction set the CPU has.
 macro_rules! vectorised {
@@ -124,6 +151,14 @@ pub(crate) use vectorised;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn array_helpers_equal_std() {
+        let f = |i: usize| (i as f32).sqrt() * 3.5 - 1.0;
+        assert_eq!(array_from::<f32, 7>(f), std::array::from_fn::<f32, 7, _>(f));
+        let a = [1.5f64, -2.0, 1e300, 0.0];
+        assert_eq!(array_map(a, |v| v * 3.0), a.map(|v| v * 3.0));
+    }
 
     #[test]
     fn forcing_the_baseline_is_seen_and_undone() {

@@ -539,7 +539,7 @@ impl CellProfile {
         r1: [f32; 3],
         r2: [f32; 3],
     ) -> ([[f32; 3]; 3], [f32; 3]) {
-        let ok: [bool; 3] = std::array::from_fn(|c| {
+        let ok: [bool; 3] = crate::isa::array_from(|c| {
             a[c] > 0.0
                 && r0[c] != 0.0
                 && r0[c].is_finite()
@@ -551,9 +551,9 @@ impl CellProfile {
         if !ok.contains(&true) {
             return (j, absorbed);
         }
-        let k = self.k.map(|row| row.map(|v| v as f64));
+        let k = crate::isa::array_map(self.k, |row| crate::isa::array_map(row, |v| v as f64));
         let o = self.o as f64;
-        let gsum: [f64; 3] = std::array::from_fn(|q| (self.g[0][q] + self.g[1][q]) as f64);
+        let gsum: [f64; 3] = crate::isa::array_from(|q| (self.g[0][q] + self.g[1][q]) as f64);
         // Lane by lane (the colours, and a spare lane of nothing so that the loop
         // compiles to four-wide vectors).
         let pad = |v: [f32; 3]| [v[0], v[1], v[2], 0.0];
@@ -571,7 +571,7 @@ impl CellProfile {
             // whatever of the scattered light they do not send out: flux balances to
             // rounding however the solve rounds (`(1 − a)(O J_0 − G·J)` in exact
             // arithmetic).
-            let j32 = j.map(|v| v as f32);
+            let j32 = crate::isa::array_map(j, |v| v as f32);
             let out = gsum[0] * j32[0] as f64 + gsum[1] * j32[1] as f64 + gsum[2] * j32[2] as f64;
             valid[l] = take[l] && balance_ok(d, j);
             al[l] = (e[0] - out) as f32;
@@ -637,14 +637,14 @@ pub fn source_rgb(pr: &CellProfile, alb: Vec3, r: [Vec3; 3], absorbed: &mut DVec
 
 /// [`CellProfile::scattered`] per colour (albedo `alb`).
 pub fn scattered_rgb(pr: &CellProfile, alb: Vec3, j: &[Vec3; 3]) -> Vec3 {
-    Vec3::from_array(std::array::from_fn(|k| {
+    Vec3::from_array(crate::isa::array_from(|k| {
         pr.scattered(alb[k], [j[0][k], j[1][k], j[2][k]])
     }))
 }
 
 /// [`CellProfile::flux_out`] per colour.
 pub fn flux_rgb(pr: &CellProfile, which: usize, j: &[Vec3; 3]) -> Vec3 {
-    Vec3::from_array(std::array::from_fn(|k| {
+    Vec3::from_array(crate::isa::array_from(|k| {
         pr.flux_out(which, [j[0][k], j[1][k], j[2][k]])
     }))
 }
@@ -692,8 +692,8 @@ fn solve_balance(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> Option<[f64;
 #[inline(always)]
 fn balance_lane(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> (f64, [f64; 3]) {
     let diag = [o, o / 3.0, o / 5.0];
-    let m: [[f64; 3]; 3] = std::array::from_fn(|n| {
-        std::array::from_fn(|c| (if n == c { diag[n] } else { 0.0 }) - a * k[n][c])
+    let m: [[f64; 3]; 3] = crate::isa::array_from(|n| {
+        crate::isa::array_from(|c| (if n == c { diag[n] } else { 0.0 }) - a * k[n][c])
     });
     // cof[n][c]: the cofactor of m[n][c].
     let cof = [
@@ -714,7 +714,8 @@ fn balance_lane(o: f64, k: &[[f64; 3]; 3], a: f64, e: [f64; 3]) -> (f64, [f64; 3
         ],
     ];
     let d = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
-    let j = std::array::from_fn(|c| (e[0] * cof[0][c] + e[1] * cof[1][c] + e[2] * cof[2][c]) / d);
+    let j =
+        crate::isa::array_from(|c| (e[0] * cof[0][c] + e[1] * cof[1][c] + e[2] * cof[2][c]) / d);
     (d, j)
 }
 

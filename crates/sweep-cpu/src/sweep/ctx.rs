@@ -152,13 +152,13 @@ impl Ctx {
     /// from farther out (a 64³ forest, four passes: 51.2–52.6 → 45.8–46.0 ms, phase 2
     /// 18.6 → 11.9 % of the samples); a 16 × 16 level's stay near, and the fetch only
     /// costs (1 %).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn fetch_profiles(&self) -> bool {
         (self.nx * self.nz) as usize > FETCH_PROFILES_ABOVE
     }
 
     /// Index of column (x, z) within a level, wrapping in periodic mode; `None` outside.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn col(&self, x: i32, z: i32) -> Option<usize> {
         let (tx, tz) = (x + WRAP_PAD, z + WRAP_PAD);
         if let (Some(&cx), Some(&cz)) = (self.xcol.get(tx as usize), self.zcol.get(tz as usize))
@@ -180,13 +180,13 @@ impl Ctx {
 impl Ctx {
     /// Light waiting `v` as the pass counts it: of either sign in accelerated passes
     /// (`signed`), else clamped at 0.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn waiting(&self, v: Vec3) -> DVec3 {
         if self.signed { v } else { v.max(Vec3::ZERO) }.as_dvec3()
     }
 
     /// The level row that row `z` resolves to ([`Ctx::col`]'s rule).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn row_of(&self, z: i32) -> Option<usize> {
         if self.periodic {
             Some(z.rem_euclid(self.nz) as usize)

@@ -74,14 +74,14 @@ impl Planes {
     }
 
     /// Floats of one plane.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn plane_len(&self) -> usize {
         self.width() * (self.nz + 2 * Self::R)
     }
 
     /// Plane `plane` of the current level ([`Planes::level`]; the source planes are
     /// the level being swept's).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn plane(&self, plane: usize) -> &[f32] {
         let n = self.plane_len();
         if plane >= Self::SRC {
@@ -92,7 +92,7 @@ impl Planes {
     }
 
     /// [`Planes::plane`], to write.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn plane_mut(&mut self, plane: usize) -> &mut [f32] {
         let n = self.plane_len();
         if plane >= Self::SRC {
@@ -102,14 +102,14 @@ impl Planes {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub(crate) fn width(&self) -> usize {
         self.nx + 2 * Self::R
     }
 
     /// `len` values of `plane` from column `x` of row `z` (`-R ≤ x`, `x + len ≤ nx + R`,
     /// `-R ≤ z < nz + R`).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn row(&self, plane: usize, z: i32, x: i32, len: usize) -> &[f32] {
         let w = self.width();
         let r = (z + Self::R as i32) as usize * w;
@@ -132,7 +132,7 @@ impl Planes {
     /// `len` values of [`Planes::ex`] for `slot`, colour `col`, row `z`, columns `x..x +
     /// len` (`-RING ≤ x`, `x + len ≤ nx + RING`; the ring holds the wrapped columns on
     /// periodic sides, 0 beyond open ones; a row beyond an open side is 0).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn ex_row(
         &self,
         ctx: &Ctx,

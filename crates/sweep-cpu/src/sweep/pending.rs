@@ -25,7 +25,7 @@ impl Pending {
     pub(crate) fn scaled(&self, a: Vec3) -> Pending {
         Pending {
             s: self.s * a,
-            m: self.m.map(|v| v * a),
+            m: crate::isa::array_map(self.m, |v| v * a),
         }
     }
     /// [`MediumEmission::Profile`]: the source coefficients `[J_0, J_1, J_2]` held.

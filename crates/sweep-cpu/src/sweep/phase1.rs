@@ -215,68 +215,64 @@ impl Ctx {
         let (mut lost, mut mean) = ([0f32; B], [[0f32; B]; 3]);
         while x0 < nx {
             let b = B.min(nx - x0);
-            with_width(
-                b,
-                #[inline(always)]
-                |b| {
-                    for (c, chn) in self.ch.iter().enumerate() {
-                        for a in [&mut t, &mut t_mid, &mut after] {
-                            a[..b].fill(1.0);
+            {
+                for (c, chn) in self.ch.iter().enumerate() {
+                    for a in [&mut t, &mut t_mid, &mut after] {
+                        a[..b].fill(1.0);
+                    }
+                    let mut past_centre = false;
+                    let light: [&[f32]; 3] = crate::isa::array_from(
+                        #[inline(always)]
+                        |col| &cur_row[(c * 3 + col) * p + PAD + x0..][..b],
+                    );
+                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                        let tr = planes.row(Planes::POW + chn.pow[k], z + dz, x0 as i32 + dx, b);
+                        let slot = chn.first_slot + k;
+                        // What the segment takes of the light entering the path (once,
+                        // not per colour).
+                        for i in 0..b {
+                            lost[i] = t[i] * (1.0 - tr[i]);
                         }
-                        let mut past_centre = false;
-                        let light: [&[f32]; 3] = std::array::from_fn(|col| {
-                            &cur_row[(c * 3 + col) * p + PAD + x0..][..b]
-                        });
-                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                            let tr =
-                                planes.row(Planes::POW + chn.pow[k], z + dz, x0 as i32 + dx, b);
-                            let slot = chn.first_slot + k;
-                            // What the segment takes of the light entering the path (once,
-                            // not per colour).
+                        for (col, l) in light.iter().enumerate() {
+                            let out = &mut rem_row[slot_index(nx, (0, x0), slot, col)..][..b];
                             for i in 0..b {
-                                lost[i] = t[i] * (1.0 - tr[i]);
-                            }
-                            for (col, l) in light.iter().enumerate() {
-                                let out = &mut rem_row[slot_index(nx, (0, x0), slot, col)..][..b];
-                                for i in 0..b {
-                                    out[i] = l[i] * lost[i];
-                                }
-                            }
-                            if past_centre {
-                                for i in 0..b {
-                                    after[i] *= tr[i];
-                                }
-                            }
-                            if dx == 0 && dz == 0 {
-                                let lnp = planes.row(Planes::LNP, z, x0 as i32, b);
-                                let e = path_exponents()[chn.pow[k]];
-                                for i in 0..b {
-                                    t_mid[i] = t[i] * seg_mean(tr[i], -e * lnp[i]);
-                                }
-                                past_centre = true;
-                            }
-                            for i in 0..b {
-                                t[i] *= tr[i];
+                                out[i] = l[i] * lost[i];
                             }
                         }
-                        // The point's mean light into its bin, and the light that leaves, colour
-                        // by colour along the block (as `Vec3`s, point by point, these ran one
-                        // float at a time).
-                        for (col, m) in mean.iter_mut().enumerate() {
-                            let l = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
+                        if past_centre {
                             for i in 0..b {
-                                m[i] = l[i] * t_mid[i];
-                                l[i] *= t[i];
+                                after[i] *= tr[i];
                             }
+                        }
+                        if dx == 0 && dz == 0 {
+                            let lnp = planes.row(Planes::LNP, z, x0 as i32, b);
+                            let e = path_exponents()[chn.pow[k]];
+                            for i in 0..b {
+                                t_mid[i] = t[i] * seg_mean(tr[i], -e * lnp[i]);
+                            }
+                            past_centre = true;
                         }
                         for i in 0..b {
-                            ta_row[x0 + i][c] = after[i];
-                            let m = Vec3::new(mean[0][i], mean[1][i], mean[2][i]);
-                            g_row[x0 + i].add(chn.bin, chn.unit, m);
+                            t[i] *= tr[i];
                         }
                     }
-                },
-            );
+                    // The point's mean light into its bin, and the light that leaves, colour
+                    // by colour along the block (as `Vec3`s, point by point, these ran one
+                    // float at a time).
+                    for (col, m) in mean.iter_mut().enumerate() {
+                        let l = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
+                        for i in 0..b {
+                            m[i] = l[i] * t_mid[i];
+                            l[i] *= t[i];
+                        }
+                    }
+                    for i in 0..b {
+                        ta_row[x0 + i][c] = after[i];
+                        let m = Vec3::new(mean[0][i], mean[1][i], mean[2][i]);
+                        g_row[x0 + i].add(chn.bin, chn.unit, m);
+                    }
+                }
+            }
             x0 += b;
         }
         fill_rings(rem_row, nx, self.periodic);

@@ -277,10 +277,13 @@ impl Ctx {
                     // Slot by slot, so that the stores run along the block (point
                     // by point they went to 98 lines a point).
                     let c: [Option<&crate::profile::CellProfile>; GATHER_BLOCK] =
-                        std::array::from_fn(|j| {
-                            (j < b && is_profile(&row_cells[x0 + j]))
-                                .then(|| prof.get(x0 + j + nx * z as usize))
-                        });
+                        crate::isa::array_from(
+                            #[inline(always)]
+                            |j| {
+                                (j < b && is_profile(&row_cells[x0 + j]))
+                                    .then(|| prof.get(x0 + j + nx * z as usize))
+                            },
+                        );
                     if self.fetch_profiles() {
                         // (The emission planes below read `emit`.)
                         for pr in c[..b].iter().flatten() {
@@ -464,7 +467,7 @@ impl Ctx {
                     rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
                     own = Pending {
                         s: lost_s * alb,
-                        m: lost_m.map(|v| v * alb),
+                        m: crate::isa::array_map(lost_m, |v| v * alb),
                     };
                     other = other.add(&own);
                 }

@@ -124,87 +124,85 @@ impl Ctx {
         let mut mean = [0f32; B];
         while x0 < nx {
             let b = B.min(nx - x0);
-            with_width(
-                b,
-                #[inline(always)]
-                |b| {
-                    for (c, chn) in self.ch.iter().enumerate() {
-                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                            let slot = chn.first_slot + k;
-                            let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
-                            let tr = at(Planes::POW + chn.pow[k]);
-                            // What the path carries out of this segment is what it carries
-                            // into the next one: stored as it is computed (a path carries
-                            // nothing into its first segment, and the collisions read only
-                            // the later ones).
-                            let next = k + 1 < chn.stencil.len();
-                            if dx == 0 && dz == 0 {
-                                let lnp = at(Planes::LNP);
-                                let e = path_exponents()[chn.pow[k]];
-                                for i in 0..b {
-                                    mean[i] = seg_mean(tr[i], -e * lnp[i]);
-                                }
-                                let half = &mean[..b];
-                                for col in 0..3 {
-                                    let sv = at(Planes::SRC + col);
-                                    let (a, ce) = (&acc[col], &mut centre[col]);
-                                    if k == 0 {
-                                        // Nothing carried in: `0 · h + v` is `v` (but for
-                                        // the sign of a zero).
-                                        for i in 0..b {
-                                            ce[i] = sv[i] * (1.0 - half[i]);
-                                        }
-                                    } else {
-                                        for i in 0..b {
-                                            ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
-                                        }
-                                    }
-                                }
-                                // The point's own cell's `P_1`, `P_2` share of its mean light.
-                                if let Some((src_hi, prof, emits)) = hi {
-                                    for i in 0..b {
-                                        let q = x0 + i + nx * z as usize;
-                                        if emits[q] {
-                                            let w = prof.get(q).mean[slot];
-                                            let m = src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
-                                            for (col, ce) in centre.iter_mut().enumerate() {
-                                                ce[i] += m[col];
-                                            }
-                                        }
-                                    }
-                                }
-                            }
-                            for (col, a) in acc.iter_mut().enumerate() {
-                                let sv = at(Planes::SRC + col);
-                                let ex = hi.map(|_| {
-                                    planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, b)
-                                });
-                                let out = next.then(|| {
-                                    &mut pre_row[slot_index(nx, (0, x0), slot + 1, col)..][..b]
-                                });
-                                if k == 0 {
-                                    Self::segment::<true>(&mut a[..b], (tr, sv, ex), out);
-                                } else {
-                                    Self::segment::<false>(&mut a[..b], (tr, sv, ex), out);
-                                }
-                            }
-                        }
-                        let om = mw.omega[c];
-                        for (col, a) in acc.iter().enumerate() {
-                            let out = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
+            // One block of any width `b` (not specialised by `with_width`: a large body,
+            // compiled once, as the optimiser did before the vector dispatch).
+            {
+                for (c, chn) in self.ch.iter().enumerate() {
+                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                        let slot = chn.first_slot + k;
+                        let at = |plane: usize| planes.row(plane, z + dz, x0 as i32 + dx, b);
+                        let tr = at(Planes::POW + chn.pow[k]);
+                        // What the path carries out of this segment is what it carries
+                        // into the next one: stored as it is computed (a path carries
+                        // nothing into its first segment, and the collisions read only
+                        // the later ones).
+                        let next = k + 1 < chn.stencil.len();
+                        if dx == 0 && dz == 0 {
+                            let lnp = at(Planes::LNP);
+                            let e = path_exponents()[chn.pow[k]];
                             for i in 0..b {
-                                out[i] += a[i] * om;
+                                mean[i] = seg_mean(tr[i], -e * lnp[i]);
+                            }
+                            let half = &mean[..b];
+                            for col in 0..3 {
+                                let sv = at(Planes::SRC + col);
+                                let (a, ce) = (&acc[col], &mut centre[col]);
+                                if k == 0 {
+                                    // Nothing carried in: `0 · h + v` is `v` (but for
+                                    // the sign of a zero).
+                                    for i in 0..b {
+                                        ce[i] = sv[i] * (1.0 - half[i]);
+                                    }
+                                } else {
+                                    for i in 0..b {
+                                        ce[i] = a[i] * half[i] + sv[i] * (1.0 - half[i]);
+                                    }
+                                }
+                            }
+                            // The point's own cell's `P_1`, `P_2` share of its mean light.
+                            if let Some((src_hi, prof, emits)) = hi {
+                                for i in 0..b {
+                                    let q = x0 + i + nx * z as usize;
+                                    if emits[q] {
+                                        let w = prof.get(q).mean[slot];
+                                        let m = src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
+                                        for (col, ce) in centre.iter_mut().enumerate() {
+                                            ce[i] += m[col];
+                                        }
+                                    }
+                                }
                             }
                         }
-                        for i in 0..b {
-                            let ce = Vec3::new(centre[0][i], centre[1][i], centre[2][i]);
-                            if ce != Vec3::ZERO {
-                                g_row[x0 + i].add(chn.bin, chn.unit, ce * om);
+                        for (col, a) in acc.iter_mut().enumerate() {
+                            let sv = at(Planes::SRC + col);
+                            let ex = hi.map(|_| {
+                                planes.ex_row(self, (slot, col), z + dz, x0 as i32 + dx, b)
+                            });
+                            let out = next.then(|| {
+                                &mut pre_row[slot_index(nx, (0, x0), slot + 1, col)..][..b]
+                            });
+                            if k == 0 {
+                                Self::segment::<true>(&mut a[..b], (tr, sv, ex), out);
+                            } else {
+                                Self::segment::<false>(&mut a[..b], (tr, sv, ex), out);
                             }
                         }
                     }
-                },
-            );
+                    let om = mw.omega[c];
+                    for (col, a) in acc.iter().enumerate() {
+                        let out = &mut cur_row[(c * 3 + col) * p + PAD + x0..][..b];
+                        for i in 0..b {
+                            out[i] += a[i] * om;
+                        }
+                    }
+                    for i in 0..b {
+                        let ce = Vec3::new(centre[0][i], centre[1][i], centre[2][i]);
+                        if ce != Vec3::ZERO {
+                            g_row[x0 + i].add(chn.bin, chn.unit, ce * om);
+                        }
+                    }
+                }
+            }
             x0 += b;
         }
     }
@@ -298,113 +296,108 @@ impl Ctx {
         let mut cw = [[0f32; B]; 2];
         while x0 < nx {
             let b = B.min(nx - x0);
-            with_width(
-                b,
-                #[inline(always)]
-                |b| {
-                    for a in got_s.iter_mut().chain(got_m.iter_mut().flatten()) {
-                        a[..b].fill(0.0);
+            // One block of any width `b` (not specialised by `with_width`: a large body,
+            // compiled once, as the optimiser did before the vector dispatch).
+            {
+                for a in got_s.iter_mut().chain(got_m.iter_mut().flatten()) {
+                    a[..b].fill(0.0);
+                }
+                for a in got_h.iter_mut().flatten() {
+                    a[..b].fill(0.0);
+                }
+                // Profile: the block's media's profiles (found once, read for every slot).
+                let block_prof: [Option<&crate::profile::CellProfile>; B] = crate::isa::array_from(
+                    #[inline(always)]
+                    |i| {
+                        let ci = x0 + i + nx * z as usize;
+                        (profile && i < b && medium::applies(self.medium, cells[ci].pass))
+                            .then(|| prof.get(ci))
+                    },
+                );
+                if self.fetch_profiles() {
+                    for pr in block_prof[..b].iter().flatten() {
+                        touch(&pr.coll[..]);
                     }
-                    for a in got_h.iter_mut().flatten() {
-                        a[..b].fill(0.0);
-                    }
-                    // Profile: the block's media's profiles (found once, read for every slot).
-                    let block_prof: [Option<&crate::profile::CellProfile>; B] =
-                        std::array::from_fn(|i| {
-                            let ci = x0 + i + nx * z as usize;
-                            (profile && i < b && medium::applies(self.medium, cells[ci].pass))
-                                .then(|| prof.get(ci))
-                        });
-                    if self.fetch_profiles() {
-                        for pr in block_prof[..b].iter().flatten() {
-                            touch(&pr.coll[..]);
-                        }
-                    }
-                    for (c, chn) in self.ch.iter().enumerate() {
-                        let om = mw.omega[c] * chn.mu;
-                        // A path carries nothing into its first segment.
-                        for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate().skip(1) {
-                            let Some(zr) = self.row_of(z - djz).filter(|&zr| pre_rows[zr]) else {
-                                continue;
-                            };
-                            let slot = chn.first_slot + j;
-                            let pw = planes.row(Planes::POW + chn.pow[j], z, x0 as i32, b);
-                            // Columns of the points `x − d_j` (the ring beyond the row's
-                            // ends: wrapped, or nothing beyond an open side).
-                            let first = x0 as i32 - djx;
-                            // Profile: the block's media's collision moments for this slot
-                            // (0 elsewhere: what is tallied there is not read).
-                            if profile {
-                                for (i, pr) in block_prof[..b].iter().enumerate() {
-                                    (cw[0][i], cw[1][i]) = pr.map_or((0.0, 0.0), |pr| {
-                                        (pr.coll[slot][0], pr.coll[slot][1])
-                                    });
-                                }
-                            }
-                            let unit = chn.unit.to_array();
-                            let [m0, m1, m2] = &mut got_m;
-                            let [h0, h1] = &mut got_h;
-                            for col in 0..3 {
-                                let mut sums = Tally {
-                                    s: &mut got_s[col][..b],
-                                    m: [&mut m0[col][..b], &mut m1[col][..b], &mut m2[col][..b]],
-                                    h: profile.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
-                                };
-                                let from = tap(pre, nx, (zr, slot, col), first, b);
-                                sums.add(0..b, from, (&pw[..b], om, unit), &cw);
-                            }
-                        }
-                    }
-                    for i in 0..b {
-                        let xi = x0 + i;
-                        let ci = xi + nx * z as usize;
-                        let mat = cells[ci];
-                        if mat.pass >= 1.0 {
+                }
+                for (c, chn) in self.ch.iter().enumerate() {
+                    let om = mw.omega[c] * chn.mu;
+                    // A path carries nothing into its first segment.
+                    for (j, &(djx, djz, _)) in chn.stencil.iter().enumerate().skip(1) {
+                        let Some(zr) = self.row_of(z - djz).filter(|&zr| pre_rows[zr]) else {
                             continue;
-                        }
-                        if !self.periodic && emits[ci] {
-                            let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
-                            self.lost_through_sides(xi as i32, z, src[ci], hi, &pows[ci], rf);
-                        }
-                        let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
-                        let got = Pending {
-                            s: v(&got_s),
-                            m: [v(&got_m[0]), v(&got_m[1]), v(&got_m[2])],
                         };
-                        if got.s == Vec3::ZERO {
-                            continue;
+                        let slot = chn.first_slot + j;
+                        let pw = planes.row(Planes::POW + chn.pow[j], z, x0 as i32, b);
+                        // Columns of the points `x − d_j` (the ring beyond the row's
+                        // ends: wrapped, or nothing beyond an open side).
+                        let first = x0 as i32 - djx;
+                        // Profile: the block's media's collision moments for this slot
+                        // (0 elsewhere: what is tallied there is not read).
+                        if profile {
+                            for (i, pr) in block_prof[..b].iter().enumerate() {
+                                (cw[0][i], cw[1][i]) = pr
+                                    .map_or((0.0, 0.0), |pr| (pr.coll[slot][0], pr.coll[slot][1]));
+                            }
                         }
-                        let alb = mat.reflectance;
-                        if profile && medium::applies(self.medium, mat.pass) {
-                            // Waits for the next passes of both directions, as an isotropic
-                            // source.
-                            let r = [got.s, v(&got_h[0]), v(&got_h[1])];
-                            rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
-                            let pr = prof.get(ci);
-                            let dj = vectorised!(crate::profile::source_rgb(
-                                pr,
-                                alb,
-                                r,
-                                &mut rf.absorbed
-                            ));
-                            let add = Pending::of_coeffs(dj);
-                            same_row[xi] = same_row[xi].add(&add);
-                            other_row[xi] = other_row[xi].add(&add);
-                            rf.pending += self.waiting(
-                                crate::profile::flux_rgb(pr, 0, &dj)
-                                    + crate::profile::flux_rgb(pr, 1, &dj),
-                            );
-                            continue;
+                        let unit = chn.unit.to_array();
+                        let [m0, m1, m2] = &mut got_m;
+                        let [h0, h1] = &mut got_h;
+                        for col in 0..3 {
+                            let mut sums = Tally {
+                                s: &mut got_s[col][..b],
+                                m: [&mut m0[col][..b], &mut m1[col][..b], &mut m2[col][..b]],
+                                h: profile.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
+                            };
+                            let from = tap(pre, nx, (zr, slot, col), first, b);
+                            sums.add(0..b, from, (&pw[..b], om, unit), &cw);
                         }
-                        rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
-                        let sc = got.scaled(alb);
-                        same_row[xi] = same_row[xi].add(&sc);
-                        other_row[xi] = other_row[xi].add(&sc);
-                        // Each direction's pass emits half of it.
-                        rf.pending += sc.s.as_dvec3();
                     }
-                },
-            );
+                }
+                for i in 0..b {
+                    let xi = x0 + i;
+                    let ci = xi + nx * z as usize;
+                    let mat = cells[ci];
+                    if mat.pass >= 1.0 {
+                        continue;
+                    }
+                    if !self.periodic && emits[ci] {
+                        let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
+                        self.lost_through_sides(xi as i32, z, src[ci], hi, &pows[ci], rf);
+                    }
+                    let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
+                    let got = Pending {
+                        s: v(&got_s),
+                        m: [v(&got_m[0]), v(&got_m[1]), v(&got_m[2])],
+                    };
+                    if got.s == Vec3::ZERO {
+                        continue;
+                    }
+                    let alb = mat.reflectance;
+                    if profile && medium::applies(self.medium, mat.pass) {
+                        // Waits for the next passes of both directions, as an isotropic
+                        // source.
+                        let r = [got.s, v(&got_h[0]), v(&got_h[1])];
+                        rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
+                        let pr = prof.get(ci);
+                        let dj =
+                            vectorised!(crate::profile::source_rgb(pr, alb, r, &mut rf.absorbed));
+                        let add = Pending::of_coeffs(dj);
+                        same_row[xi] = same_row[xi].add(&add);
+                        other_row[xi] = other_row[xi].add(&add);
+                        rf.pending += self.waiting(
+                            crate::profile::flux_rgb(pr, 0, &dj)
+                                + crate::profile::flux_rgb(pr, 1, &dj),
+                        );
+                        continue;
+                    }
+                    rf.absorbed += (got.s * (Vec3::ONE - alb)).as_dvec3();
+                    let sc = got.scaled(alb);
+                    same_row[xi] = same_row[xi].add(&sc);
+                    other_row[xi] = other_row[xi].add(&sc);
+                    // Each direction's pass emits half of it.
+                    rf.pending += sc.s.as_dvec3();
+                }
+            }
             x0 += b;
         }
     }
@@ -412,6 +405,7 @@ impl Ctx {
     /// What an emitting cell at `(x, z)` with source `src` sends into the paths of
     /// points beyond an open side: their paths are not traced, so it leaves through the
     /// side (`rf.side_out`).
+    #[inline(always)]
     pub(crate) fn lost_through_sides(
         &self,
         x: i32,

@@ -99,12 +99,12 @@ impl LevelLight {
         }
     }
     /// Floats from one column to the same column of the next plane.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn pitch(&self) -> usize {
         self.nx + 2 * PAD
     }
     /// Floats per row of points.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn row_len(&self) -> usize {
         CHANNELS * 3 * self.pitch()
     }
@@ -114,18 +114,18 @@ impl LevelLight {
         &mut self.v[PAD * r..(PAD + self.nz) * r]
     }
     /// Row `z` (`-PAD <= z < nz + PAD`).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn row(&self, z: isize) -> &[f32] {
         let r = self.row_len();
         &self.v[(z + PAD as isize) as usize * r..][..r]
     }
-    #[inline]
+    #[inline(always)]
     pub(crate) fn row_mut(&mut self, z: isize) -> &mut [f32] {
         let r = self.row_len();
         &mut self.v[(z + PAD as isize) as usize * r..][..r]
     }
     /// Channel `c` of the point with level index `i`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn at(&self, i: usize, c: usize) -> Vec3 {
         let (x, z) = (i % self.nx, i / self.nx);
         row_get(self.row(z as isize), self.pitch(), x, c)
@@ -174,7 +174,7 @@ impl LevelLight {
 /// The ring columns of one row of a [`LevelLight`] (planes of pitch `p`, `nx` columns
 /// each) from the row's wrapped columns (periodic sides): left the last [`PAD`], right
 /// the first.
-#[inline]
+#[inline(always)]
 pub(crate) fn wrap_columns(row: &mut [f32], p: usize, nx: usize) {
     for plane in row.chunks_exact_mut(p) {
         if nx >= PAD {
@@ -220,7 +220,7 @@ pub(crate) fn with_width(b: usize, mut block: impl FnMut(usize)) {
 pub(crate) const RING: usize = 2;
 
 /// The pitch of a row of `nx` points in a slot plane with its ring ([`RING`]).
-#[inline]
+#[inline(always)]
 pub(crate) fn ring_pitch(nx: usize) -> usize {
     nx + 2 * RING
 }
@@ -272,13 +272,13 @@ pub(crate) fn fill_rings(row: &mut [f32], nx: usize, periodic: bool) {
 /// slot planes (removed light, what paths carry, [`Planes::ex`]): per row of `nx`
 /// points, slot, colour, column, each row of a slot and colour with its ring
 /// ([`ring_pitch`]).
-#[inline]
+#[inline(always)]
 pub(crate) fn plane_index(nx: usize, pt: usize, slot: usize, col: usize) -> usize {
     slot_index(nx, (pt / nx, pt % nx), slot, col)
 }
 
 /// [`plane_index`] of column `x` of level row `z` (no division: the row loops').
-#[inline]
+#[inline(always)]
 pub(crate) fn slot_index(nx: usize, (z, x): (usize, usize), slot: usize, col: usize) -> usize {
     ((z * SLOTS + slot) * 3 + col) * ring_pitch(nx) + RING + x
 }
@@ -286,7 +286,7 @@ pub(crate) fn slot_index(nx: usize, (z, x): (usize, usize), slot: usize, col: us
 /// `len` values of a level's slot planes ([`plane_index`]) for row
 /// `zr`, slot and colour, from column `x` (`-RING ≤ x`, `x + len ≤ nx + RING`: the
 /// ring's wrapped columns, or zeros beyond an open side, [`fill_rings`]).
-#[inline]
+#[inline(always)]
 pub(crate) fn tap(
     planes: &[f32],
     nx: usize,
@@ -298,13 +298,13 @@ pub(crate) fn tap(
 }
 
 /// Channel `c` of grid column `x` in one row of a [`LevelLight`] of pitch `p`.
-#[inline]
+#[inline(always)]
 pub(crate) fn row_get(row: &[f32], p: usize, x: usize, c: usize) -> Vec3 {
     let b = c * 3 * p + x + PAD;
     Vec3::new(row[b], row[b + p], row[b + 2 * p])
 }
 
-#[inline]
+#[inline(always)]
 pub(crate) fn row_set(row: &mut [f32], p: usize, x: usize, c: usize, v: Vec3) {
     let b = c * 3 * p + x + PAD;
     row[b] = v.x;
@@ -312,7 +312,7 @@ pub(crate) fn row_set(row: &mut [f32], p: usize, x: usize, c: usize, v: Vec3) {
     row[b + 2 * p] = v.z;
 }
 
-#[inline]
+#[inline(always)]
 pub(crate) fn row_add(row: &mut [f32], p: usize, x: usize, c: usize, v: Vec3) {
     let b = c * 3 * p + x + PAD;
     row[b] += v.x;
@@ -347,7 +347,7 @@ pub(crate) fn gather_row(
 
 /// Sum in `f64`, four lanes (so that it vectorises; the order is fixed, so the result
 /// is deterministic).
-#[inline]
+#[inline(always)]
 pub(crate) fn sum_f64(v: &[f32]) -> f64 {
     let mut lanes = [0f64; 4];
     let chunks = v.chunks_exact(4);
