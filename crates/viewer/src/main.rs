@@ -75,13 +75,15 @@ fn main() -> Result<()> {
         scene.views.retain(|v| args.views.contains(&v.name));
     }
     if args.window {
-        return lightgrid_viewer::window::run(
+        let summary = lightgrid_viewer::window::run(
             scene,
             args.sweeper,
             args.width,
             args.height,
             args.frames,
-        );
+        )?;
+        println!("{summary}");
+        return Ok(());
     }
     let summary = lightgrid_viewer::run(
         scene,

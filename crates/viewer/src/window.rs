@@ -31,6 +31,30 @@ use crate::draw::{SceneMeshes, Shot, make_view};
 use crate::scene::SceneFile;
 use crate::world::{SweeperChoice, World};
 
+/// What a window session did: printed by the viewer when the window closes.
+#[derive(Debug, Clone, Default)]
+pub struct WindowSummary {
+    /// Frames drawn.
+    pub frames_drawn: u32,
+    /// Node grids built while flying.
+    pub grids_built: u32,
+    /// One line per finished sun move (what was recomputed, and how long it took).
+    pub sun_moves: Vec<String>,
+}
+
+impl std::fmt::Display for WindowSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for m in &self.sun_moves {
+            writeln!(f, "sun moved: {m}")?;
+        }
+        write!(
+            f,
+            "frames drawn: {}, grids built while flying: {}",
+            self.frames_drawn, self.grids_built
+        )
+    }
+}
+
 /// Opens the window and runs until it closes. Errors (with a hint) where no display
 /// exists.
 pub fn run(
@@ -39,7 +63,7 @@ pub fn run(
     width: u32,
     height: u32,
     frames: Option<u32>,
-) -> Result<()> {
+) -> Result<WindowSummary> {
     let event_loop = EventLoop::new().context(
         "--window needs a display (X11 or Wayland); run without --window for headless images",
     )?;
@@ -64,6 +88,7 @@ pub fn run(
         frames_left: frames,
         drawn: 0,
         built: 0,
+        sun_moves: Vec::new(),
     };
     if frames.is_some() {
         app.keys.insert(KeyCode::KeyW);
@@ -77,12 +102,11 @@ pub fn run(
     if let Some(e) = app.error {
         return Err(e);
     }
-    tracing::info!(
-        "frames drawn: {}, grids built while flying: {}",
-        app.drawn,
-        app.built
-    );
-    Ok(())
+    Ok(WindowSummary {
+        frames_drawn: app.drawn,
+        grids_built: app.built,
+        sun_moves: app.sun_moves,
+    })
 }
 
 struct GpuState {
@@ -112,6 +136,7 @@ struct App {
     frames_left: Option<u32>,
     drawn: u32,
     built: u32,
+    sun_moves: Vec<String>,
 }
 
 impl App {
@@ -234,10 +259,12 @@ impl App {
                 *built += s.built;
                 *sun_built += s.sun_built;
                 if s.pending == 0 {
-                    tracing::info!(
-                        "sun moved: {what}; then {sun_built} node sun responses and {built} node sky grids in {:.2} s",
+                    let line = format!(
+                        "{what}; then {sun_built} node sun responses and {built} node sky grids in {:.2} s",
                         since.elapsed().as_secs_f64()
                     );
+                    tracing::info!("sun moved: {line}");
+                    self.sun_moves.push(line);
                     self.sun_move = None;
                 }
                 s
