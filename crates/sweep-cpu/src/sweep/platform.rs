@@ -29,6 +29,7 @@ pub const FETCH_AHEAD_BYTES: usize = 16 << 20;
 /// row's lines came from memory while nothing else ran: the largest single cost of a
 /// later pass, 12 % of four passes at 64³. All hinted at once, they stalled the gather.)
 #[derive(Clone, Copy)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))] // hints are x86-64 only
 pub(crate) struct Ahead {
     pub(crate) start: *const u8,
     pub(crate) bytes: usize,
@@ -45,6 +46,7 @@ impl Ahead {
 
     /// Byte offsets of share `i` of `n`: whole cache lines, the shares in order
     /// covering every line once.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) fn share(self, i: usize, n: usize) -> std::ops::Range<usize> {
         let lines = self.bytes.div_ceil(64);
         let at = |i: usize| (lines * i / n).min(lines) * 64;
