@@ -30,7 +30,9 @@ fn text_files(dir: &Path, out: &mut Vec<PathBuf>) {
         } else if [".rs", ".toml", ".md", ".wgsl", ".sh"]
             .iter()
             .any(|s| name.ends_with(s))
-            || p.parent().is_some_and(|d| d.ends_with(".ci"))
+            || p.parent()
+                .and_then(|d| d.file_name())
+                .is_some_and(|n| n == ".ci")
         {
             out.push(p);
         }

@@ -8,7 +8,7 @@
 //! vectors run the same operations in the same order (`tests/dispatch.rs` holds it).
 //!
 //! A kernel takes part by being `#[inline(always)]` and called through
-//! [`vectorised!`](crate::vectorised): the closure it is called from is inlined into a
+//! `vectorised!` (this module's crate-private macro): the closure it is called from is inlined into a
 //! function compiled with the v3 features, and the kernel into the closure. What the
 //! kernel calls is compiled for v3 only where it is inlined too.
 //!
