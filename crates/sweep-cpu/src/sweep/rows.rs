@@ -200,11 +200,13 @@ pub(crate) const GATHER_BLOCK: usize = 64;
 /// Runs `block(b)` for a block of `b` points with `b` a constant where it is one of the
 /// common widths (whole blocks of [`GATHER_BLOCK`], rows of 32 and 16 points): each arm
 /// inlines `block` where the optimiser finds it small enough, so that its loops over
-/// `0..b` compile without remainder loops or bounds checks. (The bench forest's rows
-/// are 16 points: its four passes 3.06–3.10 → 2.84–2.89 ms with the transmit step's
-/// blocks alone, ninth round. The optimiser compiles the larger blocks, phase 3's and
-/// the collisions', once for any width; writing each arm out by a macro made the
-/// forest 1–3 % slower, the crate docs' "Eleventh round".)
+/// `0..b` compile without remainder loops or bounds checks. Only the resolve from the
+/// planes uses it now. The transmit step, phase 3 and the collisions run one block of
+/// any width: on the dispatched vector path ([`crate::isa`]) LLVM does not inline a
+/// per-width closure into the AVX2 function unless forced, and forced into all four
+/// arms the blocks were 4× larger and the forest 8–11 % slower. Known cost: the
+/// resolve's closure is not inlined into its AVX2 caller either, so the last pass's
+/// resolve runs on the baseline path (crate docs, "Speed").
 #[inline(always)]
 pub(crate) fn with_width(b: usize, mut block: impl FnMut(usize)) {
     match b {
