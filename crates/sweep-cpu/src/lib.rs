@@ -84,9 +84,10 @@
 //! x86-64-v3 and pick the widest the CPU has at run time ([`isa`];
 //! `LIGHTGRID_SIMD=baseline` keeps them on SSE2), with the same results bit for bit
 //! (`tests/dispatch.rs`). Against a whole build for x86-64-v3 (the old
-//! `-C target-cpu=x86-64-v3`), the forest 16³ takes 1.02–1.05× its time (per-round
-//! medians of alternating runs, one and two threads) and 48³ 0.90–0.95×; the baseline
-//! path takes about 1.2× on the forest. A crate that depends on this one gets the
+//! `-C target-cpu=x86-64-v3`), the forest 16³ takes 1.00–1.02× its time on two
+//! threads and 1.02–1.05× on one, 48³ 0.98–1.01× (medians of per-round ratios over
+//! 10–20 alternating rounds); the per-level set-up (tables, emission budgets) is still
+//! compiled for the baseline only. The baseline path takes about 1.2× on the forest. A crate that depends on this one gets the
 //! same dispatch with no flags.
 //!
 //! **Memory.** [`sweep::sweep_bytes`] gives a sweep's working memory beside its output

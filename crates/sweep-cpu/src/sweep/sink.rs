@@ -235,48 +235,53 @@ pub(crate) fn resolve_planes_as<const CLAMP: bool, const DOMINANT: bool>(
     let mut x0 = 0;
     while x0 < nx {
         let b = B.min(nx - x0);
-        with_width(b, |b| {
-            let (mut tr, mut tg, mut tb) = ([0f32; B], [0f32; B], [0f32; B]);
-            let (mut vx, mut vy, mut vz, mut sum) = ([0f32; B], [0f32; B], [0f32; B], [0f32; B]);
-            // Lanes of the least and greatest value and of "any NaN" ([`valid_bins`]).
-            let (mut lo, mut hi, mut nan) = ([0f32; B], [0f32; B], [false; B]);
-            for (bin, c) in of_bin.iter().enumerate() {
-                let Some(c) = *c else { continue };
-                let u = units[bin];
-                let plane = |k: usize| &cur_row[(c * 3 + k) * p + PAD + x0..][..b];
-                let (pr, pg, pb) = (plane(0), plane(1), plane(2));
-                for i in 0..b {
-                    let cl = |v: f32| if !CLAMP || v > 0.0 { v } else { 0.0 };
-                    let (r, g, bl) = (cl(pr[i]), cl(pg[i]), cl(pb[i]));
-                    tr[i] += r;
-                    tg[i] += g;
-                    tb[i] += bl;
-                    for v in [r, g, bl] {
-                        lo[i] = if v < lo[i] { v } else { lo[i] };
-                        hi[i] = if v > hi[i] { v } else { hi[i] };
-                        nan[i] |= v.is_nan();
-                    }
-                    if DOMINANT {
-                        let l = r * wr + g * wg + bl * wb;
-                        vx[i] += u.x * l;
-                        vy[i] += u.y * l;
-                        vz[i] += u.z * l;
-                        sum[i] += l;
+        with_width(
+            b,
+            #[inline(always)]
+            |b| {
+                let (mut tr, mut tg, mut tb) = ([0f32; B], [0f32; B], [0f32; B]);
+                let (mut vx, mut vy, mut vz, mut sum) =
+                    ([0f32; B], [0f32; B], [0f32; B], [0f32; B]);
+                // Lanes of the least and greatest value and of "any NaN" ([`valid_bins`]).
+                let (mut lo, mut hi, mut nan) = ([0f32; B], [0f32; B], [false; B]);
+                for (bin, c) in of_bin.iter().enumerate() {
+                    let Some(c) = *c else { continue };
+                    let u = units[bin];
+                    let plane = |k: usize| &cur_row[(c * 3 + k) * p + PAD + x0..][..b];
+                    let (pr, pg, pb) = (plane(0), plane(1), plane(2));
+                    for i in 0..b {
+                        let cl = |v: f32| if !CLAMP || v > 0.0 { v } else { 0.0 };
+                        let (r, g, bl) = (cl(pr[i]), cl(pg[i]), cl(pb[i]));
+                        tr[i] += r;
+                        tg[i] += g;
+                        tb[i] += bl;
+                        for v in [r, g, bl] {
+                            lo[i] = if v < lo[i] { v } else { lo[i] };
+                            hi[i] = if v > hi[i] { v } else { hi[i] };
+                            nan[i] |= v.is_nan();
+                        }
+                        if DOMINANT {
+                            let l = r * wr + g * wg + bl * wb;
+                            vx[i] += u.x * l;
+                            vy[i] += u.y * l;
+                            vz[i] += u.z * l;
+                            sum[i] += l;
+                        }
                     }
                 }
-            }
-            for i in 0..b {
-                let (av, dv) = resolved(
-                    Vec3::new(tr[i], tg[i], tb[i]),
-                    Vec3::new(vx[i], vy[i], vz[i]),
-                    sum[i],
-                );
-                let valid = (lo[i] >= 0.0) & (hi[i] < f32::INFINITY) & !nan[i];
-                ok &= valid & av.is_finite() & dv.is_finite();
-                avg[x0 + i].0 = av;
-                dom[x0 + i].0 = dv;
-            }
-        });
+                for i in 0..b {
+                    let (av, dv) = resolved(
+                        Vec3::new(tr[i], tg[i], tb[i]),
+                        Vec3::new(vx[i], vy[i], vz[i]),
+                        sum[i],
+                    );
+                    let valid = (lo[i] >= 0.0) & (hi[i] < f32::INFINITY) & !nan[i];
+                    ok &= valid & av.is_finite() & dv.is_finite();
+                    avg[x0 + i].0 = av;
+                    dom[x0 + i].0 = dv;
+                }
+            },
+        );
         x0 += b;
     }
     ok
