@@ -3,5 +3,6 @@
 
 pub mod bench;
 pub mod convergence;
+pub mod frame;
 pub mod fuzz;
 pub mod sun;

@@ -9,6 +9,9 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_sweep_cpu::exact`); writes
 //!   `target/bench/exact.txt`.
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--no-bare-skip]`:
+//!   the hierarchy along a camera path, timed by stage and measured against one
+//!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `fuzz [--inputs N] [--target NAME]... [--seed S]`: every reader of user files (grid,
 //!   scene, volume, gltf, exr, png) over N generated inputs (default one million per
 //!   target): panics, slow inputs, peak memory (see `xtask::fuzz`). Writes
@@ -66,6 +69,30 @@ enum Task {
         #[arg(long, default_value_t = 1_000_000)]
         paths: u64,
     },
+    /// The hierarchy frame by frame along a camera path: stage times, points swept, and
+    /// the error of the light the renderer samples against one full-resolution sweep of
+    /// the region, for sky, sun and both at several sun elevations
+    /// (target/bench/frame.{txt,json,png}).
+    Frame {
+        /// Points across a node grid.
+        #[arg(long, default_value_t = 16)]
+        node_points: u32,
+        /// Frames along the path.
+        #[arg(long, default_value_t = 24)]
+        frames: u32,
+        /// Sun elevations in degrees (repeatable; default 10, 30 and 60).
+        #[arg(long = "elevation")]
+        elevations: Vec<f32>,
+        /// Sweep with the GPU sweeper (the reference stays on the CPU).
+        #[arg(long)]
+        gpu: bool,
+        /// Keep finer grids over bare ground (the bare-ground skip off).
+        #[arg(long)]
+        no_bare_skip: bool,
+        /// Output folder (default target/bench).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Feed every file reader generated bad inputs: panics, slow inputs, peak memory.
     Fuzz {
         /// Inputs per target.
@@ -121,6 +148,36 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        Task::Frame {
+            node_points,
+            frames,
+            elevations,
+            gpu,
+            no_bare_skip,
+            out,
+        } => {
+            let mut cfg = xtask::frame::FrameConfig::new(&root);
+            cfg.node_points = node_points;
+            cfg.frames = frames;
+            cfg.gpu = gpu;
+            cfg.no_bare_skip = no_bare_skip;
+            if !elevations.is_empty() {
+                cfg.elevations = elevations;
+            }
+            if let Some(o) = out {
+                cfg.out = o;
+            }
+            match xtask::frame::run(&cfg) {
+                Ok(r) => {
+                    print!("{}", xtask::frame::text(&r));
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("xtask frame: {e:#}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Task::Fuzz {
             inputs,
             targets,

@@ -373,6 +373,43 @@ pub struct FrameStats {
     /// Ready nodes still without a sun response for the current sun direction (lit by
     /// coarser grids' sun meanwhile).
     pub sun_pending: u32,
+    /// Where the frame's time went, by stage.
+    pub times: StageTimes,
+}
+
+/// Wall time of a frame's stages ([`FrameStats::times`]). What is not in a stage
+/// (deciding which nodes are wanted, eviction, bookkeeping) is the rest of the frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimes {
+    /// Composing node materials from the scene (and sizing the grids).
+    pub material: std::time::Duration,
+    /// Node boundaries of the sky's light from the coarser grids, and the input hash.
+    pub boundary: std::time::Duration,
+    /// Sweeps of the sky's light (all light without the sun apart).
+    pub sky_sweep: std::time::Duration,
+    /// Sun boundaries from the coarser grids (scattered sun's halo and top).
+    pub sun_boundary: std::time::Duration,
+    /// Sun responses: the transmittance march, first collisions and the sweep of them.
+    pub sun_sweep: std::time::Duration,
+}
+
+impl StageTimes {
+    /// The sum of the stages.
+    pub fn total(&self) -> std::time::Duration {
+        self.material + self.boundary + self.sky_sweep + self.sun_boundary + self.sun_sweep
+    }
+    /// The time spent in the sweeper (sky and sun sweeps).
+    pub fn sweeping(&self) -> std::time::Duration {
+        self.sky_sweep + self.sun_sweep
+    }
+}
+
+/// Adds the time `f` takes to `into`.
+fn timed<R>(into: &mut std::time::Duration, f: impl FnOnce() -> R) -> R {
+    let t = std::time::Instant::now();
+    let r = f();
+    *into += t.elapsed();
+    r
 }
 
 impl FrameStats {
@@ -641,14 +678,22 @@ impl Hierarchy {
 
     /// Computes node `key`'s sun responses for the current sun (its boundary from the
     /// coarser grids' sun responses). Returns the points swept.
-    fn sweep_node_sun(&mut self, key: NodeKey, material: &MaterialGrid) -> Result<u64, LodError> {
+    fn sweep_node_sun(
+        &mut self,
+        key: NodeKey,
+        material: &MaterialGrid,
+        times: &mut StageTimes,
+    ) -> Result<u64, LodError> {
         let _span = tracing::trace_span!("node sun", ?key).entered();
         let Some(sun) = self.sun else {
             return Ok(0);
         };
         let desc = *material.desc();
         let o = self.node_options(self.nodes[&key].has_objects);
-        let scattered = self.node_boundary_of(&desc, key.depth, Response::Sun);
+        let scattered = timed(&mut times.sun_boundary, || {
+            self.node_boundary_of(&desc, key.depth, Response::Sun)
+        });
+        let started = std::time::Instant::now();
         let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
         let r = {
             let this = &*self;
@@ -664,6 +709,7 @@ impl Hierarchy {
             )
         };
         self.sweeper = sweeper;
+        times.sun_sweep += started.elapsed();
         let r = r?;
         self.nodes.get_mut(&key).expect("ready node").sun = Some(GridSun {
             scattered: r.scattered,
@@ -973,17 +1019,24 @@ impl Hierarchy {
             }
             let _node = tracing::trace_span!("node", ?key).entered();
             // Material first (composing is cheap next to sweeping): it sizes the grid.
-            let (material, has_objects) = self.node_material(key)?;
+            let (material, has_objects) =
+                timed(&mut stats.times.material, || self.node_material(key))?;
             let desc = *material.desc();
             let cost = desc.point_count() as u64;
             if stats.points_swept + cost > self.params.budget_points {
                 stats.pending += 1;
                 continue;
             }
-            let boundary = self.node_boundary(&desc, key.depth);
             let o = self.node_options(has_objects);
-            let input_hash = hash_grid(&material, &boundary, &o);
-            let out = self.sweeper.sweep(&material, &boundary, &o)?;
+            let (boundary, input_hash) = timed(&mut stats.times.boundary, || {
+                let b = self.node_boundary(&desc, key.depth);
+                let hash = hash_grid(&material, &b, &o);
+                (b, hash)
+            });
+            let sweeper = &mut self.sweeper;
+            let out = timed(&mut stats.times.sky_sweep, || {
+                sweeper.sweep(&material, &boundary, &o)
+            })?;
             stats.points_swept += cost;
             stats.built += 1;
             self.nodes.insert(
@@ -1040,11 +1093,11 @@ impl Hierarchy {
         let material = match material {
             Some(m) => m,
             None => {
-                owned = self.source.material(&desc)?;
+                owned = timed(&mut stats.times.material, || self.source.material(&desc))?;
                 &owned
             }
         };
-        stats.points_swept += self.sweep_node_sun(key, material)?;
+        stats.points_swept += self.sweep_node_sun(key, material, &mut stats.times)?;
         stats.sun_built += 1;
         Ok(())
     }
@@ -1098,15 +1151,21 @@ impl Hierarchy {
                 stats.pending += 1;
                 continue;
             }
-            let material = self.source.material(&desc)?;
-            let boundary = self.node_boundary(&desc, key.depth);
+            let material = timed(&mut stats.times.material, || self.source.material(&desc))?;
             let o = self.node_options(self.nodes[&key].has_objects);
-            let hash = hash_grid(&material, &boundary, &o);
+            let (boundary, hash) = timed(&mut stats.times.boundary, || {
+                let b = self.node_boundary(&desc, key.depth);
+                let hash = hash_grid(&material, &b, &o);
+                (b, hash)
+            });
             // (The node keeps its size; a changed scene may need a new size: evict it.)
             if self.params.skip.unchanged && hash == self.nodes[&key].input_hash {
                 stats.skipped_unchanged += 1;
             } else {
-                let out = self.sweeper.sweep(&material, &boundary, &o)?;
+                let sweeper = &mut self.sweeper;
+                let out = timed(&mut stats.times.sky_sweep, || {
+                    sweeper.sweep(&material, &boundary, &o)
+                })?;
                 stats.points_swept += desc.point_count() as u64;
                 stats.built += 1;
                 let n = self.nodes.get_mut(&key).expect("ready node");

@@ -1,0 +1,893 @@
+//! `cargo xtask frame`: the hierarchy as a user runs it, frame by frame along a camera
+//! path, timed by stage and measured against one full-resolution sweep of the region the
+//! path sees (issue 43).
+//!
+//! **The world**: the shipped Jacksboro DEM (4 m a pixel, heights × 0.05) with a forest
+//! of procedural broadleaf trees (0.5 m voxels) scattered over a 500 m square, under the
+//! analytic clear sky ([`ClearSky::blue`]) with the sun kept apart
+//! ([`Hierarchy::set_sun`]), at each sun elevation asked for (azimuth 40°).
+//!
+//! **The path**: the camera flies 20 m above the ground, `step` metres a frame along a
+//! diagonal over the forest. Each frame runs [`Hierarchy::update`] (the library's
+//! defaults but the node size; budget `node_points² × 96` points) and then samples the
+//! light the renderer reads: *vertex points*, a 40 × 40 lattice of 1 m on the ground
+//! around the camera (irradiance on the ground's normal, read with the normal bias), and
+//! *volume points*, a 20 × 20 × 6 lattice of 2 m from 1 to 11 m above the ground
+//! (irradiance on the six axes). Sky and sun are sampled apart (the sun's part with its
+//! direct beam `E T max(0, n·s)`), and their sum is "both".
+//!
+//! **The reference**: one sweep at the finest cell size (1 m) of the region every frame's
+//! points lie in, widened by `margin` metres (its open sides see the sky; the margin of
+//! forest keeps that from the points), with the same sweeper options, read the same way.
+//! The error of a frame is the relative bias `Σ(h − r) / Σ r` and the relative RMSE
+//! `√mean((h − r)²) / mean(r)` of the luminance over its points, for sky, sun and both,
+//! and over the whole path per depth of the grid that serves the point. This is the
+//! *nesting* error (the hierarchy against a single sweep of the same world); the total
+//! error against Monte Carlo is not measured here yet.
+//!
+//! **Speed**: per frame the wall time of each stage ([`StageTimes`]: material, sky
+//! boundaries, sky sweeps, sun boundaries, sun responses), the rest of `update`, the
+//! sampling, points swept, and points per second of frame time beside points per
+//! second of sweeping time. After the path the sun moves by 20° and the next frame is
+//! timed: the world grid's new sun response, then the nodes re-lit within the budget.
+//!
+//! Writes `frame.txt`, `frame.json` and `frame.png` (frame time and error along the
+//! path) into `--out` (default `target/bench`).
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use lightgrid_core::glam::{UVec3, Vec2, Vec3};
+use lightgrid_core::{
+    BinLight, Boundary, Grid, GridDesc, LightField, LightGrid, MaterialSource, SeededRng,
+    SunBoundary, Sweeper,
+};
+use lightgrid_material_voxelizer::compose::{
+    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain, load_heightmap_png,
+};
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_sweep_cpu::sky::ClearSky;
+use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, SunLight};
+use serde::Serialize;
+
+/// What `cargo xtask frame` runs.
+#[derive(Debug, Clone)]
+pub struct FrameConfig {
+    /// Points across a node grid.
+    pub node_points: u32,
+    /// Frames along the path.
+    pub frames: u32,
+    /// Metres the camera moves per frame.
+    pub step: f32,
+    /// Sun elevations, degrees (one hierarchy each).
+    pub elevations: Vec<f32>,
+    /// Trees in the forest.
+    pub trees: usize,
+    /// Sweep with the GPU sweeper (the reference stays on the CPU).
+    pub gpu: bool,
+    /// Forest on bare ground keeps its finer grids (the bare-ground skip off).
+    pub no_bare_skip: bool,
+    /// Metres of world around the sampled region in the reference sweep.
+    pub margin: f32,
+    /// Output folder.
+    pub out: PathBuf,
+    /// The repository's `assets/`.
+    pub assets: PathBuf,
+}
+
+impl FrameConfig {
+    /// The defaults: 16-point nodes, 24 frames of 7.5 m, suns at 10, 30 and 60°.
+    pub fn new(root: &Path) -> Self {
+        Self {
+            node_points: 16,
+            frames: 24,
+            step: 7.5,
+            elevations: vec![10.0, 30.0, 60.0],
+            trees: 4000,
+            gpu: false,
+            no_bare_skip: false,
+            margin: 40.0,
+            out: root.join("target/bench"),
+            assets: root.join("assets"),
+        }
+    }
+}
+
+/// Relative errors of one light component over a set of points.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Error {
+    /// `Σ(h − r) / Σ r`.
+    pub bias: f64,
+    /// `√mean((h − r)²) / mean(r)`.
+    pub rmse: f64,
+    /// Points.
+    pub n: usize,
+}
+
+/// The errors of sky, sun and both.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Errors {
+    /// The sky alone.
+    pub sky: Error,
+    /// The sun alone (scattered and direct).
+    pub sun: Error,
+    /// Both.
+    pub both: Error,
+}
+
+/// One frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameRow {
+    /// Frame index.
+    pub frame: u32,
+    /// Milliseconds: material, sky boundary, sky sweep, sun boundary, sun sweep, the
+    /// rest of `update`, sampling; and the whole frame.
+    pub ms: StageMs,
+    /// Points swept.
+    pub points_swept: u64,
+    /// Nodes built and sun responses computed.
+    pub built: u32,
+    /// Sun responses computed.
+    pub sun_built: u32,
+    /// Work left for later frames.
+    pub pending: u32,
+    /// Against the reference, over this frame's points.
+    pub error: Errors,
+}
+
+/// Milliseconds per stage of a frame.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct StageMs {
+    /// Node materials.
+    pub material: f64,
+    /// Sky boundaries and hashes.
+    pub boundary: f64,
+    /// Sky sweeps.
+    pub sky_sweep: f64,
+    /// Sun boundaries.
+    pub sun_boundary: f64,
+    /// Sun responses.
+    pub sun_sweep: f64,
+    /// The rest of `update`.
+    pub other: f64,
+    /// Sampling the vertex and volume points.
+    pub sampling: f64,
+    /// The whole frame.
+    pub total: f64,
+}
+
+impl StageMs {
+    fn of(t: &StageTimes, update: Duration, sampling: Duration) -> Self {
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        Self {
+            material: ms(t.material),
+            boundary: ms(t.boundary),
+            sky_sweep: ms(t.sky_sweep),
+            sun_boundary: ms(t.sun_boundary),
+            sun_sweep: ms(t.sun_sweep),
+            other: ms(update.saturating_sub(t.total())),
+            sampling: ms(sampling),
+            total: ms(update + sampling),
+        }
+    }
+}
+
+/// One sun elevation's run.
+#[derive(Debug, Clone, Serialize)]
+pub struct Run {
+    /// Sun elevation, degrees.
+    pub elevation: f32,
+    /// Seconds to build the world grid and its sun response (at load).
+    pub load_s: f64,
+    /// The frames.
+    pub frames: Vec<FrameRow>,
+    /// Over every frame's points.
+    pub error: Errors,
+    /// Over every frame's points, by the depth of the grid serving the point (0: world).
+    pub error_by_depth: Vec<Errors>,
+    /// Mean frame, milliseconds.
+    pub mean_ms: f64,
+    /// Slowest frame, milliseconds.
+    pub max_ms: f64,
+    /// Points swept per second of frame time (update and sampling).
+    pub points_per_s_frame: f64,
+    /// Points swept per second of sweeping time.
+    pub points_per_s_sweeping: f64,
+    /// The sun moved 20° up after the path: the world grid's new response (ms).
+    pub sun_move_world_ms: f64,
+    /// The frame after the move (ms), and the sun responses it computed and left.
+    pub sun_move_frame_ms: f64,
+    /// Sun responses computed in that frame.
+    pub sun_move_built: u32,
+    /// Sun responses left for later frames.
+    pub sun_move_pending: u32,
+}
+
+/// Everything `cargo xtask frame` measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameReport {
+    /// The sweeper: "cpu" or the GPU adapter.
+    pub sweeper: String,
+    /// Node points.
+    pub node_points: u32,
+    /// The reference region, points.
+    pub reference_points: u64,
+    /// Seconds of the reference's sky sweep.
+    pub reference_sky_s: f64,
+    /// One run per elevation.
+    pub runs: Vec<Run>,
+}
+
+/// The world: heightmap, trees, and a composer for it.
+struct World {
+    hm: Heightmap,
+    terrain: Terrain,
+    tree: lightgrid_core::MaterialGrid,
+    instances: Vec<Instance>,
+}
+
+impl World {
+    fn load(cfg: &FrameConfig) -> Result<Self> {
+        let png = cfg.assets.join("dem-jacksboro/jacksboro_fault_dem_u16.png");
+        let hm = load_heightmap_png(&png, Vec2::ZERO, 4.0, 0.05, 0.0)
+            .with_context(|| format!("reading {}", png.display()))?;
+        let (tree, _) = voxelize(
+            &tree(&TreeParams::broadleaf(3))?,
+            &VoxelizeParams::standard(0.5),
+            &|_, _| {},
+        )?;
+        let mut rng = SeededRng::new(7);
+        let instances = (0..cfg.trees)
+            .map(|_| {
+                let (x, z) = (rng.range(400.0, 900.0), rng.range(400.0, 900.0));
+                Instance {
+                    model: 0,
+                    position: Vec3::new(x, hm.height_at(x, z) - 0.3, z),
+                    rotation: lightgrid_core::glam::Quat::from_rotation_y(
+                        rng.range(0.0, std::f32::consts::TAU),
+                    ),
+                    scale: rng.range(0.8, 1.3),
+                }
+            })
+            .collect();
+        let terrain = Terrain {
+            heightmap: hm.clone(),
+            colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),
+        };
+        Ok(Self {
+            hm,
+            terrain,
+            tree,
+            instances,
+        })
+    }
+
+    fn composer(&self) -> Result<AreaComposer> {
+        Ok(AreaComposer::new(
+            vec![self.tree.clone()],
+            &self.instances,
+            Some(self.terrain.clone()),
+            ComposeParams::default(),
+        )?)
+    }
+
+    fn camera(&self, cfg: &FrameConfig, f: u32) -> Vec3 {
+        let d = Vec2::new(0.8, 0.6) * cfg.step * f as f32;
+        let (x, z) = (520.0 + d.x, 540.0 + d.y);
+        Vec3::new(x, self.hm.height_at(x, z) + 20.0, z)
+    }
+
+    /// The ground's unit normal at `(x, z)` (central differences over 1 m).
+    fn normal(&self, x: f32, z: f32) -> Vec3 {
+        let h = |x: f32, z: f32| self.hm.height_at(x, z);
+        Vec3::new(
+            h(x - 0.5, z) - h(x + 0.5, z),
+            1.0,
+            h(x, z - 0.5) - h(x, z + 0.5),
+        )
+        .normalize()
+    }
+}
+
+/// A point the renderer samples and the normal it reads the light on.
+#[derive(Debug, Clone, Copy)]
+struct Probe {
+    p: Vec3,
+    n: Vec3,
+}
+
+/// The vertex and volume points around camera `cam`.
+fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
+    let mut out = Vec::with_capacity(40 * 40 + 20 * 20 * 6 * 6);
+    for i in 0..40 {
+        for k in 0..40 {
+            let (x, z) = (cam.x - 19.5 + i as f32, cam.z - 19.5 + k as f32);
+            let n = world.normal(x, z);
+            out.push(Probe {
+                p: Vec3::new(x, world.hm.height_at(x, z), z),
+                n,
+            });
+        }
+    }
+    let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    for i in 0..20 {
+        for k in 0..20 {
+            let (x, z) = (cam.x - 19.0 + 2.0 * i as f32, cam.z - 19.0 + 2.0 * k as f32);
+            let g = world.hm.height_at(x, z);
+            for j in 0..6 {
+                let p = Vec3::new(x, g + 1.0 + 2.0 * j as f32, z);
+                out.extend(axes.iter().map(|&n| Probe { p, n }));
+            }
+        }
+    }
+    out
+}
+
+/// The single full-resolution sweep of the region: sky bins, and per sun its scattered
+/// bins and transmittance.
+struct Reference {
+    sky: LightGrid,
+    sun: Option<(LightGrid, Grid<f32>, Vec3)>,
+    desc: GridDesc,
+}
+
+impl Reference {
+    fn sky_and_sun(&self, p: &Probe, sun_e: Vec3) -> Result<(f32, f32)> {
+        let luma = lightgrid_core::light::luminance;
+        let sky = luma(self.sky.irradiance(p.p, p.n)?);
+        let (scat, t, s) = self.sun.as_ref().context("reference sun")?;
+        let direct = sun_e * (t.sample_biased(p.p, p.n)? * p.n.dot(*s).max(0.0));
+        Ok((sky, luma(scat.irradiance(p.p, p.n)? * sun_e + direct)))
+    }
+}
+
+/// Sky radiance scale and sun irradiance of the runs.
+const SUN_E: Vec3 = Vec3::new(3.0, 2.9, 2.7);
+
+fn sun_dir(elevation_deg: f32) -> Vec3 {
+    let s =
+        lightgrid_sweep_cpu::sky::Sun::at(elevation_deg.to_radians(), 40f32.to_radians(), SUN_E);
+    s.direction
+}
+
+fn sky_bins(to_sun: Vec3) -> Result<BinLight> {
+    Ok(ClearSky::blue(to_sun).bins()?.top)
+}
+
+/// The region every frame's probes lie in, plus the margin, at the finest cell size.
+fn reference_desc(world: &World, cfg: &FrameConfig, params: &HierarchyParams) -> Result<GridDesc> {
+    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+    for f in 0..cfg.frames {
+        let c = world.camera(cfg, f);
+        lo = lo.min(Vec2::new(c.x, c.z) - 20.0 - cfg.margin);
+        hi = hi.max(Vec2::new(c.x, c.z) + 20.0 + cfg.margin);
+    }
+    let (mut g_lo, mut g_hi) = (f32::MAX, f32::MIN);
+    let mut x = lo.x;
+    while x <= hi.x {
+        let mut z = lo.y;
+        while z <= hi.y {
+            let g = world.hm.height_at(x, z);
+            (g_lo, g_hi) = (g_lo.min(g), g_hi.max(g));
+            z += 2.0;
+        }
+        x += 2.0;
+    }
+    let h = params.finest_cell;
+    let bottom = g_lo - 2.0 * h;
+    let top = g_hi + params.margin;
+    let dims = UVec3::new(
+        ((hi.x - lo.x) / h) as u32 + 1,
+        ((top - bottom) / h).ceil() as u32 + 1,
+        ((hi.y - lo.y) / h) as u32 + 1,
+    );
+    Ok(GridDesc::new(Vec3::new(lo.x, bottom, lo.y), h, dims)?)
+}
+
+fn new_sweeper(cfg: &FrameConfig) -> Result<(Box<dyn Sweeper + Send + Sync>, String)> {
+    if cfg.gpu {
+        let c = lightgrid_sweep_gpu::GpuContext::new()?;
+        let name = format!("gpu: {} ({:?})", c.info.name, c.info.device_type);
+        return Ok((
+            Box::new(lightgrid_sweep_gpu::GpuSweeper::with_context(c)),
+            name,
+        ));
+    }
+    Ok((
+        Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+        "cpu".into(),
+    ))
+}
+
+/// Accumulates the luminance pairs of one component.
+#[derive(Default, Clone)]
+struct Acc {
+    d: f64,
+    d2: f64,
+    r: f64,
+    n: usize,
+}
+
+impl Acc {
+    fn add(&mut self, h: f32, r: f32) {
+        let (h, r) = (h as f64, r as f64);
+        self.d += h - r;
+        self.d2 += (h - r) * (h - r);
+        self.r += r;
+        self.n += 1;
+    }
+    fn error(&self) -> Error {
+        if self.n == 0 || self.r <= 0.0 {
+            return Error::default();
+        }
+        let mean = self.r / self.n as f64;
+        Error {
+            bias: self.d / self.r,
+            rmse: (self.d2 / self.n as f64).sqrt() / mean,
+            n: self.n,
+        }
+    }
+}
+
+/// Sky, sun and both accumulators.
+#[derive(Default, Clone)]
+struct Acc3([Acc; 3]);
+
+impl Acc3 {
+    fn add(&mut self, h: (f32, f32), r: (f32, f32)) {
+        self.0[0].add(h.0, r.0);
+        self.0[1].add(h.1, r.1);
+        self.0[2].add(h.0 + h.1, r.0 + r.1);
+    }
+    fn errors(&self) -> Errors {
+        Errors {
+            sky: self.0[0].error(),
+            sun: self.0[1].error(),
+            both: self.0[2].error(),
+        }
+    }
+}
+
+/// The hierarchy's sky and sun luminance at every probe (sky scale and sun irradiance
+/// toggled: neither sweeps anything), restored to both at the end.
+fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec<(f32, f32)>> {
+    let luma = lightgrid_core::light::luminance;
+    let light = |h: &Hierarchy, p: &Probe, e: Vec3| -> Result<f32> {
+        let t = h.sun_transmittance(p.p, Some(p.n))?;
+        Ok(luma(
+            h.irradiance(p.p, p.n)? + e * (t * p.n.dot(to_sun).max(0.0)),
+        ))
+    };
+    h.set_sun(Some(SunLight {
+        to_sun,
+        irradiance: Vec3::ZERO,
+    }))?;
+    let sky: Vec<f32> = probes
+        .iter()
+        .map(|p| light(h, p, Vec3::ZERO))
+        .collect::<Result<_>>()?;
+    h.set_sky_scale(Vec3::ZERO)?;
+    h.set_sun(Some(SunLight {
+        to_sun,
+        irradiance: SUN_E,
+    }))?;
+    let sun: Vec<f32> = probes
+        .iter()
+        .map(|p| light(h, p, SUN_E))
+        .collect::<Result<_>>()?;
+    h.set_sky_scale(Vec3::ONE)?;
+    Ok(sky.into_iter().zip(sun).collect())
+}
+
+/// The renderer's read of every probe with sky and sun on (what the sampling stage
+/// times): the sum of the light and the direct sun.
+fn sample_all(h: &Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<f64> {
+    let mut sum = 0.0;
+    for p in probes {
+        let t = h.sun_transmittance(p.p, Some(p.n))?;
+        let e = h.irradiance(p.p, p.n)? + SUN_E * (t * p.n.dot(to_sun).max(0.0));
+        sum += lightgrid_core::light::luminance(e) as f64;
+    }
+    Ok(sum)
+}
+
+/// Depth of the grid serving `p` (0: the world grid).
+fn depth_at(h: &Hierarchy, p: Vec3) -> usize {
+    let cell = h.grid_at(p).desc().h();
+    (h.params().world_cell / cell).log2().round().max(0.0) as usize
+}
+
+fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
+    let np = cfg.node_points as u64;
+    let mut p = HierarchyParams {
+        node_points: cfg.node_points,
+        finest_cell: 1.0,
+        budget_points: np * np * 96,
+        ..Default::default()
+    };
+    p.skip.bare_children = !cfg.no_bare_skip;
+    p
+}
+
+/// Sweeps the reference region's sky once.
+fn reference_sky(
+    world: &World,
+    desc: GridDesc,
+    params: &HierarchyParams,
+    sky: BinLight,
+) -> Result<(Reference, f64)> {
+    let _span = tracing::info_span!("reference sky", points = desc.point_count()).entered();
+    let material = world.composer()?.material(&desc)?;
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
+    let mut o = params.sweep;
+    o.outputs.bins = true;
+    let t = Instant::now();
+    let out = sweeper.sweep(&material, &Boundary::open_sky(sky), &o)?;
+    let secs = t.elapsed().as_secs_f64();
+    let sky = out.bins.context("bins asked for")?;
+    Ok((
+        Reference {
+            sky,
+            sun: None,
+            desc,
+        },
+        secs,
+    ))
+}
+
+/// The reference's sun responses for `to_sun` (sunlight entering unshadowed).
+fn reference_sun(
+    world: &World,
+    r: &mut Reference,
+    params: &HierarchyParams,
+    to_sun: Vec3,
+) -> Result<()> {
+    let _span = tracing::info_span!("reference sun").entered();
+    let material = world.composer()?.material(&r.desc)?;
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
+    let mut o = params.sweep;
+    o.outputs.bins = true;
+    let boundary = SunBoundary {
+        to_sun,
+        scattered: Boundary::open_sky(BinLight::ZERO),
+        outside: &|_| 1.0,
+    };
+    let s = sweeper.sweep_sun(&material, &boundary, &o)?;
+    r.sun = Some((s.scattered, s.transmittance, to_sun));
+    Ok(())
+}
+
+/// One frame: update, sample (timed), and the error of the frame's probes.
+fn frame(
+    h: &mut Hierarchy,
+    world: &World,
+    cfg: &FrameConfig,
+    f: u32,
+    to_sun: Vec3,
+    reference: &Reference,
+    by_depth: &mut Vec<Acc3>,
+    all: &mut Acc3,
+) -> Result<FrameRow> {
+    let cam = world.camera(cfg, f);
+    let t = Instant::now();
+    let stats: FrameStats = h.update(cam)?;
+    let update = t.elapsed();
+    let probes = probes(world, cam);
+    let t = Instant::now();
+    std::hint::black_box(sample_all(h, &probes, to_sun)?);
+    let sampling = t.elapsed();
+    let parts = sample_parts(h, &probes, to_sun)?;
+    let mut acc = Acc3::default();
+    for (p, hp) in probes.iter().zip(parts) {
+        let r = reference.sky_and_sun(p, SUN_E)?;
+        acc.add(hp, r);
+        all.add(hp, r);
+        let d = depth_at(h, p.p);
+        if by_depth.len() <= d {
+            by_depth.resize(d + 1, Acc3::default());
+        }
+        by_depth[d].add(hp, r);
+    }
+    Ok(FrameRow {
+        frame: f,
+        ms: StageMs::of(&stats.times, update, sampling),
+        points_swept: stats.points_swept,
+        built: stats.built,
+        sun_built: stats.sun_built,
+        pending: stats.pending,
+        error: acc.errors(),
+    })
+}
+
+/// The path under a sun at `elevation` degrees.
+fn run_elevation(
+    world: &World,
+    cfg: &FrameConfig,
+    elevation: f32,
+    reference: &mut Reference,
+) -> Result<Run> {
+    let params = hierarchy_params(cfg);
+    let to_sun = sun_dir(elevation);
+    reference_sun(world, reference, &params, to_sun)?;
+    let (sweeper, _) = new_sweeper(cfg)?;
+    let t = Instant::now();
+    let mut h = Hierarchy::new(
+        &world.hm,
+        Box::new(world.composer()?),
+        sweeper,
+        sky_bins(to_sun)?,
+        params,
+    )?;
+    h.set_sun(Some(SunLight {
+        to_sun,
+        irradiance: SUN_E,
+    }))?;
+    let load_s = t.elapsed().as_secs_f64();
+    let (mut by_depth, mut all) = (Vec::new(), Acc3::default());
+    let bar =
+        indicatif::ProgressBar::new(cfg.frames as u64).with_message(format!("sun {elevation}°"));
+    let mut frames = Vec::new();
+    for f in 0..cfg.frames {
+        frames.push(frame(
+            &mut h,
+            world,
+            cfg,
+            f,
+            to_sun,
+            reference,
+            &mut by_depth,
+            &mut all,
+        )?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    // Time of day: the sun 20° higher (the sky kept: its glow moves little).
+    let moved = sun_dir((elevation + 20.0).min(89.0));
+    let t = Instant::now();
+    h.set_sun(Some(SunLight {
+        to_sun: moved,
+        irradiance: SUN_E,
+    }))?;
+    let world_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    let s = h.update(world.camera(cfg, cfg.frames - 1))?;
+    let frame_ms = t.elapsed().as_secs_f64() * 1e3;
+    let n = frames.len().max(1) as f64;
+    let total_s: f64 = frames.iter().map(|r| r.ms.total).sum::<f64>() / 1e3;
+    let sweep_s: f64 = frames
+        .iter()
+        .map(|r| r.ms.sky_sweep + r.ms.sun_sweep)
+        .sum::<f64>()
+        / 1e3;
+    let points: u64 = frames.iter().map(|r| r.points_swept).sum();
+    Ok(Run {
+        elevation,
+        load_s,
+        mean_ms: total_s * 1e3 / n,
+        max_ms: frames.iter().map(|r| r.ms.total).fold(0.0, f64::max),
+        points_per_s_frame: points as f64 / total_s.max(1e-9),
+        points_per_s_sweeping: points as f64 / sweep_s.max(1e-9),
+        frames,
+        error: all.errors(),
+        error_by_depth: by_depth.iter().map(Acc3::errors).collect(),
+        sun_move_world_ms: world_ms,
+        sun_move_frame_ms: frame_ms,
+        sun_move_built: s.sun_built,
+        sun_move_pending: s.sun_pending,
+    })
+}
+
+/// Runs the measurement and writes `frame.txt`, `frame.json` and `frame.png`.
+pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
+    anyhow::ensure!(cfg.frames >= 1, "--frames must be at least 1");
+    anyhow::ensure!(
+        cfg.step.is_finite() && (0.0..=100.0).contains(&cfg.step),
+        "--step must be in 0..=100 m (got {})",
+        cfg.step
+    );
+    for &e in &cfg.elevations {
+        anyhow::ensure!(
+            e.is_finite() && (1.0..=90.0).contains(&e),
+            "--elevation must be in 1..=90 degrees (got {e})"
+        );
+    }
+    std::fs::create_dir_all(&cfg.out).with_context(|| format!("creating {}", cfg.out.display()))?;
+    let world = World::load(cfg)?;
+    let params = hierarchy_params(cfg);
+    let desc = reference_desc(&world, cfg, &params)?;
+    println!(
+        "reference: one {} m sweep of {} x {} x {} points ({:.1} M)",
+        desc.h(),
+        desc.dims().x,
+        desc.dims().y,
+        desc.dims().z,
+        desc.point_count() as f64 / 1e6
+    );
+    let (_, sweeper) = new_sweeper(cfg)?;
+    let mut runs = Vec::new();
+    let mut reference_sky_s = 0.0;
+    for &e in &cfg.elevations {
+        // The clear sky's glow follows the sun: a reference sky per elevation.
+        let (mut reference, secs) = reference_sky(&world, desc, &params, sky_bins(sun_dir(e))?)?;
+        reference_sky_s = secs;
+        let run = run_elevation(&world, cfg, e, &mut reference)?;
+        println!("{}", run_line(&run));
+        runs.push(run);
+    }
+    let report = FrameReport {
+        sweeper,
+        node_points: cfg.node_points,
+        reference_points: desc.point_count() as u64,
+        reference_sky_s,
+        runs,
+    };
+    write(cfg, &report)?;
+    Ok(report)
+}
+
+fn run_line(r: &Run) -> String {
+    format!(
+        "sun {:>4.0}°: {:6.1} ms a frame (max {:6.1}), sky bias {:+6.1} % RMSE {:5.1} %, sun bias {:+6.1} % RMSE {:5.1} %, both bias {:+6.1} % RMSE {:5.1} %",
+        r.elevation,
+        r.mean_ms,
+        r.max_ms,
+        r.error.sky.bias * 100.0,
+        r.error.sky.rmse * 100.0,
+        r.error.sun.bias * 100.0,
+        r.error.sun.rmse * 100.0,
+        r.error.both.bias * 100.0,
+        r.error.both.rmse * 100.0,
+    )
+}
+
+/// The report as text.
+pub fn text(report: &FrameReport) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "cargo xtask frame: {} sweeper, {}-point nodes; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        report.sweeper, report.node_points, report.reference_points, report.reference_sky_s
+    );
+    for r in &report.runs {
+        let _ = writeln!(s, "\n{}", run_line(r));
+        let n = r.frames.len().max(1) as f64;
+        let mean = |f: fn(&StageMs) -> f64| r.frames.iter().map(|x| f(&x.ms)).sum::<f64>() / n;
+        let _ = writeln!(
+            s,
+            "  mean ms: material {:.1}, sky boundary {:.1}, sky sweep {:.1}, sun boundary {:.1}, sun sweep {:.1}, other {:.1}, sampling {:.1}; total {:.1}",
+            mean(|m| m.material),
+            mean(|m| m.boundary),
+            mean(|m| m.sky_sweep),
+            mean(|m| m.sun_boundary),
+            mean(|m| m.sun_sweep),
+            mean(|m| m.other),
+            mean(|m| m.sampling),
+            mean(|m| m.total),
+        );
+        let _ = writeln!(
+            s,
+            "  load {:.2} s; points swept per second: {:.2} M of frame time, {:.2} M of sweeping time",
+            r.load_s,
+            r.points_per_s_frame / 1e6,
+            r.points_per_s_sweeping / 1e6
+        );
+        let _ = writeln!(
+            s,
+            "  sun +20°: world grid {:.0} ms, next frame {:.0} ms ({} sun responses, {} left)",
+            r.sun_move_world_ms, r.sun_move_frame_ms, r.sun_move_built, r.sun_move_pending
+        );
+        let _ = writeln!(
+            s,
+            "  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE %"
+        );
+        for (d, e) in r.error_by_depth.iter().enumerate() {
+            if e.both.n == 0 {
+                continue;
+            }
+            let _ = writeln!(
+                s,
+                "  {d:5} | {:6} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1}",
+                e.both.n,
+                e.sky.bias * 100.0,
+                e.sky.rmse * 100.0,
+                e.sun.bias * 100.0,
+                e.sun.rmse * 100.0,
+                e.both.bias * 100.0,
+                e.both.rmse * 100.0
+            );
+        }
+    }
+    s
+}
+
+/// Writes the three files, each whole or not at all.
+fn write(cfg: &FrameConfig, report: &FrameReport) -> Result<()> {
+    let put = |name: &str, bytes: &[u8]| -> Result<()> {
+        let path = cfg.out.join(name);
+        let tmp = cfg.out.join(format!(".{name}.partial"));
+        std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
+        std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))
+    };
+    let txt = text(report);
+    put("frame.txt", txt.as_bytes())?;
+    put(
+        "frame.json",
+        serde_json::to_string_pretty(report)?.as_bytes(),
+    )?;
+    let png = cfg.out.join(".frame.partial.png");
+    plot(report, &png)?;
+    std::fs::rename(&png, cfg.out.join("frame.png")).context("writing frame.png")?;
+    println!("wrote {}/frame.{{txt,json,png}}", cfg.out.display());
+    Ok(())
+}
+
+/// `frame.png`: frame time (left) and the RMSE of sky and sun together (right) along
+/// the path, one line per sun elevation.
+fn plot(report: &FrameReport, path: &Path) -> Result<()> {
+    use crate::bench::plot::{err, line_with_points, register_font, save_rgb};
+    use plotters::prelude::*;
+    let text = register_font();
+    let (w, h) = (1200u32, 420u32);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let panels = root.split_evenly((1, 2));
+        let frames = report.runs.first().map_or(1, |r| r.frames.len()) as f64;
+        let series: [(&str, fn(&FrameRow) -> f64); 2] = [
+            ("frame time (ms)", |r| r.ms.total),
+            ("RMSE of sky + sun (%)", |r| r.error.both.rmse * 100.0),
+        ];
+        for ((label, value), area) in series.iter().zip(panels.iter()) {
+            let top = report
+                .runs
+                .iter()
+                .flat_map(|r| r.frames.iter().map(value))
+                .fold(1e-3, f64::max);
+            let mut chart = ChartBuilder::on(area);
+            chart.margin(12);
+            if text {
+                chart
+                    .caption(*label, ("sans-serif", 20))
+                    .x_label_area_size(32)
+                    .y_label_area_size(48);
+            }
+            let mut chart = chart
+                .build_cartesian_2d(0.0..frames, 0.0..top * 1.1)
+                .map_err(err)?;
+            if text {
+                chart
+                    .configure_mesh()
+                    .x_desc("frame")
+                    .light_line_style(WHITE)
+                    .label_style(("sans-serif", 13))
+                    .draw()
+                    .map_err(err)?;
+            }
+            for (i, r) in report.runs.iter().enumerate() {
+                let colour = Palette99::pick(i).to_rgba();
+                let pts: Vec<(f64, f64)> = r
+                    .frames
+                    .iter()
+                    .map(|f| (f.frame as f64, value(f)))
+                    .collect();
+                let name = text.then(|| format!("sun {:.0}°", r.elevation));
+                line_with_points(&mut chart, &pts, colour.stroke_width(2), name)?;
+            }
+            if text {
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 13))
+                    .draw()
+                    .map_err(err)?;
+            }
+        }
+        root.present().map_err(err)?;
+    }
+    save_rgb(&buf, (w, h), path)
+}
