@@ -195,6 +195,10 @@ pub struct Run {
     pub points_per_s_frame: f64,
     /// Points swept per second of sweeping time.
     pub points_per_s_sweeping: f64,
+    /// The kernel alone on the same nodes: the sky sweeps of the grids ready after the
+    /// last frame again, one after another with recycled memory and open boundaries,
+    /// points per second of sweeping.
+    pub points_per_s_kernel: f64,
     /// The sun moved 20° up after the path: the world grid's new response (ms).
     pub sun_move_world_ms: f64,
     /// The frame after the move (ms), and the sun responses it computed and left.
@@ -654,6 +658,7 @@ fn run_elevation(
     let t = Instant::now();
     let s = h.update(world.camera(cfg, cfg.frames - 1))?;
     let frame_ms = t.elapsed().as_secs_f64() * 1e3;
+    let points_per_s_kernel = kernel_rate(world, cfg, &h, sky_bins(to_sun)?)?;
     let n = frames.len().max(1) as f64;
     let total_s: f64 = frames.iter().map(|r| r.ms.total).sum::<f64>() / 1e3;
     let sweep_s: f64 = frames
@@ -669,6 +674,7 @@ fn run_elevation(
         max_ms: frames.iter().map(|r| r.ms.total).fold(0.0, f64::max),
         points_per_s_frame: points as f64 / total_s.max(1e-9),
         points_per_s_sweeping: points as f64 / sweep_s.max(1e-9),
+        points_per_s_kernel,
         frames,
         error: all.errors(),
         error_by_depth: by_depth.iter().map(Acc3::errors).collect(),
@@ -677,6 +683,46 @@ fn run_elevation(
         sun_move_built: s.sun_built,
         sun_move_pending: s.sun_pending,
     })
+}
+
+/// The sweeper's rate on the hierarchy's ready nodes, swept again in a row with
+/// recycled memory (the CPU sweeper) and open boundaries: what the kernel does with the
+/// same nodes, passes and options outside the hierarchy.
+fn kernel_rate(world: &World, cfg: &FrameConfig, h: &Hierarchy, sky: BinLight) -> Result<f64> {
+    let composer = world.composer()?;
+    let descs: Vec<GridDesc> = h
+        .layers()
+        .iter()
+        .filter(|l| l.owner.is_some())
+        .map(|l| *l.grid.desc())
+        .collect();
+    let materials = descs
+        .iter()
+        .map(|d| composer.material(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut o = h.params().sweep;
+    o.outputs.bins = true;
+    let boundary = Boundary::open_sky(sky);
+    let (mut swept, mut secs) = (0u64, 0.0);
+    if cfg.gpu {
+        let (mut sweeper, _) = new_sweeper(cfg)?;
+        for m in &materials {
+            let t = Instant::now();
+            std::hint::black_box(sweeper.sweep(m, &boundary, &o)?);
+            secs += t.elapsed().as_secs_f64();
+            swept += m.desc().point_count() as u64;
+        }
+    } else {
+        let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
+        for m in &materials {
+            let t = Instant::now();
+            let out = sweeper.sweep(m, &boundary, &o)?;
+            secs += t.elapsed().as_secs_f64();
+            sweeper.recycle(out);
+            swept += m.desc().point_count() as u64;
+        }
+    }
+    Ok(swept as f64 / secs.max(1e-9))
 }
 
 /// Runs the measurement and writes `frame.txt`, `frame.json` and `frame.png`.
@@ -769,10 +815,11 @@ pub fn text(report: &FrameReport) -> String {
         );
         let _ = writeln!(
             s,
-            "  load {:.2} s; points swept per second: {:.2} M of frame time, {:.2} M of sweeping time",
+            "  load {:.2} s; points swept per second: {:.2} M of frame time, {:.2} M of sweeping time; the kernel on the same nodes {:.2} M",
             r.load_s,
             r.points_per_s_frame / 1e6,
-            r.points_per_s_sweeping / 1e6
+            r.points_per_s_sweeping / 1e6,
+            r.points_per_s_kernel / 1e6
         );
         let _ = writeln!(
             s,
@@ -890,4 +937,72 @@ fn plot(report: &FrameReport, path: &Path) -> Result<()> {
         root.present().map_err(err)?;
     }
     save_rgb(&buf, (w, h), path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_have_known_answers() {
+        let mut a = Acc::default();
+        // h = 1.1 r everywhere: bias +10 %, RMSE 10 % of the mean.
+        for r in [1.0f32, 1.0, 1.0, 1.0] {
+            a.add(1.1 * r, r);
+        }
+        let e = a.error();
+        assert!(
+            (e.bias - 0.1).abs() < 1e-6 && (e.rmse - 0.1).abs() < 1e-6,
+            "{e:?}"
+        );
+        // +1 and -1 on a mean of 2: no bias, RMSE 50 %.
+        let mut b = Acc::default();
+        b.add(3.0, 2.0);
+        b.add(1.0, 2.0);
+        let e = b.error();
+        assert!(
+            e.bias.abs() < 1e-12 && (e.rmse - 0.5).abs() < 1e-12,
+            "{e:?}"
+        );
+        assert_eq!(Acc::default().error().n, 0);
+    }
+
+    #[test]
+    fn both_is_the_sum_of_sky_and_sun() {
+        let mut a = Acc3::default();
+        a.add((1.0, 3.0), (1.0, 1.0));
+        let e = a.errors();
+        assert!((e.sky.bias).abs() < 1e-12);
+        assert!((e.sun.bias - 2.0).abs() < 1e-12);
+        assert!((e.both.bias - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn probes_lie_on_and_above_the_ground_around_the_camera() {
+        let hm = Heightmap::from_fn(Vec2::ZERO, 1.0, 65, 65, |x, z| 0.1 * x + 0.05 * z).unwrap();
+        let world = World {
+            terrain: Terrain {
+                heightmap: hm.clone(),
+                colour: GroundColour::Uniform(Vec3::splat(0.3)),
+            },
+            hm,
+            tree: lightgrid_core::MaterialGrid::new(
+                GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE).unwrap(),
+                vec![lightgrid_core::Material::EMPTY],
+            )
+            .unwrap(),
+            instances: vec![],
+        };
+        let cam = Vec3::new(32.0, 10.0, 32.0);
+        let p = probes(&world, cam);
+        assert_eq!(p.len(), 40 * 40 + 20 * 20 * 6 * 6);
+        for q in &p {
+            assert!((q.n.length() - 1.0).abs() < 1e-5);
+            assert!((q.p.x - cam.x).abs() <= 20.0 && (q.p.z - cam.z).abs() <= 20.0);
+            assert!(q.p.y >= world.hm.height_at(q.p.x, q.p.z) - 1e-4);
+        }
+        // The slope's normal leans against the gradient.
+        let n = world.normal(32.0, 32.0);
+        assert!(n.x < 0.0 && n.z < 0.0 && n.y > 0.9, "{n}");
+    }
 }
