@@ -454,6 +454,13 @@ impl Acc3 {
     }
 }
 
+/// A path's errors: over all points and by the depth serving them.
+#[derive(Default)]
+struct Tally {
+    all: Acc3,
+    by_depth: Vec<Acc3>,
+}
+
 /// The hierarchy's sky and sun luminance at every probe (sky scale and sun irradiance
 /// toggled: neither sweeps anything), restored to both at the end.
 fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec<(f32, f32)>> {
@@ -569,10 +576,8 @@ fn frame(
     world: &World,
     cfg: &FrameConfig,
     f: u32,
-    to_sun: Vec3,
-    reference: &Reference,
-    by_depth: &mut Vec<Acc3>,
-    all: &mut Acc3,
+    (to_sun, reference): (Vec3, &Reference),
+    tally: &mut Tally,
 ) -> Result<FrameRow> {
     let cam = world.camera(cfg, f);
     let t = Instant::now();
@@ -587,12 +592,12 @@ fn frame(
     for (p, hp) in probes.iter().zip(parts) {
         let r = reference.sky_and_sun(p, SUN_E)?;
         acc.add(hp, r);
-        all.add(hp, r);
+        tally.all.add(hp, r);
         let d = depth_at(h, p.p);
-        if by_depth.len() <= d {
-            by_depth.resize(d + 1, Acc3::default());
+        if tally.by_depth.len() <= d {
+            tally.by_depth.resize(d + 1, Acc3::default());
         }
-        by_depth[d].add(hp, r);
+        tally.by_depth[d].add(hp, r);
     }
     Ok(FrameRow {
         frame: f,
@@ -629,7 +634,7 @@ fn run_elevation(
         irradiance: SUN_E,
     }))?;
     let load_s = t.elapsed().as_secs_f64();
-    let (mut by_depth, mut all) = (Vec::new(), Acc3::default());
+    let mut tally = Tally::default();
     let bar =
         indicatif::ProgressBar::new(cfg.frames as u64).with_message(format!("sun {elevation}°"));
     let mut frames = Vec::new();
@@ -639,10 +644,8 @@ fn run_elevation(
             world,
             cfg,
             f,
-            to_sun,
-            reference,
-            &mut by_depth,
-            &mut all,
+            (to_sun, reference),
+            &mut tally,
         )?);
         bar.inc(1);
     }
@@ -676,8 +679,8 @@ fn run_elevation(
         points_per_s_sweeping: points as f64 / sweep_s.max(1e-9),
         points_per_s_kernel,
         frames,
-        error: all.errors(),
-        error_by_depth: by_depth.iter().map(Acc3::errors).collect(),
+        error: tally.all.errors(),
+        error_by_depth: tally.by_depth.iter().map(Acc3::errors).collect(),
         sun_move_world_ms: world_ms,
         sun_move_frame_ms: frame_ms,
         sun_move_built: s.sun_built,
@@ -884,7 +887,8 @@ fn plot(report: &FrameReport, path: &Path) -> Result<()> {
         root.fill(&WHITE).map_err(err)?;
         let panels = root.split_evenly((1, 2));
         let frames = report.runs.first().map_or(1, |r| r.frames.len()) as f64;
-        let series: [(&str, fn(&FrameRow) -> f64); 2] = [
+        type Series = (&'static str, fn(&FrameRow) -> f64);
+        let series: [Series; 2] = [
             ("frame time (ms)", |r| r.ms.total),
             ("RMSE of sky + sun (%)", |r| r.error.both.rmse * 100.0),
         ];
