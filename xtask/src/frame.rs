@@ -48,6 +48,7 @@ use lightgrid_material_voxelizer::compose::{
 };
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_render::sampling::{SamplePoints, SampledLight, sample_points};
 use lightgrid_sweep_cpu::sky::ClearSky;
 use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, SunLight};
 use serde::Serialize;
@@ -67,8 +68,10 @@ pub struct FrameConfig {
     pub trees: usize,
     /// Sweep with the GPU sweeper (the reference stays on the CPU).
     pub gpu: bool,
-    /// Forest on bare ground keeps its finer grids (the bare-ground skip off).
-    pub no_bare_skip: bool,
+    /// No finer grids over bare ground (`LodSkips::bare_children`, off by default).
+    pub bare_skip: bool,
+    /// Where the camera flies.
+    pub path: CameraPath,
     /// Metres of world around the sampled region in the reference sweep.
     pub margin: f32,
     /// Output folder.
@@ -87,10 +90,32 @@ impl FrameConfig {
             elevations: vec![10.0, 30.0, 60.0],
             trees: 4000,
             gpu: false,
-            no_bare_skip: false,
+            bare_skip: false,
+            path: CameraPath::Forest,
             margin: 40.0,
             out: root.join("target/bench"),
             assets: root.join("assets"),
+        }
+    }
+}
+
+/// The camera's path: `step` metres a frame, 20 m above the ground.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CameraPath {
+    /// Diagonally inside the forest (from (520, 540) towards +x +z).
+    Forest,
+    /// Out of the forest over bare ground (from (840, 600) towards +x; the forest ends
+    /// at x = 900): where the bare-ground skip acts.
+    Edge,
+}
+
+impl std::str::FromStr for CameraPath {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "forest" => Ok(Self::Forest),
+            "edge" => Ok(Self::Edge),
+            _ => Err(format!("no path {s:?} (forest, edge)")),
         }
     }
 }
@@ -216,6 +241,10 @@ pub struct FrameReport {
     pub sweeper: String,
     /// Node points.
     pub node_points: u32,
+    /// The camera path ("forest" or "edge").
+    pub path: String,
+    /// Whether the bare-ground skip was on.
+    pub bare_skip: bool,
     /// The reference region, points.
     pub reference_points: u64,
     /// Seconds of the reference's sky sweep.
@@ -278,8 +307,11 @@ impl World {
     }
 
     fn camera(&self, cfg: &FrameConfig, f: u32) -> Vec3 {
-        let d = Vec2::new(0.8, 0.6) * cfg.step * f as f32;
-        let (x, z) = (520.0 + d.x, 540.0 + d.y);
+        let (start, dir) = match cfg.path {
+            CameraPath::Forest => (Vec2::new(520.0, 540.0), Vec2::new(0.8, 0.6)),
+            CameraPath::Edge => (Vec2::new(840.0, 600.0), Vec2::X),
+        };
+        let Vec2 { x, y: z } = start + dir * cfg.step * f as f32;
         Vec3::new(x, self.hm.height_at(x, z) + 20.0, z)
     }
 
@@ -338,12 +370,50 @@ struct Reference {
 }
 
 impl Reference {
-    fn sky_and_sun(&self, p: &Probe, sun_e: Vec3) -> Result<(f32, f32)> {
-        let luma = lightgrid_core::light::luminance;
-        let sky = luma(self.sky.irradiance(p.p, p.n)?);
-        let (scat, t, s) = self.sun.as_ref().context("reference sun")?;
-        let direct = sun_e * (t.sample_biased(p.p, p.n)? * p.n.dot(*s).max(0.0));
-        Ok((sky, luma(scat.irradiance(p.p, p.n)? * sun_e + direct)))
+    /// Sky and sun luminance at every probe, read as the hierarchy is ([`read`]).
+    fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<(f32, f32)>> {
+        let (scattered, transmittance, to_sun) = self.sun.as_ref().context("reference sun")?;
+        let sky = read(&self.sky, probes)?;
+        let sun = read(
+            &SunField {
+                scattered,
+                transmittance,
+            },
+            probes,
+        )?;
+        Ok(probes
+            .iter()
+            .zip(sky.iter().zip(&sun))
+            .map(|(p, (a, b))| {
+                (
+                    shaded(a, p, Vec3::ZERO, *to_sun),
+                    shaded(b, p, SUN_E, *to_sun),
+                )
+            })
+            .collect())
+    }
+}
+
+/// A grid's sun responses as a light field (the reference's; unit irradiance).
+struct SunField<'a> {
+    scattered: &'a LightGrid,
+    transmittance: &'a Grid<f32>,
+}
+
+impl LightField for SunField<'_> {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
+        self.scattered.light(p, n)
+    }
+    fn sun_transmittance(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<f32, lightgrid_core::GridError> {
+        Ok(match n {
+            Some(n) => self.transmittance.sample_biased(p, n)?,
+            None => self.transmittance.sample(p)?,
+        }
+        .clamp(0.0, 1.0))
     }
 }
 
@@ -390,19 +460,15 @@ fn reference_desc(world: &World, cfg: &FrameConfig, params: &HierarchyParams) ->
     Ok(GridDesc::new(Vec3::new(lo.x, bottom, lo.y), h, dims)?)
 }
 
-fn new_sweeper(cfg: &FrameConfig) -> Result<(Box<dyn Sweeper + Send + Sync>, String)> {
-    if cfg.gpu {
-        let c = lightgrid_sweep_gpu::GpuContext::new()?;
-        let name = format!("gpu: {} ({:?})", c.info.name, c.info.device_type);
-        return Ok((
-            Box::new(lightgrid_sweep_gpu::GpuSweeper::with_context(c)),
-            name,
-        ));
+/// The process's one GPU device, with `--gpu`.
+type Gpu = Option<std::sync::Arc<lightgrid_sweep_gpu::GpuContext>>;
+
+/// A sweeper on the CPU, or on the process's GPU device.
+fn new_sweeper(gpu: &Gpu) -> Box<dyn Sweeper + Send + Sync> {
+    match gpu {
+        Some(c) => Box::new(lightgrid_sweep_gpu::GpuSweeper::with_context(c.clone())),
+        None => Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
     }
-    Ok((
-        Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
-        "cpu".into(),
-    ))
 }
 
 /// Accumulates the luminance pairs of one component.
@@ -461,47 +527,58 @@ struct Tally {
     by_depth: Vec<Acc3>,
 }
 
+/// The renderer's read of `field` at the probes: `lightgrid_render`'s sampler
+/// (irradiance from its table on the probe's normal, read with the normal bias, and the
+/// sun's transmittance).
+fn read<F: LightField + Sync + ?Sized>(field: &F, probes: &[Probe]) -> Result<Vec<SampledLight>> {
+    let positions: Vec<Vec3> = probes.iter().map(|p| p.p).collect();
+    let normals: Vec<Vec3> = probes.iter().map(|p| p.n).collect();
+    Ok(sample_points(
+        field,
+        SamplePoints {
+            positions: &positions,
+            normals: Some(&normals),
+        },
+    )?)
+}
+
+/// The luminance a renderer shades from a read: the bins' irradiance plus the direct
+/// sun `E T max(0, n·s)`.
+fn shaded(s: &SampledLight, p: &Probe, e: Vec3, to_sun: Vec3) -> f32 {
+    lightgrid_core::light::luminance(s.light + e * (s.sun * p.n.dot(to_sun).max(0.0)))
+}
+
 /// The hierarchy's sky and sun luminance at every probe (sky scale and sun irradiance
 /// toggled: neither sweeps anything), restored to both at the end.
 fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec<(f32, f32)>> {
-    let luma = lightgrid_core::light::luminance;
-    let light = |h: &Hierarchy, p: &Probe, e: Vec3| -> Result<f32> {
-        let t = h.sun_transmittance(p.p, Some(p.n))?;
-        Ok(luma(
-            h.irradiance(p.p, p.n)? + e * (t * p.n.dot(to_sun).max(0.0)),
-        ))
-    };
-    h.set_sun(Some(SunLight {
-        to_sun,
-        irradiance: Vec3::ZERO,
-    }))?;
-    let sky: Vec<f32> = probes
-        .iter()
-        .map(|p| light(h, p, Vec3::ZERO))
-        .collect::<Result<_>>()?;
+    let sun = |irradiance| Some(SunLight { to_sun, irradiance });
+    h.set_sun(sun(Vec3::ZERO))?;
+    let sky = read(h, probes)?;
     h.set_sky_scale(Vec3::ZERO)?;
-    h.set_sun(Some(SunLight {
-        to_sun,
-        irradiance: SUN_E,
-    }))?;
-    let sun: Vec<f32> = probes
-        .iter()
-        .map(|p| light(h, p, SUN_E))
-        .collect::<Result<_>>()?;
+    h.set_sun(sun(SUN_E))?;
+    let lit = read(h, probes)?;
     h.set_sky_scale(Vec3::ONE)?;
-    Ok(sky.into_iter().zip(sun).collect())
+    Ok(probes
+        .iter()
+        .zip(sky.iter().zip(&lit))
+        .map(|(p, (a, b))| {
+            (
+                shaded(a, p, Vec3::ZERO, to_sun),
+                shaded(b, p, SUN_E, to_sun),
+            )
+        })
+        .collect())
 }
 
 /// The renderer's read of every probe with sky and sun on (what the sampling stage
-/// times): the sum of the light and the direct sun.
+/// times), shaded.
 fn sample_all(h: &Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<f64> {
-    let mut sum = 0.0;
-    for p in probes {
-        let t = h.sun_transmittance(p.p, Some(p.n))?;
-        let e = h.irradiance(p.p, p.n)? + SUN_E * (t * p.n.dot(to_sun).max(0.0));
-        sum += lightgrid_core::light::luminance(e) as f64;
-    }
-    Ok(sum)
+    let lit = read(h, probes)?;
+    Ok(probes
+        .iter()
+        .zip(&lit)
+        .map(|(p, s)| shaded(s, p, SUN_E, to_sun) as f64)
+        .sum())
 }
 
 /// Depth of the grid serving `p` (0: the world grid).
@@ -518,7 +595,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
         budget_points: np * np * 96,
         ..Default::default()
     };
-    p.skip.bare_children = !cfg.no_bare_skip;
+    p.skip.bare_children = cfg.bare_skip;
     p
 }
 
@@ -588,9 +665,9 @@ fn frame(
     std::hint::black_box(sample_all(h, &probes, to_sun)?);
     let sampling = t.elapsed();
     let parts = sample_parts(h, &probes, to_sun)?;
+    let refs = reference.sky_and_sun(&probes)?;
     let mut acc = Acc3::default();
-    for (p, hp) in probes.iter().zip(parts) {
-        let r = reference.sky_and_sun(p, SUN_E)?;
+    for ((p, hp), r) in probes.iter().zip(parts).zip(refs) {
         acc.add(hp, r);
         tally.all.add(hp, r);
         let d = depth_at(h, p.p);
@@ -614,13 +691,14 @@ fn frame(
 fn run_elevation(
     world: &World,
     cfg: &FrameConfig,
+    gpu: &Gpu,
     elevation: f32,
     reference: &mut Reference,
 ) -> Result<Run> {
     let params = hierarchy_params(cfg);
     let to_sun = sun_dir(elevation);
     reference_sun(world, reference, &params, to_sun)?;
-    let (sweeper, _) = new_sweeper(cfg)?;
+    let sweeper = new_sweeper(gpu);
     let t = Instant::now();
     let mut h = Hierarchy::new(
         &world.hm,
@@ -661,7 +739,7 @@ fn run_elevation(
     let t = Instant::now();
     let s = h.update(world.camera(cfg, cfg.frames - 1))?;
     let frame_ms = t.elapsed().as_secs_f64() * 1e3;
-    let points_per_s_kernel = kernel_rate(world, cfg, &h, sky_bins(to_sun)?)?;
+    let points_per_s_kernel = kernel_rate(world, gpu, &h, sky_bins(to_sun)?)?;
     let n = frames.len().max(1) as f64;
     let total_s: f64 = frames.iter().map(|r| r.ms.total).sum::<f64>() / 1e3;
     let sweep_s: f64 = frames
@@ -691,7 +769,7 @@ fn run_elevation(
 /// The sweeper's rate on the hierarchy's ready nodes, swept again in a row with
 /// recycled memory (the CPU sweeper) and open boundaries: what the kernel does with the
 /// same nodes, passes and options outside the hierarchy.
-fn kernel_rate(world: &World, cfg: &FrameConfig, h: &Hierarchy, sky: BinLight) -> Result<f64> {
+fn kernel_rate(world: &World, gpu: &Gpu, h: &Hierarchy, sky: BinLight) -> Result<f64> {
     let composer = world.composer()?;
     let descs: Vec<GridDesc> = h
         .layers()
@@ -707,8 +785,8 @@ fn kernel_rate(world: &World, cfg: &FrameConfig, h: &Hierarchy, sky: BinLight) -
     o.outputs.bins = true;
     let boundary = Boundary::open_sky(sky);
     let (mut swept, mut secs) = (0u64, 0.0);
-    if cfg.gpu {
-        let (mut sweeper, _) = new_sweeper(cfg)?;
+    if gpu.is_some() {
+        let mut sweeper = new_sweeper(gpu);
         for m in &materials {
             let t = Instant::now();
             std::hint::black_box(sweeper.sweep(m, &boundary, &o)?);
@@ -754,20 +832,29 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         desc.dims().z,
         desc.point_count() as f64 / 1e6
     );
-    let (_, sweeper) = new_sweeper(cfg)?;
+    let gpu: Gpu = if cfg.gpu {
+        Some(std::sync::Arc::new(lightgrid_sweep_gpu::GpuContext::new()?))
+    } else {
+        None
+    };
+    let sweeper = gpu.as_ref().map_or("cpu".into(), |c| {
+        format!("gpu: {} ({:?})", c.info.name, c.info.device_type)
+    });
     let mut runs = Vec::new();
     let mut reference_sky_s = 0.0;
     for &e in &cfg.elevations {
         // The clear sky's glow follows the sun: a reference sky per elevation.
         let (mut reference, secs) = reference_sky(&world, desc, &params, sky_bins(sun_dir(e))?)?;
         reference_sky_s = secs;
-        let run = run_elevation(&world, cfg, e, &mut reference)?;
+        let run = run_elevation(&world, cfg, &gpu, e, &mut reference)?;
         println!("{}", run_line(&run));
         runs.push(run);
     }
     let report = FrameReport {
         sweeper,
         node_points: cfg.node_points,
+        path: format!("{:?}", cfg.path).to_lowercase(),
+        bare_skip: cfg.bare_skip,
         reference_points: desc.point_count() as u64,
         reference_sky_s,
         runs,
@@ -797,8 +884,13 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes; reference {} points (one 1 m sweep, sky in {:.2} s)",
-        report.sweeper, report.node_points, report.reference_points, report.reference_sky_s
+        "cargo xtask frame: {} sweeper, {}-point nodes, {} path, bare-ground skip {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        report.sweeper,
+        report.node_points,
+        report.path,
+        if report.bare_skip { "on" } else { "off" },
+        report.reference_points,
+        report.reference_sky_s
     );
     for r in &report.runs {
         let _ = writeln!(s, "\n{}", run_line(r));
@@ -818,7 +910,7 @@ pub fn text(report: &FrameReport) -> String {
         );
         let _ = writeln!(
             s,
-            "  load {:.2} s; points swept per second: {:.2} M of frame time, {:.2} M of sweeping time; the kernel on the same nodes {:.2} M",
+            "  load {:.2} s; points swept per second: {:.3} M of frame time, {:.3} M of sweeping time; the kernel on the same nodes {:.3} M",
             r.load_s,
             r.points_per_s_frame / 1e6,
             r.points_per_s_sweeping / 1e6,

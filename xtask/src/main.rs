@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_sweep_cpu::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--no-bare-skip]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--path forest|edge]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `fuzz [--inputs N] [--target NAME]... [--seed S]`: every reader of user files (grid,
@@ -86,9 +86,13 @@ enum Task {
         /// Sweep with the GPU sweeper (the reference stays on the CPU).
         #[arg(long)]
         gpu: bool,
-        /// Keep finer grids over bare ground (the bare-ground skip off).
+        /// No finer grids over bare ground (the bare-ground skip, off by default).
         #[arg(long)]
-        no_bare_skip: bool,
+        bare_skip: bool,
+        /// The camera path: forest (inside the forest) or edge (out of it over bare
+        /// ground).
+        #[arg(long, default_value = "forest")]
+        path: xtask::frame::CameraPath,
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -153,14 +157,16 @@ fn main() -> ExitCode {
             frames,
             elevations,
             gpu,
-            no_bare_skip,
+            bare_skip,
+            path,
             out,
         } => {
             let mut cfg = xtask::frame::FrameConfig::new(&root);
             cfg.node_points = node_points;
             cfg.frames = frames;
             cfg.gpu = gpu;
-            cfg.no_bare_skip = no_bare_skip;
+            cfg.bare_skip = bare_skip;
+            cfg.path = path;
             if !elevations.is_empty() {
                 cfg.elevations = elevations;
             }

@@ -401,81 +401,109 @@ impl AreaComposer {
         let mut cells = vec![Material::EMPTY; desc.point_count()];
         let ground_top = self.terrain.as_ref().map(|t| t.heightmap.range().1);
         use rayon::prelude::*;
-        cells.par_iter_mut().enumerate().for_each(|(i, cell)| {
-            let centre = desc.position(desc.coords(i).expect("index in range"));
-            // Instances overlapping this cell.
-            let half = Vec3::splat(h * 0.5);
-            let local: Vec<&Placed> = cand
-                .iter()
-                .map(|&j| &self.placed[j as usize])
-                .filter(|p| p.lo.cmple(centre + half).all() && p.hi.cmpge(centre - half).all())
-                .collect();
-            let ground_possible = ground_top.is_some_and(|top| {
-                centre.y - h * 0.5 <= top - self.params.ground_bias + self.params.ground_band * 0.5
-            });
-            if local.is_empty() && !ground_possible {
-                return;
-            }
-            // Wholly under the ground's transition band: dense ground, nothing to sample.
-            if let Some(t) = &self.terrain {
-                let g = t.heightmap.height_at(centre.x, centre.z) - self.params.ground_bias;
-                let slope_room = t.heightmap.spacing.min(h) * 4.0;
-                if centre.y + h * 0.5 + slope_room < g - self.params.ground_band * 0.5 {
-                    *cell = Material::opaque(t.colour.at(centre.x, centre.z));
+        let half = Vec3::splat(h * 0.5);
+        // Candidates overlapping each column's (x, z) extent, in `cand`'s order: a cell
+        // then tests only its column's (a 16 m node over a forest: 1–3 of its 10–20).
+        let nx = desc.dims().x as usize;
+        let columns: Vec<Vec<u32>> = (0..nx * desc.dims().z as usize)
+            .into_par_iter()
+            .map(|c| {
+                let q = UVec3::new((c % nx) as u32, 0, (c / nx) as u32);
+                let centre = desc.position(q);
+                let (lo, hi) = (centre - half, centre + half);
+                cand.iter()
+                    .copied()
+                    .filter(|&j| {
+                        let p = &self.placed[j as usize];
+                        p.lo.x <= hi.x && p.lo.z <= hi.z && p.hi.x >= lo.x && p.hi.z >= lo.z
+                    })
+                    .collect()
+            })
+            .collect();
+        cells
+            .par_iter_mut()
+            .enumerate()
+            .for_each_init(Vec::new, |local, (i, cell)| {
+                let q = desc.coords(i).expect("index in range");
+                let centre = desc.position(q);
+                // Instances overlapping this cell (the same test as over all candidates).
+                local.clear();
+                local.extend(
+                    columns[q.x as usize + nx * q.z as usize]
+                        .iter()
+                        .map(|&j| &self.placed[j as usize])
+                        .filter(|p| {
+                            p.lo.cmple(centre + half).all() && p.hi.cmpge(centre - half).all()
+                        }),
+                );
+                let local: &Vec<&Placed> = local;
+                let ground_possible = ground_top.is_some_and(|top| {
+                    centre.y - h * 0.5
+                        <= top - self.params.ground_bias + self.params.ground_band * 0.5
+                });
+                if local.is_empty() && !ground_possible {
                     return;
                 }
-            }
-            // Ground alone is smooth: one sample; objects need k per axis.
-            let k = if local.is_empty() { 1 } else { k };
-            let mut pass_sum = 0.0;
-            let mut colour_sum = Vec3::ZERO;
-            let mut block_sum = 0.0;
-            for s in 0..k * k * k {
-                let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
-                let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
-                let mut pass = 1.0f32;
-                let mut colour = Vec3::ZERO;
-                let mut weight = 0.0f32;
-                let mut add = |m_pass: f32, m_colour: Vec3| {
-                    let blocked = 1.0 - m_pass;
-                    if blocked > 0.0 {
-                        colour += m_colour * blocked;
-                        weight += blocked;
-                        pass *= m_pass;
-                    }
-                };
-                for pl in &local {
-                    let model = &self.models[pl.inst.model as usize];
-                    let mpos = pl.inv_rot * (p - pl.inst.position) / pl.inst.scale;
-                    let (mlo, mhi) = model.desc().cell_bounds();
-                    if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
-                        continue;
-                    }
-                    let m = model.sample(mpos).unwrap_or(Material::EMPTY);
-                    let ratio = h / (model.desc().h() * pl.inst.scale);
-                    add(m.pass.clamp(0.0, 1.0).powf(ratio), m.reflectance);
-                }
+                // Wholly under the ground's transition band: dense ground, nothing to sample.
                 if let Some(t) = &self.terrain {
-                    let g = t.heightmap.height_at(p.x, p.z) - self.params.ground_bias;
-                    let w = ((g - p.y) / self.params.ground_band + 0.5).clamp(0.0, 1.0);
-                    add(1.0 - w, t.colour.at(p.x, p.z));
+                    let g = t.heightmap.height_at(centre.x, centre.z) - self.params.ground_bias;
+                    let slope_room = t.heightmap.spacing.min(h) * 4.0;
+                    if centre.y + h * 0.5 + slope_room < g - self.params.ground_band * 0.5 {
+                        *cell = Material::opaque(t.colour.at(centre.x, centre.z));
+                        return;
+                    }
                 }
-                pass_sum += pass;
-                if weight > 0.0 {
-                    colour_sum += colour / weight * (1.0 - pass);
-                    block_sum += 1.0 - pass;
+                // Ground alone is smooth: one sample; objects need k per axis.
+                let k = if local.is_empty() { 1 } else { k };
+                let mut pass_sum = 0.0;
+                let mut colour_sum = Vec3::ZERO;
+                let mut block_sum = 0.0;
+                for s in 0..k * k * k {
+                    let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
+                    let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
+                    let mut pass = 1.0f32;
+                    let mut colour = Vec3::ZERO;
+                    let mut weight = 0.0f32;
+                    let mut add = |m_pass: f32, m_colour: Vec3| {
+                        let blocked = 1.0 - m_pass;
+                        if blocked > 0.0 {
+                            colour += m_colour * blocked;
+                            weight += blocked;
+                            pass *= m_pass;
+                        }
+                    };
+                    for pl in local {
+                        let model = &self.models[pl.inst.model as usize];
+                        let mpos = pl.inv_rot * (p - pl.inst.position) / pl.inst.scale;
+                        let (mlo, mhi) = model.desc().cell_bounds();
+                        if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
+                            continue;
+                        }
+                        let m = model.sample(mpos).unwrap_or(Material::EMPTY);
+                        let ratio = h / (model.desc().h() * pl.inst.scale);
+                        add(m.pass.clamp(0.0, 1.0).powf(ratio), m.reflectance);
+                    }
+                    if let Some(t) = &self.terrain {
+                        let g = t.heightmap.height_at(p.x, p.z) - self.params.ground_bias;
+                        let w = ((g - p.y) / self.params.ground_band + 0.5).clamp(0.0, 1.0);
+                        add(1.0 - w, t.colour.at(p.x, p.z));
+                    }
+                    pass_sum += pass;
+                    if weight > 0.0 {
+                        colour_sum += colour / weight * (1.0 - pass);
+                        block_sum += 1.0 - pass;
+                    }
                 }
-            }
-            let n = (k * k * k) as f32;
-            *cell = Material {
-                reflectance: if block_sum > 0.0 {
-                    (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
-                } else {
-                    Vec3::ZERO
-                },
-                pass: (pass_sum / n).clamp(0.0, 1.0),
-            };
-        });
+                let n = (k * k * k) as f32;
+                *cell = Material {
+                    reflectance: if block_sum > 0.0 {
+                        (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
+                    } else {
+                        Vec3::ZERO
+                    },
+                    pass: (pass_sum / n).clamp(0.0, 1.0),
+                };
+            });
         Ok((MaterialGrid::new(*desc, cells)?, stats))
     }
 }

@@ -11,7 +11,8 @@
 //! Each frame, [`Hierarchy::update`] decides from the camera which nodes should exist
 //! (finer near the camera), evicts far ones, and builds missing or stale ones, coarse and
 //! near first, within a budget of points swept. A node whose inputs (material, boundary
-//! light, options) hash as before is not swept again. Nodes with no objects above the
+//! light, options) hash as before is not swept again. With [`LodSkips::bare_children`]
+//! (off by default: it costs accuracy at forest edges) nodes with no objects above the
 //! ground get no finer children.
 //!
 //! ## Node size: time and memory
@@ -32,6 +33,14 @@
 //! wanted area more tightly. Seed 000 chose 32 for GPU occupancy (one dispatch per
 //! level); `sweep-gpu` will measure it there. `cargo bench -p lightgrid-terrain-lod` times an
 //! 8-frame fly-through for 16 and 32.
+//!
+//! ## A frame as a user runs it
+//!
+//! [`FrameStats::times`] splits a frame's wall time by stage ([`StageTimes`]).
+//! `cargo xtask frame` runs a camera path with the sun kept apart and measures the
+//! light sampled against one full-resolution sweep of the region (the README's "The
+//! hierarchy frame by frame" has its figures): with 16-point nodes 126–150 ms a frame,
+//! and sky light 12–15 % dark at every depth (ARCHITECTURE.md, "Known defects").
 //!
 //! ## The sun kept apart
 //!
@@ -121,22 +130,26 @@ pub struct HierarchyParams {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LodSkips {
     /// No finer grids under a node without objects (bare ground): its light is read
-    /// from the coarser grid.
+    /// from the coarser grid. Off by default: on a camera path out of the forest over
+    /// bare ground (`cargo xtask frame --path edge [--bare-skip]`, 16-point nodes, sun
+    /// at 30°) it cuts the frame time by a sixth (81 → 67 ms) but adds 3.4 points of
+    /// RMSE against a full-resolution sweep (17.2 → 20.6 %) and 1.6 points of bias:
+    /// more than the sweep's own error (1.6 % on the bench forest); `cargo xtask bench`
+    /// sees 6.6 % RMS at the demo forest's edge.
     pub bare_children: bool,
     /// `refresh` does not sweep a node whose inputs (material, boundary, options) hash
     /// as before.
     pub unchanged: bool,
     /// Nodes without objects get a single downward pass: the upward pass over bare
-    /// ground only carries ground bounce into empty air. Off by default: measured at
-    /// the demo forest's edge it saves nothing (with `bare_children` on, few bare nodes
-    /// are built) and changes the light by 1.3 % RMS (`cargo xtask bench`).
+    /// ground only carries ground bounce into empty air. Off by default: it changes
+    /// the light by 1.3–1.6 % RMS at the demo forest's edge (`cargo xtask bench`).
     pub up_pass_over_bare: bool,
 }
 
 impl Default for LodSkips {
     fn default() -> Self {
         Self {
-            bare_children: true,
+            bare_children: false,
             unchanged: true,
             up_pass_over_bare: false,
         }
@@ -481,13 +494,41 @@ enum Response {
     Sun,
 }
 
+/// A node's inputs hashed, for [`Hierarchy::refresh`] to see what changed. Compared
+/// only within the process, so the bulk (materials, boundary light: megabytes a node)
+/// goes through std's SipHash, which takes 8 bytes a round, rather than the stable
+/// [`ContentHash`](lightgrid_core::hash::ContentHash) (FNV-1a, a byte a round: 7 ms of
+/// a 16-point node's frame); the descriptor and options through `ContentHash`.
 fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
-    lightgrid_core::hash::ContentHash::new(b"terrain-lod-node-v1")
-        .desc(m.desc())
-        .materials(m.data())
-        .boundary(b)
-        .options(o)
-        .finish()
+    use std::hash::Hasher;
+    let mut h = std::hash::DefaultHasher::new();
+    h.write_u64(
+        lightgrid_core::hash::ContentHash::new(b"terrain-lod-node-v2")
+            .desc(m.desc())
+            .options(o)
+            .finish(),
+    );
+    h.write(bytemuck::cast_slice(m.data()));
+    match &b.top {
+        TopBoundary::Uniform(x) => {
+            h.write_u8(0);
+            h.write(bytemuck::cast_slice(&x.0));
+        }
+        TopBoundary::PerPoint(v) => {
+            h.write_u8(1);
+            h.write(bytemuck::cast_slice(v));
+        }
+    }
+    h.write(bytemuck::cast_slice(&b.bottom.0));
+    match &b.sides {
+        SideBoundary::Open => h.write_u8(0),
+        SideBoundary::Periodic => h.write_u8(1),
+        SideBoundary::Given(v) => {
+            h.write_u8(2);
+            h.write(bytemuck::cast_slice(v));
+        }
+    }
+    h.finish()
 }
 
 /// Most node depths below the world grid (`world_cell / finest_cell <= 2^16`).
@@ -1114,7 +1155,13 @@ impl Hierarchy {
     /// when that skip is on.
     fn node_options(&self, has_objects: bool) -> SweepOptions {
         let mut o = self.params.sweep;
-        o.outputs.bins = true;
+        // The grids keep the bins alone: average and dominant direction are read
+        // from them.
+        o.outputs = lightgrid_core::Outputs {
+            bins: true,
+            average: false,
+            dominant: false,
+        };
         if !has_objects && self.params.skip.up_pass_over_bare {
             o.max_passes = 1;
         }

@@ -219,12 +219,12 @@ pub(super) fn measure(cfg: &BenchConfig) -> Result<Vec<SkipRow>> {
     // Each variant differs from the defaults in one skip; "with" is the skip on.
     for (name, skip, on_by_default) in [
         (
-            "no finer grids under bare ground (demo, forest edge)",
+            "no finer grids under bare ground (off by default)",
             LodSkips {
-                bare_children: false,
+                bare_children: true,
                 ..Default::default()
             },
-            true,
+            false,
         ),
         (
             "one downward pass over bare ground (off by default)",
