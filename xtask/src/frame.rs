@@ -40,8 +40,8 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use lightgrid_core::glam::{UVec3, Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, Boundary, Grid, GridDesc, LightField, LightGrid, MaterialSource, SeededRng,
-    SunBoundary, Sweeper,
+    BinLight, Boundary, GridDesc, LightField, LightGrid, MaterialSource, SeededRng, SunBoundary,
+    SunResponse, Sweeper,
 };
 use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain, load_heightmap_png,
@@ -365,22 +365,17 @@ fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
 /// bins and transmittance.
 struct Reference {
     sky: LightGrid,
-    sun: Option<(LightGrid, Grid<f32>, Vec3)>,
+    /// The sun's responses and its direction.
+    sun: Option<(SunResponse, Vec3)>,
     desc: GridDesc,
 }
 
 impl Reference {
     /// Sky and sun luminance at every probe, read as the hierarchy is ([`read`]).
     fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<(f32, f32)>> {
-        let (scattered, transmittance, to_sun) = self.sun.as_ref().context("reference sun")?;
+        let (response, to_sun) = self.sun.as_ref().context("reference sun")?;
         let sky = read(&self.sky, probes)?;
-        let sun = read(
-            &SunField {
-                scattered,
-                transmittance,
-            },
-            probes,
-        )?;
+        let sun = read(response, probes)?;
         Ok(probes
             .iter()
             .zip(sky.iter().zip(&sun))
@@ -391,29 +386,6 @@ impl Reference {
                 )
             })
             .collect())
-    }
-}
-
-/// A grid's sun responses as a light field (the reference's; unit irradiance).
-struct SunField<'a> {
-    scattered: &'a LightGrid,
-    transmittance: &'a Grid<f32>,
-}
-
-impl LightField for SunField<'_> {
-    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
-        self.scattered.light(p, n)
-    }
-    fn sun_transmittance(
-        &self,
-        p: Vec3,
-        n: Option<Vec3>,
-    ) -> Result<f32, lightgrid_core::GridError> {
-        Ok(match n {
-            Some(n) => self.transmittance.sample_biased(p, n)?,
-            None => self.transmittance.sample(p)?,
-        }
-        .clamp(0.0, 1.0))
     }
 }
 
@@ -643,7 +615,7 @@ fn reference_sun(
         outside: &|_| 1.0,
     };
     let s = sweeper.sweep_sun(&material, &boundary, &o)?;
-    r.sun = Some((s.scattered, s.transmittance, to_sun));
+    r.sun = Some((s, to_sun));
     Ok(())
 }
 
@@ -969,7 +941,7 @@ fn write(cfg: &FrameConfig, report: &FrameReport) -> Result<()> {
 /// `frame.png`: frame time (left) and the RMSE of sky and sun together (right) along
 /// the path, one line per sun elevation.
 fn plot(report: &FrameReport, path: &Path) -> Result<()> {
-    use crate::bench::plot::{err, line_with_points, register_font, save_rgb};
+    use crate::bench::plot::{err, legend, line_with_points, register_font, save_rgb};
     use plotters::prelude::*;
     let text = register_font();
     let (w, h) = (1200u32, 420u32);
@@ -1021,13 +993,7 @@ fn plot(report: &FrameReport, path: &Path) -> Result<()> {
                 line_with_points(&mut chart, &pts, colour.stroke_width(2), name)?;
             }
             if text {
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 13))
-                    .draw()
-                    .map_err(err)?;
+                legend(&mut chart)?;
             }
         }
         root.present().map_err(err)?;

@@ -545,6 +545,23 @@ pub struct SunResponse {
     pub resident: Option<Resident>,
 }
 
+/// A sun response read as a light field, for unit sun irradiance: the scattered light's
+/// bins, and the beam's transmittance as [`LightField::sun_transmittance`] (read like
+/// the bins, clamped to `[0, 1]`).
+impl LightField for SunResponse {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        self.scattered.light(p, n)
+    }
+    fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
+        let t = match n {
+            Some(n) => self.transmittance.sample_biased(p, n)?,
+            None => self.transmittance.sample(p)?,
+        };
+        // (Trilinear weights may sum to 1 + 1 ulp.)
+        Ok(t.clamp(0.0, 1.0))
+    }
+}
+
 /// Light a beam deposits in cells before a sweep's first pass (the first collisions of
 /// the sun, `lightgrid_sweep_cpu::sun::first_collision`; [`Sweeper::sweep_with_source`]): per
 /// cell the flux taken from the beam (RGB, per `h²`, the sweep's flux unit), and the beam's direction of travel. A sweep
@@ -753,6 +770,33 @@ impl MaterialSource for UniformMaterial {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sun_response_reads_as_a_light_field() {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(3)).unwrap();
+        let bins = BinLight::uniform(Vec3::new(0.5, 1.0, 2.0));
+        // Transmittance rising with height, 1 + 1 ulp at the top (what trilinear
+        // weights can give): read clamped.
+        let t: Vec<f32> = (0..desc.point_count())
+            .map(|i| [0.0, 0.5, 1.0 + f32::EPSILON][desc.coords(i).unwrap().y as usize])
+            .collect();
+        let r = SunResponse {
+            scattered: LightGrid::filled(desc, bins).unwrap(),
+            transmittance: Grid::from_trusted(desc, t),
+            stats: SweepStats::default(),
+            resident: None,
+        };
+        let p = Vec3::new(1.0, 0.5, 1.0);
+        assert_eq!(r.light(p, None).unwrap(), bins);
+        assert!((r.sun_transmittance(p, None).unwrap() - 0.25).abs() < 1e-6);
+        // With a normal, read half a cell along it, as the bins are.
+        assert!((r.sun_transmittance(p, Some(Vec3::Y)).unwrap() - 0.5).abs() < 1e-6);
+        assert_eq!(
+            r.sun_transmittance(Vec3::new(1.0, 2.0, 1.0), None).unwrap(),
+            1.0
+        );
+        assert!(r.sun_transmittance(Vec3::NAN, None).is_err());
+    }
 
     #[test]
     fn halo_layout_is_a_bijection() {

@@ -65,6 +65,24 @@ where
     Ok(())
 }
 
+/// The legend of a chart's labelled series, in a white box at the top right.
+pub fn legend<'a, DB, X, Y>(chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>) -> Result<()>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    X: Ranged,
+    Y: Ranged,
+{
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(err)?;
+    Ok(())
+}
+
 /// Draws the plot into `path`.
 pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
     let text = register_font();
@@ -163,13 +181,7 @@ pub(super) fn error_vs_time(report: &Report, path: &Path) -> Result<()> {
                 }
             }
             if text {
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 13))
-                    .draw()
-                    .map_err(err)?;
+                legend(&mut chart)?;
             }
         }
         root.present().map_err(err)?;
