@@ -38,8 +38,8 @@
 //!
 //! [`FrameStats::times`] splits a frame's wall time by stage ([`StageTimes`]).
 //! `cargo xtask frame` runs a camera path with the sun kept apart and measures the
-//! light sampled against one full-resolution sweep of the region (the README's "The
-//! hierarchy frame by frame" has its figures): with 16-point nodes 126–150 ms a frame,
+//! light sampled against one full-resolution sweep of the region (the repository's
+//! `docs/measurements.md`, "The hierarchy frame by frame", has its figures): with 16-point nodes 126–150 ms a frame,
 //! and sky light 12–15 % dark at every depth (ARCHITECTURE.md, "Known defects").
 //!
 //! ## The sun kept apart
