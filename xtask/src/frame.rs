@@ -364,17 +364,17 @@ fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
 /// The single full-resolution sweep of the region: sky bins, and per sun its scattered
 /// bins and transmittance.
 struct Reference {
-    sky: LightGrid,
+    material: lightgrid_core::MaterialGrid,
+    sky: Option<LightGrid>,
     /// The sun's responses and its direction.
     sun: Option<(SunResponse, Vec3)>,
-    desc: GridDesc,
 }
 
 impl Reference {
     /// Sky and sun luminance at every probe, read as the hierarchy is ([`read`]).
     fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<(f32, f32)>> {
         let (response, to_sun) = self.sun.as_ref().context("reference sun")?;
-        let sky = read(&self.sky, probes)?;
+        let sky = read(self.sky.as_ref().context("reference sky")?, probes)?;
         let sun = read(response, probes)?;
         Ok(probes
             .iter()
@@ -571,52 +571,54 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p
 }
 
-/// Sweeps the reference region's sky once.
-fn reference_sky(
-    world: &World,
-    desc: GridDesc,
-    params: &HierarchyParams,
-    sky: BinLight,
-) -> Result<(Reference, f64)> {
-    let _span = tracing::info_span!("reference sky", points = desc.point_count()).entered();
-    let material = world.composer()?.material(&desc)?;
-    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
-    let mut o = params.sweep;
-    o.outputs.bins = true;
-    let t = Instant::now();
-    let out = sweeper.sweep(&material, &Boundary::open_sky(sky), &o)?;
-    let secs = t.elapsed().as_secs_f64();
-    let sky = out.bins.context("bins asked for")?;
-    Ok((
-        Reference {
-            sky,
+impl Reference {
+    /// The region's material, composed once for every sweep of it.
+    fn new(world: &World, desc: GridDesc) -> Result<Self> {
+        let _span =
+            tracing::info_span!("reference material", points = desc.point_count()).entered();
+        Ok(Self {
+            material: world.composer()?.material(&desc)?,
+            sky: None,
             sun: None,
-            desc,
-        },
-        secs,
-    ))
-}
+        })
+    }
 
-/// The reference's sun responses for `to_sun` (sunlight entering unshadowed).
-fn reference_sun(
-    world: &World,
-    r: &mut Reference,
-    params: &HierarchyParams,
-    to_sun: Vec3,
-) -> Result<()> {
-    let _span = tracing::info_span!("reference sun").entered();
-    let material = world.composer()?.material(&r.desc)?;
-    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
-    let mut o = params.sweep;
-    o.outputs.bins = true;
-    let boundary = SunBoundary {
-        to_sun,
-        scattered: Boundary::open_sky(BinLight::ZERO),
-        outside: &|_| 1.0,
-    };
-    let s = sweeper.sweep_sun(&material, &boundary, &o)?;
-    r.sun = Some((s, to_sun));
-    Ok(())
+    /// The sweep options of the reference: the hierarchy's, with the bins.
+    fn options(params: &HierarchyParams) -> lightgrid_core::SweepOptions {
+        let mut o = params.sweep;
+        o.outputs.bins = true;
+        o
+    }
+
+    /// Sweeps the region's sky; returns the seconds it took.
+    fn sweep_sky(&mut self, params: &HierarchyParams, sky: BinLight) -> Result<f64> {
+        let _span = tracing::info_span!("reference sky").entered();
+        let t = Instant::now();
+        let out = lightgrid_sweep_cpu::CpuSweeper::new().sweep(
+            &self.material,
+            &Boundary::open_sky(sky),
+            &Self::options(params),
+        )?;
+        self.sky = Some(out.bins.context("bins asked for")?);
+        Ok(t.elapsed().as_secs_f64())
+    }
+
+    /// The region's sun responses for `to_sun` (sunlight entering unshadowed).
+    fn sweep_sun(&mut self, params: &HierarchyParams, to_sun: Vec3) -> Result<()> {
+        let _span = tracing::info_span!("reference sun").entered();
+        let boundary = SunBoundary {
+            to_sun,
+            scattered: Boundary::open_sky(BinLight::ZERO),
+            outside: &|_| 1.0,
+        };
+        let s = lightgrid_sweep_cpu::CpuSweeper::new().sweep_sun(
+            &self.material,
+            &boundary,
+            &Self::options(params),
+        )?;
+        self.sun = Some((s, to_sun));
+        Ok(())
+    }
 }
 
 /// One frame: update, sample (timed), and the error of the frame's probes.
@@ -669,7 +671,7 @@ fn run_elevation(
 ) -> Result<Run> {
     let params = hierarchy_params(cfg);
     let to_sun = sun_dir(elevation);
-    reference_sun(world, reference, &params, to_sun)?;
+    reference.sweep_sun(&params, to_sun)?;
     let sweeper = new_sweeper(gpu);
     let t = Instant::now();
     let mut h = Hierarchy::new(
@@ -814,10 +816,10 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
     });
     let mut runs = Vec::new();
     let mut reference_sky_s = 0.0;
+    let mut reference = Reference::new(&world, desc)?;
     for &e in &cfg.elevations {
         // The clear sky's glow follows the sun: a reference sky per elevation.
-        let (mut reference, secs) = reference_sky(&world, desc, &params, sky_bins(sun_dir(e))?)?;
-        reference_sky_s = secs;
+        reference_sky_s = reference.sweep_sky(&params, sky_bins(sun_dir(e))?)?;
         let run = run_elevation(&world, cfg, &gpu, e, &mut reference)?;
         println!("{}", run_line(&run));
         runs.push(run);
