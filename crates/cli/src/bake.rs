@@ -43,13 +43,19 @@ impl VolumeArgs {
         }
     }
 
-    fn write(&self, volume: &BevyVolume, content: Content) -> Result<()> {
+    fn write(
+        &self,
+        volume: &BevyVolume,
+        content: Content,
+        sun: Option<(lightgrid_core::glam::Vec3, lightgrid_core::glam::Vec3)>,
+    ) -> Result<()> {
         let paths = write_volumes(
             &self.output,
             &self.name,
             std::slice::from_ref(volume),
             content,
             self.unit_scale,
+            sun,
         )
         .with_context(|| format!("writing into {}", self.output.display()))?;
         let d = volume.desc().dims();
@@ -146,7 +152,7 @@ pub(crate) fn bake(a: BakeArgs) -> Result<()> {
     } else {
         Content::Indirect
     };
-    a.volume.write(&volume, content)
+    a.volume.write(&volume, content, a.light.sun())
 }
 
 /// Writes a light grid file as it is.
@@ -167,5 +173,6 @@ pub(crate) fn export(a: ExportArgs) -> Result<()> {
         ContentArg::All => Content::All,
         ContentArg::Indirect => Content::Indirect,
     };
-    a.volume.write(&volume, content)
+    // (A grid file does not record the sun it was swept under.)
+    a.volume.write(&volume, content, None)
 }

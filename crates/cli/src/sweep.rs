@@ -218,6 +218,17 @@ impl LightArgs {
         })
     }
 
+    /// The sun as a direction towards it and its irradiance facing it (`None`
+    /// without a sun).
+    pub(crate) fn sun(&self) -> Option<(Vec3, Vec3)> {
+        let sun = Sun::at(
+            self.sun_elevation.to_radians(),
+            self.sun_azimuth.to_radians(),
+            self.sun,
+        );
+        (self.sun != Vec3::ZERO).then_some((sun.direction, self.sun))
+    }
+
     /// The sun alone (`None` without a sun).
     pub(crate) fn sun_boundary(&self) -> Result<Option<Boundary>> {
         let (_, sun) = self.sky_and_sun()?;

@@ -234,6 +234,13 @@ fn bake_and_export_write_bevy_volumes() {
     let (ind, all) = (side("ind"), side("all"));
     assert_eq!(ind["volumes"][0]["content"], "indirect");
     assert_eq!(all["volumes"][0]["content"], "all");
+    // The indirect volume's sidecar names the sun it leaves out (50 degrees up, white
+    // 800: 800 lux at unit scale); the full one holds it and names none.
+    let up = ind["sun"]["direction_to_sun"][1].as_f64().unwrap();
+    assert!((up - 50f64.to_radians().sin()).abs() < 1e-5, "{up}");
+    let lux = ind["sun"]["illuminance"].as_f64().unwrap();
+    assert!((lux - 800.0).abs() < 0.05, "{lux}");
+    assert!(all.get("sun").is_none());
     assert_eq!(all["volumes"][0]["format"], "Rg11b10Ufloat");
     for name in ["ind", "all"] {
         for ext in ["dds", "ktx2"] {

@@ -449,23 +449,101 @@ pub struct VolumeInfo {
 pub struct Sidecar {
     /// `"lightgrid-bevy-irradiance-volumes"`.
     pub kind: String,
-    /// Sidecar format version (1).
+    /// Sidecar format version (2: `units` and `sun` added).
     pub version: u32,
     /// Where the texels go in the texture.
     pub face_order: String,
+    /// What the numbers mean in Bevy's units ([`UNITS`]).
+    #[serde(default)]
+    pub units: String,
+    /// The sun a volume of [`Content::Indirect`] leaves out, for the engine's own
+    /// directional light (absent where the volume holds it, or there is none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun: Option<SidecarSun>,
     /// The volumes.
     pub volumes: Vec<VolumeInfo>,
 }
 
+/// The sidecar's note on units: `unit_scale` takes the grid's light to Bevy's (radiance
+/// in cd/m², irradiance in lux), and Bevy's camera exposure decides how bright that
+/// looks.
+pub const UNITS: &str = "texel * intensity = irradiance / pi on the face's axis, in Bevy's units: \
+the grid's light times the unit_scale the volume was written with (radiance in cd/m2, \
+irradiance in lux). Pick unit_scale so that sun.illuminance suits the camera's exposure: \
+Bevy's Exposure::SUNLIGHT (EV100 15) is made for a sun of about 100,000 lux \
+(light_consts::lux::DIRECT_SUNLIGHT); each EV100 step halves it, so the default \
+Exposure::BLENDER (EV100 9.7) suits about 2,500 lux. unit_scale = wanted lux / the \
+sun's illuminance in the grid's units (sun.illuminance / unit_scale).";
+
+/// The sun in Bevy's terms: a `DirectionalLight` with `illuminance` and `color` and a
+/// transform `Transform::default().looking_to(-direction_to_sun, Vec3::Y)` (it shines
+/// along its forward axis).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SidecarSun {
+    /// Unit vector towards the sun (world axes, `+Y` up).
+    pub direction_to_sun: [f32; 3],
+    /// `DirectionalLight::illuminance`, lux: the luminance of the sun's irradiance on a
+    /// surface facing it, times `unit_scale`.
+    pub illuminance: f32,
+    /// `DirectionalLight::color`: the irradiance's colour as linear RGB of luminance 1
+    /// (`Color::linear_rgb`).
+    pub color: [f32; 3],
+}
+
+impl SidecarSun {
+    /// The sun towards `to_sun` with irradiance `irradiance` (RGB, the grid's units)
+    /// facing it, for a volume written with `unit_scale`. `None` for a sun without light
+    /// or below the horizon (it lights nothing there).
+    pub fn new(
+        to_sun: Vec3,
+        irradiance: Vec3,
+        unit_scale: f32,
+    ) -> Result<Option<Self>, ExportError> {
+        let Some(dir) = to_sun.try_normalize().filter(|_| to_sun.is_finite()) else {
+            return Err(ExportError::Invalid {
+                field: "sun direction",
+                value: format!("{to_sun:?}"),
+                reason: "must be finite and non-zero",
+            });
+        };
+        if !(irradiance.is_finite() && irradiance.min_element() >= 0.0) {
+            return Err(ExportError::Invalid {
+                field: "sun irradiance",
+                value: format!("{irradiance:?}"),
+                reason: "must be finite and >= 0",
+            });
+        }
+        let luminance = lightgrid_core::light::luminance(irradiance);
+        let lux = luminance * unit_scale;
+        if !lux.is_finite() {
+            return Err(ExportError::Invalid {
+                field: "unit_scale",
+                value: format!("{unit_scale:?}"),
+                reason: "times the sun's illuminance it must stay finite",
+            });
+        }
+        if luminance <= 0.0 || dir.y <= 0.0 {
+            return Ok(None);
+        }
+        Ok(Some(Self {
+            direction_to_sun: dir.to_array(),
+            illuminance: lux,
+            color: (irradiance / luminance).to_array(),
+        }))
+    }
+}
+
 impl Sidecar {
-    /// The sidecar of `volumes`.
-    pub fn new(volumes: Vec<VolumeInfo>) -> Self {
+    /// The sidecar of `volumes`, with the sun they leave out (if any).
+    pub fn new(volumes: Vec<VolumeInfo>, sun: Option<SidecarSun>) -> Self {
         Self {
             kind: "lightgrid-bevy-irradiance-volumes".into(),
-            version: 1,
+            version: 2,
             face_order: "Bevy's shader: s = x; t = y for +X, +Y, +Z and y + Ry for -X, -Y, -Z; \
                          p = z + Rz * axis (X 0, Y 1, Z 2)"
                 .into(),
+            units: UNITS.into(),
+            sun,
             volumes,
         }
     }
@@ -483,13 +561,18 @@ impl Sidecar {
 }
 
 /// Exports several volumes (coarsest first) into `dir`: `<stem>-<i>.dds`, `.ktx2` each
-/// and one `<stem>.json`. Returns every path written.
+/// and one `<stem>.json`. `sun` (direction towards it, irradiance facing it in the
+/// grid's units) is the sun the light was swept under: with [`Content::Indirect`] the
+/// sidecar describes it for the engine's directional light ([`SidecarSun`]); a volume
+/// of [`Content::All`] holds it already and the sidecar leaves it out. Returns every
+/// path written.
 pub fn write_volumes(
     dir: &Path,
     stem: &str,
     volumes: &[BevyVolume],
     content: Content,
     unit_scale: f32,
+    sun: Option<(Vec3, Vec3)>,
 ) -> Result<Vec<PathBuf>, ExportError> {
     if !(unit_scale.is_finite() && unit_scale > 0.0) {
         return Err(ExportError::Invalid {
@@ -498,6 +581,10 @@ pub fn write_volumes(
             reason: "must be finite and > 0",
         });
     }
+    let sun = match (content, sun) {
+        (Content::Indirect, Some((to_sun, e))) => SidecarSun::new(to_sun, e, unit_scale)?,
+        _ => None,
+    };
     let mut paths = Vec::new();
     let mut infos = Vec::new();
     for (i, v) in volumes.iter().enumerate() {
@@ -509,7 +596,7 @@ pub fn write_volumes(
         paths.extend(v.write(dir, &name)?);
         infos.push(v.sidecar(&name, content, unit_scale));
     }
-    paths.push(Sidecar::new(infos).write(dir, stem)?);
+    paths.push(Sidecar::new(infos, sun).write(dir, stem)?);
     Ok(paths)
 }
 
@@ -737,7 +824,7 @@ mod tests {
         let (desc, g) = grid(UVec3::new(2, 2, 2));
         let v = BevyVolume::from_field(&g, &desc, TexelFormat::Rgb9e5).unwrap();
         let dir = std::env::temp_dir();
-        let e = write_volumes(&dir, "x", &[v], Content::All, f32::NAN).unwrap_err();
+        let e = write_volumes(&dir, "x", &[v], Content::All, f32::NAN, None).unwrap_err();
         assert!(e.to_string().contains("unit_scale"), "{e}");
     }
 }

@@ -261,12 +261,16 @@ fn the_sidecar_describes_the_files() {
     let g = test_grid();
     let v = BevyVolume::from_field(&g, g.desc(), TexelFormat::Rg11b10).unwrap();
     let dir = std::env::temp_dir().join(format!("lightgrid-export-test-{}", std::process::id()));
+    // A sun 30 degrees up, towards +X, of irradiance (3, 2, 1) in the grid's units.
+    let to_sun = Vec3::new(30f32.to_radians().cos(), 30f32.to_radians().sin(), 0.0);
+    let e = Vec3::new(3.0, 2.0, 1.0);
     let paths = write_volumes(
         &dir,
         "volume",
         std::slice::from_ref(&v),
         Content::Indirect,
         2.0,
+        Some((to_sun * 7.0, e)),
     )
     .unwrap();
     assert_eq!(paths.len(), 3);
@@ -281,7 +285,71 @@ fn the_sidecar_describes_the_files() {
     let dds = std::fs::read(dir.join(&info.dds)).unwrap();
     let ktx = std::fs::read(dir.join(&info.ktx2)).unwrap();
     assert_eq!(bevy_load_dds(&dds).data, bevy_load_ktx2(&ktx).data);
+    // The sun the indirect volume leaves out: unit direction, lux = luminance of the
+    // irradiance times the unit scale, colour of luminance 1 in the irradiance's ratios.
+    assert_eq!(side.version, 2);
+    assert!(side.units.contains("unit_scale"));
+    let sun = side
+        .sun
+        .expect("an indirect volume's sidecar names its sun");
+    assert!((Vec3::from_array(sun.direction_to_sun) - to_sun).length() < 1e-6);
+    let luma = 0.2126 * 3.0 + 0.7152 * 2.0 + 0.0722 * 1.0;
+    assert!(
+        (sun.illuminance - 2.0 * luma).abs() < 1e-5,
+        "{}",
+        sun.illuminance
+    );
+    let c = Vec3::from_array(sun.color);
+    assert!((lightgrid_core::light::luminance(c) - 1.0).abs() < 1e-6);
+    assert!((c * luma - e).length() < 1e-5, "{c}");
     std::fs::remove_dir_all(&dir).unwrap();
+    // A volume holding all the light leaves the sun out; so does one without a sun.
+    for (content, sun) in [(Content::All, Some((to_sun, e))), (Content::Indirect, None)] {
+        write_volumes(&dir, "volume", std::slice::from_ref(&v), content, 2.0, sun).unwrap();
+        let text = std::fs::read_to_string(dir.join("volume.json")).unwrap();
+        assert!(!text.contains("direction_to_sun"), "{text}");
+        let side: Sidecar = serde_json::from_str(&text).unwrap();
+        assert!(side.sun.is_none());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    // A sun below the horizon lights nothing: none; a bad one or an overflowing unit
+    // scale is an error naming it.
+    let below = write_volumes(
+        &dir,
+        "volume",
+        std::slice::from_ref(&v),
+        Content::Indirect,
+        2.0,
+        Some((-to_sun, e)),
+    );
+    assert!(below.is_ok());
+    assert!(
+        !std::fs::read_to_string(dir.join("volume.json"))
+            .unwrap()
+            .contains("direction_to_sun")
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+    for (sun, scale, field) in [
+        ((Vec3::ZERO, e), 2.0, "sun direction"),
+        (
+            (to_sun, Vec3::new(1.0, f32::NAN, 0.0)),
+            2.0,
+            "sun irradiance",
+        ),
+        ((to_sun, Vec3::splat(1e30)), 1e30, "unit_scale"),
+    ] {
+        let err = write_volumes(
+            &dir,
+            "volume",
+            std::slice::from_ref(&v),
+            Content::Indirect,
+            scale,
+            Some(sun),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains(field), "{err}");
+        assert!(!dir.join("volume.json").exists());
+    }
 }
 
 /// An infinite Lambertian ground (one level, albedo 0.3, periodic sides) under a sun at

@@ -143,5 +143,8 @@ pub fn export(
             .collect::<Result<Vec<_>, _>>()?;
         (v, Content::Indirect)
     };
-    Ok(write_volumes(dir, name, &volumes, content, 1.0)?)
+    // (`world.sun` is the way sunlight travels; the sidecar names the way to the sun.)
+    let sun = crate::world::sun_light(world.sun);
+    let sun = Some((sun.to_sun, sun.irradiance));
+    Ok(write_volumes(dir, name, &volumes, content, 1.0, sun)?)
 }

@@ -95,6 +95,13 @@ fn tiny_scene_matches_the_reference_images() {
         "{} volumes",
         side.volumes.len()
     );
+    // The sun the indirect volumes leave out, towards the scene's sun (above the
+    // horizon: it points up).
+    let sun = side.sun.expect("the sidecar names the sun");
+    assert!(
+        sun.direction_to_sun[1] > 0.0 && sun.illuminance > 0.0,
+        "{sun:?}"
+    );
     for (i, v) in side.volumes.iter().enumerate() {
         assert_eq!(v.content, lightgrid_export::Content::Indirect);
         assert!(
