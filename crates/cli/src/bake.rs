@@ -146,7 +146,9 @@ pub(crate) fn bake(a: BakeArgs) -> Result<()> {
             ""
         }
     );
-    let volume = BevyVolume::from_field(&light, m.desc(), a.volume.format())?;
+    // Points inside geometry take their valid neighbours' light (Bevy reads trilinearly).
+    let valid = lightgrid_core::validity::valid_points(&m);
+    let volume = BevyVolume::from_field_valid(&light, m.desc(), a.volume.format(), &valid)?;
     let content = if a.with_direct_sun {
         Content::All
     } else {

@@ -66,7 +66,7 @@ use std::path::{Path, PathBuf};
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
-    AmbientCube, Boundary, GridDesc, GridError, LightField, LightGrid, MaterialGrid,
+    AmbientCube, BinLight, Boundary, GridDesc, GridError, LightField, LightGrid, MaterialGrid,
     MaterialSource, NoScatter, SweepError, SweepOptions, Sweeper, pack,
 };
 use serde::{Deserialize, Serialize};
@@ -167,6 +167,40 @@ pub struct BevyVolume {
 }
 
 impl BevyVolume {
+    /// [`BevyVolume::from_field`] with the points inside geometry given their valid
+    /// neighbours' light first (`lightgrid_core::validity`: `valid` holds one flag per
+    /// point of `desc`, [`lightgrid_core::validity::valid_points`] of the material
+    /// there). Bevy reads the volume trilinearly: a surface half way between a point
+    /// inside the ground and one above would otherwise get about half the light. Points
+    /// whose lookups have all eight corners valid read what they read before.
+    pub fn from_field_valid(
+        field: &impl LightField,
+        desc: &GridDesc,
+        format: TexelFormat,
+        valid: &[bool],
+    ) -> Result<Self, ExportError> {
+        lightgrid_core::limits::check_memory(
+            "irradiance volume's light",
+            lightgrid_core::limits::checked_bytes(
+                "points",
+                &[
+                    desc.point_count() as u64,
+                    std::mem::size_of::<BinLight>() as u64,
+                ],
+            )?,
+        )?;
+        let data = (0..desc.point_count())
+            .map(|i| field.light(desc.position(desc.coords(i).expect("in range")), None))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut grid = LightGrid::from_trusted(*desc, data);
+        lightgrid_core::validity::fill_invalid(
+            &mut grid,
+            valid,
+            lightgrid_core::validity::DEFAULT_ROUNDS,
+        )?;
+        Self::from_field(&grid, desc, format)
+    }
+
     /// Samples `field` at every point of `desc` (no normal bias: the points are in free
     /// space or the light is what it is there) and packs the ambient cubes. For a
     /// [`lightgrid_core::LightGrid`] sampled at its own descriptor this is its values exactly.

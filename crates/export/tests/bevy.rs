@@ -405,3 +405,67 @@ fn indirect_light_is_the_ground_bounce_alone() {
         }
     }
 }
+
+/// Bevy's lookup on a surface: a flat ground (two opaque levels) under a uniform sky,
+/// bare and under a canopy (a layer of foliage, pass-through 0.6, four to six metres up),
+/// periodic sides. Half way between the top ground point (inside) and the point above,
+/// the lookup reads the light just above within 2 % once the points inside are filled
+/// from their valid neighbours; left as swept it reads about half (the test's control).
+#[test]
+fn a_lookup_on_the_ground_reads_the_light_above_it() {
+    use lightgrid_core::{Boundary, Material, MaterialGrid, SideBoundary, TopBoundary, validity};
+    for canopy in [false, true] {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(6, 10, 6)).unwrap();
+        let cells = (0..desc.point_count())
+            .map(|i| match desc.coords(i).unwrap().y {
+                0 | 1 => Material::opaque(Vec3::splat(0.3)),
+                4..=6 if canopy => Material {
+                    reflectance: Vec3::new(0.1, 0.3, 0.1),
+                    pass: 0.6,
+                },
+                _ => Material::EMPTY,
+            })
+            .collect();
+        let m = MaterialGrid::new(desc, cells).unwrap();
+        let b = Boundary {
+            top: TopBoundary::Uniform(Box::new(BinLight::uniform(Vec3::ONE).split_vertical().0)),
+            bottom: BinLight::ZERO,
+            sides: SideBoundary::Periodic,
+        };
+        let mut o = lightgrid_core::SweepOptions::multi_bounce();
+        o.outputs.bins = true;
+        let light = lightgrid_sweep_cpu::run(&m, &b, &o)
+            .unwrap()
+            .output
+            .bins
+            .unwrap();
+        let valid = validity::valid_points(&m);
+        let filled =
+            BevyVolume::from_field_valid(&light, &desc, TexelFormat::Rgb9e5, &valid).unwrap();
+        let plain = BevyVolume::from_field(&light, &desc, TexelFormat::Rgb9e5).unwrap();
+        let look = |v: &BevyVolume, y: f32| {
+            let img = bevy_load_dds(&v.to_dds().unwrap());
+            img.bevy_light(
+                &v.transform(),
+                v.intensity(),
+                Vec3::new(2.5, y, 3.0),
+                Vec3::Y,
+            )
+        };
+        // The ground's surface: the top face of level 1, half way to level 2.
+        let (surface, above) = (look(&filled, 1.5), look(&filled, 2.0));
+        assert!(
+            rel(surface, above) < 0.02,
+            "canopy {canopy}: {surface} on the ground, {above} above"
+        );
+        let bare = look(&plain, 1.5);
+        assert!(
+            bare.y < 0.6 * above.y,
+            "canopy {canopy}: control {bare} vs {above}"
+        );
+        // Where all eight corners are valid, nothing changes.
+        for y in [2.0, 2.5, 3.7, 8.2] {
+            assert_eq!(look(&filled, y), look(&plain, y), "canopy {canopy}, y {y}");
+        }
+    }
+}

@@ -89,6 +89,7 @@ pub mod rng;
 mod sample;
 pub mod terrain;
 mod traits;
+pub mod validity;
 
 pub use desc::{CELL_SIZE_RANGE, GridDesc, MAX_POINTS, WORLD_LIMIT};
 pub use dirs::{HORIZONTAL_STEP, NUM_DIRS, NUM_SWEEP_DIRS, SweepDir};

@@ -76,6 +76,23 @@ impl<F: lightgrid_core::LightField + ?Sized> lightgrid_core::LightField for With
     }
 }
 
+/// One volume of `field` at `desc`, its points inside the scene's geometry filled from
+/// their valid neighbours (`lightgrid_core::validity`, with the scene's material there).
+fn volume(
+    world: &World,
+    field: &impl lightgrid_core::LightField,
+    desc: &lightgrid_core::GridDesc,
+    format: TexelFormat,
+) -> Result<BevyVolume> {
+    use lightgrid_core::MaterialSource;
+    let material = world
+        .composer
+        .material(desc)
+        .context("the scene's material for a volume")?;
+    let valid = lightgrid_core::validity::valid_points(&material);
+    Ok(BevyVolume::from_field_valid(field, desc, format, &valid)?)
+}
+
 /// Writes `<dir>/<name>.json` and a DDS and KTX2 file per volume for the camera at
 /// `eye` (the world's hierarchy must be prepared for it). Returns the files written.
 pub fn export(
@@ -101,14 +118,14 @@ pub fn export(
         };
         let v = descs
             .iter()
-            .map(|d| BevyVolume::from_field(&field, d, format))
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|d| volume(world, &field, d, format))
+            .collect::<Result<Vec<_>>>()?;
         (v, Content::All)
     } else if split || with_direct_sun || world.sun.1 == Vec3::ZERO {
         let v = descs
             .iter()
-            .map(|d| BevyVolume::from_field(&world.hierarchy, d, format))
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|d| volume(world, &world.hierarchy, d, format))
+            .collect::<Result<Vec<_>>>()?;
         (
             v,
             if with_direct_sun {
@@ -139,8 +156,8 @@ pub fn export(
         let field = DifferenceField(&world.hierarchy, &direct);
         let v = descs
             .iter()
-            .map(|d| BevyVolume::from_field(&field, d, format))
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|d| volume(world, &field, d, format))
+            .collect::<Result<Vec<_>>>()?;
         (v, Content::Indirect)
     };
     // (`world.sun` is the way sunlight travels; the sidecar names the way to the sun.)
