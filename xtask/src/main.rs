@@ -55,7 +55,8 @@ enum Task {
     /// half-space albedo) and its passes to tolerance against optical depth and albedo.
     Exact {
         /// Most passes per case.
-        #[arg(long, default_value_t = 1024)]
+        #[arg(long, default_value_t = 1024,
+              value_parser = clap::value_parser!(u32).range(1..=lightgrid_core::MAX_PASSES as i64))]
         max_passes: u32,
     },
     /// The sun kept apart against the sun in the bins, against the Monte Carlo
@@ -75,10 +76,10 @@ enum Task {
     /// (target/bench/frame.{txt,json,png}).
     Frame {
         /// Points across a node grid.
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=1024))]
         node_points: u32,
         /// Frames along the path.
-        #[arg(long, default_value_t = 24)]
+        #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u32).range(1..=10_000))]
         frames: u32,
         /// Sun elevations in degrees (repeatable; default 10, 30 and 60).
         #[arg(long = "elevation")]
