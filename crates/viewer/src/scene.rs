@@ -451,8 +451,16 @@ impl SceneFile {
         positive("terrain.spacing", t.spacing)?;
         positive("terrain.height_scale", t.height_scale)?;
         if let Some(p) = &t.procedural {
-            positive("terrain.procedural.size", p.size)?;
-            positive("terrain.procedural.feature_size", p.feature_size)?;
+            // Ranges that keep the noise's coordinates (position / feature size, up to
+            // 16 times finer over the octaves) far inside what it can floor.
+            in_range("terrain.procedural.size", p.size, 0.0, 1e6, "metres")?;
+            in_range(
+                "terrain.procedural.feature_size",
+                p.feature_size,
+                1e-3,
+                1e7,
+                "metres",
+            )?;
             if !(p.relief.is_finite() && p.relief >= 0.0) {
                 bail!("terrain.procedural.relief = {}: must be >= 0", p.relief);
             }
@@ -575,6 +583,16 @@ impl SceneFile {
         if self.views.is_empty() {
             bail!("views: give at least one [[views]]");
         }
+        for (table, n, most) in [
+            ("views", self.views.len(), MAX_VIEWS),
+            ("models", self.models.len(), MAX_MODELS),
+            ("instances", self.instances.len(), MAX_INSTANCES),
+            ("scatter", self.scatter.len(), MAX_SCATTERS),
+        ] {
+            if n > most {
+                bail!("{table}: {n} entries, at most {most}");
+            }
+        }
         for (i, v) in self.views.iter().enumerate() {
             finite2(&format!("views[{i}].position"), v.position)?;
             finite2(&format!("views[{i}].target"), v.target)?;
@@ -601,6 +619,27 @@ impl SceneFile {
             }
         }
         Ok(())
+    }
+}
+
+/// Most `[[views]]` of a scene (each renders several images).
+pub const MAX_VIEWS: usize = 64;
+/// Most `[[models]]` of a scene (each is voxelized).
+pub const MAX_MODELS: usize = 256;
+/// Most `[[instances]]` placed one by one.
+pub const MAX_INSTANCES: usize = 100_000;
+/// Most `[[scatter]]` tables (each up to 100,000 instances).
+pub const MAX_SCATTERS: usize = 64;
+
+/// `v` within `lo..=hi` where `lo > 0`, within `(lo, hi]` where `lo <= 0`; finite.
+fn in_range(field: &str, v: f32, lo: f32, hi: f32, unit: &str) -> Result<()> {
+    let ok = v.is_finite() && v <= hi && if lo > 0.0 { v >= lo } else { v > lo };
+    if ok {
+        Ok(())
+    } else if lo > 0.0 {
+        bail!("{field} = {v}: must be in {lo}..={hi} {unit}")
+    } else {
+        bail!("{field} = {v}: must be > {lo} and at most {hi} {unit}")
     }
 }
 

@@ -143,3 +143,42 @@ fn a_probe_spacing_too_fine_is_refused_by_name() {
     };
     assert!(e.contains("probes.spacing"), "{e}");
 }
+
+/// Values that are positive but make derived quantities overflow (the noise's
+/// coordinates: position / feature size) and tables that would run for minutes are
+/// refused by name when the scene is read.
+#[test]
+fn scene_values_out_of_range_and_huge_tables_are_refused() {
+    for (terrain, field) in [
+        (
+            "size = 512.0, relief = 20.0, feature_size = 1e-30",
+            "feature_size",
+        ),
+        (
+            "size = 512.0, relief = 20.0, feature_size = 1e-17",
+            "feature_size",
+        ),
+        ("size = 1e21, relief = 20.0", "terrain.procedural.size"),
+    ] {
+        let text = format!(
+            "[terrain]\nprocedural = {{ {terrain} }}\nspacing = 8.0\n[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
+        );
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains(field), "{terrain}: {e}");
+    }
+    let mut text = String::from(TERRAIN_512);
+    for i in 0..10_000 {
+        text.push_str(&format!(
+            "[[views]]\nname = \"v{i}\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
+        ));
+    }
+    let e = format!(
+        "{:#}",
+        SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
+    );
+    // Refused on reading, before any rendering.
+    assert!(e.contains("views: 10000 entries, at most 64"), "{e}");
+}
