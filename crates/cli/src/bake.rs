@@ -36,6 +36,13 @@ pub(crate) struct VolumeArgs {
 }
 
 impl VolumeArgs {
+    /// The files to write, checked against the input and each other.
+    fn check_paths(&self, input: &std::path::Path) -> Result<()> {
+        let files = crate::paths::volume_files(&self.output, &self.name)?;
+        let outs: Vec<&std::path::Path> = files.iter().map(|p| p.as_path()).collect();
+        crate::paths::check(&[input], &outs)
+    }
+
     fn format(&self) -> TexelFormat {
         match self.format {
             FormatArg::Rgb9e5 => TexelFormat::Rgb9e5,
@@ -119,6 +126,7 @@ enum ContentArg {
 /// Sweeps the material under sky and sun and writes the indirect light (without
 /// `--with-direct-sun`) or all of it.
 pub(crate) fn bake(a: BakeArgs) -> Result<()> {
+    a.volume.check_paths(&a.material)?;
     let options = a.sweep.options()?;
     let m = load_material(&a.material)?;
     let sky_and_sun = a.light.boundary()?;
@@ -159,6 +167,7 @@ pub(crate) fn bake(a: BakeArgs) -> Result<()> {
 
 /// Writes a light grid file as it is.
 pub(crate) fn export(a: ExportArgs) -> Result<()> {
+    a.volume.check_paths(&a.light)?;
     let g: LightGrid = match GridFile::load(&a.light)
         .with_context(|| format!("reading light grid {}", a.light.display()))?
     {

@@ -21,6 +21,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
 mod bake;
+mod paths;
 mod sweep;
 mod voxelize;
 

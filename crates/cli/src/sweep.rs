@@ -291,6 +291,7 @@ pub(crate) fn run(command: Command) -> Result<()> {
             if size == 0 || size > 512 {
                 bail!("--size must be in 1..=512, got {size}");
             }
+            crate::paths::check(&[], &[&output])?;
             let s = match scene {
                 SceneArg::Empty => Scene::Empty,
                 SceneArg::Fog => Scene::UniformFog,
@@ -315,6 +316,9 @@ pub(crate) fn run(command: Command) -> Result<()> {
             packed,
             preview,
         } => {
+            let mut outs = vec![output.as_path()];
+            outs.extend(preview.as_deref());
+            crate::paths::check(&[&material], &outs)?;
             let o = sweep.options()?;
             let m = load_material(&material)?;
             let b = light.boundary()?;
@@ -355,6 +359,9 @@ pub(crate) fn run(command: Command) -> Result<()> {
             seed,
             preview,
         } => {
+            let mut outs = vec![output.as_path()];
+            outs.extend(preview.as_deref());
+            crate::paths::check(&[&material], &outs)?;
             let m = load_material(&material)?;
             let b = light.boundary()?;
             let time_budget = match seconds {

@@ -31,6 +31,7 @@ pub(crate) struct Args {
 
 /// Runs `voxelize`.
 pub(crate) fn run(cli: Args) -> Result<()> {
+    crate::paths::check(&[&cli.model], &[&cli.output])?;
     let model =
         Model::load_gltf(&cli.model).with_context(|| format!("loading {}", cli.model.display()))?;
     let mut params = match cli.quality.as_str() {

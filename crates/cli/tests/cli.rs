@@ -276,3 +276,57 @@ fn bake_and_export_write_bevy_volumes() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// An output never replaces an input or another output, and an existing output that is
+/// not a regular file is refused, not replaced: each is an error before any work, and
+/// the files stay as they were.
+#[test]
+fn outputs_that_would_replace_inputs_or_each_other_are_refused() {
+    let dir = std::env::temp_dir().join(format!("lightgrid-cli-paths-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("folder")).unwrap();
+    let run = |args: &[&str]| {
+        let out = bin().args(args).current_dir(&dir).output().unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    assert!(run(&["scene", "canopy", "--size", "4", "-o", "m.lgrid"]).0);
+    let before = std::fs::read(dir.join("m.lgrid")).unwrap();
+    let model = dir.join("rock.glb");
+    write_glb(&rock(1, 1.0).unwrap(), &model).unwrap();
+    let glb = std::fs::read(&model).unwrap();
+    for (args, says) in [
+        (
+            vec![
+                "sweep",
+                "m.lgrid",
+                "-o",
+                "l.lgrid",
+                "--preview",
+                "./l.lgrid",
+            ],
+            "are the same file",
+        ),
+        (
+            vec!["sweep", "m.lgrid", "-o", "folder/../m.lgrid"],
+            "is the input",
+        ),
+        (
+            vec!["voxelize", "rock.glb", "--cell", "0.5", "-o", "rock.glb"],
+            "is the input",
+        ),
+        (
+            vec!["scene", "canopy", "-o", "folder"],
+            "not a regular file",
+        ),
+        (vec!["bake", "m.lgrid", "-o", "m.lgrid"], "must be a folder"),
+    ] {
+        let (ok, err) = run(&args);
+        assert!(!ok && err.contains(says), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read(dir.join("m.lgrid")).unwrap(), before);
+    assert_eq!(std::fs::read(&model).unwrap(), glb);
+    assert!(dir.join("folder").is_dir() && !dir.join("l.lgrid").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
