@@ -403,20 +403,23 @@ impl BevyVolume {
         }
     }
 
-    /// Writes `<stem>.dds` and `<stem>.ktx2` into `dir` (created if missing), atomically.
-    /// Returns the paths written.
+    /// Writes `<stem>.dds` and `<stem>.ktx2` into `dir` (created if missing), both or
+    /// neither. Returns the paths written.
     pub fn write(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, ExportError> {
+        let files = self.files(dir, stem)?;
+        create_dir(dir)?;
+        lightgrid_core::file::write_all_atomic(&files)?;
+        Ok(files.into_iter().map(|(p, _)| p).collect())
+    }
+
+    /// The two files of [`BevyVolume::write`], encoded.
+    fn files(&self, dir: &Path, stem: &str) -> Result<Vec<(PathBuf, Vec<u8>)>, ExportError> {
         check_stem(stem)?;
-        let _span = tracing::info_span!("export volume", dir = %dir.display(), stem).entered();
-        std::fs::create_dir_all(dir).map_err(|source| GridError::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-        let dds = dir.join(format!("{stem}.dds"));
-        lightgrid_core::file::write_atomic(&dds, &self.to_dds()?)?;
-        let ktx = dir.join(format!("{stem}.ktx2"));
-        lightgrid_core::file::write_atomic(&ktx, &self.to_ktx2())?;
-        Ok(vec![dds, ktx])
+        let _span = tracing::info_span!("encode volume", dir = %dir.display(), stem).entered();
+        Ok(vec![
+            (dir.join(format!("{stem}.dds")), self.to_dds()?),
+            (dir.join(format!("{stem}.ktx2")), self.to_ktx2()),
+        ])
     }
 }
 
@@ -587,11 +590,30 @@ impl Sidecar {
     }
     /// Writes the sidecar as `<dir>/<stem>.json`, atomically.
     pub fn write(&self, dir: &Path, stem: &str) -> Result<PathBuf, ExportError> {
-        check_stem(stem)?;
-        let path = dir.join(format!("{stem}.json"));
-        lightgrid_core::file::write_atomic(&path, self.to_json().as_bytes())?;
+        let (path, bytes) = self.file(dir, stem)?;
+        lightgrid_core::file::write_atomic(&path, &bytes)?;
         Ok(path)
     }
+
+    /// The sidecar's file, encoded.
+    fn file(&self, dir: &Path, stem: &str) -> Result<(PathBuf, Vec<u8>), ExportError> {
+        check_stem(stem)?;
+        Ok((
+            dir.join(format!("{stem}.json")),
+            self.to_json().into_bytes(),
+        ))
+    }
+}
+
+/// `dir` and its parents, created where missing.
+fn create_dir(dir: &Path) -> Result<(), ExportError> {
+    std::fs::create_dir_all(dir).map_err(|source| {
+        GridError::Io {
+            path: dir.to_path_buf(),
+            source,
+        }
+        .into()
+    })
 }
 
 /// Exports several volumes (coarsest first) into `dir`: `<stem>-<i>.dds`, `.ktx2` each
@@ -619,7 +641,8 @@ pub fn write_volumes(
         (Content::Indirect, Some((to_sun, e))) => SidecarSun::new(to_sun, e, unit_scale)?,
         _ => None,
     };
-    let mut paths = Vec::new();
+    // Every file encoded first, then written as one set: all of them or none.
+    let mut files = Vec::new();
     let mut infos = Vec::new();
     for (i, v) in volumes.iter().enumerate() {
         let name = if volumes.len() == 1 {
@@ -627,11 +650,13 @@ pub fn write_volumes(
         } else {
             format!("{stem}-{i}")
         };
-        paths.extend(v.write(dir, &name)?);
+        files.extend(v.files(dir, &name)?);
         infos.push(v.sidecar(&name, content, unit_scale));
     }
-    paths.push(Sidecar::new(infos, sun).write(dir, stem)?);
-    Ok(paths)
+    files.push(Sidecar::new(infos, sun).file(dir, stem)?);
+    create_dir(dir)?;
+    lightgrid_core::file::write_all_atomic(&files)?;
+    Ok(files.into_iter().map(|(p, _)| p).collect())
 }
 
 /// The indirect light of `material` under `sky_and_sun`: everything the sweep computes

@@ -469,3 +469,22 @@ fn a_lookup_on_the_ground_reads_the_light_above_it() {
         }
     }
 }
+
+/// A set of volumes and its sidecar appear whole or not at all: when the sidecar cannot
+/// be written (a folder stands where it goes), no texture stays behind.
+#[test]
+fn volumes_and_sidecar_are_written_whole_or_not_at_all() {
+    let g = test_grid();
+    let v = BevyVolume::from_field(&g, g.desc(), TexelFormat::Rgb9e5).unwrap();
+    let dir = std::env::temp_dir().join(format!("lightgrid-export-set-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("set.json")).unwrap();
+    let vols = [v.clone(), v];
+    let e = write_volumes(&dir, "set", &vols, Content::All, 1.0, None).unwrap_err();
+    assert!(e.to_string().contains("set.json"), "{e}");
+    let left: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, vec!["set.json".to_string()], "{left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

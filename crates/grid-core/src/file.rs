@@ -32,7 +32,7 @@
 //! Writing is atomic: a temporary file beside the target, flushed, then renamed.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{UVec3, Vec3};
 
@@ -480,10 +480,108 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), GridError> {
     result.map_err(io)
 }
 
+/// Writes several files as one: each to a temporary file beside it first (as
+/// [`write_atomic`]), then all renamed into place. A failure while writing leaves none of
+/// them; one while renaming (rare: the temporaries sit in the targets' folders) removes
+/// those already renamed and the rest, so the set appears whole or not at all (a file
+/// it replaced is then gone too). Targets must differ.
+pub fn write_all_atomic(files: &[(PathBuf, Vec<u8>)]) -> Result<(), GridError> {
+    for (i, (p, _)) in files.iter().enumerate() {
+        if files[..i].iter().any(|(q, _)| q == p) {
+            return Err(GridError::invalid("files", p, "must name each target once"));
+        }
+    }
+    static SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let mut temps: Vec<PathBuf> = Vec::with_capacity(files.len());
+    let cleanup = |temps: &[PathBuf]| {
+        for t in temps {
+            let _ = std::fs::remove_file(t);
+        }
+    };
+    for (path, bytes) in files {
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        let Some(name) = path.file_name() else {
+            cleanup(&temps);
+            return Err(GridError::invalid("path", path, "must name a file"));
+        };
+        let serial = SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let tmp = dir.join(format!(
+            ".{}.{}-set{serial}.tmp",
+            name.to_string_lossy(),
+            std::process::id()
+        ));
+        let written = (|| {
+            let mut f = std::fs::File::options()
+                .write(true)
+                .create_new(true)
+                .open(&tmp)?;
+            temps.push(tmp.clone());
+            f.write_all(bytes)?;
+            f.sync_all()
+        })();
+        if let Err(source) = written {
+            cleanup(&temps);
+            return Err(GridError::Io {
+                path: path.clone(),
+                source,
+            });
+        }
+    }
+    for (k, ((path, _), tmp)) in files.iter().zip(&temps).enumerate() {
+        if let Err(source) = std::fs::rename(tmp, path) {
+            let placed: Vec<PathBuf> = files[..k].iter().map(|(p, _)| p.clone()).collect();
+            cleanup(&placed);
+            cleanup(&temps[k..]);
+            return Err(GridError::Io {
+                path: path.clone(),
+                source,
+            });
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_set_of_files_appears_whole_or_not_at_all() {
+        let dir = std::env::temp_dir().join(format!("lightgrid-set-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let set = |names: &[&str]| -> Vec<(PathBuf, Vec<u8>)> {
+            names
+                .iter()
+                .map(|n| (dir.join(n), n.as_bytes().to_vec()))
+                .collect()
+        };
+        write_all_atomic(&set(&["a", "b", "c"])).unwrap();
+        for n in ["a", "b", "c"] {
+            assert_eq!(std::fs::read(dir.join(n)).unwrap(), n.as_bytes());
+        }
+        // The last target is a folder: its rename fails; the others are taken back.
+        std::fs::create_dir(dir.join("z")).unwrap();
+        assert!(write_all_atomic(&set(&["x", "y", "z"])).is_err());
+        assert!(!dir.join("x").exists() && !dir.join("y").exists());
+        // A folder that does not exist: nothing is written.
+        let mut bad = set(&["p"]);
+        bad.push((dir.join("missing/q"), vec![1]));
+        assert!(write_all_atomic(&bad).is_err());
+        assert!(!dir.join("p").exists());
+        // No temporaries are left behind, and a target named twice is refused.
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(left.is_empty(), "{left:?}");
+        assert!(write_all_atomic(&set(&["a", "a"])).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     fn sample_light() -> Grid<BinLight> {
         let d = GridDesc::new(Vec3::new(1.0, 2.0, 3.0), 0.5, UVec3::new(3, 2, 2)).unwrap();
