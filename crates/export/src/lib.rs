@@ -228,21 +228,22 @@ impl BevyVolume {
         let n = size.x as u64 * size.y as u64 * size.z as u64;
         lightgrid_core::limits::check_memory("irradiance volume", n * 16)?;
         let n = n as usize;
-        // Ambient cubes of every point, as irradiance / pi.
+        // Ambient cubes of every point, as irradiance / pi, in f64: faces of bins near
+        // f32::MAX exceed it until the intensity scales them back.
         let mut cubes = Vec::with_capacity(desc.point_count());
         for z in 0..res.z {
             for y in 0..res.y {
                 for x in 0..res.x {
                     let p = desc.position(UVec3::new(x, y, z));
-                    let c = field.light(p, None)?.ambient_cube();
-                    cubes.push(c.0.map(|f| f / std::f32::consts::PI));
+                    let c = field.light(p, None)?.ambient_cube_f64();
+                    cubes.push(c.map(|f| f / std::f64::consts::PI));
                 }
             }
         }
         let max = cubes
             .iter()
             .flat_map(|c| c.iter().map(|f| f.max_element()))
-            .fold(0.0f32, f32::max);
+            .fold(0.0f64, f64::max);
         let intensity = intensity_for(max);
         let mut texels = vec![0u32; n];
         let mut i = 0;
@@ -252,7 +253,7 @@ impl BevyVolume {
                     for (face, v) in cubes[i].iter().enumerate() {
                         let t = AmbientCube::bevy_texel(UVec3::new(x, y, z), face, res);
                         let k = (t.x + size.x * (t.y + size.y * t.z)) as usize;
-                        texels[k] = format.pack(*v / intensity);
+                        texels[k] = format.pack((*v / intensity as f64).as_vec3());
                     }
                     i += 1;
                 }
@@ -641,6 +642,18 @@ pub fn write_volumes(
         (Content::Indirect, Some((to_sun, e))) => SidecarSun::new(to_sun, e, unit_scale)?,
         _ => None,
     };
+    // The sidecar's intensities: texel × intensity × unit_scale must stay a positive
+    // finite f32 (1e-45 gave 0, 1e20 on a bright grid infinity, written as null).
+    for (i, v) in volumes.iter().enumerate() {
+        let product = v.intensity() * unit_scale;
+        if !(product.is_finite() && product > 0.0) {
+            return Err(ExportError::Invalid {
+                field: "unit_scale",
+                value: format!("{unit_scale:?} (volume {i}'s intensity {})", v.intensity()),
+                reason: "times the volume's intensity it must be a positive finite f32",
+            });
+        }
+    }
     // Every file encoded first, then written as one set: all of them or none.
     let mut files = Vec::new();
     let mut infos = Vec::new();
@@ -715,12 +728,19 @@ fn texture_size(res: UVec3) -> UVec3 {
     UVec3::new(res.x, res.y.saturating_mul(2), res.z.saturating_mul(3))
 }
 
-/// The power of two that brings `max` near [`TARGET_MAX`]; 1 for no light.
-fn intensity_for(max: f32) -> f32 {
+/// The power of two that brings `max` near [`TARGET_MAX`]; 1 for no light. Any power
+/// an `f32` holds: from 2^-149 (the least subnormal; light of 1e-38 keeps its digits)
+/// to 2^127 (light near `f32::MAX`).
+fn intensity_for(max: f64) -> f32 {
     if !(max.is_finite() && max > 0.0) {
         return 1.0;
     }
-    2f32.powi((max / TARGET_MAX).log2().ceil().clamp(-100.0, 100.0) as i32)
+    let k = (max / TARGET_MAX as f64).log2().ceil().clamp(-149.0, 127.0) as i32;
+    if k >= -126 {
+        f32::from_bits(((k + 127) as u32) << 23)
+    } else {
+        f32::from_bits(1u32 << (k + 149))
+    }
 }
 
 /// Little-endian bytes of the texels (every target Bevy runs on is little-endian; this
@@ -858,17 +878,36 @@ mod tests {
 
     #[test]
     fn intensity_keeps_texels_inside_the_formats() {
-        for max in [1e-6f32, 1e-3, 1.0, 3e4, 1e9] {
+        // Any light an f32 holds, the faces of f32::MAX bins (beyond it) included.
+        for max in [1e-38f64, 1e-6, 1e-3, 1.0, 3e4, 1e9, 2.6e35, 3.4e38, 4e39] {
             let k = intensity_for(max);
-            let scaled = max / k;
+            assert!(k.is_finite() && k > 0.0, "{max}: {k}");
+            let scaled = max / k as f64;
             assert!(
-                (TARGET_MAX / 2.0..=TARGET_MAX).contains(&scaled),
+                (TARGET_MAX as f64 / 2.0..=TARGET_MAX as f64).contains(&scaled),
                 "{max}: {scaled}"
             );
             assert_eq!(k.log2().fract(), 0.0);
         }
         assert_eq!(intensity_for(0.0), 1.0);
-        assert_eq!(intensity_for(f32::NAN), 1.0);
+        assert_eq!(intensity_for(f64::NAN), 1.0);
+    }
+
+    #[test]
+    fn light_at_either_end_of_f32_exports_with_its_digits() {
+        for level in [1e-38f32, 1e-30, 1e30, 2.6e35, f32::MAX / 26.0, f32::MAX] {
+            let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 2, 2)).unwrap();
+            let mut b = BinLight::ZERO;
+            b.0[lightgrid_core::dirs::DOWN] = Vec3::new(level, level * 0.5, level * 0.25);
+            let g = LightGrid::new(desc, vec![b; 8]).unwrap();
+            let v = BevyVolume::from_field(&g, &desc, TexelFormat::Rgb9e5).unwrap();
+            assert!(v.intensity().is_finite() && v.intensity() > 0.0);
+            // The +Y face (light from above) in the texel's units, back in f64.
+            let want = b.ambient_cube_f64()[2] / std::f64::consts::PI;
+            let got = v.texel(UVec3::ZERO, 2).as_dvec3() * v.intensity() as f64;
+            let err = ((got - want).abs() / want.max_element()).max_element();
+            assert!(err < 1.0 / 256.0, "{level}: {got} vs {want}");
+        }
     }
 
     #[test]
@@ -885,5 +924,17 @@ mod tests {
         let dir = std::env::temp_dir();
         let e = write_volumes(&dir, "x", &[v], Content::All, f32::NAN, None).unwrap_err();
         assert!(e.to_string().contains("unit_scale"), "{e}");
+        // A unit scale whose product with the intensity leaves f32: refused, nothing
+        // written (a dim grid's intensity is small, a bright one's large).
+        let dir = dir.join(format!("lightgrid-unit-scale-{}", std::process::id()));
+        for (level, scale) in [(1.0f32, 1e-45f32), (1e30, 1e20)] {
+            let mut b = BinLight::ZERO;
+            b.0[lightgrid_core::dirs::DOWN] = Vec3::splat(level);
+            let g = LightGrid::filled(desc, b).unwrap();
+            let v = BevyVolume::from_field(&g, &desc, TexelFormat::Rgb9e5).unwrap();
+            let e = write_volumes(&dir, "x", &[v], Content::All, scale, None).unwrap_err();
+            assert!(e.to_string().contains("unit_scale"), "{e}");
+            assert!(!dir.exists());
+        }
     }
 }

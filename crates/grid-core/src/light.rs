@@ -200,16 +200,23 @@ impl BinLight {
     /// The same numbers as [`BinLight::irradiance`] on each axis (the bins' clipped
     /// cosines for the six axes are computed once per process).
     pub fn ambient_cube(&self) -> AmbientCube {
+        AmbientCube(self.ambient_cube_f64().map(|e| e.as_vec3()))
+    }
+
+    /// [`BinLight::ambient_cube`] in `f64`, before the rounding to `f32`: bins near
+    /// `f32::MAX` sum to faces beyond it, which this keeps finite (exports scale them
+    /// back into range).
+    pub fn ambient_cube_f64(&self) -> [DVec3; 6] {
         let w = ambient_weights();
-        AmbientCube(std::array::from_fn(|f| {
+        std::array::from_fn(|f| {
             let mut e = DVec3::ZERO;
             for d in 0..NUM_DIRS {
                 if self.0[d] != Vec3::ZERO {
                     e += self.0[d].as_dvec3() * w[f][d];
                 }
             }
-            e.as_vec3()
-        }))
+            e
+        })
     }
 
     /// Splits full-sphere bins into the light travelling downward (the 9 downward bins and
