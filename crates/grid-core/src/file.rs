@@ -278,7 +278,8 @@ fn parse_header(b: &[u8], max_payload: u64) -> Result<Header, GridError> {
             limit: max_payload,
         });
     }
-    let needed = HEADER_BYTES as u64 + payload_len + 4;
+    // (A payload length near u64::MAX, allowed by a limit of u64::MAX, must not wrap.)
+    let needed = payload_len.saturating_add(HEADER_BYTES as u64 + 4);
     if (b.len() as u64) < needed {
         return fail(K::Truncated {
             needed,
@@ -548,6 +549,19 @@ pub fn write_all_atomic(files: &[(PathBuf, Vec<u8>)]) -> Result<(), GridError> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_payload_length_near_u64_max_is_an_error_not_a_wrap() {
+        let mut b = GridFile::Light(sample_light()).to_bytes();
+        b[56..64].copy_from_slice(&(u64::MAX - 8).to_le_bytes());
+        let e = GridFile::from_bytes_limited(&b, u64::MAX)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("truncated: 18446744073709551615 bytes needed"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn a_set_of_files_appears_whole_or_not_at_all() {

@@ -70,6 +70,14 @@ impl<T: GridValue> Grid<T> {
                 reason,
             });
         }
+        // Within the memory limit, not an allocation failure (2^32 points aborted).
+        crate::limits::check_memory(
+            &format!("a grid of {} points", desc.point_count()),
+            crate::limits::checked_bytes(
+                "points",
+                &[desc.point_count() as u64, std::mem::size_of::<T>() as u64],
+            )?,
+        )?;
         Ok(Self {
             desc,
             data: vec![value; desc.point_count()],
@@ -113,9 +121,9 @@ impl<T> Grid<T> {
     pub fn get(&self, p: glam::UVec3) -> Option<&T> {
         self.desc.index(p).map(|i| &self.data[i])
     }
-    /// The values of level `j`.
+    /// The values of level `j`; empty for `j` at or past the grid's levels.
     pub fn level(&self, j: u32) -> &[T] {
-        &self.data[self.desc.level_range(j)]
+        self.data.get(self.desc.level_range(j)).unwrap_or(&[])
     }
     /// The values, mutable (the caller keeps them valid, as with [`Grid::from_trusted`]):
     /// for in-place updates such as merging light volumes.
@@ -466,6 +474,17 @@ impl CodedLightGrid {
 mod tests {
     use super::*;
     use glam::UVec3;
+
+    #[test]
+    fn levels_past_the_top_are_empty_and_huge_grids_are_refused_not_aborted() {
+        let g = Grid::filled(desc(), BinLight::ZERO).unwrap();
+        assert_eq!(g.level(2).len(), 4);
+        assert!(g.level(3).is_empty() && g.level(u32::MAX).is_empty());
+        // 2^32 points of 312 bytes: over any memory limit, an error naming the grid.
+        let huge = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4096, 1024, 1024)).unwrap();
+        let e = Grid::filled(huge, BinLight::ZERO).unwrap_err().to_string();
+        assert!(e.contains("4294967296 points"), "{e}");
+    }
 
     fn desc() -> GridDesc {
         GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 3, 2)).unwrap()
