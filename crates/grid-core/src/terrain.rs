@@ -6,6 +6,10 @@ use glam::Vec2;
 
 use crate::GridError;
 
+/// Largest height a [`Heightmap`] accepts, metres either way: differences of heights
+/// stay far inside `f32` (3e38 made bilinear reads NaN).
+pub const MAX_HEIGHT: f32 = 1e7;
+
 /// A heightmap: heights (metres, world Y) on a regular `(x, z)` lattice.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Heightmap {
@@ -85,11 +89,14 @@ impl Heightmap {
                 found: heights.len(),
             });
         }
-        if let Some(i) = heights.iter().position(|h| !h.is_finite()) {
+        if let Some(i) = heights
+            .iter()
+            .position(|h| !(h.is_finite() && h.abs() <= MAX_HEIGHT))
+        {
             return Err(GridError::invalid(
                 format!("heights[{i}]"),
                 heights[i],
-                "must be finite",
+                "must be finite and within ±1e7 m",
             ));
         }
         Ok(Self {
@@ -101,10 +108,21 @@ impl Heightmap {
         })
     }
 
-    /// Bilinear height at world `(x, z)`, clamped at the edges.
+    /// Bilinear height at world `(x, z)`, clamped at the edges (a NaN coordinate reads
+    /// the first row or column: the result is always finite).
     pub fn height_at(&self, x: f32, z: f32) -> f32 {
-        let gx = ((x - self.origin.x) / self.spacing).clamp(0.0, (self.width - 1) as f32);
-        let gz = ((z - self.origin.y) / self.spacing).clamp(0.0, (self.depth - 1) as f32);
+        let cell = |v: f32, o: f32, n: u32| {
+            let g = (v - o) / self.spacing;
+            if g.is_nan() {
+                0.0
+            } else {
+                g.clamp(0.0, (n - 1) as f32)
+            }
+        };
+        let (gx, gz) = (
+            cell(x, self.origin.x, self.width),
+            cell(z, self.origin.y, self.depth),
+        );
         let (i0, k0) = (
             (gx as u32).min(self.width - 2),
             (gz as u32).min(self.depth - 2),
@@ -129,6 +147,22 @@ impl Heightmap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn heights_out_of_range_are_refused_and_reads_stay_finite() {
+        let e = Heightmap::new(Vec2::ZERO, 1.0, 2, 2, vec![0.0, 3e38, -3e38, 0.0]).unwrap_err();
+        assert!(e.to_string().contains("heights[1]"), "{e}");
+        let hm = Heightmap::new(Vec2::ZERO, 1.0, 2, 2, vec![1e7, -1e7, 0.0, 5.0]).unwrap();
+        for (x, z) in [
+            (0.5, 0.5),
+            (f32::NAN, 0.5),
+            (0.5, f32::NAN),
+            (f32::INFINITY, -1e30),
+        ] {
+            assert!(hm.height_at(x, z).is_finite(), "{x}, {z}");
+        }
+        assert_eq!(hm.height_at(f32::NAN, f32::NAN), 1e7);
+    }
 
     #[test]
     fn bilinear_and_clamped() {
