@@ -340,11 +340,10 @@ impl AreaComposer {
         })
     }
 
-    /// Composes the area `desc`, with counters.
-    pub fn compose(&self, desc: &GridDesc) -> Result<(MaterialGrid, ComposeStats), GridError> {
-        let _span = tracing::debug_span!("compose", points = desc.point_count()).entered();
-        let (alo, ahi) = desc.cell_bounds();
-        // Candidates: instances in the tiles the area overlaps.
+    /// The instances whose bounds overlap the box `alo..ahi`, sorted, found through the
+    /// tiles the box covers; and how many the tiles held (before the overlap test).
+    fn candidates(&self, alo: Vec3, ahi: Vec3) -> (Vec<u32>, u64) {
+        // Instances in the tiles the area overlaps.
         let t0 = (Vec2::new(alo.x, alo.z) / self.params.tile)
             .floor()
             .as_ivec2();
@@ -377,6 +376,37 @@ impl AreaComposer {
             let p = &self.placed[i as usize];
             p.lo.cmple(ahi).all() && p.hi.cmpge(alo).all()
         });
+        (cand, candidates)
+    }
+
+    /// For each column of `desc` (x fastest), the candidates in `cand` whose bounds
+    /// overlap the column's `(x, z)` extent, in `cand`'s order.
+    fn column_candidates(&self, desc: &GridDesc, cand: &[u32]) -> Vec<Vec<u32>> {
+        use rayon::prelude::*;
+        let half = Vec3::splat(desc.h() * 0.5);
+        let nx = desc.dims().x as usize;
+        (0..nx * desc.dims().z as usize)
+            .into_par_iter()
+            .map(|c| {
+                let q = UVec3::new((c % nx) as u32, 0, (c / nx) as u32);
+                let centre = desc.position(q);
+                let (lo, hi) = (centre - half, centre + half);
+                cand.iter()
+                    .copied()
+                    .filter(|&j| {
+                        let p = &self.placed[j as usize];
+                        p.lo.x <= hi.x && p.lo.z <= hi.z && p.hi.x >= lo.x && p.hi.z >= lo.z
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Composes the area `desc`, with counters.
+    pub fn compose(&self, desc: &GridDesc) -> Result<(MaterialGrid, ComposeStats), GridError> {
+        let _span = tracing::debug_span!("compose", points = desc.point_count()).entered();
+        let (alo, ahi) = desc.cell_bounds();
+        let (cand, candidates) = self.candidates(alo, ahi);
         let stats = ComposeStats {
             candidates,
             overlapping: cand.len() as u64,
@@ -405,21 +435,7 @@ impl AreaComposer {
         // Candidates overlapping each column's (x, z) extent, in `cand`'s order: a cell
         // then tests only its column's (a 16 m node over a forest: 1–3 of its 10–20).
         let nx = desc.dims().x as usize;
-        let columns: Vec<Vec<u32>> = (0..nx * desc.dims().z as usize)
-            .into_par_iter()
-            .map(|c| {
-                let q = UVec3::new((c % nx) as u32, 0, (c / nx) as u32);
-                let centre = desc.position(q);
-                let (lo, hi) = (centre - half, centre + half);
-                cand.iter()
-                    .copied()
-                    .filter(|&j| {
-                        let p = &self.placed[j as usize];
-                        p.lo.x <= hi.x && p.lo.z <= hi.z && p.hi.x >= lo.x && p.hi.z >= lo.z
-                    })
-                    .collect()
-            })
-            .collect();
+        let columns = self.column_candidates(desc, &cand);
         cells
             .par_iter_mut()
             .enumerate()

@@ -580,9 +580,12 @@ impl SceneFile {
                 );
             }
         }
-        if self.views.is_empty() {
-            bail!("views: give at least one [[views]]");
-        }
+        self.validate_tables()?;
+        self.validate_views()
+    }
+
+    /// The repeated tables within their caps.
+    fn validate_tables(&self) -> Result<()> {
         for (table, n, most) in [
             ("views", self.views.len(), MAX_VIEWS),
             ("models", self.models.len(), MAX_MODELS),
@@ -592,6 +595,14 @@ impl SceneFile {
             if n > most {
                 bail!("{table}: {n} entries, at most {most}");
             }
+        }
+        Ok(())
+    }
+
+    /// Every view: finite, named, looking somewhere.
+    fn validate_views(&self) -> Result<()> {
+        if self.views.is_empty() {
+            bail!("views: give at least one [[views]]");
         }
         for (i, v) in self.views.iter().enumerate() {
             finite2(&format!("views[{i}].position"), v.position)?;
