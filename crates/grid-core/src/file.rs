@@ -445,40 +445,7 @@ impl GridFile {
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, synced, renamed).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), GridError> {
-    let io = |source| GridError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| GridError::invalid("path", path, "must name a file"))?;
-    // Unique per process and per call: two threads (or two processes) writing the same
-    // target never share a temporary file; `create_new` refuses to reuse a stale one.
-    static SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let serial = SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(
-        ".{}.{}-{serial}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::options()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io)
+    write_all_atomic(&[(path.to_path_buf(), bytes)])
 }
 
 /// Writes several files as one: each to a temporary file beside it first (as
@@ -486,12 +453,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), GridError> {
 /// them; one while renaming (rare: the temporaries sit in the targets' folders) removes
 /// those already renamed and the rest, so the set appears whole or not at all (a file
 /// it replaced is then gone too). Targets must differ.
-pub fn write_all_atomic(files: &[(PathBuf, Vec<u8>)]) -> Result<(), GridError> {
+pub fn write_all_atomic<B: AsRef<[u8]>>(files: &[(PathBuf, B)]) -> Result<(), GridError> {
     for (i, (p, _)) in files.iter().enumerate() {
         if files[..i].iter().any(|(q, _)| q == p) {
             return Err(GridError::invalid("files", p, "must name each target once"));
         }
     }
+    // Unique per process and per call: two threads (or two processes) writing the same
+    // target never share a temporary file; `create_new` refuses to reuse a stale one.
     static SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let mut temps: Vec<PathBuf> = Vec::with_capacity(files.len());
     let cleanup = |temps: &[PathBuf]| {
@@ -510,7 +479,7 @@ pub fn write_all_atomic(files: &[(PathBuf, Vec<u8>)]) -> Result<(), GridError> {
         };
         let serial = SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let tmp = dir.join(format!(
-            ".{}.{}-set{serial}.tmp",
+            ".{}.{}-{serial}.tmp",
             name.to_string_lossy(),
             std::process::id()
         ));
@@ -520,7 +489,7 @@ pub fn write_all_atomic(files: &[(PathBuf, Vec<u8>)]) -> Result<(), GridError> {
                 .create_new(true)
                 .open(&tmp)?;
             temps.push(tmp.clone());
-            f.write_all(bytes)?;
+            f.write_all(bytes.as_ref())?;
             f.sync_all()
         })();
         if let Err(source) = written {
