@@ -88,8 +88,10 @@ impl Blend for Material {
 
 /// The 8 corners and weights of a trilinear lookup at continuous grid coordinates `g`,
 /// clamped into the grid (a point outside reads the nearest face/edge/corner value).
-/// Along an axis with one point, that point has weight 1.
+/// Along an axis with one point, that point has weight 1; a zero dimension is read as
+/// one point (index 0), as no grid has one.
 pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
+    let dims = dims.max(UVec3::ONE);
     let maxf = (dims - UVec3::ONE).as_vec3();
     let g = g.clamp(Vec3::ZERO, maxf);
     let base = g
@@ -146,6 +148,18 @@ mod tests {
     use super::*;
     use crate::GridDesc;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_zero_dimension_reads_as_one_point() {
+        for dims in [UVec3::ZERO, UVec3::new(0, 3, 2), UVec3::new(4, 0, 0)] {
+            let c = trilinear_corners(dims, Vec3::new(1.3, 0.4, 7.0));
+            let sum: f32 = c.iter().map(|(_, w)| w).sum();
+            assert!((sum - 1.0).abs() < 1e-6, "{dims}: {sum}");
+            for (p, _) in c {
+                assert!(p.cmplt(dims.max(UVec3::ONE)).all(), "{dims}: {p}");
+            }
+        }
+    }
 
     /// A grid whose value is a linear function of position: trilinear reproduces it
     /// exactly inside the grid.

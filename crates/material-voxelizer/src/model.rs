@@ -58,8 +58,16 @@ pub struct Texture {
 }
 
 impl Texture {
-    /// Bilinear lookup with repeat wrapping. `uv` (0, 0) is the top-left corner.
+    /// Bilinear lookup with repeat wrapping. `uv` (0, 0) is the top-left corner. A
+    /// texture without texels, or fewer than `width × height` ([`Model::validate`]
+    /// refuses both), reads transparent black.
     pub fn sample(&self, uv: Vec2) -> Vec4 {
+        if self.width == 0
+            || self.height == 0
+            || self.texels.len() as u64 != self.width as u64 * self.height as u64
+        {
+            return Vec4::ZERO;
+        }
         let (w, h) = (self.width as f32, self.height as f32);
         let x = uv.x * w - 0.5;
         let y = uv.y * h - 0.5;
@@ -232,6 +240,17 @@ impl Model {
                     format!("materials[{i}].texture"),
                     m.texture,
                     "no such texture",
+                )
+                .into());
+            }
+        }
+        for (i, t) in self.textures.iter().enumerate() {
+            let want = t.width as u64 * t.height as u64;
+            if want == 0 || t.texels.len() as u64 != want {
+                return Err(GridError::invalid(
+                    format!("textures[{i}]"),
+                    format!("{} x {} with {} texels", t.width, t.height, t.texels.len()),
+                    "needs width, height >= 1 and width x height texels",
                 )
                 .into());
             }
@@ -469,6 +488,24 @@ impl Model {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn textures_without_their_texels_are_refused_and_read_black() {
+        for (width, height, n) in [(0, 4, 0), (4, 0, 0), (2, 2, 3), (2, 2, 5)] {
+            let t = Texture {
+                width,
+                height,
+                texels: vec![Vec4::ONE; n],
+            };
+            assert_eq!(t.sample(Vec2::new(0.3, 0.7)), Vec4::ZERO);
+            let m = Model {
+                textures: vec![t],
+                ..Default::default()
+            };
+            let e = m.validate().unwrap_err().to_string();
+            assert!(e.contains("textures[0]"), "{e}");
+        }
+    }
 
     /// Appending shifts material, texture and part indices past the model's own and
     /// places the triangles by the transform.
