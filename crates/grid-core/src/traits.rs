@@ -457,6 +457,13 @@ pub enum SweepError {
 pub trait Sweeper {
     /// A short name for logs ("cpu", "gpu").
     fn name(&self) -> &'static str;
+    /// An independent sweeper of the same kind, to sweep other grids at the same time
+    /// on other threads (a hierarchy's nodes of one depth), with the same results as
+    /// this one; `None` where grids cannot be swept side by side (the default: one GPU
+    /// queue runs one sweep at a time).
+    fn fork(&self) -> Option<Box<dyn Sweeper + Send + Sync>> {
+        None
+    }
     /// Sweeps `material` lit by `boundary`.
     fn sweep(
         &mut self,

@@ -642,6 +642,11 @@ impl Sweeper for CpuSweeper {
     fn name(&self) -> &'static str {
         "cpu"
     }
+    /// A new CPU sweeper with memory of its own (sweeps are deterministic: the same
+    /// results bit for bit on any thread).
+    fn fork(&self) -> Option<Box<dyn Sweeper + Send + Sync>> {
+        Some(Box::new(CpuSweeper::new()))
+    }
     fn sweep(
         &mut self,
         material: &MaterialGrid,

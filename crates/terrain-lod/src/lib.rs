@@ -79,6 +79,8 @@
 
 use std::collections::HashMap;
 
+mod build;
+
 use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
@@ -390,8 +392,11 @@ pub struct FrameStats {
     pub times: StageTimes,
 }
 
-/// Wall time of a frame's stages ([`FrameStats::times`]). What is not in a stage
-/// (deciding which nodes are wanted, eviction, bookkeeping) is the rest of the frame.
+/// Time of a frame's stages ([`FrameStats::times`]), summed over the nodes: where the
+/// nodes of a depth are built side by side (a sweeper that forks, on several threads)
+/// the stages add up the threads' time and can sum past the frame's wall time. What is
+/// not in a stage (deciding which nodes are wanted, eviction, bookkeeping) is the rest
+/// of the frame.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StageTimes {
     /// Composing node materials from the scene (and sizing the grids).
@@ -455,6 +460,8 @@ pub struct Hierarchy {
     heights: Heightmap,
     source: Box<dyn MaterialSource + Send + Sync>,
     sweeper: Box<dyn Sweeper + Send + Sync>,
+    /// Forks of `sweeper` for nodes swept side by side, kept with their memory.
+    forks: Vec<Box<dyn Sweeper + Send + Sync>>,
     sky: BinLight,
     world: LightGrid,
     world_resident: Option<Resident>,
@@ -565,6 +572,7 @@ impl Hierarchy {
             heights: heightmap.clone(),
             source,
             sweeper,
+            forks: Vec::new(),
             sky: sky_top,
             world: LightGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE)?, BinLight::ZERO)?,
             world_resident: None,
@@ -619,6 +627,7 @@ impl Hierarchy {
     /// window draws with, once that device exists.
     pub fn set_sweeper(&mut self, sweeper: Box<dyn Sweeper + Send + Sync>) -> Result<(), LodError> {
         self.sweeper = sweeper;
+        self.forks.clear();
         self.sweep_world()?;
         if self.sun.is_some() {
             self.sweep_world_sun()?;
@@ -725,20 +734,40 @@ impl Hierarchy {
         material: &MaterialGrid,
         times: &mut StageTimes,
     ) -> Result<u64, LodError> {
-        let _span = tracing::trace_span!("node sun", ?key).entered();
-        let Some(sun) = self.sun else {
+        let has_objects = self.nodes[&key].has_objects;
+        let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
+        let r = self.node_sun(key, material, has_objects, sweeper.as_mut(), times);
+        self.sweeper = sweeper;
+        let Some(sun) = r? else {
             return Ok(0);
         };
+        if let Some(n) = self.nodes.get_mut(&key) {
+            n.sun = Some(sun);
+        }
+        Ok(material.desc().point_count() as u64)
+    }
+
+    /// Node `key`'s sun responses for the current sun on `sweeper`, its boundary from
+    /// the coarser grids' sun responses (`None` without a sun kept apart).
+    fn node_sun(
+        &self,
+        key: NodeKey,
+        material: &MaterialGrid,
+        has_objects: bool,
+        sweeper: &mut dyn Sweeper,
+        times: &mut StageTimes,
+    ) -> Result<Option<GridSun>, LodError> {
+        let _span = tracing::trace_span!("node sun", ?key).entered();
+        let Some(sun) = self.sun else {
+            return Ok(None);
+        };
         let desc = *material.desc();
-        let o = self.node_options(self.nodes[&key].has_objects);
+        let o = self.node_options(has_objects);
         let scattered = timed(&mut times.sun_boundary, || {
             self.node_boundary_of(&desc, key.depth, Response::Sun)
         });
-        let started = std::time::Instant::now();
-        let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
-        let r = {
-            let this = &*self;
-            let outside = |p: Vec3| this.coarse_transmittance(p, key.depth);
+        let outside = |p: Vec3| self.coarse_transmittance(p, key.depth);
+        let r = timed(&mut times.sun_sweep, || {
             sweeper.sweep_sun(
                 material,
                 &SunBoundary {
@@ -748,17 +777,13 @@ impl Hierarchy {
                 },
                 &o,
             )
-        };
-        self.sweeper = sweeper;
-        times.sun_sweep += started.elapsed();
-        let r = r?;
-        self.nodes.get_mut(&key).expect("ready node").sun = Some(GridSun {
+        })?;
+        Ok(Some(GridSun {
             scattered: r.scattered,
             resident: r.resident,
             transmittance: r.transmittance,
             to_sun: sun.to_sun,
-        });
-        Ok(desc.point_count() as u64)
+        }))
     }
 
     /// Whether node `key` has sun responses for the current sun.
@@ -1030,69 +1055,10 @@ impl Hierarchy {
             self.nodes.remove(&k);
             stats.evicted += 1;
         }
-        for key in self.wanted(camera) {
-            if self.nodes.contains_key(&key) {
-                if self.sun.is_some() && !self.sun_current(key) {
-                    self.update_sun(key, None, &mut stats)?;
-                }
-                continue;
-            }
-            // Coarse to fine: the parent must be ready and have objects worth refining.
-            if let Some(p) = Self::parent(key) {
-                let skip_bare = self.params.skip.bare_children;
-                match self.nodes.get(&p) {
-                    Some(n) if n.has_objects || !skip_bare => {}
-                    Some(_) => {
-                        stats.skipped_bare += 1; // bare ground: no finer child needed
-                        continue;
-                    }
-                    // A missing parent under a bare ancestor will never be built:
-                    // neither will this node (not pending work).
-                    None if skip_bare && self.bare_ancestor(p) => {
-                        stats.skipped_bare += 1;
-                        continue;
-                    }
-                    None => {
-                        stats.pending += 1;
-                        continue;
-                    }
-                }
-            }
-            let _node = tracing::trace_span!("node", ?key).entered();
-            // Material first (composing is cheap next to sweeping): it sizes the grid.
-            let (material, has_objects) =
-                timed(&mut stats.times.material, || self.node_material(key))?;
-            let desc = *material.desc();
-            let cost = desc.point_count() as u64;
-            if stats.points_swept + cost > self.params.budget_points {
-                stats.pending += 1;
-                continue;
-            }
-            let o = self.node_options(has_objects);
-            let (boundary, input_hash) = timed(&mut stats.times.boundary, || {
-                let b = self.node_boundary(&desc, key.depth);
-                let hash = hash_grid(&material, &b, &o);
-                (b, hash)
-            });
-            let sweeper = &mut self.sweeper;
-            let out = timed(&mut stats.times.sky_sweep, || {
-                sweeper.sweep(&material, &boundary, &o)
-            })?;
-            stats.points_swept += cost;
-            stats.built += 1;
-            self.nodes.insert(
-                key,
-                Node {
-                    light: out.bins.expect("bins asked for"),
-                    sun: None,
-                    resident: out.resident,
-                    input_hash,
-                    has_objects,
-                },
-            );
-            if self.sun.is_some() {
-                self.update_sun(key, Some(&material), &mut stats)?;
-            }
+        // A depth at a time, coarse to fine (`build`: the nodes of a depth side by side).
+        let wanted = self.wanted(camera);
+        for depth in wanted.chunk_by(|a, b| a.depth == b.depth) {
+            self.build_depth(depth, &mut stats)?;
         }
         stats.sun_pending = self.sun_pending();
         tracing::debug!(

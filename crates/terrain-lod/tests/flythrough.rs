@@ -340,3 +340,110 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
     assert_eq!(fresh.ready_nodes(), h.ready_nodes());
     assert_eq!(read(&fresh), read(&h));
 }
+
+/// The CPU sweeper without forks: the hierarchy sweeps its nodes one after the other.
+struct OneByOne(CpuSweeper);
+
+impl lightgrid_core::Sweeper for OneByOne {
+    fn name(&self) -> &'static str {
+        "cpu, one by one"
+    }
+    fn sweep(
+        &mut self,
+        m: &lightgrid_core::MaterialGrid,
+        b: &lightgrid_core::Boundary,
+        o: &lightgrid_core::SweepOptions,
+    ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
+        self.0.sweep(m, b, o)
+    }
+    fn sweep_with_source(
+        &mut self,
+        m: &lightgrid_core::MaterialGrid,
+        b: &lightgrid_core::Boundary,
+        s: &lightgrid_core::CellSource,
+        o: &lightgrid_core::SweepOptions,
+    ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
+        self.0.sweep_with_source(m, b, s, o)
+    }
+    fn sweep_sun(
+        &mut self,
+        m: &lightgrid_core::MaterialGrid,
+        sun: &lightgrid_core::SunBoundary<'_>,
+        o: &lightgrid_core::SweepOptions,
+    ) -> Result<lightgrid_core::SunResponse, lightgrid_core::SweepError> {
+        self.0.sweep_sun(m, sun, o)
+    }
+}
+
+/// Nodes of a depth swept side by side (forks of the CPU sweeper on four threads) give
+/// what one node after the other gives, bit for bit: the same nodes built within the
+/// budget every frame, the same light and sun at every point, through a sun move.
+#[test]
+fn nodes_swept_side_by_side_match_one_by_one() {
+    use lightgrid_core::Sweeper;
+    use lightgrid_terrain_lod::SunLight;
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+    let p = params();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(4)
+        .build()
+        .unwrap();
+    let sun = |to_sun| {
+        Some(SunLight {
+            to_sun,
+            irradiance: Vec3::new(3.0, 2.8, 2.5),
+        })
+    };
+    let run = |sweeper: Box<dyn Sweeper + Send + Sync>| {
+        pool.install(|| {
+            let mut h = Hierarchy::new(&hm, Box::new(composer.clone()), sweeper, sky, p).unwrap();
+            h.set_sun(sun(Vec3::new(0.55, 0.6, 0.3))).unwrap();
+            let mut frames = Vec::new();
+            for f in 0..8 {
+                if f == 5 {
+                    h.set_sun(sun(Vec3::new(0.3, 0.6, 0.55))).unwrap();
+                }
+                let x = 520.0 + 12.0 * f as f32;
+                let s = h
+                    .update(Vec3::new(x, hm.height_at(x, 540.0) + 15.0, 540.0))
+                    .unwrap();
+                frames.push((s.built, s.sun_built, s.pending, s.points_swept));
+            }
+            (h, frames)
+        })
+    };
+    let (side, frames_side) = run(Box::new(CpuSweeper::new()));
+    let (one, frames_one) = run(Box::new(OneByOne(CpuSweeper::new())));
+    assert_eq!(frames_side, frames_one);
+    assert!(
+        frames_side.iter().any(|f| f.0 > 1),
+        "no frame built several nodes: {frames_side:?}"
+    );
+    let mut keys = side.ready_nodes();
+    keys.sort();
+    let mut keys_one = one.ready_nodes();
+    keys_one.sort();
+    assert_eq!(keys, keys_one);
+    for k in &keys {
+        assert!(
+            side.node(*k).unwrap().data() == one.node(*k).unwrap().data(),
+            "{k:?}"
+        );
+    }
+    let mut rng = fastrand::Rng::with_seed(5);
+    for _ in 0..300 {
+        let (x, z) = (500.0 + 140.0 * rng.f32(), 480.0 + 120.0 * rng.f32());
+        let q = Vec3::new(x, hm.height_at(x, z) + 12.0 * rng.f32(), z);
+        let n = Vec3::new(rng.f32() - 0.5, rng.f32(), rng.f32() - 0.5).normalize();
+        assert_eq!(
+            side.irradiance(q, n).unwrap(),
+            one.irradiance(q, n).unwrap()
+        );
+        assert_eq!(
+            side.sun_transmittance(q, Some(n)).unwrap(),
+            one.sun_transmittance(q, Some(n)).unwrap()
+        );
+    }
+}

@@ -1,0 +1,295 @@
+//! Building a frame's nodes, a depth at a time, the nodes of one depth side by side.
+//!
+//! A node's boundaries read only coarser grids, so the nodes of one depth are
+//! independent once the coarser depths are done. [`Hierarchy::update`] takes the wanted
+//! nodes a depth at a time: it decides in the wanted order (nearest first) which nodes
+//! are built and which sun responses computed within the budget, exactly as one node
+//! after the other would, composes the new nodes' materials side by side, then sweeps
+//! the chosen nodes side by side on forks of the sweeper ([`Sweeper::fork`]: the CPU
+//! sweeper forks, each fork keeping its memory from frame to frame; a sweeper that
+//! cannot fork, the GPU's, sweeps them one after the other). The results are those of
+//! the one-by-one order bit for bit: every node's sweep is deterministic and reads
+//! nothing its siblings write.
+
+use std::sync::Mutex;
+use std::time::Duration;
+
+use lightgrid_core::{GridError, MaterialGrid, Sweeper};
+use rayon::prelude::*;
+
+use crate::{FrameStats, GridSun, Hierarchy, LodError, Node, NodeKey, StageTimes, timed};
+
+/// A node's material and whether it has objects, composed.
+type Composed = Result<(MaterialGrid, bool), GridError>;
+
+/// One node's work in a frame.
+struct Job {
+    key: NodeKey,
+    /// A new node's material and whether it has objects (`None`: a built node whose sun
+    /// response is stale; its material is composed in the job).
+    material: Option<(MaterialGrid, bool)>,
+    /// Sweep the sky's light (a new node).
+    sky: bool,
+    /// Compute the sun's responses.
+    sun: bool,
+}
+
+/// What a job made.
+struct Done {
+    key: NodeKey,
+    node: Option<Node>,
+    sun: Option<GridSun>,
+    times: StageTimes,
+}
+
+/// How a wanted node of a depth is served this frame.
+enum Want {
+    /// Built, its sun response stale.
+    Stale(NodeKey),
+    /// To build (its material is at this index of the composed ones).
+    New(NodeKey, usize),
+}
+
+impl Hierarchy {
+    /// Builds the wanted nodes of one depth (`keys`, nearest first) within the budget.
+    pub(crate) fn build_depth(
+        &mut self,
+        keys: &[NodeKey],
+        stats: &mut FrameStats,
+    ) -> Result<(), LodError> {
+        let mut order = Vec::new();
+        let mut new = Vec::new();
+        for &key in keys {
+            if self.nodes.contains_key(&key) {
+                if self.sun.is_some() && !self.sun_current(key) {
+                    order.push(Want::Stale(key));
+                }
+                continue;
+            }
+            if self.parent_blocks(key, stats) {
+                continue;
+            }
+            order.push(Want::New(key, new.len()));
+            new.push(key);
+        }
+        // Materials first (they size the grids the budget counts), side by side.
+        let composed: Vec<(Composed, Duration)> = new
+            .par_iter()
+            .map(|&key| {
+                let mut t = Duration::ZERO;
+                let m = timed(&mut t, || self.node_material(key));
+                (m, t)
+            })
+            .collect();
+        let mut materials = Vec::with_capacity(composed.len());
+        for (m, t) in composed {
+            stats.times.material += t;
+            materials.push(Some(m?));
+        }
+        let budget = self.params.budget_points;
+        let mut jobs = Vec::new();
+        for w in order {
+            match w {
+                Want::Stale(key) => {
+                    let cost = self.nodes[&key].light.desc().point_count() as u64;
+                    if !self.sun_parent_ready(key) || stats.points_swept + cost > budget {
+                        stats.pending += 1;
+                        continue;
+                    }
+                    stats.points_swept += cost;
+                    stats.sun_built += 1;
+                    jobs.push(Job {
+                        key,
+                        material: None,
+                        sky: false,
+                        sun: true,
+                    });
+                }
+                Want::New(key, i) => {
+                    let Some((material, has_objects)) = materials[i].take() else {
+                        continue;
+                    };
+                    let cost = material.desc().point_count() as u64;
+                    if stats.points_swept + cost > budget {
+                        stats.pending += 1;
+                        continue;
+                    }
+                    stats.points_swept += cost;
+                    stats.built += 1;
+                    let mut sun = false;
+                    if self.sun.is_some() {
+                        if !self.sun_parent_ready(key) || stats.points_swept + cost > budget {
+                            stats.pending += 1;
+                        } else {
+                            stats.points_swept += cost;
+                            stats.sun_built += 1;
+                            sun = true;
+                        }
+                    }
+                    jobs.push(Job {
+                        key,
+                        material: Some((material, has_objects)),
+                        sky: true,
+                        sun,
+                    });
+                }
+            }
+        }
+        self.run_jobs(jobs, &mut stats.times)
+    }
+
+    /// Whether a new node waits (its parent not built: pending) or is skipped (bare
+    /// ground above it with the skip on), counting it.
+    fn parent_blocks(&self, key: NodeKey, stats: &mut FrameStats) -> bool {
+        let Some(p) = Self::parent(key) else {
+            return false;
+        };
+        let skip_bare = self.params.skip.bare_children;
+        match self.nodes.get(&p) {
+            Some(n) if n.has_objects || !skip_bare => false,
+            Some(_) => {
+                stats.skipped_bare += 1; // bare ground: no finer child needed
+                true
+            }
+            // A missing parent under a bare ancestor will never be built: neither will
+            // this node (not pending work).
+            None if skip_bare && self.bare_ancestor(p) => {
+                stats.skipped_bare += 1;
+                true
+            }
+            None => {
+                stats.pending += 1;
+                true
+            }
+        }
+    }
+
+    /// Runs `jobs` (side by side on forks where the sweeper forks) and stores what they
+    /// made. The first error is returned after every job has finished.
+    fn run_jobs(&mut self, jobs: Vec<Job>, times: &mut StageTimes) -> Result<(), LodError> {
+        if jobs.is_empty() {
+            return Ok(());
+        }
+        let mut main = std::mem::replace(&mut self.sweeper, Box::new(crate::Lent));
+        let pool = Mutex::new(std::mem::take(&mut self.forks));
+        let results: Vec<Result<Done, LodError>> = {
+            let this = &*self;
+            let side_by_side =
+                jobs.len() > 1 && rayon::current_num_threads() > 1 && main.fork().is_some();
+            if side_by_side {
+                let main = &main;
+                jobs.into_par_iter()
+                    .map(|job| {
+                        let taken = pool.lock().unwrap_or_else(|e| e.into_inner()).pop();
+                        let Some(mut s) = taken.or_else(|| main.fork()) else {
+                            return Err(GridError::invalid(
+                                "sweeper",
+                                main.name(),
+                                "stopped giving forks",
+                            )
+                            .into());
+                        };
+                        let r = this.run_job(job, s.as_mut());
+                        pool.lock().unwrap_or_else(|e| e.into_inner()).push(s);
+                        r
+                    })
+                    .collect()
+            } else {
+                jobs.into_iter()
+                    .map(|job| this.run_job(job, main.as_mut()))
+                    .collect()
+            }
+        };
+        self.sweeper = main;
+        self.forks = pool.into_inner().unwrap_or_else(|e| e.into_inner());
+        let mut first_error = None;
+        for r in results {
+            match r {
+                Ok(done) => {
+                    add_times(times, &done.times);
+                    if let Some(node) = done.node {
+                        self.nodes.insert(done.key, node);
+                    }
+                    if let (Some(sun), Some(n)) = (done.sun, self.nodes.get_mut(&done.key)) {
+                        n.sun = Some(sun);
+                    }
+                }
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        first_error.map_or(Ok(()), Err)
+    }
+
+    /// One node's sky sweep and sun responses, on `sweeper`.
+    fn run_job(&self, job: Job, sweeper: &mut dyn Sweeper) -> Result<Done, LodError> {
+        let _node = tracing::trace_span!("node", key = ?job.key).entered();
+        let mut times = StageTimes::default();
+        let (material, has_objects) = match job.material {
+            Some(m) => m,
+            None => {
+                let n = &self.nodes[&job.key];
+                let desc = *n.light.desc();
+                let m = timed(&mut times.material, || self.source.material(&desc))?;
+                (m, n.has_objects)
+            }
+        };
+        let node = if job.sky {
+            Some(self.sky_node(job.key, &material, has_objects, sweeper, &mut times)?)
+        } else {
+            None
+        };
+        let sun = if job.sun {
+            self.node_sun(job.key, &material, has_objects, sweeper, &mut times)?
+        } else {
+            None
+        };
+        Ok(Done {
+            key: job.key,
+            node,
+            sun,
+            times,
+        })
+    }
+
+    /// A new node's grid: its boundary from the coarser grids, swept.
+    fn sky_node(
+        &self,
+        key: NodeKey,
+        material: &MaterialGrid,
+        has_objects: bool,
+        sweeper: &mut dyn Sweeper,
+        times: &mut StageTimes,
+    ) -> Result<Node, LodError> {
+        let desc = *material.desc();
+        let o = self.node_options(has_objects);
+        let (boundary, input_hash) = timed(&mut times.boundary, || {
+            let b = self.node_boundary(&desc, key.depth);
+            let hash = crate::hash_grid(material, &b, &o);
+            (b, hash)
+        });
+        let out = timed(&mut times.sky_sweep, || {
+            sweeper.sweep(material, &boundary, &o)
+        })?;
+        let light = out.bins.ok_or_else(|| {
+            GridError::invalid("sweeper", sweeper.name(), "returned no bins, asked for")
+        })?;
+        Ok(Node {
+            light,
+            sun: None,
+            resident: out.resident,
+            input_hash,
+            has_objects,
+        })
+    }
+}
+
+/// `into += t`, stage by stage.
+fn add_times(into: &mut StageTimes, t: &StageTimes) {
+    into.material += t.material;
+    into.boundary += t.boundary;
+    into.sky_sweep += t.sky_sweep;
+    into.sun_boundary += t.sun_boundary;
+    into.sun_sweep += t.sun_sweep;
+}
