@@ -19,7 +19,7 @@ pub const ALBEDOS: [f32; 4] = [0.5, 0.9, 0.99, 0.999];
 pub type Row = (u32, f32, Case, Case);
 
 /// Sweeps every slab plain and accelerated, at most `max_passes` passes each.
-pub fn measure(max_passes: u32) -> Vec<Row> {
+pub fn measure(max_passes: u32) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
     for depth in DEPTHS {
         for w in ALBEDOS {
@@ -27,19 +27,19 @@ pub fn measure(max_passes: u32) -> Vec<Row> {
             let mut o = SweepOptions::multi_bounce();
             o.max_passes = max_passes;
             o.tolerance = 1e-4;
-            let plain = exact::convergence_with(depth, w, &o);
+            let plain = exact::convergence_with(depth, w, &o)?;
             o.acceleration = Acceleration::Diffusion;
-            let on = exact::convergence_with(depth, w, &o);
+            let on = exact::convergence_with(depth, w, &o)?;
             rows.push((depth, w, plain, on));
         }
     }
-    rows
+    Ok(rows)
 }
 
 /// Half-spaces (total optical depth 40) of albedo 0.99 and 0.999 in cells of optical
 /// depth 0.05, 0.69 and 3, tolerance 1e-5, plain and accelerated: (albedo, cell
 /// pass-through, plain, accelerated).
-pub fn half_spaces(max_passes: u32) -> Vec<(f32, f32, Case, Case)> {
+pub fn half_spaces(max_passes: u32) -> Result<Vec<(f32, f32, Case, Case)>> {
     let mut rows = Vec::new();
     for w in [0.99f32, 0.999] {
         for pass in [0.95f32, 0.5, 0.05] {
@@ -47,13 +47,13 @@ pub fn half_spaces(max_passes: u32) -> Vec<(f32, f32, Case, Case)> {
             let mut o = SweepOptions::multi_bounce();
             o.max_passes = max_passes;
             o.tolerance = 1e-5;
-            let plain = exact::half_space_with(w, pass, 40.0, &o);
+            let plain = exact::half_space_with(w, pass, 40.0, &o)?;
             o.acceleration = Acceleration::Diffusion;
-            let on = exact::half_space_with(w, pass, 40.0, &o);
+            let on = exact::half_space_with(w, pass, 40.0, &o)?;
             rows.push((w, pass, plain, on));
         }
     }
-    rows
+    Ok(rows)
 }
 
 /// [`half_spaces`] as a table.

@@ -1,7 +1,9 @@
 //! `cargo xtask fuzz`: every reader of user files, fed millions of generated inputs.
 //!
 //! Each [`Target`] is one reader (grid files, scene TOML, light-volume cache files, glTF
-//! and GLB models, EXR skies, PNG heightmaps) with a few valid **seed** inputs. Inputs are
+//! and GLB models, EXR skies, PNG heightmaps), the export path, or the library's entry
+//! points called with values from the input (`export`, `api`: [`crate::fuzz_api`]),
+//! with a few valid **seed** inputs. Inputs are
 //! seeds mutated by a deterministic generator (bit flips, interesting integers such as
 //! `u32::MAX` written over header fields, truncation, insertion, deletion, duplication,
 //! splicing two seeds); half of them are **fixed up** afterwards (checksums and length
@@ -542,6 +544,18 @@ pub fn targets() -> Vec<Target> {
             seeds: png_seeds(),
             fixup: no_fixup,
             run: run_png,
+        },
+        Target {
+            name: "export",
+            seeds: crate::fuzz_api::export_seeds(),
+            fixup: fix_grid,
+            run: crate::fuzz_api::run_export,
+        },
+        Target {
+            name: "api",
+            seeds: crate::fuzz_api::api_seeds(),
+            fixup: no_fixup,
+            run: crate::fuzz_api::run_api,
         },
     ]
 }

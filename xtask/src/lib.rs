@@ -5,4 +5,5 @@ pub mod bench;
 pub mod convergence;
 pub mod frame;
 pub mod fuzz;
+pub mod fuzz_api;
 pub mod sun;

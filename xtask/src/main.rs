@@ -195,9 +195,22 @@ fn main() -> ExitCode {
 
 fn exact(root: &std::path::Path, max_passes: u32) -> ExitCode {
     use lightgrid_sweep_cpu::exact;
-    let cases = exact::measure(max_passes);
-    let rows = convergence::measure(max_passes);
-    let halves = convergence::half_spaces(max_passes);
+    let measured = exact::measure(max_passes)
+        .map_err(anyhow::Error::from)
+        .and_then(|c| {
+            Ok((
+                c,
+                convergence::measure(max_passes)?,
+                convergence::half_spaces(max_passes)?,
+            ))
+        });
+    let (cases, rows, halves) = match measured {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("xtask exact: {e:#}");
+            return ExitCode::FAILURE;
+        }
+    };
     let text = format!(
         "cargo xtask exact --max-passes {max_passes}\n{}\nPasses and time to tolerance 1e-4, slabs of cells of optical depth 1 under a zenith beam (plain | accelerated):\n{}\nHalf-spaces to tolerance 1e-5 (plain | accelerated):\n{}",
         exact::table(&cases),

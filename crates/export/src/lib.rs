@@ -386,10 +386,26 @@ impl BevyVolume {
         out
     }
 
-    /// The sidecar describing this volume (file names relative to the sidecar).
-    pub fn sidecar(&self, stem: &str, content: Content, unit_scale: f32) -> VolumeInfo {
+    /// The sidecar describing this volume (file names relative to the sidecar). The
+    /// written intensity, `intensity × unit_scale`, must be a positive finite `f32` (a
+    /// scale of 1e-45 gave 0, 1e20 on a bright grid infinity): else an error naming
+    /// `unit_scale`.
+    pub fn sidecar(
+        &self,
+        stem: &str,
+        content: Content,
+        unit_scale: f32,
+    ) -> Result<VolumeInfo, ExportError> {
+        let product = self.intensity * unit_scale;
+        if !(unit_scale.is_finite() && product.is_finite() && product > 0.0) {
+            return Err(ExportError::Invalid {
+                field: "unit_scale",
+                value: format!("{unit_scale:?} (the volume's intensity {})", self.intensity),
+                reason: "times the volume's intensity it must be a positive finite f32",
+            });
+        }
         let d = self.desc.dims();
-        VolumeInfo {
+        Ok(VolumeInfo {
             name: stem.to_string(),
             dds: format!("{stem}.dds"),
             ktx2: format!("{stem}.ktx2"),
@@ -401,7 +417,7 @@ impl BevyVolume {
             content,
             grid_origin: self.desc.origin().to_array(),
             grid_spacing: self.desc.h(),
-        }
+        })
     }
 
     /// Writes `<stem>.dds` and `<stem>.ktx2` into `dir` (created if missing), both or
@@ -642,18 +658,6 @@ pub fn write_volumes(
         (Content::Indirect, Some((to_sun, e))) => SidecarSun::new(to_sun, e, unit_scale)?,
         _ => None,
     };
-    // The sidecar's intensities: texel × intensity × unit_scale must stay a positive
-    // finite f32 (1e-45 gave 0, 1e20 on a bright grid infinity, written as null).
-    for (i, v) in volumes.iter().enumerate() {
-        let product = v.intensity() * unit_scale;
-        if !(product.is_finite() && product > 0.0) {
-            return Err(ExportError::Invalid {
-                field: "unit_scale",
-                value: format!("{unit_scale:?} (volume {i}'s intensity {})", v.intensity()),
-                reason: "times the volume's intensity it must be a positive finite f32",
-            });
-        }
-    }
     // Every file encoded first, then written as one set: all of them or none.
     let mut files = Vec::new();
     let mut infos = Vec::new();
@@ -664,7 +668,7 @@ pub fn write_volumes(
             format!("{stem}-{i}")
         };
         files.extend(v.files(dir, &name)?);
-        infos.push(v.sidecar(&name, content, unit_scale));
+        infos.push(v.sidecar(&name, content, unit_scale)?);
     }
     files.push(Sidecar::new(infos, sun).file(dir, stem)?);
     create_dir(dir)?;

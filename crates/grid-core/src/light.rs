@@ -117,9 +117,16 @@ impl BinLight {
             .all(|v| v.is_finite() && v.cmpge(Vec3::ZERO).all())
     }
 
-    /// Total light over the sphere (sum of the bins).
+    /// Total light over the sphere (sum of the bins, in `f64`). Like every projection
+    /// below it is finite: a sum past `f32::MAX` (bins near it) saturates there, and a
+    /// NaN (bins holding NaN or opposite infinities) reads as 0 ([`finite`]).
     pub fn total(&self) -> Vec3 {
-        self.0.iter().copied().sum()
+        let s: Vec3 = self.0.iter().copied().sum();
+        if s.is_finite() {
+            s
+        } else {
+            finite(self.0.iter().map(|v| v.as_dvec3()).sum())
+        }
     }
 
     /// Mean light over the sphere: `total / 4 pi` (for a uniform sky, its radiance).
@@ -139,7 +146,7 @@ impl BinLight {
                 e += self.0[d].as_dvec3() * (dirs::clipped_cosine(d, -n) / g.omega[d]);
             }
         }
-        e.as_vec3()
+        finite(e)
     }
 
     /// Dominant direction: the luminance-weighted mean of the bin unit vectors, pointing
@@ -169,16 +176,22 @@ impl BinLight {
         let t = sh_table();
         let g = dirs::bins();
         let mut c = [Vec3::ZERO; 9];
+        let mut wide = [DVec3::ZERO; 9];
         for ((light, row), omega) in self.0.iter().zip(t).zip(g.omega) {
             let l = light.as_dvec3() / omega;
-            for (k, ck) in c.iter_mut().enumerate() {
+            for (k, (ck, wk)) in c.iter_mut().zip(&mut wide).enumerate() {
                 // The bin is indexed by travel direction t; arrival is -t, and
                 // Y_lm(-t) = (-1)^l Y_lm(t).
                 let parity = if (1..4).contains(&k) { -1.0 } else { 1.0 };
                 *ck += (l * row[k] * parity).as_vec3();
+                *wk += l * row[k] * parity;
             }
         }
-        Sh2(c)
+        if c.iter().all(|v| v.is_finite()) {
+            Sh2(c)
+        } else {
+            Sh2(wide.map(finite))
+        }
     }
 
     /// Order-1 spherical harmonics (the first 4 coefficients of [`Self::sh2`]).
@@ -200,7 +213,7 @@ impl BinLight {
     /// The same numbers as [`BinLight::irradiance`] on each axis (the bins' clipped
     /// cosines for the six axes are computed once per process).
     pub fn ambient_cube(&self) -> AmbientCube {
-        AmbientCube(self.ambient_cube_f64().map(|e| e.as_vec3()))
+        AmbientCube(self.ambient_cube_f64().map(finite))
     }
 
     /// [`BinLight::ambient_cube`] in `f64`, before the rounding to `f32`: bins near
@@ -239,10 +252,68 @@ impl BinLight {
         (down, up)
     }
 
+    /// [`BinLight::split_vertical`] with each horizontal bin split by
+    /// [`BinLight::horizon_share`] instead of evenly: exact where the radiance is
+    /// constant over each hemisphere, as above a Lambertian ground under a uniform sky
+    /// (where an even split gives the downward half `(1 + a) / 2` of the sky's). The
+    /// two parts sum to `self` up to rounding.
+    pub fn split_vertical_by_neighbours(&self) -> (BinLight, BinLight) {
+        let (mut down, mut up) = self.split_vertical();
+        for d in 0..NUM_DIRS {
+            if dirs::dir_ivec(d).y == 0 {
+                let h = self.0[d];
+                down.0[d] = h * self.horizon_share(d);
+                up.0[d] = (h - down.0[d]).max(Vec3::ZERO);
+            }
+        }
+        (down, up)
+    }
+
+    /// The part of horizontal bin `d` taken to travel downward, per colour: its two
+    /// neighbours of the same azimuth, the bins 45° below and above the horizon, share
+    /// one solid angle, so their light is in the ratio of their radiances, and the
+    /// downward half takes `B(x,−1,z) / (B(x,−1,z) + B(x,1,z))`; one half where both are
+    /// dark (or `d` is not horizontal). In `[0, 1]`.
+    pub fn horizon_share(&self, d: usize) -> Vec3 {
+        let v = dirs::dir_ivec(d);
+        let (Some(below), Some(above)) = (
+            dirs::dir_index(glam::IVec3::new(v.x, -1, v.z)),
+            dirs::dir_index(glam::IVec3::new(v.x, 1, v.z)),
+        ) else {
+            return Vec3::splat(0.5);
+        };
+        if v.y != 0 {
+            return Vec3::splat(0.5);
+        }
+        let share = |b: f32, a: f32| {
+            let s = b + a;
+            if s > 0.0 && s.is_finite() {
+                (b / s).clamp(0.0, 1.0)
+            } else {
+                0.5
+            }
+        };
+        let (b, a) = (self.0[below], self.0[above]);
+        Vec3::new(share(b.x, a.x), share(b.y, a.y), share(b.z, a.z))
+    }
+
     /// `self * s` per bin.
     pub fn scaled(&self, s: f32) -> Self {
         *self * s
     }
+}
+
+/// `v` as `f32`, finite: beyond `±f32::MAX` saturated there, NaN read as 0. What the
+/// projections of [`BinLight`] return instead of an infinity or a NaN.
+pub fn finite(v: DVec3) -> Vec3 {
+    let one = |x: f64| {
+        if x.is_nan() {
+            0.0
+        } else {
+            x.clamp(-f32::MAX as f64, f32::MAX as f64) as f32
+        }
+    };
+    Vec3::new(one(v.x), one(v.y), one(v.z))
 }
 
 /// `clipped_cosine(d, -axis) / omega_d` for the six ambient-cube axes: the irradiance
@@ -468,6 +539,62 @@ mod tests {
         }
     }
     use super::*;
+
+    /// Radiance `sky` from above the horizon and `ground` from below, per colour, as
+    /// bins (the horizontal bins half each).
+    fn hemispheres(sky: Vec3, ground: Vec3) -> BinLight {
+        let w = dirs::solid_angles();
+        BinLight(std::array::from_fn(|d| match dirs::dir_ivec(d).y {
+            -1 => sky * w[d],
+            1 => ground * w[d],
+            _ => (sky + ground) * (0.5 * w[d]),
+        }))
+    }
+
+    #[test]
+    fn the_horizon_split_is_exact_for_two_hemispheres_and_sums_to_the_whole() {
+        for (sky, ground) in [
+            (Vec3::ONE, Vec3::splat(0.3)),
+            (Vec3::new(1.0, 2.0, 3.0), Vec3::ZERO),
+            (Vec3::ZERO, Vec3::new(0.5, 0.1, 0.0)),
+            (Vec3::splat(1e-30), Vec3::splat(2e-30)),
+        ] {
+            let l = hemispheres(sky, ground);
+            let (down, up) = l.split_vertical_by_neighbours();
+            let (want_down, want_up) = (
+                hemispheres(sky, Vec3::ZERO),
+                hemispheres(Vec3::ZERO, ground),
+            );
+            for d in 0..NUM_DIRS {
+                let tol = 1e-6 * l.0[d].max_element().max(1e-30);
+                assert!(
+                    (down.0[d] - want_down.0[d]).abs().max_element() <= tol,
+                    "{d}"
+                );
+                assert!((up.0[d] - want_up.0[d]).abs().max_element() <= tol, "{d}");
+                assert!(
+                    ((down.0[d] + up.0[d]) - l.0[d]).abs().max_element() <= tol,
+                    "{d}"
+                );
+            }
+        }
+        // Dark neighbours, a vertical bin: one half each. Any values: a share in [0, 1].
+        assert_eq!(BinLight::ZERO.horizon_share(9), Vec3::splat(0.5));
+        assert_eq!(
+            hemispheres(Vec3::ONE, Vec3::ZERO).horizon_share(dirs::UP),
+            Vec3::splat(0.5)
+        );
+        let mut rng = crate::rng::SeededRng::new(3);
+        for _ in 0..200 {
+            let l = BinLight(std::array::from_fn(|_| {
+                Vec3::new(rng.f32(), rng.f32(), rng.f32()) * f32::MAX
+            }));
+            for d in 0..NUM_DIRS {
+                let s = l.horizon_share(d);
+                assert!(s.is_finite() && s.cmpge(Vec3::ZERO).all() && s.cmple(Vec3::ONE).all());
+            }
+        }
+    }
 
     #[test]
     fn bin_light_arithmetic_is_per_bin() {

@@ -121,7 +121,8 @@ pub enum SideBoundary {
     /// Given values at the points outside the grid that sweep paths start from: a ring of
     /// width [`HALO_WIDTH`] around every level, laid out by [`HaloLayout`]. Each value
     /// is full-sphere light (as a coarser grid holds it): the downward pass takes its
-    /// downward part, the upward pass its upward part ([`BinLight::split_vertical`]).
+    /// downward part, the upward pass its upward part, each horizontal bin split across
+    /// the horizon by its neighbours ([`BinLight::split_vertical_by_neighbours`]).
     Given(Vec<BinLight>),
 }
 

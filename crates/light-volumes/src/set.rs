@@ -82,7 +82,8 @@ impl LightSet {
                 let vd = g.desc();
                 let lo_f = (vd.origin() - d.origin()) / d.h();
                 let lo = lo_f.round();
-                if (lo_f - lo).abs().max_element() > 1e-3
+                if !lo_f.is_finite()
+                    || (lo_f - lo).abs().max_element() > 1e-3
                     || (vd.h() - d.h()).abs() > 1e-6 * d.h()
                     || lo.min_element() < 0.0
                 {
@@ -92,15 +93,18 @@ impl LightSet {
                         "must lie on the set's grid points",
                     ));
                 }
-                let lo = lo.as_uvec3();
-                let hi = lo + vd.dims() - UVec3::ONE;
-                if hi.cmpge(d.dims()).any() {
+                // In u64: a box far outside (an origin of 9e8 on 1e-4 m points) is
+                // refused, not wrapped into the grid.
+                let far = (0..3).any(|a| lo[a] as u64 + vd.dims()[a] as u64 > d.dims()[a] as u64);
+                if lo.cmpge(d.dims().as_vec3()).any() || far {
                     return Err(GridError::invalid(
                         "volume.desc",
                         vd,
                         "reaches outside the set's grid",
                     ));
                 }
+                let lo = lo.as_uvec3();
+                let hi = lo + vd.dims() - UVec3::ONE;
                 (g.into_data(), Region { lo, hi })
             }
             None => (

@@ -37,11 +37,26 @@ pub struct CompressedVolume {
 
 impl CompressedVolume {
     /// Crops and quantises `volume` (the square root of each value over `scale` = the
-    /// largest value rounds to the nearest of 256 levels).
+    /// largest value rounds to the nearest of 256 levels). Values a grid can hold only
+    /// through `data_mut` are read as light: NaN and negatives as 0, infinity as
+    /// `f32::MAX`.
     pub fn compress(volume: &LightGrid, key: u64) -> Self {
-        let max = volume.max_value();
+        let clean = |v: f32| {
+            if v.is_nan() {
+                0.0
+            } else {
+                v.clamp(0.0, f32::MAX)
+            }
+        };
+        // Per component: `max_element` of a vector holding NaN may return the NaN.
+        let peak = |v: Vec3| clean(v.x).max(clean(v.y)).max(clean(v.z));
+        let max = volume
+            .data()
+            .iter()
+            .flat_map(|b| b.0.iter())
+            .fold(0.0f32, |m, v| m.max(peak(*v)));
         let d = volume.desc();
-        if max.is_nan() || max <= 0.0 {
+        if max <= 0.0 {
             return Self {
                 key,
                 desc: None,
@@ -52,7 +67,7 @@ impl CompressedVolume {
         let cut = max * THRESHOLD;
         let (mut lo, mut hi) = (UVec3::MAX, UVec3::ZERO);
         for (i, b) in volume.data().iter().enumerate() {
-            if b.0.iter().any(|v| v.max_element() > cut) {
+            if b.0.iter().any(|v| peak(*v) > cut) {
                 let c = d.coords(i).expect("in range");
                 lo = lo.min(c);
                 hi = hi.max(c);
@@ -60,11 +75,7 @@ impl CompressedVolume {
         }
         let dims = hi - lo + UVec3::ONE;
         let desc = GridDesc::new(d.position(lo), d.h(), dims).expect("a box inside a grid");
-        let q = |v: f32| {
-            (((v / max).max(0.0).sqrt() * 255.0)
-                .round()
-                .clamp(0.0, 255.0)) as u8
-        };
+        let q = |v: f32| (((clean(v) / max).sqrt() * 255.0).round().clamp(0.0, 255.0)) as u8;
         let mut codes = Vec::with_capacity(desc.point_count() * NUM_DIRS);
         for y in lo.y..=hi.y {
             for z in lo.z..=hi.z {

@@ -35,6 +35,10 @@ use rayon::prelude::*;
 
 use crate::model::{AlphaMode, Model, ModelError};
 
+/// Most chords a cell (`directions × chords_per_direction`): 256 times the reference
+/// preset's 1024; more would run for hours and their product leaves `u32`.
+pub const MAX_CHORDS: u64 = 1 << 18;
+
 /// Voxelization parameters. Start from a preset and change fields.
 #[derive(Debug, Clone, Copy)]
 pub struct VoxelizeParams {
@@ -42,7 +46,8 @@ pub struct VoxelizeParams {
     pub cell: f32,
     /// Chord directions per cell (stratified over the sphere).
     pub directions: u32,
-    /// Chords per direction (stratified over the cell's projected area).
+    /// Chords per direction (stratified over the cell's projected area). Directions
+    /// times chords per direction is at most [`MAX_CHORDS`].
     pub chords_per_direction: u32,
     /// Make the inside of closed meshes solid.
     pub fill_closed: bool,
@@ -112,6 +117,14 @@ impl VoxelizeParams {
                 "chords_per_direction",
                 0,
                 "must be at least 1",
+            ));
+        }
+        let chords = self.directions as u64 * self.chords_per_direction as u64;
+        if chords > MAX_CHORDS {
+            return Err(GridError::invalid(
+                "chords_per_direction",
+                (self.directions, self.chords_per_direction),
+                "directions x chords_per_direction must be at most MAX_CHORDS (262144)",
             ));
         }
         Ok(())

@@ -22,7 +22,7 @@ fn main() {
         let pass = (-tau).exp();
         let mut line = format!("tau {tau:4}:");
         for &w in &ws {
-            let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o);
+            let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o).unwrap();
             line += &format!(
                 " {:+.2}% (balance {:.0e}, {} passes)",
                 100.0 * (c.swept / c.exact - 1.0),

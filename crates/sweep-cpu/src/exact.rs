@@ -12,14 +12,37 @@
 //!   with Chandrasekhar's H-function ([`h_function`]).
 //!
 //! [`measure`] runs the sweep on each and reports its error; `cargo xtask bench` prints
-//! the table.
+//! the table. Every problem checks its parameters first: out of range (a grid past
+//! [`MAX_SIDE`] points a side or [`MAX_LEVELS`] levels, a pass-through of 1 in a
+//! half-space, an albedo outside `[0, 1]`, passes outside `1..=MAX_PASSES`) is a
+//! [`SweepError::Invalid`] naming the parameter, never a panic.
 
 use std::f64::consts::PI;
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
-    BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
+    BinLight, Boundary, GridDesc, GridError, Material, MaterialGrid, SideBoundary, SweepError,
+    SweepOptions,
 };
+
+/// Most points a side of [`furnace_material`]'s cube.
+pub const MAX_SIDE: u32 = 128;
+/// Most levels of a slab ([`half_space`], [`convergence`]).
+pub const MAX_LEVELS: u32 = 1 << 16;
+
+/// `value` within `lo..=hi`, or an error naming `field` and saying `reason`.
+fn within<T: PartialOrd + std::fmt::Debug + Copy>(
+    field: &'static str,
+    value: T,
+    (lo, hi): (T, T),
+    reason: &'static str,
+) -> Result<T, GridError> {
+    if value >= lo && value <= hi {
+        Ok(value)
+    } else {
+        Err(GridError::invalid(field, value, reason))
+    }
+}
 
 /// Gauss–Legendre nodes and weights on `[0, 1]` (`n` points, Newton iteration on the
 /// Legendre polynomial; exact for polynomials of degree `2n − 1`).
@@ -161,8 +184,9 @@ fn case(name: String, exact: f64, swept: f64, s: &crate::Sweep, seconds: f64) ->
 
 /// A deterministic random material of white medium blobs (pass-through 0.02..1,
 /// albedo 1) in empty space, `n³` cells.
-pub fn furnace_material(n: u32, seed: u64) -> MaterialGrid {
-    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(n)).expect("valid grid");
+pub fn furnace_material(n: u32, seed: u64) -> Result<MaterialGrid, SweepError> {
+    let n = within("n", n, (1, MAX_SIDE), "must be within 1..=MAX_SIDE (128)")?;
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(n))?;
     let mut rng = fastrand::Rng::with_seed(seed);
     let blobs: Vec<(Vec3, f32, f32)> = (0..6)
         .map(|_| {
@@ -187,29 +211,29 @@ pub fn furnace_material(n: u32, seed: u64) -> MaterialGrid {
             }
         })
         .collect();
-    MaterialGrid::new(d, cells).expect("valid material")
+    Ok(MaterialGrid::new(d, cells)?)
 }
 
 /// The white furnace on [`furnace_material`]: the largest deviation of the average
 /// light from 1 and of the irradiance on the six axes from π, over all points.
-pub fn furnace(n: u32, seed: u64, smoothing: f32) -> (Case, Case) {
+pub fn furnace(n: u32, seed: u64, smoothing: f32) -> Result<(Case, Case), SweepError> {
     let mut o = options(400, 1e-6);
     o.smoothing = smoothing;
     furnace_with(n, seed, &o)
 }
 
 /// [`furnace`] with any sweep options (acceleration on, say).
-pub fn furnace_with(n: u32, seed: u64, o: &SweepOptions) -> (Case, Case) {
+pub fn furnace_with(n: u32, seed: u64, o: &SweepOptions) -> Result<(Case, Case), SweepError> {
     let smoothing = o.smoothing;
-    let m = furnace_material(n, seed);
+    let m = furnace_material(n, seed)?;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
     };
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, o).expect("valid furnace");
+    let s = crate::run(&m, &b, o)?;
     let secs = t.elapsed().as_secs_f64();
-    let g = s.output.bins.as_ref().expect("bins");
+    let g = s.output.bins.as_ref().ok_or_else(no_bins)?;
     let (mut avg, mut irr) = (0f64, 0f64);
     for l in g.data() {
         avg = avg.max((l.average().x as f64 - 1.0).abs());
@@ -218,10 +242,20 @@ pub fn furnace_with(n: u32, seed: u64, o: &SweepOptions) -> (Case, Case) {
         }
     }
     let name = |what: &str| format!("furnace {n}³, smoothing {smoothing}: {what}");
-    (
+    Ok((
         case(name("average light"), 1.0, 1.0 + avg, &s, secs),
         case(name("irradiance"), 1.0, 1.0 + irr, &s, secs),
+    ))
+}
+
+/// The error of options that asked for no bins (the problems read them).
+fn no_bins() -> SweepError {
+    GridError::invalid(
+        "options.outputs.bins",
+        false,
+        "the exact problems read the bins",
     )
+    .into()
 }
 
 /// `levels` levels of 4 × 4 cells of a uniform medium (albedo `w`, pass-through `pass`),
@@ -230,16 +264,25 @@ pub fn furnace_with(n: u32, seed: u64, o: &SweepOptions) -> (Case, Case) {
 /// `k` from the top takes `p^k (1 − p)`), as the sun enters a sweep. (A beam in the
 /// vertical bin of the top boundary would be light spread over that bin, whose
 /// half-space albedo is not Chandrasekhar's `μ₀ = 1` value.)
-fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary, crate::CellSource) {
-    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, levels, 4)).expect("valid grid");
+fn beam_slab(
+    w: f32,
+    pass: f32,
+    levels: u32,
+) -> Result<(MaterialGrid, Boundary, crate::CellSource), SweepError> {
+    let levels = within(
+        "levels",
+        levels,
+        (2, MAX_LEVELS),
+        "must be within 2..=MAX_LEVELS (65536)",
+    )?;
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, levels, 4))?;
     let m = MaterialGrid::filled(
         d,
         Material {
             reflectance: Vec3::splat(w),
             pass,
         },
-    )
-    .expect("valid material");
+    )?;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(BinLight::ZERO)
@@ -250,24 +293,23 @@ fn beam_slab(w: f32, pass: f32, levels: u32) -> (MaterialGrid, Boundary, crate::
             Vec3::splat((pass as f64).powi(k as i32) as f32 * (1.0 - pass))
         })
         .collect();
-    let src = crate::CellSource::new(d, removed, Vec3::NEG_Y).expect("valid source");
-    (m, b, src)
+    let src = crate::CellSource::new(d, removed, Vec3::NEG_Y)?;
+    Ok((m, b, src))
 }
 
 /// The white furnace in a uniform medium (every cell pass-through `pass`, albedo 1,
 /// periodic): the largest deviation of any bin from its exact value (radiance 1 times
 /// the bin's solid angle). It isolates the per-channel balance of removal and emission
 /// from the geometry of heterogeneous media.
-pub fn uniform_furnace(pass: f32) -> Case {
-    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(8)).expect("valid grid");
+pub fn uniform_furnace(pass: f32) -> Result<Case, SweepError> {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(8))?;
     let m = MaterialGrid::filled(
         d,
         Material {
             reflectance: Vec3::ONE,
             pass,
         },
-    )
-    .expect("valid material");
+    )?;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
@@ -276,65 +318,83 @@ pub fn uniform_furnace(pass: f32) -> Case {
     // Thick white cells converge slowly (plain passes: pass-through 0.02 takes 524
     // passes to 1e-7 under the flat rule, 868 under the profile rule): run to
     // convergence, the test asserts it (`Case::pending`).
-    let s = crate::run(&m, &b, &options(lightgrid_core::MAX_PASSES, 1e-7)).expect("valid furnace");
+    let s = crate::run(&m, &b, &options(lightgrid_core::MAX_PASSES, 1e-7))?;
     let secs = t.elapsed().as_secs_f64();
     let omega = lightgrid_core::dirs::solid_angles();
     let worst = s
         .output
         .bins
         .as_ref()
-        .expect("bins")
+        .ok_or_else(no_bins)?
         .data()
         .iter()
         .flat_map(|l| (0..lightgrid_core::NUM_DIRS).map(move |b| (l.0[b].x / omega[b] - 1.0).abs()))
         .fold(0f32, f32::max);
-    case(
+    Ok(case(
         format!("furnace, uniform medium of pass-through {pass}: worst bin"),
         1.0,
         1.0 + worst as f64,
         &s,
         secs,
-    )
+    ))
 }
 
 /// A slab of isotropic scatterers (albedo `w`, cells of pass-through `pass`) thick enough
 /// to be a half-space (total optical depth `depth`), periodic sides, lit from above by
 /// a zenith beam; compared with [`half_space_albedo_beam`] at `μ₀ = 1`.
-pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Case {
+pub fn half_space(w: f32, pass: f32, depth: f32, max_passes: u32) -> Result<Case, SweepError> {
     half_space_with(w, pass, depth, &options(max_passes, 1e-5))
 }
 
 /// [`half_space`] with any sweep options (the medium emission rule, say).
-pub fn half_space_with(w: f32, pass: f32, depth: f32, options: &SweepOptions) -> Case {
+pub fn half_space_with(
+    w: f32,
+    pass: f32,
+    depth: f32,
+    options: &SweepOptions,
+) -> Result<Case, SweepError> {
+    if !(0.0..1.0).contains(&pass) {
+        return Err(GridError::invalid(
+            "pass",
+            pass,
+            "must be within [0, 1): a half-space needs a medium",
+        )
+        .into());
+    }
+    if !(depth.is_finite() && depth > 0.0) {
+        return Err(GridError::invalid("depth", depth, "must be finite and > 0").into());
+    }
     let tau = -(pass as f64).ln();
-    let levels = ((depth as f64 / tau).ceil() as u32).max(2);
-    let (m, b, src) = beam_slab(w, pass, levels);
+    let levels = (depth as f64 / tau)
+        .ceil()
+        .clamp(2.0, MAX_LEVELS as f64 + 1.0) as u32;
+    let (m, b, src) = beam_slab(w, pass, levels)?;
     let t = std::time::Instant::now();
-    let s = crate::run_with_source(&m, &b, Some(&src), options).expect("valid slab");
+    let s = crate::run_with_source(&m, &b, Some(&src), options)?;
     let secs = t.elapsed().as_secs_f64();
     // The beam's irradiance is 1 on every column: what leaves through the top per
     // column is the albedo.
     let swept = s.balance.top_out.x / m.desc().level_len() as f64;
-    case(
+    Ok(case(
         format!("half-space w {w}, cell optical depth {tau:.2}, {levels} levels"),
         half_space_albedo_beam(w as f64, 1.0),
         swept,
         &s,
         secs,
-    )
+    ))
 }
 
 /// An 8³ grid of 1 m cells whose `levels` bottom levels are opaque ground of albedo
 /// `albedo`, the rest empty (sweep it with periodic sides: an infinite ground).
-pub fn ground_material(levels: u32, albedo: f32) -> MaterialGrid {
-    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(8)).expect("valid grid");
+pub fn ground_material(levels: u32, albedo: f32) -> Result<MaterialGrid, SweepError> {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(8))?;
     let mut cells = vec![Material::EMPTY; d.point_count()];
     for j in 0..levels.min(8) {
         for c in &mut cells[d.level_range(j)] {
             *c = Material::opaque(Vec3::splat(albedo));
         }
     }
-    MaterialGrid::new(d, cells).expect("valid material")
+    Ok(MaterialGrid::new(d, cells)?)
 }
 
 /// The light above an infinite Lambertian ground of albedo `a` under a uniform sky of
@@ -348,7 +408,11 @@ pub fn ground_material(levels: u32, albedo: f32) -> MaterialGrid {
 /// `E_s = Σ_c sky_c μ_c` to the ground, the ground sends `a E_s / π ·
 /// clipped_cosine(b, +Y)` (its exact Lambertian share) into the upward half of bin `b`,
 /// and the channel turns that back into light dividing by `μ_c`.
-pub fn ground_fields(albedo: f32, sky: &BinLight) -> (BinLight, BinLight) {
+pub fn ground_fields(albedo: f32, sky: &BinLight) -> Result<(BinLight, BinLight), SweepError> {
+    within("albedo", albedo, (0.0, 1.0), "must be within [0, 1]")?;
+    if !sky.is_valid() {
+        return Err(GridError::invalid("sky", "a bin", "must be finite and >= 0").into());
+    }
     let omega = lightgrid_core::dirs::solid_angles();
     let up = crate::sweep::channels(true);
     let field = |ground_half: &dyn Fn(usize) -> f32| {
@@ -371,17 +435,20 @@ pub fn ground_fields(albedo: f32, sky: &BinLight) -> (BinLight, BinLight) {
         .map(|c| sky.0[c.bin].x * c.mu)
         .sum();
     let rule = field(&|b| {
-        let chn = up.iter().find(|c| c.bin == b).expect("an upward channel");
+        // Every bin pointing up or sideways has an upward channel.
+        let Some(chn) = up.iter().find(|c| c.bin == b) else {
+            return 0.0;
+        };
         let cc = lightgrid_core::dirs::clipped_cosine(b, lightgrid_core::glam::DVec3::Y) as f32;
         albedo * e_sweep / std::f32::consts::PI * cc / chn.mu
     });
-    (exact, rule)
+    Ok((exact, rule))
 }
 
 /// One level of opaque ground of albedo `a` under a zenith beam, periodic sides: the
 /// fraction reflected against `a`.
-pub fn lambertian_ground(a: f32) -> Case {
-    let m = ground_material(1, a);
+pub fn lambertian_ground(a: f32) -> Result<Case, SweepError> {
+    let m = ground_material(1, a)?;
     let mut top = BinLight::ZERO;
     top.0[lightgrid_core::dirs::DOWN] = Vec3::ONE;
     let b = Boundary {
@@ -389,16 +456,16 @@ pub fn lambertian_ground(a: f32) -> Case {
         ..Boundary::open_sky(top)
     };
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, &options(64, 1e-7)).expect("valid ground");
+    let s = crate::run(&m, &b, &options(64, 1e-7))?;
     let secs = t.elapsed().as_secs_f64();
     let swept = s.balance.top_out.x / s.balance.top_in.x;
-    case(
+    Ok(case(
         format!("one-level Lambertian ground, albedo {a}"),
         a as f64,
         swept,
         &s,
         secs,
-    )
+    ))
 }
 
 /// Every case: the furnace (smoothing 0 and the default; uniform media of pass-through
@@ -406,20 +473,26 @@ pub fn lambertian_ground(a: f32) -> Case {
 /// half-space for `w` in {0.1, 0.5, 0.9, 0.99} and cell optical depths 0.05, 0.69, 3
 /// (total depth 40), at most `max_passes` passes each, under the default rule and again
 /// under the flat source (`MediumEmission::Source`).
-pub fn measure(max_passes: u32) -> Vec<Case> {
+pub fn measure(max_passes: u32) -> Result<Vec<Case>, SweepError> {
+    within(
+        "max_passes",
+        max_passes,
+        (1, lightgrid_core::MAX_PASSES),
+        "must be within 1..=MAX_PASSES (4096)",
+    )?;
     let mut out = Vec::new();
     for smoothing in [0.0, SweepOptions::multi_bounce().smoothing] {
-        let (a, i) = furnace(12, 7, smoothing);
+        let (a, i) = furnace(12, 7, smoothing)?;
         out.push(a);
         out.push(i);
     }
     for pass in [0.9, 0.5, 0.1] {
-        out.push(uniform_furnace(pass));
+        out.push(uniform_furnace(pass)?);
     }
-    out.push(lambertian_ground(0.3));
+    out.push(lambertian_ground(0.3)?);
     for w in [0.1, 0.5, 0.9, 0.99] {
         for pass in [0.95f32, 0.5, 0.05] {
-            out.push(half_space(w, pass, 40.0, max_passes));
+            out.push(half_space(w, pass, 40.0, max_passes)?);
         }
     }
     // The option of a flat source (`crate::medium`).
@@ -427,35 +500,35 @@ pub fn measure(max_passes: u32) -> Vec<Case> {
     o.medium = lightgrid_core::MediumEmission::Source;
     for w in [0.1, 0.5, 0.9, 0.99] {
         for pass in [0.95f32, 0.5, 0.05] {
-            let mut c = half_space_with(w, pass, 40.0, &o);
+            let mut c = half_space_with(w, pass, 40.0, &o)?;
             c.name += ", flat source";
             out.push(c);
         }
     }
-    out
+    Ok(out)
 }
 
 /// Passes to tolerance 1e-4 (at most `max_passes`) of a slab of total optical depth
 /// `depth` (cells of optical depth 1) and albedo `w` under a zenith beam: the source
 /// iteration slows down as the slab thickens and `w` nears 1 (issue 13 item 4). The
 /// case's `exact` is the half-space albedo (the slab's own is lower when it is thin).
-pub fn convergence(depth: u32, w: f32, max_passes: u32) -> Case {
+pub fn convergence(depth: u32, w: f32, max_passes: u32) -> Result<Case, SweepError> {
     convergence_with(depth, w, &options(max_passes, 1e-4))
 }
 
 /// [`convergence`] with any sweep options (acceleration on, say).
-pub fn convergence_with(depth: u32, w: f32, options: &SweepOptions) -> Case {
-    let (m, b, src) = beam_slab(w, (-1.0f32).exp(), depth.max(2));
+pub fn convergence_with(depth: u32, w: f32, options: &SweepOptions) -> Result<Case, SweepError> {
+    let (m, b, src) = beam_slab(w, (-1.0f32).exp(), depth.max(2))?;
     let t = std::time::Instant::now();
-    let s = crate::run_with_source(&m, &b, Some(&src), options).expect("valid slab");
+    let s = crate::run_with_source(&m, &b, Some(&src), options)?;
     let secs = t.elapsed().as_secs_f64();
-    case(
+    Ok(case(
         format!("slab of optical depth {depth}, w {w}: passes to 1e-4"),
         half_space_albedo_beam(w as f64, 1.0),
         s.balance.top_out.x / m.desc().level_len() as f64,
         &s,
         secs,
-    )
+    ))
 }
 
 /// One line per case: name, exact, swept, error, passes, pending, milliseconds.
@@ -525,9 +598,9 @@ mod tests {
 
     #[test]
     fn the_ground_case_is_exact_and_the_furnace_conserves_energy() {
-        let g = lambertian_ground(0.3);
+        let g = lambertian_ground(0.3).unwrap();
         assert!(g.error.abs() < 1e-3, "{g:?}");
-        let (a, _) = furnace(6, 3, 0.0);
+        let (a, _) = furnace(6, 3, 0.0).unwrap();
         assert!(a.pending < 1e-3, "{a:?}");
     }
 }

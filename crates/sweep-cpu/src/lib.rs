@@ -132,7 +132,10 @@
 //!    or the bottom boundary (upward). Source points beyond the sides take: open — the
 //!    top (downward) or bottom (upward) boundary light, as if the world around were empty;
 //!    periodic — the wrapped point; given — the halo value of that point and level (the
-//!    level clamped into the grid), its horizontal bins halved. Boundary light enters only
+//!    level clamped into the grid), its horizontal bins split across the horizon by
+//!    their neighbours (`BinLight::horizon_share`: the downward pass takes
+//!    `h · B(x,−1,z) / (B(x,−1,z) + B(x,1,z))`, the upward pass the rest; exact where the
+//!    radiance is constant over each hemisphere; [`sweep::channel_value`]). Boundary light enters only
 //!    in the first downward and the first upward pass.
 //! 2. **Transmit.** Along the path, cell by cell: cell `k` removes `I · T_k (1 - τ_k)`
 //!    (`T_k` the product of the `τ` before it); the path leaves with `I · T`. Path cells

@@ -64,7 +64,8 @@ fn passes_to_tolerance_do_not_grow_with_depth_or_albedo() {
                 depth,
                 w,
                 &with(options(Acceleration::Diffusion, 400, 1e-4), rule),
-            );
+            )
+            .unwrap();
             assert!(
                 on.passes <= 32,
                 "{rule:?}, depth {depth}, albedo {w}: {} passes",
@@ -75,8 +76,9 @@ fn passes_to_tolerance_do_not_grow_with_depth_or_albedo() {
         }
     }
     // Against the plain passes, where they converge in reasonable time.
-    let plain = exact::convergence_with(100, 0.99, &options(Acceleration::Off, 400, 1e-4));
-    let on = exact::convergence_with(100, 0.99, &options(Acceleration::Diffusion, 400, 1e-4));
+    let plain = exact::convergence_with(100, 0.99, &options(Acceleration::Off, 400, 1e-4)).unwrap();
+    let on =
+        exact::convergence_with(100, 0.99, &options(Acceleration::Diffusion, 400, 1e-4)).unwrap();
     assert!(plain.passes > 200, "{plain:?}");
     assert!(
         (on.swept - plain.swept).abs() < 2e-4 * plain.swept,
@@ -97,13 +99,15 @@ fn thin_and_thick_cells_converge_to_the_plain_answer() {
             pass,
             20.0,
             &with(options(Acceleration::Off, 1200, 1e-6), rule),
-        );
+        )
+        .unwrap();
         let on = exact::half_space_with(
             0.99,
             pass,
             20.0,
             &with(options(Acceleration::Diffusion, 1200, 1e-6), rule),
-        );
+        )
+        .unwrap();
         eprintln!(
             "{rule:?} pass-through {pass}: {} accelerated, {} plain",
             on.passes, plain.passes
@@ -136,7 +140,8 @@ fn white_furnace_stays_exact_accelerated() {
             12,
             seed,
             &with(options(Acceleration::Diffusion, 400, 1e-6), rule),
-        );
+        )
+        .unwrap();
         assert!(avg.passes < 400, "seed {seed}: {avg:?}");
         assert!((avg.swept - 1.0).abs() < 1e-4, "seed {seed}: {avg:?}");
         assert!((irr.swept - 1.0).abs() < 1e-4, "seed {seed}: {irr:?}");
@@ -220,7 +225,7 @@ fn scenes_that_converge_fast_are_left_alone() {
 fn without_media_or_off_nothing_changes() {
     // Surfaces only: nothing to accelerate. Periodic ground of albedo 1 converges
     // slowly, and stays the plain sweep's.
-    let m = exact::ground_material(2, 1.0);
+    let m = exact::ground_material(2, 1.0).unwrap();
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(BinLight::uniform(Vec3::ONE))

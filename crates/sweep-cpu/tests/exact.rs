@@ -23,7 +23,7 @@ use lightgrid_core::{Boundary, SideBoundary, SweepOptions};
 use lightgrid_sweep_cpu::sky::{Sun, uniform_sky};
 
 fn ground(levels: u32, albedo: f32) -> lightgrid_core::MaterialGrid {
-    lightgrid_sweep_cpu::exact::ground_material(levels, albedo)
+    lightgrid_sweep_cpu::exact::ground_material(levels, albedo).unwrap()
 }
 
 fn converged() -> SweepOptions {
@@ -97,7 +97,7 @@ fn light_above_lambertian_ground_is_the_exact_field() {
             };
             let s = lightgrid_sweep_cpu::run(&m, &b, &converged()).unwrap();
             let g = s.output.bins.unwrap();
-            let (exact, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top);
+            let (exact, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top).unwrap();
             for bin in 0..lightgrid_core::NUM_DIRS {
                 let (r, e) = (rule.0[bin].x, exact.0[bin].x);
                 assert!(
@@ -122,11 +122,59 @@ fn light_above_lambertian_ground_is_the_exact_field() {
     }
 }
 
+/// Empty space above an infinite Lambertian ground, handed the exact field through all
+/// its faces as a hierarchy's node takes a coarser grid's light: the sky through the
+/// top, the ground's light through the bottom and the full field through the sides
+/// (`SideBoundary::Given`, full-sphere bins), holds the exact field at every point and
+/// bin to 1e-4: the hand-over loses nothing. Each horizontal bin of the field is half sky
+/// (radiance 1) and half ground (radiance `a`); the bottom takes the field's upward part
+/// and the sides split it across the horizon by its neighbours
+/// (`BinLight::split_vertical_by_neighbours`, `horizon_share`). An even split
+/// (`split_vertical`) hands the downward pass `(1 + a) / 2` of the sky's half: 35 % off
+/// at `a` = 0.3, half under a black ground.
+#[test]
+fn a_field_handed_over_through_the_faces_is_kept_exactly() {
+    use lightgrid_core::{GridDesc, Material, MaterialGrid};
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(8, 6, 8)).unwrap();
+    let m = MaterialGrid::filled(desc, Material::EMPTY).unwrap();
+    for albedo in [0.0f32, 0.3, 0.9] {
+        let sky = uniform_sky(Vec3::ONE).unwrap().top;
+        let (exact, _) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &sky).unwrap();
+        let (down, up) = exact.split_vertical_by_neighbours();
+        for bin in 0..lightgrid_core::NUM_DIRS {
+            assert!(
+                (down.0[bin] - sky.0[bin]).abs().max_element() <= 1e-6,
+                "bin {bin}"
+            );
+        }
+        let halo = vec![exact; lightgrid_core::HaloLayout::new(desc.dims()).len()];
+        let b = Boundary {
+            top: lightgrid_core::TopBoundary::Uniform(Box::new(down)),
+            bottom: up,
+            sides: SideBoundary::Given(halo),
+        };
+        let g = lightgrid_sweep_cpu::run(&m, &b, &converged())
+            .unwrap()
+            .output
+            .bins
+            .unwrap();
+        for (i, l) in g.data().iter().enumerate() {
+            for bin in 0..lightgrid_core::NUM_DIRS {
+                let (got, want) = (l.0[bin].x, exact.0[bin].x);
+                assert!(
+                    (got - want).abs() <= 1e-4 * want.max(1e-3),
+                    "albedo {albedo}, point {i}, bin {bin}: {got} vs {want}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn white_furnace_is_exact_in_random_media() {
     for seed in [7u64, 11, 23] {
         for smoothing in [0.0f32, 0.25, 0.6] {
-            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace(10, seed, smoothing);
+            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace(10, seed, smoothing).unwrap();
             for c in [avg, irr] {
                 assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
                 assert!(c.pending < 1e-5, "{}: not converged", c.name);
@@ -140,7 +188,7 @@ fn white_furnace_is_exact_in_random_media() {
         }
     }
     for pass in [0.95f32, 0.5, 0.1, 0.02] {
-        let c = lightgrid_sweep_cpu::exact::uniform_furnace(pass);
+        let c = lightgrid_sweep_cpu::exact::uniform_furnace(pass).unwrap();
         assert!(c.pending < 1e-5, "{}: not converged", c.name);
         assert!(
             c.balance < 1e-5 && c.error.abs() < 1e-3,
@@ -157,7 +205,7 @@ fn white_furnace_is_exact_in_random_media() {
 #[test]
 fn the_escape_rule_fails_the_furnace() {
     use lightgrid_core::MediumEmission;
-    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 7);
+    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 7).unwrap();
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&lightgrid_core::BinLight::uniform(Vec3::ONE))
@@ -193,7 +241,7 @@ fn flat_rule_half_space_albedo() {
     o.tolerance = 1e-5;
     o.max_passes = 400;
     let check = |w: f32, pass: f32, tol: f64| {
-        let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o);
+        let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o).unwrap();
         assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
         assert!(
             c.error.abs() < tol,
@@ -223,9 +271,9 @@ fn the_escape_rule_is_closer_on_thick_dark_cells() {
     o.max_passes = 200;
     for w in [0.1f32, 0.5] {
         o.medium = MediumEmission::Escape;
-        let escape = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
+        let escape = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o).unwrap();
         o.medium = MediumEmission::Source;
-        let source = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o);
+        let source = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o).unwrap();
         assert!(
             escape.error.abs() < 0.05 && escape.error.abs() < source.error.abs(),
             "{}: escape {:+.3}, source {:+.3}",
@@ -270,7 +318,7 @@ fn white_furnace_is_exact_with_the_flat_rule() {
     for seed in [7u64, 23] {
         for smoothing in [0.0f32, 0.25] {
             o.smoothing = smoothing;
-            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace_with(10, seed, &o);
+            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace_with(10, seed, &o).unwrap();
             for c in [avg, irr] {
                 assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
                 assert!(
@@ -302,7 +350,7 @@ fn half_space_albedo_within_two_percent() {
     o.max_passes = 400;
     for w in [0.1f32, 0.5, 0.9] {
         for pass in [0.95f32, 0.5, 0.2, 0.05] {
-            let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o);
+            let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o).unwrap();
             assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
             assert!(c.error.abs() < 0.02, "{}: {:+.4}", c.name, c.error);
         }
@@ -318,7 +366,7 @@ fn bright_half_space_within_two_percent() {
     o.tolerance = 1e-5;
     o.max_passes = 1000;
     for pass in [0.95f32, 0.5, 0.05] {
-        let c = lightgrid_sweep_cpu::exact::half_space_with(0.99, pass, 40.0, &o);
+        let c = lightgrid_sweep_cpu::exact::half_space_with(0.99, pass, 40.0, &o).unwrap();
         assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
         assert!(c.error.abs() < 0.02, "{}: {:+.4}", c.name, c.error);
     }

@@ -261,9 +261,9 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     o.tolerance = 0.0;
     for levels in [1, 2] {
         for albedo in [0.3f32, 0.9] {
-            let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo);
+            let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo).unwrap();
             let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
-            let (_, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top);
+            let (_, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top).unwrap();
             for j in levels..g.desc().levels() {
                 let l = g.get(UVec3::new(3, j, 5)).unwrap();
                 for bin in 0..26 {
@@ -286,7 +286,7 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
 #[test]
 fn white_furnace_is_exact_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 11);
+    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 11).unwrap();
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))

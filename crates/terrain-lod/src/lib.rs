@@ -1011,7 +1011,11 @@ impl Hierarchy {
         for k in 0..dims.z {
             for i in 0..dims.x {
                 let p = desc.position(UVec3::new(i, top_y, k)) + Vec3::Y * h;
-                top.push(self.coarse_light(p, depth, which).split_vertical().0);
+                top.push(
+                    self.coarse_light(p, depth, which)
+                        .split_vertical_by_neighbours()
+                        .0,
+                );
             }
         }
         let layout = HaloLayout::new(dims);

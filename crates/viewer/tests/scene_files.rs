@@ -130,11 +130,18 @@ target = [520.0, 520.0]
 }
 
 /// The shipped town scene with `[probes]`: probes over the instances (columns and
-/// along walls), and in the open street, away from the walls, the probes' sky light on
-/// a surface facing up agrees with the sweep's within 10 % (measured 5–8 %: two
-/// different discretisations of the same sky, probes 4 m apart interpolated, the
-/// sweep's 26 bins through its grids; the sun is kept apart in both); inside a house the
-/// probes hold no light.
+/// along walls), and in the open street, away from the walls, the light on a surface
+/// facing up (sky and scattered sun; the direct sun is kept apart in all three):
+/// the hierarchy's equals one full-resolution sweep of the street's region within 3 %
+/// (the nesting error at one point; issue 43's target over regions is 1 % bias, 2 %
+/// RMSE), and that sweep's agrees with the probes' within 12 %: two different
+/// discretisations of the same sky, probes 4 m apart interpolated against the true
+/// meshes, the sweep's 26 bins through voxels. Against a Monte Carlo reference of the
+/// same voxel world (32 m around the point, 22 M sky and 34 M sun paths, standard error
+/// 0.4 %) the sweep reads 3.3–4.0 % above it there and the probes 3.0–7.0 % below (per
+/// colour), so they sit 6–11 % apart; the bound is those two distances added, rounded
+/// up. (Until the hierarchy's hand-over kept horizontal bins whole, it lost 2 % here and
+/// the bound was 10 %.) Inside a house the probes hold no light.
 #[test]
 fn the_town_scene_lights_with_probes_beside_the_sweep() {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/town.toml");
@@ -149,10 +156,16 @@ fn the_town_scene_lights_with_probes_beside_the_sweep() {
     let open = Vec3::new(48.0, 2.0, 33.0);
     assert_eq!(resolved.coverage(open).unwrap(), 1.0);
     let e_probes = resolved.irradiance(open, Vec3::Y).unwrap();
-    let e_sweep = world.hierarchy.irradiance(open, Vec3::Y).unwrap();
+    let e_hierarchy = world.hierarchy.irradiance(open, Vec3::Y).unwrap();
+    let e_sweep = single_sweep_irradiance(&world, open, Vec3::Y);
+    let nesting = (e_hierarchy - e_sweep).abs() / e_sweep;
     let rel = (e_probes - e_sweep).abs() / e_sweep;
-    eprintln!("open street, facing up: probes {e_probes} sweep {e_sweep} rel {rel}");
-    assert!(rel.max_element() < 0.1, "{e_probes} vs {e_sweep}");
+    eprintln!(
+        "open street, facing up: probes {e_probes}, one sweep {e_sweep}, hierarchy {e_hierarchy}: \
+         probes {rel}, nesting {nesting}"
+    );
+    assert!(nesting.max_element() < 0.03, "{e_hierarchy} vs {e_sweep}");
+    assert!(rel.max_element() < 0.12, "{e_probes} vs {e_sweep}");
     let inside = Vec3::new(42.0, 1.0, 44.0);
     assert_eq!(
         resolved.cube_at(inside).unwrap().irradiance(Vec3::Y),
@@ -174,4 +187,48 @@ fn the_town_scene_lights_with_probes_beside_the_sweep() {
     let (r, s): (f32, f32) = (rays.iter().sum(), sweep.iter().sum());
     eprintln!("sunlit surfels: rays {r}, sweep {s} of {}", rays.len());
     assert!((r - s).abs() < 0.15 * r, "rays {r} sweep {s}");
+}
+
+/// Irradiance at `p` on normal `n` (sky and scattered sun, as the hierarchy reads it)
+/// from one sweep of a 48 m square around `p` at the hierarchy's finest cell, open sky
+/// around it, with the hierarchy's options, sky and sun.
+fn single_sweep_irradiance(world: &World, p: Vec3, n: Vec3) -> Vec3 {
+    use lightgrid_core::glam::UVec3;
+    use lightgrid_core::{BinLight, Boundary, GridDesc, MaterialSource, SunBoundary, Sweeper};
+    let params = *world.hierarchy.params();
+    let h = params.cell(params.depths());
+    let wd = *world.hierarchy.world().desc();
+    let half = 24.0;
+    let n_xz = (2.0 * half / h) as u32 + 1;
+    let ny = ((wd.dims().y - 1) as f32 * wd.h() / h) as u32 + 1;
+    let desc = GridDesc::new(
+        Vec3::new(p.x - half, wd.origin().y, p.z - half),
+        h,
+        UVec3::new(n_xz, ny, n_xz),
+    )
+    .unwrap();
+    let m = world.composer.material(&desc).unwrap();
+    let mut o = params.sweep;
+    o.outputs.bins = true;
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
+    let sky = sweeper
+        .sweep(&m, &Boundary::open_sky(world.sky_top), &o)
+        .unwrap()
+        .bins
+        .unwrap();
+    let (travel, irradiance) = world.sun;
+    let outside = |_: Vec3| 1.0f32;
+    let sun = sweeper
+        .sweep_sun(
+            &m,
+            &SunBoundary {
+                to_sun: -travel,
+                scattered: Boundary::open_sky(BinLight::ZERO),
+                outside: &outside,
+            },
+            &o,
+        )
+        .unwrap();
+    sky.sample(p).unwrap().irradiance(n) * world.hierarchy.sky_scale()
+        + sun.scattered.sample(p).unwrap().irradiance(n) * irradiance
 }

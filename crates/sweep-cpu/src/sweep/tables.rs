@@ -289,11 +289,23 @@ pub fn seg_mean(tr: f32, depth: f32) -> f32 {
     (1.0 - tr) / depth
 }
 
-/// Channel `chn`'s value in bins `b`: horizontal bins halved where `b` is full-sphere
-/// light (a side halo), whole where it is a boundary's one-way light. Part of the
-/// specification: the GPU sweeper uploads its boundary light through this.
+/// Channel `chn`'s value in bins `b`: whole where `b` is a boundary's one-way light;
+/// where it is full-sphere light (a side halo), a horizontal bin's part travelling the
+/// channel's way, split across the horizon by [`BinLight::horizon_share`] (the
+/// downward pass takes `h · share`, the upward pass the rest; exact where the radiance
+/// is constant over each hemisphere, as a coarser grid's light above a ground or a
+/// canopy nearly is). Part of the specification: the GPU sweeper uploads its boundary
+/// light through this.
 #[inline]
 pub fn channel_value(b: &BinLight, chn: &Channel, full_sphere: bool) -> Vec3 {
     let v = b.0[chn.bin];
-    if full_sphere { v * chn.share } else { v }
+    if !full_sphere || chn.share == 1.0 {
+        return v;
+    }
+    let down = v * b.horizon_share(chn.bin);
+    if chn.pass() == 0 {
+        down
+    } else {
+        (v - down).max(Vec3::ZERO)
+    }
 }

@@ -1,0 +1,201 @@
+//! Fuzz targets beyond the file readers (issue 47): the export path (a grid file read,
+//! packed into Bevy volumes, encoded as DDS, KTX2 and sidecar JSON, with the validity
+//! fill) and the library's entry points called with values read from the input's bytes
+//! (any `f32`, NaN and infinities included, and any `u32`). Every call must return a
+//! typed error or a finite result: a NaN or an infinity in a result is a defect, raised
+//! as a panic that [`crate::fuzz`] counts.
+
+use lightgrid_core::glam::{UVec3, Vec2, Vec3};
+use lightgrid_core::{BinLight, GridDesc, GridFile, LightGrid, Material, MaterialGrid, NUM_DIRS};
+use lightgrid_export::{BevyVolume, Content, SidecarSun, TexelFormat};
+
+/// Grid files of light to export, and one of material (read as its validity).
+pub fn export_seeds() -> Vec<Vec<u8>> {
+    let d = GridDesc::new(Vec3::new(1.0, -2.0, 0.5), 0.5, UVec3::new(3, 2, 2)).expect("valid");
+    let mut data = vec![BinLight::uniform(Vec3::new(0.3, 0.5, 0.9)); d.point_count()];
+    data[3].0[4] = Vec3::new(40.0, 30.0, 20.0);
+    let l = LightGrid::new(d, data).expect("valid");
+    let m = MaterialGrid::filled(
+        d,
+        Material {
+            reflectance: Vec3::splat(0.3),
+            pass: 0.2,
+        },
+    )
+    .expect("valid");
+    vec![
+        GridFile::Light(l.clone()).to_bytes(),
+        GridFile::PackedLight(l.pack()).to_bytes(),
+        GridFile::Material(m).to_bytes(),
+    ]
+}
+
+/// Reads a grid file and exports what it holds: light as both texel formats with the
+/// validity fill (every other point invalid), DDS, KTX2 and a sidecar whose unit scale
+/// comes from the input's last four bytes. Accepted when the whole export succeeded.
+pub fn run_export(b: &[u8]) -> bool {
+    let grid = match GridFile::from_bytes(b) {
+        Ok(GridFile::Light(l)) => l,
+        Ok(GridFile::PackedLight(p)) => p.unpack(),
+        Ok(GridFile::Material(m)) => {
+            let valid = lightgrid_core::validity::valid_points(&m);
+            assert_eq!(valid.len(), m.desc().point_count());
+            return true;
+        }
+        Ok(_) | Err(_) => return false,
+    };
+    let desc = *grid.desc();
+    let scale = b
+        .len()
+        .checked_sub(4)
+        .map(|i| f32::from_le_bytes(b[i..].try_into().expect("four bytes")))
+        .unwrap_or(1.0);
+    let valid: Vec<bool> = (0..desc.point_count()).map(|i| i % 2 == 0).collect();
+    let mut ok = true;
+    for format in [TexelFormat::Rgb9e5, TexelFormat::Rg11b10] {
+        let v = match BevyVolume::from_field_valid(&grid, &desc, format, &valid) {
+            Ok(v) => v,
+            Err(_) => return false,
+        };
+        assert!(
+            v.intensity().is_finite() && v.intensity() >= 0.0,
+            "intensity"
+        );
+        ok &= v.to_dds().is_ok();
+        assert!(!v.to_ktx2().is_empty());
+        match v.sidecar("fuzz", Content::Indirect, scale) {
+            Ok(info) => {
+                assert!(
+                    info.intensity.is_finite() && info.intensity > 0.0,
+                    "sidecar intensity"
+                );
+            }
+            Err(_) => ok = false,
+        }
+    }
+    ok
+}
+
+/// The input's bytes as a stream of `f32` and `u32` values (wrapping round).
+struct Values<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Values<'_> {
+    fn u32(&mut self) -> u32 {
+        if self.bytes.is_empty() {
+            return 0;
+        }
+        let mut w = [0u8; 4];
+        for x in &mut w {
+            *x = self.bytes[self.at % self.bytes.len()];
+            self.at += 1;
+        }
+        u32::from_le_bytes(w)
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_bits(self.u32())
+    }
+    fn v3(&mut self) -> Vec3 {
+        Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+    /// A size that allocates little: mostly small, sometimes any `u32`.
+    fn size(&mut self) -> u32 {
+        let v = self.u32();
+        if v & 0xF0 == 0 { v } else { v % 6 }
+    }
+}
+
+/// Seeds for [`run_api`]: ordinary values, zeros, all ones (NaN) and the edges of `f32`.
+pub fn api_seeds() -> Vec<Vec<u8>> {
+    let floats = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    vec![
+        floats(&[0.5, 1.0, 2.0, 0.25, 3.0, 0.9, 1.5, 0.1, 4.0, 0.7, 2.5, 0.3]),
+        vec![0; 48],
+        vec![0xFF; 48],
+        floats(&[
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            1e-45,
+            f32::INFINITY,
+            -1.0,
+            1e30,
+        ]),
+    ]
+}
+
+/// Calls the library's entry points with values from `b`. Accepted when the grid
+/// descriptor it starts from was.
+pub fn run_api(b: &[u8]) -> bool {
+    lightgrid_core::limits::set_memory_limit(crate::fuzz::FUZZ_MEMORY_LIMIT);
+    let mut r = Values { bytes: b, at: 0 };
+    // Projections of any bins.
+    let bins = BinLight(std::array::from_fn(|_| r.v3()));
+    let n = r.v3();
+    assert!(
+        bins.total().is_finite() && bins.irradiance(n).is_finite(),
+        "projection"
+    );
+    assert!(bins.sh2().0.iter().all(|c| c.is_finite()), "sh2");
+    assert!(
+        bins.ambient_cube().0.iter().all(|c| c.is_finite()),
+        "ambient cube"
+    );
+    assert!(bins.dominant().is_finite(), "dominant");
+    for d in 0..NUM_DIRS {
+        assert!(bins.horizon_share(d).is_finite(), "horizon share");
+    }
+    // Suns and skies.
+    let (elevation, azimuth, light) = (r.f32(), r.f32(), r.v3());
+    if let Ok(s) = lightgrid_sweep_cpu::sky::Sun::at(elevation, azimuth, light).bins() {
+        assert!(s.is_valid(), "sun bins");
+    }
+    if let Ok(s) = lightgrid_sweep_cpu::sky::uniform_sky(light) {
+        assert!(s.top.is_valid(), "uniform sky");
+    }
+    let _ = lightgrid_core::light::check_sun(r.v3(), r.v3());
+    let _ = SidecarSun::new(r.v3(), r.v3(), r.f32());
+    // Heightmaps.
+    let (w, d) = (r.size(), r.size());
+    let heights: Vec<f32> = (0..(w as u64 * d as u64).min(64))
+        .map(|_| r.f32())
+        .collect();
+    if let Ok(hm) =
+        lightgrid_core::Heightmap::new(Vec2::new(r.f32(), r.f32()), r.f32(), w, d, heights)
+    {
+        assert!(hm.height_at(r.f32(), r.f32()).is_finite(), "height");
+    }
+    // Voxelization parameters.
+    let mut p = lightgrid_material_voxelizer::voxelize::VoxelizeParams::preview(r.f32());
+    p.directions = r.u32();
+    p.chords_per_direction = r.u32();
+    let _ = p.validate();
+    // Grids, compression and light sets.
+    let Ok(desc) = GridDesc::new(r.v3(), r.f32(), UVec3::new(r.size(), r.size(), r.size())) else {
+        return false;
+    };
+    if let Ok(mut g) = LightGrid::filled(desc, BinLight::uniform(r.v3().abs())) {
+        if let Some(first) = g.data_mut().first_mut() {
+            first.0[0] = r.v3();
+        }
+        let c = lightgrid_light_volumes::CompressedVolume::compress(&g, 1);
+        assert!(c.scale.is_finite(), "compressed scale");
+        if let Ok(mut set) = lightgrid_light_volumes::LightSet::new(
+            GridDesc::new(Vec3::ZERO, desc.h(), UVec3::splat(4)).unwrap_or(desc),
+        ) && set.add(&c, r.v3(), r.f32()).is_ok()
+        {
+            assert!(set.grid().data().iter().all(|b| b.is_valid()), "light set");
+        }
+    }
+    // The exact problems, kept short.
+    let (w, pass, depth) = (r.f32(), r.f32(), r.f32());
+    if depth.abs() < 8.0
+        && let Ok(c) = lightgrid_sweep_cpu::exact::half_space(w, pass, depth, r.u32() % 8)
+    {
+        assert!(c.swept.is_finite(), "half-space");
+    }
+    let _ =
+        lightgrid_sweep_cpu::exact::furnace_material(r.u32(), 1).map(|m| m.desc().point_count());
+    true
+}
