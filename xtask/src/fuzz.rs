@@ -1,8 +1,9 @@
 //! `cargo xtask fuzz`: every reader of user files, fed millions of generated inputs.
 //!
 //! Each [`Target`] is one reader (grid files, scene TOML, light-volume cache files, glTF
-//! and GLB models, EXR skies, PNG heightmaps), the export path, or the library's entry
-//! points called with values from the input (`export`, `api`: [`crate::fuzz_api`]),
+//! and GLB models, EXR skies, PNG heightmaps), the export and bake paths, or the library's
+//! entry points called with values from the input (`export`, `bake`, `api`:
+//! [`crate::fuzz_api`]),
 //! with a few valid **seed** inputs. Inputs are
 //! seeds mutated by a deterministic generator (bit flips, interesting integers such as
 //! `u32::MAX` written over header fields, truncation, insertion, deletion, duplication,
@@ -550,6 +551,12 @@ pub fn targets() -> Vec<Target> {
             seeds: crate::fuzz_api::export_seeds(),
             fixup: fix_grid,
             run: crate::fuzz_api::run_export,
+        },
+        Target {
+            name: "bake",
+            seeds: crate::fuzz_api::bake_seeds(),
+            fixup: fix_grid,
+            run: crate::fuzz_api::run_bake,
         },
         Target {
             name: "api",

@@ -1,6 +1,7 @@
 //! Fuzz targets beyond the file readers (issue 47): the export path (a grid file read,
 //! packed into Bevy volumes, encoded as DDS, KTX2 and sidecar JSON, with the validity
-//! fill) and the library's entry points called with values read from the input's bytes
+//! fill), the bake path (a material grid file swept, the direct sun removed, exported)
+//! and the library's entry points called with values read from the input's bytes
 //! (any `f32`, NaN and infinities included, and any `u32`). Every call must return a
 //! typed error or a finite result: a NaN or an infinity in a result is a defect, raised
 //! as a panic that [`crate::fuzz`] counts.
@@ -76,6 +77,75 @@ pub fn run_export(b: &[u8]) -> bool {
     ok
 }
 
+/// Material grid files to bake.
+pub fn bake_seeds() -> Vec<Vec<u8>> {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, 3, 4)).expect("valid");
+    let mut cells = vec![Material::EMPTY; d.point_count()];
+    for c in &mut cells[..d.level_len()] {
+        *c = Material::opaque(Vec3::splat(0.3));
+    }
+    cells[20] = Material {
+        reflectance: Vec3::new(0.2, 0.6, 0.1),
+        pass: 0.4,
+    };
+    vec![GridFile::Material(MaterialGrid::new(d, cells).expect("valid")).to_bytes()]
+}
+
+/// The bake path of `lightgrid bake` on a material grid file: two passes under a
+/// uniform sky and a sun whose elevation comes from the input's last byte, the direct
+/// sun removed ([`lightgrid_export::indirect_light`]), the validity fill, both texel
+/// formats, DDS, KTX2 and the sidecar. Grids over 4096 points are rejected (time).
+pub fn run_bake(b: &[u8]) -> bool {
+    let m = match GridFile::from_bytes(b) {
+        Ok(GridFile::Material(m)) if m.desc().point_count() <= 4096 => m,
+        _ => return false,
+    };
+    let elevation = b
+        .last()
+        .map_or(30.0, |&x| x as f32 * 0.4 - 10.0)
+        .to_radians();
+    let Ok(sky) = lightgrid_sweep_cpu::sky::uniform_sky(Vec3::splat(0.5)) else {
+        return false;
+    };
+    let sun = lightgrid_sweep_cpu::sky::Sun::at(elevation, 1.0, Vec3::splat(3.0))
+        .bins()
+        .unwrap_or(BinLight::ZERO);
+    let both = lightgrid_core::Boundary {
+        top: lightgrid_core::TopBoundary::Uniform(Box::new(sky.top + sun)),
+        bottom: sky.bottom,
+        sides: lightgrid_core::SideBoundary::Open,
+    };
+    let sun_alone = lightgrid_core::Boundary::open_sky(sun);
+    let mut o = lightgrid_core::SweepOptions::multi_bounce();
+    o.max_passes = 2;
+    let Ok(light) = lightgrid_export::indirect_light(
+        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
+        &m,
+        &both,
+        Some(&sun_alone),
+        &o,
+    ) else {
+        return false;
+    };
+    assert!(light.data().iter().all(|l| l.is_valid()), "baked light");
+    let valid = lightgrid_core::validity::valid_points(&m);
+    for format in [TexelFormat::Rgb9e5, TexelFormat::Rg11b10] {
+        let Ok(v) = BevyVolume::from_field_valid(&light, m.desc(), format, &valid) else {
+            return false;
+        };
+        if v.to_dds().is_err() || v.to_ktx2().is_empty() {
+            return false;
+        }
+        if let Ok(info) = v.sidecar("bake", Content::Indirect, 1.0) {
+            assert!(
+                info.intensity.is_finite() && info.intensity > 0.0,
+                "sidecar"
+            );
+        }
+    }
+    true
+}
+
 /// The input's bytes as a stream of `f32` and `u32` values (wrapping round).
 struct Values<'a> {
     bytes: &'a [u8],
@@ -100,10 +170,11 @@ impl Values<'_> {
     fn v3(&mut self) -> Vec3 {
         Vec3::new(self.f32(), self.f32(), self.f32())
     }
-    /// A size that allocates little: mostly small, sometimes any `u32`.
+    /// A size that allocates little: mostly 0 to 5, sometimes `u32::MAX` (refused
+    /// before anything is allocated).
     fn size(&mut self) -> u32 {
         let v = self.u32();
-        if v & 0xF0 == 0 { v } else { v % 6 }
+        if v & 0xFF == 0xFF { u32::MAX } else { v % 6 }
     }
 }
 

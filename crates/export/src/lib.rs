@@ -567,6 +567,13 @@ impl SidecarSun {
                 reason: "must be finite and >= 0",
             });
         }
+        if !(unit_scale.is_finite() && unit_scale > 0.0) {
+            return Err(ExportError::Invalid {
+                field: "unit_scale",
+                value: format!("{unit_scale:?}"),
+                reason: "must be finite and > 0",
+            });
+        }
         let luminance = lightgrid_core::light::luminance(irradiance);
         let lux = luminance * unit_scale;
         if !lux.is_finite() {

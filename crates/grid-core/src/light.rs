@@ -161,9 +161,21 @@ impl BinLight {
             v += *unit * l;
             sum += l;
         }
-        if sum > 0.0 && sum.is_finite() {
-            let r = v / sum;
+        let r = v / sum;
+        if sum > 0.0 && r.is_finite() {
             // Rounding can push the length a hair past 1.
+            return r.clamp_length_max(1.0);
+        }
+        // Light beyond f32 (sums past f32::MAX, or bins of opposite signs) in f64; a
+        // direction is kept only where the total is positive: zero otherwise.
+        let (mut v, mut sum) = (DVec3::ZERO, 0f64);
+        for (light, unit) in self.0.iter().zip(dirs::units()) {
+            let l = light.as_dvec3().dot(Vec3::from_array(LUMA).as_dvec3());
+            v += unit.as_dvec3() * l;
+            sum += l;
+        }
+        let r = (v / sum).as_vec3();
+        if sum > 0.0 && r.is_finite() {
             r.clamp_length_max(1.0)
         } else {
             Vec3::ZERO

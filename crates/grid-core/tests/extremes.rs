@@ -130,3 +130,19 @@ proptest! {
         let _ = GridFile::from_bytes_limited(&bytes, limit);
     }
 }
+
+/// Found by `cargo xtask fuzz --target api`: light of opposite signs near `f32::MAX`
+/// cancels to a tiny total, and the direction divided by it was infinite (then NaN).
+#[test]
+fn a_dominant_direction_of_cancelling_light_is_finite() {
+    let mut b = BinLight::ZERO;
+    b.0[2] = Vec3::new(3.57e-43, 1.7014118e38, 0.0);
+    b.0[5] = Vec3::new(0.0, -1.7014118e38, 0.0);
+    b.0[0] = Vec3::new(0.0, 0.0, 9.1835e-41);
+    assert!(b.dominant().is_finite());
+    let mut huge = BinLight::ZERO;
+    huge.0[0] = Vec3::splat(f32::MAX);
+    huge.0[1] = Vec3::splat(f32::MAX);
+    let d = huge.dominant();
+    assert!(d.is_finite() && d.length() > 0.5, "{d}");
+}
