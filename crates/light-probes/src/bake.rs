@@ -90,8 +90,13 @@ fn axis_of(n: Vec3) -> u8 {
     2 * axis + (v < 0.0) as u8
 }
 
-/// Direction `i` of `n` on a Fibonacci sphere (deterministic, near-uniform).
+/// Direction `i` of `n` on a Fibonacci sphere (deterministic, near-uniform). `n = 0`
+/// gives `+Y`; `i` past `n` is read as `n − 1`.
 pub fn fibonacci(i: u32, n: u32) -> Vec3 {
+    if n == 0 {
+        return Vec3::Y;
+    }
+    let i = i.min(n - 1);
     let y = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
     let r = (1.0 - y * y).max(0.0).sqrt();
     let phi = i as f32 * 2.399_963_1;

@@ -116,9 +116,14 @@ fn finite_or_zero(v: Vec3) -> Vec3 {
 }
 
 /// Octahedral encoding of a unit vector into `[0, 1]²` (the usual fold of the lower
-/// hemisphere onto the square's corners).
+/// hemisphere onto the square's corners). Any non-zero finite length is normalised;
+/// a zero or non-finite `n` encodes as `+Y`.
 pub fn octahedral_encode(n: Vec3) -> Vec2 {
-    let n = n / (n.x.abs() + n.y.abs() + n.z.abs());
+    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+    if !(l1 > 0.0 && l1.is_finite()) {
+        return Vec2::splat(0.5); // +Y
+    }
+    let n = n / l1;
     let p = if n.y >= 0.0 {
         Vec2::new(n.x, n.z)
     } else {
@@ -128,14 +133,14 @@ pub fn octahedral_encode(n: Vec3) -> Vec2 {
     p * 0.5 + Vec2::splat(0.5)
 }
 
-/// Inverse of [`octahedral_encode`].
+/// Inverse of [`octahedral_encode`] (a non-finite `uv` decodes as `+Y`).
 pub fn octahedral_decode(uv: Vec2) -> Vec3 {
     let f = uv * 2.0 - Vec2::ONE;
     let y = 1.0 - f.x.abs() - f.y.abs();
     let t = (-y).max(0.0);
     let x = f.x - t * f.x.signum();
     let z = f.y - t * f.y.signum();
-    Vec3::new(x, y, z).normalize()
+    Vec3::new(x, y, z).normalize_or(Vec3::Y)
 }
 
 /// The irradiance kernel `K_d(n)` tabulated on an octahedral map of normals.
@@ -158,9 +163,13 @@ impl IrradianceTable {
         T.get_or_init(|| Self::build(Self::SIZE))
     }
 
-    /// Tabulates the exact kernel at `size × size` normals (`size >= 2`).
+    /// Largest side of a table [`IrradianceTable::build`] makes (27 MB of weights).
+    pub const MAX_SIZE: u32 = 512;
+
+    /// Tabulates the exact kernel at `size × size` normals, `size` clamped into
+    /// `2..=MAX_SIZE`.
     pub fn build(size: u32) -> Self {
-        let size = size.max(2);
+        let size = size.clamp(2, Self::MAX_SIZE);
         let omega = &dirs::bins().omega;
         let mut weights = vec![0.0; (size * size) as usize * NUM_DIRS];
         weights
@@ -179,8 +188,10 @@ impl IrradianceTable {
 
     /// Irradiance of `bins` on the normal `n` (any non-zero length), interpolating the
     /// table bilinearly. The GPU sampler does the same arithmetic.
+    /// A zero or non-finite normal reads as `+Y`; the result is finite (sums past
+    /// `f32::MAX` saturate, NaN reads 0: `lightgrid_core::light::finite`).
     pub fn irradiance(&self, bins: &BinLight, n: Vec3) -> Vec3 {
-        let g = octahedral_encode(n.normalize()) * (self.size - 1) as f32;
+        let g = octahedral_encode(n) * (self.size - 1) as f32;
         let max = self.size - 2;
         let base = g
             .floor()
@@ -200,7 +211,23 @@ impl IrradianceTable {
                 e += bins.0[d] * (k[d] * w);
             }
         }
-        e
+        if e.is_finite() {
+            return e;
+        }
+        // Light beyond f32: the same sum in f64, saturated.
+        let mut wide = lightgrid_core::glam::DVec3::ZERO;
+        for (dx, dy, w) in [
+            (0, 0, (1.0 - f.x) * (1.0 - f.y)),
+            (1, 0, f.x * (1.0 - f.y)),
+            (0, 1, (1.0 - f.x) * f.y),
+            (1, 1, f.x * f.y),
+        ] {
+            let node = ((base.y + dy) * self.size + base.x + dx) as usize * NUM_DIRS;
+            for d in 0..NUM_DIRS {
+                wide += bins.0[d].as_dvec3() * (self.weights[node + d] * w) as f64;
+            }
+        }
+        lightgrid_core::light::finite(wide)
     }
 }
 
