@@ -33,7 +33,7 @@ pub fn export_seeds() -> Vec<Vec<u8>> {
 
 /// Reads a grid file and exports what it holds: light as both texel formats with the
 /// validity fill (every other point invalid), DDS, KTX2 and a sidecar whose unit scale
-/// comes from the input's last four bytes. Accepted when the whole export succeeded.
+/// comes from the input's last byte. Accepted when the whole export succeeded.
 pub fn run_export(b: &[u8]) -> bool {
     let grid = match GridFile::from_bytes(b) {
         Ok(GridFile::Light(l)) => l,
@@ -46,11 +46,11 @@ pub fn run_export(b: &[u8]) -> bool {
         Ok(_) | Err(_) => return false,
     };
     let desc = *grid.desc();
+    // 1e-32 to 1e32 from the last byte: every seed's product with its intensity stays
+    // a positive finite f32; mutated grids reach the refusals.
     let scale = b
-        .len()
-        .checked_sub(4)
-        .map(|i| f32::from_le_bytes(b[i..].try_into().expect("four bytes")))
-        .unwrap_or(1.0);
+        .last()
+        .map_or(1.0, |&x| 10f32.powf((x as f32 - 128.0) / 4.0));
     let valid: Vec<bool> = (0..desc.point_count()).map(|i| i % 2 == 0).collect();
     let mut ok = true;
     for format in [TexelFormat::Rgb9e5, TexelFormat::Rg11b10] {
@@ -178,21 +178,30 @@ impl Values<'_> {
     }
 }
 
-/// Seeds for [`run_api`]: ordinary values, zeros, all ones (NaN) and the edges of `f32`.
+/// Seeds for [`run_api`]: a grid descriptor (origin, spacing, three sizes) then
+/// ordinary values (the mutations write zeros, all ones, `u32::MAX` and other extremes
+/// over them).
 pub fn api_seeds() -> Vec<Vec<u8>> {
-    let floats = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let seed = |origin: [f32; 3], h: f32, dims: [u32; 3], rest: &[f32]| {
+        let mut b: Vec<u8> = origin.iter().flat_map(|x| x.to_le_bytes()).collect();
+        b.extend(h.to_le_bytes());
+        b.extend(dims.iter().flat_map(|x| x.to_le_bytes()));
+        b.extend(rest.iter().flat_map(|x| x.to_le_bytes()));
+        b
+    };
     vec![
-        floats(&[0.5, 1.0, 2.0, 0.25, 3.0, 0.9, 1.5, 0.1, 4.0, 0.7, 2.5, 0.3]),
-        vec![0; 48],
-        vec![0xFF; 48],
-        floats(&[
-            f32::MAX,
-            f32::MIN_POSITIVE,
-            1e-45,
-            f32::INFINITY,
-            -1.0,
-            1e30,
-        ]),
+        seed(
+            [0.5, 1.0, 2.0],
+            0.25,
+            [2, 3, 4],
+            &[3.0, 0.9, 1.5, 0.1, 4.0, 0.7, 2.5, 0.3],
+        ),
+        seed(
+            [-4.0, 0.0, 9.0],
+            2.0,
+            [1, 5, 1],
+            &[0.2, 0.75, 0.6, 0.4, 1.0, 5.0, 0.8],
+        ),
     ]
 }
 
@@ -201,6 +210,7 @@ pub fn api_seeds() -> Vec<Vec<u8>> {
 pub fn run_api(b: &[u8]) -> bool {
     lightgrid_core::limits::set_memory_limit(crate::fuzz::FUZZ_MEMORY_LIMIT);
     let mut r = Values { bytes: b, at: 0 };
+    let desc = (r.v3(), r.f32(), UVec3::new(r.size(), r.size(), r.size()));
     // Projections of any bins.
     let bins = BinLight(std::array::from_fn(|_| r.v3()));
     let n = r.v3();
@@ -243,7 +253,7 @@ pub fn run_api(b: &[u8]) -> bool {
     p.chords_per_direction = r.u32();
     let _ = p.validate();
     // Grids, compression and light sets.
-    let Ok(desc) = GridDesc::new(r.v3(), r.f32(), UVec3::new(r.size(), r.size(), r.size())) else {
+    let Ok(desc) = GridDesc::new(desc.0, desc.1, desc.2) else {
         return false;
     };
     if let Ok(mut g) = LightGrid::filled(desc, BinLight::uniform(r.v3().abs())) {

@@ -170,6 +170,38 @@ fn a_field_handed_over_through_the_faces_is_kept_exactly() {
     }
 }
 
+/// Beam conservation with the sun in the bins (issue 44): over an infinite black ground
+/// (periodic sides), what enters through the top per column and what the ground absorbs
+/// are `E sin(elevation)` at every elevation from 2° to 90° and any azimuth, to 1e-4
+/// (before: the bin's mean cosine instead of the beam's, +9 % at 25°).
+#[test]
+fn a_sun_in_the_bins_brings_the_beams_flux_at_any_elevation() {
+    let m = ground(1, 0.0);
+    let columns = m.desc().level_len() as f64;
+    for elevation in [2.0f32, 7.0, 15.0, 25.0, 40.0, 55.0, 70.0, 90.0] {
+        for azimuth in [0.0f32, 0.7, 2.2] {
+            let top = Sun::at(elevation.to_radians(), azimuth, Vec3::ONE)
+                .bins()
+                .unwrap();
+            let b = Boundary {
+                sides: SideBoundary::Periodic,
+                ..Boundary::open_sky(top)
+            };
+            let bal = lightgrid_sweep_cpu::run(&m, &b, &converged())
+                .unwrap()
+                .balance;
+            let want = (elevation as f64).to_radians().sin();
+            for (what, got) in [("entering", bal.top_in.x), ("absorbed", bal.absorbed.x)] {
+                let got = got / columns;
+                assert!(
+                    (got / want - 1.0).abs() < 1e-4,
+                    "{elevation}° {azimuth}: {what} {got} vs {want}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn white_furnace_is_exact_in_random_media() {
     for seed in [7u64, 11, 23] {
