@@ -586,10 +586,19 @@ impl SidecarSun {
         if luminance <= 0.0 || dir.y <= 0.0 {
             return Ok(None);
         }
+        if lux <= 0.0 {
+            return Err(ExportError::Invalid {
+                field: "unit_scale",
+                value: format!("{unit_scale:?}"),
+                reason: "times the sun's illuminance it must stay above 0 in f32",
+            });
+        }
+        // (In f64: a luminance near f32's smallest would overflow the division.)
+        let color = (irradiance.as_dvec3() / luminance as f64).as_vec3();
         Ok(Some(Self {
             direction_to_sun: dir.to_array(),
             illuminance: lux,
-            color: (irradiance / luminance).to_array(),
+            color: color.to_array(),
         }))
     }
 }

@@ -78,6 +78,7 @@ pub mod dda;
 mod desc;
 pub mod dirs;
 mod error;
+pub mod extremes;
 pub mod file;
 mod grid;
 pub mod hash;

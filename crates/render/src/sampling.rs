@@ -191,21 +191,9 @@ impl IrradianceTable {
     /// A zero or non-finite normal reads as `+Y`; the result is finite (sums past
     /// `f32::MAX` saturate, NaN reads 0: `lightgrid_core::light::finite`).
     pub fn irradiance(&self, bins: &BinLight, n: Vec3) -> Vec3 {
-        let g = octahedral_encode(n) * (self.size - 1) as f32;
-        let max = self.size - 2;
-        let base = g
-            .floor()
-            .as_uvec2()
-            .min(lightgrid_core::glam::UVec2::splat(max));
-        let f = (g - base.as_vec2()).clamp(Vec2::ZERO, Vec2::ONE);
+        let corners = self.corners(n);
         let mut e = Vec3::ZERO;
-        for (dx, dy, w) in [
-            (0, 0, (1.0 - f.x) * (1.0 - f.y)),
-            (1, 0, f.x * (1.0 - f.y)),
-            (0, 1, (1.0 - f.x) * f.y),
-            (1, 1, f.x * f.y),
-        ] {
-            let node = ((base.y + dy) * self.size + base.x + dx) as usize * NUM_DIRS;
+        for &(node, w) in &corners {
             let k = &self.weights[node..node + NUM_DIRS];
             for d in 0..NUM_DIRS {
                 e += bins.0[d] * (k[d] * w);
@@ -216,18 +204,36 @@ impl IrradianceTable {
         }
         // Light beyond f32: the same sum in f64, saturated.
         let mut wide = lightgrid_core::glam::DVec3::ZERO;
-        for (dx, dy, w) in [
-            (0, 0, (1.0 - f.x) * (1.0 - f.y)),
-            (1, 0, f.x * (1.0 - f.y)),
-            (0, 1, (1.0 - f.x) * f.y),
-            (1, 1, f.x * f.y),
-        ] {
-            let node = ((base.y + dy) * self.size + base.x + dx) as usize * NUM_DIRS;
+        for &(node, w) in &corners {
             for d in 0..NUM_DIRS {
                 wide += bins.0[d].as_dvec3() * (self.weights[node + d] * w) as f64;
             }
         }
         lightgrid_core::light::finite(wide)
+    }
+
+    /// The four table nodes around normal `n` (first weight's index) and their bilinear
+    /// weights.
+    fn corners(&self, n: Vec3) -> [(usize, f32); 4] {
+        let g = octahedral_encode(n) * (self.size - 1) as f32;
+        let max = self.size - 2;
+        let base = g
+            .floor()
+            .as_uvec2()
+            .min(lightgrid_core::glam::UVec2::splat(max));
+        let f = (g - base.as_vec2()).clamp(Vec2::ZERO, Vec2::ONE);
+        [
+            (0, 0, (1.0 - f.x) * (1.0 - f.y)),
+            (1, 0, f.x * (1.0 - f.y)),
+            (0, 1, (1.0 - f.x) * f.y),
+            (1, 1, f.x * f.y),
+        ]
+        .map(|(dx, dy, w)| {
+            (
+                ((base.y + dy) * self.size + base.x + dx) as usize * NUM_DIRS,
+                w,
+            )
+        })
     }
 }
 

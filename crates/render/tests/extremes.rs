@@ -7,17 +7,10 @@ use lightgrid_render::sampling::{octahedral_decode, octahedral_encode};
 use lightgrid_render::{IrradianceTable, SamplePoints, sample_points};
 use proptest::prelude::*;
 
+/// The shared extreme values (`lightgrid_core::extremes`), any `f32`.
 fn f() -> impl Strategy<Value = f32> {
     prop_oneof![
-        Just(0.0),
-        Just(1.0),
-        Just(-1.0),
-        Just(f32::MAX),
-        Just(-f32::MAX),
-        Just(1e-45),
-        Just(f32::NAN),
-        Just(f32::INFINITY),
-        Just(f32::NEG_INFINITY),
+        proptest::sample::select(&lightgrid_core::extremes::F32[..]),
         any::<f32>(),
     ]
 }

@@ -37,17 +37,13 @@ fn or_count(valid: u32) -> impl Strategy<Value = u32> {
     prop_oneof![4 => Just(valid), 1 => count()]
 }
 
+/// The shared extreme values (`lightgrid_core::extremes`), this crate's own edges, any `f32`.
 fn f() -> impl Strategy<Value = f32> {
     prop_oneof![
-        Just(0.0),
-        Just(1.0),
-        Just(-1.0),
-        Just(f32::MAX),
-        Just(1e-45),
-        Just(f32::NAN),
-        Just(f32::INFINITY),
+        proptest::sample::select(&lightgrid_core::extremes::F32[..]),
         Just(1e-3),
         4.0f32..64.0,
+        any::<f32>(),
     ]
 }
 
