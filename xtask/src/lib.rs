@@ -7,3 +7,4 @@ pub mod frame;
 pub mod fuzz;
 pub mod fuzz_api;
 pub mod sun;
+pub mod tree;

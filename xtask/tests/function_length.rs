@@ -6,6 +6,8 @@
 
 use std::path::{Path, PathBuf};
 
+use xtask::tree::root;
+
 /// Longest a new function may be.
 const MAX_LINES: usize = 150;
 
@@ -32,25 +34,10 @@ const KNOWN: &[(&str, &str, usize)] = &[
     ("crates/render/src/gpu.rs", "sample_layers_lit", 151),
 ];
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let p = e.path();
-        let name = e.file_name().to_string_lossy().into_owned();
-        if p.is_dir() {
-            if !["tests", "benches", "examples", "target", ".git"].contains(&name.as_str()) {
-                sources(&p, out);
-            }
-        } else if name.ends_with(".rs") {
-            out.push(p);
-        }
-    }
+/// The `.rs` files under `dir` outside `tests/`, `benches/`, `examples/`.
+fn sources(dir: &Path) -> Vec<PathBuf> {
+    let enter = |name: &str| !["tests", "benches", "examples", "target", ".git"].contains(&name);
+    xtask::tree::files(dir, &enter, &|_, name| name.ends_with(".rs"))
 }
 
 /// `(function, first line, lines)` of every function in `text` outside test modules.
@@ -104,10 +91,10 @@ fn the_counter_finds_functions_and_skips_test_modules() {
 #[test]
 fn no_function_outside_tests_runs_over_150_lines() {
     let root = root();
-    let mut files = Vec::new();
-    for dir in ["crates", "xtask/src"] {
-        sources(&root.join(dir), &mut files);
-    }
+    let files: Vec<PathBuf> = ["crates", "xtask/src"]
+        .iter()
+        .flat_map(|dir| sources(&root.join(dir)))
+        .collect();
     assert!(files.len() > 50, "found {} source files", files.len());
     let mut bad = Vec::new();
     for file in &files {

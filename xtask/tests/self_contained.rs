@@ -4,39 +4,25 @@
 
 use std::path::{Path, PathBuf};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("xtask sits in the workspace")
-        .to_path_buf()
-}
+use xtask::tree::root;
 
 /// Every text file of the project, `target/`, `.git/` and `out/` left out.
-fn text_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
+fn text_files(dir: &Path) -> Vec<PathBuf> {
+    let enter = |name: &str| {
+        !(name.starts_with('.') && name != ".ci" && name != ".cargo")
+            && name != "target"
+            && name != "out"
+            && !name.starts_with("target-")
     };
-    for e in entries.flatten() {
-        let p = e.path();
-        let name = e.file_name().to_string_lossy().into_owned();
-        if p.is_dir() {
-            if !(name.starts_with('.') && name != ".ci" && name != ".cargo")
-                && name != "target"
-                && name != "out"
-                && !name.starts_with("target-")
-            {
-                text_files(&p, out);
-            }
-        } else if [".rs", ".toml", ".md", ".wgsl", ".sh"]
+    let keep = |p: &Path, name: &str| {
+        [".rs", ".toml", ".md", ".wgsl", ".sh"]
             .iter()
             .any(|s| name.ends_with(s))
             || p.parent()
                 .and_then(|d| d.file_name())
                 .is_some_and(|n| n == ".ci")
-        {
-            out.push(p);
-        }
-    }
+    };
+    xtask::tree::files(dir, &enter, &keep)
 }
 
 /// How deep `dir` lies below the repository's root (0 for the root itself).
@@ -92,8 +78,7 @@ fn allowed_climb(file: &Path, line: &str, root: &Path) -> usize {
 #[test]
 fn no_path_climbs_out_of_the_repository() {
     let root = root();
-    let mut files = Vec::new();
-    text_files(&root, &mut files);
+    let files = text_files(&root);
     assert!(files.len() > 100, "found only {} files", files.len());
     let mut bad = Vec::new();
     for f in &files {
