@@ -3,9 +3,9 @@
 
 use glam::{UVec3, Vec3};
 
+use crate::GridError;
 use crate::grid::{AverageLight, DominantDir, Grid, Material};
 use crate::light::BinLight;
-use crate::{GridError, NUM_DIRS};
 
 /// Values that can be blended linearly (weights sum to 1 in trilinear sampling).
 pub trait Blend: Copy {
@@ -38,8 +38,12 @@ impl Blend for BinLight {
         BinLight::ZERO
     }
     fn add_scaled(&mut self, other: &Self, w: f32) {
-        for d in 0..NUM_DIRS {
-            self.0[d] += other.0[d] * w;
+        // As 78 floats in a row (the same sums, element by element): the loop runs on
+        // the vector unit instead of 26 three-float steps.
+        let a: &mut [f32] = bytemuck::cast_slice_mut(&mut self.0[..]);
+        let b: &[f32] = bytemuck::cast_slice(&other.0[..]);
+        for (x, y) in a.iter_mut().zip(b) {
+            *x += *y * w;
         }
     }
 }
@@ -94,10 +98,8 @@ pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
     let dims = dims.max(UVec3::ONE);
     let maxf = (dims - UVec3::ONE).as_vec3();
     let g = g.clamp(Vec3::ZERO, maxf);
-    let base = g
-        .floor()
-        .as_uvec3()
-        .min(dims.saturating_sub(UVec3::splat(2)));
+    // (`g` is clamped at 0: truncation is its floor, without a libm call a coordinate.)
+    let base = g.as_uvec3().min(dims.saturating_sub(UVec3::splat(2)));
     let f = (g - base.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
     let hi = (base + UVec3::ONE).min(dims - UVec3::ONE);
     std::array::from_fn(|c| {
