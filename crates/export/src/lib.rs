@@ -553,7 +553,7 @@ impl SidecarSun {
         irradiance: Vec3,
         unit_scale: f32,
     ) -> Result<Option<Self>, ExportError> {
-        let Some(dir) = to_sun.try_normalize().filter(|_| to_sun.is_finite()) else {
+        let Some(dir) = lightgrid_core::unit(to_sun) else {
             return Err(ExportError::Invalid {
                 field: "sun direction",
                 value: format!("{to_sun:?}"),

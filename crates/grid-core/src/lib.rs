@@ -100,7 +100,7 @@ pub use grid::{
     AverageGrid, AverageLight, CodedBins, CodedLightGrid, DominantDir, DominantGrid, Grid,
     GridValue, LightGrid, Material, MaterialGrid, PackedBins, PackedLightGrid,
 };
-pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance};
+pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance, unit};
 pub use lights::LightKind;
 pub use rng::SeededRng;
 pub use sample::{Blend, trilinear_corners};

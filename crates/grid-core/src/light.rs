@@ -341,17 +341,30 @@ fn ambient_weights() -> &'static [[f64; NUM_DIRS]; 6] {
     })
 }
 
+/// The unit vector along `v`, or `None` where `v` is zero or not finite. Unlike
+/// `Vec3::try_normalize` it is unit for any finite non-zero `v`, subnormal components
+/// included (it scales by the largest component first; a squared length below
+/// `f32::MIN_POSITIVE` loses the precision a unit vector needs).
+pub fn unit(v: Vec3) -> Option<Vec3> {
+    let m = v.abs().max_element();
+    if !v.is_finite() || m <= 0.0 {
+        return None;
+    }
+    // The plain form where it is exact enough (bit for bit what it always gave).
+    match v.try_normalize() {
+        Some(n) if (n.length_squared() - 1.0).abs() < 1e-6 => Some(n),
+        _ => (v / m).try_normalize(),
+    }
+}
+
 /// Checks a sun given as a direction toward it and its irradiance on a surface facing
 /// it (the form every crate passes a sun kept apart in): the direction must be finite and
 /// non-zero, the irradiance finite and >= 0. Returns the unit direction. Errors name
 /// `sun.to_sun` or `sun.irradiance`.
 pub fn check_sun(to_sun: Vec3, irradiance: Vec3) -> Result<Vec3, crate::GridError> {
-    let s = to_sun
-        .try_normalize()
-        .filter(|_| to_sun.is_finite())
-        .ok_or_else(|| {
-            crate::GridError::invalid("sun.to_sun", to_sun, "must be a finite, non-zero direction")
-        })?;
+    let s = unit(to_sun).ok_or_else(|| {
+        crate::GridError::invalid("sun.to_sun", to_sun, "must be a finite, non-zero direction")
+    })?;
     if !irradiance.is_finite() || irradiance.min_element() < 0.0 {
         return Err(crate::GridError::invalid(
             "sun.irradiance",

@@ -130,7 +130,11 @@ impl LightKind {
                 inner,
                 outer,
                 ..
-            } => Some((direction.normalize_or_zero(), inner.cos(), outer.cos())),
+            } => Some((
+                crate::unit(direction).unwrap_or(Vec3::ZERO),
+                inner.cos(),
+                outer.cos(),
+            )),
             _ => None,
         }
     }

@@ -106,6 +106,14 @@ proptest! {
         if let Ok(s) = lightgrid_core::light::check_sun(to_sun, irr) {
             prop_assert!((s.length() - 1.0).abs() < 1e-5);
         }
+        match lightgrid_core::unit(to_sun) {
+            Some(u) => {
+                prop_assert!((u.length() - 1.0).abs() < 1e-5, "{u}");
+                // Same direction: each component has the sign of the input's.
+                prop_assert!((0..3).all(|a| u[a] == 0.0 || u[a].signum() == to_sun[a].signum()));
+            }
+            None => prop_assert!(!to_sun.is_finite() || to_sun == Vec3::ZERO),
+        }
         let c = lightgrid_core::trilinear_corners(UVec3::new(dims.0, dims.1, dims.2), g);
         let sum: f32 = c.iter().map(|p| p.1).sum();
         prop_assert!(c.iter().all(|p| p.1.is_finite() && p.1 >= 0.0));
@@ -134,4 +142,14 @@ fn a_dominant_direction_of_cancelling_light_is_finite() {
     huge.0[1] = Vec3::splat(f32::MAX);
     let d = huge.dominant();
     assert!(d.is_finite() && d.length() > 0.5, "{d}");
+}
+
+/// A sun toward a direction of subnormal and tiny components (found by CI: the plain
+/// normalisation gave a length of 0.98) is unit.
+#[test]
+fn a_sun_of_tiny_components_is_unit() {
+    let to_sun = Vec3::new(1.1754944e-38, -0.0, 8.951674e-22);
+    let s = lightgrid_core::light::check_sun(to_sun, Vec3::ONE).unwrap();
+    assert!((s.length() - 1.0).abs() < 1e-6, "{s}");
+    assert!(s.distance(Vec3::Z) < 1e-6, "{s}");
 }

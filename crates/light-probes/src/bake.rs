@@ -519,7 +519,7 @@ impl ProbeSet {
         field: &F,
         to_sun: Vec3,
     ) -> Result<Vec<f32>, ProbeError> {
-        let s = to_sun.try_normalize().ok_or_else(|| {
+        let s = lightgrid_core::unit(to_sun).ok_or_else(|| {
             lightgrid_core::GridError::invalid("to_sun", to_sun, "must be finite and non-zero")
         })?;
         self.surfels
@@ -542,7 +542,7 @@ impl ProbeSet {
     /// mask's cutoff): one shadow ray from its position, lifted a twentieth of a cell
     /// along its normal. Surfels facing away get 0. Recompute when the sun moves.
     pub fn sun_visibility(&self, scene: &RayScene<'_>, to_sun: Vec3) -> Vec<f32> {
-        let Some(s) = to_sun.try_normalize() else {
+        let Some(s) = lightgrid_core::unit(to_sun) else {
             return vec![0.0; self.surfels.len()];
         };
         let lift = 0.05 * self.params.cell;

@@ -46,7 +46,7 @@ pub mod trace;
 pub mod volume;
 
 pub use light::{Light, LightKind};
-pub use set::{LightId, LightSet, Region};
+pub use set::{LightId, LightSet, Region, SNAP};
 pub use trace::{TraceParams, TraceStats, trace_light};
 pub use volume::{CacheOutcome, CompressedVolume, THRESHOLD, load_or_make};
 

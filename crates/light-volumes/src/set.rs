@@ -53,6 +53,10 @@ pub struct LightSet {
     dirty: Option<Region>,
 }
 
+/// How far (in spacings) a volume's origin may lie from one of the set's points and be
+/// snapped onto it by [`LightSet::add`].
+pub const SNAP: f32 = 1e-3;
+
 impl LightSet {
     /// An empty set over `desc` (every light's volume must lie on this grid's points).
     pub fn new(desc: GridDesc) -> Result<Self, GridError> {
@@ -69,6 +73,11 @@ impl LightSet {
     }
 
     /// Adds a light (on) from its compressed white volume, with its colour and intensity.
+    ///
+    /// The volume must lie on the set's points: its spacing equal to the set's (to 1e-6
+    /// of it) and its origin on a point, within [`SNAP`] of a spacing (it is snapped
+    /// there), with the whole box inside the set's grid. Anything else is refused with
+    /// [`GridError`] naming `volume.desc`.
     pub fn add(
         &mut self,
         volume: &CompressedVolume,
@@ -83,7 +92,7 @@ impl LightSet {
                 let lo_f = (vd.origin() - d.origin()) / d.h();
                 let lo = lo_f.round();
                 if !lo_f.is_finite()
-                    || (lo_f - lo).abs().max_element() > 1e-3
+                    || (lo_f - lo).abs().max_element() > SNAP
                     || (vd.h() - d.h()).abs() > 1e-6 * d.h()
                     || lo.min_element() < 0.0
                 {

@@ -50,8 +50,11 @@ proptest! {
         let c = CompressedVolume::compress(&g, 2);
         match set.add(&c, colour, intensity) {
             Ok(_) => {
-                // Only a volume on the set's points, inside it, with a colour of light.
-                let lo = (vd.origin() - d.origin()) / d.h();
+                // Only a volume on the set's points (to the documented snap), inside it,
+                // with a colour of light.
+                let lo_f = (vd.origin() - d.origin()) / d.h();
+                let lo = lo_f.round();
+                prop_assert!((lo_f - lo).abs().max_element() <= lightgrid_light_volumes::SNAP);
                 prop_assert!(lo.cmpge(Vec3::ZERO).all() && (lo + 2.0).cmple(d.dims().as_vec3()).all());
                 prop_assert!(set.grid().data().iter().all(|b| b.is_valid()));
             }
@@ -86,4 +89,22 @@ fn infinity_compresses_as_the_largest_light() {
     let back = c.decode().unwrap();
     assert!(back.data().iter().all(|b| b.is_valid()));
     assert_eq!(back.data().last().unwrap().0[0].x, f32::MAX);
+}
+
+/// CI's case: an origin a subnormal below the set's point is snapped onto it (within
+/// [`lightgrid_light_volumes::SNAP`]) and accepted, not refused as outside.
+#[test]
+fn an_origin_a_hair_off_a_point_is_snapped() {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(6, 4, 6)).unwrap();
+    let mut set = LightSet::new(d).unwrap();
+    let vd = GridDesc::new(
+        Vec3::new(1e-4, -8.245247e-39, 1e-4),
+        1.0,
+        UVec3::new(2, 2, 2),
+    )
+    .unwrap();
+    let g = LightGrid::filled(vd, BinLight::uniform(Vec3::ONE)).unwrap();
+    set.add(&CompressedVolume::compress(&g, 2), Vec3::ONE, 1.0)
+        .unwrap();
+    assert!(set.grid().get(UVec3::ZERO).unwrap().total().max_element() > 0.0);
 }
