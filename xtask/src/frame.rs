@@ -140,6 +140,9 @@ pub struct Errors {
     pub sun: Error,
     /// Both.
     pub both: Error,
+    /// The sun's direct part alone, `E T max(0, n·s)`: how well a node's transmittance
+    /// agrees with the full-resolution march.
+    pub direct: Error,
 }
 
 /// One frame.
@@ -372,20 +375,37 @@ struct Reference {
 
 impl Reference {
     /// Sky and sun luminance at every probe, read as the hierarchy is ([`read`]).
-    fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<(f32, f32)>> {
+    fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<Parts>> {
         let (response, to_sun) = self.sun.as_ref().context("reference sun")?;
         let sky = read(self.sky.as_ref().context("reference sky")?, probes)?;
         let sun = read(response, probes)?;
         Ok(probes
             .iter()
             .zip(sky.iter().zip(&sun))
-            .map(|(p, (a, b))| {
-                (
-                    shaded(a, p, Vec3::ZERO, *to_sun),
-                    shaded(b, p, SUN_E, *to_sun),
-                )
-            })
+            .map(|(p, (a, b))| Parts::of(a, b, p, *to_sun))
             .collect())
+    }
+}
+
+/// The luminance of a probe's light in parts.
+#[derive(Debug, Clone, Copy, Default)]
+struct Parts {
+    /// The sky alone.
+    sky: f32,
+    /// The sun alone, scattered and direct.
+    sun: f32,
+    /// The sun's direct part.
+    direct: f32,
+}
+
+impl Parts {
+    /// From a read with the sun off (`sky`) and one with the sky off (`sun`).
+    fn of(sky: &SampledLight, sun: &SampledLight, p: &Probe, to_sun: Vec3) -> Self {
+        Self {
+            sky: shaded(sky, p, Vec3::ZERO, to_sun),
+            sun: shaded(sun, p, SUN_E, to_sun),
+            direct: lightgrid_core::light::luminance(SUN_E * (sun.sun * p.n.dot(to_sun).max(0.0))),
+        }
     }
 }
 
@@ -421,13 +441,17 @@ fn reference_desc(world: &World, cfg: &FrameConfig, params: &HierarchyParams) ->
         }
         x += 2.0;
     }
+    // On the finest nodes' lattice: their points and cells are the reference's.
     let h = params.finest_cell;
-    let bottom = g_lo - 2.0 * h;
+    let datum = params.lattice(&world.hm, params.depths());
+    let snap = |v: f32, d: f32| d + ((v - d) / h).floor() * h;
+    let lo = Vec2::new(snap(lo.x, datum.x), snap(lo.y, datum.z));
+    let bottom = snap(g_lo - 2.0 * h, datum.y);
     let top = g_hi + params.margin;
     let dims = UVec3::new(
-        ((hi.x - lo.x) / h) as u32 + 1,
+        ((hi.x - lo.x) / h).ceil() as u32 + 1,
         ((top - bottom) / h).ceil() as u32 + 1,
-        ((hi.y - lo.y) / h) as u32 + 1,
+        ((hi.y - lo.y) / h).ceil() as u32 + 1,
     );
     Ok(GridDesc::new(Vec3::new(lo.x, bottom, lo.y), h, dims)?)
 }
@@ -475,19 +499,21 @@ impl Acc {
 
 /// Sky, sun and both accumulators.
 #[derive(Default, Clone)]
-struct Acc3([Acc; 3]);
+struct Acc3([Acc; 4]);
 
 impl Acc3 {
-    fn add(&mut self, h: (f32, f32), r: (f32, f32)) {
-        self.0[0].add(h.0, r.0);
-        self.0[1].add(h.1, r.1);
-        self.0[2].add(h.0 + h.1, r.0 + r.1);
+    fn add(&mut self, h: Parts, r: Parts) {
+        self.0[0].add(h.sky, r.sky);
+        self.0[1].add(h.sun, r.sun);
+        self.0[2].add(h.sky + h.sun, r.sky + r.sun);
+        self.0[3].add(h.direct, r.direct);
     }
     fn errors(&self) -> Errors {
         Errors {
             sky: self.0[0].error(),
             sun: self.0[1].error(),
             both: self.0[2].error(),
+            direct: self.0[3].error(),
         }
     }
 }
@@ -522,7 +548,7 @@ fn shaded(s: &SampledLight, p: &Probe, e: Vec3, to_sun: Vec3) -> f32 {
 
 /// The hierarchy's sky and sun luminance at every probe (sky scale and sun irradiance
 /// toggled: neither sweeps anything), restored to both at the end.
-fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec<(f32, f32)>> {
+fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec<Parts>> {
     let sun = |irradiance| Some(SunLight { to_sun, irradiance });
     h.set_sun(sun(Vec3::ZERO))?;
     let sky = read(h, probes)?;
@@ -533,12 +559,7 @@ fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec
     Ok(probes
         .iter()
         .zip(sky.iter().zip(&lit))
-        .map(|(p, (a, b))| {
-            (
-                shaded(a, p, Vec3::ZERO, to_sun),
-                shaded(b, p, SUN_E, to_sun),
-            )
-        })
+        .map(|(p, (a, b))| Parts::of(a, b, p, to_sun))
         .collect())
 }
 
@@ -897,7 +918,7 @@ pub fn text(report: &FrameReport) -> String {
         );
         let _ = writeln!(
             s,
-            "  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE %"
+            "  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE % | direct sun bias / RMSE %"
         );
         for (d, e) in r.error_by_depth.iter().enumerate() {
             if e.both.n == 0 {
@@ -905,14 +926,16 @@ pub fn text(report: &FrameReport) -> String {
             }
             let _ = writeln!(
                 s,
-                "  {d:5} | {:6} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1}",
+                "  {d:5} | {:6} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1}",
                 e.both.n,
                 e.sky.bias * 100.0,
                 e.sky.rmse * 100.0,
                 e.sun.bias * 100.0,
                 e.sun.rmse * 100.0,
                 e.both.bias * 100.0,
-                e.both.rmse * 100.0
+                e.both.rmse * 100.0,
+                e.direct.bias * 100.0,
+                e.direct.rmse * 100.0
             );
         }
     }
@@ -1034,11 +1057,13 @@ mod tests {
     #[test]
     fn both_is_the_sum_of_sky_and_sun() {
         let mut a = Acc3::default();
-        a.add((1.0, 3.0), (1.0, 1.0));
+        let parts = |sky, sun, direct| Parts { sky, sun, direct };
+        a.add(parts(1.0, 3.0, 2.0), parts(1.0, 1.0, 0.5));
         let e = a.errors();
         assert!((e.sky.bias).abs() < 1e-12);
         assert!((e.sun.bias - 2.0).abs() < 1e-12);
         assert!((e.both.bias - 1.0).abs() < 1e-12);
+        assert!((e.direct.bias - 3.0).abs() < 1e-12);
     }
 
     #[test]

@@ -14,20 +14,23 @@
 use std::sync::Mutex;
 use std::time::Duration;
 
-use lightgrid_core::{GridError, MaterialGrid, Sweeper};
+use lightgrid_core::{GridError, Sweeper};
 use rayon::prelude::*;
 
-use crate::{FrameStats, GridSun, Hierarchy, LodError, Node, NodeKey, StageTimes, timed};
+use crate::shadow::Fresh;
+use crate::{
+    FrameStats, GridSun, Hierarchy, LodError, Node, NodeKey, NodeMaterial, StageTimes, timed,
+};
 
-/// A node's material and whether it has objects, composed.
-type Composed = Result<(MaterialGrid, bool), GridError>;
+/// A node's material, composed.
+type Composed = Result<NodeMaterial, GridError>;
 
 /// One node's work in a frame.
 struct Job {
     key: NodeKey,
-    /// A new node's material and whether it has objects (`None`: a built node whose sun
-    /// response is stale; its material is composed in the job).
-    material: Option<(MaterialGrid, bool)>,
+    /// A new node's material: its index among the depth's composed ones (`None`: a
+    /// built node whose sun response is stale; its stored material is used).
+    material: Option<usize>,
     /// Sweep the sky's light (a new node).
     sky: bool,
     /// Compute the sun's responses.
@@ -84,7 +87,7 @@ impl Hierarchy {
         let mut materials = Vec::with_capacity(composed.len());
         for (m, t) in composed {
             stats.times.material += t;
-            materials.push(Some(m?));
+            materials.push(m?);
         }
         let budget = self.params.budget_points;
         let mut jobs = Vec::new();
@@ -106,10 +109,7 @@ impl Hierarchy {
                     });
                 }
                 Want::New(key, i) => {
-                    let Some((material, has_objects)) = materials[i].take() else {
-                        continue;
-                    };
-                    let cost = material.desc().point_count() as u64;
+                    let cost = materials[i].grid.desc().point_count() as u64;
                     if stats.points_swept + cost > budget {
                         stats.pending += 1;
                         continue;
@@ -128,14 +128,14 @@ impl Hierarchy {
                     }
                     jobs.push(Job {
                         key,
-                        material: Some((material, has_objects)),
+                        material: Some(i),
                         sky: true,
                         sun,
                     });
                 }
             }
         }
-        self.run_jobs(jobs, &mut stats.times)
+        self.run_jobs(jobs, &new, &materials, &mut stats.times)
     }
 
     /// Whether a new node waits (its parent not built: pending) or is skipped (bare
@@ -146,7 +146,7 @@ impl Hierarchy {
         };
         let skip_bare = self.params.skip.bare_children;
         match self.nodes.get(&p) {
-            Some(n) if n.has_objects || !skip_bare => false,
+            Some(n) if n.material.has_objects || !skip_bare => false,
             Some(_) => {
                 stats.skipped_bare += 1; // bare ground: no finer child needed
                 true
@@ -165,15 +165,25 @@ impl Hierarchy {
     }
 
     /// Runs `jobs` (side by side on forks where the sweeper forks) and stores what they
-    /// made. The first error is returned after every job has finished.
-    fn run_jobs(&mut self, jobs: Vec<Job>, times: &mut StageTimes) -> Result<(), LodError> {
+    /// made. `new` are the depth's new nodes and `materials` theirs (composed, in that
+    /// order): every job's sun march reads all of them. The first error is returned
+    /// after every job has finished.
+    fn run_jobs(
+        &mut self,
+        jobs: Vec<Job>,
+        new: &[NodeKey],
+        materials: &[NodeMaterial],
+        times: &mut StageTimes,
+    ) -> Result<(), LodError> {
         if jobs.is_empty() {
             return Ok(());
         }
         let mut main = std::mem::replace(&mut self.sweeper, Box::new(crate::Lent));
         let pool = Mutex::new(std::mem::take(&mut self.forks));
+        let fresh: Fresh<'_> = new.iter().copied().zip(materials).collect();
         let results: Vec<Result<Done, LodError>> = {
             let this = &*self;
+            let fresh = &fresh;
             let side_by_side =
                 jobs.len() > 1 && rayon::current_num_threads() > 1 && main.fork().is_some();
             if side_by_side {
@@ -189,14 +199,14 @@ impl Hierarchy {
                             )
                             .into());
                         };
-                        let r = this.run_job(job, s.as_mut());
+                        let r = this.run_job(job, materials, fresh, s.as_mut());
                         pool.lock().unwrap_or_else(|e| e.into_inner()).push(s);
                         r
                     })
                     .collect()
             } else {
                 jobs.into_iter()
-                    .map(|job| this.run_job(job, main.as_mut()))
+                    .map(|job| this.run_job(job, materials, fresh, main.as_mut()))
                     .collect()
             }
         };
@@ -223,25 +233,34 @@ impl Hierarchy {
     }
 
     /// One node's sky sweep and sun responses, on `sweeper`.
-    fn run_job(&self, job: Job, sweeper: &mut dyn Sweeper) -> Result<Done, LodError> {
+    fn run_job(
+        &self,
+        job: Job,
+        materials: &[NodeMaterial],
+        fresh: &Fresh<'_>,
+        sweeper: &mut dyn Sweeper,
+    ) -> Result<Done, LodError> {
         let _node = tracing::trace_span!("node", key = ?job.key).entered();
         let mut times = StageTimes::default();
-        let (material, has_objects) = match job.material {
-            Some(m) => m,
-            None => {
-                let n = &self.nodes[&job.key];
-                let desc = *n.light.desc();
-                let m = timed(&mut times.material, || self.source.material(&desc))?;
-                (m, n.has_objects)
-            }
+        let material = match job.material {
+            Some(i) => &materials[i],
+            None => &self.nodes[&job.key].material,
         };
         let node = if job.sky {
-            Some(self.sky_node(job.key, &material, has_objects, sweeper, &mut times)?)
+            Some(self.sky_node(job.key, material, sweeper, &mut times)?)
         } else {
             None
         };
         let sun = if job.sun {
-            self.node_sun(job.key, &material, has_objects, sweeper, &mut times)?
+            let has_objects = material.has_objects;
+            self.node_sun(
+                job.key,
+                &material.grid,
+                has_objects,
+                sweeper,
+                fresh,
+                &mut times,
+            )?
         } else {
             None
         };
@@ -257,13 +276,13 @@ impl Hierarchy {
     fn sky_node(
         &self,
         key: NodeKey,
-        material: &MaterialGrid,
-        has_objects: bool,
+        composed: &NodeMaterial,
         sweeper: &mut dyn Sweeper,
         times: &mut StageTimes,
     ) -> Result<Node, LodError> {
+        let material = &composed.grid;
         let desc = *material.desc();
-        let o = self.node_options(has_objects);
+        let o = self.node_options(composed.has_objects);
         let (boundary, input_hash) = timed(&mut times.boundary, || {
             let b = self.node_boundary(&desc, key.depth);
             let hash = crate::hash_grid(material, &b, &o);
@@ -277,10 +296,10 @@ impl Hierarchy {
         })?;
         Ok(Node {
             light,
+            material: composed.clone(),
             sun: None,
             resident: out.resident,
             input_hash,
-            has_objects,
         })
     }
 }

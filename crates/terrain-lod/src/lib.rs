@@ -81,6 +81,7 @@ use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
 
 mod build;
+mod shadow;
 
 use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
@@ -186,6 +187,16 @@ impl HierarchyParams {
     /// Cell size at node depth `d` (0 = world).
     pub fn cell(&self, d: u32) -> f32 {
         self.world_cell / (1u32 << d) as f32
+    }
+    /// [`Hierarchy::lattice`] of a hierarchy over `heightmap` with these parameters.
+    pub fn lattice(&self, heightmap: &Heightmap, d: u32) -> Vec3 {
+        let h = self.cell(d);
+        let lo = heightmap.origin + Vec2::splat(0.5 * h);
+        Vec3::new(lo.x, self.world_bottom(heightmap), lo.y)
+    }
+    /// The world grid's lowest level: two world cells below the lowest ground.
+    fn world_bottom(&self, heightmap: &Heightmap) -> f32 {
+        heightmap.range().0 - 2.0 * self.world_cell
     }
     /// Horizontal size of a node at depth `d >= 1`, metres.
     pub fn node_size(&self, d: u32) -> f32 {
@@ -332,15 +343,27 @@ pub struct LayerSun<'a> {
     pub resident: Option<&'a Resident>,
 }
 
+/// A node's composed material ([`Hierarchy::node_material`]).
+#[derive(Clone)]
+struct NodeMaterial {
+    grid: MaterialGrid,
+    /// Objects above the ground.
+    has_objects: bool,
+    /// Nothing lies above the grid in the node's column (its composed top was empty).
+    open_above: bool,
+}
+
 struct Node {
     light: LightGrid,
+    /// The material it was swept with (its sun responses are recomputed from it, and the
+    /// sun's march beyond other nodes crosses it: [`shadow`]).
+    material: NodeMaterial,
     /// The sun's responses for the current sun direction (`None`: not computed yet for
     /// it; the coarser grids' light the node's points meanwhile).
     sun: Option<GridSun>,
     /// The sweeper's device copy of `light`, if it keeps one.
     resident: Option<Resident>,
     input_hash: u64,
-    has_objects: bool,
 }
 
 /// Which points of space a [`Layer`] lights: those whose `(x, z)` fall in quadtree cell
@@ -493,6 +516,8 @@ pub struct Hierarchy {
     /// The sun kept apart (`None`: whatever sun there is lies in `sky`'s bins).
     sun: Option<SunLight>,
     world_sun: Option<GridSun>,
+    /// The world grid's material (the sun's march beyond the nodes crosses it).
+    world_material: Option<MaterialGrid>,
     sky_scale: Vec3,
 }
 
@@ -603,11 +628,12 @@ impl Hierarchy {
             nodes: HashMap::default(),
             sun: None,
             world_sun: None,
+            world_material: None,
             sky_scale: Vec3::ONE,
         };
         let w = params.world_cell;
         let dims_xz = ((hi - lo) / w).ceil().as_uvec2() + lightgrid_core::glam::UVec2::ONE;
-        let bottom = ground.0 - 2.0 * w;
+        let bottom = params.world_bottom(heightmap);
         let top = ground.1 + params.margin.max(w) + 2.0 * w;
         let ny = (((top - bottom) / w).ceil() as u32)
             .saturating_add(1)
@@ -642,6 +668,7 @@ impl Hierarchy {
             .sweep(&material, &Boundary::open_sky(self.sky), &o)?;
         self.world = out.bins.expect("bins asked for");
         self.world_resident = out.resident;
+        self.world_material = Some(material);
         Ok(())
     }
 
@@ -712,7 +739,14 @@ impl Hierarchy {
             return Ok(());
         };
         let desc = *self.world.desc();
-        let material = self.source.material(&desc)?;
+        let composed;
+        let material = match &self.world_material {
+            Some(m) if *m.desc() == desc => m,
+            _ => {
+                composed = self.source.material(&desc)?;
+                &composed
+            }
+        };
         let o = self.node_options(true);
         let boundary = SunBoundary {
             to_sun: sun.to_sun,
@@ -758,9 +792,16 @@ impl Hierarchy {
         material: &MaterialGrid,
         times: &mut StageTimes,
     ) -> Result<u64, LodError> {
-        let has_objects = self.nodes[&key].has_objects;
+        let has_objects = self.nodes[&key].material.has_objects;
         let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
-        let r = self.node_sun(key, material, has_objects, sweeper.as_mut(), times);
+        let r = self.node_sun(
+            key,
+            material,
+            has_objects,
+            sweeper.as_mut(),
+            &shadow::Fresh::default(),
+            times,
+        );
         self.sweeper = sweeper;
         let Some(sun) = r? else {
             return Ok(0);
@@ -779,6 +820,7 @@ impl Hierarchy {
         material: &MaterialGrid,
         has_objects: bool,
         sweeper: &mut dyn Sweeper,
+        fresh: &shadow::Fresh<'_>,
         times: &mut StageTimes,
     ) -> Result<Option<GridSun>, LodError> {
         let _span = tracing::trace_span!("node sun", ?key).entered();
@@ -790,7 +832,7 @@ impl Hierarchy {
         let scattered = timed(&mut times.sun_boundary, || {
             self.node_boundary_of(&desc, key.depth, Response::Sun)
         });
-        let outside = |p: Vec3| self.coarse_transmittance(p, key.depth);
+        let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, key.depth, fresh);
         let r = timed(&mut times.sun_sweep, || {
             sweeper.sweep_sun(
                 material,
@@ -847,13 +889,6 @@ impl Hierarchy {
         self.world_sun.as_ref()
     }
 
-    /// The sun's transmittance at `p` from the grids coarser than `depth`.
-    fn coarse_transmittance(&self, p: Vec3, depth: u32) -> f32 {
-        self.coarse_sun(p, depth)
-            .and_then(|s| s.transmittance.sample(p).ok())
-            .unwrap_or(0.0)
-    }
-
     /// The parameters.
     pub fn params(&self) -> &HierarchyParams {
         &self.params
@@ -871,7 +906,7 @@ impl Hierarchy {
 
     /// Whether a ready node has objects above the ground (and so may get finer children).
     pub fn node_has_objects(&self, key: NodeKey) -> Option<bool> {
-        self.nodes.get(&key).map(|n| n.has_objects)
+        self.nodes.get(&key).map(|n| n.material.has_objects)
     }
 
     /// The parent of a node (`None` at depth 1, whose parent is the world grid).
@@ -950,7 +985,7 @@ impl Hierarchy {
     /// The node's material grid, `node_points` across and from below its lowest ground to
     /// two cells above its highest object (or its highest ground): tall where the forest
     /// is tall. Also whether it has objects above the ground.
-    fn node_material(&self, key: NodeKey) -> Result<(MaterialGrid, bool), GridError> {
+    fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
         let full = self.source.material(&self.node_desc(key)?)?;
         let d = *full.desc();
         let mut top_level = 0;
@@ -965,12 +1000,32 @@ impl Hierarchy {
             has_objects |= p.y - d.h() > self.heights.height_at(p.x, p.z);
         }
         let ny = (top_level + 3).clamp(2, d.dims().y);
+        // The composed column's top level empty: nothing above it (to `margin` above
+        // the highest ground, where the search stops).
+        let open_above = top_level + 1 < d.dims().y;
         if ny == d.dims().y {
-            return Ok((full, has_objects));
+            return Ok(NodeMaterial {
+                grid: full,
+                has_objects,
+                open_above,
+            });
         }
         let desc = GridDesc::new(d.origin(), d.h(), UVec3::new(d.dims().x, ny, d.dims().z))?;
         let cells = full.into_data()[..desc.point_count()].to_vec();
-        Ok((MaterialGrid::new(desc, cells)?, has_objects))
+        Ok(NodeMaterial {
+            grid: MaterialGrid::new(desc, cells)?,
+            has_objects,
+            open_above,
+        })
+    }
+
+    /// A point of the lattice every node grid of `depth` has its points on: they lie at
+    /// `lattice(depth) + k × cell(depth)` for integer `k` (x, z: half a cell inside the
+    /// quadtree's corner; y: from the world grid's bottom). A grid of the same spacing on
+    /// this lattice (a full-resolution reference) has its points and cells where the
+    /// nodes have theirs.
+    pub fn lattice(&self, depth: u32) -> Vec3 {
+        self.params.lattice(&self.heights, depth)
     }
 
     /// The node's tallest grid descriptor: `node_points` across, from below its lowest
@@ -990,7 +1045,10 @@ impl Hierarchy {
                 ground_hi = ground_hi.max(g);
             }
         }
-        let bottom = ground_lo - 2.0 * h;
+        // On the depth's lattice ([`Hierarchy::lattice`]): neighbours' levels line up,
+        // and their voxels with them.
+        let datum = self.lattice(key.depth).y;
+        let bottom = datum + ((ground_lo - 2.0 * h - datum) / h).floor() * h;
         let top = ground_hi + self.params.margin.max(h);
         let ny = (((top - bottom) / h).ceil() as u32 + 1).clamp(2, self.params.max_levels);
         GridDesc::new(
@@ -1124,12 +1182,12 @@ impl Hierarchy {
             stats.pending += 1;
             return Ok(());
         }
-        let owned;
+        let stored;
         let material = match material {
             Some(m) => m,
             None => {
-                owned = timed(&mut stats.times.material, || self.source.material(&desc))?;
-                &owned
+                stored = self.nodes[&key].material.grid.clone();
+                &stored
             }
         };
         stats.points_swept += self.sweep_node_sun(key, material, &mut stats.times)?;
@@ -1167,7 +1225,7 @@ impl Hierarchy {
         let mut k = Some(key);
         while let Some(key) = k {
             if let Some(n) = self.nodes.get(&key) {
-                return !n.has_objects;
+                return !n.material.has_objects;
             }
             k = Self::parent(key);
         }
@@ -1193,7 +1251,7 @@ impl Hierarchy {
                 continue;
             }
             let material = timed(&mut stats.times.material, || self.source.material(&desc))?;
-            let o = self.node_options(self.nodes[&key].has_objects);
+            let o = self.node_options(self.nodes[&key].material.has_objects);
             let (boundary, hash) = timed(&mut stats.times.boundary, || {
                 let b = self.node_boundary(&desc, key.depth);
                 let hash = hash_grid(&material, &b, &o);
@@ -1213,6 +1271,7 @@ impl Hierarchy {
                 n.light = out.bins.expect("bins asked for");
                 n.resident = out.resident;
                 n.input_hash = hash;
+                n.material.grid = material.clone();
                 // The material may have changed: the sun's responses too.
                 n.sun = None;
             }
