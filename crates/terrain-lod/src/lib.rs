@@ -367,8 +367,9 @@ struct Node {
 }
 
 /// Which points of space a [`Layer`] lights: those whose `(x, z)` fall in quadtree cell
-/// `index` (`floor((p.xz - origin) / size) == index`) and which its grid's point bounds
-/// contain.
+/// `index` (`floor((p.xz - origin) / size) == index`) and whose height lies within its
+/// grid's points' (the whole cell across: the half cell beside its outermost points is
+/// read at them, clamped, not from a coarser grid).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Owner {
     /// World `(x, z)` of the quadtree's corner.
@@ -386,8 +387,15 @@ impl Owner {
             .floor()
             .as_ivec2()
             == self.index
-            && desc.contains(p)
+            && within_levels(desc, p)
     }
+}
+
+/// Whether `p`'s height lies within the points of `desc` (a node serves its quadtree
+/// cell's whole column between its lowest and highest level: [`Owner`]).
+fn within_levels(desc: &GridDesc, p: Vec3) -> bool {
+    let (lo, hi) = desc.point_bounds();
+    p.y >= lo.y && p.y <= hi.y
 }
 
 /// One grid of the hierarchy as a renderer layers them: [`Hierarchy::layers`] lists the
@@ -880,7 +888,7 @@ impl Hierarchy {
         for d in (1..depth).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
             if let Some(n) = self.nodes.get(&key)
-                && n.light.desc().contains(p)
+                && within_levels(n.light.desc(), p)
                 && self.sun_current(key)
             {
                 return n.sun.as_ref();
@@ -1070,7 +1078,7 @@ impl Hierarchy {
         for d in (1..depth).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
             if let Some(n) = self.nodes.get(&key)
-                && n.light.desc().contains(p)
+                && within_levels(n.light.desc(), p)
             {
                 return n.light.sample(p).unwrap_or_default();
             }
@@ -1324,7 +1332,7 @@ impl Hierarchy {
         for d in (1..=self.params.depths()).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
             if let Some(n) = self.nodes.get(&key)
-                && n.light.desc().contains(p)
+                && within_levels(n.light.desc(), p)
             {
                 return &n.light;
             }

@@ -48,11 +48,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if (params.own.w > 0.5) {
         // lightgrid_terrain_lod::Owner::owns: the point's quadtree cell is the layer's node, and
-        // the layer grid's point bounds contain it.
+        // its height lies within the layer grid's levels.
         let cell = vec2<i32>(floor((p.xz - params.own.xy) / params.own.z));
-        let lo = params.origin_h.xyz;
-        let hi = lo + params.origin_h.w * vec3<f32>(params.dims.xyz - vec3<u32>(1u));
-        if (any(cell != params.own_index.xy) || any(p < lo) || any(p > hi)) {
+        let lo = params.origin_h.y;
+        let hi = lo + params.origin_h.w * f32(params.dims.y - 1u);
+        if (any(cell != params.own_index.xy) || p.y < lo || p.y > hi) {
             return;
         }
     }
