@@ -761,7 +761,7 @@ impl Hierarchy {
             scattered: Boundary::open_sky(BinLight::ZERO),
             outside: &|_| 1.0,
         };
-        let r = self.sweeper.sweep_sun(&material, &boundary, &o)?;
+        let r = self.sweeper.sweep_sun(material, &boundary, &o)?;
         self.world_sun = Some(GridSun {
             scattered: r.scattered,
             resident: r.resident,
