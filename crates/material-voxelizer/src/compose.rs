@@ -190,6 +190,14 @@ pub struct ComposeStats {
     pub overlapping: u64,
 }
 
+/// A composing thread's scratch: the instances overlapping a cell, and the ground
+/// under each column of its samples (height less the bias, colour).
+#[derive(Default)]
+struct Scratch<'a> {
+    local: Vec<&'a Placed>,
+    ground: Vec<(f32, Vec3)>,
+}
+
 struct Placed {
     inst: Instance,
     inv_rot: Quat,
@@ -436,10 +444,13 @@ impl AreaComposer {
         // then tests only its column's (a 16 m node over a forest: 1–3 of its 10–20).
         let nx = desc.dims().x as usize;
         let columns = self.column_candidates(desc, &cand);
+        let model_bounds: Vec<(Vec3, Vec3)> =
+            self.models.iter().map(|m| m.desc().cell_bounds()).collect();
         cells
             .par_iter_mut()
             .enumerate()
-            .for_each_init(Vec::new, |local, (i, cell)| {
+            .for_each_init(Scratch::default, |scratch, (i, cell)| {
+                let Scratch { local, ground } = scratch;
                 let q = desc.coords(i).expect("index in range");
                 let centre = desc.position(q);
                 // Instances overlapping this cell (the same test as over all candidates).
@@ -471,6 +482,17 @@ impl AreaComposer {
                 }
                 // Ground alone is smooth: one sample; objects need k per axis.
                 let k = if local.is_empty() { 1 } else { k };
+                // The ground under each column of samples (x and z only: the same for
+                // every sample of the column), looked up once a column.
+                ground.clear();
+                if let Some(t) = &self.terrain {
+                    for c in 0..k * k {
+                        let o = UVec3::new(c % k, 0, c / k).as_vec3();
+                        let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
+                        let g = t.heightmap.height_at(p.x, p.z) - self.params.ground_bias;
+                        ground.push((g, t.colour.at(p.x, p.z)));
+                    }
+                }
                 let mut pass_sum = 0.0;
                 let mut colour_sum = Vec3::ZERO;
                 let mut block_sum = 0.0;
@@ -488,21 +510,24 @@ impl AreaComposer {
                             pass *= m_pass;
                         }
                     };
-                    for pl in local {
+                    for pl in local.iter() {
                         let model = &self.models[pl.inst.model as usize];
                         let mpos = pl.inv_rot * (p - pl.inst.position) / pl.inst.scale;
-                        let (mlo, mhi) = model.desc().cell_bounds();
+                        let (mlo, mhi) = model_bounds[pl.inst.model as usize];
                         if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
                             continue;
                         }
                         let m = model.sample(mpos).unwrap_or(Material::EMPTY);
+                        // Clear: `1^ratio` blocks nothing (skipping it is exact).
+                        if m.pass >= 1.0 {
+                            continue;
+                        }
                         let ratio = h / (model.desc().h() * pl.inst.scale);
                         add(m.pass.clamp(0.0, 1.0).powf(ratio), m.reflectance);
                     }
-                    if let Some(t) = &self.terrain {
-                        let g = t.heightmap.height_at(p.x, p.z) - self.params.ground_bias;
+                    if let Some(&(g, colour)) = ground.get((s % k + k * (s / (k * k))) as usize) {
                         let w = ((g - p.y) / self.params.ground_band + 0.5).clamp(0.0, 1.0);
-                        add(1.0 - w, t.colour.at(p.x, p.z));
+                        add(1.0 - w, colour);
                     }
                     pass_sum += pass;
                     if weight > 0.0 {
