@@ -12,7 +12,7 @@ use lightgrid_core::{
 };
 use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
 use lightgrid_sweep_cpu::scenes::Scene;
-use lightgrid_sweep_cpu::{ClearSky, EnvMap, Sun, sky};
+use lightgrid_sweep_cpu::{Sun, sky};
 
 #[derive(Subcommand)]
 pub(crate) enum Command {
@@ -181,18 +181,13 @@ impl LightArgs {
             self.sun_azimuth.to_radians(),
             self.sun,
         );
-        let sky = if let Some(path) = &self.sky_exr {
-            EnvMap::load_exr(path)?.bins()
-        } else {
-            match self.sky {
-                SkyArg::None => sky::SkyBins {
-                    top: BinLight::ZERO,
-                    bottom: BinLight::ZERO,
-                },
-                SkyArg::Uniform => sky::uniform_sky(self.sky_radiance)?,
-                SkyArg::Clear => ClearSky::blue(sun.direction).bins()?,
-            }
+        let spec = match (&self.sky_exr, self.sky) {
+            (Some(path), _) => sky::SkySpec::exr(path)?,
+            (None, SkyArg::None) => sky::SkySpec::None,
+            (None, SkyArg::Uniform) => sky::SkySpec::Uniform(self.sky_radiance),
+            (None, SkyArg::Clear) => sky::SkySpec::Clear,
         };
+        let sky = spec.bins(sun.direction)?;
         let sun_bins = if self.sun == Vec3::ZERO {
             BinLight::ZERO
         } else {

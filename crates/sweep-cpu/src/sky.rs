@@ -297,6 +297,49 @@ fn texel_direction(x: u32, y: u32, w: u32, h: u32) -> Vec3 {
     )
 }
 
+/// A sky as a scene file or a command line names it, resolved once (an environment map
+/// is read and integrated here, not again when the sun moves): its bins for any sun
+/// direction ([`SkySpec::bins`]). The viewer and the `lightgrid` command both resolve
+/// their skies through it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SkySpec {
+    /// No sky light.
+    None,
+    /// Uniform radiance above the horizon ([`uniform_sky`]).
+    Uniform(Vec3),
+    /// The analytic clear sky around the sun ([`ClearSky::blue`]): its shape follows
+    /// the sun.
+    Clear,
+    /// An environment map's bins, integrated once.
+    Map(Box<SkyBins>),
+}
+
+impl SkySpec {
+    /// An environment map read from an EXR file ([`EnvMap::load_exr`]) and integrated
+    /// over the bins.
+    pub fn exr(path: &Path) -> Result<Self, SkyError> {
+        Ok(Self::Map(Box::new(EnvMap::load_exr(path)?.bins())))
+    }
+
+    /// The sky's bins with the sun toward `sun_direction` (only the clear sky reads it).
+    pub fn bins(&self, sun_direction: Vec3) -> Result<SkyBins, SkyError> {
+        match self {
+            Self::None => Ok(SkyBins {
+                top: BinLight::ZERO,
+                bottom: BinLight::ZERO,
+            }),
+            Self::Uniform(radiance) => uniform_sky(*radiance),
+            Self::Clear => ClearSky::blue(sun_direction).bins(),
+            Self::Map(bins) => Ok(**bins),
+        }
+    }
+
+    /// Whether the sky's light changes when the sun moves (the clear sky's glow).
+    pub fn follows_sun(&self) -> bool {
+        matches!(self, Self::Clear)
+    }
+}
+
 /// A uniform sky of `radiance` above the horizon, nothing below.
 pub fn uniform_sky(radiance: Vec3) -> Result<SkyBins, SkyError> {
     check_colour("radiance", radiance)?;
@@ -572,6 +615,33 @@ mod tests {
         // Below the horizon: dark.
         let b = Sun::at(-0.3, 0.0, Vec3::ONE).bins().unwrap();
         assert_eq!(b.total(), Vec3::ZERO);
+    }
+
+    #[test]
+    fn a_sky_spec_gives_its_models_bins_and_only_the_clear_sky_follows_the_sun() {
+        let (s1, s2) = (Vec3::new(0.3, 0.8, 0.1), Vec3::new(-0.5, 0.4, 0.2));
+        let map = ClearSky::blue(s1).bins().unwrap();
+        let none = SkySpec::None.bins(s1).unwrap();
+        assert_eq!((none.top, none.bottom), (BinLight::ZERO, BinLight::ZERO));
+        let r = Vec3::new(0.2, 0.3, 0.4);
+        assert_eq!(
+            SkySpec::Uniform(r).bins(s2).unwrap(),
+            uniform_sky(r).unwrap()
+        );
+        assert_eq!(SkySpec::Clear.bins(s1).unwrap(), map);
+        assert_ne!(SkySpec::Clear.bins(s2).unwrap(), map);
+        // A map is the same whatever the sun.
+        assert_eq!(SkySpec::Map(Box::new(map)).bins(s2).unwrap(), map);
+        assert!(SkySpec::Clear.follows_sun());
+        assert!(
+            ![
+                SkySpec::None,
+                SkySpec::Uniform(r),
+                SkySpec::Map(Box::new(map))
+            ]
+            .iter()
+            .any(SkySpec::follows_sun)
+        );
     }
 
     #[test]

@@ -14,7 +14,7 @@ use lightgrid_material_voxelizer::compose::{
 use lightgrid_material_voxelizer::model::{Model, Texture};
 use lightgrid_material_voxelizer::procedural::{TreeParams, bush, rock, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use lightgrid_sweep_cpu::sky::{ClearSky, EnvMap, Sun, uniform_sky};
+use lightgrid_sweep_cpu::sky::{SkySpec, Sun};
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 
 use crate::scene::SceneFile;
@@ -57,6 +57,8 @@ pub struct World {
     pub composer: Arc<AreaComposer>,
     /// The light grids.
     pub hierarchy: Hierarchy,
+    /// The scene's sky, resolved once.
+    pub sky: SkySpec,
     /// Sky light entering the top (without the sun).
     pub sky_top: BinLight,
     /// The way sunlight travels (unit), and its irradiance (zero below the horizon).
@@ -123,23 +125,25 @@ fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
         .map_err(|e| anyhow::anyhow!("decoding {}: {e}", path.display()))
 }
 
+/// The scene's sky, resolved once (an EXR map is read here, not again when the sun
+/// moves).
+pub fn sky_spec(scene: &SceneFile) -> Result<SkySpec> {
+    Ok(match scene.sky.kind.as_str() {
+        "uniform" => SkySpec::Uniform(Vec3::from_array(scene.sky.radiance)),
+        "exr" => {
+            let f = scene.resolve(scene.sky.file.as_ref().context("sky.file")?);
+            SkySpec::exr(&f).with_context(|| format!("sky.file {}", f.display()))?
+        }
+        _ => SkySpec::Clear,
+    })
+}
+
 /// The sky's top boundary (sun excluded), and the sun.
-pub fn sky_and_sun(scene: &SceneFile) -> Result<(BinLight, (Vec3, Vec3))> {
+pub fn sky_and_sun(scene: &SceneFile, spec: &SkySpec) -> Result<(BinLight, (Vec3, Vec3))> {
     let (elevation, azimuth) = scene.sun.angles();
     let illuminance = Vec3::from_array(scene.sun.illuminance);
     let sun = Sun::at(elevation, azimuth, illuminance);
-    let sky = match scene.sky.kind.as_str() {
-        "uniform" => uniform_sky(Vec3::from_array(scene.sky.radiance))?.top,
-        "exr" => {
-            let f = scene.resolve(scene.sky.file.as_ref().context("sky.file")?);
-            EnvMap::load_exr(&f)
-                .with_context(|| format!("sky.file {}", f.display()))?
-                .bins()
-                .top
-        }
-        _ => ClearSky::blue(sun.direction).bins()?.top,
-    };
-    let sky = sky.scaled(scene.sky.scale);
+    let sky = spec.bins(sun.direction)?.top.scaled(scene.sky.scale);
     let sun_light = if elevation > 0.0 {
         illuminance
     } else {
@@ -365,7 +369,8 @@ impl World {
 
         // Sky, sweeper, hierarchy (the world grid is swept here).
         let t = Instant::now();
-        let (sky_top, sun) = sky_and_sun(&scene)?;
+        let sky = sky_spec(&scene)?;
+        let (sky_top, sun) = sky_and_sun(&scene, &sky)?;
         // With the sun kept apart the bins get the sky alone.
         let top = if scene.sun.split {
             sky_top
@@ -444,6 +449,7 @@ impl World {
             instances,
             composer,
             hierarchy,
+            sky,
             sky_top,
             sun,
             gpu_sweeps: name.starts_with("gpu"),
@@ -472,7 +478,7 @@ impl World {
     /// relit (eight frames).
     pub fn move_sun(&mut self) -> Result<SunMove> {
         let t = Instant::now();
-        let (sky, sun) = sky_and_sun(&self.scene)?;
+        let (sky, sun) = sky_and_sun(&self.scene, &self.sky)?;
         let sky_changed = sky != self.sky_top;
         self.sky_top = sky;
         self.sun = sun;
