@@ -40,7 +40,7 @@
 //! `cargo xtask frame` runs a camera path with the sun kept apart and measures the
 //! light sampled against one full-resolution sweep of the region (the repository's
 //! `docs/measurements.md`, "The hierarchy frame by frame", has its figures): with
-//! 16-point nodes 124–135 ms a frame on two cores; the sky within about 1 % in bias at
+//! 16-point nodes 115–143 ms a frame on two cores; the sky within about 1 % in bias at
 //! every depth, sky and sun together 5–9 % RMSE in the finest nodes (ARCHITECTURE.md,
 //! "Known defects").
 //!
