@@ -31,6 +31,22 @@ pub fn exit(cell: IVec3, pos: Vec3, dir: Vec3) -> (f32, usize) {
     (s_exit, axis)
 }
 
+/// Distance along `dir` from `pos` (inside the box `[lo, hi]`) to where the ray leaves
+/// the box, at least 0; `f32::INFINITY` where it never does (a zero direction, or one
+/// along an axis whose bounds are infinite).
+#[inline]
+pub fn box_exit(pos: Vec3, dir: Vec3, lo: Vec3, hi: Vec3) -> f32 {
+    let mut t = f32::INFINITY;
+    for a in 0..3 {
+        if dir[a] > 0.0 {
+            t = t.min((hi[a] - pos[a]) / dir[a]);
+        } else if dir[a] < 0.0 {
+            t = t.min((lo[a] - pos[a]) / dir[a]);
+        }
+    }
+    t.max(0.0)
+}
+
 /// Steps from `cell` into its neighbour along `axis` in the direction of `dir`, putting
 /// `pos` exactly on the shared face (no drift over long walks). Returns the step (±1).
 #[inline]
@@ -97,6 +113,24 @@ pub fn walk_segment(a: Vec3, b: Vec3, dims: IVec3, mut visit: impl FnMut(IVec3, 
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_ray_leaves_a_box_where_it_meets_its_nearest_face() {
+        let (lo, hi) = (Vec3::new(-1.0, 0.0, 2.0), Vec3::new(3.0, 5.0, 4.0));
+        let p = Vec3::new(0.0, 1.0, 3.0);
+        assert_eq!(super::box_exit(p, Vec3::X, lo, hi), 3.0);
+        assert_eq!(super::box_exit(p, -Vec3::Z, lo, hi), 1.0);
+        let d = Vec3::new(1.0, 1.0, 0.0).normalize();
+        assert!((super::box_exit(p, d, lo, hi) - 3.0 * 2f32.sqrt()).abs() < 1e-5);
+        assert_eq!(super::box_exit(p, Vec3::ZERO, lo, hi), f32::INFINITY);
+        let tall = Vec3::new(3.0, f32::INFINITY, 4.0);
+        assert_eq!(super::box_exit(p, Vec3::Y, lo, tall), f32::INFINITY);
+        // On a face, leaving: 0.
+        assert_eq!(
+            super::box_exit(Vec3::new(3.0, 1.0, 3.0), Vec3::X, lo, hi),
+            0.0
+        );
+    }
+
     use super::*;
     use proptest::prelude::*;
 

@@ -577,14 +577,7 @@ pub fn voxelize(
                         p[v_ax] = clo[v_ax] + h * t;
                         p[axis] = if d[axis] > 0.0 { clo[axis] } else { chi[axis] };
                         // Chord length to the exit of the cell.
-                        let mut len = f32::INFINITY;
-                        for ax in 0..3 {
-                            if d[ax] > 0.0 {
-                                len = len.min((chi[ax] - p[ax]) / d[ax]);
-                            } else if d[ax] < 0.0 {
-                                len = len.min((clo[ax] - p[ax]) / d[ax]);
-                            }
-                        }
+                        let len = lightgrid_core::dda::box_exit(p, d, clo, chi);
                         rays += 1;
                         let xi = ((idx as f32 + 0.5) / n_chords as f32 + seed).fract();
                         if let Some(c) = scene.first_block(p, d, len, xi) {

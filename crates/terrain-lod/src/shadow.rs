@@ -15,6 +15,7 @@
 
 use std::collections::HashMap;
 
+use lightgrid_core::dda::box_exit;
 use lightgrid_core::glam::{IVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, MaterialGrid};
 
@@ -44,20 +45,6 @@ const LOG_DARK: f32 = -60.0;
 fn cells_contain(desc: &GridDesc, p: Vec3) -> bool {
     let g = (p - desc.origin()) / desc.h();
     g.cmpge(Vec3::splat(-0.5)).all() && g.cmple(desc.dims().as_vec3() - 0.5).all()
-}
-
-/// The distance (grid units) along `dir` from `a` (grid coordinates) to where the ray
-/// leaves the cells' box of `dims`.
-fn exit_distance(a: Vec3, dir: Vec3, dims: Vec3) -> f32 {
-    let mut t = f32::INFINITY;
-    for k in 0..3 {
-        if dir[k] > 0.0 {
-            t = t.min((dims[k] - 0.5 - a[k]) / dir[k]);
-        } else if dir[k] < 0.0 {
-            t = t.min((-0.5 - a[k]) / dir[k]);
-        }
-    }
-    t.max(0.0)
 }
 
 impl Hierarchy {
@@ -114,15 +101,12 @@ impl Hierarchy {
                 Some(Along::Grid(m)) => m,
                 Some(Along::Clear(lo, hi)) => {
                     // To the column's side (it climbs forever): nothing lost.
-                    let (o, d2) = (Vec2::new(q.x, q.z), Vec2::new(dir.x, dir.z));
-                    let mut t = f32::INFINITY;
-                    for k in 0..2 {
-                        if d2[k] > 0.0 {
-                            t = t.min((hi[k] - o[k]) / d2[k]);
-                        } else if d2[k] < 0.0 {
-                            t = t.min((lo[k] - o[k]) / d2[k]);
-                        }
-                    }
+                    let t = box_exit(
+                        q,
+                        dir,
+                        Vec3::new(lo.x, f32::NEG_INFINITY, lo.y),
+                        Vec3::new(hi.x, f32::INFINITY, hi.y),
+                    );
                     if !t.is_finite() {
                         return log_t.exp(); // straight up: open sky
                     }
@@ -133,7 +117,7 @@ impl Hierarchy {
             let d = m.desc();
             let dims = d.dims();
             let a = (q - d.origin()) / d.h();
-            let t = exit_distance(a, dir, dims.as_vec3()) + 2.0 * nudge / d.h();
+            let t = box_exit(a, dir, Vec3::splat(-0.5), dims.as_vec3() - 0.5) + 2.0 * nudge / d.h();
             let b = a + dir * t;
             let cells = m.data();
             let mut opaque = false;

@@ -50,6 +50,27 @@ fn params() -> HierarchyParams {
     p
 }
 
+/// A hierarchy over the test scene with the sun kept apart (CPU sweeper, [`params`]).
+fn with_sun(
+    hm: &Heightmap,
+    composer: &std::sync::Arc<AreaComposer>,
+    to_sun: Vec3,
+    irradiance: Vec3,
+) -> Hierarchy {
+    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+    let mut h = Hierarchy::new(
+        hm,
+        Box::new(composer.clone()),
+        Box::new(CpuSweeper::new()),
+        sky,
+        params(),
+    )
+    .unwrap();
+    h.set_sun(Some(lightgrid_terrain_lod::SunLight { to_sun, irradiance }))
+        .unwrap();
+    h
+}
+
 #[test]
 fn flythrough_respects_the_budget_and_refines_around_the_camera() {
     let (hm, composer) = scene();
@@ -232,24 +253,8 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
     use lightgrid_terrain_lod::SunLight;
     let (hm, composer) = scene();
     let composer = std::sync::Arc::new(composer);
-    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let p = params();
-    let build = |to_sun: Vec3| {
-        let mut h = Hierarchy::new(
-            &hm,
-            Box::new(composer.clone()),
-            Box::new(CpuSweeper::new()),
-            sky,
-            p,
-        )
-        .unwrap();
-        h.set_sun(Some(SunLight {
-            to_sun,
-            irradiance: Vec3::new(3.0, 2.8, 2.5),
-        }))
-        .unwrap();
-        h
-    };
+    let build = |to_sun: Vec3| with_sun(&hm, &composer, to_sun, Vec3::new(3.0, 2.8, 2.5));
     let cam = Vec3::new(560.0, hm.height_at(560.0, 540.0) + 12.0, 540.0);
     let settle = |h: &mut Hierarchy| {
         for _ in 0..40 {
@@ -462,25 +467,11 @@ fn nodes_swept_side_by_side_match_one_by_one() {
 fn a_nodes_sun_is_marched_through_its_neighbours_material() {
     use lightgrid_core::{GridDesc, MaterialSource};
     use lightgrid_sweep_cpu::sun::SunTransmittance;
-    use lightgrid_terrain_lod::SunLight;
     let (hm, composer) = scene();
     let composer = std::sync::Arc::new(composer);
-    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let p = params();
-    let mut h = Hierarchy::new(
-        &hm,
-        Box::new(composer.clone()),
-        Box::new(CpuSweeper::new()),
-        sky,
-        p,
-    )
-    .unwrap();
     let to_sun = Vec3::new(0.5, 0.75, 0.35).normalize();
-    h.set_sun(Some(SunLight {
-        to_sun,
-        irradiance: Vec3::ONE,
-    }))
-    .unwrap();
+    let mut h = with_sun(&hm, &composer, to_sun, Vec3::ONE);
     let cam = Vec3::new(568.0, hm.height_at(568.0, 548.0) + 12.0, 548.0);
     for _ in 0..40 {
         if h.update(cam).unwrap().pending == 0 {
