@@ -28,3 +28,38 @@ pub const F32: [f32; 13] = [
 /// Counts and sizes: zero, one, small ones, powers of two and the edge of `u32`
 /// (products of three of them overflow `u32` and `u64`).
 pub const U32: [u32; 8] = [0, 1, 2, 3, 4096, 1 << 16, 1 << 31, u32::MAX];
+
+/// The values above as proptest strategies (feature `proptest`): drawn from the shared
+/// values, a crate's own edges and any value at all, so every property test sees the
+/// same extremes without copying them.
+#[cfg(feature = "proptest")]
+pub mod strategies {
+    use glam::Vec3;
+    use proptest::prelude::*;
+
+    /// Any `f32`, the shared [`F32`](super::F32) and `extra` (a crate's own edges,
+    /// possibly none) drawn more often than chance would.
+    pub fn f32_with(extra: &'static [f32]) -> BoxedStrategy<f32> {
+        let shared = proptest::sample::select(&super::F32[..]);
+        if extra.is_empty() {
+            prop_oneof![shared, any::<f32>()].boxed()
+        } else {
+            prop_oneof![shared, proptest::sample::select(extra), any::<f32>()].boxed()
+        }
+    }
+
+    /// Vectors whose three components are drawn from `component`.
+    pub fn vec3_of(component: BoxedStrategy<f32>) -> impl Strategy<Value = Vec3> {
+        (component.clone(), component.clone(), component).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    /// Any `u32`, the shared [`U32`](super::U32) and `extra` drawn more often.
+    pub fn u32_with(extra: &'static [u32]) -> BoxedStrategy<u32> {
+        let shared = proptest::sample::select(&super::U32[..]);
+        if extra.is_empty() {
+            prop_oneof![shared, any::<u32>()].boxed()
+        } else {
+            prop_oneof![shared, proptest::sample::select(extra), any::<u32>()].boxed()
+        }
+    }
+}

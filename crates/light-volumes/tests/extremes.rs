@@ -9,17 +9,12 @@ use lightgrid_light_volumes::{CompressedVolume, LightSet};
 use proptest::prelude::*;
 
 /// The shared extreme values (`lightgrid_core::extremes`), this crate's own edges, any `f32`.
-fn f() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        proptest::sample::select(&lightgrid_core::extremes::F32[..]),
-        Just(9e8),
-        Just(1e-4),
-        any::<f32>(),
-    ]
+fn f() -> BoxedStrategy<f32> {
+    lightgrid_core::extremes::strategies::f32_with(&[9e8, 1e-4])
 }
 
 fn v3() -> impl Strategy<Value = Vec3> {
-    (f(), f(), f()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    lightgrid_core::extremes::strategies::vec3_of(f())
 }
 
 proptest! {

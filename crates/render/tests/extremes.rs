@@ -7,16 +7,13 @@ use lightgrid_render::sampling::{octahedral_decode, octahedral_encode};
 use lightgrid_render::{IrradianceTable, SamplePoints, sample_points};
 use proptest::prelude::*;
 
-/// The shared extreme values (`lightgrid_core::extremes`), any `f32`.
-fn f() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        proptest::sample::select(&lightgrid_core::extremes::F32[..]),
-        any::<f32>(),
-    ]
+/// The shared extreme values (`lightgrid_core::extremes`) and any `f32`.
+fn f() -> BoxedStrategy<f32> {
+    lightgrid_core::extremes::strategies::f32_with(&[])
 }
 
 fn v3() -> impl Strategy<Value = Vec3> {
-    (f(), f(), f()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    lightgrid_core::extremes::strategies::vec3_of(f())
 }
 
 proptest! {
