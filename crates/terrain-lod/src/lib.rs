@@ -49,12 +49,16 @@
 //! [`Hierarchy::set_sun`] keeps the sun out of the bins (issue 14): every grid then holds
 //! the sky's bins (swept from the sky alone), the sun's scattered bins and its
 //! transmittance along the exact direction, both for unit sun irradiance
-//! (`Sweeper::sweep_sun`; 312 + 312 + 4 bytes a point as `f32`). Sky and sun colours
+//! (`Sweeper::sweep_sun`; 312 + 312 + 4 bytes a point as `f32`; every grid also keeps
+//! the material it was swept with, [`BYTES_MATERIAL`] a point). Sky and sun colours
 //! multiply ([`Hierarchy::set_sky_scale`], [`SunLight::irradiance`]); a new direction
 //! recomputes the sun's responses only, the world grid's at once and the nodes' coarse
 //! and near first within the budget (each costs a node's points, and its parent's must
-//! be current); meanwhile a node takes the sun from its coarser grids. The tests check
-//! that the result equals a hierarchy built under the new sun from the start.
+//! be current; from the kept material, composed again for nothing); meanwhile a node
+//! takes the sun from its coarser grids. A node's beam is marched on beyond its box
+//! through the finest material held there (its depth's neighbours, coarser grids). The
+//! tests check that the result equals a hierarchy built under the new sun from the
+//! start.
 //!
 //! ```
 //! use lightgrid_core::glam::{Vec2, Vec3};
@@ -508,6 +512,9 @@ pub const BYTES_26_F32: u64 = 26 * 12;
 pub const BYTES_26_PACKED: u64 = 26 * 4;
 /// Average (RGB `f32`) and dominant direction (`f32` × 3).
 pub const BYTES_AVG_DOM: u64 = 24;
+/// The material every grid keeps beside its light (reflectance RGB and pass-through,
+/// `f32`).
+pub const BYTES_MATERIAL: u64 = std::mem::size_of::<lightgrid_core::Material>() as u64;
 
 /// The light grid hierarchy.
 pub struct Hierarchy {

@@ -115,6 +115,9 @@ pub struct ViewSummary {
     /// With the sun kept apart: the sun's responses beside the sky's grids (scattered
     /// bins as 26 `f32` bins, and the transmittance, 4 bytes a point); 0 otherwise.
     pub sun_bytes: u64,
+    /// The materials the grids keep (for the sun's responses and its march beyond a
+    /// node: `lightgrid_terrain_lod::BYTES_MATERIAL` a point).
+    pub material_bytes: u64,
     /// Where the light was sampled: `"device"` (from the grids the GPU sweeper left on
     /// the renderer's device: nothing copied through the CPU) or `"cpu"`.
     pub sampled_on: String,
@@ -179,6 +182,11 @@ impl Summary {
                     v.sun_bytes as f64 / 1e6
                 );
             }
+            let _ = writeln!(
+                s,
+                "  materials kept with the grids: {:.1} MB",
+                v.material_bytes as f64 / 1e6
+            );
             let _ = writeln!(s, "  light sampled on: {}", v.sampled_on);
             let _ = writeln!(
                 s,
@@ -351,6 +359,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
             } else {
                 0
             },
+            material_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_MATERIAL),
             sampled_on: if relit.on_device {
                 format!("device ({} grids in place)", relit.grids)
             } else {
