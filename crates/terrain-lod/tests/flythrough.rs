@@ -242,6 +242,23 @@ fn layers_pick_the_grid_that_grid_at_picks() {
         fine += picked.owner.is_some() as u32;
     }
     assert!(fine > 1000, "{fine}");
+    // The half cell beside a node's outermost points is its own (read clamped there),
+    // not a coarser grid's: every ready node serves the points just inside its cell's
+    // corners, between its levels, unless a finer node does.
+    let mut strips = 0;
+    for key in h.ready_nodes() {
+        let g = h.node(key).unwrap();
+        let (lo, hi) = h.node_rect(key);
+        let y = g.desc().point_bounds().0.y + 0.5 * g.desc().h();
+        for (x, z) in [(lo.x + 0.01, lo.y + 0.01), (hi.x - 0.01, hi.y - 0.01)] {
+            let p = Vec3::new(x, y, z);
+            let served = h.grid_at(p);
+            let finer = served.desc().h() < g.desc().h();
+            assert!(std::ptr::eq(served, g) || finer, "{key:?} at {p}");
+            strips += (!finer) as u32;
+        }
+    }
+    assert!(strips > 10, "{strips}");
 }
 
 /// The sun kept apart (issue 14): colours change with no sweep and combine linearly; a
