@@ -354,11 +354,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
                 stats.bytes(BYTES_AVG_DOM),
             ],
             volume_bytes: relit.volume_bytes,
-            sun_bytes: if world.hierarchy.sun().is_some() {
-                stats.bytes(BYTES_26_F32 + 4)
-            } else {
-                0
-            },
+            sun_bytes: stats.bytes(BYTES_26_F32 + 4) * world.hierarchy.sun().is_some() as u64,
             material_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_MATERIAL),
             sampled_on: if relit.on_device {
                 format!("device ({} grids in place)", relit.grids)

@@ -181,6 +181,56 @@ impl std::fmt::Display for SunMove {
     }
 }
 
+/// The sweeper `choice` asks for, and its name for the summary. The GPU sweeper shares
+/// the renderer's device `gpu` when one is given (one device per process); otherwise it
+/// opens its own.
+fn choose_sweeper(
+    choice: SweeperChoice,
+    gpu: &Option<Arc<lightgrid_gpu::GpuContext>>,
+) -> Result<(Box<dyn Sweeper + Send + Sync>, String)> {
+    let open = || -> Result<Arc<lightgrid_gpu::GpuContext>, lightgrid_gpu::GpuError> {
+        match gpu {
+            Some(c) => Ok(c.clone()),
+            None => Ok(Arc::new(lightgrid_gpu::GpuContext::new()?)),
+        }
+    };
+    // On the renderer's device the sweeper keeps its grids there, and the renderer
+    // samples and draws them in place (SceneMeshes::relight).
+    let gpu_sweeper = |c: Arc<lightgrid_gpu::GpuContext>| {
+        let mut s = lightgrid_sweep_gpu::GpuSweeper::with_context(c);
+        s.keep_resident(gpu.is_some());
+        Box::new(s)
+    };
+    Ok(match choice {
+        SweeperChoice::Cpu => (
+            Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+            "cpu".into(),
+        ),
+        SweeperChoice::Gpu => {
+            let c = open().context("--sweeper gpu")?;
+            let name = format!("gpu ({})", c.info.name);
+            (gpu_sweeper(c), name)
+        }
+        SweeperChoice::Auto => match open() {
+            Ok(c) if c.info.device_type != wgpu::DeviceType::Cpu => {
+                let name = format!("gpu ({})", c.info.name);
+                (gpu_sweeper(c), name)
+            }
+            Ok(c) => (
+                Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+                format!(
+                    "cpu (auto: the only GPU adapter, {}, is a software one)",
+                    c.info.name
+                ),
+            ),
+            Err(_) => (
+                Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+                "cpu (auto: no GPU adapter)".into(),
+            ),
+        },
+    })
+}
+
 /// The hierarchy's sun from [`sky_and_sun`]'s (travel direction, irradiance).
 pub fn sun_light(sun: (Vec3, Vec3)) -> lightgrid_terrain_lod::SunLight {
     lightgrid_terrain_lod::SunLight {
@@ -377,49 +427,7 @@ impl World {
         } else {
             boundary_light(&sky_top, &scene)?
         };
-        // The GPU sweeper shares the renderer's device when one is given (one device per
-        // process); otherwise it opens its own.
-        let open = || -> Result<Arc<lightgrid_gpu::GpuContext>, lightgrid_gpu::GpuError> {
-            match &gpu {
-                Some(c) => Ok(c.clone()),
-                None => Ok(Arc::new(lightgrid_gpu::GpuContext::new()?)),
-            }
-        };
-        // On the renderer's device the sweeper keeps its grids there, and the renderer
-        // samples and draws them in place (SceneMeshes::relight).
-        let gpu_sweeper = |c: Arc<lightgrid_gpu::GpuContext>| {
-            let mut s = lightgrid_sweep_gpu::GpuSweeper::with_context(c);
-            s.keep_resident(gpu.is_some());
-            Box::new(s)
-        };
-        let (sweeper, name): (Box<dyn Sweeper + Send + Sync>, String) = match sweeper {
-            SweeperChoice::Cpu => (
-                Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
-                "cpu".into(),
-            ),
-            SweeperChoice::Gpu => {
-                let c = open().context("--sweeper gpu")?;
-                let name = format!("gpu ({})", c.info.name);
-                (gpu_sweeper(c), name)
-            }
-            SweeperChoice::Auto => match open() {
-                Ok(c) if c.info.device_type != wgpu::DeviceType::Cpu => {
-                    let name = format!("gpu ({})", c.info.name);
-                    (gpu_sweeper(c), name)
-                }
-                Ok(c) => (
-                    Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
-                    format!(
-                        "cpu (auto: the only GPU adapter, {}, is a software one)",
-                        c.info.name
-                    ),
-                ),
-                Err(_) => (
-                    Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
-                    "cpu (auto: no GPU adapter)".into(),
-                ),
-            },
-        };
+        let (sweeper, name) = choose_sweeper(sweeper, &gpu)?;
         let g = &scene.grid;
         let mut params = HierarchyParams {
             world_cell: g.world_cell,
