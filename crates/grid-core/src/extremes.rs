@@ -52,14 +52,4 @@ pub mod strategies {
     pub fn vec3_of(component: BoxedStrategy<f32>) -> impl Strategy<Value = Vec3> {
         (component.clone(), component.clone(), component).prop_map(|(x, y, z)| Vec3::new(x, y, z))
     }
-
-    /// Any `u32`, the shared [`U32`](super::U32) and `extra` drawn more often.
-    pub fn u32_with(extra: &'static [u32]) -> BoxedStrategy<u32> {
-        let shared = proptest::sample::select(&super::U32[..]);
-        if extra.is_empty() {
-            prop_oneof![shared, any::<u32>()].boxed()
-        } else {
-            prop_oneof![shared, proptest::sample::select(extra), any::<u32>()].boxed()
-        }
-    }
 }
