@@ -154,7 +154,10 @@ const SELF_POINTS: usize = 32;
 
 impl Segment {
     /// `∫₀ᵗ P_n(y0 + δ s) e^{−s} ds`, `δ = (y1 − y0)/t`: the height moments of where
-    /// light entering at `y0` collides (a beam decays as `e^{−s}`).
+    /// light entering at `y0` collides (a beam decays as `e^{−s}`). (Inlined, with
+    /// [`Segment::self_collided`], into the tables' node computation on the widest
+    /// instruction set the CPU has.)
+    #[inline(always)]
     fn decay_moments(t: f64, y0: f64, y1: f64) -> [f64; 3] {
         if t.is_nan() || t <= 0.0 {
             return [0.0; 3];
@@ -171,17 +174,20 @@ impl Segment {
 
     /// `C_n = ∫₀ᵗ P_n(y(s)) e^{−s} ds`: the height moments of the collisions of light
     /// entering the segment (per unit of it; `C_0 = 1 − e^{−t}`).
+    #[inline(always)]
     pub fn collided(&self) -> [f64; 3] {
         Self::decay_moments(self.t, self.y0, self.y1)
     }
 
     /// `E_m = ∫₀ᵗ P_m(y(s)) e^{−(t−s)} ds`: what a source `P_m(y)` (per unit of
     /// radiance) along the segment sends out of its end (`E_0 = 1 − e^{−t}`).
+    #[inline(always)]
     pub fn emitted(&self) -> [f64; 3] {
         Self::decay_moments(self.t, self.y1, self.y0)
     }
 
     /// `U_n = ∫₀ᵗ P_n(y(s)) ds`: the moments of an even density along the segment.
+    #[inline(always)]
     pub fn uniform(&self) -> [f64; 3] {
         let (a, b) = (self.y0, self.y1);
         // Means of P_n over [a, b] (exact for polynomials up to degree 2 by Simpson).
@@ -193,6 +199,7 @@ impl Segment {
     /// moments `n` of where the segment's own source `P_m` collides further along it.
     /// `K_n0 = U_n − C_n` exactly; the other columns by Gauss–Legendre quadrature of
     /// the outer integral (each point a beam starting at `s'`).
+    #[inline(always)]
     pub fn self_collided(&self) -> [[f64; 3]; 3] {
         let (u, c) = (self.uniform(), self.collided());
         let mut k = [[0.0; 3]; 3];
@@ -334,10 +341,13 @@ struct Node {
 fn node(i: usize) -> &'static Node {
     static T: std::sync::OnceLock<Vec<std::sync::OnceLock<Node>>> = std::sync::OnceLock::new();
     T.get_or_init(|| (0..TABLE).map(|_| std::sync::OnceLock::new()).collect())[i]
-        .get_or_init(|| compute_node(i))
+        .get_or_init(|| crate::isa::vectorised!(compute_node(i)))
 }
 
-/// Node `i` of the tables, from the segments' integrals.
+/// Node `i` of the tables, from the segments' integrals. (Inlined into [`node`]'s call
+/// on the widest instruction set the CPU has, [`crate::isa`]: a quarter fewer
+/// instructions for a process's first sweep, the same values bit for bit.)
+#[inline(always)]
 fn compute_node(i: usize) -> Node {
     let u = i as f64 / (TABLE - 1) as f64;
     // τ = 0 as a vanishing depth: the ratios' limits.
@@ -450,6 +460,13 @@ impl CellProfile {
     /// The profile of a medium cell of `ln(pass)` `lnp` for the downward (`up = false`)
     /// or upward pass. Finite for any `lnp` (thicker than [`TAU_MAX`]: its values).
     pub fn new(up: bool, lnp: f32) -> Self {
+        Self::of(up, lnp)
+    }
+
+    /// [`CellProfile::new`], for inlining into a call on the widest instruction set the
+    /// CPU has ([`crate::isa`]; the same values bit for bit).
+    #[inline(always)]
+    fn of(up: bool, lnp: f32) -> Self {
         let tau = (-lnp as f64).clamp(0.0, f64::MAX);
         let u = (tau.min(TAU_MAX) / TAU_MAX).sqrt() * (TABLE - 1) as f64;
         let i = (u as usize).min(TABLE - 2);
@@ -850,7 +867,10 @@ impl Profiles {
         self.extra.clear();
         let todo = self.assign(up, lnp, &medium);
         self.computed += todo.len() as u64;
-        let fresh: Vec<CellProfile> = todo.par_iter().map(|&l| CellProfile::new(up, l)).collect();
+        let fresh: Vec<CellProfile> = todo
+            .par_iter()
+            .map(|&l| crate::isa::vectorised!(CellProfile::of(up, l)))
+            .collect();
         self.all.extend(fresh);
     }
 
@@ -932,6 +952,25 @@ mod tests {
             }
         }
         v
+    }
+
+    /// The tables' nodes are computed on the widest instruction set the CPU has
+    /// ([`node`]); the baseline path (this function's) gives them bit for bit.
+    #[test]
+    fn table_nodes_are_the_same_on_every_instruction_set() {
+        let bits = |n: &Node| -> Vec<u32> {
+            let slots = n.slot.iter().flatten().flatten();
+            slots
+                .chain(n.k.iter().flatten())
+                .map(|v| v.to_bits())
+                .collect()
+        };
+        for i in (0..TABLE).step_by(32).chain([TABLE - 2, TABLE - 1]) {
+            let baseline = compute_node(i);
+            let widest = crate::isa::vectorised!(compute_node(i));
+            assert_eq!(bits(&baseline), bits(&widest), "node {i}");
+            assert_eq!(bits(&baseline), bits(node(i)), "node {i}");
+        }
     }
 
     #[test]

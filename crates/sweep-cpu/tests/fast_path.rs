@@ -18,9 +18,11 @@ use proptest::prelude::*;
 mod common;
 use common::light;
 
-/// Grids up to 14 × 6 × 14 whose cells are empty with probability `1 - density`.
+/// Grids up to 14 × 6 × 14, or with rows of 16 and 32 points (the hierarchy's node
+/// widths: one block a row), whose cells are empty with probability `1 - density`.
 fn grid(density: f64) -> impl Strategy<Value = MaterialGrid> {
-    (1u32..=14, 1u32..=6, 1u32..=14).prop_flat_map(move |(nx, ny, nz)| {
+    let nx = prop_oneof![4 => 1u32..=14, 1 => Just(16u32), 1 => Just(32u32)];
+    (nx, 1u32..=6, 1u32..=14).prop_flat_map(move |(nx, ny, nz)| {
         let n = (nx * ny * nz) as usize;
         let cell = common::cell(density);
         prop::collection::vec(cell, n).prop_map(move |cells| {

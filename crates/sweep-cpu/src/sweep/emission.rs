@@ -47,7 +47,9 @@ impl Emission {
 
     /// The cell's weights for every channel of a pass as lanes: a medium sends `ω_b/4π ×
     /// share × (A S − B u·M)` (clamped at 0), all of it through `T_after`; a surface its
-    /// fixed weight `w S`, the `free` part of it past `T_after`.
+    /// fixed weight `w S`, the `free` part of it past `T_after`. (Inlined into phase 2's
+    /// row kernel, so that it runs on the kernel's instruction set: [`crate::isa`].)
+    #[inline(always)]
     pub(crate) fn lanes(
         &self,
         l: &PassLanes,
@@ -93,6 +95,8 @@ impl Emission {
     }
 
     /// The share of `p` that the pass with channels `ch` will emit (half, for a medium).
+    /// (Inlined into phase 2's row kernel, as [`Emission::lanes`].)
+    #[inline(always)]
     pub(crate) fn budget(&self, p: &Pending, ch: &[Channel; CHANNELS]) -> Vec3 {
         if p.s == Vec3::ZERO {
             return Vec3::ZERO;

@@ -1,6 +1,7 @@
 //! The pass loop: levels top-down then bottom-up, pass after pass, to convergence.
 
 use super::*;
+use lightgrid_core::GridDesc;
 
 /// The inputs of one sweep and where its resolved values go.
 pub(crate) struct Run<'a> {
@@ -32,43 +33,159 @@ impl Run<'_> {
 
 pub(crate) fn run_with<S: Sink>(
     run: &mut Run<'_>,
-    mut g: Vec<S>,
+    g: Vec<S>,
 ) -> (Vec<S>, bool, EnergyBalance, SweepStats) {
-    let (material, boundary, source, options, fast) = (
-        run.material,
-        run.boundary,
-        run.source,
-        run.options,
-        run.fast,
-    );
-    let want_dom = options.outputs.dominant;
-    let mut ok = true;
-    let mut resolved = false;
-    let desc = *material.desc();
-    let dims = desc.dims();
-    let (nx, ny, nz) = (dims.x as i32, dims.y as i32, dims.z as i32);
-    let cells = material.data();
-    let fixed = Fixed::of(material, boundary);
-    let mut w = Work::reuse(
-        run.work.take(),
-        nx as usize,
-        nz as usize,
-        desc.point_count(),
-    );
-    w.prof.begin_sweep();
-    let mut bal = EnergyBalance::default();
-    let mut stats = SweepStats::default();
+    let (work, source) = (run.work.take(), run.source);
+    let mut sweep = Sweep::new(run, work, g);
     if let Some(src) = source {
-        // Step 4 for the beam's deposit: absorb (1 - a), and the rest waits in both
-        // directions' pending light (each pass emits its half, as for removed light).
+        sweep.book_source(src);
+    }
+    sweep.passes();
+    let (g, ok, bal, stats, w) = sweep.finish();
+    run.work = Some(w);
+    (g, ok, bal, stats)
+}
+
+/// One sweep's state from pass to pass ([`run_with`]).
+struct Sweep<'r, S> {
+    material: &'r MaterialGrid,
+    boundary: &'r Boundary,
+    options: &'r SweepOptions,
+    /// The fast path (else the scalar oracle's phases).
+    fast: bool,
+    /// Where the last pass resolves each level.
+    avg: &'r mut [AverageLight],
+    dom: &'r mut [DominantDir],
+    g: Vec<S>,
+    w: Work,
+    fixed: Fixed,
+    desc: GridDesc,
+    bal: EnergyBalance,
+    stats: SweepStats,
+    /// Every resolved value so far was valid.
+    ok: bool,
+    /// The last pass resolved every level as it ended.
+    resolved: bool,
+    /// A sink this large stays in no cache between passes: each row's next row is
+    /// fetched ahead (`Ahead`).
+    fetch_ahead: bool,
+    /// The quadratic source in height (`crate::profile`) is not positive everywhere:
+    /// its light is resolved after the sweep, clamped at 0, as an accelerated sweep's.
+    signed_light: bool,
+    /// Upward light above all material (the crate docs, "Skipped work"): the levels
+    /// above the top level with material only carry light up, so an upward pass that
+    /// another upward pass follows, and in which no light enters them from the sides,
+    /// stops below them and leaves what it sends on in `w.above` (`above`: its flux);
+    /// the last upward pass carries the sum through them once. If the sweep ends
+    /// otherwise (converged, or a last downward pass, which resolves those levels,
+    /// comes next), a run of its own carries it first.
+    defer: bool,
+    above: Option<DVec3>,
+    accel: Accel,
+}
+
+/// Diffusion acceleration (`crate::accel`) across a sweep's passes.
+struct Accel {
+    /// The sweep's media may be accelerated.
+    may: bool,
+    /// Its operator, built when the passes switch to it (a sweep that converges fast
+    /// pays nothing).
+    dsa: Option<crate::accel::Diffusion>,
+    /// The correction outstanding in the media's waiting light.
+    debt: Debt,
+    /// How the passes run (accelerated from the first pair whose light waiting fell
+    /// slowly).
+    mode: Mode,
+    /// The waiting light after the last pair.
+    waited: f64,
+    /// For how many pairs in a row the waiting light grew.
+    grew: u32,
+}
+
+/// One pass's fixed choices and its running totals.
+struct Pass<'r> {
+    up: bool,
+    /// The run that carries the deferred upward light through the levels above all
+    /// material ([`Sweep::defer`]).
+    carry: bool,
+    first: bool,
+    /// The last plain pass resolves each level as it ends (clamping light of either
+    /// sign at 0 first); after accelerated passes the light is resolved after the sweep.
+    last: bool,
+    /// This upward pass stops below the levels above all material.
+    stops: bool,
+    ch: &'static [Channel; CHANNELS],
+    src: Sources<'r>,
+    ctx: Ctx,
+    /// Light left waiting in media.
+    pending: DVec3,
+    /// The flux the last level's final light sends on.
+    sent_on: DVec3,
+    /// Levels copied in a row just before this one (all with the same light).
+    copied_in_row: u32,
+    /// `w.prev`'s rows hold their wrapped columns in the ring already
+    /// ([`Finish::wrap_columns`]; sums with `w.above` keep that).
+    prev_columns_wrapped: bool,
+}
+
+impl<'r, S: Sink> Sweep<'r, S> {
+    fn new(run: &'r mut Run<'_>, work: Option<Work>, g: Vec<S>) -> Self {
+        let (material, options) = (run.material, run.options);
+        let desc = *material.desc();
+        let fixed = Fixed::of(material, run.boundary);
+        let mut w = Work::reuse(
+            work,
+            desc.dims().x as usize,
+            desc.dims().z as usize,
+            desc.point_count(),
+        );
+        w.prof.begin_sweep();
+        let ny = desc.dims().y as i32;
+        Self {
+            fetch_ahead: std::mem::size_of_val(&g[..]) >= FETCH_AHEAD_BYTES,
+            signed_light: options.medium == MediumEmission::Profile,
+            defer: options.skip_empty_levels
+                && fixed.top_material >= 0
+                && fixed.top_material + 1 < ny,
+            above: None,
+            accel: Accel {
+                may: crate::accel::wanted(options) && fixed.level_medium.iter().any(|&m| m),
+                dsa: None,
+                debt: Debt::new(None),
+                mode: Mode::Plain,
+                waited: f64::INFINITY,
+                grew: 0,
+            },
+            material,
+            boundary: run.boundary,
+            options,
+            fast: run.fast,
+            avg: &mut *run.avg,
+            dom: &mut *run.dom,
+            g,
+            w,
+            fixed,
+            desc,
+            bal: EnergyBalance::default(),
+            stats: SweepStats::default(),
+            ok: true,
+            resolved: false,
+        }
+    }
+
+    /// Step 4 for the beam's deposit: absorb (1 - a), and the rest waits in both
+    /// directions' pending light (each pass emits its half, as for removed light).
+    fn book_source(&mut self, src: &CellSource) {
+        let (w, bal, desc) = (&mut self.w, &mut self.bal, &self.desc);
+        let cells = self.material.data();
         for (i, (&r, mat)) in src.removed().iter().zip(cells).enumerate() {
             if r == Vec3::ZERO {
                 continue;
             }
             bal.source_in += r.as_dvec3();
             bal.absorbed += (r * (Vec3::ONE - mat.reflectance)).as_dvec3();
-            if options.medium == MediumEmission::Profile
-                && medium::applies(options.medium, mat.pass)
+            if self.options.medium == MediumEmission::Profile
+                && medium::applies(self.options.medium, mat.pass)
             {
                 // The beam's first collisions have the height moments of a beam
                 // entering the cell through its top (or bottom) face.
@@ -90,42 +207,42 @@ pub(crate) fn run_with<S: Sink>(
         }
     }
 
-    // A sink this large stays in no cache between passes: each row's next row is
-    // fetched ahead (`Ahead`).
-    let fetch_ahead = std::mem::size_of_val(&g[..]) >= FETCH_AHEAD_BYTES;
-    // Diffusion acceleration (`crate::accel`): its operator, built when the passes
-    // switch to it (a sweep that converges fast pays nothing), and the correction
-    // outstanding in the media's waiting light.
-    let may_accelerate = crate::accel::wanted(options) && fixed.level_medium.iter().any(|&m| m);
-    let mut dsa: Option<crate::accel::Diffusion> = None;
-    let mut debt = Debt::new(None);
-    // How the passes run (accelerated from the first pair whose light waiting fell
-    // slowly), the waiting light after the last pair, and for how many pairs in a row
-    // it grew.
-    let mut mode = Mode::Plain;
-    // The quadratic source in height (`crate::profile`) is not positive everywhere: its
-    // light is resolved after the sweep, clamped at 0, as an accelerated sweep's.
-    let signed_light = options.medium == MediumEmission::Profile;
-    let mut waited = f64::INFINITY;
-    let mut grew = 0;
-
-    // Upward light above all material (the crate docs, "Skipped work"): the levels
-    // above the top level with material only carry light up, so an upward pass that
-    // another upward pass follows, and in which no light enters them from the sides,
-    // stops below them and leaves what it sends on in `w.above` (`above`: its flux);
-    // the last upward pass carries the sum through them once. If the sweep ends
-    // otherwise (converged, or a last downward pass, which resolves those levels,
-    // comes next), a run of its own carries it first.
-    let defer = options.skip_empty_levels && fixed.top_material >= 0 && fixed.top_material + 1 < ny;
-    let mut above: Option<DVec3> = None;
-    let mut pass = 0;
-    let mut converged = false;
-    loop {
-        let ends = converged || pass >= options.max_passes;
-        let carry = above.is_some() && (ends || (pass + 1 == options.max_passes && pass % 2 == 0));
-        if ends && !carry {
-            break;
+    /// The passes, accumulating into `g` (whose contents are overwritten: the first pass
+    /// sets every point), until they converge or reach the pass limit.
+    fn passes(&mut self) {
+        let max_passes = self.options.max_passes;
+        let mut pass = 0;
+        let mut converged = false;
+        loop {
+            let ends = converged || pass >= max_passes;
+            let carry = self.above.is_some() && (ends || (pass + 1 == max_passes && pass % 2 == 0));
+            if ends && !carry {
+                break;
+            }
+            let mut p = self.begin_pass(pass, carry);
+            self.levels(&mut p);
+            // What leaves the last level leaves the grid.
+            let leaving = p.sent_on;
+            if carry {
+                self.bal.top_out += leaving;
+                continue;
+            }
+            self.resolved = p.last;
+            if !p.up {
+                self.bal.bottom_out += leaving;
+            } else if !p.stops {
+                self.bal.top_out += leaving;
+            }
+            let waiting = self.waiting(&p, pass);
+            let input = self.bal.input().max_element();
+            converged = waiting.max_element() <= self.options.tolerance as f64 * input && pass >= 1;
+            pass += 1;
         }
+    }
+
+    /// Pass `pass`'s choices (`carry`: the run that carries deferred upward light).
+    fn begin_pass(&mut self, pass: u32, carry: bool) -> Pass<'r> {
+        let (options, boundary) = (self.options, self.boundary);
         let up = carry || pass % 2 == 1;
         let (first, final_pass) = (
             pass == 0 && !carry,
@@ -136,16 +253,21 @@ pub(crate) fn run_with<S: Sink>(
             boundary,
             active: pass < 2 && !carry,
             up,
-            dims,
-            halo: fixed.halo,
+            dims: self.desc.dims(),
+            halo: self.fixed.halo,
         };
-        let ctx = Ctx::new(nx, nz, fixed.periodic, options, ch, mode);
-        // The last plain pass resolves each level as it ends (clamping light of either
-        // sign at 0 first); after accelerated passes the light is resolved after the
-        // sweep.
-        let last = final_pass && mode == Mode::Plain;
+        let dims = self.desc.dims();
+        let mode = self.accel.mode;
+        let ctx = Ctx::new(
+            dims.x as i32,
+            dims.z as i32,
+            self.fixed.periodic,
+            options,
+            ch,
+            mode,
+        );
         if !carry {
-            stats.passes += 1;
+            self.stats.passes += 1;
         }
         // This upward pass stops below the levels above all material (unless light
         // enters them from the sides: the passes' convergence test counts it as it
@@ -156,440 +278,506 @@ pub(crate) fn run_with<S: Sink>(
                 SideBoundary::Open => boundary.bottom != BinLight::ZERO,
                 SideBoundary::Given(_) => true,
             };
-        let stops = up && defer && !carry && !final_pass && !side_light;
-        let mut pending = DVec3::ZERO;
-        // The flux the last level's final light sends on.
-        let mut sent_on = DVec3::ZERO;
-        // Levels copied in a row just before this one (all with the same light).
-        let mut copied_in_row = 0;
-        // `w.prev`'s rows hold their wrapped columns in the ring already
-        // ([`Finish::wrap_columns`]; sums with `w.above` keep that).
-        let mut prev_columns_wrapped = false;
-        let start = if carry { fixed.top_material + 1 } else { 0 };
+        Pass {
+            up,
+            carry,
+            first,
+            last: final_pass && mode == Mode::Plain,
+            stops: up && self.defer && !carry && !final_pass && !side_light,
+            ch,
+            src,
+            ctx,
+            pending: DVec3::ZERO,
+            sent_on: DVec3::ZERO,
+            copied_in_row: 0,
+            prev_columns_wrapped: false,
+        }
+    }
+
+    /// The levels of one pass, in its direction.
+    fn levels(&mut self, p: &mut Pass<'r>) {
+        let ny = self.desc.dims().y as i32;
+        let top = self.fixed.top_material;
+        let start = if p.carry { top + 1 } else { 0 };
         for li in start..ny {
-            let j = if up { li } else { ny - 1 - li };
-            if up && defer && j == fixed.top_material + 1 {
-                if stops {
-                    match above.as_mut() {
-                        Some(sent) => {
-                            w.above.add(&w.prev);
-                            *sent += sent_on;
-                        }
-                        None => {
-                            w.above.v.copy_from_slice(&w.prev.v);
-                            above = Some(sent_on);
-                        }
-                    }
-                    break;
-                }
-                if let Some(sent) = above.take() {
-                    if carry {
-                        std::mem::swap(&mut w.prev, &mut w.above);
-                    } else {
-                        w.prev.add(&w.above);
-                    }
-                    sent_on += sent;
-                }
+            let j = if p.up { li } else { ny - 1 - li };
+            if p.up && self.defer && j == top + 1 && self.hand_over_above(p) {
+                break;
             }
             let from_virtual = li == 0;
-            let range = desc.level_range(j as u32);
             if from_virtual {
-                w.fill_from_boundary(&src, &ctx);
-                prev_columns_wrapped = false;
+                self.w.fill_from_boundary(&p.src, &p.ctx);
+                p.prev_columns_wrapped = false;
             }
             // Skip: a level above all material, in a downward pass, under a laterally
             // uniform boundary (or with no boundary light at all), receives exactly what
             // it passes on. Copy instead of computing.
-            if options.skip_empty_levels
-                && !up
-                && j > fixed.top_material
-                && (fixed.laterally_uniform || !src.active)
+            if self.options.skip_empty_levels
+                && !p.up
+                && j > top
+                && (self.fixed.laterally_uniform || !p.src.active)
             {
-                let v: Level = std::array::from_fn(|c| src.virtual_light(0, 0, &ch[c]));
-                // Booked as a computed level books it: of what its points gather, the
-                // share from source points beyond open sides enters through the sides,
-                // and as much of what the level above sent on left through them.
-                let (inside, outside) = ctx.uniform_gather(&v);
-                if from_virtual {
-                    bal.top_in += inside;
-                } else {
-                    bal.side_out += outside;
-                }
-                bal.side_in += outside;
-                // Every point of the level receives the same light: one sink value.
-                let mut one = S::default();
-                for (c, chn) in ch.iter().enumerate() {
-                    one.add(chn.bin, chn.unit, v[c]);
-                }
-                if first {
-                    g[range.clone()]
-                        .par_chunks_mut(MIN_POINTS_PER_TASK)
-                        .for_each(|gc| gc.fill(one));
-                } else if src.active {
-                    g[range.clone()]
-                        .par_chunks_mut(MIN_POINTS_PER_TASK)
-                        .for_each(|gc| {
-                            touch(gc);
-                            for gp in gc {
-                                gp.add_channels(ch, |c| v[c]);
-                            }
-                        });
-                }
-                // From the third copied level on, `cur` is the level two back, which
-                // holds `v` already (nothing writes a level's light while it is `prev`
-                // of a copied level).
-                if copied_in_row < 2 {
-                    w.cur.fill(&v);
-                }
-                copied_in_row += 1;
-                sent_on = (0..CHANNELS)
-                    .map(|c| v[c].as_dvec3() * ch[c].mu as f64)
-                    .sum::<DVec3>()
-                    * desc.level_len() as f64;
-                stats.levels_copied += 1;
-                std::mem::swap(&mut w.prev, &mut w.cur);
-                prev_columns_wrapped = false;
-                if last && first {
-                    // One pass: the level's points are all `one`.
-                    let (valid, a, d) = one.resolve(want_dom);
-                    ok &= valid & a.is_finite() & d.is_finite();
-                    run.avg[range.clone()].fill(AverageLight(a));
-                    run.dom[range].fill(DominantDir(d));
-                } else if last {
-                    ok &= resolve(
-                        &g[range.clone()],
-                        &mut run.avg[range.clone()],
-                        &mut run.dom[range],
-                        want_dom,
-                    );
-                }
-                continue;
+                self.copy_level(p, j, from_virtual);
+            } else {
+                self.compute_level(p, li, j, from_virtual);
             }
-            stats.levels_computed += 1;
-            copied_in_row = 0;
-            // The next level of this pass has no material: this level's rows wrap
-            // their ring columns for it as they end ([`Finish::wrap_columns`]).
-            let wrap_in_rows = fast
-                && fixed.periodic
-                && li + 1 < ny
-                && !fixed.level_material[(if up { j + 1 } else { j - 1 }) as usize];
-            let src_level = if up { j - 1 } else { j + 1 };
-            let sent = sent_on;
-            // A level without material: every point is quiet, and nothing scatters.
-            let material_here = fixed.level_material[j as usize] || !fast;
-            // Levels with media under the profile rule: their cells' profiles, and
-            // the emission planes phase 2 writes.
-            let profile_level =
-                options.medium == MediumEmission::Profile && fixed.level_medium[j as usize];
-            // The level's per-cell values and the ring of the light it gathers from:
-            // the transmittances on one thread while the other wraps the ring, finds
-            // the quiet points and the media's profiles (each a short step of one
-            // thread that left the other waiting, a tenth of a 16³ sweep). The
-            // transmittances, their planes and the quiet points are the same in every
-            // pass: found at a level's first visit of the sweep, kept for the others
-            // (`Work::set_up`).
-            {
-                let lnp = &fixed.lnp[range.clone()];
-                let level = &cells[range.clone()];
-                let first_visit = material_here && !w.set_up[j as usize];
-                w.set_up[j as usize] |= material_here;
-                w.planes.level = j as usize;
-                let Work {
-                    pows,
-                    planes,
-                    prev,
-                    quiet,
-                    quiet_rows,
-                    prof,
-                    ..
-                } = &mut w;
-                let (pows, quiet) = (&mut pows[range.clone()], &mut quiet[range.clone()]);
-                let mut each_pass = || {
-                    if fast && fixed.periodic {
-                        // The level before wrapped its rows' columns as they ended if
-                        // this level has no material (`Finish::wrap_columns`).
-                        if prev_columns_wrapped {
-                            prev.wrap_ring_rows();
-                        } else {
-                            prev.wrap_ring();
-                        }
-                    }
-                    if profile_level {
-                        prof.level(up, lnp, |q| medium::applies(options.medium, level[q].pass));
-                    }
-                };
-                if first_visit {
-                    rayon::join(
-                        || {
-                            level_powers(pows, lnp);
-                            planes.fill_pows(&ctx, pows, lnp);
-                        },
-                        || {
-                            each_pass();
-                            if fast {
-                                ctx.quiet(lnp, quiet, quiet_rows);
-                            }
-                        },
-                    );
-                } else {
-                    each_pass();
+        }
+    }
+
+    /// An upward pass reaching the levels above all material: one that stops leaves
+    /// what it sends on in `w.above` (returns `true`); one that goes on first adds
+    /// what earlier passes left there.
+    fn hand_over_above(&mut self, p: &mut Pass<'r>) -> bool {
+        let w = &mut self.w;
+        if p.stops {
+            match self.above.as_mut() {
+                Some(sent) => {
+                    w.above.add(&w.prev);
+                    *sent += p.sent_on;
+                }
+                None => {
+                    w.above.v.copy_from_slice(&w.prev.v);
+                    self.above = Some(p.sent_on);
                 }
             }
-            // Its flux is what the level before it sent on: booked so, not summed.
-            let conserved = conserves_flux(
-                fixed.periodic,
-                fixed.level_material[j as usize],
-                from_virtual,
+            return true;
+        }
+        if let Some(sent) = self.above.take() {
+            if p.carry {
+                std::mem::swap(&mut w.prev, &mut w.above);
+            } else {
+                w.prev.add(&w.above);
+            }
+            p.sent_on += sent;
+        }
+        false
+    }
+
+    /// A level above all material that receives exactly what it passes on: its light
+    /// copied, not computed.
+    fn copy_level(&mut self, p: &mut Pass<'r>, j: i32, from_virtual: bool) {
+        let (ch, range) = (p.ch, self.desc.level_range(j as u32));
+        let want_dom = self.options.outputs.dominant;
+        let v: Level = std::array::from_fn(|c| p.src.virtual_light(0, 0, &ch[c]));
+        // Booked as a computed level books it: of what its points gather, the share
+        // from source points beyond open sides enters through the sides, and as much
+        // of what the level above sent on left through them.
+        let (inside, outside) = p.ctx.uniform_gather(&v);
+        if from_virtual {
+            self.bal.top_in += inside;
+        } else {
+            self.bal.side_out += outside;
+        }
+        self.bal.side_in += outside;
+        // Every point of the level receives the same light: one sink value.
+        let mut one = S::default();
+        for (c, chn) in ch.iter().enumerate() {
+            one.add(chn.bin, chn.unit, v[c]);
+        }
+        let g = &mut self.g[range.clone()];
+        if p.first {
+            g.par_chunks_mut(MIN_POINTS_PER_TASK)
+                .for_each(|gc| gc.fill(one));
+        } else if p.src.active {
+            g.par_chunks_mut(MIN_POINTS_PER_TASK).for_each(|gc| {
+                touch(gc);
+                for gp in gc {
+                    gp.add_channels(ch, |c| v[c]);
+                }
+            });
+        }
+        // From the third copied level on, `cur` is the level two back, which holds `v`
+        // already (nothing writes a level's light while it is `prev` of a copied level).
+        if p.copied_in_row < 2 {
+            self.w.cur.fill(&v);
+        }
+        p.copied_in_row += 1;
+        p.sent_on = (0..CHANNELS)
+            .map(|c| v[c].as_dvec3() * ch[c].mu as f64)
+            .sum::<DVec3>()
+            * self.desc.level_len() as f64;
+        self.stats.levels_copied += 1;
+        std::mem::swap(&mut self.w.prev, &mut self.w.cur);
+        p.prev_columns_wrapped = false;
+        if p.last && p.first {
+            // One pass: the level's points are all `one`.
+            let (valid, a, d) = one.resolve(want_dom);
+            self.ok &= valid & a.is_finite() & d.is_finite();
+            self.avg[range.clone()].fill(AverageLight(a));
+            self.dom[range].fill(DominantDir(d));
+        } else if p.last {
+            self.ok &= resolve(
+                &self.g[range.clone()],
+                &mut self.avg[range.clone()],
+                &mut self.dom[range],
+                want_dom,
             );
-            let mut f1 = if fast {
-                // Light from outside the sides: the ring of `ghost`.
-                let ghost_on = src.active && !fixed.periodic;
-                if ghost_on {
-                    w.fill_ghost(&src, &ctx, from_virtual, src_level);
-                }
-                let quiet = material_here.then_some(&w.quiet[range.clone()]);
-                ctx.phase1_fast(
-                    (&w.prev, !conserved, fetch_ahead),
-                    ghost_on.then_some(&w.ghost),
-                    &w.planes,
-                    quiet,
-                    first,
-                    &mut w.cur,
-                    &mut w.removed,
-                    &mut w.t_after,
-                    &mut g[range.clone()],
-                    &mut w.rows,
-                    Finish {
-                        avg: &mut run.avg[range.clone()],
-                        dom: &mut run.dom[range.clone()],
-                        last_phase: !material_here,
-                        resolve: last.then_some(want_dom),
-                        clamp: signed_light,
-                        from_planes: first && !material_here,
-                        wrap_columns: wrap_in_rows,
-                    },
-                )
+        }
+    }
+
+    /// A level computed: its set-up, phase 1, and where it holds material phases 2
+    /// and 3.
+    fn compute_level(&mut self, p: &mut Pass<'r>, li: i32, j: i32, from_virtual: bool) {
+        let (fast, fixed) = (self.fast, &self.fixed);
+        let ny = self.desc.dims().y as i32;
+        self.stats.levels_computed += 1;
+        p.copied_in_row = 0;
+        // The next level of this pass has no material: this level's rows wrap their
+        // ring columns for it as they end ([`Finish::wrap_columns`]).
+        let wrap_in_rows = fast
+            && fixed.periodic
+            && li + 1 < ny
+            && !fixed.level_material[(if p.up { j + 1 } else { j - 1 }) as usize];
+        let sent = p.sent_on;
+        // A level without material: every point is quiet, and nothing scatters.
+        let material_here = fixed.level_material[j as usize] || !fast;
+        // Levels with media under the profile rule: their cells' profiles, and the
+        // emission planes phase 2 writes.
+        let profile_level =
+            self.options.medium == MediumEmission::Profile && fixed.level_medium[j as usize];
+        self.set_up_level(p, j, material_here, profile_level);
+        // Its flux is what the level before it sent on: booked so, not summed.
+        let conserved = conserves_flux(
+            self.fixed.periodic,
+            self.fixed.level_material[j as usize],
+            from_virtual,
+        );
+        let mut f1 = self.phase1(p, j, from_virtual, (material_here, conserved), wrap_in_rows);
+        if conserved {
+            (f1.inside, f1.sent) = (sent, sent);
+        }
+        if from_virtual {
+            if p.up {
+                self.bal.bottom_in += f1.inside;
             } else {
-                ctx.phase1_scalar(
-                    &w.prev,
-                    &src,
-                    from_virtual,
-                    src_level,
-                    (&w.pows[range.clone()], &fixed.lnp[range.clone()]),
-                    first,
-                    &mut w.cur,
-                    &mut w.removed,
-                    &mut w.t_after,
-                    &mut g[range.clone()],
-                    &mut w.rows,
-                )
-            };
-            if conserved {
-                (f1.inside, f1.sent) = (sent, sent);
+                self.bal.top_in += f1.inside;
             }
-            if from_virtual {
-                if up {
-                    bal.bottom_in += f1.inside;
-                } else {
-                    bal.top_in += f1.inside;
-                }
+        } else {
+            // Light that left the previous level but reached no point of this one
+            // crossed a side face.
+            // (Clamped at 0 against rounding, unless light of either sign flows.)
+            let side = sent - f1.inside;
+            self.bal.side_out += if self.accel.mode == Mode::Plain {
+                side.max(DVec3::ZERO)
             } else {
-                // Light that left the previous level but reached no point of this one
-                // crossed a side face.
-                // (Clamped at 0 against rounding, unless light of either sign flows.)
-                let side = sent - f1.inside;
-                bal.side_out += if mode == Mode::Plain {
-                    side.max(DVec3::ZERO)
-                } else {
-                    side
-                };
-            }
-            bal.side_in += f1.outside;
-            if !material_here {
-                // Phase 1 finished the level.
-                sent_on = f1.sent;
-                ok &= !f1.bad;
-                std::mem::swap(&mut w.prev, &mut w.cur);
-                prev_columns_wrapped = wrap_in_rows;
-                continue;
-            }
-            w.pend_dirty[j as usize] = true;
-            // Accelerated: a downward pass leaves the upward share of what collides in
-            // it in `pend_next` (the next pair's), so the upward pass emits only what
-            // the last pair left; its own collisions go to `pend_down` and `pend_up`.
-            let (same, other) = match (up, mode == Mode::Accelerated) {
-                (true, _) => (&mut w.pend_up, &mut w.pend_down),
-                (false, false) => (&mut w.pend_down, &mut w.pend_up),
-                (false, true) => (&mut w.pend_down, &mut w.pend_next),
+                side
             };
-            // The source rules emit from media in a third phase.
-            let phase3 = matches!(
-                options.medium,
-                MediumEmission::Source | MediumEmission::Profile
-            ) && fixed.level_medium[j as usize];
+        }
+        self.bal.side_in += f1.outside;
+        if material_here {
+            p.sent_on = self.media_phases(p, j, (sent, conserved), profile_level, wrap_in_rows);
+        } else {
+            // Phase 1 finished the level.
+            p.sent_on = f1.sent;
+            self.ok &= !f1.bad;
+        }
+        std::mem::swap(&mut self.w.prev, &mut self.w.cur);
+        p.prev_columns_wrapped = wrap_in_rows;
+    }
+
+    /// The level's per-cell values and the ring of the light it gathers from: the
+    /// transmittances on one thread while the other wraps the ring, finds the quiet
+    /// points and the media's profiles (each a short step of one thread that left the
+    /// other waiting, a tenth of a 16³ sweep). The transmittances, their planes and the
+    /// quiet points are the same in every pass: found at a level's first visit of the
+    /// sweep, kept for the others (`Work::set_up`).
+    fn set_up_level(&mut self, p: &Pass<'r>, j: i32, material_here: bool, profile_level: bool) {
+        let (fast, fixed, options) = (self.fast, &self.fixed, self.options);
+        let range = self.desc.level_range(j as u32);
+        let lnp = &fixed.lnp[range.clone()];
+        let level = &self.material.data()[range.clone()];
+        let w = &mut self.w;
+        let first_visit = material_here && !w.set_up[j as usize];
+        w.set_up[j as usize] |= material_here;
+        w.planes.level = j as usize;
+        let Work {
+            pows,
+            planes,
+            prev,
+            quiet,
+            quiet_rows,
+            prof,
+            ..
+        } = w;
+        let (pows, quiet) = (&mut pows[range.clone()], &mut quiet[range]);
+        let (up, ctx, prev_columns_wrapped) = (p.up, &p.ctx, p.prev_columns_wrapped);
+        let mut each_pass = || {
+            if fast && fixed.periodic {
+                // The level before wrapped its rows' columns as they ended if this
+                // level has no material (`Finish::wrap_columns`).
+                if prev_columns_wrapped {
+                    prev.wrap_ring_rows();
+                } else {
+                    prev.wrap_ring();
+                }
+            }
             if profile_level {
-                let n = range.len();
-                if w.src_hi.len() != n {
-                    w.src_hi = vec![[Vec3::ZERO; 2]; n];
-                }
-                // Phase 3's emission planes, written (zeroed row by row first) by phase
-                // 2 on the fast path; grown once, kept across levels.
-                w.planes.ex.resize(
-                    if fast {
-                        SLOTS * 3 * nz as usize * ring_pitch(nx as usize)
-                    } else {
-                        0
-                    },
-                    0.0,
-                );
+                prof.level(up, lnp, |q| medium::applies(options.medium, level[q].pass));
             }
-            let f2 = ctx.phase2(
-                (&w.removed, !fast),
-                (&w.t_after, &w.pows[range.clone()]),
-                &cells[range.clone()],
-                &fixed.exposed[range.clone()],
-                &mut w.cur,
-                same.level_mut(j as usize),
-                other.level_mut(j as usize),
-                (
-                    &mut w.src,
-                    &mut w.emits,
-                    &mut w.src_hi,
-                    &w.prof,
-                    if profile_level {
-                        &mut w.planes.ex[..]
-                    } else {
-                        &mut []
-                    },
-                ),
-                &mut g[range.clone()],
-                &mut w.rows,
-                Finish {
-                    avg: &mut run.avg[range.clone()],
-                    dom: &mut run.dom[range.clone()],
-                    last_phase: !phase3,
-                    resolve: last.then_some(want_dom),
-                    clamp: signed_light,
-                    from_planes: false,
-                    wrap_columns: wrap_in_rows,
+        };
+        if first_visit {
+            rayon::join(
+                || {
+                    level_powers(pows, lnp);
+                    planes.fill_pows(ctx, pows, lnp);
+                },
+                || {
+                    each_pass();
+                    if fast {
+                        ctx.quiet(lnp, quiet, quiet_rows);
+                    }
                 },
             );
-            bal.absorbed += f2.absorbed;
-            pending += f2.pending;
-            // (The scalar oracle runs phase 2 on levels without material too.)
-            sent_on = if conserved { sent } else { f2.sent };
-            ok &= !f2.bad;
-            if phase3 {
-                let f3 = ctx.phase3(
-                    (&w.src, &w.emits),
-                    (&w.src_hi, &w.prof),
-                    (
-                        &w.pows[range.clone()],
-                        &fixed.lnp[range.clone()],
-                        &mut w.planes,
-                    ),
-                    &cells[range.clone()],
-                    &mut w.cur,
-                    (&mut w.pre, &mut w.pre_rows),
-                    (same.level_mut(j as usize), other.level_mut(j as usize)),
-                    &mut g[range.clone()],
-                    &mut w.rows,
-                    Finish {
-                        avg: &mut run.avg[range.clone()],
-                        dom: &mut run.dom[range.clone()],
-                        last_phase: true,
-                        resolve: last.then_some(want_dom),
-                        clamp: signed_light,
-                        from_planes: false,
-                        wrap_columns: wrap_in_rows,
-                    },
-                    !fast,
-                );
-                bal.absorbed += f3.absorbed;
-                bal.side_out += f3.side_out;
-                pending += f3.pending;
-                sent_on = f3.sent;
-                ok &= !f3.bad;
-            }
-            std::mem::swap(&mut w.prev, &mut w.cur);
-            prev_columns_wrapped = wrap_in_rows;
-        }
-        // What leaves the last level leaves the grid.
-        let leaving = sent_on;
-        if carry {
-            bal.top_out += leaving;
-            continue;
-        }
-        resolved = last;
-        if !up {
-            bal.bottom_out += leaving;
-        } else if !stops {
-            bal.top_out += leaving;
-        }
-        // With acceleration: what waits net of the correction not yet taken back, and
-        // the convergence test on the largest waiting light of either sign, after
-        // each pair.
-        let waiting = if let Some(d) = dsa.as_ref().filter(|_| mode != Mode::Plain) {
-            let before = debt.waiting(d, &w, cells, &fixed, options.medium);
-            bal.pending = before.net;
-            if up && mode == Mode::Accelerated {
-                // Two pairs in a row that left more waiting: the estimate does
-                // not suit this medium; back to plain passes (light of either
-                // sign now).
-                let now = before.abs.max_element();
-                grew = if now > waited { grew + 1 } else { 0 };
-                waited = now;
-                if grew >= 2 {
-                    debt.release(d, &mut w, (&fixed.lnp, cells, options.medium));
-                    mode = Mode::Fallback;
-                } else {
-                    stats.corrections += 1;
-                    debt.correct(d, &mut w, (&fixed.lnp, cells, options.medium));
-                }
-            }
-            if up { before.abs } else { DVec3::INFINITY }
         } else {
-            bal.pending = pending;
-            if may_accelerate && up {
-                // Plain passes while the light waiting falls fast; accelerated from
-                // the first pair after which it fell by less than
-                // `crate::accel::SWITCH`.
-                let now = pending.max_element();
-                if now > crate::accel::SWITCH * waited
-                    && now > options.tolerance as f64 * bal.input().max_element()
-                    && pass + 1 < options.max_passes
-                    && let Some(d) = crate::accel::Diffusion::of(material, fixed.periodic, options)
-                {
-                    if w.pend_next.len() != desc.point_count() {
-                        w.pend_next = PendingLevels::new(desc.level_len(), ny as usize);
-                    }
-                    debt = Debt::new(Some(&d));
-                    mode = Mode::Accelerated;
-                    stats.corrections += 1;
-                    debt.correct(&d, &mut w, (&fixed.lnp, cells, options.medium));
-                    dsa = Some(d);
-                }
-                waited = now;
-            }
-            pending
+            each_pass();
+        }
+    }
+
+    /// Phase 1 of level `j`: gathering, on the fast path or the scalar oracle's.
+    fn phase1(
+        &mut self,
+        p: &Pass<'r>,
+        j: i32,
+        from_virtual: bool,
+        (material_here, conserved): (bool, bool),
+        wrap_in_rows: bool,
+    ) -> RowFlux {
+        let range = self.desc.level_range(j as u32);
+        let (w, fixed) = (&mut self.w, &self.fixed);
+        let src_level = if p.up { j - 1 } else { j + 1 };
+        if !self.fast {
+            return p.ctx.phase1_scalar(
+                &w.prev,
+                &p.src,
+                from_virtual,
+                src_level,
+                (&w.pows[range.clone()], &fixed.lnp[range.clone()]),
+                p.first,
+                &mut w.cur,
+                &mut w.removed,
+                &mut w.t_after,
+                &mut self.g[range],
+                &mut w.rows,
+            );
+        }
+        // Light from outside the sides: the ring of `ghost`.
+        let ghost_on = p.src.active && !fixed.periodic;
+        if ghost_on {
+            w.fill_ghost(&p.src, &p.ctx, from_virtual, src_level);
+        }
+        let quiet = material_here.then_some(&w.quiet[range.clone()]);
+        p.ctx.phase1_fast(
+            (&w.prev, !conserved, self.fetch_ahead),
+            ghost_on.then_some(&w.ghost),
+            &w.planes,
+            quiet,
+            p.first,
+            &mut w.cur,
+            &mut w.removed,
+            &mut w.t_after,
+            &mut self.g[range.clone()],
+            &mut w.rows,
+            Finish {
+                avg: &mut self.avg[range.clone()],
+                dom: &mut self.dom[range],
+                last_phase: !material_here,
+                resolve: p.last.then_some(self.options.outputs.dominant),
+                clamp: self.signed_light,
+                from_planes: p.first && !material_here,
+                wrap_columns: wrap_in_rows,
+            },
+        )
+    }
+
+    /// Phases 2 and 3 of level `j` (with material; `sent`: the flux the level before it
+    /// sent on): returns the flux the level sends on.
+    fn media_phases(
+        &mut self,
+        p: &mut Pass<'r>,
+        j: i32,
+        (sent, conserved): (DVec3, bool),
+        profile_level: bool,
+        wrap_in_rows: bool,
+    ) -> DVec3 {
+        let (fast, options) = (self.fast, self.options);
+        let range = self.desc.level_range(j as u32);
+        let nx = self.desc.dims().x as usize;
+        let nz = self.desc.dims().z as usize;
+        let cells = &self.material.data()[range.clone()];
+        let fixed = &self.fixed;
+        let w = &mut self.w;
+        let resolve = p.last.then_some(options.outputs.dominant);
+        w.pend_dirty[j as usize] = true;
+        // Accelerated: a downward pass leaves the upward share of what collides in it
+        // in `pend_next` (the next pair's), so the upward pass emits only what the last
+        // pair left; its own collisions go to `pend_down` and `pend_up`.
+        let (same, other) = match (p.up, self.accel.mode == Mode::Accelerated) {
+            (true, _) => (&mut w.pend_up, &mut w.pend_down),
+            (false, false) => (&mut w.pend_down, &mut w.pend_up),
+            (false, true) => (&mut w.pend_down, &mut w.pend_next),
         };
-        let input = bal.input().max_element();
-        converged = waiting.max_element() <= options.tolerance as f64 * input && pass >= 1;
-        pass += 1;
+        // The source rules emit from media in a third phase.
+        let phase3 = matches!(
+            options.medium,
+            MediumEmission::Source | MediumEmission::Profile
+        ) && fixed.level_medium[j as usize];
+        if profile_level {
+            let n = range.len();
+            if w.src_hi.len() != n {
+                w.src_hi = vec![[Vec3::ZERO; 2]; n];
+            }
+            // Phase 3's emission planes, written (zeroed row by row first) by phase 2 on
+            // the fast path; grown once, kept across levels.
+            w.planes.ex.resize(
+                if fast {
+                    SLOTS * 3 * nz * ring_pitch(nx)
+                } else {
+                    0
+                },
+                0.0,
+            );
+        }
+        let f2 = p.ctx.phase2(
+            (&w.removed, !fast),
+            (&w.t_after, &w.pows[range.clone()]),
+            cells,
+            &fixed.exposed[range.clone()],
+            &mut w.cur,
+            same.level_mut(j as usize),
+            other.level_mut(j as usize),
+            (
+                &mut w.src,
+                &mut w.emits,
+                &mut w.src_hi,
+                &w.prof,
+                if profile_level {
+                    &mut w.planes.ex[..]
+                } else {
+                    &mut []
+                },
+            ),
+            &mut self.g[range.clone()],
+            &mut w.rows,
+            Finish {
+                avg: &mut self.avg[range.clone()],
+                dom: &mut self.dom[range.clone()],
+                last_phase: !phase3,
+                resolve,
+                clamp: self.signed_light,
+                from_planes: false,
+                wrap_columns: wrap_in_rows,
+            },
+        );
+        self.bal.absorbed += f2.absorbed;
+        p.pending += f2.pending;
+        self.ok &= !f2.bad;
+        // (The scalar oracle runs phase 2 on levels without material too.)
+        if !phase3 {
+            return if conserved { sent } else { f2.sent };
+        }
+        let f3 = p.ctx.phase3(
+            (&w.src, &w.emits),
+            (&w.src_hi, &w.prof),
+            (
+                &w.pows[range.clone()],
+                &fixed.lnp[range.clone()],
+                &mut w.planes,
+            ),
+            cells,
+            &mut w.cur,
+            (&mut w.pre, &mut w.pre_rows),
+            (same.level_mut(j as usize), other.level_mut(j as usize)),
+            &mut self.g[range.clone()],
+            &mut w.rows,
+            Finish {
+                avg: &mut self.avg[range.clone()],
+                dom: &mut self.dom[range],
+                last_phase: true,
+                resolve,
+                clamp: self.signed_light,
+                from_planes: false,
+                wrap_columns: wrap_in_rows,
+            },
+            !fast,
+        );
+        self.bal.absorbed += f3.absorbed;
+        self.bal.side_out += f3.side_out;
+        p.pending += f3.pending;
+        self.ok &= !f3.bad;
+        f3.sent
     }
-    if !resolved && (mode != Mode::Plain || signed_light) {
-        // What the accelerated passes left: light off by up to the tolerance either
-        // way, so a point in the dark may hold a little below 0. (A quadratic source
-        // in height may dip below 0 within a cell, and a near-transparent cell's mean
-        // light round below 0.)
-        g.par_chunks_mut(RESOLVE_CHUNK)
-            .for_each(|c| c.iter_mut().for_each(S::clamp));
+
+    /// The light waiting after pass `pass` for the convergence test: with acceleration,
+    /// what waits net of the correction not yet taken back, the largest waiting light
+    /// of either sign after each pair; and the switch to (or back from) accelerated
+    /// passes.
+    fn waiting(&mut self, p: &Pass<'r>, pass: u32) -> DVec3 {
+        let (options, material) = (self.options, self.material);
+        let cells = material.data();
+        let (w, fixed, a) = (&mut self.w, &self.fixed, &mut self.accel);
+        let up = p.up;
+        if let Some(d) = a.dsa.as_ref().filter(|_| a.mode != Mode::Plain) {
+            let before = a.debt.waiting(d, w, cells, fixed, options.medium);
+            self.bal.pending = before.net;
+            if up && a.mode == Mode::Accelerated {
+                // Two pairs in a row that left more waiting: the estimate does not suit
+                // this medium; back to plain passes (light of either sign now).
+                let now = before.abs.max_element();
+                a.grew = if now > a.waited { a.grew + 1 } else { 0 };
+                a.waited = now;
+                if a.grew >= 2 {
+                    a.debt.release(d, w, (&fixed.lnp, cells, options.medium));
+                    a.mode = Mode::Fallback;
+                } else {
+                    self.stats.corrections += 1;
+                    a.debt.correct(d, w, (&fixed.lnp, cells, options.medium));
+                }
+            }
+            return if up { before.abs } else { DVec3::INFINITY };
+        }
+        self.bal.pending = p.pending;
+        if a.may && up {
+            // Plain passes while the light waiting falls fast; accelerated from the
+            // first pair after which it fell by less than `crate::accel::SWITCH`.
+            let now = p.pending.max_element();
+            if now > crate::accel::SWITCH * a.waited
+                && now > options.tolerance as f64 * self.bal.input().max_element()
+                && pass + 1 < options.max_passes
+                && let Some(d) = crate::accel::Diffusion::of(material, fixed.periodic, options)
+            {
+                let desc = &self.desc;
+                if w.pend_next.len() != desc.point_count() {
+                    w.pend_next = PendingLevels::new(desc.level_len(), desc.dims().y as usize);
+                }
+                a.debt = Debt::new(Some(&d));
+                a.mode = Mode::Accelerated;
+                self.stats.corrections += 1;
+                a.debt.correct(&d, w, (&fixed.lnp, cells, options.medium));
+                a.dsa = Some(d);
+            }
+            a.waited = now;
+        }
+        p.pending
     }
-    if !resolved {
-        ok = resolve(&g, run.avg, run.dom, want_dom);
+
+    /// After the passes: light of either sign clamped and resolved where the last pass
+    /// did not resolve it as it went; the sink, validity, balance, stats and the work
+    /// buffers for the next sweep.
+    fn finish(mut self) -> (Vec<S>, bool, EnergyBalance, SweepStats, Work) {
+        if !self.resolved && (self.accel.mode != Mode::Plain || self.signed_light) {
+            // What the accelerated passes left: light off by up to the tolerance either
+            // way, so a point in the dark may hold a little below 0. (A quadratic source
+            // in height may dip below 0 within a cell, and a near-transparent cell's
+            // mean light round below 0.)
+            self.g
+                .par_chunks_mut(RESOLVE_CHUNK)
+                .for_each(|c| c.iter_mut().for_each(S::clamp));
+        }
+        if !self.resolved {
+            self.ok = resolve(&self.g, self.avg, self.dom, self.options.outputs.dominant);
+        }
+        (self.g, self.ok, self.bal, self.stats, self.w)
     }
-    run.work = Some(w);
-    (g, ok, bal, stats)
 }
 
 /// What a sweep derives once from its inputs.

@@ -84,13 +84,8 @@ impl Ctx {
         resolve: Option<(bool, bool, bool)>,
         rf: &mut RowFlux,
     ) {
-        let nx = self.nx as usize;
         if !rf.sent_known {
-            for (c, chn) in self.ch.iter().enumerate() {
-                for k in 0..3 {
-                    rf.sent[k] += sum_f64(&cur_row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
-                }
-            }
+            vectorised!(self.add_sent(cur_row, p, rf));
         }
         if let Some((dominant, clamp, from_planes)) = resolve {
             if clamp {
@@ -108,6 +103,18 @@ impl Ctx {
             } else {
                 vectorised!(S::resolve_all(g_row, avg_row, dom_row, dominant))
             };
+        }
+    }
+
+    /// Adds what the finished row `cur_row` (pitch `p`) sends on to `rf.sent`: its
+    /// channels' light times their `μ`.
+    #[inline(always)]
+    fn add_sent(&self, cur_row: &[f32], p: usize, rf: &mut RowFlux) {
+        let nx = self.nx as usize;
+        for (c, chn) in self.ch.iter().enumerate() {
+            for k in 0..3 {
+                rf.sent[k] += sum_f64(&cur_row[(c * 3 + k) * p + PAD..][..nx]) * chn.mu as f64;
+            }
         }
     }
 
