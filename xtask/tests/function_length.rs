@@ -19,8 +19,6 @@ const KNOWN: &[(&str, &str, usize)] = &[
         "write_glb",
         229,
     ),
-    ("crates/viewer/src/world.rs", "build_on", 188),
-    ("crates/light-probes/src/bake.rs", "bake_with", 198),
     ("crates/viewer/src/lib.rs", "run", 175),
     (
         "crates/material-voxelizer/src/model.rs",

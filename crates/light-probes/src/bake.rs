@@ -266,183 +266,26 @@ impl ProbeSet {
                 lightgrid_core::GridError::invalid("positions", p, "must be finite").into(),
             );
         }
-        let n = params.rays;
-        let dw = 4.0 * std::f32::consts::PI / n as f32;
         let done = std::sync::atomic::AtomicUsize::new(0);
         let trace = |p: Vec3| -> Vec<RayOut> {
-            let out = (0..n)
-                .map(|i| {
-                    let d = fibonacci(i, n);
-                    match scene.closest_hit(p, d, params.max_distance, 0.5) {
-                        Some(h) => {
-                            let point = p + d * h.t;
-                            let cell = (point / params.cell).floor().as_ivec3();
-                            RayOut::Hit {
-                                key: (cell, axis_of(h.normal)),
-                                point,
-                                normal: h.normal,
-                                albedo: h.colour,
-                                t: h.t,
-                                dir: d,
-                                outside: interior
-                                    .is_some_and(|(room, _)| room.distance(point) > params.cell),
-                            }
-                        }
-                        None => RayOut::Sky { dir: d },
-                    }
-                })
-                .collect();
+            let out = trace_probe(scene, p, params, interior.map(|(room, _)| room));
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(k, positions.len());
             out
         };
-
         // Probes are traced a chunk at a time (in parallel) and folded in probe and ray
         // order, so memory holds one chunk's rays and the result does not depend on the
-        // thread count. A surfel is created at its first hit, its brick (`brick` cells a
-        // side, per normal axis) with it.
-        let b = params.brick as i32;
-        let omega = dirs::solid_angles();
-        let mut surfel_of: HashMap<CellKey, u32> = HashMap::new();
-        let mut acc: Vec<(Vec3, Vec3, Vec3, u32)> = Vec::new();
-        let mut brick_of_key: HashMap<CellKey, u32> = HashMap::new();
-        let mut brick_members: Vec<Vec<u32>> = Vec::new();
-        let mut brick_of_surfel: Vec<u32> = Vec::new();
-        let mut probes = Vec::with_capacity(positions.len());
-        let mut factors = Vec::new();
-        let mut seen: Vec<Vec<(u32, f32)>> = Vec::new();
-        let mut outside: Vec<bool> = Vec::new();
+        // thread count.
+        let mut fold = Fold::new(params);
+        fold.probes.reserve(positions.len());
         const CHUNK: usize = 64;
         for (c, chunk) in positions.chunks(CHUNK).enumerate() {
             let rays: Vec<Vec<RayOut>> = chunk.par_iter().map(|&p| trace(p)).collect();
             for (j, (rays, &p)) in rays.iter().zip(chunk).enumerate() {
-                let pi = (c * CHUNK + j) as u32;
-                let mut sky = [[0.0f32; NUM_DIRS]; 6];
-                let mut by_brick: HashMap<u32, [f32; 6]> = HashMap::new();
-                let mut order: Vec<u32> = Vec::new();
-                for r in rays {
-                    match r {
-                        RayOut::Hit {
-                            key,
-                            point,
-                            normal,
-                            albedo,
-                            t,
-                            dir,
-                            outside: beyond,
-                        } => {
-                            let s = match surfel_of.get(key) {
-                                Some(s) => *s,
-                                None => {
-                                    let s = acc.len() as u32;
-                                    surfel_of.insert(*key, s);
-                                    acc.push((Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0));
-                                    seen.push(Vec::new());
-                                    outside.push(*beyond);
-                                    let bk = (key.0.div_euclid(IVec3::splat(b)), key.1);
-                                    let bi = *brick_of_key.entry(bk).or_insert_with(|| {
-                                        brick_members.push(Vec::new());
-                                        brick_members.len() as u32 - 1
-                                    });
-                                    brick_members[bi as usize].push(s);
-                                    brick_of_surfel.push(bi);
-                                    s
-                                }
-                            };
-                            let a = &mut acc[s as usize];
-                            a.0 += *point;
-                            a.1 += *normal;
-                            a.2 += *albedo;
-                            a.3 += 1;
-                            let bi = brick_of_surfel[s as usize];
-                            let w = by_brick.entry(bi).or_insert_with(|| {
-                                order.push(bi);
-                                [0.0; 6]
-                            });
-                            for (k, ax) in AMBIENT_AXES.iter().enumerate() {
-                                w[k] += dir.dot(*ax).max(0.0) * dw;
-                            }
-                            let near = &mut seen[s as usize];
-                            match near.iter_mut().find(|(q, _)| *q == pi) {
-                                Some(e) => e.1 = e.1.min(*t),
-                                None => near.push((pi, *t)),
-                            }
-                        }
-                        RayOut::Sky { dir } => {
-                            // Light arriving from `dir` travels along `-dir`.
-                            let bin = dirs::nearest_dir(-*dir);
-                            for (k, ax) in AMBIENT_AXES.iter().enumerate() {
-                                sky[k][bin] += dir.dot(*ax).max(0.0) * dw / omega[bin];
-                            }
-                        }
-                    }
-                }
-                let start = factors.len() as u32;
-                factors.extend(order.iter().map(|bi| BrickFactor {
-                    brick: *bi,
-                    weights: by_brick[bi],
-                }));
-                probes.push(Probe {
-                    position: p,
-                    sky,
-                    factors: start..factors.len() as u32,
-                });
+                fold.probe((c * CHUNK + j) as u32, p, rays);
             }
         }
-        let surfels: Vec<Surfel> = acc
-            .iter()
-            .map(|(p, nrm, alb, c)| {
-                let c = *c as f32;
-                Surfel {
-                    position: *p / c,
-                    normal: nrm.try_normalize().unwrap_or(Vec3::Y),
-                    albedo: (*alb / c).clamp(Vec3::ZERO, Vec3::ONE),
-                    hits: c as u32,
-                }
-            })
-            .collect();
-        let mut brick_start = Vec::with_capacity(brick_members.len() + 1);
-        let mut brick_surfels = Vec::new();
-        for m in &brick_members {
-            brick_start.push(brick_surfels.len() as u32);
-            brick_surfels.extend_from_slice(m);
-        }
-        brick_start.push(brick_surfels.len() as u32);
-        let mut link_start = Vec::with_capacity(surfels.len() + 1);
-        let mut links = Vec::new();
-        let floor = params.cell * params.cell;
-        for (s, near) in seen.iter_mut().enumerate() {
-            link_start.push(links.len() as u32);
-            if let (true, Some((room, ext))) = (outside[s], interior) {
-                // Seen through an opening: lit by the exterior probes that see it.
-                *near = nearest_visible(
-                    scene,
-                    ext,
-                    room,
-                    surfels[s].position + surfels[s].normal * (0.05 * params.cell),
-                    params.probes_per_surfel as usize,
-                );
-            }
-            near.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-            near.truncate(params.probes_per_surfel as usize);
-            let w: Vec<f32> = near.iter().map(|(_, t)| 1.0 / (t * t).max(floor)).collect();
-            let sum: f32 = w.iter().sum();
-            links.extend(near.iter().zip(&w).map(|((q, _), w)| (*q, w / sum)));
-        }
-        link_start.push(links.len() as u32);
-        Ok(Self {
-            params: *params,
-            probes,
-            surfels,
-            brick_start,
-            brick_surfels,
-            factors,
-            link_start,
-            links,
-            interior: interior.map(|(room, _)| *room),
-            outside,
-            exterior_probes: interior.map_or(0, |(_, e)| e.probes.len() as u32),
-        })
+        Ok(fold.finish(scene, interior))
     }
 
     /// The room's box of an interior set ([`ProbeSet::bake_interior`]); `None` outside.
@@ -559,5 +402,225 @@ impl ProbeSet {
                 }
             })
             .collect()
+    }
+}
+
+/// Probe `p`'s rays (a Fibonacci sphere of `params.rays`), each to its first hit or the
+/// sky; with a room (`interior`), whether a hit lies outside it.
+fn trace_probe(
+    scene: &RayScene<'_>,
+    p: Vec3,
+    params: &ProbeParams,
+    interior: Option<&InteriorBox>,
+) -> Vec<RayOut> {
+    let n = params.rays;
+    (0..n)
+        .map(|i| {
+            let d = fibonacci(i, n);
+            match scene.closest_hit(p, d, params.max_distance, 0.5) {
+                Some(h) => {
+                    let point = p + d * h.t;
+                    let cell = (point / params.cell).floor().as_ivec3();
+                    RayOut::Hit {
+                        key: (cell, axis_of(h.normal)),
+                        point,
+                        normal: h.normal,
+                        albedo: h.colour,
+                        t: h.t,
+                        dir: d,
+                        outside: interior.is_some_and(|room| room.distance(point) > params.cell),
+                    }
+                }
+                None => RayOut::Sky { dir: d },
+            }
+        })
+        .collect()
+}
+
+/// A bake's probes folded in probe and ray order: the surfels their rays hit (one a
+/// cell and normal axis, made at its first hit), the bricks that group them (`brick`
+/// cells a side, per normal axis), each probe's sky and brick weights, and which probes
+/// see each surfel, how near.
+struct Fold<'p> {
+    params: &'p ProbeParams,
+    /// Solid angle of one ray.
+    dw: f32,
+    surfel_of: HashMap<CellKey, u32>,
+    /// Per surfel: sums of hit points, normals, albedos, and the hit count.
+    acc: Vec<(Vec3, Vec3, Vec3, u32)>,
+    brick_of_key: HashMap<CellKey, u32>,
+    brick_members: Vec<Vec<u32>>,
+    brick_of_surfel: Vec<u32>,
+    probes: Vec<Probe>,
+    factors: Vec<BrickFactor>,
+    /// Per surfel: the probes that saw it and their nearest distance.
+    seen: Vec<Vec<(u32, f32)>>,
+    /// Per surfel: it lies outside the room (an interior bake).
+    outside: Vec<bool>,
+}
+
+impl<'p> Fold<'p> {
+    fn new(params: &'p ProbeParams) -> Self {
+        Self {
+            params,
+            dw: 4.0 * std::f32::consts::PI / params.rays as f32,
+            surfel_of: HashMap::new(),
+            acc: Vec::new(),
+            brick_of_key: HashMap::new(),
+            brick_members: Vec::new(),
+            brick_of_surfel: Vec::new(),
+            probes: Vec::new(),
+            factors: Vec::new(),
+            seen: Vec::new(),
+            outside: Vec::new(),
+        }
+    }
+
+    /// The surfel of a hit's cell and axis, made (with its brick) at its first hit.
+    fn surfel(&mut self, key: &CellKey, beyond: bool) -> u32 {
+        if let Some(s) = self.surfel_of.get(key) {
+            return *s;
+        }
+        let b = self.params.brick as i32;
+        let s = self.acc.len() as u32;
+        self.surfel_of.insert(*key, s);
+        self.acc.push((Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0));
+        self.seen.push(Vec::new());
+        self.outside.push(beyond);
+        let bk = (key.0.div_euclid(IVec3::splat(b)), key.1);
+        let members = &mut self.brick_members;
+        let bi = *self.brick_of_key.entry(bk).or_insert_with(|| {
+            members.push(Vec::new());
+            members.len() as u32 - 1
+        });
+        self.brick_members[bi as usize].push(s);
+        self.brick_of_surfel.push(bi);
+        s
+    }
+
+    /// Probe `pi` at `p` and its rays: surfels hit, the brick weights it gathers on the
+    /// six ambient axes (in the order its rays first reach each brick), and its sky.
+    fn probe(&mut self, pi: u32, p: Vec3, rays: &[RayOut]) {
+        let (dw, omega) = (self.dw, dirs::solid_angles());
+        let mut sky = [[0.0f32; NUM_DIRS]; 6];
+        let mut by_brick: HashMap<u32, [f32; 6]> = HashMap::new();
+        let mut order: Vec<u32> = Vec::new();
+        for r in rays {
+            match r {
+                RayOut::Hit {
+                    key,
+                    point,
+                    normal,
+                    albedo,
+                    t,
+                    dir,
+                    outside: beyond,
+                } => {
+                    let s = self.surfel(key, *beyond);
+                    let a = &mut self.acc[s as usize];
+                    a.0 += *point;
+                    a.1 += *normal;
+                    a.2 += *albedo;
+                    a.3 += 1;
+                    let bi = self.brick_of_surfel[s as usize];
+                    let w = by_brick.entry(bi).or_insert_with(|| {
+                        order.push(bi);
+                        [0.0; 6]
+                    });
+                    for (k, ax) in AMBIENT_AXES.iter().enumerate() {
+                        w[k] += dir.dot(*ax).max(0.0) * dw;
+                    }
+                    let near = &mut self.seen[s as usize];
+                    match near.iter_mut().find(|(q, _)| *q == pi) {
+                        Some(e) => e.1 = e.1.min(*t),
+                        None => near.push((pi, *t)),
+                    }
+                }
+                RayOut::Sky { dir } => {
+                    // Light arriving from `dir` travels along `-dir`.
+                    let bin = dirs::nearest_dir(-*dir);
+                    for (k, ax) in AMBIENT_AXES.iter().enumerate() {
+                        sky[k][bin] += dir.dot(*ax).max(0.0) * dw / omega[bin];
+                    }
+                }
+            }
+        }
+        let start = self.factors.len() as u32;
+        self.factors.extend(order.iter().map(|bi| BrickFactor {
+            brick: *bi,
+            weights: by_brick[bi],
+        }));
+        self.probes.push(Probe {
+            position: p,
+            sky,
+            factors: start..self.factors.len() as u32,
+        });
+    }
+
+    /// The probe set: surfels as the means of their hits, bricks and links as offset
+    /// tables, each surfel linked to its nearest probes (the exterior probes that see it
+    /// through an opening, for a surfel outside the room of an interior bake), weighted
+    /// by inverse squared distance.
+    fn finish(
+        mut self,
+        scene: &RayScene<'_>,
+        interior: Option<(&InteriorBox, &ProbeSet)>,
+    ) -> ProbeSet {
+        let params = self.params;
+        let surfels: Vec<Surfel> = self
+            .acc
+            .iter()
+            .map(|(p, nrm, alb, c)| {
+                let c = *c as f32;
+                Surfel {
+                    position: *p / c,
+                    normal: nrm.try_normalize().unwrap_or(Vec3::Y),
+                    albedo: (*alb / c).clamp(Vec3::ZERO, Vec3::ONE),
+                    hits: c as u32,
+                }
+            })
+            .collect();
+        let mut brick_start = Vec::with_capacity(self.brick_members.len() + 1);
+        let mut brick_surfels = Vec::new();
+        for m in &self.brick_members {
+            brick_start.push(brick_surfels.len() as u32);
+            brick_surfels.extend_from_slice(m);
+        }
+        brick_start.push(brick_surfels.len() as u32);
+        let mut link_start = Vec::with_capacity(surfels.len() + 1);
+        let mut links = Vec::new();
+        let floor = params.cell * params.cell;
+        for (s, near) in self.seen.iter_mut().enumerate() {
+            link_start.push(links.len() as u32);
+            if let (true, Some((room, ext))) = (self.outside[s], interior) {
+                // Seen through an opening: lit by the exterior probes that see it.
+                *near = nearest_visible(
+                    scene,
+                    ext,
+                    room,
+                    surfels[s].position + surfels[s].normal * (0.05 * params.cell),
+                    params.probes_per_surfel as usize,
+                );
+            }
+            near.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            near.truncate(params.probes_per_surfel as usize);
+            let w: Vec<f32> = near.iter().map(|(_, t)| 1.0 / (t * t).max(floor)).collect();
+            let sum: f32 = w.iter().sum();
+            links.extend(near.iter().zip(&w).map(|((q, _), w)| (*q, w / sum)));
+        }
+        link_start.push(links.len() as u32);
+        ProbeSet {
+            params: *params,
+            probes: self.probes,
+            surfels,
+            brick_start,
+            brick_surfels,
+            factors: self.factors,
+            link_start,
+            links,
+            interior: interior.map(|(room, _)| *room),
+            outside: self.outside,
+            exterior_probes: interior.map_or(0, |(_, e)| e.probes.len() as u32),
+        }
     }
 }

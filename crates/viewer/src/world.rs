@@ -77,6 +77,173 @@ pub struct World {
     pub probes: Option<crate::probes::Probes>,
 }
 
+/// `f()`, its wall time pushed onto `timings` as `stage`.
+fn timed<T>(
+    timings: &mut Vec<(String, f64)>,
+    stage: &str,
+    f: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    let t = Instant::now();
+    let out = f()?;
+    timings.push((stage.to_string(), t.elapsed().as_secs_f64()));
+    Ok(out)
+}
+
+/// The scene's terrain: its heights (a PNG heightmap or procedural) and ground colour.
+fn load_terrain(scene: &SceneFile) -> Result<(Heightmap, GroundColour)> {
+    let ts = &scene.terrain;
+    let heightmap = match (&ts.heightmap, &ts.procedural) {
+        (Some(path), _) => {
+            let p = scene.resolve(path);
+            lightgrid_material_voxelizer::compose::load_heightmap_png(
+                &p,
+                Vec2::ZERO,
+                ts.spacing,
+                ts.height_scale,
+                0.0,
+            )
+            .with_context(|| format!("terrain.heightmap {}", p.display()))?
+        }
+        (None, Some(p)) => procedural_heightmap(p, ts.spacing)?,
+        (None, None) => anyhow::bail!("terrain: no heightmap"),
+    };
+    let ground = match &ts.ground_texture {
+        Some(path) => {
+            let (w, d) = (
+                (heightmap.width - 1) as f32 * heightmap.spacing,
+                (heightmap.depth - 1) as f32 * heightmap.spacing,
+            );
+            GroundColour::Texture {
+                texture: load_texture_png(&scene.resolve(path))
+                    .context("terrain.ground_texture")?,
+                origin: heightmap.origin,
+                size: Vec2::new(w, d),
+            }
+        }
+        None => GroundColour::Uniform(Vec3::from_array(ts.ground_colour)),
+    };
+    Ok((heightmap, ground))
+}
+
+/// The scene's models, loaded or made, and their material grids, in scene order.
+fn voxelize_models(scene: &SceneFile) -> Result<(Vec<ModelEntry>, Vec<MaterialGrid>)> {
+    let mut models = Vec::new();
+    let mut grids: Vec<MaterialGrid> = Vec::new();
+    let pb = bar(scene.models.len() as u64, "voxelizing models");
+    for (i, m) in scene.models.iter().enumerate() {
+        pb.set_message(format!("voxelizing {}", m.name));
+        let (model, foliage) = model_of(scene, i)?;
+        let (grid, _) = voxelize(&model, &VoxelizeParams::standard(m.voxel_size), &|_, _| {})
+            .with_context(|| format!("voxelizing models[{i}] ({})", m.name))?;
+        grids.push(grid);
+        models.push(ModelEntry {
+            name: m.name.clone(),
+            model,
+            foliage,
+        });
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok((models, grids))
+}
+
+/// Model `i` of the scene (a glTF file or a procedural kind), and whether it is lit as
+/// foliage (alpha-masked materials, procedural plants).
+fn model_of(scene: &SceneFile, i: usize) -> Result<(Model, bool)> {
+    let m = &scene.models[i];
+    Ok(match (&m.gltf, m.procedural.as_deref()) {
+        (Some(path), _) => {
+            let p = scene.resolve(path);
+            let model = Model::load_gltf(&p)
+                .with_context(|| format!("models[{i}].gltf {}", p.display()))?;
+            let foliage = model.materials.iter().any(|s| {
+                !matches!(
+                    s.alpha,
+                    lightgrid_material_voxelizer::model::AlphaMode::Opaque
+                )
+            });
+            (model, foliage)
+        }
+        (None, Some("broadleaf")) => (tree(&TreeParams::broadleaf(m.seed))?, true),
+        (None, Some("young")) => (tree(&TreeParams::young(m.seed))?, true),
+        (None, Some("bush")) => (bush(m.seed, 1.2)?, true),
+        (None, Some("rock")) => (rock(m.seed, 1.0)?, false),
+        (None, Some(k)) => {
+            anyhow::bail!("models[{i}].procedural = {k:?}: no such procedural model")
+        }
+        (None, None) => anyhow::bail!("models[{i}]: no source"),
+    })
+}
+
+/// The scene's instances on the terrain: those placed one by one, then each scatter's
+/// (seeded, so the same scene gives the same forest).
+fn place_instances(scene: &SceneFile, heightmap: &Heightmap) -> Vec<Instance> {
+    let index = |name: &str| {
+        scene
+            .models
+            .iter()
+            .position(|m| m.name == name)
+            .expect("validated") as u32
+    };
+    let mut instances = Vec::new();
+    for inst in &scene.instances {
+        let [x, z] = inst.position;
+        instances.push(Instance {
+            model: index(&inst.model),
+            position: Vec3::new(x, heightmap.height_at(x, z) + inst.height, z),
+            rotation: Quat::from_rotation_y(inst.rotation_deg.to_radians()),
+            scale: inst.scale,
+        });
+    }
+    for s in &scene.scatter {
+        let mut rng = fastrand::Rng::with_seed(s.seed ^ ((index(&s.model) as u64 + 1) * 7919));
+        let mut r = move || rng.f32();
+        for _ in 0..s.count {
+            let (a, d) = (r() * std::f32::consts::TAU, s.radius * r().sqrt());
+            let (x, z) = (s.centre[0] + d * a.cos(), s.centre[1] + d * a.sin());
+            instances.push(Instance {
+                model: index(&s.model),
+                // Sunk a little so slopes leave no gap under the trunk.
+                position: Vec3::new(x, heightmap.height_at(x, z) - 0.2, z),
+                rotation: Quat::from_rotation_y(r() * std::f32::consts::TAU),
+                scale: s.scale[0] + r() * (s.scale[1] - s.scale[0]),
+            });
+        }
+    }
+    instances
+}
+
+/// The light grid hierarchy over the terrain, its world grid swept under the sky
+/// (`sky_top`; with the sun in the bins, sky and sun together) by the chosen sweeper;
+/// also the sweeper's name.
+fn world_grid(
+    scene: &SceneFile,
+    heightmap: &Heightmap,
+    composer: &Arc<AreaComposer>,
+    sky_top: &BinLight,
+    (sweeper, gpu): (SweeperChoice, &Option<Arc<lightgrid_gpu::GpuContext>>),
+) -> Result<(Hierarchy, String)> {
+    // With the sun kept apart the bins get the sky alone.
+    let top = if scene.sun.split {
+        *sky_top
+    } else {
+        boundary_light(sky_top, scene)?
+    };
+    let (sweeper, name) = choose_sweeper(sweeper, gpu)?;
+    let g = &scene.grid;
+    let mut params = HierarchyParams {
+        world_cell: g.world_cell,
+        finest_cell: g.finest_cell,
+        node_points: g.node_points,
+        budget_points: g.node_points as u64 * g.node_points as u64 * 48 * 4,
+        ..Default::default()
+    };
+    params.sweep.max_passes = g.passes;
+    let hierarchy = Hierarchy::new(heightmap, Box::new(composer.clone()), sweeper, top, params)
+        .context("building the light grid hierarchy")?;
+    Ok((hierarchy, name))
+}
+
 fn bar(len: u64, what: &str) -> ProgressBar {
     let b = if std::env::var_os("LIGHTGRID_QUIET").is_some() {
         ProgressBar::hidden()
@@ -295,161 +462,28 @@ impl World {
         gpu: Option<Arc<lightgrid_gpu::GpuContext>>,
     ) -> Result<Self> {
         let mut timings = Vec::new();
-        let t = Instant::now();
-        let ts = &scene.terrain;
-        let heightmap = match (&ts.heightmap, &ts.procedural) {
-            (Some(path), _) => {
-                let p = scene.resolve(path);
-                lightgrid_material_voxelizer::compose::load_heightmap_png(
-                    &p,
-                    Vec2::ZERO,
-                    ts.spacing,
-                    ts.height_scale,
-                    0.0,
-                )
-                .with_context(|| format!("terrain.heightmap {}", p.display()))?
-            }
-            (None, Some(p)) => procedural_heightmap(p, ts.spacing)?,
-            (None, None) => anyhow::bail!("terrain: no heightmap"),
-        };
-        let ground = match &ts.ground_texture {
-            Some(path) => {
-                let (w, d) = (
-                    (heightmap.width - 1) as f32 * heightmap.spacing,
-                    (heightmap.depth - 1) as f32 * heightmap.spacing,
-                );
-                GroundColour::Texture {
-                    texture: load_texture_png(&scene.resolve(path))
-                        .context("terrain.ground_texture")?,
-                    origin: heightmap.origin,
-                    size: Vec2::new(w, d),
-                }
-            }
-            None => GroundColour::Uniform(Vec3::from_array(ts.ground_colour)),
-        };
-        timings.push(("terrain".to_string(), t.elapsed().as_secs_f64()));
-
-        // Models and their material grids.
-        let t = Instant::now();
-        let mut models = Vec::new();
-        let mut grids: Vec<MaterialGrid> = Vec::new();
-        let pb = bar(scene.models.len() as u64, "voxelizing models");
-        for (i, m) in scene.models.iter().enumerate() {
-            pb.set_message(format!("voxelizing {}", m.name));
-            let (model, foliage) = match (&m.gltf, m.procedural.as_deref()) {
-                (Some(path), _) => {
-                    let p = scene.resolve(path);
-                    let model = Model::load_gltf(&p)
-                        .with_context(|| format!("models[{i}].gltf {}", p.display()))?;
-                    let foliage = model.materials.iter().any(|s| {
-                        !matches!(
-                            s.alpha,
-                            lightgrid_material_voxelizer::model::AlphaMode::Opaque
-                        )
-                    });
-                    (model, foliage)
-                }
-                (None, Some("broadleaf")) => (tree(&TreeParams::broadleaf(m.seed))?, true),
-                (None, Some("young")) => (tree(&TreeParams::young(m.seed))?, true),
-                (None, Some("bush")) => (bush(m.seed, 1.2)?, true),
-                (None, Some("rock")) => (rock(m.seed, 1.0)?, false),
-                (None, Some(k)) => {
-                    anyhow::bail!("models[{i}].procedural = {k:?}: no such procedural model")
-                }
-                (None, None) => anyhow::bail!("models[{i}]: no source"),
-            };
-            let (grid, _) = voxelize(&model, &VoxelizeParams::standard(m.voxel_size), &|_, _| {})
-                .with_context(|| format!("voxelizing models[{i}] ({})", m.name))?;
-            grids.push(grid);
-            models.push(ModelEntry {
-                name: m.name.clone(),
-                model,
-                foliage,
-            });
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
+        let (heightmap, ground) = timed(&mut timings, "terrain", || load_terrain(&scene))?;
+        let (models, grids) = timed(&mut timings, "voxelize models", || voxelize_models(&scene))?;
         let model_grid_bytes = grids.iter().map(|g| g.data().len() as u64 * 16).sum();
-        timings.push(("voxelize models".to_string(), t.elapsed().as_secs_f64()));
-
-        // Instances.
-        let t = Instant::now();
-        let index = |name: &str| {
-            scene
-                .models
-                .iter()
-                .position(|m| m.name == name)
-                .expect("validated") as u32
-        };
-        let mut instances = Vec::new();
-        for inst in &scene.instances {
-            let [x, z] = inst.position;
-            instances.push(Instance {
-                model: index(&inst.model),
-                position: Vec3::new(x, heightmap.height_at(x, z) + inst.height, z),
-                rotation: Quat::from_rotation_y(inst.rotation_deg.to_radians()),
-                scale: inst.scale,
-            });
-        }
-        for s in &scene.scatter {
-            let mut rng = fastrand::Rng::with_seed(s.seed ^ ((index(&s.model) as u64 + 1) * 7919));
-            let mut r = move || rng.f32();
-            for _ in 0..s.count {
-                let (a, d) = (r() * std::f32::consts::TAU, s.radius * r().sqrt());
-                let (x, z) = (s.centre[0] + d * a.cos(), s.centre[1] + d * a.sin());
-                instances.push(Instance {
-                    model: index(&s.model),
-                    // Sunk a little so slopes leave no gap under the trunk.
-                    position: Vec3::new(x, heightmap.height_at(x, z) - 0.2, z),
-                    rotation: Quat::from_rotation_y(r() * std::f32::consts::TAU),
-                    scale: s.scale[0] + r() * (s.scale[1] - s.scale[0]),
-                });
-            }
-        }
-        let composer = Arc::new(AreaComposer::new(
-            grids,
-            &instances,
-            Some(Terrain {
+        let (instances, composer) = timed(&mut timings, "place instances", || {
+            let instances = place_instances(&scene, &heightmap);
+            let terrain = Terrain {
                 heightmap: heightmap.clone(),
                 colour: ground.clone(),
-            }),
-            ComposeParams::default(),
-        )?);
-        timings.push(("place instances".to_string(), t.elapsed().as_secs_f64()));
-
-        // Sky, sweeper, hierarchy (the world grid is swept here).
-        let t = Instant::now();
-        let sky = sky_spec(&scene)?;
-        let (sky_top, sun) = sky_and_sun(&scene, &sky)?;
-        // With the sun kept apart the bins get the sky alone.
-        let top = if scene.sun.split {
-            sky_top
-        } else {
-            boundary_light(&sky_top, &scene)?
-        };
-        let (sweeper, name) = choose_sweeper(sweeper, &gpu)?;
-        let g = &scene.grid;
-        let mut params = HierarchyParams {
-            world_cell: g.world_cell,
-            finest_cell: g.finest_cell,
-            node_points: g.node_points,
-            budget_points: g.node_points as u64 * g.node_points as u64 * 48 * 4,
-            ..Default::default()
-        };
-        params.sweep.max_passes = g.passes;
-        let mut hierarchy =
-            Hierarchy::new(&heightmap, Box::new(composer.clone()), sweeper, top, params)
-                .context("building the light grid hierarchy")?;
-        timings.push(("world grid".to_string(), t.elapsed().as_secs_f64()));
-        if scene.sun.split {
-            let t = Instant::now();
-            hierarchy
-                .set_sun(Some(sun_light(sun)))
-                .context("the sun's responses in the world grid")?;
-            timings.push(("world grid sun".to_string(), t.elapsed().as_secs_f64()));
-        }
-        let dynamic = dynamic_lights(&scene, &heightmap)?;
+            };
+            let composer =
+                AreaComposer::new(grids, &instances, Some(terrain), ComposeParams::default())?;
+            Ok((instances, Arc::new(composer)))
+        })?;
+        let (sky, sky_top, sun, hierarchy, name) = timed(&mut timings, "world grid", || {
+            let sky = sky_spec(&scene)?;
+            let (sky_top, sun) = sky_and_sun(&scene, &sky)?;
+            let (hierarchy, name) =
+                world_grid(&scene, &heightmap, &composer, &sky_top, (sweeper, &gpu))?;
+            Ok((sky, sky_top, sun, hierarchy, name))
+        })?;
         let mut world = Self {
+            dynamic: dynamic_lights(&scene, &heightmap)?,
             scene,
             heightmap,
             ground,
@@ -464,9 +498,16 @@ impl World {
             sweeper: name,
             timings,
             model_grid_bytes,
-            dynamic,
             probes: None,
         };
+        if world.scene.sun.split {
+            let sun = sun_light(world.sun);
+            let hierarchy = &mut world.hierarchy;
+            timed(&mut world.timings, "world grid sun", || {
+                let set = hierarchy.set_sun(Some(sun));
+                set.context("the sun's responses in the world grid")
+            })?;
+        }
         if world.scene.probes.is_some() {
             let t = Instant::now();
             let desc = crate::draw::volume_desc(&world)?;
