@@ -43,6 +43,7 @@
 //! `lightgrid_core::MaterialSource`).
 
 pub mod compose;
+mod glb;
 pub mod gltf_read;
 pub mod model;
 pub mod procedural;
