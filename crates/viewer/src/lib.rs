@@ -273,141 +273,31 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
     let ctx = render_context()?;
     let device_time = t.elapsed().as_secs_f64();
     let mut world = World::build_on(scene, opts.sweeper, Some(ctx.clone()))?;
-    let mut timings = vec![("GPU device".to_string(), device_time)];
-    timings.extend(world.timings.iter().cloned());
+    let mut rec = Record {
+        timings: vec![("GPU device".to_string(), device_time)],
+        files: Vec::new(),
+    };
+    rec.timings.extend(world.timings.iter().cloned());
     let t = Instant::now();
     let renderer_name = format!("{} ({:?})", ctx.info.name, ctx.info.device_type);
     let mut r = Renderer::new(ctx, opts.width, opts.height)?;
     let meshes = draw::SceneMeshes::new(&mut r, &world)?;
-    timings.push(("upload meshes".into(), t.elapsed().as_secs_f64()));
-    let mut files = Vec::new();
+    rec.timings
+        .push(("upload meshes".into(), t.elapsed().as_secs_f64()));
     let mut views = Vec::new();
     for vi in 0..world.scene.views.len() {
-        let spec = world.scene.views[vi].clone();
-        let (eye, target) = world.view_points(vi);
-        let t = Instant::now();
-        let (frames, swept, stats) =
-            world.prepare_view(eye, &format!("light grids for {}", spec.name))?;
-        timings.push((
-            format!("grids for {}", spec.name),
-            t.elapsed().as_secs_f64(),
-        ));
-        if opts.bevy {
-            let t = Instant::now();
-            let dir = opts.out.join("bevy");
-            files.extend(
-                bevy::export(&world, eye, &dir, &spec.name, false)
-                    .with_context(|| format!("exporting {} for Bevy", spec.name))?,
-            );
-            timings.push((
-                format!("bevy volumes for {}", spec.name),
-                t.elapsed().as_secs_f64(),
-            ));
-        }
-        let t = Instant::now();
-        let relit = meshes.relight(&mut r, &world)?;
-        let grid = world.hierarchy.grid_at(target).clone();
-        let debug = meshes.set_debug(&mut r, &world, &grid)?;
-        timings.push((
-            format!("sample light for {}", spec.name),
-            t.elapsed().as_secs_f64(),
-        ));
-        let t = Instant::now();
-        let mut camera = Camera::look_at(eye, target);
-        camera.fov_y = spec.fov_deg.to_radians();
-        for shot in draw::Shot::ALL {
-            let img = r.render(&draw::make_view(&world, &meshes, camera, shot))?;
-            let path = opts.out.join(format!("{}{}.png", spec.name, shot.suffix()));
-            write_png(&path, &img)?;
-            files.push(path);
-            if vi == 0 && shot == draw::Shot::Lit && opts.exr {
-                let path = opts.out.join(format!("{}.exr", spec.name));
-                write_exr(&path, &img)?;
-                files.push(path);
-            }
-        }
-        timings.push((format!("render {}", spec.name), t.elapsed().as_secs_f64()));
-        if meshes.relight_probes(&mut r, &world)?.is_some() {
-            // The same view lit by the probes, and the probes' debug view; the next
-            // view samples the grids again.
-            let t = Instant::now();
-            for shot in [draw::Shot::Probes, draw::Shot::ProbesDebug] {
-                let img = r.render(&draw::make_view(&world, &meshes, camera, shot))?;
-                let path = opts.out.join(format!("{}{}.png", spec.name, shot.suffix()));
-                write_png(&path, &img)?;
-                files.push(path);
-            }
-            timings.push((
-                format!("probes for {}", spec.name),
-                t.elapsed().as_secs_f64(),
-            ));
-        }
-        views.push(ViewSummary {
-            name: spec.name.clone(),
-            frames,
-            points_swept: swept,
-            grids_per_depth: stats.alive_per_depth.clone(),
-            points_per_depth: stats.points_per_depth.clone(),
-            grid_bytes: [
-                stats.bytes(BYTES_26_F32),
-                stats.bytes(BYTES_26_PACKED),
-                stats.bytes(BYTES_AVG_DOM),
-            ],
-            volume_bytes: relit.volume_bytes,
-            sun_bytes: stats.bytes(BYTES_26_F32 + 4) * world.hierarchy.sun().is_some() as u64,
-            material_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_MATERIAL),
-            sampled_on: if relit.on_device {
-                format!("device ({} grids in place)", relit.grids)
-            } else {
-                format!("cpu ({} grids)", relit.grids)
-            },
-            debug_instances: debug,
-        });
+        views.push(render_view(
+            &mut world,
+            (&mut r, &meshes),
+            vi,
+            opts,
+            &mut rec,
+        )?);
     }
-    // The sun moves: what is recomputed, and the last view again under it.
-    let mut sun_move = None;
-    if let (Some(_), Some(spec)) = (world.hierarchy.sun(), world.scene.views.last().cloned()) {
-        let (eye, target) = world.view_points(world.scene.views.len() - 1);
-        let t = Instant::now();
-        let (e, a) = world.scene.sun.angles();
-        let sun = &mut world.scene.sun;
-        sun.time_of_day = None;
-        sun.elevation_deg = e.to_degrees();
-        sun.azimuth_deg = a.to_degrees() + SUN_MOVE_DEG;
-        let what = world.move_sun().context("moving the sun")?;
-        let (mut sun_built, mut built, mut points) = (0, 0, 0);
-        for _ in 0..400 {
-            let s = if what.sky_reswept {
-                world.hierarchy.refresh(eye)
-            } else {
-                world.hierarchy.update(eye)
-            }
-            .context("recomputing the grids for the moved sun")?;
-            (sun_built, built, points) = (
-                sun_built + s.sun_built,
-                built + s.built,
-                points + s.points_swept,
-            );
-            if s.pending == 0 {
-                break;
-            }
-        }
-        let seconds = t.elapsed().as_secs_f64();
-        timings.push(("sun move".into(), seconds));
-        meshes.relight(&mut r, &world)?;
-        let mut camera = Camera::look_at(eye, target);
-        camera.fov_y = spec.fov_deg.to_radians();
-        let img = r.render(&draw::make_view(&world, &meshes, camera, draw::Shot::Lit))?;
-        let path = opts.out.join(format!("{}-sun-moved.png", spec.name));
-        write_png(&path, &img)?;
-        files.push(path);
-        sun_move = Some(format!(
-            "{SUN_MOVE_DEG} deg in azimuth: {what}; then {sun_built} node sun responses and {built} node sky grids ({points} points) for view {}; {seconds:.2} s in all",
-            spec.name
-        ));
-    }
-    timings.push(("total".into(), total.elapsed().as_secs_f64()));
-    let mut summary = Summary {
+    let sun_move = move_sun(&mut world, (&mut r, &meshes), opts, &mut rec)?;
+    rec.timings
+        .push(("total".into(), total.elapsed().as_secs_f64()));
+    let summary = Summary {
         sun: if world.hierarchy.sun().is_some() {
             "kept apart from the sky's bins (exact direction: transmittance per grid point, direct light per pixel)".into()
         } else {
@@ -416,14 +306,181 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
         sun_move,
         sweeper: world.sweeper.clone(),
         renderer: renderer_name,
-        timings,
+        timings: rec.timings,
         views,
         instances: world.instances.len(),
         dynamic_lights: (world.dynamic.lights.len(), world.dynamic.indices.len()),
         model_grid_bytes: world.model_grid_bytes,
         probes: world.probes.as_ref().map(|p| p.summary()),
-        files,
+        files: rec.files,
     };
+    write_summary(summary, opts)
+}
+
+/// What a run records as it goes: its stages' wall times and the files it writes.
+struct Record {
+    timings: Vec<(String, f64)>,
+    files: Vec<PathBuf>,
+}
+
+impl Record {
+    /// `f()`, its wall time recorded as `stage`.
+    fn time<T>(&mut self, stage: String, f: impl FnOnce(&mut Self) -> Result<T>) -> Result<T> {
+        let t = Instant::now();
+        let out = f(self)?;
+        self.timings.push((stage, t.elapsed().as_secs_f64()));
+        Ok(out)
+    }
+
+    /// Renders `shot` from `camera` and writes it as `<view><suffix>.png` in `out`.
+    fn shot(
+        &mut self,
+        (r, meshes): (&mut Renderer, &draw::SceneMeshes),
+        world: &World,
+        (camera, shot): (Camera, draw::Shot),
+        (out, view): (&Path, &str),
+    ) -> Result<lightgrid_render::Image> {
+        let img = r.render(&draw::make_view(world, meshes, camera, shot))?;
+        let path = out.join(format!("{view}{}.png", shot.suffix()));
+        write_png(&path, &img)?;
+        self.files.push(path);
+        Ok(img)
+    }
+}
+
+/// View `vi` of the scene: its light grids built around its eye, exported for Bevy
+/// if asked, sampled onto the meshes and rendered (every shot, the probes' too).
+fn render_view(
+    world: &mut World,
+    (r, meshes): (&mut Renderer, &draw::SceneMeshes),
+    vi: usize,
+    opts: &Options,
+    rec: &mut Record,
+) -> Result<ViewSummary> {
+    let spec = world.scene.views[vi].clone();
+    let name = &spec.name;
+    let (eye, target) = world.view_points(vi);
+    let (frames, swept, stats) = rec.time(format!("grids for {name}"), |_| {
+        world.prepare_view(eye, &format!("light grids for {name}"))
+    })?;
+    if opts.bevy {
+        rec.time(format!("bevy volumes for {name}"), |rec| {
+            let dir = opts.out.join("bevy");
+            let files = bevy::export(world, eye, &dir, name, false)
+                .with_context(|| format!("exporting {name} for Bevy"))?;
+            rec.files.extend(files);
+            Ok(())
+        })?;
+    }
+    let (relit, debug) = rec.time(format!("sample light for {name}"), |_| {
+        let relit = meshes.relight(r, world)?;
+        let grid = world.hierarchy.grid_at(target).clone();
+        Ok((relit, meshes.set_debug(r, world, &grid)?))
+    })?;
+    let mut camera = Camera::look_at(eye, target);
+    camera.fov_y = spec.fov_deg.to_radians();
+    rec.time(format!("render {name}"), |rec| {
+        for shot in draw::Shot::ALL {
+            let img = rec.shot((r, meshes), world, (camera, shot), (&opts.out, name))?;
+            if vi == 0 && shot == draw::Shot::Lit && opts.exr {
+                let path = opts.out.join(format!("{name}.exr"));
+                write_exr(&path, &img)?;
+                rec.files.push(path);
+            }
+        }
+        Ok(())
+    })?;
+    if meshes.relight_probes(r, world)?.is_some() {
+        // The same view lit by the probes, and the probes' debug view; the next view
+        // samples the grids again.
+        rec.time(format!("probes for {name}"), |rec| {
+            for shot in [draw::Shot::Probes, draw::Shot::ProbesDebug] {
+                rec.shot((r, meshes), world, (camera, shot), (&opts.out, name))?;
+            }
+            Ok(())
+        })?;
+    }
+    Ok(ViewSummary {
+        name: spec.name.clone(),
+        frames,
+        points_swept: swept,
+        grids_per_depth: stats.alive_per_depth.clone(),
+        points_per_depth: stats.points_per_depth.clone(),
+        grid_bytes: [
+            stats.bytes(BYTES_26_F32),
+            stats.bytes(BYTES_26_PACKED),
+            stats.bytes(BYTES_AVG_DOM),
+        ],
+        volume_bytes: relit.volume_bytes,
+        sun_bytes: stats.bytes(BYTES_26_F32 + 4) * world.hierarchy.sun().is_some() as u64,
+        material_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_MATERIAL),
+        sampled_on: if relit.on_device {
+            format!("device ({} grids in place)", relit.grids)
+        } else {
+            format!("cpu ({} grids)", relit.grids)
+        },
+        debug_instances: debug,
+    })
+}
+
+/// With the sun kept apart: the sun moves [`SUN_MOVE_DEG`] in azimuth, what it changes
+/// is recomputed around the last view's eye, and that view is rendered again; what was
+/// done, for the summary.
+fn move_sun(
+    world: &mut World,
+    (r, meshes): (&mut Renderer, &draw::SceneMeshes),
+    opts: &Options,
+    rec: &mut Record,
+) -> Result<Option<String>> {
+    let (Some(_), Some(spec)) = (world.hierarchy.sun(), world.scene.views.last().cloned()) else {
+        return Ok(None);
+    };
+    let (eye, target) = world.view_points(world.scene.views.len() - 1);
+    let t = Instant::now();
+    let (e, a) = world.scene.sun.angles();
+    let sun = &mut world.scene.sun;
+    sun.time_of_day = None;
+    sun.elevation_deg = e.to_degrees();
+    sun.azimuth_deg = a.to_degrees() + SUN_MOVE_DEG;
+    let what = world.move_sun().context("moving the sun")?;
+    let (mut sun_built, mut built, mut points) = (0, 0, 0);
+    for _ in 0..400 {
+        let s = if what.sky_reswept {
+            world.hierarchy.refresh(eye)
+        } else {
+            world.hierarchy.update(eye)
+        }
+        .context("recomputing the grids for the moved sun")?;
+        (sun_built, built, points) = (
+            sun_built + s.sun_built,
+            built + s.built,
+            points + s.points_swept,
+        );
+        if s.pending == 0 {
+            break;
+        }
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    rec.timings.push(("sun move".into(), seconds));
+    meshes.relight(r, world)?;
+    let mut camera = Camera::look_at(eye, target);
+    camera.fov_y = spec.fov_deg.to_radians();
+    let view = format!("{}-sun-moved", spec.name);
+    rec.shot(
+        (r, meshes),
+        world,
+        (camera, draw::Shot::Lit),
+        (&opts.out, &view),
+    )?;
+    Ok(Some(format!(
+        "{SUN_MOVE_DEG} deg in azimuth: {what}; then {sun_built} node sun responses and {built} node sky grids ({points} points) for view {}; {seconds:.2} s in all",
+        spec.name
+    )))
+}
+
+/// Writes `summary.txt` and `summary.json` in the output folder (listed in the
+/// summary's files) and returns the summary.
+fn write_summary(mut summary: Summary, opts: &Options) -> Result<Summary> {
     let txt = opts.out.join("summary.txt");
     let json = opts.out.join("summary.json");
     summary.files.push(txt.clone());
