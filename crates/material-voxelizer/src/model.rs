@@ -317,59 +317,16 @@ impl Model {
         path: &Path,
     ) -> Result<Self, ModelError> {
         use crate::gltf_read as gr;
-        use gltf::accessor::{DataType as T, Dimensions as D};
-        let gltf_err = |message: String| ModelError::Gltf {
-            path: path.to_path_buf(),
-            message,
-        };
         let gr::Loaded {
             doc,
             buffers,
             textures,
-        } = gr::load(bytes, base).map_err(gltf_err)?;
-        let unsupported = |what: String| ModelError::Unsupported {
-            path: path.to_path_buf(),
-            what,
-        };
+        } = gr::load(bytes, base).map_err(|m| gltf_error(path, m))?;
         let mut model = Model {
             textures,
+            materials: materials_of(&doc, path)?,
             ..Model::default()
         };
-        for (i, mat) in doc.materials().enumerate() {
-            let pbr = mat.pbr_metallic_roughness();
-            let f = pbr.base_color_factor();
-            let (texture, uv_transform) = match pbr.base_color_texture() {
-                Some(info) => {
-                    if info.tex_coord() != 0 {
-                        return Err(unsupported(format!(
-                            "material {i}: base colour texture uses TEXCOORD_{}",
-                            info.tex_coord()
-                        )));
-                    }
-                    let tt =
-                        info.texture_transform()
-                            .map_or(UvTransform::IDENTITY, |t| UvTransform {
-                                offset: Vec2::from_array(t.offset()),
-                                rotation: t.rotation(),
-                                scale: Vec2::from_array(t.scale()),
-                            });
-                    (Some(info.texture().source().index()), tt)
-                }
-                None => (None, UvTransform::IDENTITY),
-            };
-            model.materials.push(SurfaceMaterial {
-                base_colour: Vec4::from_array(f),
-                texture,
-                uv_transform,
-                alpha: match mat.alpha_mode() {
-                    gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-                    gltf::material::AlphaMode::Mask => {
-                        AlphaMode::Mask(mat.alpha_cutoff().unwrap_or(0.5))
-                    }
-                    gltf::material::AlphaMode::Blend => AlphaMode::Blend,
-                },
-            });
-        }
         let default_material = model.materials.len() as u32;
         model.materials.push(SurfaceMaterial::default());
         let scene = doc.default_scene().or_else(|| doc.scenes().next());
@@ -381,97 +338,29 @@ impl Model {
         // The node graph: no cycles, bounded expansion, and a triangle budget checked
         // before any triangle is stored.
         let roots: Vec<usize> = scene.nodes().map(|n| n.index()).collect();
-        let instances = gr::node_instances(&doc, &roots).map_err(gltf_err)?;
-        let positions_layout = [(D::Vec3, T::F32)];
-        let uv_layouts = [(D::Vec2, T::F32), (D::Vec2, T::U8), (D::Vec2, T::U16)];
-        let index_layouts = [(D::Scalar, T::U8), (D::Scalar, T::U16), (D::Scalar, T::U32)];
-        let mut triangles = 0u64;
-        for node in doc.nodes() {
-            let Some(mesh) = node.mesh() else { continue };
-            for (pi, prim) in mesh.primitives().enumerate() {
-                let where_ = format!("mesh {} primitive {pi}", mesh.index());
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    return Err(unsupported(format!(
-                        "{where_}: mode {:?} (only triangles)",
-                        prim.mode()
-                    )));
-                }
-                let Some(pos) = prim.get(&gltf::Semantic::Positions) else {
-                    return Err(unsupported(format!("{where_}: no POSITION")));
-                };
-                gr::check_accessor(&pos, &buffers, &positions_layout)
-                    .map_err(|e| gltf_err(format!("{where_}: {e}")))?;
-                if let Some(uv) = prim.get(&gltf::Semantic::TexCoords(0)) {
-                    gr::check_accessor(&uv, &buffers, &uv_layouts)
-                        .map_err(|e| gltf_err(format!("{where_}: {e}")))?;
-                }
-                let corners = match prim.indices() {
-                    Some(ix) => {
-                        gr::check_accessor(&ix, &buffers, &index_layouts)
-                            .map_err(|e| gltf_err(format!("{where_}: {e}")))?;
-                        ix.count()
-                    }
-                    None => pos.count(),
-                };
-                triangles = triangles
-                    .saturating_add((corners as u64 / 3).saturating_mul(instances[node.index()]));
-            }
-        }
+        let instances = gr::node_instances(&doc, &roots).map_err(|m| gltf_error(path, m))?;
+        let triangles = triangle_count(&doc, &buffers, &instances, path)?;
         if triangles > gr::MAX_TRIANGLES {
-            return Err(gltf_err(format!(
-                "{triangles} triangles after expanding the node graph (at most {})",
-                gr::MAX_TRIANGLES
-            )));
+            return Err(gltf_error(
+                path,
+                format!(
+                    "{triangles} triangles after expanding the node graph (at most {})",
+                    gr::MAX_TRIANGLES
+                ),
+            ));
         }
         lightgrid_core::limits::check_memory(
             &format!("{triangles} triangles"),
             triangles * std::mem::size_of::<Triangle>() as u64,
         )?;
         model.triangles.reserve(triangles as usize);
-        let mut stack: Vec<(gltf::Node, Mat4)> =
-            scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
-        let mut part = 0u32;
-        while let Some((node, parent)) = stack.pop() {
-            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-            for child in node.children() {
-                stack.push((child, world));
-            }
-            let Some(mesh) = node.mesh() else { continue };
-            for (pi, prim) in mesh.primitives().enumerate() {
-                let where_ = format!("mesh {} primitive {pi}", mesh.index());
-                let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-                let positions: Vec<Vec3> = reader
-                    .read_positions()
-                    .ok_or_else(|| unsupported(format!("{where_}: no POSITION")))?
-                    .map(|p| world.transform_point3(Vec3::from_array(p)))
-                    .collect();
-                let uvs: Vec<Vec2> = match reader.read_tex_coords(0) {
-                    Some(t) => t.into_f32().map(Vec2::from_array).collect(),
-                    None => vec![Vec2::ZERO; positions.len()],
-                };
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..positions.len() as u32).collect(),
-                };
-                let material = prim
-                    .material()
-                    .index()
-                    .map_or(default_material, |i| i as u32);
-                for tri in indices.chunks_exact(3) {
-                    let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                    if idx.iter().any(|&i| i >= positions.len() || i >= uvs.len()) {
-                        return Err(unsupported(format!("{where_}: index out of range")));
-                    }
-                    model.triangles.push(Triangle {
-                        positions: idx.map(|i| positions[i]),
-                        uvs: idx.map(|i| uvs[i]),
-                        material,
-                        part,
-                    });
-                }
-                part += 1;
-            }
-        }
+        read_triangles(
+            &scene,
+            &buffers,
+            default_material,
+            &mut model.triangles,
+            path,
+        )?;
         if model.triangles.is_empty() {
             return Err(ModelError::Empty {
                 path: path.to_path_buf(),
@@ -483,6 +372,169 @@ impl Model {
         })?;
         Ok(model)
     }
+}
+
+/// A glTF file `path` that does not parse or breaks a rule.
+fn gltf_error(path: &Path, message: String) -> ModelError {
+    ModelError::Gltf {
+        path: path.to_path_buf(),
+        message,
+    }
+}
+
+/// A glTF file `path` that uses a feature the reader does not take.
+fn unsupported(path: &Path, what: String) -> ModelError {
+    ModelError::Unsupported {
+        path: path.to_path_buf(),
+        what,
+    }
+}
+
+/// The document's materials: base colour (factor, texture on TEXCOORD_0 and its
+/// transform) and alpha mode.
+fn materials_of(doc: &gltf::Document, path: &Path) -> Result<Vec<SurfaceMaterial>, ModelError> {
+    let mut materials = Vec::new();
+    for (i, mat) in doc.materials().enumerate() {
+        let pbr = mat.pbr_metallic_roughness();
+        let f = pbr.base_color_factor();
+        let (texture, uv_transform) = match pbr.base_color_texture() {
+            Some(info) => {
+                if info.tex_coord() != 0 {
+                    return Err(unsupported(
+                        path,
+                        format!(
+                            "material {i}: base colour texture uses TEXCOORD_{}",
+                            info.tex_coord()
+                        ),
+                    ));
+                }
+                let tt = info
+                    .texture_transform()
+                    .map_or(UvTransform::IDENTITY, |t| UvTransform {
+                        offset: Vec2::from_array(t.offset()),
+                        rotation: t.rotation(),
+                        scale: Vec2::from_array(t.scale()),
+                    });
+                (Some(info.texture().source().index()), tt)
+            }
+            None => (None, UvTransform::IDENTITY),
+        };
+        materials.push(SurfaceMaterial {
+            base_colour: Vec4::from_array(f),
+            texture,
+            uv_transform,
+            alpha: match mat.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => {
+                    AlphaMode::Mask(mat.alpha_cutoff().unwrap_or(0.5))
+                }
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            },
+        });
+    }
+    Ok(materials)
+}
+
+/// The triangles the scene expands to (`instances`: how often each node is drawn),
+/// every primitive's accessors checked first (triangles, POSITION, the layouts of
+/// TEXCOORD_0 and indices).
+fn triangle_count(
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    instances: &[u64],
+    path: &Path,
+) -> Result<u64, ModelError> {
+    use crate::gltf_read as gr;
+    use gltf::accessor::{DataType as T, Dimensions as D};
+    let positions_layout = [(D::Vec3, T::F32)];
+    let uv_layouts = [(D::Vec2, T::F32), (D::Vec2, T::U8), (D::Vec2, T::U16)];
+    let index_layouts = [(D::Scalar, T::U8), (D::Scalar, T::U16), (D::Scalar, T::U32)];
+    let mut triangles = 0u64;
+    for node in doc.nodes() {
+        let Some(mesh) = node.mesh() else { continue };
+        for (pi, prim) in mesh.primitives().enumerate() {
+            let where_ = format!("mesh {} primitive {pi}", mesh.index());
+            let bad = |e: String| gltf_error(path, format!("{where_}: {e}"));
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                return Err(unsupported(
+                    path,
+                    format!("{where_}: mode {:?} (only triangles)", prim.mode()),
+                ));
+            }
+            let Some(pos) = prim.get(&gltf::Semantic::Positions) else {
+                return Err(unsupported(path, format!("{where_}: no POSITION")));
+            };
+            gr::check_accessor(&pos, buffers, &positions_layout).map_err(bad)?;
+            if let Some(uv) = prim.get(&gltf::Semantic::TexCoords(0)) {
+                gr::check_accessor(&uv, buffers, &uv_layouts).map_err(bad)?;
+            }
+            let corners = match prim.indices() {
+                Some(ix) => {
+                    gr::check_accessor(&ix, buffers, &index_layouts).map_err(bad)?;
+                    ix.count()
+                }
+                None => pos.count(),
+            };
+            triangles = triangles
+                .saturating_add((corners as u64 / 3).saturating_mul(instances[node.index()]));
+        }
+    }
+    Ok(triangles)
+}
+
+/// The scene's triangles in world space, node by node down the graph (primitives
+/// without a material get `default_material`; each primitive is its own part).
+fn read_triangles(
+    scene: &gltf::Scene,
+    buffers: &[Vec<u8>],
+    default_material: u32,
+    out: &mut Vec<Triangle>,
+    path: &Path,
+) -> Result<(), ModelError> {
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    let mut part = 0u32;
+    while let Some((node, parent)) = stack.pop() {
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        for child in node.children() {
+            stack.push((child, world));
+        }
+        let Some(mesh) = node.mesh() else { continue };
+        for (pi, prim) in mesh.primitives().enumerate() {
+            let where_ = format!("mesh {} primitive {pi}", mesh.index());
+            let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| unsupported(path, format!("{where_}: no POSITION")))?
+                .map(|p| world.transform_point3(Vec3::from_array(p)))
+                .collect();
+            let uvs: Vec<Vec2> = match reader.read_tex_coords(0) {
+                Some(t) => t.into_f32().map(Vec2::from_array).collect(),
+                None => vec![Vec2::ZERO; positions.len()],
+            };
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..positions.len() as u32).collect(),
+            };
+            let material = prim
+                .material()
+                .index()
+                .map_or(default_material, |i| i as u32);
+            for tri in indices.chunks_exact(3) {
+                let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                if idx.iter().any(|&i| i >= positions.len() || i >= uvs.len()) {
+                    return Err(unsupported(path, format!("{where_}: index out of range")));
+                }
+                out.push(Triangle {
+                    positions: idx.map(|i| positions[i]),
+                    uvs: idx.map(|i| uvs[i]),
+                    material,
+                    part,
+                });
+            }
+            part += 1;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -478,6 +478,51 @@ pub fn voxelize(
     let (lo, hi) = model
         .bounds()
         .ok_or_else(|| GridError::invalid("model", "no triangles", "has nothing to voxelize"))?;
+    let (desc, cells) = grid_around(lo, hi, params)?;
+    let dims = desc.dims();
+    let t_bvh = Instant::now();
+    let scene = RayScene::new(model, params.bvh);
+    let bvh_time = t_bvh.elapsed();
+    let directions = fibonacci_directions(params.directions);
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let rows = (dims.y * dims.z) as usize;
+    let nx = dims.x as usize;
+    let mut out = vec![Material::EMPTY; desc.point_count()];
+    let counters: Vec<(u64, u64)> = out
+        .par_chunks_mut(nx)
+        .enumerate()
+        .map(|(row, row_cells)| {
+            let (z, y) = (
+                (row % dims.z as usize) as u32,
+                (row / dims.z as usize) as u32,
+            );
+            // Cells traced, rays cast.
+            let mut counts = (0u64, 0u64);
+            for (x, cell) in row_cells.iter_mut().enumerate() {
+                let c = UVec3::new(x as u32, y, z);
+                *cell = cell_material(&scene, params, &directions, (&desc, c), &mut counts);
+            }
+            let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(d, rows as u64);
+            counts
+        })
+        .collect();
+    let stats = VoxelizeStats {
+        cells,
+        cells_traced: counters.iter().map(|c| c.0).sum(),
+        cells_filled: out.iter().filter(|m| !m.is_empty()).count() as u64,
+        rays: counters.iter().map(|c| c.1).sum(),
+        closed_triangles: scene.closed.iter().filter(|&&c| c != u32::MAX).count() as u64,
+        bvh_time,
+        time: start.elapsed(),
+    };
+    Ok((MaterialGrid::new(desc, out)?, stats))
+}
+
+/// The grid of cells `params.cell` around a model's bounds `lo..hi`, with the padding,
+/// centred on the model (cell (0,0,0) starts at the low corner), and its cell count;
+/// an error past `max_cells` or the memory limit.
+fn grid_around(lo: Vec3, hi: Vec3, params: &VoxelizeParams) -> Result<(GridDesc, u64), ModelError> {
     let h = params.cell;
     // In u64 with checked products: padding near 2^31 or a tiny cell must be an error,
     // not a wrapped size.
@@ -502,126 +547,112 @@ pub fn voxelize(
         &format!("a model grid of {dims} cells"),
         (cells_f as u64).saturating_mul(std::mem::size_of::<Material>() as u64),
     )?;
-    // Centre the grid on the model: cell (0,0,0) starts at the low corner.
     let origin = (lo + hi) * 0.5 - (dims.as_vec3() - Vec3::ONE) * (0.5 * h);
-    let desc = GridDesc::new(origin, h, dims)?;
-    let t_bvh = Instant::now();
-    let scene = RayScene::new(model, params.bvh);
-    let bvh_time = t_bvh.elapsed();
-    let directions = fibonacci_directions(params.directions);
+    Ok((GridDesc::new(origin, h, dims)?, cells))
+}
+
+/// The material of cell `c`: empty away from triangles (or inside a closed solid's
+/// volume where `fill_closed`), else from the chords through it, `chords_per_direction`
+/// along each of `directions`: its pass-through from the share blocked, its colour
+/// the mean of what blocked them. `counts`: cells traced and rays cast, added to.
+#[inline]
+fn cell_material(
+    scene: &RayScene<'_>,
+    params: &VoxelizeParams,
+    directions: &[Vec3],
+    (desc, c): (&GridDesc, UVec3),
+    counts: &mut (u64, u64),
+) -> Material {
+    let h = params.cell;
+    let centre = desc.position(c);
+    let half = Vec3::splat(h * 0.5);
+    let (clo, chi) = (centre - half, centre + half);
+    let near = scene.near_triangles(clo - half * 1e-3, chi + half * 1e-3);
+    if !near {
+        if params.fill_closed
+            && scene
+                .solids
+                .iter()
+                .any(|s| centre.cmpge(s.1).all() && centre.cmple(s.2).all())
+        {
+            counts.1 += 3;
+            if let Some(s) = scene.inside(centre) {
+                return Material::opaque(scene.solids[s as usize].0);
+            }
+        }
+        return Material::EMPTY;
+    }
+    counts.0 += 1;
     let n_chords = params.directions * params.chords_per_direction;
-    let done = std::sync::atomic::AtomicU64::new(0);
-    let rows = (dims.y * dims.z) as usize;
-    let nx = dims.x as usize;
-    let mut out = vec![Material::EMPTY; desc.point_count()];
-    let counters: Vec<(u64, u64)> = out
-        .par_chunks_mut(nx)
-        .enumerate()
-        .map(|(row, row_cells)| {
-            let (z, y) = (
-                (row % dims.z as usize) as u32,
-                (row / dims.z as usize) as u32,
-            );
-            let mut traced = 0u64;
-            let mut rays = 0u64;
-            for (x, cell) in row_cells.iter_mut().enumerate() {
-                let centre = desc.position(UVec3::new(x as u32, y, z));
-                let half = Vec3::splat(h * 0.5);
-                let (clo, chi) = (centre - half, centre + half);
-                let near = scene.near_triangles(clo - half * 1e-3, chi + half * 1e-3);
-                if !near {
-                    if params.fill_closed
-                        && scene
-                            .solids
-                            .iter()
-                            .any(|s| centre.cmpge(s.1).all() && centre.cmple(s.2).all())
-                    {
-                        rays += 3;
-                        if let Some(c) = scene.inside(centre) {
-                            *cell = Material::opaque(scene.solids[c as usize].0);
-                        }
+    let mut blocked = 0u32;
+    let mut colour = Vec3::ZERO;
+    let seed = (c.x.wrapping_mul(73_856_093)
+        ^ c.y.wrapping_mul(19_349_663)
+        ^ c.z.wrapping_mul(83_492_791)) as f32
+        / u32::MAX as f32;
+    for (di, &d) in directions.iter().enumerate() {
+        for k in 0..params.chords_per_direction {
+            let idx = di as u32 * params.chords_per_direction + k;
+            let (p, len) = chord_start((clo, chi, h), d, r2(idx, seed));
+            counts.1 += 1;
+            let xi = ((idx as f32 + 0.5) / n_chords as f32 + seed).fract();
+            if let Some(c) = scene.first_block(p, d, len, xi) {
+                blocked += 1;
+                colour += c;
+            } else if params.fill_closed && !scene.solids.is_empty() {
+                let mid = p + d * (len * 0.5);
+                if scene
+                    .solids
+                    .iter()
+                    .any(|s| mid.cmpge(s.1).all() && mid.cmple(s.2).all())
+                {
+                    counts.1 += 1;
+                    if let Some(c) = scene.inside_along(mid, d) {
+                        blocked += 1;
+                        colour += scene.solids[c as usize].0;
                     }
-                    continue;
-                }
-                traced += 1;
-                let mut blocked = 0u32;
-                let mut colour = Vec3::ZERO;
-                let seed = ((x as u32).wrapping_mul(73_856_093)
-                    ^ y.wrapping_mul(19_349_663)
-                    ^ z.wrapping_mul(83_492_791)) as f32
-                    / u32::MAX as f32;
-                for (di, &d) in directions.iter().enumerate() {
-                    // Faces facing -d, weighted by projected area |d_axis|.
-                    let w = d.abs();
-                    let wsum = w.element_sum();
-                    for k in 0..params.chords_per_direction {
-                        let idx = di as u32 * params.chords_per_direction + k;
-                        let (s, t) = r2(idx, seed);
-                        let pick = s * wsum;
-                        let axis = if pick < w.x {
-                            0
-                        } else if pick < w.x + w.y {
-                            1
-                        } else {
-                            2
-                        };
-                        let frac = match axis {
-                            0 => pick / w.x.max(1e-12),
-                            1 => (pick - w.x) / w.y.max(1e-12),
-                            _ => (pick - w.x - w.y) / w.z.max(1e-12),
-                        }
-                        .clamp(0.0, 1.0);
-                        let mut p = clo;
-                        let (u_ax, v_ax) = ((axis + 1) % 3, (axis + 2) % 3);
-                        p[u_ax] = clo[u_ax] + h * frac;
-                        p[v_ax] = clo[v_ax] + h * t;
-                        p[axis] = if d[axis] > 0.0 { clo[axis] } else { chi[axis] };
-                        // Chord length to the exit of the cell.
-                        let len = lightgrid_core::dda::box_exit(p, d, clo, chi);
-                        rays += 1;
-                        let xi = ((idx as f32 + 0.5) / n_chords as f32 + seed).fract();
-                        if let Some(c) = scene.first_block(p, d, len, xi) {
-                            blocked += 1;
-                            colour += c;
-                        } else if params.fill_closed && !scene.solids.is_empty() {
-                            let mid = p + d * (len * 0.5);
-                            if scene
-                                .solids
-                                .iter()
-                                .any(|s| mid.cmpge(s.1).all() && mid.cmple(s.2).all())
-                            {
-                                rays += 1;
-                                if let Some(c) = scene.inside_along(mid, d) {
-                                    blocked += 1;
-                                    colour += scene.solids[c as usize].0;
-                                }
-                            }
-                        }
-                    }
-                }
-                if blocked > 0 {
-                    let f = 1.0 - blocked as f32 / n_chords as f32;
-                    *cell = Material {
-                        reflectance: (colour / blocked as f32).clamp(Vec3::ZERO, Vec3::ONE),
-                        pass: f.powf(1.5).clamp(0.0, 1.0),
-                    };
                 }
             }
-            let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            progress(d, rows as u64);
-            (traced, rays)
-        })
-        .collect();
-    let stats = VoxelizeStats {
-        cells,
-        cells_traced: counters.iter().map(|c| c.0).sum(),
-        cells_filled: out.iter().filter(|m| !m.is_empty()).count() as u64,
-        rays: counters.iter().map(|c| c.1).sum(),
-        closed_triangles: scene.closed.iter().filter(|&&c| c != u32::MAX).count() as u64,
-        bvh_time,
-        time: start.elapsed(),
+        }
+    }
+    if blocked == 0 {
+        return Material::EMPTY;
+    }
+    let f = 1.0 - blocked as f32 / n_chords as f32;
+    Material {
+        reflectance: (colour / blocked as f32).clamp(Vec3::ZERO, Vec3::ONE),
+        pass: f.powf(1.5).clamp(0.0, 1.0),
+    }
+}
+
+/// Where a chord along `d` enters the cell `clo..chi` (side `h`), and its length to the
+/// cell's exit: on a face facing `-d`, the face picked by its projected area `|d_axis|`
+/// and the point on it by `(s, t)` (a low-discrepancy pair).
+#[inline]
+fn chord_start((clo, chi, h): (Vec3, Vec3, f32), d: Vec3, (s, t): (f32, f32)) -> (Vec3, f32) {
+    let w = d.abs();
+    let wsum = w.element_sum();
+    let pick = s * wsum;
+    let axis = if pick < w.x {
+        0
+    } else if pick < w.x + w.y {
+        1
+    } else {
+        2
     };
-    Ok((MaterialGrid::new(desc, out)?, stats))
+    let frac = match axis {
+        0 => pick / w.x.max(1e-12),
+        1 => (pick - w.x) / w.y.max(1e-12),
+        _ => (pick - w.x - w.y) / w.z.max(1e-12),
+    }
+    .clamp(0.0, 1.0);
+    let mut p = clo;
+    let (u_ax, v_ax) = ((axis + 1) % 3, (axis + 2) % 3);
+    p[u_ax] = clo[u_ax] + h * frac;
+    p[v_ax] = clo[v_ax] + h * t;
+    p[axis] = if d[axis] > 0.0 { clo[axis] } else { chi[axis] };
+    // Chord length to the exit of the cell.
+    (p, lightgrid_core::dda::box_exit(p, d, clo, chi))
 }
 
 /// `n` nearly uniform unit vectors (Fibonacci sphere).
