@@ -602,46 +602,17 @@ pub fn trace_with_sun(
     if let Some(sun) = sun {
         comps.extend(sun_sources(sun, dims, !periodic)?);
     }
-    let mut light = Tally::new(n * NUM_DIRS);
-    let mut direct = Tally::new(n);
-    let mut groups = vec![[0f64; 3]; n * GROUPS];
-    let mut bal = EnergyBalance::default();
     if comps.is_empty() {
         return Ok(Reference {
             light: Grid::from_trusted(desc, vec![BinLight::ZERO; n]),
             paths: 0,
-            balance: bal,
+            balance: EnergyBalance::default(),
             std_error: vec![Vec3::ZERO; n],
             direct: vec![Vec3::ZERO; n],
         });
     }
-    let mut cdf = Vec::with_capacity(comps.len());
-    let mut acc = 0.0;
-    for c in &comps {
-        acc += c.flux.element_sum() as f64;
-        cdf.push(acc);
-    }
-    let tracer = Tracer {
-        dims: dims.as_ivec3(),
-        sigma: material
-            .data()
-            .iter()
-            .map(|m| {
-                if m.pass <= 0.0 {
-                    f32::INFINITY
-                } else {
-                    -m.pass.ln()
-                }
-            })
-            .collect(),
-        albedo: material.data().iter().map(|m| m.reflectance).collect(),
-        periodic,
-        comps: &comps,
-        cdf,
-        caps: bin_caps(),
-        max_events: options.max_events,
-        max_track: options.max_track.max(1.0) * (dims.x + dims.y + dims.z) as f32,
-    };
+    let tracer = Tracer::new(material, &comps, periodic, options);
+    let mut tallies = Tallies::new(n);
     let start = Instant::now();
     let mut done = 0u64;
     while done < options.paths {
@@ -656,6 +627,75 @@ pub fn trace_with_sun(
             .into_par_iter()
             .map(|i| tracer.trace(i, options.seed))
             .collect();
+        tallies.add(done, &results);
+        done += count;
+        progress(done, options.paths);
+    }
+    tallies.finish(desc, done)
+}
+
+impl<'a> Tracer<'a> {
+    /// A tracer through `material` from the boundary's (and the sun's) sources `comps`.
+    fn new(
+        material: &MaterialGrid,
+        comps: &'a [SourceComponent],
+        periodic: bool,
+        options: &ReferenceOptions,
+    ) -> Self {
+        let dims = material.desc().dims();
+        let mut cdf = Vec::with_capacity(comps.len());
+        let mut acc = 0.0;
+        for c in comps {
+            acc += c.flux.element_sum() as f64;
+            cdf.push(acc);
+        }
+        Tracer {
+            dims: dims.as_ivec3(),
+            sigma: material
+                .data()
+                .iter()
+                .map(|m| {
+                    if m.pass <= 0.0 {
+                        f32::INFINITY
+                    } else {
+                        -m.pass.ln()
+                    }
+                })
+                .collect(),
+            albedo: material.data().iter().map(|m| m.reflectance).collect(),
+            periodic,
+            comps,
+            cdf,
+            caps: bin_caps(),
+            max_events: options.max_events,
+            max_track: options.max_track.max(1.0) * (dims.x + dims.y + dims.z) as f32,
+        }
+    }
+}
+
+/// What the paths deposit, summed in path order: light per point and bin, direct sun
+/// per point, per point its average light in [`GROUPS`] groups of paths (for the
+/// standard error), and the energy balance.
+struct Tallies {
+    light: Tally,
+    direct: Tally,
+    groups: Vec<[f64; 3]>,
+    bal: EnergyBalance,
+}
+
+impl Tallies {
+    fn new(n: usize) -> Self {
+        Self {
+            light: Tally::new(n * NUM_DIRS),
+            direct: Tally::new(n),
+            groups: vec![[0f64; 3]; n * GROUPS],
+            bal: EnergyBalance::default(),
+        }
+    }
+
+    /// The paths `done..` (`results`, in order).
+    fn add(&mut self, done: u64, results: &[PathResult]) {
+        let bal = &mut self.bal;
         for (k, r) in results.iter().enumerate() {
             let group = (done as usize + k) % GROUPS;
             *[&mut bal.top_in, &mut bal.bottom_in, &mut bal.side_in][r.entry] += r.w0.as_dvec3();
@@ -665,40 +705,75 @@ pub fn trace_with_sun(
             bal.side_out += r.escaped[2].as_dvec3();
             bal.pending += r.terminated.as_dvec3();
             for &(cell, v) in &r.direct {
-                direct.add(cell as usize, v);
+                self.direct.add(cell as usize, v);
             }
             for &(slot, v) in &r.deposits {
                 let s = slot as usize;
-                light.add(s, v);
-                let g = &mut groups[(s / NUM_DIRS) * GROUPS + group];
+                self.light.add(s, v);
+                let g = &mut self.groups[(s / NUM_DIRS) * GROUPS + group];
                 g[0] += v.x as f64;
                 g[1] += v.y as f64;
                 g[2] += v.z as f64;
             }
         }
-        done += count;
-        progress(done, options.paths);
     }
-    // Normalise: each path carries its weight / paths; cells have unit volume (h = 1 units).
-    let inv = 1.0 / done as f64;
-    bal.top_in *= inv;
-    bal.bottom_in *= inv;
-    bal.side_in *= inv;
-    bal.absorbed *= inv;
-    bal.top_out *= inv;
-    bal.bottom_out *= inv;
-    bal.side_out *= inv;
-    bal.pending *= inv;
-    let data: Vec<BinLight> = (0..n)
-        .map(|p| {
-            BinLight(std::array::from_fn(|d| {
-                (light.get(p * NUM_DIRS + d) * inv).as_vec3()
-            }))
+
+    /// The reference from `done` paths: each path carries its weight / paths; cells
+    /// have unit volume (h = 1 units). An error if a value overflowed.
+    fn finish(self, desc: lightgrid_core::GridDesc, done: u64) -> Result<Reference, SweepError> {
+        let n = desc.point_count();
+        let inv = 1.0 / done as f64;
+        let mut bal = self.bal;
+        bal.top_in *= inv;
+        bal.bottom_in *= inv;
+        bal.side_in *= inv;
+        bal.absorbed *= inv;
+        bal.top_out *= inv;
+        bal.bottom_out *= inv;
+        bal.side_out *= inv;
+        bal.pending *= inv;
+        let light = &self.light;
+        let data: Vec<BinLight> = (0..n)
+            .map(|p| {
+                BinLight(std::array::from_fn(|d| {
+                    (light.get(p * NUM_DIRS + d) * inv).as_vec3()
+                }))
+            })
+            .collect();
+        let std_error = std_errors(&self.groups, n, inv);
+        // Light at most 1e30 over a grid of at most 2^32 points stays finite; check
+        // anyway so that no NaN or infinity can leave.
+        let direct: Vec<Vec3> = (0..n)
+            .map(|p| (self.direct.get(p) * inv).as_vec3())
+            .collect();
+        let bad_light = data.iter().position(|b| !b.is_valid());
+        let bad_direct = direct.iter().position(|v| !v.is_finite());
+        if let Some((field, p)) = bad_light
+            .map(|p| ("light", p))
+            .or(bad_direct.map(|p| ("direct", p)))
+        {
+            return Err(GridError::invalid(
+                format!("{field}[{p}]"),
+                "NaN or infinity",
+                "the reference overflowed: light too large for this grid",
+            )
+            .into());
+        }
+        Ok(Reference {
+            light: Grid::from_trusted(desc, data),
+            paths: done,
+            balance: bal,
+            std_error,
+            direct,
         })
-        .collect();
-    // Standard error of the mean of the average light from the group estimates.
+    }
+}
+
+/// Standard error of the mean of each point's average light, from its group estimates
+/// (`groups`: per point, [`GROUPS`] sums; `inv`: 1 / paths).
+fn std_errors(groups: &[[f64; 3]], n: usize, inv: f64) -> Vec<Vec3> {
     let four_pi = 4.0 * std::f64::consts::PI;
-    let std_error = (0..n)
+    (0..n)
         .map(|p| {
             let est: Vec<DVec3> = (0..GROUPS)
                 .map(|g| {
@@ -710,28 +785,5 @@ pub fn trace_with_sun(
                 / (GROUPS as f64 - 1.0);
             (var / GROUPS as f64).map(f64::sqrt).as_vec3()
         })
-        .collect();
-    // Light at most 1e30 over a grid of at most 2^32 points stays finite; check anyway so
-    // that no NaN or infinity can leave.
-    let direct: Vec<Vec3> = (0..n).map(|p| (direct.get(p) * inv).as_vec3()).collect();
-    let bad_light = data.iter().position(|b| !b.is_valid());
-    let bad_direct = direct.iter().position(|v| !v.is_finite());
-    if let Some((field, p)) = bad_light
-        .map(|p| ("light", p))
-        .or(bad_direct.map(|p| ("direct", p)))
-    {
-        return Err(GridError::invalid(
-            format!("{field}[{p}]"),
-            "NaN or infinity",
-            "the reference overflowed: light too large for this grid",
-        )
-        .into());
-    }
-    Ok(Reference {
-        light: Grid::from_trusted(desc, data),
-        paths: done,
-        balance: bal,
-        std_error,
-        direct,
-    })
+        .collect()
 }
