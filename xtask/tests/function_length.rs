@@ -14,9 +14,6 @@ const MAX_LINES: usize = 150;
 /// `(file, function, lines)`: over the limit when the rule came; to be split.
 const KNOWN: &[(&str, &str, usize)] = &[
     ("crates/sweep-cpu/src/sweep/phase2.rs", "phase2_row", 270),
-    ("crates/sweep-cpu/src/reference.rs", "trace_with_sun", 158),
-    ("xtask/src/bench/mod.rs", "run", 155),
-    ("crates/render/src/gpu.rs", "sample_layers_lit", 151),
 ];
 
 /// The `.rs` files under `dir` outside `tests/`, `benches/`, `examples/`.

@@ -296,64 +296,9 @@ impl GpuLightSampler {
         light: &LayerLight,
     ) -> Result<GpuSamples, RenderError> {
         let device = &self.ctx.device;
-        if !light.sky_scale.is_finite() || light.sky_scale.min_element() < 0.0 {
-            return Err(GridError::invalid(
-                "sky_scale",
-                light.sky_scale,
-                "must be finite and >= 0",
-            )
-            .into());
-        }
-        let sun = match light.sun {
-            Some((s, e)) => {
-                let s = lightgrid_core::light::check_sun(s, e)?;
-                if let Some(i) = layers.iter().position(|l| {
-                    l.sun.is_none_or(|ls| {
-                        !Arc::ptr_eq(ls.scattered.context(), &self.ctx)
-                            || ls.scattered.desc() != l.grid.desc()
-                            || ls.transmittance.size() < l.grid.desc().point_count() as u64 * 4
-                    })
-                }) {
-                    return Err(GridError::invalid(
-                        format!("layers[{i}].sun"),
-                        "missing or unlike its grid",
-                        "every layer needs sun responses on this device, on its grid's points",
-                    )
-                    .into());
-                }
-                Some((s, e))
-            }
-            None => None,
-        };
+        let sun = self.check_layers(layers, light)?;
         let limit = self.ctx.max_binding();
-        if let Some(i) = layers
-            .iter()
-            .position(|l| !Arc::ptr_eq(l.grid.context(), &self.ctx))
-        {
-            return Err(GridError::invalid(
-                format!("layers[{i}].grid"),
-                "another device",
-                "must live on the sampler's device",
-            )
-            .into());
-        }
-        let (count, packed, lattice) = match points {
-            GpuPoints::List(points) => {
-                points.validate()?;
-                let mut packed = Vec::with_capacity(points.positions.len() * 8);
-                for (i, p) in points.positions.iter().enumerate() {
-                    let n = points.normals.map(|n| n[i]);
-                    packed.extend_from_slice(&[p.x, p.y, p.z, if n.is_some() { 1.0 } else { 0.0 }]);
-                    let n = n.unwrap_or(Vec3::Y);
-                    packed.extend_from_slice(&[n.x, n.y, n.z, 0.0]);
-                }
-                (points.positions.len(), packed, None)
-            }
-            GpuPoints::Lattice(d) => (d.point_count(), vec![0.0; 16], Some(d)),
-        };
-        if count > (u32::MAX / 2) as usize {
-            return Err(GridError::invalid("points", count, "too many points").into());
-        }
+        let (count, packed, lattice) = pack_points(points)?;
         let point_bytes = count.max(1) as u64 * 32;
         for (what, bytes) in [
             ("sample points", packed.len() as u64 * 4),
@@ -378,37 +323,7 @@ impl GpuLightSampler {
         // Finest first; each point is sampled by the first layer that owns it (the
         // kernel skips points already written), which is the last in `layers` order.
         for layer in layers.iter().rev() {
-            let d = layer.grid.desc();
-            let (own, own_index) = match layer.owner {
-                Some(o) => (
-                    [o.origin.x, o.origin.y, o.size, 1.0],
-                    [o.index.x, o.index.y, 0, 0],
-                ),
-                None => ([0.0; 4], [0; 4]),
-            };
-            let (lattice_origin_h, lattice_dims) = match lattice {
-                Some(l) => (
-                    l.origin().extend(l.h()).to_array(),
-                    l.dims().extend(1).to_array(),
-                ),
-                None => ([0.0; 4], [0; 4]),
-            };
-            let params = SampleParams {
-                origin_h: d.origin().extend(d.h()).to_array(),
-                dims: d.dims().extend(IrradianceTable::get().size).to_array(),
-                own,
-                own_index,
-                lattice_origin_h,
-                lattice_dims,
-                count: count as u32,
-                sky_scale: light.sky_scale.extend(0.0).to_array(),
-                sun: match sun {
-                    Some((_, e)) => e.extend(1.0).to_array(),
-                    None => [0.0; 4],
-                },
-                to_sun: sun.map_or([0.0; 4], |(s, _)| s.extend(0.0).to_array()),
-                ..Default::default()
-            };
+            let params = layer_params(layer, (count, lattice), light.sky_scale, sun);
             let uniform = buffer(
                 &self.ctx,
                 "sample params",
@@ -439,6 +354,122 @@ impl GpuLightSampler {
             buffer: out,
             count,
         })
+    }
+
+    /// The light's sky scale and sun checked, and the layers against them: every grid
+    /// on this device, and with a sun every layer's sun responses on this device and on
+    /// its grid's points. Returns the checked sun.
+    fn check_layers(
+        &self,
+        layers: &[GpuSampleLayer<'_>],
+        light: &LayerLight,
+    ) -> Result<Option<(Vec3, Vec3)>, RenderError> {
+        if !light.sky_scale.is_finite() || light.sky_scale.min_element() < 0.0 {
+            return Err(GridError::invalid(
+                "sky_scale",
+                light.sky_scale,
+                "must be finite and >= 0",
+            )
+            .into());
+        }
+        let sun = match light.sun {
+            Some((s, e)) => {
+                let s = lightgrid_core::light::check_sun(s, e)?;
+                if let Some(i) = layers.iter().position(|l| {
+                    l.sun.is_none_or(|ls| {
+                        !Arc::ptr_eq(ls.scattered.context(), &self.ctx)
+                            || ls.scattered.desc() != l.grid.desc()
+                            || ls.transmittance.size() < l.grid.desc().point_count() as u64 * 4
+                    })
+                }) {
+                    return Err(GridError::invalid(
+                        format!("layers[{i}].sun"),
+                        "missing or unlike its grid",
+                        "every layer needs sun responses on this device, on its grid's points",
+                    )
+                    .into());
+                }
+                Some((s, e))
+            }
+            None => None,
+        };
+        if let Some(i) = layers
+            .iter()
+            .position(|l| !Arc::ptr_eq(l.grid.context(), &self.ctx))
+        {
+            return Err(GridError::invalid(
+                format!("layers[{i}].grid"),
+                "another device",
+                "must live on the sampler's device",
+            )
+            .into());
+        }
+        Ok(sun)
+    }
+}
+
+/// The points to sample: their count, and either their positions and normals packed as
+/// two `vec4` a point (`w` of the first: 1 where a normal is given), or a lattice's
+/// descriptor (and a placeholder buffer: the device generates them).
+fn pack_points(points: GpuPoints<'_>) -> Result<(usize, Vec<f32>, Option<GridDesc>), RenderError> {
+    let (count, packed, lattice) = match points {
+        GpuPoints::List(points) => {
+            points.validate()?;
+            let mut packed = Vec::with_capacity(points.positions.len() * 8);
+            for (i, p) in points.positions.iter().enumerate() {
+                let n = points.normals.map(|n| n[i]);
+                packed.extend_from_slice(&[p.x, p.y, p.z, if n.is_some() { 1.0 } else { 0.0 }]);
+                let n = n.unwrap_or(Vec3::Y);
+                packed.extend_from_slice(&[n.x, n.y, n.z, 0.0]);
+            }
+            (points.positions.len(), packed, None)
+        }
+        GpuPoints::Lattice(d) => (d.point_count(), vec![0.0; 16], Some(d)),
+    };
+    if count > (u32::MAX / 2) as usize {
+        return Err(GridError::invalid("points", count, "too many points").into());
+    }
+    Ok((count, packed, lattice))
+}
+
+/// The sampling kernel's parameters for one layer: its grid, what it owns, the points
+/// (`count`, on `lattice` if given), the sky's scale and the sun.
+fn layer_params(
+    layer: &GpuSampleLayer<'_>,
+    (count, lattice): (usize, Option<GridDesc>),
+    sky_scale: Vec3,
+    sun: Option<(Vec3, Vec3)>,
+) -> SampleParams {
+    let d = layer.grid.desc();
+    let (own, own_index) = match layer.owner {
+        Some(o) => (
+            [o.origin.x, o.origin.y, o.size, 1.0],
+            [o.index.x, o.index.y, 0, 0],
+        ),
+        None => ([0.0; 4], [0; 4]),
+    };
+    let (lattice_origin_h, lattice_dims) = match lattice {
+        Some(l) => (
+            l.origin().extend(l.h()).to_array(),
+            l.dims().extend(1).to_array(),
+        ),
+        None => ([0.0; 4], [0; 4]),
+    };
+    SampleParams {
+        origin_h: d.origin().extend(d.h()).to_array(),
+        dims: d.dims().extend(IrradianceTable::get().size).to_array(),
+        own,
+        own_index,
+        lattice_origin_h,
+        lattice_dims,
+        count: count as u32,
+        sky_scale: sky_scale.extend(0.0).to_array(),
+        sun: match sun {
+            Some((_, e)) => e.extend(1.0).to_array(),
+            None => [0.0; 4],
+        },
+        to_sun: sun.map_or([0.0; 4], |(s, _)| s.extend(0.0).to_array()),
+        ..Default::default()
     }
 }
 

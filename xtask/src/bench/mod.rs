@@ -369,20 +369,7 @@ pub fn run(cfg: &BenchConfig) -> Result<Report> {
         all.retain(|s| cfg.only.contains(&s.name));
         anyhow::ensure!(!all.is_empty(), "--scene {:?}: no such scene", cfg.only);
     }
-    let gpu = if cfg.gpu {
-        match lightgrid_sweep_gpu::GpuContext::new() {
-            Ok(c) => {
-                let name = format!("{} ({:?})", c.info.name, c.info.device_type);
-                Some((lightgrid_sweep_gpu::GpuSweeper::with_context(c), name))
-            }
-            Err(e) => {
-                println!("no GPU adapter ({e}): the GPU sweep is left out");
-                None
-            }
-        }
-    } else {
-        None
-    };
+    let gpu = if cfg.gpu { gpu_sweeper() } else { None };
     let mut rows = Vec::new();
     let mut references = Vec::new();
     for s in &all {
@@ -395,90 +382,11 @@ pub fn run(cfg: &BenchConfig) -> Result<Report> {
             if info.cached { " (cached)" } else { "" }
         );
         references.push(info);
-        let n = s.material.desc().point_count() as u64;
-        let coarse = scenes::coarsen(s)?;
-        for (name, o, half) in sweep_settings() {
-            let (m, b) = if half {
-                (&coarse.material, &coarse.boundary)
-            } else {
-                (&s.material, &s.boundary)
-            };
-            let (sweep, secs) = sweep_recycled(cfg.repeats, m, b, &o)?;
-            let mut light = sweep.output.bins.clone().context("bins")?;
-            if half {
-                light = resample(&light, s.material.desc())?;
-            }
-            let [a, i, mse, sm] = errors(&light, &reference, &s.material);
-            rows.push(Row {
-                scene: s.name.clone(),
-                method: "sweep-cpu".into(),
-                setting: name,
-                seconds: secs,
-                rel_rmse_avg: a,
-                rel_rmse_irr: i,
-                rel_mse: mse,
-                smape: sm,
-                energy_error: Some(sweep.balance.relative_error()),
-                memory_bytes: m.desc().point_count() as u64 * (26 * 12 + 16),
-            });
-        }
+        rows.extend(cpu_rows(s, &reference, cfg)?);
         if let Some((g, _)) = &gpu {
-            for passes in [1u32, 4] {
-                let name = format!("passes {passes}, smoothing {}", default_smoothing());
-                let mut o = SweepOptions::multi_bounce();
-                o.max_passes = passes;
-                o.tolerance = 0.0;
-                let (out, secs) = fastest(cfg.repeats.min(2), || {
-                    Ok(lightgrid_core::Sweeper::sweep(
-                        &mut &*g,
-                        &s.material,
-                        &s.boundary,
-                        &o,
-                    )?)
-                })?;
-                let light = out.bins.context("bins")?;
-                let [a, i, mse, sm] = errors(&light, &reference, &s.material);
-                rows.push(Row {
-                    scene: s.name.clone(),
-                    method: "sweep-gpu".into(),
-                    setting: name,
-                    seconds: secs,
-                    rel_rmse_avg: a,
-                    rel_rmse_irr: i,
-                    rel_mse: mse,
-                    smape: sm,
-                    energy_error: None,
-                    memory_bytes: n * (26 * 12 * 2 + 16),
-                });
-            }
+            rows.extend(gpu_rows(g, s, &reference, cfg)?);
         }
-        for &paths in &cfg.mc_paths {
-            let t = Instant::now();
-            let r = trace(
-                &s.material,
-                &s.boundary,
-                &ReferenceOptions {
-                    paths,
-                    seed: 7,
-                    ..Default::default()
-                },
-                &|_, _| {},
-            )?;
-            let secs = t.elapsed().as_secs_f64();
-            let [a, i, mse, sm] = errors(&r.light, &reference, &s.material);
-            rows.push(Row {
-                scene: s.name.clone(),
-                method: "monte-carlo".into(),
-                setting: format!("{paths} paths"),
-                seconds: secs,
-                rel_rmse_avg: a,
-                rel_rmse_irr: i,
-                rel_mse: mse,
-                smape: sm,
-                energy_error: Some(r.balance.relative_error()),
-                memory_bytes: n * (26 * 3 * 8 + 8 * 24),
-            });
-        }
+        rows.extend(mc_rows(s, &reference, cfg)?);
     }
     let skip_tolerance = rows
         .iter()
@@ -503,19 +411,147 @@ pub fn run(cfg: &BenchConfig) -> Result<Report> {
         headline,
         gpu: gpu.map(|(_, n)| n),
     };
-    let text = table(&report);
+    write_report(&report, &cfg.out)?;
+    Ok(report)
+}
+
+/// The GPU sweeper and its adapter's name, or `None` (said) where no adapter is found.
+fn gpu_sweeper() -> Option<(lightgrid_sweep_gpu::GpuSweeper, String)> {
+    match lightgrid_sweep_gpu::GpuContext::new() {
+        Ok(c) => {
+            let name = format!("{} ({:?})", c.info.name, c.info.device_type);
+            Some((lightgrid_sweep_gpu::GpuSweeper::with_context(c), name))
+        }
+        Err(e) => {
+            println!("no GPU adapter ({e}): the GPU sweep is left out");
+            None
+        }
+    }
+}
+
+/// The CPU sweep's rows of scene `s`: every setting, timed (recycled memory) and
+/// measured against `reference` (settings on the half-resolution grid resampled).
+fn cpu_rows(s: &BenchScene, reference: &LightGrid, cfg: &BenchConfig) -> Result<Vec<Row>> {
+    let coarse = scenes::coarsen(s)?;
+    let mut rows = Vec::new();
+    for (name, o, half) in sweep_settings() {
+        let (m, b) = if half {
+            (&coarse.material, &coarse.boundary)
+        } else {
+            (&s.material, &s.boundary)
+        };
+        let (sweep, secs) = sweep_recycled(cfg.repeats, m, b, &o)?;
+        let mut light = sweep.output.bins.clone().context("bins")?;
+        if half {
+            light = resample(&light, s.material.desc())?;
+        }
+        let [a, i, mse, sm] = errors(&light, reference, &s.material);
+        rows.push(Row {
+            scene: s.name.clone(),
+            method: "sweep-cpu".into(),
+            setting: name,
+            seconds: secs,
+            rel_rmse_avg: a,
+            rel_rmse_irr: i,
+            rel_mse: mse,
+            smape: sm,
+            energy_error: Some(sweep.balance.relative_error()),
+            memory_bytes: m.desc().point_count() as u64 * (26 * 12 + 16),
+        });
+    }
+    Ok(rows)
+}
+
+/// The GPU sweep's rows of scene `s` (one and four passes).
+fn gpu_rows(
+    g: &lightgrid_sweep_gpu::GpuSweeper,
+    s: &BenchScene,
+    reference: &LightGrid,
+    cfg: &BenchConfig,
+) -> Result<Vec<Row>> {
+    let n = s.material.desc().point_count() as u64;
+    let mut rows = Vec::new();
+    for passes in [1u32, 4] {
+        let name = format!("passes {passes}, smoothing {}", default_smoothing());
+        let mut o = SweepOptions::multi_bounce();
+        o.max_passes = passes;
+        o.tolerance = 0.0;
+        let (out, secs) = fastest(cfg.repeats.min(2), || {
+            Ok(lightgrid_core::Sweeper::sweep(
+                &mut &*g,
+                &s.material,
+                &s.boundary,
+                &o,
+            )?)
+        })?;
+        let light = out.bins.context("bins")?;
+        let [a, i, mse, sm] = errors(&light, reference, &s.material);
+        rows.push(Row {
+            scene: s.name.clone(),
+            method: "sweep-gpu".into(),
+            setting: name,
+            seconds: secs,
+            rel_rmse_avg: a,
+            rel_rmse_irr: i,
+            rel_mse: mse,
+            smape: sm,
+            energy_error: None,
+            memory_bytes: n * (26 * 12 * 2 + 16),
+        });
+    }
+    Ok(rows)
+}
+
+/// Plain Monte Carlo's rows of scene `s`, one per path count of `cfg.mc_paths`.
+fn mc_rows(s: &BenchScene, reference: &LightGrid, cfg: &BenchConfig) -> Result<Vec<Row>> {
+    let n = s.material.desc().point_count() as u64;
+    let mut rows = Vec::new();
+    for &paths in &cfg.mc_paths {
+        let t = Instant::now();
+        let r = trace(
+            &s.material,
+            &s.boundary,
+            &ReferenceOptions {
+                paths,
+                seed: 7,
+                ..Default::default()
+            },
+            &|_, _| {},
+        )?;
+        let secs = t.elapsed().as_secs_f64();
+        let [a, i, mse, sm] = errors(&r.light, reference, &s.material);
+        rows.push(Row {
+            scene: s.name.clone(),
+            method: "monte-carlo".into(),
+            setting: format!("{paths} paths"),
+            seconds: secs,
+            rel_rmse_avg: a,
+            rel_rmse_irr: i,
+            rel_mse: mse,
+            smape: sm,
+            energy_error: Some(r.balance.relative_error()),
+            memory_bytes: n * (26 * 3 * 8 + 8 * 24),
+        });
+    }
+    Ok(rows)
+}
+
+/// Prints the report's table and writes it as `bench.txt`, `bench.json` and the plot
+/// `bench.png` in `out`.
+fn write_report(report: &Report, out: &Path) -> Result<()> {
+    let text = table(report);
     print!("{text}");
-    std::fs::write(cfg.out.join("bench.txt"), &text)?;
+    std::fs::write(out.join("bench.txt"), &text)?;
     std::fs::write(
-        cfg.out.join("bench.json"),
-        serde_json::to_string_pretty(&report)?,
+        out.join("bench.json"),
+        serde_json::to_string_pretty(report)?,
     )?;
-    plot::error_vs_time(&report, &cfg.out.join("bench.png"))?;
+    plot::error_vs_time(report, &out.join("bench.png"))?;
     println!(
         "wrote {}, bench.json and bench.png",
-        cfg.out.join("bench.txt").display()
+        out.join("bench.txt").display()
     );
-    Ok(report)
+    Ok(())
 }
 
 /// The Monte Carlo time for error `e`, from the log-log line through the two nearest
