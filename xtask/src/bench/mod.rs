@@ -121,6 +121,32 @@ pub struct Row {
     pub memory_bytes: u64,
 }
 
+impl Row {
+    /// `method` at `setting` on scene `s`: its time, its light measured against the
+    /// reference ([`errors`]), its energy error and working memory.
+    fn measured(
+        s: &BenchScene,
+        (method, setting): (&str, String),
+        seconds: f64,
+        [rel_rmse_avg, rel_rmse_irr, rel_mse, smape]: [f64; 4],
+        energy_error: Option<f64>,
+        memory_bytes: u64,
+    ) -> Self {
+        Row {
+            scene: s.name.clone(),
+            method: method.into(),
+            setting,
+            seconds,
+            rel_rmse_avg,
+            rel_rmse_irr,
+            rel_mse,
+            smape,
+            energy_error,
+            memory_bytes,
+        }
+    }
+}
+
 /// A reference run.
 #[derive(Debug, Clone, Serialize)]
 pub struct ReferenceInfo {
@@ -445,19 +471,14 @@ fn cpu_rows(s: &BenchScene, reference: &LightGrid, cfg: &BenchConfig) -> Result<
         if half {
             light = resample(&light, s.material.desc())?;
         }
-        let [a, i, mse, sm] = errors(&light, reference, &s.material);
-        rows.push(Row {
-            scene: s.name.clone(),
-            method: "sweep-cpu".into(),
-            setting: name,
-            seconds: secs,
-            rel_rmse_avg: a,
-            rel_rmse_irr: i,
-            rel_mse: mse,
-            smape: sm,
-            energy_error: Some(sweep.balance.relative_error()),
-            memory_bytes: m.desc().point_count() as u64 * (26 * 12 + 16),
-        });
+        rows.push(Row::measured(
+            s,
+            ("sweep-cpu", name),
+            secs,
+            errors(&light, reference, &s.material),
+            Some(sweep.balance.relative_error()),
+            m.desc().point_count() as u64 * (26 * 12 + 16),
+        ));
     }
     Ok(rows)
 }
@@ -485,19 +506,14 @@ fn gpu_rows(
             )?)
         })?;
         let light = out.bins.context("bins")?;
-        let [a, i, mse, sm] = errors(&light, reference, &s.material);
-        rows.push(Row {
-            scene: s.name.clone(),
-            method: "sweep-gpu".into(),
-            setting: name,
-            seconds: secs,
-            rel_rmse_avg: a,
-            rel_rmse_irr: i,
-            rel_mse: mse,
-            smape: sm,
-            energy_error: None,
-            memory_bytes: n * (26 * 12 * 2 + 16),
-        });
+        rows.push(Row::measured(
+            s,
+            ("sweep-gpu", name),
+            secs,
+            errors(&light, reference, &s.material),
+            None,
+            n * (26 * 12 * 2 + 16),
+        ));
     }
     Ok(rows)
 }
@@ -519,19 +535,14 @@ fn mc_rows(s: &BenchScene, reference: &LightGrid, cfg: &BenchConfig) -> Result<V
             &|_, _| {},
         )?;
         let secs = t.elapsed().as_secs_f64();
-        let [a, i, mse, sm] = errors(&r.light, reference, &s.material);
-        rows.push(Row {
-            scene: s.name.clone(),
-            method: "monte-carlo".into(),
-            setting: format!("{paths} paths"),
-            seconds: secs,
-            rel_rmse_avg: a,
-            rel_rmse_irr: i,
-            rel_mse: mse,
-            smape: sm,
-            energy_error: Some(r.balance.relative_error()),
-            memory_bytes: n * (26 * 3 * 8 + 8 * 24),
-        });
+        rows.push(Row::measured(
+            s,
+            ("monte-carlo", format!("{paths} paths")),
+            secs,
+            errors(&r.light, reference, &s.material),
+            Some(r.balance.relative_error()),
+            n * (26 * 3 * 8 + 8 * 24),
+        ));
     }
     Ok(rows)
 }
