@@ -237,6 +237,205 @@ impl Ctx {
         }
     }
 
+    /// Step 3 for the block of row `z` from column `x0`: what its cells removed from
+    /// the paths crossing them, gathered into `scratch` (with the collisions' height
+    /// moments where a cell follows the profile rule).
+    #[inline(always)]
+    fn gather_block(
+        &self,
+        (z, x0): (i32, usize),
+        removed: &[f32],
+        row_cells: &[lightgrid_core::Material],
+        prof: &crate::profile::Profiles,
+        scratch: &mut Phase2Scratch,
+    ) {
+        let nx = self.nx as usize;
+        let b = GATHER_BLOCK.min(nx - x0);
+        let profile = self.medium == MediumEmission::Profile;
+        let is_profile =
+            |m: &lightgrid_core::Material| profile && medium::applies(self.medium, m.pass);
+        let Phase2Scratch {
+            by_row,
+            by_row_h,
+            coll,
+        } = scratch;
+        if row_cells[x0..x0 + b].iter().any(is_profile) {
+            if coll.is_empty() {
+                *coll = vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS];
+            }
+            // Slot by slot, so that the stores run along the block (point by point they
+            // went to 98 lines a point).
+            let c: [Option<&crate::profile::CellProfile>; GATHER_BLOCK] = crate::isa::array_from(
+                #[inline(always)]
+                |j| {
+                    (j < b && is_profile(&row_cells[x0 + j]))
+                        .then(|| prof.get(x0 + j + nx * z as usize))
+                },
+            );
+            if self.fetch_profiles() {
+                // (The emission planes below read `emit`.)
+                for pr in c[..b].iter().flatten() {
+                    touch(&pr.coll[..]);
+                    touch(&pr.emit[..]);
+                }
+            }
+            for (slot, w) in coll.iter_mut().enumerate() {
+                for (j, c) in c[..b].iter().enumerate() {
+                    let v = c.map_or([0.0; 2], |c| c.coll[slot]);
+                    (w[0][j], w[1][j]) = (v[0], v[1]);
+                }
+            }
+            let coll: &[[[f32; GATHER_BLOCK]; 2]; SLOTS] =
+                coll.as_slice().try_into().expect("SLOTS moments");
+            vectorised!(self.gather_moments(z, (x0, b), removed, coll, by_row, by_row_h));
+        } else if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
+            vectorised!(self.gather_removed(z, x0, b, removed, by_row));
+        }
+    }
+
+    /// The scalar oracle's height moments of what the profile cell of column `x`
+    /// removed (`s_raw`: its flux), path point by path point (the fast path gathers
+    /// them by block, [`Ctx::gather_moments`]).
+    fn profile_removed(
+        &self,
+        (x, z): (i32, i32),
+        removed: &[f32],
+        pr: &crate::profile::CellProfile,
+        s_raw: Vec3,
+    ) -> [Vec3; 3] {
+        let nx = self.nx as usize;
+        let mut r = [s_raw, Vec3::ZERO, Vec3::ZERO];
+        for chn in self.ch.iter() {
+            let mut t = [Vec3::ZERO; 2];
+            for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                if let Some(pt) = self.col(x - dx, z - dz) {
+                    let slot = chn.first_slot + k;
+                    let at = |col: usize| removed[plane_index(nx, pt, slot, col)];
+                    let v = Vec3::new(at(0), at(1), at(2));
+                    t[0] += v * pr.coll[slot][0];
+                    t[1] += v * pr.coll[slot][1];
+                }
+            }
+            r[1] += t[0] * chn.mu;
+            r[2] += t[1] * chn.mu;
+        }
+        r
+    }
+
+    /// Step 6 for a cell emitting `own` with fixed weights (its `lanes`, from `em`): what
+    /// leaves the level goes to `cur_row` (pitch `p`), what is emitted into the level to
+    /// the point's output, and what the cell stops again is scattered anew in up to
+    /// [`LOCAL_ROUNDS`] rounds (waiting for the other pass too, `other`); returns what is
+    /// left.
+    #[inline(always)]
+    fn local_rounds<S: Sink>(
+        &self,
+        xi: usize,
+        (em, lanes, alb, t_after): (&Emission, &PassLanes, Vec3, &[f32; CHANNELS]),
+        mut own: Pending,
+        other: &mut Pending,
+        (cur_row, p, g_row): (&mut [f32], usize, &mut [S]),
+        rf: &mut RowFlux,
+    ) -> Pending {
+        let cw = em.lanes(lanes, self.ch, t_after);
+        // Per colour and channel: what leaves the level, what is emitted.
+        let mut leave = [[0f32; LANES]; 3];
+        let mut emit = [[0f32; LANES]; 3];
+        for _ in 0..LOCAL_ROUNDS {
+            if own.s == Vec3::ZERO {
+                break;
+            }
+            let mut lost_s = Vec3::ZERO;
+            let mut lost_m = [Vec3::ZERO; 3];
+            for k in 0..3 {
+                let (sk, mk) = (own.s[k], [own.m[0][k], own.m[1][k], own.m[2][k]]);
+                let lost = cw.round(lanes, sk, mk, (&mut leave[k], &mut emit[k]), self.signed);
+                lost_s[k] = lanes_sum(&lost);
+                for a in 0..3 {
+                    lost_m[a][k] = lanes_dot(&lost, &lanes.u[a]);
+                }
+            }
+            rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
+            own = Pending {
+                s: lost_s * alb,
+                m: crate::isa::array_map(lost_m, |v| v * alb),
+            };
+            *other = other.add(&own);
+        }
+        for (c, chn) in self.ch.iter().enumerate() {
+            let lv = Vec3::new(leave[0][c], leave[1][c], leave[2][c]);
+            row_add(cur_row, p, xi, c, lv * lanes.length[c]);
+            let ev = Vec3::new(emit[0][c], emit[1][c], emit[2][c]);
+            g_row[xi].add(chn.bin, chn.unit, ev * lanes.half_length[c]);
+        }
+        own
+    }
+
+    /// Step 3 for the cell of column `x` (point `i` of its block): the flux it removed
+    /// from every path crossing it and its moments along the channels' directions, from
+    /// the block's gather (`by_row`) or (the scalar oracle) path point by path point.
+    #[inline(always)]
+    fn removed_by(
+        &self,
+        (x, z): (i32, i32),
+        i: usize,
+        (removed, scalar): (&[f32], bool),
+        by_row: &[[[f32; GATHER_BLOCK]; 3]; CHANNELS],
+    ) -> (Vec3, [Vec3; 3]) {
+        let nx = self.nx as usize;
+        let mut s_raw = Vec3::ZERO;
+        let mut m_raw = [Vec3::ZERO; 3];
+        for (c, chn) in self.ch.iter().enumerate() {
+            let r = if scalar {
+                let mut r = Vec3::ZERO;
+                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    if let Some(pt) = self.col(x - dx, z - dz) {
+                        let at = |col: usize| removed[plane_index(nx, pt, chn.first_slot + k, col)];
+                        r += Vec3::new(at(0), at(1), at(2));
+                    }
+                }
+                r
+            } else {
+                let g = &by_row[c];
+                Vec3::new(g[0][i], g[1][i], g[2][i])
+            };
+            let r = r * chn.mu;
+            s_raw += r;
+            m_raw[0] += r * chn.unit.x;
+            m_raw[1] += r * chn.unit.y;
+            m_raw[2] += r * chn.unit.z;
+        }
+        (s_raw, m_raw)
+    }
+
+    /// The source rule: the medium cell's source from this direction's `share` of the
+    /// scattered light (`crate::medium`), what it absorbs added to `rf`.
+    #[inline(always)]
+    fn source_of(
+        &self,
+        share: Vec3,
+        (mat, mw, pows): (
+            lightgrid_core::Material,
+            &medium::Weights,
+            &[f32; MAX_EXPONENTS],
+        ),
+        rf: &mut RowFlux,
+    ) -> Vec3 {
+        let alb = mat.reflectance;
+        let (g, kk) = medium::cell_sums(mw, mat.pass.ln(), pows);
+        let mut j = Vec3::ZERO;
+        for k in 0..3 {
+            let (jk, absorbed) = if self.signed {
+                medium::source_signed(g, kk, share[k], alb[k])
+            } else {
+                medium::source_of(g, kk, share[k].max(0.0), alb[k])
+            };
+            j[k] = jk;
+            rf.absorbed[k] += absorbed as f64;
+        }
+        j
+    }
+
     /// [`Ctx::phase2`] for row `z` (its own function, so that profiles show it).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
@@ -263,53 +462,12 @@ impl Ctx {
         ex_row.fill(0.0);
         let row_cells = &cells[nx * z as usize..][..nx];
         let mut scratch = Phase2Scratch::take();
-        let Phase2Scratch {
-            by_row,
-            by_row_h,
-            coll,
-        } = &mut *scratch;
-        let profile = self.medium == MediumEmission::Profile;
-        let is_profile =
-            |m: &lightgrid_core::Material| profile && medium::applies(self.medium, m.pass);
         for x in 0..self.nx {
             let xi = x as usize;
             let ci = xi + nx * z as usize;
             let (i, x0) = (xi % GATHER_BLOCK, xi - xi % GATHER_BLOCK);
             if i == 0 && !scalar {
-                let b = GATHER_BLOCK.min(nx - x0);
-                if row_cells[x0..x0 + b].iter().any(is_profile) {
-                    if coll.is_empty() {
-                        *coll = vec![[[0f32; GATHER_BLOCK]; 2]; SLOTS];
-                    }
-                    // Slot by slot, so that the stores run along the block (point
-                    // by point they went to 98 lines a point).
-                    let c: [Option<&crate::profile::CellProfile>; GATHER_BLOCK] =
-                        crate::isa::array_from(
-                            #[inline(always)]
-                            |j| {
-                                (j < b && is_profile(&row_cells[x0 + j]))
-                                    .then(|| prof.get(x0 + j + nx * z as usize))
-                            },
-                        );
-                    if self.fetch_profiles() {
-                        // (The emission planes below read `emit`.)
-                        for pr in c[..b].iter().flatten() {
-                            touch(&pr.coll[..]);
-                            touch(&pr.emit[..]);
-                        }
-                    }
-                    for (slot, w) in coll.iter_mut().enumerate() {
-                        for (j, c) in c[..b].iter().enumerate() {
-                            let v = c.map_or([0.0; 2], |c| c.coll[slot]);
-                            (w[0][j], w[1][j]) = (v[0], v[1]);
-                        }
-                    }
-                    let coll: &[[[f32; GATHER_BLOCK]; 2]; SLOTS] =
-                        coll.as_slice().try_into().expect("SLOTS moments");
-                    vectorised!(self.gather_moments(z, (x0, b), removed, coll, by_row, by_row_h));
-                } else if row_cells[x0..x0 + b].iter().any(|m| m.pass < 1.0) {
-                    vectorised!(self.gather_removed(z, x0, b, removed, by_row));
-                }
+                self.gather_block((z, x0), removed, row_cells, prof, &mut scratch);
             }
             if cells[ci].pass >= 1.0 {
                 // An empty cell removes nothing, so it never holds scattered light.
@@ -318,29 +476,7 @@ impl Ctx {
             // Step 3: the flux this cell removed from every path crossing it: gathered
             // for the block of the row, or (the scalar oracle) path point by path point.
             let mat = cells[ci];
-            let mut s_raw = Vec3::ZERO;
-            let mut m_raw = [Vec3::ZERO; 3];
-            for (c, chn) in self.ch.iter().enumerate() {
-                let r = if scalar {
-                    let mut r = Vec3::ZERO;
-                    for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                        if let Some(pt) = self.col(x - dx, z - dz) {
-                            let at =
-                                |col: usize| removed[plane_index(nx, pt, chn.first_slot + k, col)];
-                            r += Vec3::new(at(0), at(1), at(2));
-                        }
-                    }
-                    r
-                } else {
-                    let g = &by_row[c];
-                    Vec3::new(g[0][i], g[1][i], g[2][i])
-                };
-                let r = r * chn.mu;
-                s_raw += r;
-                m_raw[0] += r * chn.unit.x;
-                m_raw[1] += r * chn.unit.y;
-                m_raw[2] += r * chn.unit.z;
-            }
+            let (s_raw, m_raw) = self.removed_by((x, z), i, (removed, scalar), &scratch.by_row);
             // Step 4: absorb (1 - albedo), keep albedo for scattering.
             let alb = mat.reflectance;
             rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
@@ -358,25 +494,10 @@ impl Ctx {
                 // source; this pass emits what waits for it, the other pass's waits.
                 let pr = prof.get(xi + nx * z as usize);
                 let r = if scalar {
-                    let mut r = [s_raw, Vec3::ZERO, Vec3::ZERO];
-                    for chn in self.ch.iter() {
-                        let mut t = [Vec3::ZERO; 2];
-                        for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
-                            if let Some(pt) = self.col(x - dx, z - dz) {
-                                let slot = chn.first_slot + k;
-                                let at = |col: usize| removed[plane_index(nx, pt, slot, col)];
-                                let v = Vec3::new(at(0), at(1), at(2));
-                                t[0] += v * pr.coll[slot][0];
-                                t[1] += v * pr.coll[slot][1];
-                            }
-                        }
-                        r[1] += t[0] * chn.mu;
-                        r[2] += t[1] * chn.mu;
-                    }
-                    r
+                    self.profile_removed((x, z), removed, pr, s_raw)
                 } else {
                     let v = |a: &[[f32; GATHER_BLOCK]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
-                    [s_raw, v(&by_row_h[0]), v(&by_row_h[1])]
+                    [s_raw, v(&scratch.by_row_h[0]), v(&scratch.by_row_h[1])]
                 };
                 let dj = Pending::of_coeffs(vectorised!(crate::profile::source_rgb(
                     pr,
@@ -396,18 +517,7 @@ impl Ctx {
                 hi_row[xi] = [emit[1], emit[2]];
                 emits_row[xi] = emit.iter().any(|v| *v != Vec3::ZERO);
                 if emits_row[xi] && !ex_row.is_empty() {
-                    // Phase 3's emission planes (`Planes::ex`) for this cell: per slot,
-                    // three rows of `nx` and their ring. (Indexed as `(slot · 3 +
-                    // colour) · pitch + x`, each colour of a `Vec3` looked up and every
-                    // store checked, the 147 stores were a quarter of phase 2 on the
-                    // forest.)
-                    let (e1, e2) = (emit[1].to_array(), emit[2].to_array());
-                    let w = ring_pitch(nx);
-                    for (rows, wt) in ex_row.chunks_exact_mut(3 * w).zip(&pr.emit) {
-                        for ((row, a), b) in rows.chunks_exact_mut(w).zip(e1).zip(e2) {
-                            row[RING + xi] = a * wt[0] + b * wt[1];
-                        }
-                    }
+                    write_emission_planes(ex_row, (nx, xi), (emit[1], emit[2]), pr);
                 }
                 same_row[xi] = if self.jacobi { dj } else { Pending::default() };
                 let other = other_row[xi].add(&dj);
@@ -437,53 +547,19 @@ impl Ctx {
                 // light as the cell's source, which its path segments emit in phase 3
                 // (`crate::medium`).
                 let share = own.s * 0.5 + own.m[1] * half_beta;
-                let (g, kk) = medium::cell_sums(mw, mat.pass.ln(), &pows[ci]);
-                let mut j = Vec3::ZERO;
-                for k in 0..3 {
-                    let (jk, absorbed) = if self.signed {
-                        medium::source_signed(g, kk, share[k], alb[k])
-                    } else {
-                        medium::source_of(g, kk, share[k].max(0.0), alb[k])
-                    };
-                    j[k] = jk;
-                    rf.absorbed[k] += absorbed as f64;
-                }
+                let j = self.source_of(share, (mat, mw, &pows[ci]), &mut rf);
                 src_row[xi] = j;
                 emits_row[xi] = j != Vec3::ZERO;
                 own = Pending::default();
             } else if own.s != Vec3::ZERO {
-                let cw = em.lanes(lanes, self.ch, &t_after[ci]);
-                // Per colour and channel: what leaves the level, what is emitted.
-                let mut leave = [[0f32; LANES]; 3];
-                let mut emit = [[0f32; LANES]; 3];
-                for _ in 0..LOCAL_ROUNDS {
-                    if own.s == Vec3::ZERO {
-                        break;
-                    }
-                    let mut lost_s = Vec3::ZERO;
-                    let mut lost_m = [Vec3::ZERO; 3];
-                    for k in 0..3 {
-                        let (sk, mk) = (own.s[k], [own.m[0][k], own.m[1][k], own.m[2][k]]);
-                        let lost =
-                            cw.round(lanes, sk, mk, (&mut leave[k], &mut emit[k]), self.signed);
-                        lost_s[k] = lanes_sum(&lost);
-                        for a in 0..3 {
-                            lost_m[a][k] = lanes_dot(&lost, &lanes.u[a]);
-                        }
-                    }
-                    rf.absorbed += (lost_s * (Vec3::ONE - alb)).as_dvec3();
-                    own = Pending {
-                        s: lost_s * alb,
-                        m: crate::isa::array_map(lost_m, |v| v * alb),
-                    };
-                    other = other.add(&own);
-                }
-                for (c, chn) in self.ch.iter().enumerate() {
-                    let lv = Vec3::new(leave[0][c], leave[1][c], leave[2][c]);
-                    row_add(cur_row, p, xi, c, lv * lanes.length[c]);
-                    let ev = Vec3::new(emit[0][c], emit[1][c], emit[2][c]);
-                    g_row[xi].add(chn.bin, chn.unit, ev * lanes.half_length[c]);
-                }
+                own = self.local_rounds(
+                    xi,
+                    (&em, lanes, alb, &t_after[ci]),
+                    own,
+                    &mut other,
+                    (cur_row, p, g_row),
+                    &mut rf,
+                );
             }
             let recycled = own;
             same_row[xi] = if jacobi { new } else { recycled };
@@ -509,6 +585,27 @@ impl Ctx {
             fill_rings(ex_row, nx, self.periodic);
         }
         rf
+    }
+}
+
+/// Phase 3's emission planes (`Planes::ex`) for the profile cell of column `xi` of a
+/// row of `nx` (`e`: its source's `P_1`, `P_2` coefficients): per slot, three rows of
+/// `nx` and their ring. (Indexed as `(slot · 3 + colour) · pitch + x`, each colour of a
+/// `Vec3` looked up and every store checked, the 147 stores were a quarter of phase 2
+/// on the forest.)
+#[inline(always)]
+fn write_emission_planes(
+    ex_row: &mut [f32],
+    (nx, xi): (usize, usize),
+    e: (Vec3, Vec3),
+    pr: &crate::profile::CellProfile,
+) {
+    let (e1, e2) = (e.0.to_array(), e.1.to_array());
+    let w = ring_pitch(nx);
+    for (rows, wt) in ex_row.chunks_exact_mut(3 * w).zip(&pr.emit) {
+        for ((row, a), b) in rows.chunks_exact_mut(w).zip(e1).zip(e2) {
+            row[RING + xi] = a * wt[0] + b * wt[1];
+        }
     }
 }
 
