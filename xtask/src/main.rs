@@ -220,7 +220,7 @@ fn exact(root: &std::path::Path, max_passes: u32) -> ExitCode {
     print!("{text}");
     let out = root.join("target/bench");
     let _ = std::fs::create_dir_all(&out);
-    let written = std::fs::write(out.join("exact.txt"), &text)
+    let written = lightgrid_core::file::write_atomic(&out.join("exact.txt"), text.as_bytes())
         .with_context(|| format!("writing {}", out.join("exact.txt").display()))
         .and_then(|()| convergence::plot(&rows, &out.join("convergence.png")));
     match written {
@@ -270,9 +270,13 @@ fn fuzz(root: &std::path::Path, inputs: u64, only: &[String], seed: u64) -> Exit
         text.push('\n');
     }
     let _ = std::fs::create_dir_all(&out);
-    let _ = std::fs::write(out.join("fuzz.txt"), &text);
-    if let Ok(j) = serde_json::to_string_pretty(&reports) {
-        let _ = std::fs::write(out.join("fuzz.json"), j);
+    // A report is a by-product: a failure to write it is said, not fatal.
+    let json = serde_json::to_string_pretty(&reports).unwrap_or_default();
+    if let Err(e) = lightgrid_core::file::write_all_atomic(&[
+        (out.join("fuzz.txt"), text.as_bytes()),
+        (out.join("fuzz.json"), json.as_bytes()),
+    ]) {
+        eprintln!("xtask fuzz: the report was not written: {e}");
     }
     println!("wrote {}", out.join("fuzz.txt").display());
     if reports.iter().all(|r| r.clean()) {

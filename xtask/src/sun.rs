@@ -138,7 +138,7 @@ pub fn run(root: &Path, assets: &Path, n: u32, paths: u64) -> Result<String> {
     }
     let out = root.join("target/bench");
     std::fs::create_dir_all(&out)?;
-    std::fs::write(out.join("sun.txt"), &text)?;
+    lightgrid_core::file::write_atomic(&out.join("sun.txt"), text.as_bytes())?;
     plot(&rows, &out.join("sun.png"))?;
     Ok(text)
 }

@@ -552,11 +552,12 @@ fn mc_rows(s: &BenchScene, reference: &LightGrid, cfg: &BenchConfig) -> Result<V
 fn write_report(report: &Report, out: &Path) -> Result<()> {
     let text = table(report);
     print!("{text}");
-    std::fs::write(out.join("bench.txt"), &text)?;
-    std::fs::write(
-        out.join("bench.json"),
-        serde_json::to_string_pretty(report)?,
-    )?;
+    // The table and its JSON as one set, each whole or not at all.
+    let json = serde_json::to_string_pretty(report)?;
+    lightgrid_core::file::write_all_atomic(&[
+        (out.join("bench.txt"), text.as_bytes()),
+        (out.join("bench.json"), json.as_bytes()),
+    ])?;
     plot::error_vs_time(report, &out.join("bench.png"))?;
     println!(
         "wrote {}, bench.json and bench.png",
