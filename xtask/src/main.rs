@@ -271,14 +271,19 @@ fn fuzz(root: &std::path::Path, inputs: u64, only: &[String], seed: u64) -> Exit
     }
     let _ = std::fs::create_dir_all(&out);
     // A report is a by-product: a failure to write it is said, not fatal.
-    let json = serde_json::to_string_pretty(&reports).unwrap_or_default();
-    if let Err(e) = lightgrid_core::file::write_all_atomic(&[
-        (out.join("fuzz.txt"), text.as_bytes()),
-        (out.join("fuzz.json"), json.as_bytes()),
-    ]) {
-        eprintln!("xtask fuzz: the report was not written: {e}");
+    let written = serde_json::to_string_pretty(&reports)
+        .map_err(|e| e.to_string())
+        .and_then(|json| {
+            lightgrid_core::file::write_all_atomic(&[
+                (out.join("fuzz.txt"), text.as_bytes()),
+                (out.join("fuzz.json"), json.as_bytes()),
+            ])
+            .map_err(|e| e.to_string())
+        });
+    match written {
+        Ok(()) => println!("wrote {}", out.join("fuzz.txt").display()),
+        Err(e) => eprintln!("xtask fuzz: the report was not written: {e}"),
     }
-    println!("wrote {}", out.join("fuzz.txt").display());
     if reports.iter().all(|r| r.clean()) {
         ExitCode::SUCCESS
     } else {

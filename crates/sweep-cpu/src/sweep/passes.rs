@@ -36,7 +36,7 @@ pub(crate) fn run_with<S: Sink>(
     g: Vec<S>,
 ) -> (Vec<S>, bool, EnergyBalance, SweepStats) {
     let (work, source) = (run.work.take(), run.source);
-    let mut sweep = Sweep::new(run, work, g);
+    let mut sweep = PassLoop::new(run, work, g);
     if let Some(src) = source {
         sweep.book_source(src);
     }
@@ -47,7 +47,7 @@ pub(crate) fn run_with<S: Sink>(
 }
 
 /// One sweep's state from pass to pass ([`run_with`]).
-struct Sweep<'r, S> {
+struct PassLoop<'r, S> {
     material: &'r MaterialGrid,
     boundary: &'r Boundary,
     options: &'r SweepOptions,
@@ -106,7 +106,7 @@ struct Accel {
 struct Pass<'r> {
     up: bool,
     /// The run that carries the deferred upward light through the levels above all
-    /// material ([`Sweep::defer`]).
+    /// material ([`PassLoop::defer`]).
     carry: bool,
     first: bool,
     /// The last plain pass resolves each level as it ends (clamping light of either
@@ -128,7 +128,7 @@ struct Pass<'r> {
     prev_columns_wrapped: bool,
 }
 
-impl<'r, S: Sink> Sweep<'r, S> {
+impl<'r, S: Sink> PassLoop<'r, S> {
     fn new(run: &'r mut Run<'_>, work: Option<Work>, g: Vec<S>) -> Self {
         let (material, options) = (run.material, run.options);
         let desc = *material.desc();
