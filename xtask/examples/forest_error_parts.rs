@@ -3,7 +3,7 @@
 //! sun alone, and both (`sky_and_sun`), on the same forest.
 //! `cargo run --release -p xtask --example forest_error_parts -- [n] [paths]`.
 use lightgrid_core::{BinLight, Boundary, SideBoundary, SweepOptions, glam::Vec3};
-use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_measure::reference::{ReferenceOptions, trace};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -122,7 +122,7 @@ fn main() -> anyhow::Result<()> {
             o.smoothing = smoothing;
             o.medium = rule;
             let sw = lightgrid_sweep_cpu::run(&s.material, b, &o)?;
-            let e = lightgrid_sweep_cpu::scenes::compare(
+            let e = lightgrid_measure::scenes::compare(
                 sw.output.bins.as_ref().expect("bins"),
                 &r.light,
                 &s.material,

@@ -6,7 +6,7 @@
 //! `cargo run --release -p xtask --example smoothing -- [n] [paths] [passes]`
 //! (defaults 16, 4 000 000, 4; about a minute at 24³ and 8 M paths on two cores).
 use lightgrid_core::{SweepOptions, Sweeper};
-use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
+use lightgrid_measure::reference::{ReferenceOptions, trace};
 
 /// Smoothing weights compared.
 const WEIGHTS: [f32; 5] = [0.0, 0.25, 0.35, 0.5, 0.6];
@@ -43,7 +43,7 @@ fn main() -> anyhow::Result<()> {
                 .bins
                 .as_ref()
                 .ok_or_else(|| anyhow::anyhow!("no bins"))?;
-            let e = lightgrid_sweep_cpu::scenes::compare(bins, &r.light, &s.material);
+            let e = lightgrid_measure::scenes::compare(bins, &r.light, &s.material);
             line += &format!("  {w}: {:.4}", e.average);
         }
         println!("{line}");

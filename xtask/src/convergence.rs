@@ -7,7 +7,7 @@ use std::path::Path;
 use crate::bench::plot::err;
 use anyhow::Result;
 use lightgrid_core::{Acceleration, SweepOptions};
-use lightgrid_sweep_cpu::exact::{self, Case};
+use lightgrid_measure::exact::{self, Case};
 use plotters::prelude::*;
 
 /// Total optical depths of the slabs (cells of optical depth 1).

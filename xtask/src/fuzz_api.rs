@@ -272,11 +272,10 @@ pub fn run_api(b: &[u8]) -> bool {
     // The exact problems, kept short.
     let (w, pass, depth) = (r.f32(), r.f32(), r.f32());
     if depth.abs() < 8.0
-        && let Ok(c) = lightgrid_sweep_cpu::exact::half_space(w, pass, depth, r.u32() % 8)
+        && let Ok(c) = lightgrid_measure::exact::half_space(w, pass, depth, r.u32() % 8)
     {
         assert!(c.swept.is_finite(), "half-space");
     }
-    let _ =
-        lightgrid_sweep_cpu::exact::furnace_material(r.u32(), 1).map(|m| m.desc().point_count());
+    let _ = lightgrid_measure::exact::furnace_material(r.u32(), 1).map(|m| m.desc().point_count());
     true
 }

@@ -7,7 +7,7 @@
 //!   cores; `--full` uses larger grids and a longer reference.
 //! * `exact [--max-passes N]`: the sweep against problems with exact answers (white
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
-//!   tolerance against optical depth and albedo (`lightgrid_sweep_cpu::exact`); writes
+//!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
 //! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--path forest|edge]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
@@ -194,7 +194,7 @@ fn main() -> ExitCode {
 }
 
 fn exact(root: &std::path::Path, max_passes: u32) -> ExitCode {
-    use lightgrid_sweep_cpu::exact;
+    use lightgrid_measure::exact;
     let measured = exact::measure(max_passes)
         .map_err(anyhow::Error::from)
         .and_then(|c| {

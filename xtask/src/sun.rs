@@ -1,6 +1,6 @@
 //! `cargo xtask sun`: the sun kept apart (issue 14) against the sun in the bins, on the
 //! bench forest and under a single tree, both against the Monte Carlo reference with a
-//! collimated sun along its exact direction (`lightgrid_sweep_cpu::sun_measure`). Writes
+//! collimated sun along its exact direction (`lightgrid_measure::sun_measure`). Writes
 //! `target/bench/sun.txt` and `sun.png` (error against sun elevation).
 
 use std::path::Path;
@@ -14,10 +14,10 @@ use lightgrid_material_voxelizer::compose::{
 };
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use lightgrid_sweep_cpu::sky::Sun;
-use lightgrid_sweep_cpu::sun_measure::{
+use lightgrid_measure::sun_measure::{
     SunErrors, angle_error, exact_shadow_azimuth, ground_light, shadow_azimuth, sun_errors,
 };
+use lightgrid_sweep_cpu::sky::Sun;
 use plotters::prelude::*;
 
 /// Sun elevations measured (degrees).

@@ -49,9 +49,13 @@ fn dependencies() -> BTreeMap<String, Vec<Dep>> {
 /// The crates in layer order, each with the workspace crates it may depend on (any kind
 /// of dependency); `None`: any crate below it (the applications at the top). A new crate
 /// or a new edge is a decision: add it here, and to ARCHITECTURE.md.
-const ALLOWED: [(&str, Option<&[&str]>); 13] = [
+const ALLOWED: [(&str, Option<&[&str]>); 14] = [
     ("lightgrid-core", Some(&[])),
     ("lightgrid-sweep-cpu", Some(&["lightgrid-core"])),
+    (
+        "lightgrid-measure",
+        Some(&["lightgrid-core", "lightgrid-sweep-cpu"]),
+    ),
     ("lightgrid-gpu", Some(&["lightgrid-core"])),
     (
         "lightgrid-sweep-gpu",
@@ -88,7 +92,11 @@ const ALLOWED: [(&str, Option<&[&str]>); 13] = [
 
 /// Edges allowed only as dev-dependencies (tests, benches and examples), never in the
 /// library: terrain-lod's demo forest is voxelized and swept by its tests only.
-const DEV_ONLY: [(&str, &[&str]); 2] = [
+const DEV_ONLY: [(&str, &[&str]); 4] = [
+    // The GPU sweep's tests and the export's tests measure against the canonical scenes
+    // and the exact problems.
+    ("lightgrid-sweep-gpu", &["lightgrid-measure"]),
+    ("lightgrid-export", &["lightgrid-measure"]),
     (
         "lightgrid-terrain-lod",
         &["lightgrid-material-voxelizer", "lightgrid-sweep-cpu"],
@@ -126,6 +134,7 @@ fn every_crate_exists() {
         "lightgrid-material-voxelizer",
         "lightgrid-light-volumes",
         "lightgrid-sweep-cpu",
+        "lightgrid-measure",
         "lightgrid-sweep-gpu",
         "lightgrid-terrain-lod",
         "lightgrid-render",

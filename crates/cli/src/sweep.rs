@@ -10,8 +10,8 @@ use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
     BinLight, Boundary, GridFile, Outputs, SideBoundary, SweepOptions, TopBoundary,
 };
-use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
-use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_measure::reference::{ReferenceOptions, trace};
+use lightgrid_measure::scenes::Scene;
 use lightgrid_sweep_cpu::{Sun, sky};
 
 #[derive(Subcommand)]
@@ -366,7 +366,7 @@ pub(crate) fn run(command: Command) -> Result<()> {
                     _ => bail!("--seconds must be a positive number of seconds, got {s}"),
                 },
             };
-            if !(1..=lightgrid_sweep_cpu::reference::MAX_PATHS).contains(&paths) {
+            if !(1..=lightgrid_measure::reference::MAX_PATHS).contains(&paths) {
                 bail!("--paths must be in 1..=2^40 (1099511627776), got {paths}");
             }
             let bar = indicatif::ProgressBar::new(paths);

@@ -374,7 +374,7 @@ fn indirect_light_is_the_ground_bounce_alone() {
     o.max_passes = 64;
     let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     for (levels, albedo) in [(1, 0.3f32), (1, 0.9), (0, 0.3)] {
-        let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo).unwrap();
+        let m = lightgrid_measure::exact::ground_material(levels, albedo).unwrap();
         let full = lightgrid_export::indirect_light(&mut cpu, &m, &b, None, &o).unwrap();
         let ind = lightgrid_export::indirect_light(&mut cpu, &m, &b, Some(&b), &o).unwrap();
         let d = m.desc();

@@ -263,7 +263,7 @@ pub enum Acceleration {
 
 /// How a medium cell (`0 < p < 1`) sends on the light it scatters (step 5 of the
 /// sweep's specification, the `sweep-cpu` crate docs). Measured against exact answers in
-/// `lightgrid_sweep_cpu::exact` (`cargo xtask exact`).
+/// `lightgrid_measure::exact` (`cargo xtask exact`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub enum MediumEmission {
     /// The scattered light is a flat, isotropic source inside the cell, and every path
@@ -297,7 +297,7 @@ pub enum MediumEmission {
     /// balance with its own re-collisions; each pass's segments emit what that source
     /// sends along them. Still exact in a white furnace and linear in the light; on a
     /// laterally uniform half-space it is within the channels' own angular error at
-    /// every cell depth (model: `cargo run --release -p lightgrid-sweep-cpu --example
+    /// every cell depth (model: `cargo run --release -p lightgrid-measure --example
     /// profile_slab`); Chandrasekhar's half-space albedo within 2 % at every albedo and
     /// cell depth from 0.05 to 3. Both sweepers run it, with diffusion acceleration when
     /// asked. The default: a 64³ canopy sweeps at the flat rule's speed; on the CPU the

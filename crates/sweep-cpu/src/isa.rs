@@ -5,7 +5,7 @@
 //! floats, every x86-64 CPU since Haswell (2013) and Zen (2017)), and each call picks the
 //! widest one the CPU has. The results are the same bit for bit on either path: Rust
 //! never fuses a multiply and an add, nor reorders float sums, by itself, so wider
-//! vectors run the same operations in the same order (`tests/dispatch.rs` holds it).
+//! vectors run the same operations in the same order (`measure/tests/dispatch.rs` holds it).
 //!
 //! A kernel takes part by being `#[inline(always)]` and called through
 //! `vectorised!` (this module's crate-private macro): the closure it is called from is inlined into a

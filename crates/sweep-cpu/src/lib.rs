@@ -1,8 +1,10 @@
 //! # sweep-cpu
 //!
-//! The reference light-flow sweep of lightgrid, multithreaded with rayon, and
-//! ([`mod@reference`]) the Monte Carlo tracer it is measured against. **This page is the
-//! specification of the sweep**: `sweep-gpu` implements exactly these formulas.
+//! The reference light-flow sweep of lightgrid, multithreaded with rayon, its skies and
+//! its sun. **This page is the specification of the sweep**: `sweep-gpu` implements
+//! exactly these formulas. What measures it (the Monte Carlo reference, the canonical
+//! scenes, the exact problems, the sun's measures) is the crate `lightgrid-measure`,
+//! whose tests, examples and benchmark hold the figures below.
 //!
 //! ## Example
 //!
@@ -45,8 +47,9 @@
 //! * [`sky`]: uniform and analytic clear skies, EXR environment maps, the sun disc, all
 //!   integrated over the bins; [`sweep_responses`] keeps sun and sky apart so their
 //!   colours change by a multiply ([`Responses::combine`]).
-//! * [`mod@reference`]: the Monte Carlo reference; [`scenes`]: canonical scenes and error
-//!   measures.
+//! * [`quadrature`]: Gauss–Legendre nodes for the medium rule's tables.
+//! * In `lightgrid-measure`: `reference` (the Monte Carlo reference), `scenes` (canonical
+//!   scenes and error measures), `exact` (problems with exact answers), `sun_measure`.
 //! * From the shell, the `lightgrid` command (crate `lightgrid`):
 //!   `lightgrid scene canopy -o m.lgrid`,
 //!   `lightgrid sweep m.lgrid -o light.lgrid --sky clear --sun 3000 --sun-elevation 40`
@@ -72,8 +75,8 @@
 //! | 16 × 64 × 16, 26 bins, 1 / 4 passes | 0.87 / 3.08 ms (18.9 / 5.3 M/s) | | |
 //! | bench forest 16³, 4 passes (two threads / one) | 1.9–2.0 / 3.3–3.5 ms | | |
 //!
-//! Commands: `cargo bench -p lightgrid-sweep-cpu` (criterion: the canopy rows),
-//! `cargo run --release -p lightgrid-sweep-cpu --example throughput` (quick),
+//! Commands: `cargo bench -p lightgrid-measure` (criterion: the canopy rows),
+//! `cargo run --release -p lightgrid-measure --example throughput` (quick),
 //! `cargo run --release -p xtask --example forest_profile -- 16 300` (the forest;
 //! `RAYON_NUM_THREADS=1` for one thread), and `cargo xtask bench` for time against
 //! error (the forest's headline reaches 0.0160 in about 2 ms, some 400× faster than
@@ -83,7 +86,7 @@
 //! **Vector instructions.** The row kernels are compiled for the baseline and for
 //! x86-64-v3 and pick the widest the CPU has at run time ([`isa`];
 //! `LIGHTGRID_SIMD=baseline` keeps them on SSE2), with the same results bit for bit
-//! (`tests/dispatch.rs`). Against a whole build for x86-64-v3 of the code before the
+//! (`measure/tests/dispatch.rs`). Against a whole build for x86-64-v3 of the code before the
 //! dispatch (the old `-C target-cpu=x86-64-v3`), the forest 16³ takes 1.05–1.06× its
 //! time on one thread and on two (medians of per-round ratios over 10–20 alternating
 //! rounds): it runs 7 % more instructions (callgrind, 20 sweeps: 1.66 G against 1.55 G)
@@ -176,7 +179,7 @@
 //!    exact in any medium. (The older rule, `MediumEmission::Escape`: the cell sends
 //!    into channel `c` the flux `F_c = σ_c ω_b / 4π · (A S - B u_b · M) · T_after` with
 //!    `(A, B)` = [`sweep::medium_emission`], and steps 6–7 as for surfaces; it fails the
-//!    furnace, measured in [`exact`], and is closer on thick dark cells. The seed's
+//!    furnace, measured in `lightgrid_measure::exact`, and is closer on thick dark cells. The seed's
 //!    `(A, B) = ((1 + p)/2, (1 − p)/2)` was removed: worse everywhere measured.) A
 //!    cell with `p = 0`
 //!    is opaque: its faces that border non-opaque cells or the outside through a side are
@@ -256,9 +259,9 @@
 //!
 //! ## Accuracy against the Monte Carlo reference
 //!
-//! The five canonical scenes of [`scenes`] on 12³ cells, multi-bounce defaults with
+//! The five canonical scenes of `lightgrid_measure::scenes` on 12³ cells, multi-bounce defaults with
 //! tolerance 1e-4, against 600 000 reference paths (seed 1); relative RMSE (see
-//! [`scenes::Errors`]). The reference's own relative standard error is listed: the
+//! `lightgrid_measure::scenes::Errors`). The reference's own relative standard error is listed: the
 //! empty scene's error is that noise alone (the sweep is exact there). The test
 //! `sweep_against_reference_on_canonical_scenes` holds each figure within 10 %.
 //!
@@ -283,7 +286,7 @@
 //! was 0.0394 / 0.0490 with the centre's light. The older rules
 //! (`SweepOptions::medium = MediumEmission::Escape`; the seed's, measured before it was
 //! removed with the centre's light) are worse on every scene. Time (fastest of three,
-//! 2-core VM, `examples/canonical.rs`, before phase 3's profile emission had its row
+//! 2-core VM, `measure/examples/canonical.rs`, before phase 3's profile emission had its row
 //! kernel): the fog 43 ms against 20 ms with the flat source and 21 ms with the escape
 //! rule, the canopies 5.5 against 3.6 ms, the dense block 3.9 against 4.0 ms (fewer
 //! passes); the source rules' third phase costs time on levels with media, and the
@@ -321,15 +324,15 @@
 //! azimuth (to 0.1°); the sun in the bins moves by −0.002 to +0.0013.
 //!
 //! Opaque surfaces emit with the exact Lambertian share of each bin (step 5) since the
-//! exact-answer tests (`tests/exact.rs`: an infinite Lambertian ground reflects its
+//! exact-answer tests (`measure/tests/exact.rs`: an infinite Lambertian ground reflects its
 //! albedo to 1e-3, at any number of ground levels, sun angle or sky).
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example canonical -- 16 1000000` prints the same
+//! `cargo run --release -p lightgrid-measure --example canonical -- 16 1000000` prints the same
 //! comparison with timings.
 //!
 //! ## Against exact answers
 //!
-//! [`exact`] holds problems whose answers share none of the sweep's assumptions, and
+//! `lightgrid_measure::exact` holds problems whose answers share none of the sweep's assumptions, and
 //! `cargo xtask exact` measures them (2-core VM, release):
 //!
 //! | problem | exact | sweep | escape rule, step cosines (before) |
@@ -342,7 +345,7 @@
 //! | half-space albedo, w 0.9, same cells | 0.4149 | +0.2 / +0.2 / +0.5 % | +3.1 / +5.1 / −1.5 % |
 //! | half-space albedo, w 0.99, same cells | 0.7527 | −0.1 / −0.1 / −0.0 % | +1.0 / +1.9 / +0.2 % |
 //! | the same four albedos with the flat source ([`MediumEmission::Source`](lightgrid_core::MediumEmission)), same cells | | +1.6 / −1.4 / −23 %, +1.1 / −0.4 / −15 %, +0.2 / +0.3 / +0.4 %, −0.1 / +0.1 / +2.5 % | |
-//! | half-space under a uniform sky (diffuse albedo), w 0.1 / 0.5 / 0.9 / 0.99, cells of depth 3 (`examples/hs_diffuse.rs`) | 0.0087–0.73 | −0.1 / +1.4 / +1.6 / +0.6 %; flat source −47 / −39 / −18 / −5.4 % | |
+//! | half-space under a uniform sky (diffuse albedo), w 0.1 / 0.5 / 0.9 / 0.99, cells of depth 3 (`measure/examples/hs_diffuse.rs`) | 0.0087–0.73 | −0.1 / +1.4 / +1.6 / +0.6 %; flat source −47 / −39 / −18 / −5.4 % | |
 //! | the same, cells of depth 0.05 (the channels' angular error under diffuse light) | | +4.5 / +3.5 / +1.7 / +0.6 %; flat source +4.4 / +3.5 / +1.7 / +0.6 % | |
 //! | passes to tolerance 1e-4, slab of optical depth 100, w 0.5 / 0.9 / 0.99 / 0.999 | | 8 / 34 / 275 / over 1024 (flat source: 8 / 33 / 264 / over 1024) | 8 / 38 / 326 / over 400 |
 //! | the same, accelerated ([`accel`]) | | 8 / 30 / 30 / 30 (flat source: 8 / 30 / 26 / 24) | |
@@ -354,7 +357,7 @@
 //! cell's light into its own points' paths alone, put too much into the long horizontal
 //! channels and could not balance a horizontal path through several cells). The
 //! half-space's remaining error in thin cells is the angular discretisation (26 bins:
-//! `examples/do1d.rs` solves the same slab with a fine mesh and the channels as
+//! `measure/examples/do1d.rs` solves the same slab with a fine mesh and the channels as
 //! ordinates: +1.65 / +1.07 / +0.20 / −0.06 % with the bins' mean cosines, +6.9 / +5.5 /
 //! +2.7 / +0.9 % with the step vectors' cosines, which is where the old thin-cell error
 //! came from). Where the rules stand:
@@ -364,13 +367,13 @@
 //!   collisions' height moments, each batch of scattered light an isotropic source
 //!   solving the cell's 3 × 3 balance with its own re-collisions). The half-space is
 //!   within 1.7 % at every albedo and every cell depth from 0.05 to 3: the channels' own
-//!   angular error (`cargo run --release -p lightgrid-sweep-cpu --example hs_depths`; the 1-D model
-//!   `examples/profile_slab.rs` predicts the same figures to 0.01 %). The white furnace
+//!   angular error (`cargo run --release -p lightgrid-measure --example hs_depths`; the 1-D model
+//!   `measure/examples/profile_slab.rs` predicts the same figures to 0.01 %). The white furnace
 //!   stays exact and flux is conserved; the light is linear except where the quadratic
 //!   dips below 0 and the output is clamped (26 of 319 488 values of the bench forest,
 //!   none on the canonical scenes), and it is not a positive scheme: darkening one cell
 //!   can brighten another value by about 1e-6 of the grid's brightest light
-//!   (`tests/sweep.rs`, monotonicity; the flat rule is exactly monotone). Measured
+//!   (`measure/tests/sweep.rs`, monotonicity; the flat rule is exactly monotone). Measured
 //!   against the flat source: canonical scenes (table above) canopy 0.0112 / 0.0144
 //!   against 0.0128 / 0.0151, dense block 0.0374 / 0.0454 against 0.0365 / 0.0451 (its
 //!   error is not the vertical profile), fog the same; the bench forest at 4 passes
@@ -406,7 +409,7 @@
 //!   −5 % at depth 3). The forest of `cargo xtask bench` has such cells: its error is
 //!   0.0211 with this rule (0.0180 since points hold their cell's mean), 0.0175 with
 //!   the escape rule (the centre's light). Where the light goes missing
-//!   (`examples/do1d.rs`, second table, a 1D slab): at depth 3 a flat source is −48 /
+//!   (`measure/examples/do1d.rs`, second table, a 1D slab): at depth 3 a flat source is −48 /
 //!   −41 / −23 / −7.5 % (w 0.1 / 0.5 / 0.9 / 0.99); with the *beam's* first collisions
 //!   emitted from their exact profile, −0.5 / −8.2 / −8.8 / −3.0 %. Tried in this
 //!   sweep, not kept yet: the cell source's first collisions emitted from their
@@ -431,15 +434,12 @@
 //! Periodic boundaries have no edge.
 
 pub mod accel;
-pub mod exact;
 pub mod isa;
 pub mod medium;
 pub mod profile;
-pub mod reference;
-pub mod scenes;
+pub mod quadrature;
 pub mod sky;
 pub mod sun;
-pub mod sun_measure;
 pub mod sweep;
 
 pub use lightgrid_core::CellSource;
@@ -592,10 +592,23 @@ pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -
 /// ```
 /// use lightgrid_core::{BinLight, Boundary, Sweeper, SweepOptions};
 /// use lightgrid_core::glam::Vec3;
-/// use lightgrid_sweep_cpu::{CpuSweeper, scenes::Scene};
+/// use lightgrid_core::glam::UVec3;
+/// use lightgrid_core::{GridDesc, Material, MaterialGrid};
+/// use lightgrid_sweep_cpu::CpuSweeper;
 ///
 /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-/// let (material, boundary) = Scene::Canopy.build(16);
+/// // Foliage over a ground level, under a uniform sky.
+/// let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(16))?;
+/// let leaf = Material { reflectance: Vec3::new(0.1, 0.4, 0.1), pass: 0.6 };
+/// let cells = (0..desc.point_count())
+///     .map(|i| match desc.coords(i).unwrap().y {
+///         0 => Material::opaque(Vec3::splat(0.3)),
+///         6..=9 => leaf,
+///         _ => Material::EMPTY,
+///     })
+///     .collect();
+/// let material = MaterialGrid::new(desc, cells)?;
+/// let boundary = Boundary::open_sky(BinLight::uniform(Vec3::ONE).split_vertical().0);
 /// let mut sweeper = CpuSweeper::new();
 /// let options = SweepOptions::multi_bounce();
 /// let first = sweeper.sweep(&material, &boundary, &options)?;

@@ -40,7 +40,7 @@
 //!
 //! What it leaves out: within each pass the source is still flat over the cell's
 //! height. In thick dark cells (optical depth 3, albedo ≤ 0.5) Chandrasekhar's
-//! half-space albedo comes out 15–23 % low (the crate docs' table; `lightgrid_sweep_cpu::exact`).
+//! half-space albedo comes out 15–23 % low (the crate docs' table; `lightgrid_measure::exact`).
 //! The option [`MediumEmission::Profile`] ([`crate::profile`]) makes each cell's source
 //! a quadratic in height instead, and is within 2 % there.
 

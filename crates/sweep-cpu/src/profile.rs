@@ -19,7 +19,7 @@
 //! With a flat source, Chandrasekhar's half-space albedo comes out 15–23 % low in cells
 //! of optical depth 3 and albedo ≤ 0.5: a beam entering a thick cell collides near the
 //! face it entered by, and a flat source sends too little of that back out. The 1-D
-//! study `cargo run --release -p lightgrid-sweep-cpu --example do1d` solves the half-space with
+//! study `cargo run --release -p lightgrid-measure --example do1d` solves the half-space with
 //! the sweep's own channel cosines as ordinates and the cell's whole source expanded in
 //! Legendre polynomials of height up to order 0, 1 or 2 (each coefficient the cell's
 //! moment of its collisions, so the scheme stays **linear in the light** and exact in a
@@ -75,7 +75,7 @@
 //! ## How the sweep runs it
 //!
 //! Solving each pass's half separately (its own self-collisions only) was measured
-//! worse, up to +3.0 % (`examples/profile_slab.rs`, "per pass"): the source must be
+//! worse, up to +3.0 % (`measure/examples/profile_slab.rs`, "per pass"): the source must be
 //! isotropic. So each batch of collisions a cell tallies (phase 2's, and phase 3's from
 //! its level-mates) is solved at once over **both** passes' segments
 //! ([`CellProfile::source`], `O` and `K` of the full sphere): the pass that found it
@@ -226,7 +226,7 @@ impl Segment {
 
 fn gauss_nodes() -> &'static [(f64, f64)] {
     static Q: std::sync::OnceLock<Vec<(f64, f64)>> = std::sync::OnceLock::new();
-    Q.get_or_init(|| crate::exact::gauss_legendre_01(SELF_POINTS))
+    Q.get_or_init(|| crate::quadrature::gauss_legendre_01(SELF_POINTS))
 }
 
 /// The segments of a pass through one cell of optical depth `tau` (per level), each

@@ -15,12 +15,12 @@
 //!   crosses it, times its own cell's and the upper cell's pass-through over the half
 //!   steps between. Exact for media uniform along each level; it blurs shadows by the
 //!   bilinear read (measured against the march in the tests and in
-//!   `cargo run --release -p lightgrid-sweep-cpu --example sun`).
+//!   `cargo run --release -p lightgrid-measure --example sun`).
 //!
 //! Both return one scalar per point in grid order; a sun at or below the horizon gives
 //! zero everywhere (no direct sun).
 //!
-//! Measured (`cargo run --release -p lightgrid-sweep-cpu --example sun`, 64³, 2-core VM): the
+//! Measured (`cargo run --release -p lightgrid-measure --example sun`, 64³, 2-core VM): the
 //! march takes 94–118 ms, the sheared form 8–23 ms. The sheared form's mean absolute
 //! error is 0.003–0.011 over all points, but in half-shadow (0.05 < T < 0.95 by the
 //! march) it is 0.015–0.064 on the canopy and 0.06–0.61 beside the dense block, worst
@@ -31,7 +31,7 @@
 //! **The split against the sun in the bins**, both against the Monte Carlo reference
 //! with a collimated sun along its exact direction (`reference::trace_with_sun`, its
 //! uncollided light kept apart), sun light only, azimuth 20° (between bins), 16³ cells,
-//! 2 M reference paths (`cargo run --release -p lightgrid-sweep-cpu --example sun_split`; medium
+//! 2 M reference paths (`cargo run --release -p lightgrid-measure --example sun_split`; medium
 //! emission by a slab's escape, issue 13): relative RMSE of average light / of
 //! irradiance on the six axes.
 //!

@@ -4,7 +4,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lightgrid_core::SweepOptions;
-use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_measure::scenes::Scene;
 use lightgrid_sweep_gpu::GpuSweeper;
 
 fn bench(c: &mut Criterion) {

@@ -6,7 +6,7 @@
 //!
 //! ```no_run
 //! use lightgrid_core::{Sweeper, SweepOptions};
-//! use lightgrid_sweep_cpu::scenes::Scene;
+//! use lightgrid_measure::scenes::Scene;
 //! use lightgrid_sweep_gpu::GpuSweeper;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -52,7 +52,7 @@ fn close(cpu: &SunTransmittance, gpu: &SunTransmittance) -> Result<(), String> {
 #[test]
 fn canopy_at_several_suns_matches_the_cpu() {
     let Some(gpu) = march() else { return };
-    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(24);
+    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(24);
     for to_sun in [
         Vec3::Y,
         Vec3::new(0.766, 0.643, 0.0),

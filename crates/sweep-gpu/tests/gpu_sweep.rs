@@ -50,7 +50,7 @@ fn lumpy_sky() -> BinLight {
 #[test]
 fn canonical_scenes_match_the_cpu() {
     let Some(gpu) = sweeper() else { return };
-    for scene in lightgrid_sweep_cpu::scenes::Scene::ALL {
+    for scene in lightgrid_measure::scenes::Scene::ALL {
         let (m, b) = scene.build(10);
         let mut o = SweepOptions::multi_bounce();
         o.tolerance = 0.0;
@@ -180,7 +180,7 @@ fn invalid_input_is_the_same_typed_error() {
 #[test]
 fn packed_on_the_gpu_within_one_code() {
     let Some(gpu) = sweeper() else { return };
-    for scene in lightgrid_sweep_cpu::scenes::Scene::ALL {
+    for scene in lightgrid_measure::scenes::Scene::ALL {
         let (m, b) = scene.build(9);
         let mut o = SweepOptions::multi_bounce();
         o.tolerance = 0.0;
@@ -213,7 +213,7 @@ fn packed_on_the_gpu_within_one_code() {
 fn sun_and_sky_responses_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
     use lightgrid_sweep_cpu::{ClearSky, Sun, combine_outputs, responses_with};
-    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(8);
+    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(8);
     let sun = Sun::at(0.6, 0.4, Vec3::ONE);
     let sky = ClearSky::blue(sun.direction).bins().unwrap();
     let sun_bins = sun.bins().unwrap();
@@ -243,9 +243,9 @@ fn sun_and_sky_responses_on_the_gpu() {
     assert_close(&direct, &combined).unwrap();
 }
 
-/// The exact-answer case of `sweep-cpu/tests/exact.rs` on the GPU: above an infinite
+/// The exact-answer case of `measure/tests/exact.rs` on the GPU: above an infinite
 /// Lambertian ground (one and two levels, albedo 0.3 and 0.9) under a uniform sky, every
-/// bin at every point holds the rules' field (`lightgrid_sweep_cpu::exact::ground_fields`).
+/// bin at every point holds the rules' field (`lightgrid_measure::exact::ground_fields`).
 #[test]
 fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
@@ -261,9 +261,9 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     o.tolerance = 0.0;
     for levels in [1, 2] {
         for albedo in [0.3f32, 0.9] {
-            let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo).unwrap();
+            let m = lightgrid_measure::exact::ground_material(levels, albedo).unwrap();
             let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
-            let (_, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top).unwrap();
+            let (_, rule) = lightgrid_measure::exact::ground_fields(albedo, &top).unwrap();
             for j in levels..g.desc().levels() {
                 let l = g.get(UVec3::new(3, j, 5)).unwrap();
                 for bin in 0..26 {
@@ -286,7 +286,7 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
 #[test]
 fn white_furnace_is_exact_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 11).unwrap();
+    let m = lightgrid_measure::exact::furnace_material(8, 11).unwrap();
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
@@ -352,7 +352,7 @@ proptest! {
 #[test]
 fn sun_split_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let (m, b) = lightgrid_sweep_cpu::scenes::Scene::DenseBlock.build(10);
+    let (m, b) = lightgrid_measure::scenes::Scene::DenseBlock.build(10);
     let mut o = SweepOptions::multi_bounce();
     o.tolerance = 0.0;
     o.max_passes = 4;
@@ -379,7 +379,7 @@ fn sun_split_on_the_gpu() {
 fn sweep_sun_on_the_gpu_equals_the_cpu() {
     use lightgrid_core::{HaloLayout, SideBoundary, SunBoundary, Sweeper, TopBoundary};
     let Some(mut gpu) = sweeper() else { return };
-    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(10);
+    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(10);
     let d = *m.desc();
     let mut o = SweepOptions::multi_bounce();
     o.tolerance = 0.0;

@@ -4,7 +4,7 @@
 //! with and without each skip.
 //!
 //! Errors are over the points outside opaque cells whose reference average light exceeds
-//! 1e-3 of the largest (as `lightgrid_sweep_cpu::scenes::compare`), on luminance:
+//! 1e-3 of the largest (as `lightgrid_measure::scenes::compare`), on luminance:
 //! - `rel_rmse_avg`: `sqrt(Σ (a − r)² / Σ r²)` of the average light (the plotted error);
 //! - `rel_rmse_irr`: the same for irradiance on the six axis normals;
 //! - `rel_mse`: mean of `(a − r)² / (r² + ε)`, with `ε = 1e-4` (light units; the sky has
@@ -33,8 +33,8 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{GridFile, LightField, LightGrid, MaterialGrid, SweepOptions};
-use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
-use lightgrid_sweep_cpu::scenes::compare;
+use lightgrid_measure::reference::{ReferenceOptions, trace};
+use lightgrid_measure::scenes::compare;
 use serde::Serialize;
 
 use scenes::BenchScene;

@@ -14,7 +14,7 @@ use lightgrid_material_voxelizer::compose::{
 use lightgrid_material_voxelizer::model::Model;
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use lightgrid_sweep_cpu::scenes::{Scene, sky_and_sun};
+use lightgrid_measure::scenes::{Scene, sky_and_sun};
 
 /// A benchmark problem: material and boundary light.
 pub struct BenchScene {

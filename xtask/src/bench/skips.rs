@@ -10,7 +10,7 @@ use lightgrid_core::{
     Boundary, GridDesc, LightField, LightGrid, Material, MaterialGrid, Outputs, SideBoundary,
     SweepOptions,
 };
-use lightgrid_sweep_cpu::scenes::{Scene, sky_and_sun};
+use lightgrid_measure::scenes::{Scene, sky_and_sun};
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, LodSkips};
 use lightgrid_viewer::{SceneFile, SweeperChoice, World};
 use serde::Serialize;

@@ -208,7 +208,10 @@ pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
         + profiles
 }
 
-pub(crate) fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
+/// Checks that no boundary light is over [`MAX_LIGHT`] (1e30): an error naming
+/// the part (`top`, `bottom`, `sides`) otherwise. The Monte Carlo reference
+/// (`lightgrid-measure`) checks its boundary the same way.
+pub fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
     let big = |b: &BinLight| b.0.iter().any(|v| v.max_element() > MAX_LIGHT);
     let err = |field: &str| {
         Err(GridError::invalid(

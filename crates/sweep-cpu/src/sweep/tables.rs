@@ -76,7 +76,7 @@ pub fn path_exponents() -> &'static [f32] {
 /// constant within the bin, and its transmittance through a thin layer is the bin's
 /// mean. (The step vector's own length, `ℓ = |s_c|`, overstates `μ` by 5 % on the
 /// vertical bin and 30 % on the horizontal ones: the half-space albedo came out 5.5 %
-/// too high with thin cells, `w = 0.5`; measured in issue 13, `examples/do1d.rs`.)
+/// too high with thin cells, `w = 0.5`; measured in issue 13, `measure/examples/do1d.rs`.)
 pub fn channel_length(bin: usize) -> f32 {
     static L: OnceLock<[f32; NUM_SWEEP_DIRS]> = OnceLock::new();
     L.get_or_init(|| {
@@ -193,7 +193,7 @@ pub struct SurfaceWeights {
 ///
 /// (The seed's rule weighted each bin by `ω_b max(0, u_b · n)` at its centre direction,
 /// which gives horizontal bins nothing: ground light above a Lambertian surface came out
-/// 7 % too bright looking down, measured in `tests/exact.rs`.)
+/// 7 % too bright looking down, measured in `measure/tests/exact.rs`.)
 pub fn surface_weights(mask: u8) -> &'static SurfaceWeights {
     static T: OnceLock<Vec<SurfaceWeights>> = OnceLock::new();
     let t = T.get_or_init(|| {
@@ -259,7 +259,7 @@ pub const FACE_NORMALS: [Vec3; 6] = lightgrid_core::light::AMBIENT_AXES;
 /// (The seed's rule, `A = (1 + p)/2`, `B = (1 − p)/2`, lets everything out straight back
 /// and `p` straight on: dense media reflected far too much, Chandrasekhar's half-space
 /// albedo +26 % at cells of optical depth 0.69 and +59 % at 3 for `w = 0.5`, against
-/// +9 % and −4 % with this rule; `lightgrid_sweep_cpu::exact`.)
+/// +9 % and −4 % with this rule; `lightgrid_measure::exact`.)
 pub fn medium_emission(pass: f32) -> (f32, f32) {
     if !(pass > 0.0 && pass < 1.0) {
         return (1.0, 0.0);

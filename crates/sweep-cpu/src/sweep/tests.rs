@@ -1,6 +1,7 @@
 //! Unit tests of the sweep's parts.
 
 use super::*;
+use lightgrid_core::{GridDesc, Material};
 
 /// One value put into a point's light by the resolve tests (none, invalid ones, and
 /// the valid extremes -0 and the largest `f32`, whose sums overflow).
@@ -144,7 +145,24 @@ fn pending_levels_allocate_the_levels_written() {
 /// light.
 #[test]
 fn pending_light_held_only_where_material_is() {
-    let (m, b) = crate::scenes::Scene::Canopy.build(16);
+    // Ground in levels 0-1, leaves in 8-9, periodic sides, a uniform sky.
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(16)).expect("grid");
+    let leaf = Material {
+        reflectance: Vec3::new(0.1, 0.4, 0.1),
+        pass: 0.6,
+    };
+    let cells = (0..desc.point_count())
+        .map(|i| match desc.coords(i).expect("index").y {
+            0 | 1 => Material::opaque(Vec3::splat(0.3)),
+            8 | 9 => leaf,
+            _ => Material::EMPTY,
+        })
+        .collect();
+    let m = MaterialGrid::new(desc, cells).expect("material");
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(BinLight::uniform(Vec3::ONE).split_vertical().0)
+    };
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 4;
     o.tolerance = 0.0;

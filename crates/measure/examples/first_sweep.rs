@@ -1,14 +1,14 @@
 //! A process's first sweep against the same sweep recycled: what a tool that sweeps
 //! once pays. The canopy scene (32 points a side), 26 bins, 4 passes.
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example first_sweep [N]` (N points a
+//! `cargo run --release -p lightgrid-measure --example first_sweep [N]` (N points a
 //! side, default 32). Run it several times: the first sweep is once per process.
 
 use std::time::Instant;
 
 use lightgrid_core::{SweepOptions, Sweeper};
+use lightgrid_measure::scenes::Scene;
 use lightgrid_sweep_cpu::CpuSweeper;
-use lightgrid_sweep_cpu::scenes::Scene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n: u32 = match std::env::args().nth(1) {

@@ -7,8 +7,8 @@ use std::process::Command;
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, Boundary, SweepOptions};
-use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
-use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_measure::reference::{ReferenceOptions, trace};
+use lightgrid_measure::scenes::Scene;
 use lightgrid_sweep_cpu::sky::EnvMap;
 
 fn scratch(name: &str) -> PathBuf {

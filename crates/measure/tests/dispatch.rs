@@ -15,7 +15,7 @@
 
 use lightgrid_core::hash::ContentHash;
 use lightgrid_core::{MediumEmission, Outputs, SweepOptions, Sweeper};
-use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_measure::scenes::Scene;
 
 /// (scene, passes, medium rule, hash), the same on every path.
 const BASELINE: &[(&str, u32, &str, u64)] = &[

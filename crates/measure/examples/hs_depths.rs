@@ -1,5 +1,5 @@
 //! Half-space albedo error against cell optical depth, for a medium rule
-//! (`cargo run --release -p lightgrid-sweep-cpu --example hs_depths -- [profile|source|escape]`;
+//! (`cargo run --release -p lightgrid-measure --example hs_depths -- [profile|source|escape]`;
 //! the default rule, profile, when left out),
 //! with the balance and passes of each case.
 use lightgrid_core::{MediumEmission, SweepOptions};
@@ -22,7 +22,7 @@ fn main() {
         let pass = (-tau).exp();
         let mut line = format!("tau {tau:4}:");
         for &w in &ws {
-            let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o).unwrap();
+            let c = lightgrid_measure::exact::half_space_with(w, pass, 40.0, &o).unwrap();
             line += &format!(
                 " {:+.2}% (balance {:.0e}, {} passes)",
                 100.0 * (c.swept / c.exact - 1.0),

@@ -272,7 +272,7 @@ fn light_beyond_the_packed_format_range() {
 fn ten_million_equal_deposits_into_one_cell() {
     let n = 10_000_000u32;
     let v = Vec3::new(0.1, 0.3, 7.0);
-    let mut t = lightgrid_sweep_cpu::reference::Tally::new(2);
+    let mut t = lightgrid_measure::reference::Tally::new(2);
     let mut naive = 0f32;
     for _ in 0..n {
         t.add(1, v);

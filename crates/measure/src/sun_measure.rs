@@ -21,9 +21,9 @@ use lightgrid_core::light::{AMBIENT_AXES, luminance};
 use lightgrid_core::{BinLight, Boundary, MaterialGrid, SideBoundary, SweepOptions};
 
 use crate::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
-use crate::sky::Sun;
-use crate::sun::{SunTransmittance, first_collision};
-use crate::{run, run_with_source};
+use lightgrid_sweep_cpu::sky::Sun;
+use lightgrid_sweep_cpu::sun::{SunTransmittance, first_collision};
+use lightgrid_sweep_cpu::{run, run_with_source};
 
 /// Average light and the six axis irradiances (luminance) of every point.
 pub type Field = Vec<(f32, [f32; 6])>;

@@ -1,7 +1,7 @@
 //! The memory side of the sweep's roofline (the crate docs, "Roofline"): how long this
 //! machine takes, on every core, to write, to read-modify-write and to read a 64³
 //! grid's 26-bin output (82 MB of `f32`), the traffic a pass has with the output.
-//! `cargo run --release -p lightgrid-sweep-cpu --example memory_floor`
+//! `cargo run --release -p lightgrid-measure --example memory_floor`
 use rayon::prelude::*;
 use std::time::Instant;
 

@@ -7,8 +7,8 @@ use lightgrid_core::{
     Acceleration, BinLight, Boundary, GridDesc, Material, MaterialGrid, MediumEmission,
     SideBoundary, SweepOptions,
 };
-use lightgrid_sweep_cpu::exact;
-use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_measure::exact;
+use lightgrid_measure::scenes::Scene;
 use lightgrid_sweep_cpu::sky::Sun;
 
 fn options(acceleration: Acceleration, max_passes: u32, tolerance: f32) -> SweepOptions {

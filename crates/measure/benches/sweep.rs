@@ -7,13 +7,13 @@
 //! level, where phases 2 and 3 take the time, under the default medium rule and the
 //! flat source. The error of each setting against
 //! the Monte Carlo reference is in the crate docs (`canonical` example for timings with
-//! errors side by side); `cargo run --release -p lightgrid-sweep-cpu --example throughput` is the
+//! errors side by side); `cargo run --release -p lightgrid-measure --example throughput` is the
 //! quick version of this.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lightgrid_core::glam::UVec3;
 use lightgrid_core::{GridDesc, MaterialGrid, Outputs, SweepOptions, Sweeper};
-use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_measure::scenes::Scene;
 
 fn bench(c: &mut Criterion) {
     let (m, b) = Scene::Canopy.build(64);

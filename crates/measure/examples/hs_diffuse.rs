@@ -1,8 +1,8 @@
 //! Chandrasekhar's half-space albedo under a **uniform sky** (isotropic incident
-//! radiance, `lightgrid_sweep_cpu::exact::half_space_albedo_diffuse`): the light enters through
+//! radiance, `lightgrid_measure::exact::half_space_albedo_diffuse`): the light enters through
 //! the top boundary's bins, not as a cell source, so this checks the medium rules on
 //! the sweep's own channel light. Periodic sides, cells of optical depth `τ`, total
-//! depth 40. `cargo run --release -p lightgrid-sweep-cpu --example hs_diffuse -- [profile|source]`
+//! depth 40. `cargo run --release -p lightgrid-measure --example hs_diffuse -- [profile|source]`
 //! (the default rule, profile, when left out)
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
@@ -39,7 +39,7 @@ fn main() {
             };
             let s = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap();
             let albedo = s.balance.top_out.x / s.balance.top_in.x;
-            let exact = lightgrid_sweep_cpu::exact::half_space_albedo_diffuse(w as f64);
+            let exact = lightgrid_measure::exact::half_space_albedo_diffuse(w as f64);
             line += &format!(" {:+.2}%", 100.0 * (albedo / exact - 1.0));
         }
         println!("{line}");

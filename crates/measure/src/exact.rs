@@ -24,6 +24,7 @@ use lightgrid_core::{
     BinLight, Boundary, GridDesc, GridError, Material, MaterialGrid, SideBoundary, SweepError,
     SweepOptions,
 };
+pub use lightgrid_sweep_cpu::quadrature::gauss_legendre_01;
 
 /// Most points a side of [`furnace_material`]'s cube.
 pub const MAX_SIDE: u32 = 128;
@@ -42,35 +43,6 @@ fn within<T: PartialOrd + std::fmt::Debug + Copy>(
     } else {
         Err(GridError::invalid(field, value, reason))
     }
-}
-
-/// Gauss–Legendre nodes and weights on `[0, 1]` (`n` points, Newton iteration on the
-/// Legendre polynomial; exact for polynomials of degree `2n − 1`).
-pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        // Initial guess (Tricomi), then Newton on P_n.
-        let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, x);
-            for k in 2..=n {
-                let k = k as f64;
-                let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-            let dx = p1 / dp;
-            x -= dx;
-            if dx.abs() < 1e-15 {
-                break;
-            }
-        }
-        let w = 2.0 / ((1.0 - x * x) * dp * dp);
-        out.push((0.5 * (1.0 - x), 0.5 * w));
-    }
-    out
 }
 
 /// Chandrasekhar's H-function for isotropic scattering of albedo `w`, clamped to
@@ -158,7 +130,7 @@ pub struct Case {
     pub pending: f64,
     /// Wall time of the sweep, seconds.
     pub seconds: f64,
-    /// The sweep's energy balance error ([`crate::EnergyBalance::relative_error`]).
+    /// The sweep's energy balance error ([`lightgrid_sweep_cpu::EnergyBalance::relative_error`]).
     pub balance: f64,
 }
 
@@ -169,7 +141,13 @@ fn options(max_passes: u32, tolerance: f32) -> SweepOptions {
     o
 }
 
-fn case(name: String, exact: f64, swept: f64, s: &crate::Sweep, seconds: f64) -> Case {
+fn case(
+    name: String,
+    exact: f64,
+    swept: f64,
+    s: &lightgrid_sweep_cpu::Sweep,
+    seconds: f64,
+) -> Case {
     Case {
         name,
         exact,
@@ -231,7 +209,7 @@ pub fn furnace_with(n: u32, seed: u64, o: &SweepOptions) -> Result<(Case, Case),
         ..Boundary::surrounding(&BinLight::uniform(Vec3::ONE))
     };
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, o)?;
+    let s = lightgrid_sweep_cpu::run(&m, &b, o)?;
     let secs = t.elapsed().as_secs_f64();
     let g = s.output.bins.as_ref().ok_or_else(no_bins)?;
     let (mut avg, mut irr) = (0f64, 0f64);
@@ -260,7 +238,7 @@ fn no_bins() -> SweepError {
 
 /// `levels` levels of 4 × 4 cells of a uniform medium (albedo `w`, pass-through `pass`),
 /// periodic sides, no boundary light, and a collimated beam of irradiance 1 travelling
-/// straight down, given as its exact first collisions (a [`crate::CellSource`]: level
+/// straight down, given as its exact first collisions (a [`lightgrid_sweep_cpu::CellSource`]: level
 /// `k` from the top takes `p^k (1 − p)`), as the sun enters a sweep. (A beam in the
 /// vertical bin of the top boundary would be light spread over that bin, whose
 /// half-space albedo is not Chandrasekhar's `μ₀ = 1` value.)
@@ -268,7 +246,7 @@ fn beam_slab(
     w: f32,
     pass: f32,
     levels: u32,
-) -> Result<(MaterialGrid, Boundary, crate::CellSource), SweepError> {
+) -> Result<(MaterialGrid, Boundary, lightgrid_sweep_cpu::CellSource), SweepError> {
     let levels = within(
         "levels",
         levels,
@@ -293,7 +271,7 @@ fn beam_slab(
             Vec3::splat((pass as f64).powi(k as i32) as f32 * (1.0 - pass))
         })
         .collect();
-    let src = crate::CellSource::new(d, removed, Vec3::NEG_Y)?;
+    let src = lightgrid_sweep_cpu::CellSource::new(d, removed, Vec3::NEG_Y)?;
     Ok((m, b, src))
 }
 
@@ -318,7 +296,7 @@ pub fn uniform_furnace(pass: f32) -> Result<Case, SweepError> {
     // Thick white cells converge slowly (plain passes: pass-through 0.02 takes 524
     // passes to 1e-7 under the flat rule, 868 under the profile rule): run to
     // convergence, the test asserts it (`Case::pending`).
-    let s = crate::run(&m, &b, &options(lightgrid_core::MAX_PASSES, 1e-7))?;
+    let s = lightgrid_sweep_cpu::run(&m, &b, &options(lightgrid_core::MAX_PASSES, 1e-7))?;
     let secs = t.elapsed().as_secs_f64();
     let omega = lightgrid_core::dirs::solid_angles();
     let worst = s
@@ -370,7 +348,7 @@ pub fn half_space_with(
         .clamp(2.0, MAX_LEVELS as f64 + 1.0) as u32;
     let (m, b, src) = beam_slab(w, pass, levels)?;
     let t = std::time::Instant::now();
-    let s = crate::run_with_source(&m, &b, Some(&src), options)?;
+    let s = lightgrid_sweep_cpu::run_with_source(&m, &b, Some(&src), options)?;
     let secs = t.elapsed().as_secs_f64();
     // The beam's irradiance is 1 on every column: what leaves through the top per
     // column is the albedo.
@@ -414,7 +392,7 @@ pub fn ground_fields(albedo: f32, sky: &BinLight) -> Result<(BinLight, BinLight)
         return Err(GridError::invalid("sky", "a bin", "must be finite and >= 0").into());
     }
     let omega = lightgrid_core::dirs::solid_angles();
-    let up = crate::sweep::channels(true);
+    let up = lightgrid_sweep_cpu::sweep::channels(true);
     let field = |ground_half: &dyn Fn(usize) -> f32| {
         BinLight(std::array::from_fn(|b| {
             let dy = lightgrid_core::dirs::dir_unit(b).y;
@@ -430,7 +408,7 @@ pub fn ground_fields(albedo: f32, sky: &BinLight) -> Result<(BinLight, BinLight)
         };
         albedo * omega[b] * half
     });
-    let e_sweep: f32 = crate::sweep::channels(false)
+    let e_sweep: f32 = lightgrid_sweep_cpu::sweep::channels(false)
         .iter()
         .map(|c| sky.0[c.bin].x * c.mu)
         .sum();
@@ -456,7 +434,7 @@ pub fn lambertian_ground(a: f32) -> Result<Case, SweepError> {
         ..Boundary::open_sky(top)
     };
     let t = std::time::Instant::now();
-    let s = crate::run(&m, &b, &options(64, 1e-7))?;
+    let s = lightgrid_sweep_cpu::run(&m, &b, &options(64, 1e-7))?;
     let secs = t.elapsed().as_secs_f64();
     let swept = s.balance.top_out.x / s.balance.top_in.x;
     Ok(case(
@@ -495,7 +473,7 @@ pub fn measure(max_passes: u32) -> Result<Vec<Case>, SweepError> {
             out.push(half_space(w, pass, 40.0, max_passes)?);
         }
     }
-    // The option of a flat source (`crate::medium`).
+    // The option of a flat source (`lightgrid_sweep_cpu::medium`).
     let mut o = options(max_passes, 1e-5);
     o.medium = lightgrid_core::MediumEmission::Source;
     for w in [0.1, 0.5, 0.9, 0.99] {
@@ -520,7 +498,7 @@ pub fn convergence(depth: u32, w: f32, max_passes: u32) -> Result<Case, SweepErr
 pub fn convergence_with(depth: u32, w: f32, options: &SweepOptions) -> Result<Case, SweepError> {
     let (m, b, src) = beam_slab(w, (-1.0f32).exp(), depth.max(2))?;
     let t = std::time::Instant::now();
-    let s = crate::run_with_source(&m, &b, Some(&src), options)?;
+    let s = lightgrid_sweep_cpu::run_with_source(&m, &b, Some(&src), options)?;
     let secs = t.elapsed().as_secs_f64();
     Ok(case(
         format!("slab of optical depth {depth}, w {w}: passes to 1e-4"),
@@ -557,15 +535,6 @@ pub fn table(cases: &[Case]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn gauss_legendre_integrates_polynomials_exactly() {
-        let q = gauss_legendre_01(8);
-        assert!((q.iter().map(|p| p.1).sum::<f64>() - 1.0).abs() < 1e-14);
-        // ∫₀¹ x^15 dx = 1/16 (degree 2n − 1).
-        let v: f64 = q.iter().map(|p| p.1 * p.0.powi(15)).sum();
-        assert!((v - 1.0 / 16.0).abs() < 1e-14, "{v}");
-    }
 
     #[test]
     fn h_function_matches_known_values() {

@@ -24,7 +24,7 @@
 //! spatial error at depths 0.69 to 3; that is the plan for the sweep's thick cells
 //! (issue 13).
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example do1d`
+//! `cargo run --release -p lightgrid-measure --example do1d`
 
 use lightgrid_core::dirs;
 use lightgrid_core::glam::DVec3;
@@ -184,7 +184,7 @@ fn main() {
         "w", "exact", "step vectors' cosines", "bins' mean cosines"
     );
     for w in [0.1, 0.5, 0.9, 0.99] {
-        let exact = lightgrid_sweep_cpu::exact::half_space_albedo_beam(w, 1.0);
+        let exact = lightgrid_measure::exact::half_space_albedo_beam(w, 1.0);
         let (a, b) = (
             albedo(&steps, w, 0.02, false),
             albedo(&means, w, 0.02, false),
@@ -204,7 +204,7 @@ fn main() {
     );
     for dz in [0.69, 1.5, 3.0] {
         for w in [0.1, 0.5, 0.9, 0.99] {
-            let exact = lightgrid_sweep_cpu::exact::half_space_albedo_beam(w, 1.0);
+            let exact = lightgrid_measure::exact::half_space_albedo_beam(w, 1.0);
             let (a, b) = (albedo(&means, w, dz, false), albedo(&means, w, dz, true));
             println!(
                 "{dz:>10} {w:>5} {:>+9.2} % {:>+23.2} %",
@@ -220,7 +220,7 @@ fn main() {
     );
     for dz in [0.69, 1.5, 3.0] {
         for w in [0.1, 0.5, 0.9, 0.99] {
-            let exact = lightgrid_sweep_cpu::exact::half_space_albedo_beam(w, 1.0);
+            let exact = lightgrid_measure::exact::half_space_albedo_beam(w, 1.0);
             let e: Vec<f64> = (0..3)
                 .map(|o| 100.0 * (albedo_order(&means, w, dz, o) / exact - 1.0))
                 .collect();

@@ -2,21 +2,21 @@
 //! reference with a collimated sun along its exact direction: per-point relative RMSE of
 //! average light and of irradiance on the six axes (luminance, as `scenes::compare`),
 //! sun light only (no sky), suns at several elevations and at azimuth 20 degrees (between
-//! bins), on the canopy and dense-block scenes (`lightgrid_sweep_cpu::sun_measure`).
+//! bins), on the canopy and dense-block scenes (`lightgrid_measure::sun_measure`).
 //!
 //! Then the shadow of a dense block on the ground: the direction from the block to the
 //! centroid of the missing ground irradiance, against the exact one (away from the sun).
 //! `cargo xtask sun` measures the same on the bench forest and under a single tree.
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example sun_split -- [n] [paths]` (16, 2 000 000)
+//! `cargo run --release -p lightgrid-measure --example sun_split -- [n] [paths]` (16, 2 000 000)
 
 use lightgrid_core::SweepOptions;
 use lightgrid_core::glam::Vec3;
-use lightgrid_sweep_cpu::scenes::Scene;
-use lightgrid_sweep_cpu::sky::Sun;
-use lightgrid_sweep_cpu::sun_measure::{
+use lightgrid_measure::scenes::Scene;
+use lightgrid_measure::sun_measure::{
     angle_error, exact_shadow_azimuth, ground_light, shadow_azimuth, sun_errors,
 };
+use lightgrid_sweep_cpu::sky::Sun;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();

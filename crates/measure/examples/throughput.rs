@@ -1,16 +1,16 @@
-//! Points per second of the sweep, quickly (criterion's `cargo bench -p lightgrid-sweep-cpu` is
+//! Points per second of the sweep, quickly (criterion's `cargo bench -p lightgrid-measure` is
 //! the measurement of record): the 64³ canopy with 26-bin output, one downward pass and
 //! four passes, and a small tall grid (16 × 16 × 64), for the fast path into recycled
 //! memory (`CpuSweeper::recycle`), into fresh memory, and the scalar oracle it must
 //! equal.
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example throughput [source|profile|escape]`
+//! `cargo run --release -p lightgrid-measure --example throughput [source|profile|escape]`
 //! (the medium emission rule; the default rule when left out).
 
 use std::time::Instant;
 
 use lightgrid_core::{MaterialGrid, Outputs, SweepOptions, Sweeper};
-use lightgrid_sweep_cpu::scenes::Scene;
+use lightgrid_measure::scenes::Scene;
 
 fn best_of(n: usize, mut f: impl FnMut()) -> f64 {
     (0..n)

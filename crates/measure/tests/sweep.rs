@@ -391,7 +391,7 @@ fn invalid_input_is_a_typed_error() {
 #[test]
 fn sun_and_sky_responses_combine_exactly() {
     use lightgrid_sweep_cpu::{ClearSky, Sun, sweep_responses};
-    let (m, _) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(8);
+    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(8);
     let sun = Sun::at(0.6, 0.4, Vec3::ONE);
     let sky = ClearSky::blue(sun.direction).bins().unwrap();
     let sun_bins = sun.bins().unwrap();
@@ -439,7 +439,7 @@ fn sun_and_sky_responses_combine_exactly() {
 #[test]
 fn recycled_memory_is_fully_overwritten() {
     use lightgrid_core::{AverageLight, DominantDir, Grid, SweepOutput, Sweeper};
-    let (m, b) = lightgrid_sweep_cpu::scenes::Scene::Canopy.build(12);
+    let (m, b) = lightgrid_measure::scenes::Scene::Canopy.build(12);
     let d = *m.desc();
     let garbage = |d: GridDesc| SweepOutput {
         bins: Some(Grid::from_trusted(
@@ -484,10 +484,10 @@ fn recycled_memory_is_fully_overwritten() {
     let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
     let o = SweepOptions::multi_bounce();
     for (k, scene) in [
-        lightgrid_sweep_cpu::scenes::Scene::Canopy,
-        lightgrid_sweep_cpu::scenes::Scene::DenseBlock,
-        lightgrid_sweep_cpu::scenes::Scene::UniformFog,
-        lightgrid_sweep_cpu::scenes::Scene::Canopy,
+        lightgrid_measure::scenes::Scene::Canopy,
+        lightgrid_measure::scenes::Scene::DenseBlock,
+        lightgrid_measure::scenes::Scene::UniformFog,
+        lightgrid_measure::scenes::Scene::Canopy,
     ]
     .into_iter()
     .enumerate()

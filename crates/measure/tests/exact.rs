@@ -23,7 +23,7 @@ use lightgrid_core::{Boundary, SideBoundary, SweepOptions};
 use lightgrid_sweep_cpu::sky::{Sun, uniform_sky};
 
 fn ground(levels: u32, albedo: f32) -> lightgrid_core::MaterialGrid {
-    lightgrid_sweep_cpu::exact::ground_material(levels, albedo).unwrap()
+    lightgrid_measure::exact::ground_material(levels, albedo).unwrap()
 }
 
 fn converged() -> SweepOptions {
@@ -83,7 +83,7 @@ fn infinite_lambertian_ground_reflects_exactly_its_albedo() {
 
 #[test]
 fn light_above_lambertian_ground_is_the_exact_field() {
-    // See `lightgrid_sweep_cpu::exact::ground_fields`: the sweep must hold the rule's field to
+    // See `lightgrid_measure::exact::ground_fields`: the sweep must hold the rule's field to
     // 1e-4 at every point and level above the ground, and since the channels' cosines
     // are the bins' mean cosines (`sweep::channel_length`) the rule's field is the exact
     // continuous one (it was off by up to 2.1 % with the step vectors' cosines).
@@ -97,7 +97,7 @@ fn light_above_lambertian_ground_is_the_exact_field() {
             };
             let s = lightgrid_sweep_cpu::run(&m, &b, &converged()).unwrap();
             let g = s.output.bins.unwrap();
-            let (exact, rule) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &top).unwrap();
+            let (exact, rule) = lightgrid_measure::exact::ground_fields(albedo, &top).unwrap();
             for bin in 0..lightgrid_core::NUM_DIRS {
                 let (r, e) = (rule.0[bin].x, exact.0[bin].x);
                 assert!(
@@ -139,7 +139,7 @@ fn a_field_handed_over_through_the_faces_is_kept_exactly() {
     let m = MaterialGrid::filled(desc, Material::EMPTY).unwrap();
     for albedo in [0.0f32, 0.3, 0.9] {
         let sky = uniform_sky(Vec3::ONE).unwrap().top;
-        let (exact, _) = lightgrid_sweep_cpu::exact::ground_fields(albedo, &sky).unwrap();
+        let (exact, _) = lightgrid_measure::exact::ground_fields(albedo, &sky).unwrap();
         let (down, up) = exact.split_vertical_by_neighbours();
         for bin in 0..lightgrid_core::NUM_DIRS {
             assert!(
@@ -206,7 +206,7 @@ fn a_sun_in_the_bins_brings_the_beams_flux_at_any_elevation() {
 fn white_furnace_is_exact_in_random_media() {
     for seed in [7u64, 11, 23] {
         for smoothing in [0.0f32, 0.25, 0.6] {
-            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace(10, seed, smoothing).unwrap();
+            let (avg, irr) = lightgrid_measure::exact::furnace(10, seed, smoothing).unwrap();
             for c in [avg, irr] {
                 assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
                 assert!(c.pending < 1e-5, "{}: not converged", c.name);
@@ -220,7 +220,7 @@ fn white_furnace_is_exact_in_random_media() {
         }
     }
     for pass in [0.95f32, 0.5, 0.1, 0.02] {
-        let c = lightgrid_sweep_cpu::exact::uniform_furnace(pass).unwrap();
+        let c = lightgrid_measure::exact::uniform_furnace(pass).unwrap();
         assert!(c.pending < 1e-5, "{}: not converged", c.name);
         assert!(
             c.balance < 1e-5 && c.error.abs() < 1e-3,
@@ -237,7 +237,7 @@ fn white_furnace_is_exact_in_random_media() {
 #[test]
 fn the_escape_rule_fails_the_furnace() {
     use lightgrid_core::MediumEmission;
-    let m = lightgrid_sweep_cpu::exact::furnace_material(8, 7).unwrap();
+    let m = lightgrid_measure::exact::furnace_material(8, 7).unwrap();
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::surrounding(&lightgrid_core::BinLight::uniform(Vec3::ONE))
@@ -273,7 +273,7 @@ fn flat_rule_half_space_albedo() {
     o.tolerance = 1e-5;
     o.max_passes = 400;
     let check = |w: f32, pass: f32, tol: f64| {
-        let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o).unwrap();
+        let c = lightgrid_measure::exact::half_space_with(w, pass, 40.0, &o).unwrap();
         assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
         assert!(
             c.error.abs() < tol,
@@ -303,9 +303,9 @@ fn the_escape_rule_is_closer_on_thick_dark_cells() {
     o.max_passes = 200;
     for w in [0.1f32, 0.5] {
         o.medium = MediumEmission::Escape;
-        let escape = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o).unwrap();
+        let escape = lightgrid_measure::exact::half_space_with(w, 0.05, 40.0, &o).unwrap();
         o.medium = MediumEmission::Source;
-        let source = lightgrid_sweep_cpu::exact::half_space_with(w, 0.05, 40.0, &o).unwrap();
+        let source = lightgrid_measure::exact::half_space_with(w, 0.05, 40.0, &o).unwrap();
         assert!(
             escape.error.abs() < 0.05 && escape.error.abs() < source.error.abs(),
             "{}: escape {:+.3}, source {:+.3}",
@@ -350,7 +350,7 @@ fn white_furnace_is_exact_with_the_flat_rule() {
     for seed in [7u64, 23] {
         for smoothing in [0.0f32, 0.25] {
             o.smoothing = smoothing;
-            let (avg, irr) = lightgrid_sweep_cpu::exact::furnace_with(10, seed, &o).unwrap();
+            let (avg, irr) = lightgrid_measure::exact::furnace_with(10, seed, &o).unwrap();
             for c in [avg, irr] {
                 assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
                 assert!(
@@ -382,7 +382,7 @@ fn half_space_albedo_within_two_percent() {
     o.max_passes = 400;
     for w in [0.1f32, 0.5, 0.9] {
         for pass in [0.95f32, 0.5, 0.2, 0.05] {
-            let c = lightgrid_sweep_cpu::exact::half_space_with(w, pass, 40.0, &o).unwrap();
+            let c = lightgrid_measure::exact::half_space_with(w, pass, 40.0, &o).unwrap();
             assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
             assert!(c.error.abs() < 0.02, "{}: {:+.4}", c.name, c.error);
         }
@@ -398,7 +398,7 @@ fn bright_half_space_within_two_percent() {
     o.tolerance = 1e-5;
     o.max_passes = 1000;
     for pass in [0.95f32, 0.5, 0.05] {
-        let c = lightgrid_sweep_cpu::exact::half_space_with(0.99, pass, 40.0, &o).unwrap();
+        let c = lightgrid_measure::exact::half_space_with(0.99, pass, 40.0, &o).unwrap();
         assert!(c.balance < 1e-5, "{}: balance {}", c.name, c.balance);
         assert!(c.error.abs() < 0.02, "{}: {:+.4}", c.name, c.error);
     }
@@ -433,7 +433,7 @@ fn sky_lit_half_space() {
         o.max_passes = 400;
         let s = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap();
         assert!(s.balance.relative_error() < 1e-5, "{:?}", s.balance);
-        let exact = lightgrid_sweep_cpu::exact::half_space_albedo_diffuse(w as f64);
+        let exact = lightgrid_measure::exact::half_space_albedo_diffuse(w as f64);
         s.balance.top_out.x / s.balance.top_in.x / exact - 1.0
     };
     for w in [0.1f32, 0.5, 0.9] {

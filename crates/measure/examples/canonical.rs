@@ -1,13 +1,13 @@
 //! Sweeps the canonical scenes and compares each with the Monte Carlo reference, with
 //! each medium emission rule (the default first).
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example canonical -- [size] [paths] [smoothing]`
+//! `cargo run --release -p lightgrid-measure --example canonical -- [size] [paths] [smoothing]`
 
 use std::time::Instant;
 
 use lightgrid_core::{MediumEmission, SweepOptions};
-use lightgrid_sweep_cpu::reference::{ReferenceOptions, trace};
-use lightgrid_sweep_cpu::scenes::{Scene, compare};
+use lightgrid_measure::reference::{ReferenceOptions, trace};
+use lightgrid_measure::scenes::{Scene, compare};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -40,7 +40,7 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
     for levels in [1, 2] {
         for albedo in [0.3f32, 0.8] {
             for (elev, azim) in [(90.0, 0.0), (37.0, 20.0), (12.0, 63.0)] {
-                let m = lightgrid_sweep_cpu::exact::ground_material(levels, albedo).unwrap();
+                let m = lightgrid_measure::exact::ground_material(levels, albedo).unwrap();
                 let to_sun = sun(elev, azim);
                 let open = |_: Vec3| 1.0;
                 let t = SunTransmittance::march(&m, to_sun, true, &open).unwrap();
@@ -78,8 +78,7 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
                 let mut straight = BinLight::ZERO;
                 let mu = lightgrid_sweep_cpu::sweep::channels(false)[lightgrid_core::dirs::DOWN].mu;
                 straight.0[lightgrid_core::dirs::DOWN] = Vec3::splat(to_sun.y / mu);
-                let (_, rule) =
-                    lightgrid_sweep_cpu::exact::ground_fields(albedo, &straight).unwrap();
+                let (_, rule) = lightgrid_measure::exact::ground_fields(albedo, &straight).unwrap();
                 let g = s.output.bins.unwrap();
                 for j in levels..d.levels() {
                     let l = g.get(UVec3::new(3, j, 5)).unwrap();
@@ -137,8 +136,8 @@ fn deposits_telescope_to_the_beams_loss_and_energy_balances() {
 
 #[test]
 fn bad_sources_are_refused_by_name() {
-    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.5).unwrap();
-    let other = lightgrid_sweep_cpu::exact::ground_material(2, 0.5).unwrap();
+    let m = lightgrid_measure::exact::ground_material(1, 0.5).unwrap();
+    let other = lightgrid_measure::exact::ground_material(2, 0.5).unwrap();
     let open = |_: Vec3| 1.0;
     let t = SunTransmittance::march(&other, Vec3::Y, true, &open).unwrap();
     let e = first_collision(&m, &t, Vec3::Y, Vec3::ONE, true, &open);
@@ -169,7 +168,7 @@ fn bad_sources_are_refused_by_name() {
 /// scattered; over a Lambertian ground the reflected fraction is the albedo.
 #[test]
 fn reference_collimated_sun_known_answers() {
-    use lightgrid_sweep_cpu::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
+    use lightgrid_measure::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
     // 1 M paths: with open sides a cell is crossed by about 30 000 of them, a relative
     // standard error near 0.7 %; the bound below is about 5 of those.
     let opts = ReferenceOptions {
@@ -203,7 +202,7 @@ fn reference_collimated_sun_known_answers() {
         }
         assert!(r.light.data().iter().all(|b| *b == BinLight::ZERO));
     }
-    let ground = lightgrid_sweep_cpu::exact::ground_material(1, 0.4).unwrap();
+    let ground = lightgrid_measure::exact::ground_material(1, 0.4).unwrap();
     let r = trace_with_sun(&ground, &dark_periodic(), Some(&sun), &opts, &|_, _| {}).unwrap();
     let reflected = r.balance.top_out.x / r.balance.input().x;
     assert!((reflected - 0.4).abs() < 0.005, "reflected {reflected}");
@@ -214,7 +213,7 @@ fn reference_collimated_sun_known_answers() {
 #[test]
 fn sun_split_responses() {
     use lightgrid_sweep_cpu::sun::SunSplit;
-    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.3).unwrap();
+    let m = lightgrid_measure::exact::ground_material(1, 0.3).unwrap();
     let sky = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(
@@ -272,7 +271,7 @@ impl lightgrid_core::Sweeper for Plain {
 /// A sweeper without cell sources says so by name instead of ignoring the source.
 #[test]
 fn sweepers_without_sources_refuse_them() {
-    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.3).unwrap();
+    let m = lightgrid_measure::exact::ground_material(1, 0.3).unwrap();
     let src = lightgrid_sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::ZERO; 512], Vec3::NEG_Y)
         .unwrap();
     let e = lightgrid_core::Sweeper::sweep_with_source(
@@ -293,7 +292,7 @@ fn sweepers_without_sources_refuse_them() {
 #[test]
 fn sweep_sun_refusal_and_a_sun_below_the_horizon() {
     use lightgrid_core::{SunBoundary, Sweeper};
-    let m = lightgrid_sweep_cpu::exact::ground_material(1, 0.3).unwrap();
+    let m = lightgrid_measure::exact::ground_material(1, 0.3).unwrap();
     let sb = SunBoundary {
         to_sun: sun(40.0, 20.0),
         scattered: dark_periodic(),

@@ -4,13 +4,13 @@
 //! (mean and largest absolute difference, and over the points the march puts in
 //! half-shadow, 0.05 < T < 0.95).
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example sun`
+//! `cargo run --release -p lightgrid-measure --example sun`
 
 use std::time::Instant;
 
 use lightgrid_core::glam::Vec3;
+use lightgrid_measure::scenes::Scene;
 use lightgrid_sweep_cpu::SunTransmittance;
-use lightgrid_sweep_cpu::scenes::Scene;
 
 fn main() -> Result<(), lightgrid_core::GridError> {
     let open = |_: Vec3| 1.0f32;

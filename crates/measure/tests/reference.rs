@@ -6,8 +6,8 @@ use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, LightGrid, Material, MaterialGrid, SideBoundary, SweepOptions,
 };
-use lightgrid_sweep_cpu::reference::{Reference, ReferenceOptions, trace};
-use lightgrid_sweep_cpu::scenes::{Scene, compare};
+use lightgrid_measure::reference::{Reference, ReferenceOptions, trace};
+use lightgrid_measure::scenes::{Scene, compare};
 
 fn fog(dims: UVec3, albedo: f32, pass: f32) -> MaterialGrid {
     let d = GridDesc::new(Vec3::ZERO, 1.0, dims).unwrap();

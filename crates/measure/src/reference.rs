@@ -38,7 +38,7 @@ use lightgrid_core::{
 };
 use rayon::prelude::*;
 
-use crate::EnergyBalance;
+use lightgrid_sweep_cpu::EnergyBalance;
 
 /// Options of a reference run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -262,7 +262,7 @@ fn sun_sources(
     dims: UVec3,
     open: bool,
 ) -> Result<Vec<SourceComponent>, SweepError> {
-    let Some(s) = crate::sun::sun_direction(sun.to_sun)? else {
+    let Some(s) = lightgrid_sweep_cpu::sun::sun_direction(sun.to_sun)? else {
         return Ok(Vec::new());
     };
     if !sun.irradiance.is_finite() || sun.irradiance.min_element() < 0.0 {
@@ -586,7 +586,7 @@ pub fn trace_with_sun(
 ) -> Result<Reference, SweepError> {
     let desc = *material.desc();
     boundary.validate(&desc)?;
-    crate::sweep::check_boundary_scale(boundary)?;
+    lightgrid_sweep_cpu::sweep::check_boundary_scale(boundary)?;
     options.validate()?;
     let n = desc.point_count();
     lightgrid_core::limits::check_memory(

@@ -8,9 +8,9 @@
 //! beam's first collisions have the moments of a vertical beam entering at the top.
 //! Source iteration to convergence. Issue 13.
 //!
-//! `cargo run --release -p lightgrid-sweep-cpu --example profile_slab`
+//! `cargo run --release -p lightgrid-measure --example profile_slab`
 
-use lightgrid_sweep_cpu::exact::half_space_albedo_beam;
+use lightgrid_measure::exact::half_space_albedo_beam;
 use lightgrid_sweep_cpu::profile::{PassSums, Segment, pass_segments};
 use lightgrid_sweep_cpu::sweep::channels;
 
