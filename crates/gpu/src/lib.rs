@@ -67,6 +67,14 @@ pub enum GpuError {
         /// The limit.
         limit: u64,
     },
+    /// A window's surface could not be made, or the device cannot draw to it.
+    #[error("no surface on the GPU adapter {adapter}: {message}")]
+    Surface {
+        /// Adapter name.
+        adapter: String,
+        /// What went wrong.
+        message: String,
+    },
     /// Mapping a buffer for readback failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),
@@ -92,7 +100,8 @@ pub fn driver_hint() -> &'static str {
     }
 }
 
-/// A device and queue, created once and reused.
+/// A device and queue, created once and reused: one per process, shared by sweeping,
+/// drawing and a window's surface ([`GpuContext::create_surface`]).
 pub struct GpuContext {
     /// The device.
     pub device: wgpu::Device,
@@ -100,6 +109,9 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// What the adapter is.
     pub info: wgpu::AdapterInfo,
+    /// The instance the adapter came from (a window's surface must come from it too).
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
 }
 
 impl GpuContext {
@@ -116,22 +128,28 @@ impl GpuContext {
         for backends in tries {
             let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
             desc.backends = backends;
-            let instance = wgpu::Instance::new(desc);
-            match pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-                power_preference: wgpu::PowerPreference::HighPerformance,
-                force_fallback_adapter: false,
-                compatible_surface: None,
-                apply_limit_buckets: false,
-            })) {
-                Ok(adapter) => return Self::on(&adapter),
-                Err(e) => failures.push(format!("{backends:?}: {e}")),
+            match Self::with_instance(desc) {
+                Err(GpuError::NoAdapter(e)) => failures.push(format!("{backends:?}: {e}")),
+                found => return found,
             }
         }
         Err(GpuError::NoAdapter(failures.join("; ")))
     }
 
-    /// A device and queue on `adapter` (the window's, found for its surface).
-    pub fn on(adapter: &wgpu::Adapter) -> Result<Self, GpuError> {
+    /// A device and queue from an instance made with `desc`, a discrete GPU preferred.
+    /// For a window, give the descriptor the display's handle
+    /// (`wgpu::InstanceDescriptor::new_with_display_handle`): the window's surface then
+    /// comes from this context ([`GpuContext::create_surface`]), and everything the
+    /// process sweeps and draws stays on one device.
+    pub fn with_instance(desc: wgpu::InstanceDescriptor) -> Result<Self, GpuError> {
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
         tracing::info!(
             adapter = %info.name,
@@ -153,7 +171,38 @@ impl GpuContext {
             device,
             queue,
             info,
+            instance,
+            adapter,
         })
+    }
+
+    /// The adapter the device is on (a surface's capabilities and default
+    /// configuration are asked of it).
+    pub fn adapter(&self) -> &wgpu::Adapter {
+        &self.adapter
+    }
+
+    /// A surface for `target` (a window) on this context's instance, checked to be one
+    /// this device can draw to: [`GpuError::Surface`] otherwise, naming the adapter.
+    pub fn create_surface(
+        &self,
+        target: impl Into<wgpu::SurfaceTarget<'static>>,
+    ) -> Result<wgpu::Surface<'static>, GpuError> {
+        let surface = self
+            .instance
+            .create_surface(target)
+            .map_err(|e| GpuError::Surface {
+                adapter: self.info.name.clone(),
+                message: e.to_string(),
+            })?;
+        if !self.adapter.is_surface_supported(&surface) {
+            return Err(GpuError::Surface {
+                adapter: self.info.name.clone(),
+                message: "it cannot present to this window (WGPU_BACKEND picks other backends)"
+                    .into(),
+            });
+        }
+        Ok(surface)
     }
 
     /// For test suites that must run on a GPU: a context, or `Ok(None)` (with a loud

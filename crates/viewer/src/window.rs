@@ -68,10 +68,28 @@ pub fn run(
         "--window needs a display (X11 or Wayland); run without --window for headless images",
     )?;
     event_loop.set_control_flow(ControlFlow::Poll);
+    // One device for the process: made before the window, on an instance that knows the
+    // display, so that the grids are swept (and, by the GPU sweeper, kept) on the device
+    // the window draws with. WGPU_BACKEND picks the backends.
+    let ctx = lightgrid_gpu::GpuContext::with_instance(
+        wgpu::InstanceDescriptor::new_with_display_handle(Box::new(
+            event_loop.owned_display_handle(),
+        ))
+        .with_env(),
+    )
+    .with_context(|| {
+        format!(
+            "no GPU adapter for the window; {}",
+            lightgrid_gpu::driver_hint()
+        )
+    })?;
+    let ctx = Arc::new(ctx);
+    tracing::info!(adapter = %ctx.info.name, device_type = ?ctx.info.device_type, "rendering");
     tracing::info!("building the scene (grids swept by the {sweeper:?} choice)");
-    let world = World::build(scene, sweeper)?;
+    let world = World::build_on(scene, sweeper, Some(ctx.clone()))?;
     tracing::info!("grids swept by: {}", world.sweeper);
     let mut app = App {
+        ctx,
         world,
         size: (width, height),
         state: None,
@@ -118,6 +136,8 @@ struct GpuState {
 }
 
 struct App {
+    /// The process's one device: the world was swept on it, the window draws with it.
+    ctx: Arc<lightgrid_gpu::GpuContext>,
     world: World,
     size: (u32, u32),
     state: Option<GpuState>,
@@ -150,47 +170,21 @@ impl App {
                 )
                 .context("creating the window")?,
         );
-        // WGPU_BACKEND picks the backends; by default wgpu tries every one it was built with.
-        let instance = wgpu::Instance::new(
-            wgpu::InstanceDescriptor::new_with_display_handle(Box::new(
-                event_loop.owned_display_handle(),
-            ))
-            .with_env(),
-        );
-        let surface = instance
+        let surface = self
+            .ctx
             .create_surface(window.clone())
-            .context("creating the window surface")?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: Some(&surface),
-            apply_limit_buckets: false,
-        }))
-        .with_context(|| {
-            format!(
-                "no GPU adapter can draw to this window; {}",
-                lightgrid_gpu::driver_hint()
-            )
-        })?;
-        let ctx = Arc::new(lightgrid_gpu::GpuContext::on(&adapter).context("the window's GPU")?);
+            .context("the window's surface")?;
+        let adapter = self.ctx.adapter();
         let size = window.inner_size();
         let mut config = surface
-            .get_default_config(&adapter, size.width.max(1), size.height.max(1))
+            .get_default_config(adapter, size.width.max(1), size.height.max(1))
             .context("the surface does not work with this adapter")?;
-        let caps = surface.get_capabilities(&adapter);
+        let caps = surface.get_capabilities(adapter);
         if let Some(f) = caps.formats.iter().find(|f| f.is_srgb()) {
             config.format = *f;
         }
-        surface.configure(&ctx.device, &config);
-        tracing::info!(adapter = %ctx.info.name, device_type = ?ctx.info.device_type, "rendering");
-        // One device: the grids built from now on are swept on the window's device.
-        if self.world.gpu_sweeps {
-            let mut sweeper = lightgrid_sweep_gpu::GpuSweeper::with_context(ctx.clone());
-            // Swept grids stay on the device and are drawn from there (SceneMeshes::relight).
-            sweeper.keep_resident(true);
-            self.world.hierarchy.set_sweeper(Box::new(sweeper))?;
-        }
-        let mut renderer = Renderer::new(ctx, config.width, config.height)?;
+        surface.configure(&self.ctx.device, &config);
+        let mut renderer = Renderer::new(self.ctx.clone(), config.width, config.height)?;
         let meshes = SceneMeshes::new(&mut renderer, &self.world)?;
         Ok(GpuState {
             window,
