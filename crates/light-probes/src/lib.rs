@@ -117,10 +117,16 @@
 //! `[probes]` scene option renders a scene lit by probes beside the sweep
 //! (`scenes/town.toml`).
 //!
-//! Not here: interior sets on the GPU (`lightgrid_render::probes` relights exterior
-//! sets), and [`Sectors`] of interior sets.
+//! - On the GPU (feature `gpu`): `GpuProbeRelight` relights exterior
+//!   and interior sets as `ProbeLight` does, to 1e-4 (`gpu` module, `tests/gpu.rs`,
+//!   `examples/gpu_town.rs`). Without the feature (the default) the crate needs no
+//!   GPU stack.
+//!
+//! Not here: [`Sectors`] of interior sets.
 
 mod bake;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 mod interior;
 mod params;
 pub mod reference;
@@ -134,6 +140,9 @@ pub use params::ProbeParams;
 pub use relight::{Lighting, ProbeLight};
 pub use sectors::{LoadedSector, SectorStats, Sectors};
 pub use volume::{ProbeVolume, ResolvedVolume, cube_to_bins};
+
+#[cfg(feature = "gpu")]
+pub use gpu::GpuProbeRelight;
 
 /// Errors of baking and relighting.
 #[derive(Debug, thiserror::Error)]

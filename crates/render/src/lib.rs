@@ -48,7 +48,6 @@
 
 pub mod dynamic;
 pub mod gpu;
-pub mod probes;
 pub mod raster;
 pub mod sampling;
 pub mod shading;

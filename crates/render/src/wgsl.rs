@@ -70,16 +70,6 @@ pub fn mesh_shader() -> String {
     )
 }
 
-/// The probe relighting kernel (three stages, `crate::probes`).
-pub fn probes_kernel() -> String {
-    format!(
-        "{}\n{}\n{}",
-        prelude(),
-        crate::probes::ProbeParams::wgsl(),
-        include_str!("shaders/probes.wgsl")
-    )
-}
-
 /// The kernel that writes sampled light into vertices or the ground light.
 pub fn scatter_kernel() -> String {
     format!(
@@ -113,6 +103,5 @@ pub fn all() -> Vec<(&'static str, String)> {
         ("tonemap_shader", tonemap_shader()),
         ("dynamic_kernel", dynamic_kernel()),
         ("scatter_kernel", scatter_kernel()),
-        ("probes_kernel", probes_kernel()),
     ]
 }

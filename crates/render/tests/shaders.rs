@@ -13,7 +13,7 @@ fn validate(name: &str, src: &str) -> naga::Module {
 #[test]
 fn every_shader_validates() {
     let all = wgsl::all();
-    assert_eq!(all.len(), 6);
+    assert_eq!(all.len(), 5);
     for (name, src) in all {
         validate(name, &src);
     }
@@ -64,13 +64,6 @@ fn shared_structs_have_the_same_layout_in_rust_and_wgsl() {
         "ScatterParams",
         ScatterParams::offsets(),
         size_of::<ScatterParams>(),
-    );
-    let probes = validate("probes", &wgsl::probes_kernel());
-    check_layout(
-        &probes,
-        "ProbeParams",
-        lightgrid_render::probes::ProbeParams::offsets(),
-        size_of::<lightgrid_render::probes::ProbeParams>(),
     );
 }
 

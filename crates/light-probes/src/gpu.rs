@@ -1,8 +1,10 @@
-//! Probe relighting on the GPU: [`GpuProbeRelight`] runs `lightgrid_light_probes::ProbeLight::frame`
-//! (the CPU specification) as three compute stages over the same data, uploaded once
-//! per probe set; each frame uploads only the sky, the sun and the surfels' sun
-//! visibility. Interior sets ([`GpuProbeRelight::frame_interior`]) read the exterior
-//! set's probes on the device. `tests/gpu.rs` holds both equal to the CPU.
+//! Probe relighting on the GPU (feature `gpu`): [`GpuProbeRelight`] runs
+//! [`ProbeLight::frame`](crate::ProbeLight::frame) (the CPU specification) as three
+//! compute stages over the same data, uploaded once per probe set; each frame uploads
+//! only the sky, the sun and the surfels' sun visibility. Interior sets
+//! ([`GpuProbeRelight::frame_interior`]) read the exterior set's probes on the device.
+//! `tests/gpu.rs` holds both equal to the CPU; errors are
+//! [`GpuError`](lightgrid_gpu::GpuError)s (bad input as its `Grid` variant, by name).
 
 use std::sync::Arc;
 
@@ -10,14 +12,26 @@ use lightgrid_core::GridError;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::AmbientCube;
 use lightgrid_gpu::GpuContext;
+use lightgrid_gpu::GpuError;
 use lightgrid_gpu::kernel::{Binding, Kernel, buffer};
-use lightgrid_light_probes::{Lighting, ProbeSet};
 
-use crate::RenderError;
+use crate::{Lighting, ProbeSet};
+
+/// The relighting kernel's WGSL: the direction tables, π, [`RelightParams`] and the
+/// three stages (`shaders/relight.wgsl`).
+pub fn kernel_wgsl() -> String {
+    format!(
+        "{}\nconst PI: f32 = {:?};\n{}\n{}",
+        lightgrid_gpu::wgsl::prelude(),
+        std::f32::consts::PI,
+        RelightParams::wgsl(),
+        include_str!("shaders/relight.wgsl")
+    )
+}
 
 lightgrid_gpu::gpu_struct! {
     /// Uniforms of one probe relighting stage.
-    pub struct ProbeParams {
+    pub struct RelightParams {
         /// Stage (0 surfels, 1 bricks, 2 probes), surfels, bricks, probes.
         pub counts: [u32; 4] => "vec4<u32>",
         /// Offsets in the index table: links, brick starts, brick members, probe
@@ -50,7 +64,7 @@ pub struct GpuProbeRelight {
 
 impl GpuProbeRelight {
     /// Uploads `set` (its probes start dark, as `ProbeLight::new`).
-    pub fn new(ctx: Arc<GpuContext>, set: &ProbeSet) -> Result<Self, RenderError> {
+    pub fn new(ctx: Arc<GpuContext>, set: &ProbeSet) -> Result<Self, GpuError> {
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let ns = set.surfels().len();
         let nb = set.brick_count();
@@ -119,7 +133,7 @@ impl GpuProbeRelight {
         let kernel = Kernel::new(
             &ctx.device,
             "probe relight",
-            &crate::wgsl::probes_kernel(),
+            &kernel_wgsl(),
             &[
                 Binding::Uniform,
                 Binding::Read,
@@ -158,11 +172,7 @@ impl GpuProbeRelight {
 
     /// One frame on the device (as `ProbeLight::frame`): surfels, bricks, probes. An
     /// interior set needs [`GpuProbeRelight::frame_interior`].
-    pub fn frame(
-        &mut self,
-        lighting: &Lighting,
-        sun_visibility: &[f32],
-    ) -> Result<(), RenderError> {
+    pub fn frame(&mut self, lighting: &Lighting, sun_visibility: &[f32]) -> Result<(), GpuError> {
         if self.exterior.is_some() {
             return Err(GridError::invalid(
                 "set",
@@ -182,7 +192,7 @@ impl GpuProbeRelight {
         lighting: &Lighting,
         sun_visibility: &[f32],
         exterior: &GpuProbeRelight,
-    ) -> Result<(), RenderError> {
+    ) -> Result<(), GpuError> {
         let found = exterior.counts[3] as usize;
         if self.exterior != Some(found) || !Arc::ptr_eq(&self.ctx, &exterior.ctx) {
             return Err(GridError::LengthMismatch {
@@ -200,7 +210,7 @@ impl GpuProbeRelight {
         lighting: &Lighting,
         sun_visibility: &[f32],
         exterior: Option<&wgpu::Buffer>,
-    ) -> Result<(), RenderError> {
+    ) -> Result<(), GpuError> {
         let ns = self.counts[1] as usize;
         if sun_visibility.len() != ns {
             return Err(GridError::LengthMismatch {
@@ -241,7 +251,7 @@ impl GpuProbeRelight {
         );
         let (last, next) = (self.current, 1 - self.current);
         for stage in 0..3u32 {
-            let params = ProbeParams {
+            let params = RelightParams {
                 counts: [stage, self.counts[1], self.counts[2], self.counts[3]],
                 offsets: self.offsets,
                 to_sun: to_sun.to_array(),
@@ -280,7 +290,7 @@ impl GpuProbeRelight {
     }
 
     /// The probes' irradiance, read back (for tests and tools; renderers bind the buffer).
-    pub fn read(&self) -> Result<Vec<AmbientCube>, RenderError> {
+    pub fn read(&self) -> Result<Vec<AmbientCube>, GpuError> {
         let bytes = self.ctx.read_back(&self.probes[self.current])?;
         let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
         Ok(v.chunks(6)

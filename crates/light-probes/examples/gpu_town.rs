@@ -1,8 +1,8 @@
 //! Probe relighting in the Kenney town on the CPU (`lightgrid_light_probes::ProbeLight`, rayon)
-//! and on the GPU (`lightgrid_render::probes::GpuProbeRelight`, any adapter): time per
+//! and on the GPU (`lightgrid_light_probes::GpuProbeRelight`, any adapter): time per
 //! frame and per 1 000 probes, and the largest difference between the two.
 //!
-//! `cargo run --release -p lightgrid-render --example probes_town`
+//! `cargo run --release -p lightgrid-light-probes --example gpu_town`
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -31,7 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let vis = set.sun_visibility(&scene, to_sun);
         let mut cpu = ProbeLight::new(&set);
-        let mut gpu = lightgrid_render::probes::GpuProbeRelight::new(ctx.clone(), &set)?;
+        let mut gpu = lightgrid_light_probes::GpuProbeRelight::new(ctx.clone(), &set)?;
         let frames = 10;
         let t = Instant::now();
         for _ in 0..frames {

@@ -2,7 +2,7 @@
 // stages selected by params.counts.x: 0 surfels, 1 bricks, 2 probes. Ambient cubes are
 // six vec4 a probe (+X, -X, +Y, -Y, +Z, -Z).
 
-@group(0) @binding(0) var<uniform> params: ProbeParams;
+@group(0) @binding(0) var<uniform> params: RelightParams;
 // Surfels: (position, hits), (normal, outside), (albedo, 0); outside = 1 for an interior
 // set's surfels beyond its room (lit by the exterior set's probes).
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
