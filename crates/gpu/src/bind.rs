@@ -62,18 +62,26 @@ pub fn storage(
     )
 }
 
-/// Bind group entries numbered 0, 1, 2, ... in the order given.
-pub fn entries<'a, const N: usize>(
-    resources: [wgpu::BindingResource<'a>; N],
-) -> [wgpu::BindGroupEntry<'a>; N] {
-    let mut i = 0;
-    resources.map(|resource| {
-        let e = wgpu::BindGroupEntry {
-            binding: i,
+/// A bind group of `resources` on `layout`, bound in order from 0: the one way the
+/// workspace builds bind groups (compute kernels, the sweep, the rasteriser's passes).
+pub fn group<'a>(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    resources: impl IntoIterator<Item = wgpu::BindingResource<'a>>,
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'a>> = resources
+        .into_iter()
+        .enumerate()
+        .map(|(i, resource)| wgpu::BindGroupEntry {
+            binding: i as u32,
             resource,
-        };
-        i += 1;
-        e
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
     })
 }
 

@@ -67,19 +67,12 @@ impl Kernel {
 
     /// A bind group of `buffers`, bound in order from 0.
     pub fn bind(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &self.layout,
-            entries: &entries,
-        })
+        crate::bind::group(
+            device,
+            "kernel",
+            &self.layout,
+            buffers.iter().map(|b| b.as_entire_binding()),
+        )
     }
 
     /// Submits one dispatch of `count` invocations (at least one workgroup).

@@ -47,18 +47,20 @@
 //! ```
 
 pub mod dynamic;
-pub mod gpu;
+pub mod passes;
 pub mod raster;
 pub mod sampling;
 pub mod shading;
 pub mod wgsl;
 
 pub use dynamic::{DynamicLight, DynamicLights, DynamicShade};
-pub use gpu::{
-    GpuDynamicShader, GpuLightSampler, GpuPoints, GpuSampleLayer, GpuSamples, LayerOwner,
-};
 pub use lightgrid_core::LightKind;
 pub use lightgrid_gpu::GpuLightGrid;
+pub use passes::dynamic::GpuDynamicShader;
+pub use passes::sample::{
+    GpuLayerSun, GpuLightSampler, GpuPoints, GpuSampleLayer, GpuSamples, LayerLight, LayerOwner,
+    transmittance_buffer,
+};
 pub use raster::{
     Camera, GroundLight, Image, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial,
     Renderer, TextureRgba8, Vertex, View, Water,

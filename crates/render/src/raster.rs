@@ -2,139 +2,25 @@
 //! linear HDR target and tone-mapped to sRGB, headless (read back as an [`Image`]) or
 //! into any texture view (a window's surface).
 
-use std::collections::HashMap;
 use std::sync::Arc;
 
 use lightgrid_core::glam::{Mat4, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, GridError};
-use lightgrid_gpu::{GpuContext, GpuError};
+use lightgrid_gpu::{GpuContext, GpuError, bind};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
 use crate::dynamic::DynamicLights;
-use crate::gpu::GpuSamples;
+use crate::passes::mesh::{self, DEPTH_FORMAT, FrameUniforms, MeshUniforms};
+use crate::passes::sample::GpuSamples;
+use crate::passes::scatter::LightScatter;
+use crate::passes::tonemap::Tonemap;
 use crate::sampling::LightVolume;
 
-/// The HDR target's format (linear, renderable, read back as `f32`).
-pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+pub use crate::passes::mesh::{HDR_FORMAT, Lighting, LightingMode, MeshInstance, Vertex};
+
 /// The tone-mapped target's format for headless images.
 pub const LDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
-const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
-lightgrid_gpu::gpu_struct! {
-    /// Per-frame uniforms of the mesh shader.
-    pub struct FrameUniforms {
-        /// Projection × view.
-        pub view_proj: [[f32; 4]; 4] => "mat4x4<f32>",
-        /// Camera position (xyz).
-        pub eye: [f32; 4] => "vec4<f32>",
-        /// The way sunlight travels (xyz, unit), for the view without the grid.
-        pub sun_direction: [f32; 4] => "vec4<f32>",
-        /// Sun irradiance on a surface facing it (rgb), for the view without the grid.
-        pub sun_colour: [f32; 4] => "vec4<f32>",
-        /// Mean sky radiance (rgb), for the view without the grid.
-        pub sky_ambient: [f32; 4] => "vec4<f32>",
-        /// Irradiance of the sun kept apart from the grids' bins (rgb; along
-        /// `sun_direction`, times the transmittance the volume holds), 0 when the bins
-        /// hold the sun.
-        pub direct_sun: [f32; 4] => "vec4<f32>",
-        /// Water level (x) and attenuation per metre (y; 0 = no water).
-        pub water: [f32; 4] => "vec4<f32>",
-        /// Light volume origin (xyz) and cell size (w).
-        pub volume_origin_h: [f32; 4] => "vec4<f32>",
-        /// Light volume dims (xyz).
-        pub volume_dims: [u32; 4] => "vec4<u32>",
-        /// Normal bias of volume lookups in metres (x), ground-blend height (y).
-        pub volume_params: [f32; 4] => "vec4<f32>",
-        /// Ground light origin x, z (xy) and spacing (z).
-        pub ground_origin: [f32; 4] => "vec4<f32>",
-        /// Ground light nodes along x, z (xy); z = 1 when ground light is set.
-        pub ground_dims: [u32; 4] => "vec4<u32>",
-        /// Lighting mode (x).
-        pub mode: [u32; 4] => "vec4<u32>",
-        /// Dynamic-light grid origin (xyz) and cell size (w).
-        pub dyn_origin_cell: [f32; 4] => "vec4<f32>",
-        /// Dynamic-light grid cells (xyz) and light count (w; 0 = none).
-        pub dyn_dims: [u32; 4] => "vec4<u32>",
-    }
-}
-
-lightgrid_gpu::gpu_struct! {
-    /// Per-mesh uniforms of the mesh shader.
-    pub struct MeshUniforms {
-        /// Base colour factor (linear RGBA).
-        pub base_colour: [f32; 4] => "vec4<f32>",
-        /// Has a texture, alpha mask on, lighting kind, double-sided.
-        pub flags: [u32; 4] => "vec4<u32>",
-        /// Alpha cutoff, specular strength, shininess.
-        pub params: [f32; 4] => "vec4<f32>",
-    }
-}
-
-/// How a mesh is lit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u32)]
-pub enum Lighting {
-    /// The light stored in each vertex by a sampling buffer (irradiance from the 26 bins):
-    /// stationary diffuse surfaces such as the terrain.
-    Vertex = 0,
-    /// Average light and dominant direction read per pixel from the light volume, with a
-    /// specular term from the dominant direction: moving objects, rocks, trunks.
-    Surface = 1,
-    /// Average light only (π × average), per pixel: leaves and bushes, as the seed does.
-    Foliage = 2,
-    /// The tint is the HDR colour (debug: light grid points as balls).
-    Emissive = 3,
-    /// A fixed key light on the tint (debug: material cells as cubes).
-    Flat = 4,
-}
-
-/// Whether the grids light the frame.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u32)]
-pub enum LightingMode {
-    /// Light from the grids (sun shadowed and bounced by the sweep).
-    Grid = 0,
-    /// Without the grids: the unshadowed sun plus a constant sky ambient.
-    NoGrid = 1,
-}
-
-/// One vertex: position, normal, texture coordinate and the sampled light
-/// ([`Lighting::Vertex`] meshes read `light.xyz`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Vertex {
-    /// Model-space position.
-    pub position: [f32; 3],
-    /// Model-space normal.
-    pub normal: [f32; 3],
-    /// Texture coordinate.
-    pub uv: [f32; 2],
-    /// Irradiance (xyz) for [`Lighting::Vertex`].
-    pub light: [f32; 4],
-}
-
-/// One instance of a mesh as the GPU draws it: model matrix and a colour multiplier.
-/// (A model's *placement* in a scene, with model index, position, rotation and scale, is
-/// `lightgrid_material_voxelizer::compose::Instance`; the viewer turns placements into these.)
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct MeshInstance {
-    /// Model to world (column major).
-    pub model: [[f32; 4]; 4],
-    /// Multiplies the base colour; for [`Lighting::Emissive`], the HDR colour.
-    pub tint: [f32; 4],
-}
-
-impl MeshInstance {
-    /// An instance from a matrix and a tint.
-    pub fn new(model: Mat4, tint: Vec4) -> Self {
-        Self {
-            model: model.to_cols_array_2d(),
-            tint: tint.to_array(),
-        }
-    }
-}
 
 /// An RGBA8 texture in sRGB encoding (what PNG files and glTF base colours hold).
 #[derive(Debug, Clone, PartialEq)]
@@ -346,13 +232,10 @@ pub struct Renderer {
     mesh_pipelines: [wgpu::RenderPipeline; 2],
     frame_layout: wgpu::BindGroupLayout,
     mesh_layout: wgpu::BindGroupLayout,
-    tonemap_layout: wgpu::BindGroupLayout,
-    tonemap_module: wgpu::ShaderModule,
-    tonemap_pipelines: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    tonemap: Tonemap,
     frame_uniform: wgpu::Buffer,
-    tonemap_uniform: wgpu::Buffer,
     volume: VolumeBuffers,
-    scatter: crate::gpu::LightScatter,
+    scatter: LightScatter,
     ground: GroundBuffers,
     dynamic: DynamicBuffers,
     frame_bind: wgpu::BindGroup,
@@ -397,32 +280,16 @@ type VolumeBuffers = (wgpu::Buffer, LightVolumeInfo);
 /// The ground light buffer and its placement (none until a scene sets it).
 type GroundBuffers = (wgpu::Buffer, Option<GroundInfo>);
 
-use lightgrid_gpu::bind::uniform as uniform_entry;
-
-/// A read-only storage buffer of the fragment stage.
-fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    lightgrid_gpu::bind::storage(binding, wgpu::ShaderStages::FRAGMENT, true)
-}
-
 impl Renderer {
     /// A renderer drawing `width × height` images.
     pub fn new(ctx: Arc<GpuContext>, width: u32, height: u32) -> Result<Self, RenderError> {
         let device = &ctx.device;
-        let (frame_layout, mesh_layout, tonemap_layout) = Self::layouts(device);
-        let mesh_pipelines = Self::mesh_pipelines(device, &frame_layout, &mesh_layout);
-        let tonemap_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tonemap"),
-            source: wgpu::ShaderSource::Wgsl(crate::wgsl::tonemap_shader().into()),
-        });
+        let (frame_layout, mesh_layout) = mesh::layouts(device);
+        let mesh_pipelines = mesh::pipelines(device, &frame_layout, &mesh_layout);
+        let tonemap = Tonemap::new(device);
         let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame"),
             size: std::mem::size_of::<FrameUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let tonemap_uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tonemap"),
-            size: 16,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -451,8 +318,8 @@ impl Renderer {
             &ground,
             &dynamic,
         );
-        let targets = Self::targets(&ctx, &tonemap_layout, &tonemap_uniform, width, height)?;
-        let scatter = crate::gpu::LightScatter::new(device);
+        let targets = Self::targets(&ctx, &tonemap, width, height)?;
+        let scatter = LightScatter::new(device);
         Ok(Self {
             ctx,
             width,
@@ -460,11 +327,8 @@ impl Renderer {
             mesh_pipelines,
             frame_layout,
             mesh_layout,
-            tonemap_layout,
-            tonemap_module,
-            tonemap_pipelines: HashMap::new(),
+            tonemap,
             frame_uniform,
-            tonemap_uniform,
             volume,
             ground,
             dynamic,
@@ -475,109 +339,6 @@ impl Renderer {
             meshes: Vec::new(),
             scatter,
         })
-    }
-
-    /// The bind group layouts: per frame (uniforms, light volume, ground, dynamic
-    /// lights), per mesh (uniforms, base colour texture and sampler), tone mapping.
-    fn layouts(
-        device: &wgpu::Device,
-    ) -> (
-        wgpu::BindGroupLayout,
-        wgpu::BindGroupLayout,
-        wgpu::BindGroupLayout,
-    ) {
-        use lightgrid_gpu::bind;
-        let fragment = wgpu::ShaderStages::FRAGMENT;
-        let frame = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame"),
-            entries: &[
-                uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
-                storage_entry(1),
-                storage_entry(2),
-                storage_entry(3),
-                storage_entry(4),
-                storage_entry(5),
-            ],
-        });
-        let mesh = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("mesh"),
-            entries: &[
-                uniform_entry(0, fragment),
-                bind::texture_2d(1, fragment, true),
-                bind::sampler(2, fragment),
-            ],
-        });
-        let tonemap = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("tonemap"),
-            entries: &[
-                bind::texture_2d(0, fragment, false),
-                uniform_entry(1, fragment),
-            ],
-        });
-        (frame, mesh, tonemap)
-    }
-
-    /// The mesh pipelines: back faces culled, and double-sided.
-    fn mesh_pipelines(
-        device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        mesh_layout: &wgpu::BindGroupLayout,
-    ) -> [wgpu::RenderPipeline; 2] {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("mesh"),
-            source: wgpu::ShaderSource::Wgsl(crate::wgsl::mesh_shader().into()),
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("mesh"),
-            bind_group_layouts: &[Some(frame_layout), Some(mesh_layout)],
-            immediate_size: 0,
-        });
-        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x4];
-        let instance_attrs = wgpu::vertex_attr_array![4 => Float32x4, 5 => Float32x4, 6 => Float32x4, 7 => Float32x4, 8 => Float32x4];
-        let mesh_pipeline = |cull: Option<wgpu::Face>| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("mesh"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[
-                        Some(wgpu::VertexBufferLayout {
-                            array_stride: std::mem::size_of::<Vertex>() as u64,
-                            step_mode: wgpu::VertexStepMode::Vertex,
-                            attributes: &vertex_attrs,
-                        }),
-                        Some(wgpu::VertexBufferLayout {
-                            array_stride: std::mem::size_of::<MeshInstance>() as u64,
-                            step_mode: wgpu::VertexStepMode::Instance,
-                            attributes: &instance_attrs,
-                        }),
-                    ],
-                },
-                primitive: wgpu::PrimitiveState {
-                    cull_mode: cull,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(HDR_FORMAT.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        [mesh_pipeline(Some(wgpu::Face::Back)), mesh_pipeline(None)]
     }
 
     /// Small placeholder buffers for the light volume, the ground light and the dynamic
@@ -602,7 +363,7 @@ impl Renderer {
             // One zero light's worth of bytes (the binding's minimum size).
             lights: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("dynamic lights"),
-                contents: bytemuck::bytes_of(&crate::dynamic::DynLightGpu::default()),
+                contents: bytemuck::bytes_of(&crate::passes::dynamic::DynLightGpu::default()),
                 usage: wgpu::BufferUsages::STORAGE,
             }),
             cells: placeholder("dynamic cells"),
@@ -625,13 +386,7 @@ impl Renderer {
 
     /// Changes the image size (recreates the targets).
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        self.targets = Self::targets(
-            &self.ctx,
-            &self.tonemap_layout,
-            &self.tonemap_uniform,
-            width,
-            height,
-        )?;
+        self.targets = Self::targets(&self.ctx, &self.tonemap, width, height)?;
         self.width = width;
         self.height = height;
         Ok(())
@@ -639,8 +394,7 @@ impl Renderer {
 
     fn targets(
         ctx: &GpuContext,
-        tonemap_layout: &wgpu::BindGroupLayout,
-        tonemap_uniform: &wgpu::Buffer,
+        tonemap: &Tonemap,
         width: u32,
         height: u32,
     ) -> Result<Targets, RenderError> {
@@ -684,20 +438,7 @@ impl Renderer {
         );
         let ldr = texture("ldr", LDR_FORMAT, attach);
         let hdr_view = hdr.create_view(&Default::default());
-        let tonemap_bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("tonemap"),
-            layout: tonemap_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&hdr_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: tonemap_uniform.as_entire_binding(),
-                },
-            ],
-        });
+        let tonemap_bind = tonemap.bind(&ctx.device, &hdr_view);
         Ok(Targets {
             hdr_view,
             depth_view: depth.create_view(&Default::default()),
@@ -716,22 +457,20 @@ impl Renderer {
         ground: &GroundBuffers,
         dynamic: &DynamicBuffers,
     ) -> wgpu::BindGroup {
-        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("frame"),
+        bind::group(
+            &ctx.device,
+            "frame",
             layout,
-            entries: &[
-                (0, uniform),
-                (1, &volume.0),
-                (2, &ground.0),
-                (3, &dynamic.lights),
-                (4, &dynamic.cells),
-                (5, &dynamic.indices),
+            [
+                uniform,
+                &volume.0,
+                &ground.0,
+                &dynamic.lights,
+                &dynamic.cells,
+                &dynamic.indices,
             ]
-            .map(|(binding, b)| wgpu::BindGroupEntry {
-                binding,
-                resource: b.as_entire_binding(),
-            }),
-        })
+            .map(|b| b.as_entire_binding()),
+        )
     }
 
     fn upload_texture(
@@ -842,26 +581,16 @@ impl Renderer {
             contents: bytemuck::bytes_of(&uniforms),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("mesh"),
-            layout: &self.mesh_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(
-                        view.as_ref().unwrap_or(&self.white),
-                    ),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::Sampler(&self.sampler),
-                },
+        let bind = bind::group(
+            device,
+            "mesh",
+            &self.mesh_layout,
+            [
+                uniform.as_entire_binding(),
+                wgpu::BindingResource::TextureView(view.as_ref().unwrap_or(&self.white)),
+                wgpu::BindingResource::Sampler(&self.sampler),
             ],
-        });
+        );
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -1173,39 +902,6 @@ impl Renderer {
         })
     }
 
-    fn tonemap_pipeline(&mut self, format: wgpu::TextureFormat) -> &wgpu::RenderPipeline {
-        let (device, layout, module) =
-            (&self.ctx.device, &self.tonemap_layout, &self.tonemap_module);
-        self.tonemap_pipelines.entry(format).or_insert_with(|| {
-            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("tonemap"),
-                bind_group_layouts: &[Some(layout)],
-                immediate_size: 0,
-            });
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("tonemap"),
-                layout: Some(&pl),
-                vertex: wgpu::VertexState {
-                    module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: Default::default(),
-                depth_stencil: None,
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(format.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        })
-    }
-
     /// Draws `view` into the HDR target and tone-maps it into `target` (a texture view of
     /// `format`, e.g. a window's surface, sized like the renderer).
     pub fn render_to(
@@ -1218,13 +914,8 @@ impl Renderer {
         self.ctx
             .queue
             .write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniforms));
-        self.ctx.queue.write_buffer(
-            &self.tonemap_uniform,
-            0,
-            bytemuck::bytes_of(&[view.exposure, 0.0, 0.0, 0.0]),
-        );
-        self.tonemap_pipeline(format);
-        let tonemap = &self.tonemap_pipelines[&format];
+        self.tonemap.set_exposure(&self.ctx.queue, view.exposure);
+        let tonemap = self.tonemap.pipeline(&self.ctx.device, format).clone();
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         {
             let bg = view.background;
@@ -1284,7 +975,7 @@ impl Renderer {
                 })],
                 ..Default::default()
             });
-            pass.set_pipeline(tonemap);
+            pass.set_pipeline(&tonemap);
             pass.set_bind_group(0, &self.targets.tonemap_bind, &[]);
             pass.draw(0..3, 0..1);
         }

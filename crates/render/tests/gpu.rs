@@ -998,7 +998,7 @@ impl lightgrid_core::LightField for LitLayer<'_> {
 /// is refused by name.
 #[test]
 fn layered_device_sampling_with_the_sun_apart() {
-    use lightgrid_render::gpu::{GpuLayerSun, LayerLight, transmittance_buffer};
+    use lightgrid_render::{GpuLayerSun, LayerLight, transmittance_buffer};
     let Some(ctx) = context() else { return };
     let sampler = GpuLightSampler::new(ctx.clone());
     let descs = [

@@ -1,10 +1,11 @@
 //! Every render shader validates with naga (no GPU needed), and the structs shared with
 //! Rust have the same layout on both sides.
 
-use lightgrid_render::dynamic::{DynLightGpu, DynParams};
-use lightgrid_render::gpu::{SampleParams, ScatterParams};
-use lightgrid_render::raster::{FrameUniforms, MeshUniforms};
-use lightgrid_render::wgsl;
+use lightgrid_render::passes::dynamic::{DynLightGpu, DynParams};
+use lightgrid_render::passes::mesh::{FrameUniforms, MeshUniforms};
+use lightgrid_render::passes::sample::SampleParams;
+use lightgrid_render::passes::scatter::ScatterParams;
+use lightgrid_render::{passes, wgsl};
 
 fn validate(name: &str, src: &str) -> naga::Module {
     lightgrid_gpu::check::validate(name, src).unwrap_or_else(|e| panic!("{e}"))
@@ -12,7 +13,7 @@ fn validate(name: &str, src: &str) -> naga::Module {
 
 #[test]
 fn every_shader_validates() {
-    let all = wgsl::all();
+    let all = passes::shaders();
     assert_eq!(all.len(), 5);
     for (name, src) in all {
         validate(name, &src);
@@ -25,7 +26,7 @@ fn check_layout(module: &naga::Module, name: &str, rust: Vec<(&str, usize)>, siz
 
 #[test]
 fn shared_structs_have_the_same_layout_in_rust_and_wgsl() {
-    let mesh = validate("mesh", &wgsl::mesh_shader());
+    let mesh = validate("mesh", &passes::mesh::wgsl());
     check_layout(
         &mesh,
         "FrameUniforms",
@@ -38,7 +39,7 @@ fn shared_structs_have_the_same_layout_in_rust_and_wgsl() {
         MeshUniforms::offsets(),
         size_of::<MeshUniforms>(),
     );
-    let dynamic = validate("dynamic", &wgsl::dynamic_kernel());
+    let dynamic = validate("dynamic", &passes::dynamic::wgsl());
     check_layout(
         &dynamic,
         "DynLightGpu",
@@ -51,14 +52,14 @@ fn shared_structs_have_the_same_layout_in_rust_and_wgsl() {
         DynParams::offsets(),
         size_of::<DynParams>(),
     );
-    let sample = validate("sample", &wgsl::sample_kernel());
+    let sample = validate("sample", &passes::sample::wgsl());
     check_layout(
         &sample,
         "SampleParams",
         SampleParams::offsets(),
         size_of::<SampleParams>(),
     );
-    let scatter = validate("scatter", &wgsl::scatter_kernel());
+    let scatter = validate("scatter", &passes::scatter::wgsl());
     check_layout(
         &scatter,
         "ScatterParams",

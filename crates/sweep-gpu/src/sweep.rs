@@ -544,10 +544,11 @@ impl GpuSweeper {
             size: wgpu::BufferSize::new(std::mem::size_of::<LevelParams>() as u64),
         });
         let phase1 = |k: usize| {
-            d.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("phase 1"),
-                layout: &self.layout1,
-                entries: &bind::entries([
+            bind::group(
+                d,
+                "phase 1",
+                &self.layout1,
+                [
                     pbind.clone(),
                     b.cells.as_entire_binding(),
                     b.ping[k].as_entire_binding(),
@@ -557,14 +558,15 @@ impl GpuSweeper {
                     b.virt.as_entire_binding(),
                     b.halo.as_entire_binding(),
                     b.flux_in.as_entire_binding(),
-                ]),
-            })
+                ],
+            )
         };
         let phase2 = |c: usize, up: usize| {
-            d.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("phase 2"),
-                layout: &self.layout2,
-                entries: &bind::entries([
+            bind::group(
+                d,
+                "phase 2",
+                &self.layout2,
+                [
                     pbind.clone(),
                     b.cells.as_entire_binding(),
                     b.exposed.as_entire_binding(),
@@ -577,8 +579,8 @@ impl GpuSweeper {
                     self.surface_w.as_entire_binding(),
                     b.srcj.as_entire_binding(),
                     self.profile_tab.as_entire_binding(),
-                ]),
-            })
+                ],
+            )
         };
         BindGroups {
             phase1: [phase1(0), phase1(1)],

@@ -5,13 +5,13 @@ use anyhow::{Context, Result};
 use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, LightField, LightGrid, MaterialSource};
 use lightgrid_material_voxelizer::model::{AlphaMode, Model};
-use lightgrid_render::gpu::{GpuLayerSun, LayerLight, transmittance_buffer};
 use lightgrid_render::shading::linear_to_srgb8;
 use lightgrid_render::{
     Camera, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight, LayerOwner,
     LightVolume, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial, Renderer,
     SamplePoints, TextureRgba8, Vertex, View, sample_points,
 };
+use lightgrid_render::{GpuLayerSun, LayerLight, transmittance_buffer};
 
 use crate::world::World;
 

@@ -1,4 +1,7 @@
-//! The light sampling buffer as a wgpu compute pass.
+//! The light sampling pass: a batch of points lit from one grid or from a grid
+//! hierarchy as layers (one compute dispatch a layer, the finest owning layer winning),
+//! with or without normals and the sun kept apart. `crate::sampling` is the CPU
+//! specification; `shaders/sample.wgsl` implements it.
 
 use std::sync::Arc;
 
@@ -9,8 +12,17 @@ use lightgrid_gpu::{GpuContext, GpuError, GpuLightGrid};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
-use crate::dynamic::{DynParams, DynamicLights, DynamicShade};
 use crate::sampling::{IrradianceTable, SamplePoints, SampledLight};
+
+/// The sampling kernel's WGSL: the prelude, [`SampleParams`], `shaders/sample.wgsl`.
+pub fn wgsl() -> String {
+    format!(
+        "{}\n{}\n{}",
+        crate::wgsl::prelude(),
+        SampleParams::wgsl(),
+        include_str!("../shaders/sample.wgsl")
+    )
+}
 
 lightgrid_gpu::gpu_struct! {
     /// Uniforms of the sampling kernel (one dispatch per layer).
@@ -82,62 +94,6 @@ pub fn transmittance_buffer(ctx: &GpuContext, values: &[f32]) -> wgpu::Buffer {
         bytemuck::cast_slice(values),
         wgpu::BufferUsages::STORAGE,
     )
-}
-
-lightgrid_gpu::gpu_struct! {
-    /// Uniforms of the scatter kernel (sampled light into strided `f32` arrays).
-    pub struct ScatterParams {
-        /// Points.
-        pub count: u32 => "u32",
-        /// Floats from one destination element to the next.
-        pub stride: u32 => "u32",
-        /// Float offset of the light within an element.
-        pub offset: u32 => "u32",
-        /// Padding.
-        pub pad0: u32 => "u32",
-    }
-}
-
-/// Writes the light of [`GpuSamples`] into the rgb of a strided `f32` buffer on the
-/// device (vertex light, ground light).
-pub(crate) struct LightScatter {
-    kernel: Kernel,
-}
-
-impl LightScatter {
-    pub(crate) fn new(device: &wgpu::Device) -> Self {
-        use Binding::{Read, ReadWrite, Uniform};
-        Self {
-            kernel: Kernel::new(
-                device,
-                "scatter",
-                &crate::wgsl::scatter_kernel(),
-                &[Uniform, Read, ReadWrite],
-            ),
-        }
-    }
-
-    /// `dst[i * stride + offset + k] = light[i][k]` for `k < 3`. The caller checked that
-    /// `dst` holds `samples.count()` elements of `stride` floats.
-    pub(crate) fn run(&self, samples: &GpuSamples, dst: &wgpu::Buffer, stride: u32, offset: u32) {
-        let ctx = &samples.ctx;
-        let params = ScatterParams {
-            count: samples.count as u32,
-            stride,
-            offset,
-            pad0: 0,
-        };
-        let uniform = buffer(
-            ctx,
-            "scatter params",
-            bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let bind = self
-            .kernel
-            .bind(&ctx.device, &[&uniform, &samples.buffer, dst]);
-        self.kernel.dispatch(ctx, &bind, samples.count as u32);
-    }
 }
 
 /// Which points a layer lights, as `lightgrid_terrain_lod::Owner` states it: those whose `(x, z)`
@@ -235,7 +191,7 @@ impl GpuLightSampler {
         let kernel = Kernel::new(
             device,
             "sample",
-            &crate::wgsl::sample_kernel(),
+            &wgsl(),
             &[Uniform, Read, Read, Read, Read, Read, ReadWrite],
         );
         let table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -470,92 +426,5 @@ fn layer_params(
         },
         to_sun: sun.map_or([0.0; 4], |(s, _)| s.extend(0.0).to_array()),
         ..Default::default()
-    }
-}
-
-/// Dynamic-light shading of a batch of points on the GPU, through the same WGSL the mesh
-/// shader uses (tests compare it with [`crate::dynamic`]).
-pub struct GpuDynamicShader {
-    ctx: Arc<GpuContext>,
-    kernel: Kernel,
-}
-
-impl GpuDynamicShader {
-    /// Compiles the kernel.
-    pub fn new(ctx: Arc<GpuContext>) -> Self {
-        use Binding::{Read, ReadWrite, Uniform};
-        let kernel = Kernel::new(
-            &ctx.device,
-            "dynamic lights",
-            &crate::wgsl::dynamic_kernel(),
-            &[Uniform, Read, Read, Read, Read, ReadWrite],
-        );
-        Self { ctx, kernel }
-    }
-
-    /// Diffuse and specular light at each `(position, normal, to_eye)` with `shininess`.
-    pub fn shade(
-        &self,
-        lights: &DynamicLights,
-        points: &[(Vec3, Vec3, Vec3)],
-        shininess: f32,
-    ) -> Result<Vec<DynamicShade>, RenderError> {
-        if points.is_empty() {
-            return Ok(Vec::new());
-        }
-        let (origin_cell, dims) = lights.gpu_placement();
-        let params = DynParams {
-            origin_cell,
-            dims,
-            count: [points.len() as u32, 0, 0, 0],
-        };
-        let packed: Vec<f32> = points
-            .iter()
-            .flat_map(|(p, n, v)| {
-                [
-                    p.x, p.y, p.z, shininess, n.x, n.y, n.z, 0.0, v.x, v.y, v.z, 0.0,
-                ]
-            })
-            .collect();
-        let storage = wgpu::BufferUsages::STORAGE;
-        let ctx = &*self.ctx;
-        let buffers = [
-            buffer(
-                ctx,
-                "params",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
-            ),
-            buffer(
-                ctx,
-                "lights",
-                bytemuck::cast_slice(&lights.gpu_lights()),
-                storage,
-            ),
-            buffer(ctx, "cells", bytemuck::cast_slice(&lights.cells), storage),
-            buffer(
-                ctx,
-                "indices",
-                bytemuck::cast_slice(&lights.indices),
-                storage,
-            ),
-            buffer(ctx, "points", bytemuck::cast_slice(&packed), storage),
-        ];
-        let out = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("dynamic out"),
-            size: points.len() as u64 * 32,
-            usage: storage | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let refs: Vec<&wgpu::Buffer> = buffers.iter().chain([&out]).collect();
-        let b = self.kernel.bind(&ctx.device, &refs);
-        self.kernel.dispatch(ctx, &b, points.len() as u32);
-        let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&ctx.read_back(&out)?);
-        Ok(v.chunks(2)
-            .map(|c| DynamicShade {
-                diffuse: Vec3::new(c[0][0], c[0][1], c[0][2]),
-                specular: Vec3::new(c[1][0], c[1][1], c[1][2]),
-            })
-            .collect())
     }
 }
