@@ -188,7 +188,7 @@ impl Probes {
             .scene
             .probes
             .as_ref()
-            .is_some_and(|p| p.sun == "sweep");
+            .is_some_and(|p| p.sun == crate::scene::ProbeSun::Sweep);
         let vis = if !lit {
             vec![0.0; self.set.surfels().len()]
         } else if by_sweep {

@@ -92,8 +92,8 @@ pub struct ProceduralTerrain {
 #[serde(deny_unknown_fields)]
 pub struct SkySpec {
     /// `"clear"` (analytic blue sky around the sun), `"uniform"` or `"exr"`.
-    #[serde(default = "default_sky")]
-    pub kind: String,
+    #[serde(default)]
+    pub kind: SkyKind,
     /// Radiance of a uniform sky.
     #[serde(default = "default_radiance")]
     pub radiance: [f32; 3],
@@ -107,7 +107,7 @@ pub struct SkySpec {
 impl Default for SkySpec {
     fn default() -> Self {
         Self {
-            kind: default_sky(),
+            kind: SkyKind::Clear,
             radiance: default_radiance(),
             file: None,
             scale: 1.0,
@@ -213,7 +213,7 @@ pub struct ModelSpec {
     /// A .glb / .gltf file.
     pub gltf: Option<PathBuf>,
     /// `"broadleaf"`, `"young"`, `"bush"` or `"rock"`.
-    pub procedural: Option<String>,
+    pub procedural: Option<ProceduralModel>,
     /// Seed of a procedural model.
     #[serde(default)]
     pub seed: u64,
@@ -285,8 +285,8 @@ pub struct DynamicLightsSpec {
 #[serde(deny_unknown_fields)]
 pub struct ProbesSpec {
     /// `"preview"`, `"standard"` (The Division's 4 m) or `"fine"`.
-    #[serde(default = "default_probe_preset")]
-    pub preset: String,
+    #[serde(default)]
+    pub preset: ProbePreset,
     /// Probe spacing, metres (overrides the preset's).
     pub spacing: Option<f32>,
     /// The region probed, world `[x0, z0, x1, z1]`; by default the instances' extent and
@@ -297,25 +297,68 @@ pub struct ProbesSpec {
     pub walls: bool,
     /// How surfels see the sun: `"rays"` (a shadow ray each, alpha-tested leaves opaque
     /// or not) or `"sweep"` (the sweep's sun transmittance, partial through foliage).
-    #[serde(default = "default_probe_sun")]
-    pub sun: String,
+    #[serde(default)]
+    pub sun: ProbeSun,
 }
 
-fn default_probe_sun() -> String {
-    "rays".into()
+/// A sky kind (`sky.kind`), parsed once with the scene file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SkyKind {
+    /// The analytic clear sky around the sun.
+    #[default]
+    Clear,
+    /// A uniform sky of `sky.radiance`.
+    Uniform,
+    /// An equirectangular EXR environment map (`sky.file`).
+    Exr,
 }
 
-fn default_probe_preset() -> String {
-    "standard".into()
+/// A procedural model (`models[i].procedural`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProceduralModel {
+    /// A broadleaf tree.
+    Broadleaf,
+    /// A young tree.
+    Young,
+    /// A bush.
+    Bush,
+    /// A rock.
+    Rock,
+}
+
+/// The probes' bake preset (`probes.preset`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProbePreset {
+    /// Coarse and quick.
+    Preview,
+    /// The Division's 4 m probes.
+    #[default]
+    Standard,
+    /// Finer probes.
+    Fine,
+}
+
+/// How the probes' surfels see the sun (`probes.sun`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProbeSun {
+    /// A shadow ray each.
+    #[default]
+    Rays,
+    /// The sweep's sun transmittance.
+    Sweep,
 }
 
 impl ProbesSpec {
     /// The bake parameters.
     pub fn params(&self) -> lightgrid_light_probes::ProbeParams {
-        let mut p = match self.preset.as_str() {
-            "preview" => lightgrid_light_probes::ProbeParams::preview(),
-            "fine" => lightgrid_light_probes::ProbeParams::fine(),
-            _ => lightgrid_light_probes::ProbeParams::standard(),
+        let mut p = match self.preset {
+            ProbePreset::Preview => lightgrid_light_probes::ProbeParams::preview(),
+            ProbePreset::Fine => lightgrid_light_probes::ProbeParams::fine(),
+            ProbePreset::Standard => lightgrid_light_probes::ProbeParams::standard(),
         };
         if let Some(s) = self.spacing {
             p.spacing = s;
@@ -362,9 +405,6 @@ fn default_ground() -> [f32; 3] {
 }
 fn default_feature() -> f32 {
     200.0
-}
-fn default_sky() -> String {
-    "clear".into()
 }
 fn default_radiance() -> [f32; 3] {
     [0.5, 0.6, 0.8]
@@ -466,11 +506,8 @@ impl SceneFile {
             }
         }
         colour("terrain.ground_colour", t.ground_colour, Some(1.0))?;
-        match self.sky.kind.as_str() {
-            "clear" | "uniform" => {}
-            "exr" if self.sky.file.is_some() => {}
-            "exr" => bail!("sky.kind = \"exr\" needs sky.file"),
-            k => bail!("sky.kind = {k:?}: must be \"clear\", \"uniform\" or \"exr\""),
+        if self.sky.kind == SkyKind::Exr && self.sky.file.is_none() {
+            bail!("sky.kind = \"exr\" needs sky.file");
         }
         colour("sky.radiance", self.sky.radiance, None)?;
         if !(self.sky.scale.is_finite() && self.sky.scale >= 0.0) {
@@ -500,12 +537,8 @@ impl SceneFile {
             bail!("grid.passes = {}: must be in 1..=16", g.passes);
         }
         for (i, m) in self.models.iter().enumerate() {
-            match (&m.gltf, m.procedural.as_deref()) {
-                (Some(_), None) => {}
-                (None, Some("broadleaf" | "young" | "bush" | "rock")) => {}
-                (None, Some(k)) => bail!(
-                    "models[{i}].procedural = {k:?}: must be \"broadleaf\", \"young\", \"bush\" or \"rock\""
-                ),
+            match (&m.gltf, m.procedural) {
+                (Some(_), None) | (None, Some(_)) => {}
                 _ => bail!(
                     "models[{i}] ({}): give `gltf` or `procedural`, exactly one",
                     m.name
@@ -557,17 +590,8 @@ impl SceneFile {
             }
         }
         if let Some(p) = &self.probes {
-            if !matches!(p.preset.as_str(), "preview" | "standard" | "fine") {
-                bail!(
-                    "probes.preset = {:?}: must be \"preview\", \"standard\" or \"fine\"",
-                    p.preset
-                );
-            }
             if let Some(s) = p.spacing {
                 positive("probes.spacing", s)?;
-            }
-            if !matches!(p.sun.as_str(), "rays" | "sweep") {
-                bail!("probes.sun = {:?}: must be \"rays\" or \"sweep\"", p.sun);
             }
             if let Some(r) = p.region
                 && !(r.iter().all(|v| v.is_finite()) && r[0] < r[2] && r[1] < r[3])

@@ -17,7 +17,7 @@ use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use lightgrid_sweep_cpu::sky::{SkySpec, Sun};
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 
-use crate::scene::SceneFile;
+use crate::scene::{ProceduralModel, SceneFile, SkyKind};
 
 /// Which sweeper computes the grids.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -151,7 +151,7 @@ fn voxelize_models(scene: &SceneFile) -> Result<(Vec<ModelEntry>, Vec<MaterialGr
 /// foliage (alpha-masked materials, procedural plants).
 fn model_of(scene: &SceneFile, i: usize) -> Result<(Model, bool)> {
     let m = &scene.models[i];
-    Ok(match (&m.gltf, m.procedural.as_deref()) {
+    Ok(match (&m.gltf, m.procedural) {
         (Some(path), _) => {
             let p = scene.resolve(path);
             let model = Model::load_gltf(&p)
@@ -164,13 +164,10 @@ fn model_of(scene: &SceneFile, i: usize) -> Result<(Model, bool)> {
             });
             (model, foliage)
         }
-        (None, Some("broadleaf")) => (tree(&TreeParams::broadleaf(m.seed))?, true),
-        (None, Some("young")) => (tree(&TreeParams::young(m.seed))?, true),
-        (None, Some("bush")) => (bush(m.seed, 1.2)?, true),
-        (None, Some("rock")) => (rock(m.seed, 1.0)?, false),
-        (None, Some(k)) => {
-            anyhow::bail!("models[{i}].procedural = {k:?}: no such procedural model")
-        }
+        (None, Some(ProceduralModel::Broadleaf)) => (tree(&TreeParams::broadleaf(m.seed))?, true),
+        (None, Some(ProceduralModel::Young)) => (tree(&TreeParams::young(m.seed))?, true),
+        (None, Some(ProceduralModel::Bush)) => (bush(m.seed, 1.2)?, true),
+        (None, Some(ProceduralModel::Rock)) => (rock(m.seed, 1.0)?, false),
         (None, None) => anyhow::bail!("models[{i}]: no source"),
     })
 }
@@ -295,13 +292,13 @@ fn load_texture_png(path: &std::path::Path) -> Result<Texture> {
 /// The scene's sky, resolved once (an EXR map is read here, not again when the sun
 /// moves).
 pub fn sky_spec(scene: &SceneFile) -> Result<SkySpec> {
-    Ok(match scene.sky.kind.as_str() {
-        "uniform" => SkySpec::Uniform(Vec3::from_array(scene.sky.radiance)),
-        "exr" => {
+    Ok(match scene.sky.kind {
+        SkyKind::Uniform => SkySpec::Uniform(Vec3::from_array(scene.sky.radiance)),
+        SkyKind::Exr => {
             let f = scene.resolve(scene.sky.file.as_ref().context("sky.file")?);
             SkySpec::exr(&f).with_context(|| format!("sky.file {}", f.display()))?
         }
-        _ => SkySpec::Clear,
+        SkyKind::Clear => SkySpec::Clear,
     })
 }
 

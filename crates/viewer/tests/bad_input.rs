@@ -182,3 +182,40 @@ fn scene_values_out_of_range_and_huge_tables_are_refused() {
     // Refused on reading, before any rendering.
     assert!(e.contains("views: 10000 entries, at most 64"), "{e}");
 }
+
+/// Names a scene chooses from (sky kind, procedural model, probe preset and sun) are
+/// parsed once into typed values: an unknown one is refused at parse, with the line and
+/// the names it could be.
+#[test]
+fn unknown_names_are_refused_when_the_scene_is_parsed() {
+    let view =
+        "[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n";
+    for (body, value, choices) in [
+        (
+            "[sky]\nkind = \"foggy\"\n",
+            "foggy",
+            "`clear`, `uniform`, `exr`",
+        ),
+        (
+            "[[models]]\nname = \"m\"\nprocedural = \"oak\"\n",
+            "oak",
+            "`broadleaf`, `young`, `bush`, `rock`",
+        ),
+        (
+            "[probes]\npreset = \"ultra\"\n",
+            "ultra",
+            "`preview`, `standard`, `fine`",
+        ),
+        ("[probes]\nsun = \"moon\"\n", "moon", "`rays` or `sweep`"),
+    ] {
+        let text = format!("{TERRAIN_512}\n{body}{view}");
+        let e = match SceneFile::parse(&text, "bad.toml", Path::new(".")) {
+            Ok(_) => panic!("parsed:\n{text}"),
+            Err(e) => format!("{e:#}"),
+        };
+        assert!(
+            e.contains(&format!("unknown variant `{value}`")) && e.contains(choices),
+            "{e}"
+        );
+    }
+}
