@@ -208,37 +208,55 @@ fn unsupported_boundaries_are_typed_errors() {
 
 /// The sweep (multi-bounce defaults) against the reference on the five canonical scenes,
 /// 12³ cells, 600k paths, seed 1: relative RMSE of the average light and of irradiance
-/// on the six axis normals. The run is deterministic, so these bounds (10 % over the
-/// measured values, table in the crate docs) guard against regressions.
+/// on the six axis normals. A measured error `e` is the sweep's own error `b` and the
+/// reference's noise `n` together, `e² ≈ b² + n²`; the guard holds the sweep's own part,
+/// `b = √(e² − n²)`, to fixed targets tied to what each scene asks of the sweep, not to
+/// its last figures. The noise is measured with the same measure: a second reference
+/// (seed 2) against the first differs by `√2 n`.
+///
+/// - **0.5 %** where the sweep is exact (the empty scene: the error is the noise alone);
+/// - **1.5 %** in smooth media (the fog, both canopies: the channels' angular error, which
+///   the exact half-space problems measure at 0.2–1.7 % for cells this thin);
+/// - **4 %** for the dense block (cells of optical depth 3, the sweep's known weak case;
+///   issue 44's target for irradiance on the six axes).
+///
+/// The noise must itself be small for the test to mean anything: `n < 2 %`. (Measured,
+/// average / irradiance: the empty scene's error is its noise, 0.0114 / 0.0126 against
+/// 0.0115 / 0.0127; the sweep's own error 1.3 / 1.3 % in the fog, 0.0 / 0.5 % in the
+/// canopies, 2.9 / 3.5 % in the dense block.)
 #[test]
 fn sweep_against_reference_on_canonical_scenes() {
-    let bounds = [
-        (Scene::Empty, 0.0126, 0.0139),
-        (Scene::UniformFog, 0.0186, 0.0222),
-        (Scene::DenseBlock, 0.0337, 0.0411),
-        (Scene::Canopy, 0.0123, 0.0158),
-        (Scene::CanopyOneLevelGround, 0.0123, 0.0161),
+    let targets = [
+        (Scene::Empty, 0.005),
+        (Scene::UniformFog, 0.015),
+        (Scene::DenseBlock, 0.04),
+        (Scene::Canopy, 0.015),
+        (Scene::CanopyOneLevelGround, 0.015),
     ];
+    let own = |e: f64, n: f64| (e * e - n * n).max(0.0).sqrt();
     let mut report = String::new();
-    for (scene, avg_bound, irr_bound) in bounds {
+    for (scene, target) in targets {
         let (m, b) = scene.build(12);
         let mut o = SweepOptions::multi_bounce();
         o.tolerance = 1e-4;
         let s = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap();
         let r = mc(&m, &b, 600_000, 1);
         let e = compare(s.output.bins.as_ref().unwrap(), &r.light, &m);
+        let twin = compare(&mc(&m, &b, 600_000, 2).light, &r.light, &m);
+        let (na, ni) = (
+            twin.average / std::f64::consts::SQRT_2,
+            twin.irradiance / std::f64::consts::SQRT_2,
+        );
+        let (ba, bi) = (own(e.average, na), own(e.irradiance, ni));
         report += &format!(
-            "{}: average {:.4}, irradiance {:.4}, mc rse {:.4}\n",
+            "{}: average {:.4} (noise {na:.4}, own {ba:.4}), irradiance {:.4} (noise {ni:.4}, own {bi:.4}), target {target}\n",
             scene.name(),
             e.average,
             e.irradiance,
-            r.relative_std_error(0.0)
         );
         assert!(e.points > 100);
-        assert!(
-            e.average < avg_bound && e.irradiance < irr_bound,
-            "{report}"
-        );
+        assert!(na < 0.02 && ni < 0.02, "{report}");
+        assert!(ba <= target && bi <= target, "{report}");
     }
     println!("{report}");
 }
