@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod convergence;
+pub mod figures;
 pub mod frame;
 pub mod fuzz;
 pub mod fuzz_api;

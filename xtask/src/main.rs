@@ -12,6 +12,9 @@
 //! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--path forest|edge]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
+//! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
+//!   exact, sun, frame, throughput, first sweep, the demo), each alone; writes
+//!   `docs/figures.md` and the README's table (see `xtask::figures`).
 //! * `fuzz [--inputs N] [--target NAME]... [--seed S]`: every reader of user files (grid,
 //!   scene, volume, gltf, exr, png) over N generated inputs (default one million per
 //!   target): panics, slow inputs, peak memory (see `xtask::fuzz`). Writes
@@ -97,6 +100,14 @@ enum Task {
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Measure the README's figures (bench forest, exact, sun, frame, throughput, first
+    /// sweep, demo), each alone, and write docs/figures.md and the README's table.
+    Figures {
+        /// Do not run the measurements: rebuild both files from the reports in
+        /// target/bench.
+        #[arg(long)]
+        assemble: bool,
     },
     /// Feed every file reader generated bad inputs: panics, slow inputs, peak memory.
     Fuzz {
@@ -185,6 +196,18 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Task::Figures { assemble } => match xtask::figures::run(&root, assemble) {
+            Ok(written) => {
+                for p in written {
+                    println!("wrote {}", p.display());
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("xtask figures: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
         Task::Fuzz {
             inputs,
             targets,
