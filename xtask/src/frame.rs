@@ -49,7 +49,7 @@ use lightgrid_material_voxelizer::compose::{
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use lightgrid_render::sampling::{SamplePoints, SampledLight, sample_points};
-use lightgrid_sweep_cpu::sky::ClearSky;
+use lightgrid_sky::ClearSky;
 use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, SunLight};
 use serde::Serialize;
 
@@ -413,8 +413,7 @@ impl Parts {
 const SUN_E: Vec3 = Vec3::new(3.0, 2.9, 2.7);
 
 fn sun_dir(elevation_deg: f32) -> Vec3 {
-    let s =
-        lightgrid_sweep_cpu::sky::Sun::at(elevation_deg.to_radians(), 40f32.to_radians(), SUN_E);
+    let s = lightgrid_sky::Sun::at(elevation_deg.to_radians(), 40f32.to_radians(), SUN_E);
     s.direction
 }
 

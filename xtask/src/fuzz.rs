@@ -472,9 +472,8 @@ fn exr_seeds() -> Vec<Vec<u8>> {
     let dir = scratch_dir("exr");
     let _ = std::fs::create_dir_all(&dir);
     let path = dir.join("sky.exr");
-    let map =
-        lightgrid_sweep_cpu::sky::EnvMap::from_fn(8, 4, |d| Vec3::new(0.2, 0.4, 1.0) * (1.0 + d.y))
-            .expect("valid sky");
+    let map = lightgrid_sky::EnvMap::from_fn(8, 4, |d| Vec3::new(0.2, 0.4, 1.0) * (1.0 + d.y))
+        .expect("valid sky");
     map.save_exr(&path).expect("writes");
     let b = std::fs::read(&path).expect("reads");
     let _ = std::fs::remove_dir_all(&dir);
@@ -482,7 +481,7 @@ fn exr_seeds() -> Vec<Vec<u8>> {
 }
 
 fn run_exr(b: &[u8]) -> bool {
-    lightgrid_sweep_cpu::sky::EnvMap::from_exr_bytes(b).is_ok()
+    lightgrid_sky::EnvMap::from_exr_bytes(b).is_ok()
 }
 
 fn png_seeds() -> Vec<Vec<u8>> {

@@ -104,10 +104,10 @@ pub fn run_bake(b: &[u8]) -> bool {
         .last()
         .map_or(30.0, |&x| x as f32 * 0.4 - 10.0)
         .to_radians();
-    let Ok(sky) = lightgrid_sweep_cpu::sky::uniform_sky(Vec3::splat(0.5)) else {
+    let Ok(sky) = lightgrid_sky::uniform_sky(Vec3::splat(0.5)) else {
         return false;
     };
-    let sun = lightgrid_sweep_cpu::sky::Sun::at(elevation, 1.0, Vec3::splat(3.0))
+    let sun = lightgrid_sky::Sun::at(elevation, 1.0, Vec3::splat(3.0))
         .bins()
         .unwrap_or(BinLight::ZERO);
     let both = lightgrid_core::Boundary {
@@ -229,10 +229,10 @@ pub fn run_api(b: &[u8]) -> bool {
     }
     // Suns and skies.
     let (elevation, azimuth, light) = (r.f32(), r.f32(), r.v3());
-    if let Ok(s) = lightgrid_sweep_cpu::sky::Sun::at(elevation, azimuth, light).bins() {
+    if let Ok(s) = lightgrid_sky::Sun::at(elevation, azimuth, light).bins() {
         assert!(s.is_valid(), "sun bins");
     }
-    if let Ok(s) = lightgrid_sweep_cpu::sky::uniform_sky(light) {
+    if let Ok(s) = lightgrid_sky::uniform_sky(light) {
         assert!(s.top.is_valid(), "uniform sky");
     }
     let _ = lightgrid_core::light::check_sun(r.v3(), r.v3());

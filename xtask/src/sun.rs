@@ -17,7 +17,7 @@ use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use lightgrid_measure::sun_measure::{
     SunErrors, angle_error, exact_shadow_azimuth, ground_light, shadow_azimuth, sun_errors,
 };
-use lightgrid_sweep_cpu::sky::Sun;
+use lightgrid_sky::Sun;
 use plotters::prelude::*;
 
 /// Sun elevations measured (degrees).

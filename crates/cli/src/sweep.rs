@@ -12,7 +12,7 @@ use lightgrid_core::{
 };
 use lightgrid_measure::reference::{ReferenceOptions, trace};
 use lightgrid_measure::scenes::Scene;
-use lightgrid_sweep_cpu::{Sun, sky};
+use lightgrid_sky::{self as sky, Sun};
 
 #[derive(Subcommand)]
 pub(crate) enum Command {

@@ -361,7 +361,7 @@ fn the_sidecar_describes_the_files() {
 #[test]
 fn indirect_light_is_the_ground_bounce_alone() {
     use lightgrid_core::{Boundary, SideBoundary, SweepOptions, TopBoundary};
-    let sun = lightgrid_sweep_cpu::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
+    let sun = lightgrid_sky::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
         .bins()
         .unwrap();
     let b = Boundary {

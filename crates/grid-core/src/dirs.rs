@@ -287,6 +287,29 @@ fn polygon_moment(poly: &[DVec3]) -> DVec3 {
     0.5 * sum
 }
 
+/// Path length per level (in `h`) of the channels of bin `bin` (a downward or
+/// horizontal bin; the upward pass mirrors them): `1 / μ̄`, where `μ̄` is the bin's mean
+/// `|cos|` to the vertical over its solid angle (a horizontal bin's downward half). A
+/// channel's flux per unit of light, `μ_c = 1 / ℓ_c`, is then the exact flux of light
+/// constant within the bin, and its transmittance through a thin layer is the bin's
+/// mean. (The step vector's own length, `ℓ = |s_c|`, overstates `μ` by 5 % on the
+/// vertical bin and 30 % on the horizontal ones: the half-space albedo came out 5.5 %
+/// too high with thin cells, `w = 0.5`; measured in issue 13 with `lightgrid-measure`'s `examples/do1d.rs`.)
+pub fn channel_length(bin: usize) -> f32 {
+    static L: OnceLock<[f32; NUM_SWEEP_DIRS]> = OnceLock::new();
+    L.get_or_init(|| {
+        let g = bins();
+        std::array::from_fn(|b| {
+            let omega = if dir_unit(b).y == 0.0 {
+                0.5 * g.omega[b]
+            } else {
+                g.omega[b]
+            };
+            (omega / clipped_cosine(b, -DVec3::Y)) as f32
+        })
+    })[bin]
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;

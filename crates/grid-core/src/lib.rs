@@ -93,6 +93,10 @@ mod traits;
 pub mod validity;
 
 pub use desc::{CELL_SIZE_RANGE, GridDesc, MAX_POINTS, WORLD_LIMIT};
+
+/// Largest boundary light value accepted (skies, suns, sweep boundaries): leaves room for
+/// path-length factors (≤ √33) and sums over a grid without overflowing `f32`.
+pub const MAX_LIGHT: f32 = 1e30;
 pub use dirs::{HORIZONTAL_STEP, NUM_DIRS, NUM_SWEEP_DIRS, SweepDir};
 pub use error::{FileErrorKind, GridError};
 pub use file::{GridFile, GridKind};

@@ -16,7 +16,7 @@ use lightgrid_measure::scenes::Scene;
 use lightgrid_measure::sun_measure::{
     angle_error, exact_shadow_azimuth, ground_light, shadow_azimuth, sun_errors,
 };
-use lightgrid_sweep_cpu::sky::Sun;
+use lightgrid_sky::Sun;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();

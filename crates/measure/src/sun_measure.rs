@@ -21,7 +21,7 @@ use lightgrid_core::light::{AMBIENT_AXES, luminance};
 use lightgrid_core::{BinLight, Boundary, MaterialGrid, SideBoundary, SweepOptions};
 
 use crate::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
-use lightgrid_sweep_cpu::sky::Sun;
+use lightgrid_sky::Sun;
 use lightgrid_sweep_cpu::sun::{SunTransmittance, first_collision};
 use lightgrid_sweep_cpu::{run, run_with_source};
 

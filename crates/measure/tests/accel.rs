@@ -9,7 +9,7 @@ use lightgrid_core::{
 };
 use lightgrid_measure::exact;
 use lightgrid_measure::scenes::Scene;
-use lightgrid_sweep_cpu::sky::Sun;
+use lightgrid_sky::Sun;
 
 fn options(acceleration: Acceleration, max_passes: u32, tolerance: f32) -> SweepOptions {
     let mut o = SweepOptions::multi_bounce();

@@ -9,7 +9,7 @@ use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, Boundary, SweepOptions};
 use lightgrid_measure::reference::{ReferenceOptions, trace};
 use lightgrid_measure::scenes::Scene;
-use lightgrid_sweep_cpu::sky::EnvMap;
+use lightgrid_sky::EnvMap;
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("sweep-cpu-bad-{name}-{}", std::process::id()));

@@ -20,7 +20,7 @@
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{Boundary, SideBoundary, SweepOptions};
-use lightgrid_sweep_cpu::sky::{Sun, uniform_sky};
+use lightgrid_sky::{Sun, uniform_sky};
 
 fn ground(levels: u32, albedo: f32) -> lightgrid_core::MaterialGrid {
     lightgrid_measure::exact::ground_material(levels, albedo).unwrap()

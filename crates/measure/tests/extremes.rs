@@ -4,7 +4,7 @@
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_measure::exact;
-use lightgrid_sweep_cpu::sky::uniform_sky;
+use lightgrid_sky::uniform_sky;
 use proptest::prelude::*;
 
 /// The shared extreme values (`lightgrid_core::extremes`) and any `f32`.

@@ -216,11 +216,7 @@ fn sun_split_responses() {
     let m = lightgrid_measure::exact::ground_material(1, 0.3).unwrap();
     let sky = Boundary {
         sides: SideBoundary::Periodic,
-        ..Boundary::open_sky(
-            lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE)
-                .unwrap()
-                .top,
-        )
+        ..Boundary::open_sky(lightgrid_sky::uniform_sky(Vec3::ONE).unwrap().top)
     };
     let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     let s1 = sun(37.0, 20.0);
@@ -306,11 +302,7 @@ fn sweep_sun_refusal_and_a_sun_below_the_horizon() {
     // Below the horizon, with some scattered light coming in from above.
     let lit = Boundary {
         sides: SideBoundary::Periodic,
-        ..Boundary::open_sky(
-            lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE)
-                .unwrap()
-                .top,
-        )
+        ..Boundary::open_sky(lightgrid_sky::uniform_sky(Vec3::ONE).unwrap().top)
     };
     let below = SunBoundary {
         to_sun: Vec3::new(1.0, -0.2, 0.0),

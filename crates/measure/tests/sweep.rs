@@ -390,7 +390,8 @@ fn invalid_input_is_a_typed_error() {
 
 #[test]
 fn sun_and_sky_responses_combine_exactly() {
-    use lightgrid_sweep_cpu::{ClearSky, Sun, sweep_responses};
+    use lightgrid_sky::{ClearSky, Sun};
+    use lightgrid_sweep_cpu::sweep_responses;
     let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(8);
     let sun = Sun::at(0.6, 0.4, Vec3::ONE);
     let sky = ClearSky::blue(sun.direction).bins().unwrap();

@@ -1,7 +1,7 @@
 //! # sweep-cpu
 //!
-//! The reference light-flow sweep of lightgrid, multithreaded with rayon, its skies and
-//! its sun. **This page is the specification of the sweep**: `sweep-gpu` implements
+//! The reference light-flow sweep of lightgrid, multithreaded with rayon, and the sun's
+//! exact transmittance. **This page is the specification of the sweep**: `sweep-gpu` implements
 //! exactly these formulas. What measures it (the Monte Carlo reference, the canonical
 //! scenes, the exact problems, the sun's measures) is the crate `lightgrid-measure`,
 //! whose tests, examples and benchmark hold the figures below.
@@ -44,8 +44,9 @@
 //!
 //! * [`run`] / [`CpuSweeper`]: the sweep (implements `lightgrid_core::Sweeper`), with its
 //!   [`EnergyBalance`].
-//! * [`sky`]: uniform and analytic clear skies, EXR environment maps, the sun disc, all
-//!   integrated over the bins; [`sweep_responses`] keeps sun and sky apart so their
+//! * Skies and the sun's disc are the crate `lightgrid-sky` (uniform and analytic clear
+//!   skies, EXR environment maps, all integrated over the bins); [`sweep_responses`]
+//!   keeps sun and sky apart so their
 //!   colours change by a multiply ([`Responses::combine`]).
 //! * [`quadrature`]: Gauss–Legendre nodes for the medium rule's tables.
 //! * In `lightgrid-measure`: `reference` (the Monte Carlo reference), `scenes` (canonical
@@ -442,12 +443,10 @@ pub mod isa;
 pub mod medium;
 pub mod profile;
 pub mod quadrature;
-pub mod sky;
 pub mod sun;
 pub mod sweep;
 
 pub use lightgrid_core::CellSource;
-pub use sky::{ClearSky, EnvMap, SkyBins, SkyError, Sun};
 pub use sun::SunTransmittance;
 pub use sweep::{EnergyBalance, Sweep, run, run_with_source};
 
@@ -457,6 +456,7 @@ use lightgrid_core::{
     AverageLight, BinLight, Boundary, DominantDir, Grid, MaterialGrid, SideBoundary, SweepError,
     SweepOptions, SweepOutput, Sweeper, TopBoundary,
 };
+use lightgrid_sky::SkyBins;
 
 /// The light of a grid under the sky and under the sun, swept separately with white
 /// light: since the sweep is linear, any sky and sun colour and intensity is a multiply

@@ -7,7 +7,6 @@ use lightgrid_core::{
     BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions, Sweeper,
 };
 use lightgrid_sweep_cpu::CpuSweeper;
-use lightgrid_sweep_cpu::sky::{ClearSky, Sun, uniform_sky};
 use proptest::prelude::*;
 
 /// The shared extreme values (`lightgrid_core::extremes`) and any `f32`.
@@ -68,20 +67,6 @@ proptest! {
         };
         if let Ok(out) = CpuSweeper::new().sweep(&m, &b, &o) {
             prop_assert!(all_light(&out));
-        }
-    }
-
-    /// Suns and skies of any value: refused by name or light.
-    #[test]
-    fn suns_and_skies(elevation in f(), azimuth in f(), light in v3(), dir in v3()) {
-        if let Ok(b) = Sun::at(elevation, azimuth, light).bins() {
-            prop_assert!(b.is_valid());
-        }
-        if let Ok(s) = uniform_sky(light) {
-            prop_assert!(s.top.is_valid());
-        }
-        if let Ok(s) = ClearSky::blue(dir).bins() {
-            prop_assert!(s.top.is_valid());
         }
     }
 }

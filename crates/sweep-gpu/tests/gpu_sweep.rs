@@ -212,7 +212,8 @@ fn packed_on_the_gpu_within_one_code() {
 #[test]
 fn sun_and_sky_responses_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    use lightgrid_sweep_cpu::{ClearSky, Sun, combine_outputs, responses_with};
+    use lightgrid_sky::{ClearSky, Sun};
+    use lightgrid_sweep_cpu::{combine_outputs, responses_with};
     let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(8);
     let sun = Sun::at(0.6, 0.4, Vec3::ONE);
     let sky = ClearSky::blue(sun.direction).bins().unwrap();
@@ -249,9 +250,7 @@ fn sun_and_sky_responses_on_the_gpu() {
 #[test]
 fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     let Some(gpu) = sweeper() else { return };
-    let top = lightgrid_sweep_cpu::sky::uniform_sky(Vec3::ONE)
-        .unwrap()
-        .top;
+    let top = lightgrid_sky::uniform_sky(Vec3::ONE).unwrap().top;
     let b = Boundary {
         sides: SideBoundary::Periodic,
         ..Boundary::open_sky(top)

@@ -108,7 +108,7 @@ pub fn export(
     let (volumes, content) = if split && with_direct_sun {
         let (elevation, azimuth) = world.scene.sun.angles();
         let sun_bins = if elevation > 0.0 {
-            lightgrid_sweep_cpu::sky::Sun::at(elevation, azimuth, world.sun.1).bins()?
+            lightgrid_sky::Sun::at(elevation, azimuth, world.sun.1).bins()?
         } else {
             lightgrid_core::BinLight::ZERO
         };

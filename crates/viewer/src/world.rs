@@ -14,7 +14,7 @@ use lightgrid_material_voxelizer::compose::{
 use lightgrid_material_voxelizer::model::{Model, Texture};
 use lightgrid_material_voxelizer::procedural::{TreeParams, bush, rock, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
-use lightgrid_sweep_cpu::sky::{SkySpec, Sun};
+use lightgrid_sky::{SkySpec, Sun};
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 
 use crate::scene::{ProceduralModel, SceneFile, SkyKind};

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use lightgrid_core::LightField;
 use lightgrid_core::glam::Vec3;
-use lightgrid_sweep_cpu::sky::ClearSky;
+use lightgrid_sky::ClearSky;
 use lightgrid_viewer::{SceneFile, SweeperChoice, World};
 
 #[test]

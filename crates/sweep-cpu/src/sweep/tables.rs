@@ -7,9 +7,7 @@ use super::*;
 /// Number of transport channels of one pass (9 vertical-ish bins + 8 horizontal halves).
 pub const CHANNELS: usize = NUM_SWEEP_DIRS;
 
-/// Largest boundary light value accepted: leaves room for path-length factors (≤ √33) and
-/// sums over a grid without overflowing `f32`.
-pub const MAX_LIGHT: f32 = 1e30;
+pub use lightgrid_core::MAX_LIGHT;
 
 /// Cells a channel's path crosses inside its slab, as horizontal offsets from the
 /// receiving point, in travel order, with the fraction of the path in each.
@@ -69,28 +67,7 @@ pub fn path_exponents() -> &'static [f32] {
     })
 }
 
-/// Path length per level (in `h`) of the channels of bin `bin` (a downward or
-/// horizontal bin; the upward pass mirrors them): `1 / μ̄`, where `μ̄` is the bin's mean
-/// `|cos|` to the vertical over its solid angle (a horizontal bin's downward half). A
-/// channel's flux per unit of light, `μ_c = 1 / ℓ_c`, is then the exact flux of light
-/// constant within the bin, and its transmittance through a thin layer is the bin's
-/// mean. (The step vector's own length, `ℓ = |s_c|`, overstates `μ` by 5 % on the
-/// vertical bin and 30 % on the horizontal ones: the half-space albedo came out 5.5 %
-/// too high with thin cells, `w = 0.5`; measured in issue 13, `measure/examples/do1d.rs`.)
-pub fn channel_length(bin: usize) -> f32 {
-    static L: OnceLock<[f32; NUM_SWEEP_DIRS]> = OnceLock::new();
-    L.get_or_init(|| {
-        let g = dirs::bins();
-        std::array::from_fn(|b| {
-            let omega = if dirs::dir_unit(b).y == 0.0 {
-                0.5 * g.omega[b]
-            } else {
-                g.omega[b]
-            };
-            (omega / dirs::clipped_cosine(b, -DVec3::Y)) as f32
-        })
-    })[bin]
-}
+pub use lightgrid_core::dirs::channel_length;
 
 /// Most distinct exponents (see [`path_exponents`]).
 pub const MAX_EXPONENTS: usize = 10;

@@ -1,9 +1,29 @@
-//! Skies and the sun as boundary light: a uniform sky, an analytic clear sky, an
-//! equirectangular HDR environment map (EXR), and a sun disc, each integrated over the
-//! 26 bins' solid angles.
+//! # sky
+//!
+//! Skies and the sun as boundary light for lightgrid's sweeps: a uniform sky, an
+//! analytic clear sky, an equirectangular HDR environment map (EXR), and a sun disc,
+//! each integrated over the 26 bins' solid angles; [`SkySpec`], a sky as a scene file or
+//! a command line names it, resolved once (an EXR read once, not on every sun move),
+//! which the viewer and the `lightgrid` command share.
 //!
 //! Sky and sun are kept apart so that their colours and intensities can change by a
-//! multiply, without a new sweep ([`crate::Responses`]).
+//! multiply, without a new sweep (`lightgrid_sweep_cpu::Responses`).
+//!
+//! ```
+//! use lightgrid_core::glam::Vec3;
+//! use lightgrid_sky::{Sun, uniform_sky};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! // A uniform sky of radiance 1 above the horizon, nothing below: it lights an upward
+//! // surface, and a downward one only through the bins that straddle the horizon.
+//! let sky = uniform_sky(Vec3::ONE)?;
+//! assert!(sky.top.irradiance(Vec3::Y).x > 10.0 * sky.top.irradiance(-Vec3::Y).x);
+//! // A sun 40° up (angles in radians) of illuminance 1 normal to the beam, in the bins.
+//! let sun = Sun::at(40f32.to_radians(), 2.0, Vec3::ONE).bins()?;
+//! assert!(sun.is_valid() && sun.total().x > 0.0);
+//! # Ok(())
+//! # }
+//! ```
 //!
 //! **Environment maps** are equirectangular: texel `(x, y)` of a `w × h` map covers the
 //! directions (towards where the light comes from) with azimuth
@@ -21,7 +41,7 @@ use lightgrid_core::dirs;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, GridError};
 
-use crate::sweep::MAX_LIGHT;
+use lightgrid_core::MAX_LIGHT;
 
 /// Errors of sky construction and loading.
 #[derive(Debug, thiserror::Error)]
@@ -459,9 +479,10 @@ impl Sun {
         let n = 64u32;
         let mut out = BinLight::ZERO;
         let share = self.illuminance / (n * n) as f32;
+        // The sweep's downward channel cosines (`μ_c = 1 / ℓ_c`, its flux per unit light).
         let mut mu = [1.0f32; dirs::NUM_DIRS];
-        for chn in crate::sweep::channels(false) {
-            mu[chn.bin] = chn.mu;
+        for sd in dirs::sweep_dirs() {
+            mu[sd.bin] = 1.0 / dirs::channel_length(sd.bin);
         }
         let tan_r = self.angular_radius.tan();
         for i in 0..n {
@@ -534,8 +555,8 @@ mod tests {
     /// The downward channels' cosines per bin (1 for bins without one).
     fn down_cosines() -> [f32; dirs::NUM_DIRS] {
         let mut mu = [1.0f32; dirs::NUM_DIRS];
-        for chn in crate::sweep::channels(false) {
-            mu[chn.bin] = chn.mu;
+        for sd in dirs::sweep_dirs() {
+            mu[sd.bin] = 1.0 / dirs::channel_length(sd.bin);
         }
         mu
     }
