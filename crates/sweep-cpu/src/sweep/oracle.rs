@@ -3,24 +3,28 @@
 
 use super::*;
 
+/// Where the light of the oracle's phase 1 comes from: the level before it, and from
+/// outside the grid the sources (`from_virtual`: the light of the virtual level above
+/// or below the grid; else the outside light at level `src_level`).
+pub(crate) struct Gather<'a, 's> {
+    pub(crate) prev: &'a LevelLight,
+    pub(crate) src: &'a Sources<'s>,
+    pub(crate) from_virtual: bool,
+    pub(crate) src_level: i32,
+}
+
 impl Ctx {
     /// Steps 1-2, written as the crate docs say them: the oracle of
-    /// [`Ctx::phase1_fast`] ([`run_scalar`]).
-    #[allow(clippy::too_many_arguments)]
+    /// [`Ctx::phase1_fast`] ([`run_scalar`]), the level's transmittance powers and
+    /// `ln p` in `cells`; `first`: the first pass (points' sinks start afresh).
     pub(crate) fn phase1_scalar<S: Sink>(
         &self,
-        prev: &LevelLight,
-        src: &Sources<'_>,
-        from_virtual: bool,
-        src_level: i32,
-        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
-        first: bool,
-        cur: &mut LevelLight,
-        removed: &mut [f32],
-        t_after: &mut [[f32; CHANNELS]],
-        g: &mut [S],
-        rows: &mut [RowFlux],
+        from: &Gather<'_, '_>,
+        (cells, first): ((&[[f32; MAX_EXPONENTS]], &[f32]), bool),
+        Removals { removed, t_after }: Removals<'_>,
+        LevelRows { cur, g, rows }: LevelRows<'_, S>,
     ) -> RowFlux {
+        let (pows, lnp) = cells;
         let nx = self.nx as usize;
         let (row_len, p) = (cur.row_len(), cur.pitch());
         cur.rows_mut()
@@ -43,14 +47,13 @@ impl Ctx {
                     for (c, chn) in self.ch.iter().enumerate() {
                         // Step 1: gather from the source point and its smoothing taps.
                         let (qx, qz) = (x - chn.step.x, z - chn.step.z);
-                        let (ins, outs) =
-                            self.gather_edge(prev, src, from_virtual, src_level, chn, c, qx, qz);
+                        let (ins, outs) = self.gather_edge(from, (chn, c), (qx, qz));
                         rf.inside += ins.as_dvec3() * chn.mu as f64;
                         rf.outside += outs.as_dvec3() * chn.mu as f64;
                         let light = ins + outs;
                         // Step 2: transmit along the path, recording what each cell removes.
                         let (t, t_mid, after) =
-                            self.transmit((pows, lnp), chn, x, z, None, light, &mut rem);
+                            self.transmit((pows, lnp), chn, (x, z), None, light, &mut rem);
                         ta_row[xi][c] = after;
                         row_set(cur_row, p, xi, c, light * t);
                         g_row[xi].add(chn.bin, chn.unit, light * t_mid);
@@ -72,14 +75,12 @@ impl Ctx {
     /// `T`, the transmittance to the point's centre `T_mid` and `T_after`. Path cells
     /// are found by [`Ctx::col`], or by index from the point's index `inner` when every
     /// cell of the path lies inside the grid.
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn transmit(
         &self,
         (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
         chn: &Channel,
-        x: i32,
-        z: i32,
+        (x, z): (i32, i32),
         inner: Option<usize>,
         light: Vec3,
         rem: &mut [Vec3; SLOTS],
@@ -118,19 +119,19 @@ impl Ctx {
 impl Ctx {
     /// Step 1, tap by tap (light from inside the grid, light from outside): the
     /// scalar oracle's gather everywhere, the fast path's near the sides.
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn gather_edge(
         &self,
-        prev: &LevelLight,
-        src: &Sources<'_>,
-        from_virtual: bool,
-        src_level: i32,
-        chn: &Channel,
-        c: usize,
-        qx: i32,
-        qz: i32,
+        from: &Gather<'_, '_>,
+        (chn, c): (&Channel, usize),
+        (qx, qz): (i32, i32),
     ) -> (Vec3, Vec3) {
+        let Gather {
+            prev,
+            src,
+            from_virtual,
+            src_level,
+        } = *from;
         let s = self.smoothing;
         let taps = [
             (qx, qz, 1.0 - s),
@@ -160,7 +161,6 @@ impl Ctx {
 impl Ctx {
     /// [`Ctx::phase3_row`] written out for the scalar oracle ([`run_scalar`]): point by
     /// point, channel by channel, along each path cell by cell ([`Ctx::col`]).
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn phase3_row_scalar<S: Sink>(
         &self,
         z: i32,
@@ -168,9 +168,7 @@ impl Ctx {
         (src_hi, prof): (&[[Vec3; 2]], &crate::profile::Profiles),
         (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
         p: usize,
-        cur_row: &mut [f32],
-        pre_row: &mut [f32],
-        g_row: &mut [S],
+        (cur_row, pre_row, g_row): (&mut [f32], &mut [f32], &mut [S]),
     ) {
         let nx = self.nx as usize;
         let mw = medium::weights(up_pass(self.ch));

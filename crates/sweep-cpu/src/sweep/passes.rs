@@ -547,17 +547,22 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         let src_level = if p.up { j - 1 } else { j + 1 };
         if !self.fast {
             return p.ctx.phase1_scalar(
-                &w.prev,
-                &p.src,
-                from_virtual,
-                src_level,
-                (&w.pows[range.clone()], &fixed.lnp[range.clone()]),
-                p.first,
-                &mut w.cur,
-                &mut w.removed,
-                &mut w.t_after,
-                &mut self.g[range],
-                &mut w.rows,
+                &Gather {
+                    prev: &w.prev,
+                    src: &p.src,
+                    from_virtual,
+                    src_level,
+                },
+                ((&w.pows[range.clone()], &fixed.lnp[range.clone()]), p.first),
+                Removals {
+                    removed: &mut w.removed,
+                    t_after: &mut w.t_after,
+                },
+                LevelRows {
+                    cur: &mut w.cur,
+                    g: &mut self.g[range],
+                    rows: &mut w.rows,
+                },
             );
         }
         // Light from outside the sides: the ring of `ghost`.
@@ -567,16 +572,24 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         }
         let quiet = material_here.then_some(&w.quiet[range.clone()]);
         p.ctx.phase1_fast(
-            (&w.prev, !conserved, self.fetch_ahead),
-            ghost_on.then_some(&w.ghost),
-            &w.planes,
-            quiet,
-            p.first,
-            &mut w.cur,
-            &mut w.removed,
-            &mut w.t_after,
-            &mut self.g[range.clone()],
-            &mut w.rows,
+            Phase1In {
+                prev: &w.prev,
+                count: !conserved,
+                fetch_ahead: self.fetch_ahead,
+                ghost: ghost_on.then_some(&w.ghost),
+                planes: &w.planes,
+                quiet,
+                first: p.first,
+            },
+            Removals {
+                removed: &mut w.removed,
+                t_after: &mut w.t_after,
+            },
+            LevelRows {
+                cur: &mut w.cur,
+                g: &mut self.g[range.clone()],
+                rows: &mut w.rows,
+            },
             Finish {
                 avg: &mut self.avg[range.clone()],
                 dom: &mut self.dom[range],
@@ -638,13 +651,15 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             );
         }
         let f2 = p.ctx.phase2(
-            (&w.removed, !fast),
-            (&w.t_after, &w.pows[range.clone()]),
-            cells,
-            &fixed.exposed[range.clone()],
-            &mut w.cur,
-            same.level_mut(j as usize),
-            other.level_mut(j as usize),
+            Phase2In {
+                removed: &w.removed,
+                scalar: !fast,
+                t_after: &w.t_after,
+                pows: &w.pows[range.clone()],
+                cells,
+                exposed: &fixed.exposed[range.clone()],
+            },
+            (same.level_mut(j as usize), other.level_mut(j as usize)),
             (
                 &mut w.src,
                 &mut w.emits,
@@ -656,8 +671,11 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                     &mut []
                 },
             ),
-            &mut self.g[range.clone()],
-            &mut w.rows,
+            LevelRows {
+                cur: &mut w.cur,
+                g: &mut self.g[range.clone()],
+                rows: &mut w.rows,
+            },
             Finish {
                 avg: &mut self.avg[range.clone()],
                 dom: &mut self.dom[range.clone()],
@@ -676,19 +694,24 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             return if conserved { sent } else { f2.sent };
         }
         let f3 = p.ctx.phase3(
-            (&w.src, &w.emits),
-            (&w.src_hi, &w.prof),
-            (
-                &w.pows[range.clone()],
-                &fixed.lnp[range.clone()],
-                &mut w.planes,
-            ),
-            cells,
-            &mut w.cur,
+            Phase3In {
+                src: &w.src,
+                emits: &w.emits,
+                src_hi: &w.src_hi,
+                prof: &w.prof,
+                pows: &w.pows[range.clone()],
+                lnp: &fixed.lnp[range.clone()],
+                cells,
+                scalar: !fast,
+            },
+            &mut w.planes,
             (&mut w.pre, &mut w.pre_rows),
             (same.level_mut(j as usize), other.level_mut(j as usize)),
-            &mut self.g[range.clone()],
-            &mut w.rows,
+            LevelRows {
+                cur: &mut w.cur,
+                g: &mut self.g[range.clone()],
+                rows: &mut w.rows,
+            },
             Finish {
                 avg: &mut self.avg[range.clone()],
                 dom: &mut self.dom[range],
@@ -698,7 +721,6 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 from_planes: false,
                 wrap_columns: wrap_in_rows,
             },
-            !fast,
         );
         self.bal.absorbed += f3.absorbed;
         self.bal.side_out += f3.side_out;

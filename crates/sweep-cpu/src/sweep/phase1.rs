@@ -3,6 +3,20 @@
 
 use super::*;
 
+/// What phase 1 of a level reads: the light of the level before it (whether to tally
+/// its flux, whether to hint the next row's sink into cache), the light from outside
+/// the sides, the level's transmittance planes, its quiet points, and whether this is
+/// the first pass (points' sinks start afresh).
+pub(crate) struct Phase1In<'a> {
+    pub(crate) prev: &'a LevelLight,
+    pub(crate) count: bool,
+    pub(crate) fetch_ahead: bool,
+    pub(crate) ghost: Option<&'a LevelLight>,
+    pub(crate) planes: &'a Planes,
+    pub(crate) quiet: Option<&'a [bool]>,
+    pub(crate) first: bool,
+}
+
 impl Ctx {
     /// Steps 1-2 as [`Ctx::phase1_scalar`], bit for bit in the light, faster: step 1
     /// channel by channel over whole rows of [`LevelLight`]'s planes, a loop the
@@ -19,21 +33,22 @@ impl Ctx {
     /// them, which are never quiet). Flux tallies sum in another order than the
     /// oracle's (equal to `f64` rounding). `fetch_ahead`: each row's gather hints the
     /// next row's sink into cache ([`Ahead`]).
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn phase1_fast<S: Sink>(
         &self,
-        (prev, count, fetch_ahead): (&LevelLight, bool, bool),
-        ghost: Option<&LevelLight>,
-        planes: &Planes,
-        quiet: Option<&[bool]>,
-        first: bool,
-        cur: &mut LevelLight,
-        removed: &mut [f32],
-        t_after: &mut [[f32; CHANNELS]],
-        g: &mut [S],
-        rows: &mut [RowFlux],
+        input: Phase1In<'_>,
+        Removals { removed, t_after }: Removals<'_>,
+        LevelRows { cur, g, rows }: LevelRows<'_, S>,
         fin: Finish<'_>,
     ) -> RowFlux {
+        let Phase1In {
+            prev,
+            count,
+            fetch_ahead,
+            ghost,
+            planes,
+            quiet,
+            first,
+        } = input;
         let nx = self.nx as usize;
         let p = cur.pitch();
         let extra = removed
@@ -54,9 +69,18 @@ impl Ctx {
                 }
                 let ahead = fetch_ahead.then(|| Ahead::after(g_row));
                 vectorised!(self.gather_row_channels(z, (prev, count, ahead), ghost, cur_row, rf));
-                let unchanged = vectorised!(
-                    self.transmit_row(z, planes, quiet, p, cur_row, rem_row, ta_row, g_row)
-                );
+                let unchanged = vectorised!(self.transmit_row(
+                    z,
+                    planes,
+                    quiet,
+                    p,
+                    TransmitRow {
+                        cur: cur_row,
+                        rem: rem_row,
+                        ta: ta_row,
+                        g: g_row
+                    }
+                ));
                 if unchanged && ghost.is_none() {
                     // The light it sends on is what it gathered (no light from
                     // outside was added after the sum of `inside`).
@@ -101,7 +125,7 @@ impl Ctx {
                     let mut rf = RowFlux::default();
                     body(z as i32, cur_row, x, g_row, &mut rf);
                     if last_phase {
-                        self.finish_row(cur_row, p, g_row, avg_row, dom_row, resolve, &mut rf);
+                        self.finish_row((cur_row, p), g_row, (avg_row, dom_row), resolve, &mut rf);
                         if wrap {
                             wrap_columns(cur_row, p, nx);
                         }
@@ -187,7 +211,6 @@ impl Ctx {
     /// order, run channel by channel over blocks of the row and segment by segment
     /// (`planes`: the level's transmittances with a ring) so that the loops vectorise.
     /// A row whose points are all quiet passes its light unchanged (and `true` says so).
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(crate) fn transmit_row<S: Sink>(
         &self,
@@ -195,10 +218,12 @@ impl Ctx {
         planes: &Planes,
         quiet: Option<&[bool]>,
         p: usize,
-        cur_row: &mut [f32],
-        rem_row: &mut [f32],
-        ta_row: &mut [[f32; CHANNELS]],
-        g_row: &mut [S],
+        TransmitRow {
+            cur: cur_row,
+            rem: rem_row,
+            ta: ta_row,
+            g: g_row,
+        }: TransmitRow<'_, S>,
     ) -> bool {
         const B: usize = GATHER_BLOCK;
         let nx = self.nx as usize;

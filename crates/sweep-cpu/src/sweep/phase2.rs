@@ -3,20 +3,29 @@
 
 use super::*;
 
+/// What phase 2 of a level reads: phase 1's removals (slot planes per row; `scalar`:
+/// the oracle's, read point by point) and transmittances after each point's own cell,
+/// the level's transmittance powers, cells and exposed faces.
+#[derive(Clone, Copy)]
+pub(crate) struct Phase2In<'a> {
+    pub(crate) removed: &'a [f32],
+    pub(crate) scalar: bool,
+    pub(crate) t_after: &'a [[f32; CHANNELS]],
+    pub(crate) pows: &'a [[f32; MAX_EXPONENTS]],
+    pub(crate) cells: &'a [lightgrid_core::Material],
+    pub(crate) exposed: &'a [u8],
+}
+
 impl Ctx {
-    #[allow(clippy::too_many_arguments)]
+    /// Phase 2 of a level (steps 3-6 per cell): what `input` says was removed is
+    /// gathered per cell, absorbed, emitted and re-absorbed locally; what waits goes to
+    /// `pend` (this pass's direction, the other's); media set their sources in `emit`.
     pub(crate) fn phase2<S: Sink>(
         &self,
-        removed: (&[f32], bool),
-        (t_after, pows): (&[[f32; CHANNELS]], &[[f32; MAX_EXPONENTS]]),
-        cells: &[lightgrid_core::Material],
-        exposed: &[u8],
-        cur: &mut LevelLight,
-        pend_same: &mut [Pending],
-        pend_other: &mut [Pending],
+        input: Phase2In<'_>,
+        (pend_same, pend_other): (&mut [Pending], &mut [Pending]),
         (src, emits, src_hi, prof, ex): EmitRows<'_>,
-        g: &mut [S],
-        rows: &mut [RowFlux],
+        LevelRows { cur, g, rows }: LevelRows<'_, S>,
         fin: Finish<'_>,
     ) -> RowFlux {
         let nx = self.nx as usize;
@@ -55,32 +64,23 @@ impl Ctx {
              g_row,
              rf| {
                 *rf = vectorised!(self.phase2_row(
-                    z,
-                    removed,
-                    (t_after, pows),
-                    cells,
-                    exposed,
-                    p,
-                    cur_row,
-                    same_row,
-                    other_row,
+                    (z, p),
+                    &input,
+                    (cur_row, g_row),
+                    (same_row, other_row),
                     (src_row, emits_row, hi_row, prof, ex_row),
-                    g_row,
                 ));
             },
         )
     }
 
     /// The end of a level's last phase for one row ([`Finish`]).
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn finish_row<S: Sink>(
         &self,
-        cur_row: &[f32],
-        p: usize,
+        (cur_row, p): (&[f32], usize),
         g_row: &mut [S],
-        avg_row: &mut [AverageLight],
-        dom_row: &mut [DominantDir],
+        (avg_row, dom_row): (&mut [AverageLight], &mut [DominantDir]),
         resolve: Option<(bool, bool, bool)>,
         rf: &mut RowFlux,
     ) {
@@ -437,22 +437,23 @@ impl Ctx {
     }
 
     /// [`Ctx::phase2`] for row `z` (its own function, so that profiles show it).
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(crate) fn phase2_row<S: Sink>(
         &self,
-        z: i32,
-        (removed, scalar): (&[f32], bool),
-        (t_after, pows): (&[[f32; CHANNELS]], &[[f32; MAX_EXPONENTS]]),
-        cells: &[lightgrid_core::Material],
-        exposed: &[u8],
-        p: usize,
-        cur_row: &mut [f32],
-        same_row: &mut [Pending],
-        other_row: &mut [Pending],
+        (z, p): (i32, usize),
+        input: &Phase2In<'_>,
+        (cur_row, g_row): (&mut [f32], &mut [S]),
+        (same_row, other_row): (&mut [Pending], &mut [Pending]),
         (src_row, emits_row, hi_row, prof, ex_row): EmitRows<'_>,
-        g_row: &mut [S],
     ) -> RowFlux {
+        let Phase2In {
+            removed,
+            scalar,
+            t_after,
+            pows,
+            cells,
+            exposed,
+        } = *input;
         let nx = self.nx as usize;
         let up = up_pass(self.ch);
         let lanes = pass_lanes(up);

@@ -3,6 +3,21 @@
 
 use super::*;
 
+/// What phase 3 of a level reads: the cells' sources and which cells emit, under the
+/// profile rule their `P_1`, `P_2` coefficients and profiles, the level's transmittance
+/// powers, `ln p` and cells, and whether the scalar oracle runs it.
+#[derive(Clone, Copy)]
+pub(crate) struct Phase3In<'a> {
+    pub(crate) src: &'a [Vec3],
+    pub(crate) emits: &'a [bool],
+    pub(crate) src_hi: &'a [[Vec3; 2]],
+    pub(crate) prof: &'a crate::profile::Profiles,
+    pub(crate) pows: &'a [[f32; MAX_EXPONENTS]],
+    pub(crate) lnp: &'a [f32],
+    pub(crate) cells: &'a [lightgrid_core::Material],
+    pub(crate) scalar: bool,
+}
+
 impl Ctx {
     /// Phase 3 of a level under the source rule ([`crate::medium`]): every path
     /// gains what its segments' sources emit, attenuated by the segments after them
@@ -14,21 +29,26 @@ impl Ctx {
     /// ([`Planes`] of the level's transmittances and sources, with a ring beyond the
     /// sides), so that its loops vectorise; each point's sums are the same operations
     /// in the same order as a walk along its paths, so the light is the same bit for bit.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn phase3<S: Sink>(
         &self,
-        (src, emits): (&[Vec3], &[bool]),
-        hi: (&[[Vec3; 2]], &crate::profile::Profiles),
-        (pows, lnp, planes): (&[[f32; MAX_EXPONENTS]], &[f32], &mut Planes),
-        cells: &[lightgrid_core::Material],
-        cur: &mut LevelLight,
+        input: Phase3In<'_>,
+        planes: &mut Planes,
         (pre, pre_rows): (&mut [f32], &mut [bool]),
         (pend_same, pend_other): (&mut [Pending], &mut [Pending]),
-        g: &mut [S],
-        rows: &mut [RowFlux],
+        LevelRows { cur, g, rows }: LevelRows<'_, S>,
         fin: Finish<'_>,
-        scalar: bool,
     ) -> RowFlux {
+        let Phase3In {
+            src,
+            emits,
+            src_hi,
+            prof,
+            pows,
+            lnp,
+            scalar,
+            ..
+        } = input;
+        let hi = (src_hi, prof);
         let nx = self.nx as usize;
         let p = cur.pitch();
         let profile = self.medium == MediumEmission::Profile;
@@ -58,9 +78,7 @@ impl Ctx {
                         hi,
                         (pows, lnp),
                         p,
-                        cur_row,
-                        pre_row,
-                        g_row,
+                        (cur_row, pre_row, g_row),
                     );
                 } else if pre_rows[z as usize] {
                     let hi = profile.then_some((hi.0, hi.1, emits));
@@ -82,10 +100,8 @@ impl Ctx {
                 *rf = RowFlux::default();
                 vectorised!(self.collide_row(
                     z as i32,
-                    (src, emits),
-                    hi,
-                    (pows, planes),
-                    cells,
+                    &input,
+                    planes,
                     (pre, pre_rows),
                     (same_row, other_row),
                     rf,
@@ -266,19 +282,25 @@ impl Ctx {
     /// channel by channel over blocks of the row (rows of `pre` not written this level,
     /// `!pre_rows[z]`, carry nothing); what a cell emits into the paths of points beyond
     /// an open side leaves through the side.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(crate) fn collide_row(
         &self,
         z: i32,
-        (src, emits): (&[Vec3], &[bool]),
-        (src_hi, prof): (&[[Vec3; 2]], &crate::profile::Profiles),
-        (pows, planes): (&[[f32; MAX_EXPONENTS]], &Planes),
-        cells: &[lightgrid_core::Material],
+        input: &Phase3In<'_>,
+        planes: &Planes,
         (pre, pre_rows): (&[f32], &[bool]),
         (same_row, other_row): (&mut [Pending], &mut [Pending]),
         rf: &mut RowFlux,
     ) {
+        let Phase3In {
+            src,
+            emits,
+            src_hi,
+            prof,
+            pows,
+            cells,
+            ..
+        } = *input;
         const B: usize = GATHER_BLOCK;
         let nx = self.nx as usize;
         let row_cells = &cells[nx * z as usize..][..nx];

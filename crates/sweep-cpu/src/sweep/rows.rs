@@ -62,6 +62,29 @@ pub(crate) struct Finish<'a> {
     pub(crate) wrap_columns: bool,
 }
 
+/// What a level's phase writes, row by row: the level's light, the points' sinks and
+/// each row's flux tallies.
+pub(crate) struct LevelRows<'a, S> {
+    pub(crate) cur: &'a mut LevelLight,
+    pub(crate) g: &'a mut [S],
+    pub(crate) rows: &'a mut [RowFlux],
+}
+
+/// What phase 1 records for phases 2 and 3: each path segment's removed light (slot
+/// planes per row) and each point's transmittance after its own cell per channel.
+pub(crate) struct Removals<'a> {
+    pub(crate) removed: &'a mut [f32],
+    pub(crate) t_after: &'a mut [[f32; CHANNELS]],
+}
+
+/// One row's share of phase 1's outputs ([`Ctx::transmit_row`]).
+pub(crate) struct TransmitRow<'a, S> {
+    pub(crate) cur: &'a mut [f32],
+    pub(crate) rem: &'a mut [f32],
+    pub(crate) ta: &'a mut [[f32; CHANNELS]],
+    pub(crate) g: &'a mut [S],
+}
+
 pub(crate) fn sum_rows(v: &[RowFlux]) -> RowFlux {
     v.iter().fold(RowFlux::default(), |a, b| a + *b)
 }
