@@ -497,23 +497,29 @@ impl World {
             model_grid_bytes,
             probes: None,
         };
-        if world.scene.sun.split {
-            let sun = sun_light(world.sun);
-            let hierarchy = &mut world.hierarchy;
-            timed(&mut world.timings, "world grid sun", || {
+        world.sun_and_probes()?;
+        Ok(world)
+    }
+
+    /// The last stages of a build: the world grid's sun responses (with the sun kept
+    /// apart) and the light probes (with `[probes]`).
+    fn sun_and_probes(&mut self) -> Result<()> {
+        if self.scene.sun.split {
+            let sun = sun_light(self.sun);
+            let hierarchy = &mut self.hierarchy;
+            timed(&mut self.timings, "world grid sun", || {
                 let set = hierarchy.set_sun(Some(sun));
                 set.context("the sun's responses in the world grid")
             })?;
         }
-        if world.scene.probes.is_some() {
+        if self.scene.probes.is_some() {
             let t = Instant::now();
-            let desc = crate::draw::volume_desc(&world)?;
-            world.probes = Some(crate::probes::Probes::build(&world, desc)?);
-            world
-                .timings
+            let desc = crate::draw::volume_desc(self)?;
+            self.probes = Some(crate::probes::Probes::build(self, desc)?);
+            self.timings
                 .push(("light probes".to_string(), t.elapsed().as_secs_f64()));
         }
-        Ok(world)
+        Ok(())
     }
 
     /// The scene's sun changed (angles, time of day or illuminance): with the sun kept
