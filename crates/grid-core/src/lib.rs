@@ -73,6 +73,20 @@
 //! travelling *along* its direction, integrated over its solid angle (see [`light`]).
 //! No public function returns NaN or infinity: invalid input is a [`GridError`] naming the
 //! field and value.
+//!
+//! ## Map
+//!
+//! - Grids: `desc` ([`GridDesc`]: placement and index math), `grid` ([`Grid`] and the
+//!   value types), `sample` (trilinear reads, the normal bias), [`validity`] (points
+//!   inside geometry and the light they are given), [`mod@file`] (one versioned file format),
+//!   [`pack`] (R11G11B10, RGB9E5).
+//! - Light: [`dirs`] (the 26 directions, their exact bins, the 17 sweep directions),
+//!   [`light`] ([`BinLight`] and its projections), [`lights`] (local light shapes).
+//! - Between the layers: `traits` ([`Sweeper`], [`LightField`], [`MaterialSource`] and
+//!   the data they exchange), `error` ([`GridError`]).
+//! - Helpers every crate shares: [`dda`] (exact segment walks), [`terrain`]
+//!   ([`Heightmap`]), [`rng`] (seeded content), [`hash`] (content hashes), [`limits`]
+//!   (memory and size limits on user input), [`extremes`] (values for property tests).
 
 pub mod dda;
 mod desc;

@@ -123,6 +123,14 @@
 //!   GPU stack.
 //!
 //! Not here: [`Sectors`] of interior sets.
+//!
+//! ## Map
+//!
+//! - `params` ([`ProbeParams`]), `bake` (placement, [`ProbeSet::bake`]: surfels, bricks,
+//!   sky visibility), `interior` ([`InteriorBox`]), `relight` ([`ProbeLight`], the CPU
+//!   specification), `volume` ([`ProbeVolume`], [`ResolvedVolume`]), `sectors`
+//!   ([`Sectors`]), [`mod@reference`] (the Monte Carlo reference), `gpu` (feature `gpu`:
+//!   `GpuProbeRelight`).
 
 mod bake;
 #[cfg(feature = "gpu")]

@@ -38,6 +38,15 @@
 //! assert_eq!(set.average(Vec3::new(0.0, 1.5, 0.0))?, Vec3::ZERO);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! ## Map
+//!
+//! - [`light`]: local light sources and how they emit rays.
+//! - [`trace`]: one light's light traced into a volume, 3DWorld's way.
+//! - [`volume`]: one light's volume, cropped and compressed as 3DWorld caches it.
+//! - [`set`]: the lights of one grid, toggled and recoloured by adding or subtracting
+//!   only their boxes.
+//! - [`demo`]: the Kenney town for the examples, benchmark and tests.
 
 pub mod demo;
 pub mod light;

@@ -41,6 +41,14 @@
 //! At run time, [`compose::AreaComposer`] builds the material grid of any box from a
 //! terrain heightmap and instances of model grids (it implements
 //! `lightgrid_core::MaterialSource`).
+//!
+//! ## Map
+//!
+//! - [`model`]: triangles with UVs and materials, from glTF 2.0 ([`gltf_read`] checks
+//!   every size, offset and reference first) or built in memory; `glb` writes them.
+//! - [`voxelize`]: a model to a material grid by ray queries against an obvhs BVH.
+//! - [`procedural`]: deterministic trees, bushes and rocks.
+//! - [`compose`]: a light grid's box of material from terrain and placed instances.
 
 pub mod compose;
 mod glb;

@@ -65,6 +65,12 @@
 //!
 //! GPU tests need an adapter; in CI that is lavapipe. Without one they fail, unless
 //! `LIGHTGRID_ALLOW_NO_GPU=1` is set, in which case they say loudly that they did not run.
+//!
+//! ## Map
+//!
+//! - [`sweep`]: [`GpuSweeper`], sweep-cpu's semantics with one dispatch pair per level.
+//! - [`sun`]: the sun's transmittance march on the GPU.
+//! - [`wgsl`]: the WGSL sources, their constants and tables generated from sweep-cpu.
 
 pub mod sun;
 pub mod sweep;

@@ -82,6 +82,16 @@
 //! # Ok(())
 //! # }
 //! ```
+//!
+//! ## Map
+//!
+//! - `lib.rs`: [`Hierarchy`] (the world grid, the quadtree of node grids, the frame's
+//!   update within its budget, the sun kept apart, the light field it serves), its
+//!   parameters and statistics.
+//! - `build`: a frame's nodes built a depth at a time, the nodes of one depth side by
+//!   side (material, boundaries from coarser grids, sweeps).
+//! - `shadow`: the sun's beam beyond a node, marched through the finest material held
+//!   at each place.
 
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
