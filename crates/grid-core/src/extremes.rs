@@ -48,6 +48,12 @@ pub mod strategies {
         }
     }
 
+    /// Counts (sizes, passes, points): the given edge `values`, drawn as often as
+    /// `small` counts, any of which is a cheap valid case.
+    pub fn u32_of(values: &'static [u32], small: std::ops::Range<u32>) -> BoxedStrategy<u32> {
+        prop_oneof![proptest::sample::select(values), small].boxed()
+    }
+
     /// Vectors whose three components are drawn from `component`.
     pub fn vec3_of(component: BoxedStrategy<f32>) -> impl Strategy<Value = Vec3> {
         (component.clone(), component.clone(), component).prop_map(|(x, y, z)| Vec3::new(x, y, z))

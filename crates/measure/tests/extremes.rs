@@ -12,16 +12,9 @@ fn f() -> BoxedStrategy<f32> {
     lightgrid_core::extremes::strategies::f32_with(&[])
 }
 
-fn count() -> impl Strategy<Value = u32> {
-    prop_oneof![
-        Just(0u32),
-        Just(1),
-        Just(2),
-        Just(4096),
-        Just(4097),
-        Just(u32::MAX),
-        0u32..8
-    ]
+/// Counts: 0, 1, 2, around the 4096 limit, the largest, and small ones.
+fn count() -> BoxedStrategy<u32> {
+    lightgrid_core::extremes::strategies::u32_of(&[0, 1, 2, 4096, 4097, u32::MAX], 0..8)
 }
 
 proptest! {
