@@ -88,12 +88,14 @@
 //! x86-64-v3 and pick the widest the CPU has at run time ([`isa`];
 //! `LIGHTGRID_SIMD=baseline` keeps them on SSE2), with the same results bit for bit
 //! (`measure/tests/dispatch.rs`). Against a whole build for x86-64-v3 of the code before the
-//! dispatch (the old `-C target-cpu=x86-64-v3`), the forest 16³ takes 1.05–1.06× its
-//! time on one thread and on two (medians of per-round ratios over 10–20 alternating
-//! rounds): it runs 7 % more instructions (callgrind, 20 sweeps: 1.66 G against 1.55 G)
-//! and 11 % more data references (cachegrind: 0.86 G against 0.77 G), as many
-//! instructions as today's code built whole for x86-64-v3 (1.66 G), so the cost is the
-//! kernels' shape for the dispatch (blocks of any width), not the dispatch itself. The per-level set-up (emission lanes and
+//! dispatch (the old `-C target-cpu=x86-64-v3`), the forest 16³ runs in the same time
+//! within the machine's noise: 0.98–1.03× on one thread and 0.99–1.00× on two (fastest
+//! and median of 300 sweeps, medians of per-round ratios over 8–16 alternating rounds,
+//! three runs in both orders, `forest_profile 16 300`, 2026-11-27). The build just
+//! before the phases took argument structs still took 1.04–1.05× on one thread (1.00×
+//! on two), on the same day (it runs 0.3 % fewer instructions: callgrind, 20 sweeps,
+//! 2.437 G against 2.444 G; the difference is the code's layout, not its work). The
+//! per-level set-up (emission lanes and
 //! budgets, the rows' flux sums) and the profile tables (a fifth fewer instructions for
 //! a process's first sweep) run on the vector path too. The baseline path takes about
 //! 1.2× on the forest. A crate that depends on this one gets the
