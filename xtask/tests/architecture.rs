@@ -92,8 +92,9 @@ const ALLOWED: [(&str, Option<&[&str]>); 15] = [
         "lightgrid-export",
         Some(&["lightgrid-core", "lightgrid-sweep-cpu"]),
     ),
-    ("lightgrid", None),
+    // The viewer's scene files are the worlds `lightgrid bake` bakes.
     ("lightgrid-viewer", None),
+    ("lightgrid", None),
     ("xtask", None),
 ];
 

@@ -91,8 +91,23 @@ impl VolumeArgs {
 
 #[derive(clap::Args)]
 pub(crate) struct BakeArgs {
-    /// Material grid file.
+    /// Material grid file, or a world: a scene file (`.toml`, as the viewer reads), whose
+    /// terrain, objects, sky, sun and grid settings it takes (the light and sweep options
+    /// below are then not used).
     material: PathBuf,
+    /// World only: the store of the tasks' outputs, named by the hash of their inputs
+    /// (default `<output>/.lightgrid-store`); a re-bake reuses what is there.
+    #[arg(long)]
+    store: Option<PathBuf>,
+    /// World only: write the task graph as JSON to this file and run nothing.
+    #[arg(long, conflicts_with = "task")]
+    plan: Option<PathBuf>,
+    /// World only: run one task of the plan (its inputs must be in the store).
+    #[arg(long)]
+    task: Option<String>,
+    /// World only: bake the node grids of this many depths (default: all).
+    #[arg(long)]
+    depths: Option<u32>,
     #[command(flatten)]
     volume: VolumeArgs,
     #[command(flatten)]
@@ -126,6 +141,25 @@ enum ContentArg {
 /// Sweeps the material under sky and sun and writes the indirect light (without
 /// `--with-direct-sun`) or all of it.
 pub(crate) fn bake(a: BakeArgs) -> Result<()> {
+    if a.material.extension().is_some_and(|e| e == "toml") {
+        return crate::world::run(crate::world::WorldArgs {
+            scene: a.material,
+            output: a.volume.output.clone(),
+            name: a.volume.name.clone(),
+            store: a.store,
+            format: a.volume.format(),
+            unit_scale: a.volume.unit_scale,
+            depths: a.depths,
+            plan: a.plan,
+            task: a.task,
+        });
+    }
+    if a.store.is_some() || a.plan.is_some() || a.task.is_some() || a.depths.is_some() {
+        bail!(
+            "--store, --plan, --task and --depths bake a world (a scene file, .toml); {} is a material grid",
+            a.material.display()
+        );
+    }
     a.volume.check_paths(&a.material)?;
     let options = a.sweep.options()?;
     let m = load_material(&a.material)?;

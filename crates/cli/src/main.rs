@@ -8,6 +8,9 @@
 //! lightgrid inspect light.lgrid
 //! lightgrid bake canopy.lgrid -o bevy/ --sky clear --sun 3000 --sun-elevation 40
 //! lightgrid export light.lgrid -o bevy/
+//! lightgrid bake world.toml -o bevy/                      # a whole world, task by task
+//! lightgrid bake world.toml -o bevy/ --plan plan.json     # its task graph, for a cluster
+//! lightgrid bake world.toml -o bevy/ --task node-1-0-0    # one task of it
 //! ```
 //!
 //! `bake` sweeps a material grid and writes a Bevy irradiance volume of the indirect
@@ -24,6 +27,7 @@ mod bake;
 mod paths;
 mod sweep;
 mod voxelize;
+mod world;
 
 #[derive(Parser)]
 #[command(

@@ -273,7 +273,7 @@ impl Hierarchy {
     }
 
     /// A new node's grid: its boundary from the coarser grids, swept.
-    fn sky_node(
+    pub(crate) fn sky_node(
         &self,
         key: NodeKey,
         composed: &NodeMaterial,

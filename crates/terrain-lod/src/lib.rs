@@ -96,6 +96,7 @@
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
 
+pub mod bake;
 mod build;
 mod shadow;
 
@@ -630,6 +631,20 @@ impl Hierarchy {
         sky_top: BinLight,
         params: HierarchyParams,
     ) -> Result<Self, LodError> {
+        let mut h = Self::unswept(heightmap, source, sweeper, sky_top, params)?;
+        h.sweep_world()?;
+        Ok(h)
+    }
+
+    /// [`Hierarchy::new`] with the world grid laid out and its memory checked, not swept
+    /// (a bake sweeps it as a task of its own: [`bake`]).
+    fn unswept(
+        heightmap: &Heightmap,
+        source: Box<dyn MaterialSource + Send + Sync>,
+        sweeper: Box<dyn Sweeper + Send + Sync>,
+        sky_top: BinLight,
+        params: HierarchyParams,
+    ) -> Result<Self, LodError> {
         params.validate()?;
         if !sky_top.is_valid() {
             return Err(
@@ -682,7 +697,6 @@ impl Hierarchy {
             )?,
         )?;
         h.world = LightGrid::filled(desc, BinLight::ZERO)?;
-        h.sweep_world()?;
         Ok(h)
     }
 

@@ -471,6 +471,34 @@ impl SceneFile {
         )
     }
 
+    /// A hash of what the scene's light depends on: terrain, sky, sun, grid settings,
+    /// models, instances and scatter rules as parsed (not views, probes or dynamic
+    /// lights, nor comments), and the bytes of every file they name. Equal scenes hash
+    /// equal on any machine (`lightgrid bake` names its tasks' outputs by it).
+    pub fn light_hash(&self) -> Result<u64> {
+        let mut h = lightgrid_core::hash::ContentHash::new(b"lightgrid-scene-light-v1");
+        let parts = format!(
+            "{:?}{:?}{:?}{:?}{:?}{:?}{:?}",
+            self.terrain, self.sky, self.sun, self.grid, self.models, self.instances, self.scatter
+        );
+        h.bytes(parts.as_bytes());
+        let files = [
+            &self.terrain.heightmap,
+            &self.terrain.ground_texture,
+            &self.sky.file,
+        ]
+        .into_iter()
+        .chain(self.models.iter().map(|m| &m.gltf))
+        .flatten();
+        for f in files {
+            let p = self.resolve(f);
+            let bytes = lightgrid_core::limits::read_file(&p, u64::MAX)
+                .with_context(|| format!("reading {}", p.display()))?;
+            h.u64(bytes.len() as u64).bytes(&bytes);
+        }
+        Ok(h.finish())
+    }
+
     /// A path from the file, resolved against its folder.
     pub fn resolve(&self, p: &Path) -> PathBuf {
         if p.is_absolute() {

@@ -15,6 +15,7 @@ use lightgrid_material_voxelizer::model::{Model, Texture};
 use lightgrid_material_voxelizer::procedural::{TreeParams, bush, rock, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
 use lightgrid_sky::{SkySpec, Sun};
+use lightgrid_terrain_lod::bake::WorldBake;
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 
 use crate::scene::{ProceduralModel, SceneFile, SkyKind};
@@ -227,6 +228,14 @@ fn world_grid(
         boundary_light(sky_top, scene)?
     };
     let (sweeper, name) = choose_sweeper(sweeper, gpu)?;
+    let params = hierarchy_params(scene);
+    let hierarchy = Hierarchy::new(heightmap, Box::new(composer.clone()), sweeper, top, params)
+        .context("building the light grid hierarchy")?;
+    Ok((hierarchy, name))
+}
+
+/// The hierarchy's parameters from the scene's `[grid]`.
+fn hierarchy_params(scene: &SceneFile) -> HierarchyParams {
     let g = &scene.grid;
     let mut params = HierarchyParams {
         world_cell: g.world_cell,
@@ -236,9 +245,38 @@ fn world_grid(
         ..Default::default()
     };
     params.sweep.max_passes = g.passes;
-    let hierarchy = Hierarchy::new(heightmap, Box::new(composer.clone()), sweeper, top, params)
-        .context("building the light grid hierarchy")?;
-    Ok((hierarchy, name))
+    params
+}
+
+/// What a world bake of the scene needs (`lightgrid bake world.toml`): the terrain, the
+/// models and instances composed, the sky and sun (kept apart with `sun.split`) and the
+/// grid settings, with the CPU sweeper; nothing swept yet. Also the sun as (direction
+/// toward it, irradiance), for the volumes' sidecar.
+pub fn world_bake(scene: &SceneFile) -> Result<(WorldBake, (Vec3, Vec3))> {
+    let (heightmap, ground) = load_terrain(scene)?;
+    let (_, grids) = voxelize_models(scene)?;
+    let instances = place_instances(scene, &heightmap);
+    let terrain = Terrain {
+        heightmap: heightmap.clone(),
+        colour: ground,
+    };
+    let composer = AreaComposer::new(grids, &instances, Some(terrain), ComposeParams::default())?;
+    let (sky_top, sun) = sky_and_sun(scene, &sky_spec(scene)?)?;
+    let (top, split) = if scene.sun.split {
+        (sky_top, Some(sun_light(sun)))
+    } else {
+        (boundary_light(&sky_top, scene)?, None)
+    };
+    let bake = WorldBake::new(
+        &heightmap,
+        Box::new(composer),
+        Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+        top,
+        split,
+        hierarchy_params(scene),
+    )
+    .context("laying out the world's grids")?;
+    Ok((bake, (-sun.0, sun.1)))
 }
 
 fn bar(len: u64, what: &str) -> ProgressBar {
