@@ -1,0 +1,234 @@
+//! A world baked task by task (`lightgrid_terrain_lod::bake`) against the live hierarchy,
+//! and its results carried between tasks as bytes.
+
+use std::sync::Arc;
+
+use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::{BinLight, GridError};
+use lightgrid_material_voxelizer::compose::{
+    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain,
+};
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_terrain_lod::bake::{BakedGrid, WorldBake};
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, NodeKey, SunLight};
+
+/// 96 m of hills with a handful of trees; 8 m world grid, nodes of 4 and 2 m.
+fn world() -> (Heightmap, Arc<AreaComposer>, HierarchyParams) {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 49, 49, |x, z| {
+        3.0 * (x * 0.05).sin() * (z * 0.04).cos()
+    })
+    .unwrap();
+    let (tree_grid, _) = voxelize(
+        &tree(&TreeParams::young(3)).unwrap(),
+        &VoxelizeParams::preview(0.5),
+        &|_, _| {},
+    )
+    .unwrap();
+    let instances: Vec<Instance> = [(30.0, 40.0), (50.0, 52.0), (61.0, 35.0), (44.0, 70.0)]
+        .iter()
+        .map(|&(x, z)| Instance {
+            model: 0,
+            position: Vec3::new(x, hm.height_at(x, z) - 0.2, z),
+            rotation: Default::default(),
+            scale: 1.5,
+        })
+        .collect();
+    let terrain = Terrain {
+        heightmap: hm.clone(),
+        colour: GroundColour::Uniform(Vec3::splat(0.3)),
+    };
+    let composer = AreaComposer::new(
+        vec![tree_grid],
+        &instances,
+        Some(terrain),
+        ComposeParams::default(),
+    )
+    .unwrap();
+    let mut p = HierarchyParams {
+        world_cell: 8.0,
+        finest_cell: 2.0,
+        node_points: 8,
+        max_levels: 40,
+        lod_factor: 100.0,
+        evict_factor: 200.0,
+        budget_points: u64::MAX / 4,
+        ..Default::default()
+    };
+    p.sweep.max_passes = 2;
+    (hm, Arc::new(composer), p)
+}
+
+fn sky() -> BinLight {
+    BinLight::uniform(Vec3::new(0.6, 0.7, 1.0))
+        .split_vertical()
+        .0
+}
+
+/// Every task in the plan's order, each on a fresh `WorldBake` fed its inputs as bytes
+/// (as separate processes would be): the results by node.
+fn bake_all(
+    hm: &Heightmap,
+    c: &Arc<AreaComposer>,
+    p: HierarchyParams,
+    sun: Option<SunLight>,
+) -> (BakedGrid, Vec<(NodeKey, BakedGrid)>) {
+    let fresh = || {
+        WorldBake::new(
+            hm,
+            Box::new(c.clone()),
+            Box::new(CpuSweeper::new()),
+            sky(),
+            sun,
+            p,
+        )
+        .unwrap()
+    };
+    let through_bytes = |g: &BakedGrid| BakedGrid::from_bytes(&g.to_bytes()).unwrap();
+    let world = through_bytes(&fresh().world().unwrap());
+    let mut done: Vec<(NodeKey, BakedGrid)> = Vec::new();
+    for n in fresh().plan(u32::MAX).unwrap() {
+        let reads: Vec<(NodeKey, BakedGrid)> = done
+            .iter()
+            .filter(|(k, _)| n.reads.contains(k))
+            .cloned()
+            .collect();
+        assert_eq!(
+            reads.len(),
+            n.reads.len(),
+            "{:?} reads a node not yet baked",
+            n.key
+        );
+        let g = fresh().node(n.key, &world, &reads).unwrap();
+        assert!(g.light.desc().point_count() as u64 <= n.max_points);
+        done.push((n.key, through_bytes(&g)));
+    }
+    (world, done)
+}
+
+/// Without the sun apart, a node's light depends only on the coarser grids its boundary
+/// reads: the bake's nodes equal, bit for bit, those of a live hierarchy that holds every
+/// node (a camera that wants them all).
+#[test]
+fn baked_nodes_equal_the_live_hierarchys_bit_for_bit() {
+    let (hm, c, p) = world();
+    let (world, nodes) = bake_all(&hm, &c, p, None);
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(c.clone()),
+        Box::new(CpuSweeper::new()),
+        sky(),
+        p,
+    )
+    .unwrap();
+    h.update(Vec3::new(48.0, 10.0, 48.0)).unwrap();
+    assert_eq!(h.world(), &world.light);
+    let live = h.ready_nodes();
+    let baked: Vec<NodeKey> = nodes.iter().map(|(k, _)| *k).collect();
+    let mut sorted = baked.clone();
+    sorted.sort();
+    assert_eq!(live, sorted, "the plan is every node the terrain holds");
+    assert!(nodes.len() >= 4 + 9, "{}", nodes.len());
+    for (k, g) in &nodes {
+        assert_eq!(h.node(*k).unwrap(), &g.light, "{k:?}");
+    }
+}
+
+/// With the sun apart every task is a function of its inputs: baking twice (fresh
+/// processes, results through bytes) gives the same bits, sun responses included, and
+/// the sun's scattered light is there, finite and not all zero.
+#[test]
+fn a_bake_with_the_sun_apart_repeats_bit_for_bit() {
+    let (hm, c, p) = world();
+    let sun = Some(SunLight {
+        to_sun: Vec3::new(0.5, 0.6, 0.3),
+        irradiance: Vec3::splat(5.0),
+    });
+    let a = bake_all(&hm, &c, p, sun);
+    let b = bake_all(&hm, &c, p, sun);
+    assert_eq!(a, b);
+    let (_, nodes) = a;
+    for (k, g) in &nodes {
+        let s = g.sun.as_ref().unwrap_or_else(|| panic!("{k:?} has no sun"));
+        assert!(
+            s.transmittance
+                .data()
+                .iter()
+                .all(|t| (0.0..=1.0).contains(t))
+        );
+        assert!(s.scattered.data().iter().all(|b| b.is_valid()));
+    }
+    assert!(nodes.iter().any(|(_, g)| {
+        g.sun
+            .as_ref()
+            .unwrap()
+            .scattered
+            .data()
+            .iter()
+            .any(|b| b.0.iter().any(|c| c.max_element() > 0.0))
+    }));
+}
+
+#[test]
+fn a_node_without_its_reads_or_outside_the_plan_is_refused() {
+    let (hm, c, p) = world();
+    let mut b = WorldBake::new(
+        &hm,
+        Box::new(c.clone()),
+        Box::new(CpuSweeper::new()),
+        sky(),
+        None,
+        p,
+    )
+    .unwrap();
+    let world = b.world().unwrap();
+    let plan = b.plan(u32::MAX).unwrap();
+    let deep = plan.iter().find(|n| n.key.depth == 2).unwrap();
+    let e = b.node(deep.key, &world, &[]).unwrap_err().to_string();
+    assert!(e.contains("reads"), "{e}");
+    let outside = NodeKey {
+        depth: 1,
+        index: lightgrid_core::glam::IVec2::new(40, 0),
+    };
+    let e = b.node(outside, &world, &[]).unwrap_err().to_string();
+    assert!(e.contains("key"), "{e}");
+    // A world grid of another world.
+    let mut other = world.clone();
+    other.light = lightgrid_core::LightGrid::filled(
+        lightgrid_core::GridDesc::new(Vec3::ZERO, 1.0, lightgrid_core::glam::UVec3::splat(2))
+            .unwrap(),
+        BinLight::ZERO,
+    )
+    .unwrap();
+    let e = b.node(plan[0].key, &other, &[]).unwrap_err().to_string();
+    assert!(e.contains("world"), "{e}");
+}
+
+#[test]
+fn baked_grid_bytes_round_trip_and_refuse_damage() {
+    let (hm, c, p) = world();
+    let sun = Some(SunLight {
+        to_sun: Vec3::new(0.5, 0.6, 0.3),
+        irradiance: Vec3::ONE,
+    });
+    let mut b = WorldBake::new(
+        &hm,
+        Box::new(c.clone()),
+        Box::new(CpuSweeper::new()),
+        sky(),
+        sun,
+        p,
+    )
+    .unwrap();
+    let g = b.world().unwrap();
+    let bytes = g.to_bytes();
+    assert_eq!(BakedGrid::from_bytes(&bytes).unwrap(), g);
+    for cut in [0, 5, 9, bytes.len() / 2, bytes.len() - 1] {
+        let e: GridError = BakedGrid::from_bytes(&bytes[..cut]).unwrap_err();
+        assert!(!e.to_string().is_empty());
+    }
+    let mut bad = bytes.clone();
+    bad[0] ^= 0xff;
+    assert!(BakedGrid::from_bytes(&bad).is_err());
+}
