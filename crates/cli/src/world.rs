@@ -18,11 +18,13 @@
 //! in the store), and with neither the whole graph runs here, task after task, in the
 //! plan's order. A distributed driver (`python/lightgrid_ray`) runs the same commands.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use lightgrid_core::glam::Vec3;
+use lightgrid_core::glam::{IVec2, Vec3};
 use lightgrid_core::hash::ContentHash;
 use lightgrid_export::{BevyVolume, Content, TexelFormat, write_volumes};
 use lightgrid_terrain_lod::NodeKey;
@@ -114,7 +116,18 @@ struct Ctx {
     sun: (Vec3, Vec3),
     split: bool,
     tasks: Vec<Task>,
+    /// Grids kept in memory between the tasks of one process (by task), while tasks
+    /// still to run read them and within [`CACHE_BYTES`]; the store holds them all.
+    cache: HashMap<usize, Arc<BakedGrid>>,
+    cached_bytes: u64,
+    /// The world grid's tiles, when the world task ran in this process.
+    tiles: HashMap<IVec2, Arc<BakedGrid>>,
+    /// Tasks still to run that read each task's output.
+    readers: Vec<usize>,
 }
+
+/// Most bytes of grids a process keeps in memory between tasks.
+const CACHE_BYTES: u64 = 1 << 30;
 
 fn hex(h: u64) -> String {
     format!("{h:016x}")
@@ -168,8 +181,18 @@ impl Ctx {
             split: scene.sun.split,
             tasks: Vec::new(),
             args,
+            cache: HashMap::new(),
+            cached_bytes: 0,
+            tiles: HashMap::new(),
+            readers: Vec::new(),
         };
         ctx.tasks = ctx.graph(scene_hash, &planned);
+        ctx.readers = vec![0; ctx.tasks.len()];
+        for t in &ctx.tasks {
+            for &d in &t.deps {
+                ctx.readers[d] += 1;
+            }
+        }
         tracing::info!(
             tasks = ctx.tasks.len(),
             seconds = t.elapsed().as_secs_f64(),
@@ -195,7 +218,7 @@ impl Ctx {
             points: world_points,
             memory: BASE_BYTES + world_points * BAKE_BYTES_PER_POINT,
         }];
-        let mut index: std::collections::HashMap<NodeKey, usize> = std::collections::HashMap::new();
+        let mut index: HashMap<NodeKey, usize> = HashMap::new();
         for p in planned {
             let mut h = ContentHash::new(b"lightgrid-bake-node-v1");
             h.u64(scene_hash)
@@ -204,7 +227,7 @@ impl Ctx {
                 .u32(p.key.index.y as u32)
                 .u64(tasks[0].hash);
             let mut deps = vec![0];
-            let mut read_points = world_points;
+            let mut read_points = self.bake.tile_points_bound();
             for r in &p.reads {
                 let i = index[r];
                 h.u64(tasks[i].hash);
@@ -346,8 +369,25 @@ impl Ctx {
             indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} tasks {msg}")
                 .expect("valid template"),
         );
+        // The plan's order, but each node's export right after the node, while its grid
+        // is in memory (the results do not depend on the order).
+        let mut order = Vec::with_capacity(self.tasks.len());
+        for (i, t) in self.tasks.iter().enumerate() {
+            match t.kind {
+                Kind::Export(_) => {}
+                Kind::Node(_) => {
+                    order.push(i);
+                    order.extend(
+                        (0..self.tasks.len())
+                            .filter(|&e| matches!(self.tasks[e].kind, Kind::Export(_)))
+                            .filter(|&e| self.tasks[e].deps == [i]),
+                    );
+                }
+                _ => order.push(i),
+            }
+        }
         let mut ran = 0;
-        for i in 0..self.tasks.len() {
+        for i in order {
             pb.set_message(self.tasks[i].id.clone());
             ran += self.run_task(i)?.ran as usize;
             pb.inc(1);
@@ -388,6 +428,7 @@ impl Ctx {
         }
         let done = self.object(i);
         if done.is_dir() {
+            self.keep(i, None);
             return Ok(outcome(false));
         }
         let objects = self.objects();
@@ -402,35 +443,71 @@ impl Ctx {
         }
         let tmp = objects.join(format!("{stale}{}", std::process::id()));
         std::fs::create_dir_all(&tmp)?;
-        match task.kind {
+        let made = match task.kind {
             Kind::World => {
                 let g = self.bake.world()?;
-                self.write_grid(&tmp, &task, &g)?;
-            }
-            Kind::Node(key) => {
-                let world = self.load_grid(0)?;
-                let mut reads = Vec::new();
-                for &d in &task.deps[1..] {
-                    if let Kind::Node(k) = self.tasks[d].kind {
-                        reads.push((k, self.load_grid(d)?));
+                // The tiles the nodes read (bounded in size however large the world).
+                for (index, tile) in self.bake.world_tiles(&g)? {
+                    let path = tmp.join(tile_name(index));
+                    std::fs::write(&path, tile.to_bytes())
+                        .with_context(|| format!("writing {}", path.display()))?;
+                    if self.readers[i] > 0 {
+                        self.tiles.insert(index, Arc::new(tile));
                     }
                 }
+                self.write_grid(&tmp, &task, &g)?;
+                None
+            }
+            Kind::Node(key) => {
+                let world = self.load_tile(key)?;
+                let mut held = Vec::new();
+                for &d in &task.deps[1..] {
+                    if let Kind::Node(k) = self.tasks[d].kind {
+                        held.push((k, self.load_grid(d)?));
+                    }
+                }
+                let reads: Vec<(NodeKey, &BakedGrid)> =
+                    held.iter().map(|(k, g)| (*k, g.as_ref())).collect();
                 let g = self.bake.node(key, &world, &reads)?;
                 self.write_grid(&tmp, &task, &g)?;
+                Some(g)
             }
             Kind::Export(_) => {
                 let g = self.load_grid(task.deps[0])?;
                 self.export(&tmp, &task, &g)?;
+                None
             }
             Kind::Manifest => unreachable!("handled above"),
-        }
+        };
         if let Err(e) = std::fs::rename(&tmp, &done) {
             let _ = std::fs::remove_dir_all(&tmp);
             if !done.is_dir() {
                 return Err(e).with_context(|| format!("moving {} into place", done.display()));
             }
         }
+        self.keep(i, made);
         Ok(outcome(true))
+    }
+
+    /// After task `i`: its grid kept in memory for the tasks that will read it (within
+    /// [`CACHE_BYTES`]), and the grids it read dropped once nothing left reads them.
+    fn keep(&mut self, i: usize, made: Option<BakedGrid>) {
+        let size = |g: &BakedGrid| g.light.desc().point_count() as u64 * READ_BYTES_PER_POINT;
+        for d in self.tasks[i].deps.clone() {
+            self.readers[d] = self.readers[d].saturating_sub(1);
+            if self.readers[d] == 0
+                && let Some(g) = self.cache.remove(&d)
+            {
+                self.cached_bytes -= size(&g);
+            }
+        }
+        if let Some(g) = made
+            && self.readers[i] > 0
+            && self.cached_bytes + size(&g) <= CACHE_BYTES
+        {
+            self.cached_bytes += size(&g);
+            self.cache.insert(i, Arc::new(g));
+        }
     }
 
     /// A grid task's output, `grid.lgbake` in `tmp` (with the fault hook).
@@ -441,7 +518,28 @@ impl Ctx {
         std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))
     }
 
-    fn load_grid(&self, i: usize) -> Result<BakedGrid> {
+    /// The world grid's tile that node `key` reads (its depth-1 ancestor's).
+    fn load_tile(&self, key: NodeKey) -> Result<Arc<BakedGrid>> {
+        let index = key.index.div_euclid(IVec2::splat(1 << (key.depth - 1)));
+        if let Some(t) = self.tiles.get(&index) {
+            return Ok(t.clone());
+        }
+        let path = self.object(0).join(tile_name(index));
+        let bytes = std::fs::read(&path).with_context(|| {
+            format!(
+                "reading {} (the output of task world: run it first)",
+                path.display()
+            )
+        })?;
+        let g =
+            BakedGrid::from_bytes(&bytes).with_context(|| format!("reading {}", path.display()))?;
+        Ok(Arc::new(g))
+    }
+
+    fn load_grid(&self, i: usize) -> Result<Arc<BakedGrid>> {
+        if let Some(g) = self.cache.get(&i) {
+            return Ok(g.clone());
+        }
         let path = self.object(i).join("grid.lgbake");
         let bytes = std::fs::read(&path).with_context(|| {
             format!(
@@ -450,7 +548,9 @@ impl Ctx {
                 self.tasks[i].id
             )
         })?;
-        BakedGrid::from_bytes(&bytes).with_context(|| format!("reading {}", path.display()))
+        let g =
+            BakedGrid::from_bytes(&bytes).with_context(|| format!("reading {}", path.display()))?;
+        Ok(Arc::new(g))
     }
 
     /// A node's Bevy volume: the sky's light plus the scattered sun (the direct sun is
@@ -477,6 +577,15 @@ impl Ctx {
         let volume =
             BevyVolume::from_field_valid(&field, g.light.desc(), self.args.format, &valid)?;
         fault_point(&task.id, &tmp.join("volume.partial"), b"")?;
+        // The node's box, for the manifest.
+        let (lo, hi) = g.light.desc().point_bounds();
+        let b: Vec<String> = lo
+            .to_array()
+            .iter()
+            .chain(&hi.to_array())
+            .map(|v| format!("{v:?}"))
+            .collect();
+        std::fs::write(tmp.join("box.txt"), b.join(" "))?;
         write_volumes(
             tmp,
             "volume",
@@ -531,8 +640,16 @@ impl Ctx {
                 files.push((self.args.output.join(&name), bytes));
                 names.push(name);
             }
-            let node = self.load_grid(self.tasks[e].deps[0])?;
-            let (lo, hi) = node.light.desc().point_bounds();
+            let b = std::fs::read_to_string(from.join("box.txt"))?;
+            let v: Vec<f32> = b
+                .split_whitespace()
+                .map(str::parse)
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("reading {}", from.join("box.txt").display()))?;
+            let [x0, y0, z0, x1, y1, z1] = v[..] else {
+                bail!("{}: not six numbers", from.join("box.txt").display());
+            };
+            let (lo, hi) = (Vec3::new(x0, y0, z0), Vec3::new(x1, y1, z1));
             volumes.push(Volume {
                 depth: key.depth,
                 index: key.index.to_array(),
@@ -558,6 +675,11 @@ impl Ctx {
             .with_context(|| format!("writing into {}", self.args.output.display()))?;
         Ok(())
     }
+}
+
+/// The file of the world grid's tile for depth-1 node `index`.
+fn tile_name(index: IVec2) -> String {
+    format!("tile-{}-{}.lgbake", index.x, index.y)
 }
 
 /// The fault hook ([`FAULT_ENV`]): for task `id`, once, writes `bytes`' first half to

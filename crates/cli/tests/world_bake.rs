@@ -168,7 +168,7 @@ fn a_task_killed_half_way_leaves_nothing_and_its_rerun_completes() {
 }
 
 #[test]
-fn export_settings_change_only_the_exports() {
+fn export_settings_change_only_the_exports_and_depths_add_tasks() {
     let dir = scratch("settings");
     let (out, store) = (dir.join("out"), dir.join("store"));
     let a = plan(&dir, &out, &store, &[]);
@@ -194,6 +194,12 @@ fn export_settings_change_only_the_exports() {
             id.starts_with("export-") || id == "manifest",
             "{id}"
         );
+    }
+    // A shallower bake is the deeper one's coarse part: the same tasks, the same hashes.
+    let shallow = hashes(&plan(&dir, &out, &store, &["--depths", "1"]));
+    assert_eq!(shallow.len(), 1 + 4 + 4 + 1);
+    for (id, h) in &shallow {
+        assert_eq!(id == "manifest", a[id] != *h, "{id}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

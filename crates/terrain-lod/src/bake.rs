@@ -190,13 +190,101 @@ impl WorldBake {
         })
     }
 
-    /// Node `key`'s task, given the world grid's result and those of the nodes it reads
-    /// (any others given are ignored; one missing is an error naming it).
+    /// Most points of a world tile ([`WorldBake::world_tiles`]), taking the beam's climb
+    /// over the world grid's whole height (the tiles stop where the material does).
+    pub fn tile_points_bound(&self) -> u64 {
+        let wd = self.h.world.desc();
+        let h = wd.h();
+        let mut side = Vec2::splat(
+            self.h.params.node_size(1)
+                + 2.0 * ((HALO_WIDTH as f32 + 1.0) * self.h.params.cell(1) + 2.0 * h),
+        );
+        if let Some(sun) = self.h.sun
+            && sun.to_sun.y > 0.0
+        {
+            let climb = wd.dims().y as f32 * h / sun.to_sun.y;
+            side += Vec2::new(sun.to_sun.x.abs(), sun.to_sun.z.abs()) * climb;
+        }
+        let n = (side / h).ceil() + 2.0;
+        let n = n.min(Vec2::new(wd.dims().x as f32, wd.dims().z as f32));
+        n.x as u64 * n.y as u64 * wd.dims().y as u64
+    }
+
+    /// The world grid cut into tiles, one per depth-1 node (lattice index): the part of
+    /// it a node of that column and its descendants read, so that a node task reads a
+    /// tile of bounded size however large the world. A tile is the node's rectangle
+    /// widened by its boundary halo and two world cells, and, with the sun apart, toward
+    /// the sun by as far as its beam travels before it rises above the highest cell that
+    /// holds anything (so the beam's march beyond a node meets the same material as in
+    /// the whole grid, up to f32 rounding where a ray grazes a cell's corner: a tile's
+    /// coordinates are shifted); it spans the world grid's full height.
+    pub fn world_tiles(&self, world: &BakedGrid) -> Result<Vec<(IVec2, BakedGrid)>, LodError> {
+        let wd = *self.h.world.desc();
+        if world.light.desc() != &wd {
+            return Err(GridError::invalid(
+                "world",
+                world.light.desc(),
+                "must be this world's grid",
+            )
+            .into());
+        }
+        let h = wd.h();
+        let dlo = wd.point_bounds().0;
+        let halo = (HALO_WIDTH as f32 + 1.0) * self.h.params.cell(1) + 2.0 * h;
+        let (mut reach_lo, mut reach_hi) = (Vec2::ZERO, Vec2::ZERO);
+        if let Some(sun) = self.h.sun
+            && sun.to_sun.y > 0.0
+        {
+            // Above the highest cell holding anything the beam crosses only clear air.
+            let top = world
+                .material
+                .data()
+                .iter()
+                .enumerate()
+                .filter(|(_, m)| m.pass < 1.0)
+                .map(|(i, _)| wd.position(wd.coords(i).expect("in range")).y + 0.5 * h)
+                .fold(dlo.y - 0.5 * h, f32::max);
+            let climb = (top - (dlo.y - 0.5 * h)) / sun.to_sun.y;
+            let r = Vec2::new(sun.to_sun.x, sun.to_sun.z) * climb;
+            reach_hi = r.max(Vec2::ZERO);
+            reach_lo = (-r).max(Vec2::ZERO);
+        }
+        let (lo1, hi1) = self.node_range(1);
+        let mut out = Vec::new();
+        for iz in lo1.y..=hi1.y {
+            for ix in lo1.x..=hi1.x {
+                let index = IVec2::new(ix, iz);
+                let (lo, hi) = self.h.node_rect(NodeKey { depth: 1, index });
+                let lo = lo - Vec2::splat(halo) - reach_lo;
+                let hi = hi + Vec2::splat(halo) + reach_hi;
+                // World points from the one at or below `lo` to the one at or above `hi`.
+                let o = Vec2::new(wd.origin().x, wd.origin().z);
+                let dims = Vec2::new(wd.dims().x as f32, wd.dims().z as f32);
+                let a = ((lo - o) / h)
+                    .floor()
+                    .clamp(Vec2::ZERO, dims - 1.0)
+                    .as_uvec2();
+                let b = ((hi - o) / h)
+                    .ceil()
+                    .clamp(Vec2::ZERO, dims - 1.0)
+                    .as_uvec2();
+                let from = lightgrid_core::glam::UVec3::new(a.x, 0, a.y);
+                let size =
+                    lightgrid_core::glam::UVec3::new(b.x - a.x + 1, wd.dims().y, b.y - a.y + 1);
+                out.push((index, crop_baked(world, from, size)?));
+            }
+        }
+        Ok(out)
+    }
+
+    /// Node `key`'s task, given the world grid's result (whole, or its tile for the
+    /// node's column: [`WorldBake::world_tiles`]) and those of the nodes it reads (any
+    /// others given are ignored; one missing is an error naming it).
     pub fn node(
         &mut self,
         key: NodeKey,
         world: &BakedGrid,
-        reads: &[(NodeKey, BakedGrid)],
+        reads: &[(NodeKey, &BakedGrid)],
     ) -> Result<BakedGrid, LodError> {
         let _span = tracing::info_span!("bake node", ?key).entered();
         self.load(key, world, reads)?;
@@ -234,7 +322,7 @@ impl WorldBake {
         &mut self,
         key: NodeKey,
         world: &BakedGrid,
-        reads: &[(NodeKey, BakedGrid)],
+        reads: &[(NodeKey, &BakedGrid)],
     ) -> Result<(), LodError> {
         let (lo, hi) = self.node_range(key.depth);
         if key.depth < 1
@@ -249,11 +337,11 @@ impl WorldBake {
             )
             .into());
         }
-        if world.light.desc() != self.h.world.desc() {
+        if !within(world.light.desc(), self.h.world.desc()) {
             return Err(GridError::invalid(
                 "world",
                 world.light.desc(),
-                "must be this world's grid",
+                "must be this world's grid or a tile of it",
             )
             .into());
         }
@@ -310,6 +398,65 @@ impl WorldBake {
             }
         }
     }
+}
+
+/// Whether `part` is a box of `whole`'s points (same spacing and levels, its points
+/// among `whole`'s).
+fn within(part: &lightgrid_core::GridDesc, whole: &lightgrid_core::GridDesc) -> bool {
+    let off = (part.origin() - whole.origin()) / whole.h();
+    part.h() == whole.h()
+        && part.origin().y == whole.origin().y
+        && part.dims().y == whole.dims().y
+        && off.x >= 0.0
+        && off.z >= 0.0
+        && off.x.fract() == 0.0
+        && off.z.fract() == 0.0
+        && off.x as u32 + part.dims().x <= whole.dims().x
+        && off.z as u32 + part.dims().z <= whole.dims().z
+}
+
+/// The points `from .. from + size` of a grid.
+fn crop<T: Copy>(
+    g: &Grid<T>,
+    from: lightgrid_core::glam::UVec3,
+    size: lightgrid_core::glam::UVec3,
+) -> Result<Grid<T>, GridError> {
+    let d = g.desc();
+    let desc = lightgrid_core::GridDesc::new(d.position(from), d.h(), size)?;
+    let mut data = Vec::with_capacity(desc.point_count());
+    for y in 0..size.y {
+        for z in 0..size.z {
+            let start = d.index_unchecked(lightgrid_core::glam::UVec3::new(
+                from.x,
+                from.y + y,
+                from.z + z,
+            ));
+            data.extend_from_slice(&g.data()[start..start + size.x as usize]);
+        }
+    }
+    Ok(Grid::from_trusted(desc, data))
+}
+
+/// [`crop`] of every grid of a result.
+fn crop_baked(
+    g: &BakedGrid,
+    from: lightgrid_core::glam::UVec3,
+    size: lightgrid_core::glam::UVec3,
+) -> Result<BakedGrid, GridError> {
+    Ok(BakedGrid {
+        light: crop(&g.light, from, size)?,
+        material: crop(&g.material, from, size)?,
+        has_objects: g.has_objects,
+        open_above: g.open_above,
+        sun: match &g.sun {
+            None => None,
+            Some(s) => Some(BakedSun {
+                scattered: crop(&s.scattered, from, size)?,
+                transmittance: crop(&s.transmittance, from, size)?,
+                to_sun: s.to_sun,
+            }),
+        },
+    })
 }
 
 fn baked_sun(g: &GridSun) -> BakedSun {
