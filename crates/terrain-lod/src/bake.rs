@@ -29,6 +29,8 @@ use crate::{GridSun, Hierarchy, HierarchyParams, LodError, Node, NodeKey, NodeMa
 /// What every task of a world bake shares; runs one task at a time.
 pub struct WorldBake {
     h: Hierarchy,
+    /// The world grid's points (the hierarchy's `world` holds a tile while a node runs).
+    world_desc: lightgrid_core::GridDesc,
 }
 
 /// One node of a bake's plan ([`WorldBake::plan`]).
@@ -95,7 +97,8 @@ impl WorldBake {
             s.to_sun = lightgrid_core::light::check_sun(s.to_sun, s.irradiance)?;
             h.sun = Some(s);
         }
-        Ok(Self { h })
+        let world_desc = *h.world.desc();
+        Ok(Self { h, world_desc })
     }
 
     /// The parameters.
@@ -105,7 +108,7 @@ impl WorldBake {
 
     /// The world grid's points.
     pub fn world_points(&self) -> u64 {
-        self.h.world.desc().point_count() as u64
+        self.world_desc.point_count() as u64
     }
 
     /// World `(x, z)` rectangle of a node.
@@ -193,7 +196,7 @@ impl WorldBake {
     /// Most points of a world tile ([`WorldBake::world_tiles`]), taking the beam's climb
     /// over the world grid's whole height (the tiles stop where the material does).
     pub fn tile_points_bound(&self) -> u64 {
-        let wd = self.h.world.desc();
+        let wd = self.world_desc;
         let h = wd.h();
         let mut side = Vec2::splat(
             self.h.params.node_size(1)
@@ -219,7 +222,7 @@ impl WorldBake {
     /// the whole grid, up to f32 rounding where a ray grazes a cell's corner: a tile's
     /// coordinates are shifted); it spans the world grid's full height.
     pub fn world_tiles(&self, world: &BakedGrid) -> Result<Vec<(IVec2, BakedGrid)>, LodError> {
-        let wd = *self.h.world.desc();
+        let wd = self.world_desc;
         if world.light.desc() != &wd {
             return Err(GridError::invalid(
                 "world",
@@ -337,7 +340,7 @@ impl WorldBake {
             )
             .into());
         }
-        if !within(world.light.desc(), self.h.world.desc()) {
+        if !within(world.light.desc(), &self.world_desc) {
             return Err(GridError::invalid(
                 "world",
                 world.light.desc(),

@@ -317,3 +317,36 @@ fn baked_grid_bytes_round_trip_and_refuse_damage() {
     bad[0] ^= 0xff;
     assert!(BakedGrid::from_bytes(&bad).is_err());
 }
+
+/// One `WorldBake` running every task in turn (as one process does) gives what a fresh
+/// one per task gives, on a world whose tiles are smaller than the world grid.
+#[test]
+fn one_bake_for_every_task_equals_one_per_task() {
+    let (hm, c, p) = world_of(161, 15.0);
+    let sun = Some(SunLight {
+        to_sun: Vec3::new(0.3, 0.8, 0.2),
+        irradiance: Vec3::ONE,
+    });
+    let (_, per_task) = bake_depths(&hm, &c, p, sun, true, 1);
+    let mut b = WorldBake::new(
+        &hm,
+        Box::new(c.clone()),
+        Box::new(CpuSweeper::new()),
+        sky(),
+        sun,
+        p,
+    )
+    .unwrap();
+    let world = b.world().unwrap();
+    let tiles = b.world_tiles(&world).unwrap();
+    assert!(
+        tiles
+            .iter()
+            .all(|(_, t)| t.light.desc() != world.light.desc())
+    );
+    for (n, (k, want)) in b.plan(1).unwrap().into_iter().zip(&per_task) {
+        assert_eq!(n.key, *k);
+        let tile = &tiles.iter().find(|(i, _)| *i == n.key.index).unwrap().1;
+        assert_eq!(&b.node(n.key, tile, &[]).unwrap(), want, "{k:?}");
+    }
+}
