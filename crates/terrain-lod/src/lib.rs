@@ -92,6 +92,9 @@
 //!   side (material, boundaries from coarser grids, sweeps).
 //! - `shadow`: the sun's beam beyond a node, marched through the finest material held
 //!   at each place.
+//! - [`bake`]: a whole world as a graph of tasks (the world grid, its tiles, every node
+//!   of every depth from the coarser grids it reads), each a function of its inputs,
+//!   for `lightgrid bake world.toml` in one process, one process per task or on Ray.
 
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
