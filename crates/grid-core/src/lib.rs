@@ -127,7 +127,7 @@ pub use traits::{
     Acceleration, Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField,
     MAX_PASSES, MaterialSource, MediumEmission, NoScatter, Outputs, Resident, SideBoundary,
     SumField, SunBoundary, SunResponse, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
-    TopBoundary, UniformMaterial,
+    TopBoundary, UniformMaterial, VolumeSample,
 };
 
 /// The README's examples, compiled and run as doc tests.

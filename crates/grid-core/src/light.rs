@@ -149,10 +149,11 @@ impl BinLight {
         finite(e)
     }
 
-    /// Dominant direction: the luminance-weighted mean of the bin unit vectors, pointing
-    /// the way the light *travels*. Its length, in `[0, 1]`, says how sharply light comes
-    /// from one side: 1 for light in a single bin, 0 for a uniform sky or no light.
-    pub fn dominant(&self) -> Vec3 {
+    /// The luminance-weighted sum of the bin unit vectors and the sum of the weights,
+    /// `(Σ Y_d t_d, Σ Y_d)`: both linear in the light, so they interpolate as the bins do,
+    /// and [`BinLight::dominant`] is their ratio (clamped to length 1; zero where the sum
+    /// is not positive).
+    pub fn direction_moment(&self) -> (Vec3, f32) {
         let mut v = Vec3::ZERO;
         let mut sum = 0.0;
         // (The unit table fetched once: this runs for every point of every sweep.)
@@ -161,6 +162,14 @@ impl BinLight {
             v += *unit * l;
             sum += l;
         }
+        (v, sum)
+    }
+
+    /// Dominant direction: the luminance-weighted mean of the bin unit vectors, pointing
+    /// the way the light *travels*. Its length, in `[0, 1]`, says how sharply light comes
+    /// from one side: 1 for light in a single bin, 0 for a uniform sky or no light.
+    pub fn dominant(&self) -> Vec3 {
+        let (v, sum) = self.direction_moment();
         let r = v / sum;
         if sum > 0.0 && r.is_finite() {
             // Rounding can push the length a hair past 1.

@@ -259,6 +259,25 @@ impl LightVolume {
         let positions: Vec<Vec3> = (0..desc.point_count())
             .map(|i| desc.position(desc.coords(i).expect("index in range")))
             .collect();
+        if let Some(read) = field.volume_sampler() {
+            let _span =
+                tracing::debug_span!("sample light volume", points = positions.len()).entered();
+            let s = positions
+                .par_iter()
+                .map(|p| read(*p))
+                .collect::<Result<Vec<_>, GridError>>()?;
+            return Ok(Self {
+                desc,
+                average: s
+                    .iter()
+                    .map(|s| s.average.extend(s.sun).to_array())
+                    .collect(),
+                dominant: s
+                    .iter()
+                    .map(|s| s.dominant.extend(0.0).to_array())
+                    .collect(),
+            });
+        }
         let s = sample_points(
             field,
             SamplePoints {

@@ -92,6 +92,8 @@
 //!   side (material, boundaries from coarser grids, sweeps).
 //! - `shadow`: the sun's beam beyond a node, marched through the finest material held
 //!   at each place.
+//! - `volume`: light volumes read fast (`LightField::volume_sampler`): every grid reduced
+//!   once to its moments.
 //! - [`bake`]: a whole world as a graph of tasks (the world grid, its tiles, every node
 //!   of every depth from the coarser grids it reads), each a function of its inputs,
 //!   for `lightgrid bake world.toml` in one process, one process per task or on Ray.
@@ -102,6 +104,7 @@ use std::hash::BuildHasherDefault;
 pub mod bake;
 mod build;
 mod shadow;
+mod volume;
 
 use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
@@ -1389,6 +1392,16 @@ impl LightField for Hierarchy {
             _ => Ok(sky),
         }
     }
+    /// Every grid reduced once to the moments a light volume stores (the sky scale and
+    /// the sun's irradiance folded in): 7 numbers a corner instead of 52 bins.
+    fn volume_sampler(
+        &self,
+    ) -> Option<Box<dyn Fn(Vec3) -> Result<lightgrid_core::VolumeSample, GridError> + Sync + '_>>
+    {
+        let r = volume::Reduced::new(self);
+        Some(Box::new(move |p| r.sample(p)))
+    }
+
     fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));

@@ -540,3 +540,53 @@ fn a_nodes_sun_is_marched_through_its_neighbours_material() {
         "mean {mean}, worst {worst} over {n} points"
     );
 }
+
+/// A light volume read through the reduced grids (`LightField::volume_sampler`) equals
+/// one read bin by bin (`VolumeSample::read`), sky scaled, sun kept apart, with some
+/// nodes' sun responses stale (they take the sun from coarser grids) and points inside,
+/// between and beyond the grids.
+#[test]
+fn volume_sampler_reads_what_the_bins_give() {
+    use lightgrid_core::VolumeSample;
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let mut h = with_sun(
+        &hm,
+        &composer,
+        Vec3::new(0.55, 0.6, 0.3),
+        Vec3::new(3.0, 2.8, 2.5),
+    );
+    h.set_sky_scale(Vec3::new(0.8, 1.0, 1.3)).unwrap();
+    let cam = Vec3::new(560.0, hm.height_at(560.0, 540.0) + 12.0, 540.0);
+    for _ in 0..3 {
+        h.update(cam).unwrap();
+    }
+    // A sun move leaves the nodes' responses stale until rebuilt.
+    h.set_sun(Some(lightgrid_terrain_lod::SunLight {
+        to_sun: Vec3::new(-0.4, 0.5, 0.2),
+        irradiance: Vec3::splat(2.0),
+    }))
+    .unwrap();
+    h.update(cam).unwrap();
+    let read = h.volume_sampler().expect("the hierarchy reduces its grids");
+    let mut rng = fastrand::Rng::with_seed(5);
+    let mut lit = 0;
+    for _ in 0..3000 {
+        let (x, z) = (440.0 + 240.0 * rng.f32(), 420.0 + 240.0 * rng.f32());
+        let p = Vec3::new(x, hm.height_at(x, z) - 4.0 + 30.0 * rng.f32(), z);
+        let (a, b) = (read(p).unwrap(), VolumeSample::read(&h, p).unwrap());
+        let scale = b.average.max_element().max(1e-6);
+        assert!(
+            (a.average - b.average).abs().max_element() <= 1e-4 * scale,
+            "{p}: {a:?} vs {b:?}"
+        );
+        assert!((a.sun - b.sun).abs() <= 1e-5, "{p}: {a:?} vs {b:?}");
+        assert!(
+            (a.dominant - b.dominant).length() <= 1e-3,
+            "{p}: {a:?} vs {b:?}"
+        );
+        lit += (b.average.max_element() > 0.0 && b.sun > 0.0) as usize;
+    }
+    assert!(lit > 1000, "{lit}");
+    assert!(read(Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
+}

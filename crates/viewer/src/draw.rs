@@ -217,7 +217,7 @@ pub struct SceneMeshes {
 }
 
 /// What [`SceneMeshes::relight`] did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Relit {
     /// Bytes of the light volume.
     pub volume_bytes: u64,
@@ -226,6 +226,10 @@ pub struct Relit {
     pub on_device: bool,
     /// Grids sampled (the world grid and the ready nodes).
     pub grids: usize,
+    /// Points of the light volume.
+    pub volume_points: u64,
+    /// Seconds sampling the light volume took.
+    pub volume_seconds: f64,
 }
 
 impl SceneMeshes {
@@ -389,14 +393,18 @@ impl SceneMeshes {
             r.set_vertex_light_samples(self.terrain, &lit)?;
             r.set_ground(&ground(&vec![Vec3::ZERO; t.positions.len()]))?;
             r.set_ground_light_samples(&lit)?;
+            let t = std::time::Instant::now();
             let volume =
                 self.sampler
                     .sample_layers_lit(&device, GpuPoints::Lattice(desc), &layer_light)?;
+            let volume_seconds = t.elapsed().as_secs_f64();
             r.set_light_volume_samples(desc, &volume)?;
             return Ok(Relit {
                 volume_bytes,
                 on_device: true,
                 grids: layers.len(),
+                volume_points: desc.point_count() as u64,
+                volume_seconds,
             });
         }
         self.relight_cpu(r, world, &world.hierarchy)
@@ -442,11 +450,16 @@ impl SceneMeshes {
             .collect();
         r.update_vertices(self.terrain, &terrain_vertices(t, &light))?;
         r.set_ground(&t.ground_light(&light))?;
-        r.set_light_volume(&LightVolume::from_field(field, desc)?)?;
+        let t = std::time::Instant::now();
+        let volume = LightVolume::from_field(field, desc)?;
+        let volume_seconds = t.elapsed().as_secs_f64();
+        r.set_light_volume(&volume)?;
         Ok(Relit {
             volume_bytes: desc.point_count() as u64 * 32,
             on_device: false,
             grids: world.hierarchy.layers().len(),
+            volume_points: desc.point_count() as u64,
+            volume_seconds,
         })
     }
 

@@ -112,6 +112,10 @@ pub struct ViewSummary {
     pub grid_bytes: [u64; 3],
     /// Light volume bytes for per-pixel lighting.
     pub volume_bytes: u64,
+    /// Points of the light volume.
+    pub volume_points: u64,
+    /// Seconds sampling the light volume took.
+    pub volume_seconds: f64,
     /// With the sun kept apart: the sun's responses beside the sky's grids (scattered
     /// bins as 26 `f32` bins, and the transmittance, 4 bytes a point); 0 otherwise.
     pub sun_bytes: u64,
@@ -187,7 +191,11 @@ impl Summary {
                 "  materials kept with the grids: {:.1} MB",
                 v.material_bytes as f64 / 1e6
             );
-            let _ = writeln!(s, "  light sampled on: {}", v.sampled_on);
+            let _ = writeln!(
+                s,
+                "  light sampled on: {}; light volume {} points in {:.3} s",
+                v.sampled_on, v.volume_points, v.volume_seconds
+            );
             let _ = writeln!(
                 s,
                 "  debug views: {} grid points, {} material cells",
@@ -412,6 +420,8 @@ fn render_view(
             stats.bytes(BYTES_AVG_DOM),
         ],
         volume_bytes: relit.volume_bytes,
+        volume_points: relit.volume_points,
+        volume_seconds: relit.volume_seconds,
         sun_bytes: stats.bytes(BYTES_26_F32 + 4) * world.hierarchy.sun().is_some() as u64,
         material_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_MATERIAL),
         sampled_on: if relit.on_device {
