@@ -1,24 +1,26 @@
 //! Light volumes read from the hierarchy fast: every grid reduced once to the moments a
-//! volume stores (total light, and the direction moment of [`BinLight::direction_moment`]),
-//! with the sky scale and the sun's irradiance folded in, so a point reads 7 numbers a
-//! corner instead of 26 bins of sky and 26 of scattered sun. Equal to reading the bins
-//! (`LightField::light`) up to rounding: both moments are linear in the light, so they
+//! volume stores (total light and the direction moment of
+//! [`lightgrid_core::BinLight::direction_moment`]), with the sky scale and the sun's
+//! irradiance folded in and the sun's transmittance beside them, so a point finds its
+//! grid through a table per depth (no hashing) and reads 8 numbers a corner instead of
+//! 26 bins of sky, 26 of scattered sun and the transmittance. Equal to reading the bins
+//! (`LightField::light`) up to rounding: the moments are linear in the light, so they
 //! interpolate as the bins do (tested against it).
 
-use std::collections::HashMap;
-
-use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{Blend, Grid, GridError, LightGrid, VolumeSample};
 use rayon::prelude::*;
 
-use crate::{Hierarchy, NodeKey, within_levels};
+use crate::{GridSun, Hierarchy, NodeKey};
 
-/// A point's light reduced: `Σ L_d` (RGB) and the direction moment `(Σ Y_d t_d, Σ Y_d)`.
+/// A point's light reduced: `Σ L_d` (RGB), the direction moment `(Σ Y_d t_d, Σ Y_d)`
+/// and the sun's transmittance.
 #[derive(Debug, Clone, Copy, Default)]
 struct Moments {
     total: Vec3,
     v: Vec3,
     s: f32,
+    t: f32,
 }
 
 impl Blend for Moments {
@@ -29,32 +31,67 @@ impl Blend for Moments {
         self.total += o.total * w;
         self.v += o.v * w;
         self.s += o.s * w;
+        self.t += o.t * w;
     }
 }
 
-/// `g`'s light times `scale`, reduced point by point.
-fn reduce(g: &LightGrid, scale: Vec3) -> Grid<Moments> {
-    let data = g
-        .data()
-        .par_iter()
-        .map(|b| {
-            let b = *b * scale;
+/// `sky × scale` (and `sun`'s scattered light × `e` with its transmittance), reduced
+/// point by point.
+fn reduce(sky: Option<&LightGrid>, scale: Vec3, sun: Option<(&GridSun, Vec3)>) -> Grid<Moments> {
+    let desc = match (sky, sun) {
+        (Some(g), _) => *g.desc(),
+        (None, Some((s, _))) => *s.scattered.desc(),
+        (None, None) => unreachable!("a sky or a sun to reduce"),
+    };
+    let data = (0..desc.point_count())
+        .into_par_iter()
+        .map(|i| {
+            let mut b = sky.map_or(lightgrid_core::BinLight::ZERO, |g| g.data()[i] * scale);
+            let mut t = 0.0;
+            if let Some((s, e)) = sun {
+                b += s.scattered.data()[i] * e;
+                t = s.transmittance.data()[i];
+            }
             let (v, s) = b.direction_moment();
             Moments {
                 total: b.total(),
                 v,
                 s,
+                t,
             }
         })
         .collect();
-    Grid::from_trusted(*g.desc(), data)
+    Grid::from_trusted(desc, data)
 }
 
-/// The grids of the hierarchy reduced, by node (`None`: the world grid).
+/// One grid reduced.
+struct Layer {
+    /// Sky (times the sky scale) and, where `sun_folded`, the scattered sun (times its
+    /// irradiance) and transmittance.
+    light: Grid<Moments>,
+    /// Lowest and highest level's heights (a node serves its column between them).
+    levels: (f32, f32),
+    /// The grid's sun response is current and folded into `light`.
+    sun_folded: bool,
+    /// Its sun response alone (kept where a finer grid's is stale and reads this one's).
+    sun: Option<Grid<Moments>>,
+}
+
+/// The ready nodes of one depth as a dense table over their lattice indices.
+struct DepthTable {
+    lo: IVec2,
+    size: IVec2,
+    /// Index into the layers, `u32::MAX` where no node is ready.
+    layer: Vec<u32>,
+}
+
+/// The grids of the hierarchy reduced.
 pub(crate) struct Reduced<'a> {
     h: &'a Hierarchy,
-    sky: HashMap<Option<NodeKey>, Grid<Moments>>,
-    sun: HashMap<Option<NodeKey>, (Grid<Moments>, &'a Grid<f32>)>,
+    /// The world grid first.
+    layers: Vec<Layer>,
+    /// Depth `d`'s table at `d - 1`.
+    depths: Vec<DepthTable>,
 }
 
 impl<'a> Reduced<'a> {
@@ -62,58 +99,90 @@ impl<'a> Reduced<'a> {
         let keys: Vec<Option<NodeKey>> = std::iter::once(None)
             .chain(h.ready_nodes().into_iter().map(Some))
             .collect();
-        let sky = keys
+        let sun = h.sun.map(|s| s.irradiance);
+        // A stale node takes the sun from coarser grids, which then keep theirs apart.
+        let any_stale = sun.is_some() && keys.iter().flatten().any(|k| !h.sun_current(*k));
+        let layers = keys
             .par_iter()
             .map(|k| {
-                let g = match k {
-                    None => &h.world,
-                    Some(k) => &h.nodes[k].light,
+                let (grid, own_sun) = match k {
+                    None => (&h.world, h.world_sun.as_ref()),
+                    Some(k) => (
+                        &h.nodes[k].light,
+                        h.nodes[k].sun.as_ref().filter(|_| h.sun_current(*k)),
+                    ),
                 };
-                (*k, reduce(g, h.sky_scale))
+                let own_sun = sun.and_then(|e| own_sun.map(|s| (s, e)));
+                let (lo, hi) = grid.desc().point_bounds();
+                Layer {
+                    light: reduce(Some(grid), h.sky_scale, own_sun),
+                    levels: (lo.y, hi.y),
+                    sun_folded: own_sun.is_some(),
+                    sun: own_sun
+                        .filter(|_| any_stale)
+                        .map(|s| reduce(None, Vec3::ZERO, Some(s))),
+                }
             })
             .collect();
-        let sun = match h.sun {
-            None => HashMap::new(),
-            Some(s) => keys
-                .par_iter()
-                .filter_map(|k| {
-                    let g = match k {
-                        None => h.world_sun.as_ref()?,
-                        Some(k) if h.sun_current(*k) => h.nodes[k].sun.as_ref()?,
-                        Some(_) => return None,
-                    };
-                    Some((*k, (reduce(&g.scattered, s.irradiance), &g.transmittance)))
-                })
-                .collect(),
-        };
-        Self { h, sky, sun }
+        let depths = (1..=h.params.depths())
+            .map(|d| {
+                let at: Vec<(IVec2, u32)> = keys
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, k)| k.filter(|k| k.depth == d).map(|k| (k.index, i as u32)))
+                    .collect();
+                let lo = at.iter().map(|a| a.0).fold(IVec2::MAX, IVec2::min);
+                let hi = at.iter().map(|a| a.0).fold(IVec2::MIN, IVec2::max);
+                let size = if at.is_empty() {
+                    IVec2::ZERO
+                } else {
+                    hi - lo + IVec2::ONE
+                };
+                let mut layer = vec![u32::MAX; (size.x * size.y) as usize];
+                for (idx, i) in at {
+                    let c = idx - lo;
+                    layer[(c.x + size.x * c.y) as usize] = i;
+                }
+                DepthTable { lo, size, layer }
+            })
+            .collect();
+        Self { h, layers, depths }
     }
 
-    /// The volume's sample at `p` (see [`crate::Hierarchy`]'s `LightField`: the finest
-    /// ready grid's sky, the finest grid's with a current sun response scattered sun
-    /// and transmittance).
+    /// The layers holding `p`, finest first (the world grid last).
+    fn holding(&self, p: Vec3) -> impl Iterator<Item = &Layer> {
+        let xz = Vec2::new(p.x, p.z);
+        self.depths
+            .iter()
+            .enumerate()
+            .rev()
+            .filter_map(move |(d, t)| {
+                let c = self.h.node_at(d as u32 + 1, xz).index - t.lo;
+                if c.cmplt(IVec2::ZERO).any() || c.cmpge(t.size).any() {
+                    return None;
+                }
+                let i = t.layer[(c.x + t.size.x * c.y) as usize];
+                let l = self.layers.get(i as usize)?;
+                (p.y >= l.levels.0 && p.y <= l.levels.1).then_some(l)
+            })
+            .chain(std::iter::once(&self.layers[0]))
+    }
+
+    /// The volume's sample at `p`, as the hierarchy's `LightField` reads it: the finest
+    /// ready grid's sky; the finest grid's with a current sun response scattered sun and
+    /// transmittance.
     pub(crate) fn sample(&self, p: Vec3) -> Result<VolumeSample, GridError> {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let xz = Vec2::new(p.x, p.z);
-        let depths = self.h.params.depths();
-        let finest = |ok: &dyn Fn(NodeKey) -> bool| {
-            (1..=depths).rev().map(|d| self.h.node_at(d, xz)).find(|k| {
-                self.h
-                    .nodes
-                    .get(k)
-                    .is_some_and(|n| within_levels(n.light.desc(), p))
-                    && ok(*k)
-            })
-        };
-        let mut m = self.sky[&finest(&|_| true)].sample(p)?;
-        let mut sun = 0.0;
-        if self.h.sun.is_some() {
-            let key = finest(&|k| self.h.sun_current(k));
-            if let Some((g, t)) = self.sun.get(&key) {
-                m.add_scaled(&g.sample(p)?, 1.0);
-                sun = t.sample(p)?.clamp(0.0, 1.0);
+        let mut layers = self.holding(p);
+        let first = layers.next().expect("the world grid holds every point");
+        let mut m = first.light.sample(p)?;
+        if self.h.sun.is_some() && !first.sun_folded {
+            // Stale here: the sun from the finest coarser grid with a current response.
+            if let Some(s) = layers.find_map(|l| l.sun.as_ref()) {
+                let sun = s.sample(p)?;
+                m.add_scaled(&sun, 1.0);
             }
         }
         let r = m.v / m.s;
@@ -130,7 +199,11 @@ impl<'a> Reduced<'a> {
                 Vec3::ZERO
             },
             dominant,
-            sun: if sun.is_finite() { sun } else { 0.0 },
+            sun: if m.t.is_finite() {
+                m.t.clamp(0.0, 1.0)
+            } else {
+                0.0
+            },
         })
     }
 }
