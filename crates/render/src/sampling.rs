@@ -256,28 +256,35 @@ impl LightVolume {
         field: &F,
         desc: GridDesc,
     ) -> Result<Self, GridError> {
+        if let Some(read) = field.volume_sampler() {
+            let n = desc.point_count();
+            let _span = tracing::debug_span!("sample light volume", points = n).entered();
+            let (mut average, mut dominant) = (vec![[0.0; 4]; n], vec![[0.0; 4]; n]);
+            // A row at a time, its positions made on the way and written in place.
+            let row = desc.dims().x as usize;
+            average
+                .par_chunks_mut(row)
+                .zip(dominant.par_chunks_mut(row))
+                .enumerate()
+                .try_for_each(|(r, (a, d))| -> Result<(), GridError> {
+                    let c = desc.coords(r * row).expect("row in range");
+                    for (x, (a, d)) in a.iter_mut().zip(d).enumerate() {
+                        let p = desc.position(c + lightgrid_core::glam::UVec3::X * x as u32);
+                        let s = read(p)?;
+                        *a = s.average.extend(s.sun).to_array();
+                        *d = s.dominant.extend(0.0).to_array();
+                    }
+                    Ok(())
+                })?;
+            return Ok(Self {
+                desc,
+                average,
+                dominant,
+            });
+        }
         let positions: Vec<Vec3> = (0..desc.point_count())
             .map(|i| desc.position(desc.coords(i).expect("index in range")))
             .collect();
-        if let Some(read) = field.volume_sampler() {
-            let _span =
-                tracing::debug_span!("sample light volume", points = positions.len()).entered();
-            let s = positions
-                .par_iter()
-                .map(|p| read(*p))
-                .collect::<Result<Vec<_>, GridError>>()?;
-            return Ok(Self {
-                desc,
-                average: s
-                    .iter()
-                    .map(|s| s.average.extend(s.sun).to_array())
-                    .collect(),
-                dominant: s
-                    .iter()
-                    .map(|s| s.dominant.extend(0.0).to_array())
-                    .collect(),
-            });
-        }
         let s = sample_points(
             field,
             SamplePoints {
