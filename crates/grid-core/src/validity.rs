@@ -14,8 +14,11 @@
 //!   the points filled the round before. Valid points never change, so a lookup whose
 //!   eight corners are valid reads what it read before.
 //!
-//! The same rule serves exports (`lightgrid-export`) and the renderer's sampling of
-//! the hierarchy's grids (`lightgrid-terrain-lod` fills each grid after its sweep).
+//! The same rule serves exports (`lightgrid-export`, `lightgrid bake`, the viewer's
+//! `--bevy`) and the renderer's light volume read from the hierarchy on the CPU
+//! (`lightgrid-terrain-lod`'s volume sampler fills each grid's reduced light with it;
+//! the GPU sampling path does not yet, nor do the terrain's vertices, which read half a
+//! cell along their normal).
 //!
 //! ```
 //! use lightgrid_core::{validity, BinLight, GridDesc, LightGrid, Material, MaterialGrid};

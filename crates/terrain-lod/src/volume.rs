@@ -4,8 +4,11 @@
 //! irradiance folded in and the sun's transmittance beside them, so a point finds its
 //! grid through a table per depth (no hashing) and reads 8 numbers a corner instead of
 //! 26 bins of sky, 26 of scattered sun and the transmittance. Equal to reading the bins
-//! (`LightField::light`) up to rounding: the moments are linear in the light, so they
-//! interpolate as the bins do (tested against it).
+//! (`LightField::light`) up to rounding where a lookup's eight corners lie outside
+//! geometry: the moments are linear in the light, so they interpolate as the bins do
+//! (tested against it). Grid points inside geometry (opaque cells) take their valid
+//! neighbours' moments first (`lightgrid_core::validity`, the rule the Bevy export
+//! follows), so a surface reads the light just above it rather than half of it.
 
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{Blend, Grid, GridError, LightGrid, VolumeSample};
@@ -23,6 +26,23 @@ struct Moments {
     t: f32,
 }
 
+impl std::ops::Add for Moments {
+    type Output = Self;
+    fn add(mut self, o: Self) -> Self {
+        self.add_scaled(&o, 1.0);
+        self
+    }
+}
+
+impl std::ops::Mul<f32> for Moments {
+    type Output = Self;
+    fn mul(self, w: f32) -> Self {
+        let mut m = Self::zero();
+        m.add_scaled(&self, w);
+        m
+    }
+}
+
 impl Blend for Moments {
     fn zero() -> Self {
         Self::default()
@@ -36,8 +56,15 @@ impl Blend for Moments {
 }
 
 /// `sky × scale` (and `sun`'s scattered light × `e` with its transmittance), reduced
-/// point by point.
-fn reduce(sky: Option<&LightGrid>, scale: Vec3, sun: Option<(&GridSun, Vec3)>) -> Grid<Moments> {
+/// point by point; points inside geometry (`valid` false) then take their valid
+/// neighbours' values (`lightgrid_core::validity`, the rule exports follow), so that a
+/// lookup on a surface reads the light above it, not half of it.
+fn reduce(
+    sky: Option<&LightGrid>,
+    scale: Vec3,
+    sun: Option<(&GridSun, Vec3)>,
+    valid: Option<&[bool]>,
+) -> Grid<Moments> {
     let desc = match (sky, sun) {
         (Some(g), _) => *g.desc(),
         (None, Some((s, _))) => *s.scattered.desc(),
@@ -61,7 +88,16 @@ fn reduce(sky: Option<&LightGrid>, scale: Vec3, sun: Option<(&GridSun, Vec3)>) -
             }
         })
         .collect();
-    Grid::from_trusted(desc, data)
+    let mut g = Grid::from_trusted(desc, data);
+    if let Some(valid) = valid.filter(|v| v.len() == desc.point_count()) {
+        // (Lengths match: the mask is of the grid's own material.)
+        let _ = lightgrid_core::validity::fill_invalid(
+            &mut g,
+            valid,
+            lightgrid_core::validity::DEFAULT_ROUNDS,
+        );
+    }
+    g
 }
 
 /// One grid reduced.
@@ -105,22 +141,27 @@ impl<'a> Reduced<'a> {
         let layers = keys
             .par_iter()
             .map(|k| {
-                let (grid, own_sun) = match k {
-                    None => (&h.world, h.world_sun.as_ref()),
+                let (grid, own_sun, material) = match k {
+                    None => (&h.world, h.world_sun.as_ref(), h.world_material.as_ref()),
                     Some(k) => (
                         &h.nodes[k].light,
                         h.nodes[k].sun.as_ref().filter(|_| h.sun_current(*k)),
+                        Some(&h.nodes[k].material.grid),
                     ),
                 };
                 let own_sun = sun.and_then(|e| own_sun.map(|s| (s, e)));
+                let valid = material
+                    .filter(|m| m.desc() == grid.desc())
+                    .map(lightgrid_core::validity::valid_points);
+                let valid = valid.as_deref();
                 let (lo, hi) = grid.desc().point_bounds();
                 Layer {
-                    light: reduce(Some(grid), h.sky_scale, own_sun),
+                    light: reduce(Some(grid), h.sky_scale, own_sun, valid),
                     levels: (lo.y, hi.y),
                     sun_folded: own_sun.is_some(),
                     sun: own_sun
                         .filter(|_| any_stale)
-                        .map(|s| reduce(None, Vec3::ZERO, Some(s))),
+                        .map(|s| reduce(None, Vec3::ZERO, Some(s), valid)),
                 }
             })
             .collect();
@@ -205,5 +246,118 @@ impl<'a> Reduced<'a> {
                 0.0
             },
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use lightgrid_core::glam::{Vec2, Vec3};
+    use lightgrid_core::{
+        BinLight, GridDesc, GridError, Heightmap, LightField, Material, MaterialGrid,
+        MaterialSource, VolumeSample,
+    };
+
+    use crate::{Hierarchy, HierarchyParams, NodeKey};
+
+    /// Opaque ground below height 0 (a cell whose centre is below), a block of dense
+    /// medium above it, air elsewhere.
+    struct Ground;
+
+    impl MaterialSource for Ground {
+        fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+            let cells = (0..desc.point_count())
+                .map(|i| {
+                    let p = desc.position(desc.coords(i).expect("in range"));
+                    if p.y < 0.0 {
+                        Material::opaque(Vec3::splat(0.3))
+                    } else if (20.0..28.0).contains(&p.x)
+                        && p.y < 6.0
+                        && (20.0..28.0).contains(&p.z)
+                    {
+                        Material {
+                            reflectance: Vec3::splat(0.5),
+                            pass: 0.2,
+                        }
+                    } else {
+                        Material::EMPTY
+                    }
+                })
+                .collect();
+            MaterialGrid::new(*desc, cells)
+        }
+    }
+
+    fn hierarchy() -> Hierarchy {
+        let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
+        let params = HierarchyParams {
+            world_cell: 8.0,
+            finest_cell: 2.0,
+            node_points: 8,
+            lod_factor: 100.0,
+            evict_factor: 200.0,
+            budget_points: u64::MAX / 4,
+            ..Default::default()
+        };
+        let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+        let mut h = Hierarchy::new(
+            &hm,
+            Box::new(Ground),
+            Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+            sky,
+            params,
+        )
+        .unwrap();
+        h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
+        h
+    }
+
+    /// Where a lookup's eight corners are valid the volume reads what the bins give; on
+    /// the ground's surface it reads the light just above it (within 2 %), where the
+    /// bins read about half of it.
+    #[test]
+    fn the_volume_reads_the_bins_and_fills_points_inside_geometry() {
+        let h = hierarchy();
+        assert!(h.ready_nodes().iter().any(|k: &NodeKey| k.depth == 2));
+        let read = h.volume_sampler().unwrap();
+        for i in 0..200 {
+            // Well above the ground's cells and away from the block: valid corners.
+            let p = Vec3::new(
+                2.0 + 0.3 * i as f32,
+                3.5 + 0.05 * i as f32,
+                50.0 - 0.2 * i as f32,
+            );
+            let (a, b) = (read(p).unwrap(), VolumeSample::read(&h, p).unwrap());
+            assert!(
+                (a.average - b.average).abs().max_element() <= 1e-5 * b.average.max_element(),
+                "{p}: {a:?} {b:?}"
+            );
+            assert!(
+                (a.dominant - b.dominant).length() <= 1e-4,
+                "{p}: {a:?} {b:?}"
+            );
+        }
+        for x in [5.0, 13.0, 41.0] {
+            // The ground's surface lies between the last grid point inside and the first
+            // above.
+            let g = h.grid_at(Vec3::new(x, 0.0, 40.0));
+            let d = g.desc();
+            // (The last point below height 0: its cell is ground.)
+            let below = ((0.0 - d.origin().y) / d.h()).ceil() - 1.0;
+            let y_in = d.origin().y + below * d.h();
+            let y_up = y_in + d.h();
+            assert!(y_in < 0.0 && y_up >= 0.0, "{y_in} {y_up}");
+            let surface = Vec3::new(x, 0.5 * (y_in + y_up), 40.0);
+            let above = read(Vec3::new(x, y_up, 40.0)).unwrap().average;
+            let got = read(surface).unwrap().average;
+            let bins = VolumeSample::read(&h, surface).unwrap().average;
+            assert!(
+                (got - above).abs().max_element() <= 0.02 * above.max_element(),
+                "{got} vs {above}"
+            );
+            assert!(
+                bins.max_element() < 0.8 * above.max_element(),
+                "the bins read {bins}, above {above}"
+            );
+        }
     }
 }

@@ -570,23 +570,26 @@ fn volume_sampler_reads_what_the_bins_give() {
     h.update(cam).unwrap();
     let read = h.volume_sampler().expect("the hierarchy reduces its grids");
     let mut rng = fastrand::Rng::with_seed(5);
-    let mut lit = 0;
+    let (mut lit, mut same, mut all) = (0, 0, 0);
     for _ in 0..3000 {
         let (x, z) = (440.0 + 240.0 * rng.f32(), 420.0 + 240.0 * rng.f32());
-        let p = Vec3::new(x, hm.height_at(x, z) - 4.0 + 30.0 * rng.f32(), z);
+        // Above the ground's cells (at every depth's cell size): inside the forest's
+        // crowns but clear of the ground.
+        let p = Vec3::new(x, hm.height_at(x, z) + 18.0 + 12.0 * rng.f32(), z);
         let (a, b) = (read(p).unwrap(), VolumeSample::read(&h, p).unwrap());
+        assert!(a.average.is_finite() && a.dominant.length() <= 1.0 + 1e-6);
+        assert!((0.0..=1.0).contains(&a.sun));
         let scale = b.average.max_element().max(1e-6);
-        assert!(
-            (a.average - b.average).abs().max_element() <= 1e-4 * scale,
-            "{p}: {a:?} vs {b:?}"
-        );
-        assert!((a.sun - b.sun).abs() <= 1e-5, "{p}: {a:?} vs {b:?}");
-        assert!(
-            (a.dominant - b.dominant).length() <= 1e-3,
-            "{p}: {a:?} vs {b:?}"
-        );
+        // Where a corner lies inside geometry the volume reads its valid neighbours'
+        // light instead (`lightgrid_core::validity`; the unit tests check that rule):
+        // elsewhere, the bins' values up to rounding.
+        same += ((a.average - b.average).abs().max_element() <= 1e-4 * scale
+            && (a.sun - b.sun).abs() <= 1e-5
+            && (a.dominant - b.dominant).length() <= 1e-3) as usize;
+        all += 1;
         lit += (b.average.max_element() > 0.0 && b.sun > 0.0) as usize;
     }
     assert!(lit > 1000, "{lit}");
+    assert!(same * 10 > all * 9, "{same} of {all} as the bins give");
     assert!(read(Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
 }
