@@ -196,7 +196,7 @@ pub(crate) fn bake(a: BakeArgs) -> Result<()> {
     } else {
         Content::Indirect
     };
-    a.volume.write(&volume, content, a.light.sun())
+    a.volume.write(&volume, content, a.light.sun()?)
 }
 
 /// Writes a light grid file as it is.

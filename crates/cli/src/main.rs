@@ -2,11 +2,11 @@
 //!
 //! ```text
 //! lightgrid scene canopy --size 32 -o canopy.lgrid
-//! lightgrid sweep canopy.lgrid -o light.lgrid --sky clear --sun 3000 --sun-elevation 40
+//! lightgrid sweep canopy.lgrid -o light.lgrid --sky daylight --sun-from-sky --sun-elevation 40
 //! lightgrid reference canopy.lgrid -o ref.lgrid --paths 2000000
 //! lightgrid voxelize tree.glb --cell 0.05 -o tree.lgrid
 //! lightgrid inspect light.lgrid
-//! lightgrid bake canopy.lgrid -o bevy/ --sky clear --sun 3000 --sun-elevation 40
+//! lightgrid bake canopy.lgrid -o bevy/ --sky daylight --sun-from-sky --sun-elevation 40
 //! lightgrid export light.lgrid -o bevy/
 //! lightgrid bake world.toml -o bevy/                      # a whole world, task by task
 //! lightgrid bake world.toml -o bevy/ --plan plan.json     # its task graph, for a cluster

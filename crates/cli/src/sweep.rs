@@ -85,6 +85,9 @@ pub(crate) enum SkyArg {
     Uniform,
     /// The analytic clear sky, glowing around the sun.
     Clear,
+    /// A clear daylight sky in cd/m² (Preetham's shape, measured clear-sky level:
+    /// `lightgrid_sky::Daylight`); `--sun-from-sky` gives the matching sun in lux.
+    Daylight,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -150,6 +153,13 @@ pub(crate) struct LightArgs {
     /// Sun illuminance `R,G,B` (irradiance facing the sun); `0,0,0` for no sun.
     #[arg(long, value_parser = parse_rgb, default_value = "0,0,0")]
     sun: Vec3,
+    /// With `--sky daylight`: the sun's illuminance from the same clear-sky measurements
+    /// (lux, white; about 92,000 at 40° elevation), instead of `--sun`.
+    #[arg(long, conflicts_with = "sun")]
+    sun_from_sky: bool,
+    /// Haze of `--sky daylight`: 2 very clear, 3 clear, 6 hazy (1.7 to 10).
+    #[arg(long, default_value_t = lightgrid_sky::DEFAULT_TURBIDITY)]
+    turbidity: f32,
     /// Sun elevation above the horizon, degrees.
     #[arg(long, default_value_t = 45.0, allow_negative_numbers = true)]
     sun_elevation: f32,
@@ -174,21 +184,36 @@ fn parse_rgb(s: &str) -> Result<Vec3, String> {
 }
 
 impl LightArgs {
+    /// The sun's illuminance: `--sun`, or with `--sun-from-sky` the daylight model's.
+    fn sun_rgb(&self) -> Result<Vec3> {
+        if !self.sun_from_sky {
+            return Ok(self.sun);
+        }
+        if !matches!(self.sky, SkyArg::Daylight) || self.sky_exr.is_some() {
+            bail!("--sun-from-sky needs --sky daylight");
+        }
+        Ok(Vec3::splat(lightgrid_sky::ies_sun_illuminance(
+            self.sun_elevation.to_radians(),
+        )))
+    }
+
     /// The sky (top and bottom bins) and the sun's bins (zero without a sun).
     fn sky_and_sun(&self) -> Result<(sky::SkyBins, BinLight)> {
+        let rgb = self.sun_rgb()?;
         let sun = Sun::at(
             self.sun_elevation.to_radians(),
             self.sun_azimuth.to_radians(),
-            self.sun,
+            rgb,
         );
         let spec = match (&self.sky_exr, self.sky) {
             (Some(path), _) => sky::SkySpec::exr(path)?,
             (None, SkyArg::None) => sky::SkySpec::None,
             (None, SkyArg::Uniform) => sky::SkySpec::Uniform(self.sky_radiance),
             (None, SkyArg::Clear) => sky::SkySpec::Clear,
+            (None, SkyArg::Daylight) => sky::SkySpec::Daylight(self.turbidity),
         };
         let sky = spec.bins(sun.direction)?;
-        let sun_bins = if self.sun == Vec3::ZERO {
+        let sun_bins = if rgb == Vec3::ZERO {
             BinLight::ZERO
         } else {
             sun.bins()?
@@ -215,13 +240,14 @@ impl LightArgs {
 
     /// The sun as a direction towards it and its irradiance facing it (`None`
     /// without a sun).
-    pub(crate) fn sun(&self) -> Option<(Vec3, Vec3)> {
+    pub(crate) fn sun(&self) -> Result<Option<(Vec3, Vec3)>> {
+        let rgb = self.sun_rgb()?;
         let sun = Sun::at(
             self.sun_elevation.to_radians(),
             self.sun_azimuth.to_radians(),
-            self.sun,
+            rgb,
         );
-        (self.sun != Vec3::ZERO).then_some((sun.direction, self.sun))
+        Ok((rgb != Vec3::ZERO).then_some((sun.direction, rgb)))
     }
 
     /// The sun alone (`None` without a sun).

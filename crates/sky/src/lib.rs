@@ -43,6 +43,11 @@ use lightgrid_core::{BinLight, GridError};
 
 use lightgrid_core::MAX_LIGHT;
 
+mod daylight;
+pub use daylight::{
+    DEFAULT_TURBIDITY, Daylight, TURBIDITY_RANGE, ies_sky_illuminance, ies_sun_illuminance,
+};
+
 /// Errors of sky construction and loading.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -279,6 +284,25 @@ impl EnvMap {
         &self.texels
     }
 
+    /// Illuminance of the map's upper half on an upward-facing surface,
+    /// `Σ Y(L) cos θ ω` over the texels (luminance units: lux for a map in cd/m²), each
+    /// texel's cosine exact over its band (`∫ cos θ sin θ dθ dφ`).
+    pub fn horizontal_illuminance(&self) -> f32 {
+        let (w, h) = (self.width, self.height);
+        let mut e = 0.0f64;
+        for y in 0..h / 2 {
+            let t0 = PI as f64 * y as f64 / h as f64;
+            let t1 = PI as f64 * (y + 1) as f64 / h as f64;
+            // ∫ cos θ sin θ dθ over the band, times the texel's share of 2π.
+            let band = 0.5 * (t1.sin().powi(2) - t0.sin().powi(2));
+            let k = std::f64::consts::TAU / w as f64 * band;
+            for x in 0..w {
+                e += lightgrid_core::light::luminance(self.texels[(y * w + x) as usize]) as f64 * k;
+            }
+        }
+        e as f32
+    }
+
     /// The map integrated over the bins: light travels opposite to the texel direction.
     pub fn bins(&self) -> SkyBins {
         let (w, h) = (self.width, self.height);
@@ -332,6 +356,9 @@ pub enum SkySpec {
     Clear,
     /// An environment map's bins, integrated once.
     Map(Box<SkyBins>),
+    /// A clear daylight sky in cd/m² of this turbidity ([`Daylight`]): its shape and
+    /// level follow the sun.
+    Daylight(f32),
 }
 
 impl SkySpec {
@@ -351,12 +378,20 @@ impl SkySpec {
             Self::Uniform(radiance) => uniform_sky(*radiance),
             Self::Clear => ClearSky::blue(sun_direction).bins(),
             Self::Map(bins) => Ok(**bins),
+            Self::Daylight(turbidity) => {
+                let d = Daylight::new(*turbidity, sun_direction)?;
+                if d.elevation() <= 0.0 {
+                    return Self::None.bins(sun_direction);
+                }
+                d.bins()
+            }
         }
     }
 
-    /// Whether the sky's light changes when the sun moves (the clear sky's glow).
+    /// Whether the sky's light changes when the sun moves (the clear sky's glow, the
+    /// daylight sky).
     pub fn follows_sun(&self) -> bool {
-        matches!(self, Self::Clear)
+        matches!(self, Self::Clear | Self::Daylight(_))
     }
 }
 

@@ -91,7 +91,8 @@ pub struct ProceduralTerrain {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SkySpec {
-    /// `"clear"` (analytic blue sky around the sun), `"uniform"` or `"exr"`.
+    /// `"clear"` (analytic blue sky around the sun), `"uniform"`, `"exr"` or
+    /// `"daylight"` (cd/m², with `turbidity`).
     #[serde(default)]
     pub kind: SkyKind,
     /// Radiance of a uniform sky.
@@ -102,6 +103,13 @@ pub struct SkySpec {
     /// Multiplies the sky.
     #[serde(default = "one")]
     pub scale: f32,
+    /// Haze of the daylight sky: 2 very clear, 3 clear, 6 hazy (1.7 to 10).
+    #[serde(default = "default_turbidity")]
+    pub turbidity: f32,
+}
+
+fn default_turbidity() -> f32 {
+    lightgrid_sky::DEFAULT_TURBIDITY
 }
 
 impl Default for SkySpec {
@@ -111,6 +119,7 @@ impl Default for SkySpec {
             radiance: default_radiance(),
             file: None,
             scale: 1.0,
+            turbidity: default_turbidity(),
         }
     }
 }
@@ -312,6 +321,10 @@ pub enum SkyKind {
     Uniform,
     /// An equirectangular EXR environment map (`sky.file`).
     Exr,
+    /// A clear daylight sky in cd/m² (`sky.turbidity`; `lightgrid_sky::Daylight`): give
+    /// the sun in lux to match it (about 92,000 at 40°:
+    /// `lightgrid_sky::ies_sun_illuminance`).
+    Daylight,
 }
 
 /// A procedural model (`models[i].procedural`).
@@ -534,6 +547,14 @@ impl SceneFile {
             }
         }
         colour("terrain.ground_colour", t.ground_colour, Some(1.0))?;
+        if self.sky.kind == SkyKind::Daylight
+            && !lightgrid_sky::TURBIDITY_RANGE.contains(&self.sky.turbidity)
+        {
+            bail!(
+                "sky.turbidity = {}: must be in 1.7..=10 (2 very clear, 3 clear, 6 hazy)",
+                self.sky.turbidity
+            );
+        }
         if self.sky.kind == SkyKind::Exr && self.sky.file.is_none() {
             bail!("sky.kind = \"exr\" needs sky.file");
         }

@@ -337,6 +337,7 @@ pub fn sky_spec(scene: &SceneFile) -> Result<SkySpec> {
             SkySpec::exr(&f).with_context(|| format!("sky.file {}", f.display()))?
         }
         SkyKind::Clear => SkySpec::Clear,
+        SkyKind::Daylight => SkySpec::Daylight(scene.sky.turbidity),
     })
 }
 

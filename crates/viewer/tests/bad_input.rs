@@ -194,7 +194,7 @@ fn unknown_names_are_refused_when_the_scene_is_parsed() {
         (
             "[sky]\nkind = \"foggy\"\n",
             "foggy",
-            "`clear`, `uniform`, `exr`",
+            "`clear`, `uniform`, `exr`, `daylight`",
         ),
         (
             "[[models]]\nname = \"m\"\nprocedural = \"oak\"\n",
@@ -218,4 +218,16 @@ fn unknown_names_are_refused_when_the_scene_is_parsed() {
             "{e}"
         );
     }
+}
+
+/// A daylight sky's turbidity outside Preetham's fit is named with its field.
+#[test]
+fn daylight_turbidity_out_of_range_is_named() {
+    let scene = "[terrain]\nprocedural = { size = 32.0, relief = 2.0, feature_size = 20.0, seed = 1 }\n\
+                 [sky]\nkind = \"daylight\"\nturbidity = 40.0\n\
+                 [[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n";
+    let e =
+        lightgrid_viewer::SceneFile::parse(scene, "t.toml", std::path::Path::new(".")).unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(msg.contains("sky.turbidity = 40"), "{msg}");
 }
