@@ -1,8 +1,9 @@
 //! A clear daylight sky in physical units, consistent with its sun (issue 46).
 //!
 //! - **Shape and colour**: Preetham, Shirley and Smits, "A Practical Analytic Model for
-//!   Daylight" (1999): the Perez distribution `F(θ, γ) = (1 + A e^{B / cos θ})(1 + C e^{D γ}
-//!   + E cos² γ)` of luminance and of the chromaticities `x`, `y`, each relative to the
+//!   Daylight" (1999): the Perez distribution
+//!   `F(θ, γ) = (1 + A e^{B / cos θ})(1 + C e^{D γ} + E cos² γ)` of luminance and of the
+//!   chromaticities `x`, `y`, each relative to the
 //!   zenith, with coefficients linear in the turbidity `T` (2: very clear, 3: clear, 6:
 //!   hazy), converted to linear sRGB (D65).
 //! - **Level**: measured clear skies, not Preetham's zenith luminance (which puts 1.6 to
