@@ -17,6 +17,13 @@ fn world() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/world.toml")
 }
 
+/// `lightgrid bake world.toml -o out`, more arguments to add.
+fn bake(out: &Path) -> Command {
+    let mut c = bin();
+    c.arg("bake").arg(world()).arg("-o").arg(out);
+    c
+}
+
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lightgrid-world-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -51,11 +58,7 @@ fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
 
 fn plan(dir: &Path, out: &Path, store: &Path, extra: &[&str]) -> serde_json::Value {
     let p = dir.join("plan.json");
-    run(bin()
-        .arg("bake")
-        .arg(world())
-        .arg("-o")
-        .arg(out)
+    run(bake(&out)
         .arg("--store")
         .arg(store)
         .arg("--plan")
@@ -68,13 +71,7 @@ fn plan(dir: &Path, out: &Path, store: &Path, extra: &[&str]) -> serde_json::Val
 fn one_process_equals_one_process_per_task() {
     let dir = scratch("tasks");
     let (single, per_task) = (dir.join("single"), dir.join("per-task"));
-    let s = run(bin()
-        .arg("bake")
-        .arg(world())
-        .arg("-o")
-        .arg(&single)
-        .arg("--store")
-        .arg(dir.join("store-a")));
+    let s = run(bake(&single).arg("--store").arg(dir.join("store-a")));
     assert!(s.contains("28 ran, 0 found"), "{s}");
     let p = plan(&dir, &per_task, &dir.join("store-b"), &[]);
     let tasks = p["tasks"].as_array().unwrap();
@@ -106,13 +103,7 @@ fn one_process_equals_one_process_per_task() {
     let manifest: serde_json::Value = serde_json::from_slice(&a["volume.manifest.json"]).unwrap();
     assert_eq!(manifest["volumes"].as_array().unwrap().len(), 13);
     // Run again: every task's output is found in the store.
-    let s = run(bin()
-        .arg("bake")
-        .arg(world())
-        .arg("-o")
-        .arg(&single)
-        .arg("--store")
-        .arg(dir.join("store-a")));
+    let s = run(bake(&single).arg("--store").arg(dir.join("store-a")));
     assert!(s.contains("1 ran, 27 found"), "{s}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -212,33 +203,15 @@ fn bad_world_requests_are_refused_with_a_message() {
         assert!(!out.status.success());
         String::from_utf8_lossy(&out.stderr).to_string()
     };
-    let e = fail(
-        bin()
-            .arg("bake")
-            .arg(world())
-            .arg("-o")
-            .arg(dir.join("o"))
-            .args(["--task", "node-9-9-9"]),
-    );
+    let e = fail(bake(&dir.join("o")).args(["--task", "node-9-9-9"]));
     assert!(e.contains("node-9-9-9"), "{e}");
     let e = fail(
-        bin()
-            .arg("bake")
-            .arg(world())
-            .arg("-o")
-            .arg(dir.join("o"))
+        bake(&dir.join("o"))
             .args(["--task", "node-2-0-0", "--store"])
             .arg(dir.join("empty")),
     );
     assert!(e.contains("run it first"), "{e}");
-    let e = fail(
-        bin()
-            .arg("bake")
-            .arg(world())
-            .arg("-o")
-            .arg(dir.join("o"))
-            .args(["--depths", "0"]),
-    );
+    let e = fail(bake(&dir.join("o")).args(["--depths", "0"]));
     assert!(e.contains("--depths"), "{e}");
     let grid = dir.join("m.lgrid");
     run(bin()

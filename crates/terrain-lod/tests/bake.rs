@@ -65,6 +65,24 @@ fn world_of(n: u32, relief: f32) -> (Heightmap, Arc<AreaComposer>, HierarchyPara
     (hm, Arc::new(composer), p)
 }
 
+/// A bake of the world over `hm` with the CPU sweeper and [`sky`].
+fn new_bake(
+    hm: &Heightmap,
+    c: &Arc<AreaComposer>,
+    sun: Option<SunLight>,
+    p: HierarchyParams,
+) -> WorldBake {
+    WorldBake::new(
+        hm,
+        Box::new(c.clone()),
+        Box::new(CpuSweeper::new()),
+        sky(),
+        sun,
+        p,
+    )
+    .unwrap()
+}
+
 fn sky() -> BinLight {
     BinLight::uniform(Vec3::new(0.6, 0.7, 1.0))
         .split_vertical()
@@ -92,17 +110,7 @@ fn bake_depths(
     tiles: bool,
     depths: u32,
 ) -> (BakedGrid, Vec<(NodeKey, BakedGrid)>) {
-    let fresh = || {
-        WorldBake::new(
-            hm,
-            Box::new(c.clone()),
-            Box::new(CpuSweeper::new()),
-            sky(),
-            sun,
-            p,
-        )
-        .unwrap()
-    };
+    let fresh = || new_bake(hm, &c, sun, p);
     let through_bytes = |g: &BakedGrid| BakedGrid::from_bytes(&g.to_bytes()).unwrap();
     let world = through_bytes(&fresh().world().unwrap());
     let tiles = if tiles {
@@ -218,15 +226,7 @@ fn world_tiles_hold_the_suns_path() {
         });
         let (world, whole) = bake_depths(&hm, &c, p, sun, false, 1);
         let (_, tiled) = bake_depths(&hm, &c, p, sun, true, 1);
-        let b = WorldBake::new(
-            &hm,
-            Box::new(c.clone()),
-            Box::new(CpuSweeper::new()),
-            sky(),
-            sun,
-            p,
-        )
-        .unwrap();
+        let b = new_bake(&hm, &c, sun, p);
         let tiles = b.world_tiles(&world).unwrap();
         let n = world.light.desc().point_count();
         assert!(
@@ -258,15 +258,7 @@ fn world_tiles_hold_the_suns_path() {
 #[test]
 fn a_node_without_its_reads_or_outside_the_plan_is_refused() {
     let (hm, c, p) = world();
-    let mut b = WorldBake::new(
-        &hm,
-        Box::new(c.clone()),
-        Box::new(CpuSweeper::new()),
-        sky(),
-        None,
-        p,
-    )
-    .unwrap();
+    let mut b = new_bake(&hm, &c, None, p);
     let world = b.world().unwrap();
     let plan = b.plan(u32::MAX).unwrap();
     let deep = plan.iter().find(|n| n.key.depth == 2).unwrap();
@@ -297,15 +289,7 @@ fn baked_grid_bytes_round_trip_and_refuse_damage() {
         to_sun: Vec3::new(0.5, 0.6, 0.3),
         irradiance: Vec3::ONE,
     });
-    let mut b = WorldBake::new(
-        &hm,
-        Box::new(c.clone()),
-        Box::new(CpuSweeper::new()),
-        sky(),
-        sun,
-        p,
-    )
-    .unwrap();
+    let mut b = new_bake(&hm, &c, sun, p);
     let g = b.world().unwrap();
     let bytes = g.to_bytes();
     assert_eq!(BakedGrid::from_bytes(&bytes).unwrap(), g);
@@ -328,15 +312,7 @@ fn one_bake_for_every_task_equals_one_per_task() {
         irradiance: Vec3::ONE,
     });
     let (_, per_task) = bake_depths(&hm, &c, p, sun, true, 1);
-    let mut b = WorldBake::new(
-        &hm,
-        Box::new(c.clone()),
-        Box::new(CpuSweeper::new()),
-        sky(),
-        sun,
-        p,
-    )
-    .unwrap();
+    let mut b = new_bake(&hm, &c, sun, p);
     let world = b.world().unwrap();
     let tiles = b.world_tiles(&world).unwrap();
     assert!(
