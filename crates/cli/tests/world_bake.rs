@@ -58,7 +58,7 @@ fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
 
 fn plan(dir: &Path, out: &Path, store: &Path, extra: &[&str]) -> serde_json::Value {
     let p = dir.join("plan.json");
-    run(bake(&out)
+    run(bake(out)
         .arg("--store")
         .arg(store)
         .arg("--plan")
