@@ -110,7 +110,7 @@ fn bake_depths(
     tiles: bool,
     depths: u32,
 ) -> (BakedGrid, Vec<(NodeKey, BakedGrid)>) {
-    let fresh = || new_bake(hm, &c, sun, p);
+    let fresh = || new_bake(hm, c, sun, p);
     let through_bytes = |g: &BakedGrid| BakedGrid::from_bytes(&g.to_bytes()).unwrap();
     let world = through_bytes(&fresh().world().unwrap());
     let tiles = if tiles {
