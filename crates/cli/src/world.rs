@@ -371,18 +371,17 @@ impl Ctx {
         );
         // The plan's order, but each node's export right after the node, while its grid
         // is in memory (the results do not depend on the order).
+        let mut export_of = vec![None; self.tasks.len()];
+        for (e, t) in self.tasks.iter().enumerate() {
+            if let Kind::Export(_) = t.kind {
+                export_of[t.deps[0]] = Some(e);
+            }
+        }
         let mut order = Vec::with_capacity(self.tasks.len());
         for (i, t) in self.tasks.iter().enumerate() {
             match t.kind {
                 Kind::Export(_) => {}
-                Kind::Node(_) => {
-                    order.push(i);
-                    order.extend(
-                        (0..self.tasks.len())
-                            .filter(|&e| matches!(self.tasks[e].kind, Kind::Export(_)))
-                            .filter(|&e| self.tasks[e].deps == [i]),
-                    );
-                }
+                Kind::Node(_) => order.extend(std::iter::once(i).chain(export_of[i])),
                 _ => order.push(i),
             }
         }
