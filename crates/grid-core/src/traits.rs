@@ -581,6 +581,7 @@ pub struct CellSource {
     desc: GridDesc,
     removed: Vec<Vec3>,
     dir: Vec3,
+    heights: Option<Vec<[f32; 2]>>,
 }
 
 impl CellSource {
@@ -615,7 +616,49 @@ impl CellSource {
             desc,
             removed,
             dir: dir.normalize(),
+            heights: None,
         })
+    }
+
+    /// [`CellSource::new`] with where in each cell's height the beam collides:
+    /// `heights[i] = [C₁/C₀, C₂/C₀]`, the Legendre moments `Cₙ = ∫ Pₙ(y) dF` of the
+    /// collisions over the cell's height `y ∈ [-1, 1]` (bottom to top) per unit of
+    /// collided flux `C₀`; `|C₁/C₀| ≤ 1`, `-1/2 ≤ C₂/C₀ ≤ 1` (finite). A sweep's
+    /// profile rule starts a medium cell's source from them; without them it assumes
+    /// the beam entered through the top (or bottom) face.
+    pub fn with_heights(
+        desc: GridDesc,
+        removed: Vec<Vec3>,
+        heights: Vec<[f32; 2]>,
+        dir: Vec3,
+    ) -> Result<Self, GridError> {
+        if heights.len() != desc.point_count() {
+            return Err(GridError::LengthMismatch {
+                field: "heights",
+                expected: desc.point_count(),
+                found: heights.len(),
+            });
+        }
+        if let Some(i) = heights.iter().position(|h| {
+            !(h[0].is_finite() && h[1].is_finite())
+                || h[0].abs() > 1.0 + 1e-5
+                || !(-0.5 - 1e-5..=1.0 + 1e-5).contains(&h[1])
+        }) {
+            return Err(GridError::invalid(
+                format!("heights[{i}]"),
+                format!("{:?}", heights[i]),
+                "must be finite Legendre moments: |C1/C0| <= 1, -1/2 <= C2/C0 <= 1",
+            ));
+        }
+        let mut s = Self::new(desc, removed, dir)?;
+        s.heights = Some(heights);
+        Ok(s)
+    }
+
+    /// The collisions' height moments per cell, where known
+    /// ([`CellSource::with_heights`]).
+    pub fn heights(&self) -> Option<&[[f32; 2]]> {
+        self.heights.as_deref()
     }
 
     /// Flux taken from the beam, per cell (grid order).

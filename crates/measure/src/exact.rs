@@ -468,6 +468,9 @@ pub fn measure(max_passes: u32) -> Result<Vec<Case>, SweepError> {
         out.push(uniform_furnace(pass)?);
     }
     out.push(lambertian_ground(0.3)?);
+    for elevation in [2.0, 10.0, 25.0, 60.0, 90.0] {
+        out.push(beam_conservation(elevation)?);
+    }
     for w in [0.1, 0.5, 0.9, 0.99] {
         for pass in [0.95f32, 0.5, 0.05] {
             out.push(half_space(w, pass, 40.0, max_passes)?);
@@ -484,6 +487,44 @@ pub fn measure(max_passes: u32) -> Result<Vec<Case>, SweepError> {
         }
     }
     Ok(out)
+}
+
+/// Beam conservation (issue 44): the sun's first collisions
+/// (`lightgrid_sweep_cpu::beam`) plus the beam leaving through the bottom and the open
+/// sides, against the exact flux entering through the faces facing the sun,
+/// `E (s_y nx nz + |s_x| ny nz + |s_z| nx ny)` (unit irradiance, open sky), on the
+/// patchy canopy ([`crate::sun_measure::patchy_canopy`]) with open sides, azimuth 20°.
+/// `passes` is 0 (no sweep); `pending` is the fraction of the beam deposited.
+pub fn beam_conservation(elevation_deg: f32) -> Result<Case, SweepError> {
+    let m = crate::sun_measure::patchy_canopy(16, 3);
+    let (e, a) = (elevation_deg.to_radians(), 20f32.to_radians());
+    let s = lightgrid_core::glam::Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
+    let open = |_: lightgrid_core::glam::Vec3| 1.0;
+    let t = std::time::Instant::now();
+    let f = lightgrid_sweep_cpu::sun::first_collisions(
+        &m,
+        s,
+        lightgrid_core::glam::Vec3::ONE,
+        false,
+        &open,
+        &lightgrid_sweep_cpu::sun::BeamOptions::DEFAULT,
+    )?;
+    let seconds = t.elapsed().as_secs_f64();
+    let d = m.desc().dims().as_dvec3();
+    let sd = s.normalize().as_dvec3();
+    let exact = sd.y * d.x * d.z + sd.x.abs() * d.y * d.z + sd.z.abs() * d.x * d.y;
+    let b = f.budget;
+    let swept = b.collided + b.left_bottom + b.left_sides + b.stopped;
+    Ok(Case {
+        name: format!("beam conservation, patchy canopy, open sides, sun {elevation_deg}°"),
+        exact,
+        swept,
+        error: swept / exact - 1.0,
+        passes: 0,
+        pending: b.collided / exact,
+        seconds,
+        balance: b.relative_error(),
+    })
 }
 
 /// Passes to tolerance 1e-4 (at most `max_passes`) of a slab of total optical depth

@@ -126,7 +126,7 @@ pub fn sun_errors(
     let t0 = Instant::now();
     let open = |_: Vec3| 1.0;
     let t = SunTransmittance::march(material, s, periodic, &open)?;
-    let src = first_collision(material, &t, s, e, periodic, &open)?;
+    let src = first_collision(material, s, e, periodic, &open)?;
     let scattered = run_with_source(material, &dark, Some(&src), options)?
         .output
         .bins
@@ -166,7 +166,7 @@ pub fn ground_light(
     let s = sun.direction;
     let open = |_: Vec3| 1.0;
     let t = SunTransmittance::march(m, s, true, &open)?;
-    let src = first_collision(m, &t, s, sun.illuminance, true, &open)?;
+    let src = first_collision(m, s, sun.illuminance, true, &open)?;
     let dark = Boundary {
         sides: periodic,
         ..Boundary::open_sky(BinLight::ZERO)
@@ -185,6 +185,159 @@ pub fn ground_light(
         .map(|(l, t)| luminance(l.irradiance(Vec3::Y) + sun.illuminance * (t * s.y)))
         .collect();
     Ok((b, sp))
+}
+
+/// A patchy canopy over opaque ground (issue 44's scene, unlike the canonical ones):
+/// `n × n` columns, `n * 5 / 8` levels, periodic-friendly; the ground's top level
+/// (albedo 0.2), then two clear levels, then clumps of 2 × 2 columns, each present
+/// with probability one half, of three medium levels (pass-through 0.35–0.75 a cell,
+/// albedo 0.7), clear air above.
+pub fn patchy_canopy(n: u32, seed: u64) -> MaterialGrid {
+    use lightgrid_core::{GridDesc, Material};
+    let ny = (n * 5 / 8).max(8);
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, lightgrid_core::glam::UVec3::new(n, ny, n))
+        .expect("valid dims");
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let clumps = n.div_ceil(2) as usize;
+    let present: Vec<bool> = (0..clumps * clumps).map(|_| rng.bool()).collect();
+    let passes: Vec<f32> = (0..desc.point_count())
+        .map(|_| 0.35 + 0.4 * rng.f32())
+        .collect();
+    let cells = (0..desc.point_count())
+        .map(|i| {
+            let c = desc.coords(i).expect("in range");
+            if c.y == 0 {
+                return Material {
+                    reflectance: Vec3::splat(0.2),
+                    pass: 0.0,
+                };
+            }
+            let clump = (c.x / 2) as usize + clumps * (c.z / 2) as usize;
+            if (3..6).contains(&c.y) && present[clump] {
+                Material {
+                    reflectance: Vec3::splat(0.7),
+                    pass: passes[i],
+                }
+            } else {
+                Material::EMPTY
+            }
+        })
+        .collect();
+    MaterialGrid::new(desc, cells).expect("valid cells")
+}
+
+/// The sweep's sun light (first collisions swept, plus the direct beam) in the medium
+/// cells against the Monte Carlo reference's, sun only.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MediumErrors {
+    /// The medium cells' summed average light over the reference's, minus 1.
+    pub bias: f64,
+    /// Relative RMS of the cells' average light.
+    pub rms: f64,
+    /// The largest relative error of a cell whose reference noise is below 1 %.
+    pub max: f64,
+    /// The reference's relative standard error (RMS over the medium cells).
+    pub noise: f64,
+    /// The beam's first collisions over what entered.
+    pub collided: f64,
+    /// Relative RMS of the cells' direct light alone (the beam's cell-mean
+    /// transmittance against the reference's uncollided tally).
+    pub direct_rms: f64,
+    /// The medium cells' summed scattered light over the reference's, minus 1.
+    pub scattered_bias: f64,
+}
+
+/// [`MediumErrors`] for a sun at `elevation`/`azimuth` (radians), unit irradiance, in
+/// `material` with periodic or open sides.
+pub fn medium_errors(
+    material: &MaterialGrid,
+    periodic: bool,
+    elevation: f32,
+    azimuth: f32,
+    paths: u64,
+    options: &SweepOptions,
+) -> Result<MediumErrors, Box<dyn std::error::Error>> {
+    let e = Vec3::ONE;
+    let s = Sun::at(elevation, azimuth, e).direction;
+    let sides = if periodic {
+        SideBoundary::Periodic
+    } else {
+        SideBoundary::Open
+    };
+    let dark = Boundary {
+        sides,
+        ..Boundary::open_sky(BinLight::ZERO)
+    };
+    let reference = trace_with_sun(
+        material,
+        &dark,
+        Some(&CollimatedSun {
+            to_sun: s,
+            irradiance: e,
+        }),
+        &ReferenceOptions {
+            paths,
+            time_budget: None,
+            seed: 11,
+            max_events: 256,
+            max_track: 8.0,
+        },
+        &|_, _| {},
+    )?;
+    let open = |_: Vec3| 1.0;
+    let fc = lightgrid_sweep_cpu::sun::first_collisions(
+        material,
+        s,
+        e,
+        periodic,
+        &open,
+        &lightgrid_sweep_cpu::sun::BeamOptions::DEFAULT.with_mean_transmittance(),
+    )?;
+    let mean_t = fc.mean_transmittance.as_deref().expect("asked for");
+    let scattered = run_with_source(material, &dark, Some(&fc.source), options)?
+        .output
+        .bins
+        .expect("bins");
+    let four_pi = 4.0 * std::f32::consts::PI;
+    let (mut sa, mut sr, mut se, mut sw, mut max, mut noise, mut n) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
+    // Direct alone: squared error and weight; scattered alone: sums.
+    let (mut de, mut dw, mut ss, mut sref) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for (i, cell) in material.data().iter().enumerate() {
+        if cell.pass <= 0.0 || cell.pass >= 1.0 {
+            continue;
+        }
+        let a = luminance(scattered.data()[i].average() + e * mean_t[i] / four_pi) as f64;
+        let r =
+            luminance(reference.light.data()[i].average() + reference.direct[i] / four_pi) as f64;
+        let rel_noise = luminance(reference.std_error[i]) as f64 / r.max(1e-30);
+        let (d, dr) = (
+            luminance(e * mean_t[i]) as f64,
+            luminance(reference.direct[i]) as f64,
+        );
+        de += (d - dr).powi(2);
+        dw += dr * dr;
+        ss += luminance(scattered.data()[i].average()) as f64;
+        sref += luminance(reference.light.data()[i].average()) as f64;
+        sa += a;
+        sr += r;
+        se += (a - r).powi(2);
+        sw += r * r;
+        noise += rel_noise * rel_noise;
+        n += 1;
+        if rel_noise < 0.01 {
+            max = max.max((a / r - 1.0).abs());
+        }
+    }
+    Ok(MediumErrors {
+        bias: sa / sr.max(1e-300) - 1.0,
+        rms: (se / sw.max(1e-300)).sqrt(),
+        max,
+        noise: (noise / n.max(1) as f64).sqrt(),
+        collided: fc.budget.collided / fc.budget.entered.max(1e-300),
+        direct_rms: (de / dw.max(1e-300)).sqrt(),
+        scattered_bias: ss / sref.max(1e-300) - 1.0,
+    })
 }
 
 /// The azimuth (degrees, from -Z toward +X as [`Sun::at`]) of the centroid of the light

@@ -12,8 +12,8 @@ use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
 };
+use lightgrid_sweep_cpu::run_with_source;
 use lightgrid_sweep_cpu::sun::first_collision;
-use lightgrid_sweep_cpu::{SunTransmittance, run_with_source};
 
 fn converged() -> SweepOptions {
     let mut o = SweepOptions::multi_bounce();
@@ -43,8 +43,7 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
                 let m = lightgrid_measure::exact::ground_material(levels, albedo).unwrap();
                 let to_sun = sun(elev, azim);
                 let open = |_: Vec3| 1.0;
-                let t = SunTransmittance::march(&m, to_sun, true, &open).unwrap();
-                let src = first_collision(&m, &t, to_sun, e, true, &open).unwrap();
+                let src = first_collision(&m, to_sun, e, true, &open).unwrap();
                 let case = format!("{levels} levels, albedo {albedo}, sun {elev}/{azim}");
                 // Every top ground cell takes exactly E cos(theta); nothing else does.
                 let d = *m.desc();
@@ -99,8 +98,7 @@ fn ground_receives_e_cos_theta_and_reflects_exactly_its_albedo() {
     }
 }
 
-/// A uniform half-space under an oblique sun: what the beam deposits layer by layer is
-/// exactly `E cos θ (T_top - T_bottom)`, so the cells' deposits telescope to the beam's
+/// A uniform half-space under an oblique sun: the cells' deposits add up to the beam's
 /// loss, `E cos θ (1 - T(bottom face))`; and the sweep conserves it all.
 #[test]
 fn deposits_telescope_to_the_beams_loss_and_energy_balances() {
@@ -120,9 +118,8 @@ fn deposits_telescope_to_the_beams_loss_and_energy_balances() {
         // above the exit point.
         let top = levels as f32 - 0.5;
         let outside = move |wp: Vec3| pass.powf((top - wp.y) / to_sun.normalize().y);
-        let t = SunTransmittance::march(&m, to_sun, true, &outside).unwrap();
         let s_y = to_sun.normalize().y;
-        let src = first_collision(&m, &t, to_sun, Vec3::ONE, true, &outside).unwrap();
+        let src = first_collision(&m, to_sun, Vec3::ONE, true, &outside).unwrap();
         let total: f32 = src.removed().iter().map(|r| r.x).sum();
         let want = 16.0 * s_y * (1.0 - pass.powf(levels as f32 / s_y));
         assert!(
@@ -137,26 +134,12 @@ fn deposits_telescope_to_the_beams_loss_and_energy_balances() {
 #[test]
 fn bad_sources_are_refused_by_name() {
     let m = lightgrid_measure::exact::ground_material(1, 0.5).unwrap();
-    let other = lightgrid_measure::exact::ground_material(2, 0.5).unwrap();
     let open = |_: Vec3| 1.0;
-    let t = SunTransmittance::march(&other, Vec3::Y, true, &open).unwrap();
-    let e = first_collision(&m, &t, Vec3::Y, Vec3::ONE, true, &open);
-    assert!(e.is_ok(), "same descriptor");
-    let t_small = SunTransmittance::march(
-        &MaterialGrid::filled(
-            GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap(),
-            Material::EMPTY,
-        )
-        .unwrap(),
-        Vec3::Y,
-        true,
-        &open,
-    )
-    .unwrap();
-    let e = first_collision(&m, &t_small, Vec3::Y, Vec3::ONE, true, &open).unwrap_err();
-    assert!(e.to_string().contains('t'), "{e}");
-    let e =
-        first_collision(&m, &t, Vec3::Y, Vec3::new(f32::NAN, 1.0, 1.0), true, &open).unwrap_err();
+    let e = first_collision(&m, Vec3::Y, Vec3::ONE, true, &open);
+    assert!(e.is_ok());
+    let e = first_collision(&m, Vec3::ZERO, Vec3::ONE, true, &open).unwrap_err();
+    assert!(e.to_string().contains("to_sun"), "{e}");
+    let e = first_collision(&m, Vec3::Y, Vec3::new(f32::NAN, 1.0, 1.0), true, &open).unwrap_err();
     assert!(e.to_string().contains("irradiance"), "{e}");
     let e = lightgrid_sweep_cpu::CellSource::new(*m.desc(), vec![Vec3::NEG_ONE; 512], Vec3::Y)
         .unwrap_err();

@@ -441,6 +441,7 @@
 //! Periodic boundaries have no edge.
 
 pub mod accel;
+pub mod beam;
 pub mod isa;
 pub mod medium;
 pub mod profile;

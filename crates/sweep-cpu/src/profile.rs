@@ -668,13 +668,21 @@ pub fn flux_rgb(pr: &CellProfile, which: usize, j: &[Vec3; 3]) -> Vec3 {
 
 /// The source of a medium cell's share of a beam's first collisions `r` (flux, RGB;
 /// a `CellSource`), the beam travelling along `dir`: collisions with the height moments
-/// of a beam entering through the top face (downward `dir`) or the bottom face, along
+/// `heights` (`[C₁/C₀, C₂/C₀]`, `CellSource::heights`) where known, otherwise those of
+/// a beam entering through the top face (downward `dir`) or the bottom face, along
 /// `dir`'s slant (flat for a horizontal beam). Returns the coefficients and the flux
 /// the source's own re-collisions absorb (the collisions' `1 − a` not included).
-pub fn beam_source(mat: &Material, dir: Vec3, r: Vec3) -> ([Vec3; 3], Vec3) {
+pub fn beam_source(
+    mat: &Material,
+    dir: Vec3,
+    r: Vec3,
+    heights: Option<[f32; 2]>,
+) -> ([Vec3; 3], Vec3) {
     let tau = -(mat.pass as f64).ln();
     let mu = dir.y.abs() as f64;
-    let c = if mu > 1e-3 && tau > 0.0 {
+    let c = if let Some(h) = heights {
+        h
+    } else if mu > 1e-3 && tau > 0.0 {
         let down = dir.y < 0.0;
         let seg = Segment {
             t: (tau / mu).min(4.0 * TAU_MAX),

@@ -62,6 +62,10 @@ use lightgrid_core::glam::{IVec3, Vec3};
 use lightgrid_core::{GridDesc, GridError, MaterialGrid};
 use rayon::prelude::*;
 
+pub use crate::beam::{
+    BeamBudget, BeamOptions, FirstCollisions, first_collision, first_collisions,
+};
+
 /// Cell steps per cell of `nx + ny + nz` after which a periodic march stops.
 pub const MAX_STEPS_PER_CELL: u32 = 64;
 
@@ -410,7 +414,7 @@ pub fn sweep_sun(
     let mut o = *options;
     o.outputs = lightgrid_core::Outputs::ALL;
     let out = if sun_direction(sun.to_sun)?.is_some() {
-        let src = first_collision(material, &t, sun.to_sun, Vec3::ONE, periodic, sun.outside)?;
+        let src = first_collision(material, sun.to_sun, Vec3::ONE, periodic, sun.outside)?;
         sweeper.sweep_with_source(material, &sun.scattered, &src, &o)?
     } else {
         sweeper.sweep(material, &sun.scattered, &o)?
@@ -421,95 +425,6 @@ pub fn sweep_sun(
         stats: out.stats,
         resident: out.resident,
     })
-}
-
-/// The sun's first collisions: what the beam of normal irradiance `irradiance` (RGB)
-/// toward `to_sun` loses in each cell, given its transmittance `t` at the points (from
-/// [`SunTransmittance::march`] with the same `outside`), as a [`crate::CellSource`] for
-/// [`crate::run_with_source`]. Per cell, in flux per `h²` (the sweep's unit: the beam
-/// carries `E cos θ` through a horizontal face):
-///
-/// - a medium (`0 < p < 1`): `E cos θ (T_top - T_bottom)`, the beam's transmittance
-///   half a level above and below the point, `T_c p^(∓1/(2 cos θ))` (`T_top` at most
-///   1): exact for media uniform along each level;
-/// - an opaque cell: what its exposed faces (`sweep::exposure`, `periodic` as the
-///   sweep's sides) intercept, `Σ_f E max(0, n_f · s) T_f`, with `T_f` the neighbour's
-///   transmittance carried to the face, `T_q p_q^(1/(2 n_f · s))`, or `outside` at the
-///   face for faces on the grid's boundary; the sweep then emits it by the surface rule.
-///
-/// A sun at or below the horizon deposits nothing.
-pub fn first_collision(
-    material: &MaterialGrid,
-    t: &SunTransmittance,
-    to_sun: Vec3,
-    irradiance: Vec3,
-    periodic: bool,
-    outside: &(dyn Fn(Vec3) -> f32 + Sync),
-) -> Result<crate::CellSource, GridError> {
-    let desc = *material.desc();
-    if t.desc != desc {
-        return Err(GridError::invalid(
-            "t",
-            t.desc,
-            "must lie on the material grid's descriptor",
-        ));
-    }
-    if !irradiance.is_finite() || irradiance.min_element() < 0.0 {
-        return Err(GridError::invalid(
-            "irradiance",
-            irradiance,
-            "must be finite and >= 0",
-        ));
-    }
-    let Some(s) = sun_direction(to_sun)? else {
-        return crate::CellSource::new(desc, vec![Vec3::ZERO; desc.point_count()], Vec3::NEG_Y);
-    };
-    let cells = material.data();
-    let exposed = crate::sweep::exposure(material, periodic);
-    let dims = desc.dims().as_ivec3();
-    let clamp01 = |o: f32| if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) };
-    let removed = (0..desc.point_count())
-        .into_par_iter()
-        .map(|i| {
-            let p = cells[i].pass;
-            if p >= 1.0 {
-                return Vec3::ZERO;
-            }
-            if p > 0.0 {
-                let tc = t.values[i];
-                if tc <= 0.0 {
-                    return Vec3::ZERO;
-                }
-                let a = -0.5 * p.ln() / s.y;
-                let top = (tc.ln() + a).min(0.0).exp();
-                let bottom = (tc.ln() - a).exp();
-                return irradiance * (s.y * (top - bottom).max(0.0));
-            }
-            let c = desc.coords(i).expect("in range").as_ivec3();
-            let mut got = 0.0f32;
-            for (f, n) in crate::sweep::FACE_NORMALS.iter().enumerate() {
-                let cos = n.dot(s);
-                if exposed[i] & (1 << f) == 0 || cos <= 0.0 {
-                    continue;
-                }
-                let mut q = c + n.as_ivec3();
-                if periodic {
-                    q.x = q.x.rem_euclid(dims.x);
-                    q.z = q.z.rem_euclid(dims.z);
-                }
-                let tf = if q.cmpge(IVec3::ZERO).all() && q.cmplt(dims).all() {
-                    let k = desc.index_unchecked(q.as_uvec3());
-                    t.values[k] * cells[k].pass.powf(0.5 / cos)
-                } else {
-                    let face = desc.origin() + (c.as_vec3() + *n * 0.5) * desc.h();
-                    clamp01(outside(face))
-                };
-                got += cos * tf;
-            }
-            irradiance * got
-        })
-        .collect();
-    crate::CellSource::new(desc, removed, -s)
 }
 
 /// Bilinear read of a level (`nx × nz`, x fastest) at `(x, z)` inside its point range.

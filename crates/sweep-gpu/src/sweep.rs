@@ -452,14 +452,16 @@ impl GpuSweeper {
             .removed()
             .iter()
             .zip(material.data())
-            .flat_map(|(&r, m)| {
+            .enumerate()
+            .flat_map(|(i, (&r, m))| {
                 for k in 0..3 {
                     input[k] += r[k] as f64;
                 }
                 if profile_rule && r != Vec3::ZERO && m.pass > 0.0 && m.pass < 1.0 {
                     // The profile rule: the beam's collisions as source coefficients,
                     // computed as sweep-cpu computes them.
-                    let (j, _) = lightgrid_sweep_cpu::profile::beam_source(m, d, r);
+                    let heights = src.heights().map(|h| h[i]);
+                    let (j, _) = lightgrid_sweep_cpu::profile::beam_source(m, d, r, heights);
                     let z = 0.0;
                     return [
                         j[0].x, j[0].y, j[0].z, j[1].x, j[1].y, j[1].z, j[2].x, j[2].y, j[2].z, z,

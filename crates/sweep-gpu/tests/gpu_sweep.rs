@@ -329,8 +329,7 @@ proptest! {
         let Some(gpu) = sweeper() else { return Ok(()) };
         let to_sun = Vec3::new(sun.0, sun.1, sun.2);
         let open = |_: Vec3| 1.0;
-        let t = lightgrid_sweep_cpu::SunTransmittance::march(&m, to_sun, periodic, &open).unwrap();
-        let src = lightgrid_sweep_cpu::sun::first_collision(&m, &t, to_sun, Vec3::new(3.0, 2.0, 1.0), periodic, &open).unwrap();
+        let src = lightgrid_sweep_cpu::sun::first_collision(&m, to_sun, Vec3::new(3.0, 2.0, 1.0), periodic, &open).unwrap();
         let b = Boundary {
             sides: if periodic { SideBoundary::Periodic } else { SideBoundary::Open },
             ..Boundary::open_sky(lumpy_sky().scaled(0.1))

@@ -189,7 +189,8 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             {
                 // The beam's first collisions have the height moments of a beam
                 // entering the cell through its top (or bottom) face.
-                let (j, absorbed) = crate::profile::beam_source(mat, src.dir(), r);
+                let heights = src.heights().map(|h| h[i]);
+                let (j, absorbed) = crate::profile::beam_source(mat, src.dir(), r, heights);
                 bal.absorbed += absorbed.as_dvec3();
                 w.pend_down[i] = Pending::of_coeffs(j);
                 w.pend_up[i] = Pending::of_coeffs(j);
