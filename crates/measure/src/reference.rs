@@ -32,6 +32,7 @@ use std::time::{Duration, Instant};
 use lightgrid_core::dda;
 use lightgrid_core::dirs::{self, NUM_DIRS};
 use lightgrid_core::glam::{DVec3, IVec3, UVec3, Vec3};
+use lightgrid_core::light::AMBIENT_AXES;
 use lightgrid_core::{
     BinLight, Boundary, Grid, GridError, LightGrid, MaterialGrid, SideBoundary, SweepError,
     TopBoundary,
@@ -115,6 +116,10 @@ pub struct Reference {
     /// without a sun): kept out of `light`, whose bins hold only the light that has
     /// scattered at least once, because a bin cannot hold a beam's exact direction.
     pub direct: Vec<Vec3>,
+    /// The irradiance of `light` on the six axes ([`AMBIENT_AXES`] order) per point,
+    /// tallied from the paths' exact directions (`Σ w ℓ max(0, -n·ω)`): no bins, so no
+    /// assumption about how light is spread inside one (the horizon's, say).
+    pub irradiance: Vec<[Vec3; 6]>,
 }
 
 /// A collimated sun for [`trace_with_sun`]: irradiance `irradiance` (RGB, on a plane
@@ -323,8 +328,12 @@ impl Tally {
 /// One deposit: cell index × 26 + bin, and the light added (weight × length).
 type Deposit = (u32, Vec3);
 
+/// A scattered path's deposit: cell index × 26 + bin, the light added (weight ×
+/// length) and its exact direction (for the six axes' irradiance).
+type BinDeposit = (u32, Vec3, Vec3);
+
 struct PathResult {
-    deposits: Vec<Deposit>,
+    deposits: Vec<BinDeposit>,
     /// Deposits of a collimated beam before its first collision: (cell, light).
     direct: Vec<Deposit>,
     w0: Vec3,
@@ -457,7 +466,8 @@ impl Tracer<'_> {
                     if uncollided {
                         res.direct.push((ci as u32, w * s));
                     } else {
-                        res.deposits.push(((ci * NUM_DIRS + bin) as u32, w * s));
+                        res.deposits
+                            .push(((ci * NUM_DIRS + bin) as u32, w * s, dir));
                     }
                     pos += dir * s;
                 }
@@ -496,7 +506,7 @@ impl Tracer<'_> {
                     res.direct.push((ci as u32, w * s_exit));
                 } else {
                     res.deposits
-                        .push(((ci * NUM_DIRS + bin) as u32, w * s_exit));
+                        .push(((ci * NUM_DIRS + bin) as u32, w * s_exit, dir));
                 }
                 track += s_exit;
                 if track > self.max_track {
@@ -609,6 +619,7 @@ pub fn trace_with_sun(
             balance: EnergyBalance::default(),
             std_error: vec![Vec3::ZERO; n],
             direct: vec![Vec3::ZERO; n],
+            irradiance: vec![[Vec3::ZERO; 6]; n],
         });
     }
     let tracer = Tracer::new(material, &comps, periodic, options);
@@ -679,6 +690,8 @@ impl<'a> Tracer<'a> {
 struct Tallies {
     light: Tally,
     direct: Tally,
+    /// Per point and axis ([`AMBIENT_AXES`]): the scattered light's irradiance.
+    irradiance: Tally,
     groups: Vec<[f64; 3]>,
     bal: EnergyBalance,
 }
@@ -688,6 +701,7 @@ impl Tallies {
         Self {
             light: Tally::new(n * NUM_DIRS),
             direct: Tally::new(n),
+            irradiance: Tally::new(n * 6),
             groups: vec![[0f64; 3]; n * GROUPS],
             bal: EnergyBalance::default(),
         }
@@ -707,9 +721,16 @@ impl Tallies {
             for &(cell, v) in &r.direct {
                 self.direct.add(cell as usize, v);
             }
-            for &(slot, v) in &r.deposits {
+            for &(slot, v, dir) in &r.deposits {
                 let s = slot as usize;
                 self.light.add(s, v);
+                let cell = s / NUM_DIRS;
+                for (k, n) in AMBIENT_AXES.iter().enumerate() {
+                    let c = -n.dot(dir);
+                    if c > 0.0 {
+                        self.irradiance.add(cell * 6 + k, v * c);
+                    }
+                }
                 let g = &mut self.groups[(s / NUM_DIRS) * GROUPS + group];
                 g[0] += v.x as f64;
                 g[1] += v.y as f64;
@@ -746,7 +767,12 @@ impl Tallies {
         let direct: Vec<Vec3> = (0..n)
             .map(|p| (self.direct.get(p) * inv).as_vec3())
             .collect();
-        let bad_light = data.iter().position(|b| !b.is_valid());
+        let irradiance: Vec<[Vec3; 6]> = (0..n)
+            .map(|p| std::array::from_fn(|k| (self.irradiance.get(p * 6 + k) * inv).as_vec3()))
+            .collect();
+        let bad_light = data.iter().position(|b| !b.is_valid()).or(irradiance
+            .iter()
+            .position(|a| a.iter().any(|v| !v.is_finite())));
         let bad_direct = direct.iter().position(|v| !v.is_finite());
         if let Some((field, p)) = bad_light
             .map(|p| ("light", p))
@@ -765,6 +791,7 @@ impl Tallies {
             balance: bal,
             std_error,
             direct,
+            irradiance,
         })
     }
 }

@@ -260,3 +260,60 @@ fn sweep_against_reference_on_canonical_scenes() {
     }
     println!("{report}");
 }
+
+/// The reference's irradiance tally (`Reference::irradiance`, from the paths' exact
+/// directions, no bins) over an infinite Lambertian ground of albedo `a` under a
+/// uniform sky of radiance 1: at every point above the ground, `π` on a surface facing
+/// up, `a π` facing down and `(1 + a) π / 2` facing sideways (the sky over the upper
+/// half of its hemisphere, the ground's radiance `a` over the lower), within the
+/// reference's noise; nothing at all travels upward over a black ground.
+#[test]
+fn irradiance_tally_over_a_lambertian_ground_is_exact() {
+    use lightgrid_core::light::AMBIENT_AXES;
+    for albedo in [0.0f32, 0.3] {
+        let m = lightgrid_measure::exact::ground_material(1, albedo).unwrap();
+        let b = Boundary {
+            sides: SideBoundary::Periodic,
+            ..Boundary::open_sky(lightgrid_sky::uniform_sky(Vec3::ONE).unwrap().top)
+        };
+        // Grazing paths travel far before they reach the ground: a long track limit
+        // keeps all but those within 0.2° of the horizon.
+        let r = trace(
+            &m,
+            &b,
+            &ReferenceOptions {
+                paths: 400_000,
+                seed: 5,
+                max_track: 200.0,
+                ..Default::default()
+            },
+            &|_, _| {},
+        )
+        .unwrap();
+        let d = *m.desc();
+        let pi = std::f64::consts::PI;
+        let a = albedo as f64;
+        for (k, n) in AMBIENT_AXES.iter().enumerate() {
+            let want = match n.y as i32 {
+                1 => pi,
+                -1 => a * pi,
+                _ => (1.0 + a) * pi / 2.0,
+            };
+            // Mean over the levels above the ground (noise about 0.3 % a level mean).
+            let (mut sum, mut count) = (0.0f64, 0usize);
+            for i in d.level_len()..d.point_count() {
+                sum += r.irradiance[i][k].x as f64;
+                count += 1;
+            }
+            let got = sum / count as f64;
+            if want == 0.0 {
+                assert_eq!(got, 0.0, "albedo {albedo}, axis {n}");
+            } else {
+                assert!(
+                    (got / want - 1.0).abs() < 0.01,
+                    "albedo {albedo}, axis {n}: {got} vs exact {want}"
+                );
+            }
+        }
+    }
+}

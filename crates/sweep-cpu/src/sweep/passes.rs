@@ -187,8 +187,9 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             if self.options.medium == MediumEmission::Profile
                 && medium::applies(self.options.medium, mat.pass)
             {
-                // The beam's first collisions have the height moments of a beam
-                // entering the cell through its top (or bottom) face.
+                // The beam's first collisions have the height moments the source
+                // carries (the beam tracer's), or those of a beam entering the cell
+                // through its top (or bottom) face.
                 let heights = src.heights().map(|h| h[i]);
                 let (j, absorbed) = crate::profile::beam_source(mat, src.dir(), r, heights);
                 bal.absorbed += absorbed.as_dvec3();
