@@ -18,8 +18,11 @@
 //! any amount still puts `k` points in every unit square). With periodic sides the
 //! rays enter through the top only and wrap at the sides, as the world repeats.
 //!
-//! **What a ray starts with** is `outside` read where it enters (1 for open sky; a
-//! coarser grid's transmittance for a node of the hierarchy), clamped to `[0, 1]`.
+//! **What a ray starts with** is the transmittance `outside` (1 for open sky; for a
+//! node of the hierarchy, a march to the sky through the grids around it), clamped to
+//! `[0, 1]`, read at the corners of the entry faces' cells and interpolated bilinearly
+//! where the ray enters: a call a corner, not a call a ray (in a hierarchy each call is
+//! a march of its own).
 //!
 //! **Determinism**: rays run in parallel in fixed chunks, and their deposits are added
 //! in ray order in `f64`, so the result does not depend on the thread count (a world
@@ -196,7 +199,25 @@ pub fn first_collisions(
                 .then(|| vec![0.0; desc.point_count()]),
         });
     };
-    let faces = entry_faces(&desc, s, periodic, rays_per_cell);
+    let mut faces = entry_faces(&desc, s, periodic, rays_per_cell);
+    // What the beam has already lost, read at the entry faces' cell corners (one call
+    // a corner: in a hierarchy each call marches to the sky) and bilinear between.
+    let clamp01 = |o: f32| if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) };
+    for f in &mut faces {
+        let nu = f.n[0] as usize + 1;
+        f.corners = (0..nu * (f.n[1] as usize + 1))
+            .into_par_iter()
+            .map(|c| {
+                let (u, v) = ((c % nu) as f32 - 0.5, (c / nu) as f32 - 0.5);
+                let p = match f.axis {
+                    0 => Vec3::new(f.at, u, v),
+                    1 => Vec3::new(u, f.at, v),
+                    _ => Vec3::new(u, v, f.at),
+                };
+                clamp01(outside(desc.origin() + p * desc.h()))
+            })
+            .collect();
+    }
     let rays: usize = faces.iter().map(|f| f.rays()).sum();
     let tracer = Tracer {
         desc,
@@ -210,7 +231,6 @@ pub fn first_collisions(
         dir: -s,
         periodic,
         track: options.mean_transmittance,
-        outside,
         max_steps: MAX_STEPS_PER_CELL * desc.dims().element_sum(),
     };
     // Per cell: the collided flux and its height moments (flux × C₁/C₀, × C₂/C₀).
@@ -226,8 +246,8 @@ pub fn first_collisions(
                 let mut dep = Vec::new();
                 let mut b = BeamBudget::default();
                 for r in c * CHUNK..((c + 1) * CHUNK).min(rays) {
-                    let (start, weight) = ray_start(&faces, r);
-                    tracer.trace(start, weight, &mut dep, &mut b);
+                    let (start, weight, t0) = ray_start(&faces, r);
+                    tracer.trace(start, weight, t0, &mut dep, &mut b);
                 }
                 (dep, b)
             })
@@ -303,7 +323,7 @@ fn height_moments(t: f64, keep: f64, y0: f64, y1: f64) -> (f64, f64) {
 /// `at` (grid units), spanning `n[0] × n[1]` cells along the other two axes (`u`, `v`
 /// in increasing axis order), `k` rays per cell face on a Fibonacci lattice
 /// (`k = F_j`, generator `F_{j-1}`), each carrying `weight`.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct Face {
     axis: usize,
     at: f32,
@@ -312,6 +332,8 @@ struct Face {
     g: u32,
     shift: [f32; 2],
     weight: f64,
+    /// `outside` at the face cells' corners, `(n[0] + 1) × (n[1] + 1)`, `u` fastest.
+    corners: Vec<f32>,
 }
 
 impl Face {
@@ -377,13 +399,14 @@ fn entry_faces(desc: &GridDesc, s: Vec3, periodic: bool, rays_per_cell: u32) -> 
             g,
             shift,
             weight: cos as f64 / k as f64,
+            corners: Vec::new(),
         });
     }
     faces
 }
 
-/// Ray `r`'s entry point (grid units) and flux.
-fn ray_start(faces: &[Face], mut r: usize) -> (Vec3, f64) {
+/// Ray `r`'s entry point (grid units), flux, and the transmittance it brings.
+fn ray_start(faces: &[Face], mut r: usize) -> (Vec3, f64, f64) {
     for f in faces {
         let total = f.rays();
         if r >= total {
@@ -404,12 +427,19 @@ fn ray_start(faces: &[Face], mut r: usize) -> (Vec3, f64) {
             1 => Vec3::new(u, f.at, v),
             _ => Vec3::new(u, v, f.at),
         };
-        return (p, f.weight);
+        // Bilinear between the face cell's corners.
+        let nu = f.n[0] as usize + 1;
+        let (fu, fv) = (u + 0.5 - cu as f32, v + 0.5 - cv as f32);
+        let at = |i: usize, j: usize| f.corners[(cu + i) + nu * (cv + j)] as f64;
+        let (fu, fv) = (fu.clamp(0.0, 1.0) as f64, fv.clamp(0.0, 1.0) as f64);
+        let t0 = (at(0, 0) * (1.0 - fu) + at(1, 0) * fu) * (1.0 - fv)
+            + (at(0, 1) * (1.0 - fu) + at(1, 1) * fu) * fv;
+        return (p, f.weight, t0);
     }
     unreachable!("ray index within the faces' rays")
 }
 
-struct Tracer<'a> {
+struct Tracer {
     desc: GridDesc,
     dims: IVec3,
     pass: Vec<f32>,
@@ -418,17 +448,14 @@ struct Tracer<'a> {
     dir: Vec3,
     periodic: bool,
     track: bool,
-    outside: &'a (dyn Fn(Vec3) -> f32 + Sync),
     max_steps: u32,
 }
 
-impl Tracer<'_> {
-    /// Follows one ray from `start` (on an entry face) with flux `weight`, pushing its
-    /// deposits (merged per cell run) and booking it in `b`.
-    fn trace(&self, start: Vec3, weight: f64, dep: &mut Vec<Deposit>, b: &mut BeamBudget) {
-        let clamp01 = |o: f32| if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) };
-        let world = self.desc.origin() + start * self.desc.h();
-        let t0 = clamp01((self.outside)(world)) as f64;
+impl Tracer {
+    /// Follows one ray from `start` (on an entry face) with flux `weight` and
+    /// transmittance `t0`, pushing its deposits (merged per cell run) and booking it in
+    /// `b`.
+    fn trace(&self, start: Vec3, weight: f64, t0: f64, dep: &mut Vec<Deposit>, b: &mut BeamBudget) {
         let mut flux = weight * t0;
         b.entered += flux;
         if flux <= 0.0 {
