@@ -66,6 +66,34 @@ pub fn errors(a: &Field, r: &Field, solid: &[bool]) -> (f64, f64) {
     ((na / da.max(1e-300)).sqrt(), (ni / di.max(1e-300)).sqrt())
 }
 
+/// The Monte Carlo reference of a collimated sun of unit irradiance toward `to_sun`
+/// in `material` with `boundary` (its light besides the sun's), `paths` paths from
+/// `seed`.
+pub fn sun_reference(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    to_sun: Vec3,
+    paths: u64,
+    seed: u64,
+) -> Result<crate::reference::Reference, lightgrid_core::SweepError> {
+    trace_with_sun(
+        material,
+        boundary,
+        Some(&CollimatedSun {
+            to_sun,
+            irradiance: Vec3::ONE,
+        }),
+        &ReferenceOptions {
+            paths,
+            time_budget: None,
+            seed,
+            max_events: 256,
+            max_track: 8.0,
+        },
+        &|_, _| {},
+    )
+}
+
 /// One case's figures.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SunErrors {
@@ -98,22 +126,7 @@ pub fn sun_errors(
     };
     let periodic = matches!(sides, SideBoundary::Periodic);
     let solid: Vec<bool> = material.data().iter().map(|c| c.pass <= 0.0).collect();
-    let reference = trace_with_sun(
-        material,
-        &dark,
-        Some(&CollimatedSun {
-            to_sun: s,
-            irradiance: e,
-        }),
-        &ReferenceOptions {
-            paths,
-            time_budget: None,
-            seed: 7,
-            max_events: 256,
-            max_track: 8.0,
-        },
-        &|_, _| {},
-    )?;
+    let reference = sun_reference(material, &dark, s, paths, 7)?;
     let ref_t: Vec<f32> = reference.direct.iter().map(|d| d.x / e.x).collect();
     let r = field(reference.light.data(), Some((&ref_t, e, s)));
     let t0 = Instant::now();
@@ -268,22 +281,7 @@ pub fn medium_errors(
         sides,
         ..Boundary::open_sky(BinLight::ZERO)
     };
-    let reference = trace_with_sun(
-        material,
-        &dark,
-        Some(&CollimatedSun {
-            to_sun: s,
-            irradiance: e,
-        }),
-        &ReferenceOptions {
-            paths,
-            time_budget: None,
-            seed: 11,
-            max_events: 256,
-            max_track: 8.0,
-        },
-        &|_, _| {},
-    )?;
+    let reference = sun_reference(material, &dark, s, paths, 11)?;
     let open = |_: Vec3| 1.0;
     let fc = lightgrid_sweep_cpu::sun::first_collisions(
         material,

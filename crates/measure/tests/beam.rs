@@ -6,7 +6,6 @@
 
 use lightgrid_core::glam::{IVec3, UVec3, Vec3};
 use lightgrid_core::{GridDesc, Material, MaterialGrid, SweepOptions};
-use lightgrid_measure::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
 use lightgrid_measure::sun_measure::{medium_errors, patchy_canopy};
 use lightgrid_sweep_cpu::sun::{BeamOptions, first_collisions};
 use proptest::prelude::*;
@@ -208,26 +207,11 @@ fn cell_mean_transmittance_matches_the_reference() {
         } else {
             lightgrid_core::SideBoundary::Open
         };
-        let r = trace_with_sun(
-            &m,
-            &lightgrid_core::Boundary {
-                sides,
-                ..lightgrid_core::Boundary::open_sky(lightgrid_core::BinLight::ZERO)
-            },
-            Some(&CollimatedSun {
-                to_sun: s,
-                irradiance: Vec3::ONE,
-            }),
-            &ReferenceOptions {
-                paths: 400_000,
-                time_budget: None,
-                seed: 3,
-                max_events: 64,
-                max_track: 8.0,
-            },
-            &|_, _| {},
-        )
-        .unwrap();
+        let b = lightgrid_core::Boundary {
+            sides,
+            ..lightgrid_core::Boundary::open_sky(lightgrid_core::BinLight::ZERO)
+        };
+        let r = lightgrid_measure::sun_measure::sun_reference(&m, &b, s, 400_000, 3).unwrap();
         let (mut se, mut sw) = (0.0f64, 0.0f64);
         for (i, c) in m.data().iter().enumerate() {
             if c.pass <= 0.0 {
