@@ -8,9 +8,8 @@ use std::time::Instant;
 
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
-use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
-use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::procedural::TreeParams;
+use lightgrid_material_voxelizer::voxelize::VoxelizeParams;
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{
     BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams,
@@ -21,15 +20,15 @@ mod demo;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hm = demo::jacksboro(&demo::assets_dir())?;
-    let (tree_grid, _) = voxelize(
-        &tree(&TreeParams::broadleaf(3))?,
-        &VoxelizeParams::standard(0.5),
-        &|_, _| {},
-    )?;
-    let instances = demo::scatter_forest(&hm, 4000, Vec2::splat(400.0), 500.0, (0.8, 1.3), 99);
-    let terrain = Terrain {
-        heightmap: hm.clone(),
-        colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),
+    let forest = demo::Forest {
+        tree: TreeParams::broadleaf(3),
+        voxel: VoxelizeParams::standard(0.5),
+        count: 4000,
+        lo: Vec2::splat(400.0),
+        size: 500.0,
+        scale: (0.8, 1.3),
+        seed: 99,
+        ground: Vec3::new(0.25, 0.22, 0.18),
     };
     let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let camera = |f: u32| {
@@ -40,12 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "node points | frames | total s | ms/frame | points swept | 26-bin f32 MB | packed MB | avg+dom MB"
     );
     for node_points in [16u32, 32, 64] {
-        let composer = AreaComposer::new(
-            vec![tree_grid.clone()],
-            &instances,
-            Some(terrain.clone()),
-            ComposeParams::default(),
-        )?;
+        let composer = forest.composer(&hm)?;
         let params = HierarchyParams {
             node_points,
             finest_cell: 1.0,

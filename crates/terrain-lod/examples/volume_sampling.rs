@@ -10,9 +10,8 @@ use std::time::Instant;
 
 use lightgrid_core::glam::{UVec3, Vec2, Vec3};
 use lightgrid_core::{BinLight, GridDesc, LightField, VolumeSample};
-use lightgrid_material_voxelizer::compose::{AreaComposer, ComposeParams, GroundColour, Terrain};
-use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
-use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::procedural::TreeParams;
+use lightgrid_material_voxelizer::voxelize::VoxelizeParams;
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
 use rayon::prelude::*;
@@ -22,22 +21,17 @@ mod demo;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hm = demo::jacksboro(&demo::assets_dir())?;
-    let (tree_grid, _) = voxelize(
-        &tree(&TreeParams::broadleaf(3))?,
-        &VoxelizeParams::standard(0.5),
-        &|_, _| {},
-    )?;
-    let instances = demo::scatter_forest(&hm, 2000, Vec2::splat(500.0), 250.0, (0.8, 1.3), 99);
-    let terrain = Terrain {
-        heightmap: hm.clone(),
-        colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),
-    };
-    let composer = AreaComposer::new(
-        vec![tree_grid],
-        &instances,
-        Some(terrain),
-        ComposeParams::default(),
-    )?;
+    let composer = demo::Forest {
+        tree: TreeParams::broadleaf(3),
+        voxel: VoxelizeParams::standard(0.5),
+        count: 2000,
+        lo: Vec2::splat(500.0),
+        size: 250.0,
+        scale: (0.8, 1.3),
+        seed: 99,
+        ground: Vec3::new(0.25, 0.22, 0.18),
+    }
+    .composer(&hm)?;
     let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let params = HierarchyParams {
         node_points: 16,

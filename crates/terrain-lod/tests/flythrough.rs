@@ -2,11 +2,9 @@
 
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{BinLight, LightField};
-use lightgrid_material_voxelizer::compose::{
-    AreaComposer, ComposeParams, GroundColour, Heightmap, Terrain,
-};
-use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
-use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+use lightgrid_material_voxelizer::compose::{AreaComposer, Heightmap};
+use lightgrid_material_voxelizer::procedural::TreeParams;
+use lightgrid_material_voxelizer::voxelize::VoxelizeParams;
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, NodeKey};
 
@@ -17,23 +15,17 @@ mod demo;
 /// 1500 trees scattered over 300 m × 300 m around the path.
 fn scene() -> (Heightmap, AreaComposer) {
     let hm = demo::jacksboro(&demo::assets_dir()).unwrap();
-    let (tree_grid, _) = voxelize(
-        &tree(&TreeParams::young(3)).unwrap(),
-        &VoxelizeParams::preview(0.5),
-        &|_, _| {},
-    )
-    .unwrap();
-    let instances = demo::scatter_forest(&hm, 1500, Vec2::splat(500.0), 300.0, (1.5, 2.5), 99);
-    let terrain = Terrain {
-        heightmap: hm.clone(),
-        colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),
-    };
-    let composer = AreaComposer::new(
-        vec![tree_grid],
-        &instances,
-        Some(terrain),
-        ComposeParams::default(),
-    )
+    let composer = demo::Forest {
+        tree: TreeParams::young(3),
+        voxel: VoxelizeParams::preview(0.5),
+        count: 1500,
+        lo: Vec2::splat(500.0),
+        size: 300.0,
+        scale: (1.5, 2.5),
+        seed: 99,
+        ground: Vec3::new(0.25, 0.22, 0.18),
+    }
+    .composer(&hm)
     .unwrap();
     (hm, composer)
 }

@@ -6,7 +6,49 @@ use std::path::Path;
 
 use lightgrid_core::GridError;
 use lightgrid_core::glam::{Quat, Vec2, Vec3};
-use lightgrid_material_voxelizer::compose::{Heightmap, Instance, load_heightmap_png};
+use lightgrid_material_voxelizer::compose::{
+    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain, load_heightmap_png,
+};
+use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
+use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
+
+/// Where a demo forest stands: `count` trees of `tree` voxelized by `voxel`, scattered
+/// over the square `lo .. lo + size` ([`scatter_forest`], scaled in `scale`, from
+/// `seed`), on the ground coloured `ground`. (The benchmark builds its composer inside
+/// the timed loop from a tree voxelized once, so it does not use this.)
+#[allow(dead_code)]
+pub(crate) struct Forest {
+    pub tree: TreeParams,
+    pub voxel: VoxelizeParams,
+    pub count: usize,
+    pub lo: Vec2,
+    pub size: f32,
+    pub scale: (f32, f32),
+    pub seed: u64,
+    pub ground: Vec3,
+}
+
+#[allow(dead_code)]
+impl Forest {
+    /// The forest on `hm` as a composer of its material.
+    pub(crate) fn composer(
+        &self,
+        hm: &Heightmap,
+    ) -> Result<AreaComposer, Box<dyn std::error::Error>> {
+        let (tree_grid, _) = voxelize(&tree(&self.tree)?, &self.voxel, &|_, _| {})?;
+        let instances = scatter_forest(hm, self.count, self.lo, self.size, self.scale, self.seed);
+        let terrain = Terrain {
+            heightmap: hm.clone(),
+            colour: GroundColour::Uniform(self.ground),
+        };
+        Ok(AreaComposer::new(
+            vec![tree_grid],
+            &instances,
+            Some(terrain),
+            ComposeParams::default(),
+        )?)
+    }
+}
 
 /// The shipped Jacksboro DEM (`assets/dem-jacksboro`) at 4 m a pixel with
 /// heights × 0.05: 1.6 km × 1.4 km, 12–54 m of relief.
