@@ -222,6 +222,32 @@ impl GpuContext {
         }
     }
 
+    /// [`GpuContext::new_or_opt_out`] for a test suite: `None` only under the opt-out.
+    ///
+    /// # Panics
+    ///
+    /// Without an adapter and without `LIGHTGRID_ALLOW_NO_GPU=1`, with the error and
+    /// how to opt out: a GPU test fails loudly, it never skips in silence. For tests
+    /// only; applications call [`GpuContext::new`] and handle its error.
+    pub fn new_for_tests() -> Option<Self> {
+        Self::new_or_opt_out().unwrap_or_else(|e| {
+            panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
+        })
+    }
+
+    /// [`GpuContext::new_for_tests`], one per process (its pipelines and caches shared
+    /// by every test of a binary).
+    ///
+    /// # Panics
+    ///
+    /// As [`GpuContext::new_for_tests`].
+    pub fn shared_for_tests() -> Option<std::sync::Arc<Self>> {
+        static C: std::sync::OnceLock<Option<std::sync::Arc<GpuContext>>> =
+            std::sync::OnceLock::new();
+        C.get_or_init(|| Self::new_for_tests().map(std::sync::Arc::new))
+            .clone()
+    }
+
     /// Largest storage buffer binding, bytes.
     pub fn max_binding(&self) -> u64 {
         self.device.limits().max_storage_buffer_binding_size

@@ -10,11 +10,7 @@ use lightgrid_gpu::kernel::{Binding, Kernel, buffer};
 use lightgrid_gpu::{GpuContext, GpuLightGrid};
 
 fn context() -> Option<Arc<GpuContext>> {
-    GpuContext::new_or_opt_out()
-        .unwrap_or_else(|e| {
-            panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-        })
-        .map(Arc::new)
+    GpuContext::new_for_tests().map(Arc::new)
 }
 
 #[test]

@@ -3,7 +3,7 @@
 //! layout the same in Rust and WGSL. Runs on any adapter (lavapipe in CI); fails without
 //! one unless LIGHTGRID_ALLOW_NO_GPU=1.
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use lightgrid_core::BinLight;
 use lightgrid_core::glam::{Vec2, Vec3, Vec4};
@@ -12,15 +12,7 @@ use lightgrid_light_probes::GpuProbeRelight;
 use lightgrid_light_probes::gpu::{RelightParams, kernel_wgsl};
 
 fn context() -> Option<Arc<GpuContext>> {
-    static C: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    C.get_or_init(|| {
-        GpuContext::new_or_opt_out()
-            .unwrap_or_else(|e| {
-                panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-            })
-            .map(Arc::new)
-    })
-    .clone()
+    GpuContext::shared_for_tests()
 }
 
 /// The kernel validates (no GPU needed) and `RelightParams` has the same layout in Rust

@@ -79,7 +79,7 @@ fn main() {
             let m = lightgrid_measure::exact::ground_material(levels, albedo).unwrap();
             let b = Boundary {
                 sides: SideBoundary::Periodic,
-                ..Boundary::open_sky(sky.clone())
+                ..Boundary::open_sky(sky)
             };
             let g = lightgrid_sweep_cpu::run(&m, &b, &converged())
                 .unwrap()

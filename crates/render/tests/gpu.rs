@@ -16,15 +16,7 @@ use lightgrid_render::{
 };
 
 fn context() -> Option<Arc<GpuContext>> {
-    static C: OnceLock<Option<Arc<GpuContext>>> = OnceLock::new();
-    C.get_or_init(|| {
-        GpuContext::new_or_opt_out()
-            .unwrap_or_else(|e| {
-                panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-            })
-            .map(Arc::new)
-    })
-    .clone()
+    GpuContext::shared_for_tests()
 }
 
 /// A grid whose bins vary with position and direction (every value distinct, > 0).

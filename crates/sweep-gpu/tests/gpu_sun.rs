@@ -12,14 +12,8 @@ use proptest::prelude::*;
 
 fn march() -> Option<&'static GpuSunTransmittance> {
     static S: std::sync::OnceLock<Option<GpuSunTransmittance>> = std::sync::OnceLock::new();
-    S.get_or_init(|| {
-        GpuContext::new_or_opt_out()
-            .unwrap_or_else(|e| {
-                panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-            })
-            .map(|c| GpuSunTransmittance::new(Arc::new(c)))
-    })
-    .as_ref()
+    S.get_or_init(|| GpuContext::new_for_tests().map(|c| GpuSunTransmittance::new(Arc::new(c))))
+        .as_ref()
 }
 
 fn grid(dims: UVec3, seed: u64) -> MaterialGrid {

@@ -12,14 +12,8 @@ use proptest::prelude::*;
 /// One sweeper for all tests of this binary: pipelines compile once.
 fn sweeper() -> Option<&'static GpuSweeper> {
     static S: std::sync::OnceLock<Option<GpuSweeper>> = std::sync::OnceLock::new();
-    S.get_or_init(|| {
-        GpuContext::new_or_opt_out()
-            .unwrap_or_else(|e| {
-                panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-            })
-            .map(GpuSweeper::with_context)
-    })
-    .as_ref()
+    S.get_or_init(|| GpuContext::new_for_tests().map(GpuSweeper::with_context))
+        .as_ref()
 }
 
 /// Relative 1e-4 of the larger value plus 1e-5 of the grid's largest value (f32

@@ -48,9 +48,7 @@ fn render_tiny(
     extras: bool,
     split: bool,
 ) -> Option<(PathBuf, Summary)> {
-    lightgrid_gpu::GpuContext::new_or_opt_out().unwrap_or_else(|e| {
-        panic!("{e}\n(set LIGHTGRID_ALLOW_NO_GPU=1 to run without a GPU adapter)")
-    })?;
+    lightgrid_gpu::GpuContext::new_for_tests()?;
     let out = manifest().join("../../target/image-tests").join(dir);
     std::fs::create_dir_all(&out).unwrap();
     let mut scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
