@@ -28,6 +28,33 @@
 //! in ray order in `f64`, so the result does not depend on the thread count (a world
 //! bake repeats bit for bit).
 //!
+//! ```
+//! use lightgrid_core::glam::{UVec3, Vec3};
+//! use lightgrid_core::{GridDesc, Material, MaterialGrid};
+//! use lightgrid_sweep_cpu::beam::{BeamOptions, first_collisions};
+//!
+//! // A slab of medium over opaque ground, open sides, a sun 10° above the horizon.
+//! let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(8, 4, 8))?;
+//! let cells = (0..desc.point_count())
+//!     .map(|i| match desc.coords(i).unwrap().y {
+//!         0 => Material { reflectance: Vec3::splat(0.2), pass: 0.0 },
+//!         1 | 2 => Material { reflectance: Vec3::splat(0.7), pass: 0.5 },
+//!         _ => Material::EMPTY,
+//!     })
+//!     .collect();
+//! let m = MaterialGrid::new(desc, cells)?;
+//! let e = 10f32.to_radians();
+//! let to_sun = Vec3::new(e.cos(), e.sin(), 0.0);
+//! let f = first_collisions(&m, to_sun, Vec3::ONE, false, &|_| 1.0, &BeamOptions::DEFAULT)?;
+//! // Every ray's flux is accounted for: deposited, or gone through the open sides.
+//! assert!(f.budget.relative_error() < 1e-9);
+//! assert_eq!(f.budget.left_bottom, 0.0); // the ground stops what reaches it
+//! // What entered: the top and the side facing the sun, `E (s_y · 64 + s_x · 32)`.
+//! let want = (to_sun.y * 64.0 + to_sun.x * 32.0) as f64;
+//! assert!((f.budget.entered - want).abs() < 1e-4 * want);
+//! # Ok::<(), lightgrid_core::GridError>(())
+//! ```
+//!
 //! The rule it replaces, `E cos θ (T_top - T_bottom)` per medium cell, counted only
 //! what crosses a cell's top and bottom: over a patchy canopy under a 10° sun a fifth
 //! of the beam was never deposited (issue 44).
