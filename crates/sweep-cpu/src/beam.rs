@@ -73,7 +73,7 @@ pub const RAYS_PER_CELL: u32 = 16;
 type Deposit = (u32, [f64; 4]);
 
 /// Rays traced per parallel task (fixed, so the sums' order is too).
-const CHUNK: usize = 512;
+const CHUNK: usize = 256;
 
 /// Where the beam went, in flux per `h²` for unit normal irradiance (multiply by the
 /// irradiance for a colour). `entered == collided + left_bottom + left_sides + stopped`
@@ -263,9 +263,11 @@ pub fn first_collisions(
     // Per cell: the collided flux and its height moments (flux × C₁/C₀, × C₂/C₀).
     let mut sum = vec![[0f64; 4]; desc.point_count()];
     let mut budget = BeamBudget::default();
-    // Waves of chunks: memory bounded by the wave, sums in ray order.
+    // Waves of chunks, a few a thread: the deposits waiting to be summed are bounded
+    // by the wave (a ray through thin media deposits in every cell it crosses), and
+    // the sums run in ray order whatever the threads.
     let chunks = rays.div_ceil(CHUNK);
-    let wave = 64usize;
+    let wave = (8 * rayon::current_num_threads()).max(16);
     for w0 in (0..chunks).step_by(wave) {
         let parts: Vec<(Vec<Deposit>, BeamBudget)> = (w0..(w0 + wave).min(chunks))
             .into_par_iter()
