@@ -44,6 +44,24 @@ fn grid(rolling: bool) -> MaterialGrid {
     MaterialGrid::new(desc, cells).expect("valid")
 }
 
+/// The median of 8 sweeps by one recycling sweeper (ms) and the levels computed.
+fn median_of_8(
+    sweep: &mut dyn FnMut(&mut lightgrid_sweep_cpu::CpuSweeper) -> lightgrid_core::SweepOutput,
+) -> (f64, u64) {
+    let mut s = lightgrid_sweep_cpu::CpuSweeper::new();
+    let mut times = Vec::new();
+    let mut levels = 0;
+    for _ in 0..8 {
+        let t = Instant::now();
+        let out = sweep(&mut s);
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        levels = out.stats.levels_computed;
+        s.recycle(out);
+    }
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], levels)
+}
+
 fn main() {
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 4;
@@ -54,18 +72,7 @@ fn main() {
     // what a computed level costs.
     {
         let (m, b) = lightgrid_measure::scenes::Scene::Canopy.build(64);
-        let mut s = lightgrid_sweep_cpu::CpuSweeper::new();
-        let mut times = Vec::new();
-        let mut levels = 0;
-        for _ in 0..8 {
-            let t = Instant::now();
-            let out = s.sweep(&m, &b, &o).expect("sweeps");
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-            levels = out.stats.levels_computed;
-            s.recycle(out);
-        }
-        times.sort_by(f64::total_cmp);
-        let median = times[times.len() / 2];
+        let (median, levels) = median_of_8(&mut |s| s.sweep(&m, &b, &o).expect("sweeps"));
         println!(
             "64^3 canopy (4 096 points a level, sky): {median:.1} ms, {levels} levels computed, {:.2} ms a level",
             median / levels.max(1) as f64
@@ -85,18 +92,8 @@ fn main() {
             if periodic {
                 b.sides = SideBoundary::Periodic;
             }
-            let mut s = lightgrid_sweep_cpu::CpuSweeper::new();
-            let mut times = Vec::new();
-            let mut levels = 0;
-            for _ in 0..8 {
-                let t = Instant::now();
-                let out = s.sweep_with_source(&m, &b, &src, &o).expect("sweeps");
-                times.push(t.elapsed().as_secs_f64() * 1e3);
-                levels = out.stats.levels_computed;
-                s.recycle(out);
-            }
-            times.sort_by(f64::total_cmp);
-            let median = times[times.len() / 2];
+            let (median, levels) =
+                median_of_8(&mut |s| s.sweep_with_source(&m, &b, &src, &o).expect("sweeps"));
             println!(
                 "{:9}  {:9}  {median:9.1}   {levels:15}   {:10.2}",
                 if rolling { "rolling" } else { "flat" },
