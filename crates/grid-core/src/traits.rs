@@ -225,7 +225,8 @@ pub struct SweepOptions {
     /// Most sweeps, alternating downward and upward, starting downward (1 = the seed's
     /// single downward pass: no light travels upward).
     pub max_passes: u32,
-    /// Stop repeating passes when a pass changes the light by less than this fraction.
+    /// Stop repeating passes when a pass changes the light by less than this fraction
+    /// (0: every pass up to `max_passes` runs).
     pub tolerance: f32,
     /// Copy, instead of computing, the levels above all material in a downward pass
     /// under a laterally uniform boundary, and carry the light of all upward passes

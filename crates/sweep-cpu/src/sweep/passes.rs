@@ -237,7 +237,10 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             }
             let waiting = self.waiting(&p, pass);
             let input = self.bal.input().max_element();
-            converged = waiting.max_element() <= self.options.tolerance as f64 * input && pass >= 1;
+            // A tolerance of 0 runs every pass (as on the GPU): else whether a last
+            // rounding residual is exactly 0 would decide how many passes run.
+            let tolerance = self.options.tolerance as f64;
+            converged = tolerance > 0.0 && waiting.max_element() <= tolerance * input && pass >= 1;
             pass += 1;
         }
     }
