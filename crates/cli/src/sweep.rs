@@ -134,6 +134,7 @@ impl SweepArgs {
             bins: true,
             average: false,
             dominant: false,
+            horizon: false,
         };
         Ok(o)
     }

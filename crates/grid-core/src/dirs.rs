@@ -37,6 +37,10 @@ pub const DOWN: usize = 4;
 pub const UP: usize = 21;
 /// Number of directions the downward sweep gathers from.
 pub const NUM_SWEEP_DIRS: usize = 17;
+/// Index of the first horizontal bin (`dy = 0`): bins `9..17` are horizontal.
+pub const FIRST_HORIZONTAL: usize = 9;
+/// Number of horizontal bins.
+pub const HORIZONTAL_BINS: usize = 8;
 /// How many points a near-horizontal sweep path moves sideways per level.
 pub const HORIZONTAL_STEP: i32 = 4;
 

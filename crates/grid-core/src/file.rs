@@ -69,6 +69,8 @@ pub enum GridKind {
     Dominant = 5,
     /// Light grid as 8-bit square-root codes with a content key (light-volumes' cache).
     CodedLight = 6,
+    /// The downward-travelling halves of the 8 horizontal bins (`f32`).
+    Horizon = 7,
 }
 
 impl GridKind {
@@ -81,6 +83,7 @@ impl GridKind {
             GridKind::Average => "average",
             GridKind::Dominant => "dominant",
             GridKind::CodedLight => "coded light",
+            GridKind::Horizon => "horizon",
         }
     }
     fn from_u32(v: u32) -> Option<Self> {
@@ -91,6 +94,7 @@ impl GridKind {
             4 => GridKind::Average,
             5 => GridKind::Dominant,
             6 => GridKind::CodedLight,
+            7 => GridKind::Horizon,
             _ => return None,
         })
     }
@@ -122,6 +126,8 @@ pub enum GridFile {
     Dominant(Grid<DominantDir>),
     /// A coded light grid (light-volumes' cache).
     CodedLight(CodedLightGrid),
+    /// A horizon grid (the downward halves of the horizontal bins).
+    Horizon(Grid<crate::HorizonLight>),
 }
 
 impl GridFile {
@@ -134,6 +140,7 @@ impl GridFile {
             GridFile::Average(_) => GridKind::Average,
             GridFile::Dominant(_) => GridKind::Dominant,
             GridFile::CodedLight(_) => GridKind::CodedLight,
+            GridFile::Horizon(_) => GridKind::Horizon,
         }
     }
 
@@ -146,6 +153,7 @@ impl GridFile {
             GridFile::Average(g) => encode(g, 1.0),
             GridFile::Dominant(g) => encode(g, 1.0),
             GridFile::CodedLight(c) => encode_with(&c.grid, c.scale, &c.key.to_le_bytes()),
+            GridFile::Horizon(g) => encode(g, 1.0),
         }
     }
 
@@ -172,6 +180,7 @@ impl GridFile {
             }
             GridKind::Average => GridFile::Average(decode(h.desc, payload)?),
             GridKind::Dominant => GridFile::Dominant(decode(h.desc, payload)?),
+            GridKind::Horizon => GridFile::Horizon(decode(h.desc, payload)?),
             GridKind::CodedLight => {
                 let key = u64::from_le_bytes(payload[..8].try_into().expect("8 bytes"));
                 let g = decode(h.desc, &payload[8..])?;
@@ -235,6 +244,7 @@ impl GridFile {
     into_kind!(into_average, Average, Grid<AverageLight>);
     into_kind!(into_dominant, Dominant, Grid<DominantDir>);
     into_kind!(into_coded_light, CodedLight, CodedLightGrid);
+    into_kind!(into_horizon, Horizon, Grid<crate::HorizonLight>);
 }
 
 struct Header {
@@ -332,6 +342,7 @@ fn parse_header(b: &[u8], max_payload: u64) -> Result<Header, GridError> {
         GridKind::Average => AverageLight::FILE_BYTES,
         GridKind::Dominant => DominantDir::FILE_BYTES,
         GridKind::CodedLight => CodedBins::FILE_BYTES,
+        GridKind::Horizon => crate::HorizonLight::FILE_BYTES,
     } as u64;
     let expected = kind.prefix_bytes() + desc.point_count() as u64 * per_point;
     if expected != payload_len {
@@ -422,6 +433,7 @@ impl GridFile {
             ),
             GridFile::Average(g) => (*g.desc(), String::new()),
             GridFile::Dominant(g) => (*g.desc(), String::new()),
+            GridFile::Horizon(g) => (*g.desc(), String::new()),
             GridFile::CodedLight(c) => (
                 *c.grid.desc(),
                 format!(
@@ -593,6 +605,7 @@ mod tests {
                 )
                 .unwrap(),
             ),
+            GridFile::Horizon(l.map(crate::HorizonLight::even)),
             GridFile::Light(l),
         ]
     }
@@ -765,7 +778,7 @@ mod tests {
         }
 
         #[test]
-        fn mutated_files_never_panic(which in 0usize..6, pos in any::<prop::sample::Index>(), val in any::<u8>(), cut in any::<prop::sample::Index>(), sign in any::<bool>()) {
+        fn mutated_files_never_panic(which in 0usize..7, pos in any::<prop::sample::Index>(), val in any::<u8>(), cut in any::<prop::sample::Index>(), sign in any::<bool>()) {
             let good = all_kinds()[which].to_bytes();
             let mut b = good.clone();
             let i = pos.index(b.len());

@@ -249,6 +249,27 @@ impl GridValue for BinLight {
     }
 }
 
+impl GridValue for crate::HorizonLight {
+    const KIND: crate::file::GridKind = crate::file::GridKind::Horizon;
+    const FILE_BYTES: usize = crate::dirs::HORIZONTAL_BINS * 12;
+    fn check(&self) -> Result<(), (&'static str, String, &'static str)> {
+        for v in &self.0 {
+            check_light(*v, ".down")?;
+        }
+        Ok(())
+    }
+    fn write_le(&self, out: &mut Vec<u8>) {
+        for v in &self.0 {
+            write_f32s(out, &v.to_array());
+        }
+    }
+    fn read_le(b: &[u8]) -> Self {
+        crate::HorizonLight(std::array::from_fn(|k| {
+            Vec3::from_array(read_f32s::<3>(&b[k * 12..]))
+        }))
+    }
+}
+
 /// Mean light over the sphere at a point (linear RGB).
 #[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(transparent)]
@@ -344,6 +365,8 @@ fn read_f32s<const N: usize>(b: &[u8]) -> [f32; N] {
 pub type MaterialGrid = Grid<Material>;
 /// Light grid: 26 bins RGB `f32` per point.
 pub type LightGrid = Grid<BinLight>;
+/// Horizon grid: the downward-travelling halves of the 8 horizontal bins per point.
+pub type HorizonGrid = Grid<crate::HorizonLight>;
 /// Average-light grid.
 pub type AverageGrid = Grid<AverageLight>;
 /// Dominant-direction grid.

@@ -114,7 +114,10 @@ impl ContentHash {
             acceleration,
         } = *o;
         self.u32(
-            outputs.bins as u32 | (outputs.average as u32) << 1 | (outputs.dominant as u32) << 2,
+            outputs.bins as u32
+                | (outputs.average as u32) << 1
+                | (outputs.dominant as u32) << 2
+                | (outputs.horizon as u32) << 3,
         )
         .f32s(&[smoothing, tolerance])
         .u32(max_passes)

@@ -116,9 +116,9 @@ pub use error::{FileErrorKind, GridError};
 pub use file::{GridFile, GridKind};
 pub use grid::{
     AverageGrid, AverageLight, CodedBins, CodedLightGrid, DominantDir, DominantGrid, Grid,
-    GridValue, LightGrid, Material, MaterialGrid, PackedBins, PackedLightGrid,
+    GridValue, HorizonGrid, LightGrid, Material, MaterialGrid, PackedBins, PackedLightGrid,
 };
-pub use light::{AmbientCube, BinLight, LUMA, Sh1, Sh2, luminance, unit};
+pub use light::{AmbientCube, BinLight, HorizonLight, LUMA, Sh1, Sh2, luminance, unit};
 pub use lights::LightKind;
 pub use rng::SeededRng;
 pub use sample::{Blend, trilinear_corners};

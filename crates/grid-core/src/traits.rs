@@ -193,21 +193,37 @@ pub struct Outputs {
     pub average: bool,
     /// The dominant-direction grid.
     pub dominant: bool,
+    /// Beside the bins (it needs them), the downward-travelling halves of the 8
+    /// horizontal bins ([`crate::HorizonLight`], 8 RGB values a point: a third more
+    /// memory than the bins), for irradiance exact across the horizon
+    /// ([`crate::BinLight::irradiance_split`]).
+    pub horizon: bool,
 }
 
 impl Outputs {
-    /// Everything.
+    /// The 26 bins, the average and the dominant direction (the horizon halves are
+    /// asked for apart: [`Outputs::with_horizon`]).
     pub const ALL: Self = Self {
         bins: true,
         average: true,
         dominant: true,
+        horizon: false,
     };
     /// Average and dominant direction only (per-frame lighting).
     pub const AVERAGE_DOMINANT: Self = Self {
         bins: false,
         average: true,
         dominant: true,
+        horizon: false,
     };
+    /// These outputs and the horizon halves (which need the bins: asked for too).
+    pub const fn with_horizon(self) -> Self {
+        Self {
+            bins: true,
+            horizon: true,
+            ..self
+        }
+    }
 }
 
 /// Options of a sweep. Start from a preset and change fields.
@@ -361,6 +377,13 @@ impl SweepOptions {
                 "must be finite and >= 0",
             ));
         }
+        if self.outputs.horizon && !self.outputs.bins {
+            return Err(GridError::invalid(
+                "outputs.horizon",
+                self.outputs.horizon,
+                "needs outputs.bins (the halves split the bins)",
+            ));
+        }
         if !(self.outputs.bins || self.outputs.average || self.outputs.dominant) {
             return Err(GridError::invalid(
                 "outputs",
@@ -383,6 +406,9 @@ impl Default for SweepOptions {
 pub struct SweepOutput {
     /// The 26-bin grid, if asked for.
     pub bins: Option<LightGrid>,
+    /// The downward-travelling halves of the horizontal bins, if asked for
+    /// ([`Outputs::horizon`]).
+    pub horizon: Option<crate::HorizonGrid>,
     /// The average-light grid, if asked for.
     pub average: Option<AverageGrid>,
     /// The dominant-direction grid, if asked for.

@@ -1,5 +1,6 @@
 //! Points per second of the sweep: the 64³ canopy with 26-bin and average-only
-//! outputs, one downward pass and four passes, and a small tall grid (16 × 64 × 16),
+//! outputs, one downward pass and four passes (and the bins with the horizon halves,
+//! four passes), and a small tall grid (16 × 64 × 16),
 //! each for the fast path into recycled memory (`CpuSweeper::sweep` after
 //! `CpuSweeper::recycle`: what a per-frame rebuild runs), the fast path into fresh memory
 //! (`lightgrid_sweep_cpu::run`) and, in the same run, the scalar oracle it equals bit for bit
@@ -72,6 +73,23 @@ fn bench(c: &mut Criterion) {
         }
         g.finish();
     }
+    // The horizon halves beside the bins (`Outputs::horizon`: a third more memory),
+    // against "26 bins, 4 passes" above.
+    let mut g = c.benchmark_group("sweep 64³ canopy");
+    g.throughput(Throughput::Elements(m.desc().point_count() as u64));
+    g.sample_size(10);
+    let mut o = SweepOptions::multi_bounce();
+    o.outputs = Outputs::ALL.with_horizon();
+    o.max_passes = 4;
+    o.tolerance = 0.0;
+    let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
+    g.bench_function("26 bins and horizon halves, 4 passes, recycled", |bch| {
+        bch.iter(|| {
+            let out = sweeper.sweep(&m, &b, &o).expect("sweep");
+            sweeper.recycle(out);
+        })
+    });
+    g.finish();
 }
 
 /// Media in every level (the uniform fog, 16³ and 48³, 4 passes): where phases 2 and

@@ -4,65 +4,151 @@
 //! under a uniform sky) and against the Monte Carlo reference's irradiance tally, which
 //! uses the paths' exact directions (`Reference::irradiance`), on canopies.
 //!
+//! On canopies, sky alone, a 30° sun alone (its first collisions swept, its direct beam
+//! by the transmittance) and both.
+//!
 //! `cargo run --release -p lightgrid-measure --example horizon -- [paths]` (2 000 000)
 
+use lightgrid_core::BinLight;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::light::{AMBIENT_AXES, luminance};
 use lightgrid_core::{Boundary, MaterialGrid, SideBoundary, SweepOptions};
-use lightgrid_measure::reference::{ReferenceOptions, trace};
+use lightgrid_measure::reference::{Reference, ReferenceOptions, trace};
 use lightgrid_measure::scenes::Scene;
+use lightgrid_measure::sun_measure;
+use lightgrid_sky::Sun;
+use lightgrid_sweep_cpu::sun::{SunTransmittance, first_collision};
 
 fn converged() -> SweepOptions {
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 64;
     o.tolerance = 1e-6;
+    o.outputs = o.outputs.with_horizon();
     o
 }
 
-/// Bias and relative RMS of the six axes' irradiance, sweep against the reference's
-/// tally, over the cells that are not opaque; then the bias facing up and facing down.
-fn axes_errors(m: &MaterialGrid, b: &Boundary, paths: u64) -> [f64; 4] {
-    let g = lightgrid_sweep_cpu::run(m, b, &converged())
-        .unwrap()
-        .output
-        .bins
-        .unwrap();
-    let r = trace(
-        m,
-        b,
-        &ReferenceOptions {
-            paths,
-            seed: 21,
-            max_track: 64.0,
-            ..Default::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
-    let (mut s, mut sr, mut se, mut sw) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    // Per axis: sweep and reference sums.
-    let mut per = [(0.0f64, 0.0f64); 6];
-    for (i, c) in m.data().iter().enumerate() {
-        if c.pass <= 0.0 {
-            continue;
-        }
-        for (k, n) in AMBIENT_AXES.iter().enumerate() {
-            let a = luminance(g.data()[i].irradiance(*n)) as f64;
-            let want = luminance(r.irradiance[i][k]) as f64;
-            s += a;
-            sr += want;
-            per[k].0 += a;
-            per[k].1 += want;
-            se += (a - want).powi(2);
-            sw += want * want;
+/// Six axes' irradiance (luminance) per cell: the sweep's bins read even across the
+/// horizon, read in halves, and the reference's tally.
+struct Axes {
+    even: Vec<[f64; 6]>,
+    halves: Vec<[f64; 6]>,
+    reference: Vec<[f64; 6]>,
+}
+
+impl Axes {
+    /// From the sweep's bins and halves and the reference's tally, plus a direct beam
+    /// `E T max(0, n·s)` of each (the sweep's transmittance `t`, the reference's cell
+    /// mean `direct`) where there is one.
+    fn new(out: &lightgrid_core::SweepOutput, r: &Reference, beam: Option<(&[f32], Vec3)>) -> Self {
+        let (g, h) = (out.bins.as_ref().unwrap(), out.horizon.as_ref().unwrap());
+        let direct = |n: Vec3, t: f32| match beam {
+            Some((_, s)) => t * n.dot(s).max(0.0),
+            None => 0.0,
+        };
+        let sweep_t = |i: usize| beam.map_or(0.0, |(t, _)| t[i]);
+        let axes = |f: &dyn Fn(usize, Vec3) -> f32| -> Vec<[f64; 6]> {
+            (0..g.data().len())
+                .map(|i| AMBIENT_AXES.map(|n| f(i, n) as f64))
+                .collect()
+        };
+        Self {
+            even: axes(&|i, n| luminance(g.data()[i].irradiance(n)) + direct(n, sweep_t(i))),
+            halves: axes(&|i, n| {
+                luminance(g.data()[i].irradiance_split(n, &h.data()[i])) + direct(n, sweep_t(i))
+            }),
+            reference: axes(&|i, n| {
+                let k = AMBIENT_AXES.iter().position(|a| *a == n).unwrap();
+                luminance(r.irradiance[i][k]) + direct(n, luminance(r.direct[i]))
+            }),
         }
     }
-    let bias = |k: usize| per[k].0 / per[k].1 - 1.0;
-    let (up, down) = (
-        AMBIENT_AXES.iter().position(|n| n.y > 0.0).unwrap(),
-        AMBIENT_AXES.iter().position(|n| n.y < 0.0).unwrap(),
-    );
-    [s / sr - 1.0, (se / sw).sqrt(), bias(up), bias(down)]
+
+    /// The light times `k`.
+    fn scaled(&self, k: f64) -> Self {
+        let mul =
+            |a: &[[f64; 6]]| -> Vec<[f64; 6]> { a.iter().map(|x| x.map(|v| v * k)).collect() };
+        Self {
+            even: mul(&self.even),
+            halves: mul(&self.halves),
+            reference: mul(&self.reference),
+        }
+    }
+
+    /// The light of both.
+    fn plus(&self, o: &Self) -> Self {
+        let add = |a: &[[f64; 6]], b: &[[f64; 6]]| -> Vec<[f64; 6]> {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| std::array::from_fn(|k| x[k] + y[k]))
+                .collect()
+        };
+        Self {
+            even: add(&self.even, &o.even),
+            halves: add(&self.halves, &o.halves),
+            reference: add(&self.reference, &o.reference),
+        }
+    }
+
+    /// Bias and relative RMS of the six axes, then the bias facing up and facing down,
+    /// over the cells that are not opaque: bins read even, then in halves.
+    fn errors(&self, m: &MaterialGrid) -> [[f64; 4]; 2] {
+        [&self.even, &self.halves].map(|a| {
+            let (mut s, mut sr, mut se, mut sw) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+            let mut per = [(0.0f64, 0.0f64); 6];
+            for (i, c) in m.data().iter().enumerate() {
+                if c.pass <= 0.0 {
+                    continue;
+                }
+                for k in 0..6 {
+                    let (x, want) = (a[i][k], self.reference[i][k]);
+                    s += x;
+                    sr += want;
+                    per[k].0 += x;
+                    per[k].1 += want;
+                    se += (x - want).powi(2);
+                    sw += want * want;
+                }
+            }
+            let bias = |k: usize| per[k].0 / per[k].1 - 1.0;
+            let (up, down) = (
+                AMBIENT_AXES.iter().position(|n| n.y > 0.0).unwrap(),
+                AMBIENT_AXES.iter().position(|n| n.y < 0.0).unwrap(),
+            );
+            [s / sr - 1.0, (se / sw).sqrt(), bias(up), bias(down)]
+        })
+    }
+}
+
+/// The sky alone: the sweep and the reference (the paths' exact directions).
+fn sky_axes(m: &MaterialGrid, b: &Boundary, paths: u64) -> Axes {
+    let out = lightgrid_sweep_cpu::run(m, b, &converged()).unwrap().output;
+    let options = ReferenceOptions {
+        paths,
+        seed: 21,
+        max_track: 64.0,
+        ..Default::default()
+    };
+    let r = trace(m, b, &options, &|_, _| {}).unwrap();
+    Axes::new(&out, &r, None)
+}
+
+/// A sun of unit irradiance at `elevation` degrees alone (periodic sides, dark sky):
+/// its first collisions swept as a cell source, the direct beam by the transmittance.
+fn sun_axes(m: &MaterialGrid, elevation: f32, paths: u64) -> Axes {
+    let sun = Sun::at(elevation.to_radians(), 0.7, Vec3::ONE);
+    let s = sun.direction;
+    let dark = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(BinLight::ZERO)
+    };
+    let open = |_: Vec3| 1.0;
+    let t = SunTransmittance::march(m, s, true, &open).unwrap();
+    let src = first_collision(m, s, Vec3::ONE, true, &open).unwrap();
+    let out = lightgrid_sweep_cpu::run_with_source(m, &dark, Some(&src), &converged())
+        .unwrap()
+        .output;
+    let r = sun_measure::sun_reference(m, &dark, s, paths, 5).unwrap();
+    Axes::new(&out, &r, Some((t.values(), s)))
 }
 
 fn main() {
@@ -81,54 +167,78 @@ fn main() {
                 sides: SideBoundary::Periodic,
                 ..Boundary::open_sky(sky)
             };
-            let g = lightgrid_sweep_cpu::run(&m, &b, &converged())
+            let out = lightgrid_sweep_cpu::run(&m, &b, &converged())
                 .unwrap()
-                .output
-                .bins
-                .unwrap();
-            let l = g.data()[m.desc().level_len() * levels as usize];
+                .output;
+            let i = m.desc().level_len() * levels as usize;
+            let (l, h) = (out.bins.unwrap().data()[i], out.horizon.unwrap().data()[i]);
             let pi = std::f32::consts::PI;
-            let row = [
-                (l.irradiance(Vec3::Y).x, pi),
-                (l.irradiance(Vec3::NEG_Y).x, albedo * pi),
-                (l.irradiance(Vec3::X).x, (1.0 + albedo) * pi / 2.0),
-            ]
-            .map(|(got, want)| format!("{got:.4} ({:+5.1} %)", 100.0 * (got / want - 1.0)));
-            println!(
-                "{levels:6}  {albedo:6}   {}   {}   {}",
-                row[0], row[1], row[2]
-            );
+            for split in [false, true] {
+                let e = |n: Vec3| {
+                    if split {
+                        l.irradiance_split(n, &h).x
+                    } else {
+                        l.irradiance(n).x
+                    }
+                };
+                let row = [
+                    (e(Vec3::Y), pi),
+                    (e(Vec3::NEG_Y), albedo * pi),
+                    (e(Vec3::X), (1.0 + albedo) * pi / 2.0),
+                ]
+                .map(|(got, want)| format!("{got:.4} ({:+5.1} %)", 100.0 * (got / want - 1.0)));
+                println!(
+                    "{levels:6}  {albedo:6}   {}   {}   {}   {}",
+                    row[0],
+                    row[1],
+                    row[2],
+                    if split { "halves" } else { "even" }
+                );
+            }
         }
     }
     println!();
     println!(
-        "six axes' irradiance per cell, sweep (bins) against the reference's tally ({paths} paths)"
+        "six axes' irradiance per cell, sweep against the reference's tally ({paths} paths; sun \
+         of irradiance pi at {SUN_ELEVATION} deg, its direct beam included)"
     );
-    println!("scene                     bias      relative RMS   bias facing up   facing down");
-    for scene in [
-        Scene::Canopy,
-        Scene::CanopyOneLevelGround,
-        Scene::UniformFog,
-    ] {
-        let (m, b) = scene.build(16);
-        let e = axes_errors(&m, &b, paths);
+    println!(
+        "scene                          bias      relative RMS   bias facing up   facing down"
+    );
+    let periodic = |m: MaterialGrid| {
+        let b = Boundary {
+            sides: SideBoundary::Periodic,
+            ..Boundary::open_sky(sky)
+        };
+        (m, b)
+    };
+    let scenes = [
+        (Scene::Canopy.name(), Scene::Canopy.build(16)),
+        (Scene::UniformFog.name(), Scene::UniformFog.build(16)),
+        (
+            "patchy canopy",
+            periodic(lightgrid_measure::sun_measure::patchy_canopy(16, 3)),
+        ),
+    ];
+    for (name, (m, b)) in scenes {
+        let sky_only = sky_axes(&m, &b, paths);
+        print_errors(&format!("{name}, sky"), sky_only.errors(&m));
+        let sun_only = sun_axes(&m, SUN_ELEVATION, paths);
+        print_errors(&format!("{name}, sun"), sun_only.errors(&m));
+        let both = sky_only.plus(&sun_only.scaled(std::f64::consts::PI));
+        print_errors(&format!("{name}, sky and sun"), both.errors(&m));
+    }
+}
+
+/// The sun's elevation in the canopies' rows (degrees).
+const SUN_ELEVATION: f32 = 30.0;
+
+/// The rows of one scene: the bins read even across the horizon, then in halves.
+fn print_errors(name: &str, e: [[f64; 4]; 2]) {
+    for (e, how) in e.iter().zip(["even", "halves"]) {
         println!(
-            "{:24}  {:+.4}   {:.4}         {:+.4}          {:+.4}",
-            scene.name(),
-            e[0],
-            e[1],
-            e[2],
-            e[3]
+            "{:29}  {:+.4}   {:.4}         {:+.4}          {:+.4}   {how}",
+            name, e[0], e[1], e[2], e[3]
         );
     }
-    let m = lightgrid_measure::sun_measure::patchy_canopy(16, 3);
-    let b = Boundary {
-        sides: SideBoundary::Periodic,
-        ..Boundary::open_sky(sky)
-    };
-    let e = axes_errors(&m, &b, paths);
-    println!(
-        "{:24}  {:+.4}   {:.4}         {:+.4}          {:+.4}",
-        "patchy canopy, sky", e[0], e[1], e[2], e[3]
-    );
 }

@@ -445,3 +445,48 @@ fn sky_lit_half_space() {
         assert!(flat < -0.15, "w {w}: the flat rule at depth 3 {flat:+.4}");
     }
 }
+
+/// The horizon (issue 44): above an infinite Lambertian ground under a uniform sky a
+/// surface facing up receives `pi`, one facing down `a pi` and one facing sideways
+/// `(1 + a) pi / 2`, exactly. Each horizontal bin holds sky above the horizon and ground
+/// below it; read as even across the horizon (`BinLight::irradiance`) facing down is
+/// `(1 + a) / 2`'s share too much (+13 % at `a` = 0.3) and facing up too little. With the
+/// sweep's downward halves (`Outputs::horizon`, `BinLight::irradiance_split`) all three
+/// hold to 1e-3 at every level above one, two and three ground levels.
+#[test]
+fn surfaces_facing_up_and_down_over_a_lambertian_ground_read_exactly_with_the_halves() {
+    let pi = std::f32::consts::PI;
+    let top = uniform_sky(Vec3::ONE).unwrap().top;
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(top)
+    };
+    let mut o = converged();
+    o.outputs = o.outputs.with_horizon();
+    for levels in [1, 2, 3] {
+        for albedo in [0.0f32, 0.3, 0.8] {
+            let m = ground(levels, albedo);
+            let out = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output;
+            let (g, h) = (out.bins.unwrap(), out.horizon.unwrap());
+            for j in levels..g.desc().levels() {
+                let p = UVec3::new(2, j, 6);
+                let (l, down) = (g.get(p).unwrap(), h.get(p).unwrap());
+                for (n, want) in [
+                    (Vec3::Y, pi),
+                    (Vec3::NEG_Y, albedo * pi),
+                    (Vec3::Z, (1.0 + albedo) * pi / 2.0),
+                ] {
+                    let got = l.irradiance_split(n, down).x;
+                    assert!(
+                        (got - want).abs() <= 1e-3 * pi,
+                        "{levels} levels, albedo {albedo}, level {j}, facing {n}: {got}, exact {want}"
+                    );
+                }
+                if albedo == 0.3 {
+                    let even = l.irradiance(Vec3::NEG_Y).x / (albedo * pi);
+                    assert!(even > 1.1, "the even reading facing down: {even}");
+                }
+            }
+        }
+    }
+}

@@ -443,6 +443,7 @@ fn recycled_memory_is_fully_overwritten() {
     let (m, b) = lightgrid_measure::scenes::Scene::Canopy.build(12);
     let d = *m.desc();
     let garbage = |d: GridDesc| SweepOutput {
+        horizon: None,
         bins: Some(Grid::from_trusted(
             d,
             vec![BinLight([Vec3::NAN; NUM_DIRS]); d.point_count()],

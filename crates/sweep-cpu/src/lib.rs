@@ -580,8 +580,19 @@ pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -
             }),
         _ => None,
     };
+    let horizon = a.horizon.as_ref().zip(b.horizon.as_ref()).map(|(x, y)| {
+        Grid::from_trusted(
+            *x.desc(),
+            x.data()
+                .iter()
+                .zip(y.data())
+                .map(|(p, q)| *p * sky + *q * sun)
+                .collect(),
+        )
+    });
     SweepOutput {
         bins,
+        horizon,
         average,
         dominant,
         stats: a.stats,

@@ -1,10 +1,11 @@
 //! The GPU sweeper: sweep-cpu's semantics, one dispatch pair per level.
 
+use lightgrid_core::dirs::HORIZONTAL_BINS;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
-    BinLight, Boundary, CellSource, Grid, HALO_WIDTH, HaloLayout, MaterialGrid, PackedBins,
-    PackedLightGrid, Resident, SideBoundary, SweepError, SweepOptions, SweepOutput, SweepStats,
-    Sweeper,
+    BinLight, Boundary, CellSource, Grid, HALO_WIDTH, HaloLayout, HorizonLight, MaterialGrid,
+    NUM_DIRS, PackedBins, PackedLightGrid, Resident, SideBoundary, SweepError, SweepOptions,
+    SweepOutput, SweepStats, Sweeper,
 };
 use lightgrid_sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
 use wgpu::util::DeviceExt;
@@ -45,6 +46,10 @@ lightgrid_gpu::gpu_struct! {
         /// (`lightgrid_sweep_cpu::medium`), 3 its quadratic source in height (`lightgrid_sweep_cpu::profile`,
         /// the default).
         pub medium: u32 => "u32",
+        /// 1 when the horizon halves are asked for (`Outputs::horizon`).
+        pub horizon: u32 => "u32",
+        /// Where they start in the light buffer (floats): after the bins.
+        pub horizon_base: u32 => "u32",
     }
 }
 
@@ -294,6 +299,19 @@ impl GpuSweeper {
         if bins.iter().any(|b| !b.is_valid()) {
             return Err(overflow());
         }
+        let horizon = options.outputs.horizon.then(|| {
+            let h = &gd[n * NUM_DIRS * 3..];
+            let down: Vec<HorizonLight> = (0..n)
+                .map(|i| {
+                    HorizonLight(std::array::from_fn(|k| {
+                        let o = (i * HORIZONTAL_BINS + k) * 3;
+                        Vec3::from_slice(&h[o..o + 3])
+                    }))
+                    .within(&bins[i])
+                })
+                .collect();
+            Grid::from_trusted(*material.desc(), down)
+        });
         let grid = Grid::from_trusted(*material.desc(), bins);
         let resident = if self.keep_resident {
             let g = GpuLightGrid::from_buffer(self.ctx.clone(), g, *material.desc())
@@ -307,6 +325,7 @@ impl GpuSweeper {
                 average: options.outputs.average.then(|| grid.average_grid()),
                 dominant: options.outputs.dominant.then(|| grid.dominant_grid()),
                 bins: options.outputs.bins.then_some(grid),
+                horizon,
                 stats,
                 resident,
             },
@@ -367,7 +386,9 @@ impl GpuSweeper {
             message: e.to_string(),
         };
         let shape = Shape::of(material, boundary);
-        let bufs = self.buffers(material, &shape).map_err(backend)?;
+        let bufs = self
+            .buffers(material, &shape, options.outputs.horizon)
+            .map_err(backend)?;
         let source_in = match source {
             Some(src) => self.upload_source(
                 &bufs,
@@ -483,10 +504,17 @@ impl GpuSweeper {
 
     /// Every buffer of one sweep, sized and checked against the binding limit; material
     /// and exposure uploaded, the rest zero.
-    fn buffers(&self, material: &MaterialGrid, shape: &Shape) -> Result<Buffers, GpuError> {
+    fn buffers(
+        &self,
+        material: &MaterialGrid,
+        shape: &Shape,
+        horizon: bool,
+    ) -> Result<Buffers, GpuError> {
         let (n, level_len) = (shape.n, shape.level_len);
+        // The bins, then the horizon halves if asked for.
+        let light = n * (NUM_DIRS + if horizon { HORIZONTAL_BINS } else { 0 }) * 3;
         for (what, floats) in [
-            ("light grid", n * 26 * 3),
+            ("light grid", light),
             ("pending light", n * 12),
             ("halo", shape.halo.len() * CHANNELS * 3),
             ("level scratch", level_len * SCRATCH),
@@ -517,7 +545,7 @@ impl GpuSweeper {
             }),
             ping: [zeros("level A", level, none), zeros("level B", level, none)],
             scratch: zeros("scratch", level_len * SCRATCH, none),
-            light: zeros("light", n * 26 * 3, src),
+            light: zeros("light", light, src),
             virt: zeros("virtual level", shape.padded * CHANNELS * 3, none),
             halo: zeros("halo", (shape.halo.len() * CHANNELS * 3).max(1), none),
             flux_in: zeros("input flux", level_len * 3, src),
@@ -754,6 +782,8 @@ fn level_params(shape: &Shape, up: bool, options: &SweepOptions) -> Vec<u8> {
                 lightgrid_core::MediumEmission::Source => 2,
                 lightgrid_core::MediumEmission::Profile => 3,
             },
+            horizon: u32::from(options.outputs.horizon),
+            horizon_base: (shape.n * NUM_DIRS * 3) as u32,
         };
         let o = li * PARAM_STRIDE as usize;
         bytes[o..o + std::mem::size_of::<LevelParams>()].copy_from_slice(bytemuck::bytes_of(&p));

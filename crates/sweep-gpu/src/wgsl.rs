@@ -178,6 +178,12 @@ fn sweep_common() -> String {
     let _ = writeln!(s, "const SCRATCH: u32 = {SCRATCH}u;");
     let _ = writeln!(
         s,
+        "const FIRST_HORIZONTAL: u32 = {}u;\nconst HORIZONTAL_BINS: u32 = {}u;",
+        lightgrid_core::dirs::FIRST_HORIZONTAL,
+        lightgrid_core::dirs::HORIZONTAL_BINS
+    );
+    let _ = writeln!(
+        s,
         "const T_AFTER_OFFSET: u32 = {}u;",
         lightgrid_sweep_cpu::sweep::SLOTS * 3
     );

@@ -35,6 +35,25 @@ fn assert_close(
     Ok(())
 }
 
+/// [`assert_close`]'s tolerance for the horizon halves (scaled by the bins' largest
+/// value).
+fn assert_halves_close(
+    cpu: &lightgrid_core::HorizonGrid,
+    gpu: &lightgrid_core::HorizonGrid,
+    scale: f32,
+) -> Result<(), String> {
+    for (i, (a, b)) in cpu.data().iter().zip(gpu.data()).enumerate() {
+        for k in 0..a.0.len() {
+            let (x, y) = (a.0[k], b.0[k]);
+            let tol = 1e-4 * x.abs().max(y.abs()).max_element() + 1e-5 * scale.max(1e-20);
+            if (x - y).abs().max_element() > tol {
+                return Err(format!("point {i} half {k}: cpu {x} gpu {y}"));
+            }
+        }
+    }
+    Ok(())
+}
+
 fn lumpy_sky() -> BinLight {
     BinLight(std::array::from_fn(|d| {
         Vec3::new(1.0 + d as f32, 2.0 + (d % 5) as f32, 0.5 + (d % 3) as f32)
@@ -94,7 +113,7 @@ proptest! {
     /// 0 and 1), every side mode and a per-point top, random sky and sun, smoothing and
     /// pass count.
     #[test]
-    fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17, profile in any::<bool>()) {
+    fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17, profile in any::<bool>(), horizon in any::<bool>()) {
         let Some(gpu) = sweeper() else { return Ok(()) };
         let d = *m.desc();
         let mut sky = lumpy_sky();
@@ -114,9 +133,20 @@ proptest! {
         o.max_passes = passes;
         o.tolerance = 0.0;
         o.medium = if profile { lightgrid_core::MediumEmission::Profile } else { lightgrid_core::MediumEmission::Source };
-        let cpu = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output.bins.unwrap();
-        let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
-        if let Err(e) = assert_close(&cpu, &g) {
+        if horizon {
+            o.outputs = o.outputs.with_horizon();
+        }
+        let cpu = lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output;
+        let g = gpu.run(&m, &b, &o).unwrap();
+        let (cb, gb) = (cpu.bins.unwrap(), g.bins.unwrap());
+        if let Err(e) = assert_close(&cb, &gb) {
+            prop_assert!(false, "{e}");
+        }
+        prop_assert_eq!(cpu.horizon.is_some(), horizon);
+        prop_assert_eq!(g.horizon.is_some(), horizon);
+        if let (Some(ch), Some(gh)) = (cpu.horizon, g.horizon)
+            && let Err(e) = assert_halves_close(&ch, &gh, cb.max_value())
+        {
             prop_assert!(false, "{e}");
         }
     }
@@ -252,13 +282,26 @@ fn lambertian_ground_holds_the_exact_rule_field_on_the_gpu() {
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 8;
     o.tolerance = 0.0;
+    o.outputs = o.outputs.with_horizon();
+    let pi = std::f32::consts::PI;
     for levels in [1, 2] {
         for albedo in [0.3f32, 0.9] {
             let m = lightgrid_measure::exact::ground_material(levels, albedo).unwrap();
-            let g = gpu.run(&m, &b, &o).unwrap().bins.unwrap();
+            let out = gpu.run(&m, &b, &o).unwrap();
+            let (g, h) = (out.bins.unwrap(), out.horizon.unwrap());
             let (_, rule) = lightgrid_measure::exact::ground_fields(albedo, &top).unwrap();
             for j in levels..g.desc().levels() {
                 let l = g.get(UVec3::new(3, j, 5)).unwrap();
+                // The horizon halves: facing up the sky's pi, facing down the ground's
+                // a pi (`measure/tests/exact.rs`, to 1e-3 as there).
+                let down = h.get(UVec3::new(3, j, 5)).unwrap();
+                for (n, want) in [(Vec3::Y, pi), (Vec3::NEG_Y, albedo * pi)] {
+                    let got = l.irradiance_split(n, down).x;
+                    assert!(
+                        (got - want).abs() <= 1e-3 * pi,
+                        "{levels} levels, albedo {albedo}, level {j}, facing {n}: gpu {got}, exact {want}"
+                    );
+                }
                 for bin in 0..26 {
                     let (got, want) = (l.0[bin].x, rule.0[bin].x);
                     // The stated CPU == GPU tolerance (see `assert_close`).

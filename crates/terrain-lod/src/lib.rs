@@ -1260,6 +1260,7 @@ impl Hierarchy {
             bins: true,
             average: false,
             dominant: false,
+            horizon: false,
         };
         if !has_objects && self.params.skip.up_pass_over_bare {
             o.max_passes = 1;

@@ -379,12 +379,25 @@ pub(crate) fn run_reusing(
         dom: &mut dom,
         work: spare.work.take(),
     };
-    let (bins, ok, balance, stats) = if options.outputs.bins {
+    let (bins, horizon, ok, balance, stats) = if options.outputs.horizon {
+        // The split bins, then apart: the 26 bins and the downward halves.
+        let (g, ok, balance, stats) = run.run(fresh_buffer::<sink::SplitBins>(n));
+        let mut bins = take_buffer(&mut spare.bins, n);
+        bins.par_iter_mut().zip(&g).for_each(|(b, s)| *b = s.bins);
+        let down = g.par_iter().map(|s| s.down.within(&s.bins)).collect();
+        (
+            Some(Grid::from_trusted(desc, bins)),
+            Some(Grid::from_trusted(desc, down)),
+            ok,
+            balance,
+            stats,
+        )
+    } else if options.outputs.bins {
         let (g, ok, balance, stats) = run.run(take_buffer(&mut spare.bins, n));
-        (Some(Grid::from_trusted(desc, g)), ok, balance, stats)
+        (Some(Grid::from_trusted(desc, g)), None, ok, balance, stats)
     } else {
         let (_, ok, balance, stats) = run.run(fresh_buffer::<AvgAcc>(n));
-        (None, ok, balance, stats)
+        (None, None, ok, balance, stats)
     };
     spare.work = run.work.take();
     // Outputs not asked for keep their memory for the next sweep.
@@ -409,6 +422,7 @@ pub(crate) fn run_reusing(
     Ok(Sweep {
         output: SweepOutput {
             bins,
+            horizon,
             average,
             dominant,
             stats,

@@ -56,7 +56,7 @@ impl Ctx {
                             self.transmit((pows, lnp), chn, (x, z), None, light, &mut rem);
                         ta_row[xi][c] = after;
                         row_set(cur_row, p, xi, c, light * t);
-                        g_row[xi].add(chn.bin, chn.unit, light * t_mid);
+                        g_row[xi].add(chn, light * t_mid);
                     }
                     for (slot, v) in rem.iter().enumerate() {
                         for col in 0..3 {
@@ -223,7 +223,7 @@ impl Ctx {
                     row_add(cur_row, p, xi, c, acc * om);
                 }
                 if centre != Vec3::ZERO {
-                    g_row[xi].add(chn.bin, chn.unit, centre * om);
+                    g_row[xi].add(chn, centre * om);
                 }
             }
         }

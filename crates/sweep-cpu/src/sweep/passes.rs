@@ -377,7 +377,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         // Every point of the level receives the same light: one sink value.
         let mut one = S::default();
         for (c, chn) in ch.iter().enumerate() {
-            one.add(chn.bin, chn.unit, v[c]);
+            one.add(chn, v[c]);
         }
         let g = &mut self.g[range.clone()];
         if p.first {

@@ -294,7 +294,7 @@ impl Ctx {
                     for i in 0..b {
                         ta_row[x0 + i][c] = after[i];
                         let m = Vec3::new(mean[0][i], mean[1][i], mean[2][i]);
-                        g_row[x0 + i].add(chn.bin, chn.unit, m);
+                        g_row[x0 + i].add(chn, m);
                     }
                 }
             }

@@ -366,7 +366,7 @@ impl Ctx {
             let lv = Vec3::new(leave[0][c], leave[1][c], leave[2][c]);
             row_add(cur_row, p, xi, c, lv * lanes.length[c]);
             let ev = Vec3::new(emit[0][c], emit[1][c], emit[2][c]);
-            g_row[xi].add(chn.bin, chn.unit, ev * lanes.half_length[c]);
+            g_row[xi].add(chn, ev * lanes.half_length[c]);
         }
         own
     }

@@ -214,7 +214,7 @@ impl Ctx {
                     for i in 0..b {
                         let ce = Vec3::new(centre[0][i], centre[1][i], centre[2][i]);
                         if ce != Vec3::ZERO {
-                            g_row[x0 + i].add(chn.bin, chn.unit, ce * om);
+                            g_row[x0 + i].add(chn, ce * om);
                         }
                     }
                 }

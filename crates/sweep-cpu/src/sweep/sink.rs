@@ -10,13 +10,14 @@ pub(crate) trait Sink: Copy + Default + Send + Sync + bytemuck::Pod {
     /// would, from the level's planes, where a point's bins hold exactly one pass's
     /// channel light).
     const ALL_BINS: bool = false;
-    fn add(&mut self, bin: usize, unit: Vec3, g: Vec3);
+    /// Adds light `g` of channel `chn` (into its bin).
+    fn add(&mut self, chn: &Channel, g: Vec3);
     /// [`Sink::add`] of every channel of a pass, in channel order: `light(c)` into
     /// channel `c`'s bin.
     #[inline]
     fn add_channels(&mut self, ch: &[Channel; CHANNELS], light: impl Fn(usize) -> Vec3) {
         for (c, chn) in ch.iter().enumerate() {
-            self.add(chn.bin, chn.unit, light(c));
+            self.add(chn, light(c));
         }
     }
     /// The point's final values: every value finite and `>= 0`, the average, and the
@@ -58,8 +59,8 @@ pub(crate) fn resolve_each<S: Sink>(
 impl Sink for BinLight {
     const ALL_BINS: bool = true;
     #[inline]
-    fn add(&mut self, bin: usize, _unit: Vec3, g: Vec3) {
-        self.0[bin] += g;
+    fn add(&mut self, chn: &Channel, g: Vec3) {
+        self.0[chn.bin] += g;
     }
     /// `Vec3::max(ZERO)` on every bin, as flat floats (the same comparison, `v > 0 ?
     /// v : 0`, so NaN and -0 become +0 as there; as `Vec3`s it did not vectorise).
@@ -287,6 +288,45 @@ pub(crate) fn resolve_planes_as<const CLAMP: bool, const DOMINANT: bool>(
     ok
 }
 
+/// The 26 bins and, apart, what the downward passes' horizontal channels brought
+/// ([`HorizonLight`]: the downward-travelling halves of the horizontal bins).
+#[derive(Clone, Copy, Default, bytemuck::Zeroable, bytemuck::Pod)]
+#[repr(C)]
+pub(crate) struct SplitBins {
+    pub(crate) bins: BinLight,
+    pub(crate) down: lightgrid_core::HorizonLight,
+}
+
+impl Sink for SplitBins {
+    #[inline]
+    fn add(&mut self, chn: &Channel, g: Vec3) {
+        self.bins.0[chn.bin] += g;
+        if chn.pass() == 0
+            && let Some(k) = chn.bin.checked_sub(dirs::FIRST_HORIZONTAL)
+            && k < dirs::HORIZONTAL_BINS
+        {
+            self.down.0[k] += g;
+        }
+    }
+    #[inline]
+    fn clamp(&mut self) {
+        self.bins.clamp();
+        for v in &mut self.down.0 {
+            *v = v.max(Vec3::ZERO);
+        }
+    }
+    #[inline]
+    fn resolve(&self, dominant: bool) -> (bool, Vec3, Vec3) {
+        let (ok, a, d) = self.bins.resolve(dominant);
+        let down_ok = self
+            .down
+            .0
+            .iter()
+            .all(|v| v.is_finite() && v.cmpge(Vec3::ZERO).all());
+        (ok & down_ok, a, d)
+    }
+}
+
 /// Running sums for the average (`sum`) and dominant direction (`num / den`).
 #[derive(Clone, Copy, Default, bytemuck::Zeroable, bytemuck::Pod)]
 #[repr(C)]
@@ -298,10 +338,10 @@ pub(crate) struct AvgAcc {
 
 impl Sink for AvgAcc {
     #[inline]
-    fn add(&mut self, _bin: usize, unit: Vec3, g: Vec3) {
+    fn add(&mut self, chn: &Channel, g: Vec3) {
         self.sum += g;
         let l = luminance(g);
-        self.num += unit * l;
+        self.num += chn.unit * l;
         self.den += l;
     }
     /// The sums in a local: adding in place made each channel's add wait on the
@@ -310,7 +350,7 @@ impl Sink for AvgAcc {
     fn add_channels(&mut self, ch: &[Channel; CHANNELS], light: impl Fn(usize) -> Vec3) {
         let mut acc = *self;
         for (c, chn) in ch.iter().enumerate() {
-            acc.add(chn.bin, chn.unit, light(c));
+            acc.add(chn, light(c));
         }
         *self = acc;
     }

@@ -14,11 +14,20 @@ fn column(x: i32, z: i32) -> i32 {
     return x + nx * z;
 }
 
+// Light `v` of bin `bin` at point `gi`; a downward pass's horizontal light also into the
+// horizon halves after the bins (lightgrid_core::HorizonLight), when asked for.
 fn g_add(gi: u32, bin: u32, v: vec3<f32>) {
     let i = (gi * NUM_DIRS + bin) * 3u;
     g[i] += v.x;
     g[i + 1u] += v.y;
     g[i + 2u] += v.z;
+    if (P.horizon == 1u && P.up == 0u && bin >= FIRST_HORIZONTAL
+        && bin < FIRST_HORIZONTAL + HORIZONTAL_BINS) {
+        let k = P.horizon_base + (gi * HORIZONTAL_BINS + bin - FIRST_HORIZONTAL) * 3u;
+        g[k] += v.x;
+        g[k + 1u] += v.y;
+        g[k + 2u] += v.z;
+    }
 }
 
 // Transmittance p^e of a path fraction through a cell of pass-through p.

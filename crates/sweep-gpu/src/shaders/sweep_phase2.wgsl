@@ -546,4 +546,10 @@ fn clamp_light(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var q = 0u; q < NUM_DIRS * 3u; q++) {
         g[b + q] = max(g[b + q], 0.0);
     }
+    if (P.horizon == 1u) {
+        let h = P.horizon_base + (li + P.level_len * P.j) * HORIZONTAL_BINS * 3u;
+        for (var q = 0u; q < HORIZONTAL_BINS * 3u; q++) {
+            g[h + q] = max(g[h + q], 0.0);
+        }
+    }
 }
