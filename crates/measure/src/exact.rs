@@ -446,8 +446,53 @@ pub fn lambertian_ground(a: f32) -> Result<Case, SweepError> {
     ))
 }
 
+/// The horizon (issue 44): irradiance on a surface facing up (`up`) or down just above
+/// `levels` levels of Lambertian ground of albedo `a` under a uniform sky of radiance 1,
+/// periodic sides, against the exact `pi` and `a pi`; each horizontal bin read in its
+/// two halves (`Outputs::horizon`, `BinLight::irradiance_split`), or as even across the
+/// horizon (`BinLight::irradiance`) if not `halves`.
+pub fn horizon(levels: u32, a: f32, up: bool, halves: bool) -> Result<Case, SweepError> {
+    let m = ground_material(levels, a)?;
+    let top = BinLight::uniform(Vec3::ONE).split_vertical().0;
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(top)
+    };
+    let mut o = options(64, 1e-7);
+    o.outputs = o.outputs.with_horizon();
+    let t = std::time::Instant::now();
+    let s = lightgrid_sweep_cpu::run(&m, &b, &o)?;
+    let secs = t.elapsed().as_secs_f64();
+    let i = m.desc().level_len() * levels as usize;
+    let (Some(g), Some(h)) = (&s.output.bins, &s.output.horizon) else {
+        return Err(SweepError::Backend {
+            backend: "cpu",
+            message: "bins and horizon halves asked for, not returned".into(),
+        });
+    };
+    let (bins, down) = (g.data()[i], h.data()[i]);
+    let n = if up { Vec3::Y } else { Vec3::NEG_Y };
+    let swept = if halves {
+        bins.irradiance_split(n, &down)
+    } else {
+        bins.irradiance(n)
+    };
+    let exact = PI * if up { 1.0 } else { a as f64 };
+    Ok(case(
+        format!(
+            "horizon: {levels}-level ground, albedo {a}, facing {}, {}",
+            if up { "up" } else { "down" },
+            if halves { "halves" } else { "bins read even" }
+        ),
+        exact,
+        swept.x as f64,
+        &s,
+        secs,
+    ))
+}
+
 /// Every case: the furnace (smoothing 0 and the default; uniform media of pass-through
-/// 0.9, 0.5, 0.1), one-level ground, and the
+/// 0.9, 0.5, 0.1), one-level ground, the horizon over one and three ground levels, and the
 /// half-space for `w` in {0.1, 0.5, 0.9, 0.99} and cell optical depths 0.05, 0.69, 3
 /// (total depth 40), at most `max_passes` passes each, under the default rule and again
 /// under the flat source (`MediumEmission::Source`).
@@ -468,6 +513,13 @@ pub fn measure(max_passes: u32) -> Result<Vec<Case>, SweepError> {
         out.push(uniform_furnace(pass)?);
     }
     out.push(lambertian_ground(0.3)?);
+    for levels in [1, 3] {
+        for up in [true, false] {
+            for halves in [false, true] {
+                out.push(horizon(levels, 0.3, up, halves)?);
+            }
+        }
+    }
     for elevation in [2.0, 10.0, 25.0, 60.0, 90.0] {
         out.push(beam_conservation(elevation)?);
     }

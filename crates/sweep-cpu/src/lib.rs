@@ -665,6 +665,9 @@ impl CpuSweeper {
         if let Some(d) = output.dominant {
             self.spare.dominant = d.into_data();
         }
+        if let Some(h) = output.horizon {
+            self.spare.horizon = h.into_data();
+        }
     }
 }
 

@@ -1,13 +1,14 @@
 //! The horizon halves (`Outputs::horizon`): the light the downward passes' horizontal
 //! channels bring, kept apart beside the bins. Asking for them changes no bin, average,
-//! balance term or pass count (the same adds, in the same order: bit for bit); each half lies between 0 and its bin; and in
+//! balance term or pass count (the same adds, in the same order: bit for bit), and
+//! into recycled memory they are what they are in fresh memory; each half lies between 0 and its bin; and in
 //! empty space under a sky every half is the sky's own (known answer), under a sky
 //! whose upper hemisphere is dark every half is 0.
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
     Acceleration, BinLight, Boundary, GridDesc, Material, MaterialGrid, MediumEmission,
-    SideBoundary, SweepOptions, TopBoundary, dirs,
+    SideBoundary, SweepOptions, Sweeper, TopBoundary, dirs,
 };
 use proptest::prelude::*;
 
@@ -56,6 +57,14 @@ proptest! {
         prop_assert!(plain.horizon.is_none());
         prop_assert_eq!(plain.bins.as_ref().unwrap().data(), split.bins.as_ref().unwrap().data());
         prop_assert_eq!(plain.average.as_ref().unwrap().data(), split.average.as_ref().unwrap().data());
+        // Into recycled memory (a sweep of other light before it): the same.
+        let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
+        let other = Boundary { top: TopBoundary::Uniform(Box::new(light(5))), ..b.clone() };
+        let first = sweeper.sweep(&m, &other, &o).unwrap();
+        sweeper.recycle(first);
+        let again = sweeper.sweep(&m, &b, &o).unwrap();
+        prop_assert_eq!(again.bins.as_ref().unwrap().data(), split.bins.as_ref().unwrap().data());
+        prop_assert_eq!(again.horizon.as_ref().unwrap().data(), split.horizon.as_ref().unwrap().data());
         let (g, h) = (split.bins.unwrap(), split.horizon.unwrap());
         for (i, (l, down)) in g.data().iter().zip(h.data()).enumerate() {
             for (k, v) in down.0.iter().enumerate() {

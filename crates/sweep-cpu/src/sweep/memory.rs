@@ -11,6 +11,10 @@ pub(crate) struct Spare {
     pub(crate) bins: Vec<BinLight>,
     pub(crate) average: Vec<AverageLight>,
     pub(crate) dominant: Vec<DominantDir>,
+    /// The horizon halves' output, and the split sink they are computed in (kept: the
+    /// bins and halves are copied out of it).
+    pub(crate) horizon: Vec<lightgrid_core::HorizonLight>,
+    pub(crate) split: Vec<super::sink::SplitBins>,
     pub(crate) work: Option<Work>,
 }
 
@@ -20,6 +24,8 @@ impl std::fmt::Debug for Spare {
             .field("bins", &self.bins.len())
             .field("average", &self.average.len())
             .field("dominant", &self.dominant.len())
+            .field("horizon", &self.horizon.len())
+            .field("split", &self.split.len())
             .field("work", &self.work.as_ref().map(|w| (w.prev.nx, w.prev.nz)))
             .finish()
     }

@@ -381,10 +381,19 @@ pub(crate) fn run_reusing(
     };
     let (bins, horizon, ok, balance, stats) = if options.outputs.horizon {
         // The split bins, then apart: the 26 bins and the downward halves.
-        let (g, ok, balance, stats) = run.run(fresh_buffer::<sink::SplitBins>(n));
+        let (g, ok, balance, stats) = run.run(take_buffer(&mut spare.split, n));
         let mut bins = take_buffer(&mut spare.bins, n);
-        bins.par_iter_mut().zip(&g).for_each(|(b, s)| *b = s.bins);
-        let down = g.par_iter().map(|s| s.down.within(&s.bins)).collect();
+        let mut down = take_buffer(&mut spare.horizon, n);
+        bins.par_chunks_mut(RESOLVE_CHUNK)
+            .zip(down.par_chunks_mut(RESOLVE_CHUNK))
+            .zip(g.par_chunks(RESOLVE_CHUNK))
+            .for_each(|((b, h), g)| {
+                for ((b, h), s) in b.iter_mut().zip(h).zip(g) {
+                    *b = s.bins;
+                    *h = s.down.within(&s.bins);
+                }
+            });
+        spare.split = g;
         (
             Some(Grid::from_trusted(desc, bins)),
             Some(Grid::from_trusted(desc, down)),
