@@ -41,6 +41,11 @@ pub(crate) enum Command {
         /// Write the light packed as R11G11B10 (104 bytes a point instead of 312).
         #[arg(long)]
         packed: bool,
+        /// Also write the horizon halves (the downward-travelling halves of the 8
+        /// horizontal bins, 96 bytes a point) to this grid file: `lightgrid export
+        /// --horizon` reads them for faces exact across the horizon.
+        #[arg(long)]
+        horizon: Option<PathBuf>,
         /// Also write a PNG preview: the average light on the grid's middle vertical slice.
         #[arg(long)]
         preview: Option<PathBuf>,
@@ -336,12 +341,17 @@ pub(crate) fn run(command: Command) -> Result<()> {
             light,
             sweep,
             packed,
+            horizon,
             preview,
         } => {
             let mut outs = vec![output.as_path()];
+            outs.extend(horizon.as_deref());
             outs.extend(preview.as_deref());
             crate::paths::check(&[&material], &outs)?;
-            let o = sweep.options()?;
+            let mut o = sweep.options()?;
+            if horizon.is_some() {
+                o.outputs = o.outputs.with_horizon();
+            }
             let m = load_material(&material)?;
             let b = light.boundary()?;
             let t = Instant::now();
@@ -356,6 +366,12 @@ pub(crate) fn run(command: Command) -> Result<()> {
             };
             file.save(&output)
                 .with_context(|| format!("writing {}", output.display()))?;
+            if let (Some(path), Some(h)) = (&horizon, s.output.horizon) {
+                GridFile::Horizon(h)
+                    .save(path)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                println!("wrote {}", path.display());
+            }
             if let Some(p) = &preview {
                 write_preview(&g, p)?;
             }

@@ -274,6 +274,49 @@ fn bake_and_export_write_bevy_volumes() {
         ok && text.contains("kind: light") && text.contains("points: 216"),
         "{text}"
     );
+
+    // The horizon halves: written beside the sweep, read by the export, whose faces
+    // then differ (the bins alone read the horizontal bins as even); the wrong kind or
+    // another grid's halves are refused with a message.
+    let (l, hz) = (light.to_str().unwrap(), dir.join("h.lgrid"));
+    let h = hz.to_str().unwrap();
+    let (ok, text) = run(&["sweep", m, "-o", l, "--sun", "800", "--horizon", h]);
+    assert!(ok && text.contains("h.lgrid"), "{text}");
+    let (ok, text) = run(&["inspect", h]);
+    assert!(ok && text.contains("kind: horizon"), "{text}");
+    let (ok, text) = run(&["export", l, "--horizon", h, "-o", o, "--name", "half"]);
+    assert!(ok, "{text}");
+    let bytes = |name: &str| std::fs::read(dir.join(format!("{name}.dds"))).unwrap();
+    assert_ne!(bytes("half"), bytes("exp"));
+    let (ok, text) = run(&["export", l, "--horizon", l, "-o", o, "--name", "bad"]);
+    assert!(!ok && text.contains("horizon"), "{text}");
+    let small = dir.join("small.lgrid");
+    assert!(
+        run(&[
+            "scene",
+            "canopy",
+            "--size",
+            "4",
+            "-o",
+            small.to_str().unwrap()
+        ])
+        .0
+    );
+    let other = dir.join("h4.lgrid");
+    let (s4, o4) = (small.to_str().unwrap(), other.to_str().unwrap());
+    assert!(
+        run(&[
+            "sweep",
+            s4,
+            "-o",
+            dir.join("l4.lgrid").to_str().unwrap(),
+            "--horizon",
+            o4
+        ])
+        .0
+    );
+    let (ok, text) = run(&["export", l, "--horizon", o4, "-o", o, "--name", "bad"]);
+    assert!(!ok && text.contains("same points"), "{text}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

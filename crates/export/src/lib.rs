@@ -189,20 +189,32 @@ impl BevyVolume {
                 ],
             )?,
         )?;
+        let at = |i: usize| desc.position(desc.coords(i).expect("in range"));
         let data = (0..desc.point_count())
-            .map(|i| field.light(desc.position(desc.coords(i).expect("in range")), None))
+            .map(|i| field.light(at(i), None))
             .collect::<Result<Vec<_>, _>>()?;
         let mut grid = LightGrid::from_trusted(*desc, data);
-        lightgrid_core::validity::fill_invalid(
-            &mut grid,
-            valid,
-            lightgrid_core::validity::DEFAULT_ROUNDS,
-        )?;
-        Self::from_field(&grid, desc, format)
+        let rounds = lightgrid_core::validity::DEFAULT_ROUNDS;
+        lightgrid_core::validity::fill_invalid(&mut grid, valid, rounds)?;
+        // The horizon halves, where the field keeps them, filled the same way.
+        let halves = (0..desc.point_count())
+            .map(|i| field.horizon(at(i), None))
+            .collect::<Result<Option<Vec<_>>, _>>()?;
+        match halves {
+            Some(h) => {
+                let mut halves = lightgrid_core::HorizonGrid::from_trusted(*desc, h);
+                lightgrid_core::validity::fill_invalid(&mut halves, valid, rounds)?;
+                let split = lightgrid_core::SplitLightGrid::new(grid, halves)?;
+                Self::from_field(&split, desc, format)
+            }
+            None => Self::from_field(&grid, desc, format),
+        }
     }
 
     /// Samples `field` at every point of `desc` (no normal bias: the points are in free
-    /// space or the light is what it is there) and packs the ambient cubes. For a
+    /// space or the light is what it is there) and packs the ambient cubes (each
+    /// horizontal bin read in its two halves where the field keeps them,
+    /// [`LightField::horizon`]: a [`lightgrid_core::SplitLightGrid`]). For a
     /// [`lightgrid_core::LightGrid`] sampled at its own descriptor this is its values exactly.
     pub fn from_field(
         field: &impl LightField,
@@ -235,7 +247,11 @@ impl BevyVolume {
             for y in 0..res.y {
                 for x in 0..res.x {
                     let p = desc.position(UVec3::new(x, y, z));
-                    let c = field.light(p, None)?.ambient_cube_f64();
+                    let l = field.light(p, None)?;
+                    let c = match field.horizon(p, None)? {
+                        Some(h) => l.ambient_cube_split_f64(&h),
+                        None => l.ambient_cube_f64(),
+                    };
                     cubes.push(c.map(|f| f / std::f64::consts::PI));
                 }
             }
@@ -879,6 +895,42 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Light that is the sky (radiance 1) above the horizon and a ground of albedo 0.3
+    /// below it: with the horizon halves (a [`lightgrid_core::SplitLightGrid`]) the
+    /// volume's faces hold the exact irradiance / pi, 1 facing up and 0.3 facing down
+    /// (the bins alone read 0.339 facing down); through `from_field_valid` too.
+    #[test]
+    fn faces_read_the_horizon_halves_where_the_field_keeps_them() {
+        use lightgrid_core::{HorizonGrid, HorizonLight, SplitLightGrid, dirs};
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 3, 2)).unwrap();
+        let w = dirs::solid_angles();
+        let (sky, ground) = (Vec3::ONE, Vec3::splat(0.3));
+        let l = BinLight(std::array::from_fn(|d| match dirs::dir_ivec(d).y {
+            -1 => sky * w[d],
+            1 => ground * w[d],
+            _ => (sky + ground) * (0.5 * w[d]),
+        }));
+        let down = HorizonLight(std::array::from_fn(|k| {
+            sky * (0.5 * w[dirs::FIRST_HORIZONTAL + k])
+        }));
+        let bins = LightGrid::filled(desc, l).unwrap();
+        let split =
+            SplitLightGrid::new(bins.clone(), HorizonGrid::filled(desc, down).unwrap()).unwrap();
+        let valid = vec![true; desc.point_count()];
+        let p = UVec3::new(1, 1, 0);
+        let (up, below) = (2, 3);
+        for v in [
+            BevyVolume::from_field(&split, &desc, TexelFormat::Rgb9e5).unwrap(),
+            BevyVolume::from_field_valid(&split, &desc, TexelFormat::Rgb9e5, &valid).unwrap(),
+        ] {
+            let face = |f: usize| v.texel(p, f).x * v.intensity();
+            assert!((face(up) - 1.0).abs() < 1.0 / 64.0, "{}", face(up));
+            assert!((face(below) - 0.3).abs() < 0.3 / 64.0, "{}", face(below));
+        }
+        let plain = BevyVolume::from_field(&bins, &desc, TexelFormat::Rgb9e5).unwrap();
+        assert!(plain.texel(p, below).x * plain.intensity() > 0.33);
     }
 
     #[test]

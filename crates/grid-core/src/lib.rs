@@ -57,6 +57,7 @@
 //! |----------------|----------------:|--------------------|---------------------------|
 //! | 26 bins `f32` ([`LightGrid`]) | 312 | 26 bins | yes, for light constant per bin |
 //! | 26 bins R11G11B10 ([`PackedLightGrid`]) | 104 | 26 bins | same, within 2^-6 relative |
+//! | 26 bins and horizon halves ([`SplitLightGrid`]) | 312 + 96 | 26 bins, each horizontal one in two halves | yes, for light constant per bin and per half (across the horizon: over a ground) |
 //! | SH L2 RGB `f32` ([`Sh2`]) | 108 | smooth, ringing on the sun | no (band-limited) |
 //! | SH L1 RGB `f32` ([`Sh1`]) | 48 | one lobe | no |
 //! | ambient cube RGB `f32` ([`AmbientCube`]) | 72 (24 as R11G11B10) | 6 axes | on the axes only |
@@ -126,8 +127,8 @@ pub use terrain::Heightmap;
 pub use traits::{
     Acceleration, Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField,
     MAX_PASSES, MaterialSource, MediumEmission, NoScatter, Outputs, Resident, SideBoundary,
-    SumField, SunBoundary, SunResponse, SweepError, SweepOptions, SweepOutput, SweepStats, Sweeper,
-    TopBoundary, UniformMaterial, VolumeSample,
+    SplitLightGrid, SumField, SunBoundary, SunResponse, SweepError, SweepOptions, SweepOutput,
+    SweepStats, Sweeper, TopBoundary, UniformMaterial, VolumeSample,
 };
 
 /// The README's examples, compiled and run as doc tests.

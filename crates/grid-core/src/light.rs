@@ -280,6 +280,37 @@ impl BinLight {
         })
     }
 
+    /// [`BinLight::ambient_cube_f64`] with each horizontal bin read in its two halves
+    /// (`down` its downward-travelling parts, as [`BinLight::irradiance_split`]): the
+    /// irradiance on the six axes, exact across the horizon.
+    pub fn ambient_cube_split_f64(&self, down: &HorizonLight) -> [DVec3; 6] {
+        let w = ambient_weights();
+        let halves = ambient_half_weights();
+        std::array::from_fn(|f| {
+            let mut e = DVec3::ZERO;
+            for d in 0..NUM_DIRS {
+                let v = self.0[d].as_dvec3();
+                match d.checked_sub(dirs::FIRST_HORIZONTAL) {
+                    Some(k) if k < dirs::HORIZONTAL_BINS => {
+                        let lo = down.0[k].as_dvec3();
+                        e += lo * halves[f][k][0] + (v - lo) * halves[f][k][1];
+                    }
+                    _ => {
+                        if v != DVec3::ZERO {
+                            e += v * w[f][d];
+                        }
+                    }
+                }
+            }
+            e
+        })
+    }
+
+    /// [`BinLight::ambient_cube_split_f64`] as an [`AmbientCube`] (finite).
+    pub fn ambient_cube_split(&self, down: &HorizonLight) -> AmbientCube {
+        AmbientCube(self.ambient_cube_split_f64(down).map(finite))
+    }
+
     /// Splits full-sphere bins into the light travelling downward (the 9 downward bins and
     /// half of each horizontal bin) and upward (the 9 upward bins and the other halves).
     /// Exact for radiance constant within each bin: every horizontal bin is symmetric
@@ -450,6 +481,12 @@ fn ambient_weights() -> &'static [[f64; NUM_DIRS]; 6] {
             std::array::from_fn(|d| dirs::clipped_cosine(d, n) / g.omega[d])
         })
     })
+}
+
+/// [`half_bin_weights`] of the six axes' normals, once.
+fn ambient_half_weights() -> &'static [[[f64; 2]; dirs::HORIZONTAL_BINS]; 6] {
+    static W: OnceLock<[[[f64; 2]; dirs::HORIZONTAL_BINS]; 6]> = OnceLock::new();
+    W.get_or_init(|| std::array::from_fn(|f| half_bin_weights(AMBIENT_AXES[f].as_dvec3())))
 }
 
 /// The unit vector along `v`, or `None` where `v` is zero or not finite. Unlike
@@ -776,9 +813,25 @@ mod tests {
         let lhs = (ground + a * 2.0).irradiance_split(n, &(down + ha * 2.0));
         let rhs = ground.irradiance_split(n, &down) + a.irradiance_split(n, &ha) * 2.0;
         assert!((lhs - rhs).abs().max_element() < 1e-5 * rhs.abs().max_element());
+        // The ambient cube is the six axes' split irradiance.
+        let cube = ground.ambient_cube_split(&down);
+        for (f, n) in AMBIENT_AXES.iter().enumerate() {
+            let e = ground.irradiance_split(*n, &down);
+            assert!(
+                (cube.0[f] - e).abs().max_element() <= 1e-6 * e.max_element(),
+                "{n}"
+            );
+        }
         // Not finite in, finite out.
         let bad = HorizonLight([Vec3::NAN; dirs::HORIZONTAL_BINS]);
         assert!(ground.irradiance_split(Vec3::Y, &bad).is_finite());
+        assert!(
+            ground
+                .ambient_cube_split(&bad)
+                .0
+                .iter()
+                .all(|v| v.is_finite())
+        );
     }
 
     #[test]

@@ -33,6 +33,17 @@ impl Blend for Vec3 {
     }
 }
 
+impl Blend for crate::HorizonLight {
+    fn zero() -> Self {
+        Self::default()
+    }
+    fn add_scaled(&mut self, other: &Self, w: f32) {
+        for (x, y) in self.0.iter_mut().zip(other.0) {
+            *x += y * w;
+        }
+    }
+}
+
 impl Blend for BinLight {
     fn zero() -> Self {
         BinLight::ZERO

@@ -715,9 +715,24 @@ pub trait LightField {
     /// non-finite `p` or a zero or non-finite `n`.
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError>;
 
-    /// Irradiance on a surface at `p` facing normal `n` (sampled with the normal bias).
+    /// Irradiance on a surface at `p` facing normal `n` (sampled with the normal bias):
+    /// each horizontal bin read in its two halves where the field keeps them
+    /// ([`LightField::horizon`], [`BinLight::irradiance_split`]), else as even across
+    /// the horizon.
     fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
-        Ok(self.light(p, Some(n))?.irradiance(n))
+        let l = self.light(p, Some(n))?;
+        Ok(match self.horizon(p, Some(n))? {
+            Some(h) => l.irradiance_split(n, &h),
+            None => l.irradiance(n),
+        })
+    }
+    /// The downward-travelling halves of the horizontal bins at `p`
+    /// ([`crate::HorizonLight`]), read like [`LightField::light`], for fields that keep
+    /// them (a sweep's [`Outputs::horizon`], [`crate::SplitLightGrid`]); `None` (the
+    /// default): the bins are read as even across the horizon.
+    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<crate::HorizonLight>, GridError> {
+        let _ = (p, n);
+        Ok(None)
     }
     /// Mean light over the sphere at `p`.
     fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
@@ -779,6 +794,50 @@ impl LightField for LightGrid {
     }
 }
 
+/// A light grid with its horizon halves ([`Outputs::horizon`]): a [`LightField`] whose
+/// irradiance reads each horizontal bin in its two halves (exact across the horizon
+/// where a bin's light is constant within each half: over a Lambertian ground, facing
+/// down `a pi` where the bins read as even give `(1 + a) pi / 2`'s share more).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SplitLightGrid {
+    bins: LightGrid,
+    halves: crate::HorizonGrid,
+}
+
+impl SplitLightGrid {
+    /// The two grids, which must share one descriptor.
+    pub fn new(bins: LightGrid, halves: crate::HorizonGrid) -> Result<Self, GridError> {
+        if bins.desc() != halves.desc() {
+            return Err(GridError::invalid(
+                "halves.desc()",
+                format!("{:?}", halves.desc()),
+                "must equal the bins' descriptor",
+            ));
+        }
+        Ok(Self { bins, halves })
+    }
+    /// The 26 bins.
+    pub fn bins(&self) -> &LightGrid {
+        &self.bins
+    }
+    /// The downward halves of the horizontal bins.
+    pub fn halves(&self) -> &crate::HorizonGrid {
+        &self.halves
+    }
+}
+
+impl LightField for SplitLightGrid {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
+        self.bins.light(p, n)
+    }
+    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<crate::HorizonLight>, GridError> {
+        Ok(Some(match n {
+            Some(n) => self.halves.sample_biased(p, n)?,
+            None => self.halves.sample(p)?,
+        }))
+    }
+}
+
 /// Two light fields added: e.g. the sky and sun hierarchy plus local lights.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SumField<A, B>(pub A, pub B);
@@ -791,6 +850,22 @@ impl<A: LightField, B: LightField> LightField for SumField<A, B> {
     /// The sum: the direct suns of both fields add (they must be the same sun).
     fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
         Ok(self.0.sun_transmittance(p, n)? + self.1.sun_transmittance(p, n)?)
+    }
+    /// The sum where either field keeps halves (the other's bins split evenly).
+    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<crate::HorizonLight>, GridError> {
+        let (a, b) = (self.0.horizon(p, n)?, self.1.horizon(p, n)?);
+        if a.is_none() && b.is_none() {
+            return Ok(None);
+        }
+        let a = a.map_or_else(
+            || self.0.light(p, n).map(|l| crate::HorizonLight::even(&l)),
+            Ok,
+        )?;
+        let b = b.map_or_else(
+            || self.1.light(p, n).map(|l| crate::HorizonLight::even(&l)),
+            Ok,
+        )?;
+        Ok(Some(a + b))
     }
 }
 
@@ -808,14 +883,35 @@ impl<A: LightField, B: LightField> LightField for DifferenceField<A, B> {
     fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
         Ok((self.0.sun_transmittance(p, n)? - self.1.sun_transmittance(p, n)?).max(0.0))
     }
+    /// The difference where either field keeps halves (the other's bins split
+    /// evenly), held within the difference's bins.
+    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<crate::HorizonLight>, GridError> {
+        let (a, b) = (self.0.horizon(p, n)?, self.1.horizon(p, n)?);
+        if a.is_none() && b.is_none() {
+            return Ok(None);
+        }
+        let (la, lb) = (self.0.light(p, n)?, self.1.light(p, n)?);
+        let a = a.unwrap_or_else(|| crate::HorizonLight::even(&la));
+        let b = b.unwrap_or_else(|| crate::HorizonLight::even(&lb));
+        Ok(Some((a + b * -1.0).within(&la.saturating_sub(&lb))))
+    }
 }
 
 impl<T: LightField + ?Sized> LightField for &T {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         (**self).light(p, n)
     }
+    fn irradiance(&self, p: Vec3, n: Vec3) -> Result<Vec3, GridError> {
+        (**self).irradiance(p, n)
+    }
+    fn average(&self, p: Vec3) -> Result<Vec3, GridError> {
+        (**self).average(p)
+    }
     fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
         (**self).sun_transmittance(p, n)
+    }
+    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<crate::HorizonLight>, GridError> {
+        (**self).horizon(p, n)
     }
 }
 
@@ -883,6 +979,52 @@ impl MaterialSource for UniformMaterial {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A grid of light that is `sky` above the horizon and `ground` below, with its
+    /// halves: as a [`SplitLightGrid`] it reads irradiance exactly on every axis (a
+    /// bare grid reads the horizontal bins as even); sums and differences with a field
+    /// without halves keep them; halves on another descriptor are refused.
+    #[test]
+    fn a_split_light_grid_reads_irradiance_across_the_horizon() {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(2, 3, 2)).unwrap();
+        let w = crate::dirs::solid_angles();
+        let (sky, ground) = (Vec3::ONE, Vec3::splat(0.3));
+        let l = BinLight(std::array::from_fn(|d| match crate::dirs::dir_ivec(d).y {
+            -1 => sky * w[d],
+            1 => ground * w[d],
+            _ => (sky + ground) * (0.5 * w[d]),
+        }));
+        let down = crate::HorizonLight(std::array::from_fn(|k| {
+            sky * (0.5 * w[crate::dirs::FIRST_HORIZONTAL + k])
+        }));
+        let bins = LightGrid::filled(desc, l).unwrap();
+        let halves = crate::HorizonGrid::filled(desc, down).unwrap();
+        let split = SplitLightGrid::new(bins.clone(), halves.clone()).unwrap();
+        let p = Vec3::new(0.5, 1.2, 0.7);
+        let pi = std::f32::consts::PI;
+        let facing_down = |f: &dyn LightField| f.irradiance(p, Vec3::NEG_Y).unwrap().x;
+        assert!((facing_down(&split) - 0.3 * pi).abs() < 1e-4);
+        assert!(
+            (facing_down(&&split) - 0.3 * pi).abs() < 1e-4,
+            "through a reference"
+        );
+        assert!(facing_down(&bins) > 1.1 * 0.3 * pi, "the even reading");
+        assert!((split.irradiance(p, Vec3::Y).unwrap().x - pi).abs() < 1e-4);
+        // Plus a field without halves (its bins split evenly): the halves add.
+        let zero = LightGrid::filled(desc, BinLight::ZERO).unwrap();
+        let sum = SumField(&split, &zero);
+        assert!((facing_down(&sum) - 0.3 * pi).abs() < 1e-4);
+        let twice = SumField(&split, &bins);
+        let want = 0.3 * pi + facing_down(&bins);
+        assert!((facing_down(&twice) - want).abs() < 1e-4);
+        let diff = DifferenceField(&split, &zero);
+        assert!((facing_down(&diff) - 0.3 * pi).abs() < 1e-4);
+        assert!(SumField(&bins, &zero).horizon(p, None).unwrap().is_none());
+        let other = GridDesc::new(Vec3::ONE, 1.0, UVec3::new(2, 3, 2)).unwrap();
+        let e = SplitLightGrid::new(bins, crate::HorizonGrid::filled(other, down).unwrap())
+            .unwrap_err();
+        assert!(e.to_string().contains("halves.desc()"), "{e}");
+    }
 
     #[test]
     fn a_sun_response_reads_as_a_light_field() {

@@ -5,7 +5,7 @@
 //! uses the paths' exact directions (`Reference::irradiance`), on canopies.
 //!
 //! On canopies, sky alone, a 30° sun alone (its first collisions swept, its direct beam
-//! by the transmittance) and both.
+//! by the cells' mean transmittance) and both.
 //!
 //! `cargo run --release -p lightgrid-measure --example horizon -- [paths]` (2 000 000)
 
@@ -17,7 +17,7 @@ use lightgrid_measure::reference::{Reference, ReferenceOptions, trace};
 use lightgrid_measure::scenes::Scene;
 use lightgrid_measure::sun_measure;
 use lightgrid_sky::Sun;
-use lightgrid_sweep_cpu::sun::{SunTransmittance, first_collision};
+use lightgrid_sweep_cpu::sun::{BeamOptions, first_collisions};
 
 fn converged() -> SweepOptions {
     let mut o = SweepOptions::multi_bounce();
@@ -133,7 +133,9 @@ fn sky_axes(m: &MaterialGrid, b: &Boundary, paths: u64) -> Axes {
 }
 
 /// A sun of unit irradiance at `elevation` degrees alone (periodic sides, dark sky):
-/// its first collisions swept as a cell source, the direct beam by the transmittance.
+/// its first collisions swept as a cell source, the direct beam by each cell's mean
+/// transmittance (the reference tallies cell means; the march's point values are not
+/// one inside a medium, where the beam decays across the cell).
 fn sun_axes(m: &MaterialGrid, elevation: f32, paths: u64) -> Axes {
     let sun = Sun::at(elevation.to_radians(), 0.7, Vec3::ONE);
     let s = sun.direction;
@@ -142,13 +144,14 @@ fn sun_axes(m: &MaterialGrid, elevation: f32, paths: u64) -> Axes {
         ..Boundary::open_sky(BinLight::ZERO)
     };
     let open = |_: Vec3| 1.0;
-    let t = SunTransmittance::march(m, s, true, &open).unwrap();
-    let src = first_collision(m, s, Vec3::ONE, true, &open).unwrap();
-    let out = lightgrid_sweep_cpu::run_with_source(m, &dark, Some(&src), &converged())
+    let beam = BeamOptions::DEFAULT.with_mean_transmittance();
+    let f = first_collisions(m, s, Vec3::ONE, true, &open, &beam).unwrap();
+    let out = lightgrid_sweep_cpu::run_with_source(m, &dark, Some(&f.source), &converged())
         .unwrap()
         .output;
     let r = sun_measure::sun_reference(m, &dark, s, paths, 5).unwrap();
-    Axes::new(&out, &r, Some((t.values(), s)))
+    let t = f.mean_transmittance.unwrap();
+    Axes::new(&out, &r, Some((&t, s)))
 }
 
 fn main() {
