@@ -535,16 +535,7 @@ pub fn responses_with(
 /// Combines a sky response `a` and a sun response `b` under colours `sky` and `sun`
 /// (see [`Responses::combine`]).
 pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -> SweepOutput {
-    let bins = a.bins.as_ref().zip(b.bins.as_ref()).map(|(x, y)| {
-        Grid::from_trusted(
-            *x.desc(),
-            x.data()
-                .iter()
-                .zip(y.data())
-                .map(|(p, q)| *p * sky + *q * sun)
-                .collect(),
-        )
-    });
+    let bins = mix(a.bins.as_ref(), b.bins.as_ref(), sky, sun);
     let average = a.average.as_ref().zip(b.average.as_ref()).map(|(x, y)| {
         Grid::from_trusted(
             *x.desc(),
@@ -582,16 +573,7 @@ pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -
             }),
         _ => None,
     };
-    let horizon = a.horizon.as_ref().zip(b.horizon.as_ref()).map(|(x, y)| {
-        Grid::from_trusted(
-            *x.desc(),
-            x.data()
-                .iter()
-                .zip(y.data())
-                .map(|(p, q)| *p * sky + *q * sun)
-                .collect(),
-        )
-    });
+    let horizon = mix(a.horizon.as_ref(), b.horizon.as_ref(), sky, sun);
     SweepOutput {
         bins,
         horizon,
@@ -600,6 +582,23 @@ pub fn combine_outputs(a: &SweepOutput, b: &SweepOutput, sky: Vec3, sun: Vec3) -
         stats: a.stats,
         resident: None,
     }
+}
+
+/// `x * sky + y * sun` point by point, where both grids are there.
+fn mix<T>(x: Option<&Grid<T>>, y: Option<&Grid<T>>, sky: Vec3, sun: Vec3) -> Option<Grid<T>>
+where
+    T: Copy + std::ops::Mul<Vec3, Output = T> + std::ops::Add<Output = T>,
+{
+    x.zip(y).map(|(x, y)| {
+        Grid::from_trusted(
+            *x.desc(),
+            x.data()
+                .iter()
+                .zip(y.data())
+                .map(|(p, q)| *p * sky + *q * sun)
+                .collect(),
+        )
+    })
 }
 
 /// The reference sweeper (multithreaded through rayon's global pool).

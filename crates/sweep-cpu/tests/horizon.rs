@@ -124,3 +124,53 @@ fn halves_without_bins_are_refused() {
     let e = lightgrid_sweep_cpu::run(&m, &Boundary::open_sky(light(0)), &o).unwrap_err();
     assert!(e.to_string().contains("outputs.horizon"), "{e}");
 }
+
+/// The halves are linear in the light: two responses combined under colours
+/// (`combine_outputs`) hold the halves of one sweep under the mixed light, within
+/// rounding.
+#[test]
+fn combined_responses_keep_the_halves_of_the_mixed_light() {
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(5, 6, 4)).unwrap();
+    let cells = (0..d.point_count())
+        .map(|i| match i % 7 {
+            0 => Material::opaque(Vec3::new(0.6, 0.4, 0.2)),
+            3 => Material {
+                reflectance: Vec3::splat(0.8),
+                pass: 0.5,
+            },
+            _ => Material::EMPTY,
+        })
+        .collect();
+    let m = MaterialGrid::new(d, cells).unwrap();
+    let boundary = |top: BinLight| Boundary {
+        top: TopBoundary::Uniform(Box::new(top)),
+        bottom: BinLight::ZERO,
+        sides: SideBoundary::Periodic,
+    };
+    let (a, b) = (light(1).split_vertical().0, light(4).split_vertical().0);
+    let (sky, sun) = (Vec3::new(0.5, 1.0, 2.0), Vec3::new(3.0, 2.0, 1.0));
+    let mut o = SweepOptions::multi_bounce();
+    o.outputs = o.outputs.with_horizon();
+    o.tolerance = 0.0;
+    o.max_passes = 6;
+    let run = |top: BinLight| {
+        lightgrid_sweep_cpu::run(&m, &boundary(top), &o)
+            .unwrap()
+            .output
+    };
+    let combined = lightgrid_sweep_cpu::combine_outputs(&run(a), &run(b), sky, sun);
+    let mixed = run(a * sky + b * sun);
+    let (x, y) = (combined.horizon.unwrap(), mixed.horizon.unwrap());
+    let scale = mixed.bins.unwrap().max_value();
+    for (i, (p, q)) in x.data().iter().zip(y.data()).enumerate() {
+        for k in 0..p.0.len() {
+            let diff = (p.0[k] - q.0[k]).abs().max_element();
+            assert!(
+                diff <= 1e-5 * scale,
+                "point {i} half {k}: {} vs {}",
+                p.0[k],
+                q.0[k]
+            );
+        }
+    }
+}
