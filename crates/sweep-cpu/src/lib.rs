@@ -40,6 +40,37 @@
 //! # }
 //! ```
 //!
+//! Light facing down over the ground is read exactly across the horizon with the
+//! horizon halves (`Outputs::horizon`, a `SplitLightGrid`): over an infinite ground of
+//! albedo 0.3 under that sky, `0.3 π`; the 26 bins alone read 13 % more.
+//!
+//! ```
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use lightgrid_core::glam::{UVec3, Vec3};
+//! use lightgrid_core::{
+//!     BinLight, Boundary, GridDesc, LightField, Material, MaterialGrid, SideBoundary,
+//!     SplitLightGrid, SweepOptions,
+//! };
+//! let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, 6, 4))?;
+//! let cells = (0..desc.point_count())
+//!     .map(|i| if i < desc.level_len() { Material::opaque(Vec3::splat(0.3)) } else { Material::EMPTY })
+//!     .collect();
+//! let material = MaterialGrid::new(desc, cells)?;
+//! let (sky, _) = BinLight::uniform(Vec3::ONE).split_vertical();
+//! let boundary = Boundary { sides: SideBoundary::Periodic, ..Boundary::open_sky(sky) };
+//! let mut options = SweepOptions::multi_bounce();
+//! options.outputs = options.outputs.with_horizon();
+//! let out = lightgrid_sweep_cpu::run(&material, &boundary, &options)?.output;
+//! let field = SplitLightGrid::new(out.bins.unwrap(), out.horizon.unwrap())?;
+//! let p = Vec3::new(2.0, 2.0, 2.0);
+//! let down = field.irradiance(p, Vec3::NEG_Y)?.x;
+//! assert!((down / (0.3 * std::f32::consts::PI) - 1.0).abs() < 1e-3);
+//! let even = field.bins().irradiance(p, Vec3::NEG_Y)?.x;
+//! assert!(even > 1.1 * down);
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! ## What is here
 //!
 //! * [`run`] / [`CpuSweeper`]: the sweep (implements `lightgrid_core::Sweeper`), with its
