@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use lightgrid_core::{GridFile, LightGrid};
-use lightgrid_export::{BevyVolume, Content, TexelFormat, indirect_light, write_volumes};
+use lightgrid_export::{BevyVolume, Content, TexelFormat, indirect_light_split, write_volumes};
 
 use crate::sweep::{LightArgs, SweepArgs, load_material};
 
@@ -176,7 +176,7 @@ pub(crate) fn bake(a: BakeArgs) -> Result<()> {
         a.light.sun_boundary()?
     };
     let t = Instant::now();
-    let light = indirect_light(
+    let light = indirect_light_split(
         &mut lightgrid_sweep_cpu::CpuSweeper::new(),
         &m,
         &sky_and_sun,

@@ -14,8 +14,9 @@
 //! ```
 //!
 //! `bake` sweeps a material grid and writes a Bevy irradiance volume of the indirect
-//! light (sky and scattered sun; Bevy's `DirectionalLight` adds the direct sun), `export`
-//! writes one from a light grid file as it is. Both write `<name>.dds`, `<name>.ktx2`
+//! light (sky and scattered sun; Bevy's `DirectionalLight` adds the direct sun; faces
+//! read across the horizon from the sweep's horizon halves), `export` writes one from a
+//! light grid file as it is (with `--horizon`, the halves `sweep --horizon` wrote). Both write `<name>.dds`, `<name>.ktx2`
 //! and `<name>.json` (see `lightgrid_export`).
 
 use std::path::PathBuf;

@@ -4,6 +4,9 @@
 //! Bevy (0.13 and later) lights meshes inside an `IrradianceVolume` from a 3D texture of
 //! ambient cubes, but ships no baker. This crate turns any light field — a swept
 //! [`LightGrid`], the grid hierarchy, or the indirect part of either — into that texture.
+//! Where the field keeps the sweep's horizon halves (a
+//! [`lightgrid_core::SplitLightGrid`], [`indirect_light_split`]) the faces read each
+//! horizontal bin in its two halves, exact across the horizon.
 //!
 //! ```
 //! use lightgrid_export::{BevyVolume, TexelFormat};
@@ -66,8 +69,9 @@ use std::path::{Path, PathBuf};
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
-    AmbientCube, BinLight, Boundary, GridDesc, GridError, LightField, LightGrid, MaterialGrid,
-    MaterialSource, NoScatter, SweepError, SweepOptions, Sweeper, pack,
+    AmbientCube, BinLight, Boundary, GridDesc, GridError, HorizonGrid, LightField, LightGrid,
+    MaterialGrid, MaterialSource, NoScatter, SplitLightGrid, SweepError, SweepOptions, Sweeper,
+    pack,
 };
 use serde::{Deserialize, Serialize};
 
@@ -721,25 +725,66 @@ pub fn indirect_light(
     sun: Option<&Boundary>,
     options: &SweepOptions,
 ) -> Result<LightGrid, ExportError> {
-    let mut run = |m: &MaterialGrid, b: &Boundary| -> Result<LightGrid, ExportError> {
-        sweeper
-            .sweep(m, b, options)?
-            .bins
-            .ok_or_else(|| ExportError::Invalid {
-                field: "options.outputs.bins",
-                value: "false".into(),
-                reason: "the export needs the 26 bins",
-            })
+    Ok(indirect(sweeper, material, sky_and_sun, sun, options)?.0)
+}
+
+/// [`indirect_light`] with its horizon halves (the sweeps asked for them,
+/// `Outputs::horizon`; the direct sun's halves removed with its bins), so that the
+/// volume's faces read each horizontal bin in its two halves: exact across the horizon
+/// (over a ground, facing down `a pi` where the bins alone read more). What
+/// `lightgrid bake` exports.
+pub fn indirect_light_split(
+    sweeper: &mut dyn Sweeper,
+    material: &MaterialGrid,
+    sky_and_sun: &Boundary,
+    sun: Option<&Boundary>,
+    options: &SweepOptions,
+) -> Result<SplitLightGrid, ExportError> {
+    let mut o = *options;
+    o.outputs = o.outputs.with_horizon();
+    match indirect(sweeper, material, sky_and_sun, sun, &o)? {
+        (bins, Some(halves)) => Ok(SplitLightGrid::new(bins, halves)?),
+        (_, None) => Err(ExportError::Invalid {
+            field: "options.outputs.horizon",
+            value: sweeper.name().into(),
+            reason: "this sweeper returned no horizon halves",
+        }),
+    }
+}
+
+/// The bins (and the halves, where the sweeps returned them) of [`indirect_light`].
+fn indirect(
+    sweeper: &mut dyn Sweeper,
+    material: &MaterialGrid,
+    sky_and_sun: &Boundary,
+    sun: Option<&Boundary>,
+    options: &SweepOptions,
+) -> Result<(LightGrid, Option<HorizonGrid>), ExportError> {
+    let mut run = |m: &MaterialGrid, b: &Boundary| -> Result<_, ExportError> {
+        let out = sweeper.sweep(m, b, options)?;
+        let bins = out.bins.ok_or_else(|| ExportError::Invalid {
+            field: "options.outputs.bins",
+            value: "false".into(),
+            reason: "the export needs the 26 bins",
+        })?;
+        Ok((bins, out.horizon))
     };
-    let mut full = run(material, sky_and_sun)?;
+    let (mut full, mut halves) = run(material, sky_and_sun)?;
     if let Some(sun) = sun {
         let dark = NoScatter(material).material(material.desc())?;
-        let direct = run(&dark, sun)?;
+        let (direct, direct_halves) = run(&dark, sun)?;
         for (a, b) in full.data_mut().iter_mut().zip(direct.data()) {
             *a = a.saturating_sub(b);
         }
+        if let (Some(h), Some(d)) = (halves.as_mut(), direct_halves) {
+            for ((h, d), bins) in h.data_mut().iter_mut().zip(d.data()).zip(full.data()) {
+                *h = (*h + *d * -1.0).within(bins);
+            }
+        } else {
+            halves = None;
+        }
     }
-    Ok(full)
+    Ok((full, halves))
 }
 
 fn check_stem(stem: &str) -> Result<(), ExportError> {

@@ -406,6 +406,64 @@ fn indirect_light_is_the_ground_bounce_alone() {
     }
 }
 
+/// The bake's light with its horizon halves (`indirect_light_split`): over an infinite
+/// Lambertian ground (albedo 0.3, periodic sides) under a uniform sky of radiance 1 and
+/// a zenith sun of irradiance 1 that the export leaves out, the volume's face facing up
+/// holds the sky alone (irradiance / pi = 1) and the face facing down the ground's
+/// reflection of both, `a (pi + 1) / pi`, within the texel format's rounding; the bins
+/// alone read facing down 10 % more.
+#[test]
+fn the_baked_faces_read_the_horizon_halves() {
+    use lightgrid_core::{Boundary, SideBoundary, SweepOptions, TopBoundary};
+    use lightgrid_export::{BevyVolume, TexelFormat};
+    let pi = std::f32::consts::PI;
+    let sky = lightgrid_sky::uniform_sky(Vec3::ONE).unwrap().top;
+    let sun = lightgrid_sky::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
+        .bins()
+        .unwrap();
+    let boundary = |top: BinLight| Boundary {
+        top: TopBoundary::Uniform(Box::new(top)),
+        bottom: BinLight::ZERO,
+        sides: SideBoundary::Periodic,
+    };
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 1e-7;
+    o.max_passes = 64;
+    let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
+    let a = 0.3f32;
+    let m = lightgrid_measure::exact::ground_material(1, a).unwrap();
+    let (all, sun_b) = (boundary(sky + sun), boundary(sun));
+    let split =
+        lightgrid_export::indirect_light_split(&mut cpu, &m, &all, Some(&sun_b), &o).unwrap();
+    let plain = lightgrid_export::indirect_light(&mut cpu, &m, &all, Some(&sun_b), &o).unwrap();
+    assert_eq!(split.bins(), &plain);
+    let valid = lightgrid_core::validity::valid_points(&m);
+    let d = *m.desc();
+    let v = BevyVolume::from_field_valid(&split, &d, TexelFormat::Rgb9e5, &valid).unwrap();
+    let even = BevyVolume::from_field_valid(&plain, &d, TexelFormat::Rgb9e5, &valid).unwrap();
+    let (up, down) = (2, 3);
+    let want_down = a * (pi + 1.0) / pi;
+    for j in 1..d.dims().y {
+        let p = UVec3::new(3, j, 4);
+        let face = |v: &BevyVolume, f: usize| v.texel(p, f).x * v.intensity();
+        assert!(
+            (face(&v, up) - 1.0).abs() < 1.0 / 64.0,
+            "level {j}: {}",
+            face(&v, up)
+        );
+        assert!(
+            (face(&v, down) - want_down).abs() < want_down / 64.0,
+            "level {j}: {} against {want_down}",
+            face(&v, down)
+        );
+        assert!(
+            face(&even, down) > 1.08 * want_down,
+            "level {j}: {}",
+            face(&even, down)
+        );
+    }
+}
+
 /// Bevy's lookup on a surface: a flat ground (two opaque levels) under a uniform sky,
 /// bare and under a canopy (a layer of foliage, pass-through 0.6, four to six metres up),
 /// periodic sides. Half way between the top ground point (inside) and the point above,
