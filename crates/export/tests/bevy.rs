@@ -352,6 +352,30 @@ fn the_sidecar_describes_the_files() {
     }
 }
 
+/// A sun of irradiance 1 at the zenith, as bins.
+fn zenith_sun() -> BinLight {
+    lightgrid_sky::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
+        .bins()
+        .unwrap()
+}
+
+/// `top` from above, periodic sides: with ground below, an infinite ground.
+fn periodic(top: BinLight) -> lightgrid_core::Boundary {
+    lightgrid_core::Boundary {
+        top: lightgrid_core::TopBoundary::Uniform(Box::new(top)),
+        bottom: BinLight::ZERO,
+        sides: lightgrid_core::SideBoundary::Periodic,
+    }
+}
+
+/// Passes until 1e-7 of the input waits (at most 64).
+fn converged() -> lightgrid_core::SweepOptions {
+    let mut o = lightgrid_core::SweepOptions::multi_bounce();
+    o.tolerance = 1e-7;
+    o.max_passes = 64;
+    o
+}
+
 /// An infinite Lambertian ground (one level, albedo 0.3, periodic sides) under a sun at
 /// the zenith and no sky: the sun's light travels downward only, and everything that
 /// travels upward or sideways is the ground's reflection. So the indirect light must be
@@ -360,18 +384,8 @@ fn the_sidecar_describes_the_files() {
 /// zero.
 #[test]
 fn indirect_light_is_the_ground_bounce_alone() {
-    use lightgrid_core::{Boundary, SideBoundary, SweepOptions, TopBoundary};
-    let sun = lightgrid_sky::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
-        .bins()
-        .unwrap();
-    let b = Boundary {
-        top: TopBoundary::Uniform(Box::new(sun)),
-        bottom: BinLight::ZERO,
-        sides: SideBoundary::Periodic,
-    };
-    let mut o = SweepOptions::multi_bounce();
-    o.tolerance = 1e-7;
-    o.max_passes = 64;
+    let b = periodic(zenith_sun());
+    let o = converged();
     let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     for (levels, albedo) in [(1, 0.3f32), (1, 0.9), (0, 0.3)] {
         let m = lightgrid_measure::exact::ground_material(levels, albedo).unwrap();
@@ -414,21 +428,12 @@ fn indirect_light_is_the_ground_bounce_alone() {
 /// alone read facing down 10 % more.
 #[test]
 fn the_baked_faces_read_the_horizon_halves() {
-    use lightgrid_core::{Boundary, SideBoundary, SweepOptions, TopBoundary};
     use lightgrid_export::{BevyVolume, TexelFormat};
     let pi = std::f32::consts::PI;
     let sky = lightgrid_sky::uniform_sky(Vec3::ONE).unwrap().top;
-    let sun = lightgrid_sky::Sun::at(std::f32::consts::FRAC_PI_2, 0.0, Vec3::ONE)
-        .bins()
-        .unwrap();
-    let boundary = |top: BinLight| Boundary {
-        top: TopBoundary::Uniform(Box::new(top)),
-        bottom: BinLight::ZERO,
-        sides: SideBoundary::Periodic,
-    };
-    let mut o = SweepOptions::multi_bounce();
-    o.tolerance = 1e-7;
-    o.max_passes = 64;
+    let sun = zenith_sun();
+    let boundary = periodic;
+    let o = converged();
     let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     let a = 0.3f32;
     let m = lightgrid_measure::exact::ground_material(1, a).unwrap();
