@@ -55,20 +55,21 @@ impl Boundary {
 
     /// Checks every value against `desc` (finite, not negative, right lengths).
     pub fn validate(&self, desc: &GridDesc) -> Result<(), GridError> {
-        let check = |field: String, b: &BinLight| {
+        // The field is named only for a bad value (a node's halo holds thousands).
+        let check = |field: &dyn Fn() -> String, b: &BinLight| {
             if b.is_valid() {
                 Ok(())
             } else {
                 Err(GridError::invalid(
-                    field,
+                    field(),
                     b,
                     "boundary light must be finite and >= 0",
                 ))
             }
         };
-        check("bottom".into(), &self.bottom)?;
+        check(&|| "bottom".into(), &self.bottom)?;
         match &self.top {
-            TopBoundary::Uniform(b) => check("top".into(), b.as_ref())?,
+            TopBoundary::Uniform(b) => check(&|| "top".into(), b.as_ref())?,
             TopBoundary::PerPoint(v) => {
                 if v.len() != desc.level_len() {
                     return Err(GridError::LengthMismatch {
@@ -78,7 +79,7 @@ impl Boundary {
                     });
                 }
                 for (i, b) in v.iter().enumerate() {
-                    check(format!("top[{i}]"), b)?;
+                    check(&|| format!("top[{i}]"), b)?;
                 }
             }
         }
@@ -92,7 +93,7 @@ impl Boundary {
                 });
             }
             for (i, b) in h.iter().enumerate() {
-                check(format!("sides[{i}]"), b)?;
+                check(&|| format!("sides[{i}]"), b)?;
             }
         }
         Ok(())

@@ -194,8 +194,54 @@ pub struct ComposeStats {
 /// under each column of its samples (height less the bias, colour).
 #[derive(Default)]
 struct Scratch<'a> {
-    local: Vec<&'a Placed>,
+    local: Vec<&'a Sampling<'a>>,
+    /// The local instances within reach: a cell's centre in the model's space, and
+    /// the instance's index in `local`.
+    centres: Vec<(Vec3, usize)>,
     ground: Vec<(f32, Vec3)>,
+}
+
+/// One candidate instance as a composition samples it: its model, the model-space
+/// position of a cell's centre (`to_model`), the model-space offsets of the cell's
+/// `k³` sample points from it, and the exponent that turns the model's transmittance
+/// over its voxel into the area cell's.
+struct Sampling<'a> {
+    placed: &'a Placed,
+    model: &'a MaterialGrid,
+    bounds: (Vec3, Vec3),
+    /// `inv_rot * (o - 0.5) h / scale` of each sample offset `o` (x fastest).
+    offsets: Vec<Vec3>,
+    /// Largest `|offset|` per axis: a cell whose centre lies farther than this outside
+    /// `bounds` has no sample inside the model.
+    reach: Vec3,
+    ratio: f32,
+}
+
+impl<'a> Sampling<'a> {
+    fn new(placed: &'a Placed, model: &'a MaterialGrid, h: f32, k: u32) -> Self {
+        let inv_scale = 1.0 / placed.inst.scale;
+        let offsets: Vec<Vec3> = (0..k * k * k)
+            .map(|s| {
+                let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
+                placed.inv_rot * (((o + 0.5) / k as f32 - 0.5) * h) * inv_scale
+            })
+            .collect();
+        let reach = offsets.iter().fold(Vec3::ZERO, |r, o| r.max(o.abs()));
+        Self {
+            placed,
+            model,
+            bounds: model.desc().cell_bounds(),
+            offsets,
+            reach,
+            ratio: h / (model.desc().h() * placed.inst.scale),
+        }
+    }
+
+    /// Model-space position of world point `p`.
+    #[inline]
+    fn to_model(&self, p: Vec3) -> Vec3 {
+        self.placed.inv_rot * (p - self.placed.inst.position) / self.placed.inst.scale
+    }
 }
 
 struct Placed {
@@ -387,8 +433,8 @@ impl AreaComposer {
         (cand, candidates)
     }
 
-    /// For each column of `desc` (x fastest), the candidates in `cand` whose bounds
-    /// overlap the column's `(x, z)` extent, in `cand`'s order.
+    /// For each column of `desc` (x fastest), the positions in `cand` of the candidates
+    /// whose bounds overlap the column's `(x, z)` extent, in `cand`'s order.
     fn column_candidates(&self, desc: &GridDesc, cand: &[u32]) -> Vec<Vec<u32>> {
         use rayon::prelude::*;
         let half = Vec3::splat(desc.h() * 0.5);
@@ -399,10 +445,9 @@ impl AreaComposer {
                 let q = UVec3::new((c % nx) as u32, 0, (c / nx) as u32);
                 let centre = desc.position(q);
                 let (lo, hi) = (centre - half, centre + half);
-                cand.iter()
-                    .copied()
-                    .filter(|&j| {
-                        let p = &self.placed[j as usize];
+                (0..cand.len() as u32)
+                    .filter(|&c| {
+                        let p = &self.placed[cand[c as usize] as usize];
                         p.lo.x <= hi.x && p.lo.z <= hi.z && p.hi.x >= lo.x && p.hi.z >= lo.z
                     })
                     .collect()
@@ -444,26 +489,37 @@ impl AreaComposer {
         // then tests only its column's (a 16 m node over a forest: 1–3 of its 10–20).
         let nx = desc.dims().x as usize;
         let columns = self.column_candidates(desc, &cand);
-        let model_bounds: Vec<(Vec3, Vec3)> =
-            self.models.iter().map(|m| m.desc().cell_bounds()).collect();
+        let samplings: Vec<Sampling<'_>> = cand
+            .iter()
+            .map(|&j| {
+                let placed = &self.placed[j as usize];
+                Sampling::new(placed, &self.models[placed.inst.model as usize], h, k)
+            })
+            .collect();
         cells
             .par_iter_mut()
             .enumerate()
             .for_each_init(Scratch::default, |scratch, (i, cell)| {
-                let Scratch { local, ground } = scratch;
+                let Scratch {
+                    local,
+                    centres,
+                    ground,
+                } = scratch;
                 let q = desc.coords(i).expect("index in range");
                 let centre = desc.position(q);
-                // Instances overlapping this cell (the same test as over all candidates).
+                // Instances overlapping this cell (the same test as over all candidates),
+                // whose model's box the cell's samples reach.
                 local.clear();
                 local.extend(
                     columns[q.x as usize + nx * q.z as usize]
                         .iter()
-                        .map(|&j| &self.placed[j as usize])
-                        .filter(|p| {
+                        .map(|&c| &samplings[c as usize])
+                        .filter(|sm| {
+                            let p = sm.placed;
                             p.lo.cmple(centre + half).all() && p.hi.cmpge(centre - half).all()
                         }),
                 );
-                let local: &Vec<&Placed> = local;
+                let local: &Vec<&Sampling> = local;
                 let ground_possible = ground_top.is_some_and(|top| {
                     centre.y - h * 0.5
                         <= top - self.params.ground_bias + self.params.ground_band * 0.5
@@ -493,6 +549,16 @@ impl AreaComposer {
                         ground.push((g, t.colour.at(p.x, p.z)));
                     }
                 }
+                // Each instance's cell centre in its model's space, once a cell; the
+                // samples are offsets from it. Instances out of reach are dropped.
+                centres.clear();
+                for (li, sm) in local.iter().enumerate() {
+                    let c = sm.to_model(centre);
+                    let (mlo, mhi) = sm.bounds;
+                    if (c + sm.reach).cmpge(mlo).all() && (c - sm.reach).cmple(mhi).all() {
+                        centres.push((c, li));
+                    }
+                }
                 let mut pass_sum = 0.0;
                 let mut colour_sum = Vec3::ZERO;
                 let mut block_sum = 0.0;
@@ -510,20 +576,19 @@ impl AreaComposer {
                             pass *= m_pass;
                         }
                     };
-                    for pl in local.iter() {
-                        let model = &self.models[pl.inst.model as usize];
-                        let mpos = pl.inv_rot * (p - pl.inst.position) / pl.inst.scale;
-                        let (mlo, mhi) = model_bounds[pl.inst.model as usize];
+                    for &(c, li) in centres.iter() {
+                        let sm = local[li];
+                        let mpos = c + sm.offsets[s as usize];
+                        let (mlo, mhi) = sm.bounds;
                         if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
                             continue;
                         }
-                        let m = model.sample(mpos).unwrap_or(Material::EMPTY);
+                        let m = sm.model.sample(mpos).unwrap_or(Material::EMPTY);
                         // Clear: `1^ratio` blocks nothing (skipping it is exact).
                         if m.pass >= 1.0 {
                             continue;
                         }
-                        let ratio = h / (model.desc().h() * pl.inst.scale);
-                        add(m.pass.clamp(0.0, 1.0).powf(ratio), m.reflectance);
+                        add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
                     }
                     if let Some(&(g, colour)) = ground.get((s % k + k * (s / (k * k))) as usize) {
                         let w = ((g - p.y) / self.params.ground_band + 0.5).clamp(0.0, 1.0);

@@ -75,8 +75,14 @@ impl Hierarchy {
             order.push(Want::New(key, new.len()));
             new.push(key);
         }
-        // Materials first (they size the grids the budget counts), side by side.
-        let composed: Vec<(Composed, Duration)> = new
+        // Materials first (they size the grids the budget counts), side by side; those
+        // composed in an earlier frame for nodes the budget left are kept.
+        let missing: Vec<NodeKey> = new
+            .iter()
+            .copied()
+            .filter(|k| !self.composed.contains_key(k))
+            .collect();
+        let composed: Vec<(Composed, Duration)> = missing
             .par_iter()
             .map(|&key| {
                 let mut t = Duration::ZERO;
@@ -84,11 +90,14 @@ impl Hierarchy {
                 (m, t)
             })
             .collect();
-        let mut materials = Vec::with_capacity(composed.len());
-        for (m, t) in composed {
+        for (key, (m, t)) in missing.into_iter().zip(composed) {
             stats.times.material += t;
-            materials.push(m?);
+            self.composed.insert(key, m?);
         }
+        let materials: Vec<NodeMaterial> = new
+            .iter()
+            .map(|k| self.composed.remove(k).expect("composed above or kept"))
+            .collect();
         let budget = self.params.budget_points;
         let mut jobs = Vec::new();
         for w in order {
@@ -135,7 +144,14 @@ impl Hierarchy {
                 }
             }
         }
-        self.run_jobs(jobs, &new, &materials, &mut stats.times)
+        let done = self.run_jobs(jobs, &new, &materials, &mut stats.times);
+        // The materials of nodes left for a later frame are kept for it.
+        for (key, m) in new.into_iter().zip(materials) {
+            if !self.nodes.contains_key(&key) {
+                self.composed.insert(key, m);
+            }
+        }
+        done
     }
 
     /// Whether a new node waits (its parent not built: pending) or is skipped (bare

@@ -547,6 +547,10 @@ pub struct Hierarchy {
     world: LightGrid,
     world_resident: Option<Resident>,
     nodes: HashMap<NodeKey, Node, BuildHasherDefault<KeyHasher>>,
+    /// Materials composed for wanted nodes that the budget left for a later frame,
+    /// kept until the node is built or no longer wanted ([`Hierarchy::refresh`] drops
+    /// them all: the scene may have changed).
+    composed: HashMap<NodeKey, NodeMaterial, BuildHasherDefault<KeyHasher>>,
     /// The sun kept apart (`None`: whatever sun there is lies in `sky`'s bins).
     sun: Option<SunLight>,
     world_sun: Option<GridSun>,
@@ -674,6 +678,7 @@ impl Hierarchy {
             world: LightGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE)?, BinLight::ZERO)?,
             world_resident: None,
             nodes: HashMap::default(),
+            composed: HashMap::default(),
             sun: None,
             world_sun: None,
             world_material: None,
@@ -1190,6 +1195,10 @@ impl Hierarchy {
         }
         // A depth at a time, coarse to fine (`build`: the nodes of a depth side by side).
         let wanted = self.wanted(camera);
+        // Kept materials of nodes no longer wanted go.
+        let wanted_set: std::collections::HashSet<NodeKey, BuildHasherDefault<KeyHasher>> =
+            wanted.iter().copied().collect();
+        self.composed.retain(|k, _| wanted_set.contains(k));
         for depth in wanted.chunk_by(|a, b| a.depth == b.depth) {
             self.build_depth(depth, &mut stats)?;
         }
@@ -1284,6 +1293,7 @@ impl Hierarchy {
     /// within the budget; nodes whose inputs hash as before are counted as skipped.
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
+        self.composed.clear();
         let mut stats = FrameStats::default();
         let mut keys = self.ready_nodes();
         keys.sort_by(|a, b| {

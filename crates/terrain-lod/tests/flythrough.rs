@@ -585,3 +585,80 @@ fn volume_sampler_reads_what_the_bins_give() {
     assert!(same * 10 > all * 9, "{same} of {all} as the bins give");
     assert!(read(Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
 }
+
+/// A material source that counts how often it composes each grid.
+struct Counting {
+    inner: std::sync::Arc<AreaComposer>,
+    seen: std::sync::Mutex<std::collections::HashMap<String, u32>>,
+}
+
+impl lightgrid_core::MaterialSource for Counting {
+    fn material(
+        &self,
+        desc: &lightgrid_core::GridDesc,
+    ) -> Result<lightgrid_core::MaterialGrid, lightgrid_core::GridError> {
+        *self
+            .seen
+            .lock()
+            .unwrap()
+            .entry(format!("{desc:?}"))
+            .or_default() += 1;
+        self.inner.material(desc)
+    }
+}
+
+/// A node the budget leaves for a later frame is composed once: its material is kept
+/// for the frame that builds it (before, every frame composed every wanted node again
+/// and built a few).
+#[test]
+fn nodes_left_for_later_frames_are_composed_once() {
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let counting = std::sync::Arc::new(Counting {
+        inner: composer.clone(),
+        seen: Default::default(),
+    });
+    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+    let mut p = params();
+    p.budget_points = 16 * 16 * 40; // a node or two a frame
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(counting.clone()),
+        Box::new(CpuSweeper::new()),
+        sky,
+        p,
+    )
+    .unwrap();
+    let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
+    let (mut frames, mut waited) = (0, 0);
+    loop {
+        let s = h.update(cam).unwrap();
+        assert_eq!(s.evicted, 0);
+        frames += 1;
+        if s.pending == 0 {
+            break;
+        }
+        waited += 1;
+        assert!(frames < 60, "still pending after {frames} frames: {s:?}");
+    }
+    assert!(waited >= 3, "the budget must leave nodes for later frames");
+    let seen = counting.seen.lock().unwrap();
+    let twice: Vec<_> = seen.iter().filter(|(_, n)| **n > 1).collect();
+    assert!(twice.is_empty(), "composed more than once: {twice:?}");
+    // Built at once with no budget to speak of: the same nodes.
+    let mut big = p;
+    big.budget_points = u64::MAX / 4;
+    let mut all = Hierarchy::new(
+        &hm,
+        Box::new(composer),
+        Box::new(CpuSweeper::new()),
+        sky,
+        big,
+    )
+    .unwrap();
+    all.update(cam).unwrap();
+    let (mut a, mut b) = (all.ready_nodes(), h.ready_nodes());
+    a.sort();
+    b.sort();
+    assert_eq!(a, b);
+}

@@ -16,31 +16,47 @@ impl Sources<'_> {
     /// Light of the virtual level beyond the grid (above it downward, below it upward)
     /// at column (x, z), channel `chn`.
     pub(crate) fn virtual_light(&self, x: i32, z: i32, chn: &Channel) -> Vec3 {
-        if !self.active {
-            return Vec3::ZERO;
-        }
-        channel_value(
-            virtual_level_light(self.boundary, self.up, x, z, self.dims),
-            chn,
-            false,
-        )
+        Self::value(self.virtual_bins(x, z), chn)
     }
 
     /// Light of a source point outside the grid's sides at (x, level, z).
     pub(crate) fn outside(&self, x: i32, level: i32, z: i32, chn: &Channel) -> Vec3 {
+        Self::value(self.outside_bins(x, level, z), chn)
+    }
+
+    /// The bins [`Sources::virtual_light`] reads a channel of at column (x, z), and
+    /// whether they span the full sphere (`None`: no light enters this pass).
+    pub(crate) fn virtual_bins(&self, x: i32, z: i32) -> Option<(&BinLight, bool)> {
+        self.active.then(|| {
+            (
+                virtual_level_light(self.boundary, self.up, x, z, self.dims),
+                false,
+            )
+        })
+    }
+
+    /// The bins [`Sources::outside`] reads a channel of at (x, level, z), found once for
+    /// all channels (a ring of a level is filled point by point, `Work::fill_ghost`).
+    pub(crate) fn outside_bins(&self, x: i32, level: i32, z: i32) -> Option<(&BinLight, bool)> {
         if !self.active {
-            return Vec3::ZERO;
+            return None;
         }
         match (&self.boundary.sides, &self.halo) {
             (SideBoundary::Given(h), Some(layout)) => {
                 let lv = level.clamp(0, self.dims.y as i32 - 1) as u32;
-                match layout.index(x, lv, z) {
-                    Some(i) => channel_value(&h[i], chn, true),
-                    None => Vec3::ZERO,
-                }
+                layout.index(x, lv, z).map(|i| (&h[i], true))
             }
-            _ => self.virtual_light(x, z, chn),
+            _ => self.virtual_bins(x, z),
         }
+    }
+
+    /// Channel `chn` of bins found by [`Sources::outside_bins`] or
+    /// [`Sources::virtual_bins`] (0 where none).
+    #[inline(always)]
+    pub(crate) fn value(bins: Option<(&BinLight, bool)>, chn: &Channel) -> Vec3 {
+        bins.map_or(Vec3::ZERO, |(b, full_sphere)| {
+            channel_value(b, chn, full_sphere)
+        })
     }
 }
 

@@ -341,12 +341,14 @@ impl Work {
                     continue;
                 }
                 let (xi, zi) = (x as i32, z as i32);
+                // The point's bins, found once for its channels.
+                let bins = if from_virtual && src.halo.is_none() {
+                    src.virtual_bins(xi, zi)
+                } else {
+                    src.outside_bins(xi, src_level, zi)
+                };
                 for (c, chn) in ctx.ch.iter().enumerate() {
-                    let v = if from_virtual && src.halo.is_none() {
-                        src.virtual_light(xi, zi, chn)
-                    } else {
-                        src.outside(xi, src_level, zi, chn)
-                    };
+                    let v = Sources::value(bins, chn);
                     let b = c * 3 * p + (x + pad) as usize;
                     row[b] = v.x;
                     row[b + p] = v.y;
