@@ -261,7 +261,9 @@ impl Work {
             planes: Planes::new(nx, nz, n / level_len.max(1)),
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); nz],
-            pows: vec![[1.0; MAX_EXPONENTS]; n],
+            // Written at each level's first visit (`set_up`): zeroed pages, faulted in
+            // by the threads that first write them.
+            pows: fresh_buffer(n),
             quiet: vec![false; n],
             quiet_rows: vec![false; level_len],
             set_up: vec![false; n / level_len.max(1)],
