@@ -2,7 +2,9 @@
 //! once pays. The canopy scene (32 points a side), 26 bins, 4 passes.
 //!
 //! `cargo run --release -p lightgrid-measure --example first_sweep [N]` (N points a
-//! side, default 32). Run it several times: the first sweep is once per process.
+//! side, default 32). The first sweep is once per process, so the example runs itself
+//! in 9 fresh processes, one after the other, and prints the median of their ratios
+//! (each process: its first sweep against the median of 15 recycled ones).
 
 use std::time::Instant;
 
@@ -10,11 +12,63 @@ use lightgrid_core::{SweepOptions, Sweeper};
 use lightgrid_measure::scenes::Scene;
 use lightgrid_sweep_cpu::CpuSweeper;
 
+/// Set in the child processes: measure once and print `first recycled` in seconds.
+const CHILD: &str = "LIGHTGRID_FIRST_SWEEP_CHILD";
+/// Fresh processes measured.
+const PROCESSES: usize = 9;
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n: u32 = match std::env::args().nth(1) {
         Some(s) => s.parse()?,
         None => 32,
     };
+    if std::env::var_os(CHILD).is_some() {
+        let (first, recycled) = measure(n)?;
+        println!("{first} {recycled}");
+        return Ok(());
+    }
+    let mut runs: Vec<(f64, f64)> = Vec::new();
+    for _ in 0..PROCESSES {
+        let out = std::process::Command::new(std::env::current_exe()?)
+            .arg(n.to_string())
+            .env(CHILD, "1")
+            .output()?;
+        if !out.status.success() {
+            return Err(format!(
+                "a measuring process failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+            .into());
+        }
+        let text = String::from_utf8(out.stdout)?;
+        let v: Vec<f64> = text
+            .split_whitespace()
+            .map(str::parse)
+            .collect::<Result<_, _>>()?;
+        let [first, recycled] = v[..] else {
+            return Err(format!("unexpected output from a measuring process: {text}").into());
+        };
+        runs.push((first, recycled));
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let ratios: Vec<f64> = runs.iter().map(|(f, r)| f / r).collect();
+    let (lo, hi) = ratios
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+    println!(
+        "{n}^3 canopy, 4 passes, {PROCESSES} fresh processes: first sweep {:.1} ms, recycled {:.1} ms (medians); first / recycled {:.2}x (median; {lo:.2}-{hi:.2}x)",
+        median(runs.iter().map(|r| r.0).collect()) * 1e3,
+        median(runs.iter().map(|r| r.1).collect()) * 1e3,
+        median(ratios),
+    );
+    Ok(())
+}
+
+/// This process's first sweep and the median of 15 recycled ones, in seconds.
+fn measure(n: u32) -> Result<(f64, f64), Box<dyn std::error::Error>> {
     let (m, b) = Scene::Canopy.build(n);
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 4;
@@ -33,12 +87,5 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect();
     times.sort_by(f64::total_cmp);
-    let recycled = times[times.len() / 2];
-    println!(
-        "{n}^3 canopy, 4 passes: first sweep {:.1} ms, recycled {:.1} ms (median of 15): {:.2}x",
-        first * 1e3,
-        recycled * 1e3,
-        first / recycled
-    );
-    Ok(())
+    Ok((first, times[times.len() / 2]))
 }

@@ -112,8 +112,8 @@
 //! `cargo run --release -p xtask --example forest_profile -- 16 300` (the forest;
 //! `RAYON_NUM_THREADS=1` for one thread), and `cargo xtask bench` for time against
 //! error (the forest's headline reaches 0.0160 in about 2 ms, some 400× faster than
-//! Monte Carlo to the same error). A process's first sweep also builds the profile
-//! rule's tables ([`profile`], about 66 ms once).
+//! Monte Carlo to the same error). A process's first sweep also builds the nodes of the
+//! profile rule's tables that its media read ([`profile`], about 0.2 ms a node).
 //!
 //! **Vector instructions.** The row kernels are compiled for the baseline and for
 //! x86-64-v3 and pick the widest the CPU has at run time ([`isa`];
@@ -430,8 +430,8 @@
 //!   19–20 ms, a 64³ canopy (two levels of media) at the same speed; its row kernels
 //!   carry three source coefficients per cell instead of one and solve a 3 × 3 balance
 //!   per cell and colour; the first sweep of a process computes the table nodes its
-//!   media's depths read, about 0.3 ms each (a 8³ canopy's first sweep: 5.5 ms against
-//!   2 ms after; all 1025 nodes, as the GPU's copy needs, take some 180 ms). Plain passes
+//!   media's depths read, about 0.2 ms each (all 1025 nodes, as the GPU's copy needs, take
+//!   about 0.1 s on two threads). Plain passes
 //!   converge a little slower in thick white media (uniform furnace of pass-through
 //!   0.02: 868 passes to 1e-7 against 524); [`accel`] runs it (slabs of cells of optical
 //!   depth 1, depth 10 to 1000, albedo 0.5 to 0.999: at most 30 passes to 1e-4; cells
