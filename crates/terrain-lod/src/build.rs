@@ -135,12 +135,24 @@ impl Hierarchy {
                             sun = true;
                         }
                     }
+                    // The sky sweep and the sun responses as two jobs: they read only
+                    // coarser grids and the material, so they run side by side (a depth
+                    // of three nodes keeps two threads busy). The sky's job comes first:
+                    // the results are stored in this order, the node before its sun.
                     jobs.push(Job {
                         key,
                         material: Some(i),
                         sky: true,
-                        sun,
+                        sun: false,
                     });
+                    if sun {
+                        jobs.push(Job {
+                            key,
+                            material: Some(i),
+                            sky: false,
+                            sun: true,
+                        });
+                    }
                 }
             }
         }
