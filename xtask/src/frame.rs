@@ -70,6 +70,9 @@ pub struct FrameConfig {
     pub gpu: bool,
     /// No finer grids over bare ground (`LodSkips::bare_children`, off by default).
     pub bare_skip: bool,
+    /// A frame's time budget, milliseconds (`HierarchyParams::budget_ms`; `None`: the
+    /// points budget alone).
+    pub budget_ms: Option<f32>,
     /// Where the camera flies.
     pub path: CameraPath,
     /// Metres of world around the sampled region in the reference sweep.
@@ -91,6 +94,7 @@ impl FrameConfig {
             trees: 4000,
             gpu: false,
             bare_skip: false,
+            budget_ms: None,
             path: CameraPath::Forest,
             margin: 40.0,
             out: root.join("target/bench"),
@@ -219,6 +223,8 @@ pub struct Run {
     pub mean_ms: f64,
     /// Slowest frame, milliseconds.
     pub max_ms: f64,
+    /// Frames over twice the time budget (`None`: no time budget).
+    pub over_budget: Option<usize>,
     /// Points swept per second of frame time (update and sampling).
     pub points_per_s_frame: f64,
     /// Points swept per second of sweeping time.
@@ -248,6 +254,8 @@ pub struct FrameReport {
     pub path: String,
     /// Whether the bare-ground skip was on.
     pub bare_skip: bool,
+    /// The frames' time budget, milliseconds (`None`: none).
+    pub budget_ms: Option<f32>,
     /// The reference region, points.
     pub reference_points: u64,
     /// Seconds of the reference's sky sweep.
@@ -588,6 +596,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
         ..Default::default()
     };
     p.skip.bare_children = cfg.bare_skip;
+    p.budget_ms = cfg.budget_ms;
     p
 }
 
@@ -747,6 +756,12 @@ fn run_elevation(
         load_s,
         mean_ms: total_s * 1e3 / n,
         max_ms: frames.iter().map(|r| r.ms.total).fold(0.0, f64::max),
+        over_budget: cfg.budget_ms.map(|b| {
+            frames
+                .iter()
+                .filter(|r| r.ms.total > 2.0 * b as f64)
+                .count()
+        }),
         points_per_s_frame: points as f64 / total_s.max(1e-9),
         points_per_s_sweeping: points as f64 / sweep_s.max(1e-9),
         points_per_s_kernel,
@@ -849,6 +864,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         node_points: cfg.node_points,
         path: format!("{:?}", cfg.path).to_lowercase(),
         bare_skip: cfg.bare_skip,
+        budget_ms: cfg.budget_ms,
         reference_points: desc.point_count() as u64,
         reference_sky_s,
         runs,
@@ -859,10 +875,14 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
 
 fn run_line(r: &Run) -> String {
     format!(
-        "sun {:>4.0}°: {:6.1} ms a frame (max {:6.1}), sky bias {:+6.1} % RMSE {:5.1} %, sun bias {:+6.1} % RMSE {:5.1} %, both bias {:+6.1} % RMSE {:5.1} %",
+        "sun {:>4.0}°: {:6.1} ms a frame (max {:6.1}{}), sky bias {:+6.1} % RMSE {:5.1} %, sun bias {:+6.1} % RMSE {:5.1} %, both bias {:+6.1} % RMSE {:5.1} %",
         r.elevation,
         r.mean_ms,
         r.max_ms,
+        r.over_budget.map_or(String::new(), |n| format!(
+            "; {n} of {} over twice the budget",
+            r.frames.len()
+        )),
         r.error.sky.bias * 100.0,
         r.error.sky.rmse * 100.0,
         r.error.sun.bias * 100.0,
@@ -878,11 +898,16 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes, {} path, bare-ground skip {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes, {} path, bare-ground skip {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.path,
         if report.bare_skip { "on" } else { "off" },
+        report
+            .budget_ms
+            .map_or("no time budget".to_string(), |ms| format!(
+                "time budget {ms} ms"
+            )),
         report.reference_points,
         report.reference_sky_s
     );

@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--path forest|edge]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--budget-ms MS] [--path forest|edge]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -93,6 +93,10 @@ enum Task {
         /// No finer grids over bare ground (the bare-ground skip, off by default).
         #[arg(long)]
         bare_skip: bool,
+        /// A frame's time budget in milliseconds (HierarchyParams::budget_ms; default:
+        /// none, the points budget alone).
+        #[arg(long)]
+        budget_ms: Option<f32>,
         /// The camera path: forest (inside the forest) or edge (out of it over bare
         /// ground).
         #[arg(long, default_value = "forest")]
@@ -170,6 +174,7 @@ fn main() -> ExitCode {
             elevations,
             gpu,
             bare_skip,
+            budget_ms,
             path,
             out,
         } => {
@@ -178,6 +183,7 @@ fn main() -> ExitCode {
             cfg.frames = frames;
             cfg.gpu = gpu;
             cfg.bare_skip = bare_skip;
+            cfg.budget_ms = budget_ms;
             cfg.path = path;
             if !elevations.is_empty() {
                 cfg.elevations = elevations;

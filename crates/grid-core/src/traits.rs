@@ -914,6 +914,12 @@ impl<T: LightField + ?Sized> LightField for &T {
     fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<crate::HorizonLight>, GridError> {
         (**self).horizon(p, n)
     }
+    #[allow(clippy::type_complexity)]
+    fn volume_sampler(
+        &self,
+    ) -> Option<Box<dyn Fn(Vec3) -> Result<VolumeSample, GridError> + Sync + '_>> {
+        (**self).volume_sampler()
+    }
 }
 
 /// The material grid of any box.

@@ -98,7 +98,7 @@ impl Hierarchy {
             .iter()
             .map(|k| self.composed.remove(k).expect("composed above or kept"))
             .collect();
-        let budget = self.params.budget_points;
+        let budget = self.frame_budget;
         let mut jobs = Vec::new();
         for w in order {
             match w {

@@ -10,8 +10,12 @@
 //!
 //! Each frame, [`Hierarchy::update`] decides from the camera which nodes should exist
 //! (finer near the camera), evicts far ones, and builds missing or stale ones, coarse and
-//! near first, within a budget of points swept. A node whose inputs (material, boundary
-//! light, options) hash as before is not swept again. With [`LodSkips::bare_children`]
+//! near first, within a budget of points swept (or of time,
+//! [`HierarchyParams::budget_ms`]: the points its measured rate gets through). The nodes
+//! of one depth are built side by side, each node's sky sweep and sun responses as two
+//! jobs; a wanted node the budget leaves keeps its composed material for the frame that
+//! builds it. A node whose inputs (material, boundary light, options) hash as before is
+//! not swept again. With [`LodSkips::bare_children`]
 //! (off by default: it costs accuracy at forest edges) nodes with no objects above the
 //! ground get no finer children.
 //!
@@ -144,6 +148,13 @@ pub struct HierarchyParams {
     pub evict_factor: f32,
     /// Most points swept per frame (the world grid, built at load, is not counted).
     pub budget_points: u64,
+    /// A frame's time budget, milliseconds (`None`: only `budget_points` limits a
+    /// frame). [`Hierarchy::update`] then sweeps at most the points its measured rate
+    /// (points per second of update time, averaged over the last frames; 0.2 M/s before
+    /// the first) gets through in this time, at least the largest node's and at most
+    /// `budget_points`; the rest waits for later frames ([`FrameStats::budget_points`]
+    /// says what a frame allowed itself).
+    pub budget_ms: Option<f32>,
     /// Most levels of one node grid (taller spans are cut at the top).
     pub max_levels: u32,
     /// Sweep options for every grid (`outputs.bins` is forced on: children read it).
@@ -195,6 +206,7 @@ impl Default for HierarchyParams {
             lod_factor: 1.0,
             evict_factor: 1.5,
             budget_points: 32 * 32 * 48 * 2,
+            budget_ms: None,
             max_levels: 48,
             sweep,
             skip: LodSkips::default(),
@@ -224,6 +236,11 @@ impl HierarchyParams {
     /// Horizontal size of a node at depth `d >= 1`, metres.
     pub fn node_size(&self, d: u32) -> f32 {
         self.cell(d) * self.node_points as f32
+    }
+
+    /// Points of the largest node grid (`node_points² × max_levels`).
+    fn largest_node(&self) -> u64 {
+        self.node_points as u64 * self.node_points as u64 * self.max_levels as u64
     }
 
     fn validate(&self) -> Result<(), GridError> {
@@ -279,7 +296,16 @@ impl HierarchyParams {
                 "must be in 2..=4096",
             ));
         }
-        let largest = self.node_points as u64 * self.node_points as u64 * self.max_levels as u64;
+        if let Some(ms) = self.budget_ms
+            && !(ms.is_finite() && ms > 0.0)
+        {
+            return Err(GridError::invalid(
+                "budget_ms",
+                ms,
+                "must be finite and > 0 (or None)",
+            ));
+        }
+        let largest = self.largest_node();
         if self.budget_points < largest {
             return Err(GridError::invalid(
                 "budget_points",
@@ -290,6 +316,10 @@ impl HierarchyParams {
         self.sweep.validate()
     }
 }
+
+/// Points a second a time budget assumes before the first frame has measured one
+/// ([`HierarchyParams::budget_ms`]): the 16-point forest path's rate on two cores.
+const FIRST_RATE: f64 = 200_000.0;
 
 /// Hashes node keys for the hierarchy's map: every point sampled looks up a node per
 /// depth, and std's SipHash (made for keys an attacker picks) took 3 % of the demo. A
@@ -446,6 +476,9 @@ pub struct Layer<'a> {
 pub struct FrameStats {
     /// Points swept this frame.
     pub points_swept: u64,
+    /// Most points this frame could sweep: `budget_points`, or less under a time
+    /// budget ([`HierarchyParams::budget_ms`]).
+    pub budget_points: u64,
     /// Nodes built (swept) this frame.
     pub built: u32,
     /// Nodes whose inputs were unchanged: not swept again.
@@ -551,6 +584,11 @@ pub struct Hierarchy {
     /// kept until the node is built or no longer wanted ([`Hierarchy::refresh`] drops
     /// them all: the scene may have changed).
     composed: HashMap<NodeKey, NodeMaterial, BuildHasherDefault<KeyHasher>>,
+    /// Points swept per second of [`Hierarchy::update`]'s time, averaged over the frames
+    /// that swept (for [`HierarchyParams::budget_ms`]).
+    rate: Option<f64>,
+    /// This frame's budget of points ([`FrameStats::budget_points`]).
+    frame_budget: u64,
     /// The sun kept apart (`None`: whatever sun there is lies in `sky`'s bins).
     sun: Option<SunLight>,
     world_sun: Option<GridSun>,
@@ -679,6 +717,8 @@ impl Hierarchy {
             world_resident: None,
             nodes: HashMap::default(),
             composed: HashMap::default(),
+            rate: None,
+            frame_budget: params.budget_points,
             sun: None,
             world_sun: None,
             world_material: None,
@@ -1178,7 +1218,10 @@ impl Hierarchy {
             return Err(GridError::invalid("camera", camera, "must be finite").into());
         }
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
+        let started = std::time::Instant::now();
         let mut stats = FrameStats::default();
+        self.frame_budget = self.frame_budget_points();
+        stats.budget_points = self.frame_budget;
         // Evict far nodes.
         let evict: Vec<NodeKey> = self
             .nodes
@@ -1203,6 +1246,11 @@ impl Hierarchy {
             self.build_depth(depth, &mut stats)?;
         }
         stats.sun_pending = self.sun_pending();
+        if stats.points_swept > 0 {
+            let secs = started.elapsed().as_secs_f64().max(1e-6);
+            let now = stats.points_swept as f64 / secs;
+            self.rate = Some(self.rate.map_or(now, |r| 0.5 * (r + now)));
+        }
         tracing::debug!(
             built = stats.built,
             sun_built = stats.sun_built,
@@ -1223,6 +1271,20 @@ impl Hierarchy {
         Ok(stats)
     }
 
+    /// The points a frame may sweep: `budget_points`, or under a time budget what the
+    /// measured rate gets through in it (at least the largest node's).
+    fn frame_budget_points(&self) -> u64 {
+        let p = &self.params;
+        match p.budget_ms {
+            None => p.budget_points,
+            Some(ms) => {
+                let rate = self.rate.unwrap_or(FIRST_RATE);
+                let points = (rate * ms as f64 / 1e3).min(u64::MAX as f64 / 2.0) as u64;
+                points.clamp(p.largest_node().min(p.budget_points), p.budget_points)
+            }
+        }
+    }
+
     /// Computes a ready node's sun responses if its parent's are current and the budget
     /// allows (else counts it pending).
     fn update_sun(
@@ -1233,7 +1295,7 @@ impl Hierarchy {
     ) -> Result<(), LodError> {
         let desc = *self.nodes[&key].light.desc();
         if !self.sun_parent_ready(key)
-            || stats.points_swept + desc.point_count() as u64 > self.params.budget_points
+            || stats.points_swept + desc.point_count() as u64 > self.frame_budget
         {
             stats.pending += 1;
             return Ok(());
@@ -1295,6 +1357,8 @@ impl Hierarchy {
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
         self.composed.clear();
         let mut stats = FrameStats::default();
+        self.frame_budget = self.frame_budget_points();
+        stats.budget_points = self.frame_budget;
         let mut keys = self.ready_nodes();
         keys.sort_by(|a, b| {
             a.depth.cmp(&b.depth).then(
@@ -1304,7 +1368,7 @@ impl Hierarchy {
         });
         for key in keys {
             let desc = *self.nodes[&key].light.desc();
-            if stats.points_swept + desc.point_count() as u64 > self.params.budget_points {
+            if stats.points_swept + desc.point_count() as u64 > self.frame_budget {
                 stats.pending += 1;
                 continue;
             }

@@ -561,6 +561,8 @@ fn volume_sampler_reads_what_the_bins_give() {
     .unwrap();
     h.update(cam).unwrap();
     let read = h.volume_sampler().expect("the hierarchy reduces its grids");
+    // A reference to the hierarchy reads through the same sampler.
+    assert!(LightField::volume_sampler(&&h).is_some());
     let mut rng = fastrand::Rng::with_seed(5);
     let (mut lit, mut same, mut all) = (0, 0, 0);
     for _ in 0..3000 {
@@ -661,4 +663,54 @@ fn nodes_left_for_later_frames_are_composed_once() {
     a.sort();
     b.sort();
     assert_eq!(a, b);
+}
+
+/// A time budget bounds a frame's points by the measured rate: never past
+/// `budget_points`, never below the largest node's (so a frame always gets on), and
+/// without one every frame may sweep `budget_points`. Bad budgets are refused by name.
+#[test]
+fn a_time_budget_bounds_the_points_a_frame_sweeps() {
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+    for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        let mut p = params();
+        p.budget_ms = Some(bad);
+        let e = Hierarchy::new(
+            &hm,
+            Box::new(composer.clone()),
+            Box::new(CpuSweeper::new()),
+            sky,
+            p,
+        )
+        .err()
+        .expect("refused");
+        assert!(e.to_string().contains("budget_ms"), "{e}");
+    }
+    let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
+    let largest = 16 * 16 * 40;
+    for (ms, tight) in [(None, false), (Some(1e-3), true), (Some(1e6), false)] {
+        let mut p = params();
+        p.budget_ms = ms;
+        let mut h = Hierarchy::new(
+            &hm,
+            Box::new(composer.clone()),
+            Box::new(CpuSweeper::new()),
+            sky,
+            p,
+        )
+        .unwrap();
+        for f in 0..4 {
+            let s = h.update(cam).unwrap();
+            assert!(s.points_swept <= s.budget_points, "{ms:?} frame {f}: {s:?}");
+            if tight {
+                // A microsecond: one node's allowance, and some node built each frame
+                // while any waits.
+                assert_eq!(s.budget_points, largest, "frame {f}");
+                assert!(s.points_swept > 0 || s.pending == 0, "frame {f}: {s:?}");
+            } else {
+                assert_eq!(s.budget_points, p.budget_points, "{ms:?} frame {f}");
+            }
+        }
+    }
 }
