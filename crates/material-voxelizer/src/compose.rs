@@ -559,58 +559,77 @@ impl AreaComposer {
                         centres.push((c, li));
                     }
                 }
-                let mut pass_sum = 0.0;
-                let mut colour_sum = Vec3::ZERO;
-                let mut block_sum = 0.0;
-                for s in 0..k * k * k {
-                    let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
-                    let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
-                    let mut pass = 1.0f32;
-                    let mut colour = Vec3::ZERO;
-                    let mut weight = 0.0f32;
-                    let mut add = |m_pass: f32, m_colour: Vec3| {
-                        let blocked = 1.0 - m_pass;
-                        if blocked > 0.0 {
-                            colour += m_colour * blocked;
-                            weight += blocked;
-                            pass *= m_pass;
-                        }
-                    };
-                    for &(c, li) in centres.iter() {
-                        let sm = local[li];
-                        let mpos = c + sm.offsets[s as usize];
-                        let (mlo, mhi) = sm.bounds;
-                        if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
-                            continue;
-                        }
-                        let m = sm.model.sample(mpos).unwrap_or(Material::EMPTY);
-                        // Clear: `1^ratio` blocks nothing (skipping it is exact).
-                        if m.pass >= 1.0 {
-                            continue;
-                        }
-                        add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
-                    }
-                    if let Some(&(g, colour)) = ground.get((s % k + k * (s / (k * k))) as usize) {
-                        let w = ((g - p.y) / self.params.ground_band + 0.5).clamp(0.0, 1.0);
-                        add(1.0 - w, colour);
-                    }
-                    pass_sum += pass;
-                    if weight > 0.0 {
-                        colour_sum += colour / weight * (1.0 - pass);
-                        block_sum += 1.0 - pass;
-                    }
-                }
-                let n = (k * k * k) as f32;
-                *cell = Material {
-                    reflectance: if block_sum > 0.0 {
-                        (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
-                    } else {
-                        Vec3::ZERO
-                    },
-                    pass: (pass_sum / n).clamp(0.0, 1.0),
-                };
+                *cell = sample_cell(
+                    (centre, h, k),
+                    (local, centres),
+                    ground,
+                    self.params.ground_band,
+                );
             });
         Ok((MaterialGrid::new(*desc, cells)?, stats))
+    }
+}
+
+/// A cell's material from its `k³` samples: each sample's transmittance the product of
+/// the instances' within reach (`centres`: a cell centre in a model's space and the
+/// instance's index in `local`) and the ground's band (`ground`: the height less the
+/// bias and colour under each column of samples), its colour their blocked-weighted
+/// mean; the cell the samples' mean.
+fn sample_cell(
+    (centre, h, k): (Vec3, f32, u32),
+    (local, centres): (&[&Sampling<'_>], &[(Vec3, usize)]),
+    ground: &[(f32, Vec3)],
+    ground_band: f32,
+) -> Material {
+    let mut pass_sum = 0.0;
+    let mut colour_sum = Vec3::ZERO;
+    let mut block_sum = 0.0;
+    for s in 0..k * k * k {
+        let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
+        let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
+        let mut pass = 1.0f32;
+        let mut colour = Vec3::ZERO;
+        let mut weight = 0.0f32;
+        let mut add = |m_pass: f32, m_colour: Vec3| {
+            let blocked = 1.0 - m_pass;
+            if blocked > 0.0 {
+                colour += m_colour * blocked;
+                weight += blocked;
+                pass *= m_pass;
+            }
+        };
+        for &(c, li) in centres.iter() {
+            let sm = local[li];
+            let mpos = c + sm.offsets[s as usize];
+            let (mlo, mhi) = sm.bounds;
+            if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
+                continue;
+            }
+            let m = sm.model.sample(mpos).unwrap_or(Material::EMPTY);
+            // Clear: `1^ratio` blocks nothing (skipping it is exact).
+            if m.pass >= 1.0 {
+                continue;
+            }
+            add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
+        }
+        if let Some(&(g, colour)) = ground.get((s % k + k * (s / (k * k))) as usize) {
+            let w = ((g - p.y) / ground_band + 0.5).clamp(0.0, 1.0);
+            add(1.0 - w, colour);
+        }
+        pass_sum += pass;
+        if weight > 0.0 {
+            colour_sum += colour / weight * (1.0 - pass);
+            block_sum += 1.0 - pass;
+        }
+    }
+    let n = (k * k * k) as f32;
+    Material {
+        reflectance: if block_sum > 0.0 {
+            (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
+        } else {
+            Vec3::ZERO
+        },
+        pass: (pass_sum / n).clamp(0.0, 1.0),
     }
 }
 
