@@ -98,13 +98,13 @@ impl Hierarchy {
             .iter()
             .map(|k| self.composed.remove(k).expect("composed above or kept"))
             .collect();
-        let budget = self.frame_budget;
+        let over = |swept: u64, cost: u64| self.over_budget(swept, cost);
         let mut jobs = Vec::new();
         for w in order {
             match w {
                 Want::Stale(key) => {
                     let cost = self.nodes[&key].light.desc().point_count() as u64;
-                    if !self.sun_parent_ready(key) || stats.points_swept + cost > budget {
+                    if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
                         stats.pending += 1;
                         continue;
                     }
@@ -119,7 +119,7 @@ impl Hierarchy {
                 }
                 Want::New(key, i) => {
                     let cost = materials[i].grid.desc().point_count() as u64;
-                    if stats.points_swept + cost > budget {
+                    if over(stats.points_swept, cost) {
                         stats.pending += 1;
                         continue;
                     }
@@ -127,7 +127,7 @@ impl Hierarchy {
                     stats.built += 1;
                     let mut sun = false;
                     if self.sun.is_some() {
-                        if !self.sun_parent_ready(key) || stats.points_swept + cost > budget {
+                        if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
                             stats.pending += 1;
                         } else {
                             stats.points_swept += cost;

@@ -151,9 +151,9 @@ pub struct HierarchyParams {
     /// A frame's time budget, milliseconds (`None`: only `budget_points` limits a
     /// frame). [`Hierarchy::update`] then sweeps at most the points its measured rate
     /// (points per second of update time, averaged over the last frames; 0.2 M/s before
-    /// the first) gets through in this time, at least the largest node's and at most
-    /// `budget_points`; the rest waits for later frames ([`FrameStats::budget_points`]
-    /// says what a frame allowed itself).
+    /// the first) gets through in this time, at most `budget_points`, and a frame's
+    /// first node whatever it costs (so a frame always gets on); the rest waits for
+    /// later frames ([`FrameStats::budget_points`] says what a frame allowed itself).
     pub budget_ms: Option<f32>,
     /// Most levels of one node grid (taller spans are cut at the top).
     pub max_levels: u32,
@@ -477,7 +477,8 @@ pub struct FrameStats {
     /// Points swept this frame.
     pub points_swept: u64,
     /// Most points this frame could sweep: `budget_points`, or less under a time
-    /// budget ([`HierarchyParams::budget_ms`]).
+    /// budget ([`HierarchyParams::budget_ms`], whose frames also sweep their first node
+    /// whatever it costs).
     pub budget_points: u64,
     /// Nodes built (swept) this frame.
     pub built: u32,
@@ -1271,8 +1272,15 @@ impl Hierarchy {
         Ok(stats)
     }
 
+    /// Whether `cost` more points after `swept` this frame are over its budget. Under a
+    /// time budget a frame's first job runs whatever it costs: a frame always gets on,
+    /// however small the budget.
+    pub(crate) fn over_budget(&self, swept: u64, cost: u64) -> bool {
+        swept + cost > self.frame_budget && !(self.params.budget_ms.is_some() && swept == 0)
+    }
+
     /// The points a frame may sweep: `budget_points`, or under a time budget what the
-    /// measured rate gets through in it (at least the largest node's).
+    /// measured rate gets through in it (its first node runs whatever it costs).
     fn frame_budget_points(&self) -> u64 {
         let p = &self.params;
         match p.budget_ms {
@@ -1280,7 +1288,7 @@ impl Hierarchy {
             Some(ms) => {
                 let rate = self.rate.unwrap_or(FIRST_RATE);
                 let points = (rate * ms as f64 / 1e3).min(u64::MAX as f64 / 2.0) as u64;
-                points.clamp(p.largest_node().min(p.budget_points), p.budget_points)
+                points.min(p.budget_points)
             }
         }
     }
@@ -1295,7 +1303,7 @@ impl Hierarchy {
     ) -> Result<(), LodError> {
         let desc = *self.nodes[&key].light.desc();
         if !self.sun_parent_ready(key)
-            || stats.points_swept + desc.point_count() as u64 > self.frame_budget
+            || self.over_budget(stats.points_swept, desc.point_count() as u64)
         {
             stats.pending += 1;
             return Ok(());
@@ -1368,7 +1376,7 @@ impl Hierarchy {
         });
         for key in keys {
             let desc = *self.nodes[&key].light.desc();
-            if stats.points_swept + desc.point_count() as u64 > self.frame_budget {
+            if self.over_budget(stats.points_swept, desc.point_count() as u64) {
                 stats.pending += 1;
                 continue;
             }
