@@ -1,0 +1,200 @@
+//! The hierarchy's parameters ([`HierarchyParams`]) and the work it may skip
+//! ([`LodSkips`]), with their checks and the layout they imply (cell sizes, node sizes,
+//! the lattice of a depth's points).
+
+use lightgrid_core::Heightmap;
+use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::{GridError, SweepOptions};
+
+use crate::MAX_DEPTHS;
+
+/// Parameters of the hierarchy. Start from `default()` and change fields.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HierarchyParams {
+    /// Cell size of the world grid, metres.
+    pub world_cell: f32,
+    /// Cell size of the finest node grids, metres (`world_cell / 2^k`).
+    pub finest_cell: f32,
+    /// Points across a node grid horizontally.
+    pub node_points: u32,
+    /// Height above a node's highest ground searched for objects (trees), metres; the
+    /// grid then ends two cells above the highest object found.
+    pub margin: f32,
+    /// A node is wanted while the camera is within `lod_factor × node size` of it.
+    pub lod_factor: f32,
+    /// A node is evicted once the camera is beyond `evict_factor × node size`.
+    pub evict_factor: f32,
+    /// Most points swept per frame (the world grid, built at load, is not counted).
+    pub budget_points: u64,
+    /// A frame's time budget, milliseconds (`None`: only `budget_points` limits a
+    /// frame). [`Hierarchy::update`] then sweeps at most the points its measured rate
+    /// (points per second of update time, averaged over the last frames; 0.2 M/s before
+    /// the first) gets through in this time, at most `budget_points`, and a frame's
+    /// first node whatever it costs (so a frame always gets on); the rest waits for
+    /// later frames ([`FrameStats::budget_points`] says what a frame allowed itself).
+    ///
+    /// [`Hierarchy::update`]: crate::Hierarchy::update
+    /// [`FrameStats::budget_points`]: crate::FrameStats::budget_points
+    pub budget_ms: Option<f32>,
+    /// Most levels of one node grid (taller spans are cut at the top).
+    pub max_levels: u32,
+    /// Sweep options for every grid (`outputs.bins` is forced on: children read it).
+    pub sweep: SweepOptions,
+    /// Work the hierarchy skips (see [`LodSkips`] for which are on by default).
+    pub skip: LodSkips,
+}
+
+/// Work the hierarchy skips. Each is measured (time saved) and checked (light changed
+/// within tolerance) by `cargo xtask bench`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LodSkips {
+    /// No finer grids under a node without objects (bare ground): its light is read
+    /// from the coarser grid. Off by default: on a camera path out of the forest over
+    /// bare ground (`cargo xtask frame --path edge [--bare-skip]`, 16-point nodes, sun
+    /// at 30°) it cuts the frame time by a sixth (81 → 67 ms) but adds 3.4 points of
+    /// RMSE against a full-resolution sweep (17.2 → 20.6 %) and 1.6 points of bias:
+    /// more than the sweep's own error (1.6 % on the bench forest); `cargo xtask bench`
+    /// sees 6.6 % RMS at the demo forest's edge.
+    pub bare_children: bool,
+    /// `refresh` does not sweep a node whose inputs (material, boundary, options) hash
+    /// as before.
+    pub unchanged: bool,
+    /// Nodes without objects get a single downward pass: the upward pass over bare
+    /// ground only carries ground bounce into empty air. Off by default: it changes
+    /// the light by 1.3–1.6 % RMS at the demo forest's edge (`cargo xtask bench`).
+    pub up_pass_over_bare: bool,
+}
+
+impl Default for LodSkips {
+    fn default() -> Self {
+        Self {
+            bare_children: false,
+            unchanged: true,
+            up_pass_over_bare: false,
+        }
+    }
+}
+
+impl Default for HierarchyParams {
+    fn default() -> Self {
+        let mut sweep = SweepOptions::multi_bounce();
+        sweep.max_passes = 4;
+        Self {
+            world_cell: 16.0,
+            finest_cell: 1.0,
+            node_points: 32,
+            margin: 12.0,
+            lod_factor: 1.0,
+            evict_factor: 1.5,
+            budget_points: 32 * 32 * 48 * 2,
+            budget_ms: None,
+            max_levels: 48,
+            sweep,
+            skip: LodSkips::default(),
+        }
+    }
+}
+
+impl HierarchyParams {
+    /// Node depth count: levels below the world grid (`world_cell / finest_cell = 2^k`).
+    pub fn depths(&self) -> u32 {
+        (self.world_cell / self.finest_cell).log2().round() as u32
+    }
+    /// Cell size at node depth `d` (0 = world).
+    pub fn cell(&self, d: u32) -> f32 {
+        self.world_cell / (1u32 << d) as f32
+    }
+    /// [`Hierarchy::lattice`](crate::Hierarchy::lattice) of a hierarchy over `heightmap`
+    /// with these parameters.
+    pub fn lattice(&self, heightmap: &Heightmap, d: u32) -> Vec3 {
+        let h = self.cell(d);
+        let lo = heightmap.origin + Vec2::splat(0.5 * h);
+        Vec3::new(lo.x, self.world_bottom(heightmap), lo.y)
+    }
+    /// The world grid's lowest level: two world cells below the lowest ground.
+    pub(crate) fn world_bottom(&self, heightmap: &Heightmap) -> f32 {
+        heightmap.range().0 - 2.0 * self.world_cell
+    }
+    /// Horizontal size of a node at depth `d >= 1`, metres.
+    pub fn node_size(&self, d: u32) -> f32 {
+        self.cell(d) * self.node_points as f32
+    }
+
+    /// Points of the largest node grid (`node_points² × max_levels`).
+    pub(crate) fn largest_node(&self) -> u64 {
+        self.node_points as u64 * self.node_points as u64 * self.max_levels as u64
+    }
+
+    pub(crate) fn validate(&self) -> Result<(), GridError> {
+        for (name, v) in [
+            ("world_cell", self.world_cell),
+            ("finest_cell", self.finest_cell),
+            ("lod_factor", self.lod_factor),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(GridError::invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        let ratio = self.world_cell / self.finest_cell;
+        if !(ratio >= 1.0 && (ratio.log2() - ratio.log2().round()).abs() < 1e-4) {
+            return Err(GridError::invalid(
+                "finest_cell",
+                self.finest_cell,
+                "world_cell / finest_cell must be a power of two",
+            ));
+        }
+        if ratio > (1u32 << MAX_DEPTHS) as f32 {
+            return Err(GridError::invalid(
+                "finest_cell",
+                self.finest_cell,
+                "world_cell / finest_cell must be at most 2^16 (16 depths)",
+            ));
+        }
+        if !(2..=1024).contains(&self.node_points) {
+            return Err(GridError::invalid(
+                "node_points",
+                self.node_points,
+                "must be in 2..=1024",
+            ));
+        }
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(GridError::invalid(
+                "margin",
+                self.margin,
+                "must be finite and >= 0",
+            ));
+        }
+        if !(self.evict_factor.is_finite() && self.evict_factor >= self.lod_factor) {
+            return Err(GridError::invalid(
+                "evict_factor",
+                self.evict_factor,
+                "must be finite and >= lod_factor",
+            ));
+        }
+        if !(2..=4096).contains(&self.max_levels) {
+            return Err(GridError::invalid(
+                "max_levels",
+                self.max_levels,
+                "must be in 2..=4096",
+            ));
+        }
+        if let Some(ms) = self.budget_ms
+            && !(ms.is_finite() && ms > 0.0)
+        {
+            return Err(GridError::invalid(
+                "budget_ms",
+                ms,
+                "must be finite and > 0 (or None)",
+            ));
+        }
+        let largest = self.largest_node();
+        if self.budget_points < largest {
+            return Err(GridError::invalid(
+                "budget_points",
+                self.budget_points,
+                "must cover the largest node (node_points² × max_levels), or it could never be built",
+            ));
+        }
+        self.sweep.validate()
+    }
+}
