@@ -609,6 +609,16 @@ impl lightgrid_core::MaterialSource for Counting {
     }
 }
 
+/// A hierarchy on the CPU sweeper under the tests' sky, over `source`.
+fn on_cpu(
+    hm: &Heightmap,
+    source: impl lightgrid_core::MaterialSource + Send + Sync + 'static,
+    p: HierarchyParams,
+) -> Result<Hierarchy, lightgrid_terrain_lod::LodError> {
+    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+    Hierarchy::new(hm, Box::new(source), Box::new(CpuSweeper::new()), sky, p)
+}
+
 /// A node the budget leaves for a later frame is composed once: its material is kept
 /// for the frame that builds it (before, every frame composed every wanted node again
 /// and built a few).
@@ -620,17 +630,9 @@ fn nodes_left_for_later_frames_are_composed_once() {
         inner: composer.clone(),
         seen: Default::default(),
     });
-    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let mut p = params();
     p.budget_points = 16 * 16 * 40; // a node or two a frame
-    let mut h = Hierarchy::new(
-        &hm,
-        Box::new(counting.clone()),
-        Box::new(CpuSweeper::new()),
-        sky,
-        p,
-    )
-    .unwrap();
+    let mut h = on_cpu(&hm, counting.clone(), p).unwrap();
     let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
     let (mut frames, mut waited) = (0, 0);
     loop {
@@ -650,14 +652,7 @@ fn nodes_left_for_later_frames_are_composed_once() {
     // Built at once with no budget to speak of: the same nodes.
     let mut big = p;
     big.budget_points = u64::MAX / 4;
-    let mut all = Hierarchy::new(
-        &hm,
-        Box::new(composer),
-        Box::new(CpuSweeper::new()),
-        sky,
-        big,
-    )
-    .unwrap();
+    let mut all = on_cpu(&hm, composer, big).unwrap();
     all.update(cam).unwrap();
     let (mut a, mut b) = (all.ready_nodes(), h.ready_nodes());
     a.sort();
@@ -672,33 +667,17 @@ fn nodes_left_for_later_frames_are_composed_once() {
 fn a_time_budget_bounds_the_points_a_frame_sweeps() {
     let (hm, composer) = scene();
     let composer = std::sync::Arc::new(composer);
-    let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
         let mut p = params();
         p.budget_ms = Some(bad);
-        let e = Hierarchy::new(
-            &hm,
-            Box::new(composer.clone()),
-            Box::new(CpuSweeper::new()),
-            sky,
-            p,
-        )
-        .err()
-        .expect("refused");
+        let e = on_cpu(&hm, composer.clone(), p).err().expect("refused");
         assert!(e.to_string().contains("budget_ms"), "{e}");
     }
     let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
     for (ms, tight) in [(None, false), (Some(1e-3), true), (Some(1e6), false)] {
         let mut p = params();
         p.budget_ms = ms;
-        let mut h = Hierarchy::new(
-            &hm,
-            Box::new(composer.clone()),
-            Box::new(CpuSweeper::new()),
-            sky,
-            p,
-        )
-        .unwrap();
+        let mut h = on_cpu(&hm, composer.clone(), p).unwrap();
         for f in 0..4 {
             let s = h.update(cam).unwrap();
             if tight {
