@@ -157,7 +157,7 @@ impl IrradianceTable {
     /// Nodes per side of the shared table.
     pub const SIZE: u32 = 128;
 
-    /// The shared table (built once, in about 50 ms).
+    /// The shared table (built once, in about 8 ms on two cores).
     pub fn get() -> &'static IrradianceTable {
         static T: OnceLock<IrradianceTable> = OnceLock::new();
         T.get_or_init(|| Self::build(Self::SIZE))
@@ -168,22 +168,75 @@ impl IrradianceTable {
 
     /// Tabulates the exact kernel at `size × size` normals, `size` clamped into
     /// `2..=MAX_SIZE`.
+    ///
+    /// The 26 bins and the octahedral map share the mirrors `x ↦ −x`, `z ↦ −z` and
+    /// `x ↔ z`: node `(size − 1 − i, j)` is node `(i, j)`'s normal with `x` negated, and
+    /// `(j, i)` its normal with `x` and `z` swapped. So the kernel is clipped at the
+    /// nodes of one eighth of the map (`i ≤ j ≤ (size − 1) / 2`) and every other node
+    /// takes the weights of its mirror image with the bins permuted: an eighth of the
+    /// clipping (8 ms on two cores where clipping every node took 41).
+    /// The weights equal a direct evaluation at every node to rounding
+    /// (`tests::mirrored_table_matches_direct_evaluation`).
     pub fn build(size: u32) -> Self {
         let size = size.clamp(2, Self::MAX_SIZE);
-        let omega = &dirs::bins().omega;
-        let mut weights = vec![0.0; (size * size) as usize * NUM_DIRS];
+        let s = size as usize;
+        let half = (s - 1) / 2;
+        // The canonical nodes, `i ≤ j ≤ half`, each tabulated once.
+        let canon: Vec<(usize, usize)> = (0..=half)
+            .flat_map(|j| (0..=j).map(move |i| (i, j)))
+            .collect();
+        let mut canon_w = vec![0f32; canon.len() * NUM_DIRS];
+        canon_w
+            .par_chunks_mut(NUM_DIRS)
+            .zip(&canon)
+            .for_each(|(w, &(i, j))| Self::node_weights(size, i as u32, j as u32, w));
+        let slot = |i: usize, j: usize| j * (j + 1) / 2 + i;
+        // Per mirror (bit 0: x negated, bit 1: z negated, bit 2: x and z swapped, the
+        // swap applied first): bin `d` of the mirrored normal is bin `perm[d]` of the
+        // canonical one.
+        let perms: [[usize; NUM_DIRS]; 8] = std::array::from_fn(|m| {
+            std::array::from_fn(|d| {
+                let mut v = dirs::units()[d];
+                // The inverse mirror: undo the negations, then the swap.
+                if m & 1 != 0 {
+                    v.x = -v.x;
+                }
+                if m & 2 != 0 {
+                    v.z = -v.z;
+                }
+                if m & 4 != 0 {
+                    v = Vec3::new(v.z, v.y, v.x);
+                }
+                dirs::nearest_dir(v)
+            })
+        });
+        let mut weights = vec![0.0; s * s * NUM_DIRS];
         weights
             .par_chunks_mut(NUM_DIRS)
             .enumerate()
             .for_each(|(k, w)| {
-                let (i, j) = (k as u32 % size, k as u32 / size);
-                let uv = Vec2::new(i as f32, j as f32) / (size - 1) as f32;
-                let n: DVec3 = octahedral_decode(uv).as_dvec3();
+                let (i, j) = (k % s, k / s);
+                let (fx, fz) = (i > s - 1 - i, j > s - 1 - j);
+                let (a, b) = (i.min(s - 1 - i), j.min(s - 1 - j));
+                let swap = a > b;
+                let (a, b) = if swap { (b, a) } else { (a, b) };
+                let perm = &perms[fx as usize | (fz as usize) << 1 | (swap as usize) << 2];
+                let src = &canon_w[slot(a, b) * NUM_DIRS..][..NUM_DIRS];
                 for d in 0..NUM_DIRS {
-                    w[d] = (dirs::clipped_cosine(d, -n) / omega[d]) as f32;
+                    w[d] = src[perm[d]];
                 }
             });
         Self { size, weights }
+    }
+
+    /// The exact kernel at node `(i, j)` of a `size × size` map into `w`.
+    fn node_weights(size: u32, i: u32, j: u32, w: &mut [f32]) {
+        let omega = &dirs::bins().omega;
+        let uv = Vec2::new(i as f32, j as f32) / (size - 1) as f32;
+        let n: DVec3 = octahedral_decode(uv).as_dvec3();
+        for d in 0..NUM_DIRS {
+            w[d] = (dirs::clipped_cosine(d, -n) / omega[d]) as f32;
+        }
     }
 
     /// Irradiance of `bins` on the normal `n` (any non-zero length), interpolating the
@@ -319,6 +372,30 @@ mod tests {
             let n = Vec3::new(r * phi.cos(), y, r * phi.sin());
             let back = octahedral_decode(octahedral_encode(n));
             assert!((back - n).length() < 1e-5, "{n} {back}");
+        }
+    }
+
+    /// The table built from one eighth of its nodes by the mirrors equals the kernel
+    /// clipped at every node, to rounding, at even and odd sizes.
+    #[test]
+    fn mirrored_table_matches_direct_evaluation() {
+        for size in [2u32, 3, 8, 9, 128] {
+            let t = IrradianceTable::build(size);
+            let mut w = [0f32; NUM_DIRS];
+            for j in 0..size {
+                for i in 0..size {
+                    IrradianceTable::node_weights(size, i, j, &mut w);
+                    let k = (j * size + i) as usize * NUM_DIRS;
+                    for d in 0..NUM_DIRS {
+                        let got = t.weights[k + d];
+                        assert!(
+                            (got - w[d]).abs() <= 1e-5 * w[d].abs().max(1e-3),
+                            "size {size} node ({i}, {j}) bin {d}: {got} against {}",
+                            w[d]
+                        );
+                    }
+                }
+            }
         }
     }
 
