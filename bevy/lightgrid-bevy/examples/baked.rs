@@ -1,57 +1,39 @@
 //! Loads a lightgrid export into Bevy: every volume of the sidecar becomes a
 //! `LightProbe` + `IrradianceVolume` with the sidecar's transform and intensity (the KTX2
-//! file through Bevy's own loader), and a grid of white spheres is lit by nothing else.
+//! file through Bevy's own loader, [`lightgrid_bevy::spawn_baked_volumes`]), and a grid
+//! of white spheres is lit by nothing else.
 //!
 //! ```text
-//! cargo run --release -- <sidecar.json> [screenshot.png]
+//! cargo run --release --example baked -- <sidecar.json> [screenshot.png]
 //! ```
 //!
 //! With a screenshot path it saves one frame after the textures are loaded and exits
-//! (what `examples/bevy-volume/run.sh` does under Xvfb and lavapipe); without, it stays
-//! open.
+//! (what `run.sh --baked` does under Xvfb and lavapipe); without, it stays open.
 
 use std::path::PathBuf;
 
 use bevy::core_pipeline::tonemapping::Tonemapping;
-use bevy::light::{IrradianceVolume, LightProbe};
+use bevy::light::{GlobalAmbientLight, IrradianceVolume};
 use bevy::prelude::*;
-use bevy::render::view::screenshot::{Screenshot, save_to_disk};
-use serde::Deserialize;
-
-#[derive(Deserialize)]
-struct Sidecar {
-    volumes: Vec<Volume>,
-}
-
-#[derive(Deserialize)]
-struct Volume {
-    ktx2: String,
-    transform: Xform,
-    intensity: f32,
-}
-
-#[derive(Deserialize)]
-struct Xform {
-    translation: [f32; 3],
-    rotation: [f32; 4],
-    scale: [f32; 3],
-}
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 
 #[derive(Resource)]
 struct Job {
-    sidecar: Sidecar,
+    /// The sidecar's text.
+    json: String,
+    sidecar: lightgrid_export::Sidecar,
     screenshot: Option<PathBuf>,
 }
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let Some(path) = args.next().map(PathBuf::from) else {
-        eprintln!("usage: bevy-volume <sidecar.json> [screenshot.png]");
+        eprintln!("usage: baked <sidecar.json> [screenshot.png]");
         std::process::exit(2);
     };
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
-    let sidecar: Sidecar =
+    let sidecar: lightgrid_export::Sidecar =
         serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let dir = path
         .parent()
@@ -59,12 +41,13 @@ fn main() {
         .unwrap_or_else(|| std::env::current_dir().expect("a current folder"));
     App::new()
         .insert_resource(Job {
+            json: text,
             sidecar,
             screenshot: args.next().map(PathBuf::from),
         })
         .insert_resource(ClearColor(Color::BLACK))
         // No light but the volumes.
-        .insert_resource(AmbientLight {
+        .insert_resource(GlobalAmbientLight {
             brightness: 0.0,
             ..default()
         })
@@ -95,27 +78,25 @@ fn setup(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    let mut brightest = 0.0f32;
-    for v in &job.sidecar.volumes {
-        let t = &v.transform;
-        commands.spawn((
-            LightProbe,
-            IrradianceVolume {
-                voxels: assets.load(v.ktx2.clone()),
-                intensity: v.intensity,
-                affects_lightmapped_meshes: true,
-            },
-            Transform {
-                translation: Vec3::from_array(t.translation),
-                rotation: Quat::from_array(t.rotation),
-                scale: Vec3::from_array(t.scale),
-            },
-        ));
-        brightest = brightest.max(v.intensity * 16384.0);
-    }
+    lightgrid_bevy::spawn_baked_volumes(&mut commands, &assets, &job.json, "")
+        .expect("the sidecar was read once already");
+    let brightest = job
+        .sidecar
+        .volumes
+        .iter()
+        .map(|v| v.intensity * 16384.0)
+        .fold(0.0f32, f32::max);
     // Spheres across the finest volume (the last), a quarter of its box apart.
-    let last = &job.sidecar.volumes.last().expect("at least one volume").transform;
-    let (centre, size) = (Vec3::from_array(last.translation), Vec3::from_array(last.scale));
+    let last = &job
+        .sidecar
+        .volumes
+        .last()
+        .expect("at least one volume")
+        .transform;
+    let (centre, size) = (
+        Vec3::from_array(last.translation),
+        Vec3::from_array(last.scale),
+    );
     let radius = size.x.min(size.z) / 16.0;
     let mesh = meshes.add(Sphere::new(radius).mesh().uv(32, 16));
     let white = materials.add(StandardMaterial {
@@ -127,7 +108,11 @@ fn setup(
     for i in -1..=1 {
         for k in -1..=1 {
             let p = centre + Vec3::new(i as f32 * size.x / 4.0, 0.0, k as f32 * size.z / 4.0);
-            commands.spawn((Mesh3d(mesh.clone()), MeshMaterial3d(white.clone()), Transform::from_translation(p)));
+            commands.spawn((
+                Mesh3d(mesh.clone()),
+                MeshMaterial3d(white.clone()),
+                Transform::from_translation(p),
+            ));
         }
     }
     let eye = centre + Vec3::new(0.0, size.x.min(size.z) * 0.35, size.z * 0.6);
@@ -143,14 +128,21 @@ fn setup(
     ));
 }
 
-/// Saves a screenshot once every volume texture is loaded (and a few frames more), then
-/// exits.
+/// What the screenshot found: nothing yet, a frame with nothing drawn (Bevy compiles
+/// its pipelines in the background: on a software driver the spheres can take a
+/// second to appear), or a saved frame.
+#[derive(Resource, Default, Clone)]
+struct Shot(std::sync::Arc<std::sync::Mutex<Option<bool>>>);
+
+/// Saves a screenshot once every volume texture is loaded and the spheres are drawn (a
+/// frame with no lit pixel is taken again later), then exits.
 fn shoot(
     mut commands: Commands,
     job: Res<Job>,
     assets: Res<AssetServer>,
     volumes: Query<&IrradianceVolume>,
     mut frames: Local<u32>,
+    shot: Local<Shot>,
     mut exit: MessageWriter<AppExit>,
 ) {
     let Some(path) = &job.screenshot else { return };
@@ -158,18 +150,45 @@ fn shoot(
         .iter()
         .all(|v| assets.is_loaded_with_dependencies(&v.voxels));
     if !loaded {
-        if let Some(v) = volumes.iter().find(|v| assets.load_state(&v.voxels).is_failed()) {
-            panic!("loading {:?} failed: {:?}", v.voxels.path(), assets.load_state(&v.voxels));
+        if let Some(v) = volumes
+            .iter()
+            .find(|v| assets.load_state(&v.voxels).is_failed())
+        {
+            panic!(
+                "loading {:?} failed: {:?}",
+                v.voxels.path(),
+                assets.load_state(&v.voxels)
+            );
         }
         return;
     }
     *frames += 1;
-    if *frames == 10 {
-        commands
-            .spawn(Screenshot::primary_window())
-            .observe(save_to_disk(path.clone()));
+    let seen = shot.0.lock().unwrap().take();
+    match seen {
+        Some(true) => {
+            exit.write(AppExit::Success);
+            return;
+        }
+        Some(false) | None if *frames % 30 != 10 => return,
+        _ => {}
     }
-    if *frames == 40 {
-        exit.write(AppExit::Success);
+    if *frames > 3000 {
+        panic!("nothing was drawn in {} frames", *frames);
     }
+    let (slot, path) = (shot.0.clone(), path.clone());
+    commands.spawn(Screenshot::primary_window()).observe(
+        move |captured: On<ScreenshotCaptured>| {
+            let img = captured.event().image.clone();
+            let drawn = img
+                .data
+                .as_ref()
+                .is_some_and(|d| d.chunks(4).any(|p| p[..3].iter().any(|&c| c > 0)));
+            if drawn {
+                let rgb = img.try_into_dynamic().expect("an 8-bit frame").to_rgb8();
+                rgb.save(&path).expect("writing the screenshot");
+                info!("wrote {}", path.display());
+            }
+            *slot.lock().unwrap() = Some(drawn);
+        },
+    );
 }
