@@ -353,6 +353,8 @@ pub struct LiveVolume {
     task: Option<(Daylight, Task<Result<BevyVolume, LiveError>>)>,
     /// The volume the texture holds.
     volume: Option<BevyVolume>,
+    /// The daylight whose sweep failed (not tried again until the daylight changes).
+    failed: Option<Daylight>,
 }
 
 impl LiveVolume {
@@ -364,6 +366,7 @@ impl LiveVolume {
             shown: None,
             task: None,
             volume: None,
+            failed: None,
         }
     }
     /// The daylight the texture holds, once swept.
@@ -514,7 +517,7 @@ fn start_sweeps(
         if running >= settings.0.sweeps_at_once {
             break;
         }
-        let wanted = v.shown != Some(d) && v.task.as_ref().map(|t| t.0) != Some(d);
+        let wanted = v.shown != Some(d) && v.failed != Some(d);
         if !wanted || v.task.is_some() {
             continue;
         }
@@ -564,8 +567,9 @@ fn finish_sweeps(
             Err(e) => {
                 error!("lightgrid: sweeping a live volume failed: {e}");
                 stats.dropped += 1;
-                // Not tried again until the daylight changes.
-                live.shown = Some(d);
+                // Not tried again until the daylight changes; the texture keeps the
+                // light it had.
+                live.failed = Some(d);
             }
         }
     }
@@ -681,6 +685,60 @@ mod tests {
             })
             .unwrap();
         assert!(bad.starts_with("sidecar:"), "{bad}");
+    }
+
+    /// The plugin in an app without a window: a live volume swept under one daylight is
+    /// swept again when the resource changes, and its image and intensity become the
+    /// new sweep's; unchanged daylight starts nothing.
+    #[test]
+    fn the_plugin_sweeps_again_when_the_daylight_changes() {
+        use bevy::ecs::system::RunSystemOnce;
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Image>()
+            .add_plugins(LightgridPlugin::default());
+        let first = Daylight::at(70.0, 40.0, Vec3::splat(3.0), Vec3::splat(0.3));
+        app.insert_resource(first);
+        let e = app
+            .world_mut()
+            .run_system_once(
+                move |mut commands: Commands, mut images: ResMut<Assets<Image>>| {
+                    spawn_live_volume(&mut commands, &mut images, source(), &first).unwrap()
+                },
+            )
+            .unwrap();
+        let image_data = |app: &mut App| {
+            let w = app.world();
+            let h = w.get::<IrradianceVolume>(e).unwrap().voxels.clone();
+            w.resource::<Assets<Image>>()
+                .get(&h)
+                .unwrap()
+                .data
+                .clone()
+                .unwrap()
+        };
+        let before = image_data(&mut app);
+        for _ in 0..5 {
+            app.update();
+        }
+        assert_eq!(*app.world().resource::<LiveStats>(), LiveStats::default());
+        let second = Daylight::at(12.0, 40.0, Vec3::splat(3.0), Vec3::splat(0.3));
+        app.insert_resource(second);
+        let mut frames = 0;
+        while app.world().get::<LiveVolume>(e).unwrap().shown() != Some(second) {
+            app.update();
+            frames += 1;
+            assert!(frames < 10_000, "not swept again");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let stats = *app.world().resource::<LiveStats>();
+        assert_eq!((stats.started, stats.uploaded, stats.dropped), (1, 1, 0));
+        let after = image_data(&mut app);
+        let expect = bake(&source(), &second).unwrap();
+        assert_ne!(before, after);
+        assert_eq!(after, image_of(&expect).data.unwrap());
+        let probe = app.world().get::<IrradianceVolume>(e).unwrap();
+        assert_eq!(probe.intensity, expect.intensity());
     }
 
     #[test]
