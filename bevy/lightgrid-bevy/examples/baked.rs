@@ -1,7 +1,8 @@
 //! Loads a lightgrid export into Bevy: every volume of the sidecar becomes a
 //! `LightProbe` + `IrradianceVolume` with the sidecar's transform and intensity (the KTX2
-//! file through Bevy's own loader, [`lightgrid_bevy::spawn_baked_volumes`]), and a grid
-//! of white spheres is lit by nothing else.
+//! file through Bevy's own loader: the sidecar loaded as a [`lightgrid_bevy::BakedVolumes`]
+//! asset, its probes spawned by the plugin), and a grid of white spheres is lit by
+//! nothing else.
 //!
 //! ```text
 //! cargo run --release --example baked -- <sidecar.json> [screenshot.png]
@@ -19,8 +20,8 @@ use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 
 #[derive(Resource)]
 struct Job {
-    /// The sidecar's text.
-    json: String,
+    /// The sidecar's file name (in the asset folder: its own).
+    file: String,
     sidecar: lightgrid_export::Sidecar,
     screenshot: Option<PathBuf>,
 }
@@ -41,7 +42,11 @@ fn main() {
         .unwrap_or_else(|| std::env::current_dir().expect("a current folder"));
     App::new()
         .insert_resource(Job {
-            json: text,
+            file: path
+                .file_name()
+                .expect("a file")
+                .to_string_lossy()
+                .into_owned(),
             sidecar,
             screenshot: args.next().map(PathBuf::from),
         })
@@ -66,6 +71,7 @@ fn main() {
                     ..default()
                 }),
         )
+        .add_plugins(lightgrid_bevy::LightgridPlugin::default())
         .add_systems(Startup, setup)
         .add_systems(Update, shoot)
         .run();
@@ -78,8 +84,9 @@ fn setup(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    lightgrid_bevy::spawn_baked_volumes(&mut commands, &assets, &job.json, "")
-        .expect("the sidecar was read once already");
+    // The sidecar as an asset: the plugin spawns its probes once it and its textures
+    // have loaded.
+    commands.spawn(lightgrid_bevy::BakedProbes(assets.load(job.file.clone())));
     let brightest = job
         .sidecar
         .volumes
@@ -146,9 +153,10 @@ fn shoot(
     mut exit: MessageWriter<AppExit>,
 ) {
     let Some(path) = &job.screenshot else { return };
-    let loaded = volumes
-        .iter()
-        .all(|v| assets.is_loaded_with_dependencies(&v.voxels));
+    let loaded = !volumes.is_empty()
+        && volumes
+            .iter()
+            .all(|v| assets.is_loaded_with_dependencies(&v.voxels));
     if !loaded {
         if let Some(v) = volumes
             .iter()

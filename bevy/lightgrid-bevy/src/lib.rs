@@ -7,8 +7,10 @@
 //! swept again on Bevy's async compute pool (lightgrid's CPU sweeper, the indirect light
 //! only: Bevy draws the sun itself with a `DirectionalLight`), and the finished volumes
 //! replace their textures, at most [`LightgridPlugin::uploads_per_frame`] a frame, so a
-//! sun move never stalls a frame on the sweeps. Baked volumes load too:
-//! [`spawn_baked_volumes`] turns a `lightgrid bake` sidecar into light probes.
+//! sun move never stalls a frame on the sweeps. Baked volumes load too: a `lightgrid
+//! bake` sidecar is an asset ([`BakedVolumes`], its KTX2 textures loaded with it), and an
+//! entity with [`BakedProbes`] gets its light probes once all have loaded
+//! ([`spawn_baked_volumes`] does the same from the sidecar's text, at once).
 //!
 //! ```no_run
 //! use bevy::prelude::*;
@@ -433,29 +435,126 @@ pub fn spawn_baked_volumes(
         .volumes
         .iter()
         .map(|v| {
-            let t = &v.transform;
             let path = if dir.is_empty() {
                 v.ktx2.clone()
             } else {
                 format!("{}/{}", dir.trim_end_matches('/'), v.ktx2)
             };
-            commands
-                .spawn((
-                    LightProbe,
-                    IrradianceVolume {
-                        voxels: assets.load(path),
-                        intensity: v.intensity,
-                        affects_lightmapped_meshes: true,
-                    },
-                    Transform {
-                        translation: Vec3::from_array(t.translation),
-                        rotation: Quat::from_array(t.rotation),
-                        scale: Vec3::from_array(t.scale),
-                    },
-                ))
-                .id()
+            commands.spawn(probe_of(v, assets.load(path))).id()
         })
         .collect())
+}
+
+/// A `lightgrid bake` sidecar loaded as an asset (`assets.load::<BakedVolumes>("x.json")`):
+/// the sidecar and a handle to each of its volumes' KTX2 textures, loaded with it as
+/// dependencies (file names relative to the sidecar's folder). Put a [`BakedProbes`]
+/// holding the handle on an entity and the plugin spawns the light probes once
+/// everything has loaded.
+#[derive(Asset, TypePath, Debug)]
+pub struct BakedVolumes {
+    /// The sidecar as written.
+    pub sidecar: lightgrid_export::Sidecar,
+    /// One texture a volume, in the sidecar's order.
+    pub textures: Vec<Handle<Image>>,
+}
+
+/// Loads `lightgrid bake` sidecars (`.json`) as [`BakedVolumes`].
+#[derive(Default, TypePath)]
+pub struct SidecarLoader;
+
+impl bevy::asset::AssetLoader for SidecarLoader {
+    type Asset = BakedVolumes;
+    type Settings = ();
+    type Error = LiveError;
+
+    async fn load(
+        &self,
+        reader: &mut dyn bevy::asset::io::Reader,
+        _settings: &(),
+        load_context: &mut bevy::asset::LoadContext<'_>,
+    ) -> Result<BakedVolumes, LiveError> {
+        let mut bytes = Vec::new();
+        reader
+            .read_to_end(&mut bytes)
+            .await
+            .map_err(|e| LiveError::Sidecar(e.to_string()))?;
+        let sidecar: lightgrid_export::Sidecar =
+            serde_json::from_slice(&bytes).map_err(|e| LiveError::Sidecar(e.to_string()))?;
+        let own = load_context.path().clone();
+        let textures = sidecar
+            .volumes
+            .iter()
+            .map(|v| {
+                let path = own
+                    .resolve_embed(&v.ktx2)
+                    .map_err(|e| LiveError::Sidecar(format!("{}: {e}", v.ktx2)))?;
+                Ok(load_context.load(path))
+            })
+            .collect::<Result<Vec<_>, LiveError>>()?;
+        Ok(BakedVolumes { sidecar, textures })
+    }
+
+    fn extensions(&self) -> &[&str] {
+        &["json"]
+    }
+}
+
+/// A sidecar whose volumes the plugin turns into light probes once it and its
+/// textures have loaded ([`BakedVolumes`]): each a child entity of this one with a
+/// [`LightProbe`], an [`IrradianceVolume`] and the sidecar's transform (relative to this
+/// entity's, the identity unless set: move the entity and its volumes move with it).
+#[derive(Component, Debug, Clone)]
+#[require(Transform, Visibility)]
+pub struct BakedProbes(pub Handle<BakedVolumes>);
+
+/// Marks a [`BakedProbes`] entity whose probes are spawned.
+#[derive(Component)]
+struct ProbesSpawned;
+
+/// Spawns the probes of every [`BakedProbes`] whose sidecar and textures have loaded.
+fn spawn_loaded_probes(
+    mut commands: Commands,
+    server: Res<AssetServer>,
+    baked: Res<Assets<BakedVolumes>>,
+    pending: Query<(Entity, &BakedProbes), Without<ProbesSpawned>>,
+) {
+    for (e, probes) in &pending {
+        if !server.is_loaded_with_dependencies(&probes.0) {
+            continue;
+        }
+        let Some(set) = baked.get(&probes.0) else {
+            continue;
+        };
+        commands
+            .entity(e)
+            .insert(ProbesSpawned)
+            .with_children(|parent| {
+                for (v, texture) in set.sidecar.volumes.iter().zip(&set.textures) {
+                    parent.spawn(probe_of(v, texture.clone()));
+                }
+            });
+    }
+}
+
+/// The light probe of a sidecar's volume with its texture.
+fn probe_of(
+    v: &lightgrid_export::VolumeInfo,
+    texture: Handle<Image>,
+) -> (LightProbe, IrradianceVolume, Transform) {
+    let t = &v.transform;
+    (
+        LightProbe,
+        IrradianceVolume {
+            voxels: texture,
+            intensity: v.intensity,
+            affects_lightmapped_meshes: true,
+        },
+        Transform {
+            translation: Vec3::from_array(t.translation),
+            rotation: Quat::from_array(t.rotation),
+            scale: Vec3::from_array(t.scale),
+        },
+    )
 }
 
 /// The plugin: sweeps live volumes again when [`Daylight`] changes and replaces their
@@ -498,7 +597,10 @@ impl Plugin for LightgridPlugin {
         app.insert_resource(Settings(*self))
             .init_resource::<Daylight>()
             .init_resource::<LiveStats>()
-            .add_systems(Update, (start_sweeps, finish_sweeps).chain());
+            .init_asset::<BakedVolumes>()
+            .init_asset_loader::<SidecarLoader>()
+            .add_systems(Update, (start_sweeps, finish_sweeps).chain())
+            .add_systems(Update, spawn_loaded_probes);
     }
 }
 
@@ -739,6 +841,63 @@ mod tests {
         assert_eq!(after, image_of(&expect).data.unwrap());
         let probe = app.world().get::<IrradianceVolume>(e).unwrap();
         assert_eq!(probe.intensity, expect.intensity());
+    }
+
+    /// A sidecar loaded as an asset brings its KTX2 textures as dependencies, and a
+    /// [`BakedProbes`] entity gets one probe child a volume once all have loaded: the
+    /// sidecar's intensity and transform, the texture the volume's (size and format).
+    #[test]
+    fn a_sidecar_asset_spawns_its_probes_once_loaded() {
+        use bevy::image::{CompressedImageFormats, ImageLoader};
+        let dir = std::env::temp_dir().join(format!("lightgrid-bevy-test-{}", std::process::id()));
+        let v = bake(&source(), &Daylight::default()).unwrap();
+        lightgrid_export::write_volumes(
+            &dir,
+            "tile",
+            &[v.clone(), v.clone()],
+            lightgrid_export::Content::Indirect,
+            1.0,
+            None,
+        )
+        .unwrap();
+        let mut app = App::new();
+        app.add_plugins((
+            MinimalPlugins,
+            AssetPlugin {
+                file_path: dir.to_string_lossy().into_owned(),
+                ..default()
+            },
+            bevy::image::ImagePlugin::default(),
+            LightgridPlugin::default(),
+        ))
+        // (The render plugin registers the image loader with the device's formats.)
+        .register_asset_loader(ImageLoader::new(CompressedImageFormats::NONE));
+        let handle: Handle<BakedVolumes> = app.world().resource::<AssetServer>().load("tile.json");
+        let e = app.world_mut().spawn(BakedProbes(handle)).id();
+        let mut frames = 0;
+        while app.world().get::<Children>(e).is_none() {
+            app.update();
+            frames += 1;
+            assert!(frames < 10_000, "the probes never came");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let children: Vec<Entity> = app.world().get::<Children>(e).unwrap().to_vec();
+        assert_eq!(children.len(), 2);
+        let size = v.texture_size();
+        for c in children {
+            let w = app.world();
+            let probe = w.get::<IrradianceVolume>(c).unwrap();
+            assert_eq!(probe.intensity, v.intensity());
+            let img = w.resource::<Assets<Image>>().get(&probe.voxels).unwrap();
+            let d = img.texture_descriptor.size;
+            assert_eq!(
+                (d.width, d.height, d.depth_or_array_layers),
+                (size.x, size.y, size.z)
+            );
+            assert_eq!(img.texture_descriptor.format, TextureFormat::Rgb9e5Ufloat);
+            assert_eq!(*w.get::<Transform>(c).unwrap(), transform_of(&v));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
