@@ -43,8 +43,9 @@
 //! into Bevy's with [`LiveSource::unit_scale`]): the natural input of a time-of-day
 //! system.
 //!
-//! Overlapping volumes blend as Bevy 0.18 blends light probes: a fragment reads the
-//! irradiance volumes whose boxes hold it (the plugin adds nothing of its own there).
+//! Where volumes overlap, Bevy 0.18 does not blend them: a fragment takes the first
+//! volume whose box holds it in the view's list, nearest centre first
+//! (`light_probe.wgsl`); the plugin keeps that rule and adds none of its own.
 //! Units: a texel times the volume's intensity is irradiance / π in the grid's units
 //! times [`LiveSource::unit_scale`] (Bevy's cd/m²); see `lightgrid_export::UNITS`.
 

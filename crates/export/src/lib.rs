@@ -513,7 +513,7 @@ pub struct VolumeInfo {
 }
 
 /// The sidecar file (`<name>.json`): every volume, first = coarsest (the world grid),
-/// then finer ones. Where volumes overlap, Bevy (0.17) lights a fragment from one of
+/// then finer ones. Where volumes overlap, Bevy (0.17, 0.18) lights a fragment from one of
 /// them: it sorts a view's irradiance volumes by the distance from the camera to each
 /// volume's centre, nearest first, and takes the first that contains the fragment. The
 /// viewer's near volumes are centred on the nodes around the camera, so the finer ones
