@@ -679,10 +679,12 @@ impl GpuSweeper {
     /// under the source rule, `sources`), each level's uniforms at its dynamic offset.
     fn encode_pass(&self, g: &BindGroups, ny: usize, (up, sources): (bool, bool), workgroups: u32) {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        // One compute pass for the whole sweep pass: each dispatch is a usage scope of
+        // its own, so a level's writes are visible to the next dispatch.
+        let mut cp = enc.begin_compute_pass(&Default::default());
         for li in 0..ny {
             let k = li % 2; // prev = ping[k], cur = ping[1 - k]
             let off = (li as u64 * PARAM_STRIDE) as u32;
-            let mut cp = enc.begin_compute_pass(&Default::default());
             cp.set_pipeline(&self.phase1);
             cp.set_bind_group(0, &g.phase1[k], &[off]);
             cp.dispatch_workgroups(workgroups, 1, 1);
@@ -694,6 +696,7 @@ impl GpuSweeper {
                 cp.dispatch_workgroups(workgroups, 1, 1);
             }
         }
+        drop(cp);
         self.ctx.queue.submit([enc.finish()]);
     }
 }
