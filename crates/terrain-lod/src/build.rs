@@ -72,6 +72,10 @@ impl Hierarchy {
             if self.parent_blocks(key, stats) {
                 continue;
             }
+            if !self.composed.contains_key(&key) && self.out_of_time(stats.points_swept) {
+                stats.pending += 1; // composed in a later frame
+                continue;
+            }
             order.push(Want::New(key, new.len()));
             new.push(key);
         }

@@ -295,8 +295,8 @@ pub struct FrameStats {
     /// Points swept this frame.
     pub points_swept: u64,
     /// Most points this frame could sweep: `budget_points`, or less under a time
-    /// budget ([`HierarchyParams::budget_ms`], whose frames also sweep their first node
-    /// whatever it costs).
+    /// budget ([`HierarchyParams::budget_ms`], whose frames mostly also sweep their
+    /// first node whatever it costs).
     pub budget_points: u64,
     /// Nodes built (swept) this frame.
     pub built: u32,
@@ -408,6 +408,10 @@ pub struct Hierarchy {
     rate: Option<f64>,
     /// This frame's budget of points ([`FrameStats::budget_points`]).
     frame_budget: u64,
+    /// When this frame began ([`Hierarchy::update`], [`Hierarchy::refresh`]).
+    frame_started: std::time::Instant,
+    /// Whether the last frame swept anything (see [`Hierarchy::over_budget`]).
+    last_frame_swept: bool,
     /// The sun kept apart (`None`: whatever sun there is lies in `sky`'s bins).
     sun: Option<SunLight>,
     world_sun: Option<GridSun>,
@@ -538,6 +542,8 @@ impl Hierarchy {
             composed: HashMap::default(),
             rate: None,
             frame_budget: params.budget_points,
+            frame_started: std::time::Instant::now(),
+            last_frame_swept: true,
             sun: None,
             world_sun: None,
             world_material: None,
@@ -1037,7 +1043,7 @@ impl Hierarchy {
             return Err(GridError::invalid("camera", camera, "must be finite").into());
         }
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
-        let started = std::time::Instant::now();
+        self.frame_started = std::time::Instant::now();
         let mut stats = FrameStats::default();
         self.frame_budget = self.frame_budget_points();
         stats.budget_points = self.frame_budget;
@@ -1065,8 +1071,9 @@ impl Hierarchy {
             self.build_depth(depth, &mut stats)?;
         }
         stats.sun_pending = self.sun_pending();
+        self.last_frame_swept = stats.points_swept > 0;
         if stats.points_swept > 0 {
-            let secs = started.elapsed().as_secs_f64().max(1e-6);
+            let secs = self.frame_started.elapsed().as_secs_f64().max(1e-6);
             let now = stats.points_swept as f64 / secs;
             self.rate = Some(self.rate.map_or(now, |r| 0.5 * (r + now)));
         }
@@ -1090,11 +1097,35 @@ impl Hierarchy {
         Ok(stats)
     }
 
-    /// Whether `cost` more points after `swept` this frame are over its budget. Under a
-    /// time budget a frame's first job runs whatever it costs: a frame always gets on,
-    /// however small the budget.
+    /// Whether `cost` more points after `swept` this frame are over its budget.
+    ///
+    /// Under a time budget a frame that has spent its budget after its first jobs
+    /// starts no further job (nor composes a finer depth's materials), and a
+    /// frame's first job runs whatever it costs, so that frames
+    /// get on however small the budget, with one exception: a frame that has already
+    /// spent more than half its budget before its first job (composing the materials
+    /// of new nodes: a camera's first frame composes every node of depth 1) leaves it
+    /// to the next frame, which finds the materials kept, unless the last frame swept
+    /// nothing too. (The job's cost is not predicted: a process's first sweeps run at
+    /// half the measured rate.) No two frames in a row go without a sweep while work
+    /// waits.
     pub(crate) fn over_budget(&self, swept: u64, cost: u64) -> bool {
-        swept + cost > self.frame_budget && !(self.params.budget_ms.is_some() && swept == 0)
+        let Some(ms) = self.params.budget_ms else {
+            return swept + cost > self.frame_budget;
+        };
+        if swept > 0 {
+            return swept + cost > self.frame_budget || self.out_of_time(swept);
+        }
+        let spent = self.frame_started.elapsed().as_secs_f64() * 1e3;
+        self.last_frame_swept && spent > 0.5 * ms as f64
+    }
+
+    /// Whether a frame that has swept `swept` points has spent its time budget (then it
+    /// neither composes nor sweeps anything more).
+    pub(crate) fn out_of_time(&self, swept: u64) -> bool {
+        self.params.budget_ms.is_some_and(|ms| {
+            swept > 0 && self.frame_started.elapsed().as_secs_f64() * 1e3 > ms as f64
+        })
     }
 
     /// The points a frame may sweep: `budget_points`, or under a time budget what the
@@ -1181,6 +1212,7 @@ impl Hierarchy {
     /// within the budget; nodes whose inputs hash as before are counted as skipped.
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
+        self.frame_started = std::time::Instant::now();
         self.composed.clear();
         let mut stats = FrameStats::default();
         self.frame_budget = self.frame_budget_points();
@@ -1228,6 +1260,7 @@ impl Hierarchy {
             }
         }
         stats.sun_pending = self.sun_pending();
+        self.last_frame_swept = stats.points_swept > 0;
         Ok(stats)
     }
 

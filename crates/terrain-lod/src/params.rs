@@ -30,7 +30,9 @@ pub struct HierarchyParams {
     /// frame). [`Hierarchy::update`] then sweeps at most the points its measured rate
     /// (points per second of update time, averaged over the last frames; 0.2 M/s before
     /// the first) gets through in this time, at most `budget_points`, and a frame's
-    /// first node whatever it costs (so a frame always gets on); the rest waits for
+    /// first node whatever it costs (so frames get on; a frame that spent over half
+    /// its budget composing new nodes' materials leaves its first node to the next
+    /// frame, which then builds it); the rest waits for
     /// later frames ([`FrameStats::budget_points`] says what a frame allowed itself).
     ///
     /// [`Hierarchy::update`]: crate::Hierarchy::update

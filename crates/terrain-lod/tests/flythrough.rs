@@ -661,8 +661,10 @@ fn nodes_left_for_later_frames_are_composed_once() {
 }
 
 /// A time budget bounds a frame's points by the measured rate, never past
-/// `budget_points`, and a frame always gets on (its first node runs whatever it costs);
-/// without one every frame may sweep `budget_points`. Bad budgets are refused by name.
+/// `budget_points`, and frames get on (a frame's first node runs whatever it costs,
+/// unless the frame spent its budget before it and the last frame swept: no two frames
+/// in a row go without a sweep while work waits); without one every frame may sweep
+/// `budget_points`. Bad budgets are refused by name.
 #[test]
 fn a_time_budget_bounds_the_points_a_frame_sweeps() {
     let (hm, composer) = scene();
@@ -678,18 +680,28 @@ fn a_time_budget_bounds_the_points_a_frame_sweeps() {
         let mut p = params();
         p.budget_ms = ms;
         let mut h = on_cpu(&hm, composer.clone(), p).unwrap();
-        for f in 0..4 {
+        let mut last_swept = true;
+        let mut swept_frames = 0;
+        for f in 0..6 {
             let s = h.update(cam).unwrap();
             if tight {
-                // A microsecond: no points allowed but the first node's, built each
-                // frame while any waits, and only it.
+                // A microsecond: no points allowed but the first node's, and only it;
+                // a frame after one that swept nothing builds it while any waits.
                 assert!(s.budget_points < 16 * 16, "frame {f}: {s:?}");
-                assert!(s.points_swept > 0 || s.pending == 0, "frame {f}: {s:?}");
+                assert!(
+                    s.points_swept > 0 || s.pending == 0 || last_swept,
+                    "frame {f}: {s:?}"
+                );
                 assert!(s.built + s.sun_built <= 1, "frame {f}: {s:?}");
+                last_swept = s.points_swept > 0;
+                swept_frames += usize::from(last_swept || s.pending == 0);
             } else {
                 assert!(s.points_swept <= s.budget_points, "{ms:?} frame {f}: {s:?}");
                 assert_eq!(s.budget_points, p.budget_points, "{ms:?} frame {f}");
             }
+        }
+        if tight {
+            assert!(swept_frames >= 3, "{swept_frames} of 6 frames got on");
         }
     }
 }
