@@ -1099,16 +1099,16 @@ impl Hierarchy {
 
     /// Whether `cost` more points after `swept` this frame are over its budget.
     ///
-    /// Under a time budget a frame that has spent its budget after its first jobs
-    /// starts no further job (nor composes a finer depth's materials), and a
-    /// frame's first job runs whatever it costs, so that frames
-    /// get on however small the budget, with one exception: a frame that has already
-    /// spent more than half its budget before its first job (composing the materials
-    /// of new nodes: a camera's first frame composes every node of depth 1) leaves it
-    /// to the next frame, which finds the materials kept, unless the last frame swept
-    /// nothing too. (The job's cost is not predicted: a process's first sweeps run at
-    /// half the measured rate.) No two frames in a row go without a sweep while work
-    /// waits.
+    /// Under a time budget ([`HierarchyParams::budget_ms`]):
+    /// - after the frame's first jobs, a job is over when the points budget is spent
+    ///   or the frame is past its time ([`Hierarchy::out_of_time`]);
+    /// - the frame's first job runs whatever it costs, so that frames get on however
+    ///   small the budget, unless the frame already spent half its budget before it
+    ///   (composing new nodes' materials: a camera's first frame composes every node
+    ///   of depth 1) and the last frame swept: then the job waits for the next frame,
+    ///   which finds the materials kept. No two frames in a row go without a sweep
+    ///   while work waits. (The job's time is not predicted: a process's first sweeps
+    ///   run at half the measured rate.)
     pub(crate) fn over_budget(&self, swept: u64, cost: u64) -> bool {
         let Some(ms) = self.params.budget_ms else {
             return swept + cost > self.frame_budget;
@@ -1129,7 +1129,7 @@ impl Hierarchy {
     }
 
     /// The points a frame may sweep: `budget_points`, or under a time budget what the
-    /// measured rate gets through in it (its first node runs whatever it costs).
+    /// measured rate gets through in it (its first node aside: [`Hierarchy::over_budget`]).
     fn frame_budget_points(&self) -> u64 {
         let p = &self.params;
         match p.budget_ms {
