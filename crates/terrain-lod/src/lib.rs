@@ -62,7 +62,9 @@
 //! takes the sun from its coarser grids. A node's beam is marched on beyond its box
 //! through the finest material held there (its depth's neighbours, coarser grids). The
 //! tests check that the result equals a hierarchy built under the new sun from the
-//! start.
+//! start. Under a time budget ([`HierarchyParams::budget_ms`]) the world grid's sweep
+//! for a moved sun runs on a thread while frames go on with the old sun
+//! ([`Hierarchy::sun_moving`]); `cargo xtask frame --budget-ms 30` times it.
 //!
 //! ```
 //! use lightgrid_core::glam::{Vec2, Vec3};
@@ -111,6 +113,7 @@ pub mod bake;
 mod build;
 mod params;
 mod shadow;
+mod sun_move;
 mod volume;
 
 pub use params::{HierarchyParams, LodSkips};
@@ -318,6 +321,9 @@ pub struct FrameStats {
     /// Ready nodes still without a sun response for the current sun direction (lit by
     /// coarser grids' sun meanwhile).
     pub sun_pending: u32,
+    /// This frame installed a moved sun whose world grid was swept on a thread since
+    /// [`Hierarchy::set_sun`] (the nodes' sun responses then follow within the budget).
+    pub sun_moved: bool,
     /// Where the frame's time went, by stage.
     pub times: StageTimes,
 }
@@ -417,6 +423,8 @@ pub struct Hierarchy {
     world_sun: Option<GridSun>,
     /// The world grid's material (the sun's march beyond the nodes crosses it).
     world_material: Option<MaterialGrid>,
+    /// A moved sun's world-grid responses being swept on a thread ([`sun_move`]).
+    sun_move: Option<sun_move::SunMove>,
     sky_scale: Vec3,
 }
 
@@ -547,6 +555,7 @@ impl Hierarchy {
             sun: None,
             world_sun: None,
             world_material: None,
+            sun_move: None,
             sky_scale: Vec3::ONE,
         };
         let w = params.world_cell;
@@ -594,6 +603,7 @@ impl Hierarchy {
     /// already built stay as they are. For moving the GPU sweeper onto the device a
     /// window draws with, once that device exists.
     pub fn set_sweeper(&mut self, sweeper: Box<dyn Sweeper + Send + Sync>) -> Result<(), LodError> {
+        self.poll_sun_move(true)?;
         self.sweeper = sweeper;
         self.forks.clear();
         self.sweep_world()?;
@@ -624,29 +634,51 @@ impl Hierarchy {
     /// `irradiance × T × max(0, n · s)` ([`LightField::sun_transmittance`],
     /// [`Hierarchy::sun`]).
     ///
-    /// A new direction recomputes the world grid's sun responses at once and drops the
-    /// nodes' (their points take the sun from coarser grids until [`Hierarchy::update`]
-    /// or [`Hierarchy::refresh`] recompute them, coarse and near first, within the
-    /// budget); the sky's responses stay. The same direction with another irradiance
-    /// sweeps nothing. The sweeper must take cell sources (the CPU and GPU sweepers do).
+    /// A new direction recomputes the world grid's sun responses and drops the nodes'
+    /// (their points take the sun from coarser grids until [`Hierarchy::update`] or
+    /// [`Hierarchy::refresh`] recompute them, coarse and near first, within the
+    /// budget); the sky's responses stay. Under a time budget
+    /// ([`HierarchyParams::budget_ms`]) a sun that moves is swept on a thread: the old
+    /// one stays shown until a frame finds the new one's world grid done
+    /// ([`Hierarchy::sun_moving`], [`FrameStats::sun_moved`]; the module `sun_move`);
+    /// otherwise, and for a first sun, the world grid is swept here, at once. The same
+    /// direction with another irradiance sweeps nothing. The sweeper must take cell
+    /// sources (the CPU and GPU sweepers do).
+    ///
+    /// ```no_run
+    /// # fn f(h: &mut lightgrid_terrain_lod::Hierarchy, camera: lightgrid_core::glam::Vec3)
+    /// # -> Result<(), lightgrid_terrain_lod::LodError> {
+    /// use lightgrid_core::glam::Vec3;
+    /// use lightgrid_terrain_lod::SunLight;
+    /// h.set_sun(Some(SunLight { to_sun: Vec3::new(0.3, 0.5, 0.2), irradiance: Vec3::splat(3.0) }))?;
+    /// while h.sun_moving() {
+    ///     h.update(camera)?; // frames go on with the old sun meanwhile
+    /// }
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn set_sun(&mut self, sun: Option<SunLight>) -> Result<(), LodError> {
         let Some(mut sun) = sun else {
+            // A sweep under way finishes on its thread alone; its result is dropped.
+            self.sun_move = None;
             self.sun = None;
             self.world_sun = None;
-            for n in self.nodes.values_mut() {
-                n.sun = None;
-            }
+            self.drop_node_suns();
             return Ok(());
         };
         sun.to_sun = lightgrid_core::light::check_sun(sun.to_sun, sun.irradiance)?;
         let same = self.world_sun.as_ref().map(|w| w.to_sun) == Some(sun.to_sun);
-        self.sun = Some(sun);
         if same {
+            // Back to the sun shown (a move under way is dropped), or a new irradiance.
+            self.sun_move = None;
+            self.sun = Some(sun);
             return Ok(());
         }
-        for n in self.nodes.values_mut() {
-            n.sun = None;
+        if self.move_sun_in_background(sun)? {
+            return Ok(());
         }
+        self.sun = Some(sun);
+        self.drop_node_suns();
         self.sweep_world_sun()
     }
 
@@ -1044,7 +1076,10 @@ impl Hierarchy {
         }
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
-        let mut stats = FrameStats::default();
+        let mut stats = FrameStats {
+            sun_moved: self.poll_sun_move(false)?,
+            ..FrameStats::default()
+        };
         self.frame_budget = self.frame_budget_points();
         stats.budget_points = self.frame_budget;
         // Evict far nodes.
@@ -1214,7 +1249,10 @@ impl Hierarchy {
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
         self.composed.clear();
-        let mut stats = FrameStats::default();
+        let mut stats = FrameStats {
+            sun_moved: self.poll_sun_move(false)?,
+            ..FrameStats::default()
+        };
         self.frame_budget = self.frame_budget_points();
         stats.budget_points = self.frame_budget;
         let mut keys = self.ready_nodes();

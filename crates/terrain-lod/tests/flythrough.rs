@@ -705,3 +705,104 @@ fn a_time_budget_bounds_the_points_a_frame_sweeps() {
         }
     }
 }
+
+/// Under a time budget a moved sun's world grid is swept on a thread: the old sun stays
+/// shown, whole, until a frame finds the new one done; the new one is then what a sun
+/// set at once gives, bit for bit. A sun set again meanwhile is swept after it; one set
+/// back to the sun shown drops the move.
+#[test]
+fn a_moved_sun_under_a_time_budget_is_swept_on_a_thread() {
+    use lightgrid_terrain_lod::SunLight;
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let mut p = params();
+    p.budget_ms = Some(1000.0);
+    let e = Vec3::new(3.0, 2.8, 2.5);
+    let new = |to_sun: Vec3| {
+        let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
+        let mut h = Hierarchy::new(
+            &hm,
+            Box::new(composer.clone()),
+            Box::new(CpuSweeper::new()),
+            sky,
+            p,
+        )
+        .unwrap();
+        h.set_sun(Some(SunLight {
+            to_sun,
+            irradiance: e,
+        }))
+        .unwrap();
+        assert!(!h.sun_moving(), "a first sun is swept at once");
+        h
+    };
+    let world_sun = |h: &Hierarchy| {
+        let l = &h.layers()[0];
+        let s = l.sun.as_ref().expect("the world grid always has the sun");
+        (s.scattered.clone(), s.transmittance.clone())
+    };
+    let cam = Vec3::new(560.0, hm.height_at(560.0, 540.0) + 12.0, 540.0);
+    let (s1, s2, s3) = (
+        Vec3::new(0.55, 0.6, 0.3).normalize(),
+        Vec3::new(0.3, 0.8, -0.2).normalize(),
+        Vec3::new(-0.4, 0.5, 0.1).normalize(),
+    );
+    let mut h = new(s1);
+    for _ in 0..3 {
+        h.update(cam).unwrap();
+    }
+    let old = world_sun(&h);
+    // Moved: the old sun is still the one shown.
+    h.set_sun(Some(SunLight {
+        to_sun: s2,
+        irradiance: e,
+    }))
+    .unwrap();
+    assert!(h.sun_moving());
+    assert!((h.sun().unwrap().to_sun - s1).length() < 1e-6);
+    assert!((h.sun_moving_to().unwrap().to_sun - s2).length() < 1e-6);
+    assert!(world_sun(&h) == old);
+    // Set back before it lands: the move is dropped.
+    h.set_sun(Some(SunLight {
+        to_sun: s1,
+        irradiance: e,
+    }))
+    .unwrap();
+    assert!(!h.sun_moving());
+    // Moved twice while sweeping: the last one lands.
+    h.set_sun(Some(SunLight {
+        to_sun: s2,
+        irradiance: e,
+    }))
+    .unwrap();
+    h.set_sun(Some(SunLight {
+        to_sun: s3,
+        irradiance: e,
+    }))
+    .unwrap();
+    let mut frames = 0;
+    loop {
+        let suns_before = h.layers().iter().filter(|l| l.sun.is_some()).count();
+        let s = h.update(cam).unwrap();
+        frames += 1;
+        if s.sun_moved {
+            break;
+        }
+        assert!(h.sun_moving());
+        let shown = h.sun().unwrap().to_sun;
+        assert!(
+            (shown - s1).length() < 1e-6,
+            "the old sun is shown until the new lands"
+        );
+        assert!(h.layers().iter().filter(|l| l.sun.is_some()).count() >= suns_before);
+        assert!(frames < 100_000, "the world grid's sun never landed");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert!(!h.sun_moving());
+    assert!((h.sun().unwrap().to_sun - s3).length() < 1e-6);
+    let fresh = new(s3);
+    assert!(
+        world_sun(&h) == world_sun(&fresh),
+        "the same world grid sun as a sun set at once"
+    );
+}
