@@ -697,18 +697,8 @@ impl Hierarchy {
             }
         };
         let o = self.node_options(true);
-        let boundary = SunBoundary {
-            to_sun: sun.to_sun,
-            scattered: Boundary::open_sky(BinLight::ZERO),
-            outside: &|_| 1.0,
-        };
-        let r = self.sweeper.sweep_sun(material, &boundary, &o)?;
-        self.world_sun = Some(GridSun {
-            scattered: r.scattered,
-            resident: r.resident,
-            transmittance: r.transmittance,
-            to_sun: sun.to_sun,
-        });
+        let r = sun_move::world_grid_sun(self.sweeper.as_mut(), material, sun.to_sun, &o)?;
+        self.world_sun = Some(r);
         Ok(())
     }
 

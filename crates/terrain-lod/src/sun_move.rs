@@ -18,7 +18,10 @@
 
 use std::thread::JoinHandle;
 
-use lightgrid_core::{BinLight, Boundary, MaterialGrid, SunBoundary, SunResponse, SweepError};
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::{
+    BinLight, Boundary, MaterialGrid, SunBoundary, SweepError, SweepOptions, Sweeper,
+};
 
 use crate::{GridSun, Hierarchy, LodError, SunLight};
 
@@ -26,7 +29,7 @@ use crate::{GridSun, Hierarchy, LodError, SunLight};
 pub(crate) struct SunMove {
     /// The sun they are swept for.
     sun: SunLight,
-    thread: JoinHandle<Result<SunResponse, SweepError>>,
+    thread: JoinHandle<Result<GridSun, SweepError>>,
     /// A sun set while they were swept: swept next (the last one asked for).
     next: Option<SunLight>,
 }
@@ -85,12 +88,7 @@ impl Hierarchy {
             .name("lightgrid world sun".into())
             .spawn(move || {
                 let _span = tracing::debug_span!("world sun (background)").entered();
-                let boundary = SunBoundary {
-                    to_sun,
-                    scattered: Boundary::open_sky(BinLight::ZERO),
-                    outside: &|_| 1.0,
-                };
-                let mut run = move || sweeper.sweep_sun(&material, &boundary, &options);
+                let mut run = move || world_grid_sun(sweeper.as_mut(), &material, to_sun, &options);
                 // A pool of its own (the module's docs).
                 match rayon::ThreadPoolBuilder::new()
                     .num_threads(1)
@@ -142,15 +140,9 @@ impl Hierarchy {
                     }
                 }
             }
-            let r = response?;
+            self.world_sun = Some(response?);
             self.sun = Some(m.sun);
             self.drop_node_suns();
-            self.world_sun = Some(GridSun {
-                scattered: r.scattered,
-                resident: r.resident,
-                transmittance: r.transmittance,
-                to_sun: m.sun.to_sun,
-            });
             return Ok(true);
         }
     }
@@ -161,4 +153,26 @@ impl Hierarchy {
             n.sun = None;
         }
     }
+}
+
+/// The world grid's sun responses for `to_sun`: the beam enters through its faces, no
+/// scattered light does.
+pub(crate) fn world_grid_sun(
+    sweeper: &mut dyn Sweeper,
+    material: &MaterialGrid,
+    to_sun: Vec3,
+    options: &SweepOptions,
+) -> Result<GridSun, SweepError> {
+    let boundary = SunBoundary {
+        to_sun,
+        scattered: Boundary::open_sky(BinLight::ZERO),
+        outside: &|_| 1.0,
+    };
+    let r = sweeper.sweep_sun(material, &boundary, options)?;
+    Ok(GridSun {
+        scattered: r.scattered,
+        resident: r.resident,
+        transmittance: r.transmittance,
+        to_sun,
+    })
 }
