@@ -238,8 +238,7 @@ pub struct Run {
     /// thread.
     pub sun_move_world_ms: f64,
     /// Under a time budget: frames (at the budget's pace) that showed the old sun while
-    /// the world grid's new response was swept on its thread, the longest of them
-    /// (ms), and the time from `set_sun` until the frame that found it done (ms).
+    /// the world grid's new response was swept on its thread.
     pub sun_move_wait_frames: u32,
     /// The longest of those frames (ms).
     pub sun_move_wait_max_ms: f64,
