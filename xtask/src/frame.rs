@@ -234,9 +234,11 @@ pub struct Run {
     /// points per second of sweeping.
     pub points_per_s_kernel: f64,
     /// The sun moved 20° up after the path: `Hierarchy::set_sun`'s time (ms), which
-    /// sweeps the world grid's new response unless a time budget sends that to a
-    /// thread.
+    /// re-marches every grid's transmittance (the direct sun) and sweeps the world
+    /// grid's new scattered sun unless a time budget sends that to a thread.
     pub sun_move_world_ms: f64,
+    /// Grids that show the new direct sun when `set_sun` returns (world grid and nodes).
+    pub sun_move_marched: usize,
     /// Under a time budget: frames (at the budget's pace) that showed the old sun while
     /// the world grid's new response was swept on its thread.
     pub sun_move_wait_frames: u32,
@@ -251,6 +253,16 @@ pub struct Run {
     pub sun_move_built: u32,
     /// Sun responses left for later frames.
     pub sun_move_pending: u32,
+    /// From `set_sun` to the first frame with nothing left to sweep: every wanted
+    /// node's sun response the new sun's (ms; frames at the budget's pace).
+    pub sun_move_settled_ms: f64,
+    /// Frames from `set_sun` until then.
+    pub sun_move_settled_frames: u32,
+    /// At the path's last camera (its nodes all built under the old sun first), against
+    /// the reference swept for the new sun: the hierarchy's light as `set_sun` returns.
+    pub sun_move_error_at_once: Errors,
+    /// The same once every node's sun response is the new sun's.
+    pub sun_move_error_settled: Errors,
 }
 
 /// Everything `cargo xtask frame` measured.
@@ -741,7 +753,11 @@ fn run_elevation(
         bar.inc(1);
     }
     bar.finish_and_clear();
-    // Time of day: the sun 20° higher (the sky kept: its glow moves little).
+    // Time of day: the sun 20° higher (the sky kept: its glow moves little), once the
+    // last camera's nodes are all built (the move's own effect, not the path's).
+    let cam = world.camera(cfg, cfg.frames - 1);
+    let pace = Duration::from_secs_f64(cfg.budget_ms.unwrap_or(0.0) as f64 / 1e3);
+    settle(&mut h, cam, pace)?;
     let moved = sun_dir((elevation + 20.0).min(89.0));
     let t = Instant::now();
     h.set_sun(Some(SunLight {
@@ -749,9 +765,10 @@ fn run_elevation(
         irradiance: SUN_E,
     }))?;
     let world_ms = t.elapsed().as_secs_f64() * 1e3;
+    let marched = h.layers().iter().filter(|l| l.sun.is_some()).count();
+    let end_probes = probes(world, cam);
+    let at_once = sample_parts(&mut h, &end_probes, moved)?;
     // Frames at the budget's pace until one installs the new sun (at once unbudgeted).
-    let cam = world.camera(cfg, cfg.frames - 1);
-    let pace = Duration::from_secs_f64(cfg.budget_ms.unwrap_or(0.0) as f64 / 1e3);
     let (mut wait_frames, mut wait_max_ms) = (0u32, 0.0f64);
     let (s, frame_ms) = loop {
         let f = Instant::now();
@@ -769,6 +786,19 @@ fn run_elevation(
         std::thread::sleep(pace.saturating_sub(f.elapsed()));
     };
     let landed_ms = t.elapsed().as_secs_f64() * 1e3 - frame_ms;
+    // Then until a frame finds nothing left to do (it counts).
+    let settled_frames = wait_frames + 1 + settle(&mut h, cam, pace)?;
+    let settled_ms = t.elapsed().as_secs_f64() * 1e3;
+    let settled = sample_parts(&mut h, &end_probes, moved)?;
+    reference.sweep_sun(&params, moved)?;
+    let refs = reference.sky_and_sun(&end_probes)?;
+    let error_of = |parts: &[Parts]| {
+        let mut acc = Acc3::default();
+        for (hp, r) in parts.iter().zip(&refs) {
+            acc.add(*hp, *r);
+        }
+        acc.errors()
+    };
     let points_per_s_kernel = kernel_rate(world, gpu, &h, sky_bins(to_sun)?)?;
     let n = frames.len().max(1) as f64;
     let total_s: f64 = frames.iter().map(|r| r.ms.total).sum::<f64>() / 1e3;
@@ -802,7 +832,29 @@ fn run_elevation(
         sun_move_frame_ms: frame_ms,
         sun_move_built: s.sun_built,
         sun_move_pending: s.sun_pending,
+        sun_move_marched: marched,
+        sun_move_settled_ms: settled_ms,
+        sun_move_settled_frames: settled_frames,
+        sun_move_error_at_once: error_of(&at_once),
+        sun_move_error_settled: error_of(&settled),
     })
+}
+
+/// Frames at `cam`, `pace` apart, until one finds nothing left to sweep (every wanted
+/// node built, its sun response the current sun's; ready nodes the camera no longer
+/// wants are left as they are). Returns the frames run.
+fn settle(h: &mut Hierarchy, cam: Vec3, pace: Duration) -> Result<u32> {
+    let mut frames = 0u32;
+    loop {
+        let f = Instant::now();
+        let s = h.update(cam)?;
+        frames += 1;
+        if s.points_swept == 0 && s.pending == 0 && !h.sun_moving() {
+            return Ok(frames);
+        }
+        anyhow::ensure!(frames < 100_000, "the hierarchy never settled at {cam}");
+        std::thread::sleep(pace.saturating_sub(f.elapsed()));
+    }
 }
 
 /// The sweeper's rate on the hierarchy's ready nodes, swept again in a row with
@@ -968,8 +1020,9 @@ pub fn text(report: &FrameReport) -> String {
         if r.sun_move_wait_frames > 0 || r.sun_move_world_ms < 0.5 * r.sun_move_landed_ms {
             let _ = writeln!(
                 s,
-                "  sun +20°: set_sun {:.1} ms, world grid on a thread: {} frames of the old sun (max {:.0} ms) until it landed {:.0} ms later; that frame {:.0} ms ({} sun responses, {} left)",
+                "  sun +20°: set_sun {:.1} ms (the direct sun of {} grids re-marched), the world grid's scattered sun on a thread: {} frames of the old one (max {:.0} ms) until it landed {:.0} ms later; that frame {:.0} ms ({} sun responses, {} left)",
                 r.sun_move_world_ms,
+                r.sun_move_marched,
                 r.sun_move_wait_frames,
                 r.sun_move_wait_max_ms,
                 r.sun_move_landed_ms,
@@ -980,10 +1033,27 @@ pub fn text(report: &FrameReport) -> String {
         } else {
             let _ = writeln!(
                 s,
-                "  sun +20°: world grid {:.0} ms, next frame {:.0} ms ({} sun responses, {} left)",
-                r.sun_move_world_ms, r.sun_move_frame_ms, r.sun_move_built, r.sun_move_pending
+                "  sun +20°: set_sun {:.0} ms (the direct sun of {} grids re-marched, the world grid's scattered sun swept), next frame {:.0} ms ({} sun responses, {} left)",
+                r.sun_move_world_ms,
+                r.sun_move_marched,
+                r.sun_move_frame_ms,
+                r.sun_move_built,
+                r.sun_move_pending
             );
         }
+        let (a, b) = (&r.sun_move_error_at_once, &r.sun_move_error_settled);
+        let _ = writeln!(
+            s,
+            "  every wanted node's sun the new one {:.0} ms after set_sun ({} frames); RMSE % at the last camera against the reference for the new sun, as set_sun returns / settled: direct sun {:.1} / {:.1}, sun {:.1} / {:.1}, both {:.1} / {:.1}",
+            r.sun_move_settled_ms,
+            r.sun_move_settled_frames,
+            100.0 * a.direct.rmse,
+            100.0 * b.direct.rmse,
+            100.0 * a.sun.rmse,
+            100.0 * b.sun.rmse,
+            100.0 * a.both.rmse,
+            100.0 * b.both.rmse,
+        );
         let _ = writeln!(
             s,
             "  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE % | direct sun bias / RMSE %"

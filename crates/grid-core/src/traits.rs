@@ -534,6 +534,22 @@ pub trait Sweeper {
             "this sweeper cannot keep the sun apart from the sky",
         )))
     }
+    /// The sun's transmittance alone: [`SunResponse::transmittance`] of
+    /// [`Sweeper::sweep_sun`] for the same `material` and `sun` (bit for bit), without
+    /// the scattered light's sweep (`sun.scattered` is read only for its sides:
+    /// periodic sides make the march wrap). A moved sun's direct light is re-marched with
+    /// it at once while its scattered light follows. The default runs the whole
+    /// [`Sweeper::sweep_sun`] and keeps the transmittance; `lightgrid_sweep_cpu::sun::transmittance`
+    /// is the march the CPU and GPU sweepers run instead.
+    fn sun_transmittance(
+        &mut self,
+        material: &MaterialGrid,
+        sun: &SunBoundary<'_>,
+    ) -> Result<Grid<f32>, SweepError> {
+        Ok(self
+            .sweep_sun(material, sun, &SweepOptions::single_pass())?
+            .transmittance)
+    }
 }
 
 /// What a sweeper needs to compute the sun's two responses in one grid

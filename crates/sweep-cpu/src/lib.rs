@@ -759,4 +759,11 @@ impl Sweeper for CpuSweeper {
     ) -> Result<lightgrid_core::SunResponse, SweepError> {
         sun::sweep_sun(self, material, sun, options)
     }
+    fn sun_transmittance(
+        &mut self,
+        material: &MaterialGrid,
+        sun: &lightgrid_core::SunBoundary<'_>,
+    ) -> Result<lightgrid_core::Grid<f32>, SweepError> {
+        Ok(sun::transmittance(material, sun)?)
+    }
 }

@@ -418,7 +418,7 @@ pub fn sweep_sun(
     options: &lightgrid_core::SweepOptions,
 ) -> Result<lightgrid_core::SunResponse, lightgrid_core::SweepError> {
     let periodic = matches!(sun.scattered.sides, lightgrid_core::SideBoundary::Periodic);
-    let t = SunTransmittance::march(material, sun.to_sun, periodic, sun.outside)?;
+    let t = transmittance(material, sun)?;
     let mut o = *options;
     o.outputs = lightgrid_core::Outputs::ALL;
     let out = if sun_direction(sun.to_sun)?.is_some() {
@@ -429,10 +429,23 @@ pub fn sweep_sun(
     };
     Ok(lightgrid_core::SunResponse {
         scattered: out.bins.expect("bins asked for"),
-        transmittance: lightgrid_core::Grid::from_trusted(t.desc, t.values),
+        transmittance: t,
         stats: out.stats,
         resident: out.resident,
     })
+}
+
+/// The transmittance part of [`sweep_sun`] alone
+/// ([`lightgrid_core::Sweeper::sun_transmittance`] of the CPU and GPU sweepers): the
+/// exact march, wrapping when `sun.scattered` has periodic sides, `sun.outside` beyond
+/// the box.
+pub fn transmittance(
+    material: &MaterialGrid,
+    sun: &lightgrid_core::SunBoundary<'_>,
+) -> Result<lightgrid_core::Grid<f32>, GridError> {
+    let periodic = matches!(sun.scattered.sides, lightgrid_core::SideBoundary::Periodic);
+    let t = SunTransmittance::march(material, sun.to_sun, periodic, sun.outside)?;
+    Ok(lightgrid_core::Grid::from_trusted(t.desc, t.values))
 }
 
 /// Bilinear read of a level (`nx × nz`, x fastest) at `(x, z)` inside its point range.
@@ -634,6 +647,64 @@ mod tests {
             for (x, y) in a.values().iter().zip(b.values()) {
                 prop_assert!((x - y).abs() <= 1e-5, "{x} vs {y}");
             }
+        }
+
+        /// The transmittance alone (`Sweeper::sun_transmittance`: the CPU sweeper's
+        /// march, and the trait's default, which runs the whole `sweep_sun`) is
+        /// `sweep_sun`'s, bit for bit, with open and periodic sides and light outside.
+        #[test]
+        fn transmittance_alone_is_sweep_suns(
+            m in random_grid(),
+            sun in (-1.0f32..1.0, -0.3f32..1.0, -1.0f32..1.0),
+            periodic in any::<bool>(),
+            o in 0.0f32..=1.0,
+        ) {
+            use lightgrid_core::{BinLight, Boundary, SideBoundary, SunBoundary, SweepOptions, Sweeper};
+            let to_sun = Vec3::new(sun.0, sun.1, sun.2);
+            prop_assume!(to_sun.length() > 1e-3);
+            let mut scattered = Boundary::open_sky(BinLight::ZERO);
+            if periodic {
+                scattered.sides = SideBoundary::Periodic;
+            }
+            let outside = move |p: Vec3| o * (0.5 + 0.5 * (p.x * 0.7).sin().abs());
+            let b = SunBoundary { to_sun, scattered, outside: &outside };
+            let mut cpu = crate::CpuSweeper::new();
+            let whole = cpu.sweep_sun(&m, &b, &SweepOptions::single_pass()).unwrap();
+            prop_assert!(cpu.sun_transmittance(&m, &b).unwrap() == whole.transmittance);
+            /// A sweeper with `sweep_sun` only: the trait's default.
+            struct Plain(crate::CpuSweeper);
+            impl Sweeper for Plain {
+                fn name(&self) -> &'static str {
+                    "plain"
+                }
+                fn sweep(
+                    &mut self,
+                    m: &MaterialGrid,
+                    b: &Boundary,
+                    o: &SweepOptions,
+                ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
+                    self.0.sweep(m, b, o)
+                }
+                fn sweep_with_source(
+                    &mut self,
+                    m: &MaterialGrid,
+                    b: &Boundary,
+                    s: &lightgrid_core::CellSource,
+                    o: &SweepOptions,
+                ) -> Result<lightgrid_core::SweepOutput, lightgrid_core::SweepError> {
+                    self.0.sweep_with_source(m, b, s, o)
+                }
+                fn sweep_sun(
+                    &mut self,
+                    m: &MaterialGrid,
+                    s: &SunBoundary<'_>,
+                    o: &SweepOptions,
+                ) -> Result<lightgrid_core::SunResponse, lightgrid_core::SweepError> {
+                    super::sweep_sun(self, m, s, o)
+                }
+            }
+            let plain = Plain(crate::CpuSweeper::new()).sun_transmittance(&m, &b).unwrap();
+            prop_assert!(plain == whole.transmittance);
         }
 
         /// Values lie in [0, 1], scale with what arrives from outside (linearity), and

@@ -874,6 +874,13 @@ macro_rules! gpu_sweeper_impl {
             ) -> Result<lightgrid_core::SunResponse, SweepError> {
                 lightgrid_sweep_cpu::sun::sweep_sun(self, material, sun, options)
             }
+            fn sun_transmittance(
+                &mut self,
+                material: &MaterialGrid,
+                sun: &lightgrid_core::SunBoundary<'_>,
+            ) -> Result<lightgrid_core::Grid<f32>, SweepError> {
+                Ok(lightgrid_sweep_cpu::sun::transmittance(material, sun)?)
+            }
         }
     };
 }

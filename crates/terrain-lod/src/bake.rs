@@ -392,6 +392,7 @@ impl WorldBake {
                 resident: None,
                 transmittance: b.transmittance.clone(),
                 to_sun: b.to_sun,
+                marched_to: b.to_sun,
             })),
             (Some(s), _) => {
                 Err(

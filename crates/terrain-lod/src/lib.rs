@@ -56,14 +56,18 @@
 //! (`Sweeper::sweep_sun`; 312 + 312 + 4 bytes a point as `f32`; every grid also keeps
 //! the material it was swept with, [`BYTES_MATERIAL`] a point). Sky and sun colours
 //! multiply ([`Hierarchy::set_sky_scale`], [`SunLight::irradiance`]); a new direction
-//! recomputes the sun's responses only, the world grid's at once and the nodes' coarse
-//! and near first within the budget (each costs a node's points, and its parent's must
-//! be current; from the kept material, composed again for nothing); meanwhile a node
-//! takes the sun from its coarser grids. A node's beam is marched on beyond its box
-//! through the finest material held there (its depth's neighbours, coarser grids). The
-//! tests check that the result equals a hierarchy built under the new sun from the
-//! start. Under a time budget ([`HierarchyParams::budget_ms`]) the world grid's sweep
-//! for a moved sun runs on a thread while frames go on with the old sun
+//! recomputes the sun's responses only. Every grid's transmittance is marched again at
+//! once, in `set_sun` (the direct sun and its shadows move in the call: tens of
+//! milliseconds for the whole hierarchy); the scattered sun follows, the world grid's
+//! at once and the nodes' coarse and near first within the budget (each costs a node's
+//! points, and its parent's must be current; from the kept material, composed again for
+//! nothing); meanwhile a node shows its earlier direction's scattered sun. A node's beam
+//! is marched on beyond its box through the finest material held there (its depth's
+//! neighbours, coarser grids). The tests check that the transmittance marched in
+//! `set_sun`, and everything once the nodes are swept again, equal a hierarchy built
+//! under the new sun from the start. Under a time budget
+//! ([`HierarchyParams::budget_ms`]) the world grid's scattered-sun sweep for a moved sun
+//! runs on a thread while frames go on with the old scattered sun
 //! ([`Hierarchy::sun_moving`]); `cargo xtask frame --budget-ms 30` times it.
 //!
 //! ```
@@ -197,13 +201,16 @@ pub struct SunLight {
     pub irradiance: Vec3,
 }
 
-/// A grid's sun responses for unit sun irradiance, computed for `to_sun`.
+/// A grid's sun responses for unit sun irradiance: the scattered light swept for
+/// `to_sun`, the transmittance marched for `marched_to` (the same but while a moved
+/// sun's scattered light follows its direct light: the module `sun_move`).
 struct GridSun {
     scattered: LightGrid,
     /// The sweeper's device copy of `scattered`, if it keeps one.
     resident: Option<Resident>,
     transmittance: Grid<f32>,
     to_sun: Vec3,
+    marched_to: Vec3,
 }
 
 /// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.
@@ -321,8 +328,9 @@ pub struct FrameStats {
     /// Ready nodes still without a sun response for the current sun direction (lit by
     /// coarser grids' sun meanwhile).
     pub sun_pending: u32,
-    /// This frame installed a moved sun whose world grid was swept on a thread since
-    /// [`Hierarchy::set_sun`] (the nodes' sun responses then follow within the budget).
+    /// This frame installed a moved sun's scattered light, whose world grid was swept on
+    /// a thread since [`Hierarchy::set_sun`] (the nodes' then follow within the budget;
+    /// the direct sun moved in `set_sun`).
     pub sun_moved: bool,
     /// Where the frame's time went, by stage.
     pub times: StageTimes,
@@ -634,14 +642,16 @@ impl Hierarchy {
     /// `irradiance × T × max(0, n · s)` ([`LightField::sun_transmittance`],
     /// [`Hierarchy::sun`]).
     ///
-    /// A new direction recomputes the world grid's sun responses and drops the nodes'
-    /// (their points take the sun from coarser grids until [`Hierarchy::update`] or
-    /// [`Hierarchy::refresh`] recompute them, coarse and near first, within the
-    /// budget); the sky's responses stay. Under a time budget
-    /// ([`HierarchyParams::budget_ms`]) a sun that moves is swept on a thread: the old
-    /// one stays shown until a frame finds the new one's world grid done
+    /// A new direction re-marches every grid's transmittance here, at once
+    /// (`Sweeper::sun_transmittance`: the direct sun moves in the call), and recomputes
+    /// the world grid's scattered sun; the nodes' scattered sun is swept again by
+    /// [`Hierarchy::update`] or [`Hierarchy::refresh`], coarse and near first, within
+    /// the budget (a node shows its earlier direction's meanwhile, beside its new
+    /// transmittance); the sky's responses stay. Under a time budget
+    /// ([`HierarchyParams::budget_ms`]) the world grid's scattered sun is swept on a
+    /// thread: the old one stays shown until a frame finds the new one done
     /// ([`Hierarchy::sun_moving`], [`FrameStats::sun_moved`]; the module `sun_move`);
-    /// otherwise, and for a first sun, the world grid is swept here, at once. The same
+    /// otherwise, and for a first sun, it is swept here, at once. The same
     /// direction with another irradiance sweeps nothing. The sweeper must take cell
     /// sources (the CPU and GPU sweepers do).
     ///
@@ -652,7 +662,7 @@ impl Hierarchy {
     /// use lightgrid_terrain_lod::SunLight;
     /// h.set_sun(Some(SunLight { to_sun: Vec3::new(0.3, 0.5, 0.2), irradiance: Vec3::splat(3.0) }))?;
     /// while h.sun_moving() {
-    ///     h.update(camera)?; // frames go on with the old sun meanwhile
+    ///     h.update(camera)?; // the new direct sun, the old scattered sun meanwhile
     /// }
     /// # Ok(())
     /// # }
@@ -667,19 +677,24 @@ impl Hierarchy {
             return Ok(());
         };
         sun.to_sun = lightgrid_core::light::check_sun(sun.to_sun, sun.irradiance)?;
-        let same = self.world_sun.as_ref().map(|w| w.to_sun) == Some(sun.to_sun);
-        if same {
-            // Back to the sun shown (a move under way is dropped), or a new irradiance.
-            self.sun_move = None;
+        let Some(shown) = self.scattered_to() else {
+            // A first sun: the world grid at once, the nodes within the budget.
             self.sun = Some(sun);
-            return Ok(());
-        }
-        if self.move_sun_in_background(sun)? {
-            return Ok(());
-        }
+            self.drop_node_suns();
+            return self.sweep_world_sun();
+        };
         self.sun = Some(sun);
-        self.drop_node_suns();
-        self.sweep_world_sun()
+        // The direct sun moves at once, first (on every core); the scattered sun
+        // follows (the module `sun_move`).
+        self.march_suns()?;
+        if shown == sun.to_sun {
+            // Back to the scattered sun shown (a move under way is dropped), or a new
+            // irradiance.
+            self.sun_move = None;
+        } else if !self.move_sun_in_background(sun.to_sun)? {
+            self.sweep_world_sun()?;
+        }
+        Ok(())
     }
 
     /// The world grid's sun responses for the current sun.
@@ -763,7 +778,7 @@ impl Hierarchy {
         times: &mut StageTimes,
     ) -> Result<Option<GridSun>, LodError> {
         let _span = tracing::trace_span!("node sun", ?key).entered();
-        let Some(sun) = self.sun else {
+        let (Some(sun), Some(scattered_to)) = (self.sun, self.scattered_to()) else {
             return Ok(None);
         };
         let desc = *material.desc();
@@ -771,30 +786,60 @@ impl Hierarchy {
         let scattered = timed(&mut times.sun_boundary, || {
             self.node_boundary_of(&desc, key.depth, Response::Sun)
         });
-        let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, key.depth, fresh);
+        // Swept for the direction the scattered sun is shown for (the old one while a
+        // moved sun's world grid is swept on a thread), marched for the sun shown.
+        let outside = |p: Vec3| self.march_to_sky(p, scattered_to, key.depth, fresh);
         let r = timed(&mut times.sun_sweep, || {
             sweeper.sweep_sun(
                 material,
                 &SunBoundary {
-                    to_sun: sun.to_sun,
+                    to_sun: scattered_to,
                     scattered,
                     outside: &outside,
                 },
                 &o,
             )
         })?;
-        Ok(Some(GridSun {
+        let mut g = GridSun {
             scattered: r.scattered,
             resident: r.resident,
             transmittance: r.transmittance,
-            to_sun: sun.to_sun,
-        }))
+            to_sun: scattered_to,
+            marched_to: scattered_to,
+        };
+        if sun.to_sun != scattered_to {
+            let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, key.depth, fresh);
+            g.transmittance = timed(&mut times.sun_sweep, || {
+                sun_move::march(sweeper, material, sun.to_sun, &outside)
+            })?;
+            g.marched_to = sun.to_sun;
+        }
+        Ok(Some(g))
     }
 
-    /// Whether node `key` has sun responses for the current sun.
+    /// The direction the scattered sun is shown for: the world grid's (the sun's but
+    /// while a moved sun's world grid is swept on a thread).
+    fn scattered_to(&self) -> Option<Vec3> {
+        self.world_sun.as_ref().map(|w| w.to_sun)
+    }
+
+    /// Whether node `key` has sun responses for the current sun: its transmittance
+    /// marched for the sun shown, its scattered light swept for the direction the world
+    /// grid's is.
     fn sun_current(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.to_sun == s.to_sun,
+            (Some(s), Some(g)) => g.marched_to == s.to_sun && Some(g.to_sun) == self.scattered_to(),
+            _ => false,
+        }
+    }
+
+    /// Whether node `key`'s sun responses are shown: its transmittance is marched for
+    /// the sun shown (its scattered light may still be an earlier direction's, until
+    /// the budget sweeps it again: a moved sun re-marches every grid's transmittance at
+    /// once).
+    fn sun_shown(&self, key: NodeKey) -> bool {
+        match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
+            (Some(s), Some(g)) => g.marched_to == s.to_sun,
             _ => false,
         }
     }
@@ -814,13 +859,19 @@ impl Hierarchy {
     }
 
     /// The finest grid coarser than `depth` with a current sun response at `p` (the
-    /// world grid's at worst).
-    fn coarse_sun(&self, p: Vec3, depth: u32) -> Option<&GridSun> {
+    /// world grid's at worst); with `shown`, one whose sun is shown
+    /// ([`Hierarchy::sun_shown`]: what is read), else one whose sun is current (what a
+    /// node's boundary takes).
+    fn coarse_sun(&self, p: Vec3, depth: u32, shown: bool) -> Option<&GridSun> {
         for d in (1..depth).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
             if let Some(n) = self.nodes.get(&key)
                 && within_levels(n.light.desc(), p)
-                && self.sun_current(key)
+                && (if shown {
+                    self.sun_shown(key)
+                } else {
+                    self.sun_current(key)
+                })
             {
                 return n.sun.as_ref();
             }
@@ -1002,7 +1053,7 @@ impl Hierarchy {
     fn coarse_light(&self, p: Vec3, depth: u32, which: Response) -> BinLight {
         if which == Response::Sun {
             return self
-                .coarse_sun(p, depth)
+                .coarse_sun(p, depth, false)
                 .and_then(|s| s.scattered.sample(p).ok())
                 .unwrap_or_default();
         }
@@ -1313,7 +1364,7 @@ impl Hierarchy {
             v.push(Layer {
                 grid: &n.light,
                 resident: n.resident.as_ref(),
-                sun: if self.sun_current(key) {
+                sun: if self.sun_shown(key) {
                     n.sun.as_ref().map(layer_sun)
                 } else {
                     None
@@ -1349,7 +1400,7 @@ impl Hierarchy {
 impl LightField for Hierarchy {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         let sky = self.grid_at(p).light(p, n)? * self.sky_scale;
-        match (self.sun, self.coarse_sun(p, self.params.depths() + 1)) {
+        match (self.sun, self.coarse_sun(p, self.params.depths() + 1, true)) {
             (Some(sun), Some(g)) => Ok(sky + g.scattered.light(p, n)? * sun.irradiance),
             _ => Ok(sky),
         }
@@ -1368,7 +1419,10 @@ impl LightField for Hierarchy {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let Some(g) = self.sun.and(self.coarse_sun(p, self.params.depths() + 1)) else {
+        let Some(g) = self
+            .sun
+            .and(self.coarse_sun(p, self.params.depths() + 1, true))
+        else {
             return Ok(0.0);
         };
         let t = match n {

@@ -1,69 +1,72 @@
-//! Time of day under a time budget: a moved sun's world-grid responses swept on a
-//! thread of their own.
+//! Time of day: a moved sun's direct light at once, its scattered light after.
 //!
-//! The world grid's sun responses are the one job a moved sun cannot leave to the
-//! budget: every node's sun reads them, and they are one sweep of the whole world grid
-//! (110–300 ms on two cores), several times a frame's budget. Under a time budget
-//! ([`HierarchyParams::budget_ms`](crate::HierarchyParams::budget_ms)), with a sweeper
-//! that forks, [`Hierarchy::set_sun`] starts that sweep on a fork of the sweeper on a
-//! thread of its own (in a one-thread rayon pool apart from the frames': in theirs, a
-//! frame waiting on its own jobs would steal the sweep's long ones) and returns; the
-//! old sun stays shown, whole (its world grid and nodes), until a frame
-//! ([`Hierarchy::update`], [`Hierarchy::refresh`]) finds the new responses done. That
-//! frame installs them and drops the nodes' old ones, which the budget then recomputes
-//! coarse and near first, as a sun set at once would. A sun set again while the sweep
-//! runs waits for it, then is swept in its turn (only the last one asked for). Without
-//! a time budget, with a sweeper that cannot fork (the GPU's: one queue), and for a
-//! first sun (none shown yet), the sweep runs at once, in `set_sun`.
+//! A grid's sun responses are two: the beam's transmittance, a march along the sun's
+//! exact direction (cheap: 3 ms for the world grid, about 1 ms a node), and the
+//! scattered light of its first collisions, a sweep (the world grid's takes 110–300 ms
+//! on two cores). [`Hierarchy::set_sun`] of a new direction re-marches every grid's
+//! transmittance at once ([`Hierarchy::march_suns`]): the direct sun, shadows
+//! included, moves in the call. The scattered sun follows. The world grid's is swept
+//! in `set_sun`, or under a time budget ([`HierarchyParams::budget_ms`]), with a
+//! sweeper that forks, on a fork of the sweeper on a thread of its own (in a one-thread
+//! rayon pool apart from the frames': in theirs, a frame waiting on its own jobs would
+//! steal the sweep's long ones), and `set_sun` returns; the old direction's scattered
+//! sun stays shown, whole, until a frame ([`Hierarchy::update`],
+//! [`Hierarchy::refresh`]) finds the new one done and installs it
+//! ([`FrameStats::sun_moved`]). The nodes' scattered sun is then swept again within the
+//! budget, coarse and near first; until then a node shows its earlier direction's
+//! beside its new transmittance. A sun set again while the sweep runs waits for it,
+//! then is swept in its turn (only the last one asked for). Without a time budget, with
+//! a sweeper that cannot fork (the GPU's: one queue), and for a first sun (none shown
+//! yet), the world grid's sweep runs at once, in `set_sun`.
+//!
+//! [`HierarchyParams::budget_ms`]: crate::HierarchyParams::budget_ms
+//! [`FrameStats::sun_moved`]: crate::FrameStats::sun_moved
 
 use std::thread::JoinHandle;
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
-    BinLight, Boundary, MaterialGrid, SunBoundary, SweepError, SweepOptions, Sweeper,
+    BinLight, Boundary, Grid, MaterialGrid, SunBoundary, SweepError, SweepOptions, Sweeper,
 };
 
-use crate::{GridSun, Hierarchy, LodError, SunLight};
+use crate::{GridSun, Hierarchy, LodError, SunLight, shadow};
 
 /// A moved sun's world-grid responses, being swept.
 pub(crate) struct SunMove {
-    /// The sun they are swept for.
-    sun: SunLight,
+    /// The direction they are swept for.
+    to_sun: Vec3,
     thread: JoinHandle<Result<GridSun, SweepError>>,
-    /// A sun set while they were swept: swept next (the last one asked for).
-    next: Option<SunLight>,
+    /// A direction set while they were swept: swept next (the last one asked for).
+    next: Option<Vec3>,
 }
 
 impl Hierarchy {
-    /// Whether a moved sun's world-grid responses are being swept (the old sun is shown
-    /// meanwhile; see [`Hierarchy::set_sun`]).
+    /// Whether a moved sun's scattered light is being swept for the world grid on a
+    /// thread (its direct light has moved; the scattered light shown is the earlier
+    /// direction's meanwhile: see [`Hierarchy::set_sun`]).
     pub fn sun_moving(&self) -> bool {
         self.sun_move.is_some()
     }
 
-    /// The sun being moved to, if its world-grid responses are being swept.
+    /// The sun being moved to, if its world grid's scattered light is being swept: the
+    /// sun shown ([`Hierarchy::sun`]), whose direct light has moved already.
     pub fn sun_moving_to(&self) -> Option<SunLight> {
-        self.sun_move.as_ref().map(|m| m.next.unwrap_or(m.sun))
+        self.sun_move.as_ref().and(self.sun)
     }
 
     /// [`Hierarchy::set_sun`] of a new direction where a sun is shown: starts the
     /// world grid's sweep on a thread (or queues it behind the one running) and returns
     /// `true`, or returns `false` where the sweep must run at once (no time budget, a
     /// sweeper that cannot fork, no thread to be had).
-    pub(crate) fn move_sun_in_background(&mut self, sun: SunLight) -> Result<bool, LodError> {
+    pub(crate) fn move_sun_in_background(&mut self, to_sun: Vec3) -> Result<bool, LodError> {
         if let Some(m) = &mut self.sun_move {
-            if m.sun.to_sun == sun.to_sun {
-                m.sun = sun;
-                m.next = None;
-            } else {
-                m.next = Some(sun);
-            }
+            m.next = (m.to_sun != to_sun).then_some(to_sun);
             return Ok(true);
         }
         if self.params.budget_ms.is_none() || self.world_sun.is_none() {
             return Ok(false);
         }
-        match self.spawn_world_sun(sun)? {
+        match self.spawn_world_sun(to_sun)? {
             Some(m) => {
                 self.sun_move = Some(m);
                 Ok(true)
@@ -72,9 +75,9 @@ impl Hierarchy {
         }
     }
 
-    /// The world grid's sweep for `sun` on a fork of the sweeper, on a thread (`None`:
-    /// no fork or no thread).
-    fn spawn_world_sun(&mut self, sun: SunLight) -> Result<Option<SunMove>, LodError> {
+    /// The world grid's sweep for `to_sun` on a fork of the sweeper, on a thread
+    /// (`None`: no fork or no thread).
+    fn spawn_world_sun(&mut self, to_sun: Vec3) -> Result<Option<SunMove>, LodError> {
         let Some(mut sweeper) = self.sweeper.fork() else {
             return Ok(None);
         };
@@ -83,7 +86,6 @@ impl Hierarchy {
             _ => self.source.material(self.world.desc())?,
         };
         let options = self.node_options(true);
-        let to_sun = sun.to_sun;
         let thread = std::thread::Builder::new()
             .name("lightgrid world sun".into())
             .spawn(move || {
@@ -100,15 +102,16 @@ impl Hierarchy {
                 }
             });
         Ok(thread.ok().map(|thread| SunMove {
-            sun,
+            to_sun,
             thread,
             next: None,
         }))
     }
 
     /// Installs a moved sun whose world-grid responses are done (all of them, waiting
-    /// for the sweep, with `wait`): the sun, the world grid's responses, and every
-    /// node's dropped for the budget to recompute. Returns whether it installed one.
+    /// for the sweep, with `wait`): the world grid's responses; the nodes' scattered
+    /// light is then stale, for the budget to sweep again. Returns whether it installed
+    /// one.
     pub(crate) fn poll_sun_move(&mut self, wait: bool) -> Result<bool, LodError> {
         loop {
             let Some(m) = self.sun_move.take() else {
@@ -133,26 +136,95 @@ impl Hierarchy {
                         continue;
                     }
                     None => {
-                        self.sun = Some(next);
-                        self.drop_node_suns();
                         self.sweep_world_sun()?;
                         return Ok(true);
                     }
                 }
             }
             self.world_sun = Some(response?);
-            self.sun = Some(m.sun);
-            self.drop_node_suns();
             return Ok(true);
         }
     }
 
-    /// Drops every node's sun responses (a new sun direction).
+    /// Drops every node's sun responses.
     pub(crate) fn drop_node_suns(&mut self) {
         for n in self.nodes.values_mut() {
             n.sun = None;
         }
     }
+
+    /// Marches every grid's transmittance not marched for the sun shown (the world
+    /// grid's and every node's with sun responses), nodes coarse first: a node's march
+    /// beyond its box crosses coarser grids' materials only, as when it was swept
+    /// ([`shadow`]), so each equals what a sweep of its sun responses would give.
+    pub(crate) fn march_suns(&mut self) -> Result<(), LodError> {
+        let Some(sun) = self.sun else {
+            return Ok(());
+        };
+        let _span = tracing::debug_span!("march suns").entered();
+        let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(crate::Lent));
+        let r = self.march_all(sweeper.as_mut(), sun.to_sun);
+        self.sweeper = sweeper;
+        r
+    }
+
+    fn march_all(&mut self, sweeper: &mut dyn Sweeper, to_sun: Vec3) -> Result<(), LodError> {
+        if self
+            .world_sun
+            .as_ref()
+            .is_some_and(|w| w.marched_to != to_sun)
+        {
+            let composed;
+            let material = match &self.world_material {
+                Some(m) if m.desc() == self.world.desc() => m,
+                _ => {
+                    composed = self.source.material(self.world.desc())?;
+                    &composed
+                }
+            };
+            let t = march(sweeper, material, to_sun, &|_| 1.0)?;
+            if let Some(w) = &mut self.world_sun {
+                w.transmittance = t;
+                w.marched_to = to_sun;
+            }
+        }
+        let mut keys: Vec<_> = self
+            .nodes
+            .iter()
+            .filter(|(_, n)| n.sun.as_ref().is_some_and(|g| g.marched_to != to_sun))
+            .map(|(k, _)| *k)
+            .collect();
+        keys.sort();
+        for key in keys {
+            let n = &self.nodes[&key];
+            let fresh = shadow::Fresh::default();
+            let outside = |p: Vec3| self.march_to_sky(p, to_sun, key.depth, &fresh);
+            let t = march(sweeper, &n.material.grid, to_sun, &outside)?;
+            if let Some(g) = self.nodes.get_mut(&key).and_then(|n| n.sun.as_mut()) {
+                g.transmittance = t;
+                g.marched_to = to_sun;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A grid's transmittance for `to_sun` alone, `outside` beyond its box (open sides, as
+/// the world grid's and the nodes' sun sweeps have).
+pub(crate) fn march(
+    sweeper: &mut dyn Sweeper,
+    material: &MaterialGrid,
+    to_sun: Vec3,
+    outside: &(dyn Fn(Vec3) -> f32 + Sync),
+) -> Result<Grid<f32>, SweepError> {
+    sweeper.sun_transmittance(
+        material,
+        &SunBoundary {
+            to_sun,
+            scattered: Boundary::open_sky(BinLight::ZERO),
+            outside,
+        },
+    )
 }
 
 /// The world grid's sun responses for `to_sun`: the beam enters through its faces, no
@@ -174,5 +246,6 @@ pub(crate) fn world_grid_sun(
         resident: r.resident,
         transmittance: r.transmittance,
         to_sun,
+        marched_to: to_sun,
     })
 }

@@ -137,7 +137,7 @@ impl<'a> Reduced<'a> {
             .collect();
         let sun = h.sun.map(|s| s.irradiance);
         // A stale node takes the sun from coarser grids, which then keep theirs apart.
-        let any_stale = sun.is_some() && keys.iter().flatten().any(|k| !h.sun_current(*k));
+        let any_stale = sun.is_some() && keys.iter().flatten().any(|k| !h.sun_shown(*k));
         let layers = keys
             .par_iter()
             .map(|k| {
@@ -145,7 +145,7 @@ impl<'a> Reduced<'a> {
                     None => (&h.world, h.world_sun.as_ref(), h.world_material.as_ref()),
                     Some(k) => (
                         &h.nodes[k].light,
-                        h.nodes[k].sun.as_ref().filter(|_| h.sun_current(*k)),
+                        h.nodes[k].sun.as_ref().filter(|_| h.sun_shown(*k)),
                         Some(&h.nodes[k].material.grid),
                     ),
                 };

@@ -1,7 +1,7 @@
 //! A fly-through over the shipped DEM with a procedural forest.
 
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{BinLight, LightField};
+use lightgrid_core::{BinLight, Grid, LightField};
 use lightgrid_material_voxelizer::compose::{AreaComposer, Heightmap};
 use lightgrid_material_voxelizer::procedural::TreeParams;
 use lightgrid_material_voxelizer::voxelize::VoxelizeParams;
@@ -326,7 +326,8 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
     // High above everything the beam is whole.
     let top = Vec3::new(560.0, hm.range().1 + 30.0, 540.0);
     assert!((h.sun_transmittance(top, None).unwrap() - 1.0).abs() < 1e-6);
-    // A new direction: the world's sun now, the nodes' later; the sky's grids stay.
+    // A new direction: the world's sun and every grid's transmittance now, the nodes'
+    // scattered sun later; the sky's grids stay.
     let sky_before: Vec<_> = nodes.iter().map(|k| h.node(*k).unwrap().clone()).collect();
     let s2 = Vec3::new(-0.3, 0.5, 0.7);
     h.set_sun(Some(SunLight {
@@ -334,14 +335,11 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
         irradiance: Vec3::new(3.0, 2.8, 2.5),
     }))
     .unwrap();
-    assert_eq!(
-        h.layers().iter().filter(|l| l.sun.is_none()).count(),
-        nodes.len()
-    );
-    for &(q, _) in &points {
-        let t = h.sun_transmittance(q, None).unwrap(); // the world grid's meanwhile
-        assert!((0.0..=1.0).contains(&t), "{t}");
-    }
+    assert!(h.layers().iter().all(|l| l.sun.is_some()));
+    let marched: Vec<f32> = points
+        .iter()
+        .map(|&(q, n)| h.sun_transmittance(q, Some(n)).unwrap())
+        .collect();
     let first = h.refresh(cam).unwrap();
     assert_eq!(first.built, 0, "the sky's inputs did not change");
     assert!(first.sun_built > 0 && first.points_swept <= p.budget_points);
@@ -356,6 +354,10 @@ fn sun_kept_apart_moves_without_sweeping_the_sky() {
     };
     assert_eq!(fresh.ready_nodes(), h.ready_nodes());
     assert_eq!(read(&fresh), read(&h));
+    // The direct sun moved whole in `set_sun`: the transmittance then read is the one a
+    // hierarchy built under the new sun reads.
+    let settled: Vec<f32> = read(&fresh).iter().map(|r| r.1).collect();
+    assert_eq!(marched, settled);
 }
 
 /// The CPU sweeper without forks: the hierarchy sweeps its nodes one after the other.
@@ -706,10 +708,11 @@ fn a_time_budget_bounds_the_points_a_frame_sweeps() {
     }
 }
 
-/// Under a time budget a moved sun's world grid is swept on a thread: the old sun stays
-/// shown, whole, until a frame finds the new one done; the new one is then what a sun
-/// set at once gives, bit for bit. A sun set again meanwhile is swept after it; one set
-/// back to the sun shown drops the move.
+/// Under a time budget a moved sun's direct light moves at once (every grid's
+/// transmittance re-marched in `set_sun`) and its world grid's scattered light is swept
+/// on a thread: the old scattered sun stays shown until a frame finds the new one done;
+/// the new one is then what a sun set at once gives, bit for bit. A sun set again
+/// meanwhile is swept after it; one set back to the sun shown drops the move.
 #[test]
 fn a_moved_sun_under_a_time_budget_is_swept_on_a_thread() {
     use lightgrid_terrain_lod::SunLight;
@@ -741,6 +744,13 @@ fn a_moved_sun_under_a_time_budget_is_swept_on_a_thread() {
         let s = l.sun.as_ref().expect("the world grid always has the sun");
         (s.scattered.clone(), s.transmittance.clone())
     };
+    // The grids that show a sun, each with its transmittance.
+    let transmittances = |h: &Hierarchy| -> Vec<Grid<f32>> {
+        h.layers()
+            .iter()
+            .filter_map(|l| l.sun.map(|s| s.transmittance.clone()))
+            .collect()
+    };
     let cam = Vec3::new(560.0, hm.height_at(560.0, 540.0) + 12.0, 540.0);
     let (s1, s2, s3) = (
         Vec3::new(0.55, 0.6, 0.3).normalize(),
@@ -752,23 +762,36 @@ fn a_moved_sun_under_a_time_budget_is_swept_on_a_thread() {
         h.update(cam).unwrap();
     }
     let old = world_sun(&h);
-    // Moved: the old sun is still the one shown.
+    let shown = transmittances(&h).len();
+    assert!(shown > 1, "{shown}");
+    let (at_s2, at_s3) = (world_sun(&new(s2)), world_sun(&new(s3)));
+    // Moved: the direct sun at once, every grid's; the old scattered sun still shown.
     h.set_sun(Some(SunLight {
         to_sun: s2,
         irradiance: e,
     }))
     .unwrap();
     assert!(h.sun_moving());
-    assert!((h.sun().unwrap().to_sun - s1).length() < 1e-6);
+    assert!((h.sun().unwrap().to_sun - s2).length() < 1e-6);
     assert!((h.sun_moving_to().unwrap().to_sun - s2).length() < 1e-6);
-    assert!(world_sun(&h) == old);
-    // Set back before it lands: the move is dropped.
+    assert!(world_sun(&h).0 == old.0);
+    assert!(
+        world_sun(&h).1 == at_s2.1,
+        "the world grid's transmittance marched at once"
+    );
+    assert_eq!(
+        transmittances(&h).len(),
+        shown,
+        "the nodes' suns still shown"
+    );
+    // Set back before it lands: the move is dropped, the old sun shown whole again.
     h.set_sun(Some(SunLight {
         to_sun: s1,
         irradiance: e,
     }))
     .unwrap();
     assert!(!h.sun_moving());
+    assert!(world_sun(&h) == old);
     // Moved twice while sweeping: the last one lands.
     h.set_sun(Some(SunLight {
         to_sun: s2,
@@ -782,27 +805,27 @@ fn a_moved_sun_under_a_time_budget_is_swept_on_a_thread() {
     .unwrap();
     let mut frames = 0;
     loop {
-        let suns_before = h.layers().iter().filter(|l| l.sun.is_some()).count();
+        assert!(transmittances(&h).len() >= shown);
         let s = h.update(cam).unwrap();
         frames += 1;
         if s.sun_moved {
             break;
         }
         assert!(h.sun_moving());
-        let shown = h.sun().unwrap().to_sun;
+        assert!((h.sun().unwrap().to_sun - s3).length() < 1e-6);
+        let (scattered, transmittance) = world_sun(&h);
         assert!(
-            (shown - s1).length() < 1e-6,
-            "the old sun is shown until the new lands"
+            scattered == old.0,
+            "the old scattered sun is shown until the new lands"
         );
-        assert!(h.layers().iter().filter(|l| l.sun.is_some()).count() >= suns_before);
+        assert!(transmittance == at_s3.1);
         assert!(frames < 100_000, "the world grid's sun never landed");
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
     assert!(!h.sun_moving());
     assert!((h.sun().unwrap().to_sun - s3).length() < 1e-6);
-    let fresh = new(s3);
     assert!(
-        world_sun(&h) == world_sun(&fresh),
+        world_sun(&h) == at_s3,
         "the same world grid sun as a sun set at once"
     );
 }

@@ -372,11 +372,11 @@ impl std::fmt::Display for SunMove {
         match (self.split, self.sky_reswept) {
             (true, false) => write!(
                 f,
-                "sun responses (transmittance, scattered sun) recomputed, sky's grids kept"
+                "sun responses recomputed (every grid's transmittance and the world grid's scattered sun at once, the nodes' scattered sun after), sky's grids kept"
             ),
             (true, true) => write!(
                 f,
-                "sun responses recomputed; the clear sky's shape follows the sun, so its grids are swept again too"
+                "sun responses recomputed (every grid's transmittance and the world grid's scattered sun at once, the nodes' scattered sun after); the clear sky's shape follows the sun, so its grids are swept again too"
             ),
             (false, _) => write!(f, "sky and sun swept again (the sun is in the bins)"),
         }?;
@@ -562,7 +562,8 @@ impl World {
     }
 
     /// The scene's sun changed (angles, time of day or illuminance): with the sun kept
-    /// apart, the world grid's sun responses are recomputed now and the nodes' wait for
+    /// apart, every grid's transmittance (the direct sun) and the world grid's
+    /// scattered sun are recomputed now and the nodes' scattered sun waits for
     /// [`Hierarchy::refresh`] / [`Hierarchy::update`] (the sky's grids stay, unless a
     /// clear sky, whose shape follows the sun, changed: then it is swept again too);
     /// with the sun in the bins, the sky and sun are swept again together. Probes are
