@@ -239,6 +239,10 @@ pub struct Run {
     pub sun_move_world_ms: f64,
     /// Grids that show the new direct sun when `set_sun` returns (world grid and nodes).
     pub sun_move_marched: usize,
+    /// `set_sun`'s CPU time, every thread of the process (ms, to the kernel's 10 ms
+    /// ticks; Linux only: `None` elsewhere). Under a time budget the scattered-sun
+    /// thread starts as `set_sun` returns.
+    pub sun_move_cpu_ms: Option<f64>,
     /// Under a time budget: frames (at the budget's pace) that showed the old sun while
     /// the world grid's new response was swept on its thread.
     pub sun_move_wait_frames: u32,
@@ -759,12 +763,14 @@ fn run_elevation(
     let pace = Duration::from_secs_f64(cfg.budget_ms.unwrap_or(0.0) as f64 / 1e3);
     settle(&mut h, cam, pace)?;
     let moved = sun_dir((elevation + 20.0).min(89.0));
+    let cpu = process_cpu_ms();
     let t = Instant::now();
     h.set_sun(Some(SunLight {
         to_sun: moved,
         irradiance: SUN_E,
     }))?;
     let world_ms = t.elapsed().as_secs_f64() * 1e3;
+    let set_sun_cpu_ms = cpu.zip(process_cpu_ms()).map(|(a, b)| b - a);
     let marched = h.layers().iter().filter(|l| l.sun.is_some()).count();
     let end_probes = probes(world, cam);
     let at_once = sample_parts(&mut h, &end_probes, moved)?;
@@ -833,11 +839,26 @@ fn run_elevation(
         sun_move_built: s.sun_built,
         sun_move_pending: s.sun_pending,
         sun_move_marched: marched,
+        sun_move_cpu_ms: set_sun_cpu_ms,
         sun_move_settled_ms: settled_ms,
         sun_move_settled_frames: settled_frames,
         sun_move_error_at_once: error_of(&at_once),
         sun_move_error_settled: error_of(&settled),
     })
+}
+
+/// The process's CPU time so far, all threads, user and system (ms; Linux's
+/// `/proc/self/stat`, in 10 ms ticks), or `None` where there is none to read.
+fn process_cpu_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command's closing parenthesis: utime and stime are the 12th and
+    // 13th, in clock ticks (USER_HZ, 100 a second).
+    let mut f = stat.rsplit_once(')')?.1.split_whitespace().skip(11);
+    let (u, s) = (
+        f.next()?.parse::<f64>().ok()?,
+        f.next()?.parse::<f64>().ok()?,
+    );
+    Some((u + s) * 10.0)
 }
 
 /// Frames at `cam`, `pace` apart, until one finds nothing left to sweep (every wanted
@@ -955,6 +976,11 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
     Ok(report)
 }
 
+/// `, N ms CPU` where the CPU time is known.
+fn cpu_note(ms: Option<f64>) -> String {
+    ms.map(|c| format!(", {c:.0} ms CPU")).unwrap_or_default()
+}
+
 fn run_line(r: &Run) -> String {
     format!(
         "sun {:>4.0}°: {:6.1} ms a frame (max {:6.1}{}), sky bias {:+6.1} % RMSE {:5.1} %, sun bias {:+6.1} % RMSE {:5.1} %, both bias {:+6.1} % RMSE {:5.1} %",
@@ -1020,8 +1046,9 @@ pub fn text(report: &FrameReport) -> String {
         if r.sun_move_wait_frames > 0 || r.sun_move_world_ms < 0.5 * r.sun_move_landed_ms {
             let _ = writeln!(
                 s,
-                "  sun +20°: set_sun {:.1} ms (the direct sun of {} grids re-marched), the world grid's scattered sun on a thread: {} frames of the old one (max {:.0} ms) until it landed {:.0} ms later; that frame {:.0} ms ({} sun responses, {} left)",
+                "  sun +20°: set_sun {:.1} ms{} (the direct sun of {} grids re-marched), the world grid's scattered sun on a thread: {} frames of the old one (max {:.0} ms) until it landed {:.0} ms later; that frame {:.0} ms ({} sun responses, {} left)",
                 r.sun_move_world_ms,
+                cpu_note(r.sun_move_cpu_ms),
                 r.sun_move_marched,
                 r.sun_move_wait_frames,
                 r.sun_move_wait_max_ms,
@@ -1033,8 +1060,9 @@ pub fn text(report: &FrameReport) -> String {
         } else {
             let _ = writeln!(
                 s,
-                "  sun +20°: set_sun {:.0} ms (the direct sun of {} grids re-marched, the world grid's scattered sun swept), next frame {:.0} ms ({} sun responses, {} left)",
+                "  sun +20°: set_sun {:.0} ms{} (the direct sun of {} grids re-marched, the world grid's scattered sun swept), next frame {:.0} ms ({} sun responses, {} left)",
                 r.sun_move_world_ms,
+                cpu_note(r.sun_move_cpu_ms),
                 r.sun_move_marched,
                 r.sun_move_frame_ms,
                 r.sun_move_built,
