@@ -12,6 +12,9 @@
 //! * [`exact`]: transport problems with exact answers that share none of the sweep's
 //!   assumptions: the white furnace, the infinite Lambertian ground, Chandrasekhar's
 //!   half-space albedo under a beam and under a uniform sky.
+//! * [`points`]: the same problem solved backward from points (a terrain vertex, a
+//!   light-volume probe): the irradiance on a normal there, for the total error of what a
+//!   renderer reads.
 //! * [`sun_measure`]: the sun split against the sun in the bins, both against the
 //!   reference with a collimated sun.
 //!
@@ -40,6 +43,7 @@
 //! ```
 
 pub mod exact;
+pub mod points;
 pub mod reference;
 pub mod scenes;
 pub mod sun_measure;
