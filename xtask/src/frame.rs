@@ -22,8 +22,13 @@
 //! The error of a frame is the relative bias `Σ(h − r) / Σ r` and the relative RMSE
 //! `√mean((h − r)²) / mean(r)` of the luminance over its points, for sky, sun and both,
 //! and over the whole path per depth of the grid that serves the point. This is the
-//! *nesting* error (the hierarchy against a single sweep of the same world); the total
-//! error against Monte Carlo is not measured here yet.
+//! *nesting* error (the hierarchy against a single sweep of the same world).
+//!
+//! **The total error** ([`mc`]): at the last camera, once its nodes are all built, the
+//! hierarchy's read and the single sweep's against a Monte Carlo reference of the same
+//! world at a subset of the probes (`--mc-probes`, `--mc-paths` paths each; backward
+//! paths from each point, `lightgrid_measure::points`), for sky, sun and both: the
+//! total error, the sweep's own, and the nesting error at the same probes.
 //!
 //! **Speed**: per frame the wall time of each stage ([`StageTimes`]: material, sky
 //! boundaries, sky sweeps, sun boundaries, sun responses), the rest of `update`, the
@@ -53,6 +58,9 @@ use lightgrid_sky::ClearSky;
 use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, SunLight};
 use serde::Serialize;
 
+mod mc;
+pub use mc::MonteCarlo;
+
 /// What `cargo xtask frame` runs.
 #[derive(Debug, Clone)]
 pub struct FrameConfig {
@@ -77,6 +85,10 @@ pub struct FrameConfig {
     pub path: CameraPath,
     /// Metres of world around the sampled region in the reference sweep.
     pub margin: f32,
+    /// Probes of the last camera measured against Monte Carlo (about; 0: none).
+    pub mc_probes: usize,
+    /// Monte Carlo paths per probe.
+    pub mc_paths: u32,
     /// Output folder.
     pub out: PathBuf,
     /// The repository's `assets/`.
@@ -97,6 +109,8 @@ impl FrameConfig {
             budget_ms: None,
             path: CameraPath::Forest,
             margin: 40.0,
+            mc_probes: 1000,
+            mc_paths: 16384,
             out: root.join("target/bench"),
             assets: root.join("assets"),
         }
@@ -267,6 +281,9 @@ pub struct Run {
     pub sun_move_error_at_once: Errors,
     /// The same once every node's sun response is the new sun's.
     pub sun_move_error_settled: Errors,
+    /// At the last camera (before the sun moves), against Monte Carlo (`None`: not
+    /// asked for).
+    pub monte_carlo: Option<MonteCarlo>,
 }
 
 /// Everything `cargo xtask frame` measured.
@@ -369,6 +386,8 @@ impl World {
 struct Probe {
     p: Vec3,
     n: Vec3,
+    /// A terrain vertex (else a volume point).
+    vertex: bool,
 }
 
 /// The vertex and volume points around camera `cam`.
@@ -381,6 +400,7 @@ fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
             out.push(Probe {
                 p: Vec3::new(x, world.hm.height_at(x, z), z),
                 n,
+                vertex: true,
             });
         }
     }
@@ -391,7 +411,11 @@ fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
             let g = world.hm.height_at(x, z);
             for j in 0..6 {
                 let p = Vec3::new(x, g + 1.0 + 2.0 * j as f32, z);
-                out.extend(axes.iter().map(|&n| Probe { p, n }));
+                out.extend(axes.iter().map(|&n| Probe {
+                    p,
+                    n,
+                    vertex: false,
+                }));
             }
         }
     }
@@ -762,6 +786,22 @@ fn run_elevation(
     let cam = world.camera(cfg, cfg.frames - 1);
     let pace = Duration::from_secs_f64(cfg.budget_ms.unwrap_or(0.0) as f64 / 1e3);
     settle(&mut h, cam, pace)?;
+    let end_probes = probes(world, cam);
+    let monte_carlo = if cfg.mc_probes > 0 {
+        let which = mc::pick(&end_probes, cfg.mc_probes);
+        let hier = sample_parts(&mut h, &end_probes, to_sun)?;
+        let sweep = reference.sky_and_sun(&end_probes)?;
+        Some(mc::measure(
+            reference,
+            &end_probes,
+            &which,
+            (&hier, &sweep),
+            to_sun,
+            cfg.mc_paths,
+        )?)
+    } else {
+        None
+    };
     let moved = sun_dir((elevation + 20.0).min(89.0));
     let cpu = process_cpu_ms();
     let t = Instant::now();
@@ -772,7 +812,6 @@ fn run_elevation(
     let world_ms = t.elapsed().as_secs_f64() * 1e3;
     let set_sun_cpu_ms = cpu.zip(process_cpu_ms()).map(|(a, b)| b - a);
     let marched = h.layers().iter().filter(|l| l.sun.is_some()).count();
-    let end_probes = probes(world, cam);
     let at_once = sample_parts(&mut h, &end_probes, moved)?;
     // Frames at the budget's pace until one installs the new sun (at once unbudgeted).
     let (mut wait_frames, mut wait_max_ms) = (0u32, 0.0f64);
@@ -844,6 +883,7 @@ fn run_elevation(
         sun_move_settled_frames: settled_frames,
         sun_move_error_at_once: error_of(&at_once),
         sun_move_error_settled: error_of(&settled),
+        monte_carlo,
     })
 }
 
@@ -1082,6 +1122,9 @@ pub fn text(report: &FrameReport) -> String {
             100.0 * a.both.rmse,
             100.0 * b.both.rmse,
         );
+        if let Some(m) = &r.monte_carlo {
+            s.push_str(&mc::lines(m, r.elevation));
+        }
         let _ = writeln!(
             s,
             "  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE % | direct sun bias / RMSE %"

@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--budget-ms MS] [--path forest|edge]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--budget-ms MS] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -101,6 +101,12 @@ enum Task {
         /// ground).
         #[arg(long, default_value = "forest")]
         path: xtask::frame::CameraPath,
+        /// Probes of the last camera measured against Monte Carlo (about; 0: none).
+        #[arg(long, default_value_t = 1000)]
+        mc_probes: usize,
+        /// Monte Carlo paths per probe.
+        #[arg(long, default_value_t = 16384, value_parser = clap::value_parser!(u32).range(2..=(1 << 24)))]
+        mc_paths: u32,
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -176,9 +182,13 @@ fn main() -> ExitCode {
             bare_skip,
             budget_ms,
             path,
+            mc_probes,
+            mc_paths,
             out,
         } => {
             let mut cfg = xtask::frame::FrameConfig::new(&root);
+            cfg.mc_probes = mc_probes;
+            cfg.mc_paths = mc_paths;
             cfg.node_points = node_points;
             cfg.frames = frames;
             cfg.gpu = gpu;
