@@ -433,6 +433,9 @@ struct Reference {
 
 impl Reference {
     /// Sky and sun luminance at every probe, read as the hierarchy is ([`read`]).
+    /// The sun's response is for unit irradiance: its scattered light is scaled by the
+    /// runs' [`SUN_E`] here, as the hierarchy's is by `set_sun` (its direct part by
+    /// [`Parts::of`]).
     fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<Parts>> {
         let (response, to_sun) = self.sun.as_ref().context("reference sun")?;
         let sky = read(self.sky.as_ref().context("reference sky")?, probes)?;
@@ -440,7 +443,13 @@ impl Reference {
         Ok(probes
             .iter()
             .zip(sky.iter().zip(&sun))
-            .map(|(p, (a, b))| Parts::of(a, b, p, *to_sun))
+            .map(|(p, (a, b))| {
+                let b = SampledLight {
+                    light: b.light * SUN_E,
+                    ..*b
+                };
+                Parts::of(a, &b, p, *to_sun)
+            })
             .collect())
     }
 }
