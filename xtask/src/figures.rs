@@ -68,6 +68,7 @@ fn measurements() -> Vec<Measurement> {
                     .filter(|l| {
                         (l.starts_with("sun ") && l.contains("a frame"))
                             || l.trim_start().starts_with("sun +20")
+                            || l.trim_start().starts_with("total against Monte Carlo")
                     })
                     .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
                     .collect()

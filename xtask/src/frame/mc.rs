@@ -185,6 +185,7 @@ pub(super) fn measure(
 pub(super) fn lines(m: &MonteCarlo, elevation: f32) -> String {
     use std::fmt::Write;
     let f = |a: &Error| format!("{:+5.1} / {:4.1}", a.bias * 100.0, a.rmse * 100.0);
+    let g = |a: &Error| format!("{:+.1} / {:.1}", a.bias * 100.0, a.rmse * 100.0);
     let mut s = format!(
         "  against Monte Carlo at the last camera, sun {elevation}° ({} probes: {} vertices, {} volume; {} inside opaque cells left out; {} paths each, {:.0} s; its noise sky / sun / both {:.1} / {:.1} / {:.1} %), bias / RMSE %:\n",
         m.probes,
@@ -196,6 +197,14 @@ pub(super) fn lines(m: &MonteCarlo, elevation: f32) -> String {
         m.noise[0] * 100.0,
         m.noise[1] * 100.0,
         m.noise[2] * 100.0,
+    );
+    let _ = writeln!(
+        s,
+        "  total against Monte Carlo at sun {elevation}°: sky {}, sun {}, both {} (bias / RMSE %; the 1 m sweep's own: both {})",
+        g(&m.all.total.sky),
+        g(&m.all.total.sun),
+        g(&m.all.total.both),
+        g(&m.all.sweep.both),
     );
     let _ = writeln!(
         s,
