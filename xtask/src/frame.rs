@@ -24,7 +24,7 @@
 //! and over the whole path per depth of the grid that serves the point. This is the
 //! *nesting* error (the hierarchy against a single sweep of the same world).
 //!
-//! **The total error** ([`mc`]): at the last camera, once its nodes are all built, the
+//! **The total error** ([`MonteCarlo`], `frame/mc.rs`): at the last camera, once its nodes are all built, the
 //! hierarchy's read and the single sweep's against a Monte Carlo reference of the same
 //! world at a subset of the probes (`--mc-probes`, `--mc-paths` paths each; backward
 //! paths from each point, `lightgrid_measure::points`), for sky, sun and both: the

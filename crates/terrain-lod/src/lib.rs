@@ -42,11 +42,13 @@
 //!
 //! [`FrameStats::times`] splits a frame's wall time by stage ([`StageTimes`]).
 //! `cargo xtask frame` runs a camera path with the sun kept apart and measures the
-//! light sampled against one full-resolution sweep of the region (the repository's
-//! `docs/measurements.md`, "The hierarchy frame by frame", has its figures): with
-//! 16-point nodes 115–143 ms a frame on two cores; the sky within about 1 % in bias at
-//! every depth, sky and sun together 5–9 % RMSE in the finest nodes (ARCHITECTURE.md,
-//! "Known defects").
+//! light sampled against one full-resolution sweep of the region, and at the last
+//! camera against Monte Carlo (the repository's `docs/measurements.md`, "The hierarchy
+//! frame by frame", has its figures): with 16-point nodes 115–173 ms a frame on two
+//! cores; against the single sweep the sky within about 1 % in bias at every depth,
+//! sky and sun together 3–9 % RMSE in the finest nodes; against Monte Carlo, what the
+//! renderer reads 7–13 % RMSE, most of it the single sweep's own error at points
+//! (ARCHITECTURE.md, "Known defects").
 //!
 //! ## The sun kept apart
 //!
