@@ -41,6 +41,8 @@ pub struct MonteCarlo {
     pub vertices: Comparison,
     /// Over the volume points.
     pub volume: Comparison,
+    /// Over the volume points read facing up, down and sideways.
+    pub volume_facing: [Comparison; 3],
 }
 
 /// The three comparisons over a set of probes.
@@ -134,8 +136,8 @@ pub(super) fn measure(
         },
     )?;
     let seconds = t.elapsed().as_secs_f64();
-    // All, vertices, volume.
-    let mut cmp = [Compare::default(), Compare::default(), Compare::default()];
+    // All, vertices, volume; volume facing up, down, sideways.
+    let mut cmp: [Compare; 6] = Default::default();
     let mut noise = [(0.0f64, 0.0f64); 3];
     let mut skipped = 0;
     for (&i, e) in which.iter().zip(&mc) {
@@ -150,6 +152,17 @@ pub(super) fn measure(
         };
         cmp[0].add(hier[i], sweep[i], r);
         cmp[if probes[i].vertex { 1 } else { 2 }].add(hier[i], sweep[i], r);
+        if !probes[i].vertex {
+            let y = probes[i].n.normalize().y;
+            let facing = if y > 0.5 {
+                3
+            } else if y < -0.5 {
+                4
+            } else {
+                5
+            };
+            cmp[facing].add(hier[i], sweep[i], r);
+        }
         for (k, (se, v)) in [
             (e.sky_se, r.sky),
             (e.sun_se, r.sun),
@@ -178,6 +191,7 @@ pub(super) fn measure(
         all: cmp[0].finish(),
         vertices: cmp[1].finish(),
         volume: cmp[2].finish(),
+        volume_facing: [cmp[3].finish(), cmp[4].finish(), cmp[5].finish()],
     })
 }
 
@@ -208,13 +222,16 @@ pub(super) fn lines(m: &MonteCarlo, elevation: f32) -> String {
     );
     let _ = writeln!(
         s,
-        "    {:34} | {:12} | {:12} | {:12} | {:12} | {:12}",
+        "    {:56} | {:12} | {:12} | {:12} | {:12} | {:12}",
         "", "sky", "sun", "scattered sun", "direct sun", "both"
     );
     for (name, c) in [
         ("all", &m.all),
         ("vertices", &m.vertices),
         ("volume", &m.volume),
+        ("volume facing up", &m.volume_facing[0]),
+        ("volume facing down", &m.volume_facing[1]),
+        ("volume facing sideways", &m.volume_facing[2]),
     ] {
         for (k, (what, e)) in [
             ("total (the hierarchy as read)", &c.total),
@@ -226,7 +243,7 @@ pub(super) fn lines(m: &MonteCarlo, elevation: f32) -> String {
         {
             let _ = writeln!(
                 s,
-                "    {:34} | {} | {} | {} | {} | {}",
+                "    {:56} | {} | {} | {} | {} | {}",
                 format!("{name}, {what}"),
                 f(&e.sky),
                 f(&e.sun),
