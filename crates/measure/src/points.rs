@@ -70,7 +70,7 @@ use lightgrid_core::light::luminance;
 use lightgrid_core::{Boundary, GridError, MaterialGrid, SideBoundary, SweepError, TopBoundary};
 use rayon::prelude::*;
 
-use crate::reference::CollimatedSun;
+use crate::reference::{CollimatedSun, isotropic, lambertian};
 
 /// A point where light is read, and the normal of the surface reading it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -276,17 +276,7 @@ impl Scene {
         };
         Self {
             dims: material.desc().dims().as_ivec3(),
-            sigma: material
-                .data()
-                .iter()
-                .map(|m| {
-                    if m.pass <= 0.0 {
-                        f32::INFINITY
-                    } else {
-                        -m.pass.ln()
-                    }
-                })
-                .collect(),
+            sigma: crate::reference::extinction(material),
             albedo: material.data().iter().map(|m| m.reflectance).collect(),
             periodic,
             from_top: radiance(top, DVec3::NEG_Y),
@@ -475,21 +465,4 @@ impl Scene {
         }
         (sky, sun)
     }
-}
-
-/// A cosine-distributed direction about unit `normal`.
-fn lambertian(rng: &mut fastrand::Rng, normal: Vec3) -> Vec3 {
-    let r = rng.f32().sqrt();
-    let phi = std::f32::consts::TAU * rng.f32();
-    let z = (1.0 - r * r).max(0.0).sqrt();
-    let t1 = normal.any_orthonormal_vector();
-    let t2 = normal.cross(t1);
-    (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + normal * z).normalize()
-}
-
-fn isotropic(rng: &mut fastrand::Rng) -> Vec3 {
-    let z = 1.0 - 2.0 * rng.f32();
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = std::f32::consts::TAU * rng.f32();
-    Vec3::new(r * phi.cos(), z, r * phi.sin())
 }

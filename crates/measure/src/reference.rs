@@ -558,7 +558,7 @@ impl Tracer<'_> {
 }
 
 /// A cosine-distributed direction about unit `normal`.
-fn lambertian(rng: &mut fastrand::Rng, normal: Vec3) -> Vec3 {
+pub(crate) fn lambertian(rng: &mut fastrand::Rng, normal: Vec3) -> Vec3 {
     let r = rng.f32().sqrt();
     let phi = std::f32::consts::TAU * rng.f32();
     let z = (1.0 - r * r).max(0.0).sqrt();
@@ -567,7 +567,8 @@ fn lambertian(rng: &mut fastrand::Rng, normal: Vec3) -> Vec3 {
     (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + normal * z).normalize()
 }
 
-fn isotropic(rng: &mut fastrand::Rng) -> Vec3 {
+/// A direction drawn uniformly on the sphere.
+pub(crate) fn isotropic(rng: &mut fastrand::Rng) -> Vec3 {
     let z = 1.0 - 2.0 * rng.f32();
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = std::f32::consts::TAU * rng.f32();
@@ -662,17 +663,7 @@ impl<'a> Tracer<'a> {
         }
         Tracer {
             dims: dims.as_ivec3(),
-            sigma: material
-                .data()
-                .iter()
-                .map(|m| {
-                    if m.pass <= 0.0 {
-                        f32::INFINITY
-                    } else {
-                        -m.pass.ln()
-                    }
-                })
-                .collect(),
+            sigma: extinction(material),
             albedo: material.data().iter().map(|m| m.reflectance).collect(),
             periodic,
             comps,
@@ -682,6 +673,21 @@ impl<'a> Tracer<'a> {
             max_track: options.max_track.max(1.0) * (dims.x + dims.y + dims.z) as f32,
         }
     }
+}
+
+/// Each cell's extinction per cell length, `-ln(pass)`; infinity for an opaque cell.
+pub(crate) fn extinction(material: &MaterialGrid) -> Vec<f32> {
+    material
+        .data()
+        .iter()
+        .map(|m| {
+            if m.pass <= 0.0 {
+                f32::INFINITY
+            } else {
+                -m.pass.ln()
+            }
+        })
+        .collect()
 }
 
 /// What the paths deposit, summed in path order: light per point and bin, direct sun
