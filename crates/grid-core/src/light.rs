@@ -440,9 +440,12 @@ impl std::ops::Mul<Vec3> for HorizonLight {
 }
 
 /// `∫ max(0, -n·t) dt / ω` over each half of each horizontal bin (`[k][0]` the
-/// downward-travelling half, `[k][1]` the upward): the irradiance on normal `n` of
-/// unit light in that half.
-fn half_bin_weights(n: DVec3) -> [[f64; 2]; dirs::HORIZONTAL_BINS] {
+/// downward-travelling half, `[k][1]` the upward, `ω` the half's solid angle): the
+/// irradiance on unit normal `n` of unit light in that half. The mean of the two is
+/// the bin's weight in [`BinLight::irradiance`] (the halves are mirror images), so
+/// [`BinLight::irradiance_split`] is the even read plus `Σ_k (down_k − L_k / 2)
+/// (w[k][0] − w[k][1])`.
+pub fn half_bin_weights(n: DVec3) -> [[f64; 2]; dirs::HORIZONTAL_BINS] {
     std::array::from_fn(|k| {
         let d = dirs::FIRST_HORIZONTAL + k;
         [DVec3::NEG_Y, DVec3::Y].map(|half| {
