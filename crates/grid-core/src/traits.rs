@@ -588,6 +588,9 @@ impl std::fmt::Debug for SunBoundary<'_> {
 pub struct SunResponse {
     /// Scattered sun light (26 bins).
     pub scattered: LightGrid,
+    /// The downward halves of `scattered`'s horizontal bins, where the sweep was asked
+    /// for them ([`Outputs::horizon`] in its options).
+    pub horizon: Option<crate::HorizonGrid>,
     /// The beam's transmittance per point (same grid; trilinear `sample`).
     pub transmittance: Grid<f32>,
     /// Work counters of the scattered-light sweep.
@@ -603,6 +606,15 @@ pub struct SunResponse {
 impl LightField for SunResponse {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
         self.scattered.light(p, n)
+    }
+    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<crate::HorizonLight>, GridError> {
+        self.horizon
+            .as_ref()
+            .map(|h| match n {
+                Some(n) => h.sample_biased(p, n),
+                None => h.sample(p),
+            })
+            .transpose()
     }
     fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
         let t = match n {
@@ -1060,6 +1072,7 @@ mod tests {
             .collect();
         let r = SunResponse {
             scattered: LightGrid::filled(desc, bins).unwrap(),
+            horizon: None,
             transmittance: Grid::from_trusted(desc, t),
             stats: SweepStats::default(),
             resident: None,

@@ -344,8 +344,8 @@ impl IrradianceTable {
         let mut wide = even.as_dvec3();
         for (node, w) in self.corners(n) {
             for h in 0..H {
-                let excess = down.0[h].as_dvec3()
-                    - bins.0[dirs::FIRST_HORIZONTAL + h].as_dvec3() * 0.5;
+                let excess =
+                    down.0[h].as_dvec3() - bins.0[dirs::FIRST_HORIZONTAL + h].as_dvec3() * 0.5;
                 wide += excess * (self.horizon[node / NUM_DIRS * H + h] * w) as f64;
             }
         }
@@ -617,7 +617,11 @@ mod tests {
         };
         let pi = std::f32::consts::PI;
         let got = sample_points(&split, points).unwrap();
-        assert!((got[0].light.x / (a * pi) - 1.0).abs() < 0.01, "{}", got[0].light);
+        assert!(
+            (got[0].light.x / (a * pi) - 1.0).abs() < 0.01,
+            "{}",
+            got[0].light
+        );
         assert!((got[1].light.x / pi - 1.0).abs() < 0.01, "{}", got[1].light);
         // The same bins read as even: facing down 13 % bright, facing up 4 % dark.
         let even = sample_points(&bins, points).unwrap();

@@ -410,7 +410,8 @@ impl SunSplit {
 /// `sun.outside` beyond the box), the first collisions ([`first_collision`]: traced
 /// rays, unit irradiance) and one sweep of them with `sweeper` into the bins, `sun.scattered` the
 /// boundary light. A sun at or below the horizon has no beam: transmittance 0, and the
-/// bins hold only what `sun.scattered` brings.
+/// bins hold only what `sun.scattered` brings. The horizon halves of the scattered
+/// light come with it where `options.outputs.horizon` asks for them.
 pub fn sweep_sun(
     sweeper: &mut dyn lightgrid_core::Sweeper,
     material: &MaterialGrid,
@@ -420,7 +421,10 @@ pub fn sweep_sun(
     let periodic = matches!(sun.scattered.sides, lightgrid_core::SideBoundary::Periodic);
     let t = transmittance(material, sun)?;
     let mut o = *options;
-    o.outputs = lightgrid_core::Outputs::ALL;
+    o.outputs = lightgrid_core::Outputs {
+        horizon: options.outputs.horizon,
+        ..lightgrid_core::Outputs::ALL
+    };
     let out = if sun_direction(sun.to_sun)?.is_some() {
         let src = first_collision(material, sun.to_sun, Vec3::ONE, periodic, sun.outside)?;
         sweeper.sweep_with_source(material, &sun.scattered, &src, &o)?
@@ -429,6 +433,7 @@ pub fn sweep_sun(
     };
     Ok(lightgrid_core::SunResponse {
         scattered: out.bins.expect("bins asked for"),
+        horizon: out.horizon,
         transmittance: t,
         stats: out.stats,
         resident: out.resident,

@@ -369,6 +369,8 @@ impl WorldBake {
                 k,
                 Node {
                     light: g.light.clone(),
+                    // (Bakes keep the 26 bins alone: their nodes read them as even.)
+                    horizon: None,
                     material: NodeMaterial {
                         grid: g.material.clone(),
                         has_objects: g.has_objects,
@@ -389,6 +391,7 @@ impl WorldBake {
             (None, _) => Ok(None),
             (Some(s), Some(b)) if b.to_sun == s.to_sun => Ok(Some(GridSun {
                 scattered: b.scattered.clone(),
+                horizon: None,
                 resident: None,
                 transmittance: b.transmittance.clone(),
                 to_sun: b.to_sun,

@@ -328,6 +328,7 @@ impl Hierarchy {
         })?;
         Ok(Node {
             light,
+            horizon: out.horizon,
             material: composed.clone(),
             sun: None,
             resident: out.resident,

@@ -127,9 +127,9 @@ pub use params::{HierarchyParams, LodSkips};
 use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, Boundary, Grid, GridDesc, GridError, HALO_WIDTH, HaloLayout, LightField, LightGrid,
-    MaterialGrid, MaterialSource, Resident, SideBoundary, SunBoundary, SweepError, SweepOptions,
-    Sweeper, TopBoundary,
+    BinLight, Boundary, Grid, GridDesc, GridError, HALO_WIDTH, HaloLayout, HorizonGrid,
+    HorizonLight, LightField, LightGrid, MaterialGrid, MaterialSource, Resident, SideBoundary,
+    SunBoundary, SweepError, SweepOptions, Sweeper, TopBoundary,
 };
 
 /// Errors of the hierarchy.
@@ -208,6 +208,8 @@ pub struct SunLight {
 /// sun's scattered light follows its direct light: the module `sun_move`).
 struct GridSun {
     scattered: LightGrid,
+    /// The downward halves of `scattered`'s horizontal bins, if kept.
+    horizon: Option<HorizonGrid>,
     /// The sweeper's device copy of `scattered`, if it keeps one.
     resident: Option<Resident>,
     transmittance: Grid<f32>,
@@ -238,6 +240,9 @@ struct NodeMaterial {
 
 struct Node {
     light: LightGrid,
+    /// The downward halves of `light`'s horizontal bins, if kept
+    /// (`HierarchyParams::sweep.outputs.horizon`).
+    horizon: Option<HorizonGrid>,
     /// The material it was swept with (its sun responses are recomputed from it, and the
     /// sun's march beyond other nodes crosses it: [`shadow`]).
     material: NodeMaterial,
@@ -393,6 +398,9 @@ impl FrameStats {
 
 /// Bytes per point of the representations the docs compare.
 pub const BYTES_26_F32: u64 = 26 * 12;
+/// The horizon halves kept beside a grid's bins (8 colours, `f32`:
+/// [`HierarchyParams::sweep`]'s `outputs.horizon`).
+pub const BYTES_HORIZON: u64 = 8 * 12;
 /// 26 bins as R11G11B10.
 pub const BYTES_26_PACKED: u64 = 26 * 4;
 /// Average (RGB `f32`) and dominant direction (`f32` × 3).
@@ -413,6 +421,8 @@ pub struct Hierarchy {
     forks: Vec<Box<dyn Sweeper + Send + Sync>>,
     sky: BinLight,
     world: LightGrid,
+    /// The downward halves of `world`'s horizontal bins, if kept.
+    world_horizon: Option<HorizonGrid>,
     world_resident: Option<Resident>,
     nodes: HashMap<NodeKey, Node, BuildHasherDefault<KeyHasher>>,
     /// Materials composed for wanted nodes that the budget left for a later frame,
@@ -555,6 +565,7 @@ impl Hierarchy {
             forks: Vec::new(),
             sky: sky_top,
             world: LightGrid::filled(GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE)?, BinLight::ZERO)?,
+            world_horizon: None,
             world_resident: None,
             nodes: HashMap::default(),
             composed: HashMap::default(),
@@ -603,6 +614,7 @@ impl Hierarchy {
             .sweeper
             .sweep(&material, &Boundary::open_sky(self.sky), &o)?;
         self.world = out.bins.expect("bins asked for");
+        self.world_horizon = out.horizon;
         self.world_resident = out.resident;
         self.world_material = Some(material);
         Ok(())
@@ -804,6 +816,7 @@ impl Hierarchy {
         })?;
         let mut g = GridSun {
             scattered: r.scattered,
+            horizon: r.horizon,
             resident: r.resident,
             transmittance: r.transmittance,
             to_sun: scattered_to,
@@ -1266,7 +1279,7 @@ impl Hierarchy {
             bins: true,
             average: false,
             dominant: false,
-            horizon: false,
+            horizon: self.params.sweep.outputs.horizon,
         };
         if !has_objects && self.params.skip.up_pass_over_bare {
             o.max_passes = 1;
@@ -1330,6 +1343,7 @@ impl Hierarchy {
                 stats.built += 1;
                 let n = self.nodes.get_mut(&key).expect("ready node");
                 n.light = out.bins.expect("bins asked for");
+                n.horizon = out.horizon;
                 n.resident = out.resident;
                 n.input_hash = hash;
                 n.material.grid = material.clone();
@@ -1383,15 +1397,20 @@ impl Hierarchy {
 
     /// The finest ready grid containing `p` (the world grid if none).
     pub fn grid_at(&self, p: Vec3) -> &LightGrid {
+        self.serving(p).0
+    }
+
+    /// The finest ready grid containing `p` and its horizon halves, if kept.
+    fn serving(&self, p: Vec3) -> (&LightGrid, Option<&HorizonGrid>) {
         for d in (1..=self.params.depths()).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
             if let Some(n) = self.nodes.get(&key)
                 && within_levels(n.light.desc(), p)
             {
-                return &n.light;
+                return (&n.light, n.horizon.as_ref());
             }
         }
-        &self.world
+        (&self.world, self.world_horizon.as_ref())
     }
 }
 
@@ -1406,6 +1425,33 @@ impl LightField for Hierarchy {
             (Some(sun), Some(g)) => Ok(sky + g.scattered.light(p, n)? * sun.irradiance),
             _ => Ok(sky),
         }
+    }
+    /// The horizon halves of the finest ready grid at `p` times the sky scale, plus with
+    /// the sun kept apart those of the sun's scattered light read as [`LightField::light`]
+    /// reads it (its bins split evenly where that grid keeps no halves), times the
+    /// sun's irradiance; `None` where the grid serving `p` keeps no halves
+    /// (`HierarchyParams::sweep.outputs.horizon` off).
+    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<HorizonLight>, GridError> {
+        let read = |h: &HorizonGrid| match n {
+            Some(n) => h.sample_biased(p, n),
+            None => h.sample(p),
+        };
+        let Some(halves) = self.serving(p).1 else {
+            return Ok(None);
+        };
+        let sky = read(halves)? * self.sky_scale;
+        Ok(Some(
+            match (self.sun, self.coarse_sun(p, self.params.depths() + 1, true)) {
+                (Some(sun), Some(g)) => {
+                    let scattered = match &g.horizon {
+                        Some(h) => read(h)?,
+                        None => HorizonLight::even(&g.scattered.light(p, n)?),
+                    };
+                    sky + scattered * sun.irradiance
+                }
+                _ => sky,
+            },
+        ))
     }
     /// Every grid reduced once to the moments a light volume stores (the sky scale and
     /// the sun's irradiance folded in): 7 numbers a corner instead of 52 bins.

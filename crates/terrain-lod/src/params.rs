@@ -40,7 +40,12 @@ pub struct HierarchyParams {
     pub budget_ms: Option<f32>,
     /// Most levels of one node grid (taller spans are cut at the top).
     pub max_levels: u32,
-    /// Sweep options for every grid (`outputs.bins` is forced on: children read it).
+    /// Sweep options for every grid (`outputs.bins` is forced on: children read it;
+    /// average and dominant are read from the bins and never kept). `outputs.horizon`
+    /// (on by default) keeps every grid's horizon halves, sky and scattered sun, and the
+    /// hierarchy's irradiance reads each horizontal bin in its two halves
+    /// ([`lightgrid_core::LightField::horizon`]) instead of as even across the horizon:
+    /// 8 more colours a point beside the 26 bins.
     pub sweep: SweepOptions,
     /// Work the hierarchy skips (see [`LodSkips`] for which are on by default).
     pub skip: LodSkips,
@@ -81,6 +86,7 @@ impl Default for HierarchyParams {
     fn default() -> Self {
         let mut sweep = SweepOptions::multi_bounce();
         sweep.max_passes = 4;
+        sweep.outputs.horizon = true;
         Self {
             world_cell: 16.0,
             finest_cell: 1.0,

@@ -119,6 +119,9 @@ pub struct ViewSummary {
     /// With the sun kept apart: the sun's responses beside the sky's grids (scattered
     /// bins as 26 `f32` bins, and the transmittance, 4 bytes a point); 0 otherwise.
     pub sun_bytes: u64,
+    /// The horizon halves kept beside the sky's bins and the sun's scattered bins
+    /// (`lightgrid_terrain_lod::BYTES_HORIZON` a point each); 0 where none are kept.
+    pub horizon_bytes: u64,
     /// The materials the grids keep (for the sun's responses and its march beyond a
     /// node: `lightgrid_terrain_lod::BYTES_MATERIAL` a point).
     pub material_bytes: u64,
@@ -184,6 +187,13 @@ impl Summary {
                     s,
                     "  sun responses (scattered bins, transmittance): {:.1} MB beside the grids",
                     v.sun_bytes as f64 / 1e6
+                );
+            }
+            if v.horizon_bytes > 0 {
+                let _ = writeln!(
+                    s,
+                    "  horizon halves (sky, scattered sun): {:.1} MB beside the grids",
+                    v.horizon_bytes as f64 / 1e6
                 );
             }
             let _ = writeln!(
@@ -423,6 +433,9 @@ fn render_view(
         volume_points: relit.volume_points,
         volume_seconds: relit.volume_seconds,
         sun_bytes: stats.bytes(BYTES_26_F32 + 4) * world.hierarchy.sun().is_some() as u64,
+        horizon_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_HORIZON)
+            * world.hierarchy.params().sweep.outputs.horizon as u64
+            * (1 + world.hierarchy.sun().is_some() as u64),
         material_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_MATERIAL),
         sampled_on: if relit.on_device {
             format!("device ({} grids in place)", relit.grids)

@@ -80,10 +80,11 @@ fn tiny_scene_matches_the_reference_images() {
     assert!(moved.contains("sun responses recomputed"), "{moved}");
     assert!(out.join("tiny-sun-moved.png").is_file());
     // The sun's responses are counted beside the sky's grids: 316 bytes a point; the
-    // kept materials 16.
+    // horizon halves of both 96 each; the kept materials 16.
     for v in &summary.views {
         let points: u64 = v.points_per_depth.iter().sum();
         assert_eq!(v.sun_bytes, points * 316, "{}", v.name);
+        assert_eq!(v.horizon_bytes, points * 2 * 96, "{}", v.name);
         assert_eq!(v.material_bytes, points * 16, "{}", v.name);
     }
     // --bevy: the world volume first, then one per quadtree depth, indirect light.
