@@ -78,6 +78,9 @@ pub struct FrameConfig {
     pub gpu: bool,
     /// No finer grids over bare ground (`LodSkips::bare_children`, off by default).
     pub bare_skip: bool,
+    /// Keep no horizon halves (`HierarchyParams::sweep.outputs.horizon` off, in the
+    /// hierarchy and the reference sweep): horizontal bins read as even.
+    pub even: bool,
     /// A frame's time budget, milliseconds (`HierarchyParams::budget_ms`; `None`: the
     /// points budget alone).
     pub budget_ms: Option<f32>,
@@ -106,6 +109,7 @@ impl FrameConfig {
             trees: 4000,
             gpu: false,
             bare_skip: false,
+            even: false,
             budget_ms: None,
             path: CameraPath::Forest,
             margin: 40.0,
@@ -297,6 +301,8 @@ pub struct FrameReport {
     pub path: String,
     /// Whether the bare-ground skip was on.
     pub bare_skip: bool,
+    /// Whether the grids kept their horizon halves (and were read through them).
+    pub horizon: bool,
     /// The frames' time budget, milliseconds (`None`: none).
     pub budget_ms: Option<f32>,
     /// The reference region, points.
@@ -426,7 +432,9 @@ fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
 /// bins and transmittance.
 struct Reference {
     material: lightgrid_core::MaterialGrid,
-    sky: Option<LightGrid>,
+    /// The sky's bins, and their horizon halves where the hierarchy's options keep them
+    /// (then the sweep is read through them, as the hierarchy is).
+    sky: Option<(LightGrid, Option<lightgrid_core::HorizonGrid>)>,
     /// The sun's responses and its direction.
     sun: Option<(SunResponse, Vec3)>,
 }
@@ -438,7 +446,10 @@ impl Reference {
     /// [`Parts::of`]).
     fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<Parts>> {
         let (response, to_sun) = self.sun.as_ref().context("reference sun")?;
-        let sky = read(self.sky.as_ref().context("reference sky")?, probes)?;
+        let sky = match self.sky.as_ref().context("reference sky")? {
+            (bins, Some(halves)) => read(&Halves(bins, halves), probes)?,
+            (bins, None) => read(bins, probes)?,
+        };
         let sun = read(response, probes)?;
         Ok(probes
             .iter()
@@ -451,6 +462,26 @@ impl Reference {
                 Parts::of(a, &b, p, *to_sun)
             })
             .collect())
+    }
+}
+
+/// A grid read through its horizon halves, borrowed (`SplitLightGrid` would own them:
+/// a copy of the region's grids).
+struct Halves<'a>(&'a LightGrid, &'a lightgrid_core::HorizonGrid);
+
+impl LightField for Halves<'_> {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
+        self.0.light(p, n)
+    }
+    fn horizon(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<Option<lightgrid_core::HorizonLight>, lightgrid_core::GridError> {
+        Ok(Some(match n {
+            Some(n) => self.1.sample_biased(p, n)?,
+            None => self.1.sample(p)?,
+        }))
     }
 }
 
@@ -655,6 +686,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
         ..Default::default()
     };
     p.skip.bare_children = cfg.bare_skip;
+    p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
     p
 }
@@ -687,7 +719,7 @@ impl Reference {
             &Boundary::open_sky(sky),
             &Self::options(params),
         )?;
-        self.sky = Some(out.bins.context("bins asked for")?);
+        self.sky = Some((out.bins.context("bins asked for")?, out.horizon));
         Ok(t.elapsed().as_secs_f64())
     }
 
@@ -1016,6 +1048,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         node_points: cfg.node_points,
         path: format!("{:?}", cfg.path).to_lowercase(),
         bare_skip: cfg.bare_skip,
+        horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
         reference_points: desc.point_count() as u64,
         reference_sky_s,
@@ -1055,11 +1088,16 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes, {} path, bare-ground skip {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes, {} path, bare-ground skip {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.path,
         if report.bare_skip { "on" } else { "off" },
+        if report.horizon {
+            "horizon halves kept"
+        } else {
+            "horizontal bins read as even"
+        },
         report
             .budget_ms
             .map_or("no time budget".to_string(), |ms| format!(

@@ -93,6 +93,10 @@ enum Task {
         /// No finer grids over bare ground (the bare-ground skip, off by default).
         #[arg(long)]
         bare_skip: bool,
+        /// Keep no horizon halves: every grid's horizontal bins read as even across the
+        /// horizon (in the hierarchy and the reference sweep), for comparison.
+        #[arg(long)]
+        even: bool,
         /// A frame's time budget in milliseconds (HierarchyParams::budget_ms; default:
         /// none, the points budget alone).
         #[arg(long)]
@@ -180,6 +184,7 @@ fn main() -> ExitCode {
             elevations,
             gpu,
             bare_skip,
+            even,
             budget_ms,
             path,
             mc_probes,
@@ -193,6 +198,7 @@ fn main() -> ExitCode {
             cfg.frames = frames;
             cfg.gpu = gpu;
             cfg.bare_skip = bare_skip;
+            cfg.even = even;
             cfg.budget_ms = budget_ms;
             cfg.path = path;
             if !elevations.is_empty() {

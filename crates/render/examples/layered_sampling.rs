@@ -59,6 +59,7 @@ fn main() -> anyhow::Result<()> {
             grid: g,
             owner: *o,
             sun: None,
+            horizon: None,
         })
         .collect();
     let sampler = GpuLightSampler::new(ctx.clone());

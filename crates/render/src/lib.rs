@@ -58,8 +58,8 @@ pub use lightgrid_core::LightKind;
 pub use lightgrid_gpu::GpuLightGrid;
 pub use passes::dynamic::GpuDynamicShader;
 pub use passes::sample::{
-    GpuLayerSun, GpuLightSampler, GpuPoints, GpuSampleLayer, GpuSamples, LayerLight, LayerOwner,
-    transmittance_buffer,
+    GpuHorizon, GpuLayerSun, GpuLightSampler, GpuPoints, GpuSampleLayer, GpuSamples, LayerLight,
+    LayerOwner, transmittance_buffer,
 };
 pub use raster::{
     Camera, GroundLight, Image, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial,

@@ -10,6 +10,12 @@ use std::fmt::Write;
 pub fn prelude() -> String {
     let mut s = lightgrid_gpu::wgsl::prelude();
     let _ = writeln!(s, "const PI: f32 = {:?};", std::f32::consts::PI);
+    let _ = writeln!(
+        s,
+        "const FIRST_HORIZONTAL: u32 = {}u;\nconst HORIZONTAL_BINS: u32 = {}u;",
+        lightgrid_core::dirs::FIRST_HORIZONTAL,
+        lightgrid_core::dirs::HORIZONTAL_BINS
+    );
     let l = lightgrid_core::LUMA;
     let _ = writeln!(
         s,

@@ -6,7 +6,7 @@ use std::f32::consts::PI;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
-use lightgrid_core::{BinLight, Grid, GridDesc, LightGrid, NUM_DIRS};
+use lightgrid_core::{BinLight, Grid, GridDesc, HorizonGrid, HorizonLight, LightGrid, NUM_DIRS};
 use lightgrid_gpu::GpuContext;
 use lightgrid_render::shading::{linear_to_srgb8, tonemap_aces};
 use lightgrid_render::{
@@ -706,6 +706,7 @@ fn layered_device_sampling_equals_the_cpu_rule() {
             grid: g,
             owner: *o,
             sun: None,
+            horizon: None,
         })
         .collect();
     let (positions, normals) = point_cloud(3);
@@ -800,6 +801,7 @@ fn layered_device_sampling_equals_the_cpu_rule() {
                 grid: &foreign,
                 owner: None,
                 sun: None,
+                horizon: None,
             }],
             GpuPoints::Lattice(lattice),
         )
@@ -825,6 +827,7 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
         grid: &dev,
         owner: None,
         sun: None,
+        horizon: None,
     }];
     let close = |a: &lightgrid_render::Image, b: &lightgrid_render::Image, what: &str| {
         let mut lit = 0;
@@ -958,17 +961,38 @@ fn point_cloud(seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
 
 /// A layer lit as the hierarchy lights it with the sun kept apart: `sky × scale +
 /// scattered × E`, and the transmittance (the CPU rule of `sample_layers_lit`).
+/// With horizon halves, those of the sky scaled plus the sun's (its bins split evenly
+/// where it has none) times `E`, as `lightgrid_terrain_lod::Hierarchy` reads them.
 struct LitLayer<'a> {
     sky: &'a LightGrid,
     scattered: &'a LightGrid,
     t: &'a Grid<f32>,
     scale: Vec3,
     sun: Vec3,
+    halves: (Option<&'a HorizonGrid>, Option<&'a HorizonGrid>),
 }
 
 impl lightgrid_core::LightField for LitLayer<'_> {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
         Ok(self.sky.light(p, n)? * self.scale + self.scattered.light(p, n)? * self.sun)
+    }
+    fn horizon(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<Option<HorizonLight>, lightgrid_core::GridError> {
+        let read = |h: &HorizonGrid| match n {
+            Some(n) => h.sample_biased(p, n),
+            None => h.sample(p),
+        };
+        let Some(sky) = self.halves.0 else {
+            return Ok(None);
+        };
+        let sun = match self.halves.1 {
+            Some(h) => read(h)?,
+            None => HorizonLight::even(&self.scattered.light(p, n)?),
+        };
+        Ok(Some(read(sky)? * self.scale + sun * self.sun))
     }
     fn sun_transmittance(
         &self,
@@ -983,14 +1007,31 @@ impl lightgrid_core::LightField for LitLayer<'_> {
     }
 }
 
+/// Random downward halves of `bins`' horizontal bins (each a share of its bin).
+fn varied_halves(bins: &LightGrid, seed: u64) -> HorizonGrid {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let data = bins
+        .data()
+        .iter()
+        .map(|b| {
+            HorizonLight(std::array::from_fn(|k| {
+                b.0[lightgrid_core::dirs::FIRST_HORIZONTAL + k] * rng.f32()
+            }))
+        })
+        .collect();
+    Grid::from_trusted(*bins.desc(), data)
+}
+
 /// Layered device sampling with the sky scaled and the sun kept apart equals the CPU
 /// rule: per point the last owning layer's `sky × scale + scattered × E` through
 /// `sample_points`, the transmittance in `w`, and for points with normals the direct sun
-/// `E T max(0, n · s)` added (as vertex light holds it). A layer without sun responses
-/// is refused by name.
+/// `E T max(0, n · s)` added (as vertex light holds it); with horizon halves (the
+/// coarse layer the sky's alone, the fine one the sky's and the sun's), read through
+/// them as the CPU sampler reads them. A layer without sun responses, or with halves
+/// not on its grid, is refused by name.
 #[test]
 fn layered_device_sampling_with_the_sun_apart() {
-    use lightgrid_render::{GpuLayerSun, LayerLight, transmittance_buffer};
+    use lightgrid_render::{GpuHorizon, GpuLayerSun, LayerLight, transmittance_buffer};
     let Some(ctx) = context() else { return };
     let sampler = GpuLightSampler::new(ctx.clone());
     let descs = [
@@ -1043,16 +1084,17 @@ fn layered_device_sampling_with_the_sun_apart() {
         .iter()
         .map(|t| transmittance_buffer(&ctx, t.data()))
         .collect();
-    let layers: Vec<GpuSampleLayer> = (0..2)
-        .map(|i| GpuSampleLayer {
-            grid: &dev_sky[i],
-            owner: owners[i],
-            sun: Some(GpuLayerSun {
-                scattered: &dev_scat[i],
-                transmittance: &dev_t[i],
-            }),
-        })
+    let sky_h: Vec<HorizonGrid> = sky
+        .iter()
+        .enumerate()
+        .map(|(i, g)| varied_halves(g, 20 + i as u64))
         .collect();
+    let scat_h = varied_halves(&scat[1], 30);
+    let dev_h = [
+        GpuHorizon::new(ctx.clone(), &sky_h[0], None).unwrap(),
+        GpuHorizon::new(ctx.clone(), &sky_h[1], Some(&scat_h)).unwrap(),
+    ];
+    let cpu_h = [(Some(&sky_h[0]), None), (Some(&sky_h[1]), Some(&scat_h))];
     let light = LayerLight {
         sky_scale: scale,
         sun: Some((to_sun, e)),
@@ -1060,7 +1102,18 @@ fn layered_device_sampling_with_the_sun_apart() {
     let (positions, normals) = point_cloud(9);
     let normals: Vec<Vec3> = normals.iter().map(|n| n.normalize()).collect();
     let cpu_layers: Vec<(&LightGrid, Option<LayerOwner>)> = sky.iter().zip(owners).collect();
-    for with_normals in [false, true] {
+    for (with_normals, with_halves) in [(false, false), (true, false), (true, true)] {
+        let layers: Vec<GpuSampleLayer> = (0..2)
+            .map(|i| GpuSampleLayer {
+                grid: &dev_sky[i],
+                owner: owners[i],
+                sun: Some(GpuLayerSun {
+                    scattered: &dev_scat[i],
+                    transmittance: &dev_t[i],
+                }),
+                horizon: with_halves.then_some(&dev_h[i]),
+            })
+            .collect();
         let ns = with_normals.then_some(&normals[..]);
         let gpu = sampler
             .sample_layers_lit(
@@ -1083,6 +1136,7 @@ fn layered_device_sampling_with_the_sun_apart() {
                 t: &ts[k],
                 scale,
                 sun: e,
+                halves: if with_halves { cpu_h[k] } else { (None, None) },
             };
             let c = sample_points(
                 &field,
@@ -1100,7 +1154,7 @@ fn layered_device_sampling_with_the_sun_apart() {
             assert!(
                 (want - got.light).abs().max_element() <= 1e-5 * want.abs().max_element() + 1e-5
                     && (c.sun - got.sun).abs() <= 1e-5,
-                "normals {with_normals} point {i}: cpu {want} T {} gpu {} T {}",
+                "normals {with_normals} halves {with_halves} point {i}: cpu {want} T {} gpu {} T {}",
                 c.sun,
                 got.light,
                 got.sun
@@ -1112,6 +1166,7 @@ fn layered_device_sampling_with_the_sun_apart() {
         grid: &dev_sky[0],
         owner: None,
         sun: None,
+        horizon: None,
     }];
     let e = sampler
         .sample_layers_lit(&bare, GpuPoints::Lattice(descs[0]), &light)
@@ -1119,4 +1174,17 @@ fn layered_device_sampling_with_the_sun_apart() {
         .unwrap()
         .to_string();
     assert!(e.contains("layers[0].sun"), "{e}");
+    // Halves on another grid, or the sun's without a sun: refused by name.
+    let unlike = [GpuSampleLayer {
+        grid: &dev_sky[0],
+        owner: None,
+        sun: None,
+        horizon: Some(&dev_h[1]),
+    }];
+    let e = sampler
+        .sample_layers(&unlike, GpuPoints::Lattice(descs[0]))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("layers[0].horizon"), "{e}");
 }

@@ -222,6 +222,8 @@ struct GridSun {
 pub struct LayerSun<'a> {
     /// The sun's light after at least one scattering (26 bins).
     pub scattered: &'a LightGrid,
+    /// The downward halves of `scattered`'s horizontal bins, if kept.
+    pub horizon: Option<&'a HorizonGrid>,
     /// The sun beam's transmittance per point.
     pub transmittance: &'a Grid<f32>,
     /// The sweeper's device copy of `scattered`, if it keeps one.
@@ -296,6 +298,10 @@ pub struct Layer<'a> {
     pub grid: &'a LightGrid,
     /// The sweeper's device copy of it, if the sweeper keeps one.
     pub resident: Option<&'a Resident>,
+    /// The downward halves of `grid`'s horizontal bins, if kept
+    /// ([`HierarchyParams::sweep`]'s `outputs.horizon`); a point served by a layer with
+    /// them reads each horizontal bin in its two halves ([`LightField::horizon`]).
+    pub horizon: Option<&'a HorizonGrid>,
     /// Which points it lights; `None`: all (the world grid).
     pub owner: Option<Owner>,
     /// With the sun kept apart ([`Hierarchy::set_sun`]): the grid's sun responses for
@@ -1365,6 +1371,7 @@ impl Hierarchy {
         fn layer_sun(g: &GridSun) -> LayerSun<'_> {
             LayerSun {
                 scattered: &g.scattered,
+                horizon: g.horizon.as_ref(),
                 transmittance: &g.transmittance,
                 resident: g.resident.as_ref(),
             }
@@ -1372,6 +1379,7 @@ impl Hierarchy {
         let mut v = vec![Layer {
             grid: &self.world,
             resident: self.world_resident.as_ref(),
+            horizon: self.world_horizon.as_ref(),
             owner: None,
             sun: self.world_sun.as_ref().map(layer_sun),
         }];
@@ -1380,6 +1388,7 @@ impl Hierarchy {
             v.push(Layer {
                 grid: &n.light,
                 resident: n.resident.as_ref(),
+                horizon: n.horizon.as_ref(),
                 sun: if self.sun_shown(key) {
                     n.sun.as_ref().map(layer_sun)
                 } else {

@@ -7,8 +7,8 @@ use lightgrid_core::{GridDesc, LightField, LightGrid, MaterialSource};
 use lightgrid_material_voxelizer::model::{AlphaMode, Model};
 use lightgrid_render::shading::linear_to_srgb8;
 use lightgrid_render::{
-    Camera, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight, LayerOwner,
-    LightVolume, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial, Renderer,
+    Camera, GpuHorizon, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight,
+    LayerOwner, LightVolume, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial, Renderer,
     SamplePoints, TextureRgba8, Vertex, View, sample_points,
 };
 use lightgrid_render::{GpuLayerSun, LayerLight, transmittance_buffer};
@@ -356,10 +356,23 @@ impl SceneMeshes {
                     .map(|s| transmittance_buffer(r.context(), s.transmittance.data()))
             })
             .collect();
+        // The horizon halves, uploaded likewise (the sun's beside the sky's when kept;
+        // halves that cannot be uploaded send the sampling to the CPU).
+        let h_buffers: Vec<Option<GpuHorizon>> = layers
+            .iter()
+            .map(|l| {
+                let halves = l.horizon.filter(|_| all_here)?;
+                let scattered = l.sun.filter(|_| sun.is_some()).and_then(|s| s.horizon);
+                GpuHorizon::new(r.context().clone(), halves, scattered).ok()
+            })
+            .collect();
         let device: Option<Vec<GpuSampleLayer>> = layers
             .iter()
-            .zip(&t_buffers)
-            .map(|(l, t)| {
+            .zip(t_buffers.iter().zip(&h_buffers))
+            .map(|(l, (t, h))| {
+                if l.horizon.is_some() && h.is_none() {
+                    return None;
+                }
                 let grid = on_this_device(l.resident)?;
                 let layer_sun = match (sun, l.sun, t) {
                     (None, _, _) => None,
@@ -377,6 +390,7 @@ impl SceneMeshes {
                         index: o.index,
                     }),
                     sun: layer_sun,
+                    horizon: h.as_ref(),
                 })
             })
             .collect();

@@ -41,8 +41,10 @@ lightgrid_gpu::gpu_struct! {
         pub lattice_dims: [u32; 4] => "vec4<u32>",
         /// Points in the batch.
         pub count: u32 => "u32",
-        /// Padding.
-        pub pad0: u32 => "u32",
+        /// The layer's horizon halves ([`GpuHorizon`]): 0 none (its horizontal bins read
+        /// as even), 1 the sky's (the sun's bins read as even), 2 the sky's and then the
+        /// sun's scattered light's.
+        pub horizon: u32 => "u32",
         /// Padding.
         pub pad1: u32 => "u32",
         /// Padding.
@@ -96,6 +98,83 @@ pub fn transmittance_buffer(ctx: &GpuContext, values: &[f32]) -> wgpu::Buffer {
     )
 }
 
+/// A layer's horizon halves on the device ([`lightgrid_core::LightField::horizon`]): the
+/// downward halves of its grid's horizontal bins, 8 RGB a point in grid order, and
+/// after them those of the sun's scattered light if given. Where a layer has them its
+/// points' irradiance reads each horizontal bin in its two halves
+/// ([`IrradianceTable::irradiance_split`]), as the CPU sampler does.
+pub struct GpuHorizon {
+    ctx: Arc<GpuContext>,
+    buffer: wgpu::Buffer,
+    desc: GridDesc,
+    sun: bool,
+}
+
+impl GpuHorizon {
+    /// Uploads the sky's halves and, with the sun kept apart, its scattered light's
+    /// (`None`: that light's bins read as even). Both on one grid.
+    pub fn new(
+        ctx: Arc<GpuContext>,
+        sky: &lightgrid_core::HorizonGrid,
+        scattered: Option<&lightgrid_core::HorizonGrid>,
+    ) -> Result<Self, RenderError> {
+        let desc = *sky.desc();
+        if let Some(s) = scattered
+            && *s.desc() != desc
+        {
+            return Err(GridError::invalid(
+                "scattered.desc()",
+                format!("{:?}", s.desc()),
+                "must equal the sky halves' descriptor",
+            )
+            .into());
+        }
+        fn floats(g: &lightgrid_core::HorizonGrid) -> &[f32] {
+            bytemuck::cast_slice(g.data())
+        }
+        let bytes = (desc.point_count() * 24 * (1 + scattered.is_some() as usize) * 4) as u64;
+        let limit = ctx.max_binding();
+        if bytes > limit {
+            return Err(GpuError::TooLarge {
+                what: "horizon halves",
+                bytes,
+                limit,
+            }
+            .into());
+        }
+        let mut data = floats(sky).to_vec();
+        if let Some(s) = scattered {
+            data.extend_from_slice(floats(s));
+        }
+        let buffer = buffer(
+            &ctx,
+            "horizon halves",
+            bytemuck::cast_slice(&data),
+            wgpu::BufferUsages::STORAGE,
+        );
+        Ok(Self {
+            ctx,
+            buffer,
+            desc,
+            sun: scattered.is_some(),
+        })
+    }
+
+    /// The grid the halves lie on.
+    pub fn desc(&self) -> &GridDesc {
+        &self.desc
+    }
+}
+
+impl std::fmt::Debug for GpuHorizon {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuHorizon")
+            .field("desc", &self.desc)
+            .field("sun", &self.sun)
+            .finish_non_exhaustive()
+    }
+}
+
 /// Which points a layer lights, as `lightgrid_terrain_lod::Owner` states it: those whose `(x, z)`
 /// fall in quadtree cell `index` (`floor((p.xz - origin) / size) == index`) and inside
 /// the layer grid's point bounds.
@@ -119,6 +198,8 @@ pub struct GpuSampleLayer<'a> {
     pub owner: Option<LayerOwner>,
     /// Its sun responses, when the sun is kept apart ([`LayerLight::sun`]).
     pub sun: Option<GpuLayerSun<'a>>,
+    /// Its horizon halves, if it keeps them (`None`: its horizontal bins read as even).
+    pub horizon: Option<&'a GpuHorizon>,
 }
 
 /// The points a GPU sampling lights.
@@ -192,11 +273,13 @@ impl GpuLightSampler {
             device,
             "sample",
             &wgsl(),
-            &[Uniform, Read, Read, Read, Read, Read, ReadWrite],
+            &[Uniform, Read, Read, Read, Read, Read, ReadWrite, Read],
         );
+        // The 26 bins' kernel, then the horizon term.
+        let t = IrradianceTable::get();
         let table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("irradiance table"),
-            contents: bytemuck::cast_slice(&IrradianceTable::get().weights),
+            contents: bytemuck::cast_slice(&[t.weights.as_slice(), &t.horizon].concat()),
             usage: wgpu::BufferUsages::STORAGE,
         });
         Self { ctx, kernel, table }
@@ -218,6 +301,7 @@ impl GpuLightSampler {
                 grid: &grid,
                 owner: None,
                 sun: None,
+                horizon: None,
             }],
             GpuPoints::List(points),
         )?
@@ -291,6 +375,7 @@ impl GpuLightSampler {
                 (Some(_), Some(ls)) => (ls.scattered.buffer(), ls.transmittance),
                 _ => (layer.grid.buffer(), &pts),
             };
+            let halves = layer.horizon.map_or(layer.grid.buffer(), |h| &h.buffer);
             let bind = self.kernel.bind(
                 device,
                 &[
@@ -301,6 +386,7 @@ impl GpuLightSampler {
                     &pts,
                     &self.table,
                     &out,
+                    halves,
                 ],
             );
             self.kernel.dispatch(&self.ctx, &bind, count as u32);
@@ -349,6 +435,20 @@ impl GpuLightSampler {
             }
             None => None,
         };
+        if let Some(i) = layers.iter().position(|l| {
+            l.horizon.is_some_and(|h| {
+                !Arc::ptr_eq(&h.ctx, &self.ctx)
+                    || h.desc != *l.grid.desc()
+                    || (h.sun && sun.is_none())
+            })
+        }) {
+            return Err(GridError::invalid(
+                format!("layers[{i}].horizon"),
+                "unlike its grid",
+                "must live on the sampler's device, on its grid's points, with the sun's halves only where a sun is given",
+            )
+            .into());
+        }
         if let Some(i) = layers
             .iter()
             .position(|l| !Arc::ptr_eq(l.grid.context(), &self.ctx))
@@ -419,6 +519,11 @@ fn layer_params(
         lattice_origin_h,
         lattice_dims,
         count: count as u32,
+        horizon: match layer.horizon {
+            None => 0,
+            Some(h) if h.sun => 2,
+            Some(_) => 1,
+        },
         sky_scale: sky_scale.extend(0.0).to_array(),
         sun: match sun {
             Some((_, e)) => e.extend(1.0).to_array(),

@@ -16,6 +16,11 @@
 @group(0) @binding(5) var<storage, read> table: array<f32>;
 // Two vec4 a point: (light, sun transmittance), (dominant, written ? 1 : 0).
 @group(0) @binding(6) var<storage, read_write> out: array<vec4<f32>>;
+// With params.horizon > 0 (lightgrid_render::GpuHorizon): the downward halves of the
+// horizontal bins, 8 RGB a point (24 floats), and with params.horizon = 2 after them
+// those of the sun's scattered light; unread otherwise. `table` then holds, after the
+// 26 bins' kernel, the horizon term (IrradianceTable::horizon, 8 floats a node).
+@group(0) @binding(7) var<storage, read> halves: array<f32>;
 
 // lightgrid_render::sampling::octahedral_encode
 fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
@@ -67,6 +72,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var d = 0u; d < NUM_DIRS; d++) {
         acc[d] = vec3<f32>(0.0);
     }
+    var acc_h: array<vec3<f32>, HORIZONTAL_BINS>;
+    for (var k = 0u; k < HORIZONTAL_BINS; k++) {
+        acc_h[k] = vec3<f32>(0.0);
+    }
+    let sun_halves = dims.x * dims.y * dims.z * 24u;
     let has_sun = params.sun.w > 0.5;
     var t_sun = 0.0;
     for (var c = 0u; c < 8u; c++) {
@@ -84,6 +94,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             if (has_sun) {
                 t_sun += transmittance[point] * w;
+            }
+            if (params.horizon > 0u) {
+                // LightField::horizon of the hierarchy: the sky's halves scaled, plus the
+                // sun's (or its bins split evenly) times its irradiance.
+                for (var k = 0u; k < HORIZONTAL_BINS; k++) {
+                    let o = point * 24u + 3u * k;
+                    var h = vec3<f32>(halves[o], halves[o + 1u], halves[o + 2u]) * params.sky_scale.xyz;
+                    if (has_sun) {
+                        if (params.horizon == 2u) {
+                            let s = sun_halves + o;
+                            h += vec3<f32>(halves[s], halves[s + 1u], halves[s + 2u]) * params.sun.xyz;
+                        } else {
+                            let s = point * 78u + 3u * (FIRST_HORIZONTAL + k);
+                            h += vec3<f32>(scattered[s], scattered[s + 1u], scattered[s + 2u]) * (0.5 * params.sun.xyz);
+                        }
+                    }
+                    acc_h[k] += h * w;
+                }
             }
         }
     }
@@ -103,6 +131,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let node = ((b.y + dy) * size + b.x + dx) * NUM_DIRS;
             for (var d = 0u; d < NUM_DIRS; d++) {
                 light += acc[d] * (table[node + d] * w);
+            }
+            if (params.horizon > 0u) {
+                // IrradianceTable::irradiance_split: the even read plus
+                // (down - bin / 2) (W_down - W_up) per horizontal bin.
+                let hnode = size * size * NUM_DIRS + ((b.y + dy) * size + b.x + dx) * HORIZONTAL_BINS;
+                for (var k = 0u; k < HORIZONTAL_BINS; k++) {
+                    let excess = acc_h[k] - 0.5 * acc[FIRST_HORIZONTAL + k];
+                    light += excess * (table[hnode + k] * w);
+                }
             }
         }
     } else {
