@@ -134,14 +134,15 @@ target = [520.0, 520.0]
 /// facing up (sky and scattered sun; the direct sun is kept apart in all three):
 /// the hierarchy's equals one full-resolution sweep of the street's region within 3 %
 /// (the nesting error at one point; issue 43's target over regions is 1 % bias, 2 %
-/// RMSE), and that sweep's agrees with the probes' within 12 %: two different
-/// discretisations of the same sky, probes 4 m apart interpolated against the true
-/// meshes, the sweep's 26 bins through voxels. Against a Monte Carlo reference of the
-/// same voxel world (32 m around the point, 22 M sky and 34 M sun paths, standard error
-/// 0.4 %) the sweep reads 3.3–4.0 % above it there and the probes 3.0–7.0 % below (per
-/// colour), so they sit 6–11 % apart; the bound is those two distances added, rounded
-/// up. (Until the hierarchy's hand-over kept horizontal bins whole, it lost 2 % here and
-/// the bound was 10 %.) Inside a house the probes hold no light.
+/// RMSE), both read through their horizon halves, and that sweep's agrees with the
+/// probes' within 16 %: two different discretisations of the same sky, probes 4 m apart
+/// interpolated against the true meshes, the sweep's 26 bins through voxels. Against a
+/// Monte Carlo reference of the sweep's own voxel region (`lightgrid_measure::points`,
+/// 1 M paths, standard error 0.05 %: 1.198, 1.683, 3.072) the sweep read through its
+/// halves is 0.4–0.9 % below it (read as even across the horizon, 4.6–5.8 % below) and
+/// the probes 10.6–14.7 % below (per colour); the bound is those two distances added,
+/// rounded up. (An earlier reference, of a 32 m region, put the even read 3.3–4.0 %
+/// above it and the probes 3.0–7.0 % below.) Inside a house the probes hold no light.
 #[test]
 fn the_town_scene_lights_with_probes_beside_the_sweep() {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/town.toml");
@@ -165,7 +166,7 @@ fn the_town_scene_lights_with_probes_beside_the_sweep() {
          probes {rel}, nesting {nesting}"
     );
     assert!(nesting.max_element() < 0.03, "{e_hierarchy} vs {e_sweep}");
-    assert!(rel.max_element() < 0.12, "{e_probes} vs {e_sweep}");
+    assert!(rel.max_element() < 0.16, "{e_probes} vs {e_sweep}");
     let inside = Vec3::new(42.0, 1.0, 44.0);
     assert_eq!(
         resolved.cube_at(inside).unwrap().irradiance(Vec3::Y),
@@ -211,11 +212,10 @@ fn single_sweep_irradiance(world: &World, p: Vec3, n: Vec3) -> Vec3 {
     let mut o = params.sweep;
     o.outputs.bins = true;
     let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
-    let sky = sweeper
+    let out = sweeper
         .sweep(&m, &Boundary::open_sky(world.sky_top), &o)
-        .unwrap()
-        .bins
         .unwrap();
+    let sky = out.bins.unwrap();
     let (travel, irradiance) = world.sun;
     let outside = |_: Vec3| 1.0f32;
     let sun = sweeper
@@ -229,6 +229,14 @@ fn single_sweep_irradiance(world: &World, p: Vec3, n: Vec3) -> Vec3 {
             &o,
         )
         .unwrap();
-    sky.sample(p).unwrap().irradiance(n) * world.hierarchy.sky_scale()
-        + sun.scattered.sample(p).unwrap().irradiance(n) * irradiance
+    // Read as the hierarchy reads it: through the halves where its options keep them.
+    let read = |bins: &lightgrid_core::LightGrid, halves: Option<&lightgrid_core::HorizonGrid>| {
+        let b = bins.sample(p).unwrap();
+        match halves {
+            Some(h) => b.irradiance_split(n, &h.sample(p).unwrap()),
+            None => b.irradiance(n),
+        }
+    };
+    read(&sky, out.horizon.as_ref()) * world.hierarchy.sky_scale()
+        + read(&sun.scattered, sun.horizon.as_ref()) * irradiance
 }
