@@ -20,8 +20,8 @@
 
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, Grid, GridError, GridFile, HALO_WIDTH, Heightmap, LightGrid, MaterialGrid,
-    MaterialSource, Sweeper,
+    BinLight, Grid, GridError, GridFile, HALO_WIDTH, Heightmap, HorizonGrid, LightGrid,
+    MaterialGrid, MaterialSource, Sweeper,
 };
 
 use crate::{GridSun, Hierarchy, HierarchyParams, LodError, Node, NodeKey, NodeMaterial, SunLight};
@@ -52,6 +52,9 @@ pub struct PlannedNode {
 pub struct BakedGrid {
     /// The sky's light (26 bins; all light without the sun apart).
     pub light: LightGrid,
+    /// The downward halves of `light`'s horizontal bins, where the hierarchy keeps them
+    /// (`HierarchyParams::sweep`'s `outputs.horizon`).
+    pub horizon: Option<HorizonGrid>,
     /// The material it was swept with.
     pub material: MaterialGrid,
     /// Objects above the ground.
@@ -67,6 +70,8 @@ pub struct BakedGrid {
 pub struct BakedSun {
     /// The sun's scattered light (26 bins).
     pub scattered: LightGrid,
+    /// The downward halves of `scattered`'s horizontal bins, if kept.
+    pub horizon: Option<HorizonGrid>,
     /// The beam's transmittance per point.
     pub transmittance: Grid<f32>,
     /// The direction toward the sun it was computed for.
@@ -74,11 +79,12 @@ pub struct BakedSun {
 }
 
 /// Bytes a point of a task holds at most: material (16), the swept bins and the sweep's
-/// own copy (2 × 312), sun bins and transmittance (316).
-pub const BAKE_BYTES_PER_POINT: u64 = 16 + 2 * 312 + 316;
+/// own copy (2 × 312), sun bins and transmittance (316), the horizon halves of both
+/// (2 × 96).
+pub const BAKE_BYTES_PER_POINT: u64 = 16 + 2 * 312 + 316 + 2 * 96;
 
-/// Bytes a point of a grid read by a task holds (material, light, sun).
-pub const READ_BYTES_PER_POINT: u64 = 16 + 312 + 316;
+/// Bytes a point of a grid read by a task holds (material, light, sun, their halves).
+pub const READ_BYTES_PER_POINT: u64 = 16 + 312 + 316 + 2 * 96;
 
 impl WorldBake {
     /// A bake over `heightmap` (nothing is swept yet). `sun`: the sun kept apart (its
@@ -186,6 +192,7 @@ impl WorldBake {
         let material = self.h.world_material.clone().expect("set by sweep_world");
         Ok(BakedGrid {
             light: self.h.world.clone(),
+            horizon: self.h.world_horizon.clone(),
             material,
             has_objects: true,
             open_above: true,
@@ -313,6 +320,7 @@ impl WorldBake {
         self.h.nodes.clear();
         Ok(BakedGrid {
             light: node.light,
+            horizon: node.horizon,
             material: composed.grid,
             has_objects: composed.has_objects,
             open_above: composed.open_above,
@@ -352,6 +360,7 @@ impl WorldBake {
         let h = &mut self.h;
         h.nodes.clear();
         h.world = world.light.clone();
+        h.world_horizon = world.horizon.clone();
         h.world_material = Some(world.material.clone());
         h.world_sun = world_sun;
         let wanted = self.reads(key);
@@ -369,8 +378,7 @@ impl WorldBake {
                 k,
                 Node {
                     light: g.light.clone(),
-                    // (Bakes keep the 26 bins alone: their nodes read them as even.)
-                    horizon: None,
+                    horizon: g.horizon.clone(),
                     material: NodeMaterial {
                         grid: g.material.clone(),
                         has_objects: g.has_objects,
@@ -391,7 +399,7 @@ impl WorldBake {
             (None, _) => Ok(None),
             (Some(s), Some(b)) if b.to_sun == s.to_sun => Ok(Some(GridSun {
                 scattered: b.scattered.clone(),
-                horizon: None,
+                horizon: b.horizon.clone(),
                 resident: None,
                 transmittance: b.transmittance.clone(),
                 to_sun: b.to_sun,
@@ -452,6 +460,11 @@ fn crop_baked(
 ) -> Result<BakedGrid, GridError> {
     Ok(BakedGrid {
         light: crop(&g.light, from, size)?,
+        horizon: g
+            .horizon
+            .as_ref()
+            .map(|h| crop(h, from, size))
+            .transpose()?,
         material: crop(&g.material, from, size)?,
         has_objects: g.has_objects,
         open_above: g.open_above,
@@ -459,6 +472,11 @@ fn crop_baked(
             None => None,
             Some(s) => Some(BakedSun {
                 scattered: crop(&s.scattered, from, size)?,
+                horizon: s
+                    .horizon
+                    .as_ref()
+                    .map(|h| crop(h, from, size))
+                    .transpose()?,
                 transmittance: crop(&s.transmittance, from, size)?,
                 to_sun: s.to_sun,
             }),
@@ -469,17 +487,22 @@ fn crop_baked(
 fn baked_sun(g: &GridSun) -> BakedSun {
     BakedSun {
         scattered: g.scattered.clone(),
+        horizon: g.horizon.clone(),
         transmittance: g.transmittance.clone(),
         to_sun: g.to_sun,
     }
 }
 
 /// The first bytes of [`BakedGrid::to_bytes`].
-const MAGIC: &[u8; 8] = b"LGBAKE01";
+const MAGIC: &[u8; 8] = b"LGBAKE02";
+/// The first bytes of the earlier format, read as without horizon halves.
+const MAGIC_01: &[u8; 8] = b"LGBAKE01";
 
 impl BakedGrid {
     /// The result as bytes: a header, the light and material as grid files, then the
-    /// sun's (direction, scattered light, transmittance as little-endian `f32`).
+    /// sun's (direction, scattered light, transmittance as little-endian `f32`), then the
+    /// horizon halves of the light and of the sun's scattered light as grid files (empty
+    /// sections where there are none).
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = MAGIC.to_vec();
         out.push(self.has_objects as u8 | (self.open_above as u8) << 1);
@@ -503,15 +526,28 @@ impl BakedGrid {
                 section(&GridFile::Light(s.scattered.clone()).to_bytes());
             }
         }
+        let sun_halves = self.sun.as_ref().and_then(|s| s.horizon.as_ref());
+        for halves in [self.horizon.as_ref(), sun_halves] {
+            match halves {
+                Some(h) => section(&GridFile::Horizon(h.clone()).to_bytes()),
+                None => section(&[]),
+            }
+        }
         out
     }
 
     /// Reads [`BakedGrid::to_bytes`]; errors on anything else.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, GridError> {
         let bad = |why: &'static str| GridError::invalid("baked grid", bytes.len(), why);
-        let rest = bytes
-            .strip_prefix(MAGIC)
-            .ok_or_else(|| bad("no LGBAKE01 header"))?;
+        let (rest, halves) = match bytes.strip_prefix(MAGIC) {
+            Some(rest) => (rest, true),
+            None => (
+                bytes
+                    .strip_prefix(MAGIC_01)
+                    .ok_or_else(|| bad("no LGBAKE02 (or LGBAKE01) header"))?,
+                false,
+            ),
+        };
         let (&flags, mut rest) = rest.split_first().ok_or_else(|| bad("truncated"))?;
         let mut section = || -> Result<&[u8], GridError> {
             let (n, r) = rest.split_at_checked(8).ok_or_else(|| bad("truncated"))?;
@@ -548,12 +584,38 @@ impl BakedGrid {
             }
             Some(BakedSun {
                 scattered,
+                horizon: None,
                 transmittance,
                 to_sun,
             })
         };
+        let mut read_halves = |on: &LightGrid| -> Result<Option<HorizonGrid>, GridError> {
+            let s = section()?;
+            if s.is_empty() {
+                return Ok(None);
+            }
+            let h = GridFile::from_bytes(s)?.into_horizon()?;
+            if h.desc() != on.desc() {
+                return Err(bad("horizon halves on another grid"));
+            }
+            Ok(Some(h))
+        };
+        let (horizon, mut sun) = (None, sun);
+        let horizon = if halves {
+            let h = read_halves(&light)?;
+            let sun_h = read_halves(sun.as_ref().map_or(&light, |s| &s.scattered))?;
+            match (&mut sun, sun_h) {
+                (Some(s), h) => s.horizon = h,
+                (None, Some(_)) => return Err(bad("sun halves without a sun")),
+                (None, None) => {}
+            }
+            h
+        } else {
+            horizon
+        };
         Ok(Self {
             light,
+            horizon,
             material,
             has_objects: flags & 1 != 0,
             open_above: flags & 2 != 0,

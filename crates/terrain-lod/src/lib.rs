@@ -1082,10 +1082,27 @@ impl Hierarchy {
     /// Light (full bins) at `p` from the finest ready grid coarser than `depth`: the
     /// sky's (or all light, without the sun apart) or the sun's scattered response.
     fn coarse_light(&self, p: Vec3, depth: u32, which: Response) -> BinLight {
+        self.coarse_light_split(p, depth, which).0
+    }
+
+    /// [`Hierarchy::coarse_light`] and that grid's horizon halves at `p`, if it keeps
+    /// them.
+    fn coarse_light_split(
+        &self,
+        p: Vec3,
+        depth: u32,
+        which: Response,
+    ) -> (BinLight, Option<HorizonLight>) {
+        let read = |g: &LightGrid, h: Option<&HorizonGrid>| {
+            (
+                g.sample(p).unwrap_or_default(),
+                h.and_then(|h| h.sample(p).ok()),
+            )
+        };
         if which == Response::Sun {
             return self
                 .coarse_sun(p, depth, false)
-                .and_then(|s| s.scattered.sample(p).ok())
+                .map(|s| read(&s.scattered, s.horizon.as_ref()))
                 .unwrap_or_default();
         }
         for d in (1..depth).rev() {
@@ -1093,10 +1110,10 @@ impl Hierarchy {
             if let Some(n) = self.nodes.get(&key)
                 && within_levels(n.light.desc(), p)
             {
-                return n.light.sample(p).unwrap_or_default();
+                return read(&n.light, n.horizon.as_ref());
             }
         }
-        self.world.sample(p).unwrap_or_default()
+        read(&self.world, self.world_horizon.as_ref())
     }
 
     /// The boundary of a node grid from the coarser grids: the top from the downward
@@ -1114,11 +1131,16 @@ impl Hierarchy {
         for k in 0..dims.z {
             for i in 0..dims.x {
                 let p = desc.position(UVec3::new(i, top_y, k)) + Vec3::Y * h;
-                top.push(
-                    self.coarse_light(p, depth, which)
-                        .split_vertical_by_neighbours()
-                        .0,
-                );
+                // The downward light: where the coarser grid keeps its horizon halves,
+                // its horizontal bins' downward halves as they are.
+                let (light, halves) = self.coarse_light_split(p, depth, which);
+                let mut down = light.split_vertical_by_neighbours().0;
+                if let Some(halves) = halves {
+                    for (k, half) in halves.within(&light).0.iter().enumerate() {
+                        down.0[lightgrid_core::dirs::FIRST_HORIZONTAL + k] = *half;
+                    }
+                }
+                top.push(down);
             }
         }
         let layout = HaloLayout::new(dims);

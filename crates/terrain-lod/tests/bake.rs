@@ -300,6 +300,16 @@ fn baked_grid_bytes_round_trip_and_refuse_damage() {
     let mut bad = bytes.clone();
     bad[0] ^= 0xff;
     assert!(BakedGrid::from_bytes(&bad).is_err());
+    // The horizon halves, kept by default, travel with it; a grid of the earlier format
+    // (LGBAKE01: no halves sections) reads as one without them.
+    assert!(g.horizon.is_some() && g.sun.as_ref().unwrap().horizon.is_some());
+    let mut plain = g.clone();
+    plain.horizon = None;
+    plain.sun.as_mut().unwrap().horizon = None;
+    let mut old = plain.to_bytes();
+    old.truncate(old.len() - 16);
+    old[..8].copy_from_slice(b"LGBAKE01");
+    assert_eq!(BakedGrid::from_bytes(&old).unwrap(), plain);
 }
 
 /// One `WorldBake` running every task in turn (as one process does) gives what a fresh
