@@ -1082,7 +1082,9 @@ impl Hierarchy {
     /// Light (full bins) at `p` from the finest ready grid coarser than `depth`: the
     /// sky's (or all light, without the sun apart) or the sun's scattered response.
     fn coarse_light(&self, p: Vec3, depth: u32, which: Response) -> BinLight {
-        self.coarse_light_split(p, depth, which).0
+        self.coarse_grid(p, depth, which)
+            .and_then(|(g, _)| g.sample(p).ok())
+            .unwrap_or_default()
     }
 
     /// [`Hierarchy::coarse_light`] and that grid's horizon halves at `p`, if it keeps
@@ -1093,27 +1095,37 @@ impl Hierarchy {
         depth: u32,
         which: Response,
     ) -> (BinLight, Option<HorizonLight>) {
-        let read = |g: &LightGrid, h: Option<&HorizonGrid>| {
-            (
-                g.sample(p).unwrap_or_default(),
-                h.and_then(|h| h.sample(p).ok()),
-            )
-        };
+        self.coarse_grid(p, depth, which)
+            .map(|(g, h)| {
+                (
+                    g.sample(p).unwrap_or_default(),
+                    h.and_then(|h| h.sample(p).ok()),
+                )
+            })
+            .unwrap_or_default()
+    }
+
+    /// The grid [`Hierarchy::coarse_light`] reads at `p`, and its halves if kept.
+    fn coarse_grid(
+        &self,
+        p: Vec3,
+        depth: u32,
+        which: Response,
+    ) -> Option<(&LightGrid, Option<&HorizonGrid>)> {
         if which == Response::Sun {
             return self
                 .coarse_sun(p, depth, false)
-                .map(|s| read(&s.scattered, s.horizon.as_ref()))
-                .unwrap_or_default();
+                .map(|s| (&s.scattered, s.horizon.as_ref()));
         }
         for d in (1..depth).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
             if let Some(n) = self.nodes.get(&key)
                 && within_levels(n.light.desc(), p)
             {
-                return read(&n.light, n.horizon.as_ref());
+                return Some((&n.light, n.horizon.as_ref()));
             }
         }
-        read(&self.world, self.world_horizon.as_ref())
+        Some((&self.world, self.world_horizon.as_ref()))
     }
 
     /// The boundary of a node grid from the coarser grids: the top from the downward
