@@ -55,7 +55,7 @@
 //! Every grid keeps the downward halves of its horizontal bins beside them, sky and
 //! scattered sun ([`HierarchyParams::sweep`]'s `outputs.horizon`, on by default: 96
 //! bytes a point each, [`BYTES_HORIZON`]), and the hierarchy's irradiance reads each
-//! horizontal bin in its two halves ([`LightField::horizon`]): a surface facing down
+//! horizontal bin in its two halves ([`LightField::horizon`](lightgrid_core::LightField::horizon)): a surface facing down
 //! over dark ground no longer sees half the sky through them (in the frame bench's
 //! forest, against Monte Carlo, +64–75 % read even, −4 % through the halves).
 //! [`Layer::horizon`] and [`LayerSun::horizon`] hand them to GPU renderers.
@@ -128,6 +128,7 @@ use std::hash::BuildHasherDefault;
 pub mod bake;
 mod build;
 mod params;
+mod read;
 mod shadow;
 mod sun_move;
 mod volume;
@@ -138,8 +139,8 @@ use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, Grid, GridDesc, GridError, HALO_WIDTH, HaloLayout, HorizonGrid,
-    HorizonLight, LightField, LightGrid, MaterialGrid, MaterialSource, Resident, SideBoundary,
-    SunBoundary, SweepError, SweepOptions, Sweeper, TopBoundary,
+    HorizonLight, LightGrid, MaterialGrid, MaterialSource, Resident, SideBoundary, SunBoundary,
+    SweepError, SweepOptions, Sweeper, TopBoundary,
 };
 
 /// Errors of the hierarchy.
@@ -310,7 +311,7 @@ pub struct Layer<'a> {
     pub resident: Option<&'a Resident>,
     /// The downward halves of `grid`'s horizontal bins, if kept
     /// ([`HierarchyParams::sweep`]'s `outputs.horizon`); a point served by a layer with
-    /// them reads each horizontal bin in its two halves ([`LightField::horizon`]).
+    /// them reads each horizontal bin in its two halves ([`LightField::horizon`](lightgrid_core::LightField::horizon)).
     pub horizon: Option<&'a HorizonGrid>,
     /// Which points it lights; `None`: all (the world grid).
     pub owner: Option<Owner>,
@@ -669,7 +670,7 @@ impl Hierarchy {
     /// sun), the sun's scattered light and its transmittance along the exact direction
     /// (both for unit irradiance, by `Sweeper::sweep_sun`); the light read is
     /// `sky × sky_scale + scattered × irradiance` and the direct sun
-    /// `irradiance × T × max(0, n · s)` ([`LightField::sun_transmittance`],
+    /// `irradiance × T × max(0, n · s)` ([`LightField::sun_transmittance`](lightgrid_core::LightField::sun_transmittance),
     /// [`Hierarchy::sun`]).
     ///
     /// A new direction re-marches every grid's transmittance here, at once
@@ -1407,130 +1408,5 @@ impl Hierarchy {
         stats.sun_pending = self.sun_pending();
         self.last_frame_swept = stats.points_swept > 0;
         Ok(stats)
-    }
-
-    /// The grids for layered sampling: the world grid, then the ready nodes by depth
-    /// (see [`Layer`]).
-    pub fn layers(&self) -> Vec<Layer<'_>> {
-        fn layer_sun(g: &GridSun) -> LayerSun<'_> {
-            LayerSun {
-                scattered: &g.scattered,
-                horizon: g.horizon.as_ref(),
-                transmittance: &g.transmittance,
-                resident: g.resident.as_ref(),
-            }
-        }
-        let mut v = vec![Layer {
-            grid: &self.world,
-            resident: self.world_resident.as_ref(),
-            horizon: self.world_horizon.as_ref(),
-            owner: None,
-            sun: self.world_sun.as_ref().map(layer_sun),
-        }];
-        for key in self.ready_nodes() {
-            let n = &self.nodes[&key];
-            v.push(Layer {
-                grid: &n.light,
-                resident: n.resident.as_ref(),
-                horizon: n.horizon.as_ref(),
-                sun: if self.sun_shown(key) {
-                    n.sun.as_ref().map(layer_sun)
-                } else {
-                    None
-                },
-                owner: Some(Owner {
-                    origin: self.heightmap_lo,
-                    size: self.params.node_size(key.depth),
-                    index: key.index,
-                }),
-            });
-        }
-        v
-    }
-
-    /// The finest ready grid containing `p` (the world grid if none).
-    pub fn grid_at(&self, p: Vec3) -> &LightGrid {
-        self.serving(p).0
-    }
-
-    /// The finest ready grid containing `p` and its horizon halves, if kept.
-    fn serving(&self, p: Vec3) -> (&LightGrid, Option<&HorizonGrid>) {
-        for d in (1..=self.params.depths()).rev() {
-            let key = self.node_at(d, Vec2::new(p.x, p.z));
-            if let Some(n) = self.nodes.get(&key)
-                && within_levels(n.light.desc(), p)
-            {
-                return (&n.light, n.horizon.as_ref());
-            }
-        }
-        (&self.world, self.world_horizon.as_ref())
-    }
-}
-
-/// The light of the finest ready grid at `p` ([`Hierarchy::grid_at`]) times the sky
-/// scale; with the sun kept apart, plus the sun's scattered light of the finest grid at
-/// `p` with a current sun response times the sun's irradiance, and the transmittance
-/// of that grid.
-impl LightField for Hierarchy {
-    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
-        let sky = self.grid_at(p).light(p, n)? * self.sky_scale;
-        match (self.sun, self.coarse_sun(p, self.params.depths() + 1, true)) {
-            (Some(sun), Some(g)) => Ok(sky + g.scattered.light(p, n)? * sun.irradiance),
-            _ => Ok(sky),
-        }
-    }
-    /// The horizon halves of the finest ready grid at `p` times the sky scale, plus with
-    /// the sun kept apart those of the sun's scattered light read as [`LightField::light`]
-    /// reads it (its bins split evenly where that grid keeps no halves), times the
-    /// sun's irradiance; `None` where the grid serving `p` keeps no halves
-    /// (`HierarchyParams::sweep.outputs.horizon` off).
-    fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<HorizonLight>, GridError> {
-        let read = |h: &HorizonGrid| match n {
-            Some(n) => h.sample_biased(p, n),
-            None => h.sample(p),
-        };
-        let Some(halves) = self.serving(p).1 else {
-            return Ok(None);
-        };
-        let sky = read(halves)? * self.sky_scale;
-        Ok(Some(
-            match (self.sun, self.coarse_sun(p, self.params.depths() + 1, true)) {
-                (Some(sun), Some(g)) => {
-                    let scattered = match &g.horizon {
-                        Some(h) => read(h)?,
-                        None => HorizonLight::even(&g.scattered.light(p, n)?),
-                    };
-                    sky + scattered * sun.irradiance
-                }
-                _ => sky,
-            },
-        ))
-    }
-    /// Every grid reduced once to the moments a light volume stores (the sky scale and
-    /// the sun's irradiance folded in): 7 numbers a corner instead of 52 bins.
-    fn volume_sampler(
-        &self,
-    ) -> Option<Box<dyn Fn(Vec3) -> Result<lightgrid_core::VolumeSample, GridError> + Sync + '_>>
-    {
-        let r = volume::Reduced::new(self);
-        Some(Box::new(move |p| r.sample(p)))
-    }
-
-    fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
-        if !p.is_finite() {
-            return Err(GridError::invalid("p", p, "must be finite"));
-        }
-        let Some(g) = self
-            .sun
-            .and(self.coarse_sun(p, self.params.depths() + 1, true))
-        else {
-            return Ok(0.0);
-        };
-        let t = match n {
-            Some(n) => g.transmittance.sample_biased(p, n)?,
-            None => g.transmittance.sample(p)?,
-        };
-        // (Trilinear weights may sum to 1 + 1 ulp.)
-        Ok(t.clamp(0.0, 1.0))
     }
 }
