@@ -778,6 +778,21 @@ pub trait LightField {
         Ok(0.0)
     }
 
+    /// What a sampler reads at `p` in one call: [`LightField::light`], with a normal
+    /// [`LightField::horizon`], and [`LightField::sun_transmittance`], equal to those
+    /// three calls (the default makes them); fields that find their grids per point
+    /// (a hierarchy) find them once.
+    fn reading(&self, p: Vec3, n: Option<Vec3>) -> Result<Reading, GridError> {
+        Ok(Reading {
+            light: self.light(p, n)?,
+            horizon: match n {
+                Some(_) => self.horizon(p, n)?,
+                None => None,
+            },
+            sun: self.sun_transmittance(p, n)?,
+        })
+    }
+
     /// A faster reader of what a light volume stores ([`VolumeSample`]) for fields that
     /// can prepare one (a hierarchy reduces every grid to its moments once, then reads 7
     /// numbers a corner instead of 26 bins), equal to [`VolumeSample::read`] up to
@@ -788,6 +803,18 @@ pub trait LightField {
     ) -> Option<Box<dyn Fn(Vec3) -> Result<VolumeSample, GridError> + Sync + '_>> {
         None
     }
+}
+
+/// What a sampler reads at a point ([`LightField::reading`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Reading {
+    /// The bins ([`LightField::light`]).
+    pub light: BinLight,
+    /// With a normal, the horizon halves where the field keeps them
+    /// ([`LightField::horizon`]); `None` without a normal.
+    pub horizon: Option<crate::HorizonLight>,
+    /// The sun's transmittance ([`LightField::sun_transmittance`]).
+    pub sun: f32,
 }
 
 /// What a light volume holds at a point ([`LightField::volume_sampler`]).

@@ -99,15 +99,14 @@ pub fn sample_points<F: LightField + Sync + ?Sized>(
         .map(|i| {
             let p = points.positions[i];
             let n = points.normals.map(|n| n[i]);
-            let bins = field.light(p, n)?;
-            let light = match n {
-                Some(n) => match field.horizon(p, Some(n))? {
-                    Some(down) => table.irradiance_split(&bins, &down, n),
-                    None => table.irradiance(&bins, n),
-                },
-                None => bins.average(),
+            let r = field.reading(p, n)?;
+            let bins = r.light;
+            let light = match (n, r.horizon) {
+                (Some(n), Some(down)) => table.irradiance_split(&bins, &down, n),
+                (Some(n), None) => table.irradiance(&bins, n),
+                (None, _) => bins.average(),
             };
-            let sun = field.sun_transmittance(p, n)?;
+            let sun = r.sun;
             Ok(SampledLight {
                 light: finite_or_zero(light),
                 sun: if sun.is_finite() {

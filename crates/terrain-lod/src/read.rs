@@ -4,7 +4,9 @@
 //! moments).
 
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{BinLight, GridError, HorizonGrid, HorizonLight, LightField, LightGrid};
+use lightgrid_core::{
+    BinLight, GridError, HorizonGrid, HorizonLight, LightField, LightGrid, Reading,
+};
 
 use crate::{GridSun, Hierarchy, Layer, LayerSun, Owner, volume, within_levels};
 
@@ -114,6 +116,54 @@ impl LightField for Hierarchy {
     {
         let r = volume::Reduced::new(self);
         Some(Box::new(move |p| r.sample(p)))
+    }
+
+    /// The three reads with the serving grid and the sun's grid found once.
+    fn reading(&self, p: Vec3, n: Option<Vec3>) -> Result<Reading, GridError> {
+        if !p.is_finite() {
+            return Err(GridError::invalid("p", p, "must be finite"));
+        }
+        let (grid, halves) = self.serving(p);
+        let sun = self
+            .sun
+            .and_then(|s| Some((s, self.coarse_sun(p, self.params.depths() + 1, true)?)));
+        let mut light = grid.light(p, n)? * self.sky_scale;
+        if let Some((s, g)) = sun {
+            light += g.scattered.light(p, n)? * s.irradiance;
+        }
+        let read = |h: &HorizonGrid| match n {
+            Some(n) => h.sample_biased(p, n),
+            None => h.sample(p),
+        };
+        let horizon = match (n, halves) {
+            (Some(_), Some(h)) => {
+                let sky = read(h)? * self.sky_scale;
+                Some(match sun {
+                    Some((s, g)) => {
+                        let scattered = match &g.horizon {
+                            Some(h) => read(h)?,
+                            None => HorizonLight::even(&g.scattered.light(p, n)?),
+                        };
+                        sky + scattered * s.irradiance
+                    }
+                    None => sky,
+                })
+            }
+            _ => None,
+        };
+        let t = match sun {
+            Some((_, g)) => match n {
+                Some(n) => g.transmittance.sample_biased(p, n)?,
+                None => g.transmittance.sample(p)?,
+            }
+            .clamp(0.0, 1.0),
+            None => 0.0,
+        };
+        Ok(Reading {
+            light,
+            horizon,
+            sun: t,
+        })
     }
 
     fn sun_transmittance(&self, p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {

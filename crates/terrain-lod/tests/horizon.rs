@@ -212,3 +212,51 @@ fn the_hierarchys_halves_read_a_lambertian_ground_under_the_sun() {
     // Facing up the scattered sun sees only the sky's side: nothing but rounding.
     assert!(up.iter().all(|u| u.abs() < 1e-3 * exact), "{up:?}");
 }
+
+/// `LightField::reading` (what the samplers call: the grids found once a point) equals
+/// the three reads it stands for, bit for bit, with and without normals, also while
+/// some nodes still wait for their sun responses.
+#[test]
+fn one_reading_equals_the_three_reads() {
+    let mut h = flat(true);
+    let el = 25f32.to_radians();
+    h.set_sun(Some(SunLight {
+        to_sun: Vec3::new(el.cos(), el.sin(), 0.3).normalize(),
+        irradiance: Vec3::new(2.0, 1.8, 1.5),
+    }))
+    .unwrap();
+    h.set_sky_scale(Vec3::new(0.7, 0.8, 1.0)).unwrap();
+    let mut rng = 12345u64;
+    let mut next = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 40) as f32 / (1u64 << 24) as f32
+    };
+    for frame in 0..3 {
+        for _ in 0..400 {
+            let p = Vec3::new(
+                90.0 + 60.0 * next(),
+                9.5 + 12.0 * next(),
+                90.0 + 60.0 * next(),
+            );
+            let n = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+            for n in [None, Some(n)] {
+                let r = h.reading(p, n).unwrap();
+                assert_eq!(r.light, h.light(p, n).unwrap(), "frame {frame} {p} {n:?}");
+                let halves = match n {
+                    Some(_) => h.horizon(p, n).unwrap(),
+                    None => None,
+                };
+                assert_eq!(r.horizon, halves, "frame {frame} {p} {n:?}");
+                assert_eq!(
+                    r.sun,
+                    h.sun_transmittance(p, n).unwrap(),
+                    "frame {frame} {p}"
+                );
+            }
+        }
+        h.update(CAMERA).unwrap();
+    }
+    assert!(h.reading(Vec3::NAN, None).is_err());
+}
