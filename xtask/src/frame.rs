@@ -84,6 +84,12 @@ pub struct FrameConfig {
     /// A frame's time budget, milliseconds (`HierarchyParams::budget_ms`; `None`: the
     /// points budget alone).
     pub budget_ms: Option<f32>,
+    /// Most passes a sweep runs (`HierarchyParams::sweep.max_passes`, in the hierarchy
+    /// and the reference sweep; `None`: the hierarchy's default, 4).
+    pub passes: Option<u32>,
+    /// The sweeps' convergence tolerance (`HierarchyParams::sweep.tolerance`, in the
+    /// hierarchy and the reference sweep; `None`: the hierarchy's default, 0.01).
+    pub tolerance: Option<f32>,
     /// Where the camera flies.
     pub path: CameraPath,
     /// Metres of world around the sampled region in the reference sweep.
@@ -111,6 +117,8 @@ impl FrameConfig {
             bare_skip: false,
             even: false,
             budget_ms: None,
+            passes: None,
+            tolerance: None,
             path: CameraPath::Forest,
             margin: 40.0,
             mc_probes: 1000,
@@ -305,6 +313,10 @@ pub struct FrameReport {
     pub horizon: bool,
     /// The frames' time budget, milliseconds (`None`: none).
     pub budget_ms: Option<f32>,
+    /// Most passes a sweep ran (the hierarchy's and the reference's).
+    pub passes: u32,
+    /// The sweeps' convergence tolerance.
+    pub tolerance: f32,
     /// The reference region, points.
     pub reference_points: u64,
     /// Seconds of the reference's sky sweep.
@@ -688,6 +700,12 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.skip.bare_children = cfg.bare_skip;
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
+    if let Some(n) = cfg.passes {
+        p.sweep.max_passes = n;
+    }
+    if let Some(t) = cfg.tolerance {
+        p.sweep.tolerance = t;
+    }
     p
 }
 
@@ -1050,6 +1068,8 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         bare_skip: cfg.bare_skip,
         horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
+        passes: hierarchy_params(cfg).sweep.max_passes,
+        tolerance: hierarchy_params(cfg).sweep.tolerance,
         reference_points: desc.point_count() as u64,
         reference_sky_s,
         runs,
@@ -1088,9 +1108,11 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes, {} path, bare-ground skip {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes, {} passes at most (tolerance {}), {} path, bare-ground skip {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
+        report.passes,
+        report.tolerance,
         report.path,
         if report.bare_skip { "on" } else { "off" },
         if report.horizon {

@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--budget-ms MS] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--even] [--budget-ms MS] [--passes N] [--tolerance T] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -101,6 +101,14 @@ enum Task {
         /// none, the points budget alone).
         #[arg(long)]
         budget_ms: Option<f32>,
+        /// Most passes a sweep runs, in the hierarchy and the reference sweep (default:
+        /// the hierarchy's, 4).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+        passes: Option<u32>,
+        /// The sweeps' convergence tolerance, in the hierarchy and the reference sweep
+        /// (default: the hierarchy's, 0.01).
+        #[arg(long)]
+        tolerance: Option<f32>,
         /// The camera path: forest (inside the forest) or edge (out of it over bare
         /// ground).
         #[arg(long, default_value = "forest")]
@@ -186,6 +194,8 @@ fn main() -> ExitCode {
             bare_skip,
             even,
             budget_ms,
+            passes,
+            tolerance,
             path,
             mc_probes,
             mc_paths,
@@ -200,6 +210,8 @@ fn main() -> ExitCode {
             cfg.bare_skip = bare_skip;
             cfg.even = even;
             cfg.budget_ms = budget_ms;
+            cfg.passes = passes;
+            cfg.tolerance = tolerance;
             cfg.path = path;
             if !elevations.is_empty() {
                 cfg.elevations = elevations;

@@ -8,7 +8,7 @@ use lightgrid_core::{
     BinLight, GridError, HorizonGrid, HorizonLight, LightField, LightGrid, Reading,
 };
 
-use crate::{GridSun, Hierarchy, Layer, LayerSun, Owner, volume, within_levels};
+use crate::{GridSun, Hierarchy, Layer, LayerSun, Owner, SunLight, volume, within_levels};
 
 impl Hierarchy {
     /// The grids for layered sampling: the world grid, then the ready nodes by depth
@@ -69,17 +69,83 @@ impl Hierarchy {
     }
 }
 
+/// What one point reads, from the grid serving it and the grid holding its sun: the
+/// three reads of [`LightField`] and [`LightField::reading`] are made of these, so that
+/// they agree bit for bit.
+impl Hierarchy {
+    /// With the sun kept apart, the sun and the finest grid at `p` with a current sun
+    /// response.
+    fn sun_at(&self, p: Vec3) -> Option<(SunLight, &GridSun)> {
+        let sun = self.sun?;
+        Some((sun, self.coarse_sun(p, self.params.depths() + 1, true)?))
+    }
+
+    /// The sky's bins of `grid` times the sky scale, plus the sun's scattered light.
+    fn bins_at(
+        &self,
+        grid: &LightGrid,
+        sun: Option<(SunLight, &GridSun)>,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<BinLight, GridError> {
+        let sky = grid.light(p, n)? * self.sky_scale;
+        Ok(match sun {
+            Some((s, g)) => sky + g.scattered.light(p, n)? * s.irradiance,
+            None => sky,
+        })
+    }
+
+    /// The sky's `halves` times the sky scale, plus the sun's scattered light's (its
+    /// bins split evenly where its grid keeps no halves) times the sun's irradiance.
+    fn halves_at(
+        &self,
+        halves: &HorizonGrid,
+        sun: Option<(SunLight, &GridSun)>,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<HorizonLight, GridError> {
+        let read = |h: &HorizonGrid| match n {
+            Some(n) => h.sample_biased(p, n),
+            None => h.sample(p),
+        };
+        let sky = read(halves)? * self.sky_scale;
+        Ok(match sun {
+            Some((s, g)) => {
+                let scattered = match &g.horizon {
+                    Some(h) => read(h)?,
+                    None => HorizonLight::even(&g.scattered.light(p, n)?),
+                };
+                sky + scattered * s.irradiance
+            }
+            None => sky,
+        })
+    }
+
+    /// The sun's transmittance at `p` in `[0, 1]` (0 without a sun).
+    fn transmittance_at(
+        sun: Option<(SunLight, &GridSun)>,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<f32, GridError> {
+        let Some((_, g)) = sun else {
+            return Ok(0.0);
+        };
+        let t = match n {
+            Some(n) => g.transmittance.sample_biased(p, n)?,
+            None => g.transmittance.sample(p)?,
+        };
+        // (Trilinear weights may sum to 1 + 1 ulp.)
+        Ok(t.clamp(0.0, 1.0))
+    }
+}
+
 /// The light of the finest ready grid at `p` ([`Hierarchy::grid_at`]) times the sky
 /// scale; with the sun kept apart, plus the sun's scattered light of the finest grid at
 /// `p` with a current sun response times the sun's irradiance, and the transmittance
 /// of that grid.
 impl LightField for Hierarchy {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
-        let sky = self.grid_at(p).light(p, n)? * self.sky_scale;
-        match (self.sun, self.coarse_sun(p, self.params.depths() + 1, true)) {
-            (Some(sun), Some(g)) => Ok(sky + g.scattered.light(p, n)? * sun.irradiance),
-            _ => Ok(sky),
-        }
+        self.bins_at(self.grid_at(p), self.sun_at(p), p, n)
     }
     /// The horizon halves of the finest ready grid at `p` times the sky scale, plus with
     /// the sun kept apart those of the sun's scattered light read as [`LightField::light`]
@@ -87,26 +153,10 @@ impl LightField for Hierarchy {
     /// sun's irradiance; `None` where the grid serving `p` keeps no halves
     /// (`HierarchyParams::sweep.outputs.horizon` off).
     fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<HorizonLight>, GridError> {
-        let read = |h: &HorizonGrid| match n {
-            Some(n) => h.sample_biased(p, n),
-            None => h.sample(p),
-        };
         let Some(halves) = self.serving(p).1 else {
             return Ok(None);
         };
-        let sky = read(halves)? * self.sky_scale;
-        Ok(Some(
-            match (self.sun, self.coarse_sun(p, self.params.depths() + 1, true)) {
-                (Some(sun), Some(g)) => {
-                    let scattered = match &g.horizon {
-                        Some(h) => read(h)?,
-                        None => HorizonLight::even(&g.scattered.light(p, n)?),
-                    };
-                    sky + scattered * sun.irradiance
-                }
-                _ => sky,
-            },
-        ))
+        self.halves_at(halves, self.sun_at(p), p, n).map(Some)
     }
     /// Every grid reduced once to the moments a light volume stores (the sky scale and
     /// the sun's irradiance folded in): 7 numbers a corner instead of 52 bins.
@@ -124,45 +174,15 @@ impl LightField for Hierarchy {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
         let (grid, halves) = self.serving(p);
-        let sun = self
-            .sun
-            .and_then(|s| Some((s, self.coarse_sun(p, self.params.depths() + 1, true)?)));
-        let mut light = grid.light(p, n)? * self.sky_scale;
-        if let Some((s, g)) = sun {
-            light += g.scattered.light(p, n)? * s.irradiance;
-        }
-        let read = |h: &HorizonGrid| match n {
-            Some(n) => h.sample_biased(p, n),
-            None => h.sample(p),
-        };
+        let sun = self.sun_at(p);
         let horizon = match (n, halves) {
-            (Some(_), Some(h)) => {
-                let sky = read(h)? * self.sky_scale;
-                Some(match sun {
-                    Some((s, g)) => {
-                        let scattered = match &g.horizon {
-                            Some(h) => read(h)?,
-                            None => HorizonLight::even(&g.scattered.light(p, n)?),
-                        };
-                        sky + scattered * s.irradiance
-                    }
-                    None => sky,
-                })
-            }
+            (Some(_), Some(h)) => Some(self.halves_at(h, sun, p, n)?),
             _ => None,
         };
-        let t = match sun {
-            Some((_, g)) => match n {
-                Some(n) => g.transmittance.sample_biased(p, n)?,
-                None => g.transmittance.sample(p)?,
-            }
-            .clamp(0.0, 1.0),
-            None => 0.0,
-        };
         Ok(Reading {
-            light,
+            light: self.bins_at(grid, sun, p, n)?,
             horizon,
-            sun: t,
+            sun: Self::transmittance_at(sun, p, n)?,
         })
     }
 
@@ -170,17 +190,6 @@ impl LightField for Hierarchy {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let Some(g) = self
-            .sun
-            .and(self.coarse_sun(p, self.params.depths() + 1, true))
-        else {
-            return Ok(0.0);
-        };
-        let t = match n {
-            Some(n) => g.transmittance.sample_biased(p, n)?,
-            None => g.transmittance.sample(p)?,
-        };
-        // (Trilinear weights may sum to 1 + 1 ulp.)
-        Ok(t.clamp(0.0, 1.0))
+        Self::transmittance_at(self.sun_at(p), p, n)
     }
 }
