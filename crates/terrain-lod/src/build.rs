@@ -79,24 +79,56 @@ impl Hierarchy {
             order.push(Want::New(key, new.len()));
             new.push(key);
         }
-        // Materials first (they size the grids the budget counts), side by side; those
-        // composed in an earlier frame for nodes the budget left are kept.
+        // Materials first (they size the grids the budget counts), side by side: under a
+        // time budget a batch of one a thread at a time while the budget allows
+        // ([`Hierarchy::composition_waits`]), else all at once; those composed in an
+        // earlier frame for nodes the budget left are kept.
         let missing: Vec<NodeKey> = new
             .iter()
             .copied()
             .filter(|k| !self.composed.contains_key(k))
             .collect();
-        let composed: Vec<(Composed, Duration)> = missing
-            .par_iter()
-            .map(|&key| {
-                let mut t = Duration::ZERO;
-                let m = timed(&mut t, || self.node_material(key));
-                (m, t)
-            })
-            .collect();
-        for (key, (m, t)) in missing.into_iter().zip(composed) {
-            stats.times.material += t;
-            self.composed.insert(key, m?);
+        let per_batch = match self.params.budget_ms {
+            Some(_) => rayon::current_num_threads().max(1),
+            None => missing.len().max(1),
+        };
+        for batch in missing.chunks(per_batch) {
+            if self.composition_waits() {
+                break;
+            }
+            let composed: Vec<(Composed, Duration)> = batch
+                .par_iter()
+                .map(|&key| {
+                    let mut t = Duration::ZERO;
+                    let m = timed(&mut t, || self.node_material(key));
+                    (m, t)
+                })
+                .collect();
+            for (&key, (m, t)) in batch.iter().zip(composed) {
+                stats.times.material += t;
+                self.composed.insert(key, m?);
+            }
+            self.frame_composed += batch.len();
+            stats.composed += batch.len() as u32;
+        }
+        // New nodes whose material waits are left for a later frame.
+        if new.iter().any(|k| !self.composed.contains_key(k)) {
+            let waiting = new
+                .iter()
+                .filter(|k| !self.composed.contains_key(k))
+                .count();
+            stats.pending += waiting as u32;
+            new.retain(|k| self.composed.contains_key(k));
+            order = order
+                .into_iter()
+                .filter_map(|w| match w {
+                    Want::New(key, _) => new
+                        .iter()
+                        .position(|k| *k == key)
+                        .map(|i| Want::New(key, i)),
+                    stale => Some(stale),
+                })
+                .collect();
         }
         let materials: Vec<NodeMaterial> = new
             .iter()

@@ -32,7 +32,9 @@ pub struct HierarchyParams {
     /// the first) gets through in this time, at most `budget_points`, and a frame's
     /// first node whatever it costs (so frames get on; a frame that spent over half
     /// its budget composing new nodes' materials leaves its first node to the next
-    /// frame, which then builds it); the rest waits for
+    /// frame, which then builds it). It composes new nodes' materials a batch (one a
+    /// thread) at a time and no further batch once it has spent half its budget; the
+    /// rest waits for
     /// later frames ([`FrameStats::budget_points`] says what a frame allowed itself).
     ///
     /// [`Hierarchy::update`]: crate::Hierarchy::update

@@ -695,6 +695,11 @@ fn a_time_budget_bounds_the_points_a_frame_sweeps() {
                     "frame {f}: {s:?}"
                 );
                 assert!(s.built + s.sun_built <= 1, "frame {f}: {s:?}");
+                // Composition too: one batch (a node a thread) a frame.
+                assert!(
+                    s.composed as usize <= rayon::current_num_threads(),
+                    "frame {f}: {s:?}"
+                );
                 last_swept = s.points_swept > 0;
                 swept_frames += usize::from(last_swept || s.pending == 0);
             } else {
