@@ -93,7 +93,7 @@ impl Hierarchy {
             None => missing.len().max(1),
         };
         for batch in missing.chunks(per_batch) {
-            if self.composition_waits() {
+            if self.composition_waits(stats.composed) {
                 break;
             }
             let composed: Vec<(Composed, Duration)> = batch
@@ -108,7 +108,6 @@ impl Hierarchy {
                 stats.times.material += t;
                 self.composed.insert(key, m?);
             }
-            self.frame_composed += batch.len();
             stats.composed += batch.len() as u32;
         }
         // New nodes whose material waits are left for a later frame.

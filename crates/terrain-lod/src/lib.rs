@@ -457,9 +457,6 @@ pub struct Hierarchy {
     frame_budget: u64,
     /// When this frame began ([`Hierarchy::update`], [`Hierarchy::refresh`]).
     frame_started: std::time::Instant,
-    /// Nodes whose material this frame has composed (see
-    /// [`Hierarchy::composition_waits`]).
-    frame_composed: usize,
     /// Whether the last frame swept anything (see [`Hierarchy::over_budget`]).
     last_frame_swept: bool,
     /// The sun kept apart (`None`: whatever sun there is lies in `sky`'s bins).
@@ -596,7 +593,6 @@ impl Hierarchy {
             rate: None,
             frame_budget: params.budget_points,
             frame_started: std::time::Instant::now(),
-            frame_composed: 0,
             last_frame_swept: true,
             sun: None,
             world_sun: None,
@@ -1191,7 +1187,6 @@ impl Hierarchy {
         }
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
-        self.frame_composed = 0;
         let mut stats = FrameStats {
             sun_moved: self.poll_sun_move(false)?,
             ..FrameStats::default()
@@ -1280,14 +1275,13 @@ impl Hierarchy {
     }
 
     /// Whether, under a time budget, the next batch of new nodes' materials waits for a
-    /// later frame: once this frame has composed some and spent half its budget
+    /// later frame: once this frame has composed some (`composed`) and spent half its budget
     /// (composition is not in the points budget: a depth of many new nodes, composed
     /// all at once, ran frames to two and three times the budget). A frame always
     /// composes its first batch, so that frames get on.
-    pub(crate) fn composition_waits(&self) -> bool {
+    pub(crate) fn composition_waits(&self, composed: u32) -> bool {
         self.params.budget_ms.is_some_and(|ms| {
-            self.frame_composed > 0
-                && self.frame_started.elapsed().as_secs_f64() * 1e3 > 0.5 * ms as f64
+            composed > 0 && self.frame_started.elapsed().as_secs_f64() * 1e3 > 0.5 * ms as f64
         })
     }
 
@@ -1376,7 +1370,6 @@ impl Hierarchy {
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
-        self.frame_composed = 0;
         self.composed.clear();
         let mut stats = FrameStats {
             sun_moved: self.poll_sun_move(false)?,
