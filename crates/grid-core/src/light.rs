@@ -117,6 +117,16 @@ impl BinLight {
             .all(|v| v.is_finite() && v.cmpge(Vec3::ZERO).all())
     }
 
+    /// [`BinLight::is_valid`] of every bins in `v`, in one pass over their values that
+    /// the compiler vectorises (a node's side halo holds some 17,000 bins, checked at
+    /// every sweep: 3 % of a 16-point node's sweep one bins at a time).
+    pub fn all_valid(v: &[BinLight]) -> bool {
+        // `x >= 0` is false for NaN, `x <= MAX` for +inf: together `is_valid`'s test.
+        bytemuck::cast_slice::<BinLight, f32>(v)
+            .iter()
+            .fold(true, |ok, &x| ok & (x >= 0.0) & (x <= f32::MAX))
+    }
+
     /// Total light over the sphere (sum of the bins, in `f64`). Like every projection
     /// below it is finite: a sum past `f32::MAX` (bins near it) saturates there, and a
     /// NaN (bins holding NaN or opposite infinities) reads as 0 ([`finite`]).
@@ -700,6 +710,41 @@ fn integrate_bin(d: usize, n: u32, mut f: impl FnMut(DVec3, f64)) {
 
 #[cfg(test)]
 mod tests {
+
+    /// `all_valid` is `is_valid` of every bins: each extreme value in every bin of
+    /// one bins among several valid ones.
+    #[test]
+    fn all_valid_is_every_bins_valid() {
+        let extremes = [
+            0.0,
+            -0.0,
+            1.0,
+            f32::MIN_POSITIVE,
+            1e-45,
+            f32::MAX,
+            -1e-45,
+            -1.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let good = BinLight::uniform(Vec3::new(0.5, 1.0, 2.0));
+        for x in extremes {
+            for d in 0..NUM_DIRS {
+                for k in 0..3 {
+                    let mut bad = good;
+                    bad.0[d][k] = x;
+                    let v = [good, bad, good];
+                    assert_eq!(
+                        BinLight::all_valid(&v),
+                        v.iter().all(BinLight::is_valid),
+                        "{x} in bin {d}, colour {k}"
+                    );
+                }
+            }
+        }
+        assert!(BinLight::all_valid(&[]));
+    }
 
     #[test]
     fn check_sun_names_the_bad_field() {

@@ -321,6 +321,12 @@ impl Work {
     /// each column beyond the sides. Without a halo that is the virtual level's light,
     /// the same for every level of a pass (filled once a pass); with one, the halo's
     /// light at the source level.
+    ///
+    /// Each channel's part of the ring is filled only where its taps reach
+    /// ([`ghost_reach`]); the rest of its planes keep what they held, which no tap
+    /// reads. (Filled whole, the ring was a tenth of a 16-point node's sweep: five
+    /// columns around a 16 × 16 level for every channel, where a channel's taps reach
+    /// one to five on one side.)
     pub(crate) fn fill_ghost(
         &mut self,
         src: &Sources,
@@ -336,10 +342,15 @@ impl Work {
         let (nx, nz) = (ctx.nx as isize, ctx.nz as isize);
         let p = self.ghost.pitch();
         let pad = PAD as isize;
+        let reach: [GhostReach; CHANNELS] =
+            std::array::from_fn(|c| ghost_reach(&ctx.ch[c], nx, nz));
         for z in -pad..nz + pad {
             let row = self.ghost.row_mut(z);
             for x in -pad..nx + pad {
                 if (0..nx).contains(&x) && (0..nz).contains(&z) {
+                    continue;
+                }
+                if !reach.iter().any(|r| r.holds(x, z)) {
                     continue;
                 }
                 let (xi, zi) = (x as i32, z as i32);
@@ -350,6 +361,9 @@ impl Work {
                     src.outside_bins(xi, src_level, zi)
                 };
                 for (c, chn) in ctx.ch.iter().enumerate() {
+                    if !reach[c].holds(x, z) {
+                        continue;
+                    }
                     let v = Sources::value(bins, chn);
                     let b = c * 3 * p + (x + pad) as usize;
                     row[b] = v.x;
@@ -358,6 +372,32 @@ impl Work {
                 }
             }
         }
+    }
+}
+
+/// The columns and rows of `ghost` (ring and inside) that a channel's taps read
+/// ([`Ctx::gather_row_channels`]): a point `(x, z)` of the level gathers from the
+/// source level's columns `x − step.x − 1 ..= x − step.x + 1` and rows
+/// `z − step.z − 1 ..= z − step.z + 1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct GhostReach {
+    pub(crate) x: (isize, isize),
+    pub(crate) z: (isize, isize),
+}
+
+impl GhostReach {
+    #[inline(always)]
+    pub(crate) fn holds(self, x: isize, z: isize) -> bool {
+        (self.x.0..=self.x.1).contains(&x) && (self.z.0..=self.z.1).contains(&z)
+    }
+}
+
+/// [`GhostReach`] of channel `chn` on an `nx × nz` level.
+pub(crate) fn ghost_reach(chn: &Channel, nx: isize, nz: isize) -> GhostReach {
+    let (sx, sz) = (chn.step.x as isize, chn.step.z as isize);
+    GhostReach {
+        x: (-sx - 1, nx - sx),
+        z: (-sz - 1, nz - sz),
     }
 }
 
