@@ -121,10 +121,10 @@ impl BinLight {
     /// the compiler vectorises (a node's side halo holds some 17,000 bins, checked at
     /// every sweep: 3 % of a 16-point node's sweep one bins at a time).
     pub fn all_valid(v: &[BinLight]) -> bool {
-        // `x >= 0` is false for NaN, `x <= MAX` for +inf: together `is_valid`'s test.
+        // False for NaN, -inf and +inf, as `is_valid`.
         bytemuck::cast_slice::<BinLight, f32>(v)
             .iter()
-            .fold(true, |ok, &x| ok & (x >= 0.0) & (x <= f32::MAX))
+            .fold(true, |ok, x| ok & (0.0..=f32::MAX).contains(x))
     }
 
     /// Total light over the sphere (sum of the bins, in `f64`). Like every projection
