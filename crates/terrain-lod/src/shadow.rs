@@ -14,16 +14,19 @@
 //! sun against one 1 m sweep had an RMSE of 82 % at 10° and 25 % at 30°.
 
 use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
 
 use lightgrid_core::dda::box_exit;
 use lightgrid_core::glam::{IVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, MaterialGrid};
 
-use crate::{Hierarchy, NodeKey, NodeMaterial};
+use crate::{Hierarchy, KeyHasher, NodeKey, NodeMaterial};
 
 /// Materials composed this frame for nodes not yet stored (the depth being built), by
-/// node; the march reads them as it reads the ready nodes'.
-pub(crate) type Fresh<'a> = HashMap<NodeKey, &'a NodeMaterial>;
+/// node; the march reads them as it reads the ready nodes'. Hashed as the nodes are
+/// ([`KeyHasher`]): the march looks a ray's place up in it at every grid the ray
+/// crosses, and std's SipHash there was 3 % of a frame's sweeping time.
+pub(crate) type Fresh<'a> = HashMap<NodeKey, &'a NodeMaterial, BuildHasherDefault<KeyHasher>>;
 
 /// What the march meets at a place.
 enum Along<'a> {
