@@ -364,16 +364,9 @@ impl BinLight {
     /// downward half takes `B(x,−1,z) / (B(x,−1,z) + B(x,1,z))`; one half where both are
     /// dark (or `d` is not horizontal). In `[0, 1]`.
     pub fn horizon_share(&self, d: usize) -> Vec3 {
-        let v = dirs::dir_ivec(d);
-        let (Some(below), Some(above)) = (
-            dirs::dir_index(glam::IVec3::new(v.x, -1, v.z)),
-            dirs::dir_index(glam::IVec3::new(v.x, 1, v.z)),
-        ) else {
+        let Some(Some((below, above))) = HORIZON_NEIGHBOURS.get(d).copied() else {
             return Vec3::splat(0.5);
         };
-        if v.y != 0 {
-            return Vec3::splat(0.5);
-        }
         let share = |b: f32, a: f32| {
             let s = b + a;
             if s > 0.0 && s.is_finite() {
@@ -391,6 +384,26 @@ impl BinLight {
         *self * s
     }
 }
+
+/// For each bin, if horizontal, the bins of its azimuth 45° below and above the
+/// horizon ([`BinLight::horizon_share`]'s neighbours, looked up at every side-halo
+/// point of every level a node's sweep reads); `None` for the others.
+const HORIZON_NEIGHBOURS: [Option<(usize, usize)>; NUM_DIRS] = {
+    let mut t = [None; NUM_DIRS];
+    let mut d = 0;
+    while d < NUM_DIRS {
+        let v = dirs::dir_ivec(d);
+        if v.y == 0 {
+            let below = dirs::dir_index(glam::IVec3::new(v.x, -1, v.z));
+            let above = dirs::dir_index(glam::IVec3::new(v.x, 1, v.z));
+            if let (Some(b), Some(a)) = (below, above) {
+                t[d] = Some((b, a));
+            }
+        }
+        d += 1;
+    }
+    t
+};
 
 /// The downward-travelling part of each of the 8 horizontal bins (bins
 /// [`dirs::FIRST_HORIZONTAL`]`..+8` in order): light arriving from just above the
@@ -799,6 +812,21 @@ mod tests {
                 );
             }
         }
+        // The neighbours: the same azimuth 45° below and above, for the 8 horizontal
+        // bins only.
+        let horizontal = dirs::FIRST_HORIZONTAL..dirs::FIRST_HORIZONTAL + dirs::HORIZONTAL_BINS;
+        for d in 0..NUM_DIRS {
+            let v = dirs::dir_ivec(d);
+            match HORIZON_NEIGHBOURS[d] {
+                Some((b, a)) => {
+                    assert!(horizontal.contains(&d), "{d}");
+                    assert_eq!(dirs::dir_ivec(b), glam::IVec3::new(v.x, -1, v.z), "{d}");
+                    assert_eq!(dirs::dir_ivec(a), glam::IVec3::new(v.x, 1, v.z), "{d}");
+                }
+                None => assert!(!horizontal.contains(&d), "{d}"),
+            }
+        }
+        assert_eq!(Vec3::splat(0.5), BinLight::ZERO.horizon_share(NUM_DIRS));
         // Dark neighbours, a vertical bin: one half each. Any values: a share in [0, 1].
         assert_eq!(BinLight::ZERO.horizon_share(9), Vec3::splat(0.5));
         assert_eq!(
