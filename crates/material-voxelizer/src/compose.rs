@@ -260,6 +260,8 @@ pub struct AreaComposer {
     /// Instances covering more than [`MAX_TILES_PER_INSTANCE`] tiles, not binned.
     large: Vec<u32>,
     terrain: Option<Terrain>,
+    /// The terrain's highest height (worked out once: a pass over the heights).
+    ground_top: Option<f32>,
     params: ComposeParams,
 }
 
@@ -389,6 +391,7 @@ impl AreaComposer {
             placed,
             tiles,
             large,
+            ground_top: terrain.as_ref().map(|t| t.heightmap.range().1),
             terrain,
             params,
         })
@@ -434,25 +437,37 @@ impl AreaComposer {
     }
 
     /// For each column of `desc` (x fastest), the positions in `cand` of the candidates
-    /// whose bounds overlap the column's `(x, z)` extent, in `cand`'s order.
+    /// whose bounds overlap the column's `(x, z)` extent, in `cand`'s order. A
+    /// candidate's columns are a rectangle of them (the extents grow with the index),
+    /// found by two binary searches an axis: the work is the entries, not columns ×
+    /// candidates (a coarse node over a forest: thousands of candidates).
     fn column_candidates(&self, desc: &GridDesc, cand: &[u32]) -> Vec<Vec<u32>> {
-        use rayon::prelude::*;
-        let half = Vec3::splat(desc.h() * 0.5);
-        let nx = desc.dims().x as usize;
-        (0..nx * desc.dims().z as usize)
-            .into_par_iter()
-            .map(|c| {
-                let q = UVec3::new((c % nx) as u32, 0, (c / nx) as u32);
-                let centre = desc.position(q);
-                let (lo, hi) = (centre - half, centre + half);
-                (0..cand.len() as u32)
-                    .filter(|&c| {
-                        let p = &self.placed[cand[c as usize] as usize];
-                        p.lo.x <= hi.x && p.lo.z <= hi.z && p.hi.x >= lo.x && p.hi.z >= lo.z
-                    })
-                    .collect()
-            })
-            .collect()
+        let half = desc.h() * 0.5;
+        let d = desc.dims();
+        let nx = d.x as usize;
+        // Each column's extent along x and along z: a cell centre's coordinate ± half.
+        let xs: Vec<(f32, f32)> = (0..d.x)
+            .map(|x| desc.position(UVec3::new(x, 0, 0)).x)
+            .map(|c| (c - half, c + half))
+            .collect();
+        let zs: Vec<(f32, f32)> = (0..d.z)
+            .map(|z| desc.position(UVec3::new(0, 0, z)).z)
+            .map(|c| (c - half, c + half))
+            .collect();
+        // The columns `i` with `lo <= extent.1 && hi >= extent.0`.
+        let overlapping = |e: &[(f32, f32)], lo: f32, hi: f32| {
+            e.partition_point(|x| x.1 < lo)..e.partition_point(|x| x.0 <= hi)
+        };
+        let mut columns = vec![Vec::new(); nx * d.z as usize];
+        for (c, &j) in cand.iter().enumerate() {
+            let p = &self.placed[j as usize];
+            for z in overlapping(&zs, p.lo.z, p.hi.z) {
+                for x in overlapping(&xs, p.lo.x, p.hi.x) {
+                    columns[x + nx * z].push(c as u32);
+                }
+            }
+        }
+        columns
     }
 
     /// Composes the area `desc`, with counters.
@@ -482,7 +497,7 @@ impl AreaComposer {
             desc.point_count() as u64 * std::mem::size_of::<Material>() as u64,
         )?;
         let mut cells = vec![Material::EMPTY; desc.point_count()];
-        let ground_top = self.terrain.as_ref().map(|t| t.heightmap.range().1);
+        let ground_top = self.ground_top;
         use rayon::prelude::*;
         let half = Vec3::splat(h * 0.5);
         // Candidates overlapping each column's (x, z) extent, in `cand`'s order: a cell
@@ -636,5 +651,77 @@ fn sample_cell(
 impl MaterialSource for AreaComposer {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
         Ok(self.compose(desc)?.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn column_candidates_are_the_brute_force_overlap_tests() {
+        // Instances of a small model at random places, turns and scales; areas of
+        // several cell sizes and offsets, partly outside the instances: each column's
+        // list is what testing every candidate against the column's extent gives, in
+        // the candidates' order.
+        let md = GridDesc::new(Vec3::new(-1.0, 0.0, -0.5), 0.5, UVec3::new(4, 6, 3)).unwrap();
+        let model = MaterialGrid::filled(md, Material::EMPTY).unwrap();
+        let mut rng = fastrand::Rng::with_seed(7);
+        let instances: Vec<Instance> = (0..300)
+            .map(|_| Instance {
+                model: 0,
+                position: Vec3::new(rng.f32() * 60.0 - 10.0, 0.0, rng.f32() * 60.0 - 10.0),
+                rotation: Quat::from_rotation_y(rng.f32() * 6.3) * Quat::from_rotation_x(rng.f32()),
+                scale: 0.3 + rng.f32() * 3.0,
+            })
+            .chain(
+                // Touching columns of the first area exactly: one's box ends at x = z = 5
+                // (column 5's low side), one's starts at x = z = 7 (column 6's high side).
+                [4.25, 8.25].map(|p| Instance {
+                    model: 0,
+                    position: Vec3::new(p, 0.0, p),
+                    rotation: Quat::IDENTITY,
+                    scale: 1.0,
+                }),
+            )
+            .collect();
+        let c = AreaComposer::new(vec![model], &instances, None, ComposeParams::default()).unwrap();
+        assert_eq!(c.placed[300].hi.x, 5.0);
+        assert_eq!(c.placed[301].lo.x, 7.0);
+        let mut entries = 0;
+        for (origin, h, n) in [
+            (Vec3::new(0.5, 0.0, 0.5), 1.0, 16),
+            (Vec3::new(-3.25, 1.0, 7.75), 0.5, 23),
+            (Vec3::new(4.0, -2.0, -4.0), 4.0, 9),
+            (Vec3::new(100.0, 0.0, 0.0), 2.0, 8),
+        ] {
+            let desc = GridDesc::new(origin, h, UVec3::new(n, 3, n + 1)).unwrap();
+            let (alo, ahi) = desc.cell_bounds();
+            let (cand, _) = c.candidates(alo, ahi);
+            let got = c.column_candidates(&desc, &cand);
+            let half = Vec3::splat(h * 0.5);
+            for z in 0..desc.dims().z {
+                for x in 0..desc.dims().x {
+                    let centre = desc.position(UVec3::new(x, 0, z));
+                    let (lo, hi) = (centre - half, centre + half);
+                    let want: Vec<u32> = (0..cand.len() as u32)
+                        .filter(|&k| {
+                            let p = &c.placed[cand[k as usize] as usize];
+                            p.lo.x <= hi.x && p.lo.z <= hi.z && p.hi.x >= lo.x && p.hi.z >= lo.z
+                        })
+                        .collect();
+                    entries += want.len();
+                    assert_eq!(
+                        got[(x + desc.dims().x * z) as usize],
+                        want,
+                        "column {x}, {z}"
+                    );
+                }
+            }
+        }
+        assert!(
+            entries > 1000,
+            "{entries} entries: the test must see overlaps"
+        );
     }
 }

@@ -897,11 +897,17 @@ impl Profiles {
         self.extra.clear();
         let todo = self.assign(up, lnp, &medium);
         self.computed += todo.len() as u64;
-        let fresh: Vec<CellProfile> = todo
-            .par_iter()
-            .map(|&l| crate::isa::vectorised!(CellProfile::of(up, l)))
-            .collect();
-        self.all.extend(fresh);
+        // Written in place (no level-sized copy through a temporary).
+        self.all.par_extend(
+            todo.par_iter()
+                .map(|&l| crate::isa::vectorised!(CellProfile::of(up, l))),
+        );
+    }
+
+    /// Profiles computed so far ([`CellProfile::new`] calls).
+    #[cfg(test)]
+    pub(crate) fn computed(&self) -> u64 {
+        self.computed
     }
 
     /// Sets `of` for the level and enters its values not held yet, in `memo` while

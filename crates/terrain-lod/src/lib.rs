@@ -128,12 +128,14 @@ use std::hash::BuildHasherDefault;
 
 pub mod bake;
 mod build;
+mod depth;
 mod params;
 mod read;
 mod shadow;
 mod sun_move;
 mod volume;
 
+pub use depth::{DEPTH_BITS, quantized_pass};
 pub use params::{HierarchyParams, LodSkips};
 
 use lightgrid_core::Heightmap;
@@ -436,6 +438,8 @@ pub struct Hierarchy {
     heightmap_lo: Vec2,
     heightmap_hi: Vec2,
     heights: Heightmap,
+    /// `params.world_bottom(&heights)`, worked out once (a pass over the heights).
+    world_bottom: f32,
     source: Box<dyn MaterialSource + Send + Sync>,
     sweeper: Box<dyn Sweeper + Send + Sync>,
     /// Forks of `sweeper` for nodes swept side by side, kept with their memory.
@@ -500,12 +504,13 @@ enum Response {
 
 /// A node's inputs hashed, for [`Hierarchy::refresh`] to see what changed. Compared
 /// only within the process, so the bulk (materials, boundary light: megabytes a node)
-/// goes through std's SipHash, which takes 8 bytes a round, rather than the stable
-/// [`ContentHash`](lightgrid_core::hash::ContentHash) (FNV-1a, a byte a round: 7 ms of
-/// a 16-point node's frame); the descriptor and options through `ContentHash`.
+/// goes through foldhash's quality hasher with a fixed seed (96 bytes a round; std's
+/// SipHash, 8 bytes a round, was 2.4 % of the 16-point flythrough) rather than the
+/// stable [`ContentHash`](lightgrid_core::hash::ContentHash) (FNV-1a, a byte a round);
+/// the descriptor and options through `ContentHash`.
 fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
-    use std::hash::Hasher;
-    let mut h = std::hash::DefaultHasher::new();
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = foldhash::quality::FixedState::with_seed(0x6c67_6e6f_6465_7632).build_hasher();
     h.write_u64(
         lightgrid_core::hash::ContentHash::new(b"terrain-lod-node-v2")
             .desc(m.desc())
@@ -581,6 +586,7 @@ impl Hierarchy {
             heightmap_lo: lo,
             heightmap_hi: hi,
             heights: heightmap.clone(),
+            world_bottom: params.world_bottom(heightmap),
             source,
             sweeper,
             forks: Vec::new(),
@@ -602,7 +608,7 @@ impl Hierarchy {
         };
         let w = params.world_cell;
         let dims_xz = ((hi - lo) / w).ceil().as_uvec2() + lightgrid_core::glam::UVec2::ONE;
-        let bottom = params.world_bottom(heightmap);
+        let bottom = h.world_bottom;
         let top = ground.1 + params.margin.max(w) + 2.0 * w;
         let ny = (((top - bottom) / w).ceil() as u32)
             .saturating_add(1)
@@ -629,7 +635,7 @@ impl Hierarchy {
 
     fn sweep_world(&mut self) -> Result<(), LodError> {
         let desc = *self.world.desc();
-        let material = self.source.material(&desc)?;
+        let material = self.compose(&desc)?;
         let o = self.node_options(true);
         let out = self
             .sweeper
@@ -742,7 +748,7 @@ impl Hierarchy {
         let material = match &self.world_material {
             Some(m) if *m.desc() == desc => m,
             _ => {
-                composed = self.source.material(&desc)?;
+                composed = self.compose(&desc)?;
                 &composed
             }
         };
@@ -1008,11 +1014,19 @@ impl Hierarchy {
         })
     }
 
+    /// The source's material over `desc`, every cell's depth of medium rounded
+    /// ([`quantized_pass`]): what every grid of the hierarchy sweeps.
+    fn compose(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        let m = self.source.material(desc)?;
+        let d = *m.desc();
+        MaterialGrid::new(d, depth::quantized(m.into_data()))
+    }
+
     /// The node's material grid, `node_points` across and from below its lowest ground to
     /// two cells above its highest object (or its highest ground): tall where the forest
     /// is tall. Also whether it has objects above the ground.
     fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
-        let full = self.source.material(&self.node_desc(key)?)?;
+        let full = self.compose(&self.node_desc(key)?)?;
         let d = *full.desc();
         let mut top_level = 0;
         let mut has_objects = false;
@@ -1051,7 +1065,8 @@ impl Hierarchy {
     /// this lattice (a full-resolution reference) has its points and cells where the
     /// nodes have theirs.
     pub fn lattice(&self, depth: u32) -> Vec3 {
-        self.params.lattice(&self.heights, depth)
+        self.params
+            .lattice_over(self.heights.origin, self.world_bottom, depth)
     }
 
     /// The node's tallest grid descriptor: `node_points` across, from below its lowest
@@ -1390,7 +1405,7 @@ impl Hierarchy {
                 stats.pending += 1;
                 continue;
             }
-            let material = timed(&mut stats.times.material, || self.source.material(&desc))?;
+            let material = timed(&mut stats.times.material, || self.compose(&desc))?;
             let o = self.node_options(self.nodes[&key].material.has_objects);
             let (boundary, hash) = timed(&mut stats.times.boundary, || {
                 let b = self.node_boundary(&desc, key.depth);

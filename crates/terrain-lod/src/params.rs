@@ -125,9 +125,14 @@ impl HierarchyParams {
     /// [`Hierarchy::lattice`](crate::Hierarchy::lattice) of a hierarchy over `heightmap`
     /// with these parameters.
     pub fn lattice(&self, heightmap: &Heightmap, d: u32) -> Vec3 {
+        self.lattice_over(heightmap.origin, self.world_bottom(heightmap), d)
+    }
+    /// [`HierarchyParams::lattice`] from the heightmap's origin and
+    /// [`HierarchyParams::world_bottom`] (known: no pass over the heights).
+    pub(crate) fn lattice_over(&self, origin: Vec2, world_bottom: f32, d: u32) -> Vec3 {
         let h = self.cell(d);
-        let lo = heightmap.origin + Vec2::splat(0.5 * h);
-        Vec3::new(lo.x, self.world_bottom(heightmap), lo.y)
+        let lo = origin + Vec2::splat(0.5 * h);
+        Vec3::new(lo.x, world_bottom, lo.y)
     }
     /// The world grid's lowest level: two world cells below the lowest ground.
     pub(crate) fn world_bottom(&self, heightmap: &Heightmap) -> f32 {

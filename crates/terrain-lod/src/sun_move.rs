@@ -83,7 +83,7 @@ impl Hierarchy {
         };
         let material: MaterialGrid = match &self.world_material {
             Some(m) if m.desc() == self.world.desc() => m.clone(),
-            _ => self.source.material(self.world.desc())?,
+            _ => self.compose(self.world.desc())?,
         };
         let options = self.node_options(true);
         let thread = std::thread::Builder::new()
@@ -178,7 +178,7 @@ impl Hierarchy {
             let material = match &self.world_material {
                 Some(m) if m.desc() == self.world.desc() => m,
                 _ => {
-                    composed = self.source.material(self.world.desc())?;
+                    composed = self.compose(self.world.desc())?;
                     &composed
                 }
             };

@@ -279,7 +279,10 @@ impl Work {
     }
 
     /// `old` made ready for a new sweep if it has the size (the level buffers and the
-    /// levels of pending light that were written zeroed), else new buffers.
+    /// levels of pending light that were written zeroed), else new buffers with `old`'s
+    /// cell profiles (they depend on a cell's depth of medium alone, not on the grid: a
+    /// hierarchy's nodes differ in height, and each new size integrated the profiles
+    /// again).
     pub(crate) fn reuse(old: Option<Work>, nx: usize, nz: usize, n: usize) -> Self {
         match old {
             Some(mut w) if w.prev.nx == nx && w.prev.nz == nz && w.pend_down.len() == n => {
@@ -299,7 +302,13 @@ impl Work {
                 }
                 w
             }
-            _ => Self::new(nx, nz, n),
+            old => {
+                let mut w = Self::new(nx, nz, n);
+                if let Some(old) = old {
+                    w.prof = old.prof;
+                }
+                w
+            }
         }
     }
 

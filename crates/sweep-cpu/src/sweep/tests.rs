@@ -188,6 +188,46 @@ fn pending_light_held_only_where_material_is() {
     assert!(bits(&first) == bits(&again));
 }
 
+/// The cell profiles a sweeper integrated outlive a change of grid size (a
+/// hierarchy's nodes differ in height): after a medium of three depths on 8 levels,
+/// one of those depths on 12 levels (new work buffers) integrates no profile (fresh
+/// profiles would count its two, down and up, from 0), and a new depth its own two.
+#[test]
+fn cell_profiles_outlive_a_change_of_grid_size() {
+    let grid = |ny: u32, passes: &[f32]| {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(6, ny, 5)).expect("grid");
+        let cells = (0..desc.point_count())
+            .map(|i| {
+                let q = desc.coords(i).expect("index");
+                match q.y {
+                    0 => Material::opaque(Vec3::splat(0.3)),
+                    1..=5 => Material {
+                        reflectance: Vec3::new(0.2, 0.5, 0.2),
+                        pass: passes[q.x as usize % passes.len()],
+                    },
+                    _ => Material::EMPTY,
+                }
+            })
+            .collect();
+        MaterialGrid::new(desc, cells).expect("material")
+    };
+    let b = Boundary::open_sky(BinLight::uniform(Vec3::ONE).split_vertical().0);
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 2;
+    let mut spare = Spare::default();
+    let mut sweep = |m: MaterialGrid| {
+        run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
+        spare.work.as_ref().expect("work kept").prof.computed()
+    };
+    assert_eq!(
+        sweep(grid(8, &[0.3, 0.6, 0.9])),
+        6,
+        "three depths, down and up"
+    );
+    assert_eq!(sweep(grid(12, &[0.6])), 6, "a depth integrated before");
+    assert_eq!(sweep(grid(12, &[0.6, 0.45])), 8, "one new depth");
+}
+
 /// The huge-page advice leaves a buffer's contents as they are (it only changes how
 /// the kernel backs its pages), for buffers with whole 2 MB pages inside and
 /// without; `fresh_buffer` gives zeros.
