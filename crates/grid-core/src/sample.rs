@@ -130,9 +130,11 @@ pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
 /// [`trilinear_corners`] as linear indices into a grid of `dims` (x fastest, then z,
 /// then y: [`crate::GridDesc::index_unchecked`]) and weights, corner by corner in the
 /// same order and with the same arithmetic, without building the corners (the hot
-/// path of [`Grid::sample`]: composing materials, boundaries, light volumes).
+/// path of [`Grid::sample`]: composing materials, boundaries, light volumes). The
+/// first index is the lookup's base point: the corners are it and the points one step
+/// up each axis, clamped into the grid.
 #[inline]
-fn trilinear_indices(dims: UVec3, g: Vec3) -> ([usize; 8], [f32; 8]) {
+pub fn trilinear_indices(dims: UVec3, g: Vec3) -> ([usize; 8], [f32; 8]) {
     let dims1 = dims.max(UVec3::ONE);
     let maxf = (dims1 - UVec3::ONE).as_vec3();
     let g = g.clamp(Vec3::ZERO, maxf);

@@ -208,6 +208,8 @@ struct Scratch<'a> {
 struct Sampling<'a> {
     placed: &'a Placed,
     model: &'a MaterialGrid,
+    /// The model's [`clear_cubes`].
+    clear: &'a [bool],
     bounds: (Vec3, Vec3),
     /// `inv_rot * (o - 0.5) h / scale` of each sample offset `o` (x fastest).
     offsets: Vec<Vec3>,
@@ -218,7 +220,12 @@ struct Sampling<'a> {
 }
 
 impl<'a> Sampling<'a> {
-    fn new(placed: &'a Placed, model: &'a MaterialGrid, h: f32, k: u32) -> Self {
+    fn new(
+        placed: &'a Placed,
+        (model, clear): (&'a MaterialGrid, &'a [bool]),
+        h: f32,
+        k: u32,
+    ) -> Self {
         let inv_scale = 1.0 / placed.inst.scale;
         let offsets: Vec<Vec3> = (0..k * k * k)
             .map(|s| {
@@ -230,6 +237,7 @@ impl<'a> Sampling<'a> {
         Self {
             placed,
             model,
+            clear,
             bounds: model.desc().cell_bounds(),
             offsets,
             reach,
@@ -242,6 +250,60 @@ impl<'a> Sampling<'a> {
     fn to_model(&self, p: Vec3) -> Vec3 {
         self.placed.inv_rot * (p - self.placed.inst.position) / self.placed.inst.scale
     }
+
+    /// The model's material at model-space `p` (`MaterialGrid::sample`, bit for bit),
+    /// or `None` where it is clear (pass-through 1). A lookup whose eight corners are
+    /// all clear ([`clear_cubes`]) sums only its weights, which is the pass-through
+    /// the corners would give: most of a tree's box is air.
+    #[inline]
+    fn read(&self, p: Vec3) -> Option<Material> {
+        use lightgrid_core::Blend;
+        if !p.is_finite() {
+            return None;
+        }
+        let d = self.model.desc();
+        let (index, weight) = lightgrid_core::trilinear_indices(d.dims(), d.to_grid(p));
+        if self.clear[index[0]] {
+            // `Material::add_scaled` of pass-throughs of 1: `pass += 1 × w`, exactly w.
+            let mut pass = 0.0f32;
+            for w in weight {
+                if w != 0.0 {
+                    pass += w;
+                }
+            }
+            if pass >= 1.0 {
+                return None;
+            }
+        }
+        let data = self.model.data();
+        let mut m = Material::zero();
+        for (i, w) in index.into_iter().zip(weight) {
+            if w != 0.0 {
+                m.add_scaled(&data[i], w);
+            }
+        }
+        (m.pass < 1.0).then_some(m)
+    }
+}
+
+/// Per point of a model grid: whether the trilinear lookups based at it (it and the
+/// points one step up each axis, clamped into the grid) read only clear cells
+/// (pass-through exactly 1).
+fn clear_cubes(m: &MaterialGrid) -> Vec<bool> {
+    let d = m.desc();
+    let top = d.dims().saturating_sub(UVec3::ONE);
+    (0..d.point_count())
+        .map(|i| {
+            let q = d.coords(i).expect("index in range");
+            let hi = (q + UVec3::ONE).min(top);
+            (q.y..=hi.y).all(|y| {
+                (q.z..=hi.z).all(|z| {
+                    (q.x..=hi.x)
+                        .all(|x| m.data()[d.index_unchecked(UVec3::new(x, y, z))].pass == 1.0)
+                })
+            })
+        })
+        .collect()
 }
 
 struct Placed {
@@ -255,6 +317,8 @@ struct Placed {
 /// [`MaterialSource`].
 pub struct AreaComposer {
     models: Vec<MaterialGrid>,
+    /// Each model's [`clear_cubes`].
+    clear: Vec<Vec<bool>>,
     placed: Vec<Placed>,
     tiles: HashMap<IVec2, Vec<u32>>,
     /// Instances covering more than [`MAX_TILES_PER_INSTANCE`] tiles, not binned.
@@ -387,6 +451,7 @@ impl AreaComposer {
             });
         }
         Ok(Self {
+            clear: models.iter().map(clear_cubes).collect(),
             models,
             placed,
             tiles,
@@ -508,7 +573,8 @@ impl AreaComposer {
             .iter()
             .map(|&j| {
                 let placed = &self.placed[j as usize];
-                Sampling::new(placed, &self.models[placed.inst.model as usize], h, k)
+                let mi = placed.inst.model as usize;
+                Sampling::new(placed, (&self.models[mi], &self.clear[mi]), h, k)
             })
             .collect();
         cells
@@ -620,11 +686,10 @@ fn sample_cell(
             if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
                 continue;
             }
-            let m = sm.model.sample(mpos).unwrap_or(Material::EMPTY);
             // Clear: `1^ratio` blocks nothing (skipping it is exact).
-            if m.pass >= 1.0 {
+            let Some(m) = sm.read(mpos) else {
                 continue;
-            }
+            };
             add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
         }
         if let Some(&(g, colour)) = ground.get((s % k + k * (s / (k * k))) as usize) {
@@ -657,6 +722,74 @@ impl MaterialSource for AreaComposer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_read_is_the_model_grids_sample_bit_for_bit() {
+        // A model of clear cells with a few blocks of medium and an opaque cell, and
+        // grids one point thin along an axis; lookups everywhere, outside included
+        // (clamped): `read` is `MaterialGrid::sample`, or `None` where that is clear.
+        let mut rng = fastrand::Rng::with_seed(11);
+        for dims in [
+            UVec3::new(9, 7, 8),
+            UVec3::new(1, 6, 5),
+            UVec3::new(5, 4, 1),
+        ] {
+            let d = GridDesc::new(Vec3::new(-1.0, 0.0, -0.5), 0.5, dims).unwrap();
+            let cells: Vec<Material> = (0..d.point_count())
+                .map(|i| {
+                    let q = d.coords(i).unwrap();
+                    match (q.x + 2 * q.y + 3 * q.z) % 7 {
+                        0 if q.y > 1 => Material {
+                            reflectance: Vec3::new(rng.f32(), rng.f32(), rng.f32()),
+                            pass: rng.f32(),
+                        },
+                        1 if q.x == 2 && q.z == 3 => Material::opaque(Vec3::splat(0.4)),
+                        _ => Material::EMPTY,
+                    }
+                })
+                .collect();
+            let model = MaterialGrid::new(d, cells).unwrap();
+            let clear = clear_cubes(&model);
+            assert!(clear.iter().any(|&c| c) && !clear.iter().all(|&c| c));
+            let placed = Placed {
+                inst: Instance {
+                    model: 0,
+                    position: Vec3::ZERO,
+                    rotation: Quat::IDENTITY,
+                    scale: 1.0,
+                },
+                inv_rot: Quat::IDENTITY,
+                lo: Vec3::ZERO,
+                hi: Vec3::ZERO,
+            };
+            let sm = Sampling::new(&placed, (&model, &clear), 1.0, 1);
+            let (mut seen, mut skipped) = (0, 0);
+            for _ in 0..20_000 {
+                let p = d.origin()
+                    + (Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 1.4 - 0.2)
+                        * dims.as_vec3()
+                        * d.h();
+                let want = model.sample(p).unwrap();
+                match sm.read(p) {
+                    None => {
+                        assert!(want.pass >= 1.0, "{p}: {want:?} read as clear");
+                        skipped += 1;
+                    }
+                    Some(m) => {
+                        assert_eq!(m.pass.to_bits(), want.pass.to_bits(), "{p}");
+                        for k in 0..3 {
+                            assert_eq!(m.reflectance[k].to_bits(), want.reflectance[k].to_bits());
+                        }
+                        seen += 1;
+                    }
+                }
+            }
+            assert!(
+                seen > 100 && skipped > 100,
+                "{dims}: {seen} read, {skipped} clear"
+            );
+        }
+    }
 
     #[test]
     fn column_candidates_are_the_brute_force_overlap_tests() {
