@@ -190,15 +190,13 @@ pub struct ComposeStats {
     pub overlapping: u64,
 }
 
-/// A composing thread's scratch: the instances overlapping a cell, and the ground
-/// under each column of its samples (height less the bias, colour).
+/// A composing thread's scratch: the instances overlapping a cell.
 #[derive(Default)]
 struct Scratch<'a> {
     local: Vec<&'a Sampling<'a>>,
     /// The local instances within reach: a cell's centre in the model's space, and
     /// the instance's index in `local`.
     centres: Vec<(Vec3, usize)>,
-    ground: Vec<(f32, Vec3)>,
 }
 
 /// One candidate instance as a composition samples it: its model, the model-space
@@ -577,15 +575,13 @@ impl AreaComposer {
                 Sampling::new(placed, (&self.models[mi], &self.clear[mi]), h, k)
             })
             .collect();
+        // The ground under each column of cells: the same for every level.
+        let grounds = self.column_grounds(desc, k);
         cells
             .par_iter_mut()
             .enumerate()
             .for_each_init(Scratch::default, |scratch, (i, cell)| {
-                let Scratch {
-                    local,
-                    centres,
-                    ground,
-                } = scratch;
+                let Scratch { local, centres } = scratch;
                 let q = desc.coords(i).expect("index in range");
                 let centre = desc.position(q);
                 // Instances overlapping this cell (the same test as over all candidates),
@@ -608,28 +604,24 @@ impl AreaComposer {
                 if local.is_empty() && !ground_possible {
                     return;
                 }
+                let column = grounds
+                    .as_ref()
+                    .map(|g| &g[q.x as usize + nx * q.z as usize]);
                 // Wholly under the ground's transition band: dense ground, nothing to sample.
-                if let Some(t) = &self.terrain {
-                    let g = t.heightmap.height_at(centre.x, centre.z) - self.params.ground_bias;
+                if let (Some(t), Some(c)) = (&self.terrain, column) {
                     let slope_room = t.heightmap.spacing.min(h) * 4.0;
-                    if centre.y + h * 0.5 + slope_room < g - self.params.ground_band * 0.5 {
+                    if centre.y + h * 0.5 + slope_room < c.centre - self.params.ground_band * 0.5 {
                         *cell = Material::opaque(t.colour.at(centre.x, centre.z));
                         return;
                     }
                 }
                 // Ground alone is smooth: one sample; objects need k per axis.
                 let k = if local.is_empty() { 1 } else { k };
-                // The ground under each column of samples (x and z only: the same for
-                // every sample of the column), looked up once a column.
-                ground.clear();
-                if let Some(t) = &self.terrain {
-                    for c in 0..k * k {
-                        let o = UVec3::new(c % k, 0, c / k).as_vec3();
-                        let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
-                        let g = t.heightmap.height_at(p.x, p.z) - self.params.ground_bias;
-                        ground.push((g, t.colour.at(p.x, p.z)));
-                    }
-                }
+                let ground: &[(f32, Vec3)] = match column {
+                    Some(c) if k == 1 => &c.one,
+                    Some(c) => &c.samples,
+                    None => &[],
+                };
                 // Each instance's cell centre in its model's space, once a cell; the
                 // samples are offsets from it. Instances out of reach are dropped.
                 centres.clear();
@@ -648,6 +640,52 @@ impl AreaComposer {
                 );
             });
         Ok((MaterialGrid::new(*desc, cells)?, stats))
+    }
+}
+
+/// The ground under one column of an area's cells (height less the bias, and colour):
+/// at the cells' centre, and under each column of a cell's samples, for one sample a
+/// cell and for `k` a side (x fastest).
+struct ColumnGround {
+    centre: f32,
+    one: Vec<(f32, Vec3)>,
+    samples: Vec<(f32, Vec3)>,
+}
+
+impl AreaComposer {
+    /// [`ColumnGround`] of every column of `desc` (x fastest; `None` without terrain):
+    /// looked up once a column instead of once a cell of every level.
+    fn column_grounds(&self, desc: &GridDesc, k: u32) -> Option<Vec<ColumnGround>> {
+        use rayon::prelude::*;
+        let t = self.terrain.as_ref()?;
+        let (h, bias) = (desc.h(), self.params.ground_bias);
+        let nx = desc.dims().x as usize;
+        let under = |centre: Vec3, k: u32| -> Vec<(f32, Vec3)> {
+            (0..k * k)
+                .map(|c| {
+                    let o = UVec3::new(c % k, 0, c / k).as_vec3();
+                    let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
+                    (
+                        t.heightmap.height_at(p.x, p.z) - bias,
+                        t.colour.at(p.x, p.z),
+                    )
+                })
+                .collect()
+        };
+        Some(
+            (0..nx * desc.dims().z as usize)
+                .into_par_iter()
+                .map(|c| {
+                    // (A cell's centre at any level has this x and z.)
+                    let centre = desc.position(UVec3::new((c % nx) as u32, 0, (c / nx) as u32));
+                    ColumnGround {
+                        centre: t.heightmap.height_at(centre.x, centre.z) - bias,
+                        one: under(centre, 1),
+                        samples: under(centre, k),
+                    }
+                })
+                .collect(),
+        )
     }
 }
 
