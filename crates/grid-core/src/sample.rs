@@ -101,11 +101,11 @@ impl Blend for Material {
     }
 }
 
-/// The 8 corners and weights of a trilinear lookup at continuous grid coordinates `g`,
-/// clamped into the grid (a point outside reads the nearest face/edge/corner value).
-/// Along an axis with one point, that point has weight 1; a zero dimension is read as
-/// one point (index 0), as no grid has one.
-pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
+/// A trilinear lookup at continuous grid coordinates `g` in a grid of `dims`: its base
+/// point, the point one step up each axis (both clamped into the grid; a zero
+/// dimension read as one point) and the fractions toward the second.
+#[inline]
+fn trilinear_frame(dims: UVec3, g: Vec3) -> (UVec3, UVec3, Vec3) {
     let dims = dims.max(UVec3::ONE);
     let maxf = (dims - UVec3::ONE).as_vec3();
     let g = g.clamp(Vec3::ZERO, maxf);
@@ -113,6 +113,15 @@ pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
     let base = g.as_uvec3().min(dims.saturating_sub(UVec3::splat(2)));
     let f = (g - base.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
     let hi = (base + UVec3::ONE).min(dims - UVec3::ONE);
+    (base, hi, f)
+}
+
+/// The 8 corners and weights of a trilinear lookup at continuous grid coordinates `g`,
+/// clamped into the grid (a point outside reads the nearest face/edge/corner value).
+/// Along an axis with one point, that point has weight 1; a zero dimension is read as
+/// one point (index 0), as no grid has one.
+pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
+    let (base, hi, f) = trilinear_frame(dims, g);
     std::array::from_fn(|c| {
         let (bx, by, bz) = (c & 1 != 0, c & 2 != 0, c & 4 != 0);
         let p = UVec3::new(
@@ -135,12 +144,7 @@ pub fn trilinear_corners(dims: UVec3, g: Vec3) -> [(UVec3, f32); 8] {
 /// up each axis, clamped into the grid.
 #[inline]
 pub fn trilinear_indices(dims: UVec3, g: Vec3) -> ([usize; 8], [f32; 8]) {
-    let dims1 = dims.max(UVec3::ONE);
-    let maxf = (dims1 - UVec3::ONE).as_vec3();
-    let g = g.clamp(Vec3::ZERO, maxf);
-    let base = g.as_uvec3().min(dims1.saturating_sub(UVec3::splat(2)));
-    let f = (g - base.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
-    let hi = (base + UVec3::ONE).min(dims1 - UVec3::ONE);
+    let (base, hi, f) = trilinear_frame(dims, g);
     let (nx, nz) = (dims.x as usize, dims.z as usize);
     let xs = [base.x as usize, hi.x as usize];
     let ys = [base.y as usize, hi.y as usize];
