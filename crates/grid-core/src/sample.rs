@@ -168,7 +168,14 @@ impl<T: Blend> Grid<T> {
             return Err(GridError::invalid("p", p, "sample position must be finite"));
         }
         let g = self.desc().to_grid(p);
-        let (index, weight) = trilinear_indices(self.desc().dims(), g);
+        Ok(self.blend(trilinear_indices(self.desc().dims(), g)))
+    }
+
+    /// The values at `index` weighted by `weight` and summed in that order, zero
+    /// weights skipped: [`Grid::sample`] of a lookup from [`trilinear_indices`]. Panics
+    /// on an index past the grid (those of `trilinear_indices` of its dims never are).
+    #[inline]
+    pub fn blend(&self, (index, weight): ([usize; 8], [f32; 8])) -> T {
         let data = self.data();
         let mut acc = T::zero();
         for (i, w) in index.into_iter().zip(weight) {
@@ -176,7 +183,7 @@ impl<T: Blend> Grid<T> {
                 acc.add_scaled(&data[i], w);
             }
         }
-        Ok(acc)
+        acc
     }
 
     /// Samples at `p + n * h / 2` (half a cell along the unit normal `n`), as 3DWorld

@@ -255,12 +255,12 @@ impl<'a> Sampling<'a> {
     /// the corners would give: most of a tree's box is air.
     #[inline]
     fn read(&self, p: Vec3) -> Option<Material> {
-        use lightgrid_core::Blend;
         if !p.is_finite() {
             return None;
         }
         let d = self.model.desc();
-        let (index, weight) = lightgrid_core::trilinear_indices(d.dims(), d.to_grid(p));
+        let lookup = lightgrid_core::trilinear_indices(d.dims(), d.to_grid(p));
+        let (index, weight) = lookup;
         if self.clear[index[0]] {
             // `Material::add_scaled` of pass-throughs of 1: `pass += 1 × w`, exactly w.
             let mut pass = 0.0f32;
@@ -273,13 +273,7 @@ impl<'a> Sampling<'a> {
                 return None;
             }
         }
-        let data = self.model.data();
-        let mut m = Material::zero();
-        for (i, w) in index.into_iter().zip(weight) {
-            if w != 0.0 {
-                m.add_scaled(&data[i], w);
-            }
-        }
+        let m = self.model.blend(lookup);
         (m.pass < 1.0).then_some(m)
     }
 }
@@ -610,7 +604,8 @@ impl AreaComposer {
                 // Wholly under the ground's transition band: dense ground, nothing to sample.
                 if let (Some(t), Some(c)) = (&self.terrain, column) {
                     let slope_room = t.heightmap.spacing.min(h) * 4.0;
-                    if centre.y + h * 0.5 + slope_room < c.centre - self.params.ground_band * 0.5 {
+                    if centre.y + h * 0.5 + slope_room < c.one[0].0 - self.params.ground_band * 0.5
+                    {
                         *cell = Material::opaque(t.colour.at(centre.x, centre.z));
                         return;
                     }
@@ -643,11 +638,11 @@ impl AreaComposer {
     }
 }
 
-/// The ground under one column of an area's cells (height less the bias, and colour):
-/// at the cells' centre, and under each column of a cell's samples, for one sample a
-/// cell and for `k` a side (x fastest).
+/// The ground under one column of an area's cells (height less the bias, and colour)
+/// under each column of a cell's samples, for one sample a cell (the cells' centre,
+/// which the dense-ground test reads too) and for `k` a side (x fastest).
 struct ColumnGround {
-    centre: f32,
+    /// One sample: at the column's centre.
     one: Vec<(f32, Vec3)>,
     samples: Vec<(f32, Vec3)>,
 }
@@ -679,7 +674,6 @@ impl AreaComposer {
                     // (A cell's centre at any level has this x and z.)
                     let centre = desc.position(UVec3::new((c % nx) as u32, 0, (c / nx) as u32));
                     ColumnGround {
-                        centre: t.heightmap.height_at(centre.x, centre.z) - bias,
                         one: under(centre, 1),
                         samples: under(centre, k),
                     }
