@@ -800,7 +800,10 @@ pub trait LightField {
     /// A faster reader of what a light volume stores ([`VolumeSample`]) for fields that
     /// can prepare one (a hierarchy reduces every grid to its moments once, then reads 7
     /// numbers a corner instead of 26 bins), equal to [`VolumeSample::read`] up to
-    /// rounding; `None` (the default): read the field point by point.
+    /// rounding where a lookup's corners lie outside geometry (a reader may give grid
+    /// points inside opaque cells their valid neighbours' light, [`crate::validity`], so
+    /// that a surface reads the light above it); `None` (the default): read the field
+    /// point by point.
     #[allow(clippy::type_complexity)]
     fn volume_sampler(
         &self,
