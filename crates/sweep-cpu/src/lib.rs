@@ -222,8 +222,12 @@
 //!    of the exact Lambertian share of the channel's bin, `∫_b max(0, u · n) dω / π`; a
 //!    horizontal bin's share goes to the channel on the face's side of the horizon
 //!    (both halves for a side face) ([`sweep::surface_weights`]); the downward pass
-//!    emits its channels' share, the upward pass the rest. No rule depends on the
-//!    light (the weights and `β` depend on the cell alone), so the sweep is linear.
+//!    emits its channels' share, the upward pass the rest. An opaque cell with no
+//!    such face lies inside a solid: what reaches it (light a path's long step carried
+//!    past the solid's surface cell) is absorbed there, its reflectance taken as 0
+//!    ([`sweep::swept_reflectance`]), not scattered on through the solid. No rule
+//!    depends on the light (the weights and `β` depend on the cell alone), so the sweep
+//!    is linear.
 //!    The outgoing light gains `F_c / μ_c`.
 //!    **The default, [`MediumEmission::Profile`](lightgrid_core::MediumEmission)**,
 //!    replaces the medium's flat source by one quadratic in height, `j(y) = Σ_m J_m

@@ -489,6 +489,8 @@ impl GpuSweeper {
                         z, z,
                     ];
                 }
+                // (A beam enters a cell through an exposed face, so no deposit lies in
+                // an enclosed opaque cell: `swept_reflectance` is the cell's own here.)
                 let s = r * m.reflectance;
                 let (a, b, c) = (s * d.x, s * d.y, s * d.z);
                 [s.x, s.y, s.z, a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z]
@@ -521,15 +523,18 @@ impl GpuSweeper {
         ] {
             self.check_size(what, floats)?;
         }
+        let masks = lightgrid_sweep_cpu::sweep::exposure(material, shape.periodic);
+        // Enclosed opaque cells absorb what reaches them, as on the CPU.
         let cells: Vec<f32> = material
             .data()
             .iter()
-            .flat_map(|m| [m.reflectance.x, m.reflectance.y, m.reflectance.z, m.pass])
+            .zip(&masks)
+            .flat_map(|(m, &e)| {
+                let r = lightgrid_sweep_cpu::sweep::swept_reflectance(m, e);
+                [r.x, r.y, r.z, m.pass]
+            })
             .collect();
-        let exposed: Vec<u32> = lightgrid_sweep_cpu::sweep::exposure(material, shape.periodic)
-            .iter()
-            .map(|&m| m as u32)
-            .collect();
+        let exposed: Vec<u32> = masks.iter().map(|&m| m as u32).collect();
         let d = &self.ctx.device;
         let zeros =
             |label: &str, floats: usize, extra| self.buffer(label, &vec![0.0; floats], extra);

@@ -294,6 +294,46 @@ pub fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
         .collect()
 }
 
+/// The reflectance a sweep gives a cell with exposure mask `exposed` ([`exposure`]): its
+/// own, but 0 for an opaque cell with no exposed face. Such a cell lies inside a solid;
+/// what reaches it is light a sweep path's long step carried past the solid's surface
+/// cell (a path from outside a side, or one that cuts a corner), and it stops there,
+/// absorbed, instead of being scattered on into the solid's other cells, from cell to
+/// cell through the whole of it (before this rule, a node's ground took in its side
+/// halo's light and spread it through every cell of the ground: every opaque cell of
+/// a 16 × 20 × 16 ground lit, and opaque levels cost more than empty ones). The CPU and
+/// GPU sweepers both read the material through this rule.
+#[inline]
+pub fn swept_reflectance(m: &lightgrid_core::Material, exposed: u8) -> Vec3 {
+    if m.pass <= 0.0 && exposed == 0 {
+        Vec3::ZERO
+    } else {
+        m.reflectance
+    }
+}
+
+/// `material` as a sweep reads it ([`swept_reflectance`]): `None` where that changes no
+/// cell (no enclosed opaque cell reflects), else the grid with the enclosed opaque
+/// cells' reflectance 0.
+pub fn sealed_material(material: &MaterialGrid, exposed: &[u8]) -> Option<MaterialGrid> {
+    let cells = material.data();
+    let changes = |(m, &e): (&lightgrid_core::Material, &u8)| {
+        m.pass <= 0.0 && e == 0 && m.reflectance != Vec3::ZERO
+    };
+    if !cells.par_iter().zip(exposed).any(changes) {
+        return None;
+    }
+    let sealed = cells
+        .par_iter()
+        .zip(exposed)
+        .map(|(m, &e)| lightgrid_core::Material {
+            reflectance: swept_reflectance(m, e),
+            ..*m
+        })
+        .collect();
+    Some(Grid::from_trusted(*material.desc(), sealed))
+}
+
 /// Runs the sweep; see the crate docs for the semantics.
 pub fn run(
     material: &MaterialGrid,
@@ -354,6 +394,10 @@ pub(crate) fn run_reusing(
     spare: &mut Spare,
 ) -> Result<Sweep, SweepError> {
     validate_inputs(material, boundary, options)?;
+    // Enclosed opaque cells absorb what reaches them ([`swept_reflectance`]).
+    let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
+    let sealed = sealed_material(material, &exposed);
+    let material = sealed.as_ref().unwrap_or(material);
     let desc = *material.desc();
     if let Some(src) = source
         && *src.desc() != desc
@@ -371,6 +415,7 @@ pub(crate) fn run_reusing(
     let (want_avg, want_dom) = (options.outputs.average, options.outputs.dominant);
     let mut run = Run {
         material,
+        exposed,
         boundary,
         source,
         options,

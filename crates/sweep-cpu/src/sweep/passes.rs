@@ -6,6 +6,8 @@ use lightgrid_core::GridDesc;
 /// The inputs of one sweep and where its resolved values go.
 pub(crate) struct Run<'a> {
     pub(crate) material: &'a MaterialGrid,
+    /// The material's exposure masks ([`exposure`]), found once (taken by [`Fixed`]).
+    pub(crate) exposed: Vec<u8>,
     pub(crate) boundary: &'a Boundary,
     pub(crate) source: Option<&'a CellSource>,
     pub(crate) options: &'a SweepOptions,
@@ -132,7 +134,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
     fn new(run: &'r mut Run<'_>, work: Option<Work>, g: Vec<S>) -> Self {
         let (material, options) = (run.material, run.options);
         let desc = *material.desc();
-        let fixed = Fixed::of(material, run.boundary);
+        let fixed = Fixed::of(material, run.boundary, std::mem::take(&mut run.exposed));
         let mut w = Work::reuse(
             work,
             desc.dims().x as usize,
@@ -839,7 +841,8 @@ pub(crate) struct Fixed {
 }
 
 impl Fixed {
-    pub(crate) fn of(material: &MaterialGrid, boundary: &Boundary) -> Self {
+    /// `exposed`: the material's [`exposure`] masks (empty: found here).
+    pub(crate) fn of(material: &MaterialGrid, boundary: &Boundary, exposed: Vec<u8>) -> Self {
         let desc = material.desc();
         let cells = material.data();
         let periodic = matches!(boundary.sides, SideBoundary::Periodic);
@@ -862,7 +865,11 @@ impl Fixed {
         Self {
             top_material,
             lnp: cells.par_iter().map(|m| m.pass.ln()).collect(),
-            exposed: exposure(material, periodic),
+            exposed: if exposed.len() == cells.len() {
+                exposed
+            } else {
+                exposure(material, periodic)
+            },
             level_material,
             level_medium,
             laterally_uniform: matches!(boundary.top, TopBoundary::Uniform(_))

@@ -419,3 +419,66 @@ fn clamp_equals_vec3_max() {
         );
     }
 }
+
+/// Enclosed opaque cells (no exposed face: inside a solid) absorb what reaches them
+/// ([`swept_reflectance`]): a ground of five levels whose sides take a given halo's
+/// light (as a node's ground beside a coarser grid's) holds no light in any enclosed
+/// cell, on the fast path and in the oracle, and the energy still balances. Scattered
+/// on instead, the light that a path's long step carries one cell past a side cell
+/// spread through the whole ground: every one of its enclosed cells held light.
+#[test]
+fn enclosed_opaque_cells_hold_no_light() {
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(10, 9, 10)).expect("grid");
+    let cells = (0..desc.point_count())
+        .map(|i| {
+            let c = desc.coords(i).expect("index");
+            if c.y < 5 {
+                Material::opaque(Vec3::splat(0.6))
+            } else if c.y == 6 && (c.x + c.z).is_multiple_of(3) {
+                Material {
+                    reflectance: Vec3::new(0.2, 0.5, 0.2),
+                    pass: 0.5,
+                }
+            } else {
+                Material::EMPTY
+            }
+        })
+        .collect();
+    let m = MaterialGrid::new(desc, cells).expect("material");
+    let sky = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0));
+    let halo = (0..lightgrid_core::HaloLayout::new(desc.dims()).len())
+        .map(|i| sky * (0.5 + 0.1 * (i % 5) as f32))
+        .collect();
+    let b = Boundary {
+        sides: SideBoundary::Given(halo),
+        ..Boundary::open_sky(sky.split_vertical().0)
+    };
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 4;
+    o.tolerance = 0.0;
+    let exposed = exposure(&m, false);
+    let enclosed: Vec<usize> = (0..desc.point_count())
+        .filter(|&i| m.data()[i].pass <= 0.0 && exposed[i] == 0)
+        .collect();
+    // The ground's inside: 8 x 8 columns of levels 1-3 (level 0's bottom face is
+    // never exposed, so its inner cells are enclosed too).
+    assert_eq!(enclosed.len(), 8 * 8 * 4);
+    for fast in [true, false] {
+        let s = run_impl(&m, &b, None, &o, fast).expect("sweep");
+        let g = s.output.bins.as_ref().expect("bins");
+        for &i in &enclosed {
+            let c = desc.coords(i).expect("index");
+            assert_eq!(g.data()[i], BinLight::ZERO, "fast {fast}: cell {c}");
+        }
+        // (To the f32 rounding of the light the balance sums, as the other tests.)
+        let err = s.balance.relative_error();
+        assert!(err < 1e-6, "fast {fast}: balance off by {err:e}");
+        // The surface still reflects: the top ground level's points hold light.
+        let top = desc.level_range(4);
+        assert!(
+            g.data()[top]
+                .iter()
+                .all(|l| l.average().max_element() > 0.0)
+        );
+    }
+}
