@@ -185,7 +185,8 @@ pub fn validate_inputs(
 
 /// Most bytes [`run`] holds at once for a grid: per point the accumulated bins (312),
 /// up to three pending-scatter records (144: two, and a third in accelerated passes;
-/// only levels with material hold them), ln(pass) and exposure (8), the output (312),
+/// only levels with material hold them), ln(pass) and exposure (8), the material with its
+/// enclosed opaque cells sealed (16, [`sealed_material`]), the output (312),
 /// and the transmittances of every path exponent and the quiet mask, kept for the
 /// sweep's later passes (41); per level its transmittance planes with their ring
 /// (eleven planes of `(nx + 4) × (nz + 4)` floats); per point of one level the level
@@ -204,7 +205,7 @@ pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
     let planes = d.y as u64
         * ((d.x as usize + 2 * Planes::R) * (d.z as usize + 2 * Planes::R) * Planes::PER_LEVEL * 4)
             as u64;
-    desc.point_count() as u64 * (312 + 144 + 8 + 312 + 41)
+    desc.point_count() as u64 * (312 + 144 + 8 + 16 + 312 + 41)
         + desc.level_len() as u64 * 1441
         + rings
         + planes
@@ -314,8 +315,13 @@ pub fn swept_reflectance(m: &lightgrid_core::Material, exposed: u8) -> Vec3 {
 
 /// `material` as a sweep reads it ([`swept_reflectance`]): `None` where that changes no
 /// cell (no enclosed opaque cell reflects), else the grid with the enclosed opaque
-/// cells' reflectance 0.
-pub fn sealed_material(material: &MaterialGrid, exposed: &[u8]) -> Option<MaterialGrid> {
+/// cells' reflectance 0, written into `into`'s memory (a sweeper's, kept from sweep to
+/// sweep: [`Grid::into_data`] gives it back).
+pub fn sealed_material(
+    material: &MaterialGrid,
+    exposed: &[u8],
+    into: Vec<lightgrid_core::Material>,
+) -> Option<MaterialGrid> {
     let cells = material.data();
     let changes = |(m, &e): (&lightgrid_core::Material, &u8)| {
         m.pass <= 0.0 && e == 0 && m.reflectance != Vec3::ZERO
@@ -323,14 +329,17 @@ pub fn sealed_material(material: &MaterialGrid, exposed: &[u8]) -> Option<Materi
     if !cells.par_iter().zip(exposed).any(changes) {
         return None;
     }
-    let sealed = cells
-        .par_iter()
-        .zip(exposed)
-        .map(|(m, &e)| lightgrid_core::Material {
-            reflectance: swept_reflectance(m, e),
-            ..*m
-        })
-        .collect();
+    let mut sealed = into;
+    sealed.clear();
+    sealed.par_extend(
+        cells
+            .par_iter()
+            .zip(exposed)
+            .map(|(m, &e)| lightgrid_core::Material {
+                reflectance: swept_reflectance(m, e),
+                ..*m
+            }),
+    );
     Some(Grid::from_trusted(*material.desc(), sealed))
 }
 
@@ -396,7 +405,7 @@ pub(crate) fn run_reusing(
     validate_inputs(material, boundary, options)?;
     // Enclosed opaque cells absorb what reaches them ([`swept_reflectance`]).
     let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
-    let sealed = sealed_material(material, &exposed);
+    let sealed = sealed_material(material, &exposed, std::mem::take(&mut spare.sealed));
     let material = sealed.as_ref().unwrap_or(material);
     let desc = *material.desc();
     if let Some(src) = source
@@ -454,6 +463,9 @@ pub(crate) fn run_reusing(
         (None, None, ok, balance, stats)
     };
     spare.work = run.work.take();
+    if let Some(g) = sealed {
+        spare.sealed = g.into_data();
+    }
     // Outputs not asked for keep their memory for the next sweep.
     let average = if want_avg {
         Some(Grid::from_trusted(desc, avg))

@@ -481,4 +481,13 @@ fn enclosed_opaque_cells_hold_no_light() {
                 .all(|l| l.average().max_element() > 0.0)
         );
     }
+    // A sweeper keeps the sealed material's memory for its next sweep, which gives
+    // the same light.
+    let mut spare = Spare::default();
+    let first = run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
+    assert_eq!(spare.sealed.len(), desc.point_count());
+    let kept = spare.sealed.as_ptr();
+    let again = run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
+    assert_eq!(spare.sealed.as_ptr(), kept);
+    assert!(first.output.bins == again.output.bins);
 }
