@@ -25,14 +25,14 @@
 //! path over the shipped DEM (4 m a pixel, heights × 0.05) with 4000 procedural 8 m
 //! trees, world grid 16 m, nodes down to 1 m, budget `node_points² × 96` points a frame,
 //! CPU sweeper (the default options: 4 passes at most, stopping at a tolerance of 0.01),
-//! 2-core VM, two or three runs on 2026-11-28. Memory is that of the grids alive after the last
+//! 2-core VM, three runs on 2026-11-28. Memory is that of the grids alive after the last
 //! frame, as stored (26 bins `f32`) and as the other representations would take.
 //!
 //! | points a node | ms a frame | points swept | 26 bins `f32` | 26 bins R11G11B10 | average + dominant |
 //! |--------------:|-----------:|-------------:|--------------:|------------------:|-------------------:|
-//! | 16 | 118–127 | 0.63 M | 69 MB | 23 MB | 5 MB |
-//! | 32 | 228–238 | 1.85 M | 236 MB | 79 MB | 18 MB |
-//! | 64 | 627–635 | 5.37 M | 977 MB | 326 MB | 75 MB |
+//! | 16 | 52–58 | 0.63 M | 69 MB | 23 MB | 5 MB |
+//! | 32 | 103–127 | 1.85 M | 236 MB | 79 MB | 18 MB |
+//! | 64 | 277–333 | 5.37 M | 977 MB | 326 MB | 75 MB |
 //!
 //! On the CPU sweeper 16-point nodes win on both counts: smaller nodes overlap the
 //! wanted area more tightly. Seed 000 chose 32 for GPU occupancy (one dispatch per
@@ -45,8 +45,8 @@
 //! `cargo xtask frame` runs a camera path with the sun kept apart and measures the
 //! light sampled against one full-resolution sweep of the region, and at the last
 //! camera against Monte Carlo (the repository's `docs/measurements.md`, "The hierarchy
-//! frame by frame", has its figures): with 16-point nodes 100–141 ms a frame on two
-//! cores; against the single sweep the sky within about 1 % in bias at every depth,
+//! frame by frame", has its figures): with 16-point nodes 57–83 ms a frame on two
+//! cores (10, 30 and 60° suns, 2026-11-28); against the single sweep the sky within about 1 % in bias at every depth,
 //! sky and sun together 3–9 % RMSE in the finest nodes; against Monte Carlo, what the
 //! renderer reads 6–13 % RMSE, most of it the single sweep's own error at points
 //! (ARCHITECTURE.md, "Known defects").
