@@ -841,8 +841,9 @@ pub(crate) struct Fixed {
 }
 
 impl Fixed {
-    /// `exposed`: the material's [`exposure`] masks (empty: found here).
+    /// `exposed`: the material's [`exposure`] masks (found once, by `run_reusing`).
     pub(crate) fn of(material: &MaterialGrid, boundary: &Boundary, exposed: Vec<u8>) -> Self {
+        debug_assert_eq!(exposed.len(), material.data().len());
         let desc = material.desc();
         let cells = material.data();
         let periodic = matches!(boundary.sides, SideBoundary::Periodic);
@@ -865,11 +866,7 @@ impl Fixed {
         Self {
             top_material,
             lnp: cells.par_iter().map(|m| m.pass.ln()).collect(),
-            exposed: if exposed.len() == cells.len() {
-                exposed
-            } else {
-                exposure(material, periodic)
-            },
+            exposed,
             level_material,
             level_medium,
             laterally_uniform: matches!(boundary.top, TopBoundary::Uniform(_))
