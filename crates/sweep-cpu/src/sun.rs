@@ -319,8 +319,14 @@ impl SunSplit {
         to_sun: Vec3,
         options: &lightgrid_core::SweepOptions,
     ) -> Result<Self, lightgrid_core::SweepError> {
+        // The split keeps bins alone: average and dominant direction are not computed.
         let mut o = *options;
-        o.outputs = lightgrid_core::Outputs::ALL;
+        o.outputs = lightgrid_core::Outputs {
+            bins: true,
+            average: false,
+            dominant: false,
+            horizon: false,
+        };
         let sky_light = sweeper
             .sweep(material, sky, &o)?
             .bins
@@ -420,10 +426,15 @@ pub fn sweep_sun(
 ) -> Result<lightgrid_core::SunResponse, lightgrid_core::SweepError> {
     let periodic = matches!(sun.scattered.sides, lightgrid_core::SideBoundary::Periodic);
     let t = transmittance(material, sun)?;
+    // The scattered sun is kept as bins (and the horizon halves where asked for):
+    // average and dominant direction, which the response does not hold, are not
+    // computed.
     let mut o = *options;
     o.outputs = lightgrid_core::Outputs {
+        bins: true,
+        average: false,
+        dominant: false,
         horizon: options.outputs.horizon,
-        ..lightgrid_core::Outputs::ALL
     };
     let out = if sun_direction(sun.to_sun)?.is_some() {
         let src = first_collision(material, sun.to_sun, Vec3::ONE, periodic, sun.outside)?;
