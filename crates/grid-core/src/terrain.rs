@@ -134,6 +134,71 @@ impl Heightmap {
         a + (b - a) * fz
     }
 
+    /// Lowest and highest height over the rectangle between world corners `a` and `b`
+    /// (`(x, z)`, either order), exactly as [`Heightmap::height_at`] reads it there:
+    /// along any line of constant `x` or `z` inside one sample cell the bilinear height
+    /// is linear, so its extremes over the rectangle lie at the samples inside it, at
+    /// the sample lines' crossings of its edges, or at its corners, and those are all
+    /// it reads. A non-finite corner reads as `height_at` reads it (clamped).
+    pub fn range_within(&self, a: Vec2, b: Vec2) -> (f32, f32) {
+        // Grid coordinates, clamped as `height_at` clamps them (NaN: the first sample).
+        let grid = |v: f32, o: f32, n: u32| {
+            let g = (v - o) / self.spacing;
+            if g.is_nan() {
+                0.0
+            } else {
+                g.clamp(0.0, (n - 1) as f32)
+            }
+        };
+        let (gx0, gx1) = {
+            let (p, q) = (
+                grid(a.x, self.origin.x, self.width),
+                grid(b.x, self.origin.x, self.width),
+            );
+            (p.min(q), p.max(q))
+        };
+        let (gz0, gz1) = {
+            let (p, q) = (
+                grid(a.y, self.origin.y, self.depth),
+                grid(b.y, self.origin.y, self.depth),
+            );
+            (p.min(q), p.max(q))
+        };
+        // Sample columns and rows strictly inside the rectangle.
+        let inner = |g0: f32, g1: f32| {
+            let start = g0.floor() as u32 + 1;
+            start..(g1.ceil() as u32).max(start)
+        };
+        let (xs, zs) = (inner(gx0, gx1), inner(gz0, gz1));
+        let world_x = |gx: f32| self.origin.x + gx * self.spacing;
+        let world_z = |gz: f32| self.origin.y + gz * self.spacing;
+        let (x0, x1, z0, z1) = (world_x(gx0), world_x(gx1), world_z(gz0), world_z(gz1));
+        let mut lo = f32::INFINITY;
+        let mut hi = f32::NEG_INFINITY;
+        let mut take = |h: f32| {
+            lo = lo.min(h);
+            hi = hi.max(h);
+        };
+        for (x, z) in [(x0, z0), (x1, z0), (x0, z1), (x1, z1)] {
+            take(self.height_at(x, z));
+        }
+        for i in xs.clone() {
+            let x = world_x(i as f32);
+            take(self.height_at(x, z0));
+            take(self.height_at(x, z1));
+        }
+        for k in zs.clone() {
+            let z = world_z(k as f32);
+            take(self.height_at(x0, z));
+            take(self.height_at(x1, z));
+            let row = &self.heights[(k * self.width) as usize..][..self.width as usize];
+            for &h in &row[xs.start as usize..xs.end as usize] {
+                take(h);
+            }
+        }
+        (lo, hi)
+    }
+
     /// Lowest and highest height.
     pub fn range(&self) -> (f32, f32) {
         self.heights
@@ -162,6 +227,61 @@ mod tests {
             assert!(hm.height_at(x, z).is_finite(), "{x}, {z}");
         }
         assert_eq!(hm.height_at(f32::NAN, f32::NAN), 1e7);
+    }
+
+    /// `range_within` against brute force: over random heightmaps and rectangles (inside,
+    /// straddling the edges, thinner than a sample cell), every height read on a fine
+    /// lattice of the rectangle lies within the range, and the range's ends are heights
+    /// read there (the lattice holds the sample lines' crossings, where they lie).
+    #[test]
+    fn range_within_is_the_exact_range_of_the_reads() {
+        let mut rng = crate::rng::SeededRng::new(11);
+        for case in 0..300 {
+            let (w, d) = (2 + (rng.f32() * 9.0) as u32, 2 + (rng.f32() * 9.0) as u32);
+            let spacing = 0.25 + 2.0 * rng.f32();
+            let origin = Vec2::new(rng.f32() * 10.0 - 5.0, rng.f32() * 10.0 - 5.0);
+            let heights = (0..w * d).map(|_| rng.f32() * 20.0 - 10.0).collect();
+            let hm = Heightmap::new(origin, spacing, w, d, heights).unwrap();
+            let size = Vec2::new(w as f32, d as f32) * spacing;
+            let mut corner = || origin - 0.3 * size + Vec2::new(rng.f32(), rng.f32()) * 1.6 * size;
+            let (a, b) = (corner(), corner());
+            let (lo, hi) = hm.range_within(a, b);
+            assert!(lo.is_finite() && hi.is_finite() && lo <= hi, "case {case}");
+            // Reads on a fine lattice of the rectangle, plus every sample line's
+            // crossing of it.
+            let (min, max) = (a.min(b), a.max(b));
+            let mut xs: Vec<f32> = (0..=64)
+                .map(|t| min.x + (max.x - min.x) * t as f32 / 64.0)
+                .collect();
+            let mut zs: Vec<f32> = (0..=64)
+                .map(|t| min.y + (max.y - min.y) * t as f32 / 64.0)
+                .collect();
+            xs.extend(
+                (0..w)
+                    .map(|i| origin.x + i as f32 * spacing)
+                    .filter(|x| (min.x..=max.x).contains(x)),
+            );
+            zs.extend(
+                (0..d)
+                    .map(|k| origin.y + k as f32 * spacing)
+                    .filter(|z| (min.y..=max.y).contains(z)),
+            );
+            let (mut blo, mut bhi) = (f32::INFINITY, f32::NEG_INFINITY);
+            for &x in &xs {
+                for &z in &zs {
+                    let h = hm.height_at(x, z);
+                    assert!(
+                        h >= lo - 1e-4 && h <= hi + 1e-4,
+                        "case {case}: {h} outside {lo}..{hi}"
+                    );
+                    (blo, bhi) = (blo.min(h), bhi.max(h));
+                }
+            }
+            assert!(
+                (blo - lo).abs() <= 1e-4 && (bhi - hi).abs() <= 1e-4,
+                "case {case}: {blo}..{bhi} against {lo}..{hi}"
+            );
+        }
     }
 
     #[test]

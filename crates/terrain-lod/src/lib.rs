@@ -1069,27 +1069,21 @@ impl Hierarchy {
             .lattice_over(self.heights.origin, self.world_bottom, depth)
     }
 
-    /// The node's tallest grid descriptor: `node_points` across, from below its lowest
-    /// ground to `margin` above its highest ground, at most `max_levels`.
+    /// The node's tallest grid descriptor: `node_points` across, from its lowest ground
+    /// to `margin` above its highest ground, at most `max_levels`. Its bottom level is
+    /// the depth's last lattice level below the lowest ground in its rectangle
+    /// ([`Heightmap::range_within`], exact): the ground's surface lies between two of
+    /// its levels everywhere, and at most the bottom level lies wholly inside the
+    /// ground (the levels below it would hold no light, and an opaque level costs a
+    /// sweep more than an empty one).
     fn node_desc(&self, key: NodeKey) -> Result<GridDesc, GridError> {
         let (lo, hi) = self.node_rect(key);
         let h = self.params.cell(key.depth);
-        // Lowest ground in the node.
-        let mut ground_lo = f32::INFINITY;
-        let mut ground_hi = f32::NEG_INFINITY;
-        let steps = 8;
-        for i in 0..=steps {
-            for k in 0..=steps {
-                let p = lo + (hi - lo) * Vec2::new(i as f32, k as f32) / steps as f32;
-                let g = self.heights.height_at(p.x, p.y);
-                ground_lo = ground_lo.min(g);
-                ground_hi = ground_hi.max(g);
-            }
-        }
+        let (ground_lo, ground_hi) = self.heights.range_within(lo, hi);
         // On the depth's lattice ([`Hierarchy::lattice`]): neighbours' levels line up,
         // and their voxels with them.
         let datum = self.lattice(key.depth).y;
-        let bottom = datum + ((ground_lo - 2.0 * h - datum) / h).floor() * h;
+        let bottom = datum + (((ground_lo - datum) / h).ceil() - 1.0) * h;
         let top = ground_hi + self.params.margin.max(h);
         let ny = (((top - bottom) / h).ceil() as u32 + 1).clamp(2, self.params.max_levels);
         GridDesc::new(

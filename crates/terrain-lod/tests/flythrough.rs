@@ -109,6 +109,32 @@ fn flythrough_respects_the_budget_and_refines_around_the_camera() {
             "{key:?} wanted but not ready"
         );
     }
+    // Every node's bottom level is its depth's last level below the lowest ground in
+    // its rectangle: the surface lies above it everywhere (read on a fine lattice), and
+    // no level under it lies wholly inside the ground.
+    for key in h.ready_nodes().into_iter().filter(|k| k.depth > 1) {
+        let (lo, hi) = h.node_rect(key);
+        let d = *h.node(key).unwrap().desc();
+        let bottom = d.origin().y;
+        let mut lowest = f32::INFINITY;
+        for i in 0..=32 {
+            for k in 0..=32 {
+                let q = lo + (hi - lo) * Vec2::new(i as f32, k as f32) / 32.0;
+                lowest = lowest.min(hm.height_at(q.x, q.y));
+            }
+        }
+        let exact = hm.range_within(lo, hi).0;
+        assert!(exact <= lowest, "{key:?}: {exact} above a read {lowest}");
+        assert!(
+            bottom < exact,
+            "{key:?}: bottom {bottom}, ground down to {exact}"
+        );
+        assert!(
+            bottom >= exact - d.h() - 1e-3,
+            "{key:?}: bottom {bottom} more than a level ({}) below the ground's {exact}",
+            d.h()
+        );
+    }
     let below = Vec3::new(x, hm.height_at(x, z) + 2.0, z);
     let finest = h.grid_at(below);
     assert_eq!(
