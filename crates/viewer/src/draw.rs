@@ -156,9 +156,11 @@ pub fn model_meshes(r: &mut Renderer, model: &Model, foliage: bool) -> Result<Ve
     Ok(ids)
 }
 
-/// An icosphere of radius 1 (two subdivisions, 320 triangles).
+/// An icosphere of radius 1 (one subdivision, 80 triangles: the debug views draw a
+/// ball per grid point, thousands of them, and on a software rasteriser a ball of 320
+/// triangles took those views twice as long).
 pub fn sphere() -> (Vec<Vertex>, Vec<u32>) {
-    let (p, f) = lightgrid_material_voxelizer::procedural::icosphere(2);
+    let (p, f) = lightgrid_material_voxelizer::procedural::icosphere(1);
     let v = p
         .iter()
         .map(|q| Vertex {
