@@ -18,7 +18,7 @@ pub struct HierarchyParams {
     /// Points across a node grid horizontally.
     pub node_points: u32,
     /// Height above a node's highest ground searched for objects (trees), metres; the
-    /// grid then ends two cells above the highest object found.
+    /// grid then ends one cell above the highest object found.
     pub margin: f32,
     /// A node is wanted while the camera is within `lod_factor × node size` of it.
     pub lod_factor: f32,
