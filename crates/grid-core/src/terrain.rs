@@ -111,18 +111,7 @@ impl Heightmap {
     /// Bilinear height at world `(x, z)`, clamped at the edges (a NaN coordinate reads
     /// the first row or column: the result is always finite).
     pub fn height_at(&self, x: f32, z: f32) -> f32 {
-        let cell = |v: f32, o: f32, n: u32| {
-            let g = (v - o) / self.spacing;
-            if g.is_nan() {
-                0.0
-            } else {
-                g.clamp(0.0, (n - 1) as f32)
-            }
-        };
-        let (gx, gz) = (
-            cell(x, self.origin.x, self.width),
-            cell(z, self.origin.y, self.depth),
-        );
+        let (gx, gz) = self.grid_coords(x, z);
         let (i0, k0) = (
             (gx as u32).min(self.width - 2),
             (gz as u32).min(self.depth - 2),
@@ -141,29 +130,9 @@ impl Heightmap {
     /// the sample lines' crossings of its edges, or at its corners, and those are all
     /// it reads. A non-finite corner reads as `height_at` reads it (clamped).
     pub fn range_within(&self, a: Vec2, b: Vec2) -> (f32, f32) {
-        // Grid coordinates, clamped as `height_at` clamps them (NaN: the first sample).
-        let grid = |v: f32, o: f32, n: u32| {
-            let g = (v - o) / self.spacing;
-            if g.is_nan() {
-                0.0
-            } else {
-                g.clamp(0.0, (n - 1) as f32)
-            }
-        };
-        let (gx0, gx1) = {
-            let (p, q) = (
-                grid(a.x, self.origin.x, self.width),
-                grid(b.x, self.origin.x, self.width),
-            );
-            (p.min(q), p.max(q))
-        };
-        let (gz0, gz1) = {
-            let (p, q) = (
-                grid(a.y, self.origin.y, self.depth),
-                grid(b.y, self.origin.y, self.depth),
-            );
-            (p.min(q), p.max(q))
-        };
+        let (p, q) = (self.grid_coords(a.x, a.y), self.grid_coords(b.x, b.y));
+        let (gx0, gx1) = (p.0.min(q.0), p.0.max(q.0));
+        let (gz0, gz1) = (p.1.min(q.1), p.1.max(q.1));
         // Sample columns and rows strictly inside the rectangle.
         let inner = |g0: f32, g1: f32| {
             let start = g0.floor() as u32 + 1;
@@ -187,7 +156,7 @@ impl Heightmap {
             take(self.height_at(x, z0));
             take(self.height_at(x, z1));
         }
-        for k in zs.clone() {
+        for k in zs {
             let z = world_z(k as f32);
             take(self.height_at(x0, z));
             take(self.height_at(x1, z));
@@ -197,6 +166,23 @@ impl Heightmap {
             }
         }
         (lo, hi)
+    }
+
+    /// World `(x, z)` in sample units from the first sample, clamped to the samples (a
+    /// NaN coordinate: the first row or column), as [`Heightmap::height_at`] reads them.
+    fn grid_coords(&self, x: f32, z: f32) -> (f32, f32) {
+        let along = |v: f32, o: f32, n: u32| {
+            let g = (v - o) / self.spacing;
+            if g.is_nan() {
+                0.0
+            } else {
+                g.clamp(0.0, (n - 1) as f32)
+            }
+        };
+        (
+            along(x, self.origin.x, self.width),
+            along(z, self.origin.y, self.depth),
+        )
     }
 
     /// Lowest and highest height.
