@@ -1023,8 +1023,9 @@ impl Hierarchy {
     }
 
     /// The node's material grid, `node_points` across and from below its lowest ground to
-    /// one cell above its highest object (or its highest ground): tall where the forest
-    /// is tall. Also whether it has objects above the ground.
+    /// two cells above its highest ground and one above its highest object, whichever is
+    /// higher: tall where the forest is tall. Also whether it has objects above the
+    /// ground.
     fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
         let full = self.compose(&self.node_desc(key)?)?;
         let d = *full.desc();
@@ -1048,10 +1049,10 @@ impl Hierarchy {
         }
         let has_objects = top_object.is_some();
         // Two empty levels above the ground, one above the highest object: the coarser
-        // grid serves the air above. (Two above objects too, as before 2026-11-29, cost
-        // the frame bench's budget-held frames nodes and error: both RMSE 14.5 / 10.9 /
-        // 9.6 % at 10 / 30 / 60° against 13.8 / 10.3 / 9.1 with one, the finest depth no
-        // worse. One above bare ground took the bench's edge path from 8.6 to 11.1 %.)
+        // grid serves the air above. (Two above objects too cost the frame bench's
+        // budget-held frames nodes and error: both RMSE 14.5 / 10.9 / 9.6 % at 10 / 30 /
+        // 60° against 13.8 / 10.3 / 9.1 with one, the finest depth no worse. One above
+        // bare ground too took the bench's edge path from 8.6 to 11.1 %.)
         let ny = (top_ground + 3)
             .max(top_object.map_or(0, |t| t + 2))
             .clamp(2, d.dims().y);
