@@ -314,13 +314,13 @@ pub fn swept_reflectance(m: &lightgrid_core::Material, exposed: u8) -> Vec3 {
 }
 
 /// `material` as a sweep reads it ([`swept_reflectance`]): `None` where that changes no
-/// cell (no enclosed opaque cell reflects), else the grid with the enclosed opaque
-/// cells' reflectance 0, written into `into`'s memory (a sweeper's, kept from sweep to
-/// sweep: [`Grid::into_data`] gives it back).
+/// cell (no enclosed opaque cell reflects; `into` is left as it was), else the grid with
+/// the enclosed opaque cells' reflectance 0, written into `into`'s memory, taken (a
+/// sweeper's, kept from sweep to sweep: [`Grid::into_data`] gives it back).
 pub fn sealed_material(
     material: &MaterialGrid,
     exposed: &[u8],
-    into: Vec<lightgrid_core::Material>,
+    into: &mut Vec<lightgrid_core::Material>,
 ) -> Option<MaterialGrid> {
     let cells = material.data();
     let changes = |(m, &e): (&lightgrid_core::Material, &u8)| {
@@ -329,7 +329,7 @@ pub fn sealed_material(
     if !cells.par_iter().zip(exposed).any(changes) {
         return None;
     }
-    let mut sealed = into;
+    let mut sealed = std::mem::take(into);
     sealed.clear();
     sealed.par_extend(
         cells
@@ -405,7 +405,7 @@ pub(crate) fn run_reusing(
     validate_inputs(material, boundary, options)?;
     // Enclosed opaque cells absorb what reaches them ([`swept_reflectance`]).
     let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
-    let sealed = sealed_material(material, &exposed, std::mem::take(&mut spare.sealed));
+    let sealed = sealed_material(material, &exposed, &mut spare.sealed);
     let material = sealed.as_ref().unwrap_or(material);
     let desc = *material.desc();
     if let Some(src) = source

@@ -490,4 +490,14 @@ fn enclosed_opaque_cells_hold_no_light() {
     let again = run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
     assert_eq!(spare.sealed.as_ptr(), kept);
     assert!(first.output.bins == again.output.bins);
+    // A sweep with nothing to seal between them leaves that memory where it was.
+    let open = MaterialGrid::new(desc, vec![Material::EMPTY; desc.point_count()]).expect("air");
+    run_reusing(&open, &b, None, &o, true, &mut spare).expect("sweep");
+    assert_eq!(
+        (spare.sealed.as_ptr(), spare.sealed.len()),
+        (kept, desc.point_count())
+    );
+    let third = run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
+    assert_eq!(spare.sealed.as_ptr(), kept);
+    assert!(first.output.bins == third.output.bins);
 }
