@@ -313,6 +313,8 @@ pub struct FrameReport {
     pub horizon: bool,
     /// The frames' time budget, milliseconds (`None`: none).
     pub budget_ms: Option<f32>,
+    /// The frames' point budget (`HierarchyParams::budget_points`).
+    pub budget_points: u64,
     /// Most passes a sweep ran (the hierarchy's and the reference's).
     pub passes: u32,
     /// The sweeps' convergence tolerance.
@@ -1068,6 +1070,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         bare_skip: cfg.bare_skip,
         horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
+        budget_points: hierarchy_params(cfg).budget_points,
         passes: hierarchy_params(cfg).sweep.max_passes,
         tolerance: hierarchy_params(cfg).sweep.tolerance,
         reference_points: desc.point_count() as u64,
@@ -1076,6 +1079,18 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
     };
     write(cfg, &report)?;
     Ok(report)
+}
+
+/// Of `frames`, how many swept at least 90 % of the point budget `budget` (frames the
+/// budget held, not the camera's needs), and the mean points swept a frame.
+fn budget_use(frames: &[FrameRow], budget: u64) -> (usize, f64) {
+    let held = frames
+        .iter()
+        .filter(|f| f.points_swept as f64 >= 0.9 * budget as f64)
+        .count();
+    let mean =
+        frames.iter().map(|f| f.points_swept as f64).sum::<f64>() / frames.len().max(1) as f64;
+    (held, mean)
 }
 
 /// `, N ms CPU` where the CPU time is known.
@@ -1151,6 +1166,13 @@ pub fn text(report: &FrameReport) -> String {
             r.points_per_s_frame / 1e6,
             r.points_per_s_sweeping / 1e6,
             r.points_per_s_kernel / 1e6
+        );
+        let (held, mean) = budget_use(&r.frames, report.budget_points);
+        let _ = writeln!(
+            s,
+            "  point budget {} a frame: {mean:.0} points swept a frame on average, {held} of {} frames held by it (90 % of it or more swept): their time is the budget's points times a point's cost",
+            report.budget_points,
+            r.frames.len()
         );
         if r.sun_move_wait_frames > 0 || r.sun_move_world_ms < 0.5 * r.sun_move_landed_ms {
             let _ = writeln!(
@@ -1307,6 +1329,24 @@ fn plot(report: &FrameReport, path: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Frames that swept 90 % of the budget or more count as held by it; the mean is
+    /// over every frame.
+    #[test]
+    fn budget_use_counts_the_frames_the_budget_held() {
+        let row = |points_swept| FrameRow {
+            frame: 0,
+            ms: StageMs::default(),
+            points_swept,
+            built: 0,
+            sun_built: 0,
+            pending: 0,
+            error: Errors::default(),
+        };
+        let frames = [row(1000), row(900), row(899), row(0)];
+        assert_eq!(budget_use(&frames, 1000), (2, 699.75));
+        assert_eq!(budget_use(&[], 1000), (0, 0.0));
+    }
 
     #[test]
     fn errors_have_known_answers() {
