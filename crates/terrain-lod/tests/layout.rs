@@ -3,69 +3,17 @@
 //! (`Hierarchy::node_desc` and `node_material`). The levels below lie inside the ground
 //! and hold no light; the air above is served by the coarser grids.
 
-use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{
-    BinLight, GridDesc, GridError, Heightmap, Material, MaterialGrid, MaterialSource,
-};
-use lightgrid_sweep_cpu::CpuSweeper;
-use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
+use lightgrid_core::MaterialSource;
+
+mod block;
+use block::Scene;
 
 /// The ground's height (off the lattices' levels).
 const GROUND: f32 = 0.3;
-/// The top of a block of medium standing on the ground over `20..28` m in x and z.
-const BLOCK_TOP: f32 = 6.0;
-
-/// Opaque ground below [`GROUND`] (a cell whose centre is below), the block of dense
-/// medium above it, air elsewhere.
-struct Scene;
-
-fn in_block(p: Vec3) -> bool {
-    (20.0..28.0).contains(&p.x) && (20.0..28.0).contains(&p.z) && p.y < BLOCK_TOP
-}
-
-impl MaterialSource for Scene {
-    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let cells = (0..desc.point_count())
-            .map(|i| {
-                let p = desc.position(desc.coords(i).expect("in range"));
-                if p.y < GROUND {
-                    Material::opaque(Vec3::splat(0.3))
-                } else if in_block(p) {
-                    Material {
-                        reflectance: Vec3::splat(0.5),
-                        pass: 0.2,
-                    }
-                } else {
-                    Material::EMPTY
-                }
-            })
-            .collect();
-        MaterialGrid::new(*desc, cells)
-    }
-}
 
 #[test]
 fn a_nodes_levels_span_its_ground_and_objects_and_no_more() {
-    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| GROUND).unwrap();
-    let params = HierarchyParams {
-        world_cell: 8.0,
-        finest_cell: 2.0,
-        node_points: 8,
-        lod_factor: 100.0,
-        evict_factor: 200.0,
-        budget_points: u64::MAX / 4,
-        ..Default::default()
-    };
-    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let mut h = Hierarchy::new(
-        &hm,
-        Box::new(Scene),
-        Box::new(CpuSweeper::new()),
-        sky,
-        params,
-    )
-    .unwrap();
-    h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
+    let h = block::hierarchy(GROUND);
     let (mut with_block, mut bare) = (0, 0);
     for key in h.ready_nodes().into_iter().filter(|k| k.depth > 0) {
         let d = *h.node(key).unwrap().desc();
@@ -78,7 +26,7 @@ fn a_nodes_levels_span_its_ground_and_objects_and_no_more() {
         );
         // The highest level holding ground, and holding the block more than a cell
         // above the ground (an object), from the scene's own material.
-        let m = Scene.material(&d).unwrap();
+        let m = Scene { ground: GROUND }.material(&d).unwrap();
         let (mut top_ground, mut top_object) = (0, None);
         for (i, c) in m.data().iter().enumerate() {
             let q = d.coords(i).unwrap();
