@@ -191,6 +191,10 @@ pub struct FrameRow {
     pub sun_built: u32,
     /// Work left for later frames.
     pub pending: u32,
+    /// Materials composed for the sun's march alone (the sun's casters).
+    pub casters: u32,
+    /// Bytes of the casters' materials held after the frame.
+    pub caster_bytes: u64,
     /// Against the reference, over this frame's points.
     pub error: Errors,
 }
@@ -797,6 +801,8 @@ fn frame(
         built: stats.built,
         sun_built: stats.sun_built,
         pending: stats.pending,
+        casters: stats.casters,
+        caster_bytes: stats.caster_bytes,
         error: acc.errors(),
     })
 }
@@ -1167,6 +1173,13 @@ pub fn text(report: &FrameReport) -> String {
             r.points_per_s_sweeping / 1e6,
             r.points_per_s_kernel / 1e6
         );
+        let casters: u32 = r.frames.iter().map(|f| f.casters).sum();
+        let held_mb = r.frames.iter().map(|f| f.caster_bytes).max().unwrap_or(0) as f64 / 1e6;
+        let _ = writeln!(
+            s,
+            "  sun casters (nodes composed for the march alone): {casters} over the path, {:.1} a frame, at most {held_mb:.1} MB held",
+            casters as f64 / n
+        );
         let (held, mean) = budget_use(&r.frames, report.budget_points);
         let _ = writeln!(
             s,
@@ -1341,6 +1354,8 @@ mod tests {
             built: 0,
             sun_built: 0,
             pending: 0,
+            casters: 0,
+            caster_bytes: 0,
             error: Errors::default(),
         };
         let frames = [row(1000), row(900), row(899), row(0)];

@@ -83,6 +83,7 @@ impl Hierarchy {
         // time budget a batch of one a thread at a time while the budget allows
         // ([`Hierarchy::composition_waits`]), else all at once; those composed in an
         // earlier frame for nodes the budget left are kept.
+        self.take_casters(&new);
         let missing: Vec<NodeKey> = new
             .iter()
             .copied()
@@ -191,6 +192,7 @@ impl Hierarchy {
                 }
             }
         }
+        let jobs = self.compose_jobs_casters(jobs, &new, &materials, stats)?;
         let done = self.run_jobs(jobs, &new, &materials, &mut stats.times);
         // The materials of nodes left for a later frame are kept for it.
         for (key, m) in new.into_iter().zip(materials) {
@@ -199,6 +201,61 @@ impl Hierarchy {
             }
         }
         done
+    }
+
+    /// Composes the sun's casters ([`crate::casters`]) for the jobs that light nodes,
+    /// first: all at once without a time budget; under one a job at a time, and a job
+    /// whose casters are not all held once the frame has spent half its budget on
+    /// composing loses its sun part to a later frame (its points are given back).
+    fn compose_jobs_casters(
+        &mut self,
+        jobs: Vec<Job>,
+        new: &[NodeKey],
+        materials: &[NodeMaterial],
+        stats: &mut FrameStats,
+    ) -> Result<Vec<Job>, LodError> {
+        let dirs = self.sun_directions();
+        let grid = |this: &Self, j: &Job| {
+            let d = match j.material {
+                Some(i) => materials[i].grid.desc(),
+                None => this.nodes[&j.key].material.grid.desc(),
+            };
+            (j.key, d.origin().y - 0.5 * d.h())
+        };
+        if self.params.budget_ms.is_none() {
+            let lit: Vec<_> = jobs
+                .iter()
+                .filter(|j| j.sun)
+                .map(|j| grid(self, j))
+                .collect();
+            let (n, t) = self.compose_casters(&lit, &dirs, new)?;
+            stats.casters += n;
+            stats.times.material += t;
+            return Ok(jobs);
+        }
+        let mut kept = Vec::with_capacity(jobs.len());
+        for job in jobs {
+            if job.sun {
+                let g = [grid(self, &job)];
+                if self.composition_waits(stats.composed + stats.casters)
+                    && !self.missing_casters(&g, &dirs, new).is_empty()
+                {
+                    let cost = match job.material {
+                        Some(i) => materials[i].grid.desc().point_count(),
+                        None => self.nodes[&job.key].material.grid.desc().point_count(),
+                    };
+                    stats.points_swept -= cost as u64;
+                    stats.sun_built -= 1;
+                    stats.pending += 1;
+                    continue;
+                }
+                let (n, t) = self.compose_casters(&g, &dirs, new)?;
+                stats.casters += n;
+                stats.times.material += t;
+            }
+            kept.push(job);
+        }
+        Ok(kept)
     }
 
     /// Whether a new node waits (its parent not built: pending) or is skipped (bare

@@ -75,8 +75,11 @@
 //! at once and the nodes' coarse and near first within the budget (each costs a node's
 //! points, and its parent's must be current; from the kept material, composed again for
 //! nothing); meanwhile a node shows its earlier direction's scattered sun. A node's beam
-//! is marched on beyond its box through the finest material held there (its depth's
-//! neighbours, coarser grids). The tests check that the transmittance marched in
+//! is marched on beyond its box through its own depth's material wherever it may meet
+//! some: the depth's neighbours, and the nodes not built that its rays cross, composed
+//! for the march alone (the sun's casters, [`FrameStats::casters`]; at 10° on the
+//! frame bench the finest nodes' direct sun against one 1 m sweep went from 28 to
+//! 9.6 % RMSE with them); coarser grids beyond. The tests check that the transmittance marched in
 //! `set_sun`, and everything once the nodes are swept again, equal a hierarchy built
 //! under the new sun from the start. Under a time budget
 //! ([`HierarchyParams::budget_ms`]) the world grid's scattered-sun sweep for a moved sun
@@ -117,6 +120,8 @@
 //!   side (material, boundaries from coarser grids, sweeps).
 //! - `shadow`: the sun's beam beyond a node, marched through the finest material held
 //!   at each place.
+//! - `casters`: the nodes a low sun's rays cross beyond the built ones, composed for
+//!   that march alone.
 //! - `volume`: light volumes read fast (`LightField::volume_sampler`): every grid reduced
 //!   once to its moments.
 //! - [`bake`]: a whole world as a graph of tasks (the world grid, its tiles, every node
@@ -128,6 +133,7 @@ use std::hash::BuildHasherDefault;
 
 pub mod bake;
 mod build;
+mod casters;
 mod depth;
 mod params;
 mod read;
@@ -340,6 +346,13 @@ pub struct FrameStats {
     /// New nodes whose material this frame composed (under a time budget a batch, one
     /// a thread, at a time: [`HierarchyParams::budget_ms`]).
     pub composed: u32,
+    /// Materials composed this frame for the sun's march alone: nodes not built whose
+    /// cells a low sun's rays from the nodes being lit cross (their time is in
+    /// `times.material`).
+    pub casters: u32,
+    /// Bytes of the casters' materials held at the frame's end (kept while later
+    /// frames' rays may cross them).
+    pub caster_bytes: u64,
     /// Nodes whose inputs were unchanged: not swept again.
     pub skipped_unchanged: u32,
     /// Wanted nodes left for later frames (over budget or waiting for a parent).
@@ -454,6 +467,8 @@ pub struct Hierarchy {
     /// kept until the node is built or no longer wanted ([`Hierarchy::refresh`] drops
     /// them all: the scene may have changed).
     composed: HashMap<NodeKey, NodeMaterial, BuildHasherDefault<KeyHasher>>,
+    /// Materials of nodes not built that the sun's march crosses ([`casters`]).
+    casters: casters::Casters,
     /// Points swept per second of [`Hierarchy::update`]'s time, averaged over the frames
     /// that swept (for [`HierarchyParams::budget_ms`]).
     rate: Option<f64>,
@@ -596,6 +611,7 @@ impl Hierarchy {
             world_resident: None,
             nodes: HashMap::default(),
             composed: HashMap::default(),
+            casters: Default::default(),
             rate: None,
             frame_budget: params.budget_points,
             frame_started: std::time::Instant::now(),
@@ -788,6 +804,9 @@ impl Hierarchy {
         times: &mut StageTimes,
     ) -> Result<u64, LodError> {
         let has_objects = self.nodes[&key].material.has_objects;
+        let bottom = material.desc().origin().y - 0.5 * material.desc().h();
+        let (_, t) = self.compose_casters(&[(key, bottom)], &self.sun_directions(), &[])?;
+        times.material += t;
         let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
         let r = self.node_sun(
             key,
@@ -857,6 +876,16 @@ impl Hierarchy {
             g.marched_to = sun.to_sun;
         }
         Ok(Some(g))
+    }
+
+    /// The directions a node's sun responses march along: the sun's, and the one its
+    /// scattered light is swept for if that differs ([`Hierarchy::scattered_to`]).
+    pub(crate) fn sun_directions(&self) -> Vec<Vec3> {
+        let mut v: Vec<Vec3> = self.sun.iter().map(|s| s.to_sun).collect();
+        if let Some(d) = self.scattered_to().filter(|d| !v.contains(d)) {
+            v.push(d);
+        }
+        v
     }
 
     /// The direction the scattered sun is shown for: the world grid's (the sun's but
@@ -1026,7 +1055,7 @@ impl Hierarchy {
     /// two cells above its highest ground and one above its highest object, whichever is
     /// higher: tall where the forest is tall. Also whether it has objects above the
     /// ground.
-    fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
+    pub(crate) fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
         let full = self.compose(&self.node_desc(key)?)?;
         let d = *full.desc();
         let mut top_level = 0;
@@ -1242,6 +1271,8 @@ impl Hierarchy {
             self.build_depth(depth, &mut stats)?;
         }
         stats.sun_pending = self.sun_pending();
+        self.casters.end_frame();
+        stats.caster_bytes = self.casters.bytes();
         self.last_frame_swept = stats.points_swept > 0;
         if stats.points_swept > 0 {
             let secs = self.frame_started.elapsed().as_secs_f64().max(1e-6);
@@ -1396,6 +1427,7 @@ impl Hierarchy {
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
         self.composed.clear();
+        self.casters.clear();
         let mut stats = FrameStats {
             sun_moved: self.poll_sun_move(false)?,
             ..FrameStats::default()
@@ -1446,6 +1478,8 @@ impl Hierarchy {
             }
         }
         stats.sun_pending = self.sun_pending();
+        self.casters.end_frame();
+        stats.caster_bytes = self.casters.bytes();
         self.last_frame_swept = stats.points_swept > 0;
         Ok(stats)
     }

@@ -5,8 +5,9 @@
 //! box it is multiplied by what the beam lost outside (`outside`). That loss is marched
 //! on, toward the sun, through the finest material the hierarchy holds at each place:
 //! the ready nodes' own materials (kept with them), the materials composed this frame
-//! for the depth being built, and the world grid's, until the ray leaves every grid
-//! (open sky: nothing more is lost).
+//! for the depth being built or kept for a later frame, the sun's casters (nodes
+//! composed for the march alone, [`crate::casters`]), and the world grid's, until the
+//! ray leaves every grid (open sky: nothing more is lost).
 //!
 //! Reading the coarser grids' *transmittance* there instead (a trilinear read of a grid
 //! 2 to 16 times coarser) blurred every shadow cast from outside a node by the coarse
@@ -59,7 +60,11 @@ impl Hierarchy {
             let key = self.node_at(d, xz);
             let m = match self.nodes.get(&key) {
                 Some(n) => Some(&n.material),
-                None => fresh.get(&key).copied(),
+                None => fresh
+                    .get(&key)
+                    .copied()
+                    .or_else(|| self.composed.get(&key))
+                    .or_else(|| self.casters.get(&key)),
             };
             let Some(m) = m else {
                 continue;

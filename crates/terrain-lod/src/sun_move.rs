@@ -29,7 +29,7 @@ use lightgrid_core::{
     BinLight, Boundary, Grid, MaterialGrid, SunBoundary, SweepError, SweepOptions, Sweeper,
 };
 
-use crate::{GridSun, Hierarchy, LodError, SunLight, shadow};
+use crate::{GridSun, Hierarchy, LodError, NodeKey, SunLight, shadow};
 
 /// A moved sun's world-grid responses, being swept.
 pub(crate) struct SunMove {
@@ -195,6 +195,14 @@ impl Hierarchy {
             .map(|(k, _)| *k)
             .collect();
         keys.sort();
+        let lit: Vec<(NodeKey, f32)> = keys
+            .iter()
+            .map(|k| {
+                let d = self.nodes[k].material.grid.desc();
+                (*k, d.origin().y - 0.5 * d.h())
+            })
+            .collect();
+        self.compose_casters(&lit, &[to_sun], &[])?;
         for key in keys {
             let n = &self.nodes[&key];
             let fresh = shadow::Fresh::default();

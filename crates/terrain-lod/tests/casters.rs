@@ -1,0 +1,150 @@
+//! A low sun's rays leave the built nodes soon; the nodes they cross are composed for
+//! the march (the sun's casters), so a node's direct sun is what one march through
+//! the full-resolution material gives.
+
+use lightgrid_core::glam::{UVec3, Vec2, Vec3};
+use lightgrid_core::{
+    BinLight, GridDesc, GridError, Heightmap, LightField, Material, MaterialGrid, MaterialSource,
+};
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_sweep_cpu::sun::SunTransmittance;
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
+
+/// Extinction of the patches' medium, per metre.
+const SIGMA: f32 = 0.35;
+/// Height of the patches above the flat ground at 0.
+const PATCH_TOP: f32 = 9.0;
+
+/// Flat ground below 0 and patches of medium 3 m square on about a third of a 3 m
+/// lattice, up to [`PATCH_TOP`]; each cell takes the material at its centre, its
+/// pass-through over its own size.
+struct Patches;
+
+fn patch(x: f32, z: f32) -> bool {
+    let (i, k) = ((x / 3.0).floor() as i64, (z / 3.0).floor() as i64);
+    let h = (i.wrapping_mul(73_856_093) ^ k.wrapping_mul(19_349_663)).rem_euclid(97);
+    h < 33
+}
+
+impl MaterialSource for Patches {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        let cells = (0..desc.point_count())
+            .map(|i| {
+                let p = desc.position(desc.coords(i).expect("in range"));
+                if p.y < 0.0 {
+                    Material::opaque(Vec3::splat(0.3))
+                } else if p.y < PATCH_TOP && patch(p.x, p.z) {
+                    Material {
+                        reflectance: Vec3::splat(0.5),
+                        pass: (-SIGMA * desc.h()).exp(),
+                    }
+                } else {
+                    Material::EMPTY
+                }
+            })
+            .collect();
+        MaterialGrid::new(*desc, cells)
+    }
+}
+
+#[test]
+fn a_low_suns_march_crosses_the_nodes_beyond_the_built_ones_at_full_resolution() {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 4.0, 129, 129, |_, _| 0.0).unwrap();
+    let mut params = HierarchyParams {
+        world_cell: 16.0,
+        finest_cell: 2.0, // depths: 8, 4, 2 m; finest nodes 32 m
+        node_points: 16,
+        max_levels: 40,
+        budget_points: u64::MAX / 4,
+        ..Default::default()
+    };
+    params.sweep.max_passes = 1;
+    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(Patches),
+        Box::new(CpuSweeper::new()),
+        sky,
+        params,
+    )
+    .unwrap();
+    // 10° above the horizon, 20° off the x axis.
+    let (e, a) = (10f32.to_radians(), 20f32.to_radians());
+    let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
+    h.set_sun(Some(SunLight {
+        to_sun,
+        irradiance: Vec3::ONE,
+    }))
+    .unwrap();
+    let cam = Vec3::new(256.0, 10.0, 256.0);
+    let mut casters = 0;
+    let mut held = 0;
+    for _ in 0..40 {
+        let s = h.update(cam).unwrap();
+        casters += s.casters;
+        held = s.caster_bytes;
+        if s.pending == 0 {
+            break;
+        }
+    }
+    assert!(casters > 0 && held > 0, "casters {casters}, {held} bytes");
+    // The finest node farthest toward the sun: its rays leave the built nodes first.
+    let finest = params.depths();
+    let u = Vec2::new(to_sun.x, to_sun.z).normalize();
+    let key = h
+        .ready_nodes()
+        .into_iter()
+        .filter(|k| k.depth == finest)
+        .max_by(|a, b| {
+            let c = |k| {
+                let (lo, hi) = h.node_rect(k);
+                u.dot(0.5 * (lo + hi))
+            };
+            c(*a).total_cmp(&c(*b)).then(a.cmp(b))
+        })
+        .unwrap();
+    let node = *h.node(key).unwrap().desc();
+    // One march through the full-resolution material of the node and 128 m toward the
+    // sun (a ray from the ground rises past the patches within 52 m), open sky beyond.
+    let cell = node.h();
+    let reach = (128.0 / cell) as u32;
+    let pad = 4u32;
+    let d = node.dims();
+    let region = GridDesc::new(
+        node.origin() - Vec3::new(pad as f32, 0.0, pad as f32) * cell,
+        cell,
+        UVec3::new(d.x + reach + pad, d.y + 8, d.z + reach + pad),
+    )
+    .unwrap();
+    let material = Patches.material(&region).unwrap();
+    let reference = SunTransmittance::march(&material, to_sun, false, &|_| 1.0).unwrap();
+    let (mut sum, mut worst, mut n, mut shaded) = (0.0f64, 0.0f32, 0, 0);
+    for j in 0..d.y {
+        for z in 0..d.z {
+            for x in 0..d.x {
+                let q = UVec3::new(x, j, z);
+                let p = node.position(q);
+                if p.y < 0.0 {
+                    continue; // inside the ground
+                }
+                let t = h.sun_transmittance(p, None).unwrap();
+                let r = reference.values()[region.index(UVec3::new(x + pad, j, z + pad)).unwrap()];
+                sum += (t - r).abs() as f64;
+                worst = worst.max((t - r).abs());
+                n += 1;
+                shaded += (r < 0.5) as u32;
+            }
+        }
+    }
+    let mean = sum / n as f64;
+    assert!(shaded > n / 10, "the patches shade {shaded} of {n} points");
+    assert!(
+        mean < 1e-4 && worst < 0.01,
+        "mean {mean}, worst {worst} over {n} points"
+    );
+    // Once no frame needs them, the casters go.
+    for _ in 0..10 {
+        held = h.update(cam).unwrap().caster_bytes;
+    }
+    assert_eq!(held, 0);
+}
