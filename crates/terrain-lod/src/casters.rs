@@ -22,6 +22,10 @@
 //!
 //! A caster is kept while frames need it (the next nodes' rays cross the same places)
 //! and for [`KEEP_FRAMES`] after; a node built where a caster lies takes its material.
+//! Under a time budget (`HierarchyParams::budget_ms`) a sun job whose casters are not
+//! all held once half the frame is spent waits for a later frame, and `set_sun`'s
+//! march composes none (it reads what is held; each node's transmittance is marched
+//! again with its casters when the budget sweeps its stale scattered sun).
 
 use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
@@ -112,12 +116,13 @@ fn material_top_over(world: &MaterialGrid, lo: Vec2, hi: Vec2) -> f32 {
 impl Hierarchy {
     /// Adds to `out` the nodes of `key`'s depth (not `key`) whose material the sun's
     /// rays from `key`'s grid, whose bottom is at `bottom`, may cross along `to_sun`
-    /// (module docs). None without the world grid's material (no sun kept apart).
+    /// (module docs), `world_top` the top of the world grid's highest material. None
+    /// without the world grid's material (no sun kept apart).
     pub(crate) fn sun_casters(
         &self,
-        key: NodeKey,
-        bottom: f32,
+        (key, bottom): (NodeKey, f32),
         to_sun: Vec3,
+        world_top: f32,
         out: &mut Vec<NodeKey>,
     ) {
         let Some(world) = &self.world_material else {
@@ -131,9 +136,12 @@ impl Hierarchy {
         }
         let (u, slope) = (flat / along, dir.y / along);
         let wd = world.desc();
-        let world_top = wd.origin().y + (wd.dims().y as f32 - 0.5) * wd.h();
-        let reach = ((world_top - bottom) / slope).max(0.0);
         let margin = TOP_MARGIN * wd.h() + 3.0 * self.params.cell(key.depth);
+        // Past this the lowest ray is above all material.
+        let reach = ((world_top + margin - bottom) / slope).max(0.0);
+        if !reach.is_finite() {
+            return; // no material anywhere
+        }
         let (lo, hi) = self.node_rect(key);
         let corners = |lo: Vec2, hi: Vec2| [lo, Vec2::new(hi.x, lo.y), Vec2::new(lo.x, hi.y), hi];
         let n = Vec2::new(-u.y, u.x);
@@ -200,10 +208,15 @@ impl Hierarchy {
         dirs: &[Vec3],
         fresh: &[NodeKey],
     ) -> Vec<NodeKey> {
+        let Some(world) = &self.world_material else {
+            return Vec::new();
+        };
+        let all = Vec2::splat(f32::INFINITY);
+        let world_top = material_top_over(world, -all, all);
         let mut need = Vec::new();
-        for &(key, bottom) in grids {
+        for &grid in grids {
             for &d in dirs {
-                self.sun_casters(key, bottom, d, &mut need);
+                self.sun_casters(grid, d, world_top, &mut need);
             }
         }
         need.sort();
