@@ -97,14 +97,7 @@ impl Hierarchy {
             if self.composition_waits(stats.composed) {
                 break;
             }
-            let composed: Vec<(Composed, Duration)> = batch
-                .par_iter()
-                .map(|&key| {
-                    let mut t = Duration::ZERO;
-                    let m = timed(&mut t, || self.node_material(key));
-                    (m, t)
-                })
-                .collect();
+            let composed = self.compose_nodes(batch);
             for (&key, (m, t)) in batch.iter().zip(composed) {
                 stats.times.material += t;
                 self.composed.insert(key, m?);
@@ -201,6 +194,18 @@ impl Hierarchy {
             }
         }
         done
+    }
+
+    /// The materials of `keys` composed side by side (rayon), each with the time it
+    /// took.
+    pub(crate) fn compose_nodes(&self, keys: &[NodeKey]) -> Vec<(Composed, Duration)> {
+        keys.par_iter()
+            .map(|&key| {
+                let mut t = Duration::ZERO;
+                let m = timed(&mut t, || self.node_material(key));
+                (m, t)
+            })
+            .collect()
     }
 
     /// Composes the sun's casters ([`crate::casters`]) for the jobs that light nodes,

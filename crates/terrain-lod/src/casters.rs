@@ -33,9 +33,8 @@ use std::time::Duration;
 
 use lightgrid_core::MaterialGrid;
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
-use rayon::prelude::*;
 
-use crate::{Hierarchy, KeyHasher, LodError, NodeKey, NodeMaterial, timed};
+use crate::{Hierarchy, KeyHasher, LodError, NodeKey, NodeMaterial};
 
 /// Frames a caster is kept after the last frame that needed it.
 pub(crate) const KEEP_FRAMES: u64 = 8;
@@ -245,14 +244,7 @@ impl Hierarchy {
             return Ok((0, Duration::ZERO));
         }
         let _span = tracing::trace_span!("sun casters", count = need.len()).entered();
-        let composed: Vec<(Result<NodeMaterial, lightgrid_core::GridError>, Duration)> = need
-            .par_iter()
-            .map(|&k| {
-                let mut t = Duration::ZERO;
-                let m = timed(&mut t, || self.node_material(k));
-                (m, t)
-            })
-            .collect();
+        let composed = self.compose_nodes(&need);
         let mut time = Duration::ZERO;
         let frame = self.casters.frame;
         for (k, (m, t)) in need.iter().zip(composed) {

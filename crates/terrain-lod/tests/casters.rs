@@ -3,9 +3,7 @@
 //! the full-resolution material gives.
 
 use lightgrid_core::glam::{UVec3, Vec2, Vec3};
-use lightgrid_core::{
-    BinLight, GridDesc, GridError, Heightmap, LightField, Material, MaterialGrid, MaterialSource,
-};
+use lightgrid_core::{BinLight, GridDesc, Heightmap, LightField, Material, MaterialSource};
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_sweep_cpu::sun::SunTransmittance;
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
@@ -15,10 +13,7 @@ const SIGMA: f32 = 0.35;
 /// Height of the patches above the flat ground at 0.
 const PATCH_TOP: f32 = 9.0;
 
-/// Flat ground below 0 and patches of medium 3 m square on about a third of a 3 m
-/// lattice, up to [`PATCH_TOP`]; each cell takes the material at its centre, its
-/// pass-through over its own size.
-struct Patches;
+mod field;
 
 fn patch(x: f32, z: f32) -> bool {
     let (i, k) = ((x / 3.0).floor() as i64, (z / 3.0).floor() as i64);
@@ -26,25 +21,22 @@ fn patch(x: f32, z: f32) -> bool {
     h < 33
 }
 
-impl MaterialSource for Patches {
-    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let cells = (0..desc.point_count())
-            .map(|i| {
-                let p = desc.position(desc.coords(i).expect("in range"));
-                if p.y < 0.0 {
-                    Material::opaque(Vec3::splat(0.3))
-                } else if p.y < PATCH_TOP && patch(p.x, p.z) {
-                    Material {
-                        reflectance: Vec3::splat(0.5),
-                        pass: (-SIGMA * desc.h()).exp(),
-                    }
-                } else {
-                    Material::EMPTY
-                }
-            })
-            .collect();
-        MaterialGrid::new(*desc, cells)
-    }
+/// Flat ground below 0 and patches of medium 3 m square on about a third of a 3 m
+/// lattice, up to [`PATCH_TOP`]; each cell takes the material at its centre, its
+/// pass-through over its own size.
+fn patches() -> field::Field<impl Fn(Vec3, f32) -> Material + Send + Sync> {
+    field::Field(|p: Vec3, h: f32| {
+        if p.y < 0.0 {
+            Material::opaque(Vec3::splat(0.3))
+        } else if p.y < PATCH_TOP && patch(p.x, p.z) {
+            Material {
+                reflectance: Vec3::splat(0.5),
+                pass: (-SIGMA * h).exp(),
+            }
+        } else {
+            Material::EMPTY
+        }
+    })
 }
 
 #[test]
@@ -62,7 +54,7 @@ fn a_low_suns_march_crosses_the_nodes_beyond_the_built_ones_at_full_resolution()
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
     let mut h = Hierarchy::new(
         &hm,
-        Box::new(Patches),
+        Box::new(patches()),
         Box::new(CpuSweeper::new()),
         sky,
         params,
@@ -116,7 +108,7 @@ fn a_low_suns_march_crosses_the_nodes_beyond_the_built_ones_at_full_resolution()
         UVec3::new(d.x + reach + pad, d.y + 8, d.z + reach + pad),
     )
     .unwrap();
-    let material = Patches.material(&region).unwrap();
+    let material = patches().material(&region).unwrap();
     let reference = SunTransmittance::march(&material, to_sun, false, &|_| 1.0).unwrap();
     let (mut sum, mut worst, mut n, mut shaded) = (0.0f64, 0.0f32, 0, 0);
     for j in 0..d.y {

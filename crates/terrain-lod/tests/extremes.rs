@@ -2,30 +2,22 @@
 //! error naming the field, or frames within the budget and finite light.
 
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{
-    BinLight, GridDesc, GridError, Heightmap, LightField, Material, MaterialGrid,
-};
+use lightgrid_core::{BinLight, Heightmap, LightField, Material};
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 use proptest::prelude::*;
 
-/// Opaque ground below y = 0, empty above.
-struct Ground;
+mod field;
 
-impl lightgrid_core::MaterialSource for Ground {
-    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let cells = (0..desc.point_count())
-            .map(|i| {
-                let p = desc.position(desc.coords(i).expect("in range"));
-                if p.y < 0.0 {
-                    Material::opaque(Vec3::splat(0.3))
-                } else {
-                    Material::EMPTY
-                }
-            })
-            .collect();
-        MaterialGrid::new(*desc, cells)
-    }
+/// Opaque ground below y = 0, empty above.
+fn ground() -> field::Field<impl Fn(Vec3, f32) -> Material + Send + Sync> {
+    field::Field(|p: Vec3, _| {
+        if p.y < 0.0 {
+            Material::opaque(Vec3::splat(0.3))
+        } else {
+            Material::EMPTY
+        }
+    })
 }
 
 /// Mostly `valid`, else an extreme value.
@@ -75,7 +67,7 @@ proptest! {
         };
         p.sweep.max_passes = 2;
         let (sky, _) = BinLight::uniform(Vec3::ONE).split_vertical();
-        let Ok(mut h) = Hierarchy::new(&hm, Box::new(Ground), Box::new(CpuSweeper::new()), sky, p)
+        let Ok(mut h) = Hierarchy::new(&hm, Box::new(ground()), Box::new(CpuSweeper::new()), sky, p)
         else {
             return Ok(());
         };
@@ -105,5 +97,5 @@ fn the_properties_base_parameters_build_a_hierarchy() {
         ..Default::default()
     };
     let (sky, _) = BinLight::uniform(Vec3::ONE).split_vertical();
-    assert!(Hierarchy::new(&hm, Box::new(Ground), Box::new(CpuSweeper::new()), sky, p).is_ok());
+    assert!(Hierarchy::new(&hm, Box::new(ground()), Box::new(CpuSweeper::new()), sky, p).is_ok());
 }

@@ -6,7 +6,7 @@
 use lightgrid_core::MaterialSource;
 
 mod block;
-use block::Scene;
+use block::scene;
 
 /// The ground's height (off the lattices' levels).
 const GROUND: f32 = 0.3;
@@ -26,7 +26,7 @@ fn a_nodes_levels_span_its_ground_and_objects_and_no_more() {
         );
         // The highest level holding ground, and holding the block more than a cell
         // above the ground (an object), from the scene's own material.
-        let m = Scene { ground: GROUND }.material(&d).unwrap();
+        let m = scene(GROUND).material(&d).unwrap();
         let (mut top_ground, mut top_object) = (0, None);
         for (i, c) in m.data().iter().enumerate() {
             let q = d.coords(i).unwrap();

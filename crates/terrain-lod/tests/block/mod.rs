@@ -2,43 +2,32 @@
 //! every node is built (the layout and volume tests share it).
 
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{
-    BinLight, GridDesc, GridError, Heightmap, Material, MaterialGrid, MaterialSource,
-};
+use lightgrid_core::{BinLight, Heightmap, Material};
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
+
+#[path = "../field/mod.rs"]
+mod field;
+use field::Field;
 
 /// The top of the block of medium standing on the ground over `20..28` m in x and z.
 pub(crate) const BLOCK_TOP: f32 = 6.0;
 
 /// Opaque ground below height `ground` (a cell whose centre is below), the block of
 /// dense medium above it, air elsewhere.
-pub(crate) struct Scene {
-    pub(crate) ground: f32,
-}
-
-impl MaterialSource for Scene {
-    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let cells = (0..desc.point_count())
-            .map(|i| {
-                let p = desc.position(desc.coords(i).expect("in range"));
-                if p.y < self.ground {
-                    Material::opaque(Vec3::splat(0.3))
-                } else if (20.0..28.0).contains(&p.x)
-                    && (20.0..28.0).contains(&p.z)
-                    && p.y < BLOCK_TOP
-                {
-                    Material {
-                        reflectance: Vec3::splat(0.5),
-                        pass: 0.2,
-                    }
-                } else {
-                    Material::EMPTY
-                }
-            })
-            .collect();
-        MaterialGrid::new(*desc, cells)
-    }
+pub(crate) fn scene(ground: f32) -> Field<impl Fn(Vec3, f32) -> Material + Send + Sync> {
+    Field(move |p: Vec3, _| {
+        if p.y < ground {
+            Material::opaque(Vec3::splat(0.3))
+        } else if (20.0..28.0).contains(&p.x) && (20.0..28.0).contains(&p.z) && p.y < BLOCK_TOP {
+            Material {
+                reflectance: Vec3::splat(0.5),
+                pass: 0.2,
+            }
+        } else {
+            Material::EMPTY
+        }
+    })
 }
 
 /// The scene over a 64 m heightmap at `ground`: world grid 8 m, nodes of 8 points down
@@ -57,7 +46,7 @@ pub(crate) fn hierarchy(ground: f32) -> Hierarchy {
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
     let mut h = Hierarchy::new(
         &hm,
-        Box::new(Scene { ground }),
+        Box::new(scene(ground)),
         Box::new(CpuSweeper::new()),
         sky,
         params,
