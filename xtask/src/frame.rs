@@ -78,6 +78,8 @@ pub struct FrameConfig {
     pub gpu: bool,
     /// No finer grids over bare ground (`LodSkips::bare_children`, off by default).
     pub bare_skip: bool,
+    /// No sun's casters (`LodSkips::sun_casters`, off by default).
+    pub no_casters: bool,
     /// Keep no horizon halves (`HierarchyParams::sweep.outputs.horizon` off, in the
     /// hierarchy and the reference sweep): horizontal bins read as even.
     pub even: bool,
@@ -115,6 +117,7 @@ impl FrameConfig {
             trees: 4000,
             gpu: false,
             bare_skip: false,
+            no_casters: false,
             even: false,
             budget_ms: None,
             passes: None,
@@ -313,6 +316,8 @@ pub struct FrameReport {
     pub path: String,
     /// Whether the bare-ground skip was on.
     pub bare_skip: bool,
+    /// Whether the sun's casters were skipped.
+    pub no_casters: bool,
     /// Whether the grids kept their horizon halves (and were read through them).
     pub horizon: bool,
     /// The frames' time budget, milliseconds (`None`: none).
@@ -704,6 +709,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
         ..Default::default()
     };
     p.skip.bare_children = cfg.bare_skip;
+    p.skip.sun_casters = cfg.no_casters;
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
     if let Some(n) = cfg.passes {
@@ -1074,6 +1080,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         node_points: cfg.node_points,
         path: format!("{:?}", cfg.path).to_lowercase(),
         bare_skip: cfg.bare_skip,
+        no_casters: cfg.no_casters,
         horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,
@@ -1129,13 +1136,14 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes, {} passes at most (tolerance {}), {} path, bare-ground skip {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes, {} passes at most (tolerance {}), {} path, bare-ground skip {}, sun's casters {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.passes,
         report.tolerance,
         report.path,
         if report.bare_skip { "on" } else { "off" },
+        if report.no_casters { "skipped" } else { "on" },
         if report.horizon {
             "horizon halves kept"
         } else {

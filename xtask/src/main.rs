@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--even] [--budget-ms MS] [--passes N] [--tolerance T] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--even] [--budget-ms MS] [--passes N] [--tolerance T] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -93,6 +93,10 @@ enum Task {
         /// No finer grids over bare ground (the bare-ground skip, off by default).
         #[arg(long)]
         bare_skip: bool,
+        /// No sun's casters (LodSkips::sun_casters): a node's direct sun is marched past
+        /// the built nodes through coarser material, for comparison.
+        #[arg(long)]
+        no_casters: bool,
         /// Keep no horizon halves: every grid's horizontal bins read as even across the
         /// horizon (in the hierarchy and the reference sweep), for comparison.
         #[arg(long)]
@@ -192,6 +196,7 @@ fn main() -> ExitCode {
             elevations,
             gpu,
             bare_skip,
+            no_casters,
             even,
             budget_ms,
             passes,
@@ -208,6 +213,7 @@ fn main() -> ExitCode {
             cfg.frames = frames;
             cfg.gpu = gpu;
             cfg.bare_skip = bare_skip;
+            cfg.no_casters = no_casters;
             cfg.even = even;
             cfg.budget_ms = budget_ms;
             cfg.passes = passes;

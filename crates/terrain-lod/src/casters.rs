@@ -207,8 +207,12 @@ impl Hierarchy {
         dirs: &[Vec3],
         fresh: &[NodeKey],
     ) -> Vec<NodeKey> {
-        let Some(world) = &self.world_material else {
-            return Vec::new();
+        let Some(world) = self
+            .world_material
+            .as_ref()
+            .filter(|_| !self.params.skip.sun_casters)
+        else {
+            return Vec::new(); // no sun kept apart, or the casters skipped
         };
         let all = Vec2::splat(f32::INFINITY);
         let world_top = material_top_over(world, -all, all);
