@@ -225,7 +225,7 @@ impl Hierarchy {
                 Some(i) => materials[i].grid.desc(),
                 None => this.nodes[&j.key].material.grid.desc(),
             };
-            (j.key, d.origin().y - 0.5 * d.h())
+            (j.key, *d)
         };
         if self.params.budget_ms.is_none() {
             let lit: Vec<_> = jobs
@@ -241,20 +241,15 @@ impl Hierarchy {
         let mut kept = Vec::with_capacity(jobs.len());
         for job in jobs {
             if job.sun {
-                let g = [grid(self, &job)];
-                if self.composition_waits(stats.composed + stats.casters)
-                    && !self.missing_casters(&g, &dirs, new).is_empty()
-                {
-                    let cost = match job.material {
-                        Some(i) => materials[i].grid.desc().point_count(),
-                        None => self.nodes[&job.key].material.grid.desc().point_count(),
-                    };
-                    stats.points_swept -= cost as u64;
+                let g = grid(self, &job);
+                let need = self.missing_casters(&[g], &dirs, new);
+                if !need.is_empty() && self.composition_waits(stats.composed + stats.casters) {
+                    stats.points_swept -= g.1.point_count() as u64;
                     stats.sun_built -= 1;
                     stats.pending += 1;
                     continue;
                 }
-                let (n, t) = self.compose_casters(&g, &dirs, new)?;
+                let (n, t) = self.compose_missing(need)?;
                 stats.casters += n;
                 stats.times.material += t;
             }

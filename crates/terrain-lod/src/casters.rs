@@ -31,8 +31,8 @@ use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
 use std::time::Duration;
 
-use lightgrid_core::MaterialGrid;
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
+use lightgrid_core::{GridDesc, MaterialGrid};
 
 use crate::{Hierarchy, KeyHasher, LodError, NodeKey, NodeMaterial};
 
@@ -114,12 +114,12 @@ fn material_top_over(world: &MaterialGrid, lo: Vec2, hi: Vec2) -> f32 {
 
 impl Hierarchy {
     /// Adds to `out` the nodes of `key`'s depth (not `key`) whose material the sun's
-    /// rays from `key`'s grid, whose bottom is at `bottom`, may cross along `to_sun`
+    /// rays from `key`'s grid (`desc`) may cross along `to_sun`
     /// (module docs), `world_top` the top of the world grid's highest material. None
     /// without the world grid's material (no sun kept apart).
     pub(crate) fn sun_casters(
         &self,
-        (key, bottom): (NodeKey, f32),
+        (key, desc): (NodeKey, GridDesc),
         to_sun: Vec3,
         world_top: f32,
         out: &mut Vec<NodeKey>,
@@ -134,6 +134,7 @@ impl Hierarchy {
             return; // below the horizon (no beam) or straight up (its own column)
         }
         let (u, slope) = (flat / along, dir.y / along);
+        let bottom = desc.origin().y - 0.5 * desc.h();
         let wd = world.desc();
         let margin = TOP_MARGIN * wd.h() + 3.0 * self.params.cell(key.depth);
         // Past this the lowest ray is above all material.
@@ -198,12 +199,12 @@ impl Hierarchy {
         }
     }
 
-    /// The casters that the sun's march from `grids` (each a node and its grid's
-    /// bottom) along `dirs` needs and that no node, kept material, caster or `fresh`
+    /// The casters that the sun's march from `grids` (each a node and its grid) along
+    /// `dirs` needs and that no node, kept material, caster or `fresh`
     /// node holds; marks the needed casters held as used this frame.
     pub(crate) fn missing_casters(
         &mut self,
-        grids: &[(NodeKey, f32)],
+        grids: &[(NodeKey, GridDesc)],
         dirs: &[Vec3],
         fresh: &[NodeKey],
     ) -> Vec<NodeKey> {
@@ -239,11 +240,20 @@ impl Hierarchy {
     /// how many it composed and the time they took (summed over threads).
     pub(crate) fn compose_casters(
         &mut self,
-        grids: &[(NodeKey, f32)],
+        grids: &[(NodeKey, GridDesc)],
         dirs: &[Vec3],
         fresh: &[NodeKey],
     ) -> Result<(u32, Duration), LodError> {
         let need = self.missing_casters(grids, dirs, fresh);
+        self.compose_missing(need)
+    }
+
+    /// Composes `need` (from [`Hierarchy::missing_casters`]) side by side and holds
+    /// them. Returns how many and the time they took (summed over threads).
+    pub(crate) fn compose_missing(
+        &mut self,
+        need: Vec<NodeKey>,
+    ) -> Result<(u32, Duration), LodError> {
         if need.is_empty() {
             return Ok((0, Duration::ZERO));
         }

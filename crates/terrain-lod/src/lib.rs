@@ -804,8 +804,8 @@ impl Hierarchy {
         times: &mut StageTimes,
     ) -> Result<u64, LodError> {
         let has_objects = self.nodes[&key].material.has_objects;
-        let bottom = material.desc().origin().y - 0.5 * material.desc().h();
-        let (_, t) = self.compose_casters(&[(key, bottom)], &self.sun_directions(), &[])?;
+        let lit = [(key, *material.desc())];
+        let (_, t) = self.compose_casters(&lit, &self.sun_directions(), &[])?;
         times.material += t;
         let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
         let r = self.node_sun(

@@ -29,7 +29,7 @@ use lightgrid_core::{
     BinLight, Boundary, Grid, MaterialGrid, SunBoundary, SweepError, SweepOptions, Sweeper,
 };
 
-use crate::{GridSun, Hierarchy, LodError, NodeKey, SunLight, shadow};
+use crate::{GridSun, Hierarchy, LodError, SunLight, shadow};
 
 /// A moved sun's world-grid responses, being swept.
 pub(crate) struct SunMove {
@@ -201,12 +201,9 @@ impl Hierarchy {
         // transmittance is marched again with its casters when the budget sweeps its
         // scattered sun, which the move left stale.
         if self.params.budget_ms.is_none() {
-            let lit: Vec<(NodeKey, f32)> = keys
+            let lit: Vec<_> = keys
                 .iter()
-                .map(|k| {
-                    let d = self.nodes[k].material.grid.desc();
-                    (*k, d.origin().y - 0.5 * d.h())
-                })
+                .map(|k| (*k, *self.nodes[k].material.grid.desc()))
                 .collect();
             self.compose_casters(&lit, &[to_sun], &[])?;
         }
