@@ -22,7 +22,13 @@
 //! The error of a frame is the relative bias `Σ(h − r) / Σ r` and the relative RMSE
 //! `√mean((h − r)²) / mean(r)` of the luminance over its points, for sky, sun and both,
 //! and over the whole path per depth of the grid that serves the point. This is the
-//! *nesting* error (the hierarchy against a single sweep of the same world).
+//! *nesting* error (the hierarchy against a single sweep of the same world). A coarse
+//! depth's error against the 1 m sweep is mostly its cell size's; per depth it is also
+//! measured against one sweep of the region at that depth's own cell, on its nodes'
+//! lattice (`frame/reference.rs`): the nesting's own part. At the last camera, once its
+//! nodes are all built, the finest depth's probes are split by whether their read
+//! falls within a node's points or across the seam between two nodes'
+//! (`frame/seams.rs`).
 //!
 //! **The total error** ([`MonteCarlo`], `frame/mc.rs`): at the last camera, once its nodes are all built, the
 //! hierarchy's read and the single sweep's against a Monte Carlo reference of the same
@@ -43,10 +49,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use lightgrid_core::glam::{UVec3, Vec2, Vec3};
+use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, Boundary, GridDesc, LightField, LightGrid, MaterialSource, SeededRng, SunBoundary,
-    SunResponse, Sweeper,
+    BinLight, Boundary, GridDesc, LightField, MaterialSource, SeededRng, Sweeper,
 };
 use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain, load_heightmap_png,
@@ -59,7 +64,11 @@ use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, 
 use serde::Serialize;
 
 mod mc;
+mod reference;
+mod seams;
 pub use mc::MonteCarlo;
+use reference::{Reference, reference_desc};
+pub use seams::Seams;
 
 /// What `cargo xtask frame` runs.
 #[derive(Debug, Clone)]
@@ -252,6 +261,11 @@ pub struct Run {
     pub error: Errors,
     /// Over every frame's points, by the depth of the grid serving the point (0: world).
     pub error_by_depth: Vec<Errors>,
+    /// The same against one sweep of the region at the serving depth's own cell, on
+    /// its nodes' lattice (the finest depth's is the 1 m sweep; none for the world
+    /// grid): the nesting's own part of a coarse depth's error, its cell size's part
+    /// left out.
+    pub error_by_depth_own: Vec<Errors>,
     /// Mean frame, milliseconds.
     pub mean_ms: f64,
     /// Slowest frame, milliseconds.
@@ -300,6 +314,9 @@ pub struct Run {
     pub sun_move_error_at_once: Errors,
     /// The same once every node's sun response is the new sun's.
     pub sun_move_error_settled: Errors,
+    /// At the last camera once its nodes are all built (before the sun moves), the
+    /// finest depth's probes against the 1 m sweep by where they read.
+    pub seams: Seams,
     /// At the last camera (before the sun moves), against Monte Carlo (`None`: not
     /// asked for).
     pub monte_carlo: Option<MonteCarlo>,
@@ -451,63 +468,6 @@ fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
     out
 }
 
-/// The single full-resolution sweep of the region: sky bins, and per sun its scattered
-/// bins and transmittance.
-struct Reference {
-    material: lightgrid_core::MaterialGrid,
-    /// The sky's bins, and their horizon halves where the hierarchy's options keep them
-    /// (then the sweep is read through them, as the hierarchy is).
-    sky: Option<(LightGrid, Option<lightgrid_core::HorizonGrid>)>,
-    /// The sun's responses and its direction.
-    sun: Option<(SunResponse, Vec3)>,
-}
-
-impl Reference {
-    /// Sky and sun luminance at every probe, read as the hierarchy is ([`read`]).
-    /// The sun's response is for unit irradiance: its scattered light is scaled by the
-    /// runs' [`SUN_E`] here, as the hierarchy's is by `set_sun` (its direct part by
-    /// [`Parts::of`]).
-    fn sky_and_sun(&self, probes: &[Probe]) -> Result<Vec<Parts>> {
-        let (response, to_sun) = self.sun.as_ref().context("reference sun")?;
-        let sky = match self.sky.as_ref().context("reference sky")? {
-            (bins, Some(halves)) => read(&Halves(bins, halves), probes)?,
-            (bins, None) => read(bins, probes)?,
-        };
-        let sun = read(response, probes)?;
-        Ok(probes
-            .iter()
-            .zip(sky.iter().zip(&sun))
-            .map(|(p, (a, b))| {
-                let b = SampledLight {
-                    light: b.light * SUN_E,
-                    ..*b
-                };
-                Parts::of(a, &b, p, *to_sun)
-            })
-            .collect())
-    }
-}
-
-/// A grid read through its horizon halves, borrowed (`SplitLightGrid` would own them:
-/// a copy of the region's grids).
-struct Halves<'a>(&'a LightGrid, &'a lightgrid_core::HorizonGrid);
-
-impl LightField for Halves<'_> {
-    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
-        self.0.light(p, n)
-    }
-    fn horizon(
-        &self,
-        p: Vec3,
-        n: Option<Vec3>,
-    ) -> Result<Option<lightgrid_core::HorizonLight>, lightgrid_core::GridError> {
-        Ok(Some(match n {
-            Some(n) => self.1.sample_biased(p, n)?,
-            None => self.1.sample(p)?,
-        }))
-    }
-}
-
 /// The luminance of a probe's light in parts.
 #[derive(Debug, Clone, Copy, Default)]
 struct Parts {
@@ -540,40 +500,6 @@ fn sun_dir(elevation_deg: f32) -> Vec3 {
 
 fn sky_bins(to_sun: Vec3) -> Result<BinLight> {
     Ok(ClearSky::blue(to_sun).bins()?.top)
-}
-
-/// The region every frame's probes lie in, plus the margin, at the finest cell size.
-fn reference_desc(world: &World, cfg: &FrameConfig, params: &HierarchyParams) -> Result<GridDesc> {
-    let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-    for f in 0..cfg.frames {
-        let c = world.camera(cfg, f);
-        lo = lo.min(Vec2::new(c.x, c.z) - 20.0 - cfg.margin);
-        hi = hi.max(Vec2::new(c.x, c.z) + 20.0 + cfg.margin);
-    }
-    let (mut g_lo, mut g_hi) = (f32::MAX, f32::MIN);
-    let mut x = lo.x;
-    while x <= hi.x {
-        let mut z = lo.y;
-        while z <= hi.y {
-            let g = world.hm.height_at(x, z);
-            (g_lo, g_hi) = (g_lo.min(g), g_hi.max(g));
-            z += 2.0;
-        }
-        x += 2.0;
-    }
-    // On the finest nodes' lattice: their points and cells are the reference's.
-    let h = params.finest_cell;
-    let datum = params.lattice(&world.hm, params.depths());
-    let snap = |v: f32, d: f32| d + ((v - d) / h).floor() * h;
-    let lo = Vec2::new(snap(lo.x, datum.x), snap(lo.y, datum.z));
-    let bottom = snap(g_lo - 2.0 * h, datum.y);
-    let top = g_hi + params.margin;
-    let dims = UVec3::new(
-        ((hi.x - lo.x) / h).ceil() as u32 + 1,
-        ((top - bottom) / h).ceil() as u32 + 1,
-        ((hi.y - lo.y) / h).ceil() as u32 + 1,
-    );
-    Ok(GridDesc::new(Vec3::new(lo.x, bottom, lo.y), h, dims)?)
 }
 
 /// The process's one GPU device, with `--gpu`.
@@ -638,11 +564,13 @@ impl Acc3 {
     }
 }
 
-/// A path's errors: over all points and by the depth serving them.
+/// A path's errors: over all points and by the depth serving them, against the 1 m
+/// sweep, and by depth against the sweep at that depth's own cell.
 #[derive(Default)]
 struct Tally {
     all: Acc3,
     by_depth: Vec<Acc3>,
+    by_depth_own: Vec<Acc3>,
 }
 
 /// The renderer's read of `field` at the probes: `lightgrid_render`'s sampler
@@ -721,54 +649,12 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p
 }
 
-impl Reference {
-    /// The region's material, composed once for every sweep of it.
-    fn new(world: &World, desc: GridDesc) -> Result<Self> {
-        let _span =
-            tracing::info_span!("reference material", points = desc.point_count()).entered();
-        Ok(Self {
-            material: world.composer()?.material(&desc)?,
-            sky: None,
-            sun: None,
-        })
-    }
-
-    /// The sweep options of the reference: the hierarchy's, with the bins.
-    fn options(params: &HierarchyParams) -> lightgrid_core::SweepOptions {
-        let mut o = params.sweep;
-        o.outputs.bins = true;
-        o
-    }
-
-    /// Sweeps the region's sky; returns the seconds it took.
-    fn sweep_sky(&mut self, params: &HierarchyParams, sky: BinLight) -> Result<f64> {
-        let _span = tracing::info_span!("reference sky").entered();
-        let t = Instant::now();
-        let out = lightgrid_sweep_cpu::CpuSweeper::new().sweep(
-            &self.material,
-            &Boundary::open_sky(sky),
-            &Self::options(params),
-        )?;
-        self.sky = Some((out.bins.context("bins asked for")?, out.horizon));
-        Ok(t.elapsed().as_secs_f64())
-    }
-
-    /// The region's sun responses for `to_sun` (sunlight entering unshadowed).
-    fn sweep_sun(&mut self, params: &HierarchyParams, to_sun: Vec3) -> Result<()> {
-        let _span = tracing::info_span!("reference sun").entered();
-        let boundary = SunBoundary {
-            to_sun,
-            scattered: Boundary::open_sky(BinLight::ZERO),
-            outside: &|_| 1.0,
-        };
-        let s = lightgrid_sweep_cpu::CpuSweeper::new().sweep_sun(
-            &self.material,
-            &boundary,
-            &Self::options(params),
-        )?;
-        self.sun = Some((s, to_sun));
-        Ok(())
-    }
+/// The single sweeps of the region: at 1 m, and at each coarser node depth's cell.
+struct Refs {
+    /// At the finest cell (1 m): every figure's reference.
+    full: Reference,
+    /// At depth `d`'s cell for `d` in `1..depths`, in that order.
+    coarse: Vec<Reference>,
 }
 
 /// One frame: update, sample (timed), and the error of the frame's probes.
@@ -777,7 +663,7 @@ fn frame(
     world: &World,
     cfg: &FrameConfig,
     f: u32,
-    (to_sun, reference): (Vec3, &Reference),
+    (to_sun, refs): (Vec3, &Refs),
     tally: &mut Tally,
 ) -> Result<FrameRow> {
     let cam = world.camera(cfg, f);
@@ -789,16 +675,31 @@ fn frame(
     std::hint::black_box(sample_all(h, &probes, to_sun)?);
     let sampling = t.elapsed();
     let parts = sample_parts(h, &probes, to_sun)?;
-    let refs = reference.sky_and_sun(&probes)?;
+    let full = refs.full.sky_and_sun(&probes)?;
+    let own = refs
+        .coarse
+        .iter()
+        .map(|r| r.sky_and_sun(&probes))
+        .collect::<Result<Vec<_>>>()?;
     let mut acc = Acc3::default();
-    for ((p, hp), r) in probes.iter().zip(parts).zip(refs) {
+    for (i, (p, (hp, r))) in probes.iter().zip(parts.into_iter().zip(full)).enumerate() {
         acc.add(hp, r);
         tally.all.add(hp, r);
         let d = depth_at(h, p.p);
         if tally.by_depth.len() <= d {
             tally.by_depth.resize(d + 1, Acc3::default());
+            tally.by_depth_own.resize(d + 1, Acc3::default());
         }
         tally.by_depth[d].add(hp, r);
+        // The finest depth's own cell is the 1 m sweep's; the world grid has none.
+        let own_r = match d {
+            0 => None,
+            d if d > refs.coarse.len() => Some(r),
+            d => Some(own[d - 1][i]),
+        };
+        if let Some(own_r) = own_r {
+            tally.by_depth_own[d].add(hp, own_r);
+        }
     }
     Ok(FrameRow {
         frame: f,
@@ -819,11 +720,13 @@ fn run_elevation(
     cfg: &FrameConfig,
     gpu: &Gpu,
     elevation: f32,
-    reference: &mut Reference,
+    refs: &mut Refs,
 ) -> Result<Run> {
     let params = hierarchy_params(cfg);
     let to_sun = sun_dir(elevation);
-    reference.sweep_sun(&params, to_sun)?;
+    for r in std::iter::once(&mut refs.full).chain(&mut refs.coarse) {
+        r.sweep_sun(&params, to_sun)?;
+    }
     let sweeper = new_sweeper(gpu);
     let t = Instant::now();
     let mut h = Hierarchy::new(
@@ -843,27 +746,22 @@ fn run_elevation(
         indicatif::ProgressBar::new(cfg.frames as u64).with_message(format!("sun {elevation}°"));
     let mut frames = Vec::new();
     for f in 0..cfg.frames {
-        frames.push(frame(
-            &mut h,
-            world,
-            cfg,
-            f,
-            (to_sun, reference),
-            &mut tally,
-        )?);
+        frames.push(frame(&mut h, world, cfg, f, (to_sun, refs), &mut tally)?);
         bar.inc(1);
     }
     bar.finish_and_clear();
+    let reference = &mut refs.full;
     // Time of day: the sun 20° higher (the sky kept: its glow moves little), once the
     // last camera's nodes are all built (the move's own effect, not the path's).
     let cam = world.camera(cfg, cfg.frames - 1);
     let pace = Duration::from_secs_f64(cfg.budget_ms.unwrap_or(0.0) as f64 / 1e3);
     settle(&mut h, cam, pace)?;
     let end_probes = probes(world, cam);
+    let hier = sample_parts(&mut h, &end_probes, to_sun)?;
+    let sweep = reference.sky_and_sun(&end_probes)?;
+    let seams = seams::measure(&h, &end_probes, &hier, &sweep);
     let monte_carlo = if cfg.mc_probes > 0 {
         let which = mc::pick(&end_probes, cfg.mc_probes);
-        let hier = sample_parts(&mut h, &end_probes, to_sun)?;
-        let sweep = reference.sky_and_sun(&end_probes)?;
         Some(mc::measure(
             reference,
             &end_probes,
@@ -943,6 +841,7 @@ fn run_elevation(
         frames,
         error: tally.all.errors(),
         error_by_depth: tally.by_depth.iter().map(Acc3::errors).collect(),
+        error_by_depth_own: tally.by_depth_own.iter().map(Acc3::errors).collect(),
         sun_move_world_ms: world_ms,
         sun_move_wait_frames: wait_frames,
         sun_move_wait_max_ms: wait_max_ms,
@@ -956,6 +855,7 @@ fn run_elevation(
         sun_move_settled_frames: settled_frames,
         sun_move_error_at_once: error_of(&at_once),
         sun_move_error_settled: error_of(&settled),
+        seams,
         monte_carlo,
     })
 }
@@ -1048,7 +948,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
     std::fs::create_dir_all(&cfg.out).with_context(|| format!("creating {}", cfg.out.display()))?;
     let world = World::load(cfg)?;
     let params = hierarchy_params(cfg);
-    let desc = reference_desc(&world, cfg, &params)?;
+    let desc = reference_desc(&world, cfg, &params, params.depths())?;
     println!(
         "reference: one {} m sweep of {} x {} x {} points ({:.1} M)",
         desc.h(),
@@ -1067,11 +967,20 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
     });
     let mut runs = Vec::new();
     let mut reference_sky_s = 0.0;
-    let mut reference = Reference::new(&world, desc)?;
+    let mut refs = Refs {
+        full: Reference::new(&world, desc)?,
+        coarse: (1..params.depths())
+            .map(|d| Reference::new(&world, reference_desc(&world, cfg, &params, d)?))
+            .collect::<Result<_>>()?,
+    };
     for &e in &cfg.elevations {
         // The clear sky's glow follows the sun: a reference sky per elevation.
-        reference_sky_s = reference.sweep_sky(&params, sky_bins(sun_dir(e))?)?;
-        let run = run_elevation(&world, cfg, &gpu, e, &mut reference)?;
+        let sky = sky_bins(sun_dir(e))?;
+        reference_sky_s = refs.full.sweep_sky(&params, sky)?;
+        for r in &mut refs.coarse {
+            r.sweep_sky(&params, sky)?;
+        }
+        let run = run_elevation(&world, cfg, &gpu, e, &mut refs)?;
         println!("{}", run_line(&run));
         runs.push(run);
     }
@@ -1237,30 +1146,46 @@ pub fn text(report: &FrameReport) -> String {
         if let Some(m) = &r.monte_carlo {
             s.push_str(&mc::lines(m, r.elevation));
         }
-        let _ = writeln!(
-            s,
-            "  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE % | direct sun bias / RMSE %"
+        s.push_str(&seams::line(&r.seams));
+        depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
+            format!("{d:5}")
+        });
+        depth_table(
+            &mut s,
+            "against one sweep at the depth's own cell (the nesting alone)",
+            &r.error_by_depth_own,
+            |d| format!("{d:5}"),
         );
-        for (d, e) in r.error_by_depth.iter().enumerate() {
-            if e.both.n == 0 {
-                continue;
-            }
-            let _ = writeln!(
-                s,
-                "  {d:5} | {:6} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1}",
-                e.both.n,
-                e.sky.bias * 100.0,
-                e.sky.rmse * 100.0,
-                e.sun.bias * 100.0,
-                e.sun.rmse * 100.0,
-                e.both.bias * 100.0,
-                e.both.rmse * 100.0,
-                e.direct.bias * 100.0,
-                e.direct.rmse * 100.0
-            );
-        }
     }
     s
+}
+
+/// A table of errors by the depth serving the points (depths with none left out).
+fn depth_table(s: &mut String, title: &str, by_depth: &[Errors], depth: impl Fn(usize) -> String) {
+    use std::fmt::Write;
+    let _ = writeln!(
+        s,
+        "  {title}:\n  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE % | direct sun bias / RMSE %"
+    );
+    for (d, e) in by_depth.iter().enumerate() {
+        if e.both.n == 0 {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            "  {} | {:6} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1}",
+            depth(d),
+            e.both.n,
+            e.sky.bias * 100.0,
+            e.sky.rmse * 100.0,
+            e.sun.bias * 100.0,
+            e.sun.rmse * 100.0,
+            e.both.bias * 100.0,
+            e.both.rmse * 100.0,
+            e.direct.bias * 100.0,
+            e.direct.rmse * 100.0
+        );
+    }
 }
 
 /// Writes the three files, each whole or not at all.
@@ -1417,7 +1342,7 @@ mod tests {
             },
             hm,
             tree: lightgrid_core::MaterialGrid::new(
-                GridDesc::new(Vec3::ZERO, 1.0, UVec3::ONE).unwrap(),
+                GridDesc::new(Vec3::ZERO, 1.0, lightgrid_core::glam::UVec3::ONE).unwrap(),
                 vec![lightgrid_core::Material::EMPTY],
             )
             .unwrap(),
