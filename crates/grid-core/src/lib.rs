@@ -103,6 +103,7 @@ pub mod limits;
 pub mod pack;
 pub mod rng;
 mod sample;
+pub mod seam;
 pub mod terrain;
 mod traits;
 pub mod validity;

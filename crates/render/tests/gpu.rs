@@ -1188,3 +1188,296 @@ fn layered_device_sampling_with_the_sun_apart() {
         .to_string();
     assert!(e.contains("layers[0].horizon"), "{e}");
 }
+
+/// Several layers' reads blended (`lightgrid_core::seam`): bins, halves and the
+/// transmittance each the weighted sum of the parts', as the hierarchy's `LightField`
+/// reads across a seam.
+struct Blended<'a>(Vec<(LitLayer<'a>, f32)>);
+
+impl lightgrid_core::LightField for Blended<'_> {
+    fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, lightgrid_core::GridError> {
+        let mut acc = BinLight::ZERO;
+        for (l, w) in &self.0 {
+            acc += l.light(p, n)? * *w;
+        }
+        Ok(acc)
+    }
+    fn horizon(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<Option<HorizonLight>, lightgrid_core::GridError> {
+        let mut acc = HorizonLight::default();
+        for (l, w) in &self.0 {
+            let Some(h) = l.horizon(p, n)? else {
+                return Ok(None);
+            };
+            acc = acc + h * *w;
+        }
+        Ok(Some(acc))
+    }
+    fn sun_transmittance(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<f32, lightgrid_core::GridError> {
+        let mut t = 0.0;
+        for (l, w) in &self.0 {
+            t += l.sun_transmittance(p, n)? * *w;
+        }
+        Ok(t.clamp(0.0, 1.0))
+    }
+}
+
+/// Layered device sampling across the seams between owned layers that tile (one
+/// quadtree, one cell size and points across, each the next one's neighbour) equals
+/// the CPU rule: where a point's read (half a cell along its normal) falls between the
+/// owning layer's outermost points and a neighbour's, the reads of the layers holding
+/// the lookup's corners weighted by their shares (`lightgrid_core::seam::seam_shares`),
+/// with the sun kept apart and horizon halves; the owner's read alone where one of
+/// them is missing, does not reach the point's height, or does not tile (another cell
+/// size beside the block). Across the block's inner seams the light is continuous.
+#[test]
+fn layered_device_sampling_reads_across_seams() {
+    use lightgrid_core::glam::IVec2;
+    use lightgrid_core::seam::seam_shares;
+    use lightgrid_render::{GpuHorizon, GpuLayerSun, LayerLight, transmittance_buffer};
+    let Some(ctx) = context() else { return };
+    let sampler = GpuLightSampler::new(ctx.clone());
+    let owner = |x, z| LayerOwner {
+        origin: Vec2::splat(-8.0),
+        size: 4.0,
+        index: IVec2::new(x, z),
+    };
+    // The world grid; a 2 x 2 block of tiles over -4..4 (0.5 m, 8 points across; one
+    // lower than the others); beside it a layer of another cell size (no seam).
+    let tile = |x: i32, z: i32, levels: u32| {
+        let o = Vec3::new(
+            -8.0 + 4.0 * x as f32 + 0.25,
+            0.0,
+            -8.0 + 4.0 * z as f32 + 0.25,
+        );
+        GridDesc::new(o, 0.5, UVec3::new(8, levels, 8)).unwrap()
+    };
+    let mut descs =
+        vec![GridDesc::new(Vec3::new(-8.0, 0.0, -8.0), 2.0, UVec3::new(9, 4, 9)).unwrap()];
+    let mut owners = vec![None];
+    for (x, z, levels) in [(1, 1, 9), (2, 1, 9), (1, 2, 9), (2, 2, 7)] {
+        descs.push(tile(x, z, levels));
+        owners.push(Some(owner(x, z)));
+    }
+    descs.push(GridDesc::new(Vec3::new(-7.5, 0.0, -3.5), 1.0, UVec3::new(4, 5, 4)).unwrap());
+    owners.push(Some(owner(0, 1)));
+    let n = descs.len();
+    let sky: Vec<LightGrid> = (0..n).map(|i| varied_grid(descs[i], i)).collect();
+    let scat: Vec<LightGrid> = (0..n).map(|i| varied_grid(descs[i], 10 + i)).collect();
+    let ts: Vec<Grid<f32>> = descs
+        .iter()
+        .enumerate()
+        .map(|(k, d)| {
+            Grid::from_trusted(
+                *d,
+                (0..d.point_count())
+                    .map(|i| ((i * 37 + k * 11) % 101) as f32 / 100.0)
+                    .collect(),
+            )
+        })
+        .collect();
+    let sky_h: Vec<HorizonGrid> = (0..n)
+        .map(|i| varied_halves(&sky[i], 40 + i as u64))
+        .collect();
+    let scat_h: Vec<HorizonGrid> = (0..n)
+        .map(|i| varied_halves(&scat[i], 50 + i as u64))
+        .collect();
+    let dev_sky: Vec<GpuLightGrid> = sky
+        .iter()
+        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
+        .collect();
+    let dev_scat: Vec<GpuLightGrid> = scat
+        .iter()
+        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
+        .collect();
+    let dev_t: Vec<wgpu::Buffer> = ts
+        .iter()
+        .map(|t| transmittance_buffer(&ctx, t.data()))
+        .collect();
+    let dev_h: Vec<GpuHorizon> = (0..n)
+        .map(|i| GpuHorizon::new(ctx.clone(), &sky_h[i], Some(&scat_h[i])).unwrap())
+        .collect();
+    let (scale, e, to_sun) = (
+        Vec3::new(0.5, 0.8, 1.2),
+        Vec3::new(3.0, 2.5, 2.0),
+        Vec3::new(0.3, 0.8, -0.4).normalize(),
+    );
+    let light = LayerLight {
+        sky_scale: scale,
+        sun: Some((to_sun, e)),
+    };
+    let lit = |k: usize| LitLayer {
+        sky: &sky[k],
+        scattered: &scat[k],
+        t: &ts[k],
+        scale,
+        sun: e,
+        halves: (Some(&sky_h[k]), Some(&scat_h[k])),
+    };
+    let layers: Vec<GpuSampleLayer> = (0..n)
+        .map(|i| GpuSampleLayer {
+            grid: &dev_sky[i],
+            owner: owners[i],
+            sun: Some(GpuLayerSun {
+                scattered: &dev_scat[i],
+                transmittance: &dev_t[i],
+            }),
+            horizon: Some(&dev_h[i]),
+        })
+        .collect();
+    // Points over the block and beside it, many in the strips along its seams.
+    let mut rng = fastrand::Rng::with_seed(17);
+    let positions: Vec<Vec3> = (0..4000)
+        .map(|k| {
+            let (mut x, mut z) = (rng.f32() * 11.0 - 6.0, rng.f32() * 11.0 - 6.0);
+            if k % 2 == 0 {
+                x = 0.8 * rng.f32() - 0.4;
+            }
+            if k % 3 == 0 {
+                z = 0.8 * rng.f32() - 0.4;
+            }
+            Vec3::new(x, rng.f32() * 4.4 - 0.2, z)
+        })
+        .collect();
+    let normals: Vec<Vec3> = (0..4000)
+        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5).normalize())
+        .collect();
+    // The owner (lightgrid_terrain_lod::Owner::owns: the quadtree cell, and the height
+    // within the grid's levels; the strips beside a tile's outermost points are its).
+    let owner_of = |p: Vec3| -> usize {
+        (0..n)
+            .rev()
+            .find(|&k| {
+                owners[k].is_none_or(|o| {
+                    ((Vec2::new(p.x, p.z) - o.origin) / o.size)
+                        .floor()
+                        .as_ivec2()
+                        == o.index
+                        && p.y >= descs[k].origin().y
+                        && p.y <= descs[k].point_bounds().1.y
+                })
+            })
+            .unwrap()
+    };
+    // The CPU rule: the owner, and across a seam the layers of the block that tile.
+    let parts = |p: Vec3, nrm: Option<Vec3>| -> Vec<(usize, f32)> {
+        let a = owner_of(p);
+        let Some(oa) = owners[a] else {
+            return vec![(a, 1.0)];
+        };
+        let d = descs[a];
+        let q = nrm.map_or(p, |nv| p + nv * (0.5 * d.h()));
+        let (w, count) = seam_shares(&d, q);
+        let mut out = Vec::new();
+        for &(off, wt) in &w[..count] {
+            let found = (0..n).rev().find(|&j| {
+                owners[j].is_some_and(|o| o.index == oa.index + off)
+                    && descs[j].h() == d.h()
+                    && descs[j].dims().x == d.dims().x
+            });
+            match found {
+                Some(j) if p.y <= descs[j].point_bounds().1.y && p.y >= descs[j].origin().y => {
+                    out.push((j, wt))
+                }
+                _ => return vec![(a, 1.0)],
+            }
+        }
+        out
+    };
+    let mut across = 0;
+    for with_normals in [false, true] {
+        let ns = with_normals.then_some(&normals[..]);
+        let gpu = sampler
+            .sample_layers_lit(
+                &layers,
+                GpuPoints::List(SamplePoints {
+                    positions: &positions,
+                    normals: ns,
+                }),
+                &light,
+            )
+            .unwrap()
+            .read()
+            .unwrap();
+        for (i, p) in positions.iter().enumerate() {
+            let nrm = ns.map(|v| v[i]);
+            let ps = parts(*p, nrm);
+            across += (ps.len() > 1) as usize;
+            let field = Blended(ps.iter().map(|&(k, w)| (lit(k), w)).collect());
+            let c = sample_points(
+                &field,
+                SamplePoints {
+                    positions: &positions[i..i + 1],
+                    normals: ns.map(|v| &v[i..i + 1]),
+                },
+            )
+            .unwrap()[0];
+            let want = match nrm {
+                Some(nv) => c.light + e * (c.sun * nv.dot(to_sun).max(0.0)),
+                None => c.light,
+            };
+            let got = gpu[i];
+            assert!(
+                (want - got.light).abs().max_element() <= 1e-5 * want.abs().max_element() + 1e-5
+                    && (c.sun - got.sun).abs() <= 1e-5
+                    && (c.dominant - got.dominant).abs().max_element() <= 1e-4,
+                "normals {with_normals} point {i} at {p} from {ps:?}: cpu {want} T {} dominant {} gpu {} T {} dominant {}",
+                c.sun,
+                c.dominant,
+                got.light,
+                got.sun,
+                got.dominant
+            );
+        }
+    }
+    assert!(across > 1000, "{across} reads across a seam");
+    // Continuous across the block's inner seams (x = 0, z = 0), away from the lower
+    // tile's top: a step of a thousandth of a metre changes the light by little, where
+    // the owners' reads alone jump.
+    let eps = 1e-3;
+    let pairs: Vec<Vec3> = (0..200)
+        .flat_map(|k| {
+            let t = -3.5 + 7.0 * k as f32 / 200.0;
+            let y = 0.3 + 2.5 * (k % 7) as f32 / 7.0;
+            [
+                Vec3::new(-eps, y, t),
+                Vec3::new(eps, y, t),
+                Vec3::new(t, y, -eps),
+                Vec3::new(t, y, eps),
+            ]
+        })
+        .collect();
+    let gpu = sampler
+        .sample_layers_lit(
+            &layers,
+            GpuPoints::List(SamplePoints {
+                positions: &pairs,
+                normals: None,
+            }),
+            &light,
+        )
+        .unwrap()
+        .read()
+        .unwrap();
+    let (mut worst, mut jump) = (0.0f32, 0.0f32);
+    for (k, s) in gpu.chunks(2).enumerate() {
+        worst = worst.max((s[0].light - s[1].light).abs().max_element());
+        let (a, b) = (
+            &sky[owner_of(pairs[2 * k])],
+            &sky[owner_of(pairs[2 * k + 1])],
+        );
+        let alone = |g: &LightGrid, p: Vec3| g.sample(p).unwrap().total().max_element();
+        jump = jump.max((alone(a, pairs[2 * k]) - alone(b, pairs[2 * k + 1])).abs());
+    }
+    assert!(
+        worst < 0.01 * jump,
+        "largest step {worst}, the owners' reads alone {jump}"
+    );
+}

@@ -278,8 +278,10 @@ struct Node {
 
 /// Which points of space a [`Layer`] lights: those whose `(x, z)` fall in quadtree cell
 /// `index` (`floor((p.xz - origin) / size) == index`) and whose height lies within its
-/// grid's points' (the whole cell across: the half cell beside its outermost points is
-/// read at them, clamped, not from a coarser grid).
+/// grid's points' (the whole cell across, not a coarser grid: the half cell beside its
+/// outermost points is read across the seam with the neighbouring nodes of its depth
+/// where they are ready and reach the point's height, [`lightgrid_core::seam`], else at
+/// its outermost points, clamped).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Owner {
     /// World `(x, z)` of the quadtree's corner.
@@ -311,7 +313,9 @@ fn within_levels(desc: &GridDesc, p: Vec3) -> bool {
 /// One grid of the hierarchy as a renderer layers them: [`Hierarchy::layers`] lists the
 /// world grid first (it lights every point), then the ready nodes coarse to fine; a point
 /// takes its light from the last layer that owns it, which is [`Hierarchy::grid_at`]
-/// (tested). GPU renderers evaluate the same rule per layer, one dispatch each.
+/// (tested), and where its read falls between that node's points and a neighbour's of
+/// the same depth, from both ([`Owner`], [`lightgrid_core::seam`]). GPU renderers
+/// evaluate the same rule per layer (`lightgrid_render::GpuLightSampler::sample_layers`).
 #[derive(Debug, Clone, Copy)]
 pub struct Layer<'a> {
     /// The grid.

@@ -3,12 +3,15 @@
 //! [`LightField`] (bins, horizon halves, the sun's transmittance, the light volume's
 //! moments).
 
-use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, GridError, HorizonGrid, HorizonLight, LightField, LightGrid, Reading,
+    BinLight, Blend, GridError, HorizonGrid, HorizonLight, LightField, LightGrid, Reading,
 };
 
-use crate::{GridSun, Hierarchy, Layer, LayerSun, Owner, SunLight, volume, within_levels};
+use crate::{
+    GridSun, Hierarchy, Layer, LayerSun, Node, NodeKey, Owner, SunLight, volume, within_levels,
+};
+use lightgrid_core::seam::seam_shares;
 
 impl Hierarchy {
     /// The grids for layered sampling: the world grid, then the ready nodes by depth
@@ -57,16 +60,93 @@ impl Hierarchy {
 
     /// The finest ready grid containing `p` and its horizon halves, if kept.
     fn serving(&self, p: Vec3) -> (&LightGrid, Option<&HorizonGrid>) {
-        for d in (1..=self.params.depths()).rev() {
-            let key = self.node_at(d, Vec2::new(p.x, p.z));
-            if let Some(n) = self.nodes.get(&key)
-                && within_levels(n.light.desc(), p)
-            {
-                return (&n.light, n.horizon.as_ref());
-            }
+        match self.serving_node(p) {
+            Some((_, n)) => (&n.light, n.horizon.as_ref()),
+            None => (&self.world, self.world_horizon.as_ref()),
         }
-        (&self.world, self.world_horizon.as_ref())
     }
+
+    /// The finest ready node containing `p` (`None`: the world grid serves it).
+    fn serving_node(&self, p: Vec3) -> Option<(NodeKey, &Node)> {
+        (1..=self.params.depths()).rev().find_map(|d| {
+            let key = self.node_at(d, Vec2::new(p.x, p.z));
+            self.nodes
+                .get(&key)
+                .filter(|n| within_levels(n.light.desc(), p))
+                .map(|n| (key, n))
+        })
+    }
+
+    /// The grids `p`'s read takes its light from, with their weights: the serving grid
+    /// alone, or where the read (moved half a cell along `n`) falls between the serving
+    /// node's points and a neighbour's, the nodes of its depth that hold the lookup's
+    /// corners, each weighted by its share of them ([`lightgrid_core::seam`]). The serving grid
+    /// alone where one of those nodes is not built or does not reach `p`'s height.
+    fn shares(&self, p: Vec3, n: Option<Vec3>) -> ([Share<'_>; 4], usize) {
+        let alone = |grid, halves| {
+            let one = Share {
+                light: grid,
+                halves,
+                sun: self.sun_at(p),
+                w: 1.0,
+            };
+            ([one; 4], 1)
+        };
+        let Some((key, node)) = self.serving_node(p) else {
+            return alone(&self.world, self.world_horizon.as_ref());
+        };
+        let own = || alone(&node.light, node.horizon.as_ref());
+        let desc = node.light.desc();
+        let q = match n.map(Vec3::try_normalize) {
+            None => p,
+            Some(Some(n)) => p + n * (0.5 * desc.h()),
+            // (The grid's own read names the bad normal.)
+            Some(None) => return own(),
+        };
+        let (weights, count) = seam_shares(desc, q);
+        if count == 1 && weights[0].0 == IVec2::ZERO {
+            return own();
+        }
+        let mut out = [own().0[0]; 4];
+        for (slot, &(offset, w)) in out.iter_mut().zip(&weights[..count]) {
+            let k = NodeKey {
+                depth: key.depth,
+                index: key.index + offset,
+            };
+            let Some(m) = self
+                .nodes
+                .get(&k)
+                .filter(|m| within_levels(m.light.desc(), p))
+            else {
+                return own();
+            };
+            if m.horizon.is_some() != node.horizon.is_some() {
+                return own();
+            }
+            // A node whose sun response is stale takes the sun from coarser grids.
+            let sun = match (self.sun, &m.sun) {
+                (Some(s), Some(g)) if self.sun_shown(k) => Some((s, g)),
+                (Some(s), _) => self.coarse_sun(p, k.depth, true).map(|g| (s, g)),
+                (None, _) => None,
+            };
+            *slot = Share {
+                light: &m.light,
+                halves: m.horizon.as_ref(),
+                sun,
+                w,
+            };
+        }
+        (out, count)
+    }
+}
+
+/// One grid's part in a read ([`Hierarchy::shares`]).
+#[derive(Clone, Copy)]
+struct Share<'a> {
+    light: &'a LightGrid,
+    halves: Option<&'a HorizonGrid>,
+    sun: Option<(SunLight, &'a GridSun)>,
+    w: f32,
 }
 
 /// What one point reads, from the grid serving it and the grid holding its sun: the
@@ -137,15 +217,71 @@ impl Hierarchy {
         // (Trilinear weights may sum to 1 + 1 ulp.)
         Ok(t.clamp(0.0, 1.0))
     }
+
+    /// [`Hierarchy::bins_at`] of each share, weighted.
+    fn bins_of(
+        &self,
+        shares: &[Share<'_>],
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<BinLight, GridError> {
+        if let [one] = shares {
+            return self.bins_at(one.light, one.sun, p, n);
+        }
+        let mut acc = BinLight::ZERO;
+        for s in shares {
+            acc.add_scaled(&self.bins_at(s.light, s.sun, p, n)?, s.w);
+        }
+        Ok(acc)
+    }
+
+    /// [`Hierarchy::halves_at`] of each share, weighted; `None` where the grids keep no
+    /// halves.
+    fn halves_of(
+        &self,
+        shares: &[Share<'_>],
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<Option<HorizonLight>, GridError> {
+        let mut acc = HorizonLight::default();
+        for s in shares {
+            let Some(h) = s.halves else {
+                return Ok(None);
+            };
+            let v = self.halves_at(h, s.sun, p, n)?;
+            if shares.len() == 1 {
+                return Ok(Some(v));
+            }
+            acc.add_scaled(&v, s.w);
+        }
+        Ok(Some(acc))
+    }
+
+    /// [`Hierarchy::transmittance_at`] of each share, weighted, in `[0, 1]`.
+    fn transmittance_of(shares: &[Share<'_>], p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
+        if let [one] = shares {
+            return Self::transmittance_at(one.sun, p, n);
+        }
+        let mut t = 0.0;
+        for s in shares {
+            t += Self::transmittance_at(s.sun, p, n)? * s.w;
+        }
+        Ok(t.clamp(0.0, 1.0))
+    }
 }
 
 /// The light of the finest ready grid at `p` ([`Hierarchy::grid_at`]) times the sky
 /// scale; with the sun kept apart, plus the sun's scattered light of the finest grid at
 /// `p` with a current sun response times the sun's irradiance, and the transmittance
-/// of that grid.
+/// of that grid. Where the read (with a normal, half a cell along it) falls between the
+/// serving node's outermost points and a neighbour's, it is the sum of the reads of
+/// the nodes of that depth holding the lookup's corners, weighted by their shares
+/// ([`lightgrid_core::seam`]): one grid's trilinear read across the seam, not the
+/// serving node's points clamped.
 impl LightField for Hierarchy {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
-        self.bins_at(self.grid_at(p), self.sun_at(p), p, n)
+        let (shares, count) = self.shares(p, n);
+        self.bins_of(&shares[..count], p, n)
     }
     /// The horizon halves of the finest ready grid at `p` times the sky scale, plus with
     /// the sun kept apart those of the sun's scattered light read as [`LightField::light`]
@@ -153,10 +289,8 @@ impl LightField for Hierarchy {
     /// sun's irradiance; `None` where the grid serving `p` keeps no halves
     /// (`HierarchyParams::sweep.outputs.horizon` off).
     fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<HorizonLight>, GridError> {
-        let Some(halves) = self.serving(p).1 else {
-            return Ok(None);
-        };
-        self.halves_at(halves, self.sun_at(p), p, n).map(Some)
+        let (shares, count) = self.shares(p, n);
+        self.halves_of(&shares[..count], p, n)
     }
     /// Every grid reduced once to the moments a light volume stores (the sky scale and
     /// the sun's irradiance folded in): 7 numbers a corner instead of 52 bins.
@@ -173,16 +307,16 @@ impl LightField for Hierarchy {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let (grid, halves) = self.serving(p);
-        let sun = self.sun_at(p);
-        let horizon = match (n, halves) {
-            (Some(_), Some(h)) => Some(self.halves_at(h, sun, p, n)?),
-            _ => None,
+        let (shares, count) = self.shares(p, n);
+        let shares = &shares[..count];
+        let horizon = match n {
+            Some(_) => self.halves_of(shares, p, n)?,
+            None => None,
         };
         Ok(Reading {
-            light: self.bins_at(grid, sun, p, n)?,
+            light: self.bins_of(shares, p, n)?,
             horizon,
-            sun: Self::transmittance_at(sun, p, n)?,
+            sun: Self::transmittance_of(shares, p, n)?,
         })
     }
 
@@ -190,6 +324,7 @@ impl LightField for Hierarchy {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        Self::transmittance_at(self.sun_at(p), p, n)
+        let (shares, count) = self.shares(p, n);
+        Self::transmittance_of(&shares[..count], p, n)
     }
 }

@@ -15,6 +15,7 @@ use lightgrid_core::{Blend, Grid, GridError, LightGrid, VolumeSample};
 use rayon::prelude::*;
 
 use crate::{GridSun, Hierarchy, NodeKey};
+use lightgrid_core::seam::seam_shares;
 
 /// A point's light reduced: `Σ L_d` (RGB), the direction moment `(Σ Y_d t_d, Σ Y_d)`
 /// and the sun's transmittance.
@@ -102,6 +103,8 @@ fn reduce(
 
 /// One grid reduced.
 struct Layer {
+    /// The node it is (`None`: the world grid).
+    key: Option<NodeKey>,
     /// Sky (times the sky scale) and, where `sun_folded`, the scattered sun (times its
     /// irradiance) and transmittance.
     light: Grid<Moments>,
@@ -156,6 +159,7 @@ impl<'a> Reduced<'a> {
                 let valid = valid.as_deref();
                 let (lo, hi) = grid.desc().point_bounds();
                 Layer {
+                    key: *k,
                     light: reduce(Some(grid), h.sky_scale, own_sun, valid),
                     levels: (lo.y, hi.y),
                     sun_folded: own_sun.is_some(),
@@ -209,6 +213,58 @@ impl<'a> Reduced<'a> {
             .chain(std::iter::once(&self.layers[0]))
     }
 
+    /// `layer`'s moments at `p` (a stale sun response's taken from the finest coarser
+    /// grid with a current one).
+    fn read(&self, layer: &Layer, p: Vec3) -> Result<Moments, GridError> {
+        let mut m = layer.light.sample(p)?;
+        if self.h.sun.is_some() && !layer.sun_folded {
+            let depth = layer.key.map_or(0, |k| k.depth);
+            let coarser = self
+                .holding(p)
+                .filter(|l| l.key.map_or(0, |k| k.depth) < depth);
+            if let Some(s) = coarser.filter_map(|l| l.sun.as_ref()).next() {
+                m.add_scaled(&s.sample(p)?, 1.0);
+            }
+        }
+        Ok(m)
+    }
+
+    /// Where `p` lies between the points of the node `first` and a neighbour's, the
+    /// read across the seam (`lightgrid_core::seam`, as `LightField` reads it): the reads of the
+    /// nodes of its depth holding the lookup's corners, weighted. `None` where `p` lies
+    /// within the node's points, or one of those nodes is not ready or does not reach
+    /// `p`'s height (the node's own read stands).
+    fn across_seam(&self, first: &Layer, p: Vec3) -> Option<Result<Moments, GridError>> {
+        let key = first.key?;
+        let (weights, count) = seam_shares(first.light.desc(), p);
+        if count == 1 && weights[0].0 == IVec2::ZERO {
+            return None;
+        }
+        let table = &self.depths[key.depth as usize - 1];
+        let mut parts = [(first, 0.0f32); 4];
+        for (slot, &(offset, w)) in parts.iter_mut().zip(&weights[..count]) {
+            let c = key.index + offset - table.lo;
+            if c.cmplt(IVec2::ZERO).any() || c.cmpge(table.size).any() {
+                return None;
+            }
+            let l = self
+                .layers
+                .get(table.layer[(c.x + table.size.x * c.y) as usize] as usize)?;
+            if !(p.y >= l.levels.0 && p.y <= l.levels.1) {
+                return None;
+            }
+            *slot = (l, w);
+        }
+        let mut m = Moments::zero();
+        for &(l, w) in &parts[..count] {
+            match self.read(l, p) {
+                Ok(v) => m.add_scaled(&v, w),
+                Err(e) => return Some(Err(e)),
+            }
+        }
+        Some(Ok(m))
+    }
+
     /// The volume's sample at `p`, as the hierarchy's `LightField` reads it: the finest
     /// ready grid's sky; the finest grid's with a current sun response scattered sun and
     /// transmittance.
@@ -216,16 +272,14 @@ impl<'a> Reduced<'a> {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let mut layers = self.holding(p);
-        let first = layers.next().expect("the world grid holds every point");
-        let mut m = first.light.sample(p)?;
-        if self.h.sun.is_some() && !first.sun_folded {
-            // Stale here: the sun from the finest coarser grid with a current response.
-            if let Some(s) = layers.find_map(|l| l.sun.as_ref()) {
-                let sun = s.sample(p)?;
-                m.add_scaled(&sun, 1.0);
-            }
-        }
+        let first = self
+            .holding(p)
+            .next()
+            .expect("the world grid holds every point");
+        let m = match self.across_seam(first, p) {
+            Some(m) => m?,
+            None => self.read(first, p)?,
+        };
         let r = m.v / m.s;
         let dominant = if m.s > 0.0 && r.is_finite() {
             r.clamp_length_max(1.0)

@@ -260,9 +260,10 @@ fn layers_pick_the_grid_that_grid_at_picks() {
         fine += picked.owner.is_some() as u32;
     }
     assert!(fine > 1000, "{fine}");
-    // The half cell beside a node's outermost points is its own (read clamped there),
-    // not a coarser grid's: every ready node serves the points just inside its cell's
-    // corners, between its levels, unless a finer node does.
+    // The half cell beside a node's outermost points is its own (read across the seam
+    // with its neighbours, tests/seam.rs), not a coarser grid's: every ready node
+    // serves the points just inside its cell's corners, between its levels, unless a
+    // finer node does.
     let mut strips = 0;
     for key in h.ready_nodes() {
         let g = h.node(key).unwrap();

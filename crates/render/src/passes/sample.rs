@@ -1,6 +1,7 @@
 //! The light sampling pass: a batch of points lit from one grid or from a grid
-//! hierarchy as layers (one compute dispatch a layer, the finest owning layer winning),
-//! with or without normals and the sun kept apart. `crate::sampling` is the CPU
+//! hierarchy as layers (the finest owning layer winning, read across the seams between
+//! layers that tile, `lightgrid_core::seam`), with or without normals and the sun kept
+//! apart. `crate::sampling` is the CPU
 //! specification; `shaders/sample.wgsl` implements it.
 
 use std::sync::Arc;
@@ -45,10 +46,11 @@ lightgrid_gpu::gpu_struct! {
         /// as even), 1 the sky's (the sun's bins read as even), 2 the sky's and then the
         /// sun's scattered light's.
         pub horizon: u32 => "u32",
-        /// Padding.
-        pub pad1: u32 => "u32",
-        /// Padding.
-        pub pad2: u32 => "u32",
+        /// The step: 0 claim the points the layer owns, 1 add its share of the points
+        /// it or a neighbour of its depth owns, 2 finish every point (one dispatch).
+        pub mode: u32 => "u32",
+        /// The layer's index in hierarchy order + 1 (what its claims hold).
+        pub layer: u32 => "u32",
         /// Multiplier of the layer's bins (rgb): the sky's scale when the sun is kept
         /// apart ([`LayerLight`]), 1 otherwise.
         pub sky_scale: [f32; 4] => "vec4<f32>",
@@ -56,6 +58,10 @@ lightgrid_gpu::gpu_struct! {
         pub sun: [f32; 4] => "vec4<f32>",
         /// Direction toward the sun (xyz).
         pub to_sun: [f32; 4] => "vec4<f32>",
+        /// The layers of its depth around it, `(dz + 1) × 3 + (dx + 1)` for the node
+        /// `(dx, dz)` away ([`seam_neighbours`]): their lowest and highest levels' heights
+        /// and index + 1 (0: none there that tiles with it).
+        pub near: [[f32; 4]; 9] => "array<vec4<f32>, 9>",
     }
 }
 
@@ -176,8 +182,8 @@ impl std::fmt::Debug for GpuHorizon {
 }
 
 /// Which points a layer lights, as `lightgrid_terrain_lod::Owner` states it: those whose `(x, z)`
-/// fall in quadtree cell `index` (`floor((p.xz - origin) / size) == index`) and inside
-/// the layer grid's point bounds.
+/// fall in quadtree cell `index` (`floor((p.xz - origin) / size) == index`) and whose
+/// height lies within the layer grid's levels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LayerOwner {
     /// World `(x, z)` of the quadtree's corner.
@@ -189,7 +195,11 @@ pub struct LayerOwner {
 }
 
 /// One grid of a layered sampling: points take their light from the last layer that
-/// owns them (a layer without owner owns every point).
+/// owns them (a layer without owner owns every point), and where a point's read falls
+/// between the owner's outermost points and those of a layer that tiles with it (one
+/// quadtree, one cell size and points across, in the neighbouring cell), from the
+/// layers holding the lookup's corners, each by its share (`lightgrid_core::seam`, as
+/// `lightgrid_terrain_lod::Hierarchy` reads them).
 #[derive(Debug, Clone, Copy)]
 pub struct GpuSampleLayer<'a> {
     /// The grid, on the sampler's device.
@@ -273,7 +283,9 @@ impl GpuLightSampler {
             device,
             "sample",
             &wgsl(),
-            &[Uniform, Read, Read, Read, Read, Read, ReadWrite, Read],
+            &[
+                Uniform, Read, Read, Read, Read, Read, ReadWrite, Read, ReadWrite,
+            ],
         );
         // The 26 bins' kernel, then the horizon term.
         let t = IrradianceTable::get();
@@ -309,9 +321,9 @@ impl GpuLightSampler {
     }
 
     /// Lights `points` from grids already on the device, each point from the last layer
-    /// owning it (one dispatch per layer, finest first; each point is sampled once), and
-    /// leaves the
-    /// result there: the light grids of a GPU sweep are sampled, and drawn
+    /// owning it, read across the seams between layers that tile ([`GpuSampleLayer`];
+    /// two dispatches a layer and one more: the claims, finest first, the shares, the
+    /// finish), and leaves the result there: the light grids of a GPU sweep are sampled, and drawn
     /// ([`crate::Renderer::set_light_volume_samples`]), without a copy through the CPU.
     /// Every grid must live on this sampler's device; points no layer owns read zero.
     pub fn sample_layers(
@@ -360,10 +372,20 @@ impl GpuLightSampler {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        // Finest first; each point is sampled by the first layer that owns it (the
-        // kernel skips points already written), which is the last in `layers` order.
-        for layer in layers.iter().rev() {
-            let params = layer_params(layer, (count, lattice), light.sky_scale, sun);
+        let claims = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sample claims"),
+            size: count.max(1) as u64 * 4,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let near = seam_neighbours(layers);
+        // One dispatch of layer `i` at step `mode` (the kernel's `SampleParams::mode`).
+        let dispatch = |i: usize, mode: u32| {
+            let layer = &layers[i];
+            let mut params = layer_params(layer, (count, lattice), light.sky_scale, sun);
+            params.mode = mode;
+            params.layer = i as u32 + 1;
+            params.near = near[i];
             let uniform = buffer(
                 &self.ctx,
                 "sample params",
@@ -387,9 +409,21 @@ impl GpuLightSampler {
                     &self.table,
                     &out,
                     halves,
+                    &claims,
                 ],
             );
             self.kernel.dispatch(&self.ctx, &bind, count as u32);
+        };
+        // Claims finest first (the last layer in `layers` order owning a point wins),
+        // then every layer's shares, then one finish.
+        for i in (0..layers.len()).rev() {
+            dispatch(i, 0);
+        }
+        for i in 0..layers.len() {
+            dispatch(i, 1);
+        }
+        if !layers.is_empty() {
+            dispatch(0, 2);
         }
         Ok(GpuSamples {
             ctx: self.ctx.clone(),
@@ -462,6 +496,67 @@ impl GpuLightSampler {
         }
         Ok(sun)
     }
+}
+
+/// Per layer, [`SampleParams::near`]: the layers that tile with it around it, as
+/// `lightgrid_core::seam` reads across their seams. A layer tiles with another where
+/// both are owned with the same quadtree (corner and node side), their cells are
+/// neighbours (or the same), and their grids are of one lattice across (the same cell
+/// size and points across, the other's points one node side further), with the same
+/// kinds of horizon halves and sun responses; of several such layers in one cell, the
+/// last in order (the one owning its points).
+fn seam_neighbours(layers: &[GpuSampleLayer<'_>]) -> Vec<[[f32; 4]; 9]> {
+    let key = |o: &LayerOwner, index: IVec2| {
+        (
+            o.origin.x.to_bits(),
+            o.origin.y.to_bits(),
+            o.size.to_bits(),
+            index.x,
+            index.y,
+        )
+    };
+    let mut by_cell = std::collections::HashMap::new();
+    for (j, l) in layers.iter().enumerate() {
+        if let Some(o) = &l.owner {
+            by_cell.insert(key(o, o.index), j);
+        }
+    }
+    let kind = |l: &GpuSampleLayer<'_>| (l.horizon.map(|h| h.sun), l.sun.is_some());
+    layers
+        .iter()
+        .map(|l| {
+            let mut near = [[0.0f32; 4]; 9];
+            let Some(o) = &l.owner else {
+                return near;
+            };
+            let d = l.grid.desc();
+            for dz in -1..=1 {
+                for dx in -1..=1 {
+                    let step = IVec2::new(dx, dz);
+                    let Some(&j) = by_cell.get(&key(o, o.index + step)) else {
+                        continue;
+                    };
+                    let m = &layers[j];
+                    let e = m.grid.desc();
+                    let shift = step.as_vec2() * o.size;
+                    let expect = Vec2::new(d.origin().x, d.origin().z) + shift;
+                    let tiles = e.h() == d.h()
+                        && e.dims().x == d.dims().x
+                        && e.dims().z == d.dims().z
+                        && (Vec2::new(e.origin().x, e.origin().z) - expect)
+                            .abs()
+                            .max_element()
+                            <= 1e-3 * d.h()
+                        && kind(m) == kind(l);
+                    if tiles {
+                        let (lo, hi) = e.point_bounds();
+                        near[((dz + 1) * 3 + dx + 1) as usize] = [lo.y, hi.y, (j + 1) as f32, 0.0];
+                    }
+                }
+            }
+            near
+        })
+        .collect()
 }
 
 /// The points to sample: their count, and either their positions and normals packed as

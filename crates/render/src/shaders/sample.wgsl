@@ -1,7 +1,10 @@
 // The light sampling buffer on the GPU: lightgrid_render::sampling::sample_points for one
-// grid, dispatched once per layer, finest first: a point already written (out[2i + 1].w =
-// 1) or not owned by the layer is skipped, so each point is sampled once, from the last
-// layer in hierarchy order that owns it (lightgrid_terrain_lod::Owner, Hierarchy::grid_at).
+// grid, or for a hierarchy's grids as layers in three steps (params.mode): every layer,
+// finest first, claims the points it owns that no later layer claimed (claims[i] = its
+// index + 1: the last layer in hierarchy order owning a point, lightgrid_terrain_lod::Owner,
+// Hierarchy::grid_at); every layer then adds its share of the points whose owner is it
+// or a neighbour of its depth whose read falls across their seam (lightgrid_core::seam);
+// a last pass turns the summed direction moment into the dominant direction.
 
 @group(0) @binding(0) var<uniform> params: SampleParams;
 // 26 RGB bins a point (78 floats), grid order.
@@ -14,13 +17,16 @@
 @group(0) @binding(4) var<storage, read> points: array<vec4<f32>>;
 // lightgrid_render::sampling::IrradianceTable::weights.
 @group(0) @binding(5) var<storage, read> table: array<f32>;
-// Two vec4 a point: (light, sun transmittance), (dominant, written ? 1 : 0).
+// Two vec4 a point: (light, sun transmittance), (dominant, written ? 1 : 0); while the
+// layers add their shares, (dominant's direction moment, its weight) in the second.
 @group(0) @binding(6) var<storage, read_write> out: array<vec4<f32>>;
 // With params.horizon > 0 (lightgrid_render::GpuHorizon): the downward halves of the
 // horizontal bins, 8 RGB a point (24 floats), and with params.horizon = 2 after them
 // those of the sun's scattered light; unread otherwise. `table` then holds, after the
 // 26 bins' kernel, the horizon term (IrradianceTable::horizon, 8 floats a node).
 @group(0) @binding(7) var<storage, read> halves: array<f32>;
+// The layer owning each point (its index in hierarchy order + 1; 0: none).
+@group(0) @binding(8) var<storage, read_write> claims: array<u32>;
 
 // lightgrid_render::sampling::octahedral_encode
 fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
@@ -33,38 +39,159 @@ fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
     return p * 0.5 + vec2<f32>(0.5);
 }
 
+struct SamplePoint {
+    p: vec3<f32>,
+    has_normal: bool,
+}
+
+// Point i: of the lattice (x fastest, then z, then y, as GridDesc::position), or listed.
+fn sample_point(i: u32) -> SamplePoint {
+    var s: SamplePoint;
+    s.has_normal = false;
+    if (params.lattice_dims.w == 1u) {
+        let ld = params.lattice_dims.xyz;
+        let c = vec3<u32>(i % ld.x, i / (ld.x * ld.z), (i / ld.x) % ld.z);
+        s.p = params.lattice_origin_h.xyz + params.lattice_origin_h.w * vec3<f32>(c);
+    } else {
+        let head = points[2u * i];
+        s.has_normal = head.w > 0.5;
+        s.p = head.xyz;
+    }
+    return s;
+}
+
+// params.near's entry for the layer at offset `o` (in nodes) from this one.
+fn near_at(o: vec2<i32>) -> vec4<f32> {
+    return params.near[u32((o.y + 1) * 3 + (o.x + 1))];
+}
+
+// lightgrid_core::seam::seam_shares along one axis: the neighbour's offset and weight.
+fn seam_axis(g: f32, last: f32) -> vec2<f32> {
+    if (g < 0.0) {
+        return vec2<f32>(-1.0, min(-g, 1.0));
+    }
+    if (g > last) {
+        return vec2<f32>(1.0, min(g - last, 1.0));
+    }
+    return vec2<f32>(0.0, 0.0);
+}
+
+// This layer's weight in the read at `q` of a point at height `y` owned by the layer at
+// offset `o` from it (lightgrid_core::seam: each node of the lookup's corners by its
+// share of them); where one of those nodes is missing or does not reach `y`, the
+// owner's read stands alone (weight 1 for it, 0 for the others).
+fn seam_weight(q: vec3<f32>, y: f32, o: vec2<i32>) -> f32 {
+    // The owner's points: this grid's, moved by `o` nodes.
+    let h = params.origin_h.w;
+    let owner_xz = params.origin_h.xz + vec2<f32>(o) * params.own.z;
+    let g = (q.xz - owner_xz) / h;
+    let last = vec2<f32>(params.dims.xz) - vec2<f32>(1.0);
+    let ax = seam_axis(g.x, last.x);
+    let az = seam_axis(g.y, last.y);
+    let off = vec2<i32>(i32(ax.x), i32(az.x));
+    var mine = 0.0;
+    for (var k = 0u; k < 4u; k++) {
+        let e = vec2<i32>(i32(k & 1u) * off.x, i32(k >> 1u) * off.y);
+        let w = select(1.0 - ax.y, ax.y, (k & 1u) != 0u) * select(1.0 - az.y, az.y, (k >> 1u) != 0u);
+        if (w <= 0.0) {
+            continue;
+        }
+        // The node at `e` from the owner is at `o + e` from this layer.
+        let at = o + e;
+        if (any(abs(at) > vec2<i32>(1))) {
+            return select(0.0, 1.0, all(o == vec2<i32>(0)));
+        }
+        let nb = near_at(at);
+        if (nb.z < 0.5 || y < nb.x || y > nb.y) {
+            return select(0.0, 1.0, all(o == vec2<i32>(0)));
+        }
+        if (all(at == vec2<i32>(0))) {
+            mine = w;
+        }
+    }
+    return mine;
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= params.count || out[2u * i + 1u].w != 0.0) {
+    if (i >= params.count) {
         return;
     }
-    var p: vec3<f32>;
-    var has_normal = false;
-    if (params.lattice_dims.w == 1u) {
-        // Point i of the lattice (x fastest, then z, then y), as GridDesc::position.
-        let ld = params.lattice_dims.xyz;
-        let c = vec3<u32>(i % ld.x, i / (ld.x * ld.z), (i / ld.x) % ld.z);
-        p = params.lattice_origin_h.xyz + params.lattice_origin_h.w * vec3<f32>(c);
-    } else {
-        let head = points[2u * i];
-        has_normal = head.w > 0.5;
-        p = head.xyz;
+    if (params.mode == 2u) {
+        // The dominant direction from its summed moment (as sample_points: clamped to
+        // unit length), the transmittance within [0, 1], the written flag.
+        if (claims[i] == 0u) {
+            return;
+        }
+        let m = out[2u * i + 1u];
+        var dom = vec3<f32>(0.0);
+        if (m.w > 0.0) {
+            dom = m.xyz / m.w;
+            let len = length(dom);
+            if (len > 1.0) {
+                dom = dom / len;
+            }
+        }
+        out[2u * i + 1u] = vec4<f32>(dom, 1.0);
+        let a = out[2u * i];
+        out[2u * i] = vec4<f32>(a.xyz, clamp(a.w, 0.0, 1.0));
+        return;
     }
-    if (params.own.w > 0.5) {
-        // lightgrid_terrain_lod::Owner::owns: the point's quadtree cell is the layer's node, and
-        // its height lies within the layer grid's levels.
-        let cell = vec2<i32>(floor((p.xz - params.own.xy) / params.own.z));
-        let lo = params.origin_h.y;
-        let hi = lo + params.origin_h.w * f32(params.dims.y - 1u);
-        if (any(cell != params.own_index.xy) || p.y < lo || p.y > hi) {
+    let sp = sample_point(i);
+    var p = sp.p;
+    let has_normal = sp.has_normal;
+    if (params.mode == 0u) {
+        // Claim: the first layer (finest first) owning the point. Owned layers own
+        // lightgrid_terrain_lod::Owner::owns: the point's quadtree cell is the layer's
+        // node, and its height lies within the layer grid's levels.
+        if (claims[i] != 0u) {
+            return;
+        }
+        if (params.own.w > 0.5) {
+            let cell = vec2<i32>(floor((p.xz - params.own.xy) / params.own.z));
+            let lo = params.origin_h.y;
+            let hi = lo + params.origin_h.w * f32(params.dims.y - 1u);
+            if (any(cell != params.own_index.xy) || p.y < lo || p.y > hi) {
+                return;
+            }
+        }
+        claims[i] = params.layer;
+        return;
+    }
+    // Add this layer's share: the owner's offset from this layer, if it is this layer
+    // or a neighbour of its depth.
+    let owner = claims[i];
+    if (owner == 0u) {
+        return;
+    }
+    var o = vec2<i32>(0);
+    if (owner != params.layer) {
+        var found = false;
+        for (var k = 0u; k < 9u; k++) {
+            if (k != 4u && params.near[k].z == f32(owner)) {
+                o = vec2<i32>(i32(k % 3u) - 1, i32(k / 3u) - 1);
+                found = true;
+            }
+        }
+        if (!found) {
             return;
         }
     }
+    let y = p.y;
     var n = vec3<f32>(0.0, 1.0, 0.0);
     if (has_normal) {
         n = normalize(points[2u * i + 1u].xyz);
         p = p + n * (0.5 * params.origin_h.w);
+    }
+    var share = 1.0;
+    if (params.own.w > 0.5) {
+        share = seam_weight(p, y, o);
+    } else if (owner != params.layer) {
+        return;
+    }
+    if (share <= 0.0) {
+        return;
     }
     let dims = params.dims.xyz;
     let t = trilinear(dims, (p - params.origin_h.xyz) / params.origin_h.w);
@@ -152,6 +279,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         // The direct sun, as vertex light holds it (shading::direct_sun).
         light += params.sun.xyz * (t_sun * max(dot(n, params.to_sun.xyz), 0.0));
     }
+    // The direction moment and its weight, summed over the shares (the last pass
+    // divides).
     var dom = vec3<f32>(0.0);
     var sum = 0.0;
     for (var d = 0u; d < NUM_DIRS; d++) {
@@ -159,15 +288,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         dom += DIR_UNIT[d] * l;
         sum += l;
     }
-    if (sum > 0.0) {
-        dom = dom / sum;
-        let len = length(dom);
-        if (len > 1.0) {
-            dom = dom / len;
-        }
-    } else {
-        dom = vec3<f32>(0.0);
-    }
-    out[2u * i] = vec4<f32>(light, t_sun);
-    out[2u * i + 1u] = vec4<f32>(dom, 1.0);
+    out[2u * i] += vec4<f32>(light, t_sun) * share;
+    out[2u * i + 1u] += vec4<f32>(dom, sum) * share;
 }

@@ -1,0 +1,187 @@
+//! Reads across the seam between two nodes of one depth (`crate::seam`): the strip one
+//! cell wide between their outermost points reads the trilinear interpolation of both
+//! nodes' points, as one grid over both would, not the serving node's points clamped.
+
+use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::{BinLight, Heightmap, LightField, Material, VolumeSample};
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
+
+#[path = "field/mod.rs"]
+mod field;
+use field::Field;
+
+/// The seam between the finest nodes over 16..32 m and 32..48 m in x and z (2 m cells,
+/// 8 points: their outermost points at 31 and 33).
+const LAST: f32 = 31.0;
+const FIRST: f32 = 33.0;
+const CELL: f32 = 2.0;
+
+/// A flat ground under a layer of medium 2 to 8 m up whose density changes across x
+/// and z (so every node has objects and finer children, and the light changes along
+/// the seams), every node of a 64 m square built in one frame: world grid 8 m, nodes
+/// of 8 points down to 2 m; a sun kept apart.
+fn hierarchy() -> Hierarchy {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
+    let scene = Field(|p: Vec3, _| {
+        if p.y < 0.0 {
+            Material::opaque(Vec3::splat(0.3))
+        } else if (2.0..8.0).contains(&p.y) {
+            Material {
+                reflectance: Vec3::splat(0.5),
+                pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
+            }
+        } else {
+            Material::EMPTY
+        }
+    });
+    let params = HierarchyParams {
+        world_cell: 8.0,
+        finest_cell: 2.0,
+        node_points: 8,
+        lod_factor: 100.0,
+        evict_factor: 200.0,
+        budget_points: u64::MAX / 4,
+        ..Default::default()
+    };
+    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(scene),
+        Box::new(CpuSweeper::new()),
+        sky,
+        params,
+    )
+    .unwrap();
+    h.set_sun(Some(SunLight {
+        to_sun: Vec3::new(0.6, 0.5, 0.3),
+        irradiance: Vec3::splat(3.0),
+    }))
+    .unwrap();
+    h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
+    h
+}
+
+fn total(b: &BinLight) -> f32 {
+    b.total().element_sum()
+}
+
+#[test]
+fn across_a_seam_the_read_is_continuous_and_linear_between_the_two_nodes_points() {
+    let h = hierarchy();
+    let (y, z) = (5.0, 36.0);
+    let at = |x: f32| Vec3::new(x, y, z);
+    // Both sides are finest nodes, and they differ: the node 16..32 serves x < 32.
+    let (a, b) = (h.grid_at(at(31.9)), h.grid_at(at(32.1)));
+    assert!(!std::ptr::eq(a, b));
+    assert_eq!((a.desc().h(), b.desc().h()), (CELL, CELL));
+    let (la, lb) = (
+        h.light(at(LAST), None).unwrap(),
+        h.light(at(FIRST), None).unwrap(),
+    );
+    // The light changes across the strip (else nothing here could fail): the serving
+    // node read alone, clamped, would jump by this at x = 32.
+    let jump = (total(&la) - total(&lb)).abs();
+    assert!(jump > 1e-3 * total(&la), "{} {}", total(&la), total(&lb));
+    // Continuous at the rectangles' edge.
+    let (l, r) = (
+        h.light(at(31.999), None).unwrap(),
+        h.light(at(32.001), None).unwrap(),
+    );
+    assert!(
+        (total(&l) - total(&r)).abs() <= 0.01 * jump,
+        "{} | {} against a jump of {jump}",
+        total(&l),
+        total(&r)
+    );
+    // Linear between the two outermost points, bin by bin.
+    for f in [0.1f32, 0.25, 0.5, 0.75, 0.9] {
+        let got = h.light(at(LAST + CELL * f), None).unwrap();
+        let want = la * (1.0 - f) + lb * f;
+        for (g, w) in got.0.iter().zip(want.0.iter()) {
+            assert!(
+                (*g - *w).abs().max_element() <= 1e-5 * total(&la),
+                "{f}: {g} {w}"
+            );
+        }
+    }
+    // A surface read half a cell along its normal reads the same place across the
+    // seam whichever node serves it.
+    for x in [31.2f32, 31.6, 31.95] {
+        let biased = h.light(at(x), Some(Vec3::X)).unwrap();
+        let moved = h.light(at(x + 0.5 * CELL), None).unwrap();
+        assert!(
+            (total(&biased) - total(&moved)).abs() <= 1e-5 * total(&moved),
+            "{x}: {} {}",
+            total(&biased),
+            total(&moved)
+        );
+    }
+    // The light volume's sampler reads across the seam as the bins do.
+    let read = h.volume_sampler().unwrap();
+    for x in [31.0f32, 31.5, 31.99, 32.01, 32.5, 33.0] {
+        let (v, b) = (read(at(x)).unwrap(), VolumeSample::read(&h, at(x)).unwrap());
+        assert!(
+            (v.average - b.average).abs().max_element() <= 1e-5 * b.average.max_element()
+                && (v.sun - b.sun).abs() <= 1e-5,
+            "{x}: {v:?} {b:?}"
+        );
+    }
+    // The sun's transmittance too: linear between the two nodes' points.
+    let t = |x: f32| h.sun_transmittance(at(x), None).unwrap();
+    let (ta, tb) = (t(LAST), t(FIRST));
+    assert!((ta - tb).abs() > 1e-3, "{ta} {tb}");
+    for f in [0.0f32, 0.3, 0.5, 0.9999] {
+        let want = ta * (1.0 - f) + tb * f;
+        assert!(
+            (t(LAST + CELL * f) - want).abs() <= 1e-5,
+            "{f}: {} {want}",
+            t(LAST + CELL * f)
+        );
+    }
+}
+
+/// At a corner where four nodes meet the read is the bilinear blend of their four
+/// nearest points, and continuous across both edges.
+#[test]
+fn where_four_nodes_meet_the_read_blends_all_four() {
+    let h = hierarchy();
+    let y = 5.0;
+    let l = |x: f32, z: f32| total(&h.light(Vec3::new(x, y, z), None).unwrap());
+    // The finest nodes meet at (32, 32); their nearest points are at 31 and 33.
+    for (x, z) in [(31.0, 31.0), (33.0, 31.0), (31.0, 33.0), (33.0, 33.0)] {
+        assert_eq!(h.grid_at(Vec3::new(x, y, z)).desc().h(), CELL);
+    }
+    let corners = [
+        l(LAST, LAST),
+        l(FIRST, LAST),
+        l(LAST, FIRST),
+        l(FIRST, FIRST),
+    ];
+    for (fx, fz) in [(0.5f32, 0.5f32), (0.2, 0.7), (0.9, 0.1)] {
+        let want = corners[0] * (1.0 - fx) * (1.0 - fz)
+            + corners[1] * fx * (1.0 - fz)
+            + corners[2] * (1.0 - fx) * fz
+            + corners[3] * fx * fz;
+        let got = l(LAST + CELL * fx, LAST + CELL * fz);
+        assert!((got - want).abs() <= 1e-5 * want, "{fx} {fz}: {got} {want}");
+    }
+    // Continuous across both edges: a step of a thousandth of a metre changes the
+    // read by a small part of what separates the four points (which the serving
+    // node's read alone would jump by).
+    let spread = corners.iter().copied().fold(f32::MIN, f32::max)
+        - corners.iter().copied().fold(f32::MAX, f32::min);
+    assert!(spread > 1e-3 * corners[0], "{corners:?}");
+    let e = 1e-3;
+    for (a, b) in [
+        ((32.0 - e, 32.0 - e), (32.0 + e, 32.0 + e)),
+        ((32.0 - e, 31.5), (32.0 + e, 31.5)),
+        ((31.5, 32.0 - e), (31.5, 32.0 + e)),
+    ] {
+        let (u, v) = (l(a.0, a.1), l(b.0, b.1));
+        assert!(
+            (u - v).abs() <= 0.01 * spread,
+            "{a:?} {b:?}: {u} {v}, the points {spread} apart"
+        );
+    }
+}
