@@ -123,6 +123,10 @@ enum Task {
         /// Monte Carlo paths per probe.
         #[arg(long, default_value_t = 16384, value_parser = clap::value_parser!(u32).range(2..=(1 << 24)))]
         mc_paths: u32,
+        /// Metres of world around the sampled region in the reference sweeps (a low
+        /// sun's rays leave a narrow one early: beyond it nothing shades them).
+        #[arg(long, default_value_t = 40.0)]
+        margin: f32,
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -204,11 +208,13 @@ fn main() -> ExitCode {
             path,
             mc_probes,
             mc_paths,
+            margin,
             out,
         } => {
             let mut cfg = xtask::frame::FrameConfig::new(&root);
             cfg.mc_probes = mc_probes;
             cfg.mc_paths = mc_paths;
+            cfg.margin = margin;
             cfg.node_points = node_points;
             cfg.frames = frames;
             cfg.gpu = gpu;

@@ -121,8 +121,14 @@ impl LightField for Halves<'_> {
     }
 }
 
-/// The region every frame's probes lie in, plus the margin, at node depth `d`'s cell
-/// on its nodes' lattice: their points and cells are the reference's.
+/// What a ray toward the sun may still meet above the ground the region's probes lie
+/// on, metres: the forest's tallest trees (8 m broadleaves scaled up to 1.3) and the
+/// ground's rise beyond them.
+const SHADE_HEIGHT: f32 = 16.0;
+
+/// The region every frame's probes lie in, plus the margin, and toward the lowest sun
+/// as far as its rays climb [`SHADE_HEIGHT`], at node depth `d`'s cell on its nodes'
+/// lattice: their points and cells are the reference's.
 pub(super) fn reference_desc(
     world: &World,
     cfg: &FrameConfig,
@@ -134,6 +140,16 @@ pub(super) fn reference_desc(
         let c = world.camera(cfg, f);
         lo = lo.min(Vec2::new(c.x, c.z) - 20.0 - cfg.margin);
         hi = hi.max(Vec2::new(c.x, c.z) + 20.0 + cfg.margin);
+    }
+    // Toward the lowest sun, as far as its rays climb [`SHADE_HEIGHT`] (beyond the
+    // region nothing shades them: a 10° sun's rise 7 m in 40 m, under the trees' tops).
+    if let Some(e) = cfg.elevations.iter().copied().reduce(f32::min) {
+        let s = super::sun_dir(e);
+        let across = Vec2::new(s.x, s.z);
+        let reach = SHADE_HEIGHT * across.length() / s.y.max(1e-3);
+        let extra = across.normalize_or_zero() * reach.min(1000.0);
+        lo = lo.min(lo + extra);
+        hi = hi.max(hi + extra);
     }
     let (mut g_lo, mut g_hi) = (f32::MAX, f32::MIN);
     let mut x = lo.x;
