@@ -69,6 +69,7 @@ fn measurements() -> Vec<Measurement> {
                         (l.starts_with("sun ") && l.contains("a frame"))
                             || l.trim_start().starts_with("sun +20")
                             || l.trim_start().starts_with("total against Monte Carlo")
+                            || l.trim_start().starts_with("nesting alone at sun")
                     })
                     .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
                     .collect()

@@ -1156,6 +1156,26 @@ pub fn text(report: &FrameReport) -> String {
             s.push_str(&mc::lines(m, r.elevation));
         }
         s.push_str(&seams::line(&r.seams));
+        let by_depth: Vec<String> = r
+            .error_by_depth_own
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.both.n > 0)
+            .map(|(d, e)| {
+                format!(
+                    "depth {d} {:.1} / {:.1} / {:.1}",
+                    100.0 * e.sky.rmse,
+                    100.0 * e.sun.rmse,
+                    100.0 * e.both.rmse
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "  nesting alone at sun {:.0}° (RMSE % of sky / sun / both against one sweep at each depth's own cell): {}",
+            r.elevation,
+            by_depth.join(", ")
+        );
         depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
             format!("{d:5}")
         });
