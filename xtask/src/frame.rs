@@ -270,6 +270,10 @@ pub struct Run {
     /// grid): the nesting's own part of a coarse depth's error, its cell size's part
     /// left out.
     pub error_by_depth_own: Vec<Errors>,
+    /// The finest depth's probes over the path against the 1 m sweep: those whose node
+    /// showed its own sun response, and those whose node's was still to come (they
+    /// read a coarser grid's sun).
+    pub finest_sun: [Errors; 2],
     /// Mean frame, milliseconds.
     pub mean_ms: f64,
     /// Slowest frame, milliseconds.
@@ -575,6 +579,9 @@ struct Tally {
     all: Acc3,
     by_depth: Vec<Acc3>,
     by_depth_own: Vec<Acc3>,
+    /// The finest depth's probes against the 1 m sweep: those whose node shows its own
+    /// sun response, and those whose node's is still to come (a coarser grid's read).
+    finest_sun: [Acc3; 2],
 }
 
 /// The renderer's read of `field` at the probes: `lightgrid_render`'s sampler
@@ -685,6 +692,14 @@ fn frame(
         .iter()
         .map(|r| r.sky_and_sun(&probes))
         .collect::<Result<Vec<_>>>()?;
+    // Which grids show a sun response of their own (a node's may follow its sky sweep).
+    let own_sun: std::collections::HashSet<*const lightgrid_core::LightGrid> = h
+        .layers()
+        .iter()
+        .filter(|l| l.sun.is_some())
+        .map(|l| l.grid as *const _)
+        .collect();
+    let finest = h.params().depths() as usize;
     let mut acc = Acc3::default();
     for (i, (p, (hp, r))) in probes.iter().zip(parts.into_iter().zip(full)).enumerate() {
         acc.add(hp, r);
@@ -695,6 +710,10 @@ fn frame(
             tally.by_depth_own.resize(d + 1, Acc3::default());
         }
         tally.by_depth[d].add(hp, r);
+        if d == finest {
+            let shown = own_sun.contains(&(h.grid_at(p.p) as *const _));
+            tally.finest_sun[usize::from(!shown)].add(hp, r);
+        }
         // The finest depth's own cell is the 1 m sweep's; the world grid has none.
         let own_r = match d {
             0 => None,
@@ -846,6 +865,7 @@ fn run_elevation(
         error: tally.all.errors(),
         error_by_depth: tally.by_depth.iter().map(Acc3::errors).collect(),
         error_by_depth_own: tally.by_depth_own.iter().map(Acc3::errors).collect(),
+        finest_sun: tally.finest_sun.each_ref().map(Acc3::errors),
         sun_move_world_ms: world_ms,
         sun_move_wait_frames: wait_frames,
         sun_move_wait_max_ms: wait_max_ms,
@@ -1156,6 +1176,18 @@ pub fn text(report: &FrameReport) -> String {
             s.push_str(&mc::lines(m, r.elevation));
         }
         s.push_str(&seams::line(&r.seams));
+        let [own, coarse] = &r.finest_sun;
+        let _ = writeln!(
+            s,
+            "  the finest depth over the path (RMSE % against the 1 m sweep): {} probes read their node's own sun response, sun {:.1}, direct sun {:.1}; {} ({:.0} %) a coarser grid's sun while their node's was still to come, sun {:.1}, direct sun {:.1}",
+            own.both.n,
+            100.0 * own.sun.rmse,
+            100.0 * own.direct.rmse,
+            coarse.both.n,
+            100.0 * coarse.both.n as f64 / (own.both.n + coarse.both.n).max(1) as f64,
+            100.0 * coarse.sun.rmse,
+            100.0 * coarse.direct.rmse
+        );
         let by_depth: Vec<String> = r
             .error_by_depth_own
             .iter()

@@ -225,7 +225,8 @@ pub struct SunLight {
 
 /// A grid's sun responses for unit sun irradiance: the scattered light swept for
 /// `to_sun`, the transmittance marched for `marched_to` (the same but while a moved
-/// sun's scattered light follows its direct light: the module `sun_move`).
+/// sun's scattered light follows its direct light: the module `sun_move`; `to_sun`
+/// zero while a new node's scattered light is the coarser grids', `interim_sun`).
 struct GridSun {
     scattered: LightGrid,
     /// The downward halves of `scattered`'s horizontal bins, if kept.

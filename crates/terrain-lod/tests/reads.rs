@@ -1,6 +1,8 @@
-//! Reads across the seam between two nodes of one depth (`crate::seam`): the strip one
-//! cell wide between their outermost points reads the trilinear interpolation of both
-//! nodes' points, as one grid over both would, not the serving node's points clamped.
+//! What a point reads from the hierarchy. Across the seam between two nodes of one
+//! depth (`lightgrid_core::seam`): the strip one cell wide between their outermost
+//! points reads the trilinear interpolation of both nodes' points, as one grid over
+//! both would, not the serving node's points clamped. And a new node whose sun
+//! responses wait for a later frame shows its own transmittance at once.
 
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{BinLight, Heightmap, LightField, Material, VolumeSample};
@@ -22,6 +24,16 @@ const CELL: f32 = 2.0;
 /// the seams), every node of a 64 m square built in one frame: world grid 8 m, nodes
 /// of 8 points down to 2 m; a sun kept apart.
 fn hierarchy() -> Hierarchy {
+    let mut h = unbuilt(u64::MAX / 4, HierarchyParams::default().max_levels);
+    h.update(CAMERA).unwrap();
+    h
+}
+
+const CAMERA: Vec3 = Vec3::new(32.0, 5.0, 32.0);
+
+/// [`hierarchy`] before its first frame, with a budget of `budget_points` and nodes of
+/// `max_levels` at most.
+fn unbuilt(budget_points: u64, max_levels: u32) -> Hierarchy {
     let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
     let scene = Field(|p: Vec3, _| {
         if p.y < 0.0 {
@@ -41,7 +53,8 @@ fn hierarchy() -> Hierarchy {
         node_points: 8,
         lod_factor: 100.0,
         evict_factor: 200.0,
-        budget_points: u64::MAX / 4,
+        budget_points,
+        max_levels,
         ..Default::default()
     };
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
@@ -58,7 +71,6 @@ fn hierarchy() -> Hierarchy {
         irradiance: Vec3::splat(3.0),
     }))
     .unwrap();
-    h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
     h
 }
 
@@ -184,4 +196,75 @@ fn where_four_nodes_meet_the_read_blends_all_four() {
             "{a:?} {b:?}: {u} {v}, the points {spread} apart"
         );
     }
+}
+
+/// A new node whose sun responses do not fit the frame's budget shows its own
+/// transmittance at once (the one its responses bring when swept: the same march) and
+/// the coarser grid's scattered sun at its points meanwhile; a later frame sweeps its
+/// responses, and they end as those of a hierarchy built in one frame.
+#[test]
+fn a_new_node_marches_its_sun_at_once_and_sweeps_it_later() {
+    use lightgrid_terrain_lod::NodeKey;
+    // Nodes of depth 1 hold 8 x 8 points and 5 levels here: a budget of one such node
+    // has room for one node's sky and not its sun as well.
+    let levels = 5;
+    let mut full = unbuilt(u64::MAX / 4, levels);
+    full.update(CAMERA).unwrap();
+    let mut h = unbuilt(8 * 8 * levels as u64, levels);
+    let s = h.update(CAMERA).unwrap();
+    assert_eq!((s.built, s.sun_built), (1, 0), "{s:?}");
+    let key: NodeKey = h.ready_nodes()[0];
+    fn layer_of(h: &Hierarchy, key: NodeKey) -> lightgrid_terrain_lod::Layer<'_> {
+        h.layers()
+            .into_iter()
+            .find(|l| {
+                l.owner
+                    .is_some_and(|o| o.index == key.index && o.size == 32.0)
+            })
+            .unwrap()
+    }
+    let (early, swept) = (layer_of(&h, key), layer_of(&full, key));
+    let (a, b) = (early.sun.unwrap(), swept.sun.unwrap());
+    // The transmittance is the swept responses' own, to rounding.
+    let worst = a
+        .transmittance
+        .data()
+        .iter()
+        .zip(b.transmittance.data())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 1e-6, "transmittance off by {worst}");
+    assert!(b.transmittance.data().iter().any(|&t| t > 0.05 && t < 0.95));
+    // The scattered sun is the world grid's at the node's points until swept.
+    let world = h.layers()[0].sun.unwrap().scattered;
+    let desc = *a.scattered.desc();
+    let mut apart = 0.0f32;
+    for i in (0..desc.point_count()).step_by(7) {
+        let p = desc.position(desc.coords(i).unwrap());
+        let w = world.light(p, None).unwrap();
+        assert_eq!(a.scattered.data()[i].0, w.0, "{p}");
+        apart = apart.max((total(&a.scattered.data()[i]) - total(&b.scattered.data()[i])).abs());
+    }
+    assert!(
+        apart > 1e-3,
+        "the swept scattered sun differs from the world grid's"
+    );
+    // Later frames sweep the node's responses: as built in one frame.
+    for _ in 0..200 {
+        if h.update(CAMERA).unwrap().pending == 0 {
+            break;
+        }
+    }
+    let late = layer_of(&h, key).sun.unwrap();
+    let worst = late
+        .scattered
+        .data()
+        .iter()
+        .zip(b.scattered.data())
+        .map(|(x, y)| (total(x) - total(y)).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst <= 1e-5 * total(&b.scattered.data()[0]).max(1.0),
+        "{worst}"
+    );
 }
