@@ -1179,7 +1179,7 @@ pub fn text(report: &FrameReport) -> String {
         let [own, coarse] = &r.finest_sun;
         let _ = writeln!(
             s,
-            "  the finest depth over the path (RMSE % against the 1 m sweep): {} probes read their node's own sun response, sun {:.1}, direct sun {:.1}; {} ({:.0} %) a coarser grid's sun while their node's was still to come, sun {:.1}, direct sun {:.1}",
+            "  the finest depth over the path (RMSE % against the 1 m sweep): {} probes read their node's own sun (its responses, or while they wait its transmittance marched at once), sun {:.1}, direct sun {:.1}; {} ({:.0} %) a coarser grid's sun while their node's was still to come, sun {:.1}, direct sun {:.1}",
             own.both.n,
             100.0 * own.sun.rmse,
             100.0 * own.direct.rmse,
