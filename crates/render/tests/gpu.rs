@@ -1022,6 +1022,92 @@ fn varied_halves(bins: &LightGrid, seed: u64) -> HorizonGrid {
     Grid::from_trusted(*bins.desc(), data)
 }
 
+/// Layers lit as the hierarchy lights them, on the CPU and on the device: per grid
+/// descriptor its sky bins, scattered sun and transmittance (varied, seeded by layer).
+struct LitGrids {
+    sky: Vec<LightGrid>,
+    scat: Vec<LightGrid>,
+    ts: Vec<Grid<f32>>,
+    dev_sky: Vec<GpuLightGrid>,
+    dev_scat: Vec<GpuLightGrid>,
+    dev_t: Vec<wgpu::Buffer>,
+}
+
+impl LitGrids {
+    fn new(ctx: &Arc<GpuContext>, descs: &[GridDesc]) -> Self {
+        let sky: Vec<LightGrid> = descs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| varied_grid(*d, i))
+            .collect();
+        let scat: Vec<LightGrid> = descs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| varied_grid(*d, 10 + i))
+            .collect();
+        let ts: Vec<Grid<f32>> = descs
+            .iter()
+            .enumerate()
+            .map(|(k, d)| {
+                Grid::from_trusted(
+                    *d,
+                    (0..d.point_count())
+                        .map(|i| ((i * 37 + k * 11) % 101) as f32 / 100.0)
+                        .collect(),
+                )
+            })
+            .collect();
+        let up = |g: &LightGrid| GpuLightGrid::new(ctx.clone(), g).unwrap();
+        Self {
+            dev_sky: sky.iter().map(up).collect(),
+            dev_scat: scat.iter().map(up).collect(),
+            dev_t: ts
+                .iter()
+                .map(|t| lightgrid_render::transmittance_buffer(ctx, t.data()))
+                .collect(),
+            sky,
+            scat,
+            ts,
+        }
+    }
+
+    /// Layer `i` on the device, owned by `owner`, with `horizon` halves.
+    fn layer<'a>(
+        &'a self,
+        i: usize,
+        owner: Option<LayerOwner>,
+        horizon: Option<&'a lightgrid_render::GpuHorizon>,
+    ) -> GpuSampleLayer<'a> {
+        GpuSampleLayer {
+            grid: &self.dev_sky[i],
+            owner,
+            sun: Some(lightgrid_render::GpuLayerSun {
+                scattered: &self.dev_scat[i],
+                transmittance: &self.dev_t[i],
+            }),
+            horizon,
+        }
+    }
+}
+
+/// `points` (with `normals` if given) sampled on the device from `layers` under `light`.
+fn read_lit(
+    sampler: &GpuLightSampler,
+    layers: &[GpuSampleLayer<'_>],
+    (positions, normals): (&[Vec3], Option<&[Vec3]>),
+    light: &lightgrid_render::LayerLight,
+) -> Vec<lightgrid_render::SampledLight> {
+    sampler
+        .sample_layers_lit(
+            layers,
+            GpuPoints::List(SamplePoints { positions, normals }),
+            light,
+        )
+        .unwrap()
+        .read()
+        .unwrap()
+}
+
 /// Layered device sampling with the sky scaled and the sun kept apart equals the CPU
 /// rule: per point the last owning layer's `sky × scale + scattered × E` through
 /// `sample_points`, the transmittance in `w`, and for points with normals the direct sun
@@ -1031,34 +1117,15 @@ fn varied_halves(bins: &LightGrid, seed: u64) -> HorizonGrid {
 /// not on its grid, is refused by name.
 #[test]
 fn layered_device_sampling_with_the_sun_apart() {
-    use lightgrid_render::{GpuHorizon, GpuLayerSun, LayerLight, transmittance_buffer};
+    use lightgrid_render::{GpuHorizon, LayerLight};
     let Some(ctx) = context() else { return };
     let sampler = GpuLightSampler::new(ctx.clone());
     let descs = [
         GridDesc::new(Vec3::new(-8.0, 0.0, -8.0), 2.0, UVec3::new(9, 4, 9)).unwrap(),
         GridDesc::new(Vec3::new(0.0, 0.0, 0.0), 0.5, UVec3::new(9, 9, 9)).unwrap(),
     ];
-    let sky: Vec<LightGrid> = descs
-        .iter()
-        .enumerate()
-        .map(|(i, d)| varied_grid(*d, i))
-        .collect();
-    let scat: Vec<LightGrid> = descs
-        .iter()
-        .enumerate()
-        .map(|(i, d)| varied_grid(*d, 10 + i))
-        .collect();
-    let ts: Vec<Grid<f32>> = descs
-        .iter()
-        .map(|d| {
-            Grid::from_trusted(
-                *d,
-                (0..d.point_count())
-                    .map(|i| ((i * 37) % 101) as f32 / 100.0)
-                    .collect(),
-            )
-        })
-        .collect();
+    let grids = LitGrids::new(&ctx, &descs);
+    let (sky, scat, ts) = (&grids.sky, &grids.scat, &grids.ts);
     let owners = [
         None,
         Some(LayerOwner {
@@ -1072,18 +1139,6 @@ fn layered_device_sampling_with_the_sun_apart() {
         Vec3::new(3.0, 2.5, 2.0),
         Vec3::new(0.3, 0.8, -0.4).normalize(),
     );
-    let dev_sky: Vec<GpuLightGrid> = sky
-        .iter()
-        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
-        .collect();
-    let dev_scat: Vec<GpuLightGrid> = scat
-        .iter()
-        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
-        .collect();
-    let dev_t: Vec<wgpu::Buffer> = ts
-        .iter()
-        .map(|t| transmittance_buffer(&ctx, t.data()))
-        .collect();
     let sky_h: Vec<HorizonGrid> = sky
         .iter()
         .enumerate()
@@ -1104,29 +1159,10 @@ fn layered_device_sampling_with_the_sun_apart() {
     let cpu_layers: Vec<(&LightGrid, Option<LayerOwner>)> = sky.iter().zip(owners).collect();
     for (with_normals, with_halves) in [(false, false), (true, false), (true, true)] {
         let layers: Vec<GpuSampleLayer> = (0..2)
-            .map(|i| GpuSampleLayer {
-                grid: &dev_sky[i],
-                owner: owners[i],
-                sun: Some(GpuLayerSun {
-                    scattered: &dev_scat[i],
-                    transmittance: &dev_t[i],
-                }),
-                horizon: with_halves.then_some(&dev_h[i]),
-            })
+            .map(|i| grids.layer(i, owners[i], with_halves.then_some(&dev_h[i])))
             .collect();
         let ns = with_normals.then_some(&normals[..]);
-        let gpu = sampler
-            .sample_layers_lit(
-                &layers,
-                GpuPoints::List(SamplePoints {
-                    positions: &positions,
-                    normals: ns,
-                }),
-                &light,
-            )
-            .unwrap()
-            .read()
-            .unwrap();
+        let gpu = read_lit(&sampler, &layers, (&positions, ns), &light);
         for (i, p) in positions.iter().enumerate() {
             let g = owning(&cpu_layers, *p).unwrap();
             let k = sky.iter().position(|s| std::ptr::eq(s, g)).unwrap();
@@ -1163,7 +1199,7 @@ fn layered_device_sampling_with_the_sun_apart() {
     }
     // A layer without its sun responses: refused by name.
     let bare = [GpuSampleLayer {
-        grid: &dev_sky[0],
+        grid: &grids.dev_sky[0],
         owner: None,
         sun: None,
         horizon: None,
@@ -1176,7 +1212,7 @@ fn layered_device_sampling_with_the_sun_apart() {
     assert!(e.contains("layers[0].sun"), "{e}");
     // Halves on another grid, or the sun's without a sun: refused by name.
     let unlike = [GpuSampleLayer {
-        grid: &dev_sky[0],
+        grid: &grids.dev_sky[0],
         owner: None,
         sun: None,
         horizon: Some(&dev_h[1]),
@@ -1241,7 +1277,7 @@ impl lightgrid_core::LightField for Blended<'_> {
 fn layered_device_sampling_reads_across_seams() {
     use lightgrid_core::glam::IVec2;
     use lightgrid_core::seam::seam_shares;
-    use lightgrid_render::{GpuHorizon, GpuLayerSun, LayerLight, transmittance_buffer};
+    use lightgrid_render::{GpuHorizon, LayerLight};
     let Some(ctx) = context() else { return };
     let sampler = GpuLightSampler::new(ctx.clone());
     let owner = |x, z| LayerOwner {
@@ -1269,37 +1305,13 @@ fn layered_device_sampling_reads_across_seams() {
     descs.push(GridDesc::new(Vec3::new(-7.5, 0.0, -3.5), 1.0, UVec3::new(4, 5, 4)).unwrap());
     owners.push(Some(owner(0, 1)));
     let n = descs.len();
-    let sky: Vec<LightGrid> = (0..n).map(|i| varied_grid(descs[i], i)).collect();
-    let scat: Vec<LightGrid> = (0..n).map(|i| varied_grid(descs[i], 10 + i)).collect();
-    let ts: Vec<Grid<f32>> = descs
-        .iter()
-        .enumerate()
-        .map(|(k, d)| {
-            Grid::from_trusted(
-                *d,
-                (0..d.point_count())
-                    .map(|i| ((i * 37 + k * 11) % 101) as f32 / 100.0)
-                    .collect(),
-            )
-        })
-        .collect();
+    let grids = LitGrids::new(&ctx, &descs);
+    let (sky, scat, ts) = (&grids.sky, &grids.scat, &grids.ts);
     let sky_h: Vec<HorizonGrid> = (0..n)
         .map(|i| varied_halves(&sky[i], 40 + i as u64))
         .collect();
     let scat_h: Vec<HorizonGrid> = (0..n)
         .map(|i| varied_halves(&scat[i], 50 + i as u64))
-        .collect();
-    let dev_sky: Vec<GpuLightGrid> = sky
-        .iter()
-        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
-        .collect();
-    let dev_scat: Vec<GpuLightGrid> = scat
-        .iter()
-        .map(|g| GpuLightGrid::new(ctx.clone(), g).unwrap())
-        .collect();
-    let dev_t: Vec<wgpu::Buffer> = ts
-        .iter()
-        .map(|t| transmittance_buffer(&ctx, t.data()))
         .collect();
     let dev_h: Vec<GpuHorizon> = (0..n)
         .map(|i| GpuHorizon::new(ctx.clone(), &sky_h[i], Some(&scat_h[i])).unwrap())
@@ -1322,15 +1334,7 @@ fn layered_device_sampling_reads_across_seams() {
         halves: (Some(&sky_h[k]), Some(&scat_h[k])),
     };
     let layers: Vec<GpuSampleLayer> = (0..n)
-        .map(|i| GpuSampleLayer {
-            grid: &dev_sky[i],
-            owner: owners[i],
-            sun: Some(GpuLayerSun {
-                scattered: &dev_scat[i],
-                transmittance: &dev_t[i],
-            }),
-            horizon: Some(&dev_h[i]),
-        })
+        .map(|i| grids.layer(i, owners[i], Some(&dev_h[i])))
         .collect();
     // Points over the block and beside it, many in the strips along its seams.
     let mut rng = fastrand::Rng::with_seed(17);
@@ -1394,18 +1398,7 @@ fn layered_device_sampling_reads_across_seams() {
     let mut across = 0;
     for with_normals in [false, true] {
         let ns = with_normals.then_some(&normals[..]);
-        let gpu = sampler
-            .sample_layers_lit(
-                &layers,
-                GpuPoints::List(SamplePoints {
-                    positions: &positions,
-                    normals: ns,
-                }),
-                &light,
-            )
-            .unwrap()
-            .read()
-            .unwrap();
+        let gpu = read_lit(&sampler, &layers, (&positions, ns), &light);
         for (i, p) in positions.iter().enumerate() {
             let nrm = ns.map(|v| v[i]);
             let ps = parts(*p, nrm);
@@ -1454,18 +1447,7 @@ fn layered_device_sampling_reads_across_seams() {
             ]
         })
         .collect();
-    let gpu = sampler
-        .sample_layers_lit(
-            &layers,
-            GpuPoints::List(SamplePoints {
-                positions: &pairs,
-                normals: None,
-            }),
-            &light,
-        )
-        .unwrap()
-        .read()
-        .unwrap();
+    let gpu = read_lit(&sampler, &layers, (&pairs, None), &light);
     let (mut worst, mut jump) = (0.0f32, 0.0f32);
     for (k, s) in gpu.chunks(2).enumerate() {
         worst = worst.max((s[0].light - s[1].light).abs().max_element());
