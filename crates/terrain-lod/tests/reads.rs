@@ -48,14 +48,8 @@ fn unbuilt(budget_points: u64, max_levels: u32) -> Hierarchy {
         }
     });
     let params = HierarchyParams {
-        world_cell: 8.0,
-        finest_cell: 2.0,
-        node_points: 8,
-        lod_factor: 100.0,
-        evict_factor: 200.0,
-        budget_points,
         max_levels,
-        ..Default::default()
+        ..field::small_params(budget_points)
     };
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
     let mut h = Hierarchy::new(

@@ -4,7 +4,7 @@
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{BinLight, Heightmap, Material};
 use lightgrid_sweep_cpu::CpuSweeper;
-use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
+use lightgrid_terrain_lod::Hierarchy;
 
 #[path = "../field/mod.rs"]
 mod field;
@@ -34,15 +34,7 @@ pub(crate) fn scene(ground: f32) -> Field<impl Fn(Vec3, f32) -> Material + Send 
 /// to 2 m, every node wanted and built in one frame.
 pub(crate) fn hierarchy(ground: f32) -> Hierarchy {
     let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| ground).unwrap();
-    let params = HierarchyParams {
-        world_cell: 8.0,
-        finest_cell: 2.0,
-        node_points: 8,
-        lod_factor: 100.0,
-        evict_factor: 200.0,
-        budget_points: u64::MAX / 4,
-        ..Default::default()
-    };
+    let params = field::small_params(u64::MAX / 4);
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
     let mut h = Hierarchy::new(
         &hm,
