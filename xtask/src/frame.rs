@@ -1175,49 +1175,57 @@ pub fn text(report: &FrameReport) -> String {
         if let Some(m) = &r.monte_carlo {
             s.push_str(&mc::lines(m, r.elevation));
         }
-        s.push_str(&seams::line(&r.seams));
-        let [own, coarse] = &r.finest_sun;
-        let _ = writeln!(
-            s,
-            "  the finest depth over the path (RMSE % against the 1 m sweep): {} probes read their node's own sun (its responses, or while they wait its transmittance marched at once), sun {:.1}, direct sun {:.1}; {} ({:.0} %) a coarser grid's sun while their node's was still to come, sun {:.1}, direct sun {:.1}",
-            own.both.n,
-            100.0 * own.sun.rmse,
-            100.0 * own.direct.rmse,
-            coarse.both.n,
-            100.0 * coarse.both.n as f64 / (own.both.n + coarse.both.n).max(1) as f64,
-            100.0 * coarse.sun.rmse,
-            100.0 * coarse.direct.rmse
-        );
-        let by_depth: Vec<String> = r
-            .error_by_depth_own
-            .iter()
-            .enumerate()
-            .filter(|(_, e)| e.both.n > 0)
-            .map(|(d, e)| {
-                format!(
-                    "depth {d} {:.1} / {:.1} / {:.1}",
-                    100.0 * e.sky.rmse,
-                    100.0 * e.sun.rmse,
-                    100.0 * e.both.rmse
-                )
-            })
-            .collect();
-        let _ = writeln!(
-            s,
-            "  nesting alone at sun {:.0}° (RMSE % of sky / sun / both against one sweep at each depth's own cell): {}",
-            r.elevation,
-            by_depth.join(", ")
-        );
-        depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
-            format!("{d:5}")
-        });
-        depth_table(
-            &mut s,
-            "against one sweep at the depth's own cell (the nesting alone)",
-            &r.error_by_depth_own,
-            |d| format!("{d:5}"),
-        );
+        s.push_str(&nesting_lines(r));
     }
+    s
+}
+
+/// A run's nesting lines: the seams at the last camera, the finest depth's own sun over
+/// the path, the nesting alone by depth, and the two tables by depth.
+fn nesting_lines(r: &Run) -> String {
+    use std::fmt::Write;
+    let mut s = seams::line(&r.seams);
+    let [own, coarse] = &r.finest_sun;
+    let _ = writeln!(
+        s,
+        "  the finest depth over the path (RMSE % against the 1 m sweep): {} probes read their node's own sun (its responses, or while they wait its transmittance marched at once), sun {:.1}, direct sun {:.1}; {} ({:.0} %) a coarser grid's sun while their node's was still to come, sun {:.1}, direct sun {:.1}",
+        own.both.n,
+        100.0 * own.sun.rmse,
+        100.0 * own.direct.rmse,
+        coarse.both.n,
+        100.0 * coarse.both.n as f64 / (own.both.n + coarse.both.n).max(1) as f64,
+        100.0 * coarse.sun.rmse,
+        100.0 * coarse.direct.rmse
+    );
+    let by_depth: Vec<String> = r
+        .error_by_depth_own
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| e.both.n > 0)
+        .map(|(d, e)| {
+            format!(
+                "depth {d} {:.1} / {:.1} / {:.1}",
+                100.0 * e.sky.rmse,
+                100.0 * e.sun.rmse,
+                100.0 * e.both.rmse
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "  nesting alone at sun {:.0}° (RMSE % of sky / sun / both against one sweep at each depth's own cell): {}",
+        r.elevation,
+        by_depth.join(", ")
+    );
+    depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
+        format!("{d:5}")
+    });
+    depth_table(
+        &mut s,
+        "against one sweep at the depth's own cell (the nesting alone)",
+        &r.error_by_depth_own,
+        |d| format!("{d:5}"),
+    );
     s
 }
 
