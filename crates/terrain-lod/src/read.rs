@@ -83,31 +83,35 @@ impl Hierarchy {
     /// corners, each weighted by its share of them ([`lightgrid_core::seam`]). The serving grid
     /// alone where one of those nodes is not built or does not reach `p`'s height.
     fn shares(&self, p: Vec3, n: Option<Vec3>) -> ([Share<'_>; 4], usize) {
-        let alone = |grid, halves| {
-            let one = Share {
-                light: grid,
-                halves,
+        let Some((key, node)) = self.serving_node(p) else {
+            let world = Share {
+                light: &self.world,
+                halves: self.world_horizon.as_ref(),
                 sun: self.sun_at(p),
                 w: 1.0,
             };
-            ([one; 4], 1)
+            return ([world; 4], 1);
         };
-        let Some((key, node)) = self.serving_node(p) else {
-            return alone(&self.world, self.world_horizon.as_ref());
+        // The serving node's share: no finer node holds `p`, so its sun is the one
+        // `sun_at` finds, without walking the finer depths again.
+        let own = Share {
+            light: &node.light,
+            halves: node.horizon.as_ref(),
+            sun: self.node_sun_at(key, node, p),
+            w: 1.0,
         };
-        let own = || alone(&node.light, node.horizon.as_ref());
         let desc = node.light.desc();
         let q = match n.map(Vec3::try_normalize) {
             None => p,
             Some(Some(n)) => p + n * (0.5 * desc.h()),
             // (The grid's own read names the bad normal.)
-            Some(None) => return own(),
+            Some(None) => return ([own; 4], 1),
         };
         let (weights, count) = seam_shares(desc, q);
         if count == 1 && weights[0].0 == IVec2::ZERO {
-            return own();
+            return ([own; 4], 1);
         }
-        let mut out = [own().0[0]; 4];
+        let mut out = [own; 4];
         for (slot, &(offset, w)) in out.iter_mut().zip(&weights[..count]) {
             let k = NodeKey {
                 depth: key.depth,
@@ -118,25 +122,39 @@ impl Hierarchy {
                 .get(&k)
                 .filter(|m| within_levels(m.light.desc(), p))
             else {
-                return own();
+                return ([own; 4], 1);
             };
             if m.horizon.is_some() != node.horizon.is_some() {
-                return own();
+                return ([own; 4], 1);
             }
-            // A node whose sun response is stale takes the sun from coarser grids.
-            let sun = match (self.sun, &m.sun) {
-                (Some(s), Some(g)) if self.sun_shown(k) => Some((s, g)),
-                (Some(s), _) => self.coarse_sun(p, k.depth, true).map(|g| (s, g)),
-                (None, _) => None,
-            };
             *slot = Share {
                 light: &m.light,
                 halves: m.horizon.as_ref(),
-                sun,
+                sun: if k == key {
+                    own.sun
+                } else {
+                    self.node_sun_at(k, m, p)
+                },
                 w,
             };
         }
         (out, count)
+    }
+
+    /// Node `key`'s sun at `p` with the sun kept apart: its own responses where shown,
+    /// else the finest coarser grid's with a shown sun (a stale node's points read
+    /// those).
+    fn node_sun_at<'a>(
+        &'a self,
+        key: NodeKey,
+        node: &'a Node,
+        p: Vec3,
+    ) -> Option<(SunLight, &'a GridSun)> {
+        let sun = self.sun?;
+        match &node.sun {
+            Some(g) if self.sun_shown(key) => Some((sun, g)),
+            _ => self.coarse_sun(p, key.depth, true).map(|g| (sun, g)),
+        }
     }
 }
 
