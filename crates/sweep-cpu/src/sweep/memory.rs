@@ -281,28 +281,30 @@ impl Work {
         }
     }
 
-    /// `old` made ready for a new sweep if it has the size (the level buffers and the
-    /// levels of pending light that were written zeroed), else new buffers with `old`'s
-    /// cell profiles (they depend on a cell's depth of medium alone, not on the grid: a
-    /// hierarchy's nodes differ in height, and each new size integrated the profiles
-    /// again).
+    /// `old` made ready for a new sweep if its levels have the size (the level buffers
+    /// and the levels of pending light that were written zeroed, the per-level and
+    /// per-point buffers made as long as the grid's levels need, in the memory they
+    /// had where it is large enough: a hierarchy's nodes differ in height, and kept for
+    /// one height alone every node's sweep faulted in and zeroed fresh pages), else new
+    /// buffers with `old`'s cell profiles (they depend on a cell's depth of medium
+    /// alone, not on the grid).
     pub(crate) fn reuse(old: Option<Work>, nx: usize, nz: usize, n: usize) -> Self {
         match old {
-            Some(mut w) if w.prev.nx == nx && w.prev.nz == nz && w.pend_down.len() == n => {
+            Some(mut w) if w.prev.nx == nx && w.prev.nz == nz => {
                 w.prev.v.fill(0.0);
                 w.cur.v.fill(0.0);
                 w.ghost.v.fill(0.0);
                 w.ghost_for = None;
-                w.set_up.fill(false);
                 for (j, dirty) in w.pend_dirty.iter_mut().enumerate() {
                     if std::mem::take(dirty) {
                         w.pend_down.clear_level(j);
                         w.pend_up.clear_level(j);
-                        if w.pend_next.len() == n {
+                        if j < w.pend_next.levels.len() {
                             w.pend_next.clear_level(j);
                         }
                     }
                 }
+                w.resize_levels(n / (nx * nz).max(1));
                 w
             }
             old => {
@@ -312,6 +314,27 @@ impl Work {
                 }
                 w
             }
+        }
+    }
+
+    /// The buffers sized by the grid's levels made `levels` long (what they held is
+    /// written before it is read: the planes, `pows` and `quiet` at a level's set-up,
+    /// which `set_up` marks; pending light clear, every level of it written zeroed
+    /// before).
+    fn resize_levels(&mut self, levels: usize) {
+        let n = levels * self.prev.nx * self.prev.nz;
+        self.planes
+            .v
+            .resize(levels * Planes::PER_LEVEL * self.planes.plane_len(), 0.0);
+        self.pows.resize(n, [0.0; MAX_EXPONENTS]);
+        self.quiet.resize(n, false);
+        self.set_up.clear();
+        self.set_up.resize(levels, false);
+        self.pend_dirty.resize(levels, false);
+        self.pend_down.levels.resize(levels, Vec::new());
+        self.pend_up.levels.resize(levels, Vec::new());
+        if !self.pend_next.levels.is_empty() {
+            self.pend_next.levels.resize(levels, Vec::new());
         }
     }
 

@@ -80,11 +80,15 @@ pub(crate) fn prefetch_hint(at: *const u8) {
     unsafe { _mm_prefetch::<_MM_HINT_T1>(at.cast()) }
 }
 
-/// `spare` if it holds `n` values (their contents are overwritten, never read), else
-/// [`fresh_buffer`].
+/// `spare`'s memory made `n` values long if it has room for them (their contents are
+/// overwritten, never read), else [`fresh_buffer`]. A hierarchy's nodes differ in
+/// height: kept for one size alone, a node's sweep wrote fresh pages (faulted in and
+/// zeroed by the kernel) for nearly every node.
 pub(crate) fn take_buffer<T: bytemuck::Zeroable + Clone>(spare: &mut Vec<T>, n: usize) -> Vec<T> {
-    if spare.len() == n {
-        std::mem::take(spare)
+    if spare.capacity() >= n && n > 0 {
+        let mut v = std::mem::take(spare);
+        v.resize(n, T::zeroed());
+        v
     } else {
         fresh_buffer(n)
     }

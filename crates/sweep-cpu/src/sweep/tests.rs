@@ -501,3 +501,57 @@ fn enclosed_opaque_cells_hold_no_light() {
     assert_eq!(spare.sealed.as_ptr(), kept);
     assert!(first.output.bins == third.output.bins);
 }
+
+/// A sweep into memory another height of grid left (a hierarchy's nodes differ in
+/// height: the work buffers and outputs are made as long as each grid needs, in the
+/// memory they had) gives the light of a sweep into fresh memory, bit for bit: tall,
+/// short, tall again and short again, with horizon halves and the accelerated passes'
+/// pending light, the sides periodic and open.
+#[test]
+fn memory_of_another_height_gives_fresh_light() {
+    let grid = |ny: u32| {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(7, ny, 6)).expect("grid");
+        let cells = (0..desc.point_count())
+            .map(|i| {
+                let q = desc.coords(i).expect("index");
+                match q.y {
+                    0 => Material::opaque(Vec3::splat(0.3)),
+                    y if y + 3 >= ny.min(9) && y < ny.min(9) && !(q.x + q.z).is_multiple_of(3) => {
+                        Material {
+                            reflectance: Vec3::new(0.2, 0.5, 0.2),
+                            pass: 0.4 + 0.1 * (q.x % 3) as f32,
+                        }
+                    }
+                    _ => Material::EMPTY,
+                }
+            })
+            .collect();
+        MaterialGrid::new(desc, cells).expect("material")
+    };
+    let bits = |s: &Sweep| -> Vec<u32> {
+        let o = &s.output;
+        let mut v =
+            bytemuck::cast_slice::<BinLight, u32>(o.bins.as_ref().expect("bins").data()).to_vec();
+        v.extend(bytemuck::cast_slice::<lightgrid_core::HorizonLight, u32>(
+            o.horizon.as_ref().expect("halves").data(),
+        ));
+        v
+    };
+    for sides in [SideBoundary::Periodic, SideBoundary::Open] {
+        let b = Boundary {
+            sides,
+            ..Boundary::open_sky(BinLight::uniform(Vec3::ONE).split_vertical().0)
+        };
+        let mut o = SweepOptions::multi_bounce();
+        o.max_passes = 6;
+        o.tolerance = 0.0;
+        o.outputs.horizon = true;
+        let mut spare = Spare::default();
+        for ny in [14, 9, 14, 5, 9] {
+            let m = grid(ny);
+            let reused = run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
+            let fresh = run_reusing(&m, &b, None, &o, true, &mut Spare::default()).expect("sweep");
+            assert!(bits(&reused) == bits(&fresh), "{ny} levels after others");
+        }
+    }
+}
