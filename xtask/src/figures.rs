@@ -76,6 +76,37 @@ fn measurements() -> Vec<Measurement> {
             },
         },
         Measurement {
+            what: "time of day under a 30 ms frame budget, 16-point nodes",
+            command: "cargo xtask frame --budget-ms 30 --mc-probes 0 --out target/bench/budget",
+            runner: Runner::Xtask(
+                &[
+                    "frame",
+                    "--budget-ms",
+                    "30",
+                    "--mc-probes",
+                    "0",
+                    "--out",
+                    "target/bench/budget",
+                ],
+                "budget/frame.txt",
+            ),
+            headline: |t| {
+                t.lines()
+                    .filter(|l| {
+                        (l.starts_with("sun ") && l.contains("a frame"))
+                            || l.trim_start().starts_with("sun +20")
+                            || l.trim_start().starts_with("every wanted node's sun")
+                    })
+                    .map(|l| {
+                        // The frame's error lines are the plain run's (above); the
+                        // budget's own figures are its times and the move's.
+                        let l = l.split(", sky bias").next().unwrap_or(l);
+                        l.split_whitespace().collect::<Vec<_>>().join(" ")
+                    })
+                    .collect()
+            },
+        },
+        Measurement {
             what: "the sweep's throughput (points a second)",
             command: "cargo run --release -p lightgrid-measure --example throughput",
             runner: Runner::Example("lightgrid-measure", "throughput"),
