@@ -99,6 +99,17 @@ impl ContentHash {
                     self.bins(x);
                 }
             }
+            SideBoundary::GivenHalves { light, down } => {
+                self.u32(3).u64(light.len() as u64);
+                for x in light {
+                    self.bins(x);
+                }
+                for d in down {
+                    for v in &d.0 {
+                        self.f32s(&v.to_array());
+                    }
+                }
+            }
         }
         self
     }

@@ -85,7 +85,26 @@ impl Boundary {
                 }
             }
         }
-        if let SideBoundary::Given(h) = &self.sides {
+        if let Some(down) = self.sides.halo_down() {
+            let layout = HaloLayout::new(desc.dims());
+            if down.len() != layout.len() {
+                return Err(GridError::LengthMismatch {
+                    field: "sides.down",
+                    expected: layout.len(),
+                    found: down.len(),
+                });
+            }
+            for (i, d) in down.iter().enumerate() {
+                if let Some(v) = d.0.iter().find(|v| !v.is_finite() || v.min_element() < 0.0) {
+                    return Err(GridError::invalid(
+                        "sides.down",
+                        format!("[{i}] = {v}"),
+                        "must be finite and >= 0",
+                    ));
+                }
+            }
+        }
+        if let Some(h) = self.sides.halo() {
             let layout = HaloLayout::new(desc.dims());
             if h.len() != layout.len() {
                 return Err(GridError::LengthMismatch {
@@ -129,6 +148,37 @@ pub enum SideBoundary {
     /// downward part, the upward pass its upward part, each horizontal bin split across
     /// the horizon by its neighbours ([`BinLight::split_vertical_by_neighbours`]).
     Given(Vec<BinLight>),
+    /// [`SideBoundary::Given`] with the downward halves of every value's horizontal bins
+    /// beside it (`down[i]` for `light[i]`, as a coarser grid that kept them holds them:
+    /// [`Outputs::horizon`]): the downward pass takes each horizontal bin's downward half
+    /// as given (clamped to the bin), the upward pass the rest, instead of a split by the
+    /// neighbours.
+    GivenHalves {
+        /// Full-sphere light at the halo's points, as in [`SideBoundary::Given`].
+        light: Vec<BinLight>,
+        /// The downward halves of `light`'s horizontal bins, point for point.
+        down: Vec<crate::HorizonLight>,
+    },
+}
+
+impl SideBoundary {
+    /// The halo's light, if the sides are given ([`SideBoundary::Given`] or
+    /// [`SideBoundary::GivenHalves`]).
+    pub fn halo(&self) -> Option<&[BinLight]> {
+        match self {
+            SideBoundary::Given(h) | SideBoundary::GivenHalves { light: h, .. } => Some(h),
+            SideBoundary::Open | SideBoundary::Periodic => None,
+        }
+    }
+
+    /// The downward halves of the halo's horizontal bins, if given
+    /// ([`SideBoundary::GivenHalves`]).
+    pub fn halo_down(&self) -> Option<&[crate::HorizonLight]> {
+        match self {
+            SideBoundary::GivenHalves { down, .. } => Some(down),
+            _ => None,
+        }
+    }
 }
 
 /// Width of the [`SideBoundary::Given`] halo: the farthest a sweep path's source point
@@ -1190,6 +1240,26 @@ mod tests {
                 .to_string()
                 .contains("top has 3 elements")
         );
+        // Given halves: as many as the halo's points, each finite and >= 0.
+        let n = HaloLayout::new(d.dims()).len();
+        let sides = |down: Vec<crate::HorizonLight>| Boundary {
+            sides: SideBoundary::GivenHalves {
+                light: vec![BinLight::ZERO; n],
+                down,
+            },
+            ..Boundary::open_sky(BinLight::ZERO)
+        };
+        assert!(
+            sides(vec![crate::HorizonLight::default(); n])
+                .validate(&d)
+                .is_ok()
+        );
+        let short = sides(vec![crate::HorizonLight::default(); n - 1]).validate(&d);
+        assert!(short.unwrap_err().to_string().contains("sides.down"));
+        let mut bad = vec![crate::HorizonLight::default(); n];
+        bad[5].0[2].y = -1.0;
+        let e = sides(bad).validate(&d).unwrap_err().to_string();
+        assert!(e.contains("sides.down") && e.contains("[5]"), "{e}");
     }
 
     #[test]

@@ -175,7 +175,7 @@ pub fn trace_points(
     let periodic = match boundary.sides {
         SideBoundary::Periodic => true,
         SideBoundary::Open => false,
-        SideBoundary::Given(_) => {
+        SideBoundary::Given(_) | SideBoundary::GivenHalves { .. } => {
             return Err(GridError::invalid(
                 "sides",
                 "Given",

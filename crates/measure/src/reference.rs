@@ -204,7 +204,7 @@ fn sources(
             )));
         }
     };
-    if matches!(boundary.sides, SideBoundary::Given(_)) {
+    if boundary.sides.halo().is_some() {
         return Err(SweepError::Invalid(GridError::invalid(
             "sides",
             "Given",

@@ -170,6 +170,91 @@ fn a_field_handed_over_through_the_faces_is_kept_exactly() {
     }
 }
 
+/// A free-streaming field whose horizontal bins are not split across the horizon as
+/// their neighbours say (a sky bright at the horizon over a dark ground: each horizontal
+/// bin 80 % downward light, where the neighbours 45° above and below give another
+/// share), handed over through all faces as a hierarchy's node takes a coarser grid's
+/// light that kept its horizon halves: the top with the downward halves, the bottom with
+/// the rest, the sides with the full bins and their downward halves
+/// (`SideBoundary::GivenHalves`). Empty space keeps the field exactly, every point and
+/// bin to 1e-4, and the downward halves the sweep writes are the given ones. The sides
+/// without their halves (`SideBoundary::Given`, split by the neighbours) put the wrong
+/// share into each pass: more than 10 % off near the sides.
+#[test]
+fn horizon_halves_handed_over_through_the_sides_are_kept_exactly() {
+    use lightgrid_core::dirs::{FIRST_HORIZONTAL, HORIZONTAL_BINS, dir_unit};
+    use lightgrid_core::{BinLight, GridDesc, HorizonLight, Material, MaterialGrid, NUM_DIRS};
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(8, 6, 8)).unwrap();
+    let m = MaterialGrid::filled(desc, Material::EMPTY).unwrap();
+    // Radiance per bin, times its solid angle: a horizon band over a dim ground.
+    let omega = lightgrid_core::dirs::solid_angles();
+    let field = BinLight(std::array::from_fn(|b| {
+        let dy = dir_unit(b).y;
+        let radiance = if dy < 0.0 {
+            1.0 + 0.2 * b as f32
+        } else if dy > 0.0 {
+            0.15
+        } else {
+            2.5
+        };
+        Vec3::new(1.0, 0.8, 0.6) * radiance * omega[b]
+    }));
+    let halves = HorizonLight(std::array::from_fn(|k| field.0[FIRST_HORIZONTAL + k] * 0.8));
+    let (mut top, mut bottom) = (BinLight::ZERO, BinLight::ZERO);
+    for b in 0..NUM_DIRS {
+        let dy = dir_unit(b).y;
+        if dy < 0.0 {
+            top.0[b] = field.0[b];
+        } else if dy > 0.0 {
+            bottom.0[b] = field.0[b];
+        }
+    }
+    for k in 0..HORIZONTAL_BINS {
+        top.0[FIRST_HORIZONTAL + k] = halves.0[k];
+        bottom.0[FIRST_HORIZONTAL + k] = field.0[FIRST_HORIZONTAL + k] - halves.0[k];
+    }
+    let n = lightgrid_core::HaloLayout::new(desc.dims()).len();
+    let mut o = converged();
+    o.outputs.horizon = true;
+    let sweep = |sides: SideBoundary| {
+        let b = Boundary {
+            top: lightgrid_core::TopBoundary::Uniform(Box::new(top)),
+            bottom,
+            sides,
+        };
+        lightgrid_sweep_cpu::run(&m, &b, &o).unwrap().output
+    };
+    let given = sweep(SideBoundary::GivenHalves {
+        light: vec![field; n],
+        down: vec![halves; n],
+    });
+    let (bins, down) = (given.bins.unwrap(), given.horizon.unwrap());
+    for (i, (l, d)) in bins.data().iter().zip(down.data()).enumerate() {
+        for bin in 0..NUM_DIRS {
+            let (got, want) = (l.0[bin], field.0[bin]);
+            assert!(
+                (got - want).abs().max_element() <= 1e-4 * want.max_element(),
+                "point {i}, bin {bin}: {got} vs {want}"
+            );
+        }
+        for k in 0..HORIZONTAL_BINS {
+            let (got, want) = (d.0[k], halves.0[k]);
+            assert!(
+                (got - want).abs().max_element() <= 1e-4 * want.max_element(),
+                "point {i}, half {k}: {got} vs {want}"
+            );
+        }
+    }
+    // Split by the neighbours instead: the same field, read wrong near the sides.
+    let split = sweep(SideBoundary::Given(vec![field; n])).horizon.unwrap();
+    let worst = split
+        .data()
+        .iter()
+        .flat_map(|d| (0..HORIZONTAL_BINS).map(move |k| (d.0[k].x / halves.0[k].x - 1.0).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(worst > 0.1, "the neighbours' split, worst half {worst}");
+}
+
 /// Beam conservation with the sun in the bins (issue 44): over an infinite black ground
 /// (periodic sides), what enters through the top per column and what the ground absorbs
 /// are `E sin(elevation)` at every elevation from 2° to 90° and any azimuth, to 1e-4

@@ -175,8 +175,10 @@
 //!    or the bottom boundary (upward). Source points beyond the sides take: open — the
 //!    top (downward) or bottom (upward) boundary light, as if the world around were empty;
 //!    periodic — the wrapped point; given — the halo value of that point and level (the
-//!    level clamped into the grid), its horizontal bins split across the horizon by
-//!    their neighbours (`BinLight::horizon_share`: the downward pass takes
+//!    level clamped into the grid), its horizontal bins split across the horizon as given
+//!    (`SideBoundary::GivenHalves`: the downward pass takes the given downward half,
+//!    clamped to the bin; [`sweep::channel_value_halves`]), else by their neighbours
+//!    (`BinLight::horizon_share`: the downward pass takes
 //!    `h · B(x,−1,z) / (B(x,−1,z) + B(x,1,z))`, the upward pass the rest; exact where the
 //!    radiance is constant over each hemisphere; [`sweep::channel_value`]). Boundary light enters only
 //!    in the first downward and the first upward pass.

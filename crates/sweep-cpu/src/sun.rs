@@ -359,7 +359,8 @@ impl SunSplit {
         // Only the first collisions bring light: no boundary light at all.
         let dark = lightgrid_core::Boundary {
             sides: match sides {
-                lightgrid_core::SideBoundary::Given(h) => {
+                lightgrid_core::SideBoundary::Given(h)
+                | lightgrid_core::SideBoundary::GivenHalves { light: h, .. } => {
                     lightgrid_core::SideBoundary::Given(vec![
                         lightgrid_core::BinLight::ZERO;
                         h.len()

@@ -7,7 +7,7 @@ use lightgrid_core::{
     NUM_DIRS, PackedBins, PackedLightGrid, Resident, SideBoundary, SweepError, SweepOptions,
     SweepOutput, SweepStats, Sweeper,
 };
-use lightgrid_sweep_cpu::sweep::{CHANNELS, channel_value, channels, virtual_level_light};
+use lightgrid_sweep_cpu::sweep::{CHANNELS, channel_value_halves, channels, virtual_level_light};
 use wgpu::util::DeviceExt;
 
 use std::sync::Arc;
@@ -652,13 +652,16 @@ impl GpuSweeper {
         self.ctx
             .queue
             .write_buffer(&b.virt, 0, bytemuck::cast_slice(&v));
-        if let SideBoundary::Given(h) = &boundary.sides {
+        if let Some(h) = boundary.sides.halo() {
+            let down = boundary.sides.halo_down();
             let mut hv = vec![0.0f32; shape.halo.len() * CHANNELS * 3];
             if active {
                 for (i, l) in h.iter().enumerate() {
+                    let d = down.map(|d| &d[i]);
                     for (c, chn) in ch.iter().enumerate() {
                         let o = (i * CHANNELS + c) * 3;
-                        hv[o..o + 3].copy_from_slice(&channel_value(l, chn, true).to_array());
+                        hv[o..o + 3]
+                            .copy_from_slice(&channel_value_halves(l, d, chn, true).to_array());
                     }
                 }
             }
@@ -735,7 +738,7 @@ impl Shape {
             n: material.desc().point_count(),
             padded: (nx + 2 * w) * (nz + 2 * w),
             periodic: matches!(boundary.sides, SideBoundary::Periodic),
-            given: matches!(boundary.sides, SideBoundary::Given(_)),
+            given: boundary.sides.halo().is_some(),
             halo: HaloLayout::new(dims),
         }
     }

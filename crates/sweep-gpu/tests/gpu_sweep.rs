@@ -110,10 +110,10 @@ fn material_strategy(max: u32) -> impl Strategy<Value = MaterialGrid> {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
     /// Random grids (each side 1 to 40 points; pass-through and reflectance including exact
-    /// 0 and 1), every side mode and a per-point top, random sky and sun, smoothing and
+    /// 0 and 1), every side mode (given halos with and without their downward halves) and a per-point top, random sky and sun, smoothing and
     /// pass count.
     #[test]
-    fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..4, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17, profile in any::<bool>(), horizon in any::<bool>()) {
+    fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..5, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17, profile in any::<bool>(), horizon in any::<bool>()) {
         let Some(gpu) = sweeper() else { return Ok(()) };
         let d = *m.desc();
         let mut sky = lumpy_sky();
@@ -125,7 +125,13 @@ proptest! {
             sides: match sides {
                 0 | 3 => SideBoundary::Open,
                 1 => SideBoundary::Periodic,
-                _ => SideBoundary::Given((0..HaloLayout::new(d.dims()).len()).map(|i| sky.scaled(0.5 + (i % 7) as f32 * 0.1)).collect()),
+                2 => SideBoundary::Given((0..HaloLayout::new(d.dims()).len()).map(|i| sky.scaled(0.5 + (i % 7) as f32 * 0.1)).collect()),
+                // Given halves: each horizontal bin's downward half its own fraction.
+                _ => {
+                    let light: Vec<BinLight> = (0..HaloLayout::new(d.dims()).len()).map(|i| sky.scaled(0.5 + (i % 7) as f32 * 0.1)).collect();
+                    let down = light.iter().enumerate().map(|(i, l)| lightgrid_core::HorizonLight(std::array::from_fn(|k| l.0[lightgrid_core::dirs::FIRST_HORIZONTAL + k] * (0.1 + ((i + k) % 9) as f32 * 0.1)))).collect();
+                    SideBoundary::GivenHalves { light, down }
+                }
             },
         };
         let mut o = SweepOptions::multi_bounce();

@@ -147,8 +147,8 @@ fn one_sweep_of_the_ground_reads_the_exact_answers() {
 /// Through the hierarchy, facing up within 1 % of `π`, and the halves nearer the exact
 /// answers than the even read facing up and facing down (halves read the wrong way
 /// round would give facing down the sky's radiance: +100 % and more). Measured (the
-/// finest node's centre, 2.5–3 m above the ground): halves up −0.2 %, down −3.7 to
-/// −4.9 % (the nesting: one 2 m sweep reads it exactly); even up −4.3 %, down +10.3 to
+/// finest node's centre, 2.5–3 m above the ground): halves up 0.0 %, down −3.4 to
+/// −5.0 % (the nesting: one 2 m sweep reads it exactly); even up −4.3 %, down +10.3 to
 /// +8.9 %.
 #[test]
 fn the_hierarchys_halves_read_a_lambertian_ground_under_the_sky() {

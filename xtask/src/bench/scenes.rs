@@ -218,7 +218,7 @@ pub fn coarsen(s: &BenchScene) -> Result<BenchScene> {
             top,
             bottom: s.boundary.bottom,
             sides: match &s.boundary.sides {
-                SideBoundary::Given(_) => SideBoundary::Open,
+                SideBoundary::Given(_) | SideBoundary::GivenHalves { .. } => SideBoundary::Open,
                 o => o.clone(),
             },
         },

@@ -26,25 +26,28 @@ impl Sources<'_> {
 
     /// The bins [`Sources::virtual_light`] reads a channel of at column (x, z), and
     /// whether they span the full sphere (`None`: no light enters this pass).
-    pub(crate) fn virtual_bins(&self, x: i32, z: i32) -> Option<(&BinLight, bool)> {
-        self.active.then(|| {
-            (
-                virtual_level_light(self.boundary, self.up, x, z, self.dims),
-                false,
-            )
+    pub(crate) fn virtual_bins(&self, x: i32, z: i32) -> Option<SourceBins<'_>> {
+        self.active.then(|| SourceBins {
+            light: virtual_level_light(self.boundary, self.up, x, z, self.dims),
+            down: None,
+            full_sphere: false,
         })
     }
 
     /// The bins [`Sources::outside`] reads a channel of at (x, level, z), found once for
     /// all channels (a ring of a level is filled point by point, `Work::fill_ghost`).
-    pub(crate) fn outside_bins(&self, x: i32, level: i32, z: i32) -> Option<(&BinLight, bool)> {
+    pub(crate) fn outside_bins(&self, x: i32, level: i32, z: i32) -> Option<SourceBins<'_>> {
         if !self.active {
             return None;
         }
-        match (&self.boundary.sides, &self.halo) {
-            (SideBoundary::Given(h), Some(layout)) => {
+        match (self.boundary.sides.halo(), &self.halo) {
+            (Some(h), Some(layout)) => {
                 let lv = level.clamp(0, self.dims.y as i32 - 1) as u32;
-                layout.index(x, lv, z).map(|i| (&h[i], true))
+                layout.index(x, lv, z).map(|i| SourceBins {
+                    light: &h[i],
+                    down: self.boundary.sides.halo_down().map(|d| &d[i]),
+                    full_sphere: true,
+                })
             }
             _ => self.virtual_bins(x, z),
         }
@@ -53,11 +56,21 @@ impl Sources<'_> {
     /// Channel `chn` of bins found by [`Sources::outside_bins`] or
     /// [`Sources::virtual_bins`] (0 where none).
     #[inline(always)]
-    pub(crate) fn value(bins: Option<(&BinLight, bool)>, chn: &Channel) -> Vec3 {
-        bins.map_or(Vec3::ZERO, |(b, full_sphere)| {
-            channel_value(b, chn, full_sphere)
+    pub(crate) fn value(bins: Option<SourceBins<'_>>, chn: &Channel) -> Vec3 {
+        bins.map_or(Vec3::ZERO, |b| {
+            channel_value_halves(b.light, b.down, chn, b.full_sphere)
         })
     }
+}
+
+/// Light entering from outside at one source point: its bins, the downward halves of
+/// its horizontal bins where given ([`SideBoundary::GivenHalves`]), and whether it is
+/// full-sphere light (a side halo's) or one-way (the virtual level's).
+#[derive(Clone, Copy)]
+pub(crate) struct SourceBins<'a> {
+    pub(crate) light: &'a BinLight,
+    pub(crate) down: Option<&'a lightgrid_core::HorizonLight>,
+    pub(crate) full_sphere: bool,
 }
 
 pub(crate) struct Ctx {

@@ -234,7 +234,7 @@ pub fn check_boundary_scale(boundary: &Boundary) -> Result<(), GridError> {
     if big(&boundary.bottom) {
         return err("bottom");
     }
-    if let SideBoundary::Given(h) = &boundary.sides
+    if let Some(h) = boundary.sides.halo()
         && h.iter().any(big)
     {
         return err("sides");

@@ -283,7 +283,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             && match &boundary.sides {
                 SideBoundary::Periodic => false,
                 SideBoundary::Open => boundary.bottom != BinLight::ZERO,
-                SideBoundary::Given(_) => true,
+                SideBoundary::Given(_) | SideBoundary::GivenHalves { .. } => true,
             };
         Pass {
             up,
@@ -872,8 +872,10 @@ impl Fixed {
             laterally_uniform: matches!(boundary.top, TopBoundary::Uniform(_))
                 && matches!(boundary.sides, SideBoundary::Open | SideBoundary::Periodic),
             periodic,
-            halo: matches!(boundary.sides, SideBoundary::Given(_))
-                .then(|| lightgrid_core::HaloLayout::new(desc.dims())),
+            halo: boundary
+                .sides
+                .halo()
+                .map(|_| lightgrid_core::HaloLayout::new(desc.dims())),
         }
     }
 }

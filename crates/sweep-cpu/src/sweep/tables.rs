@@ -286,3 +286,32 @@ pub fn channel_value(b: &BinLight, chn: &Channel, full_sphere: bool) -> Vec3 {
         (v - down).max(Vec3::ZERO)
     }
 }
+
+/// [`channel_value`] where the downward halves of `b`'s horizontal bins are given
+/// (`down`, from [`SideBoundary::GivenHalves`](lightgrid_core::SideBoundary::GivenHalves)):
+/// a horizontal channel's downward pass takes its bin's downward half (clamped to
+/// `[0, h]`), the upward pass the rest. Without `down`, [`channel_value`]. Part of the
+/// specification, as [`channel_value`].
+#[inline]
+pub fn channel_value_halves(
+    b: &BinLight,
+    down: Option<&lightgrid_core::HorizonLight>,
+    chn: &Channel,
+    full_sphere: bool,
+) -> Vec3 {
+    let Some(d) = down else {
+        return channel_value(b, chn, full_sphere);
+    };
+    let v = b.0[chn.bin];
+    if !full_sphere || chn.share == 1.0 {
+        return v;
+    }
+    let half = d.0[chn.bin - lightgrid_core::dirs::FIRST_HORIZONTAL]
+        .min(v)
+        .max(Vec3::ZERO);
+    if chn.pass() == 0 {
+        half
+    } else {
+        (v - half).max(Vec3::ZERO)
+    }
+}
