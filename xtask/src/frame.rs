@@ -102,6 +102,9 @@ pub struct FrameConfig {
     /// Most passes a sweep runs (`HierarchyParams::sweep.max_passes`, in the hierarchy
     /// and the reference sweep; `None`: the hierarchy's default, 4).
     pub passes: Option<u32>,
+    /// Cells of a node's sky sweep beyond the node (`HierarchyParams::apron`; `None`:
+    /// the hierarchy's default).
+    pub apron: Option<u32>,
     /// The sweeps' convergence tolerance (`HierarchyParams::sweep.tolerance`, in the
     /// hierarchy and the reference sweep; `None`: the hierarchy's default, 0.01).
     pub tolerance: Option<f32>,
@@ -134,6 +137,7 @@ impl FrameConfig {
             even: false,
             budget_ms: None,
             passes: None,
+            apron: None,
             tolerance: None,
             path: CameraPath::Forest,
             margin: 40.0,
@@ -349,6 +353,8 @@ pub struct FrameReport {
     pub budget_ms: Option<f32>,
     /// The frames' point budget (`HierarchyParams::budget_points`).
     pub budget_points: u64,
+    /// Cells of a node's sky sweep beyond the node (`HierarchyParams::apron`).
+    pub apron: u32,
     /// Most passes a sweep ran (the hierarchy's and the reference's).
     pub passes: u32,
     /// The sweeps' convergence tolerance.
@@ -653,6 +659,9 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.budget_ms = cfg.budget_ms;
     if let Some(n) = cfg.passes {
         p.sweep.max_passes = n;
+    }
+    if let Some(a) = cfg.apron {
+        p.apron = a;
     }
     if let Some(t) = cfg.tolerance {
         p.sweep.tolerance = t;
@@ -1022,6 +1031,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,
+        apron: hierarchy_params(cfg).apron,
         passes: hierarchy_params(cfg).sweep.max_passes,
         tolerance: hierarchy_params(cfg).sweep.tolerance,
         reference_points: desc.point_count() as u64,
@@ -1074,9 +1084,10 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes, {} passes at most (tolerance {}), {} path, bare-ground skip {}, sun's casters {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells), {} passes at most (tolerance {}), {} path, bare-ground skip {}, sun's casters {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
+        report.apron,
         report.passes,
         report.tolerance,
         report.path,

@@ -127,6 +127,10 @@ enum Task {
         /// sun's rays leave a narrow one early: beyond it nothing shades them).
         #[arg(long, default_value_t = 40.0)]
         margin: f32,
+        /// Cells a node's sky sweep reaches beyond the node (HierarchyParams::apron;
+        /// default: the hierarchy's)
+        #[arg(long)]
+        apron: Option<u32>,
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -209,12 +213,14 @@ fn main() -> ExitCode {
             mc_probes,
             mc_paths,
             margin,
+            apron,
             out,
         } => {
             let mut cfg = xtask::frame::FrameConfig::new(&root);
             cfg.mc_probes = mc_probes;
             cfg.mc_paths = mc_paths;
             cfg.margin = margin;
+            cfg.apron = apron;
             cfg.node_points = node_points;
             cfg.frames = frames;
             cfg.gpu = gpu;

@@ -152,12 +152,16 @@ impl Hierarchy {
                     });
                 }
                 Want::New(key, i) => {
-                    let cost = materials[i].grid.desc().point_count() as u64;
-                    if over(stats.points_swept, cost) {
+                    let desc = materials[i].grid.desc();
+                    let (cost, sky_cost) = (
+                        desc.point_count() as u64,
+                        crate::apron::sky_points(desc, self.params.apron),
+                    );
+                    if over(stats.points_swept, sky_cost) {
                         stats.pending += 1;
                         continue;
                     }
-                    stats.points_swept += cost;
+                    stats.points_swept += sky_cost;
                     stats.built += 1;
                     let mut sun = false;
                     if self.sun.is_some() {
@@ -463,16 +467,10 @@ impl Hierarchy {
         times: &mut StageTimes,
     ) -> Result<Node, LodError> {
         let material = &composed.grid;
-        let desc = *material.desc();
         let o = self.node_options(composed.has_objects);
-        let (boundary, input_hash) = timed(&mut times.boundary, || {
-            let b = self.node_boundary(&desc, key.depth);
-            let hash = crate::hash_grid(material, &b, &o);
-            (b, hash)
-        });
-        let out = timed(&mut times.sky_sweep, || {
-            sweeper.sweep(material, &boundary, &o)
-        })?;
+        let inputs = self.sky_inputs(key.depth, material, &o, times)?;
+        let input_hash = inputs.hash;
+        let out = self.sweep_sky(&inputs, material, &o, sweeper, times)?;
         let light = out.bins.ok_or_else(|| {
             GridError::invalid("sweeper", sweeper.name(), "returned no bins, asked for")
         })?;

@@ -7,7 +7,7 @@ use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::Hierarchy;
 
 #[path = "../field/mod.rs"]
-mod field;
+pub(crate) mod field;
 use field::Field;
 
 /// The top of the block of medium standing on the ground over `20..28` m in x and z.
@@ -32,6 +32,7 @@ pub(crate) fn scene(ground: f32) -> Field<impl Fn(Vec3, f32) -> Material + Send 
 
 /// The scene over a 64 m heightmap at `ground`: world grid 8 m, nodes of 8 points down
 /// to 2 m, every node wanted and built in one frame.
+#[allow(dead_code)] // (the tests that include this module and build their own)
 pub(crate) fn hierarchy(ground: f32) -> Hierarchy {
     let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| ground).unwrap();
     let params = field::small_params(u64::MAX / 4);

@@ -1,0 +1,117 @@
+//! A node's boundary from the coarser grids: the top from the downward light just above
+//! it, the sides from the full light in its halo, with the horizon halves where the
+//! coarser grid keeps them.
+
+use lightgrid_core::glam::{UVec3, Vec2, Vec3};
+use lightgrid_core::{
+    BinLight, Boundary, GridDesc, HALO_WIDTH, HaloLayout, HorizonGrid, HorizonLight, LightGrid,
+    SideBoundary, TopBoundary,
+};
+
+use crate::{Hierarchy, Response, within_levels};
+
+impl Hierarchy {
+    /// Light (full bins) at `p` from the finest ready grid coarser than `depth` (the
+    /// sky's, or all light without the sun apart, or the sun's scattered response), and
+    /// that grid's horizon halves at `p`, if it keeps them.
+    pub(crate) fn coarse_light_split(
+        &self,
+        p: Vec3,
+        depth: u32,
+        which: Response,
+    ) -> (BinLight, Option<HorizonLight>) {
+        self.coarse_grid(p, depth, which)
+            .map(|(g, h)| {
+                (
+                    g.sample(p).unwrap_or_default(),
+                    h.and_then(|h| h.sample(p).ok()),
+                )
+            })
+            .unwrap_or_default()
+    }
+
+    /// The grid [`Hierarchy::coarse_light_split`] reads at `p`, and its halves if kept.
+    pub(crate) fn coarse_grid(
+        &self,
+        p: Vec3,
+        depth: u32,
+        which: Response,
+    ) -> Option<(&LightGrid, Option<&HorizonGrid>)> {
+        if which == Response::Sun {
+            return self
+                .coarse_sun(p, depth, false)
+                .map(|s| (&s.scattered, s.horizon.as_ref()));
+        }
+        for d in (1..depth).rev() {
+            let key = self.node_at(d, Vec2::new(p.x, p.z));
+            if let Some(n) = self.nodes.get(&key)
+                && within_levels(n.light.desc(), p)
+            {
+                return Some((&n.light, n.horizon.as_ref()));
+            }
+        }
+        Some((&self.world, self.world_horizon.as_ref()))
+    }
+
+    /// The boundary of a node grid from the coarser grids: the top from the downward
+    /// light just above it, the sides from the full light in the halo.
+    pub(crate) fn node_boundary(&self, desc: &GridDesc, depth: u32) -> Boundary {
+        self.node_boundary_of(desc, depth, Response::Sky)
+    }
+
+    /// [`Hierarchy::node_boundary`] of one response.
+    pub(crate) fn node_boundary_of(
+        &self,
+        desc: &GridDesc,
+        depth: u32,
+        which: Response,
+    ) -> Boundary {
+        let dims = desc.dims();
+        let h = desc.h();
+        let top_y = dims.y - 1;
+        let mut top = Vec::with_capacity(desc.level_len());
+        for k in 0..dims.z {
+            for i in 0..dims.x {
+                let p = desc.position(UVec3::new(i, top_y, k)) + Vec3::Y * h;
+                // The downward light: where the coarser grid keeps its horizon halves,
+                // its horizontal bins' downward halves as they are.
+                let (light, halves) = self.coarse_light_split(p, depth, which);
+                let mut down = light.split_vertical_by_neighbours().0;
+                if let Some(halves) = halves {
+                    for (k, half) in halves.within(&light).0.iter().enumerate() {
+                        down.0[lightgrid_core::dirs::FIRST_HORIZONTAL + k] = *half;
+                    }
+                }
+                top.push(down);
+            }
+        }
+        // The sides: the full light, and where the coarser grids keep their horizon
+        // halves, the downward halves as they are (a split by the neighbours left
+        // surfaces facing down 6 % too bright in the finest nodes).
+        let layout = HaloLayout::new(dims);
+        let mut halo = vec![BinLight::ZERO; layout.len()];
+        let mut down = vec![None; layout.len()];
+        let w = HALO_WIDTH;
+        for j in 0..dims.y {
+            for z in -w..dims.z as i32 + w {
+                for x in -w..dims.x as i32 + w {
+                    if let Some(i) = layout.index(x, j, z) {
+                        let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
+                        let (light, halves) = self.coarse_light_split(p, depth, which);
+                        halo[i] = light;
+                        down[i] = halves.map(|d| d.within(&light));
+                    }
+                }
+            }
+        }
+        let sides = match down.into_iter().collect::<Option<Vec<_>>>() {
+            Some(down) => SideBoundary::GivenHalves { light: halo, down },
+            _ => SideBoundary::Given(halo),
+        };
+        Boundary {
+            top: TopBoundary::PerPoint(top),
+            bottom: BinLight::ZERO,
+            sides,
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! A node's sky sweep widened by an apron (`HierarchyParams::apron`): the finest nodes
+//! around a block of dense medium on a flat ground, against one sweep of the whole
+//! scene at their cell, are nearer to it with an apron than without (the light entering
+//! their sides has crossed the apron's fine material instead of coming from a coarser
+//! grid's points); and the parameter is checked.
+
+use lightgrid_core::glam::{UVec3, Vec2, Vec3};
+use lightgrid_core::{
+    BinLight, Boundary, GridDesc, Heightmap, LightField, MaterialSource, Sweeper,
+};
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, LodError};
+
+#[path = "block/mod.rs"]
+mod block;
+use block::field;
+
+const GROUND: f32 = 1.0;
+
+fn sky() -> BinLight {
+    BinLight::uniform(Vec3::ONE).split_vertical().0
+}
+
+fn params(apron: u32) -> HierarchyParams {
+    HierarchyParams {
+        apron,
+        ..field::small_params(u64::MAX / 4)
+    }
+}
+
+fn hierarchy(apron: u32) -> Result<Hierarchy, LodError> {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| GROUND).unwrap();
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(block::scene(GROUND)),
+        Box::new(CpuSweeper::new()),
+        sky(),
+        params(apron),
+    )?;
+    h.update(Vec3::new(32.0, 5.0, 32.0))?;
+    Ok(h)
+}
+
+/// Relative RMS difference of the irradiance on the six axes between the hierarchy and
+/// `reference` at the points of the finest nodes within 12 m of the block's centre.
+fn rms_against(h: &Hierarchy, reference: &impl LightField) -> f64 {
+    let axes = [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ];
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for l in h.layers().iter().filter(|l| l.grid.desc().h() == 2.0) {
+        let d = *l.grid.desc();
+        for i in 0..d.point_count() {
+            let p = d.position(d.coords(i).unwrap());
+            if (p.x - 24.0).abs() > 12.0 || (p.z - 24.0).abs() > 12.0 || p.y < GROUND + 1.0 {
+                continue;
+            }
+            for a in axes {
+                let (got, want) = (
+                    h.irradiance(p, a).unwrap().x,
+                    reference.irradiance(p, a).unwrap().x,
+                );
+                sum += ((got - want) as f64 / want.max(1e-3) as f64).powi(2);
+                n += 1;
+            }
+        }
+    }
+    assert!(n > 1000, "{n} reads");
+    (sum / n as f64).sqrt()
+}
+
+/// Measured: 11.2 % without an apron, 6.3 % with two cells and 3.0 % with four.
+#[test]
+fn an_apron_brings_the_finest_nodes_nearer_to_one_sweep() {
+    // One sweep of the scene at the finest cell, over the 64 m and 16 m beyond on every
+    // side (its open sides far from the block), with the hierarchy's options.
+    let desc = GridDesc::new(Vec3::new(-15.0, -5.0, -15.0), 2.0, UVec3::new(48, 12, 48)).unwrap();
+    let m = block::scene(GROUND).material(&desc).unwrap();
+    let mut o = params(0).sweep;
+    o.outputs.bins = true;
+    let out = CpuSweeper::new()
+        .sweep(&m, &Boundary::open_sky(sky()), &o)
+        .unwrap();
+    let reference =
+        lightgrid_core::SplitLightGrid::new(out.bins.unwrap(), out.horizon.unwrap()).unwrap();
+    let errors: Vec<f64> = [0, 2, 4]
+        .iter()
+        .map(|&a| rms_against(&hierarchy(a).unwrap(), &reference))
+        .collect();
+    println!("relative RMS against one sweep, apron 0 / 2 / 4: {errors:?}");
+    assert!(errors[1] < 0.6 * errors[0], "{errors:?}");
+    assert!(errors[2] < errors[1], "{errors:?}");
+}
+
+/// An apron wider than a node is refused, naming the field; one that makes the largest
+/// node sweep exceed the point budget too.
+#[test]
+fn the_apron_is_checked() {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| GROUND).unwrap();
+    let build = |p: HierarchyParams| {
+        Hierarchy::new(
+            &hm,
+            Box::new(block::scene(GROUND)),
+            Box::new(CpuSweeper::new()),
+            sky(),
+            p,
+        )
+        .err()
+        .map(|e| e.to_string())
+    };
+    let e = build(params(9)).expect("an apron of 9 cells around 8 points");
+    assert!(e.contains("apron"), "{e}");
+    let mut p = params(8);
+    p.budget_points = 8 * 8 * p.max_levels as u64;
+    let e = build(p).expect("a budget under the widened node");
+    assert!(e.contains("budget_points"), "{e}");
+    assert!(build(params(8)).is_none());
+}
