@@ -200,6 +200,10 @@ pub struct GridSpec {
     /// Down/up passes of each sweep (1 = the seed's single downward pass).
     #[serde(default = "default_passes")]
     pub passes: u32,
+    /// Cells a node's sky sweep reaches beyond the node on every side
+    /// (`HierarchyParams::apron`; 0, the default: none).
+    #[serde(default)]
+    pub apron: u32,
 }
 
 impl Default for GridSpec {
@@ -209,6 +213,7 @@ impl Default for GridSpec {
             finest_cell: 1.0,
             node_points: default_node_points(),
             passes: default_passes(),
+            apron: 0,
         }
     }
 }
@@ -585,6 +590,13 @@ impl SceneFile {
         if !(1..=16).contains(&g.passes) {
             bail!("grid.passes = {}: must be in 1..=16", g.passes);
         }
+        if g.apron > g.node_points {
+            bail!(
+                "grid.apron = {}: must be at most grid.node_points ({})",
+                g.apron,
+                g.node_points
+            );
+        }
         for (i, m) in self.models.iter().enumerate() {
             match (&m.gltf, m.procedural) {
                 (Some(_), None) | (None, Some(_)) => {}
@@ -793,6 +805,23 @@ mod tests {
             SceneFile::parse(&text, "b.toml", Path::new(".")).unwrap_err()
         );
         assert!(e.contains("grid.node_points = 1000"), "{e}");
+        let text = DEMO.replacen("# apron = 2", "apron = 33", 1);
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "d.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains("grid.apron = 33") && e.contains("(32)"), "{e}");
+        assert_eq!(
+            SceneFile::parse(
+                &DEMO.replacen("# apron = 2", "apron = 2", 1),
+                "e.toml",
+                Path::new(".")
+            )
+            .unwrap()
+            .grid
+            .apron,
+            2
+        );
         let text = DEMO.replacen("model = \"oak\"", "model = \"pine\"", 1);
         let e = format!(
             "{:#}",

@@ -241,7 +241,11 @@ fn hierarchy_params(scene: &SceneFile) -> HierarchyParams {
         world_cell: g.world_cell,
         finest_cell: g.finest_cell,
         node_points: g.node_points,
-        budget_points: g.node_points as u64 * g.node_points as u64 * 48 * 4,
+        apron: g.apron,
+        budget_points: (g.node_points + 2 * g.apron) as u64
+            * (g.node_points + 2 * g.apron) as u64
+            * 48
+            * 4,
         ..Default::default()
     };
     params.sweep.max_passes = g.passes;
