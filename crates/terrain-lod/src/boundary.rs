@@ -8,6 +8,8 @@ use lightgrid_core::{
     SideBoundary, TopBoundary,
 };
 
+use lightgrid_core::trilinear_indices;
+
 use crate::{Hierarchy, Response, within_levels};
 
 impl Hierarchy {
@@ -20,11 +22,23 @@ impl Hierarchy {
         depth: u32,
         which: Response,
     ) -> (BinLight, Option<HorizonLight>) {
+        if !p.is_finite() {
+            return Default::default();
+        }
+        // One lookup for the bins and the halves (on the same points): the halo's
+        // reads were half a node's boundary time.
         self.coarse_grid(p, depth, which)
             .map(|(g, h)| {
+                let lookup = trilinear_indices(g.desc().dims(), g.desc().to_grid(p));
                 (
-                    g.sample(p).unwrap_or_default(),
-                    h.and_then(|h| h.sample(p).ok()),
+                    g.blend(lookup),
+                    h.map(|h| {
+                        if h.desc() == g.desc() {
+                            h.blend(lookup)
+                        } else {
+                            h.sample(p).unwrap_or_default()
+                        }
+                    }),
                 )
             })
             .unwrap_or_default()

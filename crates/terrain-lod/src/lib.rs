@@ -45,8 +45,8 @@
 //! `cargo xtask frame` runs a camera path with the sun kept apart and measures the
 //! light sampled against one full-resolution sweep of the region, and at the last
 //! camera against Monte Carlo (the repository's `docs/measurements.md`, "The hierarchy
-//! frame by frame", has its figures): with 16-point nodes 67–84 ms a frame on two
-//! cores (10, 30 and 60° suns, 2026-11-29); against the single sweep the sky within about 1 % in bias at every depth,
+//! frame by frame", has its figures): with 16-point nodes 69–110 ms a frame on two
+//! cores (10, 30 and 60° suns, two runs on 2026-11-29, a noisy VM); against the single sweep the sky within about 1 % in bias at every depth,
 //! sky and sun together 3–5 % RMSE in the finest nodes; against Monte Carlo, what the
 //! renderer reads 6–10 % RMSE, most of it the single sweep's own error at points
 //! (ARCHITECTURE.md, "Known defects").
