@@ -280,8 +280,10 @@ pub fn run(root: &Path, assemble_only: bool) -> Result<Vec<PathBuf>> {
                     eprintln!("figures: {}", m.command);
                     let status = Command::new(&cargo)
                         .args(["run", "--release", "-q", "-p", "lightgrid-viewer", "--"])
+                        // Relative to the root it runs in: the summary's file list
+                        // names no machine's paths.
                         .arg("--out")
-                        .arg(&demo_out)
+                        .arg("target/figures-demo")
                         .current_dir(root)
                         .env("LIGHTGRID_QUIET", "1")
                         .status()
