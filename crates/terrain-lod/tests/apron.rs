@@ -44,14 +44,7 @@ fn hierarchy(apron: u32) -> Result<Hierarchy, LodError> {
 /// Relative RMS difference of the irradiance on the six axes between the hierarchy and
 /// `reference` at the points of the finest nodes within 12 m of the block's centre.
 fn rms_against(h: &Hierarchy, reference: &impl LightField) -> f64 {
-    let axes = [
-        Vec3::X,
-        Vec3::NEG_X,
-        Vec3::Y,
-        Vec3::NEG_Y,
-        Vec3::Z,
-        Vec3::NEG_Z,
-    ];
+    let axes = lightgrid_core::light::AMBIENT_AXES;
     let (mut sum, mut n) = (0.0f64, 0usize);
     for l in h.layers().iter().filter(|l| l.grid.desc().h() == 2.0) {
         let d = *l.grid.desc();
