@@ -13,7 +13,8 @@
 //!   WGSL in `shaders/common.wgsl` implements the same formulas.
 //! - **Rasteriser** ([`Renderer`]): terrain and instanced meshes (base colour texture,
 //!   alpha mask) into a linear HDR target, tone-mapped to sRGB; headless images or any
-//!   texture view (a window).
+//!   texture view (a window). Instances wholly outside a view are left out of its draw
+//!   ([`cull`]: bounding spheres against the frustum; the image is the same).
 //!
 //! - **Many dynamic lights** ([`dynamic`]): point, spot and line lights culled through a
 //!   world-space grid of light-index ranges (3DWorld's grid bag), in the mesh shader.
@@ -46,6 +47,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod cull;
 pub mod dynamic;
 pub mod passes;
 pub mod raster;

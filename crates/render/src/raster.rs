@@ -10,6 +10,7 @@ use lightgrid_gpu::{GpuContext, GpuError, bind};
 use wgpu::util::DeviceExt;
 
 use crate::RenderError;
+use crate::cull::{Bound, Frustum};
 use crate::dynamic::DynamicLights;
 use crate::passes::mesh::{self, DEPTH_FORMAT, FrameUniforms, MeshUniforms};
 use crate::passes::sample::GpuSamples;
@@ -219,8 +220,29 @@ struct GpuMesh {
     indices: wgpu::Buffer,
     index_count: u32,
     bind: wgpu::BindGroup,
-    instances: Option<(wgpu::Buffer, u32)>,
+    instances: Option<Instances>,
     double_sided: bool,
+    /// The sphere around the vertices ([`crate::cull`]).
+    bound: Bound,
+}
+
+/// A mesh's instances: all of them on the device and here, and a buffer as large for
+/// those a view may see ([`Renderer::render_to`] culls per view).
+struct Instances {
+    all: wgpu::Buffer,
+    list: Vec<MeshInstance>,
+    /// Each instance's bounding sphere, placed.
+    bounds: Vec<Bound>,
+    seen: wgpu::Buffer,
+}
+
+/// What one mesh's draw reads: every instance, or the first `n` of its `seen` buffer
+/// (written for this view).
+#[derive(Clone, Copy)]
+enum Drawn {
+    All,
+    Seen(u32),
+    Nothing,
 }
 
 /// Draws meshes lit by light grids. Create once; add meshes, set instances, the light
@@ -616,6 +638,7 @@ impl Renderer {
             bind,
             instances: None,
             double_sided: material.double_sided,
+            bound: Bound::of(vertices.iter().map(|v| Vec3::from_array(v.position))),
         });
         Ok(MeshId(self.meshes.len() - 1))
     }
@@ -663,16 +686,25 @@ impl Renderer {
         m.instances = if instances.is_empty() {
             None
         } else {
-            Some((
-                self.ctx
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("instances"),
-                        contents: bytemuck::cast_slice(instances),
-                        usage: wgpu::BufferUsages::VERTEX,
-                    }),
-                instances.len() as u32,
-            ))
+            let device = &self.ctx.device;
+            Some(Instances {
+                all: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("instances"),
+                    contents: bytemuck::cast_slice(instances),
+                    usage: wgpu::BufferUsages::VERTEX,
+                }),
+                bounds: instances
+                    .iter()
+                    .map(|i| m.bound.placed(&Mat4::from_cols_array_2d(&i.model)))
+                    .collect(),
+                list: instances.to_vec(),
+                seen: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("instances seen"),
+                    size: std::mem::size_of_val(instances) as u64,
+                    usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+            })
         };
         Ok(())
     }
@@ -902,6 +934,41 @@ impl Renderer {
         })
     }
 
+    /// What each of `view`'s meshes draws: the instances whose bounding spheres the
+    /// camera may see, written into their `seen` buffers where some are not.
+    fn cull(&self, view: &View) -> Vec<Drawn> {
+        let frustum = Frustum::of(
+            &view
+                .camera
+                .view_proj(self.width as f32 / self.height as f32),
+        );
+        view.meshes
+            .iter()
+            .map(|id| {
+                let Some(inst) = &self.meshes[id.0].instances else {
+                    return Drawn::Nothing;
+                };
+                let seen: Vec<MeshInstance> = inst
+                    .list
+                    .iter()
+                    .zip(&inst.bounds)
+                    .filter(|(_, b)| frustum.may_see(b))
+                    .map(|(i, _)| *i)
+                    .collect();
+                if seen.len() == inst.list.len() {
+                    Drawn::All
+                } else if seen.is_empty() {
+                    Drawn::Nothing
+                } else {
+                    self.ctx
+                        .queue
+                        .write_buffer(&inst.seen, 0, bytemuck::cast_slice(&seen));
+                    Drawn::Seen(seen.len() as u32)
+                }
+            })
+            .collect()
+    }
+
     /// Draws `view` into the HDR target and tone-maps it into `target` (a texture view of
     /// `format`, e.g. a window's surface, sized like the renderer).
     pub fn render_to(
@@ -916,6 +983,7 @@ impl Renderer {
             .write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniforms));
         self.tonemap.set_exposure(&self.ctx.queue, view.exposure);
         let tonemap = self.tonemap.pipeline(&self.ctx.device, format).clone();
+        let drawn = self.cull(view);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         {
             let bg = view.background;
@@ -946,10 +1014,12 @@ impl Renderer {
                 ..Default::default()
             });
             pass.set_bind_group(0, &self.frame_bind, &[]);
-            for id in &view.meshes {
+            for (id, drawn) in view.meshes.iter().zip(drawn) {
                 let m = &self.meshes[id.0];
-                let Some((instances, count)) = &m.instances else {
-                    continue;
+                let (instances, count) = match (&m.instances, drawn) {
+                    (Some(i), Drawn::All) => (&i.all, i.list.len() as u32),
+                    (Some(i), Drawn::Seen(n)) => (&i.seen, n),
+                    _ => continue,
                 };
                 // Double-sided meshes use the pipeline without culling.
                 let pipeline = &self.mesh_pipelines[m.double_sided as usize];
@@ -958,7 +1028,7 @@ impl Renderer {
                 pass.set_vertex_buffer(0, m.vertices.slice(..));
                 pass.set_vertex_buffer(1, instances.slice(..));
                 pass.set_index_buffer(m.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..m.index_count, 0, 0..*count);
+                pass.draw_indexed(0..m.index_count, 0, 0..count);
             }
         }
         {

@@ -183,6 +183,43 @@ fn assert_all_pixels(img: &lightgrid_render::Image, expected: Vec3, what: &str) 
     }
 }
 
+/// Instances the camera cannot see are left out of the draw (`lightgrid_render::cull`)
+/// without changing the image: one in view, one across the view's edge, three outside
+/// (beside, behind, above the eye looking down) give the image of the first two alone,
+/// bit for bit, and the one across the edge shows.
+#[test]
+fn culled_instances_leave_the_image_as_it_was() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let (mut v, i) = quad(0.0, Vec3::splat(3.0));
+    for p in &mut v {
+        p.position = [p.position[0] / 20.0, 0.0, p.position[2] / 20.0];
+    }
+    let material = MeshMaterial {
+        lighting: Lighting::Vertex,
+        ..Default::default()
+    };
+    let at = |x: f32, y: f32, z: f32| {
+        MeshInstance::new(Mat4::from_translation(Vec3::new(x, y, z)), Vec4::ONE)
+    };
+    // The camera 5 m above the origin looking down sees 5 tan 30° = 2.89 m each way.
+    let seen = [at(0.0, 0.0, 0.0), at(3.2, 0.0, 0.0)];
+    let unseen = [at(10.0, 0.0, 0.0), at(0.0, 0.0, -20.0), at(0.0, 10.0, 0.0)];
+    let id = r.add_mesh(&v, &i, &material).unwrap();
+    r.set_instances(id, &[seen.as_slice(), unseen.as_slice()].concat())
+        .unwrap();
+    let all = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
+    r.set_instances(id, &seen).unwrap();
+    let alone = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
+    assert!(all.hdr == alone.hdr && all.srgb == alone.srgb);
+    r.set_instances(id, &seen[..1]).unwrap();
+    let first = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
+    assert!(first.hdr != alone.hdr, "the instance across the edge shows");
+    r.set_instances(id, &unseen).unwrap();
+    let none = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
+    assert_all_pixels(&none, Vec3::splat(9.0), "nothing in view: the background");
+}
+
 #[test]
 fn vertex_light_and_tone_mapping_give_known_answers() {
     let Some(r) = renderer() else { return };
