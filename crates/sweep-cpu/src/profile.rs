@@ -10,9 +10,10 @@
 //! "Against exact answers". Cost: each table node, computed on first use, about 0.3 ms
 //! on the 2-core VM (a scene reads the few around its media's depths; all 1025, as the
 //! GPU's copy needs, take some 180 ms); a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
-//! direction and kept across levels, passes and sweeps (up to 65 536 of them, 77.5 MiB;
-//! a scene with more distinct depths computes the others once per level that holds
-//! them).
+//! direction and kept across levels, passes, sweeps and sweepers (one set a process,
+//! which every sweeper reads: a hierarchy's forks meet the same depths; up to
+//! 65 536 of them, 77.5 MiB; a scene with more distinct depths computes the others once
+//! per level that holds them).
 //!
 //! ## Why
 //!
@@ -89,6 +90,7 @@
 //! before the clamp is linear in the boundary light).
 
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 use lightgrid_core::Material;
 use lightgrid_core::dirs;
@@ -841,68 +843,250 @@ impl std::hash::Hasher for DepthHasher {
     }
 }
 
+/// The cell profiles every sweeper of a process shares: each distinct `(pass, ln p)`
+/// entered once, at a slot of its own, and computed once by whichever sweeper first
+/// needs it (a hierarchy's forks meet the same depths of medium: each used to integrate
+/// them again and hold its own copy, 1.2 µs and 1.2 KiB a profile). Slots come in
+/// chunks allocated as they are first used; once [`Profiles::KEEP`] are entered, a
+/// level's other values are computed for that level alone ([`Profiles`]).
+pub(crate) struct Store {
+    /// The slot of each `(upward, ln p bits)` entered.
+    ids: std::sync::Mutex<DepthMap>,
+    chunks: Box<[std::sync::OnceLock<Chunk>]>,
+    cap: usize,
+}
+
+/// [`Store::CHUNK`] slots of a store.
+type Chunk = Box<[std::sync::OnceLock<CellProfile>]>;
+
+impl Store {
+    /// Slots a chunk.
+    const CHUNK: usize = 1024;
+
+    fn new(cap: usize) -> Self {
+        Self {
+            ids: Default::default(),
+            chunks: (0..cap.div_ceil(Self::CHUNK))
+                .map(|_| std::sync::OnceLock::new())
+                .collect(),
+            cap,
+        }
+    }
+
+    /// The process's store (a fresh one after [`Store::retire`]).
+    fn current() -> Arc<Store> {
+        Self::shared()
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get_or_insert_with(|| Arc::new(Store::new(Profiles::KEEP)))
+            .clone()
+    }
+
+    fn shared() -> &'static std::sync::Mutex<Option<Arc<Store>>> {
+        static CURRENT: std::sync::Mutex<Option<Arc<Store>>> = std::sync::Mutex::new(None);
+        &CURRENT
+    }
+
+    /// `old` is full of another scene's profiles: if it is still the process's store, a
+    /// fresh one replaces it (sweepers that hold `old` keep it until their next sweep).
+    fn retire(old: &Arc<Store>) {
+        let mut current = Self::shared().lock().unwrap_or_else(|e| e.into_inner());
+        if current.as_ref().is_some_and(|c| Arc::ptr_eq(c, old)) {
+            *current = None;
+        }
+    }
+
+    /// Entered profiles.
+    fn len(&self) -> usize {
+        self.ids.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+
+    /// The slots of `keys`, each entered if it was not while there is room (`None`
+    /// where there was none).
+    fn enter(&self, keys: impl Iterator<Item = (bool, u32)>) -> Vec<Option<u32>> {
+        let mut ids = self.ids.lock().unwrap_or_else(|e| e.into_inner());
+        keys.map(|key| {
+            if let Some(&id) = ids.get(&key) {
+                return Some(id);
+            }
+            let next = ids.len();
+            (next < self.cap).then(|| {
+                ids.insert(key, next as u32);
+                next as u32
+            })
+        })
+        .collect()
+    }
+
+    /// Slot `id` (its chunk allocated if it was not).
+    fn slot(&self, id: u32) -> &std::sync::OnceLock<CellProfile> {
+        let id = id as usize;
+        &self.chunks[id / Self::CHUNK].get_or_init(|| {
+            (0..Self::CHUNK)
+                .map(|_| std::sync::OnceLock::new())
+                .collect()
+        })[id % Self::CHUNK]
+    }
+
+    /// The profile at slot `id`, computed ([`Profiles::level`] computes a slot before
+    /// any cell reads it).
+    #[inline]
+    fn get(&self, id: u32) -> &CellProfile {
+        let id = id as usize;
+        self.chunks[id / Self::CHUNK]
+            .get()
+            .and_then(|c| c[id % Self::CHUNK].get())
+            .expect("a level's profiles are computed when it is set")
+    }
+}
+
 /// The profiles of one level's cells for one pass, as the sweep reads them
 /// ([`Profiles::get`]). [`CellProfile::new`] costs about a microsecond: each distinct
-/// `(pass, ln p)` is computed once, on every core, and kept across levels, passes and
-/// sweeps, up to [`Profiles::KEEP`] of them; once that many are kept, a level's values
-/// not among them are computed for that level alone (the kept ones stay: a sweep that
-/// visits more distinct values than fit, in the same order every pass, computes only
-/// those beyond the kept ones again, instead of the whole set as each level evicted
-/// the last). The values are [`CellProfile::new`]'s, bit for bit.
-#[derive(Clone, Default)]
+/// `(pass, ln p)` is computed once a process and kept across levels, passes, sweeps
+/// and sweepers ([`Store`], up to [`Profiles::KEEP`] of them); once that many are kept,
+/// a level's values not among them are computed for that level alone, and a sweep that
+/// found fewer of its values kept than it computed so retires the store (another
+/// scene's values: the next sweeps start a fresh one). The values are
+/// [`CellProfile::new`]'s, bit for bit.
+#[derive(Clone)]
 pub(crate) struct Profiles {
-    /// The kept profiles (`all[..memo.len()]`), then the current level's others.
-    all: Vec<CellProfile>,
-    /// Index in `all` of the kept `(up, ln p bits)`.
-    memo: DepthMap,
-    /// The current level's values not kept: index in `all`.
-    extra: DepthMap,
-    /// Per cell of the level: index in `all`.
+    store: Arc<Store>,
+    /// Whether `store` is this sweeper's own (tests), not the process's.
+    own: bool,
+    /// Slots in `store` this sweeper has seen computed.
+    known: DepthMap,
+    /// Per cell of the level: its slot in `store`, or [`Profiles::LOCAL`] and its index
+    /// in `local`.
     of: Vec<u32>,
-    /// Profiles computed so far ([`CellProfile::new`] calls).
+    /// The level's profiles the store had no room for.
+    local: Vec<CellProfile>,
+    /// The level's values not known before it: where they go in `of` while the level
+    /// is set.
+    new: DepthMap,
+    /// Profiles this sweeper computed ([`CellProfile::new`] calls).
     computed: u64,
-    /// Per kept profile: the last sweep that read it ([`Profiles::begin_sweep`]).
-    used: Vec<u32>,
-    /// The current sweep's number, and how many kept profiles it has read.
-    sweep: u32,
-    used_now: usize,
+    /// This sweep's distinct values per level found kept, and computed for a level
+    /// alone.
+    kept_now: u64,
+    alone_now: u64,
+}
+
+impl Default for Profiles {
+    fn default() -> Self {
+        Self::with_store(Store::current(), false)
+    }
 }
 
 impl Profiles {
-    /// Profiles kept (1240 bytes each: 77.5 MiB at most; a scene holds as many as it
-    /// has distinct depths of medium times two directions, [`crate::sweep::sweep_bytes`]
-    /// counts them).
+    /// Profiles kept a process (1240 bytes each: 77.5 MiB at most; a scene holds as
+    /// many as it has distinct depths of medium times two directions,
+    /// [`crate::sweep::sweep_bytes`] counts them).
     pub(crate) const KEEP: usize = 65536;
+    /// In `of`: an index in `local`.
+    const LOCAL: u32 = 1 << 31;
 
-    /// A sweep begins. A full set that the last sweep read less than half of holds
-    /// another scene's profiles (a renderer sweeping one area after another): it starts
-    /// afresh, so that this sweep's own are kept. A scene with more distinct values
-    /// than fit reads every kept one each sweep and keeps them.
-    pub(crate) fn begin_sweep(&mut self) {
-        if self.memo.len() >= Self::KEEP && self.used_now < self.memo.len() / 2 {
-            self.all.clear();
-            self.memo.clear();
-            self.used.clear();
+    fn with_store(store: Arc<Store>, own: bool) -> Self {
+        Self {
+            store,
+            own,
+            known: DepthMap::default(),
+            of: Vec::new(),
+            local: Vec::new(),
+            new: DepthMap::default(),
+            computed: 0,
+            kept_now: 0,
+            alone_now: 0,
         }
-        self.sweep = self.sweep.wrapping_add(1);
-        self.used_now = 0;
+    }
+
+    /// Profiles with a store of their own holding at most `cap` (tests: counts that
+    /// other tests' sweeps in the same process do not change).
+    #[cfg(test)]
+    pub(crate) fn own(cap: usize) -> Self {
+        Self::with_store(Arc::new(Store::new(cap)), true)
+    }
+
+    /// A sweep begins. A full store from which the last sweep found fewer values than
+    /// it computed for a level alone holds another scene's profiles (a renderer
+    /// sweeping one area after another): it is retired, so that this scene's are
+    /// kept. A sweeper takes up the process's current store.
+    pub(crate) fn begin_sweep(&mut self) {
+        let full = self.store.len() >= self.store.cap;
+        let mut next = None;
+        if full && self.alone_now > self.kept_now {
+            if self.own {
+                next = Some(Arc::new(Store::new(self.store.cap)));
+            } else {
+                Store::retire(&self.store);
+            }
+        }
+        if let Some(next) = next.or_else(|| (!self.own).then(Store::current))
+            && !Arc::ptr_eq(&next, &self.store)
+        {
+            self.store = next;
+            self.known.clear();
+        }
+        (self.kept_now, self.alone_now) = (0, 0);
     }
 
     /// Sets the level's profiles: cell `q` gets the profile of `ln p` `lnp[q]` where
     /// `medium(q)`, of a clear cell (`ln p = 0`) elsewhere.
     pub(crate) fn level(&mut self, up: bool, lnp: &[f32], medium: impl Fn(usize) -> bool) {
         use rayon::prelude::*;
-        // The last level's values that were not kept go.
-        self.all.truncate(self.memo.len());
-        self.extra.clear();
+        self.local.clear();
         let todo = self.assign(up, lnp, &medium);
-        self.computed += todo.len() as u64;
-        // Written in place (no level-sized copy through a temporary).
-        self.all.par_extend(
-            todo.par_iter()
+        if todo.is_empty() {
+            return;
+        }
+        // Enter the level's new values; those entered are computed where no sweeper
+        // has yet (`get_or_init`: a slot another sweeper is computing is waited for),
+        // the others for this level alone.
+        let slots = self.store.enter(todo.iter().map(|&l| (up, l.to_bits())));
+        let mut alone = Vec::new();
+        let resolved: Vec<u32> = slots
+            .iter()
+            .zip(&todo)
+            .map(|(slot, &l)| match *slot {
+                Some(id) => id,
+                None => {
+                    alone.push(l);
+                    Self::LOCAL | (alone.len() - 1) as u32
+                }
+            })
+            .collect();
+        let store = &*self.store;
+        let computed = std::sync::atomic::AtomicU64::new(0);
+        resolved
+            .par_iter()
+            .zip(todo.par_iter())
+            .filter(|(id, _)| **id & Self::LOCAL == 0)
+            .for_each(|(&id, &l)| {
+                store.slot(id).get_or_init(|| {
+                    computed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    crate::isa::vectorised!(CellProfile::of(up, l))
+                });
+            });
+        self.local.par_extend(
+            alone
+                .par_iter()
                 .map(|&l| crate::isa::vectorised!(CellProfile::of(up, l))),
         );
+        self.computed += computed.into_inner() + alone.len() as u64;
+        self.alone_now += alone.len() as u64;
+        for (&id, &l) in resolved.iter().zip(&todo) {
+            if id & Self::LOCAL == 0 {
+                self.known.insert((up, l.to_bits()), id);
+            }
+        }
+        for id in &mut self.of {
+            if *id & Self::LOCAL != 0 && *id & Self::PENDING != 0 {
+                *id = resolved[(*id & !(Self::LOCAL | Self::PENDING)) as usize];
+            }
+        }
     }
+
+    /// In `of` while a level is set: an index in the level's new values.
+    const PENDING: u32 = 1 << 30;
 
     /// Profiles computed so far ([`CellProfile::new`] calls).
     #[cfg(test)]
@@ -910,12 +1094,12 @@ impl Profiles {
         self.computed
     }
 
-    /// Sets `of` for the level and enters its values not held yet, in `memo` while
-    /// fewer than [`Profiles::KEEP`] are kept, else in `extra` (at the indices they will
-    /// have in `all`: the kept ones first, as `memo` only grows); returns those values,
+    /// Sets `of` for the level: the slots of values known, and for the others their
+    /// index among the level's new values (`LOCAL | PENDING | index`), which it returns
     /// in that order.
     fn assign(&mut self, up: bool, lnp: &[f32], medium: &impl Fn(usize) -> bool) -> Vec<f32> {
         self.of.clear();
+        self.new.clear();
         let mut todo: Vec<f32> = Vec::new();
         let mut last: Option<(u32, u32)> = None;
         for (q, &l) in lnp.iter().enumerate() {
@@ -925,27 +1109,16 @@ impl Profiles {
                 Some((b, id)) if b == bits => id,
                 _ => {
                     let key = (up, bits);
-                    let next = (self.all.len() + todo.len()) as u32;
-                    let kept = self.memo.get(&key).copied();
-                    if let Some(id) = kept
-                        && self.used[id as usize] != self.sweep
-                    {
-                        self.used[id as usize] = self.sweep;
-                        self.used_now += 1;
-                    }
-                    let id = match kept.or_else(|| self.extra.get(&key).copied()) {
-                        Some(id) => id,
-                        None => {
-                            if self.memo.len() < Self::KEEP {
-                                self.memo.insert(key, next);
-                                self.used.push(self.sweep);
-                                self.used_now += 1;
-                            } else {
-                                self.extra.insert(key, next);
-                            }
-                            todo.push(l);
-                            next
-                        }
+                    let id = if let Some(&id) = self.known.get(&key) {
+                        self.kept_now += 1;
+                        id
+                    } else if let Some(&id) = self.new.get(&key) {
+                        id
+                    } else {
+                        let id = Self::LOCAL | Self::PENDING | todo.len() as u32;
+                        self.new.insert(key, id);
+                        todo.push(l);
+                        id
                     };
                     last = Some((bits, id));
                     id
@@ -959,7 +1132,12 @@ impl Profiles {
     /// The profile of cell `q` of the level last set.
     #[inline]
     pub(crate) fn get(&self, q: usize) -> &CellProfile {
-        &self.all[self.of[q] as usize]
+        let id = self.of[q];
+        if id & Self::LOCAL != 0 {
+            &self.local[(id & !Self::LOCAL) as usize]
+        } else {
+            self.store.get(id)
+        }
     }
 }
 
@@ -1234,7 +1412,7 @@ mod tests {
             };
             f(a) == f(b)
         };
-        let mut set = Profiles::default();
+        let mut set = Profiles::own(Profiles::KEEP);
         // Runs of equal values, repeats across levels, and a level of all-distinct
         // values larger than `KEEP`.
         let small: Vec<f32> = (0..64).map(|i| -0.1 * (i / 8) as f32).collect();
@@ -1256,11 +1434,11 @@ mod tests {
         }
         // Profiles are kept across levels while they fit: a level of values already
         // held computes nothing, even when the level has more cells than `KEEP`.
-        let held = set.all.len();
+        let held = set.store.len();
         let wide: Vec<f32> = (0..Profiles::KEEP + 10).map(|i| small[i % 64]).collect();
         set.level(true, &wide, |_| true);
         set.level(true, &small, |_| true);
-        assert_eq!(set.all.len(), held, "profiles recomputed for values held");
+        assert_eq!(set.store.len(), held, "profiles recomputed for values held");
         let computed = set.computed;
         set.level(false, &wide, |_| true);
         assert_eq!(
@@ -1282,7 +1460,7 @@ mod tests {
     fn profiles_beyond_keep_computed_again_alone() {
         let n = Profiles::KEEP / 2 + 800;
         let lnp: Vec<f32> = (0..n).map(|i| -(i as f32 + 1.0) * 1e-4).collect();
-        let mut set = Profiles::default();
+        let mut set = Profiles::own(Profiles::KEEP);
         let mut per_cycle = Vec::new();
         for cycle in 0..3 {
             let before = set.computed;
@@ -1315,7 +1493,7 @@ mod tests {
         let a: Vec<f32> = (0..n).map(|i| -(i as f32 + 1.0) * 1e-4).collect();
         // (Beyond `a`'s range: no value of one is the other's.)
         let b: Vec<f32> = (0..64).map(|i| -7.0 - i as f32 * 0.01).collect();
-        let mut set = Profiles::default();
+        let mut set = Profiles::own(Profiles::KEEP);
         let sweep = |set: &mut Profiles, lnp: &[f32]| {
             set.begin_sweep();
             let before = set.computed;

@@ -194,9 +194,10 @@ pub fn validate_inputs(
 /// light waiting above all material; removals, transmittance, the source rule's
 /// sources and masks: 1441), with per row of a level the rings of its three sets of
 /// slot planes (removed light, what paths carry, the profile rule's emission: 3 × 2 ×
-/// 2 columns × 147 planes × 4 bytes); and the profile rule's set of cell profiles, one
-/// per distinct depth of medium and direction, at most two a point and
-/// [`crate::profile`]'s cap.
+/// 2 columns × 147 planes × 4 bytes); and the profile rule's cell profiles, one per
+/// distinct depth of medium and direction, at most two a point and [`crate::profile`]'s
+/// cap (held once a process, whatever its sweepers: those of another sweep of the same
+/// depths are the same memory).
 pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
     let profiles = (2 * desc.point_count()).min(crate::profile::Profiles::KEEP) as u64
         * std::mem::size_of::<crate::profile::CellProfile>() as u64;

@@ -188,44 +188,104 @@ fn pending_light_held_only_where_material_is() {
     assert!(bits(&first) == bits(&again));
 }
 
+/// A medium of `passes` (by column) on `ny` levels over an opaque ground, 6 × 5 columns.
+fn profile_grid(ny: u32, passes: &[f32]) -> MaterialGrid {
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(6, ny, 5)).expect("grid");
+    let cells = (0..desc.point_count())
+        .map(|i| {
+            let q = desc.coords(i).expect("index");
+            match q.y {
+                0 => Material::opaque(Vec3::splat(0.3)),
+                1..=5 => Material {
+                    reflectance: Vec3::new(0.2, 0.5, 0.2),
+                    pass: passes[q.x as usize % passes.len()],
+                },
+                _ => Material::EMPTY,
+            }
+        })
+        .collect();
+    MaterialGrid::new(desc, cells).expect("material")
+}
+
+/// Sweeps with `spare` (2 passes, open sky): the bins' bits and the profiles its
+/// sweeper has computed so far.
+fn profile_sweep(m: &MaterialGrid, spare: &mut Spare) -> (Vec<u32>, u64) {
+    let b = Boundary::open_sky(BinLight::uniform(Vec3::ONE).split_vertical().0);
+    let mut o = SweepOptions::multi_bounce();
+    o.max_passes = 2;
+    let s = run_reusing(m, &b, None, &o, true, spare).expect("sweep");
+    let bits = bytemuck::cast_slice::<BinLight, u32>(s.output.bins.as_ref().expect("bins").data())
+        .to_vec();
+    (bits, spare.work.as_ref().expect("work kept").prof.computed())
+}
+
+/// A sweeper's memory whose cell profiles have a store of their own holding `cap`
+/// (counts that other tests' sweeps in this process do not change).
+fn own_profiles(cap: usize) -> Spare {
+    let mut w = Work::new(1, 1, 1);
+    w.prof = crate::profile::Profiles::own(cap);
+    Spare {
+        work: Some(w),
+        ..Spare::default()
+    }
+}
+
 /// The cell profiles a sweeper integrated outlive a change of grid size (a
 /// hierarchy's nodes differ in height): after a medium of three depths on 8 levels,
 /// one of those depths on 12 levels (new work buffers) integrates no profile (fresh
 /// profiles would count its two, down and up, from 0), and a new depth its own two.
 #[test]
 fn cell_profiles_outlive_a_change_of_grid_size() {
-    let grid = |ny: u32, passes: &[f32]| {
-        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(6, ny, 5)).expect("grid");
-        let cells = (0..desc.point_count())
-            .map(|i| {
-                let q = desc.coords(i).expect("index");
-                match q.y {
-                    0 => Material::opaque(Vec3::splat(0.3)),
-                    1..=5 => Material {
-                        reflectance: Vec3::new(0.2, 0.5, 0.2),
-                        pass: passes[q.x as usize % passes.len()],
-                    },
-                    _ => Material::EMPTY,
-                }
-            })
-            .collect();
-        MaterialGrid::new(desc, cells).expect("material")
-    };
-    let b = Boundary::open_sky(BinLight::uniform(Vec3::ONE).split_vertical().0);
-    let mut o = SweepOptions::multi_bounce();
-    o.max_passes = 2;
-    let mut spare = Spare::default();
-    let mut sweep = |m: MaterialGrid| {
-        run_reusing(&m, &b, None, &o, true, &mut spare).expect("sweep");
-        spare.work.as_ref().expect("work kept").prof.computed()
-    };
+    let mut spare = own_profiles(crate::profile::Profiles::KEEP);
+    let mut sweep = |m: MaterialGrid| profile_sweep(&m, &mut spare).1;
     assert_eq!(
-        sweep(grid(8, &[0.3, 0.6, 0.9])),
+        sweep(profile_grid(8, &[0.3, 0.6, 0.9])),
         6,
         "three depths, down and up"
     );
-    assert_eq!(sweep(grid(12, &[0.6])), 6, "a depth integrated before");
-    assert_eq!(sweep(grid(12, &[0.6, 0.45])), 8, "one new depth");
+    assert_eq!(sweep(profile_grid(12, &[0.6])), 6, "a depth integrated before");
+    assert_eq!(sweep(profile_grid(12, &[0.6, 0.45])), 8, "one new depth");
+}
+
+/// Sweepers that share a store (a hierarchy's forks) compute each profile once
+/// between them, and read the same values bit for bit as a sweeper computing its own;
+/// a store with no room left computes a level's other values for the level alone,
+/// the same bit for bit, and once a sweep found fewer values kept than it computed so
+/// (another scene's depths fill the store), the store is retired and the next sweep
+/// keeps its own.
+#[test]
+fn sweepers_share_cell_profiles_and_a_full_store_gives_way() {
+    let depths = [0.31, 0.52, 0.73];
+    let m = profile_grid(8, &depths);
+    let (alone, n) = profile_sweep(&m, &mut own_profiles(crate::profile::Profiles::KEEP));
+    assert_eq!(n, 6);
+    // Two sweepers on one store.
+    let first = own_profiles(crate::profile::Profiles::KEEP);
+    let mut second = Spare {
+        work: first.work.clone(),
+        ..Spare::default()
+    };
+    let mut first = first;
+    assert_eq!(profile_sweep(&m, &mut first), (alone.clone(), 6));
+    assert_eq!(profile_sweep(&m, &mut second), (alone.clone(), 0), "the first's");
+    // A store of four: the downward pass enters its three depths and the upward one
+    // its first; the upward pass's other two are computed at each of the five levels
+    // of medium (3 + 1 + 2 × 5), and again every sweep (the kept ones are read more
+    // than the others are computed: the store stays).
+    let mut small = own_profiles(4);
+    let (bits, n) = profile_sweep(&m, &mut small);
+    assert!(bits == alone);
+    assert_eq!(n, 14);
+    let (bits, again) = profile_sweep(&m, &mut small);
+    assert!(bits == alone);
+    assert_eq!(again - n, 10);
+    // Another scene's three depths: none kept, all six computed at every level; the
+    // store gives way, and the next sweep keeps four of them again.
+    let other = profile_grid(8, &[0.22, 0.44, 0.66]);
+    let (_, other_first) = profile_sweep(&other, &mut small);
+    let (_, other_second) = profile_sweep(&other, &mut small);
+    assert_eq!(other_first - again, 30);
+    assert_eq!(other_second - other_first, 14);
 }
 
 /// The huge-page advice leaves a buffer's contents as they are (it only changes how
