@@ -216,7 +216,10 @@ fn profile_sweep(m: &MaterialGrid, spare: &mut Spare) -> (Vec<u32>, u64) {
     let s = run_reusing(m, &b, None, &o, true, spare).expect("sweep");
     let bits = bytemuck::cast_slice::<BinLight, u32>(s.output.bins.as_ref().expect("bins").data())
         .to_vec();
-    (bits, spare.work.as_ref().expect("work kept").prof.computed())
+    (
+        bits,
+        spare.work.as_ref().expect("work kept").prof.computed(),
+    )
 }
 
 /// A sweeper's memory whose cell profiles have a store of their own holding `cap`
@@ -243,7 +246,11 @@ fn cell_profiles_outlive_a_change_of_grid_size() {
         6,
         "three depths, down and up"
     );
-    assert_eq!(sweep(profile_grid(12, &[0.6])), 6, "a depth integrated before");
+    assert_eq!(
+        sweep(profile_grid(12, &[0.6])),
+        6,
+        "a depth integrated before"
+    );
     assert_eq!(sweep(profile_grid(12, &[0.6, 0.45])), 8, "one new depth");
 }
 
@@ -267,7 +274,11 @@ fn sweepers_share_cell_profiles_and_a_full_store_gives_way() {
     };
     let mut first = first;
     assert_eq!(profile_sweep(&m, &mut first), (alone.clone(), 6));
-    assert_eq!(profile_sweep(&m, &mut second), (alone.clone(), 0), "the first's");
+    assert_eq!(
+        profile_sweep(&m, &mut second),
+        (alone.clone(), 0),
+        "the first's"
+    );
     // A store of four: the downward pass enters its three depths and the upward one
     // its first; the upward pass's other two are computed at each of the five levels
     // of medium (3 + 1 + 2 × 5), and again every sweep (the kept ones are read more
