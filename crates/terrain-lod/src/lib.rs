@@ -25,14 +25,15 @@
 //! path over the shipped DEM (4 m a pixel, heights × 0.05) with 4000 procedural 8 m
 //! trees, world grid 16 m, nodes down to 1 m, budget `node_points² × 96` points a frame,
 //! CPU sweeper (the default options: 4 passes at most, stopping at a tolerance of 0.01),
-//! 2-core VM, three runs on 2026-11-29. Memory is that of the grids alive after the last
-//! frame, as stored (26 bins `f32`) and as the other representations would take.
+//! 2-core VM, three runs on 2026-11-29 (the frame's mean includes building the world
+//! grid). Memory is that of the grids alive after the last frame, as stored (26 bins
+//! `f32`) and as the other representations would take.
 //!
 //! | points a node | ms a frame | points swept | 26 bins `f32` | 26 bins R11G11B10 | average + dominant |
 //! |--------------:|-----------:|-------------:|--------------:|------------------:|-------------------:|
-//! | 16 | 51–62 | 0.58 M | 64 MB | 21 MB | 5 MB |
-//! | 32 | 88–111 | 1.67 M | 210 MB | 70 MB | 16 MB |
-//! | 64 | 256–322 | 5.04 M | 888 MB | 296 MB | 68 MB |
+//! | 16 | 43–45 | 0.55 M | 62 MB | 21 MB | 5 MB |
+//! | 32 | 85–87 | 1.64 M | 202 MB | 67 MB | 16 MB |
+//! | 64 | 239–246 | 4.84 M | 851 MB | 284 MB | 65 MB |
 //!
 //! On the CPU sweeper 16-point nodes win on both counts: smaller nodes overlap the
 //! wanted area more tightly. Seed 000 chose 32 for GPU occupancy (one dispatch per
@@ -46,7 +47,7 @@
 //! light sampled against one full-resolution sweep of the region, and at the last
 //! camera against Monte Carlo (the repository's `docs/measurements.md`, "The hierarchy
 //! frame by frame", has its figures): with 16-point nodes 69–110 ms a frame on two
-//! cores (10, 30 and 60° suns, two runs on 2026-11-29, a noisy VM); against the single sweep the sky within about 1 % in bias at every depth,
+//! cores (10, 30 and 60° suns, three runs on 2026-11-29, a noisy VM); against the single sweep the sky within about 1 % in bias at every depth,
 //! sky and sun together 3–5 % RMSE in the finest nodes; against Monte Carlo, what the
 //! renderer reads 6–10 % RMSE, most of it the single sweep's own error at points
 //! (ARCHITECTURE.md, "Known defects").
