@@ -417,4 +417,5 @@ fn daylight_sky_and_its_sun_in_lux() {
         .args(["--sky", "clear", "--sun-from-sky"]));
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--sky daylight"));
+    std::fs::remove_dir_all(&dir).unwrap();
 }
