@@ -1140,12 +1140,15 @@ pub fn text(report: &FrameReport) -> String {
                 let ms = |v: Option<f64>| v.map_or("?".to_string(), |v| format!("{v:.0}"));
                 let _ = writeln!(
                     s,
-                    "  over twice the budget: frame {} {:.1} ms; this process's threads ran {} ms and waited {} ms for a core, the hypervisor's steal {} ms over all cores",
+                    "  over twice the budget: frame {} {:.1} ms; this process's threads ran {} ms and waited {} ms for a core, the hypervisor's steal {} ms over all cores; {} pages first touched",
                     f.frame,
                     f.ms.total,
                     ms(f.host.ran_ms),
                     ms(f.host.waited_ms),
                     ms(f.host.steal_ms),
+                    f.host
+                        .page_faults
+                        .map_or("?".to_string(), |n| n.to_string()),
                 );
             }
         }
