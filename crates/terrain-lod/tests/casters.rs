@@ -170,6 +170,17 @@ fn march_against_full_resolution(skip_casters: bool, budget_ms: Option<f32>) -> 
     }
 }
 
+/// The node's march equals the one through the full-resolution material.
+fn assert_full_resolution(o: &Outcome) {
+    assert!(
+        o.mean < 1e-4 && o.worst < 0.01,
+        "mean {}, worst {} over {} points",
+        o.mean,
+        o.worst,
+        o.points
+    );
+}
+
 #[test]
 fn a_low_suns_march_crosses_the_nodes_beyond_the_built_ones_at_full_resolution() {
     let o = march_against_full_resolution(false, None);
@@ -185,13 +196,7 @@ fn a_low_suns_march_crosses_the_nodes_beyond_the_built_ones_at_full_resolution()
         o.casters,
         o.held
     );
-    assert!(
-        o.mean < 1e-4 && o.worst < 0.01,
-        "mean {}, worst {} over {} points",
-        o.mean,
-        o.worst,
-        o.points
-    );
+    assert_full_resolution(&o);
     // Once no frame needs them, the casters go.
     assert_eq!(o.held_later, 0);
 }
@@ -226,11 +231,5 @@ fn under_a_time_budget_the_casters_come_a_batch_a_frame() {
     let free = march_against_full_resolution(false, None);
     assert!(free.most_composed > threads, "{}", free.most_composed);
     assert!(o.casters > 0, "{}", o.casters);
-    assert!(
-        o.mean < 1e-4 && o.worst < 0.01,
-        "mean {}, worst {} over {} points",
-        o.mean,
-        o.worst,
-        o.points
-    );
+    assert_full_resolution(&o);
 }

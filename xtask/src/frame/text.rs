@@ -1,0 +1,281 @@
+//! `cargo xtask frame`'s report as text (`frame.txt`, and what the README's figures
+//! quote from it).
+
+use super::*;
+
+/// Of `frames`, how many swept at least 90 % of the point budget `budget` (frames the
+/// budget held, not the camera's needs), and the mean points swept a frame.
+fn budget_use(frames: &[FrameRow], budget: u64) -> (usize, f64) {
+    let held = frames
+        .iter()
+        .filter(|f| f.points_swept as f64 >= 0.9 * budget as f64)
+        .count();
+    let mean =
+        frames.iter().map(|f| f.points_swept as f64).sum::<f64>() / frames.len().max(1) as f64;
+    (held, mean)
+}
+
+/// `, N ms CPU` where the CPU time is known.
+fn cpu_note(ms: Option<f64>) -> String {
+    ms.map(|c| format!(", {c:.0} ms CPU")).unwrap_or_default()
+}
+
+pub(super) fn run_line(r: &Run) -> String {
+    format!(
+        "sun {:>4.0}°: {:6.1} ms a frame (max {:6.1}{}), sky bias {:+6.1} % RMSE {:5.1} %, sun bias {:+6.1} % RMSE {:5.1} %, both bias {:+6.1} % RMSE {:5.1} %",
+        r.elevation,
+        r.mean_ms,
+        r.max_ms,
+        r.over_budget.map_or(String::new(), |n| format!(
+            "; {n} of {} over twice the budget, {} with the host's steal taken out",
+            r.frames.len(),
+            r.over_budget_own.unwrap_or(n),
+        )),
+        r.error.sky.bias * 100.0,
+        r.error.sky.rmse * 100.0,
+        r.error.sun.bias * 100.0,
+        r.error.sun.rmse * 100.0,
+        r.error.both.bias * 100.0,
+        r.error.both.rmse * 100.0,
+    )
+}
+
+/// The report as text.
+pub fn text(report: &FrameReport) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells), {} passes at most (tolerance {}), {} path, bare-ground skip {}, sun's casters {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        report.sweeper,
+        report.node_points,
+        report.apron,
+        report.passes,
+        report.tolerance,
+        report.path,
+        if report.bare_skip { "on" } else { "off" },
+        if report.no_casters { "skipped" } else { "on" },
+        if report.horizon {
+            "horizon halves kept"
+        } else {
+            "horizontal bins read as even"
+        },
+        report
+            .budget_ms
+            .map_or("no time budget".to_string(), |ms| format!(
+                "time budget {ms} ms"
+            )),
+        report.reference_points,
+        report.reference_sky_s
+    );
+    for r in &report.runs {
+        let _ = writeln!(s, "\n{}", run_line(r));
+        let n = r.frames.len().max(1) as f64;
+        let mean = |f: fn(&StageMs) -> f64| r.frames.iter().map(|x| f(&x.ms)).sum::<f64>() / n;
+        let _ = writeln!(
+            s,
+            "  mean ms: material {:.1}, sky boundary {:.1}, sky sweep {:.1}, sun boundary {:.1}, sun sweep {:.1}, other {:.1}, sampling {:.1}; total {:.1}",
+            mean(|m| m.material),
+            mean(|m| m.boundary),
+            mean(|m| m.sky_sweep),
+            mean(|m| m.sun_boundary),
+            mean(|m| m.sun_sweep),
+            mean(|m| m.other),
+            mean(|m| m.sampling),
+            mean(|m| m.total),
+        );
+        if let Some(b) = report.budget_ms.map(f64::from) {
+            for f in r.frames.iter().filter(|f| f.ms.total > 2.0 * b) {
+                let ms = |v: Option<f64>| v.map_or("?".to_string(), |v| format!("{v:.0}"));
+                let _ = writeln!(
+                    s,
+                    "  over twice the budget: frame {} {:.1} ms; this process's threads ran {} ms and waited {} ms for a core, the hypervisor's steal {} ms over all cores; {} pages first touched",
+                    f.frame,
+                    f.ms.total,
+                    ms(f.host.ran_ms),
+                    ms(f.host.waited_ms),
+                    ms(f.host.steal_ms),
+                    f.host
+                        .page_faults
+                        .map_or("?".to_string(), |n| n.to_string()),
+                );
+            }
+        }
+        if let Some(steal) = r.steal_ms {
+            let waited: f64 = r.frames.iter().filter_map(|f| f.host.waited_ms).sum();
+            let _ = writeln!(
+                s,
+                "  the machine's share over the path: the hypervisor's steal {steal:.0} ms over all cores, this process's threads waiting for a core {waited:.0} ms"
+            );
+        }
+        let _ = writeln!(
+            s,
+            "  load {:.2} s; points swept per second: {:.3} M of frame time, {:.3} M of sweeping time; the kernel on the same nodes {:.3} M",
+            r.load_s,
+            r.points_per_s_frame / 1e6,
+            r.points_per_s_sweeping / 1e6,
+            r.points_per_s_kernel / 1e6
+        );
+        let casters: u32 = r.frames.iter().map(|f| f.casters).sum();
+        let held_mb = r.frames.iter().map(|f| f.caster_bytes).max().unwrap_or(0) as f64 / 1e6;
+        let _ = writeln!(
+            s,
+            "  sun casters (nodes composed for the march alone): {casters} over the path, {:.1} a frame, at most {held_mb:.1} MB held",
+            casters as f64 / n
+        );
+        let (held, mean) = budget_use(&r.frames, report.budget_points);
+        let _ = writeln!(
+            s,
+            "  point budget {} a frame: {mean:.0} points swept a frame on average, {held} of {} frames held by it (90 % of it or more swept): their time is the budget's points times a point's cost",
+            report.budget_points,
+            r.frames.len()
+        );
+        if r.sun_move_wait_frames > 0 || r.sun_move_world_ms < 0.5 * r.sun_move_landed_ms {
+            let _ = writeln!(
+                s,
+                "  sun +20°: set_sun {:.1} ms{} (the direct sun of {} grids re-marched), the world grid's scattered sun on a thread: {} frames of the old one (max {:.0} ms) until it landed {:.0} ms later; that frame {:.0} ms ({} sun responses, {} left)",
+                r.sun_move_world_ms,
+                cpu_note(r.sun_move_cpu_ms),
+                r.sun_move_marched,
+                r.sun_move_wait_frames,
+                r.sun_move_wait_max_ms,
+                r.sun_move_landed_ms,
+                r.sun_move_frame_ms,
+                r.sun_move_built,
+                r.sun_move_pending
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "  sun +20°: set_sun {:.0} ms{} (the direct sun of {} grids re-marched, the world grid's scattered sun swept), next frame {:.0} ms ({} sun responses, {} left)",
+                r.sun_move_world_ms,
+                cpu_note(r.sun_move_cpu_ms),
+                r.sun_move_marched,
+                r.sun_move_frame_ms,
+                r.sun_move_built,
+                r.sun_move_pending
+            );
+        }
+        let (a, b) = (&r.sun_move_error_at_once, &r.sun_move_error_settled);
+        let _ = writeln!(
+            s,
+            "  every wanted node's sun the new one {:.0} ms after set_sun ({} frames); RMSE % at the last camera against the reference for the new sun, as set_sun returns / settled: direct sun {:.1} / {:.1}, sun {:.1} / {:.1}, both {:.1} / {:.1}",
+            r.sun_move_settled_ms,
+            r.sun_move_settled_frames,
+            100.0 * a.direct.rmse,
+            100.0 * b.direct.rmse,
+            100.0 * a.sun.rmse,
+            100.0 * b.sun.rmse,
+            100.0 * a.both.rmse,
+            100.0 * b.both.rmse,
+        );
+        if let Some(m) = &r.monte_carlo {
+            s.push_str(&mc::lines(m, r.elevation));
+        }
+        s.push_str(&nesting_lines(r));
+    }
+    s
+}
+
+/// A run's nesting lines: the seams at the last camera, the finest depth's own sun over
+/// the path, the nesting alone by depth, and the two tables by depth.
+fn nesting_lines(r: &Run) -> String {
+    use std::fmt::Write;
+    let mut s = seams::line(&r.seams);
+    let [own, coarse] = &r.finest_sun;
+    let _ = writeln!(
+        s,
+        "  the finest depth over the path (RMSE % against the 1 m sweep): {} probes read their node's own sun (its responses, or while they wait its transmittance marched at once), sun {:.1}, direct sun {:.1}; {} ({:.0} %) a coarser grid's sun while their node's was still to come, sun {:.1}, direct sun {:.1}",
+        own.both.n,
+        100.0 * own.sun.rmse,
+        100.0 * own.direct.rmse,
+        coarse.both.n,
+        100.0 * coarse.both.n as f64 / (own.both.n + coarse.both.n).max(1) as f64,
+        100.0 * coarse.sun.rmse,
+        100.0 * coarse.direct.rmse
+    );
+    let by_depth: Vec<String> = r
+        .error_by_depth_own
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| e.both.n > 0)
+        .map(|(d, e)| {
+            format!(
+                "depth {d} {:.1} / {:.1} / {:.1}",
+                100.0 * e.sky.rmse,
+                100.0 * e.sun.rmse,
+                100.0 * e.both.rmse
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "  nesting alone at sun {:.0}° (RMSE % of sky / sun / both against one sweep at each depth's own cell): {}",
+        r.elevation,
+        by_depth.join(", ")
+    );
+    depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
+        format!("{d:5}")
+    });
+    depth_table(
+        &mut s,
+        "against one sweep at the depth's own cell (the nesting alone)",
+        &r.error_by_depth_own,
+        |d| format!("{d:5}"),
+    );
+    s
+}
+
+/// A table of errors by the depth serving the points (depths with none left out).
+fn depth_table(s: &mut String, title: &str, by_depth: &[Errors], depth: impl Fn(usize) -> String) {
+    use std::fmt::Write;
+    let _ = writeln!(
+        s,
+        "  {title}:\n  depth | points | sky bias / RMSE % | sun bias / RMSE % | both bias / RMSE % | direct sun bias / RMSE %"
+    );
+    for (d, e) in by_depth.iter().enumerate() {
+        if e.both.n == 0 {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            "  {} | {:6} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1} | {:+6.1} / {:5.1}",
+            depth(d),
+            e.both.n,
+            e.sky.bias * 100.0,
+            e.sky.rmse * 100.0,
+            e.sun.bias * 100.0,
+            e.sun.rmse * 100.0,
+            e.both.bias * 100.0,
+            e.both.rmse * 100.0,
+            e.direct.bias * 100.0,
+            e.direct.rmse * 100.0
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Frames that swept 90 % of the budget or more count as held by it; the mean is
+    /// over every frame.
+    #[test]
+    fn budget_use_counts_the_frames_the_budget_held() {
+        let row = |points_swept| FrameRow {
+            frame: 0,
+            ms: StageMs::default(),
+            points_swept,
+            built: 0,
+            sun_built: 0,
+            pending: 0,
+            casters: 0,
+            caster_bytes: 0,
+            error: Errors::default(),
+            host: Interference::default(),
+        };
+        let frames = [row(1000), row(900), row(899), row(0)];
+        assert_eq!(budget_use(&frames, 1000), (2, 699.75));
+        assert_eq!(budget_use(&[], 1000), (0, 0.0));
+    }
+}
