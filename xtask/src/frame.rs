@@ -1142,20 +1142,16 @@ fn plot(report: &FrameReport, path: &Path) -> Result<()> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A frame over twice the budget stays over with the steal taken out unless one
-    /// core's share of the steal brings it under.
-    #[test]
-    fn frames_over_twice_the_budget_with_and_without_the_steal() {
-        let row = |total, steal_ms| FrameRow {
+impl FrameRow {
+    /// A frame of `total` ms that swept `points_swept` points with `steal_ms` of steal.
+    pub(crate) fn for_test(points_swept: u64, total: f64, steal_ms: Option<f64>) -> Self {
+        FrameRow {
             frame: 0,
             ms: StageMs {
                 total,
                 ..StageMs::default()
             },
-            points_swept: 0,
+            points_swept,
             built: 0,
             sun_built: 0,
             pending: 0,
@@ -1166,7 +1162,19 @@ mod tests {
                 steal_ms,
                 ..Interference::default()
             },
-        };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A frame over twice the budget stays over with the steal taken out unless one
+    /// core's share of the steal brings it under.
+    #[test]
+    fn frames_over_twice_the_budget_with_and_without_the_steal() {
+        let row = |total, steal_ms| FrameRow::for_test(0, total, steal_ms);
         // Budget 30 ms: over at 60.
         let frames = [
             row(59.0, Some(0.0)),

@@ -262,18 +262,7 @@ mod tests {
     /// over every frame.
     #[test]
     fn budget_use_counts_the_frames_the_budget_held() {
-        let row = |points_swept| FrameRow {
-            frame: 0,
-            ms: StageMs::default(),
-            points_swept,
-            built: 0,
-            sun_built: 0,
-            pending: 0,
-            casters: 0,
-            caster_bytes: 0,
-            error: Errors::default(),
-            host: Interference::default(),
-        };
+        let row = |points_swept| FrameRow::for_test(points_swept, 0.0, None);
         let frames = [row(1000), row(900), row(899), row(0)];
         assert_eq!(budget_use(&frames, 1000), (2, 699.75));
         assert_eq!(budget_use(&[], 1000), (0, 0.0));
