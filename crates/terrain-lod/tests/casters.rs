@@ -57,9 +57,8 @@ struct Outcome {
 }
 
 /// A 10° sun over the patches: the finest node farthest toward the sun, its direct
-/// sun against one march through the full-resolution material 128 m toward the sun.
-/// The march from the finest node farthest toward a 10° sun, against one through the
-/// full-resolution material, once the hierarchy settled (under `budget_ms` if given).
+/// sun against one march through the full-resolution material 128 m toward the sun,
+/// once the hierarchy settled (under a time budget of `budget_ms` if given).
 fn march_against_full_resolution(skip_casters: bool, budget_ms: Option<f32>) -> Outcome {
     let hm = Heightmap::from_fn(Vec2::ZERO, 4.0, 129, 129, |_, _| 0.0).unwrap();
     let mut params = HierarchyParams {
