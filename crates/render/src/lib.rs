@@ -64,8 +64,8 @@ pub use passes::sample::{
     LayerOwner, transmittance_buffer,
 };
 pub use raster::{
-    Camera, GroundLight, Image, Lighting, LightingMode, MeshId, MeshInstance, MeshMaterial,
-    Renderer, TextureRgba8, Vertex, View, Water,
+    Camera, GroundLight, HDR_FALLBACK_FORMAT, HDR_FORMAT, Image, Lighting, LightingMode, MeshId,
+    MeshInstance, MeshMaterial, Renderer, TextureRgba8, Vertex, View, Water, hdr_format,
 };
 pub use sampling::{IrradianceTable, LightVolume, SamplePoints, SampledLight, sample_points};
 

@@ -18,7 +18,9 @@ use crate::passes::scatter::LightScatter;
 use crate::passes::tonemap::Tonemap;
 use crate::sampling::LightVolume;
 
-pub use crate::passes::mesh::{HDR_FORMAT, Lighting, LightingMode, MeshInstance, Vertex};
+pub use crate::passes::mesh::{
+    HDR_FALLBACK_FORMAT, HDR_FORMAT, Lighting, LightingMode, MeshInstance, Vertex, hdr_format,
+};
 
 /// The tone-mapped target's format for headless images.
 pub const LDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -251,6 +253,8 @@ pub struct Renderer {
     ctx: Arc<GpuContext>,
     width: u32,
     height: u32,
+    /// [`HDR_FORMAT`], or [`HDR_FALLBACK_FORMAT`] where the adapter cannot render to it.
+    hdr_format: wgpu::TextureFormat,
     mesh_pipelines: [wgpu::RenderPipeline; 2],
     frame_layout: wgpu::BindGroupLayout,
     mesh_layout: wgpu::BindGroupLayout,
@@ -303,11 +307,46 @@ type VolumeBuffers = (wgpu::Buffer, LightVolumeInfo);
 type GroundBuffers = (wgpu::Buffer, Option<GroundInfo>);
 
 impl Renderer {
-    /// A renderer drawing `width × height` images.
+    /// A renderer drawing `width × height` images, into [`HDR_FORMAT`] where the adapter
+    /// can render to it and else [`HDR_FALLBACK_FORMAT`] ([`hdr_format`]).
     pub fn new(ctx: Arc<GpuContext>, width: u32, height: u32) -> Result<Self, RenderError> {
+        let format = hdr_format(ctx.adapter());
+        if format != HDR_FORMAT {
+            tracing::info!(
+                adapter = %ctx.info.name,
+                format = ?format,
+                "the adapter cannot render to {HDR_FORMAT:?}: the HDR image is drawn in half floats"
+            );
+        }
+        Self::with_hdr_format(ctx, width, height, format)
+    }
+
+    /// [`Renderer::new`] with the HDR target's format chosen: [`HDR_FORMAT`] or
+    /// [`HDR_FALLBACK_FORMAT`] (half the memory and bandwidth, steps of 2^-10 relative).
+    /// Any other format, or one the adapter cannot render to, is an error naming
+    /// `hdr_format`.
+    pub fn with_hdr_format(
+        ctx: Arc<GpuContext>,
+        width: u32,
+        height: u32,
+        hdr_format: wgpu::TextureFormat,
+    ) -> Result<Self, RenderError> {
+        let renderable = ctx
+            .adapter()
+            .get_texture_format_features(hdr_format)
+            .allowed_usages
+            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT);
+        if ![HDR_FORMAT, HDR_FALLBACK_FORMAT].contains(&hdr_format) || !renderable {
+            return Err(GridError::invalid(
+                "hdr_format",
+                hdr_format,
+                "must be HDR_FORMAT or HDR_FALLBACK_FORMAT, one the adapter can render to",
+            )
+            .into());
+        }
         let device = &ctx.device;
         let (frame_layout, mesh_layout) = mesh::layouts(device);
-        let mesh_pipelines = mesh::pipelines(device, &frame_layout, &mesh_layout);
+        let mesh_pipelines = mesh::pipelines(device, &frame_layout, &mesh_layout, hdr_format);
         let tonemap = Tonemap::new(device);
         let frame_uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame"),
@@ -340,12 +379,13 @@ impl Renderer {
             &ground,
             &dynamic,
         );
-        let targets = Self::targets(&ctx, &tonemap, width, height)?;
+        let targets = Self::targets(&ctx, &tonemap, hdr_format, width, height)?;
         let scatter = LightScatter::new(device);
         Ok(Self {
             ctx,
             width,
             height,
+            hdr_format,
             mesh_pipelines,
             frame_layout,
             mesh_layout,
@@ -396,6 +436,11 @@ impl Renderer {
         (volume, ground, dynamic)
     }
 
+    /// The HDR target's format: [`HDR_FORMAT`] or [`HDR_FALLBACK_FORMAT`].
+    pub fn hdr_format(&self) -> wgpu::TextureFormat {
+        self.hdr_format
+    }
+
     /// The GPU context.
     pub fn context(&self) -> &Arc<GpuContext> {
         &self.ctx
@@ -408,7 +453,7 @@ impl Renderer {
 
     /// Changes the image size (recreates the targets).
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), RenderError> {
-        self.targets = Self::targets(&self.ctx, &self.tonemap, width, height)?;
+        self.targets = Self::targets(&self.ctx, &self.tonemap, self.hdr_format, width, height)?;
         self.width = width;
         self.height = height;
         Ok(())
@@ -417,6 +462,7 @@ impl Renderer {
     fn targets(
         ctx: &GpuContext,
         tonemap: &Tonemap,
+        hdr_format: wgpu::TextureFormat,
         width: u32,
         height: u32,
     ) -> Result<Targets, RenderError> {
@@ -450,7 +496,7 @@ impl Renderer {
         let attach = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
         let hdr = texture(
             "hdr",
-            HDR_FORMAT,
+            hdr_format,
             attach | wgpu::TextureUsages::TEXTURE_BINDING,
         );
         let depth = texture(
@@ -1057,8 +1103,16 @@ impl Renderer {
     pub fn render(&mut self, view: &View) -> Result<Image, RenderError> {
         let ldr_view = self.targets.ldr_view.clone();
         self.render_to(view, &ldr_view, LDR_FORMAT)?;
-        let hdr: Vec<[f32; 4]> =
-            bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.hdr, 16)?);
+        let hdr: Vec<[f32; 4]> = if self.hdr_format == HDR_FORMAT {
+            bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.hdr, 16)?)
+        } else {
+            let halves: Vec<[u16; 4]> =
+                bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.hdr, 8)?);
+            halves
+                .into_iter()
+                .map(|p| p.map(|h| half::f16::from_bits(h).to_f32()))
+                .collect()
+        };
         let srgb: Vec<[u8; 4]> =
             bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.ldr, 4)?);
         Ok(Image {

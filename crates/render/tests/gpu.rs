@@ -173,11 +173,22 @@ fn lit_quad(r: &mut Renderer, y: f32, lighting: Lighting) -> lightgrid_render::M
     )
 }
 
-fn assert_all_pixels(img: &lightgrid_render::Image, expected: Vec3, what: &str) {
+/// The relative precision of `r`'s HDR image: 1e-5 in `f32`, one step (2^-10) in half
+/// floats (the fallback where `f32` is not renderable).
+fn hdr_tolerance(r: &Renderer) -> f32 {
+    if r.hdr_format() == lightgrid_render::HDR_FORMAT {
+        1e-5
+    } else {
+        2f32.powi(-10)
+    }
+}
+
+fn assert_all_pixels(r: &Renderer, img: &lightgrid_render::Image, expected: Vec3, what: &str) {
+    let tol = hdr_tolerance(r);
     for (i, p) in img.hdr.iter().enumerate() {
         let got = Vec3::new(p[0], p[1], p[2]);
         assert!(
-            (got - expected).abs().max_element() <= 1e-5 * expected.max_element().max(1.0),
+            (got - expected).abs().max_element() <= tol * expected.max_element().max(1.0),
             "{what}: pixel {i} = {got}, expected {expected}"
         );
     }
@@ -217,7 +228,12 @@ fn culled_instances_leave_the_image_as_it_was() {
     assert!(first.hdr != alone.hdr, "the instance across the edge shows");
     r.set_instances(id, &unseen).unwrap();
     let none = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
-    assert_all_pixels(&none, Vec3::splat(9.0), "nothing in view: the background");
+    assert_all_pixels(
+        &r,
+        &none,
+        Vec3::splat(9.0),
+        "nothing in view: the background",
+    );
 }
 
 #[test]
@@ -238,7 +254,7 @@ fn vertex_light_and_tone_mapping_give_known_answers() {
     );
     let img = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
     // Lambert: albedo × E / π.
-    assert_all_pixels(&img, albedo.truncate() * e / PI, "vertex light");
+    assert_all_pixels(&r, &img, albedo.truncate() * e / PI, "vertex light");
     // The sRGB image is the CPU tone map of the HDR one, within one code.
     for (h, s) in img.hdr.iter().zip(&img.srgb) {
         let t = tonemap_aces(Vec3::new(h[0], h[1], h[2]) * 0.7);
@@ -251,10 +267,85 @@ fn vertex_light_and_tone_mapping_give_known_answers() {
     let img = r.render(&view(LightingMode::NoGrid, vec![id])).unwrap();
     let v = view(LightingMode::NoGrid, vec![]);
     let e = v.sun_colour + PI * v.sky_ambient;
-    assert_all_pixels(&img, albedo.truncate() * e / PI, "no grid");
+    assert_all_pixels(&r, &img, albedo.truncate() * e / PI, "no grid");
     // Nothing drawn: the background.
     let img = r.render(&view(LightingMode::Grid, vec![])).unwrap();
-    assert_all_pixels(&img, Vec3::splat(9.0), "background");
+    assert_all_pixels(&r, &img, Vec3::splat(9.0), "background");
+}
+
+/// Where the adapter cannot render to `Rgba32Float` (OpenGL ES, llvmpipe through GL) the
+/// HDR image is drawn in half floats: every pixel is still the known answer, within one
+/// half-float step (2^-10 relative: drivers may truncate, llvmpipe through GL does), and the sRGB image is the same within one code. A format
+/// the adapter cannot render to, or any other format, is refused by name.
+#[test]
+fn half_float_hdr_target_gives_the_same_image() {
+    use lightgrid_render::{HDR_FALLBACK_FORMAT, HDR_FORMAT};
+    let Some(ctx) = context() else { return };
+    let albedo = Vec3::new(0.5, 0.3, 0.9);
+    let e = Vec3::new(2.0, 4.0, 0.5) * PI;
+    let background = Vec3::new(0.3, 700.0, 1.0e-3);
+    let draw = |format| {
+        let mut r = Renderer::with_hdr_format(ctx.clone(), SIZE, SIZE, format)?;
+        let id = add_quad(
+            &mut r,
+            0.0,
+            e,
+            MeshMaterial {
+                base_colour: albedo.extend(1.0),
+                lighting: Lighting::Vertex,
+                ..Default::default()
+            },
+        );
+        let mut v = view(LightingMode::Grid, vec![id]);
+        v.camera = Camera::look_at(Vec3::new(0.0, 5.0, 12.0), Vec3::ZERO);
+        v.background = background;
+        Ok::<_, lightgrid_render::RenderError>((r.render(&v)?, hdr_tolerance(&r)))
+    };
+    let mut images = Vec::new();
+    for format in [HDR_FORMAT, HDR_FALLBACK_FORMAT] {
+        let renderable = ctx
+            .adapter()
+            .get_texture_format_features(format)
+            .allowed_usages
+            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let (img, tol) = match draw(format) {
+            Ok(drawn) => drawn,
+            Err(err) => {
+                assert!(!renderable, "{format:?} is renderable here: {err}");
+                assert!(err.to_string().contains("hdr_format"), "{err}");
+                continue;
+            }
+        };
+        let (mut lit, mut sky) = (0, 0);
+        for (i, p) in img.hdr.iter().enumerate() {
+            let got = Vec3::new(p[0], p[1], p[2]);
+            let near = |want: Vec3| ((got - want).abs() - want * tol).max_element() <= 0.0;
+            if near(albedo * e / PI) {
+                lit += 1;
+            } else if near(background) {
+                sky += 1;
+            } else {
+                panic!("{format:?}: pixel {i} = {got} is neither the quad nor the background");
+            }
+        }
+        assert!(
+            lit > 0 && sky > 0,
+            "{format:?}: {lit} quad, {sky} background pixels"
+        );
+        images.push(img);
+    }
+    assert!(!images.is_empty(), "neither HDR format is renderable");
+    if let [full, half] = &images[..] {
+        for (f, h) in full.srgb.iter().zip(&half.srgb) {
+            for c in 0..4 {
+                assert!((f[c] as i32 - h[c] as i32).abs() <= 1, "{f:?} vs {h:?}");
+            }
+        }
+    }
+    let err = Renderer::with_hdr_format(ctx, SIZE, SIZE, wgpu::TextureFormat::Rgba8Unorm)
+        .err()
+        .expect("an 8-bit HDR target is refused");
+    assert!(err.to_string().contains("hdr_format"), "{err}");
 }
 
 fn uniform_volume(average: Vec3, dominant: Vec3) -> LightVolume {
@@ -289,10 +380,10 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
     let img = r.render(&view(LightingMode::Grid, vec![surface])).unwrap();
     let e = lightgrid_render::shading::irradiance_average_dominant(avg, dom, Vec3::Y);
     assert!((e - avg * (PI * 0.5 + 2.0 * PI)).abs().max_element() < 1e-5);
-    assert_all_pixels(&img, e / PI, "surface");
+    assert_all_pixels(&r, &img, e / PI, "surface");
     // Foliage: π × average, whatever the normal.
     let img = r.render(&view(LightingMode::Grid, vec![foliage])).unwrap();
-    assert_all_pixels(&img, avg, "foliage");
+    assert_all_pixels(&r, &img, avg, "foliage");
     // Ground blend: the quad is 0.5 m above a ground at 0.5 m lit with E_g; with a blend
     // height of 1 m the share of the object's own light is smoothstep(0.5) = 0.5.
     let eg = Vec3::new(3.0, 0.0, 1.0);
@@ -307,7 +398,7 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
     let mut v = view(LightingMode::Grid, vec![foliage]);
     v.ground_blend = 1.0;
     let img = r.render(&v).unwrap();
-    assert_all_pixels(&img, (eg * 0.5 + PI * avg * 0.5) / PI, "ground blend");
+    assert_all_pixels(&r, &img, (eg * 0.5 + PI * avg * 0.5) / PI, "ground blend");
     // Under 2 m of water with attenuation 0.3 per metre.
     v.ground_blend = 0.0;
     v.water = Some(Water {
@@ -315,7 +406,7 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
         attenuation: 0.3,
     });
     let img = r.render(&v).unwrap();
-    assert_all_pixels(&img, avg * (-0.6f32).exp(), "underwater");
+    assert_all_pixels(&r, &img, avg * (-0.6f32).exp(), "underwater");
 }
 
 /// The sun kept apart from the bins (issue 14): the volume's `w` is its transmittance
@@ -355,6 +446,7 @@ fn direct_sun_from_the_volume_gives_known_answers() {
     let img = r.render(&v).unwrap();
     let diffuse = albedo.truncate() * (PI * avg + e * (t * to_sun.y)) / PI;
     assert_all_pixels(
+        &r,
         &img,
         diffuse + k * e * t / PI,
         "surface with the direct sun",
@@ -368,6 +460,7 @@ fn direct_sun_from_the_volume_gives_known_answers() {
     v.meshes = vec![foliage];
     let img = r.render(&v).unwrap();
     assert_all_pixels(
+        &r,
         &img,
         avg + e * t / (4.0 * PI),
         "foliage with the direct sun",
@@ -376,18 +469,18 @@ fn direct_sun_from_the_volume_gives_known_answers() {
     v.meshes = vec![surface];
     v.sun_direction = Vec3::new(0.3, 1.0, 0.2).normalize();
     let img = r.render(&v).unwrap();
-    assert_all_pixels(&img, albedo.truncate() * avg, "sun behind the surface");
+    assert_all_pixels(&r, &img, albedo.truncate() * avg, "sun behind the surface");
     v.sun_direction = -to_sun;
     v.direct_sun = Vec3::ZERO;
     let img = r.render(&v).unwrap();
-    assert_all_pixels(&img, albedo.truncate() * avg, "no sun apart");
+    assert_all_pixels(&r, &img, albedo.truncate() * avg, "no sun apart");
     for a in &mut vol.average {
         a[3] = 0.0;
     }
     r.set_light_volume(&vol).unwrap();
     v.direct_sun = e;
     let img = r.render(&v).unwrap();
-    assert_all_pixels(&img, albedo.truncate() * avg, "full shadow");
+    assert_all_pixels(&r, &img, albedo.truncate() * avg, "full shadow");
 }
 
 #[test]
@@ -450,7 +543,7 @@ fn alpha_mask_and_emissive_tint() {
     )
     .unwrap();
     let img = r2.render(&view(LightingMode::Grid, vec![glow])).unwrap();
-    assert_all_pixels(&img, Vec3::new(5.0, 0.5, 0.05), "emissive");
+    assert_all_pixels(&r2, &img, Vec3::new(5.0, 0.5, 0.05), "emissive");
     // Bad input is a typed error naming the field.
     let mut bad = view(LightingMode::Grid, vec![glow]);
     bad.exposure = f32::NAN;

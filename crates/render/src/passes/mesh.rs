@@ -8,8 +8,29 @@ use lightgrid_core::glam::{Mat4, Vec4};
 use lightgrid_gpu::bind;
 use std::fmt::Write;
 
-/// The HDR target's format (linear, renderable, read back as `f32`).
+/// The HDR target's format where the adapter can render to it (linear, read back as
+/// `f32`): everywhere on Vulkan, Metal and DX12.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The HDR target's format where [`HDR_FORMAT`] is not renderable (OpenGL ES without
+/// `EXT_color_buffer_float`, Mesa's llvmpipe through GL): half floats, read back
+/// widened to `f32` (one step is 2^-10 relative; range up to 65504).
+pub const HDR_FALLBACK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// The HDR target's format on `adapter`: [`HDR_FORMAT`] where it can be rendered to,
+/// else [`HDR_FALLBACK_FORMAT`].
+pub fn hdr_format(adapter: &wgpu::Adapter) -> wgpu::TextureFormat {
+    let renderable = |f| {
+        adapter
+            .get_texture_format_features(f)
+            .allowed_usages
+            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+    };
+    if renderable(HDR_FORMAT) {
+        HDR_FORMAT
+    } else {
+        HDR_FALLBACK_FORMAT
+    }
+}
 /// The depth buffer's format.
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
@@ -190,6 +211,7 @@ pub(crate) fn pipelines(
     device: &wgpu::Device,
     frame_layout: &wgpu::BindGroupLayout,
     mesh_layout: &wgpu::BindGroupLayout,
+    hdr_format: wgpu::TextureFormat,
 ) -> [wgpu::RenderPipeline; 2] {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("mesh"),
@@ -240,7 +262,7 @@ pub(crate) fn pipelines(
                 module: &module,
                 entry_point: Some("fs_main"),
                 compilation_options: Default::default(),
-                targets: &[Some(HDR_FORMAT.into())],
+                targets: &[Some(hdr_format.into())],
             }),
             multiview_mask: None,
             cache: None,
