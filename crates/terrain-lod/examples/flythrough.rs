@@ -2,7 +2,8 @@
 //! points swept, grids alive per depth, memory and skipped work; then the same path with
 //! node grids of 16, 32 and 64 points for the time/memory table in the crate docs.
 //!
-//! `cargo run --release -p lightgrid-terrain-lod --example flythrough`
+//! `cargo run --release -p lightgrid-terrain-lod --example flythrough [-- 16 32]` (node
+//! sizes to run; all three by default)
 
 use std::time::Instant;
 
@@ -38,7 +39,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "node points | frames | total s | ms/frame | points swept | 26-bin f32 MB | packed MB | avg+dom MB"
     );
-    for node_points in [16u32, 32, 64] {
+    let mut sizes: Vec<u32> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse())
+        .collect::<Result<_, _>>()?;
+    if sizes.is_empty() {
+        sizes = vec![16, 32, 64];
+    }
+    for node_points in sizes {
         let composer = forest.composer(&hm)?;
         let params = HierarchyParams {
             node_points,
@@ -55,12 +63,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             sky,
             params,
         )?;
+        let setup = t.elapsed().as_secs_f64();
         let mut swept = 0;
         let frames = 30;
         let mut last = None;
+        let mut times = lightgrid_terrain_lod::StageTimes::default();
         for f in 0..frames {
             let s = h.update(camera(f))?;
             swept += s.points_swept;
+            times.material += s.times.material;
+            times.boundary += s.times.boundary;
+            times.sky_sweep += s.times.sky_sweep;
             if node_points == 32 {
                 println!(
                     "  frame {f:2}: swept {:6} points, built {:2}, pending {:2}, evicted {:2}, bare skipped {:2}, alive {:?}, {:.1} MB",
@@ -83,6 +96,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.bytes(BYTES_26_F32) as f64 / 1e6,
             s.bytes(BYTES_26_PACKED) as f64 / 1e6,
             s.bytes(BYTES_AVG_DOM) as f64 / 1e6
+        );
+        let per_frame = |d: std::time::Duration| d.as_secs_f64() * 1e3 / frames as f64;
+        println!(
+            "{:11}   of which setup (Hierarchy::new) {:.0} ms, the frames {:.1} ms a frame; stages a frame, summed over threads: material {:.1} ms, boundaries {:.1} ms, sky sweeps {:.1} ms",
+            "",
+            setup * 1e3,
+            (secs - setup) * 1e3 / frames as f64,
+            per_frame(times.material),
+            per_frame(times.boundary),
+            per_frame(times.sky_sweep),
         );
     }
     Ok(())
