@@ -2,17 +2,53 @@
 //! the layout of its WGSL declaration.
 
 /// Parses and validates `src` (named `name` in errors) with every validation flag and
-/// capability; the module for further checks.
+/// capability, and refuses what is not portable ([`signed_remainders`]); the module for
+/// further checks.
 pub fn validate(name: &str, src: &str) -> Result<naga::Module, String> {
     let module = naga::front::wgsl::parse_str(src)
         .map_err(|e| format!("{name}: {}", e.emit_to_string(src)))?;
-    naga::valid::Validator::new(
+    let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
     )
     .validate(&module)
     .map_err(|e| format!("{name}: {e:?}"))?;
+    let signed = signed_remainders(&module, &info);
+    if !signed.is_empty() {
+        return Err(format!(
+            "{name}: `%` on signed integers in {}: undefined on OpenGL for negative \
+             operands (naga writes it to GLSL as it is); use the prelude's wrap_index or \
+             unsigned operands",
+            signed.join(", ")
+        ));
+    }
     Ok(module)
+}
+
+/// The functions (by name) of `module` that take a remainder (`%`) of signed integers
+/// at run time. WGSL defines it for negative operands; GLSL does not, and naga's GLSL
+/// writer emits it unchanged, so such a shader gives other results on the OpenGL
+/// backend (the GPU sweeper's periodic sides did: wrong cells on llvmpipe through GL).
+pub fn signed_remainders(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Vec<String> {
+    let scan = |f: &naga::Function, fi: &naga::valid::FunctionInfo| {
+        f.expressions.iter().any(|(_, e)| {
+            matches!(*e, naga::Expression::Binary { op: naga::BinaryOperator::Modulo, left, .. }
+                if fi[left].ty.inner_with(&module.types).scalar_kind()
+                    == Some(naga::ScalarKind::Sint))
+        })
+    };
+    let functions = module
+        .functions
+        .iter()
+        .filter(|&(h, f)| scan(f, &info[h]))
+        .map(|(_, f)| f.name.clone().unwrap_or_default());
+    let entries = module
+        .entry_points
+        .iter()
+        .enumerate()
+        .filter(|&(i, ep)| scan(&ep.function, info.get_entry_point(i)))
+        .map(|(_, ep)| ep.name.clone());
+    functions.chain(entries).collect()
 }
 
 /// Checks that the WGSL struct `name` in `src` has exactly the fields `offsets` (name and
@@ -68,6 +104,27 @@ mod tests {
             pub _pad0: u32 => "u32",
             /// Padding.
             pub _pad1: [u32; 2] => "vec2<u32>",
+        }
+    }
+
+    /// A signed `%` is refused by name (GLSL leaves it undefined for negative
+    /// operands); the prelude's `wrap_index` wraps like WGSL's `(i % n + n) % n`.
+    #[test]
+    fn signed_remainders_are_refused() {
+        let prelude = crate::wgsl::prelude();
+        let bad =
+            format!("{prelude}\nfn wrap(i: i32, n: i32) -> i32 {{ return (i % n + n) % n; }}");
+        let e = super::validate("bad", &bad).unwrap_err();
+        assert!(e.contains("wrap") && e.contains("signed"), "{e}");
+        let vector =
+            format!("{prelude}\nfn v(i: vec2<i32>) -> vec2<i32> {{ return i % vec2<i32>(3); }}");
+        assert!(super::validate("vector", &vector).is_err());
+        for ok in [
+            "fn u(i: u32, n: u32) -> u32 { return i % n; }",
+            "fn f(x: f32) -> f32 { return x % 2.0; }",
+            "const C: i32 = -7 % 3;",
+        ] {
+            super::validate("ok", &format!("{prelude}\n{ok}")).unwrap();
         }
     }
 

@@ -34,8 +34,24 @@ pub fn prelude() -> String {
         dirs::NUM_DIRS,
         u.join(", ")
     );
+    s.push_str(WRAP_INDEX);
     s
 }
+
+/// `wrap_index(i, n)`: `i` wrapped into `0..n` (`n > 0`), for periodic sides. WGSL
+/// defines `%` on negative integers, but GLSL leaves it undefined and naga writes it to
+/// GLSL as it is, so on OpenGL (llvmpipe through GL) `(i % n + n) % n` gave wrong
+/// cells; here only unsigned operands reach `%`. [`crate::check::validate`] refuses a
+/// signed `%` in any shader.
+const WRAP_INDEX: &str = "
+fn wrap_index(i: i32, n: i32) -> i32 {
+    if (i >= 0) {
+        return i32(u32(i) % u32(n));
+    }
+    let r = i32(u32(-i) % u32(n));
+    return select(n - r, 0, r == 0);
+}
+";
 
 #[cfg(test)]
 mod tests {

@@ -252,7 +252,8 @@ pub fn max_kernel() -> String {
 /// The sun transmittance march (`crate::sun`).
 pub fn sun_kernel() -> String {
     format!(
-        "{}\n{}",
+        "{}\n{}\n{}",
+        lightgrid_gpu::wgsl::prelude(),
         crate::sun::SunParams::wgsl(),
         include_str!("shaders/sun.wgsl")
     )

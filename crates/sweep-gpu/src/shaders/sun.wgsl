@@ -69,7 +69,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             return;
         }
         // Wrap to the opposite side.
-        cell[axis] = (cell[axis] % di[axis] + di[axis]) % di[axis];
+        cell[axis] = wrap_index(cell[axis], di[axis]);
         pos[axis] -= f32(step) * f32(di[axis]);
     }
     out[i] = exp(log_t) * outside;

@@ -4,8 +4,8 @@ fn column(x: i32, z: i32) -> i32 {
     let nx = i32(P.nx);
     let nz = i32(P.nz);
     if (P.periodic == 1u) {
-        let wx = ((x % nx) + nx) % nx;
-        let wz = ((z % nz) + nz) % nz;
+        let wx = wrap_index(x, nx);
+        let wz = wrap_index(z, nz);
         return wx + nx * wz;
     }
     if (x < 0 || x >= nx || z < 0 || z >= nz) {
