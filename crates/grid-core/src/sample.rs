@@ -116,6 +116,13 @@ fn trilinear_frame(dims: UVec3, g: Vec3) -> (UVec3, UVec3, Vec3) {
     (base, hi, f)
 }
 
+/// The base point (lowest corner) of the trilinear lookup at continuous grid coordinates
+/// `g` ([`trilinear_indices`]' first index is this point's), clamped into the grid:
+/// monotonic in `g` on every axis.
+pub fn trilinear_base(dims: UVec3, g: Vec3) -> UVec3 {
+    trilinear_frame(dims, g).0
+}
+
 /// The 8 corners and weights of a trilinear lookup at continuous grid coordinates `g`,
 /// clamped into the grid (a point outside reads the nearest face/edge/corner value).
 /// Along an axis with one point, that point has weight 1; a zero dimension is read as

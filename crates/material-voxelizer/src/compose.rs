@@ -23,7 +23,11 @@
 //!
 //! **Cost.** Instances are binned into square tiles by their world bounds (seed 000's
 //! per-thread-group object lists), so an area only looks at the instances of the tiles it
-//! overlaps: the cost follows the objects near it, not the world's.
+//! overlaps: the cost follows the objects near it, not the world's. Within a cell, an
+//! instance whose lookups there all land in clear cubes of its model (air: eight clear
+//! corners, which read as pass-through 1) is left out before its samples are taken; a
+//! summed-volume table of each model's clear cubes answers that for the cell's whole
+//! box at once. Most of a tree's box is air.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -207,7 +211,7 @@ struct Sampling<'a> {
     placed: &'a Placed,
     model: &'a MaterialGrid,
     /// The model's [`clear_cubes`].
-    clear: &'a [bool],
+    clear: &'a ClearCubes,
     bounds: (Vec3, Vec3),
     /// `inv_rot * (o - 0.5) h / scale` of each sample offset `o` (x fastest).
     offsets: Vec<Vec3>,
@@ -220,7 +224,7 @@ struct Sampling<'a> {
 impl<'a> Sampling<'a> {
     fn new(
         placed: &'a Placed,
-        (model, clear): (&'a MaterialGrid, &'a [bool]),
+        (model, clear): (&'a MaterialGrid, &'a ClearCubes),
         h: f32,
         k: u32,
     ) -> Self {
@@ -251,8 +255,8 @@ impl<'a> Sampling<'a> {
 
     /// The model's material at model-space `p` (`MaterialGrid::sample`, bit for bit),
     /// or `None` where it is clear (pass-through 1). A lookup whose eight corners are
-    /// all clear ([`clear_cubes`]) sums only its weights, which is the pass-through
-    /// the corners would give: most of a tree's box is air.
+    /// all clear ([`clear_cubes`]) is clear: most of a tree's box is air. (Sampled, its
+    /// weights could sum to 1 − 2⁻²⁴ and read a pass-through a rounding below 1.)
     #[inline]
     fn read(&self, p: Vec3) -> Option<Material> {
         if !p.is_finite() {
@@ -260,21 +264,84 @@ impl<'a> Sampling<'a> {
         }
         let d = self.model.desc();
         let lookup = lightgrid_core::trilinear_indices(d.dims(), d.to_grid(p));
-        let (index, weight) = lookup;
-        if self.clear[index[0]] {
-            // `Material::add_scaled` of pass-throughs of 1: `pass += 1 × w`, exactly w.
-            let mut pass = 0.0f32;
-            for w in weight {
-                if w != 0.0 {
-                    pass += w;
-                }
-            }
-            if pass >= 1.0 {
-                return None;
-            }
+        if self.clear.cube[lookup.0[0]] {
+            return None;
         }
         let m = self.model.blend(lookup);
         (m.pass < 1.0).then_some(m)
+    }
+
+    /// Whether every read within `reach` of model-space `c` (the samples of a cell whose
+    /// centre maps to `c`) is clear: their lookups' base points all lie in the box of
+    /// those of `c ± reach` (the base is monotonic in the position), and it holds clear
+    /// cubes only. Then the instance adds nothing to the cell and is left out.
+    #[inline]
+    fn clear_around(&self, c: Vec3) -> bool {
+        if !c.is_finite() {
+            return false;
+        }
+        let d = self.model.desc();
+        let lo = lightgrid_core::trilinear_base(d.dims(), d.to_grid(c - self.reach));
+        let hi = lightgrid_core::trilinear_base(d.dims(), d.to_grid(c + self.reach));
+        self.clear.none_blocked(lo, hi)
+    }
+}
+
+/// A model's [`clear_cubes`], and the count of cubes that are not clear in every box
+/// from the origin (a summed-volume table), for [`ClearCubes::none_blocked`].
+struct ClearCubes {
+    cube: Vec<bool>,
+    /// `(nx + 1) × (ny + 1) × (nz + 1)`, x fastest then z: the cubes not clear with
+    /// coordinates below `(x, y, z)`.
+    blocked: Vec<u32>,
+    dims: UVec3,
+}
+
+impl ClearCubes {
+    fn new(m: &MaterialGrid) -> Self {
+        let cube = clear_cubes(m);
+        let dims = m.desc().dims();
+        let (nx, nz) = (dims.x as usize + 1, dims.z as usize + 1);
+        let mut blocked = vec![0u32; nx * nz * (dims.y as usize + 1)];
+        let at = |x: usize, y: usize, z: usize| x + nx * (z + nz * y);
+        for y in 1..=dims.y as usize {
+            for z in 1..=dims.z as usize {
+                for x in 1..=dims.x as usize {
+                    let i = m.desc().index_unchecked(UVec3::new(
+                        x as u32 - 1,
+                        y as u32 - 1,
+                        z as u32 - 1,
+                    ));
+                    blocked[at(x, y, z)] = u32::from(!cube[i])
+                        + blocked[at(x - 1, y, z)]
+                        + blocked[at(x, y - 1, z)]
+                        + blocked[at(x, y, z - 1)]
+                        + blocked[at(x - 1, y - 1, z - 1)]
+                        - blocked[at(x - 1, y - 1, z)]
+                        - blocked[at(x - 1, y, z - 1)]
+                        - blocked[at(x, y - 1, z - 1)];
+                }
+            }
+        }
+        Self {
+            cube,
+            blocked,
+            dims,
+        }
+    }
+
+    /// Whether every cube with base point in `lo..=hi` (each axis) is clear.
+    fn none_blocked(&self, lo: UVec3, hi: UVec3) -> bool {
+        let (nx, nz) = (self.dims.x as usize + 1, self.dims.z as usize + 1);
+        let at =
+            |x: u32, y: u32, z: u32| self.blocked[x as usize + nx * (z as usize + nz * y as usize)];
+        let (a, b) = (lo, hi + UVec3::ONE);
+        let n = at(b.x, b.y, b.z) + at(a.x, a.y, b.z) + at(a.x, b.y, a.z) + at(b.x, a.y, a.z)
+            - at(a.x, b.y, b.z)
+            - at(b.x, a.y, b.z)
+            - at(b.x, b.y, a.z)
+            - at(a.x, a.y, a.z);
+        n == 0
     }
 }
 
@@ -309,8 +376,8 @@ struct Placed {
 /// [`MaterialSource`].
 pub struct AreaComposer {
     models: Vec<MaterialGrid>,
-    /// Each model's [`clear_cubes`].
-    clear: Vec<Vec<bool>>,
+    /// Each model's [`ClearCubes`].
+    clear: Vec<ClearCubes>,
     placed: Vec<Placed>,
     tiles: HashMap<IVec2, Vec<u32>>,
     /// Instances covering more than [`MAX_TILES_PER_INSTANCE`] tiles, not binned.
@@ -443,7 +510,7 @@ impl AreaComposer {
             });
         }
         Ok(Self {
-            clear: models.iter().map(clear_cubes).collect(),
+            clear: models.iter().map(ClearCubes::new).collect(),
             models,
             placed,
             tiles,
@@ -619,13 +686,20 @@ impl AreaComposer {
                 };
                 // Each instance's cell centre in its model's space, once a cell; the
                 // samples are offsets from it. Instances out of reach are dropped.
+                // Instances whose every read here is clear add nothing: left out too.
                 centres.clear();
                 for (li, sm) in local.iter().enumerate() {
                     let c = sm.to_model(centre);
                     let (mlo, mhi) = sm.bounds;
-                    if (c + sm.reach).cmpge(mlo).all() && (c - sm.reach).cmple(mhi).all() {
+                    if (c + sm.reach).cmpge(mlo).all()
+                        && (c - sm.reach).cmple(mhi).all()
+                        && !sm.clear_around(c)
+                    {
                         centres.push((c, li));
                     }
+                }
+                if centres.is_empty() && !ground_possible {
+                    return; // as if no instance were here: Material::EMPTY
                 }
                 *cell = sample_cell(
                     (centre, h, k),
@@ -697,8 +771,11 @@ fn sample_cell(
     let mut pass_sum = 0.0;
     let mut colour_sum = Vec3::ZERO;
     let mut block_sum = 0.0;
-    for s in 0..k * k * k {
-        let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
+    // Samples in the order s = x + k (y + k z) (x fastest), without a division a sample.
+    let samples =
+        (0..k).flat_map(|z| (0..k).flat_map(move |y| (0..k).map(move |x| UVec3::new(x, y, z))));
+    for (s, q) in samples.enumerate() {
+        let o = q.as_vec3();
         let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
         let mut pass = 1.0f32;
         let mut colour = Vec3::ZERO;
@@ -713,7 +790,7 @@ fn sample_cell(
         };
         for &(c, li) in centres.iter() {
             let sm = local[li];
-            let mpos = c + sm.offsets[s as usize];
+            let mpos = c + sm.offsets[s];
             let (mlo, mhi) = sm.bounds;
             if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
                 continue;
@@ -724,7 +801,7 @@ fn sample_cell(
             };
             add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
         }
-        if let Some(&(g, colour)) = ground.get((s % k + k * (s / (k * k))) as usize) {
+        if let Some(&(g, colour)) = ground.get((q.x + k * q.z) as usize) {
             let w = ((g - p.y) / ground_band + 0.5).clamp(0.0, 1.0);
             add(1.0 - w, colour);
         }
@@ -781,8 +858,8 @@ mod tests {
                 })
                 .collect();
             let model = MaterialGrid::new(d, cells).unwrap();
-            let clear = clear_cubes(&model);
-            assert!(clear.iter().any(|&c| c) && !clear.iter().all(|&c| c));
+            let clear = ClearCubes::new(&model);
+            assert!(clear.cube.iter().any(|&c| c) && !clear.cube.iter().all(|&c| c));
             let placed = Placed {
                 inst: Instance {
                     model: 0,
@@ -804,7 +881,8 @@ mod tests {
                 let want = model.sample(p).unwrap();
                 match sm.read(p) {
                     None => {
-                        assert!(want.pass >= 1.0, "{p}: {want:?} read as clear");
+                        // Clear, but for the weights' rounding (a few 2^-24 at most).
+                        assert!(want.pass >= 1.0 - 1e-6, "{p}: {want:?} read as clear");
                         skipped += 1;
                     }
                     Some(m) => {
@@ -821,6 +899,63 @@ mod tests {
                 "{dims}: {seen} read, {skipped} clear"
             );
         }
+    }
+
+    /// The summed-volume table's boxes count what testing every cube counts, and a
+    /// place whose box is clear reads clear at every offset within the reach.
+    #[test]
+    fn clear_boxes_are_the_brute_force_and_read_clear() {
+        let mut rng = fastrand::Rng::with_seed(5);
+        let d = GridDesc::new(Vec3::new(-1.0, 0.0, -0.5), 0.5, UVec3::new(10, 8, 9)).unwrap();
+        let cells: Vec<Material> = (0..d.point_count())
+            .map(|_| match rng.u32(0..40) {
+                0 => Material {
+                    reflectance: Vec3::splat(0.5),
+                    pass: rng.f32(),
+                },
+                _ => Material::EMPTY,
+            })
+            .collect();
+        let model = MaterialGrid::new(d, cells).unwrap();
+        let clear = ClearCubes::new(&model);
+        for _ in 0..2000 {
+            let a = UVec3::new(rng.u32(0..10), rng.u32(0..8), rng.u32(0..9));
+            let b = UVec3::new(rng.u32(a.x..10), rng.u32(a.y..8), rng.u32(a.z..9));
+            let brute = (a.y..=b.y).all(|y| {
+                (a.z..=b.z).all(|z| {
+                    (a.x..=b.x).all(|x| clear.cube[d.index_unchecked(UVec3::new(x, y, z))])
+                })
+            });
+            assert_eq!(clear.none_blocked(a, b), brute, "{a} {b}");
+        }
+        let placed = Placed {
+            inst: Instance {
+                model: 0,
+                position: Vec3::ZERO,
+                rotation: Quat::IDENTITY,
+                scale: 1.0,
+            },
+            inv_rot: Quat::IDENTITY,
+            lo: Vec3::ZERO,
+            hi: Vec3::ZERO,
+        };
+        let sm = Sampling::new(&placed, (&model, &clear), 1.0, 3);
+        let (mut clear_places, mut others) = (0, 0);
+        for _ in 0..4000 {
+            let c = d.origin() + (Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 1.4 - 0.2) * 5.0;
+            if sm.clear_around(c) {
+                clear_places += 1;
+                for o in &sm.offsets {
+                    assert!(sm.read(c + *o).is_none(), "{c} + {o}");
+                }
+            } else {
+                others += 1;
+            }
+        }
+        assert!(
+            clear_places > 100 && others > 100,
+            "{clear_places} clear, {others} not"
+        );
     }
 
     #[test]
