@@ -832,6 +832,21 @@ impl MaterialSource for AreaComposer {
 mod tests {
     use super::*;
 
+    /// Model 0 placed at the origin, unturned, unscaled.
+    fn at_origin() -> Placed {
+        Placed {
+            inst: Instance {
+                model: 0,
+                position: Vec3::ZERO,
+                rotation: Quat::IDENTITY,
+                scale: 1.0,
+            },
+            inv_rot: Quat::IDENTITY,
+            lo: Vec3::ZERO,
+            hi: Vec3::ZERO,
+        }
+    }
+
     #[test]
     fn a_read_is_the_model_grids_sample_bit_for_bit() {
         // A model of clear cells with a few blocks of medium and an opaque cell, and
@@ -860,17 +875,7 @@ mod tests {
             let model = MaterialGrid::new(d, cells).unwrap();
             let clear = ClearCubes::new(&model);
             assert!(clear.cube.iter().any(|&c| c) && !clear.cube.iter().all(|&c| c));
-            let placed = Placed {
-                inst: Instance {
-                    model: 0,
-                    position: Vec3::ZERO,
-                    rotation: Quat::IDENTITY,
-                    scale: 1.0,
-                },
-                inv_rot: Quat::IDENTITY,
-                lo: Vec3::ZERO,
-                hi: Vec3::ZERO,
-            };
+            let placed = at_origin();
             let sm = Sampling::new(&placed, (&model, &clear), 1.0, 1);
             let (mut seen, mut skipped) = (0, 0);
             for _ in 0..20_000 {
@@ -928,17 +933,7 @@ mod tests {
             });
             assert_eq!(clear.none_blocked(a, b), brute, "{a} {b}");
         }
-        let placed = Placed {
-            inst: Instance {
-                model: 0,
-                position: Vec3::ZERO,
-                rotation: Quat::IDENTITY,
-                scale: 1.0,
-            },
-            inv_rot: Quat::IDENTITY,
-            lo: Vec3::ZERO,
-            hi: Vec3::ZERO,
-        };
+        let placed = at_origin();
         let sm = Sampling::new(&placed, (&model, &clear), 1.0, 3);
         let (mut clear_places, mut others) = (0, 0);
         for _ in 0..4000 {
