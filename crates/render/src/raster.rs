@@ -20,6 +20,7 @@ use crate::sampling::LightVolume;
 
 pub use crate::passes::mesh::{
     HDR_FALLBACK_FORMAT, HDR_FORMAT, Lighting, LightingMode, MeshInstance, Vertex, hdr_format,
+    renderable,
 };
 
 /// The tone-mapped target's format for headless images.
@@ -331,12 +332,9 @@ impl Renderer {
         height: u32,
         hdr_format: wgpu::TextureFormat,
     ) -> Result<Self, RenderError> {
-        let renderable = ctx
-            .adapter()
-            .get_texture_format_features(hdr_format)
-            .allowed_usages
-            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT);
-        if ![HDR_FORMAT, HDR_FALLBACK_FORMAT].contains(&hdr_format) || !renderable {
+        if ![HDR_FORMAT, HDR_FALLBACK_FORMAT].contains(&hdr_format)
+            || !renderable(ctx.adapter(), hdr_format)
+        {
             return Err(GridError::invalid(
                 "hdr_format",
                 hdr_format,

@@ -303,11 +303,7 @@ fn half_float_hdr_target_gives_the_same_image() {
     };
     let mut images = Vec::new();
     for format in [HDR_FORMAT, HDR_FALLBACK_FORMAT] {
-        let renderable = ctx
-            .adapter()
-            .get_texture_format_features(format)
-            .allowed_usages
-            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let renderable = lightgrid_render::renderable(ctx.adapter(), format);
         let (img, tol) = match draw(format) {
             Ok(drawn) => drawn,
             Err(err) => {

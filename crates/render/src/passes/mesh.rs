@@ -16,16 +16,18 @@ pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// widened to `f32` (one step is 2^-10 relative; range up to 65504).
 pub const HDR_FALLBACK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
+/// Whether `adapter` can render to `format`.
+pub fn renderable(adapter: &wgpu::Adapter, format: wgpu::TextureFormat) -> bool {
+    adapter
+        .get_texture_format_features(format)
+        .allowed_usages
+        .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+}
+
 /// The HDR target's format on `adapter`: [`HDR_FORMAT`] where it can be rendered to,
 /// else [`HDR_FALLBACK_FORMAT`].
 pub fn hdr_format(adapter: &wgpu::Adapter) -> wgpu::TextureFormat {
-    let renderable = |f| {
-        adapter
-            .get_texture_format_features(f)
-            .allowed_usages
-            .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
-    };
-    if renderable(HDR_FORMAT) {
+    if renderable(adapter, HDR_FORMAT) {
         HDR_FORMAT
     } else {
         HDR_FALLBACK_FORMAT
