@@ -363,6 +363,7 @@ impl BinLight {
     /// one solid angle, so their light is in the ratio of their radiances, and the
     /// downward half takes `B(x,−1,z) / (B(x,−1,z) + B(x,1,z))`; one half where both are
     /// dark (or `d` is not horizontal). In `[0, 1]`.
+    #[inline]
     pub fn horizon_share(&self, d: usize) -> Vec3 {
         let Some(Some((below, above))) = HORIZON_NEIGHBOURS.get(d).copied() else {
             return Vec3::splat(0.5);

@@ -94,7 +94,11 @@ impl Boundary {
                     found: down.len(),
                 });
             }
-            for (i, d) in down.iter().enumerate() {
+            // One pass over the values that vectorises; the bad one named only if any.
+            let ok = bytemuck::cast_slice::<crate::HorizonLight, f32>(down)
+                .iter()
+                .fold(true, |ok, x| ok & (0.0..=f32::MAX).contains(x));
+            for (i, d) in down.iter().enumerate().filter(|_| !ok) {
                 if let Some(v) = d.0.iter().find(|v| !v.is_finite() || v.min_element() < 0.0) {
                     return Err(GridError::invalid(
                         "sides.down",
@@ -213,6 +217,7 @@ impl HaloLayout {
         self.len() == 0
     }
     /// Index of outside point `(x, j, z)`; `None` inside the grid or beyond the ring.
+    #[inline]
     pub fn index(&self, x: i32, j: u32, z: i32) -> Option<usize> {
         let w = HALO_WIDTH;
         let (nx, nz) = (self.dims.x as i32, self.dims.z as i32);

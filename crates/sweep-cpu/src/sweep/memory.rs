@@ -209,6 +209,9 @@ pub(crate) struct Work {
     /// source level it was last filled for (`None`: not filled).
     pub(crate) ghost: LevelLight,
     pub(crate) ghost_for: Option<(bool, i32)>,
+    /// The ring points some channel's taps reach ([`GhostRing`]), found once for a
+    /// level size and channel set.
+    pub(crate) ring: GhostRing,
     /// Phase 1: what every point's path lost in each of its segments (per row: slot,
     /// colour, column).
     pub(crate) removed: Vec<f32>,
@@ -258,6 +261,7 @@ impl Work {
             above: LevelLight::new(nx, nz),
             ghost: LevelLight::new(nx, nz),
             ghost_for: None,
+            ring: GhostRing::default(),
             removed: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
             pre: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
             pre_rows: vec![false; nz],
@@ -374,36 +378,71 @@ impl Work {
             return;
         }
         self.ghost_for = Some(key);
-        let (nx, nz) = (ctx.nx as isize, ctx.nz as isize);
+        self.ring.make_for(ctx);
         let p = self.ghost.pitch();
+        let pad = PAD as isize;
+        for &(x, z, mask) in &self.ring.points {
+            // The point's bins, found once for its channels.
+            let bins = if from_virtual && src.halo.is_none() {
+                src.virtual_bins(x, z)
+            } else {
+                src.outside_bins(x, src_level, z)
+            };
+            let row = self.ghost.row_mut(z as isize);
+            let col = (x as isize + pad) as usize;
+            let mut m = mask;
+            while m != 0 {
+                let c = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let v = Sources::value(bins, &ctx.ch[c]);
+                let b = c * 3 * p + col;
+                row[b] = v.x;
+                row[b + p] = v.y;
+                row[b + 2 * p] = v.z;
+            }
+        }
+    }
+}
+
+/// The points of a level's ring (beyond its sides, within [`PAD`]) that some
+/// channel's taps reach ([`ghost_reach`]), each with the channels that reach it (bit
+/// `c`; `CHANNELS` ≤ 32): what [`Work::fill_ghost`] writes, found once for a level size and channel set
+/// (the ring was scanned whole, every channel tested at every point, at each fill: a
+/// third of the fill's time on a 16-point node).
+const _: () = assert!(CHANNELS <= 32);
+
+#[derive(Clone, Debug, Default)]
+pub(crate) struct GhostRing {
+    /// The level size and channel set the points are for.
+    key: Option<(i32, i32, usize)>,
+    pub(crate) points: Vec<(i32, i32, u32)>,
+}
+
+impl GhostRing {
+    /// The points for `ctx`'s level size and channels (kept where they are already).
+    pub(crate) fn make_for(&mut self, ctx: &Ctx) {
+        let key = (ctx.nx, ctx.nz, ctx.ch.as_ptr() as usize);
+        if self.key == Some(key) {
+            return;
+        }
+        self.key = Some(key);
+        self.points.clear();
+        let (nx, nz) = (ctx.nx as isize, ctx.nz as isize);
         let pad = PAD as isize;
         let reach: [GhostReach; CHANNELS] =
             std::array::from_fn(|c| ghost_reach(&ctx.ch[c], nx, nz));
         for z in -pad..nz + pad {
-            let row = self.ghost.row_mut(z);
             for x in -pad..nx + pad {
                 if (0..nx).contains(&x) && (0..nz).contains(&z) {
                     continue;
                 }
-                if !reach.iter().any(|r| r.holds(x, z)) {
-                    continue;
-                }
-                let (xi, zi) = (x as i32, z as i32);
-                // The point's bins, found once for its channels.
-                let bins = if from_virtual && src.halo.is_none() {
-                    src.virtual_bins(xi, zi)
-                } else {
-                    src.outside_bins(xi, src_level, zi)
-                };
-                for (c, chn) in ctx.ch.iter().enumerate() {
-                    if !reach[c].holds(x, z) {
-                        continue;
-                    }
-                    let v = Sources::value(bins, chn);
-                    let b = c * 3 * p + (x + pad) as usize;
-                    row[b] = v.x;
-                    row[b + p] = v.y;
-                    row[b + 2 * p] = v.z;
+                let mask = reach
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, r)| r.holds(x, z))
+                    .fold(0u32, |m, (c, _)| m | 1 << c);
+                if mask != 0 {
+                    self.points.push((x as i32, z as i32, mask));
                 }
             }
         }
