@@ -69,6 +69,7 @@ use serde::Serialize;
 
 mod host;
 mod mc;
+mod places;
 mod reference;
 mod seams;
 mod text;
@@ -286,6 +287,9 @@ pub struct Run {
     /// showed its own sun response, and those whose node's was still to come (they
     /// read a coarser grid's sun).
     pub finest_sun: [Errors; 2],
+    /// The finest depth's probes over the path against the 1 m sweep by where they
+    /// read: the way they face and their distance from their node's side.
+    pub finest_places: places::Places,
     /// Mean frame, milliseconds.
     pub mean_ms: f64,
     /// Slowest frame, milliseconds.
@@ -602,6 +606,8 @@ struct Tally {
     /// The finest depth's probes against the 1 m sweep: those whose node shows its own
     /// sun response, and those whose node's is still to come (a coarser grid's read).
     finest_sun: [Acc3; 2],
+    /// The finest depth's probes by where they read ([`places`]).
+    finest_places: places::PlaceTally,
 }
 
 /// The renderer's read of `field` at the probes: `lightgrid_render`'s sampler
@@ -738,6 +744,7 @@ fn frame(
         if d == finest {
             let shown = own_sun.contains(&(h.grid_at(p.p) as *const _));
             tally.finest_sun[usize::from(!shown)].add(hp, r);
+            tally.finest_places.add(h.grid_at(p.p).desc(), p, hp, r);
         }
         // The finest depth's own cell is the 1 m sweep's; the world grid has none.
         let own_r = match d {
@@ -892,6 +899,7 @@ fn run_elevation(
         error_by_depth: tally.by_depth.iter().map(Acc3::errors).collect(),
         error_by_depth_own: tally.by_depth_own.iter().map(Acc3::errors).collect(),
         finest_sun: tally.finest_sun.each_ref().map(Acc3::errors),
+        finest_places: tally.finest_places.places(),
         sun_move_world_ms: world_ms,
         sun_move_wait_frames: wait_frames,
         sun_move_wait_max_ms: wait_max_ms,

@@ -194,6 +194,7 @@ fn nesting_lines(r: &Run) -> String {
         100.0 * coarse.sun.rmse,
         100.0 * coarse.direct.rmse
     );
+    s.push_str(&super::places::lines(&r.finest_places));
     let by_depth: Vec<String> = r
         .error_by_depth_own
         .iter()
