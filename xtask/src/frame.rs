@@ -100,6 +100,9 @@ pub struct FrameConfig {
     pub bare_skip: bool,
     /// No sun's casters (`LodSkips::sun_casters`, off by default).
     pub no_casters: bool,
+    /// The finest depth's scattered sun read from the coarser grids, not swept
+    /// (`LodSkips::finest_scattered_sun`, off by default).
+    pub skip_finest_sun: bool,
     /// Keep no horizon halves (`HierarchyParams::sweep.outputs.horizon` off, in the
     /// hierarchy and the reference sweep): horizontal bins read as even.
     pub even: bool,
@@ -141,6 +144,7 @@ impl FrameConfig {
             gpu: false,
             bare_skip: false,
             no_casters: false,
+            skip_finest_sun: false,
             even: false,
             budget_ms: None,
             passes: None,
@@ -365,6 +369,8 @@ pub struct FrameReport {
     pub bare_skip: bool,
     /// Whether the sun's casters were skipped.
     pub no_casters: bool,
+    /// Whether the finest depth read the coarser grids' scattered sun.
+    pub skip_finest_sun: bool,
     /// Whether the grids kept their horizon halves (and were read through them).
     pub horizon: bool,
     /// The frames' time budget, milliseconds (`None`: none).
@@ -675,6 +681,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     };
     p.skip.bare_children = cfg.bare_skip;
     p.skip.sun_casters = cfg.no_casters;
+    p.skip.finest_scattered_sun = cfg.skip_finest_sun;
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
     if let Some(n) = cfg.passes {
@@ -1051,6 +1058,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         path: format!("{:?}", cfg.path).to_lowercase(),
         bare_skip: cfg.bare_skip,
         no_casters: cfg.no_casters,
+        skip_finest_sun: cfg.skip_finest_sun,
         horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,

@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--even] [--budget-ms MS] [--passes N] [--tolerance T] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--even] [--budget-ms MS] [--passes N] [--tolerance T] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -97,6 +97,10 @@ enum Task {
         /// the built nodes through coarser material, for comparison.
         #[arg(long)]
         no_casters: bool,
+        /// The finest depth's scattered sun read from the coarser grids, not swept
+        /// (LodSkips::finest_scattered_sun, off by default), for comparison.
+        #[arg(long)]
+        skip_finest_sun: bool,
         /// Keep no horizon halves: every grid's horizontal bins read as even across the
         /// horizon (in the hierarchy and the reference sweep), for comparison.
         #[arg(long)]
@@ -205,6 +209,7 @@ fn main() -> ExitCode {
             gpu,
             bare_skip,
             no_casters,
+            skip_finest_sun,
             even,
             budget_ms,
             passes,
@@ -226,6 +231,7 @@ fn main() -> ExitCode {
             cfg.gpu = gpu;
             cfg.bare_skip = bare_skip;
             cfg.no_casters = no_casters;
+            cfg.skip_finest_sun = skip_finest_sun;
             cfg.even = even;
             cfg.budget_ms = budget_ms;
             cfg.passes = passes;

@@ -131,73 +131,7 @@ impl Hierarchy {
             .iter()
             .map(|k| self.composed.remove(k).expect("composed above or kept"))
             .collect();
-        let over = |swept: u64, cost: u64| self.over_budget(swept, cost);
-        let mut jobs = Vec::new();
-        for w in order {
-            match w {
-                Want::Stale(key) => {
-                    let cost = self.nodes[&key].light.desc().point_count() as u64;
-                    if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
-                        stats.pending += 1;
-                        continue;
-                    }
-                    stats.points_swept += cost;
-                    stats.sun_built += 1;
-                    jobs.push(Job {
-                        key,
-                        material: None,
-                        sky: false,
-                        sun: true,
-                        march: false,
-                    });
-                }
-                Want::New(key, i) => {
-                    let desc = materials[i].grid.desc();
-                    let (cost, sky_cost) = (
-                        desc.point_count() as u64,
-                        crate::apron::sky_points(desc, self.params.apron),
-                    );
-                    if over(stats.points_swept, sky_cost) {
-                        stats.pending += 1;
-                        continue;
-                    }
-                    stats.points_swept += sky_cost;
-                    stats.built += 1;
-                    let mut sun = false;
-                    if self.sun.is_some() {
-                        if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
-                            stats.pending += 1;
-                        } else {
-                            stats.points_swept += cost;
-                            stats.sun_built += 1;
-                            sun = true;
-                        }
-                    }
-                    // The sky sweep and the sun responses as two jobs: they read only
-                    // coarser grids and the material, so they run side by side (a depth
-                    // of three nodes keeps two threads busy). The sky's job comes first:
-                    // the results are stored in this order, the node before its sun.
-                    // A sun response left for a later frame: the transmittance is
-                    // marched with the sky's job meanwhile (the direct sun exact).
-                    jobs.push(Job {
-                        key,
-                        material: Some(i),
-                        sky: true,
-                        sun: false,
-                        march: self.sun.is_some() && !sun,
-                    });
-                    if sun {
-                        jobs.push(Job {
-                            key,
-                            material: Some(i),
-                            sky: false,
-                            sun: true,
-                            march: false,
-                        });
-                    }
-                }
-            }
-        }
+        let jobs = self.jobs(order, &materials, stats);
         let jobs = self.compose_jobs_casters(jobs, &new, &materials, stats)?;
         let done = self.run_jobs(jobs, &new, &materials, &mut stats.times);
         // The materials of nodes left for a later frame are kept for it.
@@ -315,6 +249,89 @@ impl Hierarchy {
         }
     }
 
+    /// The jobs for the wanted nodes of a depth (`order`, nearest first; `materials`
+    /// the new ones' composed materials) within the budget, counted in `stats`: a new
+    /// node's sky sweep, and its sun responses as a second job where they fit (else its
+    /// transmittance marched with the sky's job); a built node's stale sun responses.
+    fn jobs(
+        &self,
+        order: Vec<Want>,
+        materials: &[NodeMaterial],
+        stats: &mut FrameStats,
+    ) -> Vec<Job> {
+        let over = |swept: u64, cost: u64| self.over_budget(swept, cost);
+        let mut jobs = Vec::new();
+        for w in order {
+            match w {
+                Want::Stale(key) => {
+                    let cost = self.nodes[&key].light.desc().point_count() as u64;
+                    if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
+                        stats.pending += 1;
+                        continue;
+                    }
+                    stats.points_swept += cost;
+                    stats.sun_built += 1;
+                    // Where the finest depth reads the coarser grids' scattered sun,
+                    // the march alone (its scattered sun read once they are current).
+                    let read = self.reads_coarse_scattered_sun(key);
+                    jobs.push(Job {
+                        key,
+                        material: None,
+                        sky: false,
+                        sun: !read,
+                        march: read,
+                    });
+                }
+                Want::New(key, i) => {
+                    let desc = materials[i].grid.desc();
+                    let (cost, sky_cost) = (
+                        desc.point_count() as u64,
+                        crate::apron::sky_points(desc, self.params.apron),
+                    );
+                    if over(stats.points_swept, sky_cost) {
+                        stats.pending += 1;
+                        continue;
+                    }
+                    stats.points_swept += sky_cost;
+                    stats.built += 1;
+                    let mut sun = false;
+                    if self.sun.is_some() && !self.reads_coarse_scattered_sun(key) {
+                        if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
+                            stats.pending += 1;
+                        } else {
+                            stats.points_swept += cost;
+                            stats.sun_built += 1;
+                            sun = true;
+                        }
+                    }
+                    // The sky sweep and the sun responses as two jobs: they read only
+                    // coarser grids and the material, so they run side by side (a depth
+                    // of three nodes keeps two threads busy). The sky's job comes first:
+                    // the results are stored in this order, the node before its sun.
+                    // A sun response left for a later frame: the transmittance is
+                    // marched with the sky's job meanwhile (the direct sun exact).
+                    jobs.push(Job {
+                        key,
+                        material: Some(i),
+                        sky: true,
+                        sun: false,
+                        march: self.sun.is_some() && !sun,
+                    });
+                    if sun {
+                        jobs.push(Job {
+                            key,
+                            material: Some(i),
+                            sky: false,
+                            sun: true,
+                            march: false,
+                        });
+                    }
+                }
+            }
+        }
+        jobs
+    }
+
     /// Runs `jobs` (side by side on forks where the sweeper forks) and stores what they
     /// made. `new` are the depth's new nodes and `materials` theirs (composed, in that
     /// order): every job's sun march reads all of them. The first error is returned
@@ -425,6 +442,12 @@ impl Hierarchy {
         })
     }
 
+    /// Whether node `key`'s scattered sun is the coarser grids' read at its points
+    /// ([`crate::LodSkips::finest_scattered_sun`]: the finest depth's, when asked for).
+    pub(crate) fn reads_coarse_scattered_sun(&self, key: NodeKey) -> bool {
+        self.params.skip.finest_scattered_sun && key.depth == self.params.depths()
+    }
+
     /// A new node's sun responses until its own are swept: the transmittance marched
     /// for the sun shown (exact, as the full responses' is), the scattered sun the
     /// coarser grids' at its points (what its points read without it). Marked not
@@ -432,6 +455,11 @@ impl Hierarchy {
     /// meanwhile its direct sun is its own. On the 16-point flythrough at 30° the 6 %
     /// of the finest nodes' reads whose node's responses were still to come read a
     /// coarser grid's sun, 22 % RMSE off the 1 m sweep against 0.9 % for the others.
+    ///
+    /// Where the node's scattered sun is the coarser grids' for good
+    /// ([`Hierarchy::reads_coarse_scattered_sun`]) and they are current
+    /// ([`Hierarchy::sun_parent_ready`]), these are its responses: read from the current
+    /// coarser grids and marked swept for the direction theirs are.
     pub(crate) fn interim_sun(
         &self,
         key: NodeKey,
@@ -448,24 +476,46 @@ impl Hierarchy {
         let transmittance = timed(&mut times.sun_sweep, || {
             crate::sun_move::march(sweeper, material, sun.to_sun, &outside)
         })?;
+        let for_good = self.reads_coarse_scattered_sun(key) && self.sun_parent_ready(key);
         let desc = *material.desc();
-        let scattered = timed(&mut times.sun_boundary, || {
-            (0..desc.point_count())
-                .map(|i| {
-                    let p = desc.position(desc.coords(i).expect("in range"));
-                    match self.coarse_sun(p, key.depth, true) {
-                        Some(g) => g.scattered.light(p, None),
-                        None => Ok(BinLight::ZERO),
-                    }
-                })
-                .collect::<Result<Vec<_>, _>>()
-        })?;
+        // The coarser grids' scattered sun at the node's points, and the downward
+        // halves of its horizontal bins where the grids keep them (even where one
+        // does not).
+        let halves = self.params.sweep.outputs.horizon;
+        let read: Vec<(BinLight, Option<lightgrid_core::HorizonLight>)> =
+            timed(&mut times.sun_boundary, || {
+                (0..desc.point_count())
+                    .map(|i| {
+                        let p = desc.position(desc.coords(i).expect("in range"));
+                        let Some(g) = self.coarse_sun(p, key.depth, !for_good) else {
+                            return Ok((BinLight::ZERO, halves.then(Default::default)));
+                        };
+                        let bins = g.scattered.light(p, None)?;
+                        let down = match (&g.horizon, halves) {
+                            (_, false) => None,
+                            (Some(h), true) => Some(h.sample(p)?),
+                            (None, true) => Some(lightgrid_core::HorizonLight::even(&bins)),
+                        };
+                        Ok((bins, down))
+                    })
+                    .collect::<Result<Vec<_>, GridError>>()
+            })?;
+        let horizon = halves.then(|| {
+            lightgrid_core::Grid::from_trusted(
+                desc,
+                read.iter().map(|(_, d)| d.unwrap_or_default()).collect(),
+            )
+        });
+        let scattered = read.into_iter().map(|(b, _)| b).collect();
         Ok(Some(GridSun {
             scattered: lightgrid_core::Grid::from_trusted(desc, scattered),
-            horizon: None,
+            horizon,
             resident: None,
             transmittance,
-            to_sun: Vec3::ZERO,
+            to_sun: match self.scattered_to() {
+                Some(to) if for_good => to,
+                _ => Vec3::ZERO,
+            },
             marched_to: sun.to_sun,
         }))
     }

@@ -94,6 +94,20 @@ pub struct LodSkips {
     /// 4.4 %) for about 12 nodes composed a frame (the same build, interleaved runs:
     /// 70–81 ms a frame skipping them, 82–94 with them); at 60° 4 a frame, 4.9 → 4.5 %.
     pub sun_casters: bool,
+    /// The finest depth sweeps no scattered sun of its own: its nodes' scattered sun
+    /// (bins and horizon halves) is the coarser grids' read at their points, their
+    /// direct sun marched as always (exact). Off by default. On the frame bench's
+    /// forest (`cargo xtask frame [--skip-finest-sun]`, 16-point nodes) a finest node's
+    /// sun is then a march, not a march, a beam trace and a sweep: at 30° 67–70 ms a
+    /// frame against 79–87 (three interleaved runs each), and under the same point
+    /// budget 7 % more of the probes read the finest depth, so the whole path's error
+    /// against the 1 m sweep falls by 0.1–0.3 points at suns of 10–60°. But the finest
+    /// depth's sun nests worse against one 1 m sweep (RMSE 0.7–1.3 → 1.1–2.4 %, bias
+    /// +0.2–0.7 → +0.5–1.4 %, the most at a high sun, where more of the sun is
+    /// scattered), and surfaces facing down read 10–19 % more sun (+3–7 % swept): the
+    /// coarser grids carry too much scattered sun upward near the ground
+    /// (`docs/measurements.md`, "The finest depth's scattered sun").
+    pub finest_scattered_sun: bool,
 }
 
 impl Default for LodSkips {
@@ -103,6 +117,7 @@ impl Default for LodSkips {
             unchanged: true,
             up_pass_over_bare: false,
             sun_casters: false,
+            finest_scattered_sun: false,
         }
     }
 }

@@ -46,7 +46,7 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells), {} passes at most (tolerance {}), {} path, bare-ground skip {}, sun's casters {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells), {} passes at most (tolerance {}), {} path, bare-ground skip {}, sun's casters {}, {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.apron,
@@ -55,6 +55,11 @@ pub fn text(report: &FrameReport) -> String {
         report.path,
         if report.bare_skip { "on" } else { "off" },
         if report.no_casters { "skipped" } else { "on" },
+        if report.skip_finest_sun {
+            "the finest depth's scattered sun the coarser grids'"
+        } else {
+            "the finest depth's scattered sun swept"
+        },
         if report.horizon {
             "horizon halves kept"
         } else {
