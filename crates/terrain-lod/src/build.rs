@@ -39,6 +39,10 @@ struct Job {
     /// A new node whose sun responses wait for a later frame: march its transmittance
     /// now ([`Hierarchy::interim_sun`]).
     march: bool,
+    /// A built node whose scattered sun is current but whose transmittance a moved
+    /// sun's `set_sun` left for later ([`Hierarchy::march_suns`] under a time budget):
+    /// march it alone.
+    remarch: bool,
 }
 
 /// What a job made.
@@ -46,6 +50,8 @@ struct Done {
     key: NodeKey,
     node: Option<Node>,
     sun: Option<GridSun>,
+    /// A re-marched transmittance, for the sun shown.
+    marched: Option<lightgrid_core::Grid<f32>>,
     times: StageTimes,
 }
 
@@ -178,7 +184,7 @@ impl Hierarchy {
         if self.params.budget_ms.is_none() {
             let lit: Vec<_> = jobs
                 .iter()
-                .filter(|j| j.sun || j.march)
+                .filter(|j| j.sun || j.march || j.remarch)
                 .map(|j| grid(self, j))
                 .collect();
             let (n, t) = self.compose_casters(&lit, &dirs, new)?;
@@ -192,7 +198,7 @@ impl Hierarchy {
         let per_batch = rayon::current_num_threads().max(1);
         let mut kept = Vec::with_capacity(jobs.len());
         for mut job in jobs {
-            if job.sun || job.march {
+            if job.sun || job.march || job.remarch {
                 let g = grid(self, &job);
                 let need = self.missing_casters(&[g], &dirs, new);
                 let mut held = true;
@@ -263,6 +269,25 @@ impl Hierarchy {
         let mut jobs = Vec::new();
         for w in order {
             match w {
+                Want::Stale(key) if self.scattered_sun_current(key) => {
+                    // The transmittance alone (about a quarter of a sun response's
+                    // work: counted so in the budget).
+                    let cost = self.nodes[&key].light.desc().point_count() as u64 / 4;
+                    if over(stats.points_swept, cost) {
+                        stats.pending += 1;
+                        continue;
+                    }
+                    stats.points_swept += cost;
+                    stats.sun_built += 1;
+                    jobs.push(Job {
+                        key,
+                        material: None,
+                        sky: false,
+                        sun: false,
+                        march: false,
+                        remarch: true,
+                    });
+                }
                 Want::Stale(key) => {
                     let cost = self.nodes[&key].light.desc().point_count() as u64;
                     if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
@@ -280,6 +305,7 @@ impl Hierarchy {
                         sky: false,
                         sun: !read,
                         march: read,
+                        remarch: false,
                     });
                 }
                 Want::New(key, i) => {
@@ -316,6 +342,7 @@ impl Hierarchy {
                         sky: true,
                         sun: false,
                         march: self.sun.is_some() && !sun,
+                        remarch: false,
                     });
                     if sun {
                         jobs.push(Job {
@@ -324,6 +351,7 @@ impl Hierarchy {
                             sky: false,
                             sun: true,
                             march: false,
+                            remarch: false,
                         });
                     }
                 }
@@ -391,6 +419,15 @@ impl Hierarchy {
                     if let (Some(sun), Some(n)) = (done.sun, self.nodes.get_mut(&done.key)) {
                         n.sun = Some(sun);
                     }
+                    let to_sun = self.sun.map(|s| s.to_sun);
+                    if let (Some(t), Some(to_sun), Some(g)) = (
+                        done.marched,
+                        to_sun,
+                        self.nodes.get_mut(&done.key).and_then(|n| n.sun.as_mut()),
+                    ) {
+                        g.transmittance = t;
+                        g.marched_to = to_sun;
+                    }
                 }
                 Err(e) => {
                     first_error.get_or_insert(e);
@@ -434,10 +471,20 @@ impl Hierarchy {
         } else {
             None
         };
+        let marched = match (job.remarch, self.sun) {
+            (true, Some(s)) => {
+                let outside = |p: Vec3| self.march_to_sky(p, s.to_sun, job.key.depth, fresh);
+                Some(timed(&mut times.sun_sweep, || {
+                    crate::sun_move::march(sweeper, &material.grid, s.to_sun, &outside)
+                })?)
+            }
+            _ => None,
+        };
         Ok(Done {
             key: job.key,
             node,
             sun,
+            marched,
             times,
         })
     }

@@ -499,6 +499,9 @@ pub struct Hierarchy {
     /// A moved sun's world-grid responses being swept on a thread ([`sun_move`]).
     sun_move: Option<sun_move::SunMove>,
     sky_scale: Vec3,
+    /// The camera of the last frame ([`Hierarchy::update`], [`Hierarchy::refresh`]):
+    /// under a time budget a moved sun's direct light is marched nearest it first.
+    camera: Option<Vec3>,
 }
 
 /// Stands in for the sweeper while a sun sweep borrows the hierarchy for its boundary.
@@ -638,6 +641,7 @@ impl Hierarchy {
             world_sun: None,
             world_material: None,
             sun_move: None,
+            camera: None,
             sky_scale: Vec3::ONE,
         };
         let w = params.world_cell;
@@ -922,6 +926,16 @@ impl Hierarchy {
         }
     }
 
+    /// Whether node `key`'s scattered sun is current (swept for the direction the world
+    /// grid's is) while its transmittance is not marched for the sun shown: a moved
+    /// sun's `set_sun` left its march for later ([`Hierarchy::march_suns`]).
+    fn scattered_sun_current(&self, key: NodeKey) -> bool {
+        match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
+            (Some(s), Some(g)) => g.marched_to != s.to_sun && Some(g.to_sun) == self.scattered_to(),
+            _ => false,
+        }
+    }
+
     /// Whether node `key`'s sun responses are shown: its transmittance is marched for
     /// the sun shown (its scattered light may still be an earlier direction's, until
     /// the budget sweeps it again: a moved sun re-marches every grid's transmittance at
@@ -1163,6 +1177,7 @@ impl Hierarchy {
         }
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
+        self.camera = Some(camera);
         let mut stats = FrameStats {
             sun_moved: self.poll_sun_move(false)?,
             ..FrameStats::default()
@@ -1346,8 +1361,12 @@ impl Hierarchy {
     /// Rebuilds every ready node whose inputs changed (after the scene or sky changed),
     /// within the budget; nodes whose inputs hash as before are counted as skipped.
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
+        if !camera.is_finite() {
+            return Err(GridError::invalid("camera", camera, "must be finite").into());
+        }
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
+        self.camera = Some(camera);
         self.composed.clear();
         self.casters.clear();
         let mut stats = FrameStats {

@@ -5,7 +5,11 @@
 //! scattered light of its first collisions, a sweep (the world grid's takes 110–300 ms
 //! on two cores). [`Hierarchy::set_sun`] of a new direction re-marches every grid's
 //! transmittance at once ([`Hierarchy::march_suns`]): the direct sun, shadows
-//! included, moves in the call. The scattered sun follows. The world grid's is swept
+//! included, moves in the call; under a time budget the world grid's and the nodes'
+//! nearest the last frame's camera first (those over the camera whatever the time)
+//! until about a frame's budget is spent, the rest in the frames after within their
+//! budget, each a march alone while its scattered sun is current (meanwhile such a
+//! node shows the coarser grids' sun). The scattered sun follows. The world grid's is swept
 //! in `set_sun`, or under a time budget ([`HierarchyParams::budget_ms`]), with a
 //! sweeper that forks, on a fork of the sweeper on a thread of its own (in a one-thread
 //! rayon pool apart from the frames': in theirs, a frame waiting on its own jobs would
@@ -162,7 +166,9 @@ impl Hierarchy {
     /// Marches every grid's transmittance not marched for the sun shown (the world
     /// grid's and every node's with sun responses), nodes coarse first: a node's march
     /// beyond its box crosses coarser grids' materials only, as when it was swept
-    /// ([`shadow`]), so each equals what a sweep of its sun responses would give.
+    /// ([`shadow`]), so each equals what a sweep of its sun responses would give. Under
+    /// a time budget ([`crate::HierarchyParams::budget_ms`]) the world grid's and then
+    /// the nodes' nearest the last frame's camera, until about the budget is spent.
     pub(crate) fn march_suns(&mut self) -> Result<(), LodError> {
         let Some(sun) = self.sun else {
             return Ok(());
@@ -201,6 +207,21 @@ impl Hierarchy {
             .map(|(k, _)| *k)
             .collect();
         keys.sort();
+        // Under a time budget, nearest the last frame's camera first, for about a
+        // frame's budget (the nodes over the camera whatever the time): the nodes left
+        // are marched by the frames after, within their budget (a march alone where
+        // their scattered sun is current: `build.rs`), and show the coarser grids' sun
+        // meanwhile.
+        let allowance = self.params.budget_ms.map(|ms| {
+            if let Some(cam) = self.camera {
+                keys.sort_by(|a, b| {
+                    self.distance(*a, cam)
+                        .total_cmp(&self.distance(*b, cam))
+                        .then(a.cmp(b))
+                });
+            }
+            (std::time::Instant::now(), f64::from(ms) / 1e3)
+        });
         // The sun's casters for the new direction first, unless a time budget is set:
         // then `set_sun` marches through the material held (composing every node's
         // casters at once took its CPU time at 10° from 60 to 240 ms), and each node's
@@ -214,6 +235,13 @@ impl Hierarchy {
             self.compose_casters(&lit, &[to_sun], &[])?;
         }
         for key in keys {
+            // (The nodes over the camera, at distance 0, whatever the time.)
+            if let (Some((since, secs)), Some(cam)) = (allowance, self.camera)
+                && since.elapsed().as_secs_f64() >= secs
+                && self.distance(key, cam) > 0.0
+            {
+                break;
+            }
             let n = &self.nodes[&key];
             let fresh = shadow::Fresh::default();
             let outside = |p: Vec3| self.march_to_sky(p, to_sun, key.depth, &fresh);
