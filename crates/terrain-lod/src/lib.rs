@@ -378,8 +378,10 @@ pub struct FrameStats {
     pub alive_per_depth: Vec<u32>,
     /// Points of the ready grids per depth (index 0: the world grid).
     pub points_per_depth: Vec<u64>,
-    /// Node sun responses computed this frame (transmittance and scattered sun), with
-    /// the sun kept apart; their points count in `points_swept`.
+    /// Node sun responses computed this frame (transmittance and scattered sun, or the
+    /// transmittance alone where a moved sun's `set_sun` left it and the scattered sun
+    /// is current), with the sun kept apart; their points count in `points_swept` (a
+    /// transmittance alone a quarter of them).
     pub sun_built: u32,
     /// Ready nodes still without a sun response for the current sun direction (lit by
     /// coarser grids' sun meanwhile).
