@@ -7,7 +7,7 @@
 //! transmittance at once ([`Hierarchy::march_suns`]): the direct sun, shadows
 //! included, moves in the call; under a time budget the world grid's and the nodes'
 //! nearest the last frame's camera first (those over the camera whatever the time)
-//! until about a frame's budget is spent, the rest in the frames after within their
+//! until about half a frame's budget is spent, the rest in the frames after within their
 //! budget, each a march alone while its scattered sun is current (meanwhile such a
 //! node shows the coarser grids' sun). The scattered sun follows. The world grid's is swept
 //! in `set_sun`, or under a time budget ([`HierarchyParams::budget_ms`]), with a
@@ -168,7 +168,8 @@ impl Hierarchy {
     /// beyond its box crosses coarser grids' materials only, as when it was swept
     /// ([`shadow`]), so each equals what a sweep of its sun responses would give. Under
     /// a time budget ([`crate::HierarchyParams::budget_ms`]) the world grid's and then
-    /// the nodes' nearest the last frame's camera, until about the budget is spent.
+    /// the nodes' nearest the last frame's camera, until about half the budget is spent
+    /// (as a frame composes: [`Hierarchy::composition_waits`]).
     pub(crate) fn march_suns(&mut self) -> Result<(), LodError> {
         let Some(sun) = self.sun else {
             return Ok(());
@@ -207,7 +208,7 @@ impl Hierarchy {
             .map(|(k, _)| *k)
             .collect();
         keys.sort();
-        // Under a time budget, nearest the last frame's camera first, for about a
+        // Under a time budget, nearest the last frame's camera first, for about half a
         // frame's budget (the nodes over the camera whatever the time): the nodes left
         // are marched by the frames after, within their budget (a march alone where
         // their scattered sun is current: `build.rs`), and show the coarser grids' sun
@@ -220,7 +221,7 @@ impl Hierarchy {
                         .then(a.cmp(b))
                 });
             }
-            (std::time::Instant::now(), f64::from(ms) / 1e3)
+            (std::time::Instant::now(), f64::from(ms) / 2e3)
         });
         // The sun's casters for the new direction first, unless a time budget is set:
         // then `set_sun` marches through the material held (composing every node's
