@@ -5,17 +5,16 @@
 
 use std::sync::{Arc, Mutex};
 
-use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
-    BinLight, Boundary, CellSource, Grid, Heightmap, LightField, Material, MaterialGrid,
-    SunBoundary, SunResponse, SweepError, SweepOptions, SweepOutput, Sweeper,
+    BinLight, Boundary, CellSource, Grid, LightField, MaterialGrid, SunBoundary, SunResponse,
+    SweepError, SweepOptions, SweepOutput, Sweeper,
 };
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, Layer, SunLight};
 
 #[path = "field/mod.rs"]
 mod field;
-use field::Field;
 
 const CAMERA: Vec3 = Vec3::new(32.0, 5.0, 32.0);
 
@@ -84,19 +83,8 @@ fn sun(to_sun: Vec3) -> Option<SunLight> {
 /// scattered sun read from the coarser grids (`skip`) or swept. Returns the hierarchy
 /// and the cell sizes of the grids whose sun was swept.
 fn settled(skip: bool) -> (Hierarchy, Arc<Mutex<Vec<f32>>>) {
-    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
-    let scene = Field(|p: Vec3, _| {
-        if p.y < 0.0 {
-            Material::opaque(Vec3::splat(0.3))
-        } else if (2.0..8.0).contains(&p.y) {
-            Material {
-                reflectance: Vec3::new(0.5, 0.6, 0.4),
-                pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
-            }
-        } else {
-            Material::EMPTY
-        }
-    });
+    let hm = field::flat_ground();
+    let scene = field::varying_layer(Vec3::new(0.5, 0.6, 0.4));
     let mut params = field::small_params(u64::MAX / 4);
     params.skip.finest_scattered_sun = skip;
     let sun_swept = Arc::new(Mutex::new(Vec::new()));

@@ -4,14 +4,13 @@
 //! both would, not the serving node's points clamped. And a new node whose sun
 //! responses wait for a later frame shows its own transmittance at once.
 
-use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{BinLight, Heightmap, LightField, Material, VolumeSample};
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::{BinLight, LightField, VolumeSample};
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
 
 #[path = "field/mod.rs"]
 mod field;
-use field::Field;
 
 /// The seam between the finest nodes over 16..32 m and 32..48 m in x and z (2 m cells,
 /// 8 points: their outermost points at 31 and 33).
@@ -34,19 +33,8 @@ const CAMERA: Vec3 = Vec3::new(32.0, 5.0, 32.0);
 /// [`hierarchy`] before its first frame, with a budget of `budget_points` and nodes of
 /// `max_levels` at most.
 fn unbuilt(budget_points: u64, max_levels: u32) -> Hierarchy {
-    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
-    let scene = Field(|p: Vec3, _| {
-        if p.y < 0.0 {
-            Material::opaque(Vec3::splat(0.3))
-        } else if (2.0..8.0).contains(&p.y) {
-            Material {
-                reflectance: Vec3::splat(0.5),
-                pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
-            }
-        } else {
-            Material::EMPTY
-        }
-    });
+    let hm = field::flat_ground();
+    let scene = field::varying_layer(Vec3::splat(0.5));
     let params = HierarchyParams {
         max_levels,
         ..field::small_params(budget_points)

@@ -4,14 +4,13 @@
 //! while their scattered sun is still current; once settled, every grid's sun is what
 //! the same move without a budget gives.
 
-use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{BinLight, Heightmap, LightField, Material};
+use lightgrid_core::glam::Vec3;
+use lightgrid_core::{BinLight, LightField};
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, SunLight};
 
 #[path = "field/mod.rs"]
 mod field;
-use field::Field;
 
 const CAMERA: Vec3 = Vec3::new(20.0, 5.0, 20.0);
 
@@ -26,24 +25,19 @@ fn sun(to_sun: Vec3) -> Option<SunLight> {
 /// node of a 64 m square wanted (world grid 8 m, nodes of 8 points down to 2 m), built
 /// until nothing is left under a sun; `budget_ms` the frames' time budget.
 fn settled(budget_ms: Option<f32>) -> Hierarchy {
-    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
-    let scene = Field(|p: Vec3, _| {
-        if p.y < 0.0 {
-            Material::opaque(Vec3::splat(0.3))
-        } else if (2.0..8.0).contains(&p.y) {
-            Material {
-                reflectance: Vec3::splat(0.5),
-                pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
-            }
-        } else {
-            Material::EMPTY
-        }
-    });
+    let hm = field::flat_ground();
+    let scene = field::varying_layer(Vec3::splat(0.5));
     let mut params = field::small_params(u64::MAX / 4);
     params.budget_ms = budget_ms;
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let mut h = Hierarchy::new(&hm, Box::new(scene), Box::new(CpuSweeper::new()), sky, params)
-        .unwrap();
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(scene),
+        Box::new(CpuSweeper::new()),
+        sky,
+        params,
+    )
+    .unwrap();
     h.set_sun(sun(Vec3::new(0.6, 0.5, 0.3))).unwrap();
     settle(&mut h);
     h
@@ -73,7 +67,11 @@ fn a_moved_sun_relights_the_grids_over_the_camera_first_and_the_rest_after() {
         .filter(|l| l.owner.is_some() && l.sun.is_some())
         .collect();
     let depths = budgeted.params().depths() as usize;
-    assert_eq!(shown.len(), depths, "the nodes over the camera, one a depth");
+    assert_eq!(
+        shown.len(),
+        depths,
+        "the nodes over the camera, one a depth"
+    );
     for l in &shown {
         let o = l.owner.unwrap();
         assert!(o.owns(l.grid.desc(), Vec3::new(CAMERA.x, 3.0, CAMERA.z)));

@@ -1,8 +1,8 @@
 //! A material source from a function: each cell takes `f(its centre, its size)` (the
 //! tests' made-up scenes), and the small hierarchy they are seen through.
 
-use lightgrid_core::glam::Vec3;
-use lightgrid_core::{GridDesc, GridError, Material, MaterialGrid, MaterialSource};
+use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::{GridDesc, GridError, Heightmap, Material, MaterialGrid, MaterialSource};
 use lightgrid_terrain_lod::HierarchyParams;
 
 /// A small hierarchy over a 64 m square: world grid 8 m, nodes of 8 points down to
@@ -30,4 +30,31 @@ impl<F: Fn(Vec3, f32) -> Material> MaterialSource for Field<F> {
             .collect();
         MaterialGrid::new(*desc, cells)
     }
+}
+
+/// The flat ground of [`small_params`]' 64 m square (height 0, samples 2 m apart).
+#[allow(dead_code)] // (the tests that include this module and build no hierarchy)
+pub(crate) fn flat_ground() -> Heightmap {
+    Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).expect("a valid heightmap")
+}
+
+/// A flat ground (albedo 0.3) below 0 under a layer of medium of reflectance
+/// `reflectance` 2 to 8 m up whose density changes across x and z (so that every node
+/// has objects and finer children, and the light changes from node to node).
+#[allow(dead_code)] // (the tests that include this module and build no hierarchy)
+pub(crate) fn varying_layer(
+    reflectance: Vec3,
+) -> Field<impl Fn(Vec3, f32) -> Material + Send + Sync> {
+    Field(move |p: Vec3, _| {
+        if p.y < 0.0 {
+            Material::opaque(Vec3::splat(0.3))
+        } else if (2.0..8.0).contains(&p.y) {
+            Material {
+                reflectance,
+                pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
+            }
+        } else {
+            Material::EMPTY
+        }
+    })
 }
