@@ -83,8 +83,6 @@ fn sun(to_sun: Vec3) -> Option<SunLight> {
 /// scattered sun read from the coarser grids (`skip`) or swept. Returns the hierarchy
 /// and the cell sizes of the grids whose sun was swept.
 fn settled(skip: bool) -> (Hierarchy, Arc<Mutex<Vec<f32>>>) {
-    let hm = field::flat_ground();
-    let scene = field::varying_layer(Vec3::new(0.5, 0.6, 0.4));
     let mut params = field::small_params(u64::MAX / 4);
     params.skip.finest_scattered_sun = skip;
     let sun_swept = Arc::new(Mutex::new(Vec::new()));
@@ -92,9 +90,7 @@ fn settled(skip: bool) -> (Hierarchy, Arc<Mutex<Vec<f32>>>) {
         inner: CpuSweeper::new(),
         sun_swept: sun_swept.clone(),
     };
-    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let mut h = Hierarchy::new(&hm, Box::new(scene), Box::new(sweeper), sky, params).unwrap();
-    h.set_sun(sun(Vec3::new(0.6, 0.5, 0.3))).unwrap();
+    let mut h = field::over_varying_layer(Vec3::new(0.5, 0.6, 0.4), Box::new(sweeper), params);
     settle(&mut h);
     (h, sun_swept)
 }

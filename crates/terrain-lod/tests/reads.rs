@@ -7,7 +7,7 @@
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, LightField, VolumeSample};
 use lightgrid_sweep_cpu::CpuSweeper;
-use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams};
 
 #[path = "field/mod.rs"]
 mod field;
@@ -33,27 +33,11 @@ const CAMERA: Vec3 = Vec3::new(32.0, 5.0, 32.0);
 /// [`hierarchy`] before its first frame, with a budget of `budget_points` and nodes of
 /// `max_levels` at most.
 fn unbuilt(budget_points: u64, max_levels: u32) -> Hierarchy {
-    let hm = field::flat_ground();
-    let scene = field::varying_layer(Vec3::splat(0.5));
     let params = HierarchyParams {
         max_levels,
         ..field::small_params(budget_points)
     };
-    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let mut h = Hierarchy::new(
-        &hm,
-        Box::new(scene),
-        Box::new(CpuSweeper::new()),
-        sky,
-        params,
-    )
-    .unwrap();
-    h.set_sun(Some(SunLight {
-        to_sun: Vec3::new(0.6, 0.5, 0.3),
-        irradiance: Vec3::splat(3.0),
-    }))
-    .unwrap();
-    h
+    field::over_varying_layer(Vec3::splat(0.5), Box::new(CpuSweeper::new()), params)
 }
 
 fn total(b: &BinLight) -> f32 {

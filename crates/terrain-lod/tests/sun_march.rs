@@ -4,8 +4,8 @@
 //! while their scattered sun is still current; once settled, every grid's sun is what
 //! the same move without a budget gives.
 
+use lightgrid_core::LightField;
 use lightgrid_core::glam::Vec3;
-use lightgrid_core::{BinLight, LightField};
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{Hierarchy, SunLight};
 
@@ -25,20 +25,9 @@ fn sun(to_sun: Vec3) -> Option<SunLight> {
 /// node of a 64 m square wanted (world grid 8 m, nodes of 8 points down to 2 m), built
 /// until nothing is left under a sun; `budget_ms` the frames' time budget.
 fn settled(budget_ms: Option<f32>) -> Hierarchy {
-    let hm = field::flat_ground();
-    let scene = field::varying_layer(Vec3::splat(0.5));
     let mut params = field::small_params(u64::MAX / 4);
     params.budget_ms = budget_ms;
-    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let mut h = Hierarchy::new(
-        &hm,
-        Box::new(scene),
-        Box::new(CpuSweeper::new()),
-        sky,
-        params,
-    )
-    .unwrap();
-    h.set_sun(sun(Vec3::new(0.6, 0.5, 0.3))).unwrap();
+    let mut h = field::over_varying_layer(Vec3::splat(0.5), Box::new(CpuSweeper::new()), params);
     settle(&mut h);
     h
 }

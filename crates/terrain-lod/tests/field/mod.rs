@@ -2,8 +2,10 @@
 //! tests' made-up scenes), and the small hierarchy they are seen through.
 
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{GridDesc, GridError, Heightmap, Material, MaterialGrid, MaterialSource};
-use lightgrid_terrain_lod::HierarchyParams;
+use lightgrid_core::{
+    BinLight, GridDesc, GridError, Heightmap, Material, MaterialGrid, MaterialSource, Sweeper,
+};
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
 
 /// A small hierarchy over a 64 m square: world grid 8 m, nodes of 8 points down to
 /// 2 m, every node wanted (far level-of-detail and eviction distances), a budget of
@@ -57,4 +59,24 @@ pub(crate) fn varying_layer(
             Material::EMPTY
         }
     })
+}
+
+/// A hierarchy over [`flat_ground`] and [`varying_layer`] of `reflectance`, under a
+/// uniform sky and the sun toward `(0.6, 0.5, 0.3)` (irradiance 3), before its first
+/// frame.
+#[allow(dead_code)] // (the tests that include this module and build no hierarchy)
+pub(crate) fn over_varying_layer(
+    reflectance: Vec3,
+    sweeper: Box<dyn Sweeper + Send + Sync>,
+    params: HierarchyParams,
+) -> Hierarchy {
+    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+    let scene = Box::new(varying_layer(reflectance));
+    let mut h = Hierarchy::new(&flat_ground(), scene, sweeper, sky, params).expect("valid");
+    h.set_sun(Some(SunLight {
+        to_sun: Vec3::new(0.6, 0.5, 0.3),
+        irradiance: Vec3::splat(3.0),
+    }))
+    .expect("a valid sun");
+    h
 }
