@@ -729,10 +729,13 @@ impl Hierarchy {
     /// [`Hierarchy::update`] or [`Hierarchy::refresh`], coarse and near first, within
     /// the budget (a node shows its earlier direction's meanwhile, beside its new
     /// transmittance); the sky's responses stay. Under a time budget
-    /// ([`HierarchyParams::budget_ms`]) the world grid's scattered sun is swept on a
-    /// thread: the old one stays shown until a frame finds the new one done
-    /// ([`Hierarchy::sun_moving`], [`FrameStats::sun_moved`]; the module `sun_move`);
-    /// otherwise, and for a first sun, it is swept here, at once. The same
+    /// ([`HierarchyParams::budget_ms`]) the transmittances re-marched here are the world
+    /// grid's and the nodes' nearest the last frame's camera, for about half the budget
+    /// (the nodes over the camera whatever the time; the frames after march the rest,
+    /// which show the coarser grids' sun meanwhile), and the world grid's scattered sun
+    /// is swept on a thread: the old one stays shown until a frame finds the new one
+    /// done ([`Hierarchy::sun_moving`], [`FrameStats::sun_moved`]; the module
+    /// `sun_move`); otherwise, and for a first sun, it is swept here, at once. The same
     /// direction with another irradiance sweeps nothing. The sweeper must take cell
     /// sources (the CPU and GPU sweepers do).
     ///
@@ -940,8 +943,8 @@ impl Hierarchy {
 
     /// Whether node `key`'s sun responses are shown: its transmittance is marched for
     /// the sun shown (its scattered light may still be an earlier direction's, until
-    /// the budget sweeps it again: a moved sun re-marches every grid's transmittance at
-    /// once).
+    /// the budget sweeps it again: a moved sun re-marches the grids' transmittances at
+    /// once, under a time budget those nearest the camera first).
     fn sun_shown(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
             (Some(s), Some(g)) => g.marched_to == s.to_sun,
