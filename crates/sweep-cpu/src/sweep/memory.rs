@@ -404,13 +404,14 @@ impl Work {
     }
 }
 
-/// The points of a level's ring (beyond its sides, within [`PAD`]) that some
-/// channel's taps reach ([`ghost_reach`]), each with the channels that reach it (bit
-/// `c`; `CHANNELS` ≤ 32): what [`Work::fill_ghost`] writes, found once for a level size and channel set
-/// (the ring was scanned whole, every channel tested at every point, at each fill: a
-/// third of the fill's time on a 16-point node).
+// A ring point's channels are the bits of a `u32`.
 const _: () = assert!(CHANNELS <= 32);
 
+/// The points of a level's ring (beyond its sides, within [`PAD`]) that some
+/// channel's taps reach ([`ghost_reach`]), each with the channels that reach it (bit
+/// `c`): what [`Work::fill_ghost`] writes, found once for a level size and channel
+/// set (the ring was scanned whole, every channel tested at every point, at each
+/// fill: a third of the fill's time on a 16-point node).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct GhostRing {
     /// The level size and channel set the points are for.
