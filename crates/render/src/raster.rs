@@ -256,7 +256,7 @@ pub struct Renderer {
     height: u32,
     /// [`HDR_FORMAT`], or [`HDR_FALLBACK_FORMAT`] where the adapter cannot render to it.
     hdr_format: wgpu::TextureFormat,
-    mesh_pipelines: [wgpu::RenderPipeline; 2],
+    mesh_pipelines: mesh::MeshPipelines,
     frame_layout: wgpu::BindGroupLayout,
     mesh_layout: wgpu::BindGroupLayout,
     tonemap: Tonemap,
@@ -295,6 +295,10 @@ struct DynamicBuffers {
 struct Targets {
     hdr: wgpu::Texture,
     hdr_view: wgpu::TextureView,
+    /// The second image of [`Renderer::render_pair`] (without the grids).
+    hdr_pair: wgpu::Texture,
+    hdr_pair_view: wgpu::TextureView,
+    tonemap_pair_bind: wgpu::BindGroup,
     depth_view: wgpu::TextureView,
     ldr: wgpu::Texture,
     ldr_view: wgpu::TextureView,
@@ -502,11 +506,21 @@ impl Renderer {
             DEPTH_FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
         );
+        let hdr_pair = texture(
+            "hdr (pair)",
+            hdr_format,
+            attach | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
         let ldr = texture("ldr", LDR_FORMAT, attach);
         let hdr_view = hdr.create_view(&Default::default());
         let tonemap_bind = tonemap.bind(&ctx.device, &hdr_view);
+        let hdr_pair_view = hdr_pair.create_view(&Default::default());
+        let tonemap_pair_bind = tonemap.bind(&ctx.device, &hdr_pair_view);
         Ok(Targets {
             hdr_view,
+            hdr_pair,
+            hdr_pair_view,
+            tonemap_pair_bind,
             depth_view: depth.create_view(&Default::default()),
             ldr_view: ldr.create_view(&Default::default()),
             hdr,
@@ -1021,91 +1035,154 @@ impl Renderer {
         target: &wgpu::TextureView,
         format: wgpu::TextureFormat,
     ) -> Result<(), RenderError> {
+        let mut enc = self.draw_meshes(view, false)?;
+        self.tonemap_into(&mut enc, target, format, false);
+        self.ctx.queue.submit([enc.finish()]);
+        Ok(())
+    }
+
+    /// The mesh pass of `view` into the HDR target, or (`pair`) into it lit by the grids
+    /// and into the pair's target without them, whatever `view.mode` says; the encoder,
+    /// not yet submitted.
+    fn draw_meshes(
+        &mut self,
+        view: &View,
+        pair: bool,
+    ) -> Result<wgpu::CommandEncoder, RenderError> {
         let uniforms = self.frame_uniforms(view)?;
         self.ctx
             .queue
             .write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniforms));
         self.tonemap.set_exposure(&self.ctx.queue, view.exposure);
-        let tonemap = self.tonemap.pipeline(&self.ctx.device, format).clone();
         let drawn = self.cull(view);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        {
-            let bg = view.background;
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("meshes"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.targets.hdr_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: bg.x as f64,
-                            g: bg.y as f64,
-                            b: bg.z as f64,
-                            a: 1.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.targets.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
+        let bg = view.background;
+        let colour = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: bg.x as f64,
+                        g: bg.y as f64,
+                        b: bg.z as f64,
+                        a: 1.0,
                     }),
-                    stencil_ops: None,
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let attachments = [
+            colour(&self.targets.hdr_view),
+            colour(&self.targets.hdr_pair_view),
+        ];
+        let (attachments, pipelines) = if pair {
+            (&attachments[..], &self.mesh_pipelines.pair)
+        } else {
+            (&attachments[..1], &self.mesh_pipelines.single)
+        };
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("meshes"),
+            color_attachments: attachments,
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.targets.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
                 }),
-                ..Default::default()
-            });
-            pass.set_bind_group(0, &self.frame_bind, &[]);
-            for (id, drawn) in view.meshes.iter().zip(drawn) {
-                let m = &self.meshes[id.0];
-                let (instances, count) = match (&m.instances, drawn) {
-                    (Some(i), Drawn::All) => (&i.all, i.list.len() as u32),
-                    (Some(i), Drawn::Seen(n)) => (&i.seen, n),
-                    _ => continue,
-                };
-                // Double-sided meshes use the pipeline without culling.
-                let pipeline = &self.mesh_pipelines[m.double_sided as usize];
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(1, &m.bind, &[]);
-                pass.set_vertex_buffer(0, m.vertices.slice(..));
-                pass.set_vertex_buffer(1, instances.slice(..));
-                pass.set_index_buffer(m.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..m.index_count, 0, 0..count);
-            }
+                stencil_ops: None,
+            }),
+            ..Default::default()
+        });
+        pass.set_bind_group(0, &self.frame_bind, &[]);
+        for (id, drawn) in view.meshes.iter().zip(drawn) {
+            let m = &self.meshes[id.0];
+            let (instances, count) = match (&m.instances, drawn) {
+                (Some(i), Drawn::All) => (&i.all, i.list.len() as u32),
+                (Some(i), Drawn::Seen(n)) => (&i.seen, n),
+                _ => continue,
+            };
+            // Double-sided meshes use the pipeline without culling.
+            pass.set_pipeline(&pipelines[m.double_sided as usize]);
+            pass.set_bind_group(1, &m.bind, &[]);
+            pass.set_vertex_buffer(0, m.vertices.slice(..));
+            pass.set_vertex_buffer(1, instances.slice(..));
+            pass.set_index_buffer(m.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..m.index_count, 0, 0..count);
         }
-        {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("tonemap"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                ..Default::default()
-            });
-            pass.set_pipeline(&tonemap);
-            pass.set_bind_group(0, &self.targets.tonemap_bind, &[]);
-            pass.draw(0..3, 0..1);
-        }
-        self.ctx.queue.submit([enc.finish()]);
-        Ok(())
+        drop(pass);
+        Ok(enc)
+    }
+
+    /// Tone-maps the HDR target (`pair`: the pair's) into `target` of `format`.
+    fn tonemap_into(
+        &mut self,
+        enc: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+        pair: bool,
+    ) {
+        let tonemap = self.tonemap.pipeline(&self.ctx.device, format).clone();
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("tonemap"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            ..Default::default()
+        });
+        pass.set_pipeline(&tonemap);
+        let bind = if pair {
+            &self.targets.tonemap_pair_bind
+        } else {
+            &self.targets.tonemap_bind
+        };
+        pass.set_bind_group(0, bind, &[]);
+        pass.draw(0..3, 0..1);
     }
 
     /// Draws `view` headless and reads back the HDR and sRGB images.
     pub fn render(&mut self, view: &View) -> Result<Image, RenderError> {
         let ldr_view = self.targets.ldr_view.clone();
         self.render_to(view, &ldr_view, LDR_FORMAT)?;
+        self.read_image(false)
+    }
+
+    /// Draws `view` headless twice over from one pass over its geometry: lit by the
+    /// grids ([`LightingMode::Grid`]) and without them ([`LightingMode::NoGrid`]),
+    /// whatever `view.mode` says; each image equal to [`Renderer::render`] of the view
+    /// in that mode. Where drawing the geometry is most of a frame (a software
+    /// rasteriser, a dense forest) the pair costs little more than one image.
+    pub fn render_pair(&mut self, view: &View) -> Result<[Image; 2], RenderError> {
+        let ldr_view = self.targets.ldr_view.clone();
+        let mut enc = self.draw_meshes(view, true)?;
+        self.tonemap_into(&mut enc, &ldr_view, LDR_FORMAT, false);
+        self.ctx.queue.submit([enc.finish()]);
+        let grid = self.read_image(false)?;
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        self.tonemap_into(&mut enc, &ldr_view, LDR_FORMAT, true);
+        self.ctx.queue.submit([enc.finish()]);
+        Ok([grid, self.read_image(true)?])
+    }
+
+    /// Reads back the HDR target (`pair`: the pair's) and the sRGB target.
+    fn read_image(&self, pair: bool) -> Result<Image, RenderError> {
+        let hdr_tex = if pair {
+            &self.targets.hdr_pair
+        } else {
+            &self.targets.hdr
+        };
         let hdr: Vec<[f32; 4]> = if self.hdr_format == HDR_FORMAT {
-            bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.hdr, 16)?)
+            bytemuck::pod_collect_to_vec(&self.read_texture(hdr_tex, 16)?)
         } else {
             let halves: Vec<[u16; 4]> =
-                bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.hdr, 8)?);
+                bytemuck::pod_collect_to_vec(&self.read_texture(hdr_tex, 8)?);
             halves
                 .into_iter()
                 .map(|p| p.map(|h| half::f16::from_bits(h).to_f32()))

@@ -556,6 +556,100 @@ fn alpha_mask_and_emissive_tint() {
     assert!(err.to_string().contains("indices"), "{err}");
 }
 
+/// `render_pair` draws the geometry once into two targets: its images are those of
+/// `render` lit by the grids and without them, bit for bit (HDR and sRGB), whatever the
+/// view's mode says. The scene mixes every lighting kind the demo draws (vertex light,
+/// a volume that varies point to point with the sun kept apart, foliage, an alpha mask,
+/// instances at several heights) seen at a slant, so the two images differ everywhere
+/// the geometry is.
+#[test]
+fn a_pair_of_images_equals_the_two_renders() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let mut vol = uniform_volume(Vec3::ZERO, Vec3::ZERO);
+    for (i, (a, d)) in vol.average.iter_mut().zip(&mut vol.dominant).enumerate() {
+        let f = (i % 7) as f32 / 7.0;
+        *a = [0.2 + f, 0.5 - 0.3 * f, 0.3, 0.2 + 0.7 * f];
+        *d = [0.1 * f, -0.4, 0.05, 0.0];
+    }
+    r.set_light_volume(&vol).unwrap();
+    let texels = (0..16)
+        .map(|i| {
+            if i % 3 == 0 {
+                [255, 0, 0, 0]
+            } else {
+                [200, 255, 90, 255]
+            }
+        })
+        .collect();
+    let meshes = [
+        add_quad(
+            &mut r,
+            -1.0,
+            Vec3::new(1.0, 2.0, 0.5),
+            MeshMaterial {
+                lighting: Lighting::Vertex,
+                ..Default::default()
+            },
+        ),
+        lit_quad(&mut r, 0.0, Lighting::Surface),
+        add_quad(
+            &mut r,
+            0.5,
+            Vec3::ZERO,
+            MeshMaterial {
+                texture: Some(TextureRgba8 {
+                    width: 4,
+                    height: 4,
+                    texels,
+                }),
+                alpha_cutoff: Some(0.5),
+                lighting: Lighting::Foliage,
+                ..Default::default()
+            },
+        ),
+    ];
+    let shrink = |x: f32, y: f32, s: f32| {
+        MeshInstance::new(
+            Mat4::from_scale_rotation_translation(
+                Vec3::splat(s),
+                lightgrid_core::glam::Quat::from_rotation_x(0.4 * x),
+                Vec3::new(x, y, -x),
+            ),
+            Vec4::new(0.9, 1.0, 0.8, 1.0),
+        )
+    };
+    r.set_instances(meshes[1], &[shrink(-2.0, 0.0, 0.1), shrink(1.5, 0.3, 0.08)])
+        .unwrap();
+    let mut v = view(LightingMode::Grid, meshes.to_vec());
+    v.camera = Camera::look_at(Vec3::new(3.0, 4.0, 5.0), Vec3::ZERO);
+    v.sun_direction = Vec3::new(0.3, -0.8, 0.2).normalize();
+    v.direct_sun = Vec3::new(2.0, 1.8, 1.5);
+    let grid = r.render(&v).unwrap();
+    let mut plain = v.clone();
+    plain.mode = LightingMode::NoGrid;
+    let no_grid = r.render(&plain).unwrap();
+    assert!(
+        grid.hdr != no_grid.hdr,
+        "the two modes differ in this scene"
+    );
+    for mode in [LightingMode::Grid, LightingMode::NoGrid] {
+        let mut w = v.clone();
+        w.mode = mode;
+        let [a, b] = r.render_pair(&w).unwrap();
+        assert!(
+            a.hdr == grid.hdr && a.srgb == grid.srgb,
+            "{mode:?}: lit by the grids"
+        );
+        assert!(
+            b.hdr == no_grid.hdr && b.srgb == no_grid.srgb,
+            "{mode:?}: without them"
+        );
+    }
+    // A single render after a pair is the single render again.
+    assert!(r.render(&plain).unwrap().hdr == no_grid.hdr);
+}
+
 fn dynamic_lights() -> lightgrid_render::DynamicLights {
     let lights = lightgrid_render::dynamic::scatter(
         600,

@@ -364,6 +364,26 @@ impl Record {
         self.files.push(path);
         Ok(img)
     }
+
+    /// The view's [`draw::Shot::Lit`] and [`draw::Shot::NoGrid`] images drawn as one
+    /// pair ([`Renderer::render_pair`]: the same images, the geometry drawn once), both
+    /// written as PNG; the lit one returned.
+    fn pair(
+        &mut self,
+        (r, meshes): (&mut Renderer, &draw::SceneMeshes),
+        world: &World,
+        camera: Camera,
+        (out, view): (&Path, &str),
+    ) -> Result<lightgrid_render::Image> {
+        let [lit, plain] =
+            r.render_pair(&draw::make_view(world, meshes, camera, draw::Shot::Lit))?;
+        for (img, shot) in [(&lit, draw::Shot::Lit), (&plain, draw::Shot::NoGrid)] {
+            let path = out.join(format!("{view}{}.png", shot.suffix()));
+            write_png(&path, img)?;
+            self.files.push(path);
+        }
+        Ok(lit)
+    }
 }
 
 /// View `vi` of the scene: its light grids built around its eye, exported for Bevy
@@ -398,13 +418,15 @@ fn render_view(
     let mut camera = Camera::look_at(eye, target);
     camera.fov_y = spec.fov_deg.to_radians();
     rec.time(format!("render {name}"), |rec| {
-        for shot in draw::Shot::ALL {
-            let img = rec.shot((r, meshes), world, (camera, shot), (&opts.out, name))?;
-            if vi == 0 && shot == draw::Shot::Lit && opts.exr {
-                let path = opts.out.join(format!("{name}.exr"));
-                write_exr(&path, &img)?;
-                rec.files.push(path);
-            }
+        // The lit shot and the one without the grids from one pass over the geometry.
+        let lit = rec.pair((r, meshes), world, camera, (&opts.out, name))?;
+        if vi == 0 && opts.exr {
+            let path = opts.out.join(format!("{name}.exr"));
+            write_exr(&path, &lit)?;
+            rec.files.push(path);
+        }
+        for shot in [draw::Shot::Points, draw::Shot::Material] {
+            rec.shot((r, meshes), world, (camera, shot), (&opts.out, name))?;
         }
         Ok(())
     })?;

@@ -208,13 +208,21 @@ pub(crate) fn layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::Bi
     (frame, mesh)
 }
 
-/// The mesh pipelines: back faces culled, and double-sided.
+/// The mesh pipelines, back faces culled and double-sided: drawing into one HDR target
+/// (`fs_main`, the frame's lighting mode) and, for [`crate::Renderer::render_pair`],
+/// into two at once (`fs_pair`: lit by the grids, and without them).
+pub(crate) struct MeshPipelines {
+    pub(crate) single: [wgpu::RenderPipeline; 2],
+    pub(crate) pair: [wgpu::RenderPipeline; 2],
+}
+
+/// [`MeshPipelines`] for HDR targets of `hdr_format`.
 pub(crate) fn pipelines(
     device: &wgpu::Device,
     frame_layout: &wgpu::BindGroupLayout,
     mesh_layout: &wgpu::BindGroupLayout,
     hdr_format: wgpu::TextureFormat,
-) -> [wgpu::RenderPipeline; 2] {
+) -> MeshPipelines {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("mesh"),
         source: wgpu::ShaderSource::Wgsl(wgsl().into()),
@@ -227,7 +235,9 @@ pub(crate) fn pipelines(
     let vertex_attrs =
         wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x4];
     let instance_attrs = wgpu::vertex_attr_array![4 => Float32x4, 5 => Float32x4, 6 => Float32x4, 7 => Float32x4, 8 => Float32x4];
-    let mesh_pipeline = |cull: Option<wgpu::Face>| {
+    let single = [Some(hdr_format.into())];
+    let pair = [Some(hdr_format.into()), Some(hdr_format.into())];
+    let mesh_pipeline = |cull: Option<wgpu::Face>, (entry, targets): (&str, &[_])| {
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("mesh"),
             layout: Some(&layout),
@@ -262,13 +272,22 @@ pub(crate) fn pipelines(
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &module,
-                entry_point: Some("fs_main"),
+                entry_point: Some(entry),
                 compilation_options: Default::default(),
-                targets: &[Some(hdr_format.into())],
+                targets,
             }),
             multiview_mask: None,
             cache: None,
         })
     };
-    [mesh_pipeline(Some(wgpu::Face::Back)), mesh_pipeline(None)]
+    let both = |shader| {
+        [
+            mesh_pipeline(Some(wgpu::Face::Back), shader),
+            mesh_pipeline(None, shader),
+        ]
+    };
+    MeshPipelines {
+        single: both(("fs_main", &single)),
+        pair: both(("fs_pair", &pair)),
+    }
 }

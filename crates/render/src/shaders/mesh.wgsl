@@ -98,6 +98,27 @@ fn sample_ground(xz: vec2<f32>) -> vec4<f32> {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    return shade(in, front, frame.mode.x == MODE_NO_GRID);
+}
+
+// Both lighting modes from one draw (`Renderer::render_pair`): the scene's geometry
+// is rasterised once for the two images.
+struct PairOut {
+    @location(0) grid: vec4<f32>,
+    @location(1) no_grid: vec4<f32>,
+}
+
+@fragment
+fn fs_pair(in: VertexOut, @builtin(front_facing) front: bool) -> PairOut {
+    var out: PairOut;
+    out.grid = shade(in, front, false);
+    out.no_grid = shade(in, front, true);
+    return out;
+}
+
+// A fragment's colour, lit by the grids or (`no_grid`) by the unshadowed sun and a
+// constant sky.
+fn shade(in: VertexOut, front: bool, no_grid: bool) -> vec4<f32> {
     var albedo = mesh.base_colour * in.tint;
     if (mesh.flags.x != 0u) {
         albedo = albedo * textureSample(base_texture, base_sampler, in.uv);
@@ -119,7 +140,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     }
     var e = vec3<f32>(0.0);
     var spec = vec3<f32>(0.0);
-    if (frame.mode.x == MODE_NO_GRID) {
+    if (no_grid) {
         // Without the grid: unshadowed sun plus a constant sky.
         e = frame.sun_colour.rgb * max(dot(n, -frame.sun_direction.xyz), 0.0) + PI * frame.sky_ambient.rgb;
     } else if (kind == LIGHTING_VERTEX) {
