@@ -118,6 +118,9 @@ pub struct FrameConfig {
     /// The sweeps' convergence tolerance (`HierarchyParams::sweep.tolerance`, in the
     /// hierarchy and the reference sweep; `None`: the hierarchy's default, 0.01).
     pub tolerance: Option<f32>,
+    /// The flat source rule (`MediumEmission::Source`) instead of the hierarchy's
+    /// default (`Profile`), in the hierarchy and the reference sweep.
+    pub flat_source: bool,
     /// Where the camera flies.
     pub path: CameraPath,
     /// Metres of world around the sampled region in the reference sweep.
@@ -150,6 +153,7 @@ impl FrameConfig {
             passes: None,
             apron: None,
             tolerance: None,
+            flat_source: false,
             path: CameraPath::Forest,
             margin: 40.0,
             mc_probes: 1000,
@@ -383,6 +387,8 @@ pub struct FrameReport {
     pub passes: u32,
     /// The sweeps' convergence tolerance.
     pub tolerance: f32,
+    /// The medium rule of every sweep (the hierarchy's and the reference's).
+    pub medium: String,
     /// The reference region, points.
     pub reference_points: u64,
     /// Seconds of the reference's sky sweep.
@@ -692,6 +698,9 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     }
     if let Some(t) = cfg.tolerance {
         p.sweep.tolerance = t;
+    }
+    if cfg.flat_source {
+        p.sweep.medium = lightgrid_core::MediumEmission::Source;
     }
     p
 }
@@ -1065,6 +1074,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         apron: hierarchy_params(cfg).apron,
         passes: hierarchy_params(cfg).sweep.max_passes,
         tolerance: hierarchy_params(cfg).sweep.tolerance,
+        medium: format!("{:?}", hierarchy_params(cfg).sweep.medium).to_lowercase(),
         reference_points: desc.point_count() as u64,
         reference_sky_s,
         runs,

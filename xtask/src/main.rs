@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--even] [--budget-ms MS] [--passes N] [--tolerance T] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--even] [--budget-ms MS] [--passes N] [--tolerance T] [--flat-source] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -117,6 +117,10 @@ enum Task {
         /// (default: the hierarchy's, 0.01).
         #[arg(long)]
         tolerance: Option<f32>,
+        /// The flat source rule (MediumEmission::Source) instead of the default profile
+        /// rule, in the hierarchy and the reference sweep, for comparison.
+        #[arg(long)]
+        flat_source: bool,
         /// The camera path: forest (inside the forest) or edge (out of it over bare
         /// ground).
         #[arg(long, default_value = "forest")]
@@ -214,6 +218,7 @@ fn main() -> ExitCode {
             budget_ms,
             passes,
             tolerance,
+            flat_source,
             path,
             mc_probes,
             mc_paths,
@@ -236,6 +241,7 @@ fn main() -> ExitCode {
             cfg.budget_ms = budget_ms;
             cfg.passes = passes;
             cfg.tolerance = tolerance;
+            cfg.flat_source = flat_source;
             cfg.path = path;
             if !elevations.is_empty() {
                 cfg.elevations = elevations;
