@@ -24,8 +24,9 @@ pub const END: &str = "<!-- figures:end -->";
 enum Runner {
     /// A task of this binary (`cargo xtask ...`), its report in `target/bench/<file>`.
     Xtask(&'static [&'static str], &'static str),
-    /// `cargo run --release -p <package> --example <name>`, its report on stdout.
-    Example(&'static str, &'static str),
+    /// `cargo run --release -p <package> --example <name> -- <args>`, its report on
+    /// stdout.
+    Example(&'static str, &'static str, &'static [&'static str]),
     /// The demo, headless (`cargo run --release -p lightgrid-viewer`), its report the
     /// summary it writes.
     Demo,
@@ -107,15 +108,21 @@ fn measurements() -> Vec<Measurement> {
             },
         },
         Measurement {
+            what: "the fly-through, 16-point nodes (sky alone, 30 frames of 12.8 m)",
+            command: "cargo run --release -p lightgrid-terrain-lod --example flythrough -- 16",
+            runner: Runner::Example("lightgrid-terrain-lod", "flythrough", &["16"]),
+            headline: flythrough_headline,
+        },
+        Measurement {
             what: "the sweep's throughput (points a second)",
             command: "cargo run --release -p lightgrid-measure --example throughput",
-            runner: Runner::Example("lightgrid-measure", "throughput"),
+            runner: Runner::Example("lightgrid-measure", "throughput", &[]),
             headline: throughput_headline,
         },
         Measurement {
             what: "a process's first sweep against a recycled one",
             command: "cargo run --release -p lightgrid-measure --example first_sweep",
-            runner: Runner::Example("lightgrid-measure", "first_sweep"),
+            runner: Runner::Example("lightgrid-measure", "first_sweep", &[]),
             headline: |t| lines_starting(t, &["32^3 canopy"]),
         },
         Measurement {
@@ -137,6 +144,28 @@ fn lines_starting(text: &str, prefixes: &[&str]) -> Vec<String> {
     text.lines()
         .filter(|l| prefixes.iter().any(|p| l.trim_start().starts_with(p)))
         .map(|l| l.trim().to_string())
+        .collect()
+}
+
+/// The fly-through example's headline: its table row (time a frame with the
+/// hierarchy's set-up, points swept) and the line after it (the frames alone, stages).
+fn flythrough_headline(text: &str) -> Vec<String> {
+    let mut lines = text
+        .lines()
+        .skip_while(|l| !l.trim_start().starts_with("16 |"));
+    let row = lines.next().map(|l| {
+        let f: Vec<&str> = l.split('|').map(str::trim).collect();
+        let at = |i: usize| f.get(i).copied().unwrap_or("?");
+        format!(
+            "{} ms a frame with the set-up ({} points swept in {} frames, {} s)",
+            at(3),
+            at(4),
+            at(1),
+            at(2)
+        )
+    });
+    row.into_iter()
+        .chain(lines.next().map(|l| l.trim().to_string()))
         .collect()
 }
 
@@ -254,12 +283,14 @@ pub fn run(root: &Path, assemble_only: bool) -> Result<Vec<PathBuf>> {
                 let p = root.join("target/bench").join(file);
                 std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?
             }
-            Runner::Example(package, name) => {
+            Runner::Example(package, name, args) => {
                 let saved = root.join("target/bench").join(format!("{name}.txt"));
                 if !assemble_only {
                     eprintln!("figures: {}", m.command);
                     let out = Command::new(&cargo)
                         .args(["run", "--release", "-q", "-p", package, "--example", name])
+                        .arg("--")
+                        .args(args)
                         .current_dir(root)
                         .output()
                         .with_context(|| m.command.to_string())?;
@@ -417,6 +448,19 @@ mod tests {
             throughput_headline(t),
             ["64^3 canopy, 26 bins, 4 passes: 4.81 M points/s recycled, 5.11 fresh"]
         );
+    }
+
+    #[test]
+    fn the_flythrough_row_and_its_breakdown_are_read() {
+        let t = "node points | frames | total s | ms/frame | points swept | 26-bin f32 MB\n  frame  0: swept 23552 points\n         16 |     30 |    1.48 |     49.3 |       549888 |          61.6\n              of which setup (Hierarchy::new) 132 ms, the frames 44.9 ms a frame\n";
+        assert_eq!(
+            flythrough_headline(t),
+            [
+                "49.3 ms a frame with the set-up (549888 points swept in 30 frames, 1.48 s)",
+                "of which setup (Hierarchy::new) 132 ms, the frames 44.9 ms a frame"
+            ]
+        );
+        assert!(flythrough_headline("no table").is_empty());
     }
 
     #[test]
