@@ -2,8 +2,10 @@
 //!
 //! Each measurement runs as its own process, the way a user runs it (`cargo xtask
 //! bench --scene forest`, `exact`, `sun`, `frame`; the throughput and first-sweep
-//! examples; the demo), one after the other so that they do not share the cores. Their
-//! reports land where they always do (`target/bench/`); this task then writes
+//! examples; the demo), one after the other so that they do not share the cores; the
+//! quick timings (the fly-through, the throughput, the demo) three times each, keeping
+//! the run of the median time. Their reports land where they always do
+//! (`target/bench/`); this task then writes
 //! `docs/figures.md` (every report whole, with the date, the machine and the command)
 //! and the README's table of headline figures between the markers
 //! `<!-- figures:begin -->` and `<!-- figures:end -->`, both whole or not at all.
@@ -32,13 +34,20 @@ enum Runner {
     Demo,
 }
 
-/// One measurement: what it measures, how it runs, and its headline lines.
+/// One measurement: what it measures, how it runs, and its headline lines; for a
+/// quick timing (`time`: the seconds or milliseconds its report gives), run
+/// [`TIMED_RUNS`] times and the run with the median time kept, as the project states a
+/// time (the VM's speed drifts by tens of percent from minute to minute).
 struct Measurement {
     what: &'static str,
     command: &'static str,
     runner: Runner,
     headline: fn(&str) -> Vec<String>,
+    time: Option<fn(&str) -> Option<f64>>,
 }
+
+/// Runs of a timed measurement (one median kept).
+const TIMED_RUNS: usize = 3;
 
 fn measurements() -> Vec<Measurement> {
     vec![
@@ -47,18 +56,21 @@ fn measurements() -> Vec<Measurement> {
             command: "cargo xtask bench --scene forest",
             runner: Runner::Xtask(&["bench", "--scene", "forest"], "bench.txt"),
             headline: |t| lines_starting(t, &["forest: the sweep", "forest, cheapest"]),
+            time: None,
         },
         Measurement {
             what: "exact answers",
             command: "cargo xtask exact",
             runner: Runner::Xtask(&["exact"], "exact.txt"),
             headline: exact_headline,
+            time: None,
         },
         Measurement {
             what: "the sun kept apart, bench forest 24³",
             command: "cargo xtask sun",
             runner: Runner::Xtask(&["sun"], "sun.txt"),
             headline: sun_headline,
+            time: None,
         },
         Measurement {
             what: "the hierarchy along a camera path, 16-point nodes",
@@ -75,6 +87,7 @@ fn measurements() -> Vec<Measurement> {
                     .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
                     .collect()
             },
+            time: None,
         },
         Measurement {
             what: "time of day under a 30 ms frame budget, 16-point nodes",
@@ -106,24 +119,46 @@ fn measurements() -> Vec<Measurement> {
                     })
                     .collect()
             },
+            time: None,
         },
         Measurement {
             what: "the fly-through, 16-point nodes (sky alone, 30 frames of 12.8 m)",
             command: "cargo run --release -p lightgrid-terrain-lod --example flythrough -- 16",
             runner: Runner::Example("lightgrid-terrain-lod", "flythrough", &["16"]),
             headline: flythrough_headline,
+            time: Some(|t| {
+                flythrough_headline(t)
+                    .first()?
+                    .split(' ')
+                    .next()?
+                    .parse()
+                    .ok()
+            }),
         },
         Measurement {
             what: "the sweep's throughput (points a second)",
             command: "cargo run --release -p lightgrid-measure --example throughput",
             runner: Runner::Example("lightgrid-measure", "throughput", &[]),
             headline: throughput_headline,
+            // Points a second: the median of the first case's rate is the median run.
+            time: Some(|t| {
+                let rate: f64 = throughput_headline(t)
+                    .first()?
+                    .split(": ")
+                    .nth(1)?
+                    .split(' ')
+                    .next()?
+                    .parse()
+                    .ok()?;
+                Some(1.0 / rate)
+            }),
         },
         Measurement {
             what: "a process's first sweep against a recycled one",
             command: "cargo run --release -p lightgrid-measure --example first_sweep",
             runner: Runner::Example("lightgrid-measure", "first_sweep", &[]),
             headline: |t| lines_starting(t, &["32^3 canopy"]),
+            time: None,
         },
         Measurement {
             what: "the demo, headless",
@@ -135,6 +170,7 @@ fn measurements() -> Vec<Measurement> {
                     .map(|l| format!("{} s in all", l.split_whitespace().last().unwrap_or("?")))
                     .collect()
             },
+            time: Some(demo_seconds),
         },
     ]
 }
@@ -259,73 +295,131 @@ fn sun_headline(text: &str) -> Vec<String> {
     )]
 }
 
+/// The demo summary's total, seconds.
+fn demo_seconds(text: &str) -> Option<f64> {
+    text.lines()
+        .find(|l| l.trim_start().starts_with("total"))?
+        .split_whitespace()
+        .last()?
+        .parse()
+        .ok()
+}
+
+/// Where a measurement's report is kept: `target/bench/...` (the demo's whole output
+/// folder for the demo).
+fn report_path(root: &Path, runner: Runner) -> PathBuf {
+    match runner {
+        Runner::Xtask(_, file) => root.join("target/bench").join(file),
+        Runner::Example(_, name, _) => root.join("target/bench").join(format!("{name}.txt")),
+        Runner::Demo => root.join("target/figures-demo/summary.txt"),
+    }
+}
+
+/// Runs `m` once; its report's text. An example's report is saved at
+/// [`report_path`]; the demo writes its output folder `out` (relative to `root`), the
+/// xtask tasks their reports where they always do.
+fn run_once(root: &Path, m: &Measurement, out: &str) -> Result<String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    eprintln!("figures: {}", m.command);
+    match m.runner {
+        Runner::Xtask(args, _) => {
+            let me = std::env::current_exe().context("the xtask binary")?;
+            let status = Command::new(&me)
+                .args(args)
+                .current_dir(root)
+                .status()
+                .with_context(|| m.command.to_string())?;
+            if !status.success() {
+                bail!("{} failed ({status})", m.command);
+            }
+            let p = report_path(root, m.runner);
+            std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))
+        }
+        Runner::Example(package, name, args) => {
+            let out = Command::new(&cargo)
+                .args(["run", "--release", "-q", "-p", package, "--example", name])
+                .arg("--")
+                .args(args)
+                .current_dir(root)
+                .output()
+                .with_context(|| m.command.to_string())?;
+            if !out.status.success() {
+                bail!(
+                    "{} failed: {}",
+                    m.command,
+                    String::from_utf8_lossy(&out.stderr)
+                );
+            }
+            Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+        }
+        Runner::Demo => {
+            let status = Command::new(&cargo)
+                .args(["run", "--release", "-q", "-p", "lightgrid-viewer", "--"])
+                // Relative to the root it runs in: the summary's file list names no
+                // machine's paths.
+                .arg("--out")
+                .arg(out)
+                .current_dir(root)
+                .env("LIGHTGRID_QUIET", "1")
+                .status()
+                .with_context(|| m.command.to_string())?;
+            if !status.success() {
+                bail!("{} failed ({status})", m.command);
+            }
+            let p = root.join(out).join("summary.txt");
+            std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))
+        }
+    }
+}
+
+/// Runs `m` ([`TIMED_RUNS`] times where it is timed, keeping the run of the median
+/// time) and keeps its report at [`report_path`]; the report's text.
+fn measure(root: &Path, m: &Measurement) -> Result<String> {
+    let Some(time) = m.time else {
+        let text = run_once(root, m, "target/figures-demo")?;
+        if let Runner::Example(..) = m.runner {
+            lightgrid_core::file::write_atomic(&report_path(root, m.runner), text.as_bytes())?;
+        }
+        return Ok(text);
+    };
+    let mut runs = Vec::with_capacity(TIMED_RUNS);
+    for i in 0..TIMED_RUNS {
+        let out = format!("target/figures-demo-run{i}");
+        let text = run_once(root, m, &out)?;
+        let t = time(&text).with_context(|| format!("{}: no time in its report", m.command))?;
+        runs.push((t, i, text));
+    }
+    runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (_, i, text) = runs.swap_remove(TIMED_RUNS / 2);
+    match m.runner {
+        Runner::Demo => {
+            // The median run's whole folder becomes the demo's output.
+            let keep = root.join("target/figures-demo");
+            if keep.exists() {
+                std::fs::remove_dir_all(&keep)
+                    .with_context(|| format!("removing {}", keep.display()))?;
+            }
+            std::fs::rename(root.join(format!("target/figures-demo-run{i}")), &keep)
+                .context("keeping the demo's median run")?;
+            for j in (0..TIMED_RUNS).filter(|&j| j != i) {
+                let _ = std::fs::remove_dir_all(root.join(format!("target/figures-demo-run{j}")));
+            }
+        }
+        _ => lightgrid_core::file::write_atomic(&report_path(root, m.runner), text.as_bytes())?,
+    }
+    Ok(text)
+}
+
 /// Runs every measurement (unless `assemble_only`), then writes `docs/figures.md` and
 /// the README's table. Returns the paths written.
 pub fn run(root: &Path, assemble_only: bool) -> Result<Vec<PathBuf>> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let me = std::env::current_exe().context("the xtask binary")?;
-    let demo_out = root.join("target/figures-demo");
     let mut reports = Vec::new();
     for m in measurements() {
-        let text = match m.runner {
-            Runner::Xtask(args, file) => {
-                if !assemble_only {
-                    eprintln!("figures: {}", m.command);
-                    let status = Command::new(&me)
-                        .args(args)
-                        .current_dir(root)
-                        .status()
-                        .with_context(|| m.command.to_string())?;
-                    if !status.success() {
-                        bail!("{} failed ({status})", m.command);
-                    }
-                }
-                let p = root.join("target/bench").join(file);
-                std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?
-            }
-            Runner::Example(package, name, args) => {
-                let saved = root.join("target/bench").join(format!("{name}.txt"));
-                if !assemble_only {
-                    eprintln!("figures: {}", m.command);
-                    let out = Command::new(&cargo)
-                        .args(["run", "--release", "-q", "-p", package, "--example", name])
-                        .arg("--")
-                        .args(args)
-                        .current_dir(root)
-                        .output()
-                        .with_context(|| m.command.to_string())?;
-                    if !out.status.success() {
-                        bail!(
-                            "{} failed: {}",
-                            m.command,
-                            String::from_utf8_lossy(&out.stderr)
-                        );
-                    }
-                    lightgrid_core::file::write_atomic(&saved, &out.stdout)?;
-                }
-                std::fs::read_to_string(&saved)
-                    .with_context(|| format!("reading {}", saved.display()))?
-            }
-            Runner::Demo => {
-                if !assemble_only {
-                    eprintln!("figures: {}", m.command);
-                    let status = Command::new(&cargo)
-                        .args(["run", "--release", "-q", "-p", "lightgrid-viewer", "--"])
-                        // Relative to the root it runs in: the summary's file list
-                        // names no machine's paths.
-                        .arg("--out")
-                        .arg("target/figures-demo")
-                        .current_dir(root)
-                        .env("LIGHTGRID_QUIET", "1")
-                        .status()
-                        .with_context(|| m.command.to_string())?;
-                    if !status.success() {
-                        bail!("{} failed ({status})", m.command);
-                    }
-                }
-                let p = demo_out.join("summary.txt");
-                std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?
-            }
+        let text = if assemble_only {
+            let p = report_path(root, m.runner);
+            std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?
+        } else {
+            measure(root, &m)?
         };
         let headline = (m.headline)(&text);
         if headline.is_empty() {
@@ -342,15 +436,19 @@ pub fn run(root: &Path, assemble_only: bool) -> Result<Vec<PathBuf>> {
     );
     let mut table = String::from("| what | figures | command |\n|------|---------|---------|\n");
     for (m, text, headline) in &reports {
+        let what = match m.time {
+            Some(_) => format!("{} (the median of {TIMED_RUNS} runs)", m.what),
+            None => m.what.to_string(),
+        };
         doc += &format!(
             "\n## {}\n\n`{}`\n\n```text\n{}\n```\n",
-            m.what,
+            what,
             m.command,
             text.trim_end()
         );
         table += &format!(
             "| {} | {} | `{}` |\n",
-            m.what,
+            what,
             headline.join("; ").replace('|', "/"),
             m.command
         );
@@ -461,6 +559,26 @@ mod tests {
             ]
         );
         assert!(flythrough_headline("no table").is_empty());
+    }
+
+    #[test]
+    fn timed_measurements_read_their_time() {
+        let time = |what: &str, text: &str| {
+            let m = measurements()
+                .into_iter()
+                .find(|m| m.what.starts_with(what));
+            (m.and_then(|m| m.time).expect("a timed measurement"))(text)
+        };
+        let fly = "         16 |     30 |    1.48 |     49.3 |       549888 |          61.6\n";
+        assert_eq!(time("the fly-through", fly), Some(49.3));
+        let tp = "case  recycled Mpt/s   fast Mpt/s oracle Mpt/s\n\
+                  64^3 canopy, 26 bins, 1 pass               12.5         5.11         0.56\n";
+        assert_eq!(time("the sweep's throughput", tp), Some(1.0 / 12.5));
+        assert_eq!(
+            time("the demo", "stages (seconds):\n  total   7.85\n"),
+            Some(7.85)
+        );
+        assert_eq!(time("the demo", "no total"), None);
     }
 
     #[test]
