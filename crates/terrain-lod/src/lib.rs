@@ -145,6 +145,7 @@ mod casters;
 mod depth;
 mod params;
 mod read;
+mod refresh;
 mod shadow;
 mod sun_move;
 mod volume;
@@ -504,6 +505,8 @@ pub struct Hierarchy {
     /// The camera of the last frame ([`Hierarchy::update`], [`Hierarchy::refresh`]):
     /// under a time budget a moved sun's direct light is marched nearest it first.
     camera: Option<Vec3>,
+    /// The nodes this round of [`Hierarchy::refresh`] calls has checked (`refresh.rs`).
+    checked: refresh::Checked,
 }
 
 /// Stands in for the sweeper while a sun sweep borrows the hierarchy for its boundary.
@@ -644,6 +647,7 @@ impl Hierarchy {
             world_material: None,
             sun_move: None,
             camera: None,
+            checked: Default::default(),
             sky_scale: Vec3::ONE,
         };
         let w = params.world_cell;
@@ -695,6 +699,7 @@ impl Hierarchy {
         self.poll_sun_move(true)?;
         self.sweeper = sweeper;
         self.forks.clear();
+        self.checked.clear();
         self.sweep_world()?;
         if self.sun.is_some() {
             self.sweep_world_sun()?;
@@ -711,6 +716,7 @@ impl Hierarchy {
             );
         }
         self.sky = sky_top;
+        self.checked.clear();
         self.sweep_world()
     }
 
@@ -754,6 +760,7 @@ impl Hierarchy {
     pub fn set_sun(&mut self, sun: Option<SunLight>) -> Result<(), LodError> {
         let Some(mut sun) = sun else {
             // A sweep under way finishes on its thread alone; its result is dropped.
+            self.checked.clear();
             self.sun_move = None;
             self.sun = None;
             self.world_sun = None;
@@ -761,6 +768,7 @@ impl Hierarchy {
             return Ok(());
         };
         sun.to_sun = lightgrid_core::light::check_sun(sun.to_sun, sun.irradiance)?;
+        self.checked.clear();
         let Some(shown) = self.scattered_to() else {
             // A first sun: the world grid at once, the nodes within the budget.
             self.sun = Some(sun);
@@ -1183,6 +1191,7 @@ impl Hierarchy {
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
         self.camera = Some(camera);
+        self.checked.clear();
         let mut stats = FrameStats {
             sun_moved: self.poll_sun_move(false)?,
             ..FrameStats::default()
@@ -1361,73 +1370,5 @@ impl Hierarchy {
             k = Self::parent(key);
         }
         false
-    }
-
-    /// Rebuilds every ready node whose inputs changed (after the scene or sky changed),
-    /// within the budget; nodes whose inputs hash as before are counted as skipped.
-    pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
-        if !camera.is_finite() {
-            return Err(GridError::invalid("camera", camera, "must be finite").into());
-        }
-        let _span = tracing::debug_span!("refresh", camera = %camera).entered();
-        self.frame_started = std::time::Instant::now();
-        self.camera = Some(camera);
-        self.composed.clear();
-        self.casters.clear();
-        let mut stats = FrameStats {
-            sun_moved: self.poll_sun_move(false)?,
-            ..FrameStats::default()
-        };
-        self.frame_budget = self.frame_budget_points();
-        stats.budget_points = self.frame_budget;
-        let mut keys = self.ready_nodes();
-        keys.sort_by(|a, b| {
-            a.depth.cmp(&b.depth).then(
-                self.distance(*a, camera)
-                    .total_cmp(&self.distance(*b, camera)),
-            )
-        });
-        for key in keys {
-            let desc = *self.nodes[&key].light.desc();
-            if self.over_budget(
-                stats.points_swept,
-                apron::sky_points(&desc, self.params.apron),
-            ) {
-                stats.pending += 1;
-                continue;
-            }
-            let material = timed(&mut stats.times.material, || self.compose(&desc))?;
-            let o = self.node_options(self.nodes[&key].material.has_objects);
-            let inputs = self.sky_inputs(key.depth, &material, &o, &mut stats.times)?;
-            let hash = inputs.hash;
-            // (The node keeps its size; a changed scene may need a new size: evict it.)
-            if self.params.skip.unchanged && hash == self.nodes[&key].input_hash {
-                stats.skipped_unchanged += 1;
-            } else {
-                let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
-                let out =
-                    self.sweep_sky(&inputs, &material, &o, sweeper.as_mut(), &mut stats.times);
-                self.sweeper = sweeper;
-                let out = out?;
-                stats.points_swept += apron::sky_points(&desc, self.params.apron);
-                stats.built += 1;
-                let n = self.nodes.get_mut(&key).expect("ready node");
-                n.light = out.bins.expect("bins asked for");
-                n.horizon = out.horizon;
-                n.resident = out.resident;
-                n.input_hash = hash;
-                n.material.grid = material.clone();
-                // The material may have changed: the sun's responses too.
-                n.sun = None;
-            }
-            if self.sun.is_some() && !self.sun_current(key) {
-                self.update_sun(key, Some(&material), &mut stats)?;
-            }
-        }
-        stats.sun_pending = self.sun_pending();
-        self.casters.end_frame();
-        stats.caster_bytes = self.casters.bytes();
-        self.last_frame_swept = stats.points_swept > 0;
-        Ok(stats)
     }
 }

@@ -689,6 +689,72 @@ fn nodes_left_for_later_frames_are_composed_once() {
     assert_eq!(a, b);
 }
 
+/// After the sky changes, a round of `refresh` frames under a small budget composes
+/// and checks each ready node once (before, every frame composed and hashed every
+/// ready node again to find most of them done), rebuilds them all, and leaves the light
+/// an unbudgeted refresh leaves, bit for bit: a node checked before a coarser one that
+/// waited is checked again once that one is rebuilt. The call after the round checks
+/// every node again and rebuilds none.
+#[test]
+fn a_refresh_round_checks_each_node_once() {
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let counting = std::sync::Arc::new(Counting {
+        inner: composer.clone(),
+        seen: Default::default(),
+    });
+    let mut small = params();
+    small.budget_points = 16 * 16 * 40; // a node or two a frame
+    let mut big = small;
+    big.budget_points = u64::MAX / 4;
+    let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
+    let mut h = on_cpu(&hm, counting.clone(), small).unwrap();
+    let settled = (0..60).any(|_| h.update(cam).unwrap().pending == 0)
+        && (0..60).any(|_| h.refresh(cam).unwrap().pending == 0);
+    assert!(settled, "frames until nothing waits");
+    let mut all = on_cpu(&hm, composer, big).unwrap();
+    all.update(cam).unwrap();
+    assert_eq!(all.refresh(cam).unwrap().pending, 0);
+    let (mut a, mut b) = (all.ready_nodes(), h.ready_nodes());
+    a.sort();
+    b.sort();
+    assert_eq!(a, b);
+    assert!(b.len() > 4, "{b:?}");
+    // A round: the sky changes.
+    let sky = BinLight::uniform(Vec3::new(0.4, 0.8, 0.6))
+        .split_vertical()
+        .0;
+    h.set_sky(sky).unwrap();
+    all.set_sky(sky).unwrap();
+    counting.seen.lock().unwrap().clear();
+    let (mut frames, mut checked, mut built) = (0, 0, 0);
+    loop {
+        let s = h.refresh(cam).unwrap();
+        frames += 1;
+        checked += s.built + s.skipped_unchanged;
+        built += s.built;
+        if s.pending == 0 {
+            break;
+        }
+        assert!(frames < 60, "still pending after {frames} frames: {s:?}");
+    }
+    assert!(frames >= 3, "the budget must spread the round over frames");
+    assert_eq!(built as usize, b.len(), "every node's sky changed");
+    assert_eq!(checked as usize, b.len(), "each node checked once");
+    let seen = counting.seen.lock().unwrap().clone();
+    assert!(
+        seen.values().all(|&n| n == 1) && seen.len() == b.len(),
+        "composed: {seen:?}"
+    );
+    all.refresh(cam).unwrap();
+    for k in &b {
+        assert!(h.node(*k) == all.node(*k), "{k:?}");
+    }
+    // A new round checks every node again.
+    let s = h.refresh(cam).unwrap();
+    assert_eq!((s.built, s.skipped_unchanged as usize), (0, b.len()));
+}
+
 /// A time budget bounds a frame's points by the measured rate, never past
 /// `budget_points`, and frames get on (a frame's first node runs whatever it costs,
 /// unless the frame spent its budget before it and the last frame swept: no two frames
