@@ -173,6 +173,31 @@ fn lit_quad(r: &mut Renderer, y: f32, lighting: Lighting) -> lightgrid_render::M
     )
 }
 
+/// A quad at height `y` lit by `lighting` through a 4 × 4 texture of `texels`, alpha
+/// masked at 0.5.
+fn masked_quad(
+    r: &mut Renderer,
+    y: f32,
+    texels: Vec<[u8; 4]>,
+    lighting: Lighting,
+) -> lightgrid_render::MeshId {
+    add_quad(
+        r,
+        y,
+        Vec3::ZERO,
+        MeshMaterial {
+            texture: Some(TextureRgba8 {
+                width: 4,
+                height: 4,
+                texels,
+            }),
+            alpha_cutoff: Some(0.5),
+            lighting,
+            ..Default::default()
+        },
+    )
+}
+
 /// The relative precision of `r`'s HDR image: 1e-5 in `f32`, one step (2^-10) in half
 /// floats (the fallback where `f32` is not renderable).
 fn hdr_tolerance(r: &Renderer) -> f32 {
@@ -493,21 +518,7 @@ fn alpha_mask_and_emissive_tint() {
             }
         })
         .collect();
-    let masked = add_quad(
-        &mut r,
-        0.0,
-        Vec3::ZERO,
-        MeshMaterial {
-            texture: Some(TextureRgba8 {
-                width: 4,
-                height: 4,
-                texels,
-            }),
-            alpha_cutoff: Some(0.5),
-            lighting: Lighting::Emissive,
-            ..Default::default()
-        },
-    );
+    let masked = masked_quad(&mut r, 0.0, texels, Lighting::Emissive);
     let img = r.render(&view(LightingMode::Grid, vec![masked])).unwrap();
     // Every pixel is either background (alpha under the cutoff) or the texture's
     // colour (red 1 everywhere; green filtered between 0 and 1), and both occur.
@@ -593,21 +604,7 @@ fn a_pair_of_images_equals_the_two_renders() {
             },
         ),
         lit_quad(&mut r, 0.0, Lighting::Surface),
-        add_quad(
-            &mut r,
-            0.5,
-            Vec3::ZERO,
-            MeshMaterial {
-                texture: Some(TextureRgba8 {
-                    width: 4,
-                    height: 4,
-                    texels,
-                }),
-                alpha_cutoff: Some(0.5),
-                lighting: Lighting::Foliage,
-                ..Default::default()
-            },
-        ),
+        masked_quad(&mut r, 0.5, texels, Lighting::Foliage),
     ];
     let shrink = |x: f32, y: f32, s: f32| {
         MeshInstance::new(

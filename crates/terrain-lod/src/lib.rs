@@ -1183,21 +1183,29 @@ impl Hierarchy {
         )
     }
 
-    /// One frame: evict, then build wanted nodes coarse and near first within the budget.
-    pub fn update(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
+    /// A frame's start ([`Hierarchy::update`], [`Hierarchy::refresh`]): the camera
+    /// checked and kept, the clock started, a moved sun's sweep polled (installed if
+    /// done), the frame's budget set; its stats so far.
+    fn begin_frame(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
         if !camera.is_finite() {
             return Err(GridError::invalid("camera", camera, "must be finite").into());
         }
-        let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         self.frame_started = std::time::Instant::now();
         self.camera = Some(camera);
-        self.checked.clear();
         let mut stats = FrameStats {
             sun_moved: self.poll_sun_move(false)?,
             ..FrameStats::default()
         };
         self.frame_budget = self.frame_budget_points();
         stats.budget_points = self.frame_budget;
+        Ok(stats)
+    }
+
+    /// One frame: evict, then build wanted nodes coarse and near first within the budget.
+    pub fn update(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
+        let _frame = tracing::debug_span!("frame", camera = %camera).entered();
+        let mut stats = self.begin_frame(camera)?;
+        self.checked.clear();
         // Evict far nodes.
         let evict: Vec<NodeKey> = self
             .nodes

@@ -7,7 +7,6 @@
 use std::collections::HashSet;
 use std::hash::BuildHasherDefault;
 
-use lightgrid_core::GridError;
 use lightgrid_core::glam::Vec3;
 
 use crate::{FrameStats, Hierarchy, KeyHasher, Lent, LodError, NodeKey, apron, timed};
@@ -27,20 +26,10 @@ impl Hierarchy {
     /// after [`Hierarchy::update`], [`Hierarchy::set_sky`], [`Hierarchy::set_sun`] or
     /// [`Hierarchy::set_sweeper`], starts a new round: it checks every ready node.
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
-        if !camera.is_finite() {
-            return Err(GridError::invalid("camera", camera, "must be finite").into());
-        }
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
-        self.frame_started = std::time::Instant::now();
-        self.camera = Some(camera);
+        let mut stats = self.begin_frame(camera)?;
         self.composed.clear();
         self.casters.clear();
-        let mut stats = FrameStats {
-            sun_moved: self.poll_sun_move(false)?,
-            ..FrameStats::default()
-        };
-        self.frame_budget = self.frame_budget_points();
-        stats.budget_points = self.frame_budget;
         let mut keys = self.ready_nodes();
         keys.retain(|k| !self.checked.contains(k));
         keys.sort_by(|a, b| {
