@@ -390,7 +390,7 @@ fn measure(root: &Path, m: &Measurement) -> Result<String> {
         runs.push((t, i, text));
     }
     runs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (_, i, text) = runs.swap_remove(TIMED_RUNS / 2);
+    let (_, i, mut text) = runs.swap_remove(TIMED_RUNS / 2);
     match m.runner {
         Runner::Demo => {
             // The median run's whole folder becomes the demo's output.
@@ -401,6 +401,20 @@ fn measure(root: &Path, m: &Measurement) -> Result<String> {
             }
             std::fs::rename(root.join(format!("target/figures-demo-run{i}")), &keep)
                 .context("keeping the demo's median run")?;
+            // Its summary names the folder it ran into: the one it is kept as.
+            for name in ["summary.txt", "summary.json"] {
+                let p = keep.join(name);
+                let t = std::fs::read_to_string(&p)
+                    .with_context(|| format!("reading {}", p.display()))?
+                    .replace(
+                        &format!("target/figures-demo-run{i}"),
+                        "target/figures-demo",
+                    );
+                lightgrid_core::file::write_atomic(&p, t.as_bytes())?;
+                if name == "summary.txt" {
+                    text = t;
+                }
+            }
             for j in (0..TIMED_RUNS).filter(|&j| j != i) {
                 let _ = std::fs::remove_dir_all(root.join(format!("target/figures-demo-run{j}")));
             }
