@@ -638,6 +638,28 @@ impl lightgrid_core::MaterialSource for Counting {
     }
 }
 
+/// The test scene, its composer shared, and a [`Counting`] source over it.
+fn counted_scene() -> (
+    Heightmap,
+    std::sync::Arc<AreaComposer>,
+    std::sync::Arc<Counting>,
+) {
+    let (hm, composer) = scene();
+    let composer = std::sync::Arc::new(composer);
+    let counting = std::sync::Arc::new(Counting {
+        inner: composer.clone(),
+        seen: Default::default(),
+    });
+    (hm, composer, counting)
+}
+
+/// [`params`] with a budget of a node or two a frame.
+fn small_budget() -> HierarchyParams {
+    let mut p = params();
+    p.budget_points = 16 * 16 * 40;
+    p
+}
+
 /// A hierarchy on the CPU sweeper under the tests' sky, over `source`.
 fn on_cpu(
     hm: &Heightmap,
@@ -653,14 +675,8 @@ fn on_cpu(
 /// and built a few).
 #[test]
 fn nodes_left_for_later_frames_are_composed_once() {
-    let (hm, composer) = scene();
-    let composer = std::sync::Arc::new(composer);
-    let counting = std::sync::Arc::new(Counting {
-        inner: composer.clone(),
-        seen: Default::default(),
-    });
-    let mut p = params();
-    p.budget_points = 16 * 16 * 40; // a node or two a frame
+    let (hm, composer, counting) = counted_scene();
+    let p = small_budget();
     let mut h = on_cpu(&hm, counting.clone(), p).unwrap();
     let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
     let (mut frames, mut waited) = (0, 0);
@@ -697,14 +713,8 @@ fn nodes_left_for_later_frames_are_composed_once() {
 /// every node again and rebuilds none.
 #[test]
 fn a_refresh_round_checks_each_node_once() {
-    let (hm, composer) = scene();
-    let composer = std::sync::Arc::new(composer);
-    let counting = std::sync::Arc::new(Counting {
-        inner: composer.clone(),
-        seen: Default::default(),
-    });
-    let mut small = params();
-    small.budget_points = 16 * 16 * 40; // a node or two a frame
+    let (hm, composer, counting) = counted_scene();
+    let small = small_budget();
     let mut big = small;
     big.budget_points = u64::MAX / 4;
     let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
