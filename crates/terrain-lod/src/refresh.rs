@@ -21,17 +21,21 @@ impl Hierarchy {
     ///
     /// Call it frame after frame until it returns `pending == 0`: such a round of
     /// calls checks each ready node once (a node its first frames checked is not
-    /// composed and hashed again in its later ones), those nodes finer than a node it
-    /// rebuilt again (their boundaries changed). The call after a round that ended, or
+    /// composed and hashed again in its later ones; sun responses the budget left wait
+    /// for a later frame of the round), those nodes finer than a node it rebuilt again
+    /// (their boundaries changed). The call after a round that ended, or
     /// after [`Hierarchy::update`], [`Hierarchy::set_sky`], [`Hierarchy::set_sun`] or
     /// [`Hierarchy::set_sweeper`], starts a new round: it checks every ready node.
     pub fn refresh(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
         let _span = tracing::debug_span!("refresh", camera = %camera).entered();
         let mut stats = self.begin_frame(camera)?;
-        self.composed.clear();
-        self.casters.clear();
+        if self.checked.is_empty() {
+            // A new round: the scene may have changed since the materials kept for
+            // later frames and the sun's casters were composed.
+            self.composed.clear();
+            self.casters.clear();
+        }
         let mut keys = self.ready_nodes();
-        keys.retain(|k| !self.checked.contains(k));
         keys.sort_by(|a, b| {
             a.depth.cmp(&b.depth).then(
                 self.distance(*a, camera)
@@ -39,6 +43,14 @@ impl Hierarchy {
             )
         });
         for key in keys {
+            if self.checked.contains(&key) {
+                // Checked this round: its sun responses alone, where the budget left
+                // them for this frame (from the material it keeps).
+                if self.sun.is_some() && !self.sun_current(key) {
+                    self.update_sun(key, None, &mut stats)?;
+                }
+                continue;
+            }
             let desc = *self.nodes[&key].light.desc();
             if self.over_budget(
                 stats.points_swept,

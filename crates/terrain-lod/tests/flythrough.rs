@@ -1,7 +1,7 @@
 //! A fly-through over the shipped DEM with a procedural forest.
 
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{BinLight, Grid, LightField};
+use lightgrid_core::{BinLight, Grid, LightField, LightGrid};
 use lightgrid_material_voxelizer::compose::{AreaComposer, Heightmap};
 use lightgrid_material_voxelizer::procedural::TreeParams;
 use lightgrid_material_voxelizer::voxelize::VoxelizeParams;
@@ -707,10 +707,10 @@ fn nodes_left_for_later_frames_are_composed_once() {
 
 /// After the sky changes, a round of `refresh` frames under a small budget composes
 /// and checks each ready node once (before, every frame composed and hashed every
-/// ready node again to find most of them done), rebuilds them all, and leaves the light
-/// an unbudgeted refresh leaves, bit for bit: a node checked before a coarser one that
-/// waited is checked again once that one is rebuilt. The call after the round checks
-/// every node again and rebuilds none.
+/// ready node again to find most of them done, and composed the sun's casters again),
+/// rebuilds them all with their sun responses, and leaves the light and sun responses
+/// an unbudgeted refresh leaves, bit for bit. The call after the round checks every
+/// node again and rebuilds none.
 #[test]
 fn a_refresh_round_checks_each_node_once() {
     let (hm, composer, counting) = counted_scene();
@@ -718,11 +718,19 @@ fn a_refresh_round_checks_each_node_once() {
     let mut big = small;
     big.budget_points = u64::MAX / 4;
     let cam = Vec3::new(620.0, hm.height_at(620.0, 640.0) + 15.0, 640.0);
+    // The sun kept apart: a round sweeps the nodes' sun responses too, those the
+    // budget leaves in its later frames.
+    let sun = Some(lightgrid_terrain_lod::SunLight {
+        to_sun: Vec3::new(0.4, 0.6, 0.2),
+        irradiance: Vec3::splat(3.0),
+    });
     let mut h = on_cpu(&hm, counting.clone(), small).unwrap();
+    h.set_sun(sun).unwrap();
     let settled = (0..60).any(|_| h.update(cam).unwrap().pending == 0)
         && (0..60).any(|_| h.refresh(cam).unwrap().pending == 0);
     assert!(settled, "frames until nothing waits");
     let mut all = on_cpu(&hm, composer, big).unwrap();
+    all.set_sun(sun).unwrap();
     all.update(cam).unwrap();
     assert_eq!(all.refresh(cam).unwrap().pending, 0);
     let (mut a, mut b) = (all.ready_nodes(), h.ready_nodes());
@@ -744,6 +752,7 @@ fn a_refresh_round_checks_each_node_once() {
         checked += s.built + s.skipped_unchanged;
         built += s.built;
         if s.pending == 0 {
+            assert_eq!(s.sun_pending, 0, "every node's sun responses swept");
             break;
         }
         assert!(frames < 60, "still pending after {frames} frames: {s:?}");
@@ -751,15 +760,27 @@ fn a_refresh_round_checks_each_node_once() {
     assert!(frames >= 3, "the budget must spread the round over frames");
     assert_eq!(built as usize, b.len(), "every node's sky changed");
     assert_eq!(checked as usize, b.len(), "each node checked once");
+    // Each node's material, and each sun's caster (a node not built that a march
+    // crosses), composed once.
     let seen = counting.seen.lock().unwrap().clone();
     assert!(
-        seen.values().all(|&n| n == 1) && seen.len() == b.len(),
+        seen.values().all(|&n| n == 1) && seen.len() >= b.len(),
         "composed: {seen:?}"
     );
     all.refresh(cam).unwrap();
     for k in &b {
         assert!(h.node(*k) == all.node(*k), "{k:?}");
     }
+    let suns = |x: &Hierarchy| -> Vec<(LightGrid, Grid<f32>)> {
+        x.layers()
+            .iter()
+            .map(|l| {
+                let s = l.sun.as_ref().expect("a sun response");
+                (s.scattered.clone(), s.transmittance.clone())
+            })
+            .collect()
+    };
+    assert!(suns(&h) == suns(&all), "the same sun responses");
     // A new round checks every node again.
     let s = h.refresh(cam).unwrap();
     assert_eq!((s.built, s.skipped_unchanged as usize), (0, b.len()));
