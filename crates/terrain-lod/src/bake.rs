@@ -303,7 +303,7 @@ impl WorldBake {
         let mut times = crate::StageTimes::default();
         let r = self
             .h
-            .sky_node(key, &composed, sweeper.as_mut(), &mut times)
+            .sky_node(key, &composed, None, sweeper.as_mut(), &mut times)
             .and_then(|node| {
                 let sun = self.h.node_sun(
                     key,

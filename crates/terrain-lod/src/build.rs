@@ -27,22 +27,39 @@ use crate::{
 type Composed = Result<NodeMaterial, GridError>;
 
 /// One node's work in a frame.
-struct Job {
-    key: NodeKey,
+pub(crate) struct Job {
+    pub(crate) key: NodeKey,
     /// A new node's material: its index among the depth's composed ones (`None`: a
     /// built node whose sun response is stale; its stored material is used).
-    material: Option<usize>,
-    /// Sweep the sky's light (a new node).
-    sky: bool,
+    pub(crate) material: Option<usize>,
+    /// Sweep the sky's light (a new node, or a ready one `refresh` rebuilds).
+    pub(crate) sky: bool,
+    /// The sky sweep's inputs, where made already (`refresh` hashes them first).
+    pub(crate) inputs: Option<crate::apron::SkyInputs>,
     /// Compute the sun's responses.
-    sun: bool,
+    pub(crate) sun: bool,
     /// A new node whose sun responses wait for a later frame: march its transmittance
     /// now ([`Hierarchy::interim_sun`]).
-    march: bool,
+    pub(crate) march: bool,
     /// A built node whose scattered sun is current but whose transmittance a moved
     /// sun's `set_sun` left for later ([`Hierarchy::march_suns`] under a time budget):
     /// march it alone.
-    remarch: bool,
+    pub(crate) remarch: bool,
+}
+
+impl Job {
+    /// A job for `key` that does nothing yet (set what it does).
+    pub(crate) fn new(key: NodeKey) -> Self {
+        Self {
+            key,
+            material: None,
+            sky: false,
+            inputs: None,
+            sun: false,
+            march: false,
+            remarch: false,
+        }
+    }
 }
 
 /// What a job made.
@@ -166,7 +183,7 @@ impl Hierarchy {
     /// job's a batch at a time, and a job whose casters are not all held once the frame
     /// has spent half its budget on composing loses its sun part to a later frame (its
     /// points are given back; the casters composed for it are kept).
-    fn compose_jobs_casters(
+    pub(crate) fn compose_jobs_casters(
         &mut self,
         jobs: Vec<Job>,
         new: &[NodeKey],
@@ -280,12 +297,8 @@ impl Hierarchy {
                     stats.points_swept += cost;
                     stats.sun_built += 1;
                     jobs.push(Job {
-                        key,
-                        material: None,
-                        sky: false,
-                        sun: false,
-                        march: false,
                         remarch: true,
+                        ..Job::new(key)
                     });
                 }
                 Want::Stale(key) => {
@@ -300,12 +313,9 @@ impl Hierarchy {
                     // the march alone (its scattered sun read once they are current).
                     let read = self.reads_coarse_scattered_sun(key);
                     jobs.push(Job {
-                        key,
-                        material: None,
-                        sky: false,
                         sun: !read,
                         march: read,
-                        remarch: false,
+                        ..Job::new(key)
                     });
                 }
                 Want::New(key, i) => {
@@ -337,21 +347,16 @@ impl Hierarchy {
                     // A sun response left for a later frame: the transmittance is
                     // marched with the sky's job meanwhile (the direct sun exact).
                     jobs.push(Job {
-                        key,
                         material: Some(i),
                         sky: true,
-                        sun: false,
                         march: self.sun.is_some() && !sun,
-                        remarch: false,
+                        ..Job::new(key)
                     });
                     if sun {
                         jobs.push(Job {
-                            key,
                             material: Some(i),
-                            sky: false,
                             sun: true,
-                            march: false,
-                            remarch: false,
+                            ..Job::new(key)
                         });
                     }
                 }
@@ -364,7 +369,7 @@ impl Hierarchy {
     /// made. `new` are the depth's new nodes and `materials` theirs (composed, in that
     /// order): every job's sun march reads all of them. The first error is returned
     /// after every job has finished.
-    fn run_jobs(
+    pub(crate) fn run_jobs(
         &mut self,
         jobs: Vec<Job>,
         new: &[NodeKey],
@@ -452,7 +457,7 @@ impl Hierarchy {
             None => &self.nodes[&job.key].material,
         };
         let node = if job.sky {
-            Some(self.sky_node(job.key, material, sweeper, &mut times)?)
+            Some(self.sky_node(job.key, material, job.inputs, sweeper, &mut times)?)
         } else {
             None
         };
@@ -567,17 +572,22 @@ impl Hierarchy {
         }))
     }
 
-    /// A new node's grid: its boundary from the coarser grids, swept.
+    /// A new node's grid: its boundary from the coarser grids (`prepared`: made already
+    /// for `composed`), swept.
     pub(crate) fn sky_node(
         &self,
         key: NodeKey,
         composed: &NodeMaterial,
+        prepared: Option<crate::apron::SkyInputs>,
         sweeper: &mut dyn Sweeper,
         times: &mut StageTimes,
     ) -> Result<Node, LodError> {
         let material = &composed.grid;
         let o = self.node_options(composed.has_objects);
-        let inputs = self.sky_inputs(key.depth, material, &o, times)?;
+        let inputs = match prepared {
+            Some(i) => i,
+            None => self.sky_inputs(key.depth, material, &o, times)?,
+        };
         let input_hash = inputs.hash;
         let out = self.sweep_sky(&inputs, material, &o, sweeper, times)?;
         let light = out.bins.ok_or_else(|| {

@@ -507,6 +507,9 @@ pub struct Hierarchy {
     camera: Option<Vec3>,
     /// The nodes this round of [`Hierarchy::refresh`] calls has checked (`refresh.rs`).
     checked: refresh::Checked,
+    /// Materials a refresh round composed again for ready nodes its budget then left
+    /// for a later frame of the round (`refresh.rs`).
+    recomposed: refresh::Recomposed,
 }
 
 /// Stands in for the sweeper while a sun sweep borrows the hierarchy for its boundary.
@@ -648,6 +651,7 @@ impl Hierarchy {
             sun_move: None,
             camera: None,
             checked: Default::default(),
+            recomposed: Default::default(),
             sky_scale: Vec3::ONE,
         };
         let w = params.world_cell;
@@ -828,37 +832,6 @@ impl Hierarchy {
     /// The sky's multiplier ([`Hierarchy::set_sky_scale`]).
     pub fn sky_scale(&self) -> Vec3 {
         self.sky_scale
-    }
-
-    /// Computes node `key`'s sun responses for the current sun (its boundary from the
-    /// coarser grids' sun responses). Returns the points swept.
-    fn sweep_node_sun(
-        &mut self,
-        key: NodeKey,
-        material: &MaterialGrid,
-        times: &mut StageTimes,
-    ) -> Result<u64, LodError> {
-        let has_objects = self.nodes[&key].material.has_objects;
-        let lit = [(key, *material.desc())];
-        let (_, t) = self.compose_casters(&lit, &self.sun_directions(), &[])?;
-        times.material += t;
-        let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
-        let r = self.node_sun(
-            key,
-            material,
-            has_objects,
-            sweeper.as_mut(),
-            &shadow::Fresh::default(),
-            times,
-        );
-        self.sweeper = sweeper;
-        let Some(sun) = r? else {
-            return Ok(0);
-        };
-        if let Some(n) = self.nodes.get_mut(&key) {
-            n.sun = Some(sun);
-        }
-        Ok(material.desc().point_count() as u64)
     }
 
     /// Node `key`'s sun responses for the current sun on `sweeper`, its boundary from
@@ -1206,6 +1179,7 @@ impl Hierarchy {
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         let mut stats = self.begin_frame(camera)?;
         self.checked.clear();
+        self.recomposed.clear();
         // Evict far nodes.
         let evict: Vec<NodeKey> = self
             .nodes
@@ -1312,34 +1286,6 @@ impl Hierarchy {
                 points.min(p.budget_points)
             }
         }
-    }
-
-    /// Computes a ready node's sun responses if its parent's are current and the budget
-    /// allows (else counts it pending).
-    fn update_sun(
-        &mut self,
-        key: NodeKey,
-        material: Option<&MaterialGrid>,
-        stats: &mut FrameStats,
-    ) -> Result<(), LodError> {
-        let desc = *self.nodes[&key].light.desc();
-        if !self.sun_parent_ready(key)
-            || self.over_budget(stats.points_swept, desc.point_count() as u64)
-        {
-            stats.pending += 1;
-            return Ok(());
-        }
-        let stored;
-        let material = match material {
-            Some(m) => m,
-            None => {
-                stored = self.nodes[&key].material.grid.clone();
-                &stored
-            }
-        };
-        stats.points_swept += self.sweep_node_sun(key, material, &mut stats.times)?;
-        stats.sun_built += 1;
-        Ok(())
     }
 
     /// Ready nodes without a sun response for the current sun (0 without a sun).

@@ -2,17 +2,25 @@
 //! sky, the sun, the scene), a round of frames at a time: each frame checks, coarse and
 //! near first within the budget, the nodes the round has not checked yet, so that a
 //! round's later frames do not compose and hash again the nodes its first frames found
-//! unchanged or rebuilt.
+//! unchanged or rebuilt. A depth at a time, its nodes side by side, as
+//! [`Hierarchy::update`] builds one (`build.rs`).
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::hash::BuildHasherDefault;
 
+use lightgrid_core::MaterialGrid;
 use lightgrid_core::glam::Vec3;
+use rayon::prelude::*;
 
-use crate::{FrameStats, Hierarchy, KeyHasher, Lent, LodError, NodeKey, apron, timed};
+use crate::build::Job;
+use crate::{FrameStats, Hierarchy, KeyHasher, LodError, NodeKey, StageTimes, apron, timed};
 
 /// The nodes a round of [`Hierarchy::refresh`] calls has checked.
 pub(crate) type Checked = HashSet<NodeKey, BuildHasherDefault<KeyHasher>>;
+
+/// Materials of ready nodes composed in a round's frame whose budget then left them
+/// for a later frame of the round (composed once a round).
+pub(crate) type Recomposed = HashMap<NodeKey, MaterialGrid, BuildHasherDefault<KeyHasher>>;
 
 impl Hierarchy {
     /// Rebuilds every ready node whose inputs changed (after the scene, the sky or the
@@ -33,6 +41,7 @@ impl Hierarchy {
             // A new round: the scene may have changed since the materials kept for
             // later frames and the sun's casters were composed.
             self.composed.clear();
+            self.recomposed.clear();
             self.casters.clear();
         }
         let mut keys = self.ready_nodes();
@@ -42,62 +51,154 @@ impl Hierarchy {
                     .total_cmp(&self.distance(*b, camera)),
             )
         });
-        for key in keys {
-            if self.checked.contains(&key) {
-                // Checked this round: its sun responses alone, where the budget left
-                // them for this frame (from the material it keeps).
-                if self.sun.is_some() && !self.sun_current(key) {
-                    self.update_sun(key, None, &mut stats)?;
-                }
-                continue;
-            }
-            let desc = *self.nodes[&key].light.desc();
-            if self.over_budget(
-                stats.points_swept,
-                apron::sky_points(&desc, self.params.apron),
-            ) {
-                stats.pending += 1;
-                continue;
-            }
-            let material = timed(&mut stats.times.material, || self.compose(&desc))?;
-            let o = self.node_options(self.nodes[&key].material.has_objects);
-            let inputs = self.sky_inputs(key.depth, &material, &o, &mut stats.times)?;
-            let hash = inputs.hash;
-            // (The node keeps its size; a changed scene may need a new size: evict it.)
-            if self.params.skip.unchanged && hash == self.nodes[&key].input_hash {
-                stats.skipped_unchanged += 1;
-            } else {
-                let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(Lent));
-                let out =
-                    self.sweep_sky(&inputs, &material, &o, sweeper.as_mut(), &mut stats.times);
-                self.sweeper = sweeper;
-                let out = out?;
-                stats.points_swept += apron::sky_points(&desc, self.params.apron);
-                stats.built += 1;
-                let n = self.nodes.get_mut(&key).expect("ready node");
-                n.light = out.bins.expect("bins asked for");
-                n.horizon = out.horizon;
-                n.resident = out.resident;
-                n.input_hash = hash;
-                n.material.grid = material.clone();
-                // The material may have changed: the sun's responses too.
-                n.sun = None;
-                // Finer nodes read this one's light: checked again.
-                self.checked.retain(|k| k.depth <= key.depth);
-            }
-            if self.sun.is_some() && !self.sun_current(key) {
-                self.update_sun(key, Some(&material), &mut stats)?;
-            }
-            self.checked.insert(key);
+        for depth in keys.chunk_by(|a, b| a.depth == b.depth) {
+            self.refresh_depth(depth, &mut stats)?;
         }
         stats.sun_pending = self.sun_pending();
         if stats.pending == 0 {
             // The round is over: the next call checks every node again.
             self.checked.clear();
+            self.recomposed.clear();
         }
         self.casters.end_frame();
         stats.caster_bytes = self.casters.bytes();
         self.last_frame_swept = stats.points_swept > 0;
         Ok(stats)
     }
+
+    /// One depth of a refresh frame (`keys`, nearest first): the same choices as
+    /// checking one node after the other within the budget, made first; then the
+    /// materials composed and inputs hashed side by side, a batch (one a thread) at a
+    /// time as the walk reaches them, and the sweeps run side by side on forks of the
+    /// sweeper ([`Hierarchy::run_jobs`]), as [`Hierarchy::update`] builds a depth.
+    fn refresh_depth(&mut self, keys: &[NodeKey], stats: &mut FrameStats) -> Result<(), LodError> {
+        let mut prepared: HashMap<NodeKey, Prepared, BuildHasherDefault<KeyHasher>> =
+            HashMap::default();
+        let mut jobs = Vec::new();
+        let mut rebuilt = Vec::new();
+        let sun = self.sun.is_some();
+        for (i, &key) in keys.iter().enumerate() {
+            if self.checked.contains(&key) {
+                // Checked this round: its sun responses alone, where the budget left
+                // them for this frame (from the material it keeps).
+                if sun && !self.sun_current(key) {
+                    self.sun_job(key, stats, &mut jobs);
+                }
+                continue;
+            }
+            let desc = *self.nodes[&key].light.desc();
+            let sky_points = apron::sky_points(&desc, self.params.apron);
+            if self.over_budget(stats.points_swept, sky_points) {
+                stats.pending += 1;
+                continue;
+            }
+            if !prepared.contains_key(&key) {
+                // This node and the next unchecked ones the budget may still allow.
+                let batch: Vec<NodeKey> = (keys[i..].iter().copied())
+                    .filter(|k| !self.checked.contains(k) && !prepared.contains_key(k))
+                    .filter(|k| {
+                        let d = self.nodes[k].light.desc();
+                        !self.over_budget(
+                            stats.points_swept,
+                            apron::sky_points(d, self.params.apron),
+                        )
+                    })
+                    .take(rayon::current_num_threads().max(1))
+                    .collect();
+                let kept: Vec<_> = batch.iter().map(|k| self.recomposed.remove(k)).collect();
+                for (k, p) in batch.iter().zip(self.prepare(&batch, kept)) {
+                    let p = p?;
+                    stats.times.material += p.times.material;
+                    stats.times.boundary += p.times.boundary;
+                    prepared.insert(*k, p);
+                }
+            }
+            let p = prepared.remove(&key).expect("prepared above");
+            // (The node keeps its size; a changed scene may need a new size: evict it.)
+            let unchanged =
+                self.params.skip.unchanged && p.inputs.hash == self.nodes[&key].input_hash;
+            if unchanged {
+                stats.skipped_unchanged += 1;
+            } else {
+                stats.points_swept += sky_points;
+                stats.built += 1;
+                rebuilt.push((key, p.material));
+                jobs.push(Job {
+                    sky: true,
+                    inputs: Some(p.inputs),
+                    ..Job::new(key)
+                });
+            }
+            // A rebuilt node's material may have changed: its sun responses too.
+            if sun && (!unchanged || !self.sun_current(key)) {
+                self.sun_job(key, stats, &mut jobs);
+            }
+            self.checked.insert(key);
+        }
+        // Those the budget left: their materials for a later frame of the round.
+        for (key, p) in prepared {
+            self.recomposed.insert(key, p.material);
+        }
+        if !rebuilt.is_empty() {
+            // Finer nodes read these ones' light: checked again.
+            let depth = keys[0].depth;
+            self.checked.retain(|k| k.depth <= depth);
+        }
+        // The sweeps read the rebuilt nodes' new materials where they keep theirs.
+        for (key, material) in rebuilt {
+            self.nodes.get_mut(&key).expect("ready node").material.grid = material;
+        }
+        let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
+        self.run_jobs(jobs, &[], &[], &mut stats.times)
+    }
+
+    /// A job for `key`'s sun responses where its parent's are current and the budget
+    /// allows (else counted pending).
+    fn sun_job(&self, key: NodeKey, stats: &mut FrameStats, jobs: &mut Vec<Job>) {
+        let points = self.nodes[&key].light.desc().point_count() as u64;
+        if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, points) {
+            stats.pending += 1;
+            return;
+        }
+        stats.points_swept += points;
+        stats.sun_built += 1;
+        jobs.push(Job {
+            sun: true,
+            ..Job::new(key)
+        });
+    }
+
+    /// The materials of ready nodes `keys` composed from the scene (where `kept` holds
+    /// none) and their sky sweeps' inputs made and hashed, side by side.
+    fn prepare(
+        &self,
+        keys: &[NodeKey],
+        kept: Vec<Option<MaterialGrid>>,
+    ) -> Vec<Result<Prepared, LodError>> {
+        keys.par_iter()
+            .zip(kept)
+            .map(|(key, kept)| {
+                let n = &self.nodes[key];
+                let mut times = StageTimes::default();
+                let material = match kept {
+                    Some(m) => m,
+                    None => timed(&mut times.material, || self.compose(n.light.desc()))?,
+                };
+                let o = self.node_options(n.material.has_objects);
+                let inputs = self.sky_inputs(key.depth, &material, &o, &mut times)?;
+                Ok(Prepared {
+                    material,
+                    inputs,
+                    times,
+                })
+            })
+            .collect()
+    }
+}
+
+/// A ready node's material composed again and its sky sweep's inputs.
+struct Prepared {
+    material: MaterialGrid,
+    inputs: apron::SkyInputs,
+    times: StageTimes,
 }

@@ -768,8 +768,15 @@ fn a_refresh_round_checks_each_node_once() {
         "composed: {seen:?}"
     );
     all.refresh(cam).unwrap();
+    // Refreshed depth by depth (a depth's nodes side by side), as a hierarchy built
+    // under the new sky.
+    let mut fresh = on_cpu(&hm, counting.clone(), big).unwrap();
+    fresh.set_sky(sky).unwrap();
+    fresh.set_sun(sun).unwrap();
+    fresh.update(cam).unwrap();
     for k in &b {
         assert!(h.node(*k) == all.node(*k), "{k:?}");
+        assert!(fresh.node(*k) == all.node(*k), "{k:?}");
     }
     let suns = |x: &Hierarchy| -> Vec<(LightGrid, Grid<f32>)> {
         x.layers()
@@ -781,6 +788,7 @@ fn a_refresh_round_checks_each_node_once() {
             .collect()
     };
     assert!(suns(&h) == suns(&all), "the same sun responses");
+    assert!(suns(&fresh) == suns(&all), "as built under the new sky");
     // A new round checks every node again.
     let s = h.refresh(cam).unwrap();
     assert_eq!((s.built, s.skipped_unchanged as usize), (0, b.len()));
