@@ -78,6 +78,9 @@ pub enum GpuError {
     /// Mapping a buffer for readback failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),
+    /// Writing a buffer through its mapped memory failed.
+    #[error("GPU upload failed: {0}")]
+    Upload(String),
     /// An argument was invalid (names the field and value).
     #[error(transparent)]
     Grid(#[from] lightgrid_core::GridError),
