@@ -102,25 +102,32 @@ impl Hierarchy {
         // The sides: the full light, and where the coarser grids keep their horizon
         // halves, the downward halves as they are (a split by the neighbours left
         // surfaces facing down 6 % too bright in the finest nodes).
+        // Pushed in the layout's order (level, then z, then x; no zeroed vectors
+        // written over: a fifth of a boundary's time went there).
         let layout = HaloLayout::new(dims);
-        let mut halo = vec![BinLight::ZERO; layout.len()];
-        let mut down = vec![None; layout.len()];
-        let w = HALO_WIDTH;
+        let mut halo = Vec::with_capacity(layout.len());
+        let mut down = Vec::with_capacity(layout.len());
+        let mut halves_everywhere = true;
+        let (w, nx, nz) = (HALO_WIDTH, dims.x as i32, dims.z as i32);
         for j in 0..dims.y {
-            for z in -w..dims.z as i32 + w {
-                for x in -w..dims.x as i32 + w {
-                    if let Some(i) = layout.index(x, j, z) {
-                        let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
-                        let (light, halves) = self.coarse_light_split(p, depth, which);
-                        halo[i] = light;
-                        down[i] = halves.map(|d| d.within(&light));
+            for z in -w..nz + w {
+                let inside_z = (0..nz).contains(&z);
+                for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
+                    let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
+                    let (light, halves) = self.coarse_light_split(p, depth, which);
+                    match halves {
+                        Some(d) if halves_everywhere => down.push(d.within(&light)),
+                        _ => halves_everywhere = false,
                     }
+                    halo.push(light);
                 }
             }
         }
-        let sides = match down.into_iter().collect::<Option<Vec<_>>>() {
-            Some(down) => SideBoundary::GivenHalves { light: halo, down },
-            _ => SideBoundary::Given(halo),
+        debug_assert_eq!(halo.len(), layout.len());
+        let sides = if halves_everywhere {
+            SideBoundary::GivenHalves { light: halo, down }
+        } else {
+            SideBoundary::Given(halo)
         };
         Boundary {
             top: TopBoundary::PerPoint(top),
