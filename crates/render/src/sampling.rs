@@ -2,7 +2,7 @@
 //! one call. The CPU path reads any [`LightField`] (a single grid or the whole
 //! hierarchy); the GPU path ([`crate::GpuLightSampler`]) reads one grid, as the seed's
 //! per-node sampling buffers do, and gives the same numbers (checked in
-//! `tests/gpu.rs`) for fields without horizon halves: where a field keeps them
+//! `tests/gpu_sampling.rs`) for fields without horizon halves: where a field keeps them
 //! ([`LightField::horizon`]) the CPU path reads each horizontal bin in its two halves
 //! and the GPU path, which uploads the 26 bins alone, reads them as even.
 //!
