@@ -282,87 +282,106 @@ impl Hierarchy {
         materials: &[NodeMaterial],
         stats: &mut FrameStats,
     ) -> Vec<Job> {
-        let over = |swept: u64, cost: u64| self.over_budget(swept, cost);
         let mut jobs = Vec::new();
         for w in order {
             match w {
-                Want::Stale(key) if self.scattered_sun_current(key) => {
-                    // The transmittance alone (about a quarter of a sun response's
-                    // work: counted so in the budget).
-                    let cost = self.nodes[&key].light.desc().point_count() as u64 / 4;
-                    if over(stats.points_swept, cost) {
-                        stats.pending += 1;
-                        continue;
-                    }
-                    stats.points_swept += cost;
-                    stats.sun_built += 1;
-                    jobs.push(Job {
-                        remarch: true,
-                        ..Job::new(key)
-                    });
-                }
-                Want::Stale(key) => {
-                    let cost = self.nodes[&key].light.desc().point_count() as u64;
-                    if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
-                        stats.pending += 1;
-                        continue;
-                    }
-                    stats.points_swept += cost;
-                    stats.sun_built += 1;
-                    // Where the finest depth reads the coarser grids' scattered sun,
-                    // the march alone (its scattered sun read once they are current).
-                    let read = self.reads_coarse_scattered_sun(key);
-                    jobs.push(Job {
-                        sun: !read,
-                        march: read,
-                        ..Job::new(key)
-                    });
-                }
+                Want::Stale(key) => jobs.extend(self.stale_sun_job(key, stats)),
                 Want::New(key, i) => {
                     let desc = materials[i].grid.desc();
-                    let (cost, sky_cost) = (
-                        desc.point_count() as u64,
-                        crate::apron::sky_points(desc, self.params.apron),
-                    );
-                    if over(stats.points_swept, sky_cost) {
+                    let sky_cost = crate::apron::sky_points(desc, self.params.apron);
+                    if self.over_budget(stats.points_swept, sky_cost) {
                         stats.pending += 1;
                         continue;
                     }
                     stats.points_swept += sky_cost;
                     stats.built += 1;
-                    let mut sun = false;
-                    if self.sun.is_some() && !self.reads_coarse_scattered_sun(key) {
-                        if !self.sun_parent_ready(key) || over(stats.points_swept, cost) {
-                            stats.pending += 1;
-                        } else {
-                            stats.points_swept += cost;
-                            stats.sun_built += 1;
-                            sun = true;
-                        }
-                    }
-                    // The sky sweep and the sun responses as two jobs: they read only
-                    // coarser grids and the material, so they run side by side (a depth
-                    // of three nodes keeps two threads busy). The sky's job comes first:
-                    // the results are stored in this order, the node before its sun.
-                    // A sun response left for a later frame: the transmittance is
-                    // marched with the sky's job meanwhile (the direct sun exact).
-                    jobs.push(Job {
+                    let sky = Job {
                         material: Some(i),
                         sky: true,
-                        march: self.sun.is_some() && !sun,
                         ..Job::new(key)
-                    });
-                    if sun {
-                        jobs.push(Job {
-                            material: Some(i),
-                            sun: true,
-                            ..Job::new(key)
-                        });
-                    }
+                    };
+                    self.sky_jobs(sky, desc.point_count() as u64, stats, &mut jobs);
                 }
             }
         }
         jobs
+    }
+
+    /// The job for built node `key`'s stale sun responses within the budget, counted in
+    /// `stats` (`None`: pending): its transmittance alone where its scattered sun is
+    /// current, else its responses (the march alone where the finest depth reads the
+    /// coarser grids' scattered sun).
+    pub(crate) fn stale_sun_job(&self, key: NodeKey, stats: &mut FrameStats) -> Option<Job> {
+        let points = self.nodes[&key].light.desc().point_count() as u64;
+        if self.scattered_sun_current(key) {
+            // The transmittance alone (about a quarter of a sun response's work:
+            // counted so in the budget).
+            let cost = points / 4;
+            if self.over_budget(stats.points_swept, cost) {
+                stats.pending += 1;
+                return None;
+            }
+            stats.points_swept += cost;
+            stats.sun_built += 1;
+            return Some(Job {
+                remarch: true,
+                ..Job::new(key)
+            });
+        }
+        if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, points) {
+            stats.pending += 1;
+            return None;
+        }
+        stats.points_swept += points;
+        stats.sun_built += 1;
+        // Where the finest depth reads the coarser grids' scattered sun, the march
+        // alone (its scattered sun read once they are current).
+        let read = self.reads_coarse_scattered_sun(key);
+        Some(Job {
+            sun: !read,
+            march: read,
+            ..Job::new(key)
+        })
+    }
+
+    /// Adds `sky`, a node's sky job (built new, or rebuilt by `refresh`; its points
+    /// counted), to `jobs`, and its sun responses (`cost` points) as a second job where
+    /// they fit the budget, counted in `stats`.
+    pub(crate) fn sky_jobs(
+        &self,
+        sky: Job,
+        cost: u64,
+        stats: &mut FrameStats,
+        jobs: &mut Vec<Job>,
+    ) {
+        let key = sky.key;
+        let mut sun = false;
+        if self.sun.is_some() && !self.reads_coarse_scattered_sun(key) {
+            if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, cost) {
+                stats.pending += 1;
+            } else {
+                stats.points_swept += cost;
+                stats.sun_built += 1;
+                sun = true;
+            }
+        }
+        // The sky sweep and the sun responses as two jobs: they read only coarser grids
+        // and the material, so they run side by side (a depth of three nodes keeps two
+        // threads busy). The sky's job comes first: the results are stored in this
+        // order, the node before its sun. A sun response left for a later frame: the
+        // transmittance is marched with the sky's job meanwhile (the direct sun exact).
+        let material = sky.material;
+        jobs.push(Job {
+            march: self.sun.is_some() && !sun,
+            ..sky
+        });
+        if sun {
+            jobs.push(Job {
+                material,
+                sun: true,
+                ..Job::new(key)
+            });
+        }
     }
 
     /// Runs `jobs` (side by side on forks where the sweeper forks) and stores what they

@@ -82,7 +82,7 @@ impl Hierarchy {
                 // Checked this round: its sun responses alone, where the budget left
                 // them for this frame (from the material it keeps).
                 if sun && !self.sun_current(key) {
-                    self.sun_job(key, stats, &mut jobs);
+                    jobs.extend(self.stale_sun_job(key, stats));
                 }
                 continue;
             }
@@ -119,19 +119,21 @@ impl Hierarchy {
                 self.params.skip.unchanged && p.inputs.hash == self.nodes[&key].input_hash;
             if unchanged {
                 stats.skipped_unchanged += 1;
+                if sun && !self.sun_current(key) {
+                    jobs.extend(self.stale_sun_job(key, stats));
+                }
             } else {
+                // Rebuilt as `update` builds a new node: its material may have changed,
+                // so its sun responses too.
                 stats.points_swept += sky_points;
                 stats.built += 1;
                 rebuilt.push((key, p.material));
-                jobs.push(Job {
+                let sky = Job {
                     sky: true,
                     inputs: Some(p.inputs),
                     ..Job::new(key)
-                });
-            }
-            // A rebuilt node's material may have changed: its sun responses too.
-            if sun && (!unchanged || !self.sun_current(key)) {
-                self.sun_job(key, stats, &mut jobs);
+                };
+                self.sky_jobs(sky, desc.point_count() as u64, stats, &mut jobs);
             }
             self.checked.insert(key);
         }
@@ -150,22 +152,6 @@ impl Hierarchy {
         }
         let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
         self.run_jobs(jobs, &[], &[], &mut stats.times)
-    }
-
-    /// A job for `key`'s sun responses where its parent's are current and the budget
-    /// allows (else counted pending).
-    fn sun_job(&self, key: NodeKey, stats: &mut FrameStats, jobs: &mut Vec<Job>) {
-        let points = self.nodes[&key].light.desc().point_count() as u64;
-        if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, points) {
-            stats.pending += 1;
-            return;
-        }
-        stats.points_swept += points;
-        stats.sun_built += 1;
-        jobs.push(Job {
-            sun: true,
-            ..Job::new(key)
-        });
     }
 
     /// The materials of ready nodes `keys` composed from the scene (where `kept` holds

@@ -211,3 +211,29 @@ fn a_moved_sun_reaches_the_finest_depth_through_the_coarser_grids() {
         before
     );
 }
+
+/// A moved sun re-lit by a round of `refresh` frames takes `update`'s path: the
+/// finest depth's scattered sun is read from the coarser grids, never swept (a refresh
+/// used to sweep every stale sun whole), and the finest nodes end as `update` leaves
+/// them.
+#[test]
+fn a_refresh_round_reads_the_finest_depth_sun_too() {
+    let (mut refreshed, swept) = settled(true);
+    let (mut updated, _) = settled(true);
+    let to = sun(Vec3::new(-0.2, 0.8, 0.5));
+    refreshed.set_sun(to).unwrap();
+    updated.set_sun(to).unwrap();
+    swept.lock().unwrap().clear();
+    let round = (0..50).any(|_| refreshed.refresh(CAMERA).unwrap().pending == 0);
+    assert!(round, "the round ended");
+    settle(&mut updated);
+    let cell = refreshed.params().finest_cell;
+    let swept = swept.lock().unwrap().clone();
+    assert!(
+        swept.iter().all(|&h| h != cell),
+        "cells of the suns swept: {swept:?}"
+    );
+    assert!(!swept.is_empty(), "the coarser depths' sun is swept");
+    assert_read_from_coarser_grids(&refreshed);
+    assert_same_direct_sun(&refreshed, &updated);
+}
