@@ -55,12 +55,7 @@ fn main() -> anyhow::Result<()> {
     let layers: Vec<GpuSampleLayer> = dev
         .iter()
         .zip(&cpu_layers)
-        .map(|(g, (_, o))| GpuSampleLayer {
-            grid: g,
-            owner: *o,
-            sun: None,
-            horizon: None,
-        })
+        .map(|(g, (_, o))| GpuSampleLayer::bins(g, *o))
         .collect();
     let sampler = GpuLightSampler::new(ctx.clone());
     let owning = |p: Vec3| -> usize {

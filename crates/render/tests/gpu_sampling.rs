@@ -152,12 +152,7 @@ fn layered_device_sampling_equals_the_cpu_rule() {
     let layers: Vec<GpuSampleLayer> = dev
         .iter()
         .zip(&cpu_layers)
-        .map(|(g, (_, o))| GpuSampleLayer {
-            grid: g,
-            owner: *o,
-            sun: None,
-            horizon: None,
-        })
+        .map(|(g, (_, o))| GpuSampleLayer::bins(g, *o))
         .collect();
     let (positions, normals) = point_cloud(3);
     let compare = |cpu: &[lightgrid_render::SampledLight],
@@ -247,12 +242,7 @@ fn layered_device_sampling_equals_the_cpu_rule() {
     let foreign = GpuLightGrid::new(other, &world).unwrap();
     let e = sampler
         .sample_layers(
-            &[GpuSampleLayer {
-                grid: &foreign,
-                owner: None,
-                sun: None,
-                horizon: None,
-            }],
+            &[GpuSampleLayer::bins(&foreign, None)],
             GpuPoints::Lattice(lattice),
         )
         .err()
@@ -273,12 +263,7 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
         5,
     );
     let dev = GpuLightGrid::new(ctx, &grid).unwrap();
-    let layer = [GpuSampleLayer {
-        grid: &dev,
-        owner: None,
-        sun: None,
-        horizon: None,
-    }];
+    let layer = [GpuSampleLayer::bins(&dev, None)];
     let close = |a: &lightgrid_render::Image, b: &lightgrid_render::Image, what: &str| {
         let mut lit = 0;
         for (i, (p, q)) in a.hdr.iter().zip(&b.hdr).enumerate() {
@@ -389,6 +374,30 @@ fn drawing_device_samples_equals_drawing_uploaded_samples() {
             .unwrap(),
     );
     assert!(e.unwrap_err().to_string().contains("samples.count()"));
+}
+
+/// The CPU's read of `field` at point `i` of `positions` (with its normal, if any), and
+/// the light it gives there with the direct sun `e` toward `to_sun` added where the
+/// point has a normal (`E T max(0, n · s)`, as vertex light holds it).
+fn cpu_read<F: lightgrid_core::LightField + Sync + ?Sized>(
+    field: &F,
+    (positions, normals): (&[Vec3], Option<&[Vec3]>),
+    i: usize,
+    (e, to_sun): (Vec3, Vec3),
+) -> (lightgrid_render::SampledLight, Vec3) {
+    let c = sample_points(
+        field,
+        SamplePoints {
+            positions: &positions[i..i + 1],
+            normals: normals.map(|n| &n[i..i + 1]),
+        },
+    )
+    .unwrap()[0];
+    let lit = match normals {
+        Some(n) => c.light + e * (c.sun * n[i].dot(to_sun).max(0.0)),
+        None => c.light,
+    };
+    (c, lit)
 }
 
 /// 3000 random points in a 10 x 5 x 10 m box and random (not unit) normals.
@@ -624,18 +633,7 @@ fn layered_device_sampling_with_the_sun_apart() {
                 sun: e,
                 halves: if with_halves { cpu_h[k] } else { (None, None) },
             };
-            let c = sample_points(
-                &field,
-                SamplePoints {
-                    positions: &positions[i..i + 1],
-                    normals: ns.map(|n| &n[i..i + 1]),
-                },
-            )
-            .unwrap()[0];
-            let want = match ns {
-                Some(n) => c.light + e * (c.sun * n[i].dot(to_sun).max(0.0)),
-                None => c.light,
-            };
+            let (c, want) = cpu_read(&field, (&positions, ns), i, (e, to_sun));
             let got = gpu[i];
             assert!(
                 (want - got.light).abs().max_element() <= 1e-5 * want.abs().max_element() + 1e-5
@@ -648,12 +646,7 @@ fn layered_device_sampling_with_the_sun_apart() {
         }
     }
     // A layer without its sun responses: refused by name.
-    let bare = [GpuSampleLayer {
-        grid: &grids.dev_sky[0],
-        owner: None,
-        sun: None,
-        horizon: None,
-    }];
+    let bare = [GpuSampleLayer::bins(&grids.dev_sky[0], None)];
     let e = sampler
         .sample_layers_lit(&bare, GpuPoints::Lattice(descs[0]), &light)
         .err()
@@ -854,18 +847,7 @@ fn layered_device_sampling_reads_across_seams() {
             let ps = parts(*p, nrm);
             across += (ps.len() > 1) as usize;
             let field = Blended(ps.iter().map(|&(k, w)| (lit(k), w)).collect());
-            let c = sample_points(
-                &field,
-                SamplePoints {
-                    positions: &positions[i..i + 1],
-                    normals: ns.map(|v| &v[i..i + 1]),
-                },
-            )
-            .unwrap()[0];
-            let want = match nrm {
-                Some(nv) => c.light + e * (c.sun * nv.dot(to_sun).max(0.0)),
-                None => c.light,
-            };
+            let (c, want) = cpu_read(&field, (&positions, ns), i, (e, to_sun));
             let got = gpu[i];
             assert!(
                 (want - got.light).abs().max_element() <= 1e-5 * want.abs().max_element() + 1e-5

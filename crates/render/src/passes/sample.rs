@@ -212,6 +212,19 @@ pub struct GpuSampleLayer<'a> {
     pub horizon: Option<&'a GpuHorizon>,
 }
 
+impl<'a> GpuSampleLayer<'a> {
+    /// A layer of `grid`'s bins alone lighting the points `owner` gives it (`None`:
+    /// all): no sun kept apart, its horizontal bins read as even.
+    pub const fn bins(grid: &'a GpuLightGrid, owner: Option<LayerOwner>) -> Self {
+        Self {
+            grid,
+            owner,
+            sun: None,
+            horizon: None,
+        }
+    }
+}
+
 /// The points a GPU sampling lights.
 #[derive(Debug, Clone, Copy)]
 pub enum GpuPoints<'a> {
@@ -309,12 +322,7 @@ impl GpuLightSampler {
         }
         let grid = GpuLightGrid::new(self.ctx.clone(), grid)?;
         self.sample_layers(
-            &[GpuSampleLayer {
-                grid: &grid,
-                owner: None,
-                sun: None,
-                horizon: None,
-            }],
+            &[GpuSampleLayer::bins(&grid, None)],
             GpuPoints::List(points),
         )?
         .read()
