@@ -44,7 +44,7 @@ pub(crate) const KEEP_FRAMES: u64 = 8;
 /// an object between two samples rises at most a quarter of a cell past the last one
 /// that found it. (A whole cell gave the frame bench at 10° 381 casters, a quarter 325,
 /// none 304, all with the same error to the digit.)
-const TOP_MARGIN: f32 = 0.25;
+pub(crate) const TOP_MARGIN: f32 = 0.25;
 
 /// The casters held, each with the last frame that needed it.
 #[derive(Default)]
@@ -88,7 +88,7 @@ impl Casters {
 
 /// The top of the highest non-empty cell of `world` over the rectangle `[lo, hi]`
 /// (`-inf` where it holds none or lies outside the grid).
-fn material_top_over(world: &MaterialGrid, lo: Vec2, hi: Vec2) -> f32 {
+pub(crate) fn material_top_over(world: &MaterialGrid, lo: Vec2, hi: Vec2) -> f32 {
     let d = world.desc();
     let (o, h, dims) = (d.origin(), d.h(), d.dims());
     // Columns whose cells ([x - h/2, x + h/2]) meet the rectangle.

@@ -1133,7 +1133,9 @@ impl Hierarchy {
     }
 
     /// The node's tallest grid descriptor: `node_points` across, from its lowest ground
-    /// to `margin` above its highest ground, at most `max_levels`. Its bottom level is
+    /// to `margin` above its highest ground or to the world grid's highest material over
+    /// its rectangle, whichever is higher (objects taller than `margin` are not cut
+    /// off), at most `max_levels`. Its bottom level is
     /// the depth's last lattice level below the lowest ground in its rectangle
     /// ([`Heightmap::range_within`], exact): the ground's surface lies between two of
     /// its levels everywhere, and at most the bottom level lies wholly inside the
@@ -1147,7 +1149,23 @@ impl Hierarchy {
         // and their voxels with them.
         let datum = self.lattice(key.depth).y;
         let bottom = datum + (((ground_lo - datum) / h).ceil() - 1.0) * h;
-        let top = ground_hi + self.params.margin.max(h);
+        // Trees taller than `margin` on the rectangle's highest ground: a column cut
+        // below them left their tops to the world grid's 16 m cells, whose material
+        // there also holds what lies below the cut (at depth 1 of the frame bench at 15°
+        // the direct sun was 2.7 % RMSE off one sweep of its own cell, 0.0 with the
+        // whole column). Before the world grid is composed (a bake's plan), its top:
+        // no material lies above it.
+        let material_top = match &self.world_material {
+            Some(world) => {
+                casters::material_top_over(world, lo, hi)
+                    + casters::TOP_MARGIN * self.params.world_cell
+            }
+            None => {
+                let w = self.world.desc();
+                w.origin().y + (w.dims().y as f32 - 0.5) * w.h()
+            }
+        };
+        let top = (ground_hi + self.params.margin.max(h)).max(material_top);
         let ny = (((top - bottom) / h).ceil() as u32 + 1).clamp(2, self.params.max_levels);
         GridDesc::new(
             Vec3::new(lo.x + 0.5 * h, bottom, lo.y + 0.5 * h),

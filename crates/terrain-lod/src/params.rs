@@ -28,8 +28,9 @@ pub struct HierarchyParams {
     /// 1–4: 2.7 / 2.5 / 4.0 / 4.3 % RMSE without, 1.4 / 1.5 / 2.5 / 2.9 % with 2 cells
     /// (the repository's `docs/measurements.md`, "The sides, and an apron").
     pub apron: u32,
-    /// Height above a node's highest ground searched for objects (trees), metres; the
-    /// grid then ends one cell above the highest object found.
+    /// Height above a node's highest ground searched for objects (trees), metres, at
+    /// least: where the world grid holds material higher over the node, the search
+    /// reaches its top. The grid then ends one cell above the highest object found.
     pub margin: f32,
     /// A node is wanted while the camera is within `lod_factor × node size` of it.
     pub lod_factor: f32,
