@@ -69,6 +69,7 @@ use serde::Serialize;
 
 mod host;
 mod mc;
+mod peaks;
 mod places;
 mod reference;
 mod seams;
@@ -113,7 +114,9 @@ pub struct FrameConfig {
     /// and the reference sweep; `None`: the hierarchy's default, 4).
     pub passes: Option<u32>,
     /// Cells of a node's sky sweep beyond the node (`HierarchyParams::apron`; `None`:
-    /// the hierarchy's default).
+    /// the hierarchy's default, 3, for nodes of 32 points or more, none for smaller
+    /// ones: the 16-point nodes issue 43 times its speed with, which the default would
+    /// cost 1.89 times the sky sweep's points).
     pub apron: Option<u32>,
     /// The sweeps' convergence tolerance (`HierarchyParams::sweep.tolerance`, in the
     /// hierarchy and the reference sweep; `None`: the hierarchy's default, 0.01).
@@ -291,6 +294,9 @@ pub struct Run {
     /// grid): the nesting's own part of a coarse depth's error, its cell size's part
     /// left out.
     pub error_by_depth_own: Vec<Errors>,
+    /// By depth, the worst errors against that depth's own-cell reference relative to
+    /// the local brightest value, shadow edges apart ([`peaks`]).
+    pub peaks: Vec<peaks::Peaks>,
     /// The finest depth's probes over the path against the 1 m sweep: those whose node
     /// showed its own sun response, and those whose node's was still to come (they
     /// read a coarser grid's sun).
@@ -480,11 +486,23 @@ struct Probe {
     vertex: bool,
 }
 
-/// The vertex and volume points around camera `cam`.
+/// Terrain vertices a side of [`probes`]' lattice, 1 m apart.
+const VERTEX_SIDE: usize = 40;
+/// Volume points a side of [`probes`]' lattice, 2 m apart, at each of
+/// [`VOLUME_LEVELS`] heights, six axes each.
+const VOLUME_SIDE: usize = 20;
+/// Heights of the volume points: 1 to 11 m above the ground, 2 m apart.
+const VOLUME_LEVELS: usize = 6;
+
+/// The vertex and volume points around camera `cam`: `VERTEX_SIDE²` vertices (x
+/// major), then `VOLUME_SIDE² × VOLUME_LEVELS` volume points (x major, then z, then
+/// height) on six axes each.
 fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
-    let mut out = Vec::with_capacity(40 * 40 + 20 * 20 * 6 * 6);
-    for i in 0..40 {
-        for k in 0..40 {
+    let mut out = Vec::with_capacity(
+        VERTEX_SIDE * VERTEX_SIDE + VOLUME_SIDE * VOLUME_SIDE * VOLUME_LEVELS * 6,
+    );
+    for i in 0..VERTEX_SIDE {
+        for k in 0..VERTEX_SIDE {
             let (x, z) = (cam.x - 19.5 + i as f32, cam.z - 19.5 + k as f32);
             let n = world.normal(x, z);
             out.push(Probe {
@@ -495,11 +513,11 @@ fn probes(world: &World, cam: Vec3) -> Vec<Probe> {
         }
     }
     let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    for i in 0..20 {
-        for k in 0..20 {
+    for i in 0..VOLUME_SIDE {
+        for k in 0..VOLUME_SIDE {
             let (x, z) = (cam.x - 19.0 + 2.0 * i as f32, cam.z - 19.0 + 2.0 * k as f32);
             let g = world.hm.height_at(x, z);
-            for j in 0..6 {
+            for j in 0..VOLUME_LEVELS {
                 let p = Vec3::new(x, g + 1.0 + 2.0 * j as f32, z);
                 out.extend(axes.iter().map(|&n| Probe {
                     p,
@@ -620,6 +638,8 @@ struct Tally {
     finest_sun: [Acc3; 2],
     /// The finest depth's probes by where they read ([`places`]).
     finest_places: places::PlaceTally,
+    /// By depth, the worst errors against the local brightest value ([`peaks`]).
+    peaks: peaks::PeakTally,
 }
 
 /// The renderer's read of `field` at the probes: `lightgrid_render`'s sampler
@@ -693,9 +713,11 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     if let Some(n) = cfg.passes {
         p.sweep.max_passes = n;
     }
-    if let Some(a) = cfg.apron {
-        p.apron = a;
-    }
+    p.apron = match cfg.apron {
+        Some(a) => a,
+        None if cfg.node_points < 32 => 0,
+        None => p.apron,
+    };
     if let Some(t) = cfg.tolerance {
         p.sweep.tolerance = t;
     }
@@ -747,11 +769,26 @@ fn frame(
         .map(|l| l.grid as *const _)
         .collect();
     let finest = h.params().depths() as usize;
+    let depths: Vec<usize> = probes.iter().map(|p| depth_at(h, p.p)).collect();
+    // Each depth's own-cell reference: none for the world grid, the 1 m sweep's at the
+    // finest depth.
+    let own_refs: Vec<Option<&[Parts]>> = (0..=finest)
+        .map(|d| match d {
+            0 => None,
+            d if d > own.len() => Some(&full[..]),
+            d => Some(&own[d - 1][..]),
+        })
+        .collect();
+    tally.peaks.add(&probes, &depths, &parts, &own_refs);
     let mut acc = Acc3::default();
-    for (i, (p, (hp, r))) in probes.iter().zip(parts.into_iter().zip(full)).enumerate() {
+    for (i, (p, (hp, r))) in probes
+        .iter()
+        .zip(parts.iter().copied().zip(full.iter().copied()))
+        .enumerate()
+    {
         acc.add(hp, r);
         tally.all.add(hp, r);
-        let d = depth_at(h, p.p);
+        let d = depths[i];
         if tally.by_depth.len() <= d {
             tally.by_depth.resize(d + 1, Acc3::default());
             tally.by_depth_own.resize(d + 1, Acc3::default());
@@ -916,6 +953,7 @@ fn run_elevation(
         error_by_depth_own: tally.by_depth_own.iter().map(Acc3::errors).collect(),
         finest_sun: tally.finest_sun.each_ref().map(Acc3::errors),
         finest_places: tally.finest_places.places(),
+        peaks: tally.peaks.peaks(),
         sun_move_world_ms: world_ms,
         sun_move_wait_frames: wait_frames,
         sun_move_wait_max_ms: wait_max_ms,

@@ -136,7 +136,8 @@ enum Task {
         #[arg(long, default_value_t = 40.0)]
         margin: f32,
         /// Cells a node's sky sweep reaches beyond the node (HierarchyParams::apron;
-        /// default: the hierarchy's)
+        /// default: the hierarchy's, 3, for nodes of 32 points or more; 0 for smaller
+        /// ones)
         #[arg(long)]
         apron: Option<u32>,
         /// Output folder (default target/bench).

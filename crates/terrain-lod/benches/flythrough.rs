@@ -43,6 +43,8 @@ fn bench(c: &mut Criterion) {
                     node_points,
                     finest_cell: 2.0,
                     budget_points: node_points as u64 * node_points as u64 * 48 * 2,
+                    // As the flythrough example: no apron.
+                    apron: 0,
                     ..Default::default()
                 };
                 let mut h = Hierarchy::new(

@@ -201,8 +201,8 @@ pub struct GridSpec {
     #[serde(default = "default_passes")]
     pub passes: u32,
     /// Cells a node's sky sweep reaches beyond the node on every side
-    /// (`HierarchyParams::apron`; 0, the default: none).
-    #[serde(default)]
+    /// (`HierarchyParams::apron`; left out: the library's default, 3).
+    #[serde(default = "default_apron")]
     pub apron: u32,
 }
 
@@ -213,7 +213,7 @@ impl Default for GridSpec {
             finest_cell: 1.0,
             node_points: default_node_points(),
             passes: default_passes(),
-            apron: 0,
+            apron: default_apron(),
         }
     }
 }
@@ -445,6 +445,11 @@ fn default_node_points() -> u32 {
 fn default_passes() -> u32 {
     2
 }
+
+fn default_apron() -> u32 {
+    lightgrid_terrain_lod::HierarchyParams::default().apron
+}
+
 fn default_voxel() -> f32 {
     0.5
 }
@@ -805,7 +810,7 @@ mod tests {
             SceneFile::parse(&text, "b.toml", Path::new(".")).unwrap_err()
         );
         assert!(e.contains("grid.node_points = 1000"), "{e}");
-        let text = DEMO.replacen("# apron = 2", "apron = 33", 1);
+        let text = DEMO.replacen("apron = 0", "apron = 33", 1);
         let e = format!(
             "{:#}",
             SceneFile::parse(&text, "d.toml", Path::new(".")).unwrap_err()
@@ -813,7 +818,7 @@ mod tests {
         assert!(e.contains("grid.apron = 33") && e.contains("(32)"), "{e}");
         assert_eq!(
             SceneFile::parse(
-                &DEMO.replacen("# apron = 2", "apron = 2", 1),
+                &DEMO.replacen("apron = 0", "apron = 2", 1),
                 "e.toml",
                 Path::new(".")
             )
@@ -821,6 +826,18 @@ mod tests {
             .grid
             .apron,
             2
+        );
+        // Left out: the library's default.
+        assert_eq!(
+            SceneFile::parse(
+                &DEMO.replacen("apron = 0", "# apron", 1),
+                "f.toml",
+                Path::new(".")
+            )
+            .unwrap()
+            .grid
+            .apron,
+            lightgrid_terrain_lod::HierarchyParams::default().apron
         );
         let text = DEMO.replacen("model = \"oak\"", "model = \"pine\"", 1);
         let e = format!(

@@ -116,6 +116,7 @@ fn hierarchy_once(world: &World, eye: Vec3, skip: LodSkips) -> Result<(Hierarchy
         world_cell: g.world_cell,
         finest_cell: g.finest_cell,
         node_points: g.node_points,
+        apron: g.apron,
         budget_points: u64::MAX / 4,
         skip,
         ..Default::default()

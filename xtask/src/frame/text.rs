@@ -221,6 +221,24 @@ fn nesting_lines(r: &Run) -> String {
         r.elevation,
         by_depth.join(", ")
     );
+    let peaks: Vec<String> = (r.peaks.iter().enumerate())
+        .filter(|(_, p)| p.probes > 0)
+        .map(|(d, p)| {
+            let pc = |v: [f32; 3]| v.map(|x| format!("{:.1}", 100.0 * x)).join(" / ");
+            format!(
+                "depth {d} {} (99.9th percentile {}; {:.1} % of its probes at edges)",
+                pc(p.max),
+                pc(p.p999),
+                100.0 * p.at_edges as f64 / p.probes as f64
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "  nesting alone at sun {:.0}°, the largest error over the local brightest value (% of sky / sun / both; sun and both away from shadow edges): {}",
+        r.elevation,
+        peaks.join(", ")
+    );
     depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
         format!("{d:5}")
     });

@@ -19,6 +19,8 @@ pub(crate) fn small_params(budget_points: u64) -> HierarchyParams {
         lod_factor: 100.0,
         evict_factor: 200.0,
         budget_points,
+        // (No apron: budgets of a node or two, and 8-point nodes it would triple.)
+        apron: 0,
         ..Default::default()
     }
 }
