@@ -11,9 +11,12 @@
 //! sky's RMSE at depths 1–4 went from 2.7 / 2.5 / 4.0 / 4.3 % without an apron to
 //! 1.6 / 1.8 / 3.2 / 3.3 % with one cell and 1.4 / 1.5 / 2.5 / 2.9 % with two, for
 //! `((n + 2a) / n)²` the points of each sky sweep (`n` points across, `a` the apron),
-//! which the point budget counts. The neighbours of the node's own depth, where built,
-//! gave little as a halo instead (4.3 → 4.0 % at depth 4): the apron's light is swept
-//! with the node's own levels, ground and passes.
+//! which the point budget counts. With the default 32-point nodes three cells cost 1.41
+//! times the points, and the sky nests within 2 % RMSE at every depth (15° and 40°: 2.9
+//! / 2.6 / 2.2 / 3.0 % without, 1.0 / 1.0 / 1.8 / 1.9 % with three): the default. The
+//! neighbours of the node's own depth, where built, gave little as a halo instead (4.3
+//! → 4.0 % at depth 4): the apron's light is swept with the node's own levels, ground
+//! and passes.
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{Grid, GridDesc, GridError, MaterialGrid, SweepOptions, SweepOutput, Sweeper};
