@@ -77,6 +77,7 @@ mod text;
 pub use host::Interference;
 use host::{Clocks, process_cpu_ms};
 pub use mc::MonteCarlo;
+pub use peaks::Peaks;
 use reference::{Reference, reference_desc};
 pub use seams::Seams;
 use text::run_line;
@@ -295,8 +296,8 @@ pub struct Run {
     /// left out.
     pub error_by_depth_own: Vec<Errors>,
     /// By depth, the worst errors against that depth's own-cell reference relative to
-    /// the local brightest value, shadow edges apart ([`peaks`]).
-    pub peaks: Vec<peaks::Peaks>,
+    /// the local brightest value, shadow edges apart (`frame/peaks.rs`).
+    pub peaks: Vec<Peaks>,
     /// The finest depth's probes over the path against the 1 m sweep: those whose node
     /// showed its own sun response, and those whose node's was still to come (they
     /// read a coarser grid's sun).
