@@ -29,7 +29,10 @@ pub struct HierarchyParams {
     /// bench's forest at 15° and 40°, depths 1–4: 2.9 / 2.6 / 2.2 / 3.0 % without, 1.0 /
     /// 1.0 / 1.8 / 1.9 % with 3 cells; the repository's `docs/measurements.md`, "The
     /// sides, and an apron"). Smaller nodes pay more for the same cells (16-point
-    /// nodes: 1.89 times); set it with `node_points`.
+    /// nodes: 1.89 times); set it with `node_points`. With an apron, a sweeper that
+    /// keeps its grids on a device (the GPU sweeper) has its widened grid's copy
+    /// dropped: readers sample the node's grid kept on the CPU (set 0 to sample in
+    /// place).
     pub apron: u32,
     /// Height above a node's highest ground searched for objects (trees), metres, at
     /// least: where the world grid holds material higher over the node, the search

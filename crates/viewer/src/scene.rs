@@ -201,8 +201,9 @@ pub struct GridSpec {
     #[serde(default = "default_passes")]
     pub passes: u32,
     /// Cells a node's sky sweep reaches beyond the node on every side
-    /// (`HierarchyParams::apron`; left out: the library's default, 3).
-    #[serde(default = "default_apron")]
+    /// (`HierarchyParams::apron`; left out: none, where the library's default is 3: the
+    /// GPU sweeper's grids are sampled where they were swept only without one).
+    #[serde(default)]
     pub apron: u32,
 }
 
@@ -213,7 +214,7 @@ impl Default for GridSpec {
             finest_cell: 1.0,
             node_points: default_node_points(),
             passes: default_passes(),
-            apron: default_apron(),
+            apron: 0,
         }
     }
 }
@@ -444,10 +445,6 @@ fn default_node_points() -> u32 {
 }
 fn default_passes() -> u32 {
     2
-}
-
-fn default_apron() -> u32 {
-    lightgrid_terrain_lod::HierarchyParams::default().apron
 }
 
 fn default_voxel() -> f32 {
@@ -827,7 +824,7 @@ mod tests {
             .apron,
             2
         );
-        // Left out: the library's default.
+        // Left out: none (the GPU sweeper's grids stay on the device).
         assert_eq!(
             SceneFile::parse(
                 &DEMO.replacen("apron = 0", "# apron", 1),
@@ -837,7 +834,7 @@ mod tests {
             .unwrap()
             .grid
             .apron,
-            lightgrid_terrain_lod::HierarchyParams::default().apron
+            0
         );
         let text = DEMO.replacen("model = \"oak\"", "model = \"pine\"", 1);
         let e = format!(
