@@ -780,7 +780,7 @@ fn frame(
             d => Some(&own[d - 1][..]),
         })
         .collect();
-    tally.peaks.add(&probes, &depths, &parts, &own_refs);
+    tally.peaks.add(&depths, &parts, &own_refs);
     let mut acc = Acc3::default();
     for (i, (p, (hp, r))) in probes
         .iter()
@@ -800,12 +800,7 @@ fn frame(
             tally.finest_sun[usize::from(!shown)].add(hp, r);
             tally.finest_places.add(h.grid_at(p.p).desc(), p, hp, r);
         }
-        // The finest depth's own cell is the 1 m sweep's; the world grid has none.
-        let own_r = match d {
-            0 => None,
-            d if d > refs.coarse.len() => Some(r),
-            d => Some(own[d - 1][i]),
-        };
+        let own_r = own_refs.get(d).copied().flatten().map(|r| r[i]);
         if let Some(own_r) = own_r {
             tally.by_depth_own[d].add(hp, own_r);
         }

@@ -14,7 +14,7 @@
 
 use serde::Serialize;
 
-use super::{Parts, Probe, VERTEX_SIDE, VOLUME_LEVELS, VOLUME_SIDE};
+use super::{Parts, VERTEX_SIDE, VOLUME_LEVELS, VOLUME_SIDE};
 
 /// Where the neighbours' direct sun spans more than this share of their brightest, a
 /// probe is at a shadow edge.
@@ -71,21 +71,16 @@ pub(super) struct PeakTally {
 }
 
 impl PeakTally {
-    /// A frame's probes: `depth[i]` the depth serving probe `i` (its reference
-    /// `refs[depth]`, `None` where it has none), `h` the hierarchy's read.
-    pub(super) fn add(
-        &mut self,
-        probes: &[Probe],
-        depth: &[usize],
-        h: &[Parts],
-        refs: &[Option<&[Parts]>],
-    ) {
+    /// A frame's probes (`super::probes`' lattice): `depth[i]` the depth serving probe
+    /// `i` (its reference `refs[depth]`, `None` where it has none), `h` the hierarchy's
+    /// read.
+    pub(super) fn add(&mut self, depth: &[usize], h: &[Parts], refs: &[Option<&[Parts]>]) {
         let mut near = Vec::with_capacity(27 * 6);
         for (i, (&d, hp)) in depth.iter().zip(h).enumerate() {
             let Some(Some(r)) = refs.get(d) else {
                 continue;
             };
-            debug_assert_eq!(r.len(), probes.len());
+            debug_assert_eq!(r.len(), h.len());
             neighbours(i, &mut near);
             let (mut sky, mut sun, mut both) = (0.0f32, 0.0f32, 0.0f32);
             let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
@@ -179,13 +174,6 @@ mod tests {
     fn the_worst_error_is_relative_to_the_brightest_neighbour_and_edges_apart() {
         let nv = VERTEX_SIDE * VERTEX_SIDE;
         let total = nv + VOLUME_SIDE * VOLUME_SIDE * VOLUME_LEVELS * 6;
-        let probes: Vec<Probe> = (0..total)
-            .map(|_| Probe {
-                p: lightgrid_core::glam::Vec3::ZERO,
-                n: lightgrid_core::glam::Vec3::Y,
-                vertex: false,
-            })
-            .collect();
         let flat = Parts {
             sky: 1.0,
             sun: 2.0,
@@ -201,7 +189,7 @@ mod tests {
         h[5 * VERTEX_SIDE + 5].sun += 0.1; // 0.1 / 2
         let depth = vec![1; total];
         let mut t = PeakTally::default();
-        t.add(&probes, &depth, &h, &[None, Some(&r)]);
+        t.add(&depth, &h, &[None, Some(&r)]);
         let p = &t.peaks()[1];
         assert_eq!(p.probes, total as u64);
         // Every probe whose 3 × 3 holds the dark vertex is at an edge: 9 of them.
@@ -211,7 +199,7 @@ mod tests {
         assert!((p.max[2] - 0.1 / 3.0).abs() < 1e-6, "{p:?}");
         // Depth 0 has no reference: nothing counted.
         let mut t = PeakTally::default();
-        t.add(&probes, &vec![0; total], &h, &[None, Some(&r)]);
+        t.add(&vec![0; total], &h, &[None, Some(&r)]);
         assert!(t.peaks().iter().all(|p| p.probes == 0));
     }
 }
