@@ -119,6 +119,9 @@ pub struct FrameConfig {
     /// ones: the 16-point nodes issue 43 times its speed with, which the default would
     /// cost 1.89 times the sky sweep's points).
     pub apron: Option<u32>,
+    /// Cells of the apron the sun's responses are swept over too
+    /// (`HierarchyParams::sun_apron`).
+    pub sun_apron: u32,
     /// The sweeps' convergence tolerance (`HierarchyParams::sweep.tolerance`, in the
     /// hierarchy and the reference sweep; `None`: the hierarchy's default, 0.01).
     pub tolerance: Option<f32>,
@@ -156,6 +159,7 @@ impl FrameConfig {
             budget_ms: None,
             passes: None,
             apron: None,
+            sun_apron: 0,
             tolerance: None,
             flat_source: false,
             path: CameraPath::Forest,
@@ -390,6 +394,8 @@ pub struct FrameReport {
     pub budget_points: u64,
     /// Cells of a node's sky sweep beyond the node (`HierarchyParams::apron`).
     pub apron: u32,
+    /// Cells of it the sun's responses are swept over too (`HierarchyParams::sun_apron`).
+    pub sun_apron: u32,
     /// Most passes a sweep ran (the hierarchy's and the reference's).
     pub passes: u32,
     /// The sweeps' convergence tolerance.
@@ -719,6 +725,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
         None if cfg.node_points < 32 => 0,
         None => p.apron,
     };
+    p.sun_apron = cfg.sun_apron;
     if let Some(t) = cfg.tolerance {
         p.sweep.tolerance = t;
     }
@@ -1106,6 +1113,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,
         apron: hierarchy_params(cfg).apron,
+        sun_apron: hierarchy_params(cfg).sun_apron,
         passes: hierarchy_params(cfg).sweep.max_passes,
         tolerance: hierarchy_params(cfg).sweep.tolerance,
         medium: format!("{:?}", hierarchy_params(cfg).sweep.medium).to_lowercase(),

@@ -140,6 +140,10 @@ enum Task {
         /// ones)
         #[arg(long)]
         apron: Option<u32>,
+        /// Cells of that apron the nodes' sun responses are swept over too
+        /// (HierarchyParams::sun_apron; default 0)
+        #[arg(long, default_value_t = 0)]
+        sun_apron: u32,
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -225,6 +229,7 @@ fn main() -> ExitCode {
             mc_paths,
             margin,
             apron,
+            sun_apron,
             out,
         } => {
             let mut cfg = xtask::frame::FrameConfig::new(&root);
@@ -232,6 +237,7 @@ fn main() -> ExitCode {
             cfg.mc_paths = mc_paths;
             cfg.margin = margin;
             cfg.apron = apron;
+            cfg.sun_apron = sun_apron;
             cfg.node_points = node_points;
             cfg.frames = frames;
             cfg.gpu = gpu;

@@ -165,6 +165,46 @@ fn ground_is_dense_below_clear_above_with_a_biased_linear_band() {
     assert!(passes.windows(2).all(|w| w[0] <= w[1]), "{passes:?}");
 }
 
+/// A cell is composed from its own box alone: a grid's cells are, bit for bit, the
+/// inner cells of a wider grid on the same lattice (a hierarchy composes a node with its
+/// apron once and keeps the node's inner points).
+#[test]
+fn a_box_is_the_inner_cells_of_a_wider_box() {
+    let hm = Heightmap::from_fn(Vec2::splat(-20.0), 1.0, 41, 41, |x, z| {
+        1.0 + 0.3 * x + 0.2 * (0.7 * z).sin()
+    })
+    .unwrap();
+    let terrain = Terrain {
+        heightmap: hm,
+        colour: GroundColour::Uniform(Vec3::new(0.3, 0.25, 0.2)),
+    };
+    let instances: Vec<Instance> = (0..12)
+        .map(|i| Instance {
+            model: 0,
+            position: Vec3::new(-6.0 + i as f32 * 1.1, 1.5, -5.0 + (i * 7 % 11) as f32),
+            rotation: Quat::from_rotation_y(0.4 * i as f32),
+            scale: 0.8 + 0.1 * (i % 4) as f32,
+        })
+        .collect();
+    let c = composer(random_model(4), &instances, Some(terrain));
+    let inner = GridDesc::new(Vec3::new(-4.25, -2.25, -3.75), 0.5, UVec3::new(12, 14, 10)).unwrap();
+    let a = 3;
+    let wide = GridDesc::new(
+        inner.origin() - Vec3::new(a as f32, 0.0, a as f32) * 0.5,
+        0.5,
+        inner.dims() + UVec3::new(2 * a, 0, 2 * a),
+    )
+    .unwrap();
+    let g = c.material(&inner).unwrap();
+    let w = c.material(&wide).unwrap();
+    assert!(g.data().iter().any(|m| m.pass > 0.0 && m.pass < 1.0));
+    for i in 0..inner.point_count() {
+        let q = inner.coords(i).unwrap();
+        let m = w.data()[wide.index_unchecked(q + UVec3::new(a, 0, a))];
+        assert_eq!(m, g.data()[i], "cell {q}");
+    }
+}
+
 #[test]
 fn far_instances_cost_nothing_and_change_nothing() {
     let model = random_model(3);

@@ -19,69 +19,128 @@
 //! and passes.
 
 use lightgrid_core::glam::{UVec3, Vec3};
-use lightgrid_core::{Grid, GridDesc, GridError, MaterialGrid, SweepOptions, SweepOutput, Sweeper};
+use lightgrid_core::{
+    Grid, GridDesc, GridError, MaterialGrid, SunResponse, SweepError, SweepOptions, SweepOutput,
+    Sweeper,
+};
 
-use crate::{Hierarchy, LodError, StageTimes, timed};
+use crate::{Hierarchy, LodError, NodeKey, NodeMaterial, StageTimes, shadow, timed};
 
-/// What a node's sky sweep reads: the material and boundary of its grid, or of the grid
-/// widened by the apron, and the hash of those inputs ([`Hierarchy::refresh`]).
+/// What a node's sky sweep reads besides its material: the boundary of its grid, or of
+/// the grid widened by the apron, and the hash of those inputs ([`Hierarchy::refresh`]).
 pub(crate) struct SkyInputs {
-    /// The widened grid's material (`None` without an apron: the node's own).
-    widened: Option<MaterialGrid>,
     boundary: lightgrid_core::Boundary,
     pub(crate) hash: u64,
 }
 
 impl Hierarchy {
+    /// The source's material over `desc` and, with an apron, over `desc` widened by it:
+    /// composed once over the widened grid, `desc`'s its inner points (every cell is
+    /// composed from its own box: the same bit for bit).
+    pub(crate) fn compose_node(
+        &self,
+        desc: &GridDesc,
+    ) -> Result<(MaterialGrid, Option<MaterialGrid>), GridError> {
+        let apron = self.params.apron;
+        if apron == 0 {
+            return Ok((self.compose(desc)?, None));
+        }
+        let big = widened(desc, apron)?;
+        let wide = self.compose(&big)?;
+        Ok((crop(&wide, &big, desc, apron), Some(wide)))
+    }
+
     /// The inputs of the sky sweep of a node of `depth` whose material is `material`:
-    /// with an apron, its grid widened and composed from the scene (the time it takes
-    /// added to `times.material`), the boundary from the coarser grids around that.
+    /// the boundary from the coarser grids around the grid it is swept on (its widened
+    /// one where it has one).
     pub(crate) fn sky_inputs(
         &self,
         depth: u32,
-        material: &MaterialGrid,
+        material: (&MaterialGrid, Option<&MaterialGrid>),
         options: &SweepOptions,
         times: &mut StageTimes,
-    ) -> Result<SkyInputs, LodError> {
-        let apron = self.params.apron;
-        let widened = if apron == 0 {
-            None
-        } else {
-            let big = widened(material.desc(), apron)?;
-            Some(timed(&mut times.material, || self.compose(&big))?)
-        };
-        let m = widened.as_ref().unwrap_or(material);
+    ) -> SkyInputs {
+        let m = material.1.unwrap_or(material.0);
         let (boundary, hash) = timed(&mut times.boundary, || {
             let b = self.node_boundary(m.desc(), depth);
             let hash = crate::hash_grid(m, &b, options);
             (b, hash)
         });
-        Ok(SkyInputs {
-            widened,
-            boundary,
-            hash,
-        })
+        SkyInputs { boundary, hash }
     }
 
     /// The sky sweep of `inputs` (made for `material` by [`Hierarchy::sky_inputs`]),
-    /// its outputs on `material`'s grid. Points swept: [`sky_points`].
+    /// its outputs on the node's own grid. Points swept: [`sky_points`].
     pub(crate) fn sweep_sky(
         &self,
         inputs: &SkyInputs,
-        material: &MaterialGrid,
+        material: &NodeMaterial,
         options: &SweepOptions,
         sweeper: &mut dyn Sweeper,
         times: &mut StageTimes,
     ) -> Result<SweepOutput, LodError> {
-        let m = inputs.widened.as_ref().unwrap_or(material);
+        let m = material.widened.as_ref().unwrap_or(&material.grid);
         let out = timed(&mut times.sky_sweep, || {
             sweeper.sweep(m, &inputs.boundary, options)
         })?;
-        Ok(match &inputs.widened {
+        Ok(match &material.widened {
             None => out,
-            Some(w) => cropped(out, w.desc(), material.desc(), self.params.apron),
+            Some(w) => cropped(out, w.desc(), material.grid.desc(), self.params.apron),
         })
     }
+
+    /// The material node `m`'s sun responses are swept and marched over: its grid
+    /// widened by [`HierarchyParams::sun_apron`](crate::HierarchyParams::sun_apron)
+    /// cells (the sky's widened grid's inner part), and those cells; `None`: its own.
+    pub(crate) fn sun_material<'a>(
+        &self,
+        m: &'a NodeMaterial,
+    ) -> Option<(std::borrow::Cow<'a, MaterialGrid>, u32)> {
+        let (a, k) = (self.params.apron, self.params.sun_apron);
+        let w = m.widened.as_ref().filter(|_| k > 0)?;
+        if k >= a {
+            return Some((std::borrow::Cow::Borrowed(w), a));
+        }
+        let small = widened(m.grid.desc(), k).ok()?;
+        Some((std::borrow::Cow::Owned(crop(w, w.desc(), &small, a - k)), k))
+    }
+
+    /// Node `key`'s sun transmittance for `to_sun`, marched over its sun's material
+    /// ([`Hierarchy::sun_material`]: widened where the sun has an apron, as its sun
+    /// sweep's), kept on its own points.
+    pub(crate) fn march_node(
+        &self,
+        sweeper: &mut dyn Sweeper,
+        key: NodeKey,
+        material: &NodeMaterial,
+        to_sun: Vec3,
+        fresh: &shadow::Fresh<'_>,
+    ) -> Result<Grid<f32>, SweepError> {
+        let outside = |p: Vec3| self.march_to_sky(p, to_sun, key.depth, fresh);
+        let wide = self.sun_material(material);
+        let m = wide.as_ref().map_or(&material.grid, |w| &*w.0);
+        let t = crate::sun_move::march(sweeper, m, to_sun, &outside)?;
+        Ok(match &wide {
+            None => t,
+            Some((w, k)) => crop(&t, w.desc(), material.grid.desc(), *k),
+        })
+    }
+}
+
+/// `g`'s lowest `levels` levels (all of them where it has no more).
+pub(crate) fn lowest_levels<T: Copy>(g: Grid<T>, levels: u32) -> Result<Grid<T>, GridError> {
+    let d = *g.desc();
+    if levels >= d.dims().y {
+        return Ok(g);
+    }
+    let desc = GridDesc::new(
+        d.origin(),
+        d.h(),
+        UVec3::new(d.dims().x, levels, d.dims().z),
+    )?;
+    let mut data = g.into_data();
+    data.truncate(desc.point_count());
+    Ok(Grid::from_trusted(desc, data))
 }
 
 /// The points a node grid's sky sweep sweeps with an apron of `apron` cells.
@@ -110,6 +169,23 @@ fn cropped(out: SweepOutput, big: &GridDesc, desc: &GridDesc, apron: u32) -> Swe
         average: out.average.map(|g| crop(&g, big, desc, apron)),
         dominant: out.dominant.map(|g| crop(&g, big, desc, apron)),
         stats: out.stats,
+        resident: None,
+    }
+}
+
+/// The sun's responses swept on `big` (`desc` widened by `apron`), kept on `desc`'s
+/// points (a device copy dropped, as [`cropped`]'s).
+pub(crate) fn cropped_sun(
+    r: SunResponse,
+    big: &GridDesc,
+    desc: &GridDesc,
+    apron: u32,
+) -> SunResponse {
+    SunResponse {
+        scattered: crop(&r.scattered, big, desc, apron),
+        horizon: r.horizon.map(|g| crop(&g, big, desc, apron)),
+        transmittance: crop(&r.transmittance, big, desc, apron),
+        stats: r.stats,
         resident: None,
     }
 }

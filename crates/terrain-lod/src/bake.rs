@@ -307,8 +307,7 @@ impl WorldBake {
             .and_then(|node| {
                 let sun = self.h.node_sun(
                     key,
-                    &composed.grid,
-                    composed.has_objects,
+                    &composed,
                     sweeper.as_mut(),
                     &crate::shadow::Fresh::default(),
                     &mut times,
@@ -381,6 +380,8 @@ impl WorldBake {
                     horizon: g.horizon.clone(),
                     material: NodeMaterial {
                         grid: g.material.clone(),
+                        // (Read only: loaded nodes are never swept again.)
+                        widened: None,
                         has_objects: g.has_objects,
                         open_above: g.open_above,
                     },

@@ -300,7 +300,8 @@ impl Hierarchy {
                         sky: true,
                         ..Job::new(key)
                     };
-                    self.sky_jobs(sky, desc.point_count() as u64, stats, &mut jobs);
+                    let sun_cost = crate::apron::sky_points(desc, self.params.sun_apron);
+                    self.sky_jobs(sky, sun_cost, stats, &mut jobs);
                 }
             }
         }
@@ -312,7 +313,8 @@ impl Hierarchy {
     /// current, else its responses (the march alone where the finest depth reads the
     /// coarser grids' scattered sun).
     pub(crate) fn stale_sun_job(&self, key: NodeKey, stats: &mut FrameStats) -> Option<Job> {
-        let points = self.nodes[&key].light.desc().point_count() as u64;
+        // Its sun responses are swept and marched over its sun's apron, if any.
+        let points = crate::apron::sky_points(self.nodes[&key].light.desc(), self.params.sun_apron);
         if self.scattered_sun_current(key) {
             // The transmittance alone (about a quarter of a sun response's work:
             // counted so in the budget).
@@ -481,27 +483,16 @@ impl Hierarchy {
             None
         };
         let sun = if job.sun {
-            let has_objects = material.has_objects;
-            self.node_sun(
-                job.key,
-                &material.grid,
-                has_objects,
-                sweeper,
-                fresh,
-                &mut times,
-            )?
+            self.node_sun(job.key, material, sweeper, fresh, &mut times)?
         } else if job.march {
-            self.interim_sun(job.key, &material.grid, sweeper, fresh, &mut times)?
+            self.interim_sun(job.key, material, sweeper, fresh, &mut times)?
         } else {
             None
         };
         let marched = match (job.remarch, self.sun) {
-            (true, Some(s)) => {
-                let outside = |p: Vec3| self.march_to_sky(p, s.to_sun, job.key.depth, fresh);
-                Some(timed(&mut times.sun_sweep, || {
-                    crate::sun_move::march(sweeper, &material.grid, s.to_sun, &outside)
-                })?)
-            }
+            (true, Some(s)) => Some(timed(&mut times.sun_sweep, || {
+                self.march_node(sweeper, job.key, material, s.to_sun, fresh)
+            })?),
             _ => None,
         };
         Ok(Done {
@@ -534,7 +525,7 @@ impl Hierarchy {
     pub(crate) fn interim_sun(
         &self,
         key: NodeKey,
-        material: &lightgrid_core::MaterialGrid,
+        material: &NodeMaterial,
         sweeper: &mut dyn Sweeper,
         fresh: &Fresh<'_>,
         times: &mut StageTimes,
@@ -543,12 +534,11 @@ impl Hierarchy {
         let Some(sun) = self.sun else {
             return Ok(None);
         };
-        let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, key.depth, fresh);
         let transmittance = timed(&mut times.sun_sweep, || {
-            crate::sun_move::march(sweeper, material, sun.to_sun, &outside)
+            self.march_node(sweeper, key, material, sun.to_sun, fresh)
         })?;
         let for_good = self.reads_coarse_scattered_sun(key) && self.sun_parent_ready(key);
-        let desc = *material.desc();
+        let desc = *material.grid.desc();
         // The coarser grids' scattered sun at the node's points, and the downward
         // halves of its horizontal bins where the grids keep them (even where one
         // does not).
@@ -601,14 +591,18 @@ impl Hierarchy {
         sweeper: &mut dyn Sweeper,
         times: &mut StageTimes,
     ) -> Result<Node, LodError> {
-        let material = &composed.grid;
         let o = self.node_options(composed.has_objects);
         let inputs = match prepared {
             Some(i) => i,
-            None => self.sky_inputs(key.depth, material, &o, times)?,
+            None => self.sky_inputs(
+                key.depth,
+                (&composed.grid, composed.widened.as_ref()),
+                &o,
+                times,
+            ),
         };
         let input_hash = inputs.hash;
-        let out = self.sweep_sky(&inputs, material, &o, sweeper, times)?;
+        let out = self.sweep_sky(&inputs, composed, &o, sweeper, times)?;
         let light = out.bins.ok_or_else(|| {
             GridError::invalid("sweeper", sweeper.name(), "returned no bins, asked for")
         })?;

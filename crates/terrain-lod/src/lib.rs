@@ -264,6 +264,10 @@ pub struct LayerSun<'a> {
 #[derive(Clone)]
 struct NodeMaterial {
     grid: MaterialGrid,
+    /// With an apron ([`HierarchyParams::apron`]), the material of `grid` widened by it
+    /// on every side (the same levels; `grid` is its inner points): what the node's
+    /// sweeps and marches run on ([`crate::apron`]).
+    widened: Option<MaterialGrid>,
     /// Objects above the ground.
     has_objects: bool,
     /// Nothing lies above the grid in the node's column (its composed top was empty).
@@ -839,8 +843,7 @@ impl Hierarchy {
     fn node_sun(
         &self,
         key: NodeKey,
-        material: &MaterialGrid,
-        has_objects: bool,
+        material: &NodeMaterial,
         sweeper: &mut dyn Sweeper,
         fresh: &shadow::Fresh<'_>,
         times: &mut StageTimes,
@@ -849,8 +852,12 @@ impl Hierarchy {
         let (Some(sun), Some(scattered_to)) = (self.sun, self.scattered_to()) else {
             return Ok(None);
         };
-        let desc = *material.desc();
-        let o = self.node_options(has_objects);
+        // Swept over the widened grid where the sun has an apron (the scattered sun
+        // entering the node's sides has crossed the apron's fine material), kept inside.
+        let wide = self.sun_material(material);
+        let swept = wide.as_ref().map_or(&material.grid, |w| &*w.0);
+        let desc = *swept.desc();
+        let o = self.node_options(material.has_objects);
         let scattered = timed(&mut times.sun_boundary, || {
             self.node_boundary_of(&desc, key.depth, Response::Sun)
         });
@@ -859,7 +866,7 @@ impl Hierarchy {
         let outside = |p: Vec3| self.march_to_sky(p, scattered_to, key.depth, fresh);
         let r = timed(&mut times.sun_sweep, || {
             sweeper.sweep_sun(
-                material,
+                swept,
                 &SunBoundary {
                     to_sun: scattered_to,
                     scattered,
@@ -868,6 +875,10 @@ impl Hierarchy {
                 &o,
             )
         })?;
+        let r = match &wide {
+            None => r,
+            Some((w, k)) => apron::cropped_sun(r, w.desc(), material.grid.desc(), *k),
+        };
         let mut g = GridSun {
             scattered: r.scattered,
             horizon: r.horizon,
@@ -877,9 +888,8 @@ impl Hierarchy {
             marched_to: scattered_to,
         };
         if sun.to_sun != scattered_to {
-            let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, key.depth, fresh);
             g.transmittance = timed(&mut times.sun_sweep, || {
-                sun_move::march(sweeper, material, sun.to_sun, &outside)
+                self.march_node(sweeper, key, material, sun.to_sun, fresh)
             })?;
             g.marched_to = sun.to_sun;
         }
@@ -1074,7 +1084,7 @@ impl Hierarchy {
     /// higher: tall where the forest is tall. Also whether it has objects above the
     /// ground.
     pub(crate) fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
-        let full = self.compose(&self.node_desc(key)?)?;
+        let (full, wide) = self.compose_node(&self.node_desc(key)?)?;
         let d = *full.desc();
         let mut top_level = 0;
         // The highest level holding ground, and the highest holding an object (`None`:
@@ -1106,17 +1116,9 @@ impl Hierarchy {
         // The composed column's top level empty: nothing above it (to `margin` above
         // the highest ground, where the search stops).
         let open_above = top_level + 1 < d.dims().y;
-        if ny == d.dims().y {
-            return Ok(NodeMaterial {
-                grid: full,
-                has_objects,
-                open_above,
-            });
-        }
-        let desc = GridDesc::new(d.origin(), d.h(), UVec3::new(d.dims().x, ny, d.dims().z))?;
-        let cells = full.into_data()[..desc.point_count()].to_vec();
         Ok(NodeMaterial {
-            grid: MaterialGrid::new(desc, cells)?,
+            grid: apron::lowest_levels(full, ny)?,
+            widened: wide.map(|w| apron::lowest_levels(w, ny)).transpose()?,
             has_objects,
             open_above,
         })

@@ -34,6 +34,17 @@ pub struct HierarchyParams {
     /// dropped: readers sample the node's grid kept on the CPU (set 0 to sample in
     /// place).
     pub apron: u32,
+    /// Cells of the apron ([`HierarchyParams::apron`], at most that) that a node's sun
+    /// responses are swept and marched over too (0: none, the default): the sun's
+    /// light scattered beside the node then enters its sides having crossed fine
+    /// material, as the sky's does. On the frame bench's forest at 15° with 3 cells,
+    /// the sun's largest nesting error over the local brightest value at depth 1 went
+    /// from 19 to 4.5 % and its RMSE from 0.6 to 0.2 %; but each sun response then
+    /// sweeps `((node_points + 2 sun_apron) / node_points)²` the points, and under the
+    /// default point budget fewer fine nodes fit a frame: the whole path's error against
+    /// one 1 m sweep grew from 10.6 to 12.7 % (1 cell: 12.0 %). Worth it where every
+    /// node is built anyway (a bake, a generous budget).
+    pub sun_apron: u32,
     /// Height above a node's highest ground searched for objects (trees), metres, at
     /// least: where the world grid holds material higher over the node, the search
     /// reaches its top. The grid then ends one cell above the highest object found.
@@ -145,6 +156,7 @@ impl Default for HierarchyParams {
             finest_cell: 1.0,
             node_points: 32,
             apron: 3,
+            sun_apron: 0,
             margin: 12.0,
             lod_factor: 1.0,
             evict_factor: 1.5,
@@ -230,6 +242,13 @@ impl HierarchyParams {
                 "apron",
                 self.apron,
                 "must be at most node_points",
+            ));
+        }
+        if self.sun_apron > self.apron {
+            return Err(GridError::invalid(
+                "sun_apron",
+                self.sun_apron,
+                "must be at most apron",
             ));
         }
         if !(self.margin.is_finite() && self.margin >= 0.0) {

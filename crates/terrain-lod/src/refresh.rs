@@ -20,7 +20,9 @@ pub(crate) type Checked = HashSet<NodeKey, BuildHasherDefault<KeyHasher>>;
 
 /// Materials of ready nodes composed in a round's frame whose budget then left them
 /// for a later frame of the round (composed once a round).
-pub(crate) type Recomposed = HashMap<NodeKey, MaterialGrid, BuildHasherDefault<KeyHasher>>;
+/// (Each with its widened material where the hierarchy has an apron.)
+pub(crate) type Recomposed =
+    HashMap<NodeKey, (MaterialGrid, Option<MaterialGrid>), BuildHasherDefault<KeyHasher>>;
 
 impl Hierarchy {
     /// Rebuilds every ready node whose inputs changed (after the scene, the sky or the
@@ -127,19 +129,20 @@ impl Hierarchy {
                 // so its sun responses too.
                 stats.points_swept += sky_points;
                 stats.built += 1;
-                rebuilt.push((key, p.material));
+                rebuilt.push((key, p.material, p.widened));
                 let sky = Job {
                     sky: true,
                     inputs: Some(p.inputs),
                     ..Job::new(key)
                 };
-                self.sky_jobs(sky, desc.point_count() as u64, stats, &mut jobs);
+                let sun_points = apron::sky_points(&desc, self.params.sun_apron);
+                self.sky_jobs(sky, sun_points, stats, &mut jobs);
             }
             self.checked.insert(key);
         }
         // Those the budget left: their materials for a later frame of the round.
         for (key, p) in prepared {
-            self.recomposed.insert(key, p.material);
+            self.recomposed.insert(key, (p.material, p.widened));
         }
         if !rebuilt.is_empty() {
             // Finer nodes read these ones' light: checked again.
@@ -147,8 +150,10 @@ impl Hierarchy {
             self.checked.retain(|k| k.depth <= depth);
         }
         // The sweeps read the rebuilt nodes' new materials where they keep theirs.
-        for (key, material) in rebuilt {
-            self.nodes.get_mut(&key).expect("ready node").material.grid = material;
+        for (key, grid, widened) in rebuilt {
+            let m = &mut self.nodes.get_mut(&key).expect("ready node").material;
+            m.grid = grid;
+            m.widened = widened;
         }
         let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
         self.run_jobs(jobs, &[], &[], &mut stats.times)
@@ -159,21 +164,23 @@ impl Hierarchy {
     fn prepare(
         &self,
         keys: &[NodeKey],
-        kept: Vec<Option<MaterialGrid>>,
+        kept: Vec<Option<(MaterialGrid, Option<MaterialGrid>)>>,
     ) -> Vec<Result<Prepared, LodError>> {
         keys.par_iter()
             .zip(kept)
             .map(|(key, kept)| {
                 let n = &self.nodes[key];
                 let mut times = StageTimes::default();
-                let material = match kept {
+                let (material, widened) = match kept {
                     Some(m) => m,
-                    None => timed(&mut times.material, || self.compose(n.light.desc()))?,
+                    None => timed(&mut times.material, || self.compose_node(n.light.desc()))?,
                 };
                 let o = self.node_options(n.material.has_objects);
-                let inputs = self.sky_inputs(key.depth, &material, &o, &mut times)?;
+                let inputs =
+                    self.sky_inputs(key.depth, (&material, widened.as_ref()), &o, &mut times);
                 Ok(Prepared {
                     material,
+                    widened,
                     inputs,
                     times,
                 })
@@ -185,6 +192,8 @@ impl Hierarchy {
 /// A ready node's material composed again and its sky sweep's inputs.
 struct Prepared {
     material: MaterialGrid,
+    /// `material` widened by the apron, if any.
+    widened: Option<MaterialGrid>,
     inputs: apron::SkyInputs,
     times: StageTimes,
 }

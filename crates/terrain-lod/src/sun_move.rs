@@ -245,8 +245,7 @@ impl Hierarchy {
             }
             let n = &self.nodes[&key];
             let fresh = shadow::Fresh::default();
-            let outside = |p: Vec3| self.march_to_sky(p, to_sun, key.depth, &fresh);
-            let t = march(sweeper, &n.material.grid, to_sun, &outside)?;
+            let t = self.march_node(sweeper, key, &n.material, to_sun, &fresh)?;
             if let Some(g) = self.nodes.get_mut(&key).and_then(|n| n.sun.as_mut()) {
                 g.transmittance = t;
                 g.marched_to = to_sun;

@@ -46,10 +46,11 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells), {} passes at most (tolerance {}, {} medium rule), {} path, bare-ground skip {}, sun's casters {}, {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells, sun responses {}), {} passes at most (tolerance {}, {} medium rule), {} path, bare-ground skip {}, sun's casters {}, {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.apron,
+        report.sun_apron,
         report.passes,
         report.tolerance,
         report.medium,
