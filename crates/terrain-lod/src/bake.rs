@@ -388,6 +388,7 @@ impl WorldBake {
                     sun,
                     resident: None,
                     input_hash: 0,
+                    provisional: false,
                 },
             );
         }

@@ -81,14 +81,17 @@ enum Want {
 }
 
 impl Hierarchy {
-    /// Builds the wanted nodes of one depth (`keys`, nearest first) within the budget.
+    /// Builds the wanted nodes of one depth (`keys`, nearest first; `wanted` all the
+    /// frame's) within the budget.
     pub(crate) fn build_depth(
         &mut self,
         keys: &[NodeKey],
+        wanted: &crate::order::Wanted,
         stats: &mut FrameStats,
     ) -> Result<(), LodError> {
         let mut order = Vec::new();
         let mut new = Vec::new();
+        let mut provisional = Vec::new();
         for &key in keys {
             if self.nodes.contains_key(&key) {
                 if self.sun.is_some() && !self.sun_current(key) {
@@ -102,6 +105,9 @@ impl Hierarchy {
             if !self.composed.contains_key(&key) && self.out_of_time(stats.points_swept) {
                 stats.pending += 1; // composed in a later frame
                 continue;
+            }
+            if self.halo_waits(key, wanted) || self.halo_provisional(key) {
+                provisional.push(key);
             }
             order.push(Want::New(key, new.len()));
             new.push(key);
@@ -157,6 +163,11 @@ impl Hierarchy {
         let jobs = self.jobs(order, &materials, stats);
         let jobs = self.compose_jobs_casters(jobs, &new, &materials, stats)?;
         let done = self.run_jobs(jobs, &new, &materials, &mut stats.times);
+        for key in provisional {
+            if let Some(n) = self.nodes.get_mut(&key) {
+                n.provisional = true;
+            }
+        }
         // The materials of nodes left for a later frame are kept for it.
         for (key, m) in new.into_iter().zip(materials) {
             if !self.nodes.contains_key(&key) {
@@ -613,6 +624,7 @@ impl Hierarchy {
             sun: None,
             resident: out.resident,
             input_hash,
+            provisional: false,
         })
     }
 }

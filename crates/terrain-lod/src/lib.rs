@@ -143,6 +143,7 @@ mod boundary;
 mod build;
 mod casters;
 mod depth;
+mod order;
 mod params;
 mod read;
 mod refresh;
@@ -288,6 +289,9 @@ struct Node {
     /// The sweeper's device copy of `light`, if it keeps one.
     resident: Option<Resident>,
     input_hash: u64,
+    /// Built before a wanted coarser node its boundary reads, or over one such
+    /// (`order.rs`): swept again once those are all built and final.
+    provisional: bool,
 }
 
 /// Which points of space a [`Layer`] lights: those whose `(x, z)` fall in quadtree cell
@@ -943,18 +947,14 @@ impl Hierarchy {
         }
     }
 
-    /// Whether the coarser grids a node's sun boundary reads are current: its parent's
-    /// (the world grid's at depth 1, always current). A parent not built at all (bare
-    /// ground above) hands over from its own coarser grids.
+    /// Whether the coarser grids a node's sun boundary reads are current: every built
+    /// coarser node its boundary reads ([`Hierarchy::halo_rect`]: its parent and the
+    /// neighbours its halo reaches; the world grid's, always current, where none is).
+    /// Else a node near the camera, swept before a neighbour of its parent's depth
+    /// (`order.rs`), would take that neighbour's old sun and keep it.
     fn sun_parent_ready(&self, key: NodeKey) -> bool {
-        let mut k = Self::parent(key);
-        while let Some(p) = k {
-            if self.nodes.contains_key(&p) {
-                return self.sun_current(p);
-            }
-            k = Self::parent(p);
-        }
-        true
+        self.halo_nodes(key)
+            .all(|k| !self.nodes.contains_key(&k) || self.sun_current(k))
     }
 
     /// The finest grid coarser than `depth` with a current sun response at `p` (the
@@ -1214,14 +1214,22 @@ impl Hierarchy {
             self.nodes.remove(&k);
             stats.evicted += 1;
         }
-        // A depth at a time, coarse to fine (`build`: the nodes of a depth side by side).
+        // The finest depth's nodes and what they read first, then the rest
+        // (`order.rs`); each a depth at a time, coarse to fine (`build`: the nodes of a
+        // depth side by side).
         let wanted = self.wanted(camera);
         // Kept materials of nodes no longer wanted go.
-        let wanted_set: std::collections::HashSet<NodeKey, BuildHasherDefault<KeyHasher>> =
-            wanted.iter().copied().collect();
+        let wanted_set: order::Wanted = wanted.iter().copied().collect();
         self.composed.retain(|k, _| wanted_set.contains(k));
-        for depth in wanted.chunk_by(|a, b| a.depth == b.depth) {
-            self.build_depth(depth, &mut stats)?;
+        let [near, read, rest] = self.build_order(&wanted, camera);
+        for (i, part) in [near, read, rest].into_iter().enumerate() {
+            for depth in part.chunk_by(|a, b| a.depth == b.depth) {
+                self.build_depth(depth, &wanted_set, &mut stats)?;
+            }
+            if i == 1 {
+                // The nodes near the camera built before what their boundaries read.
+                self.rebuild_provisional(camera, &wanted_set, &mut stats)?;
+            }
         }
         stats.sun_pending = self.sun_pending();
         self.casters.end_frame();
