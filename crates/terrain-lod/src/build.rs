@@ -298,21 +298,12 @@ impl Hierarchy {
             match w {
                 Want::Stale(key) => jobs.extend(self.stale_sun_job(key, stats)),
                 Want::New(key, i) => {
-                    let desc = materials[i].grid.desc();
-                    let sky_cost = crate::apron::sky_points(desc, self.params.apron);
-                    if self.over_budget(stats.points_swept, sky_cost) {
-                        stats.pending += 1;
-                        continue;
-                    }
-                    stats.points_swept += sky_cost;
-                    stats.built += 1;
                     let sky = Job {
                         material: Some(i),
                         sky: true,
                         ..Job::new(key)
                     };
-                    let sun_cost = crate::apron::sky_points(desc, self.params.sun_apron);
-                    self.sky_jobs(sky, sun_cost, stats, &mut jobs);
+                    self.budgeted_sky_jobs(sky, materials[i].grid.desc(), stats, &mut jobs);
                 }
             }
         }
@@ -355,6 +346,26 @@ impl Hierarchy {
             march: read,
             ..Job::new(key)
         })
+    }
+
+    /// Adds `sky`, the sky job of a node on grid `desc`, and its sun's to `jobs` where its
+    /// sky sweep fits the budget (else it is pending), counted in `stats`.
+    pub(crate) fn budgeted_sky_jobs(
+        &self,
+        sky: Job,
+        desc: &lightgrid_core::GridDesc,
+        stats: &mut FrameStats,
+        jobs: &mut Vec<Job>,
+    ) {
+        let sky_cost = crate::apron::sky_points(desc, self.params.apron);
+        if self.over_budget(stats.points_swept, sky_cost) {
+            stats.pending += 1;
+            return;
+        }
+        stats.points_swept += sky_cost;
+        stats.built += 1;
+        let sun_cost = crate::apron::sky_points(desc, self.params.sun_apron);
+        self.sky_jobs(sky, sun_cost, stats, jobs);
     }
 
     /// Adds `sky`, a node's sky job (built new, or rebuilt by `refresh`; its points

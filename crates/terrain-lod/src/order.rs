@@ -33,7 +33,7 @@ use std::hash::BuildHasherDefault;
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 
 use crate::build::Job;
-use crate::{FrameStats, Hierarchy, KeyHasher, LodError, NodeKey, apron};
+use crate::{FrameStats, Hierarchy, KeyHasher, LodError, NodeKey};
 
 /// The wanted nodes of a frame.
 pub(crate) type Wanted = HashSet<NodeKey, BuildHasherDefault<KeyHasher>>;
@@ -158,19 +158,11 @@ impl Hierarchy {
                     continue;
                 }
                 let desc = *self.nodes[&key].light.desc();
-                let sky_cost = apron::sky_points(&desc, self.params.apron);
-                if self.over_budget(stats.points_swept, sky_cost) {
-                    stats.pending += 1;
-                    continue;
-                }
-                stats.points_swept += sky_cost;
-                stats.built += 1;
                 let sky = Job {
                     sky: true,
                     ..Job::new(key)
                 };
-                let sun_cost = apron::sky_points(&desc, self.params.sun_apron);
-                self.sky_jobs(sky, sun_cost, stats, &mut jobs);
+                self.budgeted_sky_jobs(sky, &desc, stats, &mut jobs);
             }
             let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
             self.run_jobs(jobs, &[], &[], &mut stats.times)?;
