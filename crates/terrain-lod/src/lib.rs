@@ -395,6 +395,10 @@ pub struct FrameStats {
     /// Ready nodes still without a sun response for the current sun direction (lit by
     /// coarser grids' sun meanwhile).
     pub sun_pending: u32,
+    /// Ready nodes swept before a coarser node their boundary reads was built (or over
+    /// such a node) at the frame's end: [`Hierarchy::update`] sweeps them again once
+    /// those are built (they count in `pending` while they wait).
+    pub provisional: u32,
     /// This frame installed a moved sun's scattered light, whose world grid was swept on
     /// a thread since [`Hierarchy::set_sun`] (the nodes' then follow within the budget;
     /// the direct sun moved in `set_sun`).
@@ -1143,7 +1147,7 @@ impl Hierarchy {
     /// its levels everywhere, and at most the bottom level lies wholly inside the
     /// ground (the levels below it would hold no light, and an opaque level costs a
     /// sweep more than an empty one).
-    fn node_desc(&self, key: NodeKey) -> Result<GridDesc, GridError> {
+    pub(crate) fn node_desc(&self, key: NodeKey) -> Result<GridDesc, GridError> {
         let (lo, hi) = self.node_rect(key);
         let h = self.params.cell(key.depth);
         let (ground_lo, ground_hi) = self.heights.range_within(lo, hi);
@@ -1194,8 +1198,64 @@ impl Hierarchy {
         Ok(stats)
     }
 
-    /// One frame: evict, then build wanted nodes coarse and near first within the budget.
+    /// One frame: evict, then build wanted nodes within the budget: the camera's
+    /// surroundings down to the finest depth and what their boundaries read first, then
+    /// the rest, each coarse and near first (`order.rs`; a node swept before a coarser
+    /// node its boundary reads is swept again once that one is built).
+    ///
+    /// For a moving camera, drawn every frame. To build everything a still camera wants
+    /// before drawing, [`Hierarchy::settle`] sweeps fewer points.
     pub fn update(&mut self, camera: Vec3) -> Result<FrameStats, LodError> {
+        self.frame(camera, true)
+    }
+
+    /// Frames until no wanted node is pending ([`FrameStats::pending`]) and no built
+    /// node waits for its sun response ([`FrameStats::sun_pending`]), at most
+    /// `max_frames`: what a renderer that draws only once the camera's grids are all
+    /// built calls (a bake, a cut scene, a teleport behind a loading screen). Each frame
+    /// is [`Hierarchy::update`]'s within the same budget, but builds every wanted node
+    /// coarse and near first, so that no node is swept before a coarser node its
+    /// boundary reads and none is swept twice. `each` sees every frame's stats (for
+    /// progress); the last frame's are returned. The grids are those `update` frames
+    /// settle on, bit for bit (`tests/order.rs`).
+    ///
+    /// ```no_run
+    /// # fn demo(h: &mut lightgrid_terrain_lod::Hierarchy) -> Result<(), lightgrid_terrain_lod::LodError> {
+    /// let eye = lightgrid_core::glam::Vec3::new(500.0, 320.0, 520.0);
+    /// let (mut frames, mut swept) = (0, 0);
+    /// let last = h.settle(eye, 400, |s| {
+    ///     frames += 1;
+    ///     swept += s.points_swept;
+    /// })?;
+    /// println!("{frames} frames, {swept} points; settled: {}", last.pending == 0);
+    /// # Ok(()) }
+    /// ```
+    pub fn settle(
+        &mut self,
+        camera: Vec3,
+        max_frames: u32,
+        mut each: impl FnMut(&FrameStats),
+    ) -> Result<FrameStats, LodError> {
+        let mut last = None;
+        for _ in 0..max_frames.max(1) {
+            let s = self.frame(camera, false)?;
+            each(&s);
+            let done = s.pending == 0 && s.sun_pending == 0;
+            last = Some(s);
+            if done {
+                break;
+            }
+        }
+        Ok(last.expect("one frame at least"))
+    }
+
+    /// Ready nodes marked provisional ([`FrameStats::provisional`]).
+    pub(crate) fn provisional_count(&self) -> u32 {
+        self.nodes.values().filter(|n| n.provisional).count() as u32
+    }
+
+    /// One frame of [`Hierarchy::update`] (`near_first`) or [`Hierarchy::settle`].
+    fn frame(&mut self, camera: Vec3, near_first: bool) -> Result<FrameStats, LodError> {
         let _frame = tracing::debug_span!("frame", camera = %camera).entered();
         let mut stats = self.begin_frame(camera)?;
         self.checked.clear();
@@ -1221,7 +1281,11 @@ impl Hierarchy {
         // Kept materials of nodes no longer wanted go.
         let wanted_set: order::Wanted = wanted.iter().copied().collect();
         self.composed.retain(|k, _| wanted_set.contains(k));
-        let [near, read, rest] = self.build_order(&wanted, camera);
+        let [near, read, rest] = if near_first && !self.all_fit(&wanted) {
+            self.build_order(&wanted, camera)
+        } else {
+            [Vec::new(), Vec::new(), wanted]
+        };
         for (i, part) in [near, read, rest].into_iter().enumerate() {
             for depth in part.chunk_by(|a, b| a.depth == b.depth) {
                 self.build_depth(depth, &wanted_set, &mut stats)?;
@@ -1232,6 +1296,7 @@ impl Hierarchy {
             }
         }
         stats.sun_pending = self.sun_pending();
+        stats.provisional = self.provisional_count();
         self.casters.end_frame();
         stats.caster_bytes = self.casters.bytes();
         self.last_frame_swept = stats.points_swept > 0;

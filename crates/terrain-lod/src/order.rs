@@ -9,6 +9,10 @@
 //!    are swept again ([`Hierarchy::rebuild_provisional`]);
 //! 3. the rest (the coarse depths' far nodes).
 //!
+//! Where every wanted node not built yet fits the frame's budget, and in
+//! [`Hierarchy::settle`]'s frames, the frame builds them all coarse to fine instead:
+//! none is swept twice.
+//!
 //! Coarse to fine over all wanted nodes spent a cold start's point budget on the coarse
 //! depths' far nodes (a depth-1 node is 256 m across at the defaults) while the camera's
 //! surroundings waited frames for their finest nodes. On the frame bench's path
@@ -90,6 +94,30 @@ impl Hierarchy {
             out[part].push(*k);
         }
         out
+    }
+
+    /// Whether every wanted node not built yet fits this frame's point budget (sky and
+    /// sun sweeps at their node's size), with no time budget: then building them coarse
+    /// to fine sweeps each once, where the camera's surroundings first would sweep some
+    /// twice within the frame for the same grids.
+    pub(crate) fn all_fit(&self, wanted: &[NodeKey]) -> bool {
+        if self.params.budget_ms.is_some() {
+            return false;
+        }
+        let mut cost = 0u64;
+        for k in wanted.iter().filter(|k| !self.nodes.contains_key(k)) {
+            let Ok(desc) = self.node_desc(*k) else {
+                return false;
+            };
+            cost += crate::apron::sky_points(&desc, self.params.apron);
+            if self.sun.is_some() {
+                cost += crate::apron::sky_points(&desc, self.params.sun_apron);
+            }
+            if cost > self.frame_budget {
+                return false;
+            }
+        }
+        true
     }
 
     /// Whether a built coarser node that node `key`'s boundary reads is provisional.

@@ -53,10 +53,12 @@ impl Hierarchy {
                     .total_cmp(&self.distance(*b, camera)),
             )
         });
+        let wanted: crate::order::Wanted = self.wanted(camera).into_iter().collect();
         for depth in keys.chunk_by(|a, b| a.depth == b.depth) {
-            self.refresh_depth(depth, &mut stats)?;
+            self.refresh_depth(depth, &wanted, &mut stats)?;
         }
         stats.sun_pending = self.sun_pending();
+        stats.provisional = self.provisional_count();
         if stats.pending == 0 {
             // The round is over: the next call checks every node again.
             self.checked.clear();
@@ -73,7 +75,14 @@ impl Hierarchy {
     /// materials composed and inputs hashed side by side, a batch (one a thread) at a
     /// time as the walk reaches them, and the sweeps run side by side on forks of the
     /// sweeper ([`Hierarchy::run_jobs`]), as [`Hierarchy::update`] builds a depth.
-    fn refresh_depth(&mut self, keys: &[NodeKey], stats: &mut FrameStats) -> Result<(), LodError> {
+    /// A rebuilt node whose boundary reads a coarser node still to come (`wanted`, not
+    /// built) or a provisional one stays provisional, as `update` marks a new one.
+    fn refresh_depth(
+        &mut self,
+        keys: &[NodeKey],
+        wanted: &crate::order::Wanted,
+        stats: &mut FrameStats,
+    ) -> Result<(), LodError> {
         let mut prepared: HashMap<NodeKey, Prepared, BuildHasherDefault<KeyHasher>> =
             HashMap::default();
         let mut jobs = Vec::new();
@@ -150,13 +159,24 @@ impl Hierarchy {
             self.checked.retain(|k| k.depth <= depth);
         }
         // The sweeps read the rebuilt nodes' new materials where they keep theirs.
+        let rebuilt_keys: Vec<NodeKey> = rebuilt.iter().map(|(k, _, _)| *k).collect();
         for (key, grid, widened) in rebuilt {
             let m = &mut self.nodes.get_mut(&key).expect("ready node").material;
             m.grid = grid;
             m.widened = widened;
         }
+        let provisional: Vec<NodeKey> = rebuilt_keys
+            .into_iter()
+            .filter(|k| self.halo_waits(*k, wanted) || self.halo_provisional(*k))
+            .collect();
         let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
-        self.run_jobs(jobs, &[], &[], &mut stats.times)
+        let done = self.run_jobs(jobs, &[], &[], &mut stats.times);
+        for key in provisional {
+            if let Some(n) = self.nodes.get_mut(&key) {
+                n.provisional = true;
+            }
+        }
+        done
     }
 
     /// The materials of ready nodes `keys` composed from the scene (where `kept` holds

@@ -95,18 +95,85 @@ fn settled_under_a_budget_is_built_without_one() {
         }
         assert!(f < 59, "never settled: {s:?}");
     }
+    let nodes = h.ready_nodes().len() as u32;
+    // Some were swept twice: the order had them before a coarser node they read.
+    println!("update: {built} builds for {nodes} nodes");
+    assert!(built > nodes, "{built} builds of {nodes} nodes");
+    same_as_without_a_budget(&h, None);
+}
+
+/// A node `refresh` sweeps again (the sky changed) while a coarser node its boundary
+/// reads is still to come stays provisional: once `update` settles, every node is what
+/// one frame without a budget under the new sky gives, bit for bit.
+#[test]
+fn a_refreshed_node_stays_provisional() {
+    let mut h = hierarchy(SMALL);
+    // Until nodes are provisional and a coarser node one of them reads is still to
+    // come: frames of `update` until some are, and two more (the frame that marks one
+    // may build its coarser node next).
+    let mut marked = 0;
+    for f in 0.. {
+        let s = h.update(CAMERA).unwrap();
+        assert!(f < 40 && s.pending > 0, "no node was ever provisional");
+        marked += (s.provisional > 0) as u32;
+        if marked == 3 {
+            break;
+        }
+    }
+    let sky = BinLight::uniform(Vec3::new(1.0, 0.8, 0.5))
+        .split_vertical()
+        .0;
+    h.set_sky(sky).unwrap();
+    for f in 0.. {
+        let s = h.refresh(CAMERA).unwrap();
+        if s.pending == 0 {
+            break;
+        }
+        assert!(f < 60, "the refresh never ended: {s:?}");
+    }
+    for f in 0.. {
+        let s = h.update(CAMERA).unwrap();
+        if s.pending == 0 && s.sun_pending == 0 {
+            break;
+        }
+        assert!(f < 60, "never settled: {s:?}");
+    }
+    same_as_without_a_budget(&h, Some(sky));
+}
+
+/// `settle` under the same budget builds every node once, coarse to fine, and ends
+/// where `update`'s frames do, bit for bit.
+#[test]
+fn settle_sweeps_each_node_once() {
+    let mut h = hierarchy(SMALL);
+    let (mut built, mut frames) = (0, 0);
+    let last = h
+        .settle(CAMERA, 60, |s| {
+            assert!(s.points_swept <= SMALL);
+            built += s.built;
+            frames += 1;
+        })
+        .unwrap();
+    assert_eq!((last.pending, last.sun_pending), (0, 0), "never settled");
+    let nodes = h.ready_nodes().len() as u32;
+    println!("settle: {built} builds for {nodes} nodes in {frames} frames");
+    assert_eq!(built, nodes);
+    same_as_without_a_budget(&h, None);
+}
+
+/// Every node of `h` and 500 random reads of it (normals and the sun's light
+/// included) equal one frame's without a budget (under `sky` where given), bit for bit.
+fn same_as_without_a_budget(h: &Hierarchy, sky: Option<BinLight>) {
     let mut whole = hierarchy(u64::MAX / 4);
+    if let Some(sky) = sky {
+        whole.set_sky(sky).unwrap();
+    }
     let s = whole.update(CAMERA).unwrap();
     assert_eq!(s.pending, 0);
     let nodes = whole.ready_nodes();
+    // Everything fits the frame: built coarse to fine, each node swept once.
+    assert_eq!(s.built as usize, nodes.len());
     assert_eq!(h.ready_nodes(), nodes);
-    // Some were swept twice: the order had them before a coarser node they read.
-    println!("{built} builds for {} nodes", nodes.len());
-    assert!(
-        built > nodes.len() as u32,
-        "{built} builds of {} nodes",
-        nodes.len()
-    );
     for k in &nodes {
         assert_eq!(h.node(*k), whole.node(*k), "{k:?}");
     }

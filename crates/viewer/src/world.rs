@@ -618,19 +618,17 @@ impl World {
         let pb = bar(0, label);
         let mut swept = 0;
         let mut frames = 0;
-        loop {
-            let s = self
-                .hierarchy
-                .update(eye)
-                .context("updating the light grids")?;
-            frames += 1;
-            swept += s.points_swept;
-            pb.set_length(frames as u64 + s.pending as u64);
-            pb.set_position(frames as u64);
-            if s.pending == 0 || frames >= 400 {
-                pb.finish_and_clear();
-                return Ok((frames, swept, s));
-            }
-        }
+        // Drawn once settled: coarse to fine, each node swept once (`settle`).
+        let s = self
+            .hierarchy
+            .settle(eye, 400, |s| {
+                frames += 1;
+                swept += s.points_swept;
+                pb.set_length(frames as u64 + s.pending as u64);
+                pb.set_position(frames as u64);
+            })
+            .context("updating the light grids")?;
+        pb.finish_and_clear();
+        Ok((frames, swept, s))
     }
 }
