@@ -9,9 +9,12 @@
 //! finest ready grid needs no blending at its edges.
 //!
 //! Each frame, [`Hierarchy::update`] decides from the camera which nodes should exist
-//! (finer near the camera), evicts far ones, and builds missing or stale ones, coarse and
-//! near first, within a budget of points swept (or of time,
-//! [`HierarchyParams::budget_ms`]: the points its measured rate gets through). The nodes
+//! (finer near the camera), evicts far ones, and builds missing or stale ones within a
+//! budget of points swept (or of time, [`HierarchyParams::budget_ms`]: the points its
+//! measured rate gets through): the camera's surroundings down to the finest depth first,
+//! each part coarse and near first (`order`). A caller that draws only once everything
+//! is built calls [`Hierarchy::settle`] instead: coarse to fine, each node swept once.
+//! The nodes
 //! of one depth are built side by side, each node's sky sweep and sun responses as two
 //! jobs; a wanted node the budget leaves keeps its composed material for the frame that
 //! builds it. A node whose inputs (material, boundary light, options) hash as before is
@@ -122,8 +125,13 @@
 //!   parameters and statistics.
 //! - `params`: [`HierarchyParams`] and [`LodSkips`], their checks and the layout they
 //!   imply (cell and node sizes, a depth's lattice).
+//! - `order`: the order a frame builds its wanted nodes in (the camera's surroundings
+//!   first, nodes swept before a coarser node they read swept again; coarse to fine
+//!   where everything fits the frame, and in [`Hierarchy::settle`]).
 //! - `build`: a frame's nodes built a depth at a time, the nodes of one depth side by
 //!   side (material, boundaries from coarser grids, sweeps).
+//! - `refresh`: ready nodes swept again where their inputs changed
+//!   ([`Hierarchy::refresh`]).
 //! - `shadow`: the sun's beam beyond a node, marched through the finest material held
 //!   at each place.
 //! - `casters`: the nodes a low sun's rays cross beyond the built ones, composed for
