@@ -141,7 +141,58 @@ impl GpuLightGrid {
         Ok(written)
     }
 
-    /// Reads the grid back to the CPU; errors if it holds NaN or infinity.
+    /// The points of `inner`, a box of this grid's points starting at point `offset`
+    /// (the same cell size), as a grid of their own on the device: copied there row by
+    /// row (`copy_buffer_to_buffer`), never through the CPU. A node swept over an apron
+    /// keeps its own points this way. Errors when `inner` does not lie within the grid at
+    /// `offset` or has another cell size.
+    pub fn crop(&self, inner: GridDesc, offset: UVec3) -> Result<GpuLightGrid, GpuError> {
+        let (big, small) = (self.desc.dims(), inner.dims());
+        if (offset + small).cmpgt(big).any() {
+            return Err(GridError::invalid(
+                "offset",
+                (offset, small, big),
+                "the box of inner's points from it must lie within the grid's",
+            )
+            .into());
+        }
+        if inner.h() != self.desc.h() {
+            return Err(
+                GridError::invalid("inner.h()", inner.h(), "must be the grid's cell size").into(),
+            );
+        }
+        let bytes = Self::bytes_for(&self.ctx, &inner)?;
+        let buffer = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light grid (cropped)"),
+            size: bytes,
+            usage: Self::USAGE,
+            mapped_at_creation: false,
+        });
+        let row = small.x as u64 * POINT_BYTES;
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        for y in 0..small.y {
+            for z in 0..small.z {
+                let from = self.desc.index_unchecked(offset + UVec3::new(0, y, z)) as u64;
+                let to = inner.index_unchecked(UVec3::new(0, y, z)) as u64;
+                enc.copy_buffer_to_buffer(
+                    &self.buffer,
+                    from * POINT_BYTES,
+                    &buffer,
+                    to * POINT_BYTES,
+                    row,
+                );
+            }
+        }
+        self.ctx.queue.submit([enc.finish()]);
+        Ok(Self {
+            ctx: self.ctx.clone(),
+            buffer,
+            desc: inner,
+        })
+    }
+
+    /// Reads the grid back to the CPU; errors if it holds NaN, infinity or negative
+    /// light.
     pub fn read(&self) -> Result<LightGrid, GpuError> {
         let bytes = self.ctx.read_back(&self.buffer)?;
         let n = self.desc.point_count();
@@ -149,8 +200,8 @@ impl GpuLightGrid {
         if let Some(i) = data.iter().position(|b| !b.is_valid()) {
             return Err(GridError::invalid(
                 format!("point {i}"),
-                "NaN or infinity",
-                "a GPU light grid must hold finite light",
+                "NaN, infinity or negative light",
+                "a GPU light grid must hold finite light >= 0",
             )
             .into());
         }

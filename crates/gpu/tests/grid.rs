@@ -1,5 +1,5 @@
 //! `GpuLightGrid` on the device: upload and read back bit for bit, wrapping a kernel's
-//! buffer is checked, and `kernel::Kernel` runs a known-answer kernel over a sentinel.
+//! buffer is checked, a box of points cropped on the device, and `kernel::Kernel` runs a known-answer kernel over a sentinel.
 //! Needs an adapter (lavapipe in CI); fails without one unless LIGHTGRID_ALLOW_NO_GPU=1.
 
 use std::sync::Arc;
@@ -43,6 +43,43 @@ fn grid_round_trip_and_checked_wrapping() {
     });
     let e = GpuLightGrid::from_buffer(ctx.clone(), read_only, desc).unwrap_err();
     assert!(e.to_string().contains("buffer.usage()"), "{e}");
+}
+
+/// A box of a grid's points cropped on the device is those points, bit for bit, in a
+/// grid of their own; a box beyond the grid or another cell size is refused, naming
+/// the field.
+#[test]
+fn a_grid_cropped_on_the_device_is_its_inner_points() {
+    let Some(ctx) = context() else { return };
+    let big = GridDesc::new(Vec3::new(-1.0, 0.0, 2.0), 0.5, UVec3::new(7, 4, 6)).unwrap();
+    let grid = Grid::from_trusted(
+        big,
+        (0..big.point_count())
+            .map(|i| BinLight(std::array::from_fn(|d| Vec3::new(i as f32, d as f32, 0.5))))
+            .collect(),
+    );
+    let g = GpuLightGrid::new(ctx.clone(), &grid).unwrap();
+    let offset = UVec3::new(2, 1, 1);
+    let inner = GridDesc::new(
+        big.origin() + offset.as_vec3() * big.h(),
+        big.h(),
+        UVec3::new(3, 3, 4),
+    )
+    .unwrap();
+    let cropped = g.crop(inner, offset).unwrap();
+    assert_eq!(cropped.desc(), &inner);
+    let expected = Grid::from_trusted(
+        inner,
+        (0..inner.point_count())
+            .map(|i| grid.data()[big.index_unchecked(inner.coords(i).unwrap() + offset)])
+            .collect(),
+    );
+    assert_eq!(cropped.read().unwrap(), expected);
+    let e = g.crop(inner, UVec3::new(5, 0, 0)).unwrap_err();
+    assert!(e.to_string().contains("offset"), "{e}");
+    let coarse = GridDesc::new(inner.origin(), 1.0, inner.dims()).unwrap();
+    let e = g.crop(coarse, offset).unwrap_err();
+    assert!(e.to_string().contains("inner.h()"), "{e}");
 }
 
 #[test]

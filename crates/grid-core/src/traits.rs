@@ -609,6 +609,21 @@ pub trait Sweeper {
             .sweep_sun(material, sun, &SweepOptions::single_pass())?
             .transmittance)
     }
+    /// The points of `inner` (a box of `resident`'s grid's points from point `offset`,
+    /// the same cell size) kept on the device as a handle of their own, for a grid
+    /// swept wider than the points it keeps (a hierarchy's node over its apron): the
+    /// GPU sweeper copies them there (`lightgrid_gpu::GpuLightGrid::crop`). `None` where
+    /// the sweeper keeps no device copies or `resident` is not one of its own (the
+    /// default): the light is then on the CPU alone.
+    fn crop_resident(
+        &self,
+        resident: &Resident,
+        inner: &crate::GridDesc,
+        offset: glam::UVec3,
+    ) -> Option<Resident> {
+        let _ = (resident, inner, offset);
+        None
+    }
 }
 
 /// What a sweeper needs to compute the sun's two responses in one grid

@@ -889,6 +889,15 @@ macro_rules! gpu_sweeper_impl {
             ) -> Result<lightgrid_core::Grid<f32>, SweepError> {
                 Ok(lightgrid_sweep_cpu::sun::transmittance(material, sun)?)
             }
+            fn crop_resident(
+                &self,
+                resident: &lightgrid_core::Resident,
+                inner: &lightgrid_core::GridDesc,
+                offset: lightgrid_core::glam::UVec3,
+            ) -> Option<lightgrid_core::Resident> {
+                let g = resident.get::<GpuLightGrid>()?.crop(*inner, offset).ok()?;
+                Some(lightgrid_core::Resident(Arc::new(g)))
+            }
         }
     };
 }

@@ -85,7 +85,18 @@ impl Hierarchy {
         })?;
         Ok(match &material.widened {
             None => out,
-            Some(w) => cropped(out, w.desc(), material.grid.desc(), self.params.apron),
+            Some(w) => {
+                let (big, desc, apron) = (w.desc(), material.grid.desc(), self.params.apron);
+                // The device copy too, where the sweeper keeps one.
+                let resident = out
+                    .resident
+                    .as_ref()
+                    .and_then(|r| sweeper.crop_resident(r, desc, UVec3::new(apron, 0, apron)));
+                SweepOutput {
+                    resident,
+                    ..cropped(out, big, desc, apron)
+                }
+            }
         })
     }
 
@@ -160,8 +171,9 @@ pub(crate) fn widened(desc: &GridDesc, apron: u32) -> Result<GridDesc, GridError
     )
 }
 
-/// `out`, swept on `big` (`desc` widened by `apron`), kept on `desc`'s points. A device
-/// copy of the widened grid is dropped: readers sample the kept grid.
+/// `out`, swept on `big` (`desc` widened by `apron`), kept on `desc`'s points. Its
+/// device copy is dropped here ([`Hierarchy::sweep_sky`] asks the sweeper to crop it
+/// on the device).
 fn cropped(out: SweepOutput, big: &GridDesc, desc: &GridDesc, apron: u32) -> SweepOutput {
     SweepOutput {
         bins: out.bins.map(|g| crop(&g, big, desc, apron)),
@@ -174,7 +186,7 @@ fn cropped(out: SweepOutput, big: &GridDesc, desc: &GridDesc, apron: u32) -> Swe
 }
 
 /// The sun's responses swept on `big` (`desc` widened by `apron`), kept on `desc`'s
-/// points (a device copy dropped, as [`cropped`]'s).
+/// points (a device copy dropped, as [`cropped`]'s; the caller crops it on the device).
 pub(crate) fn cropped_sun(
     r: SunResponse,
     big: &GridDesc,

@@ -143,16 +143,9 @@ pub fn export(
             *world.hierarchy.params(),
         )
         .context("building the direct-sun grids")?;
-        for _ in 0..400 {
-            if direct
-                .update(eye)
-                .context("sweeping the direct sun")?
-                .pending
-                == 0
-            {
-                break;
-            }
-        }
+        direct
+            .settle(eye, 400, |_| {})
+            .context("sweeping the direct sun")?;
         let field = DifferenceField(&world.hierarchy, &direct);
         let v = descs
             .iter()

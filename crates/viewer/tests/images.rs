@@ -48,11 +48,23 @@ fn render_tiny(
     extras: bool,
     split: bool,
 ) -> Option<(PathBuf, Summary)> {
+    render_tiny_with(dir, sweeper, extras, split, 0)
+}
+
+/// [`render_tiny`] with its nodes swept over an apron of `apron` cells (`grid.apron`).
+fn render_tiny_with(
+    dir: &str,
+    sweeper: SweeperChoice,
+    extras: bool,
+    split: bool,
+    apron: u32,
+) -> Option<(PathBuf, Summary)> {
     lightgrid_gpu::GpuContext::new_for_tests()?;
     let out = manifest().join("../../target/image-tests").join(dir);
     std::fs::create_dir_all(&out).unwrap();
     let mut scene = SceneFile::load(&manifest().join("tests/data/tiny.toml")).unwrap();
     scene.sun.split = split;
+    scene.grid.apron = apron;
     let summary = lightgrid_viewer::run(
         scene,
         &Options {
@@ -209,6 +221,21 @@ fn tiny_scene_with_the_sun_apart_drawn_on_the_device_matches_the_references() {
     assert!(summary.sun.starts_with("kept apart"), "{}", summary.sun);
     sampled_on_device(&summary);
     let failures = compare_with_references(&out, &manifest().join("tests/reference"), false);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Nodes swept over an apron (`grid.apron`, the library's default for its 32-point
+/// nodes) keep their own points on the device too (`Sweeper::crop_resident`): the light
+/// is sampled there and the images equal the CPU sweep's over the same apron.
+#[test]
+fn nodes_swept_over_an_apron_stay_on_the_device() {
+    let Some((out, summary)) = render_tiny_with("gpu-apron", SweeperChoice::Gpu, false, true, 2)
+    else {
+        return;
+    };
+    sampled_on_device(&summary);
+    let (cpu, _) = render_tiny_with("cpu-apron", SweeperChoice::Cpu, false, true, 2).unwrap();
+    let failures = compare_with_references(&out, &cpu, false);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
