@@ -20,8 +20,8 @@
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
-    Grid, GridDesc, GridError, MaterialGrid, SunResponse, SweepError, SweepOptions, SweepOutput,
-    Sweeper,
+    Grid, GridDesc, GridError, MaterialGrid, Resident, SunResponse, SweepError, SweepOptions,
+    SweepOutput, Sweeper,
 };
 
 use crate::{Hierarchy, LodError, NodeKey, NodeMaterial, StageTimes, shadow, timed};
@@ -85,18 +85,13 @@ impl Hierarchy {
         })?;
         Ok(match &material.widened {
             None => out,
-            Some(w) => {
-                let (big, desc, apron) = (w.desc(), material.grid.desc(), self.params.apron);
-                // The device copy too, where the sweeper keeps one.
-                let resident = out
-                    .resident
-                    .as_ref()
-                    .and_then(|r| sweeper.crop_resident(r, desc, UVec3::new(apron, 0, apron)));
-                SweepOutput {
-                    resident,
-                    ..cropped(out, big, desc, apron)
-                }
-            }
+            Some(w) => cropped(
+                out,
+                w.desc(),
+                material.grid.desc(),
+                self.params.apron,
+                sweeper,
+            ),
         })
     }
 
@@ -171,35 +166,53 @@ pub(crate) fn widened(desc: &GridDesc, apron: u32) -> Result<GridDesc, GridError
     )
 }
 
-/// `out`, swept on `big` (`desc` widened by `apron`), kept on `desc`'s points. Its
-/// device copy is dropped here ([`Hierarchy::sweep_sky`] asks the sweeper to crop it
-/// on the device).
-fn cropped(out: SweepOutput, big: &GridDesc, desc: &GridDesc, apron: u32) -> SweepOutput {
+/// `out`, swept by `sweeper` on `big` (`desc` widened by `apron`), kept on `desc`'s
+/// points: its device copy too, where the sweeper keeps one
+/// ([`Sweeper::crop_resident`]).
+fn cropped(
+    out: SweepOutput,
+    big: &GridDesc,
+    desc: &GridDesc,
+    apron: u32,
+    sweeper: &dyn Sweeper,
+) -> SweepOutput {
     SweepOutput {
         bins: out.bins.map(|g| crop(&g, big, desc, apron)),
         horizon: out.horizon.map(|g| crop(&g, big, desc, apron)),
         average: out.average.map(|g| crop(&g, big, desc, apron)),
         dominant: out.dominant.map(|g| crop(&g, big, desc, apron)),
         stats: out.stats,
-        resident: None,
+        resident: crop_resident(out.resident.as_ref(), desc, apron, sweeper),
     }
 }
 
-/// The sun's responses swept on `big` (`desc` widened by `apron`), kept on `desc`'s
-/// points (a device copy dropped, as [`cropped`]'s; the caller crops it on the device).
+/// The sun's responses swept by `sweeper` on `big` (`desc` widened by `apron`), kept
+/// on `desc`'s points, as [`cropped`]'s.
 pub(crate) fn cropped_sun(
     r: SunResponse,
     big: &GridDesc,
     desc: &GridDesc,
     apron: u32,
+    sweeper: &dyn Sweeper,
 ) -> SunResponse {
     SunResponse {
         scattered: crop(&r.scattered, big, desc, apron),
         horizon: r.horizon.map(|g| crop(&g, big, desc, apron)),
         transmittance: crop(&r.transmittance, big, desc, apron),
         stats: r.stats,
-        resident: None,
+        resident: crop_resident(r.resident.as_ref(), desc, apron, sweeper),
     }
+}
+
+/// A device copy of a grid widened by `apron`, cropped to `desc`'s points on the
+/// device by the sweeper that made it (`None` where it keeps none).
+fn crop_resident(
+    resident: Option<&Resident>,
+    desc: &GridDesc,
+    apron: u32,
+    sweeper: &dyn Sweeper,
+) -> Option<Resident> {
+    sweeper.crop_resident(resident?, desc, UVec3::new(apron, 0, apron))
 }
 
 /// `g` (on `big`, `desc` widened by `apron`) at `desc`'s points.

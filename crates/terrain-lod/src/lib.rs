@@ -893,17 +893,7 @@ impl Hierarchy {
         })?;
         let r = match &wide {
             None => r,
-            Some((w, k)) => {
-                // The device copy too, where the sweeper keeps one.
-                let resident = r.resident.as_ref().and_then(|res| {
-                    let offset = lightgrid_core::glam::UVec3::new(*k, 0, *k);
-                    sweeper.crop_resident(res, material.grid.desc(), offset)
-                });
-                lightgrid_core::SunResponse {
-                    resident,
-                    ..apron::cropped_sun(r, w.desc(), material.grid.desc(), *k)
-                }
-            }
+            Some((w, k)) => apron::cropped_sun(r, w.desc(), material.grid.desc(), *k, sweeper),
         };
         let mut g = GridSun {
             scattered: r.scattered,
