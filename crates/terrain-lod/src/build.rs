@@ -106,7 +106,7 @@ impl Hierarchy {
                 stats.pending += 1; // composed in a later frame
                 continue;
             }
-            if self.halo_waits(key, wanted) || self.halo_provisional(key) {
+            if self.reads_unsettled(key, wanted) {
                 provisional.push(key);
             }
             order.push(Want::New(key, new.len()));
@@ -163,11 +163,7 @@ impl Hierarchy {
         let jobs = self.jobs(order, &materials, stats);
         let jobs = self.compose_jobs_casters(jobs, &new, &materials, stats)?;
         let done = self.run_jobs(jobs, &new, &materials, &mut stats.times);
-        for key in provisional {
-            if let Some(n) = self.nodes.get_mut(&key) {
-                n.provisional = true;
-            }
-        }
+        self.mark_provisional(provisional);
         // The materials of nodes left for a later frame are kept for it.
         for (key, m) in new.into_iter().zip(materials) {
             if !self.nodes.contains_key(&key) {

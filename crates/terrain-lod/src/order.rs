@@ -120,6 +120,21 @@ impl Hierarchy {
         true
     }
 
+    /// Whether node `key`, swept now, would be provisional: a coarser node its boundary
+    /// reads is still to come ([`Hierarchy::halo_waits`]) or provisional itself.
+    pub(crate) fn reads_unsettled(&self, key: NodeKey, wanted: &Wanted) -> bool {
+        self.halo_waits(key, wanted) || self.halo_provisional(key)
+    }
+
+    /// Marks the ready nodes among `keys` provisional.
+    pub(crate) fn mark_provisional(&mut self, keys: impl IntoIterator<Item = NodeKey>) {
+        for key in keys {
+            if let Some(n) = self.nodes.get_mut(&key) {
+                n.provisional = true;
+            }
+        }
+    }
+
     /// Whether a built coarser node that node `key`'s boundary reads is provisional.
     pub(crate) fn halo_provisional(&self, key: NodeKey) -> bool {
         self.halo_nodes(key)
@@ -181,7 +196,7 @@ impl Hierarchy {
             });
             let mut jobs = Vec::new();
             for key in keys {
-                if self.halo_waits(key, wanted) || self.halo_provisional(key) {
+                if self.reads_unsettled(key, wanted) {
                     stats.pending += 1;
                     continue;
                 }

@@ -158,24 +158,18 @@ impl Hierarchy {
             let depth = keys[0].depth;
             self.checked.retain(|k| k.depth <= depth);
         }
+        let provisional: Vec<NodeKey> = (rebuilt.iter().map(|(k, _, _)| *k))
+            .filter(|k| self.reads_unsettled(*k, wanted))
+            .collect();
         // The sweeps read the rebuilt nodes' new materials where they keep theirs.
-        let rebuilt_keys: Vec<NodeKey> = rebuilt.iter().map(|(k, _, _)| *k).collect();
         for (key, grid, widened) in rebuilt {
             let m = &mut self.nodes.get_mut(&key).expect("ready node").material;
             m.grid = grid;
             m.widened = widened;
         }
-        let provisional: Vec<NodeKey> = rebuilt_keys
-            .into_iter()
-            .filter(|k| self.halo_waits(*k, wanted) || self.halo_provisional(*k))
-            .collect();
         let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
         let done = self.run_jobs(jobs, &[], &[], &mut stats.times);
-        for key in provisional {
-            if let Some(n) = self.nodes.get_mut(&key) {
-                n.provisional = true;
-            }
-        }
+        self.mark_provisional(provisional);
         done
     }
 
