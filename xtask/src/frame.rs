@@ -302,6 +302,10 @@ pub struct Run {
     /// By depth, the worst errors against that depth's own-cell reference relative to
     /// the local brightest value, shadow edges apart (`frame/peaks.rs`).
     pub peaks: Vec<Peaks>,
+    /// [`Run::peaks`] over the path's second half alone (frames `frames / 2` on): the
+    /// cold start's first frames, whose nodes near the camera are swept before coarser
+    /// nodes their boundaries read and wait to be swept again, left out.
+    pub peaks_second_half: Vec<Peaks>,
     /// The finest depth's probes over the path against the 1 m sweep: those whose node
     /// showed its own sun response, and those whose node's was still to come (they
     /// read a coarser grid's sun).
@@ -647,6 +651,8 @@ struct Tally {
     finest_places: places::PlaceTally,
     /// By depth, the worst errors against the local brightest value ([`peaks`]).
     peaks: peaks::PeakTally,
+    /// The same over the path's second half ([`Run::peaks_second_half`]).
+    peaks_second_half: peaks::PeakTally,
 }
 
 /// The renderer's read of `field` at the probes: `lightgrid_render`'s sampler
@@ -788,6 +794,9 @@ fn frame(
         })
         .collect();
     tally.peaks.add(&depths, &parts, &own_refs);
+    if f >= cfg.frames / 2 {
+        tally.peaks_second_half.add(&depths, &parts, &own_refs);
+    }
     let mut acc = Acc3::default();
     for (i, (p, (hp, r))) in probes
         .iter()
@@ -957,6 +966,7 @@ fn run_elevation(
         finest_sun: tally.finest_sun.each_ref().map(Acc3::errors),
         finest_places: tally.finest_places.places(),
         peaks: tally.peaks.peaks(),
+        peaks_second_half: tally.peaks_second_half.peaks(),
         sun_move_world_ms: world_ms,
         sun_move_wait_frames: wait_frames,
         sun_move_wait_max_ms: wait_max_ms,

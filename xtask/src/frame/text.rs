@@ -225,11 +225,10 @@ fn nesting_lines(r: &Run) -> String {
     let peaks: Vec<String> = (r.peaks.iter().enumerate())
         .filter(|(_, p)| p.probes > 0)
         .map(|(d, p)| {
-            let pc = |v: [f32; 3]| v.map(|x| format!("{:.1}", 100.0 * x)).join(" / ");
             format!(
                 "depth {d} {} (99.9th percentile {}; {:.1} % of its probes at edges)",
-                pc(p.max),
-                pc(p.p999),
+                percents(p.max),
+                percents(p.p999),
                 100.0 * p.at_edges as f64 / p.probes as f64
             )
         })
@@ -239,6 +238,21 @@ fn nesting_lines(r: &Run) -> String {
         "  nesting alone at sun {:.0}°, the largest error over the local brightest value (% of sky / sun / both; sun and both away from shadow edges): {}",
         r.elevation,
         peaks.join(", ")
+    );
+    let late: Vec<String> = (r.peaks_second_half.iter().enumerate())
+        .filter(|(_, p)| p.probes > 0)
+        .map(|(d, p)| {
+            format!(
+                "depth {d} {} (99.9th percentile {})",
+                percents(p.max),
+                percents(p.p999)
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "  the same over the path's second half (the cold start's first frames left out): {}",
+        late.join(", ")
     );
     depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
         format!("{d:5}")
@@ -253,6 +267,11 @@ fn nesting_lines(r: &Run) -> String {
 }
 
 /// A table of errors by the depth serving the points (depths with none left out).
+/// Three shares as percentages, `a / b / c` (sky / sun / both).
+fn percents(v: [f32; 3]) -> String {
+    v.map(|x| format!("{:.1}", 100.0 * x)).join(" / ")
+}
+
 fn depth_table(s: &mut String, title: &str, by_depth: &[Errors], depth: impl Fn(usize) -> String) {
     use std::fmt::Write;
     let _ = writeln!(
