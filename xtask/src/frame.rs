@@ -54,9 +54,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{
-    BinLight, Boundary, GridDesc, LightField, MaterialSource, SeededRng, Sweeper,
-};
+use lightgrid_core::{BinLight, LightField, SeededRng, Sweeper};
 use lightgrid_material_voxelizer::compose::{
     AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain, load_heightmap_png,
 };
@@ -68,6 +66,7 @@ use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, 
 use serde::Serialize;
 
 mod host;
+mod kernel;
 mod mc;
 mod peaks;
 mod places;
@@ -329,9 +328,10 @@ pub struct Run {
     pub points_per_s_frame: f64,
     /// Points swept per second of sweeping time.
     pub points_per_s_sweeping: f64,
-    /// The kernel alone on the same nodes: the sky sweeps of the grids ready after the
-    /// last frame again, one after another with recycled memory and open boundaries,
-    /// points per second of sweeping.
+    /// The kernel alone on the path's own sweeps: the sweeps of the path's second half
+    /// (sky sweeps, sun responses and marches, recorded in a second run of the path)
+    /// made again one after another on one sweeper with recycled memory; the points the
+    /// hierarchy counted for those frames per second of it (`frame/kernel.rs`).
     pub points_per_s_kernel: f64,
     /// The sun moved 20° up after the path: `Hierarchy::set_sun`'s time (ms), which
     /// re-marches every grid's transmittance (the direct sun) and sweeps the world
@@ -936,7 +936,7 @@ fn run_elevation(
         }
         acc.errors()
     };
-    let points_per_s_kernel = kernel_rate(world, gpu, &h, sky_bins(to_sun)?)?;
+    let points_per_s_kernel = kernel::rate(world, cfg, gpu, (to_sun, sky_bins(to_sun)?))?;
     let n = frames.len().max(1) as f64;
     let total_s: f64 = frames.iter().map(|r| r.ms.total).sum::<f64>() / 1e3;
     let sweep_s: f64 = frames
@@ -1012,46 +1012,6 @@ fn settle(h: &mut Hierarchy, cam: Vec3, pace: Duration) -> Result<u32> {
         anyhow::ensure!(frames < 100_000, "the hierarchy never settled at {cam}");
         std::thread::sleep(pace.saturating_sub(f.elapsed()));
     }
-}
-
-/// The sweeper's rate on the hierarchy's ready nodes, swept again in a row with
-/// recycled memory (the CPU sweeper) and open boundaries: what the kernel does with the
-/// same nodes, passes and options outside the hierarchy.
-fn kernel_rate(world: &World, gpu: &Gpu, h: &Hierarchy, sky: BinLight) -> Result<f64> {
-    let composer = world.composer()?;
-    let descs: Vec<GridDesc> = h
-        .layers()
-        .iter()
-        .filter(|l| l.owner.is_some())
-        .map(|l| *l.grid.desc())
-        .collect();
-    let materials = descs
-        .iter()
-        .map(|d| composer.material(d))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut o = h.params().sweep;
-    o.outputs.bins = true;
-    let boundary = Boundary::open_sky(sky);
-    let (mut swept, mut secs) = (0u64, 0.0);
-    if gpu.is_some() {
-        let mut sweeper = new_sweeper(gpu);
-        for m in &materials {
-            let t = Instant::now();
-            std::hint::black_box(sweeper.sweep(m, &boundary, &o)?);
-            secs += t.elapsed().as_secs_f64();
-            swept += m.desc().point_count() as u64;
-        }
-    } else {
-        let mut sweeper = lightgrid_sweep_cpu::CpuSweeper::new();
-        for m in &materials {
-            let t = Instant::now();
-            let out = sweeper.sweep(m, &boundary, &o)?;
-            secs += t.elapsed().as_secs_f64();
-            sweeper.recycle(out);
-            swept += m.desc().point_count() as u64;
-        }
-    }
-    Ok(swept as f64 / secs.max(1e-9))
 }
 
 /// Runs the measurement and writes `frame.txt`, `frame.json` and `frame.png`.
@@ -1247,6 +1207,7 @@ impl FrameRow {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lightgrid_core::GridDesc;
 
     /// A frame over twice the budget stays over with the steal taken out unless one
     /// core's share of the steal brings it under.

@@ -117,11 +117,12 @@ pub fn text(report: &FrameReport) -> String {
         }
         let _ = writeln!(
             s,
-            "  load {:.2} s; points swept per second: {:.3} M of frame time, {:.3} M of sweeping time; the kernel on the same nodes {:.3} M",
+            "  load {:.2} s; points swept per second: {:.3} M of frame time, {:.3} M of sweeping time; the kernel alone on the path's own sweeps {:.3} M (frame time's rate {:.2} of the kernel's)",
             r.load_s,
             r.points_per_s_frame / 1e6,
             r.points_per_s_sweeping / 1e6,
-            r.points_per_s_kernel / 1e6
+            r.points_per_s_kernel / 1e6,
+            r.points_per_s_frame / r.points_per_s_kernel.max(1e-9)
         );
         let casters: u32 = r.frames.iter().map(|f| f.casters).sum();
         let held_mb = r.frames.iter().map(|f| f.caster_bytes).max().unwrap_or(0) as f64 / 1e6;
