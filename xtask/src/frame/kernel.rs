@@ -139,6 +139,17 @@ impl Sweeper for Recording {
         }
         Ok(out)
     }
+    /// Forwarded, not kept: the hierarchy sweeps cell sources only inside `sweep_sun`.
+    fn sweep_with_source(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        source: &lightgrid_core::CellSource,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        self.inner
+            .sweep_with_source(material, boundary, source, options)
+    }
     fn sweep_sun(
         &mut self,
         material: &MaterialGrid,
