@@ -223,37 +223,16 @@ fn nesting_lines(r: &Run) -> String {
         r.elevation,
         by_depth.join(", ")
     );
-    let peaks: Vec<String> = (r.peaks.iter().enumerate())
-        .filter(|(_, p)| p.probes > 0)
-        .map(|(d, p)| {
-            format!(
-                "depth {d} {} (99.9th percentile {}; {:.1} % of its probes at edges)",
-                percents(p.max),
-                percents(p.p999),
-                100.0 * p.at_edges as f64 / p.probes as f64
-            )
-        })
-        .collect();
     let _ = writeln!(
         s,
         "  nesting alone at sun {:.0}°, the largest error over the local brightest value (% of sky / sun / both; sun and both away from shadow edges): {}",
         r.elevation,
-        peaks.join(", ")
+        peak_list(&r.peaks, true)
     );
-    let late: Vec<String> = (r.peaks_second_half.iter().enumerate())
-        .filter(|(_, p)| p.probes > 0)
-        .map(|(d, p)| {
-            format!(
-                "depth {d} {} (99.9th percentile {})",
-                percents(p.max),
-                percents(p.p999)
-            )
-        })
-        .collect();
     let _ = writeln!(
         s,
         "  the same over the path's second half (the cold start's first frames left out): {}",
-        late.join(", ")
+        peak_list(&r.peaks_second_half, false)
     );
     depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
         format!("{d:5}")
@@ -268,6 +247,30 @@ fn nesting_lines(r: &Run) -> String {
 }
 
 /// A table of errors by the depth serving the points (depths with none left out).
+/// The depths' peaks (`frame/peaks.rs`), each with its 99.9th percentile and, with
+/// `edges`, the share of its probes at shadow edges.
+fn peak_list(peaks: &[super::Peaks], edges: bool) -> String {
+    let list: Vec<String> = (peaks.iter().enumerate())
+        .filter(|(_, p)| p.probes > 0)
+        .map(|(d, p)| {
+            let at_edges = if edges {
+                format!(
+                    "; {:.1} % of its probes at edges",
+                    100.0 * p.at_edges as f64 / p.probes as f64
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                "depth {d} {} (99.9th percentile {}{at_edges})",
+                percents(p.max),
+                percents(p.p999)
+            )
+        })
+        .collect();
+    list.join(", ")
+}
+
 /// Three shares as percentages, `a / b / c` (sky / sun / both).
 fn percents(v: [f32; 3]) -> String {
     v.map(|x| format!("{:.1}", 100.0 * x)).join(" / ")
