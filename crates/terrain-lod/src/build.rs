@@ -7,7 +7,10 @@
 //! after the other would, composes the new nodes' materials side by side, then sweeps
 //! the chosen nodes side by side on forks of the sweeper ([`Sweeper::fork`]: the CPU
 //! sweeper forks, each fork keeping its memory from frame to frame; a sweeper that
-//! cannot fork, the GPU's, sweeps them one after the other). The results are those of
+//! cannot fork, the GPU's, sweeps them one after the other). Beside those sweeps it
+//! composes the materials of the frame's next depth to build, which read no light
+//! ([`HierarchyParams::compose_ahead`](crate::HierarchyParams::compose_ahead)): a thread
+//! that would wait on a depth's last node composes instead. The results are those of
 //! the one-by-one order bit for bit: every node's sweep is deterministic and reads
 //! nothing its siblings write.
 
@@ -86,6 +89,7 @@ impl Hierarchy {
     pub(crate) fn build_depth(
         &mut self,
         keys: &[NodeKey],
+        next: &[NodeKey],
         wanted: &crate::order::Wanted,
         stats: &mut FrameStats,
     ) -> Result<(), LodError> {
@@ -162,7 +166,17 @@ impl Hierarchy {
             .collect();
         let jobs = self.jobs(order, &materials, stats);
         let jobs = self.compose_jobs_casters(jobs, &new, &materials, stats)?;
-        let done = self.run_jobs(jobs, &new, &materials, &mut stats.times);
+        let ahead = self.ahead_of(next, &new, &materials);
+        let (done, composed) =
+            self.run_jobs_composing(jobs, &new, &materials, &mut stats.times, &ahead);
+        for (key, (m, t)) in ahead.into_iter().zip(composed) {
+            stats.times.material += t;
+            // (An error is met again, and returned, when the node's turn comes.)
+            if let Ok(m) = m {
+                self.composed.insert(key, m);
+                stats.composed += 1;
+            }
+        }
         self.mark_provisional(provisional);
         // The materials of nodes left for a later frame are kept for it.
         for (key, m) in new.into_iter().zip(materials) {
@@ -415,40 +429,64 @@ impl Hierarchy {
         materials: &[NodeMaterial],
         times: &mut StageTimes,
     ) -> Result<(), LodError> {
+        self.run_jobs_composing(jobs, new, materials, times, &[]).0
+    }
+
+    /// The nodes of `next` (the frame's next depth to build) whose materials are
+    /// composed beside this depth's sweeps ([`Hierarchy::run_jobs_composing`]): those
+    /// not built nor composed whose parent is built or among this depth's `new` ones
+    /// (`materials`), and holds objects where bare ground's children are skipped; at
+    /// most [`HierarchyParams::compose_ahead`](crate::HierarchyParams::compose_ahead).
+    /// None under a time budget, whose frames compose a batch at a time
+    /// ([`Hierarchy::composition_waits`]).
+    fn ahead_of(
+        &self,
+        next: &[NodeKey],
+        new: &[NodeKey],
+        materials: &[NodeMaterial],
+    ) -> Vec<NodeKey> {
+        if self.params.budget_ms.is_some() {
+            return Vec::new();
+        }
+        let skip_bare = self.params.skip.bare_children;
+        next.iter()
+            .copied()
+            .filter(|k| !self.nodes.contains_key(k) && !self.composed.contains_key(k))
+            .filter(|&k| match Self::parent(k) {
+                None => true,
+                Some(p) => match (self.nodes.get(&p), new.iter().position(|n| *n == p)) {
+                    (Some(n), _) => n.material.has_objects || !skip_bare,
+                    (None, Some(i)) => materials[i].has_objects || !skip_bare,
+                    (None, None) => false,
+                },
+            })
+            .take(self.params.compose_ahead as usize)
+            .collect()
+    }
+
+    /// [`Hierarchy::run_jobs`], composing the materials of `ahead` beside the jobs
+    /// (rayon: a thread between jobs, or waiting on a lone job's last level, composes);
+    /// the materials are returned with their times, in `ahead`'s order.
+    pub(crate) fn run_jobs_composing(
+        &mut self,
+        jobs: Vec<Job>,
+        new: &[NodeKey],
+        materials: &[NodeMaterial],
+        times: &mut StageTimes,
+        ahead: &[NodeKey],
+    ) -> (Result<(), LodError>, Vec<(Composed, Duration)>) {
         if jobs.is_empty() {
-            return Ok(());
+            return (Ok(()), self.compose_nodes(ahead));
         }
         let mut main = std::mem::replace(&mut self.sweeper, Box::new(crate::Lent));
         let pool = Mutex::new(std::mem::take(&mut self.forks));
         let fresh: Fresh<'_> = new.iter().copied().zip(materials).collect();
-        let results: Vec<Result<Done, LodError>> = {
+        let (results, composed) = {
             let this = &*self;
-            let fresh = &fresh;
-            let side_by_side =
-                jobs.len() > 1 && rayon::current_num_threads() > 1 && main.fork().is_some();
-            if side_by_side {
-                let main = &main;
-                jobs.into_par_iter()
-                    .map(|job| {
-                        let taken = pool.lock().unwrap_or_else(|e| e.into_inner()).pop();
-                        let Some(mut s) = taken.or_else(|| main.fork()) else {
-                            return Err(GridError::invalid(
-                                "sweeper",
-                                main.name(),
-                                "stopped giving forks",
-                            )
-                            .into());
-                        };
-                        let r = this.run_job(job, materials, fresh, s.as_mut());
-                        pool.lock().unwrap_or_else(|e| e.into_inner()).push(s);
-                        r
-                    })
-                    .collect()
-            } else {
-                jobs.into_iter()
-                    .map(|job| this.run_job(job, materials, fresh, main.as_mut()))
-                    .collect()
-            }
+            rayon::join(
+                || this.sweep_jobs(jobs, &mut main, &pool, materials, &fresh),
+                || this.compose_nodes(ahead),
+            )
         };
         self.sweeper = main;
         self.forks = pool.into_inner().unwrap_or_else(|e| e.into_inner());
@@ -478,7 +516,41 @@ impl Hierarchy {
                 }
             }
         }
-        first_error.map_or(Ok(()), Err)
+        (first_error.map_or(Ok(()), Err), composed)
+    }
+
+    /// Runs `jobs`: side by side on forks of `main` (taken from `pool`, and given back)
+    /// where the sweeper forks, else one after the other on `main`.
+    fn sweep_jobs(
+        &self,
+        jobs: Vec<Job>,
+        main: &mut Box<dyn Sweeper + Send + Sync>,
+        pool: &Mutex<Vec<Box<dyn Sweeper + Send + Sync>>>,
+        materials: &[NodeMaterial],
+        fresh: &Fresh<'_>,
+    ) -> Vec<Result<Done, LodError>> {
+        let side_by_side =
+            jobs.len() > 1 && rayon::current_num_threads() > 1 && main.fork().is_some();
+        if !side_by_side {
+            return jobs
+                .into_iter()
+                .map(|job| self.run_job(job, materials, fresh, main.as_mut()))
+                .collect();
+        }
+        let main = &*main;
+        jobs.into_par_iter()
+            .map(|job| {
+                let taken = pool.lock().unwrap_or_else(|e| e.into_inner()).pop();
+                let Some(mut s) = taken.or_else(|| main.fork()) else {
+                    return Err(
+                        GridError::invalid("sweeper", main.name(), "stopped giving forks").into(),
+                    );
+                };
+                let r = self.run_job(job, materials, fresh, s.as_mut());
+                pool.lock().unwrap_or_else(|e| e.into_inner()).push(s);
+                r
+            })
+            .collect()
     }
 
     /// One node's sky sweep and sun responses, on `sweeper`.

@@ -1294,9 +1294,24 @@ impl Hierarchy {
         } else {
             [Vec::new(), Vec::new(), wanted]
         };
-        for (i, part) in [near, read, rest].into_iter().enumerate() {
-            for depth in part.chunk_by(|a, b| a.depth == b.depth) {
-                self.build_depth(depth, &wanted_set, &mut stats)?;
+        // Each depth's step composes the next step's materials beside its sweeps.
+        let parts = [near, read, rest];
+        let steps: Vec<(usize, &[NodeKey])> = parts
+            .iter()
+            .enumerate()
+            .flat_map(|(i, part)| {
+                part.chunk_by(|a, b| a.depth == b.depth)
+                    .map(move |c| (i, c))
+            })
+            .collect();
+        let mut step = 0;
+        for i in 0..parts.len() {
+            while let Some(&(part, depth)) = steps.get(step)
+                && part == i
+            {
+                let next = steps.get(step + 1).map_or(&[][..], |s| s.1);
+                self.build_depth(depth, next, &wanted_set, &mut stats)?;
+                step += 1;
             }
             if i == 1 {
                 // The nodes near the camera built before what their boundaries read.

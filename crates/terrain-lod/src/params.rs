@@ -69,6 +69,16 @@ pub struct HierarchyParams {
     /// [`Hierarchy::update`]: crate::Hierarchy::update
     /// [`FrameStats::budget_points`]: crate::FrameStats::budget_points
     pub budget_ms: Option<f32>,
+    /// Most nodes of a frame's next depth to build whose materials are composed while
+    /// the depth before it sweeps (0: each depth composes its own first). Composition
+    /// reads no light, so a depth's new materials need not wait for the coarser depths'
+    /// sweeps: composed beside them, they fill the time a thread would wait on a depth's
+    /// last node. The grids are the same bit for bit either way; a material composed
+    /// for a node the budget then leaves for a later frame is kept for it. Not used
+    /// under a time budget ([`budget_ms`](Self::budget_ms)), whose frames compose a
+    /// batch at a time. Default 4 (16-point nodes along the fly-through: 10 % less time
+    /// a frame).
+    pub compose_ahead: u32,
     /// Most levels of one node grid (taller spans are cut at the top).
     pub max_levels: u32,
     /// Sweep options for every grid (by default 4 passes at most, stopping once the
@@ -162,6 +172,7 @@ impl Default for HierarchyParams {
             evict_factor: 1.5,
             budget_points: 32 * 32 * 48 * 2,
             budget_ms: None,
+            compose_ahead: 4,
             max_levels: 48,
             sweep,
             skip: LodSkips::default(),

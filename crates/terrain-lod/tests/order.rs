@@ -21,6 +21,12 @@ const CAMERA: Vec3 = Vec3::new(62.0, 12.0, 66.0);
 /// 1 m (depths of 4, 2 and 1 m cells), the level of detail of a camera (depth 1 wanted
 /// within 32 m, the finest within 8 m), at most 16 levels, the sun kept apart.
 fn hierarchy(budget_points: u64) -> Hierarchy {
+    hierarchy_composing_ahead(budget_points, HierarchyParams::default().compose_ahead)
+}
+
+/// [`hierarchy`] composing at most `compose_ahead` of a depth's materials beside the
+/// depth before it.
+fn hierarchy_composing_ahead(budget_points: u64, compose_ahead: u32) -> Hierarchy {
     let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
     let params = HierarchyParams {
         world_cell: 8.0,
@@ -30,6 +36,7 @@ fn hierarchy(budget_points: u64) -> Hierarchy {
         max_levels: 16,
         apron: 1,
         budget_points,
+        compose_ahead,
         ..Default::default()
     };
     let sky = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0))
@@ -78,6 +85,52 @@ fn the_camera_reaches_the_finest_depth_first() {
         2 * built <= wanted,
         "{built} of {wanted} depth-1 nodes built first"
     );
+}
+
+/// Composing a depth's materials beside the sweeps of the depth before it changes no
+/// frame: along a moving camera, under a budget of a node or two a frame and under one
+/// of many, every frame builds the same nodes and every node is the same bit for bit
+/// as where each depth composes its own first; and some materials were composed ahead
+/// (a frame composes more than it builds new nodes).
+#[test]
+fn composing_ahead_changes_no_frame() {
+    for budget in [SMALL, 8 * SMALL] {
+        let mut ahead = hierarchy_composing_ahead(budget, 4);
+        let mut own = hierarchy_composing_ahead(budget, 0);
+        let mut composed_ahead = 0;
+        for f in 0..24 {
+            let eye = CAMERA + Vec3::new(2.5 * f as f32, 0.0, -1.5 * f as f32);
+            let (a, b) = (ahead.update(eye).unwrap(), own.update(eye).unwrap());
+            assert_eq!(
+                (
+                    a.points_swept,
+                    a.built,
+                    a.pending,
+                    a.provisional,
+                    a.sun_built
+                ),
+                (
+                    b.points_swept,
+                    b.built,
+                    b.pending,
+                    b.provisional,
+                    b.sun_built
+                ),
+                "frame {f}"
+            );
+            composed_ahead += a.composed.saturating_sub(b.composed);
+            let nodes = own.ready_nodes();
+            assert_eq!(ahead.ready_nodes(), nodes, "frame {f}");
+            for k in &nodes {
+                assert!(ahead.node(*k) == own.node(*k), "frame {f}: {k:?}");
+            }
+        }
+        println!("budget {budget}: {composed_ahead} materials composed ahead");
+        assert!(
+            composed_ahead > 0,
+            "budget {budget}: nothing composed ahead"
+        );
+    }
 }
 
 /// Settled under the small budget (nodes swept before what their boundaries read, and
