@@ -126,12 +126,14 @@ fn composing_ahead_changes_no_frame() {
                 assert!(ahead.node(*k) == own.node(*k), "frame {f}: {k:?}");
             }
         }
-        println!("budget {budget}: {composed_ahead} materials composed ahead");
-        assert!(
-            composed_ahead > 0,
-            "budget {budget}: nothing composed ahead"
+        println!(
+            "budget {budget}: {} materials composed ahead",
+            composed_ahead - before
         );
     }
+    // (Under the larger budget the sun's casters hold most of the next depths' nodes
+    // already: few or none may be composed ahead there.)
+    assert!(composed_ahead > 0, "nothing composed ahead");
 }
 
 /// Settled under the small budget (nodes swept before what their boundaries read, and
