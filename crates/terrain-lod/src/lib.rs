@@ -14,12 +14,12 @@
 //! measured rate gets through): the camera's surroundings down to the finest depth first,
 //! each part coarse and near first (`order`). A caller that draws only once everything
 //! is built calls [`Hierarchy::settle`] instead: coarse to fine, each node swept once.
-//! The nodes
-//! of one depth are built side by side, each node's sky sweep and sun responses as two
-//! jobs, and the next depth's materials are composed beside those sweeps
-//! ([`HierarchyParams::compose_ahead`]); a wanted node the budget leaves keeps its
-//! composed material for the frame that builds it. A node whose inputs (material, boundary light, options) hash as before is
-//! not swept again. With [`LodSkips::bare_children`]
+//! The nodes of one depth are built side by side, each node's sky sweep and sun
+//! responses as two jobs, and the next depth's materials are composed beside those
+//! sweeps ([`HierarchyParams::compose_ahead`]); a wanted node the budget leaves keeps
+//! its composed material for the frame that builds it. A node whose inputs (material,
+//! boundary light, options) hash as before is not swept again. With
+//! [`LodSkips::bare_children`]
 //! (off by default: it costs accuracy at forest edges) nodes with no objects above the
 //! ground get no finer children.
 //!

@@ -76,8 +76,8 @@ pub struct HierarchyParams {
     /// last node. The grids are the same bit for bit either way; a material composed
     /// for a node the budget then leaves for a later frame is kept for it. Not used
     /// under a time budget ([`budget_ms`](Self::budget_ms)), whose frames compose a
-    /// batch at a time. Default 4 (16-point nodes along the fly-through: 10 % less time
-    /// a frame).
+    /// batch at a time. Default 4 (16-point nodes along the fly-through: 4–11 % less
+    /// time a frame, the medians of interleaved runs on two cores).
     pub compose_ahead: u32,
     /// Most levels of one node grid (taller spans are cut at the top).
     pub max_levels: u32,
