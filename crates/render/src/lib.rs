@@ -65,8 +65,8 @@ pub use passes::sample::{
 };
 pub use raster::{
     Camera, GroundLight, HDR_FALLBACK_FORMAT, HDR_FORMAT, Image, Lighting, LightingMode, MeshId,
-    MeshInstance, MeshMaterial, Renderer, TextureRgba8, Vertex, View, Water, hdr_format,
-    renderable,
+    MeshInstance, MeshMaterial, PendingImages, Renderer, TextureRgba8, Vertex, View, Water,
+    hdr_format, renderable,
 };
 pub use sampling::{IrradianceTable, LightVolume, SamplePoints, SampledLight, sample_points};
 

@@ -18,6 +18,9 @@ use crate::passes::scatter::LightScatter;
 use crate::passes::tonemap::Tonemap;
 use crate::sampling::LightVolume;
 
+mod readback;
+pub use readback::PendingImages;
+
 pub use crate::passes::mesh::{
     HDR_FALLBACK_FORMAT, HDR_FORMAT, Lighting, LightingMode, MeshInstance, Vertex, hdr_format,
     renderable,
@@ -1019,7 +1022,7 @@ impl Renderer {
 
     /// What each of `view`'s meshes draws: the instances whose bounding spheres the
     /// camera may see, written into their `seen` buffers where some are not.
-    fn cull(&self, view: &View) -> Vec<Drawn> {
+    fn cull(&self, view: &View, enc: &mut wgpu::CommandEncoder) -> Vec<Drawn> {
         let frustum = Frustum::of(
             &view
                 .camera
@@ -1043,13 +1046,25 @@ impl Renderer {
                 } else if seen.is_empty() {
                     Drawn::Nothing
                 } else {
-                    self.ctx
-                        .queue
-                        .write_buffer(&inst.seen, 0, bytemuck::cast_slice(&seen));
+                    self.write_in(enc, &inst.seen, bytemuck::cast_slice(&seen));
                     Drawn::Seen(seen.len() as u32)
                 }
             })
             .collect()
+    }
+
+    /// Writes `bytes` at the start of `buffer` as a command of `enc` (a copy from a new
+    /// buffer), where `queue.write_buffer` would land before the whole next submission.
+    fn write_in(&self, enc: &mut wgpu::CommandEncoder, buffer: &wgpu::Buffer, bytes: &[u8]) {
+        let src = self
+            .ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("write in order"),
+                contents: bytes,
+                usage: wgpu::BufferUsages::COPY_SRC,
+            });
+        enc.copy_buffer_to_buffer(&src, 0, buffer, 0, bytes.len() as u64);
     }
 
     /// Draws `view` into the HDR target and tone-maps it into `target` (a texture view of
@@ -1075,12 +1090,16 @@ impl Renderer {
         pair: bool,
     ) -> Result<wgpu::CommandEncoder, RenderError> {
         let uniforms = self.frame_uniforms(view)?;
-        self.ctx
-            .queue
-            .write_buffer(&self.frame_uniform, 0, bytemuck::bytes_of(&uniforms));
-        self.tonemap.set_exposure(&self.ctx.queue, view.exposure);
-        let drawn = self.cull(view);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        // Written in the encoder, so that views recorded before a submission keep theirs.
+        self.write_in(&mut enc, &self.frame_uniform, bytemuck::bytes_of(&uniforms));
+        let exposure = [view.exposure, 0.0, 0.0, 0.0];
+        self.write_in(
+            &mut enc,
+            self.tonemap.uniform(),
+            bytemuck::bytes_of(&exposure),
+        );
+        let drawn = self.cull(view, &mut enc);
         let bg = view.background;
         let colour = |view| {
             Some(wgpu::RenderPassColorAttachment {
@@ -1172,11 +1191,11 @@ impl Renderer {
         pass.draw(0..3, 0..1);
     }
 
-    /// Draws `view` headless and reads back the HDR and sRGB images.
+    /// Draws `view` headless and reads back the HDR and sRGB images
+    /// ([`Renderer::record`] and [`Renderer::finish`] at once).
     pub fn render(&mut self, view: &View) -> Result<Image, RenderError> {
-        let ldr_view = self.targets.ldr_view.clone();
-        self.render_to(view, &ldr_view, LDR_FORMAT)?;
-        self.read_image(false)
+        let pending = self.record(view)?;
+        Ok(self.finish(pending)?.remove(0))
     }
 
     /// Draws `view` headless twice over from one pass over its geometry: lit by the
@@ -1185,76 +1204,11 @@ impl Renderer {
     /// in that mode. Where drawing the geometry is most of a frame (a software
     /// rasteriser, a dense forest) the pair costs little more than one image.
     pub fn render_pair(&mut self, view: &View) -> Result<[Image; 2], RenderError> {
-        let ldr_view = self.targets.ldr_view.clone();
-        let mut enc = self.draw_meshes(view, true)?;
-        self.tonemap_into(&mut enc, &ldr_view, LDR_FORMAT, false);
-        self.ctx.queue.submit([enc.finish()]);
-        let grid = self.read_image(false)?;
-        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        self.tonemap_into(&mut enc, &ldr_view, LDR_FORMAT, true);
-        self.ctx.queue.submit([enc.finish()]);
-        Ok([grid, self.read_image(true)?])
-    }
-
-    /// Reads back the HDR target (`pair`: the pair's) and the sRGB target.
-    fn read_image(&self, pair: bool) -> Result<Image, RenderError> {
-        let hdr_tex = if pair {
-            &self.targets.hdr_pair
-        } else {
-            &self.targets.hdr
-        };
-        let hdr: Vec<[f32; 4]> = if self.hdr_format == HDR_FORMAT {
-            bytemuck::pod_collect_to_vec(&self.read_texture(hdr_tex, 16)?)
-        } else {
-            let halves: Vec<[u16; 4]> =
-                bytemuck::pod_collect_to_vec(&self.read_texture(hdr_tex, 8)?);
-            halves
-                .into_iter()
-                .map(|p| p.map(|h| half::f16::from_bits(h).to_f32()))
-                .collect()
-        };
-        let srgb: Vec<[u8; 4]> =
-            bytemuck::pod_collect_to_vec(&self.read_texture(&self.targets.ldr, 4)?);
-        Ok(Image {
-            width: self.width,
-            height: self.height,
-            hdr: hdr
-                .into_iter()
-                .map(|p| p.map(|c| if c.is_finite() { c } else { 0.0 }))
-                .collect(),
-            srgb,
-        })
-    }
-
-    fn read_texture(&self, tex: &wgpu::Texture, bpp: u32) -> Result<Vec<u8>, GpuError> {
-        let row = self.width * bpp;
-        let padded =
-            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("image readback"),
-            size: (padded * self.height) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        enc.copy_texture_to_buffer(
-            tex.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded),
-                    rows_per_image: Some(self.height),
-                },
-            },
-            tex.size(),
-        );
-        self.ctx.queue.submit([enc.finish()]);
-        let bytes = self.ctx.read_back(&buffer)?;
-        Ok(bytes
-            .chunks(padded as usize)
-            .flat_map(|r| &r[..row as usize])
-            .copied()
-            .collect())
+        let pending = self.record_pair(view)?;
+        let [grid, plain]: [Image; 2] = self
+            .finish(pending)?
+            .try_into()
+            .expect("a pair is two images");
+        Ok([grid, plain])
     }
 }

@@ -62,6 +62,65 @@ fn assert_all_pixels(r: &Renderer, img: &lightgrid_render::Image, expected: Vec3
     }
 }
 
+/// Views recorded one after the other and sent in one submission
+/// (`Renderer::record`, `record_pair`, `send`, `finish`) each keep their own camera,
+/// culled instances, exposure and lighting mode: every image equals the view rendered
+/// alone, bit for bit.
+#[test]
+fn views_recorded_together_are_each_as_rendered_alone() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let (mut v, i) = quad(0.0, Vec3::new(3.0, 2.0, 1.0));
+    for p in &mut v {
+        p.position = [p.position[0] / 20.0, 0.0, p.position[2] / 20.0];
+    }
+    let material = MeshMaterial {
+        lighting: Lighting::Vertex,
+        ..Default::default()
+    };
+    let at =
+        |x: f32, z: f32| MeshInstance::new(Mat4::from_translation(Vec3::new(x, 0.0, z)), Vec4::ONE);
+    let id = r.add_mesh(&v, &i, &material).unwrap();
+    // Seen all from above; a few beside the second camera's view.
+    r.set_instances(
+        id,
+        &[at(0.0, 0.0), at(2.0, 1.0), at(-2.5, -1.0), at(9.0, 0.0)],
+    )
+    .unwrap();
+    let above = view(LightingMode::Grid, vec![id]);
+    let mut aside = view(LightingMode::Grid, vec![id]);
+    aside.camera = Camera::look_at(Vec3::new(1.0, 3.0, 0.5), Vec3::new(2.0, 0.0, 1.0));
+    aside.exposure = 2.0;
+    let mut plain = aside.clone();
+    plain.mode = LightingMode::NoGrid;
+    let alone = [
+        r.render(&above).unwrap(),
+        r.render(&aside).unwrap(),
+        r.render(&plain).unwrap(),
+    ];
+    let pair = r.render_pair(&aside).unwrap();
+    let mut pending = r.record(&above).unwrap();
+    pending.append(r.record(&aside).unwrap());
+    pending.append(r.record_pair(&aside).unwrap());
+    pending.append(r.record(&plain).unwrap());
+    assert_eq!(pending.len(), 5);
+    r.send(&mut pending);
+    let together = r.finish(pending).unwrap();
+    assert_eq!(together.len(), 5);
+    assert!(alone[0] != alone[1], "the views differ");
+    let want = [&alone[0], &alone[1], &pair[0], &pair[1], &alone[2]];
+    for (k, (got, want)) in together.iter().zip(want).enumerate() {
+        assert!(
+            got == want,
+            "image {k} differs from the view rendered alone"
+        );
+    }
+    assert!(
+        pair[0] == alone[1] && pair[1] == alone[2],
+        "a pair is its two views"
+    );
+}
+
 /// Instances the camera cannot see are left out of the draw (`lightgrid_render::cull`)
 /// without changing the image: one in view, one across the view's edge, three outside
 /// (beside, behind, above the eye looking down) give the image of the first two alone,

@@ -436,9 +436,9 @@
 //!   --example forest_profile -- 16 300 [profile|source]`), uniform fog 12³ 38 against
 //!   19–20 ms, a 64³ canopy (two levels of media) at the same speed; its row kernels
 //!   carry three source coefficients per cell instead of one and solve a 3 × 3 balance
-//!   per cell and colour; the first sweep of a process computes the table nodes its
-//!   media's depths read, about 0.2 ms each (all 1025 nodes, as the GPU's copy needs, take
-//!   about 0.1 s on two threads). Plain passes
+//!   per cell and colour; its tables' nodes ship with the crate (computing one took
+//!   about 0.15 ms; all 1025, as the GPU's copy needs, 60 ms on two threads, read in 4).
+//!   Plain passes
 //!   converge a little slower in thick white media (uniform furnace of pass-through
 //!   0.02: 868 passes to 1e-7 against 524); [`accel`] runs it (slabs of cells of optical
 //!   depth 1, depth 10 to 1000, albedo 0.5 to 0.999: at most 30 passes to 1e-4; cells

@@ -350,39 +350,39 @@ impl Record {
         Ok(out)
     }
 
-    /// Renders `shot` from `camera` and writes it as `<view><suffix>.png` in `out`.
-    fn shot(
+    /// Draws `shots` of the view `view` from `camera`, in one submission (a
+    /// [`draw::Shot::Lit`] followed by [`draw::Shot::NoGrid`] as a pair,
+    /// [`Renderer::record_pair`]: the geometry once), and writes each as
+    /// `<view><suffix>.png` in `out` (the first as `<view>.exr` too with `exr`).
+    fn shots(
         &mut self,
         (r, meshes): (&mut Renderer, &draw::SceneMeshes),
         world: &World,
-        (camera, shot): (Camera, draw::Shot),
-        (out, view): (&Path, &str),
-    ) -> Result<lightgrid_render::Image> {
-        let img = r.render(&draw::make_view(world, meshes, camera, shot))?;
-        let path = out.join(format!("{view}{}.png", shot.suffix()));
-        write_png(&path, &img)?;
-        self.files.push(path);
-        Ok(img)
-    }
-
-    /// The view's [`draw::Shot::Lit`] and [`draw::Shot::NoGrid`] images drawn as one
-    /// pair ([`Renderer::render_pair`]: the same images, the geometry drawn once), both
-    /// written as PNG; the lit one returned.
-    fn pair(
-        &mut self,
-        (r, meshes): (&mut Renderer, &draw::SceneMeshes),
-        world: &World,
-        camera: Camera,
-        (out, view): (&Path, &str),
-    ) -> Result<lightgrid_render::Image> {
-        let [lit, plain] =
-            r.render_pair(&draw::make_view(world, meshes, camera, draw::Shot::Lit))?;
-        for (img, shot) in [(&lit, draw::Shot::Lit), (&plain, draw::Shot::NoGrid)] {
+        (camera, shots): (Camera, &[draw::Shot]),
+        (out, view, exr): (&Path, &str, bool),
+    ) -> Result<()> {
+        let mut pending = lightgrid_render::PendingImages::default();
+        let mut rest = shots;
+        if let [draw::Shot::Lit, draw::Shot::NoGrid, tail @ ..] = shots {
+            let lit = draw::make_view(world, meshes, camera, draw::Shot::Lit);
+            pending.append(r.record_pair(&lit)?);
+            rest = tail;
+        }
+        for &shot in rest {
+            pending.append(r.record(&draw::make_view(world, meshes, camera, shot))?);
+        }
+        let images = r.finish(pending)?;
+        for (img, shot) in images.iter().zip(shots) {
             let path = out.join(format!("{view}{}.png", shot.suffix()));
             write_png(&path, img)?;
             self.files.push(path);
         }
-        Ok(lit)
+        if let (true, Some(img)) = (exr, images.first()) {
+            let path = out.join(format!("{view}.exr"));
+            write_exr(&path, img)?;
+            self.files.push(path);
+        }
+        Ok(())
     }
 }
 
@@ -418,26 +418,20 @@ fn render_view(
     let mut camera = Camera::look_at(eye, target);
     camera.fov_y = spec.fov_deg.to_radians();
     rec.time(format!("render {name}"), |rec| {
-        // The lit shot and the one without the grids from one pass over the geometry.
-        let lit = rec.pair((r, meshes), world, camera, (&opts.out, name))?;
-        if vi == 0 && opts.exr {
-            let path = opts.out.join(format!("{name}.exr"));
-            write_exr(&path, &lit)?;
-            rec.files.push(path);
-        }
-        for shot in [draw::Shot::Points, draw::Shot::Material] {
-            rec.shot((r, meshes), world, (camera, shot), (&opts.out, name))?;
-        }
-        Ok(())
+        let to = (opts.out.as_path(), name.as_str(), vi == 0 && opts.exr);
+        rec.shots((r, meshes), world, (camera, &draw::Shot::ALL), to)
     })?;
     if meshes.relight_probes(r, world)?.is_some() {
         // The same view lit by the probes, and the probes' debug view; the next view
         // samples the grids again.
         rec.time(format!("probes for {name}"), |rec| {
-            for shot in [draw::Shot::Probes, draw::Shot::ProbesDebug] {
-                rec.shot((r, meshes), world, (camera, shot), (&opts.out, name))?;
-            }
-            Ok(())
+            let shots = [draw::Shot::Probes, draw::Shot::ProbesDebug];
+            rec.shots(
+                (r, meshes),
+                world,
+                (camera, &shots),
+                (&opts.out, name, false),
+            )
         })?;
     }
     Ok(ViewSummary {
@@ -511,11 +505,11 @@ fn move_sun(
     let mut camera = Camera::look_at(eye, target);
     camera.fov_y = spec.fov_deg.to_radians();
     let view = format!("{}-sun-moved", spec.name);
-    rec.shot(
+    rec.shots(
         (r, meshes),
         world,
-        (camera, draw::Shot::Lit),
-        (&opts.out, &view),
+        (camera, &[draw::Shot::Lit]),
+        (&opts.out, &view, false),
     )?;
     Ok(Some(format!(
         "{SUN_MOVE_DEG} deg in azimuth: {what}; then {sun_built} node sun responses and {built} node sky grids ({points} points) for view {}; {seconds:.2} s in all",

@@ -65,13 +65,9 @@ impl Tonemap {
         )
     }
 
-    /// Sets the exposure of the next frames.
-    pub(crate) fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) {
-        queue.write_buffer(
-            &self.uniform,
-            0,
-            bytemuck::bytes_of(&[exposure, 0.0, 0.0, 0.0]),
-        );
+    /// The uniform buffer: the exposure, then three zeros (`vec4<f32>`).
+    pub(crate) fn uniform(&self) -> &wgpu::Buffer {
+        &self.uniform
     }
 
     /// The pipeline drawing into targets of `format`.

@@ -7,9 +7,9 @@
 //! 3's emission; with diffusion acceleration, [`crate::accel`]: its
 //! corrections become flat sources, [`CellProfile::source_of_scattered`]) and on the GPU
 //! (`sweep-gpu`, from [`table_floats`] and [`slot_geometry`]); see the crate docs,
-//! "Against exact answers". Cost: each table node, computed on first use, about 0.3 ms
-//! on the 2-core VM (a scene reads the few around its media's depths; all 1025, as the
-//! GPU's copy needs, take some 180 ms); a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
+//! "Against exact answers". Cost: the tables' nodes ship with the crate (`tables.bin`,
+//! read on first use; computing one took about 0.15 ms on the 2-core VM, all 1025, as
+//! the GPU's copy needs, 60 ms on two threads); a [`CellProfile`], 1.2 µs, computed once per distinct cell depth and pass
 //! direction and kept across levels, passes, sweeps and sweepers (one set a process,
 //! which every sweeper reads: a hierarchy's forks meet the same depths; up to
 //! 65 536 of them, 77.5 MiB; a scene with more distinct depths computes the others once
@@ -337,20 +337,54 @@ struct Node {
     k: [[f32; 2]; 2],
 }
 
-/// Node `i` of the tables, computed on first use (about 0.2 ms each; all of them take
-/// about 0.1 s on two threads): a scene reads the nodes around its media's optical
-/// depths, a few of the [`TABLE`]. The computation runs no rayon
-/// jobs, so a worker never waits in one node's initializer while stealing work that
-/// needs the same node.
+/// Node `i` of the tables, read on first use from the copy the crate ships
+/// ([`SHIPPED`]; computing one took about 0.15 ms, and the world grid of a hierarchy
+/// over a 1.6 km DEM met some 300 in its first sweep, 40–50 ms of a process's start),
+/// or computed where that copy is missing (a store of another endianness). A scene
+/// reads the nodes around its media's optical depths, a few of the [`TABLE`]. The
+/// computation runs no rayon jobs, so a worker never waits in one node's initializer
+/// while stealing work that needs the same node.
 ///
-/// Each node is boxed when computed: a table of unboxed empty slots (2.4 MB) had every
+/// Each node is boxed when first read: a table of unboxed empty slots (2.4 MB) had every
 /// one of its 600 pages faulted in by the slots' initialisation, a fifth of a small
 /// process's page faults before its first sweep.
 fn node(i: usize) -> &'static Node {
     type Slots = Vec<std::sync::OnceLock<Box<Node>>>;
     static T: std::sync::OnceLock<Slots> = std::sync::OnceLock::new();
-    T.get_or_init(|| (0..TABLE).map(|_| std::sync::OnceLock::new()).collect())[i]
-        .get_or_init(|| Box::new(crate::isa::vectorised!(compute_node(i))))
+    T.get_or_init(|| (0..TABLE).map(|_| std::sync::OnceLock::new()).collect())[i].get_or_init(
+        || Box::new(shipped_node(i).unwrap_or_else(|| crate::isa::vectorised!(compute_node(i)))),
+    )
+}
+
+/// The tables as [`table_floats`] lays them out, little-endian, computed by
+/// [`compute_node`] (the test `shipped_tables_are_the_computed_ones` holds them to it
+/// bit for bit, and writes them anew with `LIGHTGRID_WRITE_TABLES=1`).
+static SHIPPED: &[u8] = include_bytes!("tables.bin");
+
+/// Node `i` from [`SHIPPED`] (`None` if the file does not hold it, or on a big-endian
+/// target).
+fn shipped_node(i: usize) -> Option<Node> {
+    if cfg!(target_endian = "big") || SHIPPED.len() != TABLE * NODE_FLOATS * 4 {
+        return None;
+    }
+    let bytes = &SHIPPED[i * NODE_FLOATS * 4..][..NODE_FLOATS * 4];
+    let mut v = bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+    let mut node = Node {
+        slot: [[[0.0; 6]; SLOTS]; 2],
+        k: [[0.0; 2]; 2],
+    };
+    for x in node
+        .slot
+        .iter_mut()
+        .flatten()
+        .flatten()
+        .chain(node.k.iter_mut().flatten())
+    {
+        *x = v.next()?;
+    }
+    Some(node)
 }
 
 /// Node `i` of the tables, from the segments' integrals. (Inlined into [`node`]'s call
@@ -406,12 +440,15 @@ fn compute_node(i: usize) -> Node {
     node
 }
 
-/// Every node of the tables (for the GPU's copy), on two plain threads.
-fn tables() -> Vec<&'static Node> {
+/// Every node of the tables, computed (not read from [`SHIPPED`]), on two plain
+/// threads.
+#[cfg(test)]
+fn computed_tables() -> Vec<Node> {
     let half = TABLE / 2;
+    let compute = |i| crate::isa::vectorised!(compute_node(i));
     std::thread::scope(|s| {
-        let upper = s.spawn(|| (half..TABLE).map(node).collect::<Vec<_>>());
-        let mut v: Vec<&'static Node> = (0..half).map(node).collect();
+        let upper = s.spawn(move || (half..TABLE).map(compute).collect::<Vec<_>>());
+        let mut v: Vec<Node> = (0..half).map(compute).collect();
         v.extend(upper.join().expect("profile table thread"));
         v
     })
@@ -428,16 +465,13 @@ pub const NODE_FLOATS: usize = 2 * SLOTS * 6 + 4;
 /// pass (downward first) and slot `[C_1/C_0, C_2/C_0, E_1, E_2, M_1, M_2]`, then `K_11,
 /// K_12, K_21, K_22`), for a GPU buffer.
 pub fn table_floats() -> Vec<f32> {
-    tables()
-        .iter()
-        .flat_map(|n| {
-            n.slot
-                .iter()
-                .flat_map(|p| p.iter().flatten().copied())
-                .chain(n.k.iter().flatten().copied())
-                .collect::<Vec<f32>>()
-        })
-        .collect()
+    (0..TABLE).flat_map(|i| node_floats(node(i))).collect()
+}
+
+/// A node's [`NODE_FLOATS`] values in [`table_floats`]' order.
+fn node_floats(n: &Node) -> impl Iterator<Item = f32> + '_ {
+    let slots = n.slot.iter().flatten().flatten();
+    slots.chain(n.k.iter().flatten()).copied()
 }
 
 /// Per stencil slot of a pass: `μ_c ω_b σ_c`, the path exponent `e` (the segment's
@@ -855,6 +889,38 @@ mod tests {
             let widest = crate::isa::vectorised!(compute_node(i));
             assert_eq!(bits(&baseline), bits(&widest), "node {i}");
             assert_eq!(bits(&baseline), bits(node(i)), "node {i}");
+        }
+    }
+
+    /// The tables the crate ships are [`compute_node`]'s bit for bit, and [`node`]
+    /// hands them out. `LIGHTGRID_WRITE_TABLES=1` writes them anew (after a change to
+    /// the integrals) instead of checking.
+    #[test]
+    fn shipped_tables_are_the_computed_ones() {
+        let computed = computed_tables();
+        let bytes: Vec<u8> = computed
+            .iter()
+            .flat_map(node_floats)
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        if std::env::var_os("LIGHTGRID_WRITE_TABLES").is_some() {
+            let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/profile/tables.bin");
+            std::fs::write(path, &bytes).expect("writing the tables");
+            return;
+        }
+        assert_eq!(SHIPPED.len(), bytes.len(), "tables.bin's length");
+        let n = NODE_FLOATS * 4;
+        let differs = (0..TABLE).find(|&i| SHIPPED[i * n..][..n] != bytes[i * n..][..n]);
+        assert_eq!(
+            differs, None,
+            "tables.bin differs from the computed tables at this node: run this test \
+             with LIGHTGRID_WRITE_TABLES=1 to write them anew"
+        );
+        let bits = |n: &Node| node_floats(n).map(f32::to_bits).collect::<Vec<_>>();
+        for i in [0, 1, 2, 511, TABLE - 1] {
+            assert_eq!(bits(node(i)), bits(&computed[i]), "node {i}");
+            let shipped = shipped_node(i).expect("shipped");
+            assert_eq!(bits(&shipped), bits(&computed[i]), "node {i}");
         }
     }
 

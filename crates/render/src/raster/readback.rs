@@ -1,0 +1,204 @@
+//! Images drawn now and read back later. [`Renderer::record`] and
+//! [`Renderer::record_pair`] record a view's drawing and the copy of its targets into
+//! buffers the CPU can map, [`Renderer::send`] submits them, [`Renderer::finish`] waits
+//! for them and decodes the images. In between the CPU is free while the device draws
+//! (a software rasteriser such as lavapipe draws on threads of its own): the viewer
+//! builds the next view's grids then.
+
+use super::*;
+
+/// Images recorded by [`Renderer::record`] or [`Renderer::record_pair`], not yet read
+/// back: [`Renderer::finish`] returns them in the order they were recorded.
+#[must_use = "the images are read back by Renderer::finish"]
+#[derive(Debug, Default)]
+pub struct PendingImages {
+    /// Commands recorded and not yet submitted ([`Renderer::send`]).
+    commands: Vec<wgpu::CommandBuffer>,
+    /// Per image: the copies of its targets.
+    images: Vec<Copies>,
+}
+
+/// One image's targets copied into mappable buffers.
+#[derive(Debug)]
+struct Copies {
+    hdr: wgpu::Buffer,
+    srgb: wgpu::Buffer,
+}
+
+impl PendingImages {
+    /// Images recorded.
+    pub fn len(&self) -> usize {
+        self.images.len()
+    }
+
+    /// Whether none is.
+    pub fn is_empty(&self) -> bool {
+        self.images.is_empty()
+    }
+
+    /// `other`'s images after these (sent and read back together).
+    pub fn append(&mut self, other: PendingImages) {
+        self.commands.extend(other.commands);
+        self.images.extend(other.images);
+    }
+}
+
+impl Renderer {
+    /// Records the drawing of `view` and the copy of its image, to be sent to the device
+    /// with others ([`Renderer::send`]) and read back by [`Renderer::finish`]. Views
+    /// recorded one after the other each keep their own camera and lighting.
+    pub fn record(&mut self, view: &View) -> Result<PendingImages, RenderError> {
+        let ldr_view = self.targets.ldr_view.clone();
+        let mut enc = self.draw_meshes(view, false)?;
+        self.tonemap_into(&mut enc, &ldr_view, LDR_FORMAT, false);
+        let image = self.copy_out(&mut enc, false);
+        Ok(PendingImages {
+            commands: vec![enc.finish()],
+            images: vec![image],
+        })
+    }
+
+    /// [`Renderer::record`] for [`Renderer::render_pair`]'s two images (lit by the
+    /// grids, then without them) from one pass over the geometry.
+    pub fn record_pair(&mut self, view: &View) -> Result<PendingImages, RenderError> {
+        let ldr_view = self.targets.ldr_view.clone();
+        let mut enc = self.draw_meshes(view, true)?;
+        self.tonemap_into(&mut enc, &ldr_view, LDR_FORMAT, false);
+        let grid = self.copy_out(&mut enc, false);
+        self.tonemap_into(&mut enc, &ldr_view, LDR_FORMAT, true);
+        let plain = self.copy_out(&mut enc, true);
+        Ok(PendingImages {
+            commands: vec![enc.finish()],
+            images: vec![grid, plain],
+        })
+    }
+
+    /// Submits what `pending` recorded, in one submission: the device starts drawing
+    /// while the caller goes on. (A software rasteriser such as lavapipe draws a
+    /// submission on threads of its own, but the next submission waits for it: one
+    /// submission for all of a view's images leaves the CPU free until then.)
+    pub fn send(&self, pending: &mut PendingImages) {
+        if !pending.commands.is_empty() {
+            self.ctx.queue.submit(pending.commands.drain(..));
+        }
+    }
+
+    /// Sends what `pending` recorded if it was not, waits for its images and reads
+    /// them back, in their order.
+    pub fn finish(&self, mut pending: PendingImages) -> Result<Vec<Image>, RenderError> {
+        self.send(&mut pending);
+        let (tx, rx) = std::sync::mpsc::channel();
+        for c in &pending.images {
+            for b in [&c.hdr, &c.srgb] {
+                let tx = tx.clone();
+                b.slice(..)
+                    .map_async(wgpu::MapMode::Read, move |r| drop(tx.send(r)));
+            }
+        }
+        drop(tx);
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        for r in rx.iter() {
+            r.map_err(|e| GpuError::Readback(e.to_string()))?;
+        }
+        pending
+            .images
+            .iter()
+            .map(|c| self.decode(c))
+            .collect::<Result<_, GpuError>>()
+            .map_err(RenderError::from)
+    }
+
+    /// Bytes a pixel of the HDR target.
+    fn hdr_bytes(&self) -> u32 {
+        if self.hdr_format == HDR_FORMAT { 16 } else { 8 }
+    }
+
+    /// Copies the HDR target (`pair`: the pair's) and the sRGB target into new
+    /// mappable buffers, in `enc`.
+    fn copy_out(&self, enc: &mut wgpu::CommandEncoder, pair: bool) -> Copies {
+        let hdr = if pair {
+            &self.targets.hdr_pair
+        } else {
+            &self.targets.hdr
+        };
+        Copies {
+            hdr: self.copy_texture(enc, hdr, self.hdr_bytes()),
+            srgb: self.copy_texture(enc, &self.targets.ldr, 4),
+        }
+    }
+
+    /// Rows of `bpp` bytes a pixel, padded to the copy's alignment.
+    fn padded_row(&self, bpp: u32) -> u32 {
+        (self.width * bpp).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
+    }
+
+    fn copy_texture(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        tex: &wgpu::Texture,
+        bpp: u32,
+    ) -> wgpu::Buffer {
+        let padded = self.padded_row(bpp);
+        let buffer = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("image readback"),
+            size: (padded * self.height) as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        enc.copy_texture_to_buffer(
+            tex.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(self.height),
+                },
+            },
+            tex.size(),
+        );
+        buffer
+    }
+
+    /// The rows of a mapped copy of `bpp` bytes a pixel, padding dropped.
+    fn rows(&self, buffer: &wgpu::Buffer, bpp: u32) -> Result<Vec<u8>, GpuError> {
+        let row = (self.width * bpp) as usize;
+        let data = buffer
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .chunks(self.padded_row(bpp) as usize)
+            .flat_map(|r| &r[..row])
+            .copied()
+            .collect();
+        buffer.unmap();
+        Ok(data)
+    }
+
+    /// One image from its mapped copies.
+    fn decode(&self, c: &Copies) -> Result<Image, GpuError> {
+        let hdr: Vec<[f32; 4]> = if self.hdr_format == HDR_FORMAT {
+            bytemuck::pod_collect_to_vec(&self.rows(&c.hdr, 16)?)
+        } else {
+            let halves: Vec<[u16; 4]> = bytemuck::pod_collect_to_vec(&self.rows(&c.hdr, 8)?);
+            halves
+                .into_iter()
+                .map(|p| p.map(|h| half::f16::from_bits(h).to_f32()))
+                .collect()
+        };
+        let srgb: Vec<[u8; 4]> = bytemuck::pod_collect_to_vec(&self.rows(&c.srgb, 4)?);
+        Ok(Image {
+            width: self.width,
+            height: self.height,
+            hdr: hdr
+                .into_iter()
+                .map(|p| p.map(|c| if c.is_finite() { c } else { 0.0 }))
+                .collect(),
+            srgb,
+        })
+    }
+}
