@@ -14,7 +14,9 @@
 //! - **Rasteriser** ([`Renderer`]): terrain and instanced meshes (base colour texture,
 //!   alpha mask) into a linear HDR target, tone-mapped to sRGB; headless images or any
 //!   texture view (a window). Instances wholly outside a view are left out of its draw
-//!   ([`cull`]: bounding spheres against the frustum; the image is the same).
+//!   ([`cull`]: bounding spheres against the frustum; the image is the same). Views
+//!   recorded one after another go to the device in one submission and come back
+//!   together ([`Renderer::record`], [`Renderer::send`], [`Renderer::finish`]).
 //!
 //! - **Many dynamic lights** ([`dynamic`]): point, spot and line lights culled through a
 //!   world-space grid of light-index ranges (3DWorld's grid bag), in the mesh shader.

@@ -47,6 +47,18 @@ impl Renderer {
     /// Records the drawing of `view` and the copy of its image, to be sent to the device
     /// with others ([`Renderer::send`]) and read back by [`Renderer::finish`]. Views
     /// recorded one after the other each keep their own camera and lighting.
+    ///
+    /// ```no_run
+    /// # use lightgrid_render::{RenderError, Renderer, View};
+    /// # fn shots(r: &mut Renderer, a: &View, b: &View) -> Result<(), RenderError> {
+    /// let mut pending = r.record(a)?;
+    /// pending.append(r.record_pair(b)?); // `b` lit by the grids, then without them
+    /// r.send(&mut pending); // one submission: the device draws, the CPU goes on
+    /// let images = r.finish(pending)?; // `a`, then `b`'s two
+    /// assert_eq!(images.len(), 3);
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn record(&mut self, view: &View) -> Result<PendingImages, RenderError> {
         let ldr_view = self.targets.ldr_view.clone();
         let mut enc = self.draw_meshes(view, false)?;
