@@ -340,7 +340,7 @@ struct Node {
 /// Node `i` of the tables, read on first use from the copy the crate ships
 /// ([`SHIPPED`]; computing one took about 0.15 ms, and the world grid of a hierarchy
 /// over a 1.6 km DEM met some 300 in its first sweep, 40–50 ms of a process's start),
-/// or computed where that copy is missing (a store of another endianness). A scene
+/// or computed where that copy does not hold it (a file of another length). A scene
 /// reads the nodes around its media's optical depths, a few of the [`TABLE`]. The
 /// computation runs no rayon jobs, so a worker never waits in one node's initializer
 /// while stealing work that needs the same node.
@@ -361,10 +361,10 @@ fn node(i: usize) -> &'static Node {
 /// bit for bit, and writes them anew with `LIGHTGRID_WRITE_TABLES=1`).
 static SHIPPED: &[u8] = include_bytes!("tables.bin");
 
-/// Node `i` from [`SHIPPED`] (`None` if the file does not hold it, or on a big-endian
-/// target).
+/// Node `i` from [`SHIPPED`] (read as little-endian on any target; `None` if the file
+/// does not hold the whole table).
 fn shipped_node(i: usize) -> Option<Node> {
-    if cfg!(target_endian = "big") || SHIPPED.len() != TABLE * NODE_FLOATS * 4 {
+    if SHIPPED.len() != TABLE * NODE_FLOATS * 4 {
         return None;
     }
     let bytes = &SHIPPED[i * NODE_FLOATS * 4..][..NODE_FLOATS * 4];
