@@ -2,8 +2,9 @@
 //! [`Renderer::record_pair`] record a view's drawing and the copy of its targets into
 //! buffers the CPU can map, [`Renderer::send`] submits them, [`Renderer::finish`] waits
 //! for them and decodes the images. In between the CPU is free while the device draws
-//! (a software rasteriser such as lavapipe draws on threads of its own): the viewer
-//! builds the next view's grids then.
+//! (a software rasteriser such as lavapipe draws on threads of its own). The viewer
+//! records each view's shots and reads them back at once: drawing them beside the next
+//! view's grids gained nothing on two cores, both being busy.
 
 use super::*;
 
@@ -193,10 +194,11 @@ impl Renderer {
 
     /// One image from its mapped copies.
     fn decode(&self, c: &Copies) -> Result<Image, GpuError> {
+        let bytes = self.rows(&c.hdr, self.hdr_bytes())?;
         let hdr: Vec<[f32; 4]> = if self.hdr_format == HDR_FORMAT {
-            bytemuck::pod_collect_to_vec(&self.rows(&c.hdr, 16)?)
+            bytemuck::pod_collect_to_vec(&bytes)
         } else {
-            let halves: Vec<[u16; 4]> = bytemuck::pod_collect_to_vec(&self.rows(&c.hdr, 8)?);
+            let halves: Vec<[u16; 4]> = bytemuck::pod_collect_to_vec(&bytes);
             halves
                 .into_iter()
                 .map(|p| p.map(|h| half::f16::from_bits(h).to_f32()))
