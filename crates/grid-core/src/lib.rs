@@ -123,7 +123,7 @@ pub use grid::{
 pub use light::{AmbientCube, BinLight, HorizonLight, LUMA, Sh1, Sh2, luminance, unit};
 pub use lights::LightKind;
 pub use rng::SeededRng;
-pub use sample::{Blend, trilinear_base, trilinear_corners, trilinear_indices};
+pub use sample::{Blend, trilinear_base, trilinear_corners, trilinear_frame, trilinear_indices};
 pub use terrain::Heightmap;
 pub use traits::{
     Acceleration, Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField,

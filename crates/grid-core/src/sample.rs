@@ -103,9 +103,13 @@ impl Blend for Material {
 
 /// A trilinear lookup at continuous grid coordinates `g` in a grid of `dims`: its base
 /// point, the point one step up each axis (both clamped into the grid; a zero
-/// dimension read as one point) and the fractions toward the second.
+/// dimension read as one point) and the fractions toward the second. The corners and
+/// weights of [`trilinear_indices`] and [`trilinear_corners`] are made from these (a
+/// caller that reads many points of one column can blend each level's four corners
+/// once: weight `(1 - f.x)·(1 - f.z)` and so on, which at `f.y = 0` are the trilinear
+/// weights bit for bit).
 #[inline]
-fn trilinear_frame(dims: UVec3, g: Vec3) -> (UVec3, UVec3, Vec3) {
+pub fn trilinear_frame(dims: UVec3, g: Vec3) -> (UVec3, UVec3, Vec3) {
     let dims = dims.max(UVec3::ONE);
     let maxf = (dims - UVec3::ONE).as_vec3();
     let g = g.clamp(Vec3::ZERO, maxf);

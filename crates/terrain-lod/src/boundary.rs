@@ -4,11 +4,24 @@
 
 use lightgrid_core::glam::{UVec3, Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, Boundary, GridDesc, HALO_WIDTH, HaloLayout, HorizonGrid, HorizonLight, LightGrid,
-    SideBoundary, TopBoundary,
+    BinLight, Blend, Boundary, GridDesc, HALO_WIDTH, HaloLayout, HorizonGrid, HorizonLight,
+    LightGrid, SideBoundary, TopBoundary,
 };
 
-use lightgrid_core::trilinear_indices;
+use lightgrid_core::{trilinear_frame, trilinear_indices};
+
+/// A halo column's reads of a coarser grid at one of its levels: the four corners
+/// around the column blended in x and z (weights `(1 − f.x)(1 − f.z)`… in the
+/// trilinear lookup's corner order), tagged with the grid (its address, stable while
+/// the hierarchy is borrowed) and the level. The fine levels between two coarse ones
+/// blend those two reads in y: two blends a halo point where the trilinear read took
+/// eight, and none at a fine level that lies on a coarse one (there the read is the
+/// trilinear one bit for bit: its weights along y are 1 and 0).
+type LevelRead = (usize, u32, BinLight, Option<HorizonLight>);
+
+/// The two coarse levels a halo column read last ([`Hierarchy::column_light_split`]).
+#[derive(Clone, Default)]
+pub(crate) struct ColumnReads([Option<LevelRead>; 2]);
 
 use crate::{Hierarchy, Response, within_levels};
 
@@ -42,6 +55,83 @@ impl Hierarchy {
                 )
             })
             .unwrap_or_default()
+    }
+
+    /// [`Hierarchy::coarse_light_split`] at `p`, a point of a halo column whose earlier
+    /// reads `reads` keeps: each coarse level's x–z blend is made once for the column
+    /// ([`ColumnReads`]), and `p` blends the two around it in y. Equal to
+    /// `coarse_light_split` bit for bit where `p` lies on a coarse level, to rounding
+    /// between (the same weights, added in another order).
+    pub(crate) fn column_light_split(
+        &self,
+        p: Vec3,
+        depth: u32,
+        which: Response,
+        reads: &mut ColumnReads,
+    ) -> (BinLight, Option<HorizonLight>) {
+        if !p.is_finite() {
+            return Default::default();
+        }
+        let Some((g, hg)) = self.coarse_grid(p, depth, which) else {
+            return Default::default();
+        };
+        if hg.is_some_and(|h| h.desc() != g.desc()) {
+            return self.coarse_light_split(p, depth, which);
+        }
+        let (base, hi, f) = trilinear_frame(g.desc().dims(), g.desc().to_grid(p));
+        let id = g as *const LightGrid as usize;
+        let (nx, nz) = (g.desc().dims().x as usize, g.desc().dims().z as usize);
+        let (xs, zs) = (
+            [base.x as usize, hi.x as usize],
+            [base.z as usize, hi.z as usize],
+        );
+        let (wx, wz) = ([1.0 - f.x, f.x], [1.0 - f.z, f.z]);
+        let level = |y: u32| -> LevelRead {
+            let mut light = BinLight::zero();
+            let mut halves = hg.map(|_| HorizonLight::zero());
+            for c in 0..4 {
+                let (bx, bz) = (c & 1, c >> 1);
+                // As the trilinear weight `wx · wy · wz` with `wy` = 1.
+                let w = wx[bx] * wz[bz];
+                if w != 0.0 {
+                    let i = xs[bx] + nx * (zs[bz] + nz * y as usize);
+                    light.add_scaled(&g.data()[i], w);
+                    if let (Some(acc), Some(h)) = (halves.as_mut(), hg) {
+                        acc.add_scaled(&h.data()[i], w);
+                    }
+                }
+            }
+            (id, y, light, halves)
+        };
+        let mut light = BinLight::zero();
+        let mut halves = hg.map(|_| HorizonLight::zero());
+        for (y, wy) in [(base.y, 1.0 - f.y), (hi.y, f.y)] {
+            if wy == 0.0 {
+                continue;
+            }
+            let slot = match reads.0.iter().position(|r| {
+                r.as_ref()
+                    .is_some_and(|(rid, ry, ..)| *rid == id && *ry == y)
+            }) {
+                Some(k) => k,
+                None => {
+                    // Keep the slot holding the other level this point reads.
+                    let other = if y == base.y { hi.y } else { base.y };
+                    let k = match &reads.0[0] {
+                        Some((rid, ry, ..)) if *rid == id && *ry == other && other != y => 1,
+                        _ => 0,
+                    };
+                    reads.0[k] = Some(level(y));
+                    k
+                }
+            };
+            let (_, _, l, h) = reads.0[slot].as_ref().expect("filled above");
+            light.add_scaled(l, wy);
+            if let (Some(acc), Some(h)) = (halves.as_mut(), h) {
+                acc.add_scaled(h, wy);
+            }
+        }
+        (light, halves)
     }
 
     /// The grid [`Hierarchy::coarse_light_split`] reads at `p`, and its halves if kept.
@@ -109,12 +199,16 @@ impl Hierarchy {
         let mut down = Vec::with_capacity(layout.len());
         let mut halves_everywhere = true;
         let (w, nx, nz) = (HALO_WIDTH, dims.x as i32, dims.z as i32);
+        // Each column's last coarse levels read, in the layout's column order.
+        let mut reads = vec![ColumnReads::default(); layout.per_level()];
         for j in 0..dims.y {
+            let mut column = reads.iter_mut();
             for z in -w..nz + w {
                 let inside_z = (0..nz).contains(&z);
                 for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
                     let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
-                    let (light, halves) = self.coarse_light_split(p, depth, which);
+                    let column = column.next().expect("one read a column of the layout");
+                    let (light, halves) = self.column_light_split(p, depth, which, column);
                     match halves {
                         Some(d) if halves_everywhere => down.push(d.within(&light)),
                         _ => halves_everywhere = false,
@@ -134,5 +228,147 @@ impl Hierarchy {
             bottom: BinLight::ZERO,
             sides,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use lightgrid_core::glam::{Vec2, Vec3};
+    use lightgrid_core::{
+        BinLight, GridDesc, GridError, Heightmap, Material, MaterialGrid, MaterialSource,
+    };
+
+    use super::trilinear_frame;
+    use crate::{Hierarchy, HierarchyParams, Response, SunLight};
+
+    /// A flat ground under a layer of medium whose density changes across x and z.
+    struct Layer;
+
+    impl MaterialSource for Layer {
+        fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+            let cells = (0..desc.point_count())
+                .map(|i| {
+                    let p = desc.position(desc.coords(i).expect("in range"));
+                    if p.y < 0.0 {
+                        Material::opaque(Vec3::splat(0.3))
+                    } else if (2.0..8.0).contains(&p.y) {
+                        Material {
+                            reflectance: Vec3::new(0.2, 0.5, 0.3),
+                            pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
+                        }
+                    } else {
+                        Material::EMPTY
+                    }
+                })
+                .collect();
+            MaterialGrid::new(*desc, cells)
+        }
+    }
+
+    /// Every halo point of every node, sky and sun: the column's reads equal the
+    /// trilinear ones to rounding, and bit for bit where the point lies on a level of
+    /// the coarser grid read.
+    #[test]
+    fn column_reads_are_the_trilinear_reads() {
+        let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
+        let params = HierarchyParams {
+            world_cell: 8.0,
+            finest_cell: 2.0,
+            node_points: 8,
+            lod_factor: 100.0,
+            evict_factor: 200.0,
+            budget_points: u64::MAX / 4,
+            apron: 0,
+            ..Default::default()
+        };
+        let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+        let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
+        let mut h = Hierarchy::new(&ground, Box::new(Layer), sweeper, sky, params).unwrap();
+        h.set_sun(Some(SunLight {
+            to_sun: Vec3::new(0.6, 0.5, 0.3),
+            irradiance: Vec3::splat(3.0),
+        }))
+        .unwrap();
+        h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
+        let (mut points, mut exact, mut between) = (0, 0, 0);
+        for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
+            let desc = *h.node(key).unwrap().desc();
+            for which in [Response::Sky, Response::Sun] {
+                let b = h.node_boundary_of(&desc, key.depth, which);
+                let (light, down) = match &b.sides {
+                    lightgrid_core::SideBoundary::GivenHalves { light, down } => {
+                        (light, Some(down))
+                    }
+                    lightgrid_core::SideBoundary::Given(light) => (light, None),
+                    other => panic!("sides {other:?}"),
+                };
+                let layout = lightgrid_core::HaloLayout::new(desc.dims());
+                let (w, nx, nz) = (
+                    lightgrid_core::HALO_WIDTH,
+                    desc.dims().x as i32,
+                    desc.dims().z as i32,
+                );
+                let mut i = 0;
+                for j in 0..desc.dims().y {
+                    for z in -w..nz + w {
+                        for x in -w..nx + w {
+                            if (0..nx).contains(&x) && (0..nz).contains(&z) {
+                                continue;
+                            }
+                            let p =
+                                desc.origin() + desc.h() * Vec3::new(x as f32, j as f32, z as f32);
+                            let (l, d) = h.coarse_light_split(p, key.depth, which);
+                            // On a coarse level: the trilinear read's weights along y
+                            // are 1 and 0.
+                            let on_level =
+                                h.coarse_grid(p, key.depth, which).is_some_and(|(g, _)| {
+                                    let f = trilinear_frame(g.desc().dims(), g.desc().to_grid(p)).2;
+                                    f.y == 0.0 || f.y == 1.0
+                                });
+                            let close = |a: &[f32], b: &[f32]| {
+                                a.iter().zip(b).all(|(a, b)| {
+                                    if on_level {
+                                        a.to_bits() == b.to_bits()
+                                    } else {
+                                        (a - b).abs() <= 1e-5 * (1.0 + b.abs())
+                                    }
+                                })
+                            };
+                            let (got, want) = (&light[i], &l);
+                            assert!(
+                                close(
+                                    bytemuck::cast_slice(&got.0[..]),
+                                    bytemuck::cast_slice(&want.0[..])
+                                ),
+                                "{key:?} {which:?} level {j} ({x}, {z}): {got:?} against {want:?}"
+                            );
+                            if let (Some(down), Some(d)) = (down, d) {
+                                let want = d.within(&l);
+                                assert!(
+                                    close(
+                                        bytemuck::cast_slice(&down[i].0[..]),
+                                        bytemuck::cast_slice(&want.0[..])
+                                    ),
+                                    "{key:?} {which:?} level {j} ({x}, {z}): halves"
+                                );
+                            }
+                            points += 1;
+                            if on_level {
+                                exact += 1
+                            } else {
+                                between += 1
+                            }
+                            i += 1;
+                        }
+                    }
+                }
+                assert_eq!(i, layout.len());
+            }
+        }
+        // (Else nothing here could fail.)
+        assert!(
+            exact > 1000 && between > 1000,
+            "{points} points: {exact} on a coarse level, {between} between"
+        );
     }
 }
