@@ -360,7 +360,7 @@ impl WorldBake {
         h.nodes.clear();
         h.world = world.light.clone();
         h.world_horizon = world.horizon.clone();
-        h.world_material = Some(world.material.clone());
+        h.set_world_material(world.material.clone());
         h.world_sun = world_sun;
         let wanted = self.reads(key);
         for k in wanted {

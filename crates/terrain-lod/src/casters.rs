@@ -208,15 +208,14 @@ impl Hierarchy {
         dirs: &[Vec3],
         fresh: &[NodeKey],
     ) -> Vec<NodeKey> {
-        let Some(world) = self
-            .world_material
-            .as_ref()
-            .filter(|_| !self.params.skip.sun_casters)
-        else {
-            return Vec::new(); // no sun kept apart, or the casters skipped
-        };
-        let all = Vec2::splat(f32::INFINITY);
-        let world_top = material_top_over(world, -all, all);
+        if self.world_material.is_none()
+            || self.params.skip.sun_casters
+            || grids.is_empty()
+            || dirs.is_empty()
+        {
+            return Vec::new(); // no sun kept apart, the casters skipped, or none lit
+        }
+        let world_top = self.world_top;
         let mut need = Vec::new();
         for &grid in grids {
             for &d in dirs {

@@ -520,6 +520,10 @@ pub struct Hierarchy {
     world_sun: Option<GridSun>,
     /// The world grid's material (the sun's march beyond the nodes crosses it).
     world_material: Option<MaterialGrid>,
+    /// The top of `world_material`'s highest non-empty cell anywhere
+    /// (`casters::material_top_over` of the whole grid; −∞ before it or without one),
+    /// found once a world material: the sun's casters are bounded by it.
+    world_top: f32,
     /// A moved sun's world-grid responses being swept on a thread ([`sun_move`]).
     sun_move: Option<sun_move::SunMove>,
     sky_scale: Vec3,
@@ -669,6 +673,7 @@ impl Hierarchy {
             sun: None,
             world_sun: None,
             world_material: None,
+            world_top: f32::NEG_INFINITY,
             sun_move: None,
             camera: None,
             checked: Default::default(),
@@ -712,8 +717,15 @@ impl Hierarchy {
         self.world = out.bins.expect("bins asked for");
         self.world_horizon = out.horizon;
         self.world_resident = out.resident;
-        self.world_material = Some(material);
+        self.set_world_material(material);
         Ok(())
+    }
+
+    /// Keeps `material` as the world grid's, with its top (`world_top`).
+    pub(crate) fn set_world_material(&mut self, material: MaterialGrid) {
+        let all = Vec2::splat(f32::INFINITY);
+        self.world_top = casters::material_top_over(&material, -all, all);
+        self.world_material = Some(material);
     }
 
     /// Sweeps from now on with `sweeper`, and sweeps the world grid again with it (so
