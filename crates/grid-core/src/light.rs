@@ -121,10 +121,15 @@ impl BinLight {
     /// the compiler vectorises (a node's side halo holds some 17,000 bins, checked at
     /// every sweep: 3 % of a 16-point node's sweep one bins at a time).
     pub fn all_valid(v: &[BinLight]) -> bool {
+        Self::all_within(v, f32::MAX)
+    }
+
+    /// [`BinLight::all_valid`] with every value at most `max` too, in the same one pass.
+    pub fn all_within(v: &[BinLight], max: f32) -> bool {
         // False for NaN, -inf and +inf, as `is_valid`.
         bytemuck::cast_slice::<BinLight, f32>(v)
             .iter()
-            .fold(true, |ok, x| ok & (0.0..=f32::MAX).contains(x))
+            .fold(true, |ok, x| ok & (0.0..=max).contains(x))
     }
 
     /// Total light over the sphere (sum of the bins, in `f64`). Like every projection

@@ -55,16 +55,46 @@ impl Boundary {
 
     /// Checks every value against `desc` (finite, not negative, right lengths).
     pub fn validate(&self, desc: &GridDesc) -> Result<(), GridError> {
+        self.validate_up_to(desc, f32::MAX)
+    }
+
+    /// [`Boundary::validate`], and every value of the light (top, bottom, the sides'
+    /// halo; not the horizon halves, which a sweep clamps to their bins) at most
+    /// [`MAX_LIGHT`](crate::MAX_LIGHT), as a sweep needs: an error naming the part
+    /// (`top`, `bottom`, `sides`) otherwise. One pass over each part's values where a
+    /// check and then a scale pass took two (a node's halo holds some 17,000 bins, read
+    /// at every sweep).
+    pub fn validate_for_sweep(&self, desc: &GridDesc) -> Result<(), GridError> {
+        self.validate_up_to(desc, crate::MAX_LIGHT)
+    }
+
+    /// [`Boundary::validate`] with the light at most `max` (`f32::MAX`: no more than
+    /// finite; else [`MAX_LIGHT`](crate::MAX_LIGHT)).
+    fn validate_up_to(&self, desc: &GridDesc, max: f32) -> Result<(), GridError> {
         // The field is named only for a bad value (a node's halo holds thousands).
         let check = |field: &dyn Fn() -> String, b: &BinLight| {
-            if b.is_valid() {
-                Ok(())
-            } else {
+            if !b.is_valid() {
                 Err(GridError::invalid(
                     field(),
                     b,
                     "boundary light must be finite and >= 0",
                 ))
+            } else {
+                Ok(())
+            }
+        };
+        // (The message's figure is `MAX_LIGHT`'s, the one `max` below `f32::MAX`.)
+        const _: () = assert!(crate::MAX_LIGHT == 1e30);
+        // A part over `max`, once every value of it is valid.
+        let over = |part: &'static str, v: &[BinLight]| {
+            if v.iter().any(|b| b.0.iter().any(|c| c.max_element() > max)) {
+                Err(GridError::invalid(
+                    part,
+                    "a value over 1e30",
+                    "boundary light must be <= 1e30",
+                ))
+            } else {
+                Ok(())
             }
         };
         check(&|| "bottom".into(), &self.bottom)?;
@@ -78,7 +108,7 @@ impl Boundary {
                         found: v.len(),
                     });
                 }
-                if !BinLight::all_valid(v) {
+                if !BinLight::all_within(v, max) {
                     for (i, b) in v.iter().enumerate() {
                         check(&|| format!("top[{i}]"), b)?;
                     }
@@ -117,11 +147,23 @@ impl Boundary {
                     found: h.len(),
                 });
             }
-            if !BinLight::all_valid(h) {
+            if !BinLight::all_within(h, max) {
                 for (i, b) in h.iter().enumerate() {
                     check(&|| format!("sides[{i}]"), b)?;
                 }
             }
+        }
+        // Every value is valid: the scale, in the order `top`, `bottom`, `sides`.
+        match &self.top {
+            TopBoundary::Uniform(b) => over("top", std::slice::from_ref(b.as_ref()))?,
+            TopBoundary::PerPoint(v) if !BinLight::all_within(v, max) => over("top", v)?,
+            TopBoundary::PerPoint(_) => {}
+        }
+        over("bottom", std::slice::from_ref(&self.bottom))?;
+        if let Some(h) = self.sides.halo()
+            && !BinLight::all_within(h, max)
+        {
+            over("sides", h)?;
         }
         Ok(())
     }
@@ -1118,6 +1160,39 @@ impl MaterialSource for UniformMaterial {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `validate_for_sweep` is `validate` and the scale check in one pass: each refusal
+    /// names its part, a valid boundary over `MAX_LIGHT` passes `validate` alone, and a
+    /// bad value is named before any scale.
+    #[test]
+    fn a_sweep_s_validation_names_the_bad_part() {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(3, 2, 3)).unwrap();
+        let halo = vec![BinLight::uniform(Vec3::ONE); HaloLayout::new(desc.dims()).len()];
+        let given = |halo: Vec<BinLight>| Boundary {
+            sides: SideBoundary::Given(halo),
+            ..Boundary::open_sky(BinLight::uniform(Vec3::ONE))
+        };
+        let message = |b: &Boundary| b.validate_for_sweep(&desc).unwrap_err().to_string();
+        assert!(given(halo.clone()).validate_for_sweep(&desc).is_ok());
+        let mut big = halo.clone();
+        big[7].0[3].y = 1e31;
+        assert!(given(big.clone()).validate(&desc).is_ok());
+        let e = message(&given(big.clone()));
+        assert!(e.contains("sides") && e.contains("1e30"), "{e}");
+        big[9].0[1].x = f32::NAN;
+        let e = message(&given(big));
+        assert!(e.contains("sides[9]") && e.contains("finite"), "{e}");
+        let mut top = given(halo.clone());
+        top.top = TopBoundary::PerPoint(vec![BinLight::single(2, Vec3::splat(2e30)); 9]);
+        let e = message(&top);
+        assert!(e.contains("top") && e.contains("1e30"), "{e}");
+        let bottom = Boundary {
+            bottom: BinLight::single(20, Vec3::splat(f32::MAX)),
+            ..given(halo)
+        };
+        let e = message(&bottom);
+        assert!(e.contains("bottom") && e.contains("1e30"), "{e}");
+    }
 
     /// A grid of light that is `sky` above the horizon and `ground` below, with its
     /// halves: as a [`SplitLightGrid`] it reads irradiance exactly on every axis (a

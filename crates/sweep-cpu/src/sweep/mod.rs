@@ -173,8 +173,8 @@ pub fn validate_inputs(
     options: &SweepOptions,
 ) -> Result<(), SweepError> {
     options.validate()?;
-    boundary.validate(material.desc())?;
-    check_boundary_scale(boundary)?;
+    // The checks and `check_boundary_scale` in one pass.
+    boundary.validate_for_sweep(material.desc())?;
     let desc = material.desc();
     lightgrid_core::limits::check_memory(
         &format!("a sweep of {} points", desc.point_count()),
