@@ -84,7 +84,7 @@ impl Boundary {
             }
         };
         // (The message's figure is `MAX_LIGHT`'s, the one `max` below `f32::MAX`.)
-        const _: () = assert!(crate::MAX_LIGHT == 1e30);
+        const _: () = assert!(crate::MAX_LIGHT.to_bits() == 1e30f32.to_bits());
         // A part over `max`, once every value of it is valid.
         let over = |part: &'static str, v: &[BinLight]| {
             if v.iter().any(|b| b.0.iter().any(|c| c.max_element() > max)) {
