@@ -102,6 +102,25 @@ impl<T: GridValue> Grid<T> {
     }
 }
 
+impl<T: bytemuck::Zeroable + Clone> Grid<T> {
+    /// A grid of zeros from pages the system hands out zeroed and maps on first touch:
+    /// a placeholder that is replaced before it is read costs no page faults (a 26-bin
+    /// grid made by [`Grid::filled`] with zeros writes its 312 bytes a point).
+    pub fn zeroed(desc: GridDesc) -> Result<Self, GridError> {
+        crate::limits::check_memory(
+            &format!("a grid of {} points", desc.point_count()),
+            crate::limits::checked_bytes(
+                "points",
+                &[desc.point_count() as u64, std::mem::size_of::<T>() as u64],
+            )?,
+        )?;
+        Ok(Self {
+            desc,
+            data: bytemuck::zeroed_vec(desc.point_count()),
+        })
+    }
+}
+
 impl<T> Grid<T> {
     /// Wraps values the caller guarantees valid (used by sweepers whose output is valid by
     /// construction). Panics if the length is wrong: that is a bug, not user input.
@@ -497,6 +516,20 @@ impl CodedLightGrid {
 mod tests {
     use super::*;
     use glam::UVec3;
+
+    /// `zeroed` is `filled` with zeros, bit for bit.
+    #[test]
+    fn a_zeroed_grid_is_a_grid_filled_with_zeros() {
+        let desc = GridDesc::new(glam::Vec3::ONE, 0.5, UVec3::new(3, 4, 5)).unwrap();
+        let z = crate::LightGrid::zeroed(desc).unwrap();
+        let f = crate::LightGrid::filled(desc, crate::BinLight::ZERO).unwrap();
+        assert_eq!(z.desc(), f.desc());
+        let (a, b): (&[f32], &[f32]) = (
+            bytemuck::cast_slice(z.data()),
+            bytemuck::cast_slice(f.data()),
+        );
+        assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    }
 
     #[test]
     fn levels_past_the_top_are_empty_and_huge_grids_are_refused_not_aborted() {

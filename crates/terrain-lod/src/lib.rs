@@ -703,7 +703,8 @@ impl Hierarchy {
                 &[desc.point_count() as u64, WORLD_BYTES_PER_POINT],
             )?,
         )?;
-        h.world = LightGrid::filled(desc, BinLight::ZERO)?;
+        // (Zeros the sweep replaces: a filled grid wrote 25 MB over the flythrough's DEM.)
+        h.world = LightGrid::zeroed(desc)?;
         Ok(h)
     }
 
