@@ -3,7 +3,8 @@
 //! (`lightgrid_sweep_cpu::sweep::run_scalar`, the crate docs step by step): equal **bit for bit**
 //! (light, average, dominant direction; the energy balance to `f64` rounding, as its
 //! tallies sum in another order) over random sparse and dense
-//! grids, every side mode (open, periodic, given halo), uniform and per-point tops,
+//! grids, every side mode (open, periodic, given halo, with or without its horizon
+//! halves), uniform and per-point tops,
 //! bottom light, cell sources, smoothing on and off, any number of passes and both
 //! output kinds. The fast path changes no arithmetic, only which work it skips, so any
 //! difference at all is a defect.
@@ -52,7 +53,7 @@ struct Case {
 
 fn case() -> impl Strategy<Value = Case> {
     (
-        0u8..3,
+        0u8..4,
         any::<bool>(),
         any::<bool>(),
         any::<bool>(),

@@ -381,12 +381,31 @@ impl Work {
         self.ring.make_for(ctx);
         let p = self.ghost.pitch();
         let pad = PAD as isize;
-        for &(x, z, mask) in &self.ring.points {
+        // With a halo, each ring point's value within a level is found once for the
+        // level size ([`GhostRing::halo`]): [`Sources::outside_bins`] without its
+        // lookup a point.
+        let halo = match (src.active, src.boundary.sides.halo(), &src.halo) {
+            (true, Some(h), Some(layout)) => {
+                let lv = src_level.clamp(0, src.dims.y as i32 - 1) as usize;
+                let base = lv * layout.per_level();
+                Some((h, src.boundary.sides.halo_down(), base))
+            }
+            _ => None,
+        };
+        for (k, &(x, z, mask)) in self.ring.points.iter().enumerate() {
             // The point's bins, found once for its channels.
-            let bins = if from_virtual && src.halo.is_none() {
-                src.virtual_bins(x, z)
-            } else {
-                src.outside_bins(x, src_level, z)
+            let bins = match (halo, self.ring.halo[k]) {
+                (Some((h, down, base)), Some(off)) => {
+                    let i = base + off as usize;
+                    Some(SourceBins {
+                        light: &h[i],
+                        down: down.map(|d| &d[i]),
+                        full_sphere: true,
+                    })
+                }
+                (Some(_), None) => None,
+                _ if from_virtual && src.halo.is_none() => src.virtual_bins(x, z),
+                _ => src.outside_bins(x, src_level, z),
             };
             let row = self.ghost.row_mut(z as isize);
             let col = (x as isize + pad) as usize;
@@ -417,6 +436,9 @@ pub(crate) struct GhostRing {
     /// The level size and channel set the points are for.
     key: Option<(i32, i32, usize)>,
     pub(crate) points: Vec<(i32, i32, u32)>,
+    /// Each point's index within a level of a side halo
+    /// ([`lightgrid_core::HaloLayout::index`] at level 0; `None` beyond the halo).
+    pub(crate) halo: Vec<Option<u32>>,
 }
 
 impl GhostRing {
@@ -428,6 +450,12 @@ impl GhostRing {
         }
         self.key = Some(key);
         self.points.clear();
+        self.halo.clear();
+        let layout = lightgrid_core::HaloLayout::new(UVec3::new(
+            ctx.nx.max(0) as u32,
+            1,
+            ctx.nz.max(0) as u32,
+        ));
         let (nx, nz) = (ctx.nx as isize, ctx.nz as isize);
         let pad = PAD as isize;
         let reach: [GhostReach; CHANNELS] =
@@ -444,6 +472,8 @@ impl GhostRing {
                     .fold(0u32, |m, (c, _)| m | 1 << c);
                 if mask != 0 {
                     self.points.push((x as i32, z as i32, mask));
+                    self.halo
+                        .push(layout.index(x as i32, 0, z as i32).map(|i| i as u32));
                 }
             }
         }

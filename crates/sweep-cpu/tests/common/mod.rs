@@ -39,11 +39,25 @@ pub(crate) fn sides(d: &GridDesc, kind: u8) -> SideBoundary {
     match kind {
         0 => SideBoundary::Open,
         1 => SideBoundary::Periodic,
-        _ => SideBoundary::Given(
+        2 => SideBoundary::Given(
             (0..HaloLayout::new(d.dims()).len())
                 .map(|i| light(i).scaled(0.5))
                 .collect(),
         ),
+        // As a hierarchy hands its nodes' sides over: with the downward halves of the
+        // horizontal bins (some over their bins, which a sweep clamps).
+        _ => SideBoundary::GivenHalves {
+            light: (0..HaloLayout::new(d.dims()).len())
+                .map(|i| light(i).scaled(0.5))
+                .collect(),
+            down: (0..HaloLayout::new(d.dims()).len())
+                .map(|i| {
+                    lightgrid_core::HorizonLight(std::array::from_fn(|k| {
+                        Vec3::splat(0.05 * ((i + 3 * k) % 13) as f32)
+                    }))
+                })
+                .collect(),
+        },
     }
 }
 
