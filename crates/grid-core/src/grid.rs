@@ -70,14 +70,7 @@ impl<T: GridValue> Grid<T> {
                 reason,
             });
         }
-        // Within the memory limit, not an allocation failure (2^32 points aborted).
-        crate::limits::check_memory(
-            &format!("a grid of {} points", desc.point_count()),
-            crate::limits::checked_bytes(
-                "points",
-                &[desc.point_count() as u64, std::mem::size_of::<T>() as u64],
-            )?,
-        )?;
+        check_size::<T>(&desc)?;
         Ok(Self {
             desc,
             data: vec![value; desc.point_count()],
@@ -102,18 +95,24 @@ impl<T: GridValue> Grid<T> {
     }
 }
 
+/// A grid of `desc`'s points of `T` within the memory limit: an error naming its size,
+/// not an allocation failure (2^32 points aborted).
+fn check_size<T>(desc: &GridDesc) -> Result<(), GridError> {
+    crate::limits::check_memory(
+        &format!("a grid of {} points", desc.point_count()),
+        crate::limits::checked_bytes(
+            "points",
+            &[desc.point_count() as u64, std::mem::size_of::<T>() as u64],
+        )?,
+    )
+}
+
 impl<T: bytemuck::Zeroable + Clone> Grid<T> {
     /// A grid of zeros from pages the system hands out zeroed and maps on first touch:
     /// a placeholder that is replaced before it is read costs no page faults (a 26-bin
     /// grid made by [`Grid::filled`] with zeros writes its 312 bytes a point).
     pub fn zeroed(desc: GridDesc) -> Result<Self, GridError> {
-        crate::limits::check_memory(
-            &format!("a grid of {} points", desc.point_count()),
-            crate::limits::checked_bytes(
-                "points",
-                &[desc.point_count() as u64, std::mem::size_of::<T>() as u64],
-            )?,
-        )?;
+        check_size::<T>(&desc)?;
         Ok(Self {
             desc,
             data: bytemuck::zeroed_vec(desc.point_count()),
