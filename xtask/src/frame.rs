@@ -110,6 +110,9 @@ pub struct FrameConfig {
     /// A frame's time budget, milliseconds (`HierarchyParams::budget_ms`; `None`: the
     /// points budget alone).
     pub budget_ms: Option<f32>,
+    /// Points a frame may sweep (`HierarchyParams::budget_points`; `None`: the node's
+    /// points across squared times 96, two nodes of 48 levels).
+    pub budget_points: Option<u64>,
     /// Most passes a sweep runs (`HierarchyParams::sweep.max_passes`, in the hierarchy
     /// and the reference sweep; `None`: the hierarchy's default, 4).
     pub passes: Option<u32>,
@@ -156,6 +159,7 @@ impl FrameConfig {
             skip_finest_sun: false,
             even: false,
             budget_ms: None,
+            budget_points: None,
             passes: None,
             apron: None,
             sun_apron: 0,
@@ -239,6 +243,12 @@ pub struct FrameRow {
     pub caster_bytes: u64,
     /// Against the reference, over this frame's points.
     pub error: Errors,
+    /// Against the reference, over this frame's points the finest depth serves (its
+    /// nesting error: the finest depth's own-cell reference is the 1 m sweep).
+    pub finest_error: Errors,
+    /// Nodes provisional after the frame (swept before a coarser node their boundaries
+    /// read, to be swept again: `FrameStats::provisional`).
+    pub provisional: u32,
     /// What the machine took from the frame (steal, waits for a core).
     pub host: Interference,
 }
@@ -715,7 +725,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     let mut p = HierarchyParams {
         node_points: cfg.node_points,
         finest_cell: 1.0,
-        budget_points: np * np * 96,
+        budget_points: cfg.budget_points.unwrap_or(np * np * 96),
         ..Default::default()
     };
     p.skip.bare_children = cfg.bare_skip;
@@ -798,6 +808,7 @@ fn frame(
         tally.peaks_second_half.add(&depths, &parts, &own_refs);
     }
     let mut acc = Acc3::default();
+    let mut finest_acc = Acc3::default();
     for (i, (p, (hp, r))) in probes
         .iter()
         .zip(parts.iter().copied().zip(full.iter().copied()))
@@ -812,6 +823,7 @@ fn frame(
         }
         tally.by_depth[d].add(hp, r);
         if d == finest {
+            finest_acc.add(hp, r);
             let shown = own_sun.contains(&(h.grid_at(p.p) as *const _));
             tally.finest_sun[usize::from(!shown)].add(hp, r);
             tally.finest_places.add(h.grid_at(p.p).desc(), p, hp, r);
@@ -831,6 +843,8 @@ fn frame(
         casters: stats.casters,
         caster_bytes: stats.caster_bytes,
         error: acc.errors(),
+        finest_error: finest_acc.errors(),
+        provisional: stats.provisional,
         host,
     })
 }
@@ -1196,6 +1210,8 @@ impl FrameRow {
             casters: 0,
             caster_bytes: 0,
             error: Errors::default(),
+            finest_error: Errors::default(),
+            provisional: 0,
             host: Interference {
                 steal_ms,
                 ..Interference::default()

@@ -15,6 +15,31 @@ fn budget_use(frames: &[FrameRow], budget: u64) -> (usize, f64) {
     (held, mean)
 }
 
+/// The provisional nodes frame by frame and the finest depth's sky nesting error over
+/// the frames it served probes in: how far the point budget lets the nodes near the
+/// camera wait for the coarser ones their boundaries read.
+fn starvation_line(frames: &[FrameRow]) -> String {
+    let n = frames.len().max(1) as f64;
+    let mean = frames.iter().map(|f| f.provisional as f64).sum::<f64>() / n;
+    let most = frames.iter().map(|f| f.provisional).max().unwrap_or(0);
+    let mut rmse: Vec<f64> = frames
+        .iter()
+        .filter(|f| f.finest_error.sky.n > 0)
+        .map(|f| f.finest_error.sky.rmse * 100.0)
+        .collect();
+    rmse.sort_by(f64::total_cmp);
+    let spread = match (rmse.first(), rmse.get(rmse.len() / 2), rmse.last()) {
+        (Some(lo), Some(mid), Some(hi)) => format!(
+            "{lo:.1} / {mid:.1} / {hi:.1} % (least / median / most, over the {} frames it served probes in)",
+            rmse.len()
+        ),
+        _ => "none (it served no probe)".to_string(),
+    };
+    format!(
+        "  provisional nodes after a frame (swept before a coarser node their boundaries read, swept again once it is built): {mean:.1} on average, at most {most}; the finest depth's sky RMSE against the 1 m sweep frame by frame: {spread}"
+    )
+}
+
 /// `, N ms CPU` where the CPU time is known.
 fn cpu_note(ms: Option<f64>) -> String {
     ms.map(|c| format!(", {c:.0} ms CPU")).unwrap_or_default()
@@ -138,6 +163,7 @@ pub fn text(report: &FrameReport) -> String {
             report.budget_points,
             r.frames.len()
         );
+        let _ = writeln!(s, "{}", starvation_line(&r.frames));
         if r.sun_move_wait_frames > 0 || r.sun_move_world_ms < 0.5 * r.sun_move_landed_ms {
             let _ = writeln!(
                 s,
@@ -315,5 +341,36 @@ mod tests {
         let frames = [row(1000), row(900), row(899), row(0)];
         assert_eq!(budget_use(&frames, 1000), (2, 699.75));
         assert_eq!(budget_use(&[], 1000), (0, 0.0));
+    }
+
+    /// The provisional nodes' mean and most, and the finest depth's sky RMSE least /
+    /// median / most over the frames where it served probes (not the others).
+    #[test]
+    fn starvation_line_counts_the_frames_the_finest_depth_served() {
+        let row = |provisional, rmse: Option<f64>| {
+            let mut r = FrameRow::for_test(0, 0.0, None);
+            r.provisional = provisional;
+            if let Some(rmse) = rmse {
+                r.finest_error.sky = Error {
+                    bias: 0.0,
+                    rmse,
+                    n: 10,
+                };
+            }
+            r
+        };
+        let frames = [
+            row(0, None),
+            row(4, Some(0.03)),
+            row(2, Some(0.01)),
+            row(6, Some(0.02)),
+        ];
+        let line = starvation_line(&frames);
+        assert!(line.contains("3.0 on average, at most 6"), "{line}");
+        assert!(
+            line.contains("1.0 / 2.0 / 3.0 % (least / median / most, over the 3 frames"),
+            "{line}"
+        );
+        assert!(starvation_line(&[row(0, None)]).contains("it served no probe"));
     }
 }
