@@ -50,19 +50,19 @@ impl Hierarchy {
         Ok((crop(&wide, &big, desc, apron), Some(wide)))
     }
 
-    /// The inputs of the sky sweep of a node of `depth` whose material is `material`:
-    /// the boundary from the coarser grids around the grid it is swept on (its widened
-    /// one where it has one).
+    /// The inputs of node `key`'s sky sweep, its material `material`: the boundary from
+    /// the coarser grids (and the nodes of its depth before it, where it reads those)
+    /// around the grid it is swept on (its widened one where it has one).
     pub(crate) fn sky_inputs(
         &self,
-        depth: u32,
+        key: crate::NodeKey,
         material: (&MaterialGrid, Option<&MaterialGrid>),
         options: &SweepOptions,
         times: &mut StageTimes,
     ) -> SkyInputs {
         let m = material.1.unwrap_or(material.0);
         let (boundary, hash) = timed(&mut times.boundary, || {
-            let b = self.node_boundary(m.desc(), depth);
+            let b = self.node_boundary(m.desc(), key);
             let hash = crate::hash_grid(m, &b, options);
             (b, hash)
         });

@@ -161,7 +161,9 @@ impl WorldBake {
     }
 
     /// The coarser nodes whose columns meet node `key`'s boundary halo (and its top's
-    /// reads), coarse first: the grids its boundary and sun march may read.
+    /// reads), coarse first, then (with
+    /// [`HierarchyParams::neighbour_halo`](crate::HierarchyParams::neighbour_halo)) the
+    /// nodes of its depth before it: the grids its boundary and sun march may read.
     fn reads(&self, key: NodeKey) -> Vec<NodeKey> {
         let (lo, hi) = self.h.node_rect(key);
         let m = (HALO_WIDTH as f32 + 1.0) * self.h.params.cell(key.depth);
@@ -180,6 +182,12 @@ impl WorldBake {
                 }
             }
         }
+        let (rlo, rhi) = self.node_range(key.depth);
+        out.extend(
+            self.h
+                .before_neighbours(key)
+                .filter(|k| k.index.cmpge(rlo).all() && k.index.cmple(rhi).all()),
+        );
         out
     }
 

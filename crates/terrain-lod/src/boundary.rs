@@ -23,7 +23,7 @@ type LevelRead = (usize, u32, BinLight, Option<HorizonLight>);
 #[derive(Clone, Default)]
 pub(crate) struct ColumnReads([Option<LevelRead>; 2]);
 
-use crate::{Hierarchy, Response, within_levels};
+use crate::{Hierarchy, NodeKey, Response, within_levels};
 
 impl Hierarchy {
     /// Light (full bins) at `p` from the finest ready grid coarser than `depth` (the
@@ -57,22 +57,29 @@ impl Hierarchy {
             .unwrap_or_default()
     }
 
-    /// [`Hierarchy::coarse_light_split`] at `p`, a point of a halo column whose earlier
-    /// reads `reads` keeps: each coarse level's x–z blend is made once for the column
-    /// ([`ColumnReads`]), and `p` blends the two around it in y. Equal to
+    /// [`Hierarchy::coarse_light_split`] at `p`, a point of node `key`'s halo column
+    /// whose earlier reads `reads` keeps: each coarse level's x–z blend is made once
+    /// for the column ([`ColumnReads`]), and `p` blends the two around it in y. Equal to
     /// `coarse_light_split` bit for bit where `p` lies on a coarse level, to rounding
-    /// between (the same weights, added in another order).
+    /// between (the same weights, added in another order). Where a built node of the
+    /// same depth before `key` holds `p` among its points
+    /// ([`HierarchyParams::neighbour_halo`](crate::HierarchyParams::neighbour_halo)),
+    /// that node's light there, read the same way (on its points: its own values).
     pub(crate) fn column_light_split(
         &self,
         p: Vec3,
-        depth: u32,
+        key: NodeKey,
         which: Response,
         reads: &mut ColumnReads,
     ) -> (BinLight, Option<HorizonLight>) {
         if !p.is_finite() {
             return Default::default();
         }
-        let Some((g, hg)) = self.coarse_grid(p, depth, which) else {
+        let depth = key.depth;
+        let Some((g, hg)) = self
+            .neighbour_light(p, key, which)
+            .or_else(|| self.coarse_grid(p, depth, which))
+        else {
             return Default::default();
         };
         if hg.is_some_and(|h| h.desc() != g.desc()) {
@@ -157,19 +164,23 @@ impl Hierarchy {
         Some((&self.world, self.world_horizon.as_ref()))
     }
 
-    /// The boundary of a node grid from the coarser grids: the top from the downward
-    /// light just above it, the sides from the full light in the halo.
-    pub(crate) fn node_boundary(&self, desc: &GridDesc, depth: u32) -> Boundary {
-        self.node_boundary_of(desc, depth, Response::Sky)
+    /// The boundary of node `key`'s grid `desc` (its own or widened by its apron) from
+    /// the coarser grids: the top from the downward light just above it, the sides
+    /// from the full light in the halo (and, with
+    /// [`HierarchyParams::neighbour_halo`](crate::HierarchyParams::neighbour_halo),
+    /// from the nodes of its depth before it where they are built).
+    pub(crate) fn node_boundary(&self, desc: &GridDesc, key: NodeKey) -> Boundary {
+        self.node_boundary_of(desc, key, Response::Sky)
     }
 
     /// [`Hierarchy::node_boundary`] of one response.
     pub(crate) fn node_boundary_of(
         &self,
         desc: &GridDesc,
-        depth: u32,
+        key: NodeKey,
         which: Response,
     ) -> Boundary {
+        let depth = key.depth;
         let dims = desc.dims();
         let h = desc.h();
         let top_y = dims.y - 1;
@@ -208,7 +219,7 @@ impl Hierarchy {
                 for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
                     let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
                     let column = column.next().expect("one read a column of the layout");
-                    let (light, halves) = self.column_light_split(p, depth, which, column);
+                    let (light, halves) = self.column_light_split(p, key, which, column);
                     match halves {
                         Some(d) if halves_everywhere => down.push(d.within(&light)),
                         _ => halves_everywhere = false,
@@ -294,7 +305,7 @@ mod tests {
         for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
             let desc = *h.node(key).unwrap().desc();
             for which in [Response::Sky, Response::Sun] {
-                let b = h.node_boundary_of(&desc, key.depth, which);
+                let b = h.node_boundary_of(&desc, key, which);
                 let (light, down) = match &b.sides {
                     lightgrid_core::SideBoundary::GivenHalves { light, down } => {
                         (light, Some(down))

@@ -689,12 +689,7 @@ impl Hierarchy {
         let o = self.node_options(composed.has_objects);
         let inputs = match prepared {
             Some(i) => i,
-            None => self.sky_inputs(
-                key.depth,
-                (&composed.grid, composed.widened.as_ref()),
-                &o,
-                times,
-            ),
+            None => self.sky_inputs(key, (&composed.grid, composed.widened.as_ref()), &o, times),
         };
         let input_hash = inputs.hash;
         let out = self.sweep_sky(&inputs, composed, &o, sweeper, times)?;

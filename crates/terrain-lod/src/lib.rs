@@ -133,6 +133,9 @@
 //!   side (material, boundaries from coarser grids, sweeps).
 //! - `refresh`: ready nodes swept again where their inputs changed
 //!   ([`Hierarchy::refresh`]).
+//! - `neighbours`: the side halo from the same depth's nodes before a node in a fixed
+//!   order ([`HierarchyParams::neighbour_halo`], off by default), and the waves a
+//!   depth is then swept in.
 //! - `shadow`: the sun's beam beyond a node, marched through the finest material held
 //!   at each place.
 //! - `casters`: the nodes a low sun's rays cross beyond the built ones, composed for
@@ -152,6 +155,7 @@ mod boundary;
 mod build;
 mod casters;
 mod depth;
+mod neighbours;
 mod order;
 mod params;
 mod read;
@@ -889,7 +893,7 @@ impl Hierarchy {
         let desc = *swept.desc();
         let o = self.node_options(material.has_objects);
         let scattered = timed(&mut times.sun_boundary, || {
-            self.node_boundary_of(&desc, key.depth, Response::Sun)
+            self.node_boundary_of(&desc, key, Response::Sun)
         });
         // Swept for the direction the scattered sun is shown for (the old one while a
         // moved sun's world grid is swept on a thread), marched for the sun shown.
@@ -977,9 +981,12 @@ impl Hierarchy {
     /// coarser node its boundary reads ([`Hierarchy::halo_rect`]: its parent and the
     /// neighbours its halo reaches; the world grid's, always current, where none is).
     /// Else a node near the camera, swept before a neighbour of its parent's depth
-    /// (`order.rs`), would take that neighbour's old sun and keep it.
+    /// (`order.rs`), would take that neighbour's old sun and keep it. The same for the
+    /// nodes of its depth before it whose scattered sun its halo reads
+    /// ([`HierarchyParams::neighbour_halo`]).
     fn sun_parent_ready(&self, key: NodeKey) -> bool {
         self.halo_nodes(key)
+            .chain(self.before_neighbours(key))
             .all(|k| !self.nodes.contains_key(&k) || self.sun_current(k))
     }
 
@@ -1324,7 +1331,13 @@ impl Hierarchy {
                 && part == i
             {
                 let next = steps.get(step + 1).map_or(&[][..], |s| s.1);
-                self.build_depth(depth, next, &wanted_set, &mut stats)?;
+                // In waves where a node reads the nodes of its depth before it
+                // (`neighbours.rs`; one wave otherwise), each wave's next the one after.
+                let waves = neighbours::waves(depth, self.params.neighbour_halo);
+                for (w, wave) in waves.iter().enumerate() {
+                    let next = waves.get(w + 1).map_or(next, |n| &n[..]);
+                    self.build_depth(wave, next, &wanted_set, &mut stats)?;
+                }
                 step += 1;
             }
             if i == 1 {

@@ -121,7 +121,9 @@ impl Hierarchy {
     }
 
     /// Whether node `key`, swept now, would be provisional: a coarser node its boundary
-    /// reads is still to come ([`Hierarchy::halo_waits`]) or provisional itself.
+    /// reads, or a node of its depth before it whose light it reads
+    /// (`neighbours.rs`), is still to come ([`Hierarchy::halo_waits`]) or provisional
+    /// itself.
     pub(crate) fn reads_unsettled(&self, key: NodeKey, wanted: &Wanted) -> bool {
         self.halo_waits(key, wanted) || self.halo_provisional(key)
     }
@@ -135,9 +137,11 @@ impl Hierarchy {
         }
     }
 
-    /// Whether a built coarser node that node `key`'s boundary reads is provisional.
+    /// Whether a built node that node `key`'s boundary reads (coarser, or of its depth
+    /// before it) is provisional.
     pub(crate) fn halo_provisional(&self, key: NodeKey) -> bool {
         self.halo_nodes(key)
+            .chain(self.before_neighbours(key))
             .any(|k| self.nodes.get(&k).is_some_and(|n| n.provisional))
     }
 
@@ -162,11 +166,13 @@ impl Hierarchy {
     /// ground with the bare-ground skip on).
     pub(crate) fn halo_waits(&self, key: NodeKey, wanted: &Wanted) -> bool {
         let skip_bare = self.params.skip.bare_children;
-        self.halo_nodes(key).any(|k| {
-            wanted.contains(&k)
-                && !self.nodes.contains_key(&k)
-                && !(skip_bare && self.bare_ancestor(k))
-        })
+        self.halo_nodes(key)
+            .chain(self.before_neighbours(key))
+            .any(|k| {
+                wanted.contains(&k)
+                    && !self.nodes.contains_key(&k)
+                    && !(skip_bare && self.bare_ancestor(k))
+            })
     }
 
     /// Sweeps again, within the budget and coarse to fine, the provisional nodes still
@@ -194,21 +200,24 @@ impl Hierarchy {
                     .total_cmp(&self.distance(*b, camera))
                     .then(a.cmp(b))
             });
-            let mut jobs = Vec::new();
-            for key in keys {
-                if self.reads_unsettled(key, wanted) {
-                    stats.pending += 1;
-                    continue;
+            // In waves (`neighbours.rs`): a node after those of its depth it reads.
+            for wave in crate::neighbours::waves(&keys, self.params.neighbour_halo) {
+                let mut jobs = Vec::new();
+                for key in wave {
+                    if self.reads_unsettled(key, wanted) {
+                        stats.pending += 1;
+                        continue;
+                    }
+                    let desc = *self.nodes[&key].light.desc();
+                    let sky = Job {
+                        sky: true,
+                        ..Job::new(key)
+                    };
+                    self.budgeted_sky_jobs(sky, &desc, stats, &mut jobs);
                 }
-                let desc = *self.nodes[&key].light.desc();
-                let sky = Job {
-                    sky: true,
-                    ..Job::new(key)
-                };
-                self.budgeted_sky_jobs(sky, &desc, stats, &mut jobs);
+                let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
+                self.run_jobs(jobs, &[], &[], &mut stats.times)?;
             }
-            let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
-            self.run_jobs(jobs, &[], &[], &mut stats.times)?;
         }
         Ok(())
     }

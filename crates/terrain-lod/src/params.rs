@@ -45,6 +45,15 @@ pub struct HierarchyParams {
     /// one 1 m sweep grew from 10.6 to 12.7 % (1 cell: 12.0 %). Worth it where every
     /// node is built anyway (a bake, a generous budget).
     pub sun_apron: u32,
+    /// A node's side halo reads the light of the nodes of its own depth before it in
+    /// a fixed order where they are built (those at index `(x − 1, z)`, `(x, z − 1)`
+    /// and `(x − 1, z − 1)`: lower `x + z`), sky and scattered sun, instead of the
+    /// coarser grid's there; a node is provisional until those of them the camera
+    /// wants are built and final, and a depth's nodes are swept in waves of equal
+    /// `x + z` (`neighbours.rs`). The light crossing those sides then comes at the
+    /// node's own cell. Off by default (see the repository's `docs/measurements.md`,
+    /// "What the path's nesting error is made of", for what it gains and costs).
+    pub neighbour_halo: bool,
     /// Height above a node's highest ground searched for objects (trees), metres, at
     /// least: where the world grid holds material higher over the node, the search
     /// reaches its top. The grid then ends one cell above the highest object found.
@@ -167,6 +176,7 @@ impl Default for HierarchyParams {
             node_points: 32,
             apron: 3,
             sun_apron: 0,
+            neighbour_halo: false,
             margin: 12.0,
             lod_factor: 1.0,
             evict_factor: 1.5,

@@ -55,7 +55,11 @@ impl Hierarchy {
         });
         let wanted: crate::order::Wanted = self.wanted(camera).into_iter().collect();
         for depth in keys.chunk_by(|a, b| a.depth == b.depth) {
-            self.refresh_depth(depth, &wanted, &mut stats)?;
+            // In waves where a node reads the nodes of its depth before it
+            // (`neighbours.rs`): each wave reads the waves before it as rebuilt.
+            for wave in crate::neighbours::waves(depth, self.params.neighbour_halo) {
+                self.refresh_depth(&wave, &wanted, &mut stats)?;
+            }
         }
         stats.sun_pending = self.sun_pending();
         stats.provisional = self.provisional_count();
@@ -154,9 +158,18 @@ impl Hierarchy {
             self.recomposed.insert(key, (p.material, p.widened));
         }
         if !rebuilt.is_empty() {
-            // Finer nodes read these ones' light: checked again.
+            // Finer nodes read these ones' light, and so do the nodes of this depth
+            // after them where they read those (`neighbours.rs`): checked again.
             let depth = keys[0].depth;
-            self.checked.retain(|k| k.depth <= depth);
+            let on = self.params.neighbour_halo;
+            self.checked.retain(|k| {
+                k.depth < depth
+                    || (k.depth == depth
+                        && !(on
+                            && rebuilt
+                                .iter()
+                                .any(|(r, _, _)| crate::neighbours::before(*r, *k))))
+            });
         }
         let provisional: Vec<NodeKey> = (rebuilt.iter().map(|(k, _, _)| *k))
             .filter(|k| self.reads_unsettled(*k, wanted))
@@ -190,8 +203,7 @@ impl Hierarchy {
                     None => timed(&mut times.material, || self.compose_node(n.light.desc()))?,
                 };
                 let o = self.node_options(n.material.has_objects);
-                let inputs =
-                    self.sky_inputs(key.depth, (&material, widened.as_ref()), &o, &mut times);
+                let inputs = self.sky_inputs(*key, (&material, widened.as_ref()), &o, &mut times);
                 Ok(Prepared {
                     material,
                     widened,

@@ -21,12 +21,31 @@ const CAMERA: Vec3 = Vec3::new(62.0, 12.0, 66.0);
 /// 1 m (depths of 4, 2 and 1 m cells), the level of detail of a camera (depth 1 wanted
 /// within 32 m, the finest within 8 m), at most 16 levels, the sun kept apart.
 fn hierarchy(budget_points: u64) -> Hierarchy {
-    hierarchy_composing_ahead(budget_points, HierarchyParams::default().compose_ahead)
+    hierarchy_with(
+        budget_points,
+        HierarchyParams::default().compose_ahead,
+        false,
+    )
 }
 
 /// [`hierarchy`] composing at most `compose_ahead` of a depth's materials beside the
 /// depth before it.
 fn hierarchy_composing_ahead(budget_points: u64, compose_ahead: u32) -> Hierarchy {
+    hierarchy_with(budget_points, compose_ahead, false)
+}
+
+/// [`hierarchy`] whose side halos read the nodes of their depth before them
+/// (`HierarchyParams::neighbour_halo`).
+fn hierarchy_reading_neighbours(budget_points: u64) -> Hierarchy {
+    hierarchy_with(
+        budget_points,
+        HierarchyParams::default().compose_ahead,
+        true,
+    )
+}
+
+/// [`hierarchy`] with `compose_ahead` and `neighbour_halo` as given.
+fn hierarchy_with(budget_points: u64, compose_ahead: u32, neighbour_halo: bool) -> Hierarchy {
     let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
     let params = HierarchyParams {
         world_cell: 8.0,
@@ -37,6 +56,7 @@ fn hierarchy_composing_ahead(budget_points: u64, compose_ahead: u32) -> Hierarch
         apron: 1,
         budget_points,
         compose_ahead,
+        neighbour_halo,
         ..Default::default()
     };
     let sky = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0))
@@ -141,7 +161,20 @@ fn composing_ahead_changes_no_frame() {
 /// without a budget gives, bit for bit.
 #[test]
 fn settled_under_a_budget_is_built_without_one() {
-    let mut h = hierarchy(SMALL);
+    settled_under_a_budget(hierarchy(SMALL));
+}
+
+/// The same where side halos read the nodes of their depth before them: a node swept
+/// before one of those is swept again too, and settled the hierarchy is the one a
+/// build without a budget (a depth in waves) gives, bit for bit.
+#[test]
+fn settled_under_a_budget_reading_neighbours_is_built_without_one() {
+    settled_under_a_budget(hierarchy_reading_neighbours(SMALL));
+}
+
+/// Frames of `h` (a [`SMALL`] budget) until settled: some nodes swept twice, and then
+/// the hierarchy one frame without a budget builds.
+fn settled_under_a_budget(mut h: Hierarchy) {
     let mut built = 0;
     for f in 0..60 {
         let s = h.update(CAMERA).unwrap();
@@ -163,7 +196,19 @@ fn settled_under_a_budget_is_built_without_one() {
 /// one frame without a budget under the new sky gives, bit for bit.
 #[test]
 fn a_refreshed_node_stays_provisional() {
-    let mut h = hierarchy(SMALL);
+    refreshed_stays_provisional(hierarchy(SMALL));
+}
+
+/// The same where side halos read the nodes of their depth before them (a refresh
+/// sweeps a depth in waves, each after those it reads).
+#[test]
+fn a_refreshed_node_reading_neighbours_stays_provisional() {
+    refreshed_stays_provisional(hierarchy_reading_neighbours(SMALL));
+}
+
+/// Frames of `h` until nodes are provisional, a new sky refreshed, then frames until
+/// settled: the hierarchy one frame without a budget builds under the new sky.
+fn refreshed_stays_provisional(mut h: Hierarchy) {
     // Until nodes are provisional and a coarser node one of them reads is still to
     // come: frames of `update` until some are, and two more (the frame that marks one
     // may build its coarser node next).
@@ -201,7 +246,19 @@ fn a_refreshed_node_stays_provisional() {
 /// where `update`'s frames do, bit for bit.
 #[test]
 fn settle_sweeps_each_node_once() {
-    let mut h = hierarchy(SMALL);
+    settle_once(hierarchy(SMALL));
+}
+
+/// The same where side halos read the nodes of their depth before them: a depth in
+/// waves, each node after those it reads.
+#[test]
+fn settle_reading_neighbours_sweeps_each_node_once() {
+    settle_once(hierarchy_reading_neighbours(SMALL));
+}
+
+/// `h.settle` under a [`SMALL`] budget: each node swept once, and the hierarchy one
+/// frame without a budget builds.
+fn settle_once(mut h: Hierarchy) {
     let (mut built, mut frames) = (0, 0);
     let last = h
         .settle(CAMERA, 60, |s| {
@@ -220,7 +277,11 @@ fn settle_sweeps_each_node_once() {
 /// Every node of `h` and 500 random reads of it (normals and the sun's light
 /// included) equal one frame's without a budget (under `sky` where given), bit for bit.
 fn same_as_without_a_budget(h: &Hierarchy, sky: Option<BinLight>) {
-    let mut whole = hierarchy(u64::MAX / 4);
+    let mut whole = hierarchy_with(
+        u64::MAX / 4,
+        HierarchyParams::default().compose_ahead,
+        h.params().neighbour_halo,
+    );
     if let Some(sky) = sky {
         whole.set_sky(sky).unwrap();
     }
@@ -248,4 +309,52 @@ fn same_as_without_a_budget(h: &Hierarchy, sky: Option<BinLight>) {
         );
         assert_eq!(a, b, "{p}");
     }
+}
+
+/// Reading the nodes before them changes the nodes of the finer depths (else the tests
+/// above could not tell the option from its absence), and a second refresh after a
+/// settled one sweeps nothing (no node reads another that reads it).
+#[test]
+fn reading_neighbours_changes_the_light_and_refreshes_settle() {
+    let mut plain = hierarchy(u64::MAX / 4);
+    let mut read = hierarchy_reading_neighbours(u64::MAX / 4);
+    plain.update(CAMERA).unwrap();
+    let s = read.update(CAMERA).unwrap();
+    assert_eq!(s.pending, 0);
+    let nodes = read.ready_nodes();
+    assert_eq!(plain.ready_nodes(), nodes);
+    let changed = nodes
+        .iter()
+        .filter(|k| plain.node(**k) != read.node(**k))
+        .count();
+    println!("{changed} of {} nodes changed", nodes.len());
+    assert!(changed > 0, "no node read a neighbour");
+    // Depth 1 reads the world grid alone in its halo's coarser parts, but its nodes
+    // before others are read by those: only nodes with a node before them change.
+    for k in &nodes {
+        if k.depth == 1
+            && k.index.x + k.index.y
+                == nodes
+                    .iter()
+                    .filter(|n| n.depth == 1)
+                    .map(|n| n.index.x + n.index.y)
+                    .min()
+                    .unwrap()
+        {
+            assert!(
+                plain.node(*k) == read.node(*k),
+                "{k:?} has no node before it"
+            );
+        }
+    }
+    let sky = BinLight::uniform(Vec3::new(1.0, 0.8, 0.5))
+        .split_vertical()
+        .0;
+    read.set_sky(sky).unwrap();
+    let first = read.refresh(CAMERA).unwrap();
+    assert_eq!(first.pending, 0, "{first:?}");
+    assert_eq!(first.built as usize, nodes.len(), "{first:?}");
+    let second = read.refresh(CAMERA).unwrap();
+    assert_eq!(second.built, 0, "{second:?}");
+    same_as_without_a_budget(&read, Some(sky));
 }
