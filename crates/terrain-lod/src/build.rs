@@ -178,6 +178,15 @@ impl Hierarchy {
             }
         }
         self.mark_provisional(provisional);
+        // Nodes built earlier after these ones in the order their halos read
+        // (`neighbours.rs`) read a coarser grid where these now are: swept again.
+        let after: Vec<NodeKey> = new
+            .iter()
+            .filter(|k| self.nodes.contains_key(k))
+            .flat_map(|k| self.after_neighbours(*k))
+            .filter(|k| self.nodes.contains_key(k))
+            .collect();
+        self.mark_provisional(after);
         // The materials of nodes left for a later frame are kept for it.
         for (key, m) in new.into_iter().zip(materials) {
             if !self.nodes.contains_key(&key) {

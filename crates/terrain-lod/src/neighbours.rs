@@ -11,7 +11,11 @@
 //! frames built them in:
 //!
 //! - a node swept while one of its before-neighbours that the camera wants is not
-//!   built, or is provisional, is provisional itself (`order.rs`) and swept again;
+//!   built, or is provisional, is provisional itself (`order.rs`) and swept again, and
+//!   so is a built node once a before-neighbour of it is built (the camera came to
+//!   want it later);
+//! - the camera's surroundings, which a frame builds first, take in the nodes before
+//!   them that the camera wants;
 //! - a frame builds a depth's nodes in waves of equal rank (none of a wave reads
 //!   another), each after the waves before it, and `refresh` and the second sweeps of
 //!   provisional nodes go the same way.
@@ -58,6 +62,19 @@ impl Hierarchy {
     pub(crate) fn before_neighbours(&self, key: NodeKey) -> impl Iterator<Item = NodeKey> {
         let on = self.params.neighbour_halo;
         [IVec2::new(-1, 0), IVec2::new(0, -1), IVec2::new(-1, -1)]
+            .into_iter()
+            .filter(move |_| on)
+            .map(move |d| NodeKey {
+                depth: key.depth,
+                index: key.index + d,
+            })
+    }
+
+    /// The nodes whose before-neighbours include `key` (built or not); none with the
+    /// option off.
+    pub(crate) fn after_neighbours(&self, key: NodeKey) -> impl Iterator<Item = NodeKey> {
+        let on = self.params.neighbour_halo;
+        [IVec2::new(1, 0), IVec2::new(0, 1), IVec2::new(1, 1)]
             .into_iter()
             .filter(move |_| on)
             .map(move |d| NodeKey {

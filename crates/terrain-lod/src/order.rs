@@ -60,11 +60,25 @@ impl Hierarchy {
     /// `wanted`'s order.
     pub(crate) fn build_order(&self, wanted: &[NodeKey], camera: Vec3) -> [Vec<NodeKey>; 3] {
         let r = self.params.lod_factor * self.params.node_size(self.params.depths());
-        let near: Wanted = wanted
+        let mut near: Wanted = wanted
             .iter()
             .filter(|k| self.distance(**k, camera) <= r)
             .copied()
             .collect();
+        // With the same depth's nodes read in halos (`neighbours.rs`), the wanted nodes
+        // before those, and before them: else a node near the camera would be swept
+        // before one it reads, and again after it.
+        if self.params.neighbour_halo {
+            let all: Wanted = wanted.iter().copied().collect();
+            let mut todo: Vec<NodeKey> = near.iter().copied().collect();
+            while let Some(k) = todo.pop() {
+                for b in self.before_neighbours(k) {
+                    if all.contains(&b) && near.insert(b) {
+                        todo.push(b);
+                    }
+                }
+            }
+        }
         let mut read = near.clone();
         for d in (1..self.params.depths()).rev() {
             let halos: Vec<(Vec2, Vec2)> = read
