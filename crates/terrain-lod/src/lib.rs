@@ -536,6 +536,10 @@ pub struct Hierarchy {
     camera: Option<Vec3>,
     /// The nodes this round of [`Hierarchy::refresh`] calls has checked (`refresh.rs`).
     checked: refresh::Checked,
+    /// The nodes the camera of the frame under way wants ([`Hierarchy::update`],
+    /// [`Hierarchy::refresh`]): a node's sun waits for those of them its boundary
+    /// reads, not for built nodes no longer wanted, whose sun no frame brings current.
+    wanted_now: order::Wanted,
     /// Materials a refresh round composed again for ready nodes its budget then left
     /// for a later frame of the round (`refresh.rs`).
     recomposed: refresh::Recomposed,
@@ -681,6 +685,7 @@ impl Hierarchy {
             sun_move: None,
             camera: None,
             checked: Default::default(),
+            wanted_now: Default::default(),
             recomposed: Default::default(),
             sky_scale: Vec3::ONE,
         };
@@ -983,11 +988,14 @@ impl Hierarchy {
     /// Else a node near the camera, swept before a neighbour of its parent's depth
     /// (`order.rs`), would take that neighbour's old sun and keep it. The same for the
     /// nodes of its depth before it whose scattered sun its halo reads
-    /// ([`HierarchyParams::neighbour_halo`]).
+    /// ([`HierarchyParams::neighbour_halo`]) that the camera wants (a built one it no
+    /// longer wants keeps a stale sun, which the halo does not read).
     fn sun_parent_ready(&self, key: NodeKey) -> bool {
         self.halo_nodes(key)
-            .chain(self.before_neighbours(key))
             .all(|k| !self.nodes.contains_key(&k) || self.sun_current(k))
+            && self.before_neighbours(key).all(|k| {
+                !self.nodes.contains_key(&k) || !self.wanted_now.contains(&k) || self.sun_current(k)
+            })
     }
 
     /// The finest grid coarser than `depth` with a current sun response at `p` (the
@@ -1309,6 +1317,7 @@ impl Hierarchy {
         let wanted = self.wanted(camera);
         // Kept materials of nodes no longer wanted go.
         let wanted_set: order::Wanted = wanted.iter().copied().collect();
+        self.wanted_now = wanted_set.clone();
         self.composed.retain(|k, _| wanted_set.contains(k));
         let [near, read, rest] = if near_first && !self.all_fit(&wanted) {
             self.build_order(&wanted, camera)

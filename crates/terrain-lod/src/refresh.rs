@@ -54,6 +54,7 @@ impl Hierarchy {
             )
         });
         let wanted: crate::order::Wanted = self.wanted(camera).into_iter().collect();
+        self.wanted_now = wanted.clone();
         for depth in keys.chunk_by(|a, b| a.depth == b.depth) {
             // In waves where a node reads the nodes of its depth before it
             // (`neighbours.rs`): each wave reads the waves before it as rebuilt.
