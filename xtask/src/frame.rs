@@ -113,6 +113,9 @@ pub struct FrameConfig {
     /// Points a frame may sweep (`HierarchyParams::budget_points`; `None`: the node's
     /// points across squared times 96, two nodes of 48 levels).
     pub budget_points: Option<u64>,
+    /// Side halos read the nodes of their depth before them
+    /// (`HierarchyParams::neighbour_halo`).
+    pub neighbour_halo: bool,
     /// Most passes a sweep runs (`HierarchyParams::sweep.max_passes`, in the hierarchy
     /// and the reference sweep; `None`: the hierarchy's default, 4).
     pub passes: Option<u32>,
@@ -160,6 +163,7 @@ impl FrameConfig {
             even: false,
             budget_ms: None,
             budget_points: None,
+            neighbour_halo: false,
             passes: None,
             apron: None,
             sun_apron: 0,
@@ -402,6 +406,9 @@ pub struct FrameReport {
     pub skip_finest_sun: bool,
     /// Whether the grids kept their horizon halves (and were read through them).
     pub horizon: bool,
+    /// Whether side halos read the nodes of their depth before them
+    /// (`HierarchyParams::neighbour_halo`).
+    pub neighbour_halo: bool,
     /// The frames' time budget, milliseconds (`None`: none).
     pub budget_ms: Option<f32>,
     /// The frames' point budget (`HierarchyParams::budget_points`).
@@ -733,6 +740,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.skip.finest_scattered_sun = cfg.skip_finest_sun;
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
+    p.neighbour_halo = cfg.neighbour_halo;
     if let Some(n) = cfg.passes {
         p.sweep.max_passes = n;
     }
@@ -1096,6 +1104,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,
+        neighbour_halo: cfg.neighbour_halo,
         apron: hierarchy_params(cfg).apron,
         sun_apron: hierarchy_params(cfg).sun_apron,
         passes: hierarchy_params(cfg).sweep.max_passes,

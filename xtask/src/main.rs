@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--even] [--budget-ms MS] [--budget-points N] [--passes N] [--tolerance T] [--flat-source] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--even] [--budget-ms MS] [--budget-points N] [--neighbour-halo] [--passes N] [--tolerance T] [--flat-source] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -113,6 +113,10 @@ enum Task {
         /// points across squared times 96, two 48-level nodes)
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
         budget_points: Option<u64>,
+        /// Side halos read the nodes of their depth before them where built
+        /// (HierarchyParams::neighbour_halo, off by default), for comparison
+        #[arg(long)]
+        neighbour_halo: bool,
         /// Most passes a sweep runs, in the hierarchy and the reference sweep (default:
         /// the hierarchy's, 4).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
@@ -226,6 +230,7 @@ fn main() -> ExitCode {
             even,
             budget_ms,
             budget_points,
+            neighbour_halo,
             passes,
             tolerance,
             flat_source,
@@ -252,6 +257,7 @@ fn main() -> ExitCode {
             cfg.even = even;
             cfg.budget_ms = budget_ms;
             cfg.budget_points = budget_points;
+            cfg.neighbour_halo = neighbour_halo;
             cfg.passes = passes;
             cfg.tolerance = tolerance;
             cfg.flat_source = flat_source;

@@ -371,6 +371,13 @@ impl WorldBake {
         h.set_world_material(world.material.clone());
         h.world_sun = world_sun;
         let wanted = self.reads(key);
+        // The nodes of its depth it reads, as the camera's wanted ones
+        // (`HierarchyParams::neighbour_halo`).
+        self.h.wanted_now = wanted
+            .iter()
+            .filter(|k| k.depth == key.depth)
+            .copied()
+            .collect();
         for k in wanted {
             let Some((_, g)) = reads.iter().find(|(r, _)| *r == k) else {
                 return Err(GridError::invalid(

@@ -539,7 +539,7 @@ pub struct Hierarchy {
     /// The nodes the camera of the frame under way wants ([`Hierarchy::update`],
     /// [`Hierarchy::refresh`]): a node's sun waits for those of them its boundary
     /// reads, not for built nodes no longer wanted, whose sun no frame brings current.
-    wanted_now: order::Wanted,
+    pub(crate) wanted_now: order::Wanted,
     /// Materials a refresh round composed again for ready nodes its budget then left
     /// for a later frame of the round (`refresh.rs`).
     recomposed: refresh::Recomposed,

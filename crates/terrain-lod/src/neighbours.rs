@@ -4,7 +4,7 @@
 //! its sides has crossed coarser material, and carries that grid's error inward (the
 //! horizontal bins most: a bin's path climbs one level in four cells). With the option
 //! on, halo points that lie among the points of a built node of the same depth *before*
-//! it read that node's light, sky and scattered sun. "Before" is a fixed order, the
+//! it, and that the camera wants, read that node's light, sky and scattered sun. "Before" is a fixed order, the
 //! sum of a node's indices `x + z` (its rank): a node reads its neighbours at
 //! `(x − 1, z)`, `(x, z − 1)` and `(x − 1, z − 1)`, never one of equal or higher rank,
 //! so no two nodes read each other and what a node holds does not depend on the order
@@ -83,8 +83,8 @@ impl Hierarchy {
             })
     }
 
-    /// The light node `key`'s halo takes at `p` from a built before-neighbour whose
-    /// points reach `p` (and its horizon halves, if kept): its sky light, or its
+    /// The light node `key`'s halo takes at `p` from a built before-neighbour the camera
+    /// wants whose points reach `p` (and its horizon halves, if kept): its sky light, or its
     /// scattered sun where that is current. `None`: the coarser grids' light.
     pub(crate) fn neighbour_light(
         &self,
@@ -96,7 +96,9 @@ impl Hierarchy {
             return None;
         }
         let at = self.node_at(key.depth, Vec2::new(p.x, p.z));
-        if !before(at, key) {
+        // One the camera wants: a built node it no longer wants is not read (a build
+        // without a budget would not hold it).
+        if !before(at, key) || !self.wanted_now.contains(&at) {
             return None;
         }
         let n = self.nodes.get(&at)?;

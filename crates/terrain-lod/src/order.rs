@@ -152,11 +152,13 @@ impl Hierarchy {
     }
 
     /// Whether a built node that node `key`'s boundary reads (coarser, or of its depth
-    /// before it) is provisional.
+    /// before it and wanted) is provisional.
     pub(crate) fn halo_provisional(&self, key: NodeKey) -> bool {
-        self.halo_nodes(key)
-            .chain(self.before_neighbours(key))
-            .any(|k| self.nodes.get(&k).is_some_and(|n| n.provisional))
+        let provisional = |k: &NodeKey| self.nodes.get(k).is_some_and(|n| n.provisional);
+        self.halo_nodes(key).any(|k| provisional(&k))
+            || self
+                .before_neighbours(key)
+                .any(|k| self.wanted_now.contains(&k) && provisional(&k))
     }
 
     /// The coarser nodes (built or not) whose rectangles meet node `key`'s

@@ -71,7 +71,7 @@ pub fn text(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells, sun responses {}), {} passes at most (tolerance {}, {} medium rule), {} path, bare-ground skip {}, sun's casters {}, {}, {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells, sun responses {}), {} passes at most (tolerance {}, {} medium rule), {} path, bare-ground skip {}, sun's casters {}, {}, {}, side halos from {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.apron,
@@ -91,6 +91,11 @@ pub fn text(report: &FrameReport) -> String {
             "horizon halves kept"
         } else {
             "horizontal bins read as even"
+        },
+        if report.neighbour_halo {
+            "the nodes before them where built"
+        } else {
+            "the coarser grids"
         },
         report
             .budget_ms
