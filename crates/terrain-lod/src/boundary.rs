@@ -382,4 +382,105 @@ mod tests {
             "{points} points: {exact} on a coarse level, {between} between"
         );
     }
+
+    /// With `neighbour_halo`, every halo point among the points of a built node of the
+    /// same depth before the node (and wanted) holds that node's own value there, bit
+    /// for bit, sky and scattered sun, halves too; every other halo point the coarser
+    /// grids' read.
+    #[test]
+    fn halo_points_among_a_node_before_hold_its_light() {
+        let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
+        let params = HierarchyParams {
+            world_cell: 8.0,
+            finest_cell: 2.0,
+            node_points: 8,
+            lod_factor: 100.0,
+            evict_factor: 200.0,
+            budget_points: u64::MAX / 4,
+            apron: 1,
+            neighbour_halo: true,
+            ..Default::default()
+        };
+        let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+        let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
+        let mut h = Hierarchy::new(&ground, Box::new(Layer), sweeper, sky, params).unwrap();
+        h.set_sun(Some(SunLight {
+            to_sun: Vec3::new(0.6, 0.5, 0.3),
+            irradiance: Vec3::splat(3.0),
+        }))
+        .unwrap();
+        h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
+        let (mut theirs, mut coarse) = (0, 0);
+        for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
+            for which in [Response::Sky, Response::Sun] {
+                // The sky's boundary is made around the grid widened by the apron.
+                let n = &h.nodes[&key];
+                let desc = match which {
+                    Response::Sky => *n.material.widened.as_ref().unwrap().desc(),
+                    Response::Sun => *n.light.desc(),
+                };
+                let b = h.node_boundary_of(&desc, key, which);
+                let (light, down) = match &b.sides {
+                    lightgrid_core::SideBoundary::GivenHalves { light, down } => (light, down),
+                    other => panic!("sides {other:?}"),
+                };
+                let (w, nx, nz) = (
+                    lightgrid_core::HALO_WIDTH,
+                    desc.dims().x as i32,
+                    desc.dims().z as i32,
+                );
+                let mut i = 0;
+                for j in 0..desc.dims().y {
+                    for z in -w..nz + w {
+                        for x in -w..nx + w {
+                            if (0..nx).contains(&x) && (0..nz).contains(&z) {
+                                continue;
+                            }
+                            let p =
+                                desc.origin() + desc.h() * Vec3::new(x as f32, j as f32, z as f32);
+                            let at = h.node_at(key.depth, Vec2::new(p.x, p.z));
+                            let held = h.nodes.get(&at).and_then(|m| {
+                                let g = m.light.desc().to_grid(p);
+                                let top = (m.light.desc().dims() - 1).as_vec3();
+                                let on = g.cmpge(Vec3::ZERO).all() && g.cmple(top).all();
+                                on.then(|| (m, g.round().as_uvec3()))
+                            });
+                            match held.filter(|_| crate::neighbours::before(at, key)) {
+                                Some((m, q)) => {
+                                    let (grid, halves) = match which {
+                                        Response::Sky => (&m.light, m.horizon.as_ref()),
+                                        Response::Sun => {
+                                            let s = m.sun.as_ref().unwrap();
+                                            (&s.scattered, s.horizon.as_ref())
+                                        }
+                                    };
+                                    assert!(
+                                        grid.get(q) == Some(&light[i]),
+                                        "{key:?} {which:?} {p}: not {at:?}'s light"
+                                    );
+                                    let want = halves.unwrap().get(q).unwrap().within(&light[i]);
+                                    assert!(down[i] == want, "{key:?} {which:?} {p}: halves");
+                                    theirs += 1;
+                                }
+                                None => {
+                                    let (l, _) = h.coarse_light_split(p, key.depth, which);
+                                    let close = bytemuck::cast_slice::<_, f32>(&l.0[..])
+                                        .iter()
+                                        .zip(bytemuck::cast_slice::<_, f32>(&light[i].0[..]))
+                                        .all(|(a, b)| (a - b).abs() <= 1e-5 * (1.0 + a.abs()));
+                                    assert!(close, "{key:?} {which:?} {p}: not the coarser read");
+                                    coarse += 1;
+                                }
+                            }
+                            i += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            theirs > 1000 && coarse > 1000,
+            "{theirs} from a node before, {coarse} from the coarser grids"
+        );
+    }
 }

@@ -152,6 +152,28 @@ fn bake_depths(
 #[test]
 fn baked_nodes_equal_the_live_hierarchys_bit_for_bit() {
     let (hm, c, p) = world();
+    baked_equal_live(&hm, &c, p);
+}
+
+/// The same with side halos that read the nodes of their depth before them
+/// (`HierarchyParams::neighbour_halo`): a node's task reads those too, and the plan
+/// has them first.
+#[test]
+fn baked_nodes_reading_neighbours_equal_the_live_hierarchys_bit_for_bit() {
+    let (hm, c, mut p) = world();
+    p.neighbour_halo = true;
+    baked_equal_live(&hm, &c, p);
+    let plain = bake_all(&hm, &c, world().2, None, false).1;
+    let read = bake_all(&hm, &c, p, None, false).1;
+    assert!(
+        plain.iter().zip(&read).any(|(a, b)| a.1.light != b.1.light),
+        "no node read a neighbour"
+    );
+}
+
+/// Every baked node of the world over `hm` under `p` equals the live hierarchy's.
+fn baked_equal_live(hm: &Heightmap, c: &Arc<AreaComposer>, p: HierarchyParams) {
+    let (hm, c) = (hm.clone(), c.clone());
     let (world, nodes) = bake_all(&hm, &c, p, None, false);
     // From the world grid's tiles: the same bits.
     assert_eq!(bake_all(&hm, &c, p, None, true).1, nodes);
