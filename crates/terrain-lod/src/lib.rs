@@ -405,8 +405,9 @@ pub struct FrameStats {
     /// is current), with the sun kept apart; their points count in `points_swept` (a
     /// transmittance alone a quarter of them).
     pub sun_built: u32,
-    /// Ready nodes still without a sun response for the current sun direction (lit by
-    /// coarser grids' sun meanwhile).
+    /// Ready nodes the camera wants still without a sun response for the current sun
+    /// direction (lit by coarser grids' sun meanwhile). Ready nodes it no longer wants
+    /// are not counted: no frame sweeps their sun (they are kept until evicted).
     pub sun_pending: u32,
     /// Ready nodes swept before a coarser node their boundary reads was built (or over
     /// such a node) at the frame's end: [`Hierarchy::update`] sweeps them again once
@@ -1440,12 +1441,15 @@ impl Hierarchy {
         }
     }
 
-    /// Ready nodes without a sun response for the current sun (0 without a sun).
+    /// Ready nodes the frame's camera wants without a sun response for the current sun
+    /// (0 without a sun).
     fn sun_pending(&self) -> u32 {
         if self.sun.is_none() {
             return 0;
         }
-        self.nodes.keys().filter(|k| !self.sun_current(**k)).count() as u32
+        (self.nodes.keys())
+            .filter(|k| self.wanted_now.contains(*k) && !self.sun_current(**k))
+            .count() as u32
     }
 
     /// The sweep options of a node: bins always on; one downward pass over bare ground

@@ -405,3 +405,31 @@ fn reading_neighbours_changes_the_light_and_refreshes_settle() {
     assert_eq!(second.built, 0, "{second:?}");
     same_as_without_a_budget(&read, Some(sky));
 }
+
+/// After the camera moved (four frames 4 or 8 m apart along the diagonal, from either
+/// side), ready nodes it no longer wants (kept until evicted) are not pending work:
+/// `settle` ends, every wanted node's sun current, though a node left behind may keep
+/// the sun it had (no frame sweeps it; counted, `settle` ran out its frames).
+#[test]
+fn nodes_left_behind_are_not_pending() {
+    for (neighbours, step) in [
+        (false, 4.0),
+        (false, 8.0),
+        (false, -8.0),
+        (true, 4.0),
+        (true, 8.0),
+        (true, -8.0),
+    ] {
+        let mut h = hierarchy_with(SMALL, HierarchyParams::default().compose_ahead, neighbours);
+        for i in (1..=4).rev() {
+            h.update(CAMERA + Vec3::new(step, 0.0, step) * i as f32)
+                .unwrap();
+        }
+        let last = h.settle(CAMERA, 60, |_| {}).unwrap();
+        assert_eq!(
+            (last.pending, last.sun_pending),
+            (0, 0),
+            "never settled: {last:?}"
+        );
+    }
+}
