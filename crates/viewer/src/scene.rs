@@ -206,6 +206,12 @@ pub struct GridSpec {
     /// either sweeper the grids are sampled where they were swept.
     #[serde(default)]
     pub apron: u32,
+    /// Side halos read the nodes of their depth before them where built
+    /// (`HierarchyParams::neighbour_halo`; left out: off): closer to one fine sweep at
+    /// every depth once every node is built (a bake, the headless views), for sweeps
+    /// in waves.
+    #[serde(default)]
+    pub neighbour_halo: bool,
 }
 
 impl Default for GridSpec {
@@ -216,6 +222,7 @@ impl Default for GridSpec {
             node_points: default_node_points(),
             passes: default_passes(),
             apron: 0,
+            neighbour_halo: false,
         }
     }
 }
@@ -824,6 +831,23 @@ mod tests {
             .grid
             .apron,
             2
+        );
+        // Left out: off.
+        assert!(
+            !SceneFile::parse(DEMO, "g.toml", Path::new("."))
+                .unwrap()
+                .grid
+                .neighbour_halo
+        );
+        assert!(
+            SceneFile::parse(
+                &DEMO.replacen("apron = 0", "apron = 0\nneighbour_halo = true", 1),
+                "h.toml",
+                Path::new(".")
+            )
+            .unwrap()
+            .grid
+            .neighbour_halo
         );
         // Left out: none (the GPU sweeper's grids stay on the device).
         assert_eq!(

@@ -242,6 +242,7 @@ fn hierarchy_params(scene: &SceneFile) -> HierarchyParams {
         finest_cell: g.finest_cell,
         node_points: g.node_points,
         apron: g.apron,
+        neighbour_halo: g.neighbour_halo,
         budget_points: (g.node_points + 2 * g.apron) as u64
             * (g.node_points + 2 * g.apron) as u64
             * 48
