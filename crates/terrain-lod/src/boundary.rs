@@ -276,11 +276,9 @@ mod tests {
         }
     }
 
-    /// Every halo point of every node, sky and sun: the column's reads equal the
-    /// trilinear ones to rounding, and bit for bit where the point lies on a level of
-    /// the coarser grid read.
-    #[test]
-    fn column_reads_are_the_trilinear_reads() {
+    /// A hierarchy over a flat 64 m square of [`Layer`], every node wanted and built
+    /// (8-point nodes down to 2 m cells), a sun apart; with `apron` and `neighbour_halo`.
+    fn layer_hierarchy(apron: u32, neighbour_halo: bool) -> Hierarchy {
         let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
         let params = HierarchyParams {
             world_cell: 8.0,
@@ -289,7 +287,8 @@ mod tests {
             lod_factor: 100.0,
             evict_factor: 200.0,
             budget_points: u64::MAX / 4,
-            apron: 0,
+            apron,
+            neighbour_halo,
             ..Default::default()
         };
         let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
@@ -301,6 +300,41 @@ mod tests {
         }))
         .unwrap();
         h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
+        h
+    }
+
+    /// The halo points of a grid `desc`, in the layout's order (level, then z, then x).
+    fn halo_points(desc: &GridDesc) -> Vec<Vec3> {
+        let (w, nx, nz) = (
+            lightgrid_core::HALO_WIDTH,
+            desc.dims().x as i32,
+            desc.dims().z as i32,
+        );
+        let mut out = Vec::new();
+        for j in 0..desc.dims().y {
+            for z in -w..nz + w {
+                for x in -w..nx + w {
+                    if !((0..nx).contains(&x) && (0..nz).contains(&z)) {
+                        out.push(
+                            desc.origin() + desc.h() * Vec3::new(x as f32, j as f32, z as f32),
+                        );
+                    }
+                }
+            }
+        }
+        assert_eq!(
+            out.len(),
+            lightgrid_core::HaloLayout::new(desc.dims()).len()
+        );
+        out
+    }
+
+    /// Every halo point of every node, sky and sun: the column's reads equal the
+    /// trilinear ones to rounding, and bit for bit where the point lies on a level of
+    /// the coarser grid read.
+    #[test]
+    fn column_reads_are_the_trilinear_reads() {
+        let h = layer_hierarchy(0, false);
         let (mut points, mut exact, mut between) = (0, 0, 0);
         for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
             let desc = *h.node(key).unwrap().desc();
@@ -313,67 +347,45 @@ mod tests {
                     lightgrid_core::SideBoundary::Given(light) => (light, None),
                     other => panic!("sides {other:?}"),
                 };
-                let layout = lightgrid_core::HaloLayout::new(desc.dims());
-                let (w, nx, nz) = (
-                    lightgrid_core::HALO_WIDTH,
-                    desc.dims().x as i32,
-                    desc.dims().z as i32,
-                );
-                let mut i = 0;
-                for j in 0..desc.dims().y {
-                    for z in -w..nz + w {
-                        for x in -w..nx + w {
-                            if (0..nx).contains(&x) && (0..nz).contains(&z) {
-                                continue;
-                            }
-                            let p =
-                                desc.origin() + desc.h() * Vec3::new(x as f32, j as f32, z as f32);
-                            let (l, d) = h.coarse_light_split(p, key.depth, which);
-                            // On a coarse level: the trilinear read's weights along y
-                            // are 1 and 0.
-                            let on_level =
-                                h.coarse_grid(p, key.depth, which).is_some_and(|(g, _)| {
-                                    let f = trilinear_frame(g.desc().dims(), g.desc().to_grid(p)).2;
-                                    f.y == 0.0 || f.y == 1.0
-                                });
-                            let close = |a: &[f32], b: &[f32]| {
-                                a.iter().zip(b).all(|(a, b)| {
-                                    if on_level {
-                                        a.to_bits() == b.to_bits()
-                                    } else {
-                                        (a - b).abs() <= 1e-5 * (1.0 + b.abs())
-                                    }
-                                })
-                            };
-                            let (got, want) = (&light[i], &l);
-                            assert!(
-                                close(
-                                    bytemuck::cast_slice(&got.0[..]),
-                                    bytemuck::cast_slice(&want.0[..])
-                                ),
-                                "{key:?} {which:?} level {j} ({x}, {z}): {got:?} against {want:?}"
-                            );
-                            if let (Some(down), Some(d)) = (down, d) {
-                                let want = d.within(&l);
-                                assert!(
-                                    close(
-                                        bytemuck::cast_slice(&down[i].0[..]),
-                                        bytemuck::cast_slice(&want.0[..])
-                                    ),
-                                    "{key:?} {which:?} level {j} ({x}, {z}): halves"
-                                );
-                            }
-                            points += 1;
+                let at = halo_points(&desc);
+                assert_eq!(light.len(), at.len());
+                for (i, &p) in at.iter().enumerate() {
+                    let (l, d) = h.coarse_light_split(p, key.depth, which);
+                    // On a coarse level: the trilinear read's weights along y are 1 and 0.
+                    let on_level = h.coarse_grid(p, key.depth, which).is_some_and(|(g, _)| {
+                        let f = trilinear_frame(g.desc().dims(), g.desc().to_grid(p)).2;
+                        f.y == 0.0 || f.y == 1.0
+                    });
+                    let close = |a: &[f32], b: &[f32]| {
+                        a.iter().zip(b).all(|(a, b)| {
                             if on_level {
-                                exact += 1
+                                a.to_bits() == b.to_bits()
                             } else {
-                                between += 1
+                                (a - b).abs() <= 1e-5 * (1.0 + b.abs())
                             }
-                            i += 1;
-                        }
+                        })
+                    };
+                    let (got, want) = (&light[i], &l);
+                    assert!(
+                        close(
+                            bytemuck::cast_slice(&got.0[..]),
+                            bytemuck::cast_slice(&want.0[..])
+                        ),
+                        "{key:?} {which:?} {p}: {got:?} against {want:?}"
+                    );
+                    if let (Some(down), Some(d)) = (down, d) {
+                        let want = d.within(&l);
+                        assert!(
+                            close(
+                                bytemuck::cast_slice(&down[i].0[..]),
+                                bytemuck::cast_slice(&want.0[..])
+                            ),
+                            "{key:?} {which:?} {p}: halves"
+                        );
                     }
+                    points += 1;
+                    if on_level { exact += 1 } else { between += 1 }
                 }
-                assert_eq!(i, layout.len());
             }
         }
         // (Else nothing here could fail.)
@@ -389,27 +401,7 @@ mod tests {
     /// grids' read.
     #[test]
     fn halo_points_among_a_node_before_hold_its_light() {
-        let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
-        let params = HierarchyParams {
-            world_cell: 8.0,
-            finest_cell: 2.0,
-            node_points: 8,
-            lod_factor: 100.0,
-            evict_factor: 200.0,
-            budget_points: u64::MAX / 4,
-            apron: 1,
-            neighbour_halo: true,
-            ..Default::default()
-        };
-        let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-        let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
-        let mut h = Hierarchy::new(&ground, Box::new(Layer), sweeper, sky, params).unwrap();
-        h.set_sun(Some(SunLight {
-            to_sun: Vec3::new(0.6, 0.5, 0.3),
-            irradiance: Vec3::splat(3.0),
-        }))
-        .unwrap();
-        h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
+        let h = layer_hierarchy(1, true);
         let (mut theirs, mut coarse) = (0, 0);
         for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
             for which in [Response::Sky, Response::Sun] {
@@ -424,55 +416,39 @@ mod tests {
                     lightgrid_core::SideBoundary::GivenHalves { light, down } => (light, down),
                     other => panic!("sides {other:?}"),
                 };
-                let (w, nx, nz) = (
-                    lightgrid_core::HALO_WIDTH,
-                    desc.dims().x as i32,
-                    desc.dims().z as i32,
-                );
-                let mut i = 0;
-                for j in 0..desc.dims().y {
-                    for z in -w..nz + w {
-                        for x in -w..nx + w {
-                            if (0..nx).contains(&x) && (0..nz).contains(&z) {
-                                continue;
-                            }
-                            let p =
-                                desc.origin() + desc.h() * Vec3::new(x as f32, j as f32, z as f32);
-                            let at = h.node_at(key.depth, Vec2::new(p.x, p.z));
-                            let held = h.nodes.get(&at).and_then(|m| {
-                                let g = m.light.desc().to_grid(p);
-                                let top = (m.light.desc().dims() - 1).as_vec3();
-                                let on = g.cmpge(Vec3::ZERO).all() && g.cmple(top).all();
-                                on.then(|| (m, g.round().as_uvec3()))
-                            });
-                            match held.filter(|_| crate::neighbours::before(at, key)) {
-                                Some((m, q)) => {
-                                    let (grid, halves) = match which {
-                                        Response::Sky => (&m.light, m.horizon.as_ref()),
-                                        Response::Sun => {
-                                            let s = m.sun.as_ref().unwrap();
-                                            (&s.scattered, s.horizon.as_ref())
-                                        }
-                                    };
-                                    assert!(
-                                        grid.get(q) == Some(&light[i]),
-                                        "{key:?} {which:?} {p}: not {at:?}'s light"
-                                    );
-                                    let want = halves.unwrap().get(q).unwrap().within(&light[i]);
-                                    assert!(down[i] == want, "{key:?} {which:?} {p}: halves");
-                                    theirs += 1;
+                for (i, &p) in halo_points(&desc).iter().enumerate() {
+                    let at = h.node_at(key.depth, Vec2::new(p.x, p.z));
+                    let held = h.nodes.get(&at).and_then(|m| {
+                        let g = m.light.desc().to_grid(p);
+                        let top = (m.light.desc().dims() - 1).as_vec3();
+                        let on = g.cmpge(Vec3::ZERO).all() && g.cmple(top).all();
+                        on.then(|| (m, g.round().as_uvec3()))
+                    });
+                    match held.filter(|_| crate::neighbours::before(at, key)) {
+                        Some((m, q)) => {
+                            let (grid, halves) = match which {
+                                Response::Sky => (&m.light, m.horizon.as_ref()),
+                                Response::Sun => {
+                                    let s = m.sun.as_ref().unwrap();
+                                    (&s.scattered, s.horizon.as_ref())
                                 }
-                                None => {
-                                    let (l, _) = h.coarse_light_split(p, key.depth, which);
-                                    let close = bytemuck::cast_slice::<_, f32>(&l.0[..])
-                                        .iter()
-                                        .zip(bytemuck::cast_slice::<_, f32>(&light[i].0[..]))
-                                        .all(|(a, b)| (a - b).abs() <= 1e-5 * (1.0 + a.abs()));
-                                    assert!(close, "{key:?} {which:?} {p}: not the coarser read");
-                                    coarse += 1;
-                                }
-                            }
-                            i += 1;
+                            };
+                            assert!(
+                                grid.get(q) == Some(&light[i]),
+                                "{key:?} {which:?} {p}: not {at:?}'s light"
+                            );
+                            let want = halves.unwrap().get(q).unwrap().within(&light[i]);
+                            assert!(down[i] == want, "{key:?} {which:?} {p}: halves");
+                            theirs += 1;
+                        }
+                        None => {
+                            let (l, _) = h.coarse_light_split(p, key.depth, which);
+                            let close = bytemuck::cast_slice::<_, f32>(&l.0[..])
+                                .iter()
+                                .zip(bytemuck::cast_slice::<_, f32>(&light[i].0[..]))
+                                .all(|(a, b)| (a - b).abs() <= 1e-5 * (1.0 + a.abs()));
+                            assert!(close, "{key:?} {which:?} {p}: not the coarser read");
+                            coarse += 1;
                         }
                     }
                 }

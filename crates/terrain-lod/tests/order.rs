@@ -232,25 +232,7 @@ fn a_refreshed_node_reading_neighbours_stays_provisional() {
     let mut h = hierarchy_reading_neighbours(SMALL);
     let (_, provisional) = arrive(&mut h);
     assert!(provisional > 0, "no node was ever provisional");
-    let sky = BinLight::uniform(Vec3::new(1.0, 0.8, 0.5))
-        .split_vertical()
-        .0;
-    h.set_sky(sky).unwrap();
-    for f in 0.. {
-        let s = h.refresh(CAMERA).unwrap();
-        if s.pending == 0 {
-            break;
-        }
-        assert!(f < 60, "the refresh never ended: {s:?}");
-    }
-    for f in 0.. {
-        let s = h.update(CAMERA).unwrap();
-        if s.pending == 0 && s.sun_pending == 0 {
-            break;
-        }
-        assert!(f < 60, "never settled: {s:?}");
-    }
-    same_as_without_a_budget(&h, Some(sky));
+    refresh_and_settle(h);
 }
 
 /// Frames of `h` until nodes are provisional, a new sky refreshed, then frames until
@@ -268,6 +250,12 @@ fn refreshed_stays_provisional(mut h: Hierarchy) {
             break;
         }
     }
+    refresh_and_settle(h);
+}
+
+/// A new sky: `refresh` rounds until one ends, then `update` until settled: the
+/// hierarchy one frame without a budget builds under the new sky, bit for bit.
+fn refresh_and_settle(mut h: Hierarchy) {
     let sky = BinLight::uniform(Vec3::new(1.0, 0.8, 0.5))
         .split_vertical()
         .0;
