@@ -35,11 +35,13 @@ pub(crate) fn rank(key: NodeKey) -> i64 {
     key.index.x as i64 + key.index.y as i64
 }
 
-/// Whether node `a` is one of `b`'s before-neighbours: the same depth, next to it
-/// (edge or corner), of lower rank.
+/// Where a node's before-neighbours lie from it: the nodes next to it (edge or corner)
+/// of lower rank.
+const BEFORE: [IVec2; 3] = [IVec2::new(-1, 0), IVec2::new(0, -1), IVec2::new(-1, -1)];
+
+/// Whether node `a` is one of `b`'s before-neighbours ([`BEFORE`], the same depth).
 pub(crate) fn before(a: NodeKey, b: NodeKey) -> bool {
-    let d = b.index - a.index;
-    a.depth == b.depth && d.x >= 0 && d.y >= 0 && d != IVec2::ZERO && d.max_element() <= 1
+    a.depth == b.depth && BEFORE.contains(&(a.index - b.index))
 }
 
 /// `keys` in waves of equal rank, lowest first, each in `keys`' order; with the option
@@ -60,26 +62,25 @@ pub(crate) fn waves(keys: &[NodeKey], on: bool) -> Vec<Vec<NodeKey>> {
 impl Hierarchy {
     /// Node `key`'s before-neighbours (built or not); none with the option off.
     pub(crate) fn before_neighbours(&self, key: NodeKey) -> impl Iterator<Item = NodeKey> {
-        let on = self.params.neighbour_halo;
-        [IVec2::new(-1, 0), IVec2::new(0, -1), IVec2::new(-1, -1)]
-            .into_iter()
-            .filter(move |_| on)
-            .map(move |d| NodeKey {
-                depth: key.depth,
-                index: key.index + d,
-            })
+        self.offset_neighbours(key, 1)
     }
 
     /// The nodes whose before-neighbours include `key` (built or not); none with the
     /// option off.
     pub(crate) fn after_neighbours(&self, key: NodeKey) -> impl Iterator<Item = NodeKey> {
+        self.offset_neighbours(key, -1)
+    }
+
+    /// The nodes at `key` plus `sign` times each of [`BEFORE`]'s offsets, with the
+    /// option on.
+    fn offset_neighbours(&self, key: NodeKey, sign: i32) -> impl Iterator<Item = NodeKey> {
         let on = self.params.neighbour_halo;
-        [IVec2::new(1, 0), IVec2::new(0, 1), IVec2::new(1, 1)]
+        BEFORE
             .into_iter()
             .filter(move |_| on)
             .map(move |d| NodeKey {
                 depth: key.depth,
-                index: key.index + d,
+                index: key.index + d * sign,
             })
     }
 
