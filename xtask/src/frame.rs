@@ -811,9 +811,18 @@ fn frame(
             d => Some(&own[d - 1][..]),
         })
         .collect();
-    tally.peaks.add(&depths, &parts, &own_refs);
+    let sides: Vec<(usize, f32)> = probes
+        .iter()
+        .map(|p| places::nearest_side(h.grid_at(p.p).desc(), p.p))
+        .collect();
+    let at = peaks::Frame {
+        frame: f,
+        probes: &probes,
+        sides: &sides,
+    };
+    tally.peaks.add(&at, &depths, &parts, &own_refs);
     if f >= cfg.frames / 2 {
-        tally.peaks_second_half.add(&depths, &parts, &own_refs);
+        tally.peaks_second_half.add(&at, &depths, &parts, &own_refs);
     }
     let mut acc = Acc3::default();
     let mut finest_acc = Acc3::default();

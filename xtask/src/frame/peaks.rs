@@ -10,11 +10,12 @@
 //! reference's) spans more than half their brightest: its error there is counted
 //! apart, for sun and both (the sky has no sun's shadow edge; its probes all count).
 //! The largest of these per depth is the figure; the 99.9th percentile beside it says
-//! whether it is one probe or many.
+//! whether it is one probe or many, and [`Worst`] says where the largest lies and what
+//! both sides read there.
 
 use serde::Serialize;
 
-use super::{Parts, VERTEX_SIDE, VOLUME_LEVELS, VOLUME_SIDE};
+use super::{Parts, Probe, VERTEX_SIDE, VOLUME_LEVELS, VOLUME_SIDE};
 
 /// Where the neighbours' direct sun spans more than this share of their brightest, a
 /// probe is at a shadow edge.
@@ -60,6 +61,47 @@ pub struct Peaks {
     pub max: [f32; 3],
     /// The 99.9th percentile of the same.
     pub p999: [f32; 3],
+    /// Where the largest of sky, sun and both lies (`None` without probes).
+    pub worst: [Option<Worst>; 3],
+}
+
+/// The probe with a depth's largest error of one part, and what it reads.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Worst {
+    /// The error over the local brightest value.
+    pub relative: f32,
+    /// The frame it was read in.
+    pub frame: u32,
+    /// Where the probe lies (world metres).
+    pub at: [f32; 3],
+    /// The normal it reads the light on.
+    pub facing: [f32; 3],
+    /// A terrain vertex (else a volume point).
+    pub vertex: bool,
+    /// Its distance from the nearest side of its grid's points, in cells (negative in a
+    /// seam).
+    pub cells_from_side: f32,
+    /// That side: `-x`, `+x`, `-z` or `+z`.
+    pub side: &'static str,
+    /// The hierarchy's value of the part.
+    pub hierarchy: f32,
+    /// The reference's value of the part.
+    pub reference: f32,
+    /// The brightest reference value of the part among its neighbours.
+    pub brightest: f32,
+    /// The reference's direct sun at the probe.
+    pub direct: f32,
+}
+
+/// Where a frame's probes lie, for [`Worst`].
+pub(super) struct Frame<'a> {
+    /// The frame's number on the path.
+    pub frame: u32,
+    /// The probes (`super::probes`' lattice).
+    pub probes: &'a [Probe],
+    /// Each probe's nearest side of its serving grid's points
+    /// ([`super::places::SIDE_NAMES`]' index) and its distance from it, in cells.
+    pub sides: &'a [(usize, f32)],
 }
 
 /// The relative errors of every probe by depth, as the path goes.
@@ -68,13 +110,20 @@ pub(super) struct PeakTally {
     /// By depth: the relative errors of sky, sun and both (sun and both away from
     /// shadow edges), and the probes at edges.
     by_depth: Vec<([Vec<f32>; 3], u64)>,
+    /// By depth, the probe with the largest of each.
+    worst: Vec<[Option<Worst>; 3]>,
 }
 
 impl PeakTally {
-    /// A frame's probes (`super::probes`' lattice): `depth[i]` the depth serving probe
-    /// `i` (its reference `refs[depth]`, `None` where it has none), `h` the hierarchy's
-    /// read.
-    pub(super) fn add(&mut self, depth: &[usize], h: &[Parts], refs: &[Option<&[Parts]>]) {
+    /// A frame's probes (`at`): `depth[i]` the depth serving probe `i` (its reference
+    /// `refs[depth]`, `None` where it has none), `h` the hierarchy's read.
+    pub(super) fn add(
+        &mut self,
+        at: &Frame,
+        depth: &[usize],
+        h: &[Parts],
+        refs: &[Option<&[Parts]>],
+    ) {
         let mut near = Vec::with_capacity(27 * 6);
         for (i, (&d, hp)) in depth.iter().zip(h).enumerate() {
             let Some(Some(r)) = refs.get(d) else {
@@ -99,16 +148,40 @@ impl PeakTally {
             let edge = hi > 0.0 && hi - lo > EDGE_SPAN * hi;
             if self.by_depth.len() <= d {
                 self.by_depth.resize_with(d + 1, Default::default);
+                self.worst.resize(d + 1, [None; 3]);
             }
             let (errs, edges) = &mut self.by_depth[d];
-            let rel = |e: f32, m: f32| if m > 0.0 { e / m } else { 0.0 };
             let q = r[i];
-            errs[0].push(rel((hp.sky - q.sky).abs(), sky));
+            let parts = [
+                (hp.sky, q.sky, sky),
+                (hp.sun, q.sun, sun),
+                (hp.sky + hp.sun, q.sky + q.sun, both),
+            ];
             if edge {
                 *edges += 1;
-            } else {
-                errs[1].push(rel((hp.sun - q.sun).abs(), sun));
-                errs[2].push(rel((hp.sky + hp.sun - q.sky - q.sun).abs(), both));
+            }
+            // The sky has no shadow edge: its probes all count.
+            let counted = if edge { 1 } else { 3 };
+            for (k, (hv, rv, m)) in parts.into_iter().enumerate().take(counted) {
+                let e = if m > 0.0 { (hv - rv).abs() / m } else { 0.0 };
+                errs[k].push(e);
+                let worst = &mut self.worst[d][k];
+                if worst.is_none_or(|w| e > w.relative) {
+                    let p = &at.probes[i];
+                    *worst = Some(Worst {
+                        relative: e,
+                        frame: at.frame,
+                        at: p.p.to_array(),
+                        facing: p.n.to_array(),
+                        vertex: p.vertex,
+                        cells_from_side: at.sides[i].1,
+                        side: super::places::SIDE_NAMES[at.sides[i].0],
+                        hierarchy: hv,
+                        reference: rv,
+                        brightest: m,
+                        direct: q.direct,
+                    });
+                }
             }
         }
     }
@@ -117,7 +190,8 @@ impl PeakTally {
     pub(super) fn peaks(&self) -> Vec<Peaks> {
         self.by_depth
             .iter()
-            .map(|(errs, edges)| {
+            .zip(&self.worst)
+            .map(|((errs, edges), worst)| {
                 let mut max = [0.0; 3];
                 let mut p999 = [0.0; 3];
                 for (k, e) in errs.iter().enumerate() {
@@ -134,6 +208,7 @@ impl PeakTally {
                     at_edges: *edges,
                     max,
                     p999,
+                    worst: *worst,
                 }
             })
             .collect()
@@ -188,8 +263,21 @@ mod tests {
         h[30 * VERTEX_SIDE + 30].sun += 1.0; // at an edge: not counted
         h[5 * VERTEX_SIDE + 5].sun += 0.1; // 0.1 / 2
         let depth = vec![1; total];
+        let probes: Vec<Probe> = (0..total)
+            .map(|i| Probe {
+                p: lightgrid_core::glam::Vec3::new(i as f32, 0.0, 0.0),
+                n: lightgrid_core::glam::Vec3::Y,
+                vertex: i < nv,
+            })
+            .collect();
+        let sides: Vec<(usize, f32)> = (0..total).map(|i| (i % 4, i as f32 / 2.0)).collect();
+        let at = Frame {
+            frame: 7,
+            probes: &probes,
+            sides: &sides,
+        };
         let mut t = PeakTally::default();
-        t.add(&depth, &h, &[None, Some(&r)]);
+        t.add(&at, &depth, &h, &[None, Some(&r)]);
         let p = &t.peaks()[1];
         assert_eq!(p.probes, total as u64);
         // Every probe whose 3 × 3 holds the dark vertex is at an edge: 9 of them.
@@ -197,9 +285,26 @@ mod tests {
         assert!((p.max[0] - 0.05).abs() < 1e-6, "{p:?}");
         assert!((p.max[1] - 0.05).abs() < 1e-6, "{p:?}");
         assert!((p.max[2] - 0.1 / 3.0).abs() < 1e-6, "{p:?}");
+        // The largest of sky and of sun: where they lie and what each side read.
+        let sky = p.worst[0].expect("a sky probe");
+        let i = VERTEX_SIDE + 1;
+        assert_eq!(
+            (sky.frame, sky.at[0], sky.cells_from_side),
+            (7, i as f32, i as f32 / 2.0)
+        );
+        assert!(sky.vertex && sky.facing == [0.0, 1.0, 0.0]);
+        assert_eq!(sky.side, ["-x", "+x", "-z", "+z"][i % 4]);
+        assert!((sky.hierarchy - 1.2).abs() < 1e-6 && sky.reference == 1.0);
+        assert_eq!((sky.brightest, sky.direct), (4.0, 1.0));
+        assert!((sky.relative - p.max[0]).abs() < 1e-9);
+        let sun = p.worst[1].expect("a sun probe");
+        assert_eq!(sun.at[0], (5 * VERTEX_SIDE + 5) as f32);
+        assert!((sun.hierarchy - 2.1).abs() < 1e-6);
+        assert_eq!((sun.reference, sun.brightest), (2.0, 2.0));
+        assert!(p.worst[2].is_some());
         // Depth 0 has no reference: nothing counted.
         let mut t = PeakTally::default();
-        t.add(&vec![0; total], &h, &[None, Some(&r)]);
+        t.add(&at, &vec![0; total], &h, &[None, Some(&r)]);
         assert!(t.peaks().iter().all(|p| p.probes == 0));
     }
 }

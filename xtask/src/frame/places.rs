@@ -68,13 +68,27 @@ fn facing(p: &Probe) -> usize {
     }
 }
 
+/// The four sides of a grid's points, in [`nearest_side`]'s order.
+pub(super) const SIDE_NAMES: [&str; 4] = ["-x", "+x", "-z", "+z"];
+
+/// A point `p`'s nearest of the four sides of the points of the grid `desc`
+/// ([`SIDE_NAMES`]' index) and its distance from it, in cells (negative beyond them,
+/// in a seam).
+pub(super) fn nearest_side(desc: &GridDesc, p: lightgrid_core::glam::Vec3) -> (usize, f32) {
+    let (o, h) = (desc.origin(), desc.h());
+    let far = o + (desc.dims().as_vec3() - 1.0) * h;
+    [p.x - o.x, far.x - p.x, p.z - o.z, far.z - p.z]
+        .into_iter()
+        .enumerate()
+        .map(|(k, d)| (k, d / h))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((0, 0.0))
+}
+
 /// The side group of a point `p` read from the grid `desc`: its distance from the
 /// nearest of the four sides of the grid's points, in cells (negative in a seam).
 fn side(desc: &GridDesc, p: lightgrid_core::glam::Vec3) -> usize {
-    let (o, h) = (desc.origin(), desc.h());
-    let far = o + (desc.dims().as_vec3() - 1.0) * h;
-    let d = (p.x - o.x).min(far.x - p.x).min(p.z - o.z).min(far.z - p.z) / h;
-    match d {
+    match nearest_side(desc, p).1 {
         d if d < 0.0 => 0,
         d if d < 1.0 => 1,
         d if d < 2.0 => 2,

@@ -265,6 +265,9 @@ fn nesting_lines(r: &Run) -> String {
         "  the same over the path's second half (the cold start's first frames left out): {}",
         peak_list(&r.peaks_second_half, false)
     );
+    if let Some(p) = r.peaks.last() {
+        s.push_str(&worst_lines(p));
+    }
     depth_table(&mut s, "against the 1 m sweep", &r.error_by_depth, |d| {
         format!("{d:5}")
     });
@@ -303,6 +306,40 @@ fn peak_list(peaks: &[super::Peaks], edges: bool) -> String {
 }
 
 /// Three shares as percentages, `a / b / c` (sky / sun / both).
+/// Where the finest depth's largest errors of sky, sun and both lie, and what each side
+/// read there.
+fn worst_lines(p: &super::Peaks) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    for (name, w) in ["sky", "sun", "both"].iter().zip(&p.worst) {
+        let Some(w) = w else { continue };
+        let facing = match w.facing {
+            [x, y, z] if y > 0.5 => format!("facing up (normal {x:.2}, {y:.2}, {z:.2})"),
+            [_, y, _] if y < -0.5 => "facing down".to_string(),
+            [x, _, z] => format!("facing ({x:.0}, 0, {z:.0})"),
+        };
+        let kind = if w.vertex {
+            "terrain vertex"
+        } else {
+            "volume point"
+        };
+        let [x, y, z] = w.at;
+        let _ = writeln!(
+            s,
+            "    the finest depth's largest {name} error, {:.1} %: frame {}, {kind} at ({x:.1}, {y:.1}, {z:.1}) {facing}, {:.1} cells from its grid's {} side; the hierarchy {:.4} against {:.4} (the brightest near it {:.4}; the reference's direct sun there {:.4})",
+            100.0 * w.relative,
+            w.frame,
+            w.cells_from_side,
+            w.side,
+            w.hierarchy,
+            w.reference,
+            w.brightest,
+            w.direct,
+        );
+    }
+    s
+}
+
 fn percents(v: [f32; 3]) -> String {
     v.map(|x| format!("{:.1}", 100.0 * x)).join(" / ")
 }
