@@ -273,6 +273,9 @@ pub struct Renderer {
     white: wgpu::TextureView,
     targets: Targets,
     meshes: Vec<GpuMesh>,
+    /// Readback buffers of earlier images, mapped no more, for the next ones
+    /// ([`readback`]): a fresh buffer's pages are faulted in and zeroed again.
+    spare_readback: std::sync::Mutex<Vec<wgpu::Buffer>>,
 }
 
 #[derive(Clone, Copy)]
@@ -404,6 +407,7 @@ impl Renderer {
             white,
             targets,
             meshes: Vec::new(),
+            spare_readback: std::sync::Mutex::new(Vec::new()),
             scatter,
         })
     }

@@ -121,6 +121,34 @@ fn views_recorded_together_are_each_as_rendered_alone() {
     );
 }
 
+/// Readback buffers are kept for the next images (`Renderer::finish`): a view read back
+/// through the buffers another view's image left is the view's own image, bit for bit.
+#[test]
+fn kept_readback_buffers_give_each_image_its_own_pixels() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let (v, i) = quad(0.0, Vec3::new(3.0, 2.0, 1.0));
+    let material = MeshMaterial {
+        lighting: Lighting::Vertex,
+        ..Default::default()
+    };
+    let id = r.add_mesh(&v, &i, &material).unwrap();
+    r.set_instances(id, &[MeshInstance::new(Mat4::IDENTITY, Vec4::ONE)])
+        .unwrap();
+    let lit = view(LightingMode::Grid, vec![id]);
+    let mut dark = lit.clone();
+    dark.exposure = 0.25;
+    let first = r.render(&lit).unwrap();
+    let other = r.render(&dark).unwrap();
+    let again = r.render(&lit).unwrap();
+    assert!(first != other, "the views differ");
+    assert!(again == first, "the same view read back again");
+    let mut pending = r.record(&dark).unwrap();
+    pending.append(r.record(&lit).unwrap());
+    let both = r.finish(pending).unwrap();
+    assert!(both[0] == other && both[1] == first);
+}
+
 /// Instances the camera cannot see are left out of the draw (`lightgrid_render::cull`)
 /// without changing the image: one in view, one across the view's edge, three outside
 /// (beside, behind, above the eye looking down) give the image of the first two alone,

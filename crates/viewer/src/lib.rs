@@ -159,7 +159,10 @@ impl Summary {
             "  model material grids: {:.1} MB",
             self.model_grid_bytes as f64 / 1e6
         );
-        let _ = writeln!(s, "stages (seconds):");
+        let _ = writeln!(
+            s,
+            "stages (seconds; a view's images are read back and written beside the next stage: the stages add up to more than the total):"
+        );
         for (name, t) in &self.timings {
             let _ = writeln!(s, "  {name:32} {t:8.2}");
         }
@@ -303,16 +306,21 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
     rec.timings
         .push(("upload meshes".into(), t.elapsed().as_secs_f64()));
     let mut views = Vec::new();
+    // A view's images are read back and written while the next view's grids are built
+    // (or the sun moves): lavapipe's drawing and the sweeps share the cores.
+    let mut drawn: Option<Drawn> = None;
     for vi in 0..world.scene.views.len() {
-        views.push(render_view(
+        let (view, next) = render_view(
             &mut world,
             (&mut r, &meshes),
-            vi,
+            (vi, drawn.take()),
             opts,
             &mut rec,
-        )?);
+        )?;
+        views.push(view);
+        drawn = next;
     }
-    let sun_move = move_sun(&mut world, (&mut r, &meshes), opts, &mut rec)?;
+    let sun_move = move_sun(&mut world, (&mut r, &meshes), drawn, opts, &mut rec)?;
     rec.timings
         .push(("total".into(), total.elapsed().as_secs_f64()));
     let summary = Summary {
@@ -359,8 +367,66 @@ impl Record {
         (r, meshes): (&mut Renderer, &draw::SceneMeshes),
         world: &World,
         (camera, shots): (Camera, &[draw::Shot]),
-        (out, view, exr): (&Path, &str, bool),
+        to: (&Path, &str, bool),
     ) -> Result<()> {
+        let drawn = Drawn::record((r, meshes), world, (camera, shots), to)?;
+        self.files.extend(drawn.write(r)?);
+        Ok(())
+    }
+
+    /// Writes the images `drawn` holds (`drawn.stage` timed: its recording and this),
+    /// on a thread of its own, while `f` runs here.
+    fn beside<T>(
+        &mut self,
+        r: &Renderer,
+        drawn: Option<Drawn>,
+        f: impl FnOnce() -> Result<T>,
+    ) -> Result<T> {
+        let Some(drawn) = drawn else { return f() };
+        let (written, out) = std::thread::scope(|s| {
+            let writer = s.spawn(|| {
+                let t = Instant::now();
+                let stage = (drawn.stage.clone(), drawn.record_s);
+                drawn
+                    .write(r)
+                    .map(|files| (files, stage, t.elapsed().as_secs_f64()))
+            });
+            let out = f();
+            let written = writer
+                .join()
+                .map_err(|_| anyhow::anyhow!("the thread writing the images panicked"))
+                .and_then(|w| w);
+            (written, out)
+        });
+        let (files, (stage, record_s), write_s) = written?;
+        self.files.extend(files);
+        self.timings.push((stage, record_s + write_s));
+        out
+    }
+}
+
+/// Images recorded and not yet read back: [`Drawn::write`] sends them, reads them
+/// back and writes them.
+struct Drawn {
+    pending: lightgrid_render::PendingImages,
+    /// Where each image goes, in order.
+    paths: Vec<PathBuf>,
+    /// The first image's EXR, if asked.
+    exr: Option<PathBuf>,
+    /// The stage (`render <view>`) and the seconds its recording took.
+    stage: String,
+    record_s: f64,
+}
+
+impl Drawn {
+    /// Records `shots` of the view `view` (see [`Record::shots`]).
+    fn record(
+        (r, meshes): (&mut Renderer, &draw::SceneMeshes),
+        world: &World,
+        (camera, shots): (Camera, &[draw::Shot]),
+        (out, view, exr): (&Path, &str, bool),
+    ) -> Result<Self> {
+        let t = Instant::now();
         let mut pending = lightgrid_render::PendingImages::default();
         let mut rest = shots;
         if let [draw::Shot::Lit, draw::Shot::NoGrid, tail @ ..] = shots {
@@ -371,18 +437,30 @@ impl Record {
         for &shot in rest {
             pending.append(r.record(&draw::make_view(world, meshes, camera, shot))?);
         }
-        let images = r.finish(pending)?;
-        for (img, shot) in images.iter().zip(shots) {
-            let path = out.join(format!("{view}{}.png", shot.suffix()));
+        Ok(Self {
+            pending,
+            paths: (shots.iter())
+                .map(|shot| out.join(format!("{view}{}.png", shot.suffix())))
+                .collect(),
+            exr: exr.then(|| out.join(format!("{view}.exr"))),
+            stage: format!("render {view}"),
+            record_s: t.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Sends the images, reads them back and writes them; the files written.
+    fn write(self, r: &Renderer) -> Result<Vec<PathBuf>> {
+        let images = r.finish(self.pending)?;
+        let mut files = Vec::new();
+        for (img, path) in images.iter().zip(self.paths) {
             write_png(&path, img)?;
-            self.files.push(path);
+            files.push(path);
         }
-        if let (true, Some(img)) = (exr, images.first()) {
-            let path = out.join(format!("{view}.exr"));
+        if let (Some(path), Some(img)) = (self.exr, images.first()) {
             write_exr(&path, img)?;
-            self.files.push(path);
+            files.push(path);
         }
-        Ok(())
+        Ok(files)
     }
 }
 
@@ -391,16 +469,19 @@ impl Record {
 fn render_view(
     world: &mut World,
     (r, meshes): (&mut Renderer, &draw::SceneMeshes),
-    vi: usize,
+    (vi, before): (usize, Option<Drawn>),
     opts: &Options,
     rec: &mut Record,
-) -> Result<ViewSummary> {
+) -> Result<(ViewSummary, Option<Drawn>)> {
     let spec = world.scene.views[vi].clone();
     let name = &spec.name;
     let (eye, target) = world.view_points(vi);
-    let (frames, swept, stats) = rec.time(format!("grids for {name}"), |_| {
-        world.prepare_view(eye, &format!("light grids for {name}"))
+    let ((frames, swept, stats), seconds) = rec.beside(r, before, || {
+        let t = Instant::now();
+        let out = world.prepare_view(eye, &format!("light grids for {name}"))?;
+        Ok((out, t.elapsed().as_secs_f64()))
     })?;
+    rec.timings.push((format!("grids for {name}"), seconds));
     if opts.bevy {
         rec.time(format!("bevy volumes for {name}"), |rec| {
             let dir = opts.out.join("bevy");
@@ -417,10 +498,15 @@ fn render_view(
     })?;
     let mut camera = Camera::look_at(eye, target);
     camera.fov_y = spec.fov_deg.to_radians();
-    rec.time(format!("render {name}"), |rec| {
-        let to = (opts.out.as_path(), name.as_str(), vi == 0 && opts.exr);
-        rec.shots((r, meshes), world, (camera, &draw::Shot::ALL), to)
-    })?;
+    let to = (opts.out.as_path(), name.as_str(), vi == 0 && opts.exr);
+    let drawn = Drawn::record((r, meshes), world, (camera, &draw::Shot::ALL), to)?;
+    // The probes relight the meshes: the grids' images are written first.
+    let drawn = if world.probes.is_some() {
+        rec.beside(r, Some(drawn), || Ok(()))?;
+        None
+    } else {
+        Some(drawn)
+    };
     if meshes.relight_probes(r, world)?.is_some() {
         // The same view lit by the probes, and the probes' debug view; the next view
         // samples the grids again.
@@ -434,7 +520,7 @@ fn render_view(
             )
         })?;
     }
-    Ok(ViewSummary {
+    let summary = ViewSummary {
         name: spec.name.clone(),
         frames,
         points_swept: swept,
@@ -459,7 +545,8 @@ fn render_view(
             format!("cpu ({} grids)", relit.grids)
         },
         debug_instances: debug,
-    })
+    };
+    Ok((summary, drawn))
 }
 
 /// With the sun kept apart: the sun moves [`SUN_MOVE_DEG`] in azimuth, what it changes
@@ -468,38 +555,42 @@ fn render_view(
 fn move_sun(
     world: &mut World,
     (r, meshes): (&mut Renderer, &draw::SceneMeshes),
+    before: Option<Drawn>,
     opts: &Options,
     rec: &mut Record,
 ) -> Result<Option<String>> {
     let (Some(_), Some(spec)) = (world.hierarchy.sun(), world.scene.views.last().cloned()) else {
+        rec.beside(r, before, || Ok(()))?;
         return Ok(None);
     };
     let (eye, target) = world.view_points(world.scene.views.len() - 1);
-    let t = Instant::now();
     let (e, a) = world.scene.sun.angles();
     let sun = &mut world.scene.sun;
     sun.time_of_day = None;
     sun.elevation_deg = e.to_degrees();
     sun.azimuth_deg = a.to_degrees() + SUN_MOVE_DEG;
-    let what = world.move_sun().context("moving the sun")?;
-    let (mut sun_built, mut built, mut points) = (0, 0, 0);
-    for _ in 0..400 {
-        let s = if what.sky_reswept {
-            world.hierarchy.refresh(eye)
-        } else {
-            world.hierarchy.update(eye)
+    let (what, sun_built, built, points, seconds) = rec.beside(r, before, || {
+        let t = Instant::now();
+        let what = world.move_sun().context("moving the sun")?;
+        let (mut sun_built, mut built, mut points) = (0, 0, 0);
+        for _ in 0..400 {
+            let s = if what.sky_reswept {
+                world.hierarchy.refresh(eye)
+            } else {
+                world.hierarchy.update(eye)
+            }
+            .context("recomputing the grids for the moved sun")?;
+            (sun_built, built, points) = (
+                sun_built + s.sun_built,
+                built + s.built,
+                points + s.points_swept,
+            );
+            if s.pending == 0 {
+                break;
+            }
         }
-        .context("recomputing the grids for the moved sun")?;
-        (sun_built, built, points) = (
-            sun_built + s.sun_built,
-            built + s.built,
-            points + s.points_swept,
-        );
-        if s.pending == 0 {
-            break;
-        }
-    }
-    let seconds = t.elapsed().as_secs_f64();
+        Ok((what, sun_built, built, points, t.elapsed().as_secs_f64()))
+    })?;
     rec.timings.push(("sun move".into(), seconds));
     meshes.relight(r, world)?;
     let mut camera = Camera::look_at(eye, target);

@@ -2,11 +2,16 @@
 //! [`Renderer::record_pair`] record a view's drawing and the copy of its targets into
 //! buffers the CPU can map, [`Renderer::send`] submits them, [`Renderer::finish`] waits
 //! for them and decodes the images. In between the CPU is free while the device draws
-//! (a software rasteriser such as lavapipe draws on threads of its own). The viewer
-//! records each view's shots and reads them back at once: drawing them beside the next
-//! view's grids gained nothing on two cores, both being busy.
+//! (a software rasteriser such as lavapipe draws on threads of its own). `finish` takes
+//! `&self`: the viewer reads a view's images back and writes them on a thread of its
+//! own while the next view's grids are built. The readback buffers are kept for the
+//! next images (at most [`SPARE_READBACK_BYTES`]).
 
 use super::*;
+
+/// Most bytes of readback buffers a renderer keeps for its next images (four 1080p
+/// images' HDR and sRGB copies).
+pub(crate) const SPARE_READBACK_BYTES: u64 = 4 * 1920 * 1088 * (16 + 4);
 
 /// Images recorded by [`Renderer::record`] or [`Renderer::record_pair`], not yet read
 /// back: [`Renderer::finish`] returns them in the order they were recorded.
@@ -156,11 +161,18 @@ impl Renderer {
         bpp: u32,
     ) -> wgpu::Buffer {
         let padded = self.padded_row(bpp);
-        let buffer = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("image readback"),
-            size: (padded * self.height) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
+        let size = (padded * self.height) as u64;
+        let spare = self.spare_readback.lock().ok().and_then(|mut spare| {
+            let at = spare.iter().position(|b| b.size() == size)?;
+            Some(spare.swap_remove(at))
+        });
+        let buffer = spare.unwrap_or_else(|| {
+            self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("image readback"),
+                size,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
         });
         enc.copy_texture_to_buffer(
             tex.as_image_copy(),
@@ -177,41 +189,60 @@ impl Renderer {
         buffer
     }
 
-    /// The rows of a mapped copy of `bpp` bytes a pixel, padding dropped.
-    fn rows(&self, buffer: &wgpu::Buffer, bpp: u32) -> Result<Vec<u8>, GpuError> {
-        let row = (self.width * bpp) as usize;
-        let data = buffer
-            .slice(..)
-            .get_mapped_range()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .chunks(self.padded_row(bpp) as usize)
-            .flat_map(|r| &r[..row])
-            .copied()
-            .collect();
-        buffer.unmap();
-        Ok(data)
+    /// Keeps an unmapped readback buffer for the next images, within
+    /// [`SPARE_READBACK_BYTES`].
+    fn keep(&self, buffer: &wgpu::Buffer) {
+        if let Ok(mut spare) = self.spare_readback.lock() {
+            let held: u64 = spare.iter().map(wgpu::Buffer::size).sum();
+            if held + buffer.size() <= SPARE_READBACK_BYTES {
+                spare.push(buffer.clone());
+            }
+        }
     }
 
-    /// One image from its mapped copies.
+    /// The pixels of a mapped copy of `bpp` bytes a pixel, each decoded by `pixel`
+    /// (padding dropped); the buffer is unmapped and kept for the next images.
+    fn pixels<T>(
+        &self,
+        buffer: &wgpu::Buffer,
+        bpp: u32,
+        pixel: impl Fn(&[u8]) -> T,
+    ) -> Result<Vec<T>, GpuError> {
+        let row = (self.width * bpp) as usize;
+        let mut out = Vec::with_capacity((self.width * self.height) as usize);
+        {
+            let mapped = buffer
+                .slice(..)
+                .get_mapped_range()
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            for r in mapped.chunks(self.padded_row(bpp) as usize) {
+                out.extend(r[..row].chunks_exact(bpp as usize).map(&pixel));
+            }
+        }
+        buffer.unmap();
+        self.keep(buffer);
+        Ok(out)
+    }
+
+    /// One image from its mapped copies (non-finite HDR values read as 0).
     fn decode(&self, c: &Copies) -> Result<Image, GpuError> {
-        let bytes = self.rows(&c.hdr, self.hdr_bytes())?;
+        let finite = |c: f32| if c.is_finite() { c } else { 0.0 };
         let hdr: Vec<[f32; 4]> = if self.hdr_format == HDR_FORMAT {
-            bytemuck::pod_collect_to_vec(&bytes)
+            self.pixels(&c.hdr, 16, |p| {
+                let v: [f32; 4] = bytemuck::pod_read_unaligned(p);
+                v.map(finite)
+            })?
         } else {
-            let halves: Vec<[u16; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-            halves
-                .into_iter()
-                .map(|p| p.map(|h| half::f16::from_bits(h).to_f32()))
-                .collect()
+            self.pixels(&c.hdr, 8, |p| {
+                let v: [u16; 4] = bytemuck::pod_read_unaligned(p);
+                v.map(|h| finite(half::f16::from_bits(h).to_f32()))
+            })?
         };
-        let srgb: Vec<[u8; 4]> = bytemuck::pod_collect_to_vec(&self.rows(&c.srgb, 4)?);
+        let srgb: Vec<[u8; 4]> = self.pixels(&c.srgb, 4, bytemuck::pod_read_unaligned)?;
         Ok(Image {
             width: self.width,
             height: self.height,
-            hdr: hdr
-                .into_iter()
-                .map(|p| p.map(|c| if c.is_finite() { c } else { 0.0 }))
-                .collect(),
+            hdr,
             srgb,
         })
     }
