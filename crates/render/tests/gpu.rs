@@ -360,6 +360,51 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
     assert_all_pixels(&r, &img, avg * (-0.6f32).exp(), "underwater");
 }
 
+/// Each light volume set is the one drawn: `Renderer::set_light_volume` keeps its
+/// buffers for the next volume of the same size and writes them again, and a volume of
+/// another size takes new ones.
+#[test]
+fn each_light_volume_set_is_the_one_drawn() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let foliage = add_quad(
+        &mut r,
+        1.0,
+        Vec3::ZERO,
+        MeshMaterial {
+            lighting: Lighting::Foliage,
+            ..Default::default()
+        },
+    );
+    let v = view(LightingMode::Grid, vec![foliage]);
+    let wider = |avg: Vec3| {
+        let desc = GridDesc::new(Vec3::new(-25.0, -5.0, -25.0), 5.0, UVec3::new(11, 4, 11));
+        let desc = desc.unwrap();
+        let n = desc.point_count();
+        LightVolume {
+            desc,
+            average: vec![avg.extend(0.0).to_array(); n],
+            dominant: vec![[0.0; 4]; n],
+        }
+    };
+    let (a, b, c) = (
+        Vec3::new(0.4, 0.8, 1.2),
+        Vec3::new(1.0, 0.5, 0.25),
+        Vec3::new(0.3, 0.3, 0.9),
+    );
+    let volumes = [
+        (uniform_volume(a, Vec3::ZERO), a),
+        (uniform_volume(b, Vec3::ZERO), b),
+        (wider(c), c),
+        (uniform_volume(a, Vec3::ZERO), a),
+    ];
+    for (k, (vol, avg)) in volumes.iter().enumerate() {
+        r.set_light_volume(vol).unwrap();
+        let img = r.render(&v).unwrap();
+        assert_all_pixels(&r, &img, *avg, &format!("volume {k}"));
+    }
+}
+
 /// The sun kept apart from the bins (issue 14): the volume's `w` is its transmittance
 /// `T`, and surfaces add `E T max(0, n·s)` with the exact direction plus its specular
 /// (shininess 0: the lobe is the constant 1/π, so every pixel has one known answer);
