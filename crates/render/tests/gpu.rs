@@ -318,15 +318,7 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
     let dom = Vec3::NEG_Y * 0.5;
     r.set_light_volume(&uniform_volume(avg, dom)).unwrap();
     let surface = lit_quad(&mut r, 1.0, Lighting::Surface);
-    let foliage = add_quad(
-        &mut r,
-        1.0,
-        Vec3::ZERO,
-        MeshMaterial {
-            lighting: Lighting::Foliage,
-            ..Default::default()
-        },
-    );
+    let foliage = lit_quad(&mut r, 1.0, Lighting::Foliage);
     // Surface: the average + dominant model, E = π avg (1 - s) + 4π avg s cos.
     let img = r.render(&view(LightingMode::Grid, vec![surface])).unwrap();
     let e = lightgrid_render::shading::irradiance_average_dominant(avg, dom, Vec3::Y);
@@ -367,15 +359,7 @@ fn volume_light_ground_blend_and_water_give_known_answers() {
 fn each_light_volume_set_is_the_one_drawn() {
     let Some(r) = renderer() else { return };
     let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
-    let foliage = add_quad(
-        &mut r,
-        1.0,
-        Vec3::ZERO,
-        MeshMaterial {
-            lighting: Lighting::Foliage,
-            ..Default::default()
-        },
-    );
+    let foliage = lit_quad(&mut r, 1.0, Lighting::Foliage);
     let v = view(LightingMode::Grid, vec![foliage]);
     let wider = |avg: Vec3| {
         let desc = GridDesc::new(Vec3::new(-25.0, -5.0, -25.0), 5.0, UVec3::new(11, 4, 11));
@@ -694,15 +678,7 @@ fn dynamic_point_light_in_the_mesh_shader_gives_the_cpu_answer() {
     )
     .unwrap();
     r.set_dynamic_lights(&lights).unwrap();
-    let id = add_quad(
-        &mut r,
-        0.0,
-        Vec3::ZERO,
-        MeshMaterial {
-            lighting: Lighting::Vertex,
-            ..Default::default()
-        },
-    );
+    let id = lit_quad(&mut r, 0.0, Lighting::Vertex);
     let v = view(LightingMode::Grid, vec![id]);
     let img = r.render(&v).unwrap();
     // Each pixel's world point on the quad (y = 0), by unprojecting its centre.
