@@ -811,14 +811,11 @@ fn frame(
             d => Some(&own[d - 1][..]),
         })
         .collect();
-    let sides: Vec<(usize, f32)> = probes
-        .iter()
-        .map(|p| places::nearest_side(h.grid_at(p.p).desc(), p.p))
-        .collect();
+    let side_of = |i: usize| places::nearest_side(h.grid_at(probes[i].p).desc(), probes[i].p);
     let at = peaks::Frame {
         frame: f,
         probes: &probes,
-        sides: &sides,
+        side_of: &side_of,
     };
     tally.peaks.add(&at, &depths, &parts, &own_refs);
     if f >= cfg.frames / 2 {

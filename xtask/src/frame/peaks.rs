@@ -99,20 +99,23 @@ pub(super) struct Frame<'a> {
     pub frame: u32,
     /// The probes (`super::probes`' lattice).
     pub probes: &'a [Probe],
-    /// Each probe's nearest side of its serving grid's points
-    /// ([`super::places::SIDE_NAMES`]' index) and its distance from it, in cells.
-    pub sides: &'a [(usize, f32)],
+    /// Probe `i`'s nearest side of its serving grid's points
+    /// ([`super::places::SIDE_NAMES`]' index) and its distance from it, in cells (asked
+    /// only of a probe that becomes a depth's worst).
+    pub side_of: &'a dyn Fn(usize) -> (usize, f32),
 }
 
 /// The relative errors of every probe by depth, as the path goes.
 #[derive(Default)]
 pub(super) struct PeakTally {
     /// By depth: the relative errors of sky, sun and both (sun and both away from
-    /// shadow edges), and the probes at edges.
-    by_depth: Vec<([Vec<f32>; 3], u64)>,
-    /// By depth, the probe with the largest of each.
-    worst: Vec<[Option<Worst>; 3]>,
+    /// shadow edges), the probes at edges, and the probe with the largest of each.
+    by_depth: Vec<DepthTally>,
 }
+
+/// One depth's relative errors of sky, sun and both, its probes at edges, and the
+/// probe with the largest of each ([`PeakTally`]).
+type DepthTally = ([Vec<f32>; 3], u64, [Option<Worst>; 3]);
 
 impl PeakTally {
     /// A frame's probes (`at`): `depth[i]` the depth serving probe `i` (its reference
@@ -148,9 +151,8 @@ impl PeakTally {
             let edge = hi > 0.0 && hi - lo > EDGE_SPAN * hi;
             if self.by_depth.len() <= d {
                 self.by_depth.resize_with(d + 1, Default::default);
-                self.worst.resize(d + 1, [None; 3]);
             }
-            let (errs, edges) = &mut self.by_depth[d];
+            let (errs, edges, worsts) = &mut self.by_depth[d];
             let q = r[i];
             let parts = [
                 (hp.sky, q.sky, sky),
@@ -165,17 +167,18 @@ impl PeakTally {
             for (k, (hv, rv, m)) in parts.into_iter().enumerate().take(counted) {
                 let e = if m > 0.0 { (hv - rv).abs() / m } else { 0.0 };
                 errs[k].push(e);
-                let worst = &mut self.worst[d][k];
+                let worst = &mut worsts[k];
                 if worst.is_none_or(|w| e > w.relative) {
                     let p = &at.probes[i];
+                    let (side, cells) = (at.side_of)(i);
                     *worst = Some(Worst {
                         relative: e,
                         frame: at.frame,
                         at: p.p.to_array(),
                         facing: p.n.to_array(),
                         vertex: p.vertex,
-                        cells_from_side: at.sides[i].1,
-                        side: super::places::SIDE_NAMES[at.sides[i].0],
+                        cells_from_side: cells,
+                        side: super::places::SIDE_NAMES[side],
                         hierarchy: hv,
                         reference: rv,
                         brightest: m,
@@ -190,8 +193,7 @@ impl PeakTally {
     pub(super) fn peaks(&self) -> Vec<Peaks> {
         self.by_depth
             .iter()
-            .zip(&self.worst)
-            .map(|((errs, edges), worst)| {
+            .map(|(errs, edges, worst)| {
                 let mut max = [0.0; 3];
                 let mut p999 = [0.0; 3];
                 for (k, e) in errs.iter().enumerate() {
@@ -270,11 +272,10 @@ mod tests {
                 vertex: i < nv,
             })
             .collect();
-        let sides: Vec<(usize, f32)> = (0..total).map(|i| (i % 4, i as f32 / 2.0)).collect();
         let at = Frame {
             frame: 7,
             probes: &probes,
-            sides: &sides,
+            side_of: &|i| (i % 4, i as f32 / 2.0),
         };
         let mut t = PeakTally::default();
         t.add(&at, &depth, &h, &[None, Some(&r)]);
