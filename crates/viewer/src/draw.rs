@@ -13,7 +13,9 @@ use lightgrid_render::{
 };
 use lightgrid_render::{GpuLayerSun, LayerLight, transmittance_buffer};
 
-use crate::world::World;
+use lightgrid_material_voxelizer::compose::{GroundColour, Heightmap, Instance};
+
+use crate::world::{ModelEntry, World};
 
 /// The terrain mesh: the heightmap's nodes (every `stride`-th), normals from central
 /// differences.
@@ -51,7 +53,11 @@ impl TerrainMesh {
 
     /// At most `max_side` vertices a side.
     pub fn new(world: &World, max_side: u32) -> Self {
-        let hm = &world.heightmap;
+        Self::of(&world.heightmap, max_side)
+    }
+
+    /// [`TerrainMesh::new`] of a heightmap.
+    pub fn of(hm: &Heightmap, max_side: u32) -> Self {
         let stride = hm.width.max(hm.depth).div_ceil(max_side).max(1);
         let (nx, nz) = ((hm.width - 1) / stride + 1, (hm.depth - 1) / stride + 1);
         let spacing = hm.spacing * stride as f32;
@@ -107,6 +113,23 @@ fn srgb_texture(t: &lightgrid_material_voxelizer::model::Texture) -> TextureRgba
             })
             .collect(),
     }
+}
+
+/// What a world's meshes are made of ([`World::mesh_sources`]): its terrain, models,
+/// instances and dynamic lights, without the hierarchy (which may build grids while the
+/// meshes are uploaded).
+#[derive(Clone, Copy)]
+pub struct MeshSources<'a> {
+    /// The terrain's heights.
+    pub heightmap: &'a Heightmap,
+    /// The ground's colour.
+    pub ground: &'a GroundColour,
+    /// The models.
+    pub models: &'a [ModelEntry],
+    /// Their instances.
+    pub instances: &'a [Instance],
+    /// Dynamic lights.
+    pub dynamic: &'a lightgrid_render::DynamicLights,
 }
 
 /// One mesh per material of `model` (flat normals, UV transform applied).
@@ -237,8 +260,13 @@ pub struct Relit {
 impl SceneMeshes {
     /// Uploads the terrain, the models with their instances, and the debug meshes.
     pub fn new(r: &mut Renderer, world: &World) -> Result<Self> {
-        let terrain_mesh = TerrainMesh::new(world, 320);
-        let ground = match &world.ground {
+        Self::from_sources(r, world.mesh_sources())
+    }
+
+    /// [`SceneMeshes::new`] from a world's parts.
+    pub fn from_sources(r: &mut Renderer, world: MeshSources<'_>) -> Result<Self> {
+        let terrain_mesh = TerrainMesh::of(world.heightmap, 320);
+        let ground = match world.ground {
             lightgrid_material_voxelizer::compose::GroundColour::Uniform(c) => c.extend(1.0),
             _ => Vec4::new(0.25, 0.22, 0.16, 1.0),
         };
@@ -280,7 +308,7 @@ impl SceneMeshes {
             }
             models.extend(ids);
         }
-        r.set_dynamic_lights(&world.dynamic)?;
+        r.set_dynamic_lights(world.dynamic)?;
         let (v, i) = sphere();
         let balls = r.add_mesh(
             &v,

@@ -289,22 +289,32 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
     std::fs::create_dir_all(&opts.out)
         .with_context(|| format!("creating {}", opts.out.display()))?;
     let total = Instant::now();
-    // One device for sweeping (when the GPU sweeps) and drawing.
-    let t = Instant::now();
-    let ctx = render_context()?;
-    let device_time = t.elapsed().as_secs_f64();
-    let mut world = World::build_on(scene, opts.sweeper, Some(ctx.clone()))?;
+    // One device for sweeping (when the GPU sweeps) and drawing, made on a thread of its
+    // own while the terrain and the models are built (mostly one core's wait on the
+    // driver).
+    let (mut world, (ctx, device_time)) = std::thread::scope(|s| {
+        let device = s.spawn(|| {
+            let t = Instant::now();
+            render_context().map(|ctx| (ctx, t.elapsed().as_secs_f64()))
+        });
+        let mut made = None;
+        let world = World::build_with(scene, opts.sweeper, || {
+            let (ctx, seconds) = device
+                .join()
+                .map_err(|_| anyhow::anyhow!("making the GPU device panicked"))??;
+            made = Some((ctx.clone(), seconds));
+            Ok(Some(ctx))
+        })?;
+        let made = made.context("the world was built without asking for its device")?;
+        anyhow::Ok((world, made))
+    })?;
     let mut rec = Record {
         timings: vec![("GPU device".to_string(), device_time)],
         files: Vec::new(),
     };
     rec.timings.extend(world.timings.iter().cloned());
-    let t = Instant::now();
     let renderer_name = format!("{} ({:?})", ctx.info.name, ctx.info.device_type);
-    let mut r = Renderer::new(ctx, opts.width, opts.height)?;
-    let meshes = draw::SceneMeshes::new(&mut r, &world)?;
-    rec.timings
-        .push(("upload meshes".into(), t.elapsed().as_secs_f64()));
+    let (mut r, meshes, mut first) = upload_beside_first_view(&mut world, ctx, opts, &mut rec)?;
     let mut views = Vec::new();
     // A view's images are read back and written while the next view's grids are built
     // (or the sun moves): lavapipe's drawing and the sweeps share the cores.
@@ -313,7 +323,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
         let (view, next) = render_view(
             &mut world,
             (&mut r, &meshes),
-            (vi, drawn.take()),
+            (vi, drawn.take(), first.take()),
             opts,
             &mut rec,
         )?;
@@ -466,21 +476,85 @@ impl Drawn {
 
 /// View `vi` of the scene: its light grids built around its eye, exported for Bevy
 /// if asked, sampled onto the meshes and rendered (every shot, the probes' too).
+/// A view's grids built ([`World::prepare_view`]'s frames, points swept and last
+/// stats) and the seconds they took.
+type Prepared = ((u32, u64, lightgrid_terrain_lod::FrameStats), f64);
+
+/// The progress label of a view's grids.
+fn grids_label(view: &str) -> String {
+    format!("light grids for {view}")
+}
+
+/// The renderer made and the world's meshes uploaded on a thread of their own while
+/// the first view's grids are built (the upload is mostly one core's work, the sweeps
+/// leave a little of two); the first view's grids, built, with them.
+fn upload_beside_first_view(
+    world: &mut World,
+    ctx: Arc<lightgrid_gpu::GpuContext>,
+    opts: &Options,
+    rec: &mut Record,
+) -> Result<(Renderer, draw::SceneMeshes, Option<Prepared>)> {
+    let first = (!world.scene.views.is_empty()).then(|| {
+        let eye = world.view_points(0).0;
+        (eye, grids_label(&world.scene.views[0].name))
+    });
+    // The hierarchy builds while the meshes are made of the world's other parts.
+    let World {
+        hierarchy,
+        heightmap,
+        ground,
+        models,
+        instances,
+        dynamic,
+        ..
+    } = world;
+    let sources = draw::MeshSources {
+        heightmap,
+        ground,
+        models,
+        instances,
+        dynamic,
+    };
+    let (uploaded, prepared) = std::thread::scope(|s| {
+        let upload = s.spawn(|| {
+            let t = Instant::now();
+            let mut r = Renderer::new(ctx, opts.width, opts.height)?;
+            let meshes = draw::SceneMeshes::from_sources(&mut r, sources)?;
+            anyhow::Ok((r, meshes, t.elapsed().as_secs_f64()))
+        });
+        let prepared = first.map(|(eye, label)| {
+            let t = Instant::now();
+            world::settle_view(hierarchy, eye, &label).map(|out| (out, t.elapsed().as_secs_f64()))
+        });
+        let uploaded = upload
+            .join()
+            .map_err(|_| anyhow::anyhow!("uploading the meshes panicked"));
+        (uploaded, prepared)
+    });
+    let (r, meshes, upload_s) = uploaded??;
+    rec.timings.push(("upload meshes".into(), upload_s));
+    let prepared = prepared.transpose()?;
+    Ok((r, meshes, prepared))
+}
+
 fn render_view(
     world: &mut World,
     (r, meshes): (&mut Renderer, &draw::SceneMeshes),
-    (vi, before): (usize, Option<Drawn>),
+    (vi, before, prepared): (usize, Option<Drawn>, Option<Prepared>),
     opts: &Options,
     rec: &mut Record,
 ) -> Result<(ViewSummary, Option<Drawn>)> {
     let spec = world.scene.views[vi].clone();
     let name = &spec.name;
     let (eye, target) = world.view_points(vi);
-    let ((frames, swept, stats), seconds) = rec.beside(r, before, || {
-        let t = Instant::now();
-        let out = world.prepare_view(eye, &format!("light grids for {name}"))?;
-        Ok((out, t.elapsed().as_secs_f64()))
-    })?;
+    let ((frames, swept, stats), seconds) = match prepared {
+        Some(p) => p,
+        None => rec.beside(r, before, || {
+            let t = Instant::now();
+            let out = world.prepare_view(eye, &grids_label(name))?;
+            Ok((out, t.elapsed().as_secs_f64()))
+        })?,
+    };
     rec.timings.push((format!("grids for {name}"), seconds));
     if opts.bevy {
         rec.time(format!("bevy volumes for {name}"), |rec| {

@@ -502,6 +502,18 @@ impl World {
         sweeper: SweeperChoice,
         gpu: Option<Arc<lightgrid_gpu::GpuContext>>,
     ) -> Result<Self> {
+        Self::build_with(scene, sweeper, || Ok(gpu))
+    }
+
+    /// [`World::build_on`] with the device asked for (`gpu()`) only once the terrain,
+    /// the models and their instances are ready, just before the world grid, whose
+    /// sweeper may be the GPU's: a device made on another thread meanwhile costs the
+    /// build no wait.
+    pub fn build_with(
+        scene: SceneFile,
+        sweeper: SweeperChoice,
+        gpu: impl FnOnce() -> Result<Option<Arc<lightgrid_gpu::GpuContext>>>,
+    ) -> Result<Self> {
         let mut timings = Vec::new();
         let (heightmap, ground) = timed(&mut timings, "terrain", || load_terrain(&scene))?;
         let (models, grids) = timed(&mut timings, "voxelize models", || voxelize_models(&scene))?;
@@ -516,6 +528,7 @@ impl World {
                 AreaComposer::new(grids, &instances, Some(terrain), ComposeParams::default())?;
             Ok((instances, Arc::new(composer)))
         })?;
+        let gpu = gpu()?;
         let (sky, sky_top, sun, hierarchy, name) = timed(&mut timings, "world grid", || {
             let sky = sky_spec(&scene)?;
             let (sky_top, sun) = sky_and_sun(&scene, &sky)?;
@@ -616,20 +629,40 @@ impl World {
         eye: Vec3,
         label: &str,
     ) -> Result<(u32, u64, lightgrid_terrain_lod::FrameStats)> {
-        let pb = bar(0, label);
-        let mut swept = 0;
-        let mut frames = 0;
-        // Drawn once settled: coarse to fine, each node swept once (`settle`).
-        let s = self
-            .hierarchy
-            .settle(eye, 400, |s| {
-                frames += 1;
-                swept += s.points_swept;
-                pb.set_length(frames as u64 + s.pending as u64);
-                pb.set_position(frames as u64);
-            })
-            .context("updating the light grids")?;
-        pb.finish_and_clear();
-        Ok((frames, swept, s))
+        settle_view(&mut self.hierarchy, eye, label)
     }
+
+    /// What the renderer's meshes are made of ([`crate::draw::SceneMeshes::from_sources`]):
+    /// borrowed apart from the hierarchy, which may build grids meanwhile.
+    pub fn mesh_sources(&self) -> crate::draw::MeshSources<'_> {
+        crate::draw::MeshSources {
+            heightmap: &self.heightmap,
+            ground: &self.ground,
+            models: &self.models,
+            instances: &self.instances,
+            dynamic: &self.dynamic,
+        }
+    }
+}
+
+/// [`World::prepare_view`] on the world's hierarchy alone.
+pub(crate) fn settle_view(
+    hierarchy: &mut Hierarchy,
+    eye: Vec3,
+    label: &str,
+) -> Result<(u32, u64, lightgrid_terrain_lod::FrameStats)> {
+    let pb = bar(0, label);
+    let mut swept = 0;
+    let mut frames = 0;
+    // Drawn once settled: coarse to fine, each node swept once (`settle`).
+    let s = hierarchy
+        .settle(eye, 400, |s| {
+            frames += 1;
+            swept += s.points_swept;
+            pb.set_length(frames as u64 + s.pending as u64);
+            pb.set_position(frames as u64);
+        })
+        .context("updating the light grids")?;
+    pb.finish_and_clear();
+    Ok((frames, swept, s))
 }
