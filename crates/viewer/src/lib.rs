@@ -161,7 +161,7 @@ impl Summary {
         );
         let _ = writeln!(
             s,
-            "stages (seconds; a view's images are read back and written beside the next stage: the stages add up to more than the total):"
+            "stages (seconds; the GPU device is made beside the terrain and models, the meshes uploaded beside the first view's grids, and a view's images read back and written beside the next stage: the stages add up to more than the total):"
         );
         for (name, t) in &self.timings {
             let _ = writeln!(s, "  {name:32} {t:8.2}");
