@@ -128,8 +128,8 @@ pub use terrain::Heightmap;
 pub use traits::{
     Acceleration, Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField,
     MAX_PASSES, MaterialSource, MediumEmission, NoScatter, Outputs, Reading, Resident,
-    SideBoundary, SplitLightGrid, SumField, SunBoundary, SunResponse, SweepError, SweepOptions,
-    SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial, VolumeSample,
+    SideBoundary, SplitLightGrid, SumField, SunBeam, SunBoundary, SunResponse, SweepError,
+    SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial, VolumeSample,
 };
 
 /// The README's examples, compiled and run as doc tests.

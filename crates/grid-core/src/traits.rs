@@ -635,6 +635,29 @@ pub trait Sweeper {
             "this sweeper cannot keep the sun apart from the sky",
         )))
     }
+    /// Sweeps `boundary`'s light and `sun`'s first collisions in one sweep: by the
+    /// sweep's linearity the light of [`Sweeper::sweep`] with `boundary` plus
+    /// `sun.irradiance` times the scattered light of [`Sweeper::sweep_sun`] with no
+    /// scattered light entering (to the convergence of the passes), for half the sweeps
+    /// where the two are never needed apart (the sun's transmittance is marched on its
+    /// own: [`Sweeper::sun_transmittance`]). Periodic sides make the beam wrap. Sweepers
+    /// that cannot take cell sources say so (the default);
+    /// `lightgrid_sweep_cpu::sun::sweep_with_sun` is the implementation the CPU and GPU
+    /// sweepers share.
+    fn sweep_with_sun(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        sun: &SunBeam<'_>,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        let _ = (material, boundary, sun, options);
+        Err(SweepError::Invalid(GridError::invalid(
+            "sun",
+            self.name(),
+            "this sweeper cannot sweep the sun's first collisions",
+        )))
+    }
     /// The sun's transmittance alone: [`SunResponse::transmittance`] of
     /// [`Sweeper::sweep_sun`] for the same `material` and `sun` (bit for bit), without
     /// the scattered light's sweep (`sun.scattered` is read only for its sides:
@@ -691,6 +714,29 @@ impl std::fmt::Debug for SunBoundary<'_> {
         f.debug_struct("SunBoundary")
             .field("to_sun", &self.to_sun)
             .field("scattered", &self.scattered)
+            .finish_non_exhaustive()
+    }
+}
+
+/// A sun beam swept together with a grid's other light ([`Sweeper::sweep_with_sun`]):
+/// its direction, its irradiance (RGB, normal to the beam) and what it has lost before
+/// it reaches the grid's box (as [`SunBoundary::outside`]).
+#[derive(Clone, Copy)]
+pub struct SunBeam<'a> {
+    /// Direction toward the sun (need not be unit; at or below the horizon: no beam).
+    pub to_sun: Vec3,
+    /// Irradiance normal to the beam, RGB, finite and `>= 0`.
+    pub irradiance: Vec3,
+    /// The transmittance where a ray leaves the box toward the sun (world position):
+    /// 1 under open sky. Clamped to `[0, 1]` (NaN counts as 0).
+    pub outside: &'a (dyn Fn(Vec3) -> f32 + Sync),
+}
+
+impl std::fmt::Debug for SunBeam<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SunBeam")
+            .field("to_sun", &self.to_sun)
+            .field("irradiance", &self.irradiance)
             .finish_non_exhaustive()
     }
 }

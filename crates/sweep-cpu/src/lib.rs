@@ -766,6 +766,15 @@ impl Sweeper for CpuSweeper {
     ) -> Result<lightgrid_core::SunResponse, SweepError> {
         sun::sweep_sun(self, material, sun, options)
     }
+    fn sweep_with_sun(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        sun: &lightgrid_core::SunBeam<'_>,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        sun::sweep_with_sun(self, material, boundary, sun, options)
+    }
     fn sun_transmittance(
         &mut self,
         material: &MaterialGrid,

@@ -882,6 +882,15 @@ macro_rules! gpu_sweeper_impl {
             ) -> Result<lightgrid_core::SunResponse, SweepError> {
                 lightgrid_sweep_cpu::sun::sweep_sun(self, material, sun, options)
             }
+            fn sweep_with_sun(
+                &mut self,
+                material: &MaterialGrid,
+                boundary: &Boundary,
+                sun: &lightgrid_core::SunBeam<'_>,
+                options: &SweepOptions,
+            ) -> Result<SweepOutput, SweepError> {
+                lightgrid_sweep_cpu::sun::sweep_with_sun(self, material, boundary, sun, options)
+            }
             fn sun_transmittance(
                 &mut self,
                 material: &MaterialGrid,

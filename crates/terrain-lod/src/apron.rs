@@ -20,8 +20,8 @@
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
-    Grid, GridDesc, GridError, MaterialGrid, Resident, SunResponse, SweepError, SweepOptions,
-    SweepOutput, Sweeper,
+    Grid, GridDesc, GridError, MaterialGrid, Resident, SunBeam, SunResponse, SweepError,
+    SweepOptions, SweepOutput, Sweeper,
 };
 
 use crate::{Hierarchy, LodError, NodeKey, NodeMaterial, StageTimes, shadow, timed};
@@ -31,6 +31,9 @@ use crate::{Hierarchy, LodError, NodeKey, NodeMaterial, StageTimes, shadow, time
 pub(crate) struct SkyInputs {
     boundary: lightgrid_core::Boundary,
     pub(crate) hash: u64,
+    /// The node's depth: the sun's march beyond its box reads this depth's materials
+    /// and coarser ones ([`HierarchyParams::sun_with_sky`](crate::HierarchyParams::sun_with_sky)).
+    depth: u32,
 }
 
 impl Hierarchy {
@@ -66,7 +69,15 @@ impl Hierarchy {
             let hash = crate::hash_grid(m, &b, options);
             (b, hash)
         });
-        SkyInputs { boundary, hash }
+        let hash = match self.sun_with_sky() {
+            Some(sun) => crate::hash_sun(hash, sun),
+            None => hash,
+        };
+        SkyInputs {
+            boundary,
+            hash,
+            depth: key.depth,
+        }
     }
 
     /// The sky sweep of `inputs` (made for `material` by [`Hierarchy::sky_inputs`]),
@@ -76,12 +87,22 @@ impl Hierarchy {
         inputs: &SkyInputs,
         material: &NodeMaterial,
         options: &SweepOptions,
-        sweeper: &mut dyn Sweeper,
+        (sweeper, fresh): (&mut dyn Sweeper, &shadow::Fresh<'_>),
         times: &mut StageTimes,
     ) -> Result<SweepOutput, LodError> {
         let m = material.widened.as_ref().unwrap_or(&material.grid);
-        let out = timed(&mut times.sky_sweep, || {
-            sweeper.sweep(m, &inputs.boundary, options)
+        let out = timed(&mut times.sky_sweep, || match self.sun_with_sky() {
+            // The beam marched on beyond the node's box as its transmittance is.
+            Some(sun) => {
+                let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, inputs.depth, fresh);
+                let beam = SunBeam {
+                    to_sun: sun.to_sun,
+                    irradiance: sun.irradiance,
+                    outside: &outside,
+                };
+                sweeper.sweep_with_sun(m, &inputs.boundary, &beam, options)
+            }
+            None => sweeper.sweep(m, &inputs.boundary, options),
         })?;
         Ok(match &material.widened {
             None => out,

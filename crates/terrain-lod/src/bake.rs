@@ -98,6 +98,15 @@ impl WorldBake {
         sun: Option<SunLight>,
         params: HierarchyParams,
     ) -> Result<Self, LodError> {
+        if params.sun_with_sky {
+            // A baked grid carries the sky and the scattered sun apart (`LGBAKE02`).
+            return Err(GridError::invalid(
+                "sun_with_sky",
+                true,
+                "a world bake keeps the sun's scattered light apart: turn it off",
+            )
+            .into());
+        }
         let mut h = Hierarchy::unswept(heightmap, source, sweeper, sky_top, params)?;
         if let Some(mut s) = sun {
             s.to_sun = lightgrid_core::light::check_sun(s.to_sun, s.irradiance)?;
@@ -309,17 +318,14 @@ impl WorldBake {
         let composed = self.h.node_material(key)?;
         let mut sweeper = std::mem::replace(&mut self.h.sweeper, Box::new(crate::Lent));
         let mut times = crate::StageTimes::default();
+        let fresh = crate::shadow::Fresh::default();
         let r = self
             .h
-            .sky_node(key, &composed, None, sweeper.as_mut(), &mut times)
+            .sky_node(key, &composed, None, (sweeper.as_mut(), &fresh), &mut times)
             .and_then(|node| {
-                let sun = self.h.node_sun(
-                    key,
-                    &composed,
-                    sweeper.as_mut(),
-                    &crate::shadow::Fresh::default(),
-                    &mut times,
-                )?;
+                let sun = self
+                    .h
+                    .node_sun(key, &composed, sweeper.as_mut(), &fresh, &mut times)?;
                 Ok((node, sun))
             });
         self.h.sweeper = sweeper;
@@ -421,6 +427,7 @@ impl WorldBake {
                 transmittance: b.transmittance.clone(),
                 to_sun: b.to_sun,
                 marched_to: b.to_sun,
+                with_sky: None,
             })),
             (Some(s), _) => {
                 Err(

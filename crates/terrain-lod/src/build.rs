@@ -351,6 +351,24 @@ impl Hierarchy {
                 ..Job::new(key)
             });
         }
+        if self.sun_with_sky().is_some() {
+            // Its sky sweep took another sun: the node is swept again (sky and sun in
+            // one sweep), its march with it, once the coarser grids its boundary reads
+            // are (coarse first, as a stale sun's responses).
+            let desc = *self.nodes[&key].light.desc();
+            let cost = crate::apron::sky_points(&desc, self.params.apron);
+            if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, cost) {
+                stats.pending += 1;
+                return None;
+            }
+            stats.points_swept += cost;
+            stats.sun_built += 1;
+            return Some(Job {
+                sky: true,
+                march: true,
+                ..Job::new(key)
+            });
+        }
         if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, points) {
             stats.pending += 1;
             return None;
@@ -582,7 +600,13 @@ impl Hierarchy {
             None => &self.nodes[&job.key].material,
         };
         let node = if job.sky {
-            Some(self.sky_node(job.key, material, job.inputs, sweeper, &mut times)?)
+            Some(self.sky_node(
+                job.key,
+                material,
+                job.inputs,
+                (&mut *sweeper, fresh),
+                &mut times,
+            )?)
         } else {
             None
         };
@@ -608,10 +632,13 @@ impl Hierarchy {
         })
     }
 
-    /// Whether node `key`'s scattered sun is the coarser grids' read at its points
-    /// ([`crate::LodSkips::finest_scattered_sun`]: the finest depth's, when asked for).
+    /// Whether node `key` sweeps no scattered sun of its own: its sky sweep holds it
+    /// ([`crate::HierarchyParams::sun_with_sky`]), or it is the coarser grids' read at
+    /// its points ([`crate::LodSkips::finest_scattered_sun`]: the finest depth's, when
+    /// asked for). Either way its sun job is the march alone.
     pub(crate) fn reads_coarse_scattered_sun(&self, key: NodeKey) -> bool {
-        self.params.skip.finest_scattered_sun && key.depth == self.params.depths()
+        self.params.sun_with_sky
+            || (self.params.skip.finest_scattered_sun && key.depth == self.params.depths())
     }
 
     /// A new node's sun responses until its own are swept: the transmittance marched
@@ -641,6 +668,14 @@ impl Hierarchy {
         let transmittance = timed(&mut times.sun_sweep, || {
             self.march_node(sweeper, key, material, sun.to_sun, fresh)
         })?;
+        if self.params.sun_with_sky {
+            // The scattered sun is in the node's sky bins: its responses for good.
+            return Ok(Some(GridSun::marched(
+                *material.grid.desc(),
+                transmittance,
+                sun,
+            )?));
+        }
         let for_good = self.reads_coarse_scattered_sun(key) && self.sun_parent_ready(key);
         let desc = *material.grid.desc();
         // The coarser grids' scattered sun at the node's points, and the downward
@@ -682,6 +717,7 @@ impl Hierarchy {
                 _ => Vec3::ZERO,
             },
             marched_to: sun.to_sun,
+            with_sky: None,
         }))
     }
 
@@ -692,7 +728,7 @@ impl Hierarchy {
         key: NodeKey,
         composed: &NodeMaterial,
         prepared: Option<crate::apron::SkyInputs>,
-        sweeper: &mut dyn Sweeper,
+        (sweeper, fresh): (&mut dyn Sweeper, &Fresh<'_>),
         times: &mut StageTimes,
     ) -> Result<Node, LodError> {
         let o = self.node_options(composed.has_objects);
@@ -701,7 +737,7 @@ impl Hierarchy {
             None => self.sky_inputs(key, (&composed.grid, composed.widened.as_ref()), &o, times),
         };
         let input_hash = inputs.hash;
-        let out = self.sweep_sky(&inputs, composed, &o, sweeper, times)?;
+        let out = self.sweep_sky(&inputs, composed, &o, (&mut *sweeper, fresh), times)?;
         let light = out.bins.ok_or_else(|| {
             GridError::invalid("sweeper", sweeper.name(), "returned no bins, asked for")
         })?;

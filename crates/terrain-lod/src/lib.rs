@@ -171,8 +171,8 @@ use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, Grid, GridDesc, GridError, HorizonGrid, LightGrid, MaterialGrid,
-    MaterialSource, Resident, SideBoundary, SunBoundary, SweepError, SweepOptions, Sweeper,
-    TopBoundary,
+    MaterialSource, Resident, SideBoundary, SunBeam, SunBoundary, SweepError, SweepOptions,
+    Sweeper, TopBoundary,
 };
 
 /// Errors of the hierarchy.
@@ -259,6 +259,28 @@ struct GridSun {
     transmittance: Grid<f32>,
     to_sun: Vec3,
     marched_to: Vec3,
+    /// With the sun swept with the sky ([`HierarchyParams::sun_with_sky`]): the
+    /// irradiance the grid's sky sweep took the sun's first collisions with (toward
+    /// `to_sun`); `None` where the scattered sun is swept apart.
+    with_sky: Option<Vec3>,
+}
+
+impl GridSun {
+    /// The responses of a grid whose sky sweep holds `sun`'s scattered light
+    /// ([`HierarchyParams::sun_with_sky`]): the transmittance marched toward it,
+    /// the scattered light zero (its pages never written: read, they are the kernel's
+    /// zero page).
+    fn marched(desc: GridDesc, transmittance: Grid<f32>, sun: SunLight) -> Result<Self, GridError> {
+        Ok(Self {
+            scattered: LightGrid::zeroed(desc)?,
+            horizon: None,
+            resident: None,
+            transmittance,
+            to_sun: sun.to_sun,
+            marched_to: sun.to_sun,
+            with_sky: Some(sun.irradiance),
+        })
+    }
 }
 
 /// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.
@@ -581,6 +603,17 @@ enum Response {
 /// SipHash, 8 bytes a round, was 2.4 % of the 16-point flythrough) rather than the
 /// stable [`ContentHash`](lightgrid_core::hash::ContentHash) (FNV-1a, a byte a round);
 /// the descriptor and options through `ContentHash`.
+/// `hash` with the sun every grid sweeps with its sky ([`HierarchyParams::sun_with_sky`]):
+/// a node swept for another sun, or another irradiance, is stale.
+pub(crate) fn hash_sun(hash: u64, sun: SunLight) -> u64 {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = foldhash::quality::FixedState::with_seed(0x7375_6e5f_736b_7921).build_hasher();
+    h.write_u64(hash);
+    h.write(bytemuck::cast_slice(&sun.to_sun.to_array()));
+    h.write(bytemuck::cast_slice(&sun.irradiance.to_array()));
+    h.finish()
+}
+
 fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
     use std::hash::{BuildHasher, Hasher};
     let mut h = foldhash::quality::FixedState::with_seed(0x6c67_6e6f_6465_7632).build_hasher();
@@ -722,9 +755,21 @@ impl Hierarchy {
         let desc = *self.world.desc();
         let material = self.compose(&desc)?;
         let o = self.node_options(true);
-        let out = self
-            .sweeper
-            .sweep(&material, &Boundary::open_sky(self.sky), &o)?;
+        let boundary = Boundary::open_sky(self.sky);
+        let out = match self.sun_with_sky() {
+            // The beam enters through the grid's faces: nothing lost before them.
+            Some(sun) => self.sweeper.sweep_with_sun(
+                &material,
+                &boundary,
+                &SunBeam {
+                    to_sun: sun.to_sun,
+                    irradiance: sun.irradiance,
+                    outside: &|_| 1.0,
+                },
+                &o,
+            )?,
+            None => self.sweeper.sweep(&material, &boundary, &o)?,
+        };
         self.world = out.bins.expect("bins asked for");
         self.world_horizon = out.horizon;
         self.world_resident = out.resident;
@@ -821,12 +866,20 @@ impl Hierarchy {
             // A first sun: the world grid at once, the nodes within the budget.
             self.sun = Some(sun);
             self.drop_node_suns();
+            if self.sun_with_sky().is_some() {
+                self.sweep_world()?;
+            }
             return self.sweep_world_sun();
         };
         self.sun = Some(sun);
         // The direct sun moves at once, first (on every core); the scattered sun
         // follows (the module `sun_move`).
         self.march_suns()?;
+        if self.sun_with_sky().is_some() {
+            self.sun_move = None;
+            self.sweep_world()?;
+            return self.sweep_world_sun();
+        }
         if shown == sun.to_sun {
             // Back to the scattered sun shown (a move under way is dropped), or a new
             // irradiance.
@@ -852,7 +905,13 @@ impl Hierarchy {
             }
         };
         let o = self.node_options(true);
-        let r = sun_move::world_grid_sun(self.sweeper.as_mut(), material, sun.to_sun, &o)?;
+        let r = if self.sun_with_sky().is_some() {
+            // The scattered sun is in the sky's bins (`sweep_world`): the march alone.
+            let t = sun_move::march(self.sweeper.as_mut(), material, sun.to_sun, &|_| 1.0)?;
+            GridSun::marched(desc, t, sun)?
+        } else {
+            sun_move::world_grid_sun(self.sweeper.as_mut(), material, sun.to_sun, &o)?
+        };
         self.world_sun = Some(r);
         Ok(())
     }
@@ -868,6 +927,14 @@ impl Hierarchy {
     pub fn set_sky_scale(&mut self, scale: Vec3) -> Result<(), LodError> {
         if !scale.is_finite() || scale.min_element() < 0.0 {
             return Err(GridError::invalid("sky_scale", scale, "must be finite and >= 0").into());
+        }
+        if self.params.sun_with_sky && scale != Vec3::ONE {
+            return Err(GridError::invalid(
+                "sky_scale",
+                scale,
+                "must be 1 with HierarchyParams::sun_with_sky (the sky's bins hold the scattered sun)",
+            )
+            .into());
         }
         self.sky_scale = scale;
         Ok(())
@@ -892,6 +959,13 @@ impl Hierarchy {
         let (Some(sun), Some(scattered_to)) = (self.sun, self.scattered_to()) else {
             return Ok(None);
         };
+        if self.sun_with_sky().is_some() {
+            // The scattered sun is in the sky's bins: the march alone.
+            let t = timed(&mut times.sun_sweep, || {
+                self.march_node(sweeper, key, material, sun.to_sun, fresh)
+            })?;
+            return Ok(Some(GridSun::marched(*material.grid.desc(), t, sun)?));
+        }
         // Swept over the widened grid where the sun has an apron (the scattered sun
         // entering the node's sides has crossed the apron's fine material), kept inside.
         let wide = self.sun_material(material);
@@ -926,6 +1000,7 @@ impl Hierarchy {
             transmittance: r.transmittance,
             to_sun: scattered_to,
             marched_to: scattered_to,
+            with_sky: None,
         };
         if sun.to_sun != scattered_to {
             g.transmittance = timed(&mut times.sun_sweep, || {
@@ -946,6 +1021,12 @@ impl Hierarchy {
         v
     }
 
+    /// The sun kept apart whose first collisions every grid sweeps with its sky
+    /// ([`HierarchyParams::sun_with_sky`]); `None` where the sky is swept alone.
+    pub(crate) fn sun_with_sky(&self) -> Option<SunLight> {
+        self.sun.filter(|_| self.params.sun_with_sky)
+    }
+
     /// The direction the scattered sun is shown for: the world grid's (the sun's but
     /// while a moved sun's world grid is swept on a thread).
     fn scattered_to(&self) -> Option<Vec3> {
@@ -957,8 +1038,19 @@ impl Hierarchy {
     /// grid's is.
     fn sun_current(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.marched_to == s.to_sun && Some(g.to_sun) == self.scattered_to(),
+            (Some(s), Some(g)) => g.marched_to == s.to_sun && self.scattered_current(g),
             _ => false,
+        }
+    }
+
+    /// Whether `g`'s scattered sun is swept for the direction the world grid's is; with
+    /// the sun swept with the sky, whether its grid's sky sweep took the current sun
+    /// (direction and irradiance): else the grid is swept again.
+    fn scattered_current(&self, g: &GridSun) -> bool {
+        match (self.sun_with_sky(), g.with_sky) {
+            (Some(s), Some(e)) => g.to_sun == s.to_sun && e == s.irradiance,
+            (Some(_), None) => false,
+            (None, _) => Some(g.to_sun) == self.scattered_to(),
         }
     }
 
@@ -967,7 +1059,7 @@ impl Hierarchy {
     /// sun's `set_sun` left its march for later ([`Hierarchy::march_suns`]).
     fn scattered_sun_current(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.marched_to != s.to_sun && Some(g.to_sun) == self.scattered_to(),
+            (Some(s), Some(g)) => g.marched_to != s.to_sun && self.scattered_current(g),
             _ => false,
         }
     }

@@ -45,6 +45,21 @@ pub struct HierarchyParams {
     /// one 1 m sweep grew from 10.6 to 12.7 % (1 cell: 12.0 %). Worth it where every
     /// node is built anyway (a bake, a generous budget).
     pub sun_apron: u32,
+    /// With the sun kept apart ([`Hierarchy::set_sun`](crate::Hierarchy::set_sun)),
+    /// every grid sweeps the sun's first collisions with its sky in one sweep
+    /// (`Sweeper::sweep_with_sun`) instead of a second sweep of its own: its bins hold
+    /// sky and scattered sun together, its sun response the transmittance alone (the
+    /// direct sun, marched exactly as ever; the scattered part zero). The light read
+    /// is the same to the passes' convergence (the sweep is linear;
+    /// `tests/sun_with_sky.rs`), for one sweep a node instead of two: on the frame bench
+    /// at 30° a frame took 57 ms instead of 83 (`docs/measurements.md`, "The sun swept
+    /// with the sky"). What it gives up: a new irradiance of the same sun, or a sky
+    /// scale, sweeps every grid again where the split rescales them (so
+    /// [`Hierarchy::set_sky_scale`](crate::Hierarchy::set_sky_scale) takes only 1), and
+    /// the sky and scattered sun cannot be read apart. A moved sun sweeps every grid
+    /// again either way. Off by default; the viewer turns it on (its clear sky follows
+    /// the sun: both are swept again whenever the sun moves).
+    pub sun_with_sky: bool,
     /// A node's side halo reads the light of the nodes of its own depth before it in
     /// a fixed order where they are built (those at index `(x − 1, z)`, `(x, z − 1)`
     /// and `(x − 1, z − 1)`: lower `x + z`), sky and scattered sun, instead of the
@@ -182,6 +197,7 @@ impl Default for HierarchyParams {
             node_points: 32,
             apron: 3,
             sun_apron: 0,
+            sun_with_sky: false,
             neighbour_halo: false,
             margin: 12.0,
             lod_factor: 1.0,

@@ -294,5 +294,6 @@ pub(crate) fn world_grid_sun(
         transmittance: r.transmittance,
         to_sun,
         marched_to: to_sun,
+        with_sky: None,
     })
 }

@@ -188,7 +188,7 @@ impl Summary {
             if v.sun_bytes > 0 {
                 let _ = writeln!(
                     s,
-                    "  sun responses (scattered bins, transmittance): {:.1} MB beside the grids",
+                    "  sun responses (scattered bins, transmittance; the transmittance alone with the sun swept with the sky): {:.1} MB beside the grids",
                     v.sun_bytes as f64 / 1e6
                 );
             }
@@ -335,7 +335,14 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
         .push(("total".into(), total.elapsed().as_secs_f64()));
     let summary = Summary {
         sun: if world.hierarchy.sun().is_some() {
-            "kept apart from the sky's bins (exact direction: transmittance per grid point, direct light per pixel)".into()
+            let with_sky = if world.hierarchy.params().sun_with_sky {
+                "; its first collisions swept with the sky, one sweep a grid"
+            } else {
+                "; its scattered light swept apart"
+            };
+            format!(
+                "kept apart from the sky's bins (exact direction: transmittance per grid point, direct light per pixel{with_sky})"
+            )
         } else {
             "in the sky's bins (sun.split = false)".into()
         },
@@ -594,6 +601,7 @@ fn render_view(
             )
         })?;
     }
+    let with_sky = world.hierarchy.params().sun_with_sky;
     let summary = ViewSummary {
         name: spec.name.clone(),
         frames,
@@ -608,10 +616,13 @@ fn render_view(
         volume_bytes: relit.volume_bytes,
         volume_points: relit.volume_points,
         volume_seconds: relit.volume_seconds,
-        sun_bytes: stats.bytes(BYTES_26_F32 + 4) * world.hierarchy.sun().is_some() as u64,
+        // With the sun swept with the sky, a response is its transmittance alone (its
+        // scattered bins are in the sky's, its own never written).
+        sun_bytes: stats.bytes(if with_sky { 4 } else { BYTES_26_F32 + 4 })
+            * world.hierarchy.sun().is_some() as u64,
         horizon_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_HORIZON)
             * world.hierarchy.params().sweep.outputs.horizon as u64
-            * (1 + world.hierarchy.sun().is_some() as u64),
+            * (1 + (world.hierarchy.sun().is_some() && !with_sky) as u64),
         material_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_MATERIAL),
         sampled_on: if relit.on_device {
             format!("device ({} grids in place)", relit.grids)

@@ -228,7 +228,11 @@ fn world_grid(
         boundary_light(sky_top, scene)?
     };
     let (sweeper, name) = choose_sweeper(sweeper, gpu)?;
-    let params = hierarchy_params(scene);
+    let mut params = hierarchy_params(scene);
+    // The sun's first collisions swept with the sky, one sweep a grid (the same light;
+    // a moved sun sweeps the clear sky's grids again anyway). Not on the GPU sweeper,
+    // whose scattered sun the renderer's device sampling reads where it lies.
+    params.sun_with_sky = scene.sun.split && !name.starts_with("gpu");
     let hierarchy = Hierarchy::new(heightmap, Box::new(composer.clone()), sweeper, top, params)
         .context("building the light grid hierarchy")?;
     Ok((hierarchy, name))
@@ -368,6 +372,10 @@ pub struct SunMove {
     pub split: bool,
     /// The sky's grids are swept again too (sun in the bins, or a clear sky).
     pub sky_reswept: bool,
+    /// The sun's first collisions are swept with the sky
+    /// ([`lightgrid_terrain_lod::HierarchyParams::sun_with_sky`]): every grid is swept
+    /// again, sky and scattered sun in one sweep.
+    pub with_sky: bool,
     /// Seconds spent on the world grid.
     pub seconds: f64,
 }
@@ -375,6 +383,10 @@ pub struct SunMove {
 impl std::fmt::Display for SunMove {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match (self.split, self.sky_reswept) {
+            (true, _) if self.with_sky => write!(
+                f,
+                "every grid's transmittance re-marched at once; the sun's first collisions are swept with the sky (one sweep a grid), so every grid is swept again, the world grid at once, the nodes after"
+            ),
             (true, false) => write!(
                 f,
                 "sun responses recomputed (every grid's transmittance and the world grid's scattered sun at once, the nodes' scattered sun after), sky's grids kept"
@@ -609,6 +621,7 @@ impl World {
         Ok(SunMove {
             split: self.scene.sun.split,
             sky_reswept: sky_changed || !self.scene.sun.split,
+            with_sky: self.hierarchy.params().sun_with_sky,
             seconds: t.elapsed().as_secs_f64(),
         })
     }

@@ -1,0 +1,145 @@
+//! `HierarchyParams::sun_with_sky`: every grid sweeps the sun's first collisions with
+//! its sky in one sweep. The light read is the split's (the sweep is linear: the same
+//! passes over the sum of the two sources), the direct sun the same march bit for bit,
+//! and a new sun (direction or irradiance) sweeps every grid again.
+
+use lightgrid_core::LightField;
+use lightgrid_core::glam::Vec3;
+use lightgrid_sweep_cpu::CpuSweeper;
+use lightgrid_terrain_lod::{Hierarchy, SunLight};
+
+#[path = "field/mod.rs"]
+mod field;
+
+const CAMERA: Vec3 = Vec3::new(32.0, 5.0, 32.0);
+
+/// [`field::over_varying_layer`] settled, with the sun swept with the sky or apart;
+/// four passes always (no early stop: the two then run the same passes).
+fn settled(with_sky: bool, sun: SunLight) -> Hierarchy {
+    let mut params = field::small_params(u64::MAX / 4);
+    params.sun_with_sky = with_sky;
+    params.sweep.max_passes = 4;
+    params.sweep.tolerance = 0.0;
+    let mut h = field::over_varying_layer(
+        Vec3::new(0.5, 0.6, 0.4),
+        Box::new(CpuSweeper::new()),
+        params,
+    );
+    h.set_sun(Some(sun)).unwrap();
+    settle(&mut h);
+    h
+}
+
+fn settle(h: &mut Hierarchy) {
+    for _ in 0..50 {
+        if h.update(CAMERA).unwrap().pending == 0 {
+            return;
+        }
+    }
+    panic!("not settled in 50 frames");
+}
+
+const SUN: SunLight = SunLight {
+    to_sun: Vec3::new(0.6, 0.5, 0.3),
+    irradiance: Vec3::splat(3.0),
+};
+
+/// Points over the whole square, in the air, in the medium and near the ground.
+fn probes() -> Vec<Vec3> {
+    let mut v = Vec::new();
+    for x in 0..9 {
+        for z in 0..9 {
+            for y in [0.6, 2.5, 4.9, 7.3, 10.2] {
+                v.push(Vec3::new(3.3 + 7.1 * x as f32, y, 2.9 + 7.2 * z as f32));
+            }
+        }
+    }
+    v
+}
+
+/// The largest difference of `a`'s and `b`'s bins (sky and scattered sun, all 26)
+/// relative to the brightest bin there, and whether their direct sun is the same bit
+/// for bit, over [`probes`].
+fn compare(a: &Hierarchy, b: &Hierarchy) -> (f32, bool) {
+    let mut worst = 0.0f32;
+    let mut same_sun = true;
+    for p in probes() {
+        let (la, lb) = (a.light(p, None).unwrap(), b.light(p, None).unwrap());
+        let top = la.0.iter().map(|c| c.max_element()).fold(1e-6, f32::max);
+        for (x, y) in la.0.iter().zip(&lb.0) {
+            worst = worst.max((*x - *y).abs().max_element() / top);
+        }
+        same_sun &= a.sun_transmittance(p, None).unwrap().to_bits()
+            == b.sun_transmittance(p, None).unwrap().to_bits();
+    }
+    (worst, same_sun)
+}
+
+#[test]
+fn the_sun_swept_with_the_sky_reads_as_the_split_does() {
+    let split = settled(false, SUN);
+    let with_sky = settled(true, SUN);
+    // The same grids.
+    let (ls, lw) = (split.layers(), with_sky.layers());
+    assert_eq!(ls.len(), lw.len());
+    assert!(ls.len() > 10, "{} grids", ls.len());
+    for (s, w) in ls.iter().zip(&lw) {
+        assert_eq!(s.grid.desc(), w.grid.desc());
+        // Its scattered sun is in the bins: the response's own part is zero.
+        let sun = w.sun.expect("every grid's sun current once settled");
+        assert!(sun.scattered.data().iter().all(|b| b.0 == [Vec3::ZERO; 26]));
+        assert!(sun.horizon.is_none());
+    }
+    let (worst, same_sun) = compare(&split, &with_sky);
+    assert!(same_sun, "the direct sun is the same march");
+    // Rounding of two sums in another order, not a physical difference.
+    assert!(
+        worst < 1e-4,
+        "largest bin difference {worst} of the brightest bin"
+    );
+    // And the sun is in there: the sky alone differs by far.
+    let mut sky_only = settled(false, SUN);
+    sky_only
+        .set_sun(Some(SunLight {
+            irradiance: Vec3::ZERO,
+            ..SUN
+        }))
+        .unwrap();
+    let (apart, _) = compare(&sky_only, &with_sky);
+    assert!(
+        apart > 0.01,
+        "the scattered sun is {apart} of the brightest bin"
+    );
+}
+
+#[test]
+fn a_new_sun_sweeps_every_grid_again() {
+    let moved = SunLight {
+        to_sun: Vec3::new(-0.2, 0.8, 0.5),
+        irradiance: Vec3::new(2.0, 2.5, 3.0),
+    };
+    let brighter = SunLight {
+        irradiance: SUN.irradiance * 2.0,
+        ..SUN
+    };
+    for new in [moved, brighter] {
+        let mut h = settled(true, SUN);
+        h.set_sun(Some(new)).unwrap();
+        settle(&mut h);
+        let fresh = settled(true, new);
+        let (worst, same_sun) = compare(&h, &fresh);
+        assert!(same_sun, "the direct sun marched for {new:?}");
+        assert!(
+            worst < 1e-5,
+            "{worst} of the brightest bin off a fresh build, {new:?}"
+        );
+    }
+}
+
+#[test]
+fn a_sky_scale_other_than_one_is_refused() {
+    let mut h = settled(true, SUN);
+    let e = h.set_sky_scale(Vec3::splat(2.0)).unwrap_err().to_string();
+    assert!(e.contains("sky_scale"), "{e}");
+    h.set_sky_scale(Vec3::ONE).unwrap();
+}
