@@ -104,6 +104,10 @@ pub struct FrameConfig {
     /// The finest depth's scattered sun read from the coarser grids, not swept
     /// (`LodSkips::finest_scattered_sun`, off by default).
     pub skip_finest_sun: bool,
+    /// Every grid sweeps the sun's first collisions with its sky
+    /// (`HierarchyParams::sun_with_sky`, off by default): the sky and sun columns then
+    /// hold the bins' light (sky and scattered sun) and the direct sun.
+    pub sun_with_sky: bool,
     /// Keep no horizon halves (`HierarchyParams::sweep.outputs.horizon` off, in the
     /// hierarchy and the reference sweep): horizontal bins read as even.
     pub even: bool,
@@ -160,6 +164,7 @@ impl FrameConfig {
             bare_skip: false,
             no_casters: false,
             skip_finest_sun: false,
+            sun_with_sky: false,
             even: false,
             budget_ms: None,
             budget_points: None,
@@ -404,6 +409,8 @@ pub struct FrameReport {
     pub no_casters: bool,
     /// Whether the finest depth read the coarser grids' scattered sun.
     pub skip_finest_sun: bool,
+    /// Whether every grid swept the sun's first collisions with its sky.
+    pub sun_with_sky: bool,
     /// Whether the grids kept their horizon halves (and were read through them).
     pub horizon: bool,
     /// Whether side halos read the nodes of their depth before them
@@ -570,6 +577,18 @@ struct Parts {
 }
 
 impl Parts {
+    /// From one read with the sky and the sun swept together
+    /// ([`FrameConfig::sun_with_sky`]): `sky` the bins' light (sky and scattered sun),
+    /// `sun` the direct sun alone; their sum is all the light, as the split's.
+    fn together(lit: &SampledLight, p: &Probe, to_sun: Vec3) -> Self {
+        let direct = lightgrid_core::light::luminance(SUN_E * (lit.sun * p.n.dot(to_sun).max(0.0)));
+        Self {
+            sky: shaded(lit, p, Vec3::ZERO, to_sun),
+            sun: direct,
+            direct,
+        }
+    }
+
     /// From a read with the sun off (`sky`) and one with the sky off (`sun`).
     fn of(sky: &SampledLight, sun: &SampledLight, p: &Probe, to_sun: Vec3) -> Self {
         Self {
@@ -696,6 +715,16 @@ fn shaded(s: &SampledLight, p: &Probe, e: Vec3, to_sun: Vec3) -> f32 {
 /// The hierarchy's sky and sun luminance at every probe (sky scale and sun irradiance
 /// toggled: neither sweeps anything), restored to both at the end.
 fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec<Parts>> {
+    if h.params().sun_with_sky {
+        // The bins hold sky and scattered sun together: read once, apart only from the
+        // direct sun (toggling the irradiance would make every grid stale).
+        let lit = read(h, probes)?;
+        return Ok(probes
+            .iter()
+            .zip(&lit)
+            .map(|(p, s)| Parts::together(s, p, to_sun))
+            .collect());
+    }
     let sun = |irradiance| Some(SunLight { to_sun, irradiance });
     h.set_sun(sun(Vec3::ZERO))?;
     let sky = read(h, probes)?;
@@ -738,6 +767,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.skip.bare_children = cfg.bare_skip;
     p.skip.sun_casters = cfg.no_casters;
     p.skip.finest_scattered_sun = cfg.skip_finest_sun;
+    p.sun_with_sky = cfg.sun_with_sky;
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
     p.neighbour_halo = cfg.neighbour_halo;
@@ -1107,6 +1137,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         bare_skip: cfg.bare_skip,
         no_casters: cfg.no_casters,
         skip_finest_sun: cfg.skip_finest_sun,
+        sun_with_sky: cfg.sun_with_sky,
         horizon: !cfg.even,
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,

@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--even] [--budget-ms MS] [--budget-points N] [--neighbour-halo] [--passes N] [--tolerance T] [--flat-source] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--sun-with-sky] [--even] [--budget-ms MS] [--budget-points N] [--neighbour-halo] [--passes N] [--tolerance T] [--flat-source] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -101,6 +101,11 @@ enum Task {
         /// (LodSkips::finest_scattered_sun, off by default), for comparison.
         #[arg(long)]
         skip_finest_sun: bool,
+        /// Every grid sweeps the sun's first collisions with its sky
+        /// (HierarchyParams::sun_with_sky, off by default; what the viewer runs on the
+        /// CPU): only "both" and the direct sun are then measured apart.
+        #[arg(long)]
+        sun_with_sky: bool,
         /// Keep no horizon halves: every grid's horizontal bins read as even across the
         /// horizon (in the hierarchy and the reference sweep), for comparison.
         #[arg(long)]
@@ -227,6 +232,7 @@ fn main() -> ExitCode {
             bare_skip,
             no_casters,
             skip_finest_sun,
+            sun_with_sky,
             even,
             budget_ms,
             budget_points,
@@ -254,6 +260,7 @@ fn main() -> ExitCode {
             cfg.bare_skip = bare_skip;
             cfg.no_casters = no_casters;
             cfg.skip_finest_sun = skip_finest_sun;
+            cfg.sun_with_sky = sun_with_sky;
             cfg.even = even;
             cfg.budget_ms = budget_ms;
             cfg.budget_points = budget_points;

@@ -17,8 +17,8 @@ use std::time::Instant;
 use anyhow::Result;
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{
-    BinLight, Boundary, Grid, MaterialGrid, SunBoundary, SunResponse, SweepError, SweepOptions,
-    SweepOutput, Sweeper,
+    BinLight, Boundary, Grid, MaterialGrid, SunBeam, SunBoundary, SunResponse, SweepError,
+    SweepOptions, SweepOutput, Sweeper,
 };
 use lightgrid_terrain_lod::{Hierarchy, SunLight};
 
@@ -45,6 +45,15 @@ enum Call {
         outside: Outside,
         /// `None`: a march alone ([`Sweeper::sun_transmittance`]).
         options: Option<SweepOptions>,
+    },
+    /// The sky and the sun's first collisions in one sweep ([`Sweeper::sweep_with_sun`]).
+    SkyWithSun {
+        material: MaterialGrid,
+        boundary: Boundary,
+        to_sun: Vec3,
+        irradiance: Vec3,
+        outside: Outside,
+        options: SweepOptions,
     },
 }
 
@@ -139,7 +148,43 @@ impl Sweeper for Recording {
         }
         Ok(out)
     }
-    /// Forwarded, not kept: the hierarchy sweeps cell sources only inside `sweep_sun`.
+    fn sweep_with_sun(
+        &mut self,
+        material: &MaterialGrid,
+        boundary: &Boundary,
+        sun: &SunBeam<'_>,
+        options: &SweepOptions,
+    ) -> Result<SweepOutput, SweepError> {
+        if !self.on() {
+            return self.inner.sweep_with_sun(material, boundary, sun, options);
+        }
+        let seen = Mutex::new(Outside::new());
+        let outside = |p: Vec3| {
+            let v = (sun.outside)(p);
+            seen.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .insert(key(p), v);
+            v
+        };
+        let beam = SunBeam {
+            outside: &outside,
+            ..*sun
+        };
+        let out = self
+            .inner
+            .sweep_with_sun(material, boundary, &beam, options)?;
+        self.keep(Call::SkyWithSun {
+            material: material.clone(),
+            boundary: boundary.clone(),
+            to_sun: sun.to_sun,
+            irradiance: sun.irradiance,
+            outside: seen.into_inner().unwrap_or_else(|e| e.into_inner()),
+            options: *options,
+        });
+        Ok(out)
+    }
+    /// Forwarded, not kept: the hierarchy sweeps cell sources only inside `sweep_sun`
+    /// and `sweep_with_sun`.
     fn sweep_with_source(
         &mut self,
         material: &MaterialGrid,
@@ -264,6 +309,25 @@ fn replay(sweeper: &mut dyn Sweeper, call: &Call) -> Result<Option<SweepOutput>>
             boundary,
             options,
         } => Ok(Some(sweeper.sweep(material, boundary, options)?)),
+        Call::SkyWithSun {
+            material,
+            boundary,
+            to_sun,
+            irradiance,
+            outside,
+            options,
+        } => {
+            let missed = std::sync::atomic::AtomicU64::new(0);
+            let look = looked_up(outside, &missed);
+            let beam = SunBeam {
+                to_sun: *to_sun,
+                irradiance: *irradiance,
+                outside: &look,
+            };
+            let out = sweeper.sweep_with_sun(material, boundary, &beam, options)?;
+            no_misses(&missed)?;
+            Ok(Some(out))
+        }
         Call::Sun {
             material,
             to_sun,
@@ -272,12 +336,7 @@ fn replay(sweeper: &mut dyn Sweeper, call: &Call) -> Result<Option<SweepOutput>>
             options,
         } => {
             let missed = std::sync::atomic::AtomicU64::new(0);
-            let look = |p: Vec3| {
-                outside.get(&key(p)).copied().unwrap_or_else(|| {
-                    missed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    1.0
-                })
-            };
+            let look = looked_up(outside, &missed);
             let sun = SunBoundary {
                 to_sun: *to_sun,
                 scattered: scattered.clone(),
@@ -289,14 +348,34 @@ fn replay(sweeper: &mut dyn Sweeper, call: &Call) -> Result<Option<SweepOutput>>
                     sweeper.sun_transmittance(material, &sun)?,
                 )),
             }
-            let missed = missed.into_inner();
-            anyhow::ensure!(
-                missed == 0,
-                "a sun sweep made again looked up {missed} outside points the recorded one did not"
-            );
+            no_misses(&missed)?;
             Ok(None)
         }
     }
+}
+
+/// The outside transmittance a recorded call looked up, read back by position (1, and
+/// counted in `missed`, where it looked up none).
+fn looked_up<'a>(
+    outside: &'a Outside,
+    missed: &'a std::sync::atomic::AtomicU64,
+) -> impl Fn(Vec3) -> f32 + Sync + 'a {
+    move |p: Vec3| {
+        outside.get(&key(p)).copied().unwrap_or_else(|| {
+            missed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            1.0
+        })
+    }
+}
+
+/// An error where a call made again looked up outside points the recorded one did not.
+fn no_misses(missed: &std::sync::atomic::AtomicU64) -> Result<()> {
+    let missed = missed.load(std::sync::atomic::Ordering::Relaxed);
+    anyhow::ensure!(
+        missed == 0,
+        "a sun sweep made again looked up {missed} outside points the recorded one did not"
+    );
+    Ok(())
 }
 
 #[cfg(test)]

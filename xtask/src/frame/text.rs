@@ -65,6 +65,17 @@ pub(super) fn run_line(r: &Run) -> String {
     )
 }
 
+/// How the run's scattered sun was swept, for the report's first line.
+fn scattered_sun(report: &FrameReport) -> &'static str {
+    if report.sun_with_sky {
+        "the sun's first collisions swept with the sky (the hierarchy's sky columns hold sky and scattered sun, its sun columns the direct sun: only both and the direct sun compare)"
+    } else if report.skip_finest_sun {
+        "the finest depth's scattered sun the coarser grids'"
+    } else {
+        "the finest depth's scattered sun swept"
+    }
+}
+
 /// The report as text.
 pub fn text(report: &FrameReport) -> String {
     use std::fmt::Write;
@@ -82,11 +93,7 @@ pub fn text(report: &FrameReport) -> String {
         report.path,
         if report.bare_skip { "on" } else { "off" },
         if report.no_casters { "skipped" } else { "on" },
-        if report.skip_finest_sun {
-            "the finest depth's scattered sun the coarser grids'"
-        } else {
-            "the finest depth's scattered sun swept"
-        },
+        scattered_sun(report),
         if report.horizon {
             "horizon halves kept"
         } else {
