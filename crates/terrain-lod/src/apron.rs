@@ -70,7 +70,7 @@ impl Hierarchy {
             (b, hash)
         });
         let hash = match self.sun_with_sky() {
-            Some(sun) => crate::hash_sun(hash, sun),
+            Some(sun) => crate::sun::hash_sun(hash, sun),
             None => hash,
         };
         SkyInputs {

@@ -161,6 +161,7 @@ mod params;
 mod read;
 mod refresh;
 mod shadow;
+mod sun;
 mod sun_move;
 mod volume;
 
@@ -263,24 +264,6 @@ struct GridSun {
     /// irradiance the grid's sky sweep took the sun's first collisions with (toward
     /// `to_sun`); `None` where the scattered sun is swept apart.
     with_sky: Option<Vec3>,
-}
-
-impl GridSun {
-    /// The responses of a grid whose sky sweep holds `sun`'s scattered light
-    /// ([`HierarchyParams::sun_with_sky`]): the transmittance marched toward it,
-    /// the scattered light zero (its pages never written: read, they are the kernel's
-    /// zero page).
-    fn marched(desc: GridDesc, transmittance: Grid<f32>, sun: SunLight) -> Result<Self, GridError> {
-        Ok(Self {
-            scattered: LightGrid::zeroed(desc)?,
-            horizon: None,
-            resident: None,
-            transmittance,
-            to_sun: sun.to_sun,
-            marched_to: sun.to_sun,
-            with_sky: Some(sun.irradiance),
-        })
-    }
 }
 
 /// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.
@@ -603,17 +586,6 @@ enum Response {
 /// SipHash, 8 bytes a round, was 2.4 % of the 16-point flythrough) rather than the
 /// stable [`ContentHash`](lightgrid_core::hash::ContentHash) (FNV-1a, a byte a round);
 /// the descriptor and options through `ContentHash`.
-/// `hash` with the sun every grid sweeps with its sky ([`HierarchyParams::sun_with_sky`]):
-/// a node swept for another sun, or another irradiance, is stale.
-pub(crate) fn hash_sun(hash: u64, sun: SunLight) -> u64 {
-    use std::hash::{BuildHasher, Hasher};
-    let mut h = foldhash::quality::FixedState::with_seed(0x7375_6e5f_736b_7921).build_hasher();
-    h.write_u64(hash);
-    h.write(bytemuck::cast_slice(&sun.to_sun.to_array()));
-    h.write(bytemuck::cast_slice(&sun.irradiance.to_array()));
-    h.finish()
-}
-
 fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
     use std::hash::{BuildHasher, Hasher};
     let mut h = foldhash::quality::FixedState::with_seed(0x6c67_6e6f_6465_7632).build_hasher();
@@ -890,32 +862,6 @@ impl Hierarchy {
         Ok(())
     }
 
-    /// The world grid's sun responses for the current sun.
-    fn sweep_world_sun(&mut self) -> Result<(), LodError> {
-        let Some(sun) = self.sun else {
-            return Ok(());
-        };
-        let desc = *self.world.desc();
-        let composed;
-        let material = match &self.world_material {
-            Some(m) if *m.desc() == desc => m,
-            _ => {
-                composed = self.compose(&desc)?;
-                &composed
-            }
-        };
-        let o = self.node_options(true);
-        let r = if self.sun_with_sky().is_some() {
-            // The scattered sun is in the sky's bins (`sweep_world`): the march alone.
-            let t = sun_move::march(self.sweeper.as_mut(), material, sun.to_sun, &|_| 1.0)?;
-            GridSun::marched(desc, t, sun)?
-        } else {
-            sun_move::world_grid_sun(self.sweeper.as_mut(), material, sun.to_sun, &o)?
-        };
-        self.world_sun = Some(r);
-        Ok(())
-    }
-
     /// The sun kept apart, if any ([`Hierarchy::set_sun`]).
     pub fn sun(&self) -> Option<SunLight> {
         self.sun
@@ -943,173 +889,6 @@ impl Hierarchy {
     /// The sky's multiplier ([`Hierarchy::set_sky_scale`]).
     pub fn sky_scale(&self) -> Vec3 {
         self.sky_scale
-    }
-
-    /// Node `key`'s sun responses for the current sun on `sweeper`, its boundary from
-    /// the coarser grids' sun responses (`None` without a sun kept apart).
-    fn node_sun(
-        &self,
-        key: NodeKey,
-        material: &NodeMaterial,
-        sweeper: &mut dyn Sweeper,
-        fresh: &shadow::Fresh<'_>,
-        times: &mut StageTimes,
-    ) -> Result<Option<GridSun>, LodError> {
-        let _span = tracing::trace_span!("node sun", ?key).entered();
-        let (Some(sun), Some(scattered_to)) = (self.sun, self.scattered_to()) else {
-            return Ok(None);
-        };
-        if self.sun_with_sky().is_some() {
-            // The scattered sun is in the sky's bins: the march alone.
-            let t = timed(&mut times.sun_sweep, || {
-                self.march_node(sweeper, key, material, sun.to_sun, fresh)
-            })?;
-            return Ok(Some(GridSun::marched(*material.grid.desc(), t, sun)?));
-        }
-        // Swept over the widened grid where the sun has an apron (the scattered sun
-        // entering the node's sides has crossed the apron's fine material), kept inside.
-        let wide = self.sun_material(material);
-        let swept = wide.as_ref().map_or(&material.grid, |w| &*w.0);
-        let desc = *swept.desc();
-        let o = self.node_options(material.has_objects);
-        let scattered = timed(&mut times.sun_boundary, || {
-            self.node_boundary_of(&desc, key, Response::Sun)
-        });
-        // Swept for the direction the scattered sun is shown for (the old one while a
-        // moved sun's world grid is swept on a thread), marched for the sun shown.
-        let outside = |p: Vec3| self.march_to_sky(p, scattered_to, key.depth, fresh);
-        let r = timed(&mut times.sun_sweep, || {
-            sweeper.sweep_sun(
-                swept,
-                &SunBoundary {
-                    to_sun: scattered_to,
-                    scattered,
-                    outside: &outside,
-                },
-                &o,
-            )
-        })?;
-        let r = match &wide {
-            None => r,
-            Some((w, k)) => apron::cropped_sun(r, w.desc(), material.grid.desc(), *k, sweeper),
-        };
-        let mut g = GridSun {
-            scattered: r.scattered,
-            horizon: r.horizon,
-            resident: r.resident,
-            transmittance: r.transmittance,
-            to_sun: scattered_to,
-            marched_to: scattered_to,
-            with_sky: None,
-        };
-        if sun.to_sun != scattered_to {
-            g.transmittance = timed(&mut times.sun_sweep, || {
-                self.march_node(sweeper, key, material, sun.to_sun, fresh)
-            })?;
-            g.marched_to = sun.to_sun;
-        }
-        Ok(Some(g))
-    }
-
-    /// The directions a node's sun responses march along: the sun's, and the one its
-    /// scattered light is swept for if that differs ([`Hierarchy::scattered_to`]).
-    pub(crate) fn sun_directions(&self) -> Vec<Vec3> {
-        let mut v: Vec<Vec3> = self.sun.iter().map(|s| s.to_sun).collect();
-        if let Some(d) = self.scattered_to().filter(|d| !v.contains(d)) {
-            v.push(d);
-        }
-        v
-    }
-
-    /// The sun kept apart whose first collisions every grid sweeps with its sky
-    /// ([`HierarchyParams::sun_with_sky`]); `None` where the sky is swept alone.
-    pub(crate) fn sun_with_sky(&self) -> Option<SunLight> {
-        self.sun.filter(|_| self.params.sun_with_sky)
-    }
-
-    /// The direction the scattered sun is shown for: the world grid's (the sun's but
-    /// while a moved sun's world grid is swept on a thread).
-    fn scattered_to(&self) -> Option<Vec3> {
-        self.world_sun.as_ref().map(|w| w.to_sun)
-    }
-
-    /// Whether node `key` has sun responses for the current sun: its transmittance
-    /// marched for the sun shown, its scattered light swept for the direction the world
-    /// grid's is.
-    fn sun_current(&self, key: NodeKey) -> bool {
-        match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.marched_to == s.to_sun && self.scattered_current(g),
-            _ => false,
-        }
-    }
-
-    /// Whether `g`'s scattered sun is swept for the direction the world grid's is; with
-    /// the sun swept with the sky, whether its grid's sky sweep took the current sun
-    /// (direction and irradiance): else the grid is swept again.
-    fn scattered_current(&self, g: &GridSun) -> bool {
-        match (self.sun_with_sky(), g.with_sky) {
-            (Some(s), Some(e)) => g.to_sun == s.to_sun && e == s.irradiance,
-            (Some(_), None) => false,
-            (None, _) => Some(g.to_sun) == self.scattered_to(),
-        }
-    }
-
-    /// Whether node `key`'s scattered sun is current (swept for the direction the world
-    /// grid's is) while its transmittance is not marched for the sun shown: a moved
-    /// sun's `set_sun` left its march for later ([`Hierarchy::march_suns`]).
-    fn scattered_sun_current(&self, key: NodeKey) -> bool {
-        match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.marched_to != s.to_sun && self.scattered_current(g),
-            _ => false,
-        }
-    }
-
-    /// Whether node `key`'s sun responses are shown: its transmittance is marched for
-    /// the sun shown (its scattered light may still be an earlier direction's, until
-    /// the budget sweeps it again: a moved sun re-marches the grids' transmittances at
-    /// once, under a time budget those nearest the camera first).
-    fn sun_shown(&self, key: NodeKey) -> bool {
-        match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.marched_to == s.to_sun,
-            _ => false,
-        }
-    }
-
-    /// Whether the coarser grids a node's sun boundary reads are current: every built
-    /// coarser node its boundary reads ([`Hierarchy::halo_rect`]: its parent and the
-    /// neighbours its halo reaches; the world grid's, always current, where none is).
-    /// Else a node near the camera, swept before a neighbour of its parent's depth
-    /// (`order.rs`), would take that neighbour's old sun and keep it. The same for the
-    /// nodes of its depth before it whose scattered sun its halo reads
-    /// ([`HierarchyParams::neighbour_halo`]) that the camera wants (a built one it no
-    /// longer wants keeps a stale sun, which the halo does not read).
-    fn sun_parent_ready(&self, key: NodeKey) -> bool {
-        self.halo_nodes(key)
-            .all(|k| !self.nodes.contains_key(&k) || self.sun_current(k))
-            && self.before_neighbours(key).all(|k| {
-                !self.nodes.contains_key(&k) || !self.wanted_now.contains(&k) || self.sun_current(k)
-            })
-    }
-
-    /// The finest grid coarser than `depth` with a current sun response at `p` (the
-    /// world grid's at worst); with `shown`, one whose sun is shown
-    /// ([`Hierarchy::sun_shown`]: what is read), else one whose sun is current (what a
-    /// node's boundary takes).
-    fn coarse_sun(&self, p: Vec3, depth: u32, shown: bool) -> Option<&GridSun> {
-        for d in (1..depth).rev() {
-            let key = self.node_at(d, Vec2::new(p.x, p.z));
-            if let Some(n) = self.nodes.get(&key)
-                && within_levels(n.light.desc(), p)
-                && (if shown {
-                    self.sun_shown(key)
-                } else {
-                    self.sun_current(key)
-                })
-            {
-                return n.sun.as_ref();
-            }
-        }
-        self.world_sun.as_ref()
     }
 
     /// The parameters.
