@@ -351,38 +351,35 @@ impl Hierarchy {
                 ..Job::new(key)
             });
         }
-        if self.sun_with_sky().is_some() {
+        let (cost, job) = if self.sun_with_sky().is_some() {
             // Its sky sweep took another sun: the node is swept again (sky and sun in
-            // one sweep), its march with it, once the coarser grids its boundary reads
-            // are (coarse first, as a stale sun's responses).
+            // one sweep), its march with it.
             let desc = *self.nodes[&key].light.desc();
-            let cost = crate::apron::sky_points(&desc, self.params.apron);
-            if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, cost) {
-                stats.pending += 1;
-                return None;
-            }
-            stats.points_swept += cost;
-            stats.sun_built += 1;
-            return Some(Job {
+            let job = Job {
                 sky: true,
                 march: true,
                 ..Job::new(key)
-            });
-        }
-        if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, points) {
+            };
+            (crate::apron::sky_points(&desc, self.params.apron), job)
+        } else {
+            // Where the finest depth reads the coarser grids' scattered sun, the march
+            // alone (its scattered sun read once they are current).
+            let read = self.reads_coarse_scattered_sun(key);
+            let job = Job {
+                sun: !read,
+                march: read,
+                ..Job::new(key)
+            };
+            (points, job)
+        };
+        // Once the coarser grids its boundary reads are current (coarse first).
+        if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, cost) {
             stats.pending += 1;
             return None;
         }
-        stats.points_swept += points;
+        stats.points_swept += cost;
         stats.sun_built += 1;
-        // Where the finest depth reads the coarser grids' scattered sun, the march
-        // alone (its scattered sun read once they are current).
-        let read = self.reads_coarse_scattered_sun(key);
-        Some(Job {
-            sun: !read,
-            march: read,
-            ..Job::new(key)
-        })
+        Some(job)
     }
 
     /// Adds `sky`, the sky job of a node on grid `desc`, and its sun's to `jobs` where its

@@ -75,6 +75,20 @@ fn key(p: Vec3) -> [u32; 3] {
     p.to_array().map(f32::to_bits)
 }
 
+/// `outside`, each lookup kept in `seen` by position.
+fn recorded<'a>(
+    outside: &'a (dyn Fn(Vec3) -> f32 + Sync),
+    seen: &'a Mutex<Outside>,
+) -> impl Fn(Vec3) -> f32 + Sync + 'a {
+    move |p: Vec3| {
+        let v = outside(p);
+        seen.lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(key(p), v);
+        v
+    }
+}
+
 impl Recording {
     fn on(&self) -> bool {
         self.log.lock().unwrap_or_else(|e| e.into_inner()).on
@@ -98,13 +112,7 @@ impl Recording {
             return f(self.inner.as_mut(), sun);
         }
         let seen = Mutex::new(Outside::new());
-        let outside = |p: Vec3| {
-            let v = (sun.outside)(p);
-            seen.lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .insert(key(p), v);
-            v
-        };
+        let outside = recorded(sun.outside, &seen);
         let boundary = SunBoundary {
             to_sun: sun.to_sun,
             scattered: sun.scattered.clone(),
@@ -115,7 +123,7 @@ impl Recording {
             material: material.clone(),
             to_sun: sun.to_sun,
             scattered: boundary.scattered,
-            outside: seen.into_inner().unwrap_or_else(|e| e.into_inner()),
+            outside: std::mem::take(&mut *seen.lock().unwrap_or_else(|e| e.into_inner())),
             options,
         });
         Ok(r)
@@ -159,13 +167,7 @@ impl Sweeper for Recording {
             return self.inner.sweep_with_sun(material, boundary, sun, options);
         }
         let seen = Mutex::new(Outside::new());
-        let outside = |p: Vec3| {
-            let v = (sun.outside)(p);
-            seen.lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .insert(key(p), v);
-            v
-        };
+        let outside = recorded(sun.outside, &seen);
         let beam = SunBeam {
             outside: &outside,
             ..*sun
@@ -178,7 +180,7 @@ impl Sweeper for Recording {
             boundary: boundary.clone(),
             to_sun: sun.to_sun,
             irradiance: sun.irradiance,
-            outside: seen.into_inner().unwrap_or_else(|e| e.into_inner()),
+            outside: std::mem::take(&mut *seen.lock().unwrap_or_else(|e| e.into_inner())),
             options: *options,
         });
         Ok(out)
