@@ -188,8 +188,9 @@ impl Hierarchy {
     ) -> Result<BinLight, GridError> {
         let sky = grid.light(p, n)? * self.sky_scale;
         Ok(match sun {
-            Some((s, g)) => sky + g.scattered.light(p, n)? * s.irradiance,
-            None => sky,
+            // (Zero where the sky's bins hold the scattered sun: not read.)
+            Some((s, g)) if g.with_sky.is_none() => sky + g.scattered.light(p, n)? * s.irradiance,
+            _ => sky,
         })
     }
 
@@ -208,14 +209,14 @@ impl Hierarchy {
         };
         let sky = read(halves)? * self.sky_scale;
         Ok(match sun {
-            Some((s, g)) => {
+            Some((s, g)) if g.with_sky.is_none() => {
                 let scattered = match &g.horizon {
                     Some(h) => read(h)?,
                     None => HorizonLight::even(&g.scattered.light(p, n)?),
                 };
                 sky + scattered * s.irradiance
             }
-            None => sky,
+            _ => sky,
         })
     }
 

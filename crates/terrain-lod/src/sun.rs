@@ -16,8 +16,7 @@ impl GridSun {
     /// The responses of a grid whose sky sweep holds `sun`'s scattered light
     /// ([`HierarchyParams::sun_with_sky`](crate::HierarchyParams::sun_with_sky)): the
     /// transmittance marched toward it,
-    /// the scattered light zero (its pages never written: read, they are the kernel's
-    /// zero page).
+    /// the scattered light zero (held all the same, never read: `GridSun::with_sky`).
     pub(crate) fn marched(
         desc: GridDesc,
         transmittance: Grid<f32>,

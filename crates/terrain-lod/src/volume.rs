@@ -77,7 +77,10 @@ fn reduce(
             let mut b = sky.map_or(lightgrid_core::BinLight::ZERO, |g| g.data()[i] * scale);
             let mut t = 0.0;
             if let Some((s, e)) = sun {
-                b += s.scattered.data()[i] * e;
+                // (Zero where the sky's bins hold the scattered sun: not read.)
+                if s.with_sky.is_none() {
+                    b += s.scattered.data()[i] * e;
+                }
                 t = s.transmittance.data()[i];
             }
             let (v, s) = b.direction_moment();
