@@ -421,7 +421,7 @@ impl WorldBake {
         match (self.h.sun, &g.sun) {
             (None, _) => Ok(None),
             (Some(s), Some(b)) if b.to_sun == s.to_sun => Ok(Some(GridSun {
-                scattered: b.scattered.clone(),
+                scattered: Some(b.scattered.clone()),
                 horizon: b.horizon.clone(),
                 resident: None,
                 transmittance: b.transmittance.clone(),
@@ -510,7 +510,12 @@ fn crop_baked(
 
 fn baked_sun(g: &GridSun) -> BakedSun {
     BakedSun {
-        scattered: g.scattered.clone(),
+        // (A bake sweeps the scattered sun apart: `WorldBake::new` refuses the sun
+        // swept with the sky, whose grids hold none of their own.)
+        scattered: g.scattered.clone().unwrap_or_else(|| {
+            let desc = *g.transmittance.desc();
+            LightGrid::from_trusted(desc, vec![BinLight::ZERO; desc.point_count()])
+        }),
         horizon: g.horizon.clone(),
         transmittance: g.transmittance.clone(),
         to_sun: g.to_sun,

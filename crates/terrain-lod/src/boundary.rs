@@ -151,7 +151,7 @@ impl Hierarchy {
         if which == Response::Sun {
             return self
                 .coarse_sun(p, depth, false)
-                .map(|s| (&s.scattered, s.horizon.as_ref()));
+                .and_then(|s| Some((s.scattered.as_ref()?, s.horizon.as_ref())));
         }
         for d in (1..depth).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
@@ -430,7 +430,7 @@ mod tests {
                                 Response::Sky => (&m.light, m.horizon.as_ref()),
                                 Response::Sun => {
                                     let s = m.sun.as_ref().unwrap();
-                                    (&s.scattered, s.horizon.as_ref())
+                                    (s.scattered.as_ref().unwrap(), s.horizon.as_ref())
                                 }
                             };
                             assert!(

@@ -667,11 +667,7 @@ impl Hierarchy {
         })?;
         if self.params.sun_with_sky {
             // The scattered sun is in the node's sky bins: its responses for good.
-            return Ok(Some(GridSun::marched(
-                *material.grid.desc(),
-                transmittance,
-                sun,
-            )?));
+            return Ok(Some(GridSun::marched(transmittance, sun)));
         }
         let for_good = self.reads_coarse_scattered_sun(key) && self.sun_parent_ready(key);
         let desc = *material.grid.desc();
@@ -687,7 +683,10 @@ impl Hierarchy {
                         let Some(g) = self.coarse_sun(p, key.depth, !for_good) else {
                             return Ok((BinLight::ZERO, halves.then(Default::default)));
                         };
-                        let bins = g.scattered.light(p, None)?;
+                        let bins = match &g.scattered {
+                            Some(sc) => sc.light(p, None)?,
+                            None => BinLight::ZERO,
+                        };
                         let down = match (&g.horizon, halves) {
                             (_, false) => None,
                             (Some(h), true) => Some(h.sample(p)?),
@@ -705,7 +704,7 @@ impl Hierarchy {
         });
         let scattered = read.into_iter().map(|(b, _)| b).collect();
         Ok(Some(GridSun {
-            scattered: lightgrid_core::Grid::from_trusted(desc, scattered),
+            scattered: Some(lightgrid_core::Grid::from_trusted(desc, scattered)),
             horizon,
             resident: None,
             transmittance,

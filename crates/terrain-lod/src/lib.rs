@@ -252,7 +252,8 @@ pub struct SunLight {
 /// sun's scattered light follows its direct light: the module `sun_move`; `to_sun`
 /// zero while a new node's scattered light is the coarser grids', `interim_sun`).
 struct GridSun {
-    scattered: LightGrid,
+    /// `None` where the grid's sky bins hold it ([`HierarchyParams::sun_with_sky`]).
+    scattered: Option<LightGrid>,
     /// The downward halves of `scattered`'s horizontal bins, if kept.
     horizon: Option<HorizonGrid>,
     /// The sweeper's device copy of `scattered`, if it keeps one.
@@ -269,8 +270,9 @@ struct GridSun {
 /// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.
 #[derive(Debug, Clone, Copy)]
 pub struct LayerSun<'a> {
-    /// The sun's light after at least one scattering (26 bins).
-    pub scattered: &'a LightGrid,
+    /// The sun's light after at least one scattering (26 bins); `None` where the
+    /// layer's bins hold it ([`HierarchyParams::sun_with_sky`]: read them alone).
+    pub scattered: Option<&'a LightGrid>,
     /// The downward halves of `scattered`'s horizontal bins, if kept.
     pub horizon: Option<&'a HorizonGrid>,
     /// The sun beam's transmittance per point.

@@ -115,7 +115,10 @@ impl Hierarchy {
             Response::Sky => Some((&n.light, n.horizon.as_ref())),
             Response::Sun => self
                 .sun_current(at)
-                .then(|| n.sun.as_ref().map(|s| (&s.scattered, s.horizon.as_ref())))
+                .then(|| {
+                    let s = n.sun.as_ref()?;
+                    Some((s.scattered.as_ref()?, s.horizon.as_ref()))
+                })
                 .flatten(),
         }
     }

@@ -19,7 +19,7 @@ impl Hierarchy {
     pub fn layers(&self) -> Vec<Layer<'_>> {
         fn layer_sun(g: &GridSun) -> LayerSun<'_> {
             LayerSun {
-                scattered: &g.scattered,
+                scattered: g.scattered.as_ref(),
                 horizon: g.horizon.as_ref(),
                 transmittance: &g.transmittance,
                 resident: g.resident.as_ref(),
@@ -188,9 +188,12 @@ impl Hierarchy {
     ) -> Result<BinLight, GridError> {
         let sky = grid.light(p, n)? * self.sky_scale;
         Ok(match sun {
-            // (Zero where the sky's bins hold the scattered sun: not read.)
-            Some((s, g)) if g.with_sky.is_none() => sky + g.scattered.light(p, n)? * s.irradiance,
-            _ => sky,
+            // (None where the sky's bins hold the scattered sun.)
+            Some((s, g)) => match &g.scattered {
+                Some(sc) => sky + sc.light(p, n)? * s.irradiance,
+                None => sky,
+            },
+            None => sky,
         })
     }
 
@@ -209,14 +212,16 @@ impl Hierarchy {
         };
         let sky = read(halves)? * self.sky_scale;
         Ok(match sun {
-            Some((s, g)) if g.with_sky.is_none() => {
-                let scattered = match &g.horizon {
-                    Some(h) => read(h)?,
-                    None => HorizonLight::even(&g.scattered.light(p, n)?),
+            Some((s, g)) => {
+                let scattered = match (&g.horizon, &g.scattered) {
+                    (Some(h), _) => read(h)?,
+                    (None, Some(sc)) => HorizonLight::even(&sc.light(p, n)?),
+                    // (The sky's bins hold the scattered sun.)
+                    (None, None) => return Ok(sky),
                 };
                 sky + scattered * s.irradiance
             }
-            _ => sky,
+            None => sky,
         })
     }
 

@@ -5,7 +5,7 @@
 //! grid's sky sweep took).
 
 use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_core::{Grid, GridDesc, GridError, LightGrid, Sweeper};
+use lightgrid_core::{Grid, Sweeper};
 
 use crate::{
     GridSun, Hierarchy, LodError, NodeKey, NodeMaterial, Response, StageTimes, SunBoundary,
@@ -15,22 +15,17 @@ use crate::{
 impl GridSun {
     /// The responses of a grid whose sky sweep holds `sun`'s scattered light
     /// ([`HierarchyParams::sun_with_sky`](crate::HierarchyParams::sun_with_sky)): the
-    /// transmittance marched toward it,
-    /// the scattered light zero (held all the same, never read: `GridSun::with_sky`).
-    pub(crate) fn marched(
-        desc: GridDesc,
-        transmittance: Grid<f32>,
-        sun: SunLight,
-    ) -> Result<Self, GridError> {
-        Ok(Self {
-            scattered: LightGrid::zeroed(desc)?,
+    /// transmittance marched toward it, no scattered light of their own.
+    pub(crate) fn marched(transmittance: Grid<f32>, sun: SunLight) -> Self {
+        Self {
+            scattered: None,
             horizon: None,
             resident: None,
             transmittance,
             to_sun: sun.to_sun,
             marched_to: sun.to_sun,
             with_sky: Some(sun.irradiance),
-        })
+        }
     }
 }
 
@@ -64,7 +59,7 @@ impl Hierarchy {
         let r = if self.sun_with_sky().is_some() {
             // The scattered sun is in the sky's bins (`sweep_world`): the march alone.
             let t = sun_move::march(self.sweeper.as_mut(), material, sun.to_sun, &|_| 1.0)?;
-            GridSun::marched(desc, t, sun)?
+            GridSun::marched(t, sun)
         } else {
             sun_move::world_grid_sun(self.sweeper.as_mut(), material, sun.to_sun, &o)?
         };
@@ -91,7 +86,7 @@ impl Hierarchy {
             let t = timed(&mut times.sun_sweep, || {
                 self.march_node(sweeper, key, material, sun.to_sun, fresh)
             })?;
-            return Ok(Some(GridSun::marched(*material.grid.desc(), t, sun)?));
+            return Ok(Some(GridSun::marched(t, sun)));
         }
         // Swept over the widened grid where the sun has an apron (the scattered sun
         // entering the node's sides has crossed the apron's fine material), kept inside.
@@ -121,7 +116,7 @@ impl Hierarchy {
             Some((w, k)) => apron::cropped_sun(r, w.desc(), material.grid.desc(), *k, sweeper),
         };
         let mut g = GridSun {
-            scattered: r.scattered,
+            scattered: Some(r.scattered),
             horizon: r.horizon,
             resident: r.resident,
             transmittance: r.transmittance,

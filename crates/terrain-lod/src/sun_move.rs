@@ -288,7 +288,7 @@ pub(crate) fn world_grid_sun(
     };
     let r = sweeper.sweep_sun(material, &boundary, options)?;
     Ok(GridSun {
-        scattered: r.scattered,
+        scattered: Some(r.scattered),
         horizon: r.horizon,
         resident: r.resident,
         transmittance: r.transmittance,

@@ -68,7 +68,7 @@ fn reduce(
 ) -> Grid<Moments> {
     let desc = match (sky, sun) {
         (Some(g), _) => *g.desc(),
-        (None, Some((s, _))) => *s.scattered.desc(),
+        (None, Some((s, _))) => *s.transmittance.desc(),
         (None, None) => unreachable!("a sky or a sun to reduce"),
     };
     let data = (0..desc.point_count())
@@ -77,9 +77,9 @@ fn reduce(
             let mut b = sky.map_or(lightgrid_core::BinLight::ZERO, |g| g.data()[i] * scale);
             let mut t = 0.0;
             if let Some((s, e)) = sun {
-                // (Zero where the sky's bins hold the scattered sun: not read.)
-                if s.with_sky.is_none() {
-                    b += s.scattered.data()[i] * e;
+                // (None where the sky's bins hold the scattered sun.)
+                if let Some(sc) = &s.scattered {
+                    b += sc.data()[i] * e;
                 }
                 t = s.transmittance.data()[i];
             }

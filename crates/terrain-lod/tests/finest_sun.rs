@@ -137,8 +137,8 @@ fn assert_read_from_coarser_grids(h: &Hierarchy) {
                 .and_then(|c| c.sun)
                 .unwrap();
             assert_eq!(
-                s.scattered.data()[i],
-                coarse.scattered.light(p, None).unwrap(),
+                s.scattered.unwrap().data()[i],
+                coarse.scattered.unwrap().light(p, None).unwrap(),
                 "scattered sun at {p}"
             );
             let want = coarse.horizon.unwrap().sample(p).unwrap();
@@ -196,6 +196,7 @@ fn a_moved_sun_reaches_the_finest_depth_through_the_coarser_grids() {
             .sun
             .unwrap()
             .scattered
+            .unwrap()
             .data()
             .to_vec()
     };
@@ -207,7 +208,12 @@ fn a_moved_sun_reaches_the_finest_depth_through_the_coarser_grids() {
     assert_same_direct_sun(&read, &swept);
     let layers = read.layers();
     assert_ne!(
-        finest(&read, &layers)[0].sun.unwrap().scattered.data(),
+        finest(&read, &layers)[0]
+            .sun
+            .unwrap()
+            .scattered
+            .unwrap()
+            .data(),
         before
     );
 }

@@ -785,7 +785,8 @@ fn a_refresh_round_checks_each_node_once() {
             .iter()
             .map(|l| {
                 let s = l.sun.as_ref().expect("a sun response");
-                (s.scattered.clone(), s.transmittance.clone())
+                let scattered = s.scattered.expect("swept apart");
+                (scattered.clone(), s.transmittance.clone())
             })
             .collect()
     };
@@ -881,7 +882,8 @@ fn a_moved_sun_under_a_time_budget_is_swept_on_a_thread() {
     let world_sun = |h: &Hierarchy| {
         let l = &h.layers()[0];
         let s = l.sun.as_ref().expect("the world grid always has the sun");
-        (s.scattered.clone(), s.transmittance.clone())
+        let scattered = s.scattered.expect("swept apart");
+        (scattered.clone(), s.transmittance.clone())
     };
     // The grids that show a sun, each with its transmittance.
     let transmittances = |h: &Hierarchy| -> Vec<Grid<f32>> {

@@ -202,14 +202,16 @@ fn a_new_node_marches_its_sun_at_once_and_sweeps_it_later() {
     assert!(worst <= 1e-6, "transmittance off by {worst}");
     assert!(b.transmittance.data().iter().any(|&t| t > 0.05 && t < 0.95));
     // The scattered sun is the world grid's at the node's points until swept.
-    let world = h.layers()[0].sun.unwrap().scattered;
-    let desc = *a.scattered.desc();
+    let world = h.layers()[0].sun.unwrap().scattered.unwrap();
+    let desc = *a.scattered.unwrap().desc();
     let mut apart = 0.0f32;
     for i in (0..desc.point_count()).step_by(7) {
         let p = desc.position(desc.coords(i).unwrap());
         let w = world.light(p, None).unwrap();
-        assert_eq!(a.scattered.data()[i].0, w.0, "{p}");
-        apart = apart.max((total(&a.scattered.data()[i]) - total(&b.scattered.data()[i])).abs());
+        assert_eq!(a.scattered.unwrap().data()[i].0, w.0, "{p}");
+        apart = apart.max(
+            (total(&a.scattered.unwrap().data()[i]) - total(&b.scattered.unwrap().data()[i])).abs(),
+        );
     }
     assert!(
         apart > 1e-3,
@@ -224,13 +226,14 @@ fn a_new_node_marches_its_sun_at_once_and_sweeps_it_later() {
     let late = layer_of(&h, key).sun.unwrap();
     let worst = late
         .scattered
+        .unwrap()
         .data()
         .iter()
-        .zip(b.scattered.data())
+        .zip(b.scattered.unwrap().data())
         .map(|(x, y)| (total(x) - total(y)).abs())
         .fold(0.0f32, f32::max);
     assert!(
-        worst <= 1e-5 * total(&b.scattered.data()[0]).max(1.0),
+        worst <= 1e-5 * total(&b.scattered.unwrap().data()[0]).max(1.0),
         "{worst}"
     );
 }

@@ -85,6 +85,6 @@ fn a_moved_sun_relights_the_grids_over_the_camera_first_and_the_rest_after() {
         assert_eq!(x.grid.desc(), y.grid.desc());
         let (sx, sy) = (x.sun.unwrap(), y.sun.unwrap());
         assert_eq!(sx.transmittance.data(), sy.transmittance.data());
-        assert_eq!(sx.scattered.data(), sy.scattered.data());
+        assert_eq!(sx.scattered.unwrap().data(), sy.scattered.unwrap().data());
     }
 }

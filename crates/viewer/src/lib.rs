@@ -188,7 +188,7 @@ impl Summary {
             if v.sun_bytes > 0 {
                 let _ = writeln!(
                     s,
-                    "  sun responses (scattered bins, zero with the sun swept with the sky, and transmittance): {:.1} MB beside the grids",
+                    "  sun responses (scattered bins and transmittance, or with the sun swept with the sky the transmittance alone): {:.1} MB beside the grids",
                     v.sun_bytes as f64 / 1e6
                 );
             }
@@ -616,10 +616,10 @@ fn render_view(
         volume_bytes: relit.volume_bytes,
         volume_points: relit.volume_points,
         volume_seconds: relit.volume_seconds,
-        // With the sun swept with the sky a response's scattered bins are zero (in the
-        // sky's), but held all the same (ARCHITECTURE.md, "Known defects"); it keeps no
-        // horizon halves of them.
-        sun_bytes: stats.bytes(BYTES_26_F32 + 4) * world.hierarchy.sun().is_some() as u64,
+        // With the sun swept with the sky a response is its transmittance alone: the
+        // sky's bins and halves hold the scattered sun.
+        sun_bytes: stats.bytes(if with_sky { 4 } else { BYTES_26_F32 + 4 })
+            * world.hierarchy.sun().is_some() as u64,
         horizon_bytes: stats.bytes(lightgrid_terrain_lod::BYTES_HORIZON)
             * world.hierarchy.params().sweep.outputs.horizon as u64
             * (1 + (world.hierarchy.sun().is_some() && !with_sky) as u64),

@@ -98,12 +98,12 @@ fn tiny_scene_matches_the_reference_images() {
         summary.sun
     );
     assert!(out.join("tiny-sun-moved.png").is_file());
-    // The sun's responses are counted beside the sky's grids: 316 bytes a point (their
-    // scattered bins zero, the sun swept with the sky, but held); the sky's horizon
-    // halves 96 (the sun's keeps none); the kept materials 16.
+    // The sun's responses are counted beside the sky's grids: their transmittance, 4
+    // bytes a point (the sky's bins hold the scattered sun); the sky's horizon halves
+    // 96; the kept materials 16.
     for v in &summary.views {
         let points: u64 = v.points_per_depth.iter().sum();
-        assert_eq!(v.sun_bytes, points * 316, "{}", v.name);
+        assert_eq!(v.sun_bytes, points * 4, "{}", v.name);
         assert_eq!(v.horizon_bytes, points * 96, "{}", v.name);
         assert_eq!(v.material_bytes, points * 16, "{}", v.name);
     }
