@@ -450,3 +450,38 @@ fn sweep_sun_on_the_gpu_equals_the_cpu() {
     let t = cpu.transmittance.data();
     assert!(t.iter().any(|&t| t > 0.3) && t.iter().all(|t| (0.0..=1.0).contains(t)));
 }
+
+/// `Sweeper::sweep_with_sun` (a grid's light and the sun's first collisions in one
+/// sweep, `HierarchyParams::sun_with_sky`) on the GPU sweeper equals the CPU's, with a
+/// node's kind of boundary (a sky top, a given halo) and an outside transmittance that
+/// varies; the beam adds light the boundary's sweep alone lacks.
+#[test]
+fn sweep_with_sun_on_the_gpu_equals_the_cpu() {
+    use lightgrid_core::{HaloLayout, SideBoundary, SunBeam, Sweeper};
+    let Some(mut gpu) = sweeper() else { return };
+    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(10);
+    let d = *m.desc();
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 0.0;
+    o.max_passes = 4;
+    let glow = |k: usize| BinLight::uniform(Vec3::new(0.02, 0.03, 0.01) * (1 + k % 5) as f32);
+    let b = Boundary {
+        sides: SideBoundary::Given((0..HaloLayout::new(d.dims()).len()).map(glow).collect()),
+        ..Boundary::open_sky(lumpy_sky().scaled(0.01).split_vertical().0)
+    };
+    let outside = |p: Vec3| 0.4 + 0.5 * (0.3 * p.x).sin().abs();
+    let beam = SunBeam {
+        to_sun: Vec3::new(0.5, 0.6, -0.3),
+        irradiance: Vec3::new(2.0, 3.0, 1.5),
+        outside: &outside,
+    };
+    let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
+    let both = cpu.sweep_with_sun(&m, &b, &beam, &o).unwrap().bins.unwrap();
+    let on_gpu = gpu.sweep_with_sun(&m, &b, &beam, &o).unwrap().bins.unwrap();
+    assert_close(&both, &on_gpu).unwrap();
+    let alone = cpu.sweep(&m, &b, &o).unwrap().bins.unwrap();
+    assert!(
+        assert_close(&alone, &on_gpu).is_err(),
+        "the beam adds nothing"
+    );
+}

@@ -662,13 +662,30 @@ impl Hierarchy {
         let Some(sun) = self.sun else {
             return Ok(None);
         };
+        if self.params.sun_with_sky {
+            // The scattered sun is in the node's sky bins: its responses for good. A
+            // node swept again for a moved sun over its own material keeps the
+            // transmittance `set_sun` marched for it (the same material, the same
+            // grids beyond it: marched again, it is the same bit for bit).
+            let kept = self
+                .nodes
+                .get(&key)
+                .filter(|n| std::ptr::eq(&n.material, material));
+            let kept = kept
+                .and_then(|n| n.sun.as_ref())
+                .filter(|g| g.marched_to == sun.to_sun)
+                .map(|g| g.transmittance.clone());
+            let transmittance = match kept {
+                Some(t) => t,
+                None => timed(&mut times.sun_sweep, || {
+                    self.march_node(sweeper, key, material, sun.to_sun, fresh)
+                })?,
+            };
+            return Ok(Some(GridSun::marched(transmittance, sun)));
+        }
         let transmittance = timed(&mut times.sun_sweep, || {
             self.march_node(sweeper, key, material, sun.to_sun, fresh)
         })?;
-        if self.params.sun_with_sky {
-            // The scattered sun is in the node's sky bins: its responses for good.
-            return Ok(Some(GridSun::marched(transmittance, sun)));
-        }
         let for_good = self.reads_coarse_scattered_sun(key) && self.sun_parent_ready(key);
         let desc = *material.grid.desc();
         // The coarser grids' scattered sun at the node's points, and the downward
