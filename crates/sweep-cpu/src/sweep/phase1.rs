@@ -154,7 +154,7 @@ impl Ctx {
         let (nxi, nzi) = (self.nx, self.nz);
         let s = self.smoothing;
         let (w0, w1) = (1.0 - s, 0.25 * s);
-        let mut outs = [0f32; 2 * PAD];
+        let mut outs = [0f32; GATHER_BLOCK];
         // Step 1, channel by channel, over the whole row.
         for (c, chn) in self.ch.iter().enumerate() {
             let (sx, qz) = (chn.step.x, (z - chn.step.z) as isize);
@@ -182,24 +182,40 @@ impl Ctx {
                     rf.inside[k] += sum_f64(out) * mu;
                 }
                 let Some(gh) = ghost else { continue };
-                // Columns whose taps reach beyond the sides: all of them in a row
-                // whose source rows do; else the first and last few.
-                let (xa, xb) = if qz >= 1 && qz < nzi as isize - 1 {
-                    let xa = (1 + sx).clamp(0, nxi);
-                    (xa as usize, (nxi - 1 + sx).clamp(xa, nxi) as usize)
-                } else {
-                    (nx, nx)
-                };
                 let (mid, above, below) = taps(gh, plane + q0, nx + 2, qz);
-                for range in [0..xa.min(nx), xb.max(xa.min(nx))..nx] {
-                    for chunk in range.clone().step_by(outs.len()) {
-                        let n = (range.end - chunk).min(outs.len());
-                        let o = &mut outs[..n];
-                        gather_row(o, (&mid[chunk..], &above[chunk..], &below[chunk..]), w0, w1);
-                        rf.outside[k] += sum_f64(o) * mu;
-                        for (t, v) in out[chunk..][..n].iter_mut().zip(o.iter()) {
-                            *t += v;
-                        }
+                if qz >= 1 && qz < nzi as isize - 1 {
+                    // A row whose source rows lie inside: only its first and last few
+                    // columns' taps reach beyond the sides. Point by point, as
+                    // `gather_row` adds the taps (a block loop's set-up cost more than
+                    // these few points: half of a 16-point node's extra time under a
+                    // given halo went there).
+                    let xa = (1 + sx).clamp(0, nxi) as usize;
+                    let xb = ((nxi - 1 + sx).clamp(xa as i32, nxi) as usize).max(xa);
+                    let mut sum = 0f64;
+                    for x in (0..xa).chain(xb..nx) {
+                        let v = if w1 == 0.0 {
+                            mid[x + 1] * w0
+                        } else {
+                            mid[x + 1] * w0
+                                + mid[x + 2] * w1
+                                + mid[x] * w1
+                                + above[x + 1] * w1
+                                + below[x + 1] * w1
+                        };
+                        sum += v as f64;
+                        out[x] += v;
+                    }
+                    rf.outside[k] += sum * mu;
+                    continue;
+                }
+                // A row whose source rows lie beyond a side: every column, in blocks.
+                for chunk in (0..nx).step_by(outs.len()) {
+                    let n = (nx - chunk).min(outs.len());
+                    let o = &mut outs[..n];
+                    gather_row(o, (&mid[chunk..], &above[chunk..], &below[chunk..]), w0, w1);
+                    rf.outside[k] += sum_f64(o) * mu;
+                    for (t, v) in out[chunk..][..n].iter_mut().zip(o.iter()) {
+                        *t += v;
                     }
                 }
             }
