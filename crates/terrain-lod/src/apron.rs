@@ -69,7 +69,7 @@ impl Hierarchy {
             let hash = crate::hash_grid(m, &b, options);
             (b, hash)
         });
-        let hash = match self.sun_with_sky() {
+        let hash = match self.sky_sun() {
             Some(sun) => crate::sun::hash_sun(hash, sun),
             None => hash,
         };
@@ -91,7 +91,7 @@ impl Hierarchy {
         times: &mut StageTimes,
     ) -> Result<SweepOutput, LodError> {
         let m = material.widened.as_ref().unwrap_or(&material.grid);
-        let out = timed(&mut times.sky_sweep, || match self.sun_with_sky() {
+        let out = timed(&mut times.sky_sweep, || match self.sky_sun() {
             // The beam marched on beyond the node's box as its transmittance is.
             Some(sun) => {
                 let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, inputs.depth, fresh);

@@ -681,7 +681,8 @@ impl Hierarchy {
                     self.march_node(sweeper, key, material, sun.to_sun, fresh)
                 })?,
             };
-            return Ok(Some(GridSun::marched(transmittance, sun)));
+            let sky = self.sky_sun().unwrap_or(sun);
+            return Ok(Some(GridSun::marched(transmittance, sky, sun.to_sun)));
         }
         let transmittance = timed(&mut times.sun_sweep, || {
             self.march_node(sweeper, key, material, sun.to_sun, fresh)

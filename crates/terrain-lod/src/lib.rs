@@ -172,8 +172,8 @@ use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, Grid, GridDesc, GridError, HorizonGrid, LightGrid, MaterialGrid,
-    MaterialSource, Resident, SideBoundary, SunBeam, SunBoundary, SweepError, SweepOptions,
-    Sweeper, TopBoundary,
+    MaterialSource, Resident, SideBoundary, SunBoundary, SweepError, SweepOptions, Sweeper,
+    TopBoundary,
 };
 
 /// Errors of the hierarchy.
@@ -729,26 +729,30 @@ impl Hierarchy {
         let desc = *self.world.desc();
         let material = self.compose(&desc)?;
         let o = self.node_options(true);
-        let boundary = Boundary::open_sky(self.sky);
-        let out = match self.sun_with_sky() {
-            // The beam enters through the grid's faces: nothing lost before them.
-            Some(sun) => self.sweeper.sweep_with_sun(
-                &material,
-                &boundary,
-                &SunBeam {
-                    to_sun: sun.to_sun,
-                    irradiance: sun.irradiance,
-                    outside: &|_| 1.0,
-                },
-                &o,
-            )?,
-            None => self.sweeper.sweep(&material, &boundary, &o)?,
-        };
+        let sun = self.sun_with_sky();
+        let out = sun_move::world_sky(self.sweeper.as_mut(), &material, self.sky, sun, &o)?;
+        self.install_world(out, sun);
+        self.set_world_material(material);
+        Ok(())
+    }
+
+    /// The world grid's light swept (its sky, and `sun`'s first collisions with it:
+    /// [`HierarchyParams::sun_with_sky`]); with a sun, the sun its grids' sky sweeps
+    /// take from now on ([`Hierarchy::sky_sun`]), a moved sun's sweep on a thread
+    /// superseded.
+    pub(crate) fn install_world(
+        &mut self,
+        out: lightgrid_core::SweepOutput,
+        sun: Option<SunLight>,
+    ) {
         self.world = out.bins.expect("bins asked for");
         self.world_horizon = out.horizon;
         self.world_resident = out.resident;
-        self.set_world_material(material);
-        Ok(())
+        if let (Some(sun), Some(w)) = (sun, self.world_sun.as_mut()) {
+            w.to_sun = sun.to_sun;
+            w.with_sky = Some(sun.irradiance);
+            self.sun_move = None;
+        }
     }
 
     /// Keeps `material` as the world grid's, with its top (`world_top`).
@@ -809,7 +813,11 @@ impl Hierarchy {
     /// is swept on a thread: the old one stays shown until a frame finds the new one
     /// done ([`Hierarchy::sun_moving`], [`FrameStats::sun_moved`]; the module
     /// `sun_move`); otherwise, and for a first sun, it is swept here, at once. The same
-    /// direction with another irradiance sweeps nothing. The sweeper must take cell
+    /// direction with another irradiance sweeps nothing. With
+    /// [`HierarchyParams::sun_with_sky`] the world grid's light is swept again instead
+    /// (for a new irradiance too), the same way, and then every node's; `None` there
+    /// sweeps the world grid's sky alone again at once, and [`Hierarchy::refresh`]
+    /// the nodes' (as after [`Hierarchy::set_sky`]). The sweeper must take cell
     /// sources (the CPU and GPU sweepers do).
     ///
     /// ```no_run
@@ -829,9 +837,15 @@ impl Hierarchy {
             // A sweep under way finishes on its thread alone; its result is dropped.
             self.checked.clear();
             self.sun_move = None;
+            let swept_with_sky = self.sun_with_sky().is_some();
             self.sun = None;
             self.world_sun = None;
             self.drop_node_suns();
+            if swept_with_sky {
+                // The grids' bins hold its scattered light: the world grid's sky alone
+                // again at once, the nodes' by `refresh` (their inputs changed).
+                self.sweep_world()?;
+            }
             return Ok(());
         };
         sun.to_sun = lightgrid_core::light::check_sun(sun.to_sun, sun.irradiance)?;
@@ -850,15 +864,24 @@ impl Hierarchy {
         // follows (the module `sun_move`).
         self.march_suns()?;
         if self.sun_with_sky().is_some() {
-            self.sun_move = None;
-            self.sweep_world()?;
-            return self.sweep_world_sun();
+            // Every grid is swept again: the world grid's on a thread under a time
+            // budget (its earlier light stays shown until a frame installs the new),
+            // else at once.
+            if self.sky_sun() == Some(sun) {
+                self.sun_move = None;
+                return Ok(());
+            }
+            if !self.move_sun_in_background(sun)? {
+                self.sweep_world()?;
+                return self.sweep_world_sun();
+            }
+            return Ok(());
         }
         if shown == sun.to_sun {
             // Back to the scattered sun shown (a move under way is dropped), or a new
             // irradiance.
             self.sun_move = None;
-        } else if !self.move_sun_in_background(sun.to_sun)? {
+        } else if !self.move_sun_in_background(sun)? {
             self.sweep_world_sun()?;
         }
         Ok(())

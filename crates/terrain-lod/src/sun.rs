@@ -13,18 +13,19 @@ use crate::{
 };
 
 impl GridSun {
-    /// The responses of a grid whose sky sweep holds `sun`'s scattered light
+    /// The responses of a grid whose sky sweep holds `sky`'s scattered light
     /// ([`HierarchyParams::sun_with_sky`](crate::HierarchyParams::sun_with_sky)): the
-    /// transmittance marched toward it, no scattered light of their own.
-    pub(crate) fn marched(transmittance: Grid<f32>, sun: SunLight) -> Self {
+    /// transmittance marched toward `marched_to` (the sun shown: `sky`'s but while a
+    /// moved sun's world grid is swept on a thread), no scattered light of their own.
+    pub(crate) fn marched(transmittance: Grid<f32>, sky: SunLight, marched_to: Vec3) -> Self {
         Self {
             scattered: None,
             horizon: None,
             resident: None,
             transmittance,
-            to_sun: sun.to_sun,
-            marched_to: sun.to_sun,
-            with_sky: Some(sun.irradiance),
+            to_sun: sky.to_sun,
+            marched_to,
+            with_sky: Some(sky.irradiance),
         }
     }
 }
@@ -59,7 +60,7 @@ impl Hierarchy {
         let r = if self.sun_with_sky().is_some() {
             // The scattered sun is in the sky's bins (`sweep_world`): the march alone.
             let t = sun_move::march(self.sweeper.as_mut(), material, sun.to_sun, &|_| 1.0)?;
-            GridSun::marched(t, sun)
+            GridSun::marched(t, sun, sun.to_sun)
         } else {
             sun_move::world_grid_sun(self.sweeper.as_mut(), material, sun.to_sun, &o)?
         };
@@ -81,12 +82,12 @@ impl Hierarchy {
         let (Some(sun), Some(scattered_to)) = (self.sun, self.scattered_to()) else {
             return Ok(None);
         };
-        if self.sun_with_sky().is_some() {
+        if let Some(sky) = self.sky_sun() {
             // The scattered sun is in the sky's bins: the march alone.
             let t = timed(&mut times.sun_sweep, || {
                 self.march_node(sweeper, key, material, sun.to_sun, fresh)
             })?;
-            return Ok(Some(GridSun::marched(t, sun)));
+            return Ok(Some(GridSun::marched(t, sky, sun.to_sun)));
         }
         // Swept over the widened grid where the sun has an apron (the scattered sun
         // entering the node's sides has crossed the apron's fine material), kept inside.
@@ -149,6 +150,22 @@ impl Hierarchy {
         self.sun.filter(|_| self.params.sun_with_sky)
     }
 
+    /// The sun the grids' sky sweeps take its first collisions from
+    /// ([`crate::HierarchyParams::sun_with_sky`]): the world grid's sky sweep's, the
+    /// sun's but while a moved sun's world grid is swept on a thread (a node swept
+    /// meanwhile takes the world grid's, whose light its boundary reads, and is swept
+    /// again once the new one is installed). `None` where the sky is swept alone.
+    pub(crate) fn sky_sun(&self) -> Option<SunLight> {
+        self.sun_with_sky()?;
+        match self.world_sun.as_ref() {
+            Some(w) => w.with_sky.map(|irradiance| SunLight {
+                to_sun: w.to_sun,
+                irradiance,
+            }),
+            None => self.sun,
+        }
+    }
+
     /// The direction the scattered sun is shown for: the world grid's (the sun's but
     /// while a moved sun's world grid is swept on a thread).
     pub(crate) fn scattered_to(&self) -> Option<Vec3> {
@@ -169,7 +186,7 @@ impl Hierarchy {
     /// the sun swept with the sky, whether its grid's sky sweep took the current sun
     /// (direction and irradiance): else the grid is swept again.
     pub(crate) fn scattered_current(&self, g: &GridSun) -> bool {
-        match (self.sun_with_sky(), g.with_sky) {
+        match (self.sky_sun(), g.with_sky) {
             (Some(s), Some(e)) => g.to_sun == s.to_sun && e == s.irradiance,
             (Some(_), None) => false,
             (None, _) => Some(g.to_sun) == self.scattered_to(),

@@ -23,6 +23,12 @@
 //! a sweeper that cannot fork (the GPU's: one queue), and for a first sun (none shown
 //! yet), the world grid's sweep runs at once, in `set_sun`.
 //!
+//! With the sun swept with the sky ([`crate::HierarchyParams::sun_with_sky`]) the world
+//! grid's sweep on the thread is its light, sky and sun's first collisions together;
+//! until a frame installs it, the grids' sky sweeps take the sun the world grid's light
+//! holds ([`Hierarchy::sky_sun`]), so a node built meanwhile agrees with the boundary
+//! it reads, and every node is swept again after.
+//!
 //! Under a 30 ms frame budget, on the frame bench's forest path with 16-point nodes and
 //! two cores, moving the sun 20° took `set_sun` 26–44 ms (50–90 ms of CPU time, 42
 //! grids re-marched), the world grid's scattered sun landed 0.23–0.31 s later and every
@@ -43,11 +49,20 @@ use crate::{GridSun, Hierarchy, LodError, SunLight, shadow};
 
 /// A moved sun's world-grid responses, being swept.
 pub(crate) struct SunMove {
-    /// The direction they are swept for.
-    to_sun: Vec3,
-    thread: JoinHandle<Result<GridSun, SweepError>>,
-    /// A direction set while they were swept: swept next (the last one asked for).
-    next: Option<Vec3>,
+    /// The sun they are swept for.
+    sun: SunLight,
+    thread: JoinHandle<Result<Moved, SweepError>>,
+    /// A sun set while they were swept: swept next (the last one asked for).
+    next: Option<SunLight>,
+}
+
+/// What a moved sun's sweep on a thread gives the world grid.
+enum Moved {
+    /// Its scattered sun's responses, swept apart.
+    Apart(GridSun),
+    /// Its light, the sun's first collisions swept with the sky
+    /// ([`crate::HierarchyParams::sun_with_sky`]).
+    WithSky(lightgrid_core::SweepOutput),
 }
 
 impl Hierarchy {
@@ -68,15 +83,18 @@ impl Hierarchy {
     /// world grid's sweep on a thread (or queues it behind the one running) and returns
     /// `true`, or returns `false` where the sweep must run at once (no time budget, a
     /// sweeper that cannot fork, no thread to be had).
-    pub(crate) fn move_sun_in_background(&mut self, to_sun: Vec3) -> Result<bool, LodError> {
+    pub(crate) fn move_sun_in_background(&mut self, sun: SunLight) -> Result<bool, LodError> {
+        // Apart, the scattered sun is for unit irradiance: its direction alone counts.
+        let with_sky = self.params.sun_with_sky;
+        let same = |a: SunLight, b: SunLight| a.to_sun == b.to_sun && (!with_sky || a == b);
         if let Some(m) = &mut self.sun_move {
-            m.next = (m.to_sun != to_sun).then_some(to_sun);
+            m.next = (!same(m.sun, sun)).then_some(sun);
             return Ok(true);
         }
         if self.params.budget_ms.is_none() || self.world_sun.is_none() {
             return Ok(false);
         }
-        match self.spawn_world_sun(to_sun)? {
+        match self.spawn_world_sun(sun)? {
             Some(m) => {
                 self.sun_move = Some(m);
                 Ok(true)
@@ -85,9 +103,10 @@ impl Hierarchy {
         }
     }
 
-    /// The world grid's sweep for `to_sun` on a fork of the sweeper, on a thread
-    /// (`None`: no fork or no thread).
-    fn spawn_world_sun(&mut self, to_sun: Vec3) -> Result<Option<SunMove>, LodError> {
+    /// The world grid's sweep for `sun` on a fork of the sweeper, on a thread
+    /// (`None`: no fork or no thread): its scattered sun's responses, or with the sun
+    /// swept with the sky its light.
+    fn spawn_world_sun(&mut self, sun: SunLight) -> Result<Option<SunMove>, LodError> {
         let Some(mut sweeper) = self.sweeper.fork() else {
             return Ok(None);
         };
@@ -96,11 +115,19 @@ impl Hierarchy {
             _ => self.compose(self.world.desc())?,
         };
         let options = self.node_options(true);
+        let (sky, with_sky) = (self.sky, self.params.sun_with_sky);
         let thread = std::thread::Builder::new()
             .name("lightgrid world sun".into())
             .spawn(move || {
                 let _span = tracing::debug_span!("world sun (background)").entered();
-                let mut run = move || world_grid_sun(sweeper.as_mut(), &material, to_sun, &options);
+                let mut run = move || {
+                    let s = sweeper.as_mut();
+                    if with_sky {
+                        world_sky(s, &material, sky, Some(sun), &options).map(Moved::WithSky)
+                    } else {
+                        world_grid_sun(s, &material, sun.to_sun, &options).map(Moved::Apart)
+                    }
+                };
                 // A pool of its own (the module's docs).
                 match rayon::ThreadPoolBuilder::new()
                     .num_threads(1)
@@ -112,7 +139,7 @@ impl Hierarchy {
                 }
             });
         Ok(thread.ok().map(|thread| SunMove {
-            to_sun,
+            sun,
             thread,
             next: None,
         }))
@@ -146,12 +173,18 @@ impl Hierarchy {
                         continue;
                     }
                     None => {
+                        if self.params.sun_with_sky {
+                            self.sweep_world()?;
+                        }
                         self.sweep_world_sun()?;
                         return Ok(true);
                     }
                 }
             }
-            self.world_sun = Some(response?);
+            match response? {
+                Moved::Apart(g) => self.world_sun = Some(g),
+                Moved::WithSky(out) => self.install_world(out, Some(m.sun)),
+            }
             return Ok(true);
         }
     }
@@ -252,6 +285,32 @@ impl Hierarchy {
             }
         }
         Ok(())
+    }
+}
+
+/// The world grid's light: `sky` over it, and with `sun` (swept with the sky:
+/// [`crate::HierarchyParams::sun_with_sky`]) the sun's first collisions, the beam
+/// entering through its faces with nothing lost before them.
+pub(crate) fn world_sky(
+    sweeper: &mut dyn Sweeper,
+    material: &MaterialGrid,
+    sky: BinLight,
+    sun: Option<SunLight>,
+    options: &SweepOptions,
+) -> Result<lightgrid_core::SweepOutput, SweepError> {
+    let boundary = Boundary::open_sky(sky);
+    match sun {
+        Some(sun) => sweeper.sweep_with_sun(
+            material,
+            &boundary,
+            &lightgrid_core::SunBeam {
+                to_sun: sun.to_sun,
+                irradiance: sun.irradiance,
+                outside: &|_| 1.0,
+            },
+            options,
+        ),
+        None => sweeper.sweep(material, &boundary, options),
     }
 }
 

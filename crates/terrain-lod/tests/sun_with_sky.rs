@@ -143,3 +143,102 @@ fn a_sky_scale_other_than_one_is_refused() {
     assert!(e.contains("sky_scale"), "{e}");
     h.set_sky_scale(Vec3::ONE).unwrap();
 }
+
+/// Under a time budget a moved sun's world grid is swept again on a thread:
+/// `set_sun` returns with the sun moving, the grids' light as it was and the direct sun
+/// moved; frames then install the world grid's new light and sweep the nodes again, and
+/// once settled the hierarchy is a fresh build's, as without a budget.
+#[test]
+fn under_a_time_budget_the_world_grid_is_swept_on_a_thread() {
+    let moved = SunLight {
+        to_sun: Vec3::new(-0.2, 0.8, 0.5),
+        irradiance: Vec3::new(2.0, 2.5, 3.0),
+    };
+    let mut params = field::small_params(u64::MAX / 4);
+    params.sun_with_sky = true;
+    params.sweep.max_passes = 4;
+    params.sweep.tolerance = 0.0;
+    // Time enough for every node of a frame (the budget only decides where the world
+    // grid's sweep runs here).
+    params.budget_ms = Some(1e6);
+    let mut h = field::over_varying_layer(
+        Vec3::new(0.5, 0.6, 0.4),
+        Box::new(CpuSweeper::new()),
+        params,
+    );
+    h.set_sun(Some(SUN)).unwrap();
+    settle(&mut h);
+    let before: Vec<_> = probes()
+        .iter()
+        .map(|&p| h.light(p, None).unwrap())
+        .collect();
+    h.set_sun(Some(moved)).unwrap();
+    assert!(h.sun_moving(), "the world grid is swept on a thread");
+    let during: Vec<_> = probes()
+        .iter()
+        .map(|&p| h.light(p, None).unwrap())
+        .collect();
+    assert!(
+        before == during,
+        "the light shown stays until the new one is installed"
+    );
+    let fresh = settled(true, moved);
+    let direct_moved = probes().iter().all(|&p| {
+        h.sun_transmittance(p, None).unwrap().to_bits()
+            == fresh.sun_transmittance(p, None).unwrap().to_bits()
+    });
+    assert!(direct_moved, "the direct sun moves in set_sun");
+    let mut installed = false;
+    for _ in 0..50 {
+        let s = h.update(CAMERA).unwrap();
+        installed |= s.sun_moved;
+        if !h.sun_moving() && s.pending == 0 {
+            break;
+        }
+    }
+    assert!(installed, "a frame installed the new world grid");
+    settle(&mut h);
+    let (worst, same_sun) = compare(&h, &fresh);
+    assert!(same_sun);
+    assert!(
+        worst < 1e-5,
+        "{worst} of the brightest bin off a fresh build"
+    );
+    // A brighter sun the same way, and back: nothing left moving.
+    h.set_sun(Some(SunLight {
+        irradiance: moved.irradiance * 2.0,
+        ..moved
+    }))
+    .unwrap();
+    assert!(h.sun_moving());
+    h.set_sun(Some(moved)).unwrap();
+    settle(&mut h);
+    assert!(!h.sun_moving());
+    let (worst, _) = compare(&h, &fresh);
+    assert!(worst < 1e-5, "{worst} after a move undone");
+}
+
+/// Removing the sun sweeps the world grid's sky alone again, and a round of `refresh`
+/// the nodes': then the light is the sky's alone, as the split's sky response is.
+#[test]
+fn removing_the_sun_leaves_the_sky_alone_after_a_refresh() {
+    let mut h = settled(true, SUN);
+    h.set_sun(None).unwrap();
+    for _ in 0..50 {
+        if h.refresh(CAMERA).unwrap().pending == 0 {
+            break;
+        }
+    }
+    let mut split = settled(false, SUN);
+    split.set_sun(None).unwrap();
+    let (worst, _) = compare(&h, &split);
+    assert!(
+        worst < 1e-5,
+        "{worst} of the brightest bin off the sky alone"
+    );
+    // Without the refresh the nodes still hold the sun's scattered light.
+    let mut stale = settled(true, SUN);
+    stale.set_sun(None).unwrap();
+    let (apart, _) = compare(&stale, &split);
+    assert!(apart > 0.01, "{apart}");
+}
