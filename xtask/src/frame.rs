@@ -712,8 +712,9 @@ fn shaded(s: &SampledLight, p: &Probe, e: Vec3, to_sun: Vec3) -> f32 {
     lightgrid_core::light::luminance(s.light + e * (s.sun * p.n.dot(to_sun).max(0.0)))
 }
 
-/// The hierarchy's sky and sun luminance at every probe (sky scale and sun irradiance
-/// toggled: neither sweeps anything), restored to both at the end.
+/// The hierarchy's sky and sun luminance at every probe (the sky's scale toggled:
+/// nothing is swept or marched), restored at the end. The sun's irradiance is
+/// [`SUN_E`].
 fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec<Parts>> {
     if h.params().sun_with_sky {
         // The bins hold sky and scattered sun together: read once, apart only from the
@@ -725,17 +726,23 @@ fn sample_parts(h: &mut Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<Vec
             .map(|(p, s)| Parts::together(s, p, to_sun))
             .collect());
     }
-    let sun = |irradiance| Some(SunLight { to_sun, irradiance });
-    h.set_sun(sun(Vec3::ZERO))?;
-    let sky = read(h, probes)?;
-    h.set_sky_scale(Vec3::ZERO)?;
-    h.set_sun(sun(SUN_E))?;
+    // The sky's scale toggled alone: `set_sun` (an irradiance of 0, then back) would
+    // also march the grids a moved sun left for the frames, outside their time.
+    debug_assert_eq!(h.sun().map(|s| s.irradiance), Some(SUN_E));
     let lit = read(h, probes)?;
+    h.set_sky_scale(Vec3::ZERO)?;
+    let sun = read(h, probes)?;
     h.set_sky_scale(Vec3::ONE)?;
     Ok(probes
         .iter()
-        .zip(sky.iter().zip(&lit))
-        .map(|(p, (a, b))| Parts::of(a, b, p, to_sun))
+        .zip(lit.iter().zip(&sun))
+        .map(|(p, (l, s))| {
+            let sky = SampledLight {
+                light: l.light - s.light,
+                ..*l
+            };
+            Parts::of(&sky, s, p, to_sun)
+        })
         .collect())
 }
 
