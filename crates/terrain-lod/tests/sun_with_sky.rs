@@ -13,13 +13,15 @@ mod field;
 
 const CAMERA: Vec3 = Vec3::new(32.0, 5.0, 32.0);
 
-/// [`field::over_varying_layer`] settled, with the sun swept with the sky or apart;
-/// four passes always (no early stop: the two then run the same passes).
-fn settled(with_sky: bool, sun: SunLight) -> Hierarchy {
+/// [`field::over_varying_layer`] settled under `sun`, with `budget_ms` the frames'
+/// time budget and the sun swept with the sky or apart; four passes always (no early
+/// stop: the two then run the same passes).
+fn settled_within(with_sky: bool, sun: SunLight, budget_ms: Option<f32>) -> Hierarchy {
     let mut params = field::small_params(u64::MAX / 4);
     params.sun_with_sky = with_sky;
     params.sweep.max_passes = 4;
     params.sweep.tolerance = 0.0;
+    params.budget_ms = budget_ms;
     let mut h = field::over_varying_layer(
         Vec3::new(0.5, 0.6, 0.4),
         Box::new(CpuSweeper::new()),
@@ -28,6 +30,11 @@ fn settled(with_sky: bool, sun: SunLight) -> Hierarchy {
     h.set_sun(Some(sun)).unwrap();
     settle(&mut h);
     h
+}
+
+/// [`settled_within`] with no time budget.
+fn settled(with_sky: bool, sun: SunLight) -> Hierarchy {
+    settled_within(with_sky, sun, None)
 }
 
 fn settle(h: &mut Hierarchy) {
@@ -154,20 +161,9 @@ fn under_a_time_budget_the_world_grid_is_swept_on_a_thread() {
         to_sun: Vec3::new(-0.2, 0.8, 0.5),
         irradiance: Vec3::new(2.0, 2.5, 3.0),
     };
-    let mut params = field::small_params(u64::MAX / 4);
-    params.sun_with_sky = true;
-    params.sweep.max_passes = 4;
-    params.sweep.tolerance = 0.0;
     // Time enough for every node of a frame (the budget only decides where the world
     // grid's sweep runs here).
-    params.budget_ms = Some(1e6);
-    let mut h = field::over_varying_layer(
-        Vec3::new(0.5, 0.6, 0.4),
-        Box::new(CpuSweeper::new()),
-        params,
-    );
-    h.set_sun(Some(SUN)).unwrap();
-    settle(&mut h);
+    let mut h = settled_within(true, SUN, Some(1e6));
     let before: Vec<_> = probes()
         .iter()
         .map(|&p| h.light(p, None).unwrap())
