@@ -74,9 +74,11 @@
 //! (`Sweeper::sweep_sun`; 312 + 312 + 4 bytes a point as `f32`; every grid also keeps
 //! the material it was swept with, [`BYTES_MATERIAL`] a point). Sky and sun colours
 //! multiply ([`Hierarchy::set_sky_scale`], [`SunLight::irradiance`]); a new direction
-//! recomputes the sun's responses only. Every grid's transmittance is marched again at
-//! once, in `set_sun` (the direct sun and its shadows move in the call: tens of
-//! milliseconds for the whole hierarchy); the scattered sun follows, the world grid's
+//! recomputes the sun's responses only. Every grid's transmittance is marched again in
+//! `set_sun` (the direct sun and its shadows move in the call: tens of milliseconds for
+//! the whole hierarchy; under a time budget the grids over the camera and, nearest
+//! first, those half the budget allows, the frames after the rest); the scattered sun
+//! follows, the world grid's
 //! at once and the nodes' coarse and near first within the budget (each costs a node's
 //! points, and its parent's must be current; from the kept material, composed again for
 //! nothing); meanwhile a node shows its earlier direction's scattered sun. A node's beam
@@ -93,8 +95,9 @@
 //! both, each by its share of the lookup's corners (`lightgrid_core::seam`): one grid's
 //! trilinear read across the seam. Under a time budget
 //! ([`HierarchyParams::budget_ms`]) the world grid's scattered-sun sweep for a moved sun
-//! runs on a thread while frames go on with the old scattered sun
-//! ([`Hierarchy::sun_moving`]); `cargo xtask frame --budget-ms 30` times it.
+//! (with [`HierarchyParams::sun_with_sky`], its light) runs on a thread while frames go
+//! on with the old scattered sun ([`Hierarchy::sun_moving`]); `cargo xtask frame
+//! --budget-ms 30` times it.
 //!
 //! ```
 //! use lightgrid_core::glam::{Vec2, Vec3};
