@@ -413,6 +413,26 @@ fn sun_split_on_the_gpu() {
     assert!(cpu.sun_scattered.max_value() > 0.0);
 }
 
+/// A hierarchy node's kind of sweep for the sun's tests: a 10³ canopy, four passes
+/// with no early stop.
+fn canopy_node() -> (MaterialGrid, SweepOptions) {
+    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(10);
+    let mut o = SweepOptions::multi_bounce();
+    o.tolerance = 0.0;
+    o.max_passes = 4;
+    (m, o)
+}
+
+/// Faint light of five levels, as a coarser grid hands a node over (`k`: the point).
+fn glow(k: usize) -> BinLight {
+    BinLight::uniform(Vec3::new(0.02, 0.03, 0.01) * (1 + k % 5) as f32)
+}
+
+/// A transmittance outside the box that varies across x.
+fn varying_outside(p: Vec3) -> f32 {
+    0.4 + 0.5 * (0.3 * p.x).sin().abs()
+}
+
 /// `Sweeper::sweep_sun` on the GPU sweeper (the first collisions swept on the device)
 /// equals the CPU's, with a hierarchy's kind of sun boundary: scattered light coming in
 /// through the top and a given halo, and a transmittance outside that varies.
@@ -420,17 +440,12 @@ fn sun_split_on_the_gpu() {
 fn sweep_sun_on_the_gpu_equals_the_cpu() {
     use lightgrid_core::{HaloLayout, SideBoundary, SunBoundary, Sweeper, TopBoundary};
     let Some(mut gpu) = sweeper() else { return };
-    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(10);
+    let (m, o) = canopy_node();
     let d = *m.desc();
-    let mut o = SweepOptions::multi_bounce();
-    o.tolerance = 0.0;
-    o.max_passes = 4;
-    let glow = |k: usize| BinLight::uniform(Vec3::new(0.02, 0.03, 0.01) * (1 + k % 5) as f32);
     let top: Vec<BinLight> = (0..d.level_len())
         .map(|k| glow(k).split_vertical().0)
         .collect();
     let halo: Vec<BinLight> = (0..HaloLayout::new(d.dims()).len()).map(glow).collect();
-    let outside = |p: Vec3| 0.4 + 0.5 * (0.3 * p.x).sin().abs();
     let sun = SunBoundary {
         to_sun: Vec3::new(0.5, 0.6, -0.3),
         scattered: lightgrid_core::Boundary {
@@ -438,7 +453,7 @@ fn sweep_sun_on_the_gpu_equals_the_cpu() {
             bottom: BinLight::ZERO,
             sides: SideBoundary::Given(halo),
         },
-        outside: &outside,
+        outside: &varying_outside,
     };
     let cpu = lightgrid_sweep_cpu::CpuSweeper::new()
         .sweep_sun(&m, &sun, &o)
@@ -459,21 +474,16 @@ fn sweep_sun_on_the_gpu_equals_the_cpu() {
 fn sweep_with_sun_on_the_gpu_equals_the_cpu() {
     use lightgrid_core::{HaloLayout, SideBoundary, SunBeam, Sweeper};
     let Some(mut gpu) = sweeper() else { return };
-    let (m, _) = lightgrid_measure::scenes::Scene::Canopy.build(10);
+    let (m, o) = canopy_node();
     let d = *m.desc();
-    let mut o = SweepOptions::multi_bounce();
-    o.tolerance = 0.0;
-    o.max_passes = 4;
-    let glow = |k: usize| BinLight::uniform(Vec3::new(0.02, 0.03, 0.01) * (1 + k % 5) as f32);
     let b = Boundary {
         sides: SideBoundary::Given((0..HaloLayout::new(d.dims()).len()).map(glow).collect()),
         ..Boundary::open_sky(lumpy_sky().scaled(0.01).split_vertical().0)
     };
-    let outside = |p: Vec3| 0.4 + 0.5 * (0.3 * p.x).sin().abs();
     let beam = SunBeam {
         to_sun: Vec3::new(0.5, 0.6, -0.3),
         irradiance: Vec3::new(2.0, 3.0, 1.5),
-        outside: &outside,
+        outside: &varying_outside,
     };
     let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
     let both = cpu.sweep_with_sun(&m, &b, &beam, &o).unwrap().bins.unwrap();
