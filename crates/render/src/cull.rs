@@ -35,6 +35,15 @@ impl Bound {
         Self { centre, radius }
     }
 
+    /// The sphere centred on the origin holding `positions` (a mesh turned about its
+    /// origin, as a billboard is).
+    pub fn around_origin(positions: impl Iterator<Item = Vec3>) -> Self {
+        Self {
+            centre: Vec3::ZERO,
+            radius: positions.map(Vec3::length).fold(0.0f32, f32::max),
+        }
+    }
+
     /// The sphere around the mesh placed by `model` (column-major model-to-world): its
     /// centre moved, its radius scaled by the matrix's largest axis length.
     pub fn placed(&self, model: &Mat4) -> Self {

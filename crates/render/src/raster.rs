@@ -57,6 +57,12 @@ pub struct MeshMaterial {
     pub specular: f32,
     /// Blinn-Phong exponent of the specular term.
     pub shininess: f32,
+    /// Each instance draws the mesh's xy plane (its vertices' z ignored) turned to face
+    /// the eye at the instance's origin, scaled by the length of its model matrix's x
+    /// axis (its own rotation ignored), its normal towards the eye. For markers of one flat colour
+    /// ([`Lighting::Emissive`]): a polygon looks as a ball does for a fraction of its
+    /// triangles, and a software rasteriser's cost is per triangle.
+    pub billboard: bool,
 }
 
 impl Default for MeshMaterial {
@@ -69,6 +75,7 @@ impl Default for MeshMaterial {
             double_sided: false,
             specular: 0.0,
             shininess: 32.0,
+            billboard: false,
         }
     }
 }
@@ -668,6 +675,7 @@ impl Renderer {
                 material.shininess,
                 0.0,
             ],
+            shape: [material.billboard as u32, 0, 0, 0],
         };
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("mesh"),
@@ -709,7 +717,17 @@ impl Renderer {
             bind,
             instances: None,
             double_sided: material.double_sided,
-            bound: Bound::of(vertices.iter().map(|v| Vec3::from_array(v.position))),
+            bound: if material.billboard {
+                // Turned about the instance's origin: the sphere there holding every
+                // vertex's (x, y).
+                Bound::around_origin(
+                    vertices
+                        .iter()
+                        .map(|v| Vec3::new(v.position[0], v.position[1], 0.0)),
+                )
+            } else {
+                Bound::of(vertices.iter().map(|v| Vec3::from_array(v.position)))
+            },
         });
         Ok(MeshId(self.meshes.len() - 1))
     }

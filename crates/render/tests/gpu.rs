@@ -11,7 +11,7 @@ use lightgrid_core::{BinLight, GridDesc};
 use lightgrid_render::shading::{linear_to_srgb8, tonemap_aces};
 use lightgrid_render::{
     Camera, GroundLight, LightVolume, Lighting, LightingMode, MeshInstance, MeshMaterial, Renderer,
-    TextureRgba8, Water,
+    TextureRgba8, Vertex, Water,
 };
 
 use common::*;
@@ -524,6 +524,94 @@ fn alpha_mask_and_emissive_tint() {
         .add_mesh(&v, &[0, 1, 9], &MeshMaterial::default())
         .unwrap_err();
     assert!(err.to_string().contains("indices"), "{err}");
+}
+
+/// A billboard (`MeshMaterial::billboard`) faces every eye: a square of side 4 in its
+/// mesh's xy plane (its z ignored, its instance turned about x, which is ignored too)
+/// covers the same pixels' count from above, the side, below and askew, all of them
+/// its emissive tint, as many as its area seen face on (within the rasterised edges'
+/// pixels); the same mesh drawn as given is edge-on from the side and shows nothing.
+#[test]
+fn a_billboard_faces_every_eye() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let corner = |x: f32, y: f32| Vertex {
+        position: [x, y, 7.0],
+        normal: [0.0, 0.0, 1.0],
+        uv: [0.0; 2],
+        light: [0.0; 4],
+    };
+    let v = [
+        corner(-1.0, -1.0),
+        corner(1.0, -1.0),
+        corner(1.0, 1.0),
+        corner(-1.0, 1.0),
+    ];
+    let tint = Vec3::new(2.0, 1.0, 0.5);
+    let mut add = |billboard: bool, z: f32| {
+        let mut v = v;
+        for c in &mut v {
+            c.position[2] = z;
+        }
+        let id = r
+            .add_mesh(
+                &v,
+                &[0, 1, 2, 0, 2, 3],
+                &MeshMaterial {
+                    lighting: Lighting::Emissive,
+                    billboard,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        let turned = if billboard { 1.0 } else { 0.0 };
+        let model = Mat4::from_scale_rotation_translation(
+            Vec3::splat(2.0),
+            lightgrid_core::glam::Quat::from_rotation_x(turned),
+            Vec3::ZERO,
+        );
+        r.set_instances(id, &[MeshInstance::new(model, tint.extend(1.0))])
+            .unwrap();
+        id
+    };
+    let board = add(true, 7.0);
+    let flat = add(false, 0.0);
+    let distance = 12.0f32;
+    // The square's side across the image at that distance, in pixels (60° field).
+    let side = 4.0 / (2.0 * distance * 30f32.to_radians().tan()) * SIZE as f32;
+    let mut counts = Vec::new();
+    for dir in [
+        Vec3::Y,
+        Vec3::X,
+        Vec3::new(1.0, 1.0, 1.0),
+        Vec3::new(-0.3, -1.0, 0.2),
+        Vec3::new(-1.0, 0.2, -1.0),
+    ] {
+        let mut v = view(LightingMode::Grid, vec![board]);
+        v.camera = Camera::look_at(dir.normalize() * distance, Vec3::ZERO);
+        let img = r.render(&v).unwrap();
+        let drawn = img.hdr.iter().filter(|p| p[0] != 9.0).count();
+        for p in img.hdr.iter().filter(|p| p[0] != 9.0) {
+            let got = Vec3::new(p[0], p[1], p[2]);
+            assert!((got - tint).abs().max_element() < 1e-3, "{dir}: {got}");
+        }
+        // Within the pixels of its edges (a side's worth) of its area.
+        assert!(
+            (drawn as f32 - side * side).abs() <= 2.0 * side,
+            "{dir}: {drawn} pixels, area {}",
+            side * side
+        );
+        counts.push(drawn);
+    }
+    // From the side the plain square lies edge-on.
+    let mut v = view(LightingMode::Grid, vec![flat]);
+    v.camera = Camera::look_at(Vec3::X * distance, Vec3::ZERO);
+    let img = r.render(&v).unwrap();
+    let drawn = img.hdr.iter().filter(|p| p[0] != 9.0).count();
+    assert!(
+        drawn <= SIZE as usize,
+        "edge-on: {drawn} pixels; billboards {counts:?}"
+    );
 }
 
 /// `render_pair` draws the geometry once into two targets: its images are those of

@@ -113,6 +113,8 @@ lightgrid_gpu::gpu_struct! {
         pub flags: [u32; 4] => "vec4<u32>",
         /// Alpha cutoff, specular strength, shininess.
         pub params: [f32; 4] => "vec4<f32>",
+        /// Turned to face the eye (x: 1, see `MeshMaterial::billboard`).
+        pub shape: [u32; 4] => "vec4<u32>",
     }
 }
 
@@ -200,7 +202,7 @@ pub(crate) fn layouts(device: &wgpu::Device) -> (wgpu::BindGroupLayout, wgpu::Bi
     let mesh = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("mesh"),
         entries: &[
-            bind::uniform(0, fragment),
+            bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
             bind::texture_2d(1, fragment, true),
             bind::sampler(2, fragment),
         ],

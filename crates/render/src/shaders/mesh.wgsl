@@ -47,11 +47,27 @@ struct VertexOut {
 @vertex
 fn vs_main(v: VertexIn) -> VertexOut {
     let model = mat4x4<f32>(v.m0, v.m1, v.m2, v.m3);
-    let world = model * vec4<f32>(v.position, 1.0);
+    var world = model * vec4<f32>(v.position, 1.0);
+    var normal = (model * vec4<f32>(v.normal, 0.0)).xyz;
+    if (mesh.shape.x != 0u) {
+        // A billboard: the mesh's xy plane turned to face the eye at the instance's
+        // origin, scaled as the model's x axis.
+        let centre = v.m3.xyz;
+        let to_eye = normalize(frame.eye.xyz - centre);
+        var right = cross(vec3<f32>(0.0, 1.0, 0.0), to_eye);
+        if (dot(right, right) < 1e-12) {
+            right = vec3<f32>(1.0, 0.0, 0.0); // looking straight up or down
+        }
+        right = normalize(right);
+        let up = cross(to_eye, right);
+        let s = length(v.m0.xyz);
+        world = vec4<f32>(centre + (right * v.position.x + up * v.position.y) * s, 1.0);
+        normal = to_eye;
+    }
     var out: VertexOut;
     out.clip = frame.view_proj * world;
     out.world = world.xyz;
-    out.normal = (model * vec4<f32>(v.normal, 0.0)).xyz;
+    out.normal = normal;
     out.uv = v.uv;
     out.light = v.light;
     out.tint = v.tint;
