@@ -94,7 +94,8 @@ impl Hierarchy {
         let out = timed(&mut times.sky_sweep, || match self.sky_sun() {
             // The beam marched on beyond the node's box as its transmittance is.
             Some(sun) => {
-                let outside = |p: Vec3| self.march_to_sky(p, sun.to_sun, inputs.depth, fresh);
+                let sky = shadow::SkyMarch::new(self, inputs.depth, fresh);
+                let outside = |p: Vec3| sky.to_sky(p, sun.to_sun);
                 let beam = SunBeam {
                     to_sun: sun.to_sun,
                     irradiance: sun.irradiance,
@@ -143,7 +144,8 @@ impl Hierarchy {
         to_sun: Vec3,
         fresh: &shadow::Fresh<'_>,
     ) -> Result<Grid<f32>, SweepError> {
-        let outside = |p: Vec3| self.march_to_sky(p, to_sun, key.depth, fresh);
+        let sky = shadow::SkyMarch::new(self, key.depth, fresh);
+        let outside = |p: Vec3| sky.to_sky(p, to_sun);
         let wide = self.sun_material(material);
         let m = wide.as_ref().map_or(&material.grid, |w| &*w.0);
         let t = crate::sun_move::march(sweeper, m, to_sun, &outside)?;

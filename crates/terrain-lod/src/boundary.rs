@@ -244,64 +244,12 @@ impl Hierarchy {
 
 #[cfg(test)]
 mod tests {
+    use lightgrid_core::GridDesc;
     use lightgrid_core::glam::{Vec2, Vec3};
-    use lightgrid_core::{
-        BinLight, GridDesc, GridError, Heightmap, Material, MaterialGrid, MaterialSource,
-    };
 
     use super::trilinear_frame;
-    use crate::{Hierarchy, HierarchyParams, Response, SunLight};
-
-    /// A flat ground under a layer of medium whose density changes across x and z.
-    struct Layer;
-
-    impl MaterialSource for Layer {
-        fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-            let cells = (0..desc.point_count())
-                .map(|i| {
-                    let p = desc.position(desc.coords(i).expect("in range"));
-                    if p.y < 0.0 {
-                        Material::opaque(Vec3::splat(0.3))
-                    } else if (2.0..8.0).contains(&p.y) {
-                        Material {
-                            reflectance: Vec3::new(0.2, 0.5, 0.3),
-                            pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
-                        }
-                    } else {
-                        Material::EMPTY
-                    }
-                })
-                .collect();
-            MaterialGrid::new(*desc, cells)
-        }
-    }
-
-    /// A hierarchy over a flat 64 m square of [`Layer`], every node wanted and built
-    /// (8-point nodes down to 2 m cells), a sun apart; with `apron` and `neighbour_halo`.
-    fn layer_hierarchy(apron: u32, neighbour_halo: bool) -> Hierarchy {
-        let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
-        let params = HierarchyParams {
-            world_cell: 8.0,
-            finest_cell: 2.0,
-            node_points: 8,
-            lod_factor: 100.0,
-            evict_factor: 200.0,
-            budget_points: u64::MAX / 4,
-            apron,
-            neighbour_halo,
-            ..Default::default()
-        };
-        let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-        let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
-        let mut h = Hierarchy::new(&ground, Box::new(Layer), sweeper, sky, params).unwrap();
-        h.set_sun(Some(SunLight {
-            to_sun: Vec3::new(0.6, 0.5, 0.3),
-            irradiance: Vec3::splat(3.0),
-        }))
-        .unwrap();
-        h.update(Vec3::new(32.0, 5.0, 32.0)).unwrap();
-        h
-    }
+    use crate::Response;
+    use crate::testing::layer_hierarchy;
 
     /// The halo points of a grid `desc`, in the layout's order (level, then z, then x).
     fn halo_points(desc: &GridDesc) -> Vec<Vec3> {

@@ -60,6 +60,16 @@ impl Casters {
     }
 
     /// The caster at `key` taken out (a node is built there).
+    /// Every caster held, by node.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (&NodeKey, &NodeMaterial)> {
+        self.materials.iter().map(|(k, c)| (k, &c.0))
+    }
+
+    /// The nodes held.
+    pub(crate) fn keys(&self) -> impl Iterator<Item = &NodeKey> {
+        self.materials.keys()
+    }
+
     pub(crate) fn take(&mut self, key: &NodeKey) -> Option<NodeMaterial> {
         self.materials.remove(key).map(|c| c.0)
     }

@@ -166,6 +166,8 @@ mod refresh;
 mod shadow;
 mod sun;
 mod sun_move;
+#[cfg(test)]
+mod testing;
 mod volume;
 
 pub use depth::{DEPTH_BITS, quantized_pass};

@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
 
 use lightgrid_core::dda::box_exit;
-use lightgrid_core::glam::{IVec3, Vec2, Vec3};
+use lightgrid_core::glam::{IVec2, IVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, MaterialGrid};
 
 use crate::{Hierarchy, KeyHasher, NodeKey, NodeMaterial};
@@ -51,22 +51,149 @@ fn cells_contain(desc: &GridDesc, p: Vec3) -> bool {
     g.cmpge(Vec3::splat(-0.5)).all() && g.cmple(desc.dims().as_vec3() - 0.5).all()
 }
 
-impl Hierarchy {
-    /// The finest material holding `p` at `depth` or coarser: a ready node's or a fresh
-    /// one's, finest depth first, else the world grid's; `None` outside every grid.
-    fn material_at<'a>(&'a self, p: Vec3, depth: u32, fresh: &Fresh<'a>) -> Option<Along<'a>> {
-        let xz = Vec2::new(p.x, p.z);
-        for d in (1..=depth.min(self.params.depths())).rev() {
-            let key = self.node_at(d, xz);
-            let m = match self.nodes.get(&key) {
+/// Node indices of one depth a march reads ([`SkyMarch`]): the materials held over
+/// the box of indices `lo .. lo + size`, x fastest.
+struct DepthIndex<'a> {
+    lo: IVec2,
+    size: IVec2,
+    cells: Vec<Option<&'a NodeMaterial>>,
+}
+
+/// Largest [`DepthIndex`] built (entries); beyond it a depth is looked up in the maps.
+const MAX_INDEX: i64 = 1 << 20;
+
+/// `floor(x) as i32` without a call to `floorf` (the baseline x86-64 has no rounding
+/// instruction): the same integer for every `f32`, NaN (0) and the saturated ends
+/// included.
+fn floor_i32(x: f32) -> i32 {
+    let i = x as i32;
+    if (i as f32) > x {
+        i.saturating_sub(1)
+    } else {
+        i
+    }
+}
+
+/// A march toward the sun through the materials the hierarchy holds, down to `depth`
+/// ([`SkyMarch::material_at`]), set up once for the many rays of a node's march: each
+/// depth's materials indexed by node in a dense table, so that a ray's hop from grid
+/// to grid looks its place up by index instead of in four hash maps a depth (the
+/// lookups were most of the march's cost; the result is the same bit for bit).
+pub(crate) struct SkyMarch<'a> {
+    h: &'a Hierarchy,
+    depth: u32,
+    fresh: &'a Fresh<'a>,
+    /// Depth `d`'s index at `d - 1` (`None`: looked up in the maps).
+    index: Vec<Option<DepthIndex<'a>>>,
+    /// Depth `d`'s node size at `d - 1`.
+    sizes: Vec<f32>,
+}
+
+impl<'a> SkyMarch<'a> {
+    /// The march for the grids of `depth`, `fresh` the materials composed this frame.
+    pub(crate) fn new(h: &'a Hierarchy, depth: u32, fresh: &'a Fresh<'a>) -> Self {
+        let depth = depth.min(h.params.depths());
+        let index = (1..=depth).map(|d| Self::index(h, d, fresh)).collect();
+        Self {
+            h,
+            depth,
+            fresh,
+            index,
+            sizes: (1..=depth).map(|d| h.params.node_size(d)).collect(),
+        }
+    }
+
+    /// [`SkyMarch::new`] with every depth looked up in the maps (the index's reference).
+    #[cfg(test)]
+    pub(crate) fn unindexed(h: &'a Hierarchy, depth: u32, fresh: &'a Fresh<'a>) -> Self {
+        let depth = depth.min(h.params.depths());
+        Self {
+            index: (1..=depth).map(|_| None).collect(),
+            ..Self::new(h, depth, fresh)
+        }
+    }
+
+    /// Depth `d`'s materials by node, in the maps' order of precedence (a ready node's,
+    /// a fresh one's, a composed one's, a caster's); `None` where their box of indices
+    /// passes [`MAX_INDEX`].
+    fn index(h: &'a Hierarchy, d: u32, fresh: &'a Fresh<'a>) -> Option<DepthIndex<'a>> {
+        let at = |k: &NodeKey| k.depth == d;
+        let keys = || {
+            (h.nodes.keys().filter(|k| at(k)))
+                .chain(fresh.keys().filter(|k| at(k)))
+                .chain(h.composed.keys().filter(|k| at(k)))
+                .chain(h.casters.keys().filter(|k| at(k)))
+        };
+        let (lo, hi) = keys().fold(
+            (IVec2::splat(i32::MAX), IVec2::splat(i32::MIN)),
+            |(lo, hi), k| (lo.min(k.index), hi.max(k.index)),
+        );
+        if lo.cmpgt(hi).any() {
+            return Some(DepthIndex {
+                lo: IVec2::ZERO,
+                size: IVec2::ZERO,
+                cells: Vec::new(),
+            });
+        }
+        let span = |a: i32, b: i32| b as i64 - a as i64 + 1;
+        let (sx, sz) = (span(lo.x, hi.x), span(lo.y, hi.y));
+        if sx * sz > MAX_INDEX {
+            return None;
+        }
+        let size = IVec2::new(sx as i32, sz as i32);
+        let mut cells = vec![None; (size.x * size.y) as usize];
+        let mut put = |k: &NodeKey, m: &'a NodeMaterial| {
+            let c = k.index - lo;
+            cells[(c.x + size.x * c.y) as usize] = Some(m);
+        };
+        // Lowest precedence first: each later one overwrites.
+        for (k, m) in h.casters.iter().filter(|(k, _)| at(k)) {
+            put(k, m);
+        }
+        for (k, m) in h.composed.iter().filter(|(k, _)| at(k)) {
+            put(k, m);
+        }
+        for (k, m) in fresh.iter().filter(|(k, _)| at(k)) {
+            put(k, m);
+        }
+        for (k, n) in h.nodes.iter().filter(|(k, _)| at(k)) {
+            put(k, &n.material);
+        }
+        Some(DepthIndex { lo, size, cells })
+    }
+
+    /// The material held for node `key` (of depth `key.depth`, at most the march's).
+    fn held(&self, key: NodeKey) -> Option<&'a NodeMaterial> {
+        match &self.index[key.depth as usize - 1] {
+            Some(ix) => {
+                let c = key.index - ix.lo;
+                if c.cmplt(IVec2::ZERO).any() || c.cmpge(ix.size).any() {
+                    return None;
+                }
+                ix.cells[(c.x + ix.size.x * c.y) as usize]
+            }
+            None => match self.h.nodes.get(&key) {
                 Some(n) => Some(&n.material),
-                None => fresh
-                    .get(&key)
-                    .copied()
-                    .or_else(|| self.composed.get(&key))
-                    .or_else(|| self.casters.get(&key)),
+                None => (self.fresh.get(&key).copied())
+                    .or_else(|| self.h.composed.get(&key))
+                    .or_else(|| self.h.casters.get(&key)),
+            },
+        }
+    }
+
+    /// The finest material holding `p` at the march's depth or coarser: a ready node's
+    /// or a fresh one's, finest depth first, else the world grid's; `None` outside every
+    /// grid.
+    fn material_at(&self, p: Vec3) -> Option<Along<'a>> {
+        let h = self.h;
+        for d in (1..=self.depth).rev() {
+            // `Hierarchy::node_at`'s key.
+            let g = (Vec2::new(p.x, p.z) - h.heightmap_lo) / self.sizes[d as usize - 1];
+            let key = NodeKey {
+                depth: d,
+                index: IVec2::new(floor_i32(g.x), floor_i32(g.y)),
             };
-            let Some(m) = m else {
+            let Some(m) = self.held(key) else {
                 continue;
             };
             let desc = m.grid.desc();
@@ -80,31 +207,29 @@ impl Hierarchy {
                 return Some(Along::Clear(Vec2::new(lo.x, lo.z), Vec2::new(hi.x, hi.z)));
             }
         }
-        self.world_material
+        h.world_material
             .as_ref()
             .filter(|m| cells_contain(m.desc(), p))
             .map(Along::Grid)
     }
 
     /// The sun's transmittance from the sky down to `p` along `dir` (unit, toward the
-    /// sun), marched through the finest material at `depth` or coarser held along the
-    /// way ([`material_at`]); 1 where the ray meets no grid.
+    /// sun), marched through the finest material at the march's depth or coarser held
+    /// along the way ([`SkyMarch::material_at`]); 1 where the ray meets no grid.
     ///
     /// Finer nodes are not read: a node's sun responses depend on its own depth's
     /// materials and coarser ones only, and so come out the same whether finer nodes
     /// exist yet or not (after a sun move as when built fresh: tested).
-    ///
-    /// [`material_at`]: Hierarchy::material_at
-    pub(crate) fn march_to_sky(&self, p: Vec3, dir: Vec3, depth: u32, fresh: &Fresh<'_>) -> f32 {
+    pub(crate) fn to_sky(&self, p: Vec3, dir: Vec3) -> f32 {
         if !p.is_finite() || dir.y <= 0.0 {
             return 0.0;
         }
         // A nudge past a box's face into the next grid: a thousandth of the finest cell.
-        let nudge = 1e-3 * self.params.finest_cell;
+        let nudge = 1e-3 * self.h.params.finest_cell;
         let mut q = p;
         let mut log_t = 0.0f32;
         for _ in 0..MAX_HOPS {
-            let m = match self.material_at(q + dir * nudge, depth, fresh) {
+            let m = match self.material_at(q + dir * nudge) {
                 None => return log_t.exp(),
                 Some(Along::Grid(m)) => m,
                 Some(Along::Clear(lo, hi)) => {
@@ -143,5 +268,69 @@ impl Hierarchy {
             q = d.origin() + b * d.h();
         }
         log_t.exp()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use lightgrid_core::glam::Vec3;
+
+    use super::{Fresh, SkyMarch, floor_i32};
+    use crate::testing::layer_hierarchy;
+
+    /// `floor_i32` is `floor(x) as i32` for every kind of `f32`.
+    #[test]
+    fn floor_i32_is_floor_as_i32() {
+        let mut rng = fastrand::Rng::with_seed(5);
+        let special = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            -1.0,
+            1.0,
+            -1e-30,
+            2147483520.0,
+            2147483648.0,
+            -2147483648.0,
+            -2147484672.0,
+            1e30,
+            -1e30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MIN_POSITIVE,
+        ];
+        let random = (0..100_000).map(|_| (rng.f32() - 0.5) * 10f32.powi(rng.i32(-3..12)));
+        for x in special.into_iter().chain(random) {
+            assert_eq!(floor_i32(x), x.floor() as i32, "{x}");
+        }
+    }
+
+    /// The march's dense index of the nodes gives the transmittance the maps give, bit
+    /// for bit, from points over the whole hierarchy toward suns high and low, at every
+    /// depth; and the march is not trivially 1 (some rays cross the medium).
+    #[test]
+    fn indexed_march_equals_the_maps() {
+        let h = layer_hierarchy(0, false);
+        let fresh = Fresh::default();
+        let mut rng = fastrand::Rng::with_seed(9);
+        let mut dimmed = 0;
+        for depth in 0..=h.params.depths() + 1 {
+            let indexed = SkyMarch::new(&h, depth, &fresh);
+            let maps = SkyMarch::unindexed(&h, depth, &fresh);
+            for _ in 0..2000 {
+                let p = Vec3::new(
+                    rng.f32() * 70.0 - 3.0,
+                    rng.f32() * 12.0 - 1.0,
+                    rng.f32() * 70.0 - 3.0,
+                );
+                let dir = Vec3::new(rng.f32() - 0.5, 0.05 + rng.f32(), rng.f32() - 0.5).normalize();
+                let (a, b) = (indexed.to_sky(p, dir), maps.to_sky(p, dir));
+                assert_eq!(a.to_bits(), b.to_bits(), "depth {depth}, {p} toward {dir}");
+                dimmed += (a < 0.99) as u32;
+            }
+        }
+        assert!(dimmed > 1000, "{dimmed} rays crossed the medium");
     }
 }

@@ -100,7 +100,8 @@ impl Hierarchy {
         });
         // Swept for the direction the scattered sun is shown for (the old one while a
         // moved sun's world grid is swept on a thread), marched for the sun shown.
-        let outside = |p: Vec3| self.march_to_sky(p, scattered_to, key.depth, fresh);
+        let sky = crate::shadow::SkyMarch::new(self, key.depth, fresh);
+        let outside = |p: Vec3| sky.to_sky(p, scattered_to);
         let r = timed(&mut times.sun_sweep, || {
             sweeper.sweep_sun(
                 swept,
