@@ -12,7 +12,8 @@
 //!   underwater attenuation, tone mapping. The CPU functions are the specification; the
 //!   WGSL in `shaders/common.wgsl` implements the same formulas.
 //! - **Rasteriser** ([`Renderer`]): terrain and instanced meshes (base colour texture,
-//!   alpha mask) into a linear HDR target, tone-mapped to sRGB; headless images or any
+//!   alpha mask; billboards turned to face the eye, for markers: [`MeshMaterial::billboard`])
+//!   into a linear HDR target, tone-mapped to sRGB; headless images or any
 //!   texture view (a window). Instances wholly outside a view are left out of its draw
 //!   ([`cull`]: bounding spheres against the frustum; the image is the same). Views
 //!   recorded one after another go to the device in one submission and come back
