@@ -524,7 +524,10 @@ impl Hierarchy {
             match r {
                 Ok(done) => {
                     add_times(times, &done.times);
-                    if let Some(node) = done.node {
+                    if let Some(mut node) = done.node {
+                        if done.sun.is_none() {
+                            node.sun = self.kept_sun(done.key, &node);
+                        }
                         self.nodes.insert(done.key, node);
                     }
                     if let (Some(sun), Some(n)) = (done.sun, self.nodes.get_mut(&done.key)) {
@@ -546,6 +549,32 @@ impl Hierarchy {
             }
         }
         (first_error.map_or(Ok(()), Err), composed)
+    }
+
+    /// The sun node `key` shows, for `new` (its sky swept again over the same
+    /// material: a provisional node's second sweep, a refresh) to show until its own
+    /// comes. A sky job's march or its sun job may wait for a later frame (the sun's
+    /// casters not composed in the frame's time, or the budget spent): the node then
+    /// dropped the sun it showed, and its points read the coarser grids' (their 2–8 m
+    /// shadows) until then. Kept where the material is the same, so that the
+    /// transmittance is; the scattered sun, swept from the boundary before, is marked
+    /// to be swept again (the sky's, with the sun swept with the sky, is in `new`).
+    fn kept_sun(&mut self, key: NodeKey, new: &Node) -> Option<GridSun> {
+        let sun = self.sun?;
+        let old = self.nodes.get_mut(&key)?;
+        if old.material.grid != new.material.grid {
+            return None;
+        }
+        let g = old.sun.take()?;
+        Some(match g.with_sky {
+            Some(_) => {
+                GridSun::marched(g.transmittance, self.sky_sun().unwrap_or(sun), g.marched_to)
+            }
+            None => GridSun {
+                to_sun: Vec3::ZERO,
+                ..g
+            },
+        })
     }
 
     /// Runs `jobs`: side by side on forks of `main` (taken from `pool`, and given back)
