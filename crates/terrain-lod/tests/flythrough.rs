@@ -51,13 +51,24 @@ fn with_sun(
     to_sun: Vec3,
     irradiance: Vec3,
 ) -> Hierarchy {
+    with_sun_params(hm, composer, params(), to_sun, irradiance)
+}
+
+/// [`with_sun`] under parameters `p`.
+fn with_sun_params(
+    hm: &Heightmap,
+    composer: &std::sync::Arc<AreaComposer>,
+    p: HierarchyParams,
+    to_sun: Vec3,
+    irradiance: Vec3,
+) -> Hierarchy {
     let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let mut h = Hierarchy::new(
         hm,
         Box::new(composer.clone()),
         Box::new(CpuSweeper::new()),
         sky,
-        params(),
+        p,
     )
     .unwrap();
     h.set_sun(Some(lightgrid_terrain_lod::SunLight { to_sun, irradiance }))
@@ -866,20 +877,7 @@ fn a_moved_sun_under_a_time_budget_is_swept_on_a_thread() {
     p.budget_ms = Some(600_000.0);
     let e = Vec3::new(3.0, 2.8, 2.5);
     let new = |to_sun: Vec3| {
-        let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
-        let mut h = Hierarchy::new(
-            &hm,
-            Box::new(composer.clone()),
-            Box::new(CpuSweeper::new()),
-            sky,
-            p,
-        )
-        .unwrap();
-        h.set_sun(Some(SunLight {
-            to_sun,
-            irradiance: e,
-        }))
-        .unwrap();
+        let h = with_sun_params(&hm, &composer, p, to_sun, e);
         assert!(!h.sun_moving(), "a first sun is swept at once");
         h
     };
@@ -994,22 +992,9 @@ fn a_grid_swept_again_keeps_the_sun_it_showed() {
         let mut p = params();
         p.budget_ms = Some(ms);
         p.sun_with_sky = with_sky;
-        let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
-        let mut h = Hierarchy::new(
-            &hm,
-            Box::new(composer.clone()),
-            Box::new(CpuSweeper::new()),
-            sky,
-            p,
-        )
-        .unwrap();
         // A low sun: a node's march needs casters beyond it.
         let to_sun = Vec3::new(0.9, 0.2, 0.2).normalize();
-        h.set_sun(Some(lightgrid_terrain_lod::SunLight {
-            to_sun,
-            irradiance: Vec3::splat(3.0),
-        }))
-        .unwrap();
+        let mut h = with_sun_params(&hm, &composer, p, to_sun, Vec3::splat(3.0));
         let mut before: std::collections::HashMap<_, bool> = Default::default();
         for frame in 0..80 {
             let x = 520.0 + frame as f32 * 1.5;
