@@ -557,8 +557,9 @@ impl Hierarchy {
     /// casters not composed in the frame's time, or the budget spent): the node then
     /// dropped the sun it showed, and its points read the coarser grids' (their 2–8 m
     /// shadows) until then. Kept where the material is the same, so that the
-    /// transmittance is; the scattered sun, swept from the boundary before, is marked
-    /// to be swept again (the sky's, with the sun swept with the sky, is in `new`).
+    /// transmittance is (`refresh` drops the sun of a node whose material changed);
+    /// the scattered sun, swept from the boundary before, is marked to be swept again
+    /// (the sky's, with the sun swept with the sky, is in `new`).
     fn kept_sun(&mut self, key: NodeKey, new: &Node) -> Option<GridSun> {
         let sun = self.sun?;
         let old = self.nodes.get_mut(&key)?;

@@ -175,11 +175,16 @@ impl Hierarchy {
         let provisional: Vec<NodeKey> = (rebuilt.iter().map(|(k, _, _)| *k))
             .filter(|k| self.reads_unsettled(*k, wanted))
             .collect();
-        // The sweeps read the rebuilt nodes' new materials where they keep theirs.
+        // The sweeps read the rebuilt nodes' new materials where they keep theirs. A
+        // node whose material changed drops its sun: its transmittance crossed the old
+        // one (else the node shows it until its sun is swept again: `kept_sun`).
         for (key, grid, widened) in rebuilt {
-            let m = &mut self.nodes.get_mut(&key).expect("ready node").material;
-            m.grid = grid;
-            m.widened = widened;
+            let n = self.nodes.get_mut(&key).expect("ready node");
+            if n.material.grid != grid {
+                n.sun = None;
+            }
+            n.material.grid = grid;
+            n.material.widened = widened;
         }
         let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
         let done = self.run_jobs(jobs, &[], &[], &mut stats.times);

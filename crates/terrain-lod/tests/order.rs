@@ -421,3 +421,102 @@ fn nodes_left_behind_are_not_pending() {
         );
     }
 }
+
+/// The scene changes under a built hierarchy (a block of dense medium appears near the
+/// camera, within its nodes' levels): after a round of `refresh` frames and `update`
+/// until settled, the sun inside the block is what a hierarchy built over the new
+/// scene gives, bit for bit: a rebuilt node whose material changed does not keep the
+/// transmittance it marched through the old one (with the sun swept with the sky it
+/// kept it, and the block cast no shadow). With the sun kept apart and swept with the
+/// sky.
+#[test]
+fn a_changed_scene_refreshed_shades_the_sun() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let inside = |p: Vec3| {
+        (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (5.0..8.0).contains(&p.y)
+    };
+    for with_sky in [false, true] {
+        let make = |on: bool| {
+            let switch = Arc::new(AtomicBool::new(on));
+            let layer = field::varying_layer(Vec3::splat(0.6)).0;
+            let source = field::Field({
+                let switch = switch.clone();
+                move |p: Vec3, h: f32| {
+                    if switch.load(Ordering::Relaxed) && inside(p) {
+                        lightgrid_core::Material {
+                            reflectance: Vec3::splat(0.5),
+                            pass: 0.02,
+                        }
+                    } else {
+                        layer(p, h)
+                    }
+                }
+            });
+            let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
+            let params = HierarchyParams {
+                world_cell: 8.0,
+                finest_cell: 1.0,
+                node_points: 8,
+                lod_factor: 1.0,
+                max_levels: 16,
+                apron: 1,
+                budget_points: u64::MAX / 4,
+                sun_with_sky: with_sky,
+                ..Default::default()
+            };
+            let sky = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0))
+                .split_vertical()
+                .0;
+            let mut h = Hierarchy::new(
+                &hm,
+                Box::new(source),
+                Box::new(CpuSweeper::new()),
+                sky,
+                params,
+            )
+            .unwrap();
+            h.set_sun(Some(SunLight {
+                to_sun: Vec3::new(0.5, 0.6, -0.4),
+                irradiance: Vec3::splat(3.0),
+            }))
+            .unwrap();
+            let s = h.update(CAMERA).unwrap();
+            assert_eq!((s.pending, s.sun_pending), (0, 0));
+            (h, switch)
+        };
+        let (mut changed, switch) = make(false);
+        let (fresh, _) = make(true);
+        let points: Vec<Vec3> = (0..6)
+            .flat_map(|i| (0..6).map(move |k| Vec3::new(57.5 + i as f32, 6.5, 61.5 + k as f32)))
+            .collect();
+        let sun = |h: &Hierarchy| -> Vec<f32> {
+            points
+                .iter()
+                .map(|p| h.reading(*p, None).unwrap().sun)
+                .collect()
+        };
+        let before = sun(&changed);
+        switch.store(true, Ordering::Relaxed);
+        for f in 0.. {
+            if changed.refresh(CAMERA).unwrap().pending == 0 {
+                break;
+            }
+            assert!(f < 60, "the refresh never ended");
+        }
+        for f in 0.. {
+            let s = changed.update(CAMERA).unwrap();
+            if s.pending == 0 && s.sun_pending == 0 {
+                break;
+            }
+            assert!(f < 60, "never settled: {s:?}");
+        }
+        let (after, want) = (sun(&changed), sun(&fresh));
+        // (Else the test could not fail: the block shades these points.)
+        assert!(
+            before.iter().zip(&want).all(|(b, w)| *b > 5.0 * w),
+            "{before:?} {want:?}"
+        );
+        assert_eq!(after, want, "sun with the sky: {with_sky}");
+    }
+}
