@@ -46,8 +46,17 @@ fn hierarchy_reading_neighbours(budget_points: u64) -> Hierarchy {
 
 /// [`hierarchy`] with `compose_ahead` and `neighbour_halo` as given.
 fn hierarchy_with(budget_points: u64, compose_ahead: u32, neighbour_halo: bool) -> Hierarchy {
-    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
     let params = HierarchyParams {
+        compose_ahead,
+        neighbour_halo,
+        ..params(budget_points)
+    };
+    hierarchy_over(Box::new(field::varying_layer(Vec3::splat(0.6))), params)
+}
+
+/// [`hierarchy`]'s parameters.
+fn params(budget_points: u64) -> HierarchyParams {
+    HierarchyParams {
         world_cell: 8.0,
         finest_cell: 1.0,
         node_points: 8,
@@ -55,21 +64,21 @@ fn hierarchy_with(budget_points: u64, compose_ahead: u32, neighbour_halo: bool) 
         max_levels: 16,
         apron: 1,
         budget_points,
-        compose_ahead,
-        neighbour_halo,
         ..Default::default()
-    };
+    }
+}
+
+/// A hierarchy of `params` over `source` on [`hierarchy`]'s ground, under its sky and
+/// sun.
+fn hierarchy_over(
+    source: Box<dyn lightgrid_core::MaterialSource + Send + Sync>,
+    params: HierarchyParams,
+) -> Hierarchy {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
     let sky = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0))
         .split_vertical()
         .0;
-    let mut h = Hierarchy::new(
-        &hm,
-        Box::new(field::varying_layer(Vec3::splat(0.6))),
-        Box::new(CpuSweeper::new()),
-        sky,
-        params,
-    )
-    .unwrap();
+    let mut h = Hierarchy::new(&hm, source, Box::new(CpuSweeper::new()), sky, params).unwrap();
     h.set_sun(Some(SunLight {
         to_sun: Vec3::new(0.5, 0.6, -0.4),
         irradiance: Vec3::splat(3.0),
@@ -453,34 +462,11 @@ fn a_changed_scene_refreshed_shades_the_sun() {
                     }
                 }
             });
-            let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
             let params = HierarchyParams {
-                world_cell: 8.0,
-                finest_cell: 1.0,
-                node_points: 8,
-                lod_factor: 1.0,
-                max_levels: 16,
-                apron: 1,
-                budget_points: u64::MAX / 4,
                 sun_with_sky: with_sky,
-                ..Default::default()
+                ..params(u64::MAX / 4)
             };
-            let sky = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0))
-                .split_vertical()
-                .0;
-            let mut h = Hierarchy::new(
-                &hm,
-                Box::new(source),
-                Box::new(CpuSweeper::new()),
-                sky,
-                params,
-            )
-            .unwrap();
-            h.set_sun(Some(SunLight {
-                to_sun: Vec3::new(0.5, 0.6, -0.4),
-                irradiance: Vec3::splat(3.0),
-            }))
-            .unwrap();
+            let mut h = hierarchy_over(Box::new(source), params);
             let s = h.update(CAMERA).unwrap();
             assert_eq!((s.pending, s.sun_pending), (0, 0));
             (h, switch)
