@@ -562,7 +562,7 @@ impl Hierarchy {
     /// (the sky's, with the sun swept with the sky, is in `new`).
     fn kept_sun(&mut self, key: NodeKey, new: &Node) -> Option<GridSun> {
         let sun = self.sun?;
-        let old = self.nodes.get_mut(&key)?;
+        let old = self.nodes.get_mut(&key).filter(|n| n.sun.is_some())?;
         if old.material.grid != new.material.grid {
             return None;
         }
