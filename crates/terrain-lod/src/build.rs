@@ -563,7 +563,8 @@ impl Hierarchy {
     fn kept_sun(&mut self, key: NodeKey, new: &Node) -> Option<GridSun> {
         let sun = self.sun?;
         let old = self.nodes.get_mut(&key).filter(|n| n.sun.is_some())?;
-        if old.material.grid != new.material.grid {
+        // (The apron's cells too: the march runs over the widened grid.)
+        if old.material.grid != new.material.grid || old.material.widened != new.material.widened {
             return None;
         }
         let g = old.sun.take()?;

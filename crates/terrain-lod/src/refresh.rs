@@ -180,7 +180,7 @@ impl Hierarchy {
         // one (else the node shows it until its sun is swept again: `kept_sun`).
         for (key, grid, widened) in rebuilt {
             let n = self.nodes.get_mut(&key).expect("ready node");
-            if n.material.grid != grid {
+            if n.material.grid != grid || n.material.widened != widened {
                 n.sun = None;
             }
             n.material.grid = grid;
