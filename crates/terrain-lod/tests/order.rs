@@ -269,6 +269,13 @@ fn refresh_and_settle(mut h: Hierarchy) {
         .split_vertical()
         .0;
     h.set_sky(sky).unwrap();
+    refresh_round_then_settle(&mut h);
+    same_as_without_a_budget(&h, Some(sky));
+}
+
+/// `refresh` frames until a round ends, then `update` frames until nothing (sun
+/// included) is pending.
+fn refresh_round_then_settle(h: &mut Hierarchy) {
     for f in 0.. {
         let s = h.refresh(CAMERA).unwrap();
         if s.pending == 0 {
@@ -283,7 +290,6 @@ fn refresh_and_settle(mut h: Hierarchy) {
         }
         assert!(f < 60, "never settled: {s:?}");
     }
-    same_as_without_a_budget(&h, Some(sky));
 }
 
 /// `settle` under the same budget builds every node once, coarse to fine, and ends
@@ -484,19 +490,7 @@ fn a_changed_scene_refreshed_shades_the_sun() {
         };
         let before = sun(&changed);
         switch.store(true, Ordering::Relaxed);
-        for f in 0.. {
-            if changed.refresh(CAMERA).unwrap().pending == 0 {
-                break;
-            }
-            assert!(f < 60, "the refresh never ended");
-        }
-        for f in 0.. {
-            let s = changed.update(CAMERA).unwrap();
-            if s.pending == 0 && s.sun_pending == 0 {
-                break;
-            }
-            assert!(f < 60, "never settled: {s:?}");
-        }
+        refresh_round_then_settle(&mut changed);
         let (after, want) = (sun(&changed), sun(&fresh));
         // (Else the test could not fail: the block shades these points.)
         assert!(
