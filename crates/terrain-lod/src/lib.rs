@@ -733,6 +733,11 @@ impl Hierarchy {
     fn sweep_world(&mut self) -> Result<(), LodError> {
         let desc = *self.world.desc();
         let material = self.compose(&desc)?;
+        self.sweep_world_over(material)
+    }
+
+    /// [`Hierarchy::sweep_world`] over `material`, composed from the scene.
+    pub(crate) fn sweep_world_over(&mut self, material: MaterialGrid) -> Result<(), LodError> {
         let o = self.node_options(true);
         let sun = self.sun_with_sky();
         let out = sun_move::world_sky(self.sweeper.as_mut(), &material, self.sky, sun, &o)?;

@@ -29,6 +29,12 @@ impl Hierarchy {
     /// sun changed), within the budget; nodes whose inputs hash as before are counted
     /// as skipped.
     ///
+    /// A round's first call composes the world grid's material again: where the scene
+    /// changed it (anything its cells see), the world grid is swept again at once,
+    /// every node's sun is swept again within the round, and the nodes an object now
+    /// rises above are evicted ([`FrameStats::evicted`]): [`Hierarchy::update`] builds
+    /// them anew, taller. Settled, the hierarchy is one built over the new scene.
+    ///
     /// Call it frame after frame until it returns `pending == 0`: such a round of
     /// calls checks each ready node once (a node its first frames checked is not
     /// composed and hashed again in its later ones; sun responses the budget left wait
@@ -45,6 +51,7 @@ impl Hierarchy {
             self.composed.clear();
             self.recomposed.clear();
             self.casters.clear();
+            self.refresh_world(&mut stats)?;
         }
         let mut keys = self.ready_nodes();
         keys.sort_by(|a, b| {
@@ -73,6 +80,40 @@ impl Hierarchy {
         stats.caster_bytes = self.casters.bytes();
         self.last_frame_swept = stats.points_swept > 0;
         Ok(stats)
+    }
+
+    /// A round's first step: the world grid's material composed again. Where the
+    /// scene changed it, the world grid is swept again at once (its sky, and the sun's
+    /// responses), every node's sun is dropped (its march beyond the node crossed the
+    /// world grid's old material: the round's frames sweep it again), and the nodes
+    /// whose column the new material no longer fits (an object rising above a node's
+    /// levels: [`Hierarchy::node_desc`]) are evicted, for [`Hierarchy::update`] to
+    /// build anew at their new height.
+    fn refresh_world(&mut self, stats: &mut FrameStats) -> Result<(), LodError> {
+        let desc = *self.world.desc();
+        let material = timed(&mut stats.times.material, || self.compose(&desc))?;
+        if self.world_material.as_ref() == Some(&material) {
+            return Ok(());
+        }
+        let _span = tracing::debug_span!("world grid swept again: the scene changed").entered();
+        // A moved sun's sweep under way crossed the old material: finished first.
+        self.poll_sun_move(true)?;
+        timed(&mut stats.times.sky_sweep, || {
+            self.sweep_world_over(material)
+        })?;
+        timed(&mut stats.times.sun_sweep, || self.sweep_world_sun())?;
+        self.drop_node_suns();
+        let mut resized = Vec::new();
+        for (key, n) in &self.nodes {
+            if self.node_desc(*key)? != *n.light.desc() {
+                resized.push(*key);
+            }
+        }
+        for key in resized {
+            self.nodes.remove(&key);
+            stats.evicted += 1;
+        }
+        Ok(())
     }
 
     /// One depth of a refresh frame (`keys`, nearest first): the same choices as

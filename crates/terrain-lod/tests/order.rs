@@ -437,6 +437,48 @@ fn nodes_left_behind_are_not_pending() {
     }
 }
 
+/// Two hierarchies over the test layer and a block of dense medium where `inside`
+/// holds, each built until settled: one before the block appears (and the switch that
+/// makes it appear, off), one with the block from the start.
+fn without_and_with_block(
+    inside: fn(Vec3) -> bool,
+    with_sky: bool,
+) -> (
+    Hierarchy,
+    std::sync::Arc<std::sync::atomic::AtomicBool>,
+    Hierarchy,
+) {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let make = |on: bool| {
+        let switch = Arc::new(AtomicBool::new(on));
+        let layer = field::varying_layer(Vec3::splat(0.6)).0;
+        let source = field::Field({
+            let switch = switch.clone();
+            move |p: Vec3, h: f32| {
+                if switch.load(Ordering::Relaxed) && inside(p) {
+                    lightgrid_core::Material {
+                        reflectance: Vec3::splat(0.5),
+                        pass: 0.02,
+                    }
+                } else {
+                    layer(p, h)
+                }
+            }
+        });
+        let params = HierarchyParams {
+            sun_with_sky: with_sky,
+            ..params(u64::MAX / 4)
+        };
+        let mut h = hierarchy_over(Box::new(source), params);
+        let s = h.update(CAMERA).unwrap();
+        assert_eq!((s.pending, s.sun_pending), (0, 0));
+        (h, switch)
+    };
+    let (without, switch) = make(false);
+    (without, switch, make(true).0)
+}
+
 /// The scene changes under a built hierarchy (a block of dense medium appears near the
 /// camera, within its nodes' levels): after a round of `refresh` frames and `update`
 /// until settled, the sun inside the block is what a hierarchy built over the new
@@ -446,39 +488,12 @@ fn nodes_left_behind_are_not_pending() {
 /// sky.
 #[test]
 fn a_changed_scene_refreshed_shades_the_sun() {
-    use std::sync::Arc;
-    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::atomic::Ordering;
     let inside = |p: Vec3| {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (5.0..8.0).contains(&p.y)
     };
     for with_sky in [false, true] {
-        let make = |on: bool| {
-            let switch = Arc::new(AtomicBool::new(on));
-            let layer = field::varying_layer(Vec3::splat(0.6)).0;
-            let source = field::Field({
-                let switch = switch.clone();
-                move |p: Vec3, h: f32| {
-                    if switch.load(Ordering::Relaxed) && inside(p) {
-                        lightgrid_core::Material {
-                            reflectance: Vec3::splat(0.5),
-                            pass: 0.02,
-                        }
-                    } else {
-                        layer(p, h)
-                    }
-                }
-            });
-            let params = HierarchyParams {
-                sun_with_sky: with_sky,
-                ..params(u64::MAX / 4)
-            };
-            let mut h = hierarchy_over(Box::new(source), params);
-            let s = h.update(CAMERA).unwrap();
-            assert_eq!((s.pending, s.sun_pending), (0, 0));
-            (h, switch)
-        };
-        let (mut changed, switch) = make(false);
-        let (fresh, _) = make(true);
+        let (mut changed, switch, fresh) = without_and_with_block(inside, with_sky);
         let points: Vec<Vec3> = (0..6)
             .flat_map(|i| (0..6).map(move |k| Vec3::new(57.5 + i as f32, 6.5, 61.5 + k as f32)))
             .collect();
@@ -498,5 +513,58 @@ fn a_changed_scene_refreshed_shades_the_sun() {
             "{before:?} {want:?}"
         );
         assert_eq!(after, want, "sun with the sky: {with_sky}");
+    }
+}
+
+/// The same with the block put above the nodes' levels (8 to 12 m up, where the
+/// nodes' columns end under the layer's top): the refresh round composes the world
+/// grid again, sweeps it, and evicts the nodes whose columns the block now rises
+/// above, which `update` builds anew at their new height. Settled, the light (bins
+/// and sun) in and around the block is a fresh build's, bit for bit.
+#[test]
+fn a_changed_scene_above_the_nodes_is_lit_as_a_fresh_build() {
+    use std::sync::atomic::Ordering;
+    let inside = |p: Vec3| {
+        (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (8.0..12.0).contains(&p.y)
+    };
+    for with_sky in [false, true] {
+        let (mut changed, switch, fresh) = without_and_with_block(inside, with_sky);
+        let points: Vec<Vec3> = (0..8)
+            .flat_map(|i| {
+                (0..8).flat_map(move |k| {
+                    [4.5, 9.5, 11.5, 13.5]
+                        .map(|y| Vec3::new(54.5 + 1.5 * i as f32, y, 58.5 + 1.5 * k as f32))
+                })
+            })
+            .collect();
+        let read = |h: &Hierarchy| -> Vec<(lightgrid_core::BinLight, f32)> {
+            points
+                .iter()
+                .map(|p| {
+                    let r = h.reading(*p, None).unwrap();
+                    (r.light, r.sun)
+                })
+                .collect()
+        };
+        let before = read(&changed);
+        switch.store(true, Ordering::Relaxed);
+        refresh_round_then_settle(&mut changed);
+        let (after, want) = (read(&changed), read(&fresh));
+        // (Else the test could not fail: the block shades its own points, on the
+        // whole: those at its faces toward the sun less.)
+        let shaded = |r: &[(lightgrid_core::BinLight, f32)]| -> f32 {
+            (points.iter().zip(r))
+                .filter(|(p, _)| inside(**p))
+                .map(|(_, (_, sun))| *sun)
+                .sum()
+        };
+        let (b, w) = (shaded(&before), shaded(&want));
+        assert!(
+            b > 2.0 * w,
+            "the sun's sum in the block before {b}, fresh {w}"
+        );
+        for (i, (a, w)) in after.iter().zip(&want).enumerate() {
+            assert_eq!(a, w, "sun with the sky: {with_sky}, at {}", points[i]);
+        }
     }
 }
