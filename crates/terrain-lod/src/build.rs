@@ -541,6 +541,7 @@ impl Hierarchy {
                     ) {
                         g.transmittance = t;
                         g.marched_to = to_sun;
+                        g.scene_changed = false;
                     }
                 }
                 Err(e) => {
@@ -569,9 +570,10 @@ impl Hierarchy {
         }
         let g = old.sun.take()?;
         Some(match g.with_sky {
-            Some(_) => {
-                GridSun::marched(g.transmittance, self.sky_sun().unwrap_or(sun), g.marched_to)
-            }
+            Some(_) => GridSun {
+                scene_changed: g.scene_changed,
+                ..GridSun::marched(g.transmittance, self.sky_sun().unwrap_or(sun), g.marched_to)
+            },
             None => GridSun {
                 to_sun: Vec3::ZERO,
                 ..g
@@ -697,14 +699,15 @@ impl Hierarchy {
             // The scattered sun is in the node's sky bins: its responses for good. A
             // node swept again for a moved sun over its own material keeps the
             // transmittance `set_sun` marched for it (the same material, the same
-            // grids beyond it: marched again, it is the same bit for bit).
+            // grids beyond it: marched again, it is the same bit for bit), unless the
+            // scene changed since (`refresh`).
             let kept = self
                 .nodes
                 .get(&key)
                 .filter(|n| std::ptr::eq(&n.material, material));
             let kept = kept
                 .and_then(|n| n.sun.as_ref())
-                .filter(|g| g.marched_to == sun.to_sun)
+                .filter(|g| g.marched_to == sun.to_sun && !g.scene_changed)
                 .map(|g| g.transmittance.clone());
             let transmittance = match kept {
                 Some(t) => t,
@@ -763,6 +766,7 @@ impl Hierarchy {
             },
             marched_to: sun.to_sun,
             with_sky: None,
+            scene_changed: false,
         }))
     }
 

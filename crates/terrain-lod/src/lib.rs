@@ -270,6 +270,9 @@ struct GridSun {
     /// irradiance the grid's sky sweep took the sun's first collisions with (toward
     /// `to_sun`); `None` where the scattered sun is swept apart.
     with_sky: Option<Vec3>,
+    /// The transmittance was marched through a scene since changed
+    /// ([`Hierarchy::refresh`]): shown until it is marched again, not current.
+    scene_changed: bool,
 }
 
 /// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.

@@ -30,10 +30,11 @@ impl Hierarchy {
     /// as skipped.
     ///
     /// A round's first call composes the world grid's material again: where the scene
-    /// changed it (anything its cells see), the world grid is swept again at once,
-    /// every node's sun is swept again within the round, and the nodes an object now
-    /// rises above are evicted ([`FrameStats::evicted`]): [`Hierarchy::update`] builds
-    /// them anew, taller. Settled, the hierarchy is one built over the new scene.
+    /// changed it (anything its cells see), the world grid is swept again at once and
+    /// the nodes an object now rises above are evicted ([`FrameStats::evicted`]):
+    /// [`Hierarchy::update`] builds them anew, taller. Wherever a material changed, the
+    /// nodes whose sun shines through it are marched again within the round (showing
+    /// their sun meanwhile). Settled, the hierarchy is one built over the new scene.
     ///
     /// Call it frame after frame until it returns `pending == 0`: such a round of
     /// calls checks each ready node once (a node its first frames checked is not
@@ -84,17 +85,22 @@ impl Hierarchy {
 
     /// A round's first step: the world grid's material composed again. Where the
     /// scene changed it, the world grid is swept again at once (its sky, and the sun's
-    /// responses), every node's sun is dropped (its march beyond the node crossed the
-    /// world grid's old material: the round's frames sweep it again), and the nodes
-    /// whose column the new material no longer fits (an object rising above a node's
-    /// levels: [`Hierarchy::node_desc`]) are evicted, for [`Hierarchy::update`] to
-    /// build anew at their new height.
+    /// responses); the nodes whose sun's march crosses the changed cells are marked to
+    /// be marched again ([`Hierarchy::mark_suns_crossing`]; shown until the round's
+    /// frames march them; their scattered sun follows the coarser grids' light, which
+    /// changed, as their sky does); and the nodes whose column the new material no
+    /// longer fits (an object rising above a node's levels: [`Hierarchy::node_desc`])
+    /// are evicted, for [`Hierarchy::update`] to build anew at their new height.
     fn refresh_world(&mut self, stats: &mut FrameStats) -> Result<(), LodError> {
         let desc = *self.world.desc();
         let material = timed(&mut stats.times.material, || self.compose(&desc))?;
-        if self.world_material.as_ref() == Some(&material) {
+        let changed = match &self.world_material {
+            Some(old) => changed_box(old, &material),
+            None => Some(cells_box(&desc)),
+        };
+        let Some(changed) = changed else {
             return Ok(());
-        }
+        };
         let _span = tracing::debug_span!("world grid swept again: the scene changed").entered();
         // A moved sun's sweep under way crossed the old material: finished first.
         self.poll_sun_move(true)?;
@@ -102,7 +108,7 @@ impl Hierarchy {
             self.sweep_world_over(material)
         })?;
         timed(&mut stats.times.sun_sweep, || self.sweep_world_sun())?;
-        self.drop_node_suns();
+        self.mark_suns_crossing(changed, None);
         let mut resized = Vec::new();
         for (key, n) in &self.nodes {
             if self.node_desc(*key)? != *n.light.desc() {
@@ -219,13 +225,22 @@ impl Hierarchy {
         // The sweeps read the rebuilt nodes' new materials where they keep theirs. A
         // node whose material changed drops its sun: its transmittance crossed the old
         // one (else the node shows it until its sun is swept again: `kept_sun`).
+        // Other nodes whose march crosses a changed material are marked to be marched
+        // again (a finer node's march beyond its box crosses this one's material).
         for (key, grid, widened) in rebuilt {
             let n = self.nodes.get_mut(&key).expect("ready node");
-            if n.material.grid != grid || n.material.widened != widened {
+            let changed = match &n.material.widened {
+                Some(old) => changed_box(old, widened.as_ref().unwrap_or(&grid)),
+                None => changed_box(&n.material.grid, &grid),
+            };
+            if changed.is_some() || n.material.grid != grid {
                 n.sun = None;
             }
             n.material.grid = grid;
             n.material.widened = widened;
+            if let Some(b) = changed {
+                self.mark_suns_crossing(b, Some(key));
+            }
         }
         let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
         let done = self.run_jobs(jobs, &[], &[], &mut stats.times);
@@ -269,4 +284,136 @@ struct Prepared {
     widened: Option<MaterialGrid>,
     inputs: apron::SkyInputs,
     times: StageTimes,
+}
+
+/// A box, min and max corners.
+type Aabb = (Vec3, Vec3);
+
+/// The box of `desc`'s cells (each point's cell: half a cell about it).
+fn cells_box(desc: &lightgrid_core::GridDesc) -> Aabb {
+    let half = Vec3::splat(0.5 * desc.h());
+    let far = desc.position(desc.dims() - lightgrid_core::glam::UVec3::ONE);
+    (desc.origin() - half, far + half)
+}
+
+/// The box of the cells where `new` differs from `old` (all of both where their grids
+/// differ), `None` where they are the same.
+fn changed_box(old: &MaterialGrid, new: &MaterialGrid) -> Option<Aabb> {
+    let desc = *new.desc();
+    if *old.desc() != desc {
+        let (a, b) = (cells_box(old.desc()), cells_box(&desc));
+        return Some((a.0.min(b.0), a.1.max(b.1)));
+    }
+    let half = Vec3::splat(0.5 * desc.h());
+    (old.data().iter().zip(new.data()).enumerate())
+        .filter(|(_, (a, b))| a != b)
+        .map(|(i, _)| desc.position(desc.coords(i).expect("in range")))
+        .fold(None, |acc: Option<Aabb>, p| {
+            let (lo, hi) = acc.unwrap_or((p, p));
+            Some((lo.min(p), hi.max(p)))
+        })
+        .map(|(lo, hi)| (lo - half, hi + half))
+}
+
+/// Whether a ray from some point of `from` along `dir` meets `to`: the ray from the
+/// origin through the box of their differences (slabs).
+fn ray_meets(from: Aabb, to: Aabb, dir: Vec3) -> bool {
+    let (lo, hi) = (to.0 - from.1, to.1 - from.0);
+    let (mut enter, mut exit) = (0.0f32, f32::INFINITY);
+    for i in 0..3 {
+        if dir[i] == 0.0 {
+            if lo[i] > 0.0 || hi[i] < 0.0 {
+                return false;
+            }
+            continue;
+        }
+        let (a, b) = (lo[i] / dir[i], hi[i] / dir[i]);
+        enter = enter.max(a.min(b));
+        exit = exit.min(a.max(b));
+    }
+    enter <= exit
+}
+
+impl Hierarchy {
+    /// Marks the sun of every node (but `except`) whose march toward the sun may cross
+    /// `changed` to be marched again ([`crate::GridSun`]'s `scene_changed`): the march
+    /// leaves a node's points (and its apron's) toward the sun, over the coarser grids
+    /// and the sun's casters, to the sky.
+    pub(crate) fn mark_suns_crossing(&mut self, changed: Aabb, except: Option<NodeKey>) {
+        let Some(sun) = self.sun else {
+            return;
+        };
+        let apron = self.params.apron.max(self.params.sun_apron) as f32 + 1.0;
+        for (key, n) in &mut self.nodes {
+            if Some(*key) == except {
+                continue;
+            }
+            let Some(g) = n.sun.as_mut() else {
+                continue;
+            };
+            let desc = n.light.desc();
+            let (lo, hi) = cells_box(desc);
+            let wide = Vec3::new(apron, 0.0, apron) * desc.h();
+            if ray_meets((lo - wide, hi + wide), changed, sun.to_sun) {
+                g.scene_changed = true;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_ray_meets_a_box_toward_it_and_not_one_behind_or_beside() {
+        let from = (Vec3::ZERO, Vec3::ONE);
+        let up = Vec3::new(0.0, 1.0, 0.0);
+        assert!(ray_meets(
+            from,
+            (Vec3::new(0.0, 5.0, 0.0), Vec3::new(1.0, 6.0, 1.0)),
+            up
+        ));
+        assert!(!ray_meets(
+            from,
+            (Vec3::new(0.0, -6.0, 0.0), Vec3::new(1.0, -5.0, 1.0)),
+            up
+        ));
+        assert!(!ray_meets(
+            from,
+            (Vec3::new(3.0, 5.0, 0.0), Vec3::new(4.0, 6.0, 1.0)),
+            up
+        ));
+        // A low sun toward +x: a box 10 m away and 2 m up is met, one 10 m up is not.
+        let low = Vec3::new(1.0, 0.2, 0.0).normalize();
+        assert!(ray_meets(
+            from,
+            (Vec3::new(10.0, 2.0, 0.0), Vec3::new(11.0, 3.0, 1.0)),
+            low
+        ));
+        assert!(!ray_meets(
+            from,
+            (Vec3::new(10.0, 10.0, 0.0), Vec3::new(11.0, 11.0, 1.0)),
+            low
+        ));
+        // Overlapping boxes meet.
+        assert!(ray_meets(from, (Vec3::splat(0.5), Vec3::splat(2.0)), -up));
+    }
+
+    #[test]
+    fn the_changed_box_holds_the_changed_cells_alone() {
+        use lightgrid_core::{GridDesc, Material};
+        let desc = GridDesc::new(Vec3::ZERO, 2.0, lightgrid_core::glam::UVec3::splat(4)).unwrap();
+        let old = MaterialGrid::new(desc, vec![Material::EMPTY; 64]).unwrap();
+        assert_eq!(changed_box(&old, &old), None);
+        let mut new = old.clone();
+        let i = desc
+            .index(lightgrid_core::glam::UVec3::new(1, 2, 3))
+            .unwrap();
+        new.data_mut()[i] = Material::opaque(Vec3::splat(0.5));
+        assert_eq!(
+            changed_box(&old, &new),
+            Some((Vec3::new(1.0, 3.0, 5.0), Vec3::new(3.0, 5.0, 7.0)))
+        );
+    }
 }

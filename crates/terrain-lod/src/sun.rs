@@ -26,6 +26,7 @@ impl GridSun {
             to_sun: sky.to_sun,
             marched_to,
             with_sky: Some(sky.irradiance),
+            scene_changed: false,
         }
     }
 }
@@ -125,6 +126,7 @@ impl Hierarchy {
             to_sun: scattered_to,
             marched_to: scattered_to,
             with_sky: None,
+            scene_changed: false,
         };
         if sun.to_sun != scattered_to {
             g.transmittance = timed(&mut times.sun_sweep, || {
@@ -178,7 +180,9 @@ impl Hierarchy {
     /// grid's is.
     pub(crate) fn sun_current(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.marched_to == s.to_sun && self.scattered_current(g),
+            (Some(s), Some(g)) => {
+                g.marched_to == s.to_sun && !g.scene_changed && self.scattered_current(g)
+            }
             _ => false,
         }
     }
@@ -195,11 +199,14 @@ impl Hierarchy {
     }
 
     /// Whether node `key`'s scattered sun is current (swept for the direction the world
-    /// grid's is) while its transmittance is not marched for the sun shown: a moved
-    /// sun's `set_sun` left its march for later ([`Hierarchy::march_suns`]).
+    /// grid's is) while its transmittance is not marched for the sun shown (a moved
+    /// sun's `set_sun` left its march for later: [`Hierarchy::march_suns`]) or was
+    /// marched through a scene since changed ([`Hierarchy::refresh`]).
     pub(crate) fn scattered_sun_current(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
-            (Some(s), Some(g)) => g.marched_to != s.to_sun && self.scattered_current(g),
+            (Some(s), Some(g)) => {
+                (g.marched_to != s.to_sun || g.scene_changed) && self.scattered_current(g)
+            }
             _ => false,
         }
     }

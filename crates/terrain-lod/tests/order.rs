@@ -437,17 +437,18 @@ fn nodes_left_behind_are_not_pending() {
     }
 }
 
+/// A hierarchy and the switch that changes its scene.
+type Switched = (Hierarchy, std::sync::Arc<std::sync::atomic::AtomicBool>);
+
 /// Two hierarchies over the test layer and a block of dense medium where `inside`
-/// holds, each built until settled: one before the block appears (and the switch that
-/// makes it appear, off), one with the block from the start.
+/// holds, each built until settled under a point budget a frame: one before the block
+/// appears (and the switch that makes it appear, off), one with the block from the
+/// start.
 fn without_and_with_block(
     inside: fn(Vec3) -> bool,
     with_sky: bool,
-) -> (
-    Hierarchy,
-    std::sync::Arc<std::sync::atomic::AtomicBool>,
-    Hierarchy,
-) {
+    budget_points: u64,
+) -> (Switched, Hierarchy) {
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
     let make = |on: bool| {
@@ -468,15 +469,14 @@ fn without_and_with_block(
         });
         let params = HierarchyParams {
             sun_with_sky: with_sky,
-            ..params(u64::MAX / 4)
+            ..params(budget_points)
         };
         let mut h = hierarchy_over(Box::new(source), params);
-        let s = h.update(CAMERA).unwrap();
+        let s = h.settle(CAMERA, 400, |_| {}).unwrap();
         assert_eq!((s.pending, s.sun_pending), (0, 0));
         (h, switch)
     };
-    let (without, switch) = make(false);
-    (without, switch, make(true).0)
+    (make(false), make(true).0)
 }
 
 /// The scene changes under a built hierarchy (a block of dense medium appears near the
@@ -493,7 +493,7 @@ fn a_changed_scene_refreshed_shades_the_sun() {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (5.0..8.0).contains(&p.y)
     };
     for with_sky in [false, true] {
-        let (mut changed, switch, fresh) = without_and_with_block(inside, with_sky);
+        let ((mut changed, switch), fresh) = without_and_with_block(inside, with_sky, u64::MAX / 4);
         let points: Vec<Vec3> = (0..6)
             .flat_map(|i| (0..6).map(move |k| Vec3::new(57.5 + i as f32, 6.5, 61.5 + k as f32)))
             .collect();
@@ -528,7 +528,7 @@ fn a_changed_scene_above_the_nodes_is_lit_as_a_fresh_build() {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (8.0..12.0).contains(&p.y)
     };
     for with_sky in [false, true] {
-        let (mut changed, switch, fresh) = without_and_with_block(inside, with_sky);
+        let ((mut changed, switch), fresh) = without_and_with_block(inside, with_sky, u64::MAX / 4);
         let points: Vec<Vec3> = (0..8)
             .flat_map(|i| {
                 (0..8).flat_map(move |k| {
@@ -566,5 +566,59 @@ fn a_changed_scene_above_the_nodes_is_lit_as_a_fresh_build() {
         for (i, (a, w)) in after.iter().zip(&want).enumerate() {
             assert_eq!(a, w, "sun with the sky: {with_sky}, at {}", points[i]);
         }
+    }
+}
+
+/// While a refresh round after a scene change runs under a point budget, a node's
+/// sun stays shown: its first frame sweeps the world grid and marks every node's sun
+/// to be swept again (the block within the nodes' levels, as in
+/// `a_changed_scene_refreshed_shades_the_sun`: no node is evicted), and the finest
+/// nodes the block does not touch still show their
+/// own sun (the same as before the change, bit for bit) rather than the coarser
+/// grids'. Once the round ends and `update` settles, the light is a fresh build's.
+#[test]
+fn a_changed_scene_keeps_the_sun_shown_while_its_round_runs() {
+    use std::sync::atomic::Ordering;
+    let inside = |p: Vec3| {
+        (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (5.0..8.0).contains(&p.y)
+    };
+    for with_sky in [false, true] {
+        let ((mut changed, switch), fresh) = without_and_with_block(inside, with_sky, SMALL);
+        let points: Vec<Vec3> = (0..24)
+            .flat_map(|i| {
+                (0..24).flat_map(move |k| {
+                    [1.5, 4.5].map(|y| Vec3::new(50.5 + i as f32, y, 54.5 + k as f32))
+                })
+            })
+            .collect();
+        let sun = |h: &Hierarchy| -> Vec<f32> {
+            points
+                .iter()
+                .map(|p| h.reading(*p, None).unwrap().sun)
+                .collect()
+        };
+        let (before, want) = (sun(&changed), sun(&fresh));
+        switch.store(true, Ordering::Relaxed);
+        let first = changed.refresh(CAMERA).unwrap();
+        assert!(
+            first.pending > 0,
+            "the budget left the round for later frames"
+        );
+        let during = sun(&changed);
+        // Points the block does not shade, in a finest node (one the round did not
+        // evict): their own node's sun, as before.
+        let kept: Vec<usize> = (0..points.len())
+            .filter(|&i| before[i] == want[i] && changed.grid_at(points[i]).desc().h() == 1.0)
+            .collect();
+        assert!(kept.len() >= 100, "{} points to check", kept.len());
+        for &i in &kept {
+            assert_eq!(
+                during[i], before[i],
+                "sun with the sky: {with_sky}, at {}",
+                points[i]
+            );
+        }
+        refresh_round_then_settle(&mut changed);
+        assert_eq!(sun(&changed), want, "sun with the sky: {with_sky}");
     }
 }
