@@ -221,12 +221,20 @@ impl Hierarchy {
         stats: &mut FrameStats,
     ) -> Result<Vec<Job>, LodError> {
         let dirs = self.sun_directions();
+        // The grid a job's march runs on (its rays start in all of it): with the sun
+        // swept with the sky, the sky sweep's (widened by the apron), else the sun's.
         let grid = |this: &Self, j: &Job| {
-            let d = match j.material {
-                Some(i) => materials[i].grid.desc(),
-                None => this.nodes[&j.key].material.grid.desc(),
+            let m = match j.material {
+                Some(i) => &materials[i],
+                None => &this.nodes[&j.key].material,
             };
-            (j.key, *d)
+            let marched = if this.params.sun_with_sky {
+                *m.widened.as_ref().unwrap_or(&m.grid).desc()
+            } else {
+                this.sun_material(m)
+                    .map_or(*m.grid.desc(), |(w, _)| *w.desc())
+            };
+            (j.key, marched)
         };
         if self.params.budget_ms.is_none() {
             let lit: Vec<_> = jobs
@@ -265,7 +273,11 @@ impl Hierarchy {
                         kept.push(job);
                         continue;
                     }
-                    stats.points_swept -= g.1.point_count() as u64;
+                    let m = match job.material {
+                        Some(i) => &materials[i],
+                        None => &self.nodes[&job.key].material,
+                    };
+                    stats.points_swept -= m.grid.desc().point_count() as u64;
                     stats.sun_built -= 1;
                     stats.pending += 1;
                     continue;

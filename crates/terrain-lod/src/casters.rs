@@ -124,7 +124,8 @@ pub(crate) fn material_top_over(world: &MaterialGrid, lo: Vec2, hi: Vec2) -> f32
 
 impl Hierarchy {
     /// Adds to `out` the nodes of `key`'s depth (not `key`) whose material the sun's
-    /// rays from `key`'s grid (`desc`) may cross along `to_sun`
+    /// rays from `key`'s grid (`desc`: the node's, or widened by an apron beyond its
+    /// rectangle) may cross along `to_sun`
     /// (module docs), `world_top` the top of the world grid's highest material. None
     /// without the world grid's material (no sun kept apart).
     pub(crate) fn sun_casters(
@@ -153,6 +154,11 @@ impl Hierarchy {
             return; // no material anywhere
         }
         let (lo, hi) = self.node_rect(key);
+        // (An apron's cells lie beyond the rectangle: their rays too.)
+        let half = 0.5 * desc.h();
+        let far = desc.position(desc.dims() - lightgrid_core::glam::UVec3::ONE);
+        let lo = lo.min(Vec2::new(desc.origin().x, desc.origin().z) - half);
+        let hi = hi.max(Vec2::new(far.x, far.z) + half);
         let corners = |lo: Vec2, hi: Vec2| [lo, Vec2::new(hi.x, lo.y), Vec2::new(lo.x, hi.y), hi];
         let n = Vec2::new(-u.y, u.x);
         let span = |c: [Vec2; 4], a: Vec2| {

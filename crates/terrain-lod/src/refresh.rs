@@ -13,16 +13,16 @@ use lightgrid_core::glam::Vec3;
 use rayon::prelude::*;
 
 use crate::build::Job;
-use crate::{FrameStats, Hierarchy, KeyHasher, LodError, NodeKey, StageTimes, apron, timed};
+use crate::{
+    FrameStats, Hierarchy, KeyHasher, LodError, NodeKey, NodeMaterial, StageTimes, apron, timed,
+};
 
 /// The nodes a round of [`Hierarchy::refresh`] calls has checked.
 pub(crate) type Checked = HashSet<NodeKey, BuildHasherDefault<KeyHasher>>;
 
 /// Materials of ready nodes composed in a round's frame whose budget then left them
 /// for a later frame of the round (composed once a round).
-/// (Each with its widened material where the hierarchy has an apron.)
-pub(crate) type Recomposed =
-    HashMap<NodeKey, (MaterialGrid, Option<MaterialGrid>), BuildHasherDefault<KeyHasher>>;
+pub(crate) type Recomposed = HashMap<NodeKey, NodeMaterial, BuildHasherDefault<KeyHasher>>;
 
 impl Hierarchy {
     /// Rebuilds every ready node whose inputs changed (after the scene, the sky or the
@@ -85,12 +85,10 @@ impl Hierarchy {
 
     /// A round's first step: the world grid's material composed again. Where the
     /// scene changed it, the world grid is swept again at once (its sky, and the sun's
-    /// responses); the nodes whose sun's march crosses the changed cells are marked to
-    /// be marched again ([`Hierarchy::mark_suns_crossing`]; shown until the round's
+    /// responses), and the nodes whose sun's march crosses the changed cells are marked
+    /// to be marched again ([`Hierarchy::mark_suns_crossing`]; shown until the round's
     /// frames march them; their scattered sun follows the coarser grids' light, which
-    /// changed, as their sky does); and the nodes whose column the new material no
-    /// longer fits (an object rising above a node's levels: [`Hierarchy::node_desc`])
-    /// are evicted, for [`Hierarchy::update`] to build anew at their new height.
+    /// changed, as their sky does).
     fn refresh_world(&mut self, stats: &mut FrameStats) -> Result<(), LodError> {
         let desc = *self.world.desc();
         let material = timed(&mut stats.times.material, || self.compose(&desc))?;
@@ -109,16 +107,6 @@ impl Hierarchy {
         })?;
         timed(&mut stats.times.sun_sweep, || self.sweep_world_sun())?;
         self.mark_suns_crossing(changed, None);
-        let mut resized = Vec::new();
-        for (key, n) in &self.nodes {
-            if self.node_desc(*key)? != *n.light.desc() {
-                resized.push(*key);
-            }
-        }
-        for key in resized {
-            self.nodes.remove(&key);
-            stats.evicted += 1;
-        }
         Ok(())
     }
 
@@ -139,6 +127,7 @@ impl Hierarchy {
             HashMap::default();
         let mut jobs = Vec::new();
         let mut rebuilt = Vec::new();
+        let mut evicted = false;
         let sun = self.sun.is_some();
         for (i, &key) in keys.iter().enumerate() {
             if self.checked.contains(&key) {
@@ -177,9 +166,24 @@ impl Hierarchy {
                 }
             }
             let p = prepared.remove(&key).expect("prepared above");
-            // (The node keeps its size; a changed scene may need a new size: evict it.)
+            let n = &self.nodes[&key];
+            let same_column = p.material.has_objects == n.material.has_objects
+                && p.material.open_above == n.material.open_above;
+            let Some(inputs) = p.inputs.filter(|_| same_column) else {
+                // The scene changed its column (an object risen above its levels, or
+                // gone): evicted, for `update` to build anew as it builds any node; the
+                // nodes whose sun shines through it are marked, finer ones checked again.
+                let old = changed_box(&n.material.grid, &p.material.grid);
+                self.nodes.remove(&key);
+                stats.evicted += 1;
+                if let Some(b) = old {
+                    self.mark_suns_crossing(b, None);
+                }
+                evicted = true;
+                continue;
+            };
             let unchanged =
-                self.params.skip.unchanged && p.inputs.hash == self.nodes[&key].input_hash;
+                self.params.skip.unchanged && inputs.hash == self.nodes[&key].input_hash;
             if unchanged {
                 stats.skipped_unchanged += 1;
                 if sun && !self.sun_current(key) {
@@ -190,10 +194,10 @@ impl Hierarchy {
                 // so its sun responses too.
                 stats.points_swept += sky_points;
                 stats.built += 1;
-                rebuilt.push((key, p.material, p.widened));
+                rebuilt.push((key, p.material.grid, p.material.widened));
                 let sky = Job {
                     sky: true,
-                    inputs: Some(p.inputs),
+                    inputs: Some(inputs),
                     ..Job::new(key)
                 };
                 let sun_points = apron::sky_points(&desc, self.params.sun_apron);
@@ -203,9 +207,9 @@ impl Hierarchy {
         }
         // Those the budget left: their materials for a later frame of the round.
         for (key, p) in prepared {
-            self.recomposed.insert(key, (p.material, p.widened));
+            self.recomposed.insert(key, p.material);
         }
-        if !rebuilt.is_empty() {
+        if !rebuilt.is_empty() || evicted {
             // Finer nodes read these ones' light, and so do the nodes of this depth
             // after them where they read those (`neighbours.rs`): checked again.
             let depth = keys[0].depth;
@@ -214,9 +218,10 @@ impl Hierarchy {
                 k.depth < depth
                     || (k.depth == depth
                         && !(on
-                            && rebuilt
-                                .iter()
-                                .any(|(r, _, _)| crate::neighbours::before(*r, *k))))
+                            && (evicted
+                                || rebuilt
+                                    .iter()
+                                    .any(|(r, _, _)| crate::neighbours::before(*r, *k)))))
             });
         }
         let provisional: Vec<NodeKey> = (rebuilt.iter().map(|(k, _, _)| *k))
@@ -248,27 +253,31 @@ impl Hierarchy {
         done
     }
 
-    /// The materials of ready nodes `keys` composed from the scene (where `kept` holds
-    /// none) and their sky sweeps' inputs made and hashed, side by side.
+    /// The materials of ready nodes `keys` composed from the scene as `update` composes
+    /// a new node's (where `kept` holds none: its column, which the scene may have made
+    /// taller or shorter) and, where its grid is the node's, their sky sweeps' inputs
+    /// made and hashed, side by side.
     fn prepare(
         &self,
         keys: &[NodeKey],
-        kept: Vec<Option<(MaterialGrid, Option<MaterialGrid>)>>,
+        kept: Vec<Option<NodeMaterial>>,
     ) -> Vec<Result<Prepared, LodError>> {
         keys.par_iter()
             .zip(kept)
             .map(|(key, kept)| {
                 let n = &self.nodes[key];
                 let mut times = StageTimes::default();
-                let (material, widened) = match kept {
+                let material = match kept {
                     Some(m) => m,
-                    None => timed(&mut times.material, || self.compose_node(n.light.desc()))?,
+                    None => timed(&mut times.material, || self.node_material(*key))?,
                 };
-                let o = self.node_options(n.material.has_objects);
-                let inputs = self.sky_inputs(*key, (&material, widened.as_ref()), &o, &mut times);
+                let inputs = (material.grid.desc() == n.light.desc()).then(|| {
+                    let o = self.node_options(material.has_objects);
+                    let m = (&material.grid, material.widened.as_ref());
+                    self.sky_inputs(*key, m, &o, &mut times)
+                });
                 Ok(Prepared {
                     material,
-                    widened,
                     inputs,
                     times,
                 })
@@ -277,12 +286,11 @@ impl Hierarchy {
     }
 }
 
-/// A ready node's material composed again and its sky sweep's inputs.
+/// A ready node's material composed again and its sky sweep's inputs (`None` where
+/// its grid is no longer the node's).
 struct Prepared {
-    material: MaterialGrid,
-    /// `material` widened by the apron, if any.
-    widened: Option<MaterialGrid>,
-    inputs: apron::SkyInputs,
+    material: NodeMaterial,
+    inputs: Option<apron::SkyInputs>,
     times: StageTimes,
 }
 
