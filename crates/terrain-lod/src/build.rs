@@ -384,6 +384,14 @@ impl Hierarchy {
             };
             (points, job)
         };
+        // With the sun swept with the sky, once the coarser nodes its boundary reads
+        // are built and settled (it reads their bins: else, swept over a coarser grid
+        // where a wanted node is still to come, it would not be swept again once that
+        // one is built). Not pending work of this frame: a frame builds those first,
+        // and `sun_pending` counts the node meanwhile.
+        if job.sky && self.reads_unsettled(key, &self.wanted_now) {
+            return None;
+        }
         // Once the coarser grids its boundary reads are current (coarse first).
         if !self.sun_parent_ready(key) || self.over_budget(stats.points_swept, cost) {
             stats.pending += 1;
@@ -532,6 +540,8 @@ impl Hierarchy {
         self.sweeper = main;
         self.forks = pool.into_inner().unwrap_or_else(|e| e.into_inner());
         let mut first_error = None;
+        // Nodes whose scattered sun this batch swept anew (or made first).
+        let mut scattered = Vec::new();
         for r in results {
             match r {
                 Ok(done) => {
@@ -543,6 +553,13 @@ impl Hierarchy {
                         self.nodes.insert(done.key, node);
                     }
                     if let (Some(sun), Some(n)) = (done.sun, self.nodes.get_mut(&done.key)) {
+                        let same = n.sun.as_ref().is_some_and(|old| {
+                            (old.scattered == sun.scattered && old.horizon == sun.horizon)
+                                && old.to_sun == sun.to_sun
+                        });
+                        if !same && sun.with_sky.is_none() {
+                            scattered.push(done.key);
+                        }
                         n.sun = Some(sun);
                     }
                     let to_sun = self.sun.map(|s| s.to_sun);
@@ -561,7 +578,37 @@ impl Hierarchy {
                 }
             }
         }
+        self.mark_scattered_readers(&scattered);
         (first_error.map_or(Ok(()), Err), composed)
+    }
+
+    /// Marks the scattered sun of the nodes whose sun boundary reads one of `keys`'
+    /// (finer nodes whose boundary's coarser grids include one of them,
+    /// [`Hierarchy::halo_nodes`], and with [`crate::HierarchyParams::neighbour_halo`]
+    /// the nodes of a key's depth after it) to be swept again, shown meanwhile: they
+    /// were swept from its earlier scattered sun, or from a coarser grid's where it had
+    /// none. (Else a refresh round or a provisional node's second sweep left them on
+    /// it, and settled, a hierarchy was not the one a build in another order gives.)
+    fn mark_scattered_readers(&mut self, keys: &[NodeKey]) {
+        let Some(least) = keys.iter().map(|k| k.depth).min() else {
+            return;
+        };
+        let neighbours = self.params.neighbour_halo;
+        let readers: Vec<NodeKey> = (self.nodes.iter())
+            .filter(|(k, n)| {
+                k.depth >= least && n.sun.as_ref().is_some_and(|g| g.to_sun != Vec3::ZERO)
+            })
+            .map(|(k, _)| *k)
+            .filter(|k| {
+                self.halo_nodes(*k).any(|c| keys.contains(&c))
+                    || (neighbours && keys.iter().any(|c| crate::neighbours::before(*c, *k)))
+            })
+            .collect();
+        for k in readers {
+            if let Some(g) = self.nodes.get_mut(&k).and_then(|n| n.sun.as_mut()) {
+                g.to_sun = Vec3::ZERO;
+            }
+        }
     }
 
     /// The sun node `key` shows, for `new` (its sky swept again over the same

@@ -344,9 +344,11 @@ fn ray_meets(from: Aabb, to: Aabb, dir: Vec3) -> bool {
 
 impl Hierarchy {
     /// Marks the sun of every node (but `except`) whose march toward the sun may cross
-    /// `changed` to be marched again ([`crate::GridSun`]'s `scene_changed`): the march
-    /// leaves a node's points (and its apron's) toward the sun, over the coarser grids
-    /// and the sun's casters, to the sky.
+    /// `changed` to be marched again ([`crate::GridSun`]'s `scene_changed`) and its
+    /// scattered sun to be swept again (with the sun swept with the sky, the node's
+    /// sky sweep: the beam's first collisions are the scattered sun's source), both
+    /// shown until then. The march leaves a node's points (and its apron's) toward the
+    /// sun, over the coarser grids and the sun's casters, to the sky.
     pub(crate) fn mark_suns_crossing(&mut self, changed: Aabb, except: Option<NodeKey>) {
         let Some(sun) = self.sun else {
             return;
@@ -364,6 +366,11 @@ impl Hierarchy {
             let wide = Vec3::new(apron, 0.0, apron) * desc.h();
             if ray_meets((lo - wide, hi + wide), changed, sun.to_sun) {
                 g.scene_changed = true;
+                // Its scattered sun too: the beam's first collisions are its source.
+                match g.with_sky {
+                    Some(_) => g.with_sky = None,
+                    None => g.to_sun = Vec3::ZERO,
+                }
             }
         }
     }
