@@ -540,8 +540,10 @@ impl Hierarchy {
         self.sweeper = main;
         self.forks = pool.into_inner().unwrap_or_else(|e| e.into_inner());
         let mut first_error = None;
-        // Nodes whose scattered sun this batch swept anew (or made first).
+        // Nodes whose scattered sun this batch swept anew (or made first): with the
+        // sun swept with the sky, whose bins it swept again differently.
         let mut scattered = Vec::new();
+        let with_sky = self.sun_with_sky().is_some();
         for r in results {
             match r {
                 Ok(done) => {
@@ -550,7 +552,15 @@ impl Hierarchy {
                         if done.sun.is_none() {
                             node.sun = self.kept_sun(done.key, &node);
                         }
-                        self.nodes.insert(done.key, node);
+                        let old = self.nodes.insert(done.key, node);
+                        if with_sky
+                            && old.is_some_and(|o| {
+                                let n = &self.nodes[&done.key];
+                                o.light != n.light || o.horizon != n.horizon
+                            })
+                        {
+                            scattered.push(done.key);
+                        }
                     }
                     if let (Some(sun), Some(n)) = (done.sun, self.nodes.get_mut(&done.key)) {
                         let same = n.sun.as_ref().is_some_and(|old| {
@@ -587,8 +597,10 @@ impl Hierarchy {
     /// [`Hierarchy::halo_nodes`], and with [`crate::HierarchyParams::neighbour_halo`]
     /// the nodes of a key's depth after it) to be swept again, shown meanwhile: they
     /// were swept from its earlier scattered sun, or from a coarser grid's where it had
-    /// none. (Else a refresh round or a provisional node's second sweep left them on
-    /// it, and settled, a hierarchy was not the one a build in another order gives.)
+    /// none. With the sun swept with the sky, the scattered sun is in the bins: those
+    /// nodes are swept again. (Else a refresh round or a provisional node's second
+    /// sweep left them on it, and settled, a hierarchy was not the one a build in
+    /// another order gives.)
     fn mark_scattered_readers(&mut self, keys: &[NodeKey]) {
         let Some(least) = keys.iter().map(|k| k.depth).min() else {
             return;
@@ -606,7 +618,10 @@ impl Hierarchy {
             .collect();
         for k in readers {
             if let Some(g) = self.nodes.get_mut(&k).and_then(|n| n.sun.as_mut()) {
-                g.to_sun = Vec3::ZERO;
+                match g.with_sky {
+                    Some(_) => g.with_sky = None,
+                    None => g.to_sun = Vec3::ZERO,
+                }
             }
         }
     }

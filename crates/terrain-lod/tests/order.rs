@@ -446,7 +446,7 @@ type Switched = (Hierarchy, std::sync::Arc<std::sync::atomic::AtomicBool>);
 /// start.
 fn without_and_with_block(
     inside: fn(Vec3) -> bool,
-    with_sky: bool,
+    (with_sky, neighbour_halo): (bool, bool),
     budget_points: u64,
 ) -> (Switched, Hierarchy) {
     use std::sync::Arc;
@@ -469,6 +469,7 @@ fn without_and_with_block(
         });
         let params = HierarchyParams {
             sun_with_sky: with_sky,
+            neighbour_halo,
             ..params(budget_points)
         };
         let mut h = hierarchy_over(Box::new(source), params);
@@ -493,7 +494,8 @@ fn a_changed_scene_refreshed_shades_the_sun() {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (5.0..8.0).contains(&p.y)
     };
     for with_sky in [false, true] {
-        let ((mut changed, switch), fresh) = without_and_with_block(inside, with_sky, u64::MAX / 4);
+        let ((mut changed, switch), fresh) =
+            without_and_with_block(inside, (with_sky, false), u64::MAX / 4);
         let points: Vec<Vec3> = (0..6)
             .flat_map(|i| (0..6).map(move |k| Vec3::new(57.5 + i as f32, 6.5, 61.5 + k as f32)))
             .collect();
@@ -528,7 +530,8 @@ fn a_changed_scene_above_the_nodes_is_lit_as_a_fresh_build() {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (8.0..12.0).contains(&p.y)
     };
     for with_sky in [false, true] {
-        let ((mut changed, switch), fresh) = without_and_with_block(inside, with_sky, u64::MAX / 4);
+        let ((mut changed, switch), fresh) =
+            without_and_with_block(inside, (with_sky, false), u64::MAX / 4);
         let points: Vec<Vec3> = (0..8)
             .flat_map(|i| {
                 (0..8).flat_map(move |k| {
@@ -594,7 +597,8 @@ fn a_changed_scene_keeps_the_sun_shown_while_its_round_runs() {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (5.0..8.0).contains(&p.y)
     };
     for with_sky in [false, true] {
-        let ((mut changed, switch), fresh) = without_and_with_block(inside, with_sky, SMALL);
+        let ((mut changed, switch), fresh) =
+            without_and_with_block(inside, (with_sky, false), SMALL);
         let points: Vec<Vec3> = (0..24)
             .flat_map(|i| {
                 (0..24).flat_map(move |k| {
@@ -693,21 +697,27 @@ fn settled_under_a_budget_with_the_sun_swept_with_the_sky_is_built_without_one()
 
 /// Blocks appearing toward the sun from the camera's nodes, refreshed under a node or
 /// two a frame: settled, every read about the camera (bins and sun) is a fresh build's,
-/// bit for bit, the sun kept apart and swept with the sky. A node whose scattered sun
-/// is swept again (its beam crossed a block found after it was swept) marks the finer
-/// nodes that read it to be swept again too: without that, two of these three left
-/// 558 to 932 of the 9,216 reads off with the sun kept apart.
+/// bit for bit, the sun kept apart and swept with the sky, side halos from the coarser
+/// grids and from the nodes of a depth before (`HierarchyParams::neighbour_halo`). A
+/// node whose scattered sun (with the sky, its bins) is swept again marks the nodes
+/// that read it to be swept again too: without that, with the sun apart and the
+/// coarser grids' halos, two of the first three blocks left 558 to 932 of the 9,216
+/// reads off, and with the sun swept with the sky and the neighbours' halos 2,605 and
+/// 3,552.
 #[test]
 fn a_changed_scene_refreshed_under_a_budget_is_a_fresh_build() {
     use std::sync::atomic::Ordering;
-    let blocks: [fn(Vec3) -> bool; 3] = [
+    let blocks: [fn(Vec3) -> bool; 4] = [
         |p| (70.0..78.0).contains(&p.x) && (50.0..56.0).contains(&p.z) && (3.0..8.0).contains(&p.y),
         |p| (40.0..46.0).contains(&p.x) && (80.0..86.0).contains(&p.z) && (3.0..8.0).contains(&p.y),
         |p| (80.0..88.0).contains(&p.x) && (40.0..48.0).contains(&p.z) && (2.0..8.0).contains(&p.y),
+        |p| {
+            (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (8.0..12.0).contains(&p.y)
+        },
     ];
     for (b, inside) in blocks.into_iter().enumerate() {
-        for with_sky in [false, true] {
-            let ((mut changed, switch), fresh) = without_and_with_block(inside, with_sky, SMALL);
+        for options in [(false, false), (true, false), (false, true), (true, true)] {
+            let ((mut changed, switch), fresh) = without_and_with_block(inside, options, SMALL);
             switch.store(true, Ordering::Relaxed);
             refresh_round_then_settle(&mut changed);
             for i in 0..48 {
@@ -717,7 +727,7 @@ fn a_changed_scene_refreshed_under_a_budget_is_a_fresh_build() {
                         assert_eq!(
                             changed.reading(p, None).unwrap(),
                             fresh.reading(p, None).unwrap(),
-                            "block {b}, sun with the sky: {with_sky}, at {p}"
+                            "block {b}, (sun with the sky, neighbours' halo) {options:?}, at {p}"
                         );
                     }
                 }
