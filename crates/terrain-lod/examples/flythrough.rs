@@ -8,9 +8,7 @@
 use std::time::Instant;
 
 use lightgrid_core::BinLight;
-use lightgrid_core::glam::{Vec2, Vec3};
-use lightgrid_material_voxelizer::procedural::TreeParams;
-use lightgrid_material_voxelizer::voxelize::VoxelizeParams;
+use lightgrid_core::glam::Vec3;
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{
     BYTES_26_F32, BYTES_26_PACKED, BYTES_AVG_DOM, Hierarchy, HierarchyParams,
@@ -21,16 +19,7 @@ mod demo;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hm = demo::jacksboro(&demo::assets_dir())?;
-    let forest = demo::Forest {
-        tree: TreeParams::broadleaf(3),
-        voxel: VoxelizeParams::standard(0.5),
-        count: 4000,
-        lo: Vec2::splat(400.0),
-        size: 500.0,
-        scale: (0.8, 1.3),
-        seed: 99,
-        ground: Vec3::new(0.25, 0.22, 0.18),
-    };
+    let forest = demo::Forest::flythrough();
     let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let camera = |f: u32| {
         let (x, z) = (500.0 + 10.0 * f as f32, 520.0 + 8.0 * f as f32);

@@ -13,10 +13,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
-use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, GridDesc, GridError, LightField, Material, MaterialGrid};
-use lightgrid_material_voxelizer::procedural::TreeParams;
-use lightgrid_material_voxelizer::voxelize::VoxelizeParams;
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, SunLight};
 
@@ -50,16 +48,7 @@ impl<S: lightgrid_core::MaterialSource> lightgrid_core::MaterialSource for Edite
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let with_sky = std::env::args().any(|a| a == "--with-sky");
     let hm = demo::jacksboro(&demo::assets_dir())?;
-    let forest = demo::Forest {
-        tree: TreeParams::broadleaf(3),
-        voxel: VoxelizeParams::standard(0.5),
-        count: 4000,
-        lo: Vec2::splat(400.0),
-        size: 500.0,
-        scale: (0.8, 1.3),
-        seed: 99,
-        ground: Vec3::new(0.25, 0.22, 0.18),
-    };
+    let forest = demo::Forest::flythrough();
     let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     let (cx, cz) = (600.0, 610.0);
     let ground = hm.height_at(cx, cz);

@@ -30,6 +30,21 @@ pub(crate) struct Forest {
 
 #[allow(dead_code)]
 impl Forest {
+    /// The fly-through's forest (`examples/flythrough.rs`, `examples/scene_edit.rs`):
+    /// 4000 broadleaf trees over 500 m × 500 m from (400, 400).
+    pub(crate) fn flythrough() -> Self {
+        Self {
+            tree: TreeParams::broadleaf(3),
+            voxel: VoxelizeParams::standard(0.5),
+            count: 4000,
+            lo: Vec2::splat(400.0),
+            size: 500.0,
+            scale: (0.8, 1.3),
+            seed: 99,
+            ground: Vec3::new(0.25, 0.22, 0.18),
+        }
+    }
+
     /// The forest on `hm` as a composer of its material.
     pub(crate) fn composer(
         &self,
