@@ -177,7 +177,7 @@ impl Hierarchy {
                 self.nodes.remove(&key);
                 stats.evicted += 1;
                 if let Some(b) = old {
-                    self.mark_suns_crossing(b, None);
+                    self.mark_suns_crossing(b, Some(key));
                 }
                 evicted = true;
                 continue;
@@ -343,19 +343,20 @@ fn ray_meets(from: Aabb, to: Aabb, dir: Vec3) -> bool {
 }
 
 impl Hierarchy {
-    /// Marks the sun of every node (but `except`) whose march toward the sun may cross
-    /// `changed` to be marched again ([`crate::GridSun`]'s `scene_changed`) and its
-    /// scattered sun to be swept again (with the sun swept with the sky, the node's
-    /// sky sweep: the beam's first collisions are the scattered sun's source), both
-    /// shown until then. The march leaves a node's points (and its apron's) toward the
-    /// sun, over the coarser grids and the sun's casters, to the sky.
-    pub(crate) fn mark_suns_crossing(&mut self, changed: Aabb, except: Option<NodeKey>) {
+    /// Marks the sun of every node whose march toward the sun may cross `changed` to be
+    /// marched again ([`crate::GridSun`]'s `scene_changed`) and its scattered sun to be
+    /// swept again (with the sun swept with the sky, the node's sky sweep: the beam's
+    /// first collisions are the scattered sun's source), both shown until then. The
+    /// march leaves a node's points (and its apron's) toward the sun, over its depth's
+    /// materials and coarser ones, to the sky: where `changed` is node `from`'s
+    /// material, neither that node nor the coarser ones read it.
+    pub(crate) fn mark_suns_crossing(&mut self, changed: Aabb, from: Option<NodeKey>) {
         let Some(sun) = self.sun else {
             return;
         };
         let apron = self.params.apron.max(self.params.sun_apron) as f32 + 1.0;
         for (key, n) in &mut self.nodes {
-            if Some(*key) == except {
+            if from.is_some_and(|f| *key == f || key.depth < f.depth) {
                 continue;
             }
             let Some(g) = n.sun.as_mut() else {
