@@ -618,10 +618,7 @@ impl Hierarchy {
             .collect();
         for k in readers {
             if let Some(g) = self.nodes.get_mut(&k).and_then(|n| n.sun.as_mut()) {
-                match g.with_sky {
-                    Some(_) => g.with_sky = None,
-                    None => g.to_sun = Vec3::ZERO,
-                }
+                g.mark_scattered_stale();
             }
         }
     }

@@ -368,10 +368,7 @@ impl Hierarchy {
             if ray_meets((lo - wide, hi + wide), changed, sun.to_sun) {
                 g.scene_changed = true;
                 // Its scattered sun too: the beam's first collisions are its source.
-                match g.with_sky {
-                    Some(_) => g.with_sky = None,
-                    None => g.to_sun = Vec3::ZERO,
-                }
+                g.mark_scattered_stale();
             }
         }
     }

@@ -13,6 +13,15 @@ use crate::{
 };
 
 impl GridSun {
+    /// Marks the scattered sun to be swept again, shown until then (`to_sun` zero; with
+    /// the sun swept with the sky, the grid's sky sweep: `with_sky` none).
+    pub(crate) fn mark_scattered_stale(&mut self) {
+        match self.with_sky {
+            Some(_) => self.with_sky = None,
+            None => self.to_sun = Vec3::ZERO,
+        }
+    }
+
     /// The responses of a grid whose sky sweep holds `sky`'s scattered light
     /// ([`HierarchyParams::sun_with_sky`](crate::HierarchyParams::sun_with_sky)): the
     /// transmittance marched toward `marched_to` (the sun shown: `sky`'s but while a
