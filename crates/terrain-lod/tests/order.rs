@@ -274,10 +274,12 @@ fn refresh_and_settle(mut h: Hierarchy) {
 }
 
 /// `refresh` frames until a round ends, then `update` frames until nothing (sun
-/// included) is pending.
-fn refresh_round_then_settle(h: &mut Hierarchy) {
+/// included) is pending; the nodes the round evicted.
+fn refresh_round_then_settle(h: &mut Hierarchy) -> u32 {
+    let mut evicted = 0;
     for f in 0.. {
         let s = h.refresh(CAMERA).unwrap();
+        evicted += s.evicted;
         if s.pending == 0 {
             break;
         }
@@ -290,6 +292,7 @@ fn refresh_round_then_settle(h: &mut Hierarchy) {
         }
         assert!(f < 60, "never settled: {s:?}");
     }
+    evicted
 }
 
 /// `settle` under the same budget builds every node once, coarse to fine, and ends
@@ -480,6 +483,36 @@ fn without_and_with_block(
     (make(false), make(true).0)
 }
 
+/// What [`without_and_with_block`]'s hierarchies (without a budget) read at `points`:
+/// the first before the block appears and after a round of `refresh` frames and
+/// `update` until settled, the second's; and the nodes the round evicted.
+struct Refreshed {
+    before: Vec<lightgrid_core::Reading>,
+    after: Vec<lightgrid_core::Reading>,
+    fresh: Vec<lightgrid_core::Reading>,
+    evicted: u32,
+}
+
+fn refreshed_block(inside: fn(Vec3) -> bool, with_sky: bool, points: &[Vec3]) -> Refreshed {
+    let ((mut changed, switch), fresh) =
+        without_and_with_block(inside, (with_sky, false), u64::MAX / 4);
+    let read = |h: &Hierarchy| -> Vec<lightgrid_core::Reading> {
+        points
+            .iter()
+            .map(|p| h.reading(*p, None).unwrap())
+            .collect()
+    };
+    let before = read(&changed);
+    switch.store(true, std::sync::atomic::Ordering::Relaxed);
+    let evicted = refresh_round_then_settle(&mut changed);
+    Refreshed {
+        before,
+        after: read(&changed),
+        fresh: read(&fresh),
+        evicted,
+    }
+}
+
 /// The scene changes under a built hierarchy (a block of dense medium appears near the
 /// camera, within its nodes' levels): after a round of `refresh` frames and `update`
 /// until settled, the sun inside the block is what a hierarchy built over the new
@@ -489,26 +522,16 @@ fn without_and_with_block(
 /// sky.
 #[test]
 fn a_changed_scene_refreshed_shades_the_sun() {
-    use std::sync::atomic::Ordering;
     let inside = |p: Vec3| {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (5.0..8.0).contains(&p.y)
     };
+    let points: Vec<Vec3> = (0..6)
+        .flat_map(|i| (0..6).map(move |k| Vec3::new(57.5 + i as f32, 6.5, 61.5 + k as f32)))
+        .collect();
     for with_sky in [false, true] {
-        let ((mut changed, switch), fresh) =
-            without_and_with_block(inside, (with_sky, false), u64::MAX / 4);
-        let points: Vec<Vec3> = (0..6)
-            .flat_map(|i| (0..6).map(move |k| Vec3::new(57.5 + i as f32, 6.5, 61.5 + k as f32)))
-            .collect();
-        let sun = |h: &Hierarchy| -> Vec<f32> {
-            points
-                .iter()
-                .map(|p| h.reading(*p, None).unwrap().sun)
-                .collect()
-        };
-        let before = sun(&changed);
-        switch.store(true, Ordering::Relaxed);
-        refresh_round_then_settle(&mut changed);
-        let (after, want) = (sun(&changed), sun(&fresh));
+        let r = refreshed_block(inside, with_sky, &points);
+        let sun = |r: &[lightgrid_core::Reading]| -> Vec<f32> { r.iter().map(|r| r.sun).collect() };
+        let (before, after, want) = (sun(&r.before), sun(&r.after), sun(&r.fresh));
         // (Else the test could not fail: the block shades these points.)
         assert!(
             before.iter().zip(&want).all(|(b, w)| *b > 5.0 * w),
@@ -525,56 +548,35 @@ fn a_changed_scene_refreshed_shades_the_sun() {
 /// and sun) in and around the block is a fresh build's, bit for bit.
 #[test]
 fn a_changed_scene_above_the_nodes_is_lit_as_a_fresh_build() {
-    use std::sync::atomic::Ordering;
     let inside = |p: Vec3| {
         (56.0..64.0).contains(&p.x) && (60.0..68.0).contains(&p.z) && (8.0..12.0).contains(&p.y)
     };
-    for with_sky in [false, true] {
-        let ((mut changed, switch), fresh) =
-            without_and_with_block(inside, (with_sky, false), u64::MAX / 4);
-        let points: Vec<Vec3> = (0..8)
-            .flat_map(|i| {
-                (0..8).flat_map(move |k| {
-                    [4.5, 9.5, 11.5, 13.5]
-                        .map(|y| Vec3::new(54.5 + 1.5 * i as f32, y, 58.5 + 1.5 * k as f32))
-                })
+    let points: Vec<Vec3> = (0..8)
+        .flat_map(|i| {
+            (0..8).flat_map(move |k| {
+                [4.5, 9.5, 11.5, 13.5]
+                    .map(|y| Vec3::new(54.5 + 1.5 * i as f32, y, 58.5 + 1.5 * k as f32))
             })
-            .collect();
-        let read = |h: &Hierarchy| -> Vec<(lightgrid_core::BinLight, f32)> {
-            points
-                .iter()
-                .map(|p| {
-                    let r = h.reading(*p, None).unwrap();
-                    (r.light, r.sun)
-                })
-                .collect()
-        };
-        let before = read(&changed);
-        switch.store(true, Ordering::Relaxed);
-        // The round evicts the nodes the block rises above (their columns grow).
-        let evicted: u32 = std::iter::from_fn(|| {
-            let s = changed.refresh(CAMERA).unwrap();
-            (s.evicted > 0 || s.pending > 0).then_some(s.evicted)
         })
-        .take(60)
-        .sum();
-        assert!(evicted > 0, "no node evicted");
-        refresh_round_then_settle(&mut changed);
-        let (after, want) = (read(&changed), read(&fresh));
+        .collect();
+    for with_sky in [false, true] {
+        let r = refreshed_block(inside, with_sky, &points);
+        // The round evicts the nodes the block rises above (their columns grow).
+        assert!(r.evicted > 0, "no node evicted");
         // (Else the test could not fail: the block shades its own points, on the
         // whole: those at its faces toward the sun less.)
-        let shaded = |r: &[(lightgrid_core::BinLight, f32)]| -> f32 {
+        let shaded = |r: &[lightgrid_core::Reading]| -> f32 {
             (points.iter().zip(r))
                 .filter(|(p, _)| inside(**p))
-                .map(|(_, (_, sun))| *sun)
+                .map(|(_, r)| r.sun)
                 .sum()
         };
-        let (b, w) = (shaded(&before), shaded(&want));
+        let (b, w) = (shaded(&r.before), shaded(&r.fresh));
         assert!(
             b > 2.0 * w,
             "the sun's sum in the block before {b}, fresh {w}"
         );
-        for (i, (a, w)) in after.iter().zip(&want).enumerate() {
+        for (i, (a, w)) in r.after.iter().zip(&r.fresh).enumerate() {
             assert_eq!(a, w, "sun with the sky: {with_sky}, at {}", points[i]);
         }
     }
