@@ -155,10 +155,9 @@ impl Hierarchy {
         }
         let (lo, hi) = self.node_rect(key);
         // (An apron's cells lie beyond the rectangle: their rays too.)
-        let half = 0.5 * desc.h();
-        let far = desc.position(desc.dims() - lightgrid_core::glam::UVec3::ONE);
-        let lo = lo.min(Vec2::new(desc.origin().x, desc.origin().z) - half);
-        let hi = hi.max(Vec2::new(far.x, far.z) + half);
+        let (clo, chi) = desc.cell_bounds();
+        let lo = lo.min(Vec2::new(clo.x, clo.z));
+        let hi = hi.max(Vec2::new(chi.x, chi.z));
         let corners = |lo: Vec2, hi: Vec2| [lo, Vec2::new(hi.x, lo.y), Vec2::new(lo.x, hi.y), hi];
         let n = Vec2::new(-u.y, u.x);
         let span = |c: [Vec2; 4], a: Vec2| {

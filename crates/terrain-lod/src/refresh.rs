@@ -94,7 +94,7 @@ impl Hierarchy {
         let material = timed(&mut stats.times.material, || self.compose(&desc))?;
         let changed = match &self.world_material {
             Some(old) => changed_box(old, &material),
-            None => Some(cells_box(&desc)),
+            None => Some(desc.cell_bounds()),
         };
         let Some(changed) = changed else {
             return Ok(());
@@ -238,7 +238,7 @@ impl Hierarchy {
                 Some(old) => changed_box(old, widened.as_ref().unwrap_or(&grid)),
                 None => changed_box(&n.material.grid, &grid),
             };
-            if changed.is_some() || n.material.grid != grid {
+            if changed.is_some() {
                 n.sun = None;
             }
             n.material.grid = grid;
@@ -297,19 +297,12 @@ struct Prepared {
 /// A box, min and max corners.
 type Aabb = (Vec3, Vec3);
 
-/// The box of `desc`'s cells (each point's cell: half a cell about it).
-fn cells_box(desc: &lightgrid_core::GridDesc) -> Aabb {
-    let half = Vec3::splat(0.5 * desc.h());
-    let far = desc.position(desc.dims() - lightgrid_core::glam::UVec3::ONE);
-    (desc.origin() - half, far + half)
-}
-
 /// The box of the cells where `new` differs from `old` (all of both where their grids
 /// differ), `None` where they are the same.
 fn changed_box(old: &MaterialGrid, new: &MaterialGrid) -> Option<Aabb> {
     let desc = *new.desc();
     if *old.desc() != desc {
-        let (a, b) = (cells_box(old.desc()), cells_box(&desc));
+        let (a, b) = (old.desc().cell_bounds(), desc.cell_bounds());
         return Some((a.0.min(b.0), a.1.max(b.1)));
     }
     let half = Vec3::splat(0.5 * desc.h());
@@ -363,7 +356,7 @@ impl Hierarchy {
                 continue;
             };
             let desc = n.light.desc();
-            let (lo, hi) = cells_box(desc);
+            let (lo, hi) = desc.cell_bounds();
             let wide = Vec3::new(apron, 0.0, apron) * desc.h();
             if ray_meets((lo - wide, hi + wide), changed, sun.to_sun) {
                 g.scene_changed = true;
