@@ -2,9 +2,10 @@
 //! nodes, the sun at 30°), settled around a camera; then a box appears beside it (a
 //! house under the trees, then a tower above the nodes' columns) and `refresh` frames
 //! run until their round ends, then `update` frames until settled. Per edit: the
-//! round's frames, time, points swept, nodes rebuilt and evicted, sun responses swept
-//! again; then a hierarchy built over the edited scene from nothing, and the largest
-//! difference between the two at points around the box (0: the same light bit for bit).
+//! round's frames, time, points swept, nodes rebuilt (and of those, built anew at a new
+//! height) and evicted, sun responses swept again; then a hierarchy built over the
+//! edited scene from nothing, and the largest difference between the two at points
+//! around the box (0: the same light bit for bit).
 //!
 //! `cargo run --release -p lightgrid-terrain-lod --example scene_edit [-- --with-sky]`
 //! (`--with-sky`: the sun's first collisions swept with the sky, as the viewer does)
@@ -140,8 +141,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         println!("{name}:");
         println!(
-            "  refresh round: {round_frames} frames, {round_ms:.0} ms; {} points swept, {} nodes rebuilt, {} evicted, {} sun responses",
-            round.points_swept, round.built, round.evicted, round.sun_built
+            "  refresh round: {round_frames} frames, {round_ms:.0} ms; {} points swept, {} nodes rebuilt ({} of them at a new height), {} evicted, {} sun responses",
+            round.points_swept, round.built, round.regrown, round.evicted, round.sun_built
         );
         println!(
             "  then update until settled: {after_frames} frames, {after_ms:.0} ms; {} points swept, {} nodes built, {} sun responses",
@@ -169,6 +170,7 @@ fn frames(
         sum.points_swept += s.points_swept;
         sum.built += s.built;
         sum.evicted += s.evicted;
+        sum.regrown += s.regrown;
         sum.sun_built += s.sun_built;
         if s.pending == 0 && (!sun || s.sun_pending == 0) {
             return Ok((sum, t.elapsed().as_secs_f64() * 1e3, n));

@@ -409,6 +409,9 @@ pub struct FrameStats {
     pub pending: u32,
     /// Nodes evicted.
     pub evicted: u32,
+    /// Ready nodes a [`Hierarchy::refresh`] built anew at a new height: the scene
+    /// changed their column (an object risen above their levels, or gone).
+    pub regrown: u32,
     /// Wanted nodes not built because their parent has no objects above the ground.
     pub skipped_bare: u32,
     /// Ready nodes per depth (index 0: the world grid, 0 or 1).

@@ -30,9 +30,10 @@ impl Hierarchy {
     /// as skipped.
     ///
     /// A round's first call composes the world grid's material again: where the scene
-    /// changed it (anything its cells see), the world grid is swept again at once and
-    /// the nodes an object now rises above are evicted ([`FrameStats::evicted`]):
-    /// [`Hierarchy::update`] builds them anew, taller. Wherever a material changed, the
+    /// changed it (anything its cells see), the world grid is swept again at once, and
+    /// a node whose column the scene changed (an object now rises above its levels, or
+    /// is gone) is built anew at its new height within the round
+    /// ([`FrameStats::regrown`]), before the finer nodes that read it. Wherever a material changed, the
     /// nodes whose sun shines through it are marched again within the round (showing
     /// their sun meanwhile). Settled, the hierarchy is one built over the new scene.
     ///
@@ -127,7 +128,9 @@ impl Hierarchy {
             HashMap::default();
         let mut jobs = Vec::new();
         let mut rebuilt = Vec::new();
-        let mut evicted = false;
+        // Nodes whose column the scene changed, swept anew at their new height as
+        // `update` builds a new node, and their materials (the jobs' indices).
+        let (mut regrown, mut regrown_materials) = (Vec::new(), Vec::new());
         let sun = self.sun.is_some();
         for (i, &key) in keys.iter().enumerate() {
             if self.checked.contains(&key) {
@@ -171,15 +174,33 @@ impl Hierarchy {
                 && p.material.open_above == n.material.open_above;
             let Some(inputs) = p.inputs.filter(|_| same_column) else {
                 // The scene changed its column (an object risen above its levels, or
-                // gone): evicted, for `update` to build anew as it builds any node; the
-                // nodes whose sun shines through it are marked, finer ones checked again.
+                // gone): built anew at its new height in this round, as `update`
+                // builds a new node (its finer nodes, checked again, then read it
+                // once); the nodes whose sun shines through it are marked.
+                let desc = *p.material.grid.desc();
+                if self.over_budget(
+                    stats.points_swept,
+                    apron::sky_points(&desc, self.params.apron),
+                ) {
+                    stats.pending += 1;
+                    self.recomposed.insert(key, p.material);
+                    continue;
+                }
                 let old = changed_box(&n.material.grid, &p.material.grid);
                 self.nodes.remove(&key);
-                stats.evicted += 1;
+                stats.regrown += 1;
                 if let Some(b) = old {
                     self.mark_suns_crossing(b, Some(key));
                 }
-                evicted = true;
+                let sky = Job {
+                    material: Some(regrown_materials.len()),
+                    sky: true,
+                    ..Job::new(key)
+                };
+                regrown.push(key);
+                regrown_materials.push(p.material);
+                self.budgeted_sky_jobs(sky, &desc, stats, &mut jobs);
+                self.checked.insert(key);
                 continue;
             };
             let unchanged =
@@ -209,7 +230,8 @@ impl Hierarchy {
         for (key, p) in prepared {
             self.recomposed.insert(key, p.material);
         }
-        if !rebuilt.is_empty() || evicted {
+        let column_changed = !regrown.is_empty();
+        if !rebuilt.is_empty() || column_changed {
             // Finer nodes read these ones' light, and so do the nodes of this depth
             // after them where they read those (`neighbours.rs`): checked again.
             let depth = keys[0].depth;
@@ -218,13 +240,14 @@ impl Hierarchy {
                 k.depth < depth
                     || (k.depth == depth
                         && !(on
-                            && (evicted
+                            && (column_changed
                                 || rebuilt
                                     .iter()
                                     .any(|(r, _, _)| crate::neighbours::before(*r, *k)))))
             });
         }
         let provisional: Vec<NodeKey> = (rebuilt.iter().map(|(k, _, _)| *k))
+            .chain(regrown.iter().copied())
             .filter(|k| self.reads_unsettled(*k, wanted))
             .collect();
         // The sweeps read the rebuilt nodes' new materials where they keep theirs. A
@@ -247,8 +270,8 @@ impl Hierarchy {
                 self.mark_suns_crossing(b, Some(key));
             }
         }
-        let jobs = self.compose_jobs_casters(jobs, &[], &[], stats)?;
-        let done = self.run_jobs(jobs, &[], &[], &mut stats.times);
+        let jobs = self.compose_jobs_casters(jobs, &regrown, &regrown_materials, stats)?;
+        let done = self.run_jobs(jobs, &regrown, &regrown_materials, &mut stats.times);
         self.mark_provisional(provisional);
         done
     }

@@ -273,13 +273,23 @@ fn refresh_and_settle(mut h: Hierarchy) {
     same_as_without_a_budget(&h, Some(sky));
 }
 
+/// What [`refresh_round_then_settle`] did: the nodes the round evicted and built
+/// anew at a new height, and the nodes `update` then built.
+#[derive(Debug, Default, Clone, Copy)]
+struct Round {
+    evicted: u32,
+    regrown: u32,
+    built_after: u32,
+}
+
 /// `refresh` frames until a round ends, then `update` frames until nothing (sun
-/// included) is pending; the nodes the round evicted.
-fn refresh_round_then_settle(h: &mut Hierarchy) -> u32 {
-    let mut evicted = 0;
+/// included) is pending.
+fn refresh_round_then_settle(h: &mut Hierarchy) -> Round {
+    let mut r = Round::default();
     for f in 0.. {
         let s = h.refresh(CAMERA).unwrap();
-        evicted += s.evicted;
+        r.evicted += s.evicted;
+        r.regrown += s.regrown;
         if s.pending == 0 {
             break;
         }
@@ -287,12 +297,13 @@ fn refresh_round_then_settle(h: &mut Hierarchy) -> u32 {
     }
     for f in 0.. {
         let s = h.update(CAMERA).unwrap();
+        r.built_after += s.built;
         if s.pending == 0 && s.sun_pending == 0 {
             break;
         }
         assert!(f < 60, "never settled: {s:?}");
     }
-    evicted
+    r
 }
 
 /// `settle` under the same budget builds every node once, coarse to fine, and ends
@@ -485,12 +496,12 @@ fn without_and_with_block(
 
 /// What [`without_and_with_block`]'s hierarchies (without a budget) read at `points`:
 /// the first before the block appears and after a round of `refresh` frames and
-/// `update` until settled, the second's; and the nodes the round evicted.
+/// `update` until settled, the second's; and what the round did.
 struct Refreshed {
     before: Vec<lightgrid_core::Reading>,
     after: Vec<lightgrid_core::Reading>,
     fresh: Vec<lightgrid_core::Reading>,
-    evicted: u32,
+    round: Round,
 }
 
 fn refreshed_block(inside: fn(Vec3) -> bool, with_sky: bool, points: &[Vec3]) -> Refreshed {
@@ -504,12 +515,12 @@ fn refreshed_block(inside: fn(Vec3) -> bool, with_sky: bool, points: &[Vec3]) ->
     };
     let before = read(&changed);
     switch.store(true, std::sync::atomic::Ordering::Relaxed);
-    let evicted = refresh_round_then_settle(&mut changed);
+    let round = refresh_round_then_settle(&mut changed);
     Refreshed {
         before,
         after: read(&changed),
         fresh: read(&fresh),
-        evicted,
+        round,
     }
 }
 
@@ -543,9 +554,10 @@ fn a_changed_scene_refreshed_shades_the_sun() {
 
 /// The same with the block put above the nodes' levels (8 to 12 m up, where the
 /// nodes' columns end under the layer's top): the refresh round composes the world
-/// grid again, sweeps it, and evicts the nodes whose columns the block now rises
-/// above, which `update` builds anew at their new height. Settled, the light (bins
-/// and sun) in and around the block is a fresh build's, bit for bit.
+/// grid again, sweeps it, and builds the nodes whose columns the block now rises
+/// above anew at their new height (none evicted: `update` then builds nothing).
+/// Settled, the light (bins and sun) in and around the block is a fresh build's, bit
+/// for bit.
 #[test]
 fn a_changed_scene_above_the_nodes_is_lit_as_a_fresh_build() {
     let inside = |p: Vec3| {
@@ -561,8 +573,11 @@ fn a_changed_scene_above_the_nodes_is_lit_as_a_fresh_build() {
         .collect();
     for with_sky in [false, true] {
         let r = refreshed_block(inside, with_sky, &points);
-        // The round evicts the nodes the block rises above (their columns grow).
-        assert!(r.evicted > 0, "no node evicted");
+        // The round builds the nodes the block rises above anew (their columns
+        // grow), finer nodes after them: nothing is left for `update`.
+        let round = r.round;
+        assert!(round.regrown > 0, "no column grew: {round:?}");
+        assert_eq!((round.evicted, round.built_after), (0, 0), "{round:?}");
         // (Else the test could not fail: the block shades its own points, on the
         // whole: those at its faces toward the sun less.)
         let shaded = |r: &[lightgrid_core::Reading]| -> f32 {
@@ -705,7 +720,8 @@ fn settled_under_a_budget_with_the_sun_swept_with_the_sky_is_built_without_one()
 /// that read it to be swept again too: without that, with the sun apart and the
 /// coarser grids' halos, two of the first three blocks left 558 to 932 of the 9,216
 /// reads off, and with the sun swept with the sky and the neighbours' halos 2,605 and
-/// 3,552.
+/// 3,552. The last block rises above the nodes' levels: the round builds their
+/// taller columns anew (some in its later frames, the budget spent), none evicted.
 #[test]
 fn a_changed_scene_refreshed_under_a_budget_is_a_fresh_build() {
     use std::sync::atomic::Ordering;
@@ -721,7 +737,13 @@ fn a_changed_scene_refreshed_under_a_budget_is_a_fresh_build() {
         for options in [(false, false), (true, false), (false, true), (true, true)] {
             let ((mut changed, switch), fresh) = without_and_with_block(inside, options, SMALL);
             switch.store(true, Ordering::Relaxed);
-            refresh_round_then_settle(&mut changed);
+            let round = refresh_round_then_settle(&mut changed);
+            // The last block rises above the nodes' levels: their columns grow within
+            // the round (some left by the budget for its later frames), none evicted.
+            if b == 3 {
+                assert!(round.regrown > 0, "{round:?}");
+                assert_eq!((round.evicted, round.built_after), (0, 0), "{round:?}");
+            }
             for i in 0..48 {
                 for k in 0..48 {
                     for y in [0.5, 3.5, 6.5, 9.5] {
