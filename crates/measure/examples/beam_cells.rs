@@ -13,11 +13,18 @@
 //!   presets' 0.5): more blurs the 26 directions' ray effects.
 //! - `--albedo A --ground G`: the media's and the ground's albedo (0.7 and 0.2):
 //!   `--albedo 0.1 --ground 0` leaves the once-scattered light nearly alone.
+//! - `--beam-refine K`: the beam's first collisions on cells K times smaller, summed
+//!   back into each cell with their height moments, swept on the cells: what is left
+//!   is not where the beam collides within a cell.
+//! - `--refine 2 --spread`: the beam's collisions on the cells spread over the sweep's
+//!   cells half as large (each cell's two halves in height by its first moment, even
+//!   across x and z): what is left is not the transport's cell size.
 //!
 //! `cargo run --release -p lightgrid-measure --example beam_cells -- [--paths N]
-//! [--elevation DEG] [--refine K] [--smoothing S] [--albedo A] [--ground G]` (2 M
-//! paths: about 10 s).
+//! [--elevation DEG] [--refine K [--spread]] [--beam-refine K] [--smoothing S]
+//! [--albedo A] [--ground G]` (2 M paths: about 10 s).
 
+use lightgrid_core::CellSource;
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{
@@ -25,6 +32,7 @@ use lightgrid_core::{
 };
 use lightgrid_measure::sun_measure::{patchy_canopy, sun_reference};
 use lightgrid_sky::Sun;
+use lightgrid_sweep_cpu::beam::FirstCollisions;
 use lightgrid_sweep_cpu::sun::{BeamOptions, first_collisions};
 
 /// `m` with every cell cut into `k³` cells of the same media (opaque and clear cells
@@ -47,6 +55,82 @@ fn refined(m: &MaterialGrid, k: u32) -> Result<MaterialGrid, Box<dyn std::error:
         })
         .collect();
     Ok(MaterialGrid::new(fine, cells)?)
+}
+
+/// `fine`'s collisions (on cells `k` times smaller than `coarse`'s) summed back into
+/// the cells of `coarse`, with their height moments, and the transmittance `mean_t`
+/// (`coarse`'s own).
+fn summed_back(
+    fine: &CellSource,
+    coarse: &GridDesc,
+    k: u32,
+    mean_t: Option<Vec<f32>>,
+) -> Result<FirstCollisions, Box<dyn std::error::Error>> {
+    let n = coarse.point_count();
+    let (mut removed, mut c1, mut c2) = (vec![Vec3::ZERO; n], vec![0.0f64; n], vec![0.0f64; n]);
+    let heights = fine.heights().ok_or("no height moments")?;
+    let kf = k as f64;
+    for (i, r) in fine.removed().iter().enumerate() {
+        let c = fine.desc().coords(i).ok_or("index")?;
+        let j = coarse.index(c / k).ok_or("index")?;
+        // Flux per `h²` of the finer cells, per `h²` of the cell.
+        let r = *r / (k * k) as f32;
+        removed[j] += r;
+        let w = luminance(r) as f64;
+        // The finer cell's height `y ∈ [-1, 1]` within the cell: `(y_f + off) / k`.
+        let off = 2.0 * (c.y % k) as f64 + 1.0 - kf;
+        let (m1, m2) = (heights[i][0] as f64, heights[i][1] as f64);
+        let y2 = ((2.0 * m2 + 1.0) / 3.0 + 2.0 * off * m1 + off * off) / (kf * kf);
+        c1[j] += w * (m1 + off) / kf;
+        c2[j] += w * (3.0 * y2 - 1.0) / 2.0;
+    }
+    let heights = (0..n)
+        .map(|j| match luminance(removed[j]) as f64 {
+            w if w > 0.0 => [(c1[j] / w) as f32, (c2[j] / w) as f32],
+            _ => [0.0, 0.0],
+        })
+        .collect();
+    Ok(FirstCollisions {
+        source: CellSource::with_heights(*coarse, removed, heights, fine.dir())?,
+        budget: Default::default(),
+        mean_transmittance: mean_t,
+    })
+}
+
+/// `coarse`'s collisions spread over the cells of `fine` (half as large): each cell's
+/// two halves in height by its first height moment, even across x and z and within
+/// each half.
+fn spread_in_two(
+    coarse: &CellSource,
+    fine: &GridDesc,
+) -> Result<CellSource, Box<dyn std::error::Error>> {
+    let heights = coarse.heights().ok_or("no height moments")?;
+    let n = fine.point_count();
+    let mut removed = vec![Vec3::ZERO; n];
+    for (i, r) in removed.iter_mut().enumerate() {
+        let c = fine.coords(i).ok_or("index")?;
+        let j = coarse.desc().index(c / 2).ok_or("index")?;
+        // A profile `(1 + 3 m1 y) / 2` puts `1/2 ∓ 3 m1 / 4` in the lower and upper half.
+        let m1 = heights[j][0];
+        let half = if c.y % 2 == 0 {
+            1.0 - 1.5 * m1
+        } else {
+            1.0 + 1.5 * m1
+        };
+        // Flux per `h²` of the cell, over 8 cells of a quarter of its area.
+        *r = coarse.removed()[j] / 2.0 * half.max(0.0);
+    }
+    Ok(CellSource::with_heights(
+        *fine,
+        removed,
+        vec![[0.0, 0.0]; n],
+        coarse.dir(),
+    )?)
+}
+
+/// Whether `name` is among the arguments.
+fn flag(name: &str) -> bool {
+    std::env::args().any(|a| a == name)
 }
 
 fn arg<T: std::str::FromStr>(name: &str, default: T) -> Result<T, String> {
@@ -107,6 +191,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &open,
         &BeamOptions::DEFAULT.with_mean_transmittance(),
     )?;
+    // Where the level bias comes from: the beam on finer cells summed back into each
+    // cell (`--beam-refine K`), or the beam on the cells spread over the finer cells
+    // of the sweep (`--refine 2 --spread`).
+    let beam = match (arg("--beam-refine", 1u32)?.clamp(1, 4), k, flag("--spread")) {
+        (bk, 1, false) if bk > 1 => {
+            let b = first_collisions(&refined(&m, bk)?, s, e, true, &open, &BeamOptions::DEFAULT)?;
+            summed_back(&b.source, m.desc(), bk, beam.mean_transmittance)?
+        }
+        (1, 2, true) => {
+            let coarse = first_collisions(&m, s, e, true, &open, &BeamOptions::DEFAULT)?;
+            FirstCollisions {
+                source: spread_in_two(&coarse.source, fine.desc())?,
+                ..beam
+            }
+        }
+        (1, _, false) => beam,
+        _ => return Err("--beam-refine needs --refine 1; --spread needs --refine 2".into()),
+    };
     let scattered = lightgrid_sweep_cpu::run_with_source(&fine, &dark, Some(&beam.source), &o)?
         .output
         .bins
