@@ -250,11 +250,23 @@ impl Hierarchy {
             .chain(regrown.iter().copied())
             .filter(|k| self.reads_unsettled(*k, wanted))
             .collect();
-        // The sweeps read the rebuilt nodes' new materials where they keep theirs. A
-        // node whose material changed drops its sun: its transmittance crossed the old
-        // one (else the node shows it until its sun is swept again: `kept_sun`).
-        // Other nodes whose march crosses a changed material are marked to be marched
-        // again (a finer node's march beyond its box crosses this one's material).
+        self.keep_rebuilt_materials(rebuilt);
+        let jobs = self.compose_jobs_casters(jobs, &regrown, &regrown_materials, stats)?;
+        let done = self.run_jobs(jobs, &regrown, &regrown_materials, &mut stats.times);
+        self.mark_provisional(provisional);
+        done
+    }
+
+    /// Gives the nodes `refresh_depth` rebuilds on their grids their new materials
+    /// (grid and widened), which their sweeps read. A node whose material changed
+    /// drops its sun: its transmittance crossed the old one (else the node shows it
+    /// until its sun is swept again: `kept_sun`). Other nodes whose march crosses a
+    /// changed material are marked to be marched again (a finer node's march beyond
+    /// its box crosses this one's material).
+    fn keep_rebuilt_materials(
+        &mut self,
+        rebuilt: Vec<(NodeKey, MaterialGrid, Option<MaterialGrid>)>,
+    ) {
         for (key, grid, widened) in rebuilt {
             let n = self.nodes.get_mut(&key).expect("ready node");
             let changed = match &n.material.widened {
@@ -270,10 +282,6 @@ impl Hierarchy {
                 self.mark_suns_crossing(b, Some(key));
             }
         }
-        let jobs = self.compose_jobs_casters(jobs, &regrown, &regrown_materials, stats)?;
-        let done = self.run_jobs(jobs, &regrown, &regrown_materials, &mut stats.times);
-        self.mark_provisional(provisional);
-        done
     }
 
     /// The materials of ready nodes `keys` composed from the scene as `update` composes
