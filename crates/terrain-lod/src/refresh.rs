@@ -33,9 +33,10 @@ impl Hierarchy {
     /// changed it (anything its cells see), the world grid is swept again at once, and
     /// a node whose column the scene changed (an object now rises above its levels, or
     /// is gone) is built anew at its new height within the round
-    /// ([`FrameStats::regrown`]), before the finer nodes that read it. Wherever a material changed, the
-    /// nodes whose sun shines through it are marched again within the round (showing
-    /// their sun meanwhile). Settled, the hierarchy is one built over the new scene.
+    /// ([`FrameStats::regrown`]), before the finer nodes that read it. Wherever a
+    /// material changed, the nodes whose sun shines through it are marched again within
+    /// the round (showing their sun meanwhile). Settled, the hierarchy is one built
+    /// over the new scene.
     ///
     /// Call it frame after frame until it returns `pending == 0`: such a round of
     /// calls checks each ready node once (a node its first frames checked is not
@@ -178,10 +179,8 @@ impl Hierarchy {
                 // builds a new node (its finer nodes, checked again, then read it
                 // once); the nodes whose sun shines through it are marked.
                 let desc = *p.material.grid.desc();
-                if self.over_budget(
-                    stats.points_swept,
-                    apron::sky_points(&desc, self.params.apron),
-                ) {
+                let sky_points = apron::sky_points(&desc, self.params.apron);
+                if self.over_budget(stats.points_swept, sky_points) {
                     stats.pending += 1;
                     self.recomposed.insert(key, p.material);
                     continue;
@@ -199,7 +198,10 @@ impl Hierarchy {
                 };
                 regrown.push(key);
                 regrown_materials.push(p.material);
-                self.budgeted_sky_jobs(sky, &desc, stats, &mut jobs);
+                stats.points_swept += sky_points;
+                stats.built += 1;
+                let sun_points = apron::sky_points(&desc, self.params.sun_apron);
+                self.sky_jobs(sky, sun_points, stats, &mut jobs);
                 self.checked.insert(key);
                 continue;
             };
