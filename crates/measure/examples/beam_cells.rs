@@ -110,15 +110,12 @@ fn spread_in_two(
     for (i, r) in removed.iter_mut().enumerate() {
         let c = fine.coords(i).ok_or("index")?;
         let j = coarse.desc().index(c / 2).ok_or("index")?;
-        // A profile `(1 + 3 m1 y) / 2` puts `1/2 ∓ 3 m1 / 4` in the lower and upper half.
-        let m1 = heights[j][0];
-        let half = if c.y % 2 == 0 {
-            1.0 - 1.5 * m1
-        } else {
-            1.0 + 1.5 * m1
-        };
+        // A profile `(1 + 3 m1 y) / 2` puts `1/2 ± 3 m1 / 4` in the upper and lower
+        // half (all in one where `|m1| > 2/3`: the halves' weights, `upper + lower = 2`).
+        let upper = (1.0 + 1.5 * heights[j][0]).clamp(0.0, 2.0);
+        let half = if c.y % 2 == 0 { 2.0 - upper } else { upper };
         // Flux per `h²` of the cell, over 8 cells of a quarter of its area.
-        *r = coarse.removed()[j] / 2.0 * half.max(0.0);
+        *r = coarse.removed()[j] / 2.0 * half;
     }
     Ok(CellSource::with_heights(
         *fine,
