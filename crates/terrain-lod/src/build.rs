@@ -416,7 +416,20 @@ impl Hierarchy {
             stats.pending += 1;
             return;
         }
-        stats.points_swept += sky_cost;
+        self.counted_sky_jobs(sky, desc, stats, jobs);
+    }
+
+    /// Adds `sky`, the sky job of a node on grid `desc` that the budget allows (a new
+    /// one, or one `refresh` rebuilds), and its sun's to `jobs`, its sky sweep's points
+    /// counted in `stats`.
+    pub(crate) fn counted_sky_jobs(
+        &self,
+        sky: Job,
+        desc: &lightgrid_core::GridDesc,
+        stats: &mut FrameStats,
+        jobs: &mut Vec<Job>,
+    ) {
+        stats.points_swept += crate::apron::sky_points(desc, self.params.apron);
         stats.built += 1;
         let sun_cost = crate::apron::sky_points(desc, self.params.sun_apron);
         self.sky_jobs(sky, sun_cost, stats, jobs);
@@ -425,7 +438,7 @@ impl Hierarchy {
     /// Adds `sky`, a node's sky job (built new, or rebuilt by `refresh`; its points
     /// counted), to `jobs`, and its sun responses (`cost` points) as a second job where
     /// they fit the budget, counted in `stats`.
-    pub(crate) fn sky_jobs(
+    fn sky_jobs(
         &self,
         sky: Job,
         cost: u64,

@@ -198,10 +198,7 @@ impl Hierarchy {
                 };
                 regrown.push(key);
                 regrown_materials.push(p.material);
-                stats.points_swept += sky_points;
-                stats.built += 1;
-                let sun_points = apron::sky_points(&desc, self.params.sun_apron);
-                self.sky_jobs(sky, sun_points, stats, &mut jobs);
+                self.counted_sky_jobs(sky, &desc, stats, &mut jobs);
                 self.checked.insert(key);
                 continue;
             };
@@ -215,16 +212,13 @@ impl Hierarchy {
             } else {
                 // Rebuilt as `update` builds a new node: its material may have changed,
                 // so its sun responses too.
-                stats.points_swept += sky_points;
-                stats.built += 1;
                 rebuilt.push((key, p.material.grid, p.material.widened));
                 let sky = Job {
                     sky: true,
                     inputs: Some(inputs),
                     ..Job::new(key)
                 };
-                let sun_points = apron::sky_points(&desc, self.params.sun_apron);
-                self.sky_jobs(sky, sun_points, stats, &mut jobs);
+                self.counted_sky_jobs(sky, &desc, stats, &mut jobs);
             }
             self.checked.insert(key);
         }
