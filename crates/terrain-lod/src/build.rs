@@ -438,13 +438,7 @@ impl Hierarchy {
     /// Adds `sky`, a node's sky job (built new, or rebuilt by `refresh`; its points
     /// counted), to `jobs`, and its sun responses (`cost` points) as a second job where
     /// they fit the budget, counted in `stats`.
-    fn sky_jobs(
-        &self,
-        sky: Job,
-        cost: u64,
-        stats: &mut FrameStats,
-        jobs: &mut Vec<Job>,
-    ) {
+    fn sky_jobs(&self, sky: Job, cost: u64, stats: &mut FrameStats, jobs: &mut Vec<Job>) {
         let key = sky.key;
         let mut sun = false;
         if self.sun.is_some() && !self.reads_coarse_scattered_sun(key) {
