@@ -60,6 +60,17 @@ impl Bound {
     }
 }
 
+/// The distance from `eye` to `instance`'s origin (its model matrix's translation):
+/// what [`crate::Renderer::set_draw_range`] tests, the same for every mesh of a model.
+pub fn distance(instance: &crate::MeshInstance, eye: Vec3) -> f32 {
+    Vec3::new(
+        instance.model[3][0],
+        instance.model[3][1],
+        instance.model[3][2],
+    )
+    .distance(eye)
+}
+
 /// The six planes of a view frustum (wgpu's clip space: `-w ≤ x, y ≤ w`, `0 ≤ z ≤ w`),
 /// each `(n, d)` with `n · p + d ≥ 0` inside, `n` of unit length.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -52,6 +52,7 @@
 
 pub mod cull;
 pub mod dynamic;
+pub mod impostor;
 pub mod passes;
 pub mod raster;
 pub mod sampling;

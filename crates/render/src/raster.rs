@@ -57,11 +57,12 @@ pub struct MeshMaterial {
     pub specular: f32,
     /// Blinn-Phong exponent of the specular term.
     pub shininess: f32,
-    /// Each instance draws the mesh's xy plane (its vertices' z ignored) turned to face
-    /// the eye at the instance's origin, scaled by the length of its model matrix's x
-    /// axis (its own rotation ignored), its normal towards the eye. For markers of one flat colour
-    /// ([`Lighting::Emissive`]): a polygon looks as a ball does for a fraction of its
-    /// triangles, and a software rasteriser's cost is per triangle.
+    /// Each instance draws the mesh's xy plane turned to face the eye at the instance's
+    /// origin, each vertex moved its z toward the eye, all scaled by the length of its
+    /// model matrix's x axis (its own rotation ignored), its normal towards the eye. For
+    /// markers of one flat colour ([`Lighting::Emissive`]): a polygon looks as a ball
+    /// does for a fraction of its triangles, and a software rasteriser's cost is per
+    /// triangle; and for a far model's picture ([`crate::impostor`]).
     pub billboard: bool,
 }
 
@@ -237,6 +238,9 @@ struct GpuMesh {
     double_sided: bool,
     /// The sphere around the vertices ([`crate::cull`]).
     bound: Bound,
+    /// Distances from the eye to an instance's origin at which it is drawn
+    /// ([`Renderer::set_draw_range`]).
+    range: std::ops::Range<f32>,
 }
 
 /// A mesh's instances: all of them on the device and here, and a buffer as large for
@@ -717,14 +721,11 @@ impl Renderer {
             bind,
             instances: None,
             double_sided: material.double_sided,
+            range: 0.0..f32::INFINITY,
             bound: if material.billboard {
-                // Turned about the instance's origin: the sphere there holding every
-                // vertex's (x, y).
-                Bound::around_origin(
-                    vertices
-                        .iter()
-                        .map(|v| Vec3::new(v.position[0], v.position[1], 0.0)),
-                )
+                // Turned about the instance's origin, each vertex moved its z toward the
+                // eye: the sphere there holding every vertex's (x, y, z).
+                Bound::around_origin(vertices.iter().map(|v| Vec3::from_array(v.position)))
             } else {
                 Bound::of(vertices.iter().map(|v| Vec3::from_array(v.position)))
             },
@@ -751,6 +752,37 @@ impl Renderer {
             .into());
         }
         self.ctx.queue.write_buffer(&m.vertices, 0, bytes);
+        Ok(())
+    }
+
+    /// Draws `mesh`'s instances only where the distance from the eye to an instance's
+    /// origin lies in `range` (at first `0..∞`: every one). A model's meshes drawn
+    /// within a distance and its [`crate::impostor::Impostor`] beyond it, both with the
+    /// same instances, draw each instance once, whole near the eye and as a picture
+    /// far from it. `range.start` must be finite and at least 0, `range.end` above it
+    /// (it may be infinite).
+    pub fn set_draw_range(
+        &mut self,
+        mesh: MeshId,
+        range: std::ops::Range<f32>,
+    ) -> Result<(), RenderError> {
+        let Some(m) = self.meshes.get_mut(mesh.0) else {
+            return Err(GridError::invalid("mesh", mesh.0, "no such mesh").into());
+        };
+        if !(range.start >= 0.0 && range.start.is_finite()) {
+            return Err(GridError::invalid(
+                "range.start",
+                range.start,
+                "must be finite and at least 0",
+            )
+            .into());
+        }
+        if range.end.partial_cmp(&range.start) != Some(std::cmp::Ordering::Greater) {
+            return Err(
+                GridError::invalid("range.end", range.end, "must exceed range.start").into(),
+            );
+        }
+        m.range = range;
         Ok(())
     }
 
@@ -1080,24 +1112,29 @@ impl Renderer {
     }
 
     /// What each of `view`'s meshes draws: the instances whose bounding spheres the
-    /// camera may see, written into their `seen` buffers where some are not.
+    /// camera may see at a distance in the mesh's draw range, written into their `seen`
+    /// buffers where some are not.
     fn cull(&self, view: &View, enc: &mut wgpu::CommandEncoder) -> Vec<Drawn> {
         let frustum = Frustum::of(
             &view
                 .camera
                 .view_proj(self.width as f32 / self.height as f32),
         );
+        let eye = view.camera.position;
         view.meshes
             .iter()
             .map(|id| {
-                let Some(inst) = &self.meshes[id.0].instances else {
+                let m = &self.meshes[id.0];
+                let Some(inst) = &m.instances else {
                     return Drawn::Nothing;
                 };
                 let seen: Vec<MeshInstance> = inst
                     .list
                     .iter()
                     .zip(&inst.bounds)
-                    .filter(|(_, b)| frustum.may_see(b))
+                    .filter(|(i, b)| {
+                        frustum.may_see(b) && m.range.contains(&crate::cull::distance(i, eye))
+                    })
                     .map(|(i, _)| *i)
                     .collect();
                 if seen.len() == inst.list.len() {

@@ -191,6 +191,54 @@ fn culled_instances_leave_the_image_as_it_was() {
     );
 }
 
+/// A mesh's draw range (`Renderer::set_draw_range`) keeps the instances whose origin
+/// lies within it from the eye: near and far instances drawn with the range `0..d`
+/// give the image of the near ones alone, with `d..∞` that of the far ones alone, bit
+/// for bit; each shows (the images differ from the background's). Bad ranges are
+/// refused, naming the bound.
+#[test]
+fn a_draw_range_keeps_the_instances_at_its_distances() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+    let (mut v, i) = quad(0.0, Vec3::splat(3.0));
+    for p in &mut v {
+        p.position = [p.position[0] / 20.0, 0.0, p.position[2] / 20.0];
+    }
+    let material = MeshMaterial {
+        lighting: Lighting::Vertex,
+        ..Default::default()
+    };
+    let at =
+        |x: f32, y: f32| MeshInstance::new(Mat4::from_translation(Vec3::new(x, y, 0.0)), Vec4::ONE);
+    // The eye 5 m above the origin looking down: one quad 5 m away, one 4 m lower (9 m).
+    let (near, far) = ([at(-1.0, 0.0)], [at(1.0, -4.0)]);
+    let id = r.add_mesh(&v, &i, &material).unwrap();
+    let render = |r: &mut Renderer, list: &[MeshInstance], range: std::ops::Range<f32>| {
+        r.set_instances(id, list).unwrap();
+        r.set_draw_range(id, range).unwrap();
+        r.render(&view(LightingMode::Grid, vec![id])).unwrap()
+    };
+    let both = [near, far].concat();
+    let within = render(&mut r, &both, 0.0..7.0);
+    let near_alone = render(&mut r, &near, 0.0..f32::INFINITY);
+    assert!(within.hdr == near_alone.hdr && within.srgb == near_alone.srgb);
+    let beyond = render(&mut r, &both, 7.0..f32::INFINITY);
+    let far_alone = render(&mut r, &far, 0.0..f32::INFINITY);
+    assert!(beyond.hdr == far_alone.hdr && beyond.srgb == far_alone.srgb);
+    let background = render(&mut r, &both, 20.0..30.0);
+    assert!(near_alone.hdr != background.hdr && far_alone.hdr != background.hdr);
+    for (range, what) in [
+        (-1.0..2.0, "range.start"),
+        (f32::NAN..2.0, "range.start"),
+        (f32::INFINITY..f32::INFINITY, "range.start"),
+        (3.0..3.0, "range.end"),
+        (3.0..f32::NAN, "range.end"),
+    ] {
+        let e = r.set_draw_range(id, range).unwrap_err().to_string();
+        assert!(e.contains(what), "{e}");
+    }
+}
+
 #[test]
 fn vertex_light_and_tone_mapping_give_known_answers() {
     let Some(r) = renderer() else { return };
@@ -527,10 +575,11 @@ fn alpha_mask_and_emissive_tint() {
 }
 
 /// A billboard (`MeshMaterial::billboard`) faces every eye: a square of side 4 in its
-/// mesh's xy plane (its z ignored, its instance turned about x, which is ignored too)
-/// covers the same pixels' count from above, the side, below and askew, all of them
-/// its emissive tint, as many as its area seen face on (within the rasterised edges'
-/// pixels); the same mesh drawn as given is edge-on from the side and shows nothing.
+/// mesh's xy plane (its instance turned about x, which is ignored) covers the same
+/// pixels' count from above, the side, below and askew, all of them its emissive tint,
+/// as many as its area seen face on (within the rasterised edges' pixels); the same
+/// mesh drawn as given is edge-on from the side and shows nothing; and its vertices'
+/// z moves it toward the eye (z 3 at scale 2, half the way from 12 m: twice as wide).
 #[test]
 fn a_billboard_faces_every_eye() {
     let Some(r) = renderer() else { return };
@@ -574,7 +623,8 @@ fn a_billboard_faces_every_eye() {
             .unwrap();
         id
     };
-    let board = add(true, 7.0);
+    let board = add(true, 0.0);
+    let nearer = add(true, 3.0);
     let flat = add(false, 0.0);
     let distance = 12.0f32;
     // The square's side across the image at that distance, in pixels (60° field).
@@ -587,21 +637,23 @@ fn a_billboard_faces_every_eye() {
         Vec3::new(-0.3, -1.0, 0.2),
         Vec3::new(-1.0, 0.2, -1.0),
     ] {
-        let mut v = view(LightingMode::Grid, vec![board]);
-        v.camera = Camera::look_at(dir.normalize() * distance, Vec3::ZERO);
-        let img = r.render(&v).unwrap();
-        let drawn = img.hdr.iter().filter(|p| p[0] != 9.0).count();
-        for p in img.hdr.iter().filter(|p| p[0] != 9.0) {
-            let got = Vec3::new(p[0], p[1], p[2]);
-            assert!((got - tint).abs().max_element() < 1e-3, "{dir}: {got}");
+        for (mesh, side) in [(board, side), (nearer, 2.0 * side)] {
+            let mut v = view(LightingMode::Grid, vec![mesh]);
+            v.camera = Camera::look_at(dir.normalize() * distance, Vec3::ZERO);
+            let img = r.render(&v).unwrap();
+            let drawn = img.hdr.iter().filter(|p| p[0] != 9.0).count();
+            for p in img.hdr.iter().filter(|p| p[0] != 9.0) {
+                let got = Vec3::new(p[0], p[1], p[2]);
+                assert!((got - tint).abs().max_element() < 1e-3, "{dir}: {got}");
+            }
+            // Within the pixels of its edges (a side's worth) of its area.
+            assert!(
+                (drawn as f32 - side * side).abs() <= 2.0 * side,
+                "{dir}: {drawn} pixels, area {}",
+                side * side
+            );
+            counts.push(drawn);
         }
-        // Within the pixels of its edges (a side's worth) of its area.
-        assert!(
-            (drawn as f32 - side * side).abs() <= 2.0 * side,
-            "{dir}: {drawn} pixels, area {}",
-            side * side
-        );
-        counts.push(drawn);
     }
     // From the side the plain square lies edge-on.
     let mut v = view(LightingMode::Grid, vec![flat]);

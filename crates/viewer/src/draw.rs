@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use lightgrid_core::glam::{Mat4, UVec3, Vec2, Vec3, Vec4};
 use lightgrid_core::{GridDesc, LightField, LightGrid, MaterialSource};
 use lightgrid_material_voxelizer::model::{AlphaMode, Model};
+use lightgrid_render::impostor::{Impostor, ImpostorParams, Part};
 use lightgrid_render::shading::linear_to_srgb8;
 use lightgrid_render::{
     Camera, GpuHorizon, GpuLightGrid, GpuLightSampler, GpuPoints, GpuSampleLayer, GroundLight,
@@ -130,11 +131,52 @@ pub struct MeshSources<'a> {
     pub instances: &'a [Instance],
     /// Dynamic lights.
     pub dynamic: &'a lightgrid_render::DynamicLights,
+    /// Metres from the eye beyond which models are drawn as their impostors (`None`:
+    /// every instance whole).
+    pub far_detail: Option<f32>,
 }
 
-/// One mesh per material of `model` (flat normals, UV transform applied).
-pub fn model_meshes(r: &mut Renderer, model: &Model, foliage: bool) -> Result<Vec<MeshId>> {
+/// One mesh per material of `model` (flat normals, UV transform applied), and beyond
+/// `far` metres from the eye ([`Renderer::set_draw_range`]) its impostor in their
+/// place (last in the list; [`ImpostorParams::trees`]: at the demo's 120 m a texel is
+/// about half a pixel of a 20 m tree in a 960 × 540 view's 60° field). Only foliage
+/// gets one: it is lit as foliage, which ignores the normal, where a rock's or a
+/// house's picture would lose its faces' shading.
+pub fn model_meshes(
+    r: &mut Renderer,
+    model: &Model,
+    foliage: bool,
+    far: Option<f32>,
+) -> Result<Vec<MeshId>> {
+    let parts = model_parts(model, foliage);
     let mut ids = Vec::new();
+    for (vertices, indices, material) in &parts {
+        ids.push(r.add_mesh(vertices, indices, material)?);
+    }
+    if let Some(far) = far.filter(|_| foliage && !parts.is_empty()) {
+        let list: Vec<Part<'_>> = parts
+            .iter()
+            .map(|(vertices, indices, material)| Part {
+                vertices,
+                indices,
+                material,
+            })
+            .collect();
+        let imp = Impostor::of(&list, &ImpostorParams::trees())?;
+        for id in &ids {
+            r.set_draw_range(*id, 0.0..far)?;
+        }
+        let id = r.add_mesh(&imp.vertices, &imp.indices, &imp.material)?;
+        r.set_draw_range(id, far..f32::INFINITY)?;
+        ids.push(id);
+    }
+    Ok(ids)
+}
+
+/// One part per material of `model` that has triangles: flat-normal vertices, their
+/// indices and the material.
+fn model_parts(model: &Model, foliage: bool) -> Vec<(Vec<Vertex>, Vec<u32>, MeshMaterial)> {
+    let mut parts = Vec::new();
     for (mi, mat) in model.materials.iter().enumerate() {
         let mut vertices = Vec::new();
         for tri in model.triangles.iter().filter(|t| t.material == mi as u32) {
@@ -175,9 +217,9 @@ pub fn model_meshes(r: &mut Renderer, model: &Model, foliage: bool) -> Result<Ve
             shininess: 24.0,
             billboard: false,
         };
-        ids.push(r.add_mesh(&vertices, &indices, &material)?);
+        parts.push((vertices, indices, material));
     }
-    Ok(ids)
+    parts
 }
 
 /// A ball's outline for the debug views: a regular polygon of [`DISC_SIDES`] sides in
@@ -302,7 +344,7 @@ impl SceneMeshes {
         r.set_instances(terrain, &[MeshInstance::new(Mat4::IDENTITY, Vec4::ONE)])?;
         let mut models = Vec::new();
         for (mi, entry) in world.models.iter().enumerate() {
-            let ids = model_meshes(r, &entry.model, entry.foliage)
+            let ids = model_meshes(r, &entry.model, entry.foliage, world.far_detail)
                 .with_context(|| format!("meshes of model {}", entry.name))?;
             let inst: Vec<MeshInstance> = world
                 .instances

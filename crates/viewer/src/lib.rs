@@ -77,6 +77,8 @@ pub struct Summary {
     pub views: Vec<ViewSummary>,
     /// Instances in the scene.
     pub instances: usize,
+    /// Metres from the eye beyond which foliage is drawn as impostors (`None`: never).
+    pub far_detail: Option<f32>,
     /// Dynamic lights, and the entries of their culling grid.
     pub dynamic_lights: (usize, usize),
     /// Bytes of the model material grids.
@@ -139,7 +141,14 @@ impl Summary {
         let _ = writeln!(s, "lightgrid viewer summary");
         let _ = writeln!(s, "  grids swept by: {}", self.sweeper);
         let _ = writeln!(s, "  rendered on:    {}", self.renderer);
-        let _ = writeln!(s, "  instances:      {}", self.instances);
+        let _ = match self.far_detail {
+            Some(d) => writeln!(
+                s,
+                "  instances:      {} (foliage beyond {d} m from the eye drawn as impostors)",
+                self.instances
+            ),
+            None => writeln!(s, "  instances:      {}", self.instances),
+        };
         let _ = writeln!(s, "  sun:            {}", self.sun);
         if let Some(m) = &self.sun_move {
             let _ = writeln!(s, "  sun moved:      {m}");
@@ -352,6 +361,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
         timings: rec.timings,
         views,
         instances: world.instances.len(),
+        far_detail: Some(world.scene.render.far_detail).filter(|&d| d > 0.0),
         dynamic_lights: (world.dynamic.lights.len(), world.dynamic.indices.len()),
         model_grid_bytes: world.model_grid_bytes,
         probes: world.probes.as_ref().map(|p| p.summary()),
@@ -513,14 +523,17 @@ fn upload_beside_first_view(
         models,
         instances,
         dynamic,
+        scene,
         ..
     } = world;
+    let far = scene.render.far_detail;
     let sources = draw::MeshSources {
         heightmap,
         ground,
         models,
         instances,
         dynamic,
+        far_detail: (far > 0.0).then_some(far),
     };
     let (uploaded, prepared) = std::thread::scope(|s| {
         let upload = s.spawn(|| {

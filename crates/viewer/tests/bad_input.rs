@@ -231,3 +231,22 @@ fn daylight_turbidity_out_of_range_is_named() {
     let msg = format!("{e:#}");
     assert!(msg.contains("sky.turbidity = 40"), "{msg}");
 }
+
+/// The distance beyond which foliage is drawn as impostors must be finite and at least
+/// 0 (0: none); the scene names it.
+#[test]
+fn a_bad_far_detail_is_named() {
+    for v in ["-1.0", "inf", "nan"] {
+        let text = format!(
+            "{TERRAIN_512}\n[render]\nfar_detail = {v}\n[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
+        );
+        let e = format!(
+            "{:#}",
+            SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(e.contains("render.far_detail"), "{v}: {e}");
+    }
+    let off = scene(&format!("{TERRAIN_512}\n[render]\nfar_detail = 0.0\n"));
+    assert_eq!(off.render.far_detail, 0.0);
+    assert_eq!(scene(TERRAIN_512).render.far_detail, 120.0, "the default");
+}

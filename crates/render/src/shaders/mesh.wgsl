@@ -51,7 +51,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
     var normal = (model * vec4<f32>(v.normal, 0.0)).xyz;
     if (mesh.shape.x != 0u) {
         // A billboard: the mesh's xy plane turned to face the eye at the instance's
-        // origin, scaled as the model's x axis.
+        // origin, each vertex moved its z toward the eye, scaled as the model's x axis.
         let centre = v.m3.xyz;
         let to_eye = normalize(frame.eye.xyz - centre);
         var right = cross(vec3<f32>(0.0, 1.0, 0.0), to_eye);
@@ -61,7 +61,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
         right = normalize(right);
         let up = cross(to_eye, right);
         let s = length(v.m0.xyz);
-        world = vec4<f32>(centre + (right * v.position.x + up * v.position.y) * s, 1.0);
+        world = vec4<f32>(centre + (right * v.position.x + up * v.position.y + to_eye * v.position.z) * s, 1.0);
         normal = to_eye;
     }
     var out: VertexOut;
