@@ -63,7 +63,8 @@ pub struct Impostor {
 /// How an impostor is made ([`Impostor::of`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImpostorParams {
-    /// Texels across the picture's larger side (4–2048).
+    /// Texels across the picture's larger side (4–1024: at most 2048² samples of 20
+    /// bytes are drawn, 84 MB).
     pub texels: u32,
     /// Degrees above the horizon the model is seen from (0–80): the picture is its
     /// view along `−(0, sin e, cos e)`, what an eye that high sees of it (a crown seen
@@ -100,8 +101,8 @@ impl Impostor {
             elevation_deg,
             offset,
         } = *params;
-        if !(4..=2048).contains(&texels) {
-            return Err(GridError::invalid("texels", texels, "must be 4 to 2048").into());
+        if !(4..=1024).contains(&texels) {
+            return Err(GridError::invalid("texels", texels, "must be 4 to 1024").into());
         }
         if !(0.0..=80.0).contains(&elevation_deg) {
             return Err(
@@ -620,6 +621,7 @@ mod tests {
         };
         for (texels, offset, what) in [
             (2, 0.0, "texels"),
+            (2000, 0.0, "texels"),
             (16, 1.5, "offset"),
             (16, f32::NAN, "offset"),
         ] {
