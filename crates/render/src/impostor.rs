@@ -441,6 +441,21 @@ mod tests {
         }
     }
 
+    /// The impostor of one part.
+    fn one(
+        (vertices, indices, material): (&[Vertex], &[u32], &MeshMaterial),
+        params: &ImpostorParams,
+    ) -> Result<Impostor, RenderError> {
+        Impostor::of(
+            &[Part {
+                vertices,
+                indices,
+                material,
+            }],
+            params,
+        )
+    }
+
     fn texel(t: &TextureRgba8, x: u32, y: u32) -> [u8; 4] {
         t.texels[(y * t.width + x) as usize]
     }
@@ -451,15 +466,7 @@ mod tests {
     fn a_rectangle_fills_its_box() {
         let (v, i) = rect(-2.0, 0.0, 2.0, 2.0, 0.0);
         let m = colour(Vec3::new(0.5, 0.25, 1.0));
-        let imp = Impostor::of(
-            &[Part {
-                vertices: &v,
-                indices: &i,
-                material: &m,
-            }],
-            &side(16, 0.0),
-        )
-        .unwrap();
+        let imp = one((&v, &i, &m), &side(16, 0.0)).unwrap();
         let t = imp.material.texture.as_ref().unwrap();
         assert_eq!((t.width, t.height), (16, 8));
         let want = [linear_to_srgb8(0.5), linear_to_srgb8(0.25), 255, 255];
@@ -526,30 +533,14 @@ mod tests {
             alpha_cutoff: Some(0.5),
             ..Default::default()
         };
-        let imp = Impostor::of(
-            &[Part {
-                vertices: &v,
-                indices: &i,
-                material: &m,
-            }],
-            &side(8, 0.0),
-        )
-        .unwrap();
+        let imp = one((&v, &i, &m), &side(8, 0.0)).unwrap();
         let t = imp.material.texture.as_ref().unwrap();
         for y in 0..8 {
             assert_eq!(texel(t, 1, y)[3], 255);
             assert_eq!(texel(t, 6, y)[3], 0);
         }
         // A 3-texel-wide model of the same texture: its middle texel half in each half.
-        let imp = Impostor::of(
-            &[Part {
-                vertices: &v,
-                indices: &i,
-                material: &m,
-            }],
-            &side(5, 0.0),
-        )
-        .unwrap();
+        let imp = one((&v, &i, &m), &side(5, 0.0)).unwrap();
         let t = imp.material.texture.as_ref().unwrap();
         let opaque = (0..5).filter(|&y| texel(t, 2, y)[3] == 255).count();
         assert!((2..=3).contains(&opaque), "{opaque} of 5");
@@ -570,15 +561,7 @@ mod tests {
             offset: 0.0,
         };
         let quad = [0, 1, 2, 0, 2, 3];
-        let imp = Impostor::of(
-            &[Part {
-                vertices: &flat,
-                indices: &quad,
-                material: &m,
-            }],
-            &params,
-        )
-        .unwrap();
+        let imp = one((&flat, &quad, &m), &params).unwrap();
         let t = imp.material.texture.as_ref().unwrap();
         assert_eq!((t.width, t.height), (16, 8));
         let (lo, hi) = (imp.vertices[0].position, imp.vertices[2].position);
@@ -592,15 +575,7 @@ mod tests {
             "the square covers its picture"
         );
         let (post, pi) = rect(-1.0, 0.0, 1.0, 2.0, 0.0);
-        let imp = Impostor::of(
-            &[Part {
-                vertices: &post,
-                indices: &pi,
-                material: &m,
-            }],
-            &params,
-        )
-        .unwrap();
+        let imp = one((&post, &pi, &m), &params).unwrap();
         let (lo, hi) = (imp.vertices[0].position, imp.vertices[2].position);
         let c = 30f32.to_radians().cos();
         assert!(
@@ -641,43 +616,22 @@ mod tests {
         let e = Impostor::of(&[], &side(16, 0.0)).unwrap_err().to_string();
         assert!(e.contains("parts"), "{e}");
         let (flat, fi) = rect(0.0, 0.0, 0.0, 1.0, 0.0);
-        let e = Impostor::of(
-            &[Part {
-                vertices: &flat,
-                indices: &fi,
-                material: &m,
-            }],
-            &side(16, 0.0),
-        )
-        .unwrap_err()
-        .to_string();
+        let e = one((&flat, &fi, &m), &side(16, 0.0))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("width and height"), "{e}");
-        let e = Impostor::of(
-            &[Part {
-                vertices: &v,
-                indices: &[0, 1, 9],
-                material: &m,
-            }],
-            &side(16, 0.0),
-        )
-        .unwrap_err()
-        .to_string();
+        let e = one((&v, &[0, 1, 9], &m), &side(16, 0.0))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("indices"), "{e}");
         let clear = MeshMaterial {
             base_colour: Vec4::new(1.0, 1.0, 1.0, 0.0),
             alpha_cutoff: Some(0.5),
             ..Default::default()
         };
-        let e = Impostor::of(
-            &[Part {
-                vertices: &v,
-                indices: &i,
-                material: &clear,
-            }],
-            &side(16, 0.0),
-        )
-        .unwrap_err()
-        .to_string();
+        let e = one((&v, &i, &clear), &side(16, 0.0))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("cover no texel"), "{e}");
     }
 }

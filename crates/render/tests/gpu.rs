@@ -149,14 +149,9 @@ fn kept_readback_buffers_give_each_image_its_own_pixels() {
     assert!(both[0] == other && both[1] == first);
 }
 
-/// Instances the camera cannot see are left out of the draw (`lightgrid_render::cull`)
-/// without changing the image: one in view, one across the view's edge, three outside
-/// (beside, behind, above the eye looking down) give the image of the first two alone,
-/// bit for bit, and the one across the edge shows.
-#[test]
-fn culled_instances_leave_the_image_as_it_was() {
-    let Some(r) = renderer() else { return };
-    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
+/// A flat quad 1 m across at the origin lit by its vertices' light (3 everywhere), to
+/// place as instances.
+fn small_quad(r: &mut Renderer) -> lightgrid_render::MeshId {
     let (mut v, i) = quad(0.0, Vec3::splat(3.0));
     for p in &mut v {
         p.position = [p.position[0] / 20.0, 0.0, p.position[2] / 20.0];
@@ -165,13 +160,24 @@ fn culled_instances_leave_the_image_as_it_was() {
         lighting: Lighting::Vertex,
         ..Default::default()
     };
+    r.add_mesh(&v, &i, &material).unwrap()
+}
+
+/// Instances the camera cannot see are left out of the draw (`lightgrid_render::cull`)
+/// without changing the image: one in view, one across the view's edge, three outside
+/// (beside, behind, above the eye looking down) give the image of the first two alone,
+/// bit for bit, and the one across the edge shows.
+#[test]
+fn culled_instances_leave_the_image_as_it_was() {
+    let Some(r) = renderer() else { return };
+    let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
     let at = |x: f32, y: f32, z: f32| {
         MeshInstance::new(Mat4::from_translation(Vec3::new(x, y, z)), Vec4::ONE)
     };
     // The camera 5 m above the origin looking down sees 5 tan 30° = 2.89 m each way.
     let seen = [at(0.0, 0.0, 0.0), at(3.2, 0.0, 0.0)];
     let unseen = [at(10.0, 0.0, 0.0), at(0.0, 0.0, -20.0), at(0.0, 10.0, 0.0)];
-    let id = r.add_mesh(&v, &i, &material).unwrap();
+    let id = small_quad(&mut r);
     r.set_instances(id, &[seen.as_slice(), unseen.as_slice()].concat())
         .unwrap();
     let all = r.render(&view(LightingMode::Grid, vec![id])).unwrap();
@@ -200,19 +206,11 @@ fn culled_instances_leave_the_image_as_it_was() {
 fn a_draw_range_keeps_the_instances_at_its_distances() {
     let Some(r) = renderer() else { return };
     let mut r = r.lock().unwrap_or_else(|e| e.into_inner());
-    let (mut v, i) = quad(0.0, Vec3::splat(3.0));
-    for p in &mut v {
-        p.position = [p.position[0] / 20.0, 0.0, p.position[2] / 20.0];
-    }
-    let material = MeshMaterial {
-        lighting: Lighting::Vertex,
-        ..Default::default()
-    };
     let at =
         |x: f32, y: f32| MeshInstance::new(Mat4::from_translation(Vec3::new(x, y, 0.0)), Vec4::ONE);
     // The eye 5 m above the origin looking down: one quad 5 m away, one 4 m lower (9 m).
     let (near, far) = ([at(-1.0, 0.0)], [at(1.0, -4.0)]);
-    let id = r.add_mesh(&v, &i, &material).unwrap();
+    let id = small_quad(&mut r);
     let render = |r: &mut Renderer, list: &[MeshInstance], range: std::ops::Range<f32>| {
         r.set_instances(id, list).unwrap();
         r.set_draw_range(id, range).unwrap();

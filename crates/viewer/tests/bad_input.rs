@@ -13,6 +13,17 @@ fn scene(body: &str) -> SceneFile {
     SceneFile::parse(&text, "bad.toml", Path::new(".")).expect("parses")
 }
 
+/// The error parsing `body` plus one view gives.
+fn parse_error(body: &str) -> String {
+    let text = format!(
+        "{body}\n[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
+    );
+    format!(
+        "{:#}",
+        SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
+    )
+}
+
 fn build_error(body: &str) -> String {
     match World::build(scene(body), SweeperChoice::Cpu) {
         Ok(_) => panic!("built a world from:\n{body}"),
@@ -118,13 +129,7 @@ fn non_finite_scene_values_name_their_field() {
     }
     let mut s = String::from(TERRAIN_512);
     s.push_str("[[models]]\nname = \"r\"\nprocedural = \"rock\"\n[[instances]]\nmodel = \"r\"\nposition = [1.0, 1.0]\nheight = inf\n");
-    let text = format!(
-        "{s}\n[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
-    );
-    let e = format!(
-        "{:#}",
-        SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
-    );
+    let e = parse_error(&s);
     assert!(e.contains("instances[0].height"), "{e}");
 }
 
@@ -237,13 +242,7 @@ fn daylight_turbidity_out_of_range_is_named() {
 #[test]
 fn a_bad_far_detail_is_named() {
     for v in ["-1.0", "inf", "nan"] {
-        let text = format!(
-            "{TERRAIN_512}\n[render]\nfar_detail = {v}\n[[views]]\nname = \"v\"\nposition = [0.0, 0.0]\nheight = 10.0\ntarget = [1.0, 1.0]\n"
-        );
-        let e = format!(
-            "{:#}",
-            SceneFile::parse(&text, "bad.toml", Path::new(".")).unwrap_err()
-        );
+        let e = parse_error(&format!("{TERRAIN_512}\n[render]\nfar_detail = {v}\n"));
         assert!(e.contains("render.far_detail"), "{v}: {e}");
     }
     let off = scene(&format!("{TERRAIN_512}\n[render]\nfar_detail = 0.0\n"));
