@@ -361,7 +361,7 @@ pub fn run(scene: SceneFile, opts: &Options) -> Result<Summary> {
         timings: rec.timings,
         views,
         instances: world.instances.len(),
-        far_detail: Some(world.scene.render.far_detail).filter(|&d| d > 0.0),
+        far_detail: world.scene.render.impostors_beyond(),
         dynamic_lights: (world.dynamic.lights.len(), world.dynamic.indices.len()),
         model_grid_bytes: world.model_grid_bytes,
         probes: world.probes.as_ref().map(|p| p.summary()),
@@ -526,14 +526,13 @@ fn upload_beside_first_view(
         scene,
         ..
     } = world;
-    let far = scene.render.far_detail;
     let sources = draw::MeshSources {
         heightmap,
         ground,
         models,
         instances,
         dynamic,
-        far_detail: (far > 0.0).then_some(far),
+        far_detail: scene.render.impostors_beyond(),
     };
     let (uploaded, prepared) = std::thread::scope(|s| {
         let upload = s.spawn(|| {

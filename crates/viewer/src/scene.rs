@@ -242,6 +242,14 @@ pub struct RenderSpec {
     pub far_detail: f32,
 }
 
+impl RenderSpec {
+    /// Metres from the eye beyond which foliage is drawn as impostors, `None` for
+    /// never (`far_detail` 0).
+    pub fn impostors_beyond(&self) -> Option<f32> {
+        (self.far_detail > 0.0).then_some(self.far_detail)
+    }
+}
+
 impl Default for RenderSpec {
     fn default() -> Self {
         Self {

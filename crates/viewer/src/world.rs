@@ -654,8 +654,7 @@ impl World {
             models: &self.models,
             instances: &self.instances,
             dynamic: &self.dynamic,
-            far_detail: (self.scene.render.far_detail > 0.0)
-                .then_some(self.scene.render.far_detail),
+            far_detail: self.scene.render.impostors_beyond(),
         }
     }
 }

@@ -246,6 +246,7 @@ fn a_bad_far_detail_is_named() {
         assert!(e.contains("render.far_detail"), "{v}: {e}");
     }
     let off = scene(&format!("{TERRAIN_512}\n[render]\nfar_detail = 0.0\n"));
-    assert_eq!(off.render.far_detail, 0.0);
-    assert_eq!(scene(TERRAIN_512).render.far_detail, 120.0, "the default");
+    assert_eq!(off.render.impostors_beyond(), None);
+    let default = scene(TERRAIN_512).render;
+    assert_eq!(default.impostors_beyond(), Some(120.0), "the default");
 }
