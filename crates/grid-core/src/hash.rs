@@ -123,6 +123,7 @@ impl ContentHash {
             skip_empty_levels,
             medium,
             acceleration,
+            gather,
         } = *o;
         self.u32(
             outputs.bins as u32
@@ -141,7 +142,12 @@ impl ContentHash {
         .u32(match acceleration {
             crate::Acceleration::Off => 0,
             crate::Acceleration::Diffusion => 1,
-        })
+        });
+        // Off, the hash is what it was before the field came (baked keys stay).
+        if gather.is_on() {
+            self.u32(gather.orders).u32(gather.rays);
+        }
+        self
     }
     /// The hash.
     pub fn finish(&self) -> u64 {

@@ -126,8 +126,8 @@ pub use rng::SeededRng;
 pub use sample::{Blend, trilinear_base, trilinear_corners, trilinear_frame, trilinear_indices};
 pub use terrain::Heightmap;
 pub use traits::{
-    Acceleration, Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField,
-    MAX_PASSES, MaterialSource, MediumEmission, NoScatter, Outputs, Reading, Resident,
+    Acceleration, Boundary, CellSource, DifferenceField, Gather, HALO_WIDTH, HaloLayout,
+    LightField, MAX_PASSES, MaterialSource, MediumEmission, NoScatter, Outputs, Reading, Resident,
     SideBoundary, SplitLightGrid, SumField, SunBeam, SunBoundary, SunResponse, SweepError,
     SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial, VolumeSample,
 };

@@ -19,19 +19,23 @@
 //! - `--refine 2 --spread`: the beam's collisions on the cells spread over the sweep's
 //!   cells half as large (each cell's two halves in height by its first moment, even
 //!   across x and z): what is left is not the transport's cell size.
+//! - `--gather [--orders N --rays R]`: the first scatterings gathered
+//!   by rays ([`Gather::LOW_SUN`] unless changed), the sweep carrying the rest.
 //!
 //! `cargo run --release -p lightgrid-measure --example beam_cells -- [--paths N]
 //! [--elevation DEG] [--refine K [--spread]] [--beam-refine K] [--smoothing S]
-//! [--albedo A] [--ground G]` (2 M paths: about 10 s).
+//! [--albedo A] [--ground G] [--gather]` (2 M paths: about 10 s).
 
 use lightgrid_core::CellSource;
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::light::luminance;
 use lightgrid_core::{
-    BinLight, Boundary, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
+    BinLight, Boundary, Gather, GridDesc, Material, MaterialGrid, SideBoundary, SweepOptions,
+    Sweeper,
 };
 use lightgrid_measure::sun_measure::{patchy_canopy, sun_reference};
 use lightgrid_sky::Sun;
+use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_sweep_cpu::beam::FirstCollisions;
 use lightgrid_sweep_cpu::sun::{BeamOptions, first_collisions};
 
@@ -206,10 +210,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (1, _, false) => beam,
         _ => return Err("--beam-refine needs --refine 1; --spread needs --refine 2".into()),
     };
-    let scattered = lightgrid_sweep_cpu::run_with_source(&fine, &dark, Some(&beam.source), &o)?
-        .output
+    if flag("--gather") {
+        o.gather = Gather {
+            orders: arg("--orders", Gather::LOW_SUN.orders)?,
+            rays: arg("--rays", Gather::LOW_SUN.rays)?,
+        };
+    }
+    let t0 = std::time::Instant::now();
+    let scattered = CpuSweeper::new()
+        .sweep_with_source(&fine, &dark, &beam.source, &o)?
         .bins
         .ok_or("no bins")?;
+    let swept_s = t0.elapsed().as_secs_f64();
     let mean_t = beam
         .mean_transmittance
         .as_deref()
@@ -243,6 +255,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "patchy canopy 16 x 10 x 16 (albedo {albedo}, ground {ground}), periodic, sun {elevation}° (azimuth 20°), {paths} reference paths; sweep cells 1/{k} m, smoothing {}",
         o.smoothing
+    );
+    println!(
+        "  scattered light: {:.3} s ({})",
+        swept_s,
+        if o.gather.is_on() {
+            format!(
+                "first {} scatterings gathered, {} rays a cell",
+                o.gather.orders, o.gather.rays
+            )
+        } else {
+            "swept".into()
+        }
     );
     for y in 0..m.desc().dims().y {
         let level: Vec<&Cell> = cells.iter().filter(|c| c.at.y == y).collect();

@@ -292,10 +292,17 @@ pub fn medium_errors(
         &lightgrid_sweep_cpu::sun::BeamOptions::DEFAULT.with_mean_transmittance(),
     )?;
     let mean_t = fc.mean_transmittance.as_deref().expect("asked for");
-    let scattered = run_with_source(material, &dark, Some(&fc.source), options)?
-        .output
-        .bins
-        .expect("bins");
+    // Through the sweeper, which gathers the first scatterings where `options.gather`
+    // asks.
+    let scattered = lightgrid_core::Sweeper::sweep_with_source(
+        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
+        material,
+        &dark,
+        &fc.source,
+        options,
+    )?
+    .bins
+    .ok_or("no bins")?;
     let four_pi = 4.0 * std::f32::consts::PI;
     let (mut sa, mut sr, mut se, mut sw, mut max, mut noise, mut n) =
         (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);

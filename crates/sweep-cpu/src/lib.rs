@@ -79,6 +79,9 @@
 //!   skies, EXR environment maps, all integrated over the bins); [`sweep_responses`]
 //!   keeps sun and sky apart so their
 //!   colours change by a multiply ([`Responses::combine`]).
+//! * [`gather`]: a cell source's first scatterings gathered by rays instead of swept
+//!   (`SweepOptions::gather`): a low sun's light in a patchy canopy right cell by cell,
+//!   at a bake's cost.
 //! * [`quadrature`]: Gauss–Legendre nodes for the medium rule's tables.
 //! * In `lightgrid-measure`: `reference` (the Monte Carlo reference), `scenes` (canonical
 //!   scenes and error measures), `exact` (problems with exact answers), `sun_measure`.
@@ -482,6 +485,7 @@
 
 pub mod accel;
 pub mod beam;
+pub mod gather;
 pub mod isa;
 pub mod medium;
 pub mod profile;
@@ -747,16 +751,12 @@ impl Sweeper for CpuSweeper {
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
         let _span = sweep_span(material, options).entered();
-        let s = sweep::run_reusing(
-            material,
-            boundary,
-            Some(source),
-            options,
-            true,
-            &mut self.spare,
-        )?;
-        self.last_balance = Some(s.balance);
-        Ok(s.output)
+        let periodic = matches!(boundary.sides, lightgrid_core::SideBoundary::Periodic);
+        gather::sweep_gathered(material, periodic, source, options, |src, o| {
+            let s = sweep::run_reusing(material, boundary, Some(src), o, true, &mut self.spare)?;
+            self.last_balance = Some(s.balance);
+            Ok(s.output)
+        })
     }
     fn sweep_sun(
         &mut self,

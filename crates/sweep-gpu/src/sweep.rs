@@ -256,7 +256,10 @@ impl GpuSweeper {
     }
 
     /// [`GpuSweeper::run`] with light already deposited in cells
-    /// (`lightgrid_sweep_cpu::run_with_source`: the sun's first collisions).
+    /// (`lightgrid_sweep_cpu::run_with_source`: the sun's first collisions), their first
+    /// scatterings gathered on the CPU where `options.gather` asks
+    /// (`lightgrid_sweep_cpu::gather::sweep_gathered`: the output then keeps no device
+    /// copy of the bins).
     pub fn run_with_source(
         &self,
         material: &MaterialGrid,
@@ -264,7 +267,19 @@ impl GpuSweeper {
         source: Option<&CellSource>,
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
-        Ok(self.timed(material, boundary, source, options)?.0)
+        match source {
+            Some(src) if options.gather.is_on() => {
+                let periodic = matches!(boundary.sides, lightgrid_core::SideBoundary::Periodic);
+                lightgrid_sweep_cpu::gather::sweep_gathered(
+                    material,
+                    periodic,
+                    src,
+                    options,
+                    |s, o| Ok(self.timed(material, boundary, Some(s), o)?.0),
+                )
+            }
+            _ => Ok(self.timed(material, boundary, source, options)?.0),
+        }
     }
 
     /// [`GpuSweeper::run`], with the time spent uploading, computing and reading back.

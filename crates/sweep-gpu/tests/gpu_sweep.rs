@@ -495,3 +495,41 @@ fn sweep_with_sun_on_the_gpu_equals_the_cpu() {
         "the beam adds nothing"
     );
 }
+
+/// With the first scatterings gathered (`SweepOptions::gather`: on the CPU for both
+/// sweepers, the rest swept on each) the GPU sweeper's `sweep_sun` equals the CPU's,
+/// with a node's kind of boundary; the gathered light differs from the swept, and the
+/// response keeps no device copy (the gathered light is added on the CPU).
+#[test]
+fn gathered_first_scatterings_on_the_gpu_equal_the_cpu() {
+    use lightgrid_core::{Gather, SunBoundary, Sweeper};
+    let Some(mut gpu) = sweeper() else { return };
+    let (m, mut o) = canopy_node();
+    let d = *m.desc();
+    let sun = SunBoundary {
+        to_sun: Vec3::new(0.5, 0.2, -0.3),
+        scattered: Boundary {
+            top: TopBoundary::Uniform(Box::new(BinLight::ZERO)),
+            bottom: BinLight::ZERO,
+            sides: SideBoundary::Given((0..HaloLayout::new(d.dims()).len()).map(glow).collect()),
+        },
+        outside: &varying_outside,
+    };
+    let swept = lightgrid_sweep_cpu::CpuSweeper::new()
+        .sweep_sun(&m, &sun, &o)
+        .unwrap();
+    o.gather = Gather {
+        orders: 2,
+        rays: 256,
+    };
+    let cpu = lightgrid_sweep_cpu::CpuSweeper::new()
+        .sweep_sun(&m, &sun, &o)
+        .unwrap();
+    let on_gpu = gpu.sweep_sun(&m, &sun, &o).unwrap();
+    assert_close(&cpu.scattered, &on_gpu.scattered).unwrap();
+    assert!(on_gpu.resident.is_none());
+    assert!(
+        assert_close(&swept.scattered, &cpu.scattered).is_err(),
+        "nothing gathered"
+    );
+}

@@ -407,6 +407,14 @@ pub(crate) fn run_reusing(
     spare: &mut Spare,
 ) -> Result<Sweep, SweepError> {
     validate_inputs(material, boundary, options)?;
+    if source.is_some() && options.gather.is_on() {
+        return Err(GridError::invalid(
+            "gather",
+            options.gather.orders,
+            "is a sweeper's (`CpuSweeper::sweep_with_source`, `gather::sweep_gathered`): this sweep carries every scattering",
+        )
+        .into());
+    }
     // Enclosed opaque cells absorb what reaches them ([`swept_reflectance`]).
     let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
     let sealed = sealed_material(material, &exposed, &mut spare.sealed);
