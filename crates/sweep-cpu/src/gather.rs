@@ -497,8 +497,9 @@ mod tests {
 
     /// Over an infinite Lambertian ground of exitance `M = ρ r` the light coming up is
     /// `M / π` from every direction below the horizon: every empty cell's average light
-    /// is `M / (2π)`, none of it travels down, and the ground's faces receive nothing of
-    /// their own light (the rest is empty).
+    /// is `M / (2π)`, none of it travels down (a surface facing down receives `M`, one
+    /// facing up nothing), and the ground's faces receive nothing of their own light
+    /// (the rest is empty).
     #[test]
     fn an_infinite_lambertian_ground_known_answer() {
         let (m, src) = ground(0.5);
@@ -526,8 +527,17 @@ mod tests {
                     assert_eq!(b.0[k], Vec3::ZERO, "bin {k} travels down");
                 }
             }
-            // The horizontal bins' light travels up, none of it in the downward halves.
-            assert_eq!(g.horizon.data()[i].0, [Vec3::ZERO; HORIZONTAL_BINS]);
+            // The horizontal bins' light travels up, none of it in the downward halves,
+            // so read with them a surface facing down receives the ground's exitance
+            // and one facing up nothing.
+            let hz = g.horizon.data()[i];
+            assert_eq!(hz.0, [Vec3::ZERO; HORIZONTAL_BINS]);
+            let down = b.irradiance_split(Vec3::NEG_Y, &hz).x;
+            assert!(
+                (down / 0.15 - 1.0).abs() < 0.01,
+                "point {i}: facing down {down}"
+            );
+            assert_eq!(b.irradiance_split(Vec3::Y, &hz).x, 0.0);
         }
         assert!(g.rest.removed().iter().all(|r| *r == Vec3::ZERO));
     }
