@@ -469,6 +469,10 @@ mod tests {
     use lightgrid_core::glam::UVec3;
     use lightgrid_core::{Material, SweepOptions};
 
+    fn params(orders: u32, rays: u32) -> Gather {
+        Gather { orders, rays }
+    }
+
     /// An infinite Lambertian ground of albedo 0.3 (one opaque level, periodic sides)
     /// under empty cells, and a source of `r` on each ground cell.
     fn ground(r: f32) -> (MaterialGrid, CellSource) {
@@ -503,16 +507,7 @@ mod tests {
     #[test]
     fn an_infinite_lambertian_ground_known_answer() {
         let (m, src) = ground(0.5);
-        let g = gather(
-            &m,
-            true,
-            &src,
-            &Gather {
-                orders: 1,
-                rays: 4096,
-            },
-        )
-        .unwrap();
+        let g = gather(&m, true, &src, &params(1, 4096)).unwrap();
         let exact = 0.3 * 0.5 / (2.0 * std::f32::consts::PI);
         let d = *m.desc();
         for i in d.level_len()..d.point_count() {
@@ -548,10 +543,7 @@ mod tests {
     fn twice_the_source_twice_the_light() {
         let (m, one) = ground(0.25);
         let (_, two) = ground(0.5);
-        let p = Gather {
-            orders: 2,
-            rays: 256,
-        };
+        let p = params(2, 256);
         let (a, b) = (
             gather(&m, true, &one, &p).unwrap(),
             gather(&m, true, &two, &p).unwrap(),
@@ -567,16 +559,7 @@ mod tests {
     #[test]
     fn no_orders_no_light() {
         let (m, src) = ground(0.5);
-        let g = gather(
-            &m,
-            true,
-            &src,
-            &Gather {
-                orders: 0,
-                rays: 256,
-            },
-        )
-        .unwrap();
+        let g = gather(&m, true, &src, &params(0, 256)).unwrap();
         assert!(g.light.data().iter().all(|b| *b == BinLight::ZERO));
         assert_eq!(g.rest.removed(), src.removed());
     }
@@ -587,27 +570,9 @@ mod tests {
     fn bad_input_is_named() {
         let (m, src) = ground(0.5);
         let name = |e: GridError| e.to_string();
-        let e = gather(
-            &m,
-            true,
-            &src,
-            &Gather {
-                orders: 5,
-                rays: 256,
-            },
-        )
-        .unwrap_err();
+        let e = gather(&m, true, &src, &params(5, 256)).unwrap_err();
         assert!(name(e).contains("gather.orders"));
-        let e = gather(
-            &m,
-            true,
-            &src,
-            &Gather {
-                orders: 1,
-                rays: 10,
-            },
-        )
-        .unwrap_err();
+        let e = gather(&m, true, &src, &params(1, 10)).unwrap_err();
         assert!(name(e).contains("gather.rays"));
         let other = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, 6, 8)).unwrap();
         let moved =
@@ -629,16 +594,7 @@ mod tests {
             Vec3::NEG_Y,
         )
         .unwrap();
-        let g = gather(
-            &m,
-            true,
-            &most,
-            &Gather {
-                orders: 4,
-                rays: 64,
-            },
-        )
-        .unwrap();
+        let g = gather(&m, true, &most, &params(4, 64)).unwrap();
         assert!(
             g.light
                 .data()
