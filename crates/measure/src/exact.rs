@@ -491,8 +491,55 @@ pub fn horizon(levels: u32, a: f32, up: bool, halves: bool) -> Result<Case, Swee
     ))
 }
 
+/// A low sun's first scatterings gathered by rays (issue 44; `SweepOptions::gather`,
+/// `Gather::LOW_SUN`): over `levels` levels of Lambertian ground of albedo `a` under a
+/// sun at `elevation_deg` (unit irradiance facing it, periodic sides, no sky), a
+/// surface facing down just above the ground receives the ground's exitance `a sin e`
+/// exactly; read with the horizon halves (`BinLight::irradiance_split`).
+pub fn gathered_ground(levels: u32, a: f32, elevation_deg: f32) -> Result<Case, SweepError> {
+    use lightgrid_core::Sweeper;
+    let m = ground_material(levels, a)?;
+    let (e, az) = (elevation_deg.to_radians(), 20f32.to_radians());
+    let to_sun = Vec3::new(e.cos() * az.cos(), e.sin(), e.cos() * az.sin());
+    let b = Boundary {
+        sides: SideBoundary::Periodic,
+        ..Boundary::open_sky(BinLight::ZERO)
+    };
+    let mut o = options(64, 1e-7);
+    o.outputs = o.outputs.with_horizon();
+    o.gather = lightgrid_core::Gather::LOW_SUN;
+    let t = std::time::Instant::now();
+    let src = lightgrid_sweep_cpu::sun::first_collision(&m, to_sun, Vec3::ONE, true, &|_| 1.0)?;
+    let mut cpu = lightgrid_sweep_cpu::CpuSweeper::new();
+    let out = cpu.sweep_with_source(&m, &b, &src, &o)?;
+    let secs = t.elapsed().as_secs_f64();
+    let i = m.desc().level_len() * levels as usize;
+    let (Some(g), Some(h)) = (&out.bins, &out.horizon) else {
+        return Err(SweepError::Backend {
+            backend: "cpu",
+            message: "bins and horizon halves asked for, not returned".into(),
+        });
+    };
+    let swept = g.data()[i].irradiance_split(Vec3::NEG_Y, &h.data()[i]).x as f64;
+    let balance = cpu.last_balance().map_or(0.0, |b| b.relative_error());
+    let exact = a as f64 * (e as f64).sin();
+    Ok(Case {
+        name: format!(
+            "sun {elevation_deg}°, gathered: {levels}-level ground, albedo {a}, facing down"
+        ),
+        exact,
+        swept,
+        error: swept / exact - 1.0,
+        passes: out.stats.passes,
+        pending: 0.0,
+        seconds: secs,
+        balance,
+    })
+}
+
 /// Every case: the furnace (smoothing 0 and the default; uniform media of pass-through
-/// 0.9, 0.5, 0.1), one-level ground, the horizon over one and three ground levels, and the
+/// 0.9, 0.5, 0.1), one-level ground, the horizon over one and three ground levels, beam
+/// conservation, a 10° sun's light gathered over one and three ground levels, and the
 /// half-space for `w` in {0.1, 0.5, 0.9, 0.99} and cell optical depths 0.05, 0.69, 3
 /// (total depth 40), at most `max_passes` passes each, under the default rule and again
 /// under the flat source (`MediumEmission::Source`).
@@ -522,6 +569,9 @@ pub fn measure(max_passes: u32) -> Result<Vec<Case>, SweepError> {
     }
     for elevation in [2.0, 10.0, 25.0, 60.0, 90.0] {
         out.push(beam_conservation(elevation)?);
+    }
+    for levels in [1, 3] {
+        out.push(gathered_ground(levels, 0.3, 10.0)?);
     }
     for w in [0.1, 0.5, 0.9, 0.99] {
         for pass in [0.95f32, 0.5, 0.05] {

@@ -575,3 +575,16 @@ fn surfaces_facing_up_and_down_over_a_lambertian_ground_read_exactly_with_the_ha
         }
     }
 }
+
+/// A 10° sun's first scatterings gathered by rays (`Gather::LOW_SUN`) over one and
+/// three levels of Lambertian ground: a surface facing down just above the ground
+/// receives the ground's exitance `a sin 10°` within 1 % (the rays' quadrature; the
+/// case `cargo xtask exact` lists).
+#[test]
+fn a_gathered_low_sun_over_lambertian_ground_is_exact() {
+    for levels in [1, 3] {
+        let c = lightgrid_measure::exact::gathered_ground(levels, 0.3, 10.0).unwrap();
+        eprintln!("{c:?}");
+        assert!(c.error.abs() < 0.01, "{c:?}");
+    }
+}
