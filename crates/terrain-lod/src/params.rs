@@ -123,7 +123,9 @@ pub struct HierarchyParams {
     /// (on by default) keeps every grid's horizon halves, sky and scattered sun, and the
     /// hierarchy's irradiance reads each horizontal bin in its two halves
     /// ([`lightgrid_core::LightField::horizon`]) instead of as even across the horizon:
-    /// 8 more colours a point beside the 26 bins.
+    /// 8 more colours a point beside the 26 bins. `gather` (off by default) applies to
+    /// the sun's first collisions in every grid (`SweepOptions::gather`): seconds a
+    /// node, a bake's setting; a frame budget does not foresee it.
     pub sweep: SweepOptions,
     /// Work the hierarchy skips (see [`LodSkips`] for which are on by default).
     pub skip: LodSkips,
