@@ -100,6 +100,7 @@ pub mod hash;
 pub mod light;
 pub mod lights;
 pub mod limits;
+mod options;
 pub mod pack;
 pub mod rng;
 mod sample;
@@ -122,14 +123,15 @@ pub use grid::{
 };
 pub use light::{AmbientCube, BinLight, HorizonLight, LUMA, Sh1, Sh2, luminance, unit};
 pub use lights::LightKind;
+pub use options::{Acceleration, Gather, MAX_PASSES, MediumEmission, Outputs, SweepOptions};
 pub use rng::SeededRng;
 pub use sample::{Blend, trilinear_base, trilinear_corners, trilinear_frame, trilinear_indices};
 pub use terrain::Heightmap;
 pub use traits::{
-    Acceleration, Boundary, CellSource, DifferenceField, Gather, HALO_WIDTH, HaloLayout,
-    LightField, MAX_PASSES, MaterialSource, MediumEmission, NoScatter, Outputs, Reading, Resident,
-    SideBoundary, SplitLightGrid, SumField, SunBeam, SunBoundary, SunResponse, SweepError,
-    SweepOptions, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial, VolumeSample,
+    Boundary, CellSource, DifferenceField, HALO_WIDTH, HaloLayout, LightField, MaterialSource,
+    NoScatter, Reading, Resident, SideBoundary, SplitLightGrid, SumField, SunBeam, SunBoundary,
+    SunResponse, SweepError, SweepOutput, SweepStats, Sweeper, TopBoundary, UniformMaterial,
+    VolumeSample,
 };
 
 /// The README's examples, compiled and run as doc tests.

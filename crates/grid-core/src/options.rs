@@ -1,0 +1,291 @@
+//! The options of a sweep: which outputs it computes ([`Outputs`]), how its passes
+//! run and converge ([`SweepOptions`], [`Acceleration`], [`MediumEmission`]) and
+//! whether a cell source's first scatterings are gathered by rays ([`Gather`]).
+
+use crate::GridError;
+
+/// Which outputs a sweep computes. Nothing that is not asked for is computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Outputs {
+    /// The full 26-bin light grid.
+    pub bins: bool,
+    /// The average-light grid.
+    pub average: bool,
+    /// The dominant-direction grid.
+    pub dominant: bool,
+    /// Beside the bins (it needs them), the downward-travelling halves of the 8
+    /// horizontal bins ([`crate::HorizonLight`], 8 RGB values a point: a third more
+    /// memory than the bins), for irradiance exact across the horizon
+    /// ([`crate::BinLight::irradiance_split`]).
+    pub horizon: bool,
+}
+
+impl Outputs {
+    /// The 26 bins, the average and the dominant direction (the horizon halves are
+    /// asked for apart: [`Outputs::with_horizon`]).
+    pub const ALL: Self = Self {
+        bins: true,
+        average: true,
+        dominant: true,
+        horizon: false,
+    };
+    /// Average and dominant direction only (per-frame lighting).
+    pub const AVERAGE_DOMINANT: Self = Self {
+        bins: false,
+        average: true,
+        dominant: true,
+        horizon: false,
+    };
+    /// These outputs and the horizon halves (which need the bins: asked for too).
+    pub const fn with_horizon(self) -> Self {
+        Self {
+            bins: true,
+            horizon: true,
+            ..self
+        }
+    }
+}
+
+/// Options of a sweep. Start from a preset and change fields.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct SweepOptions {
+    /// Outputs to compute.
+    pub outputs: Outputs,
+    /// Weight in `[0, 1)` of the smoothing kernel over a source point's neighbours
+    /// (0 = off): softens the sharp shadows of a few directions. The presets' 0.5 had
+    /// the least error against Monte Carlo of 0, 0.25, 0.35, 0.5 and 0.6 on the bench
+    /// forest (16³ and 24³, 4 passes), and less than 0.25 on every bench scene whose
+    /// light smoothing changes (`sweep-cpu`'s crate docs, "Smoothing").
+    pub smoothing: f32,
+    /// Most sweeps, alternating downward and upward, starting downward (1 = the seed's
+    /// single downward pass: no light travels upward).
+    pub max_passes: u32,
+    /// Stop repeating passes when a pass changes the light by less than this fraction
+    /// (0: every pass up to `max_passes` runs).
+    pub tolerance: f32,
+    /// Copy, instead of computing, the levels above all material in a downward pass
+    /// under a laterally uniform boundary, and carry the light of all upward passes
+    /// through those levels once (the same result up to rounding; on by default; off
+    /// only to measure what the skips save). GPU sweepers may compute them regardless.
+    pub skip_empty_levels: bool,
+    /// How a medium cell emits the light it scatters (step 5 of the sweep's
+    /// specification, the `sweep-cpu` docs).
+    pub medium: MediumEmission,
+    /// How the passes converge: plain repetition ([`Acceleration::Off`]) or with a
+    /// diffusion correction between passes ([`Acceleration::Diffusion`]).
+    pub acceleration: Acceleration,
+    /// How a cell source's first scatterings (the sun's) travel: swept with the rest
+    /// ([`Gather::OFF`], the presets) or gathered by rays ([`Gather::LOW_SUN`]).
+    pub gather: Gather,
+}
+
+/// Whether a cell source's first scatterings are gathered by rays instead of swept
+/// ([`SweepOptions::gather`]; `lightgrid_sweep_cpu::gather`, for the CPU and GPU
+/// sweepers' `sweep_with_source` and the sun's entry points built on it).
+///
+/// The 26 bins carry light from a cell to its neighbours along 26 directions only: the
+/// light a low sun scatters off lit patches of a canopy reaches cells between those
+/// directions too little, and cells along them too much (ray effects). Gathered, each
+/// cell's light of the first `orders` scatterings is the sum over `rays` rays (from
+/// points and in directions of a low-discrepancy sequence, the same for every cell) of
+/// what the cells along each ray emit, attenuated by the exact transmittance between;
+/// the sweep carries what those scatterings collide with further. A gather costs about
+/// `rays ×` the cells a ray crosses, per cell and order: made for a bake, not a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Gather {
+    /// Scatterings gathered (0: none, the sweep carries them all; at most 4).
+    pub orders: u32,
+    /// Rays per cell and order (64 to 65,536).
+    pub rays: u32,
+}
+
+impl Gather {
+    /// Nothing gathered: the sweep carries every scattering.
+    pub const OFF: Self = Self {
+        orders: 0,
+        rays: 4096,
+    };
+    /// Two scatterings gathered by 4,096 rays a cell: a patchy canopy under a 10° sun
+    /// within 5 % of Monte Carlo in every cell (`lightgrid-measure`'s `beam_cells`
+    /// example, `--gather`).
+    pub const LOW_SUN: Self = Self {
+        orders: 2,
+        rays: 4096,
+    };
+    /// Whether anything is gathered.
+    pub const fn is_on(&self) -> bool {
+        self.orders > 0
+    }
+    /// Checks every field; errors name it.
+    pub fn validate(&self) -> Result<(), GridError> {
+        if self.orders > 4 {
+            return Err(GridError::invalid(
+                "gather.orders",
+                self.orders,
+                "must be in 0..=4",
+            ));
+        }
+        if !(64..=65_536).contains(&self.rays) {
+            return Err(GridError::invalid(
+                "gather.rays",
+                self.rays,
+                "must be in 64..=65536",
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Default for Gather {
+    fn default() -> Self {
+        Self::OFF
+    }
+}
+
+/// How a sweep's repeated passes converge ([`SweepOptions::acceleration`]).
+///
+/// The passes are source iteration: each sends on the light scattered in the one
+/// before, so light that scatters many times (albedo near 1 in thick media: snow, dense
+/// white cloud, fog banks) takes many passes. Measured by `cargo xtask exact`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Acceleration {
+    /// Every pass sends on what the one before scattered.
+    #[default]
+    Off,
+    /// Diffusion synthetic acceleration (the CPU sweep, `lightgrid_sweep_cpu::accel`): after each
+    /// downward and upward pair, the scattered light still waiting in media cells is
+    /// spread by a diffusion solve over the media, which estimates every later
+    /// generation of its scattering; the next passes send that on at once and take it
+    /// back as they go, so the converged light is the same and the passes to a
+    /// tolerance hardly grow with optical depth and albedo. Applies to media under
+    /// [`MediumEmission::Source`] and [`MediumEmission::Profile`]; sweepers that do not
+    /// implement it run as with `Off` (`SweepStats` says which ran).
+    Diffusion,
+}
+
+/// How a medium cell (`0 < p < 1`) sends on the light it scatters (step 5 of the
+/// sweep's specification, the `sweep-cpu` crate docs). Measured against exact answers in
+/// `lightgrid_measure::exact` (`cargo xtask exact`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum MediumEmission {
+    /// The scattered light is a flat, isotropic source inside the cell, and every path
+    /// segment through the cell emits what such a source sends along it, attenuated by
+    /// the segments after it (`lightgrid_sweep_cpu::medium`); thick cells lit from above send more
+    /// of it back up. A white furnace is exact in any medium (random media of
+    /// pass-through 0.02 to 1: within 1e-6), Chandrasekhar's half-space albedo within 2 %
+    /// for cells of optical depth up to 0.7 (thick dark cells reflect too little: −23 %
+    /// at depth 3, albedo 0.1; [`MediumEmission::Profile`], the default, fixes that).
+    /// Kept as an option: measured the same or slightly better on the bench forest lit by
+    /// the sky alone (where the sweep's angular error dominates), and up to twice as fast
+    /// on the CPU in scenes made mostly of media.
+    Source,
+    /// `ω_b / 4π · (A S − B u_b · M)` into bin `b` (`M` the first moment of the light's
+    /// incoming directions) with a slab's exact escape probabilities for light scattered
+    /// out of a vertical beam: `A − B = τ p / (1 − p)` straight on (`τ = −ln p`), `A + B =
+    /// (1 + p)/2` straight back (`lightgrid_sweep_cpu::sweep::medium_emission`). Fails the white
+    /// furnace (horizontal bins too bright: +60 % at pass-through 0.5); kept because it
+    /// is closer than the flat source on thick dark cells (half-space −3 % at optical
+    /// depth 3, albedo 0.1, against −23 %; the default is +0.8 %) and the fastest rule
+    /// on the CPU (no third phase: uniform fog 12³ in 20 ms, against 24 ms flat and
+    /// 36 ms for the default).
+    /// (The seed's rule, `A = (1 + p)/2`, `B = (1 − p)/2`, was removed: it reflected far
+    /// too much from dense media, +59 % at optical depth 3, and measured worse than the
+    /// source rule on every canonical scene.)
+    Escape,
+    /// [`MediumEmission::Source`] with each cell's source a **quadratic in height**
+    /// instead of flat (`lightgrid_sweep_cpu::profile`, issue 13): a cell tallies the height
+    /// moments of where light collides in it, and each batch of scattered light becomes
+    /// an isotropic source whose Legendre coefficients in height solve the cell's 3 × 3
+    /// balance with its own re-collisions; each pass's segments emit what that source
+    /// sends along them. Still exact in a white furnace and linear in the light; on a
+    /// laterally uniform half-space it is within the channels' own angular error at
+    /// every cell depth (model: `cargo run --release -p lightgrid-measure --example
+    /// profile_slab`); Chandrasekhar's half-space albedo within 2 % at every albedo and
+    /// cell depth from 0.05 to 3. Both sweepers run it, with diffusion acceleration when
+    /// asked. The default: a 64³ canopy sweeps at the flat rule's speed; on the CPU the
+    /// bench forest takes 1.6 times the flat rule's time and scenes made mostly of media
+    /// up to twice it (three source coefficients a cell instead of one).
+    #[default]
+    Profile,
+}
+
+/// Most passes one sweep may run ([`SweepOptions::max_passes`]): bounds the run time of
+/// a sweep whose tolerance is never reached.
+pub const MAX_PASSES: u32 = 4096;
+
+impl SweepOptions {
+    /// One downward pass, light smoothing, every output: the seed's sweep.
+    pub const fn single_pass() -> Self {
+        Self {
+            outputs: Outputs::ALL,
+            smoothing: 0.5,
+            max_passes: 1,
+            tolerance: 0.0,
+            skip_empty_levels: true,
+            medium: MediumEmission::Profile,
+            acceleration: Acceleration::Off,
+            gather: Gather::OFF,
+        }
+    }
+    /// Repeated down/up passes for multiple bounces, until the light still to be
+    /// transported is under 0.1 % of the input.
+    pub const fn multi_bounce() -> Self {
+        Self {
+            outputs: Outputs::ALL,
+            smoothing: 0.5,
+            max_passes: 16,
+            tolerance: 1e-3,
+            skip_empty_levels: true,
+            medium: MediumEmission::Profile,
+            acceleration: Acceleration::Off,
+            gather: Gather::OFF,
+        }
+    }
+    /// Checks every field; errors name it.
+    pub fn validate(&self) -> Result<(), GridError> {
+        if !(self.smoothing.is_finite() && (0.0..1.0).contains(&self.smoothing)) {
+            return Err(GridError::invalid(
+                "smoothing",
+                self.smoothing,
+                "must be in [0, 1)",
+            ));
+        }
+        if self.max_passes == 0 || self.max_passes > MAX_PASSES {
+            return Err(GridError::invalid(
+                "max_passes",
+                self.max_passes,
+                "must be in 1..=4096",
+            ));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(GridError::invalid(
+                "tolerance",
+                self.tolerance,
+                "must be finite and >= 0",
+            ));
+        }
+        self.gather.validate()?;
+        if self.outputs.horizon && !self.outputs.bins {
+            return Err(GridError::invalid(
+                "outputs.horizon",
+                self.outputs.horizon,
+                "needs outputs.bins (the halves split the bins)",
+            ));
+        }
+        if !(self.outputs.bins || self.outputs.average || self.outputs.dominant) {
+            return Err(GridError::invalid(
+                "outputs",
+                self.outputs,
+                "asks for nothing",
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        Self::single_pass()
+    }
+}
