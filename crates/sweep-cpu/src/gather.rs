@@ -6,24 +6,27 @@
 //! directions too little and those along them too much (the discrete directions' ray
 //! effects; a patchy canopy under a 10° sun had 64 of 349 cells over 5 % off against
 //! Monte Carlo, the worst −16 %). Gathered, a cell's light of each of the first
-//! `orders` scatterings is a sum over `rays` rays from points spread through the cell: along each ray, every cell it crosses emits what the scattering
-//! before left in it (a medium cell `a R / 4π` per unit of optical path, shaped in
-//! height by the collisions' moments; an opaque cell's exposed faces `a R / (π n)`),
-//! attenuated by the exact transmittance between. What that light collides with (a
-//! medium cell's fluence times its optical depth, an opaque cell's faces' irradiance)
-//! is the source of the next scattering, and after the last the sweep's
-//! ([`Gathered::rest`]). The sweep is linear, so the light is the gathered orders plus
-//! the sweep of the rest with the boundary's light ([`sweep_gathered`]).
+//! `orders` scatterings is a sum over `rays` rays from points spread through the cell:
+//! along each ray, every cell it crosses emits what the scattering before left in it (a
+//! medium cell `a R / 4π` per unit of optical path, shaped in height by the collisions'
+//! moments; an opaque cell's exposed faces `a R / (π n)`), attenuated by the exact
+//! transmittance between. What that light collides with (a medium cell's fluence times
+//! its optical depth, an opaque cell's faces' irradiance) is the source of the next
+//! scattering, and after the last the sweep's ([`Gathered::rest`]). The sweep is
+//! linear, so the light is the gathered orders plus the sweep of the rest with the
+//! boundary's light ([`sweep_gathered`]). Opaque points get none of the gathered light
+//! (they hold next to nothing in a sweep either: `lightgrid_core::validity`).
 //!
 //! Rays that leave the grid (the top, the bottom, open or given sides) take nothing
 //! from beyond: the boundary's light, and the source's light that comes back through a
 //! given side, are the sweep's. Periodic sides wrap, a ray going at most 4,096 cells.
 //!
 //! Cost: per order, every non-opaque cell traces `rays` rays through the cells they
-//! cross (`LOW_SUN`: 4,096), so a gather is made for a bake,
-//! not for a frame; `cargo run --release -p lightgrid-measure --example beam_cells --
-//! --gather` prints its time beside its error.
-
+//! cross (`LOW_SUN`: 4,096), so a gather is made for a bake, not for a frame (the
+//! patchy canopy's 16 × 10 × 16 cells: 2.9 s against the sweep's 13 ms on two cores;
+//! its buffers about 0.9 kB a point while it runs); `cargo run --release -p lightgrid-measure
+//! --example beam_cells -- --gather` prints its time beside its error.
+//!
 //! ```
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use lightgrid_core::glam::{UVec3, Vec3};
