@@ -21,8 +21,9 @@
 //! from beyond: the boundary's light, and the source's light that comes back through a
 //! given side, are the sweep's. Periodic sides wrap, a ray going at most 4,096 cells.
 //!
-//! Cost: per order, every non-opaque cell traces `rays` rays through the cells they
-//! cross (`LOW_SUN`: 4,096), so a gather is made for a bake, not for a frame (the
+//! Cost: every non-opaque cell traces `rays` rays through the cells they cross for the
+//! first order and a quarter as many for each later one (`LOW_SUN`: 4,096 and 1,024),
+//! so a gather is made for a bake, not for a frame (the
 //! patchy canopy's 16 × 10 × 16 cells: 2.9 s against the sweep's 13 ms on two cores;
 //! its buffers about 0.9 kB a point while it runs); `cargo run --release -p lightgrid-measure
 //! --example beam_cells -- --gather` prints its time beside its error.
@@ -89,14 +90,14 @@ struct Ray {
     down_half: Option<usize>,
 }
 
-/// The rays every cell traces: the spherical Fibonacci set of `rays` directions, each
+/// The `n` rays every cell traces: the spherical Fibonacci set of `n` directions, each
 /// from its own point of the cell, the points a Latin hypercube (each axis cut into
-/// `rays` strata, one point in each, the strata of the three axes paired at random:
+/// `n` strata, one point in each, the strata of the three axes paired at random:
 /// fixed, the same for every cell). The cell's own emission, seen from within it,
 /// varies over the cell as much as the rest of the light does over the directions, so
 /// both are spread evenly, and independently of each other.
-fn rays(g: &Gather) -> Vec<Ray> {
-    let n = g.rays as usize;
+fn rays(n: u32) -> Vec<Ray> {
+    let n = n as usize;
     let mut rng = fastrand::Rng::with_seed(0x6761_7468_6572);
     let strata: [Vec<usize>; 3] = std::array::from_fn(|_| {
         let mut v: Vec<usize> = (0..n).collect();
@@ -132,6 +133,9 @@ struct Emission {
     value: Vec<Vec3>,
     heights: Vec<[f32; 2]>,
 }
+
+/// The fewest rays a cell and order.
+const MIN_RAYS: u32 = 64;
 
 /// How far a ray goes, in cells (periodic sides wrap it).
 const REACH: f32 = 4096.0;
@@ -289,8 +293,10 @@ pub fn gather(
         .zip(&exposed)
         .map(|(c, &e)| crate::sweep::swept_reflectance(c, e))
         .collect();
-    let rays = rays(params);
-    let weight = 4.0 * std::f32::consts::PI / rays.len() as f32;
+    // The later orders' light comes from sources spread wider and smoother than the
+    // beam's lit patches: a quarter of the rays gathers it as well (the patchy canopy
+    // at 10°: the worst cell 4.4 % against 4.5 % with all of them, 8 M paths).
+    let (first, later) = (rays(params.rays), rays((params.rays / 4).max(MIN_RAYS)));
     let mut light = vec![BinLight::ZERO; n];
     let mut halves = vec![HorizonLight([Vec3::ZERO; HORIZONTAL_BINS]); n];
     let mut removed: Vec<Vec3> = source.removed().to_vec();
@@ -298,7 +304,9 @@ pub fn gather(
         Some(h) => h.to_vec(),
         None => vec![[0.0; 2]; n],
     };
-    for _ in 0..params.orders {
+    for order in 0..params.orders {
+        let rays = if order == 0 { &first } else { &later };
+        let weight = 4.0 * std::f32::consts::PI / rays.len() as f32;
         let e = Emission {
             value: (0..n)
                 .map(|i| {
@@ -317,7 +325,7 @@ pub fn gather(
         };
         let order: Vec<(BinLight, HorizonLight, Vec3, [f32; 2])> = (0..n)
             .into_par_iter()
-            .map(|i| cell_order(&medium, &e, &rays, weight, i))
+            .map(|i| cell_order(&medium, &e, rays, weight, i))
             .collect();
         removed.clear();
         heights.clear();
