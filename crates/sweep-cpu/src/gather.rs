@@ -24,7 +24,7 @@
 //! Cost: every non-opaque cell traces `rays` rays through the cells they cross for the
 //! first order and a quarter as many for each later one (`LOW_SUN`: 4,096 and 1,024),
 //! so a gather is made for a bake, not for a frame (the
-//! patchy canopy's 16 × 10 × 16 cells: 2.9 s against the sweep's 13 ms on two cores;
+//! patchy canopy's 16 × 10 × 16 cells: 1.9 s against the sweep's 12 ms on two cores;
 //! its buffers about 0.9 kB a point while it runs); `cargo run --release -p lightgrid-measure
 //! --example beam_cells -- --gather` prints its time beside its error.
 //!
