@@ -421,8 +421,9 @@ fn cell_order(
     (b, hz, total * d, m)
 }
 
-/// A sweep of a cell source with its first scatterings gathered when
-/// `options.gather` asks ([`gather`]): `sweep` (the sweeper's own sweep with a source,
+/// A sweep of a cell source in `material` lit by `boundary` with its first scatterings
+/// gathered when `options.gather` asks ([`gather`], wrapping where the sides are
+/// periodic): `sweep` (the sweeper's own sweep with a source,
 /// called once, with `options.gather` off and the bins on) sweeps what they collide
 /// with and the boundary's light, and the gathered light is added to its bins and
 /// horizon halves; the average and the dominant direction, where asked for, are those
@@ -431,7 +432,7 @@ fn cell_order(
 /// left out.
 pub fn sweep_gathered(
     material: &MaterialGrid,
-    periodic: bool,
+    boundary: &lightgrid_core::Boundary,
     source: &CellSource,
     options: &SweepOptions,
     sweep: impl FnOnce(&CellSource, &SweepOptions) -> Result<SweepOutput, SweepError>,
@@ -440,6 +441,7 @@ pub fn sweep_gathered(
         return sweep(source, options);
     }
     options.validate()?;
+    let periodic = matches!(boundary.sides, lightgrid_core::SideBoundary::Periodic);
     let g = gather(material, periodic, source, &options.gather)?;
     let mut o = *options;
     o.gather = Gather::OFF;

@@ -751,8 +751,7 @@ impl Sweeper for CpuSweeper {
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
         let _span = sweep_span(material, options).entered();
-        let periodic = matches!(boundary.sides, lightgrid_core::SideBoundary::Periodic);
-        gather::sweep_gathered(material, periodic, source, options, |src, o| {
+        gather::sweep_gathered(material, boundary, source, options, |src, o| {
             let s = sweep::run_reusing(material, boundary, Some(src), o, true, &mut self.spare)?;
             self.last_balance = Some(s.balance);
             Ok(s.output)
