@@ -201,6 +201,8 @@ struct Scratch<'a> {
     /// The local instances within reach: a cell's centre in the model's space, and
     /// the instance's index in `local`.
     centres: Vec<(Vec3, usize)>,
+    /// The samples of the cell being composed ([`sample_cell`]).
+    samples: Vec<SampleState>,
 }
 
 /// One candidate instance as a composition samples it: its model, the model-space
@@ -642,7 +644,11 @@ impl AreaComposer {
             .par_iter_mut()
             .enumerate()
             .for_each_init(Scratch::default, |scratch, (i, cell)| {
-                let Scratch { local, centres } = scratch;
+                let Scratch {
+                    local,
+                    centres,
+                    samples,
+                } = scratch;
                 let q = desc.coords(i).expect("index in range");
                 let centre = desc.position(q);
                 // Instances overlapping this cell (the same test as over all candidates),
@@ -704,8 +710,8 @@ impl AreaComposer {
                 *cell = sample_cell(
                     (centre, h, k),
                     (local, centres),
-                    ground,
-                    self.params.ground_band,
+                    (ground, self.params.ground_band),
+                    samples,
                 );
             });
         Ok((MaterialGrid::new(*desc, cells)?, stats))
@@ -762,36 +768,26 @@ impl AreaComposer {
 /// instance's index in `local`) and the ground's band (`ground`: the height less the
 /// bias and colour under each column of samples), its colour their blocked-weighted
 /// mean; the cell the samples' mean.
+///
+/// Instance by instance over the samples (each sample's state in `acc`), then the
+/// ground, then the samples' mean in sample order: every sample sees its instances in
+/// `centres`' order and the ground last, the sums the order they had sample by
+/// sample. (Sample by sample, every sample's instances were looked up anew: twice the
+/// time of a forest node's composition.)
 fn sample_cell(
     (centre, h, k): (Vec3, f32, u32),
     (local, centres): (&[&Sampling<'_>], &[(Vec3, usize)]),
-    ground: &[(f32, Vec3)],
-    ground_band: f32,
+    (ground, ground_band): (&[(f32, Vec3)], f32),
+    acc: &mut Vec<SampleState>,
 ) -> Material {
-    let mut pass_sum = 0.0;
-    let mut colour_sum = Vec3::ZERO;
-    let mut block_sum = 0.0;
-    // Samples in the order s = x + k (y + k z) (x fastest), without a division a sample.
-    let samples =
-        (0..k).flat_map(|z| (0..k).flat_map(move |y| (0..k).map(move |x| UVec3::new(x, y, z))));
-    for (s, q) in samples.enumerate() {
-        let o = q.as_vec3();
-        let p = centre + ((o + 0.5) / k as f32 - 0.5) * h;
-        let mut pass = 1.0f32;
-        let mut colour = Vec3::ZERO;
-        let mut weight = 0.0f32;
-        let mut add = |m_pass: f32, m_colour: Vec3| {
-            let blocked = 1.0 - m_pass;
-            if blocked > 0.0 {
-                colour += m_colour * blocked;
-                weight += blocked;
-                pass *= m_pass;
-            }
-        };
-        for &(c, li) in centres.iter() {
-            let sm = local[li];
-            let mpos = c + sm.offsets[s];
-            let (mlo, mhi) = sm.bounds;
+    let n = (k * k * k) as usize;
+    acc.clear();
+    acc.resize(n, SampleState::CLEAR);
+    for &(c, li) in centres.iter() {
+        let sm = local[li];
+        let (mlo, mhi) = sm.bounds;
+        for (a, &offset) in acc.iter_mut().zip(&sm.offsets[..n]) {
+            let mpos = c + offset;
             if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
                 continue;
             }
@@ -799,19 +795,36 @@ fn sample_cell(
             let Some(m) = sm.read(mpos) else {
                 continue;
             };
-            add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
-        }
-        if let Some(&(g, colour)) = ground.get((q.x + k * q.z) as usize) {
-            let w = ((g - p.y) / ground_band + 0.5).clamp(0.0, 1.0);
-            add(1.0 - w, colour);
-        }
-        pass_sum += pass;
-        if weight > 0.0 {
-            colour_sum += colour / weight * (1.0 - pass);
-            block_sum += 1.0 - pass;
+            a.add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
         }
     }
-    let n = (k * k * k) as f32;
+    // A sample's height (`centre + ((o + 0.5) / k − 0.5) h`, its y alone).
+    let sample_y = |y: u32| centre.y + ((y as f32 + 0.5) / k as f32 - 0.5) * h;
+    let weight = |g: f32, y: f32| ((g - y) / ground_band + 0.5).clamp(0.0, 1.0);
+    // The ground adds nothing to a sample above its band (a weight of 0 blocks
+    // nothing): where the highest ground under the cell gives its lowest sample none,
+    // it gives none to any (each step of the weight is monotonic in `g` and `y`).
+    let highest = ground.iter().map(|g| g.0).fold(f32::NEG_INFINITY, f32::max);
+    if !ground.is_empty() && weight(highest, sample_y(0)) > 0.0 {
+        for (s, a) in acc.iter_mut().enumerate() {
+            let s = s as u32;
+            let (x, y, z) = (s % k, (s / k) % k, s / (k * k));
+            if let Some(&(g, colour)) = ground.get((x + k * z) as usize) {
+                a.add(1.0 - weight(g, sample_y(y)), colour);
+            }
+        }
+    }
+    let mut pass_sum = 0.0;
+    let mut colour_sum = Vec3::ZERO;
+    let mut block_sum = 0.0;
+    for a in acc.iter() {
+        pass_sum += a.pass;
+        if a.weight > 0.0 {
+            colour_sum += a.colour / a.weight * (1.0 - a.pass);
+            block_sum += 1.0 - a.pass;
+        }
+    }
+    let n = n as f32;
     Material {
         reflectance: if block_sum > 0.0 {
             (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
@@ -819,6 +832,34 @@ fn sample_cell(
             Vec3::ZERO
         },
         pass: (pass_sum / n).clamp(0.0, 1.0),
+    }
+}
+
+/// One sample's transmittance, and its blocked-weighted colour and weight so far
+/// ([`sample_cell`]).
+#[derive(Clone, Copy)]
+struct SampleState {
+    pass: f32,
+    colour: Vec3,
+    weight: f32,
+}
+
+impl SampleState {
+    const CLEAR: Self = Self {
+        pass: 1.0,
+        colour: Vec3::ZERO,
+        weight: 0.0,
+    };
+
+    /// A blocker of transmittance `m_pass` and colour `m_colour` crossed.
+    #[inline]
+    fn add(&mut self, m_pass: f32, m_colour: Vec3) {
+        let blocked = 1.0 - m_pass;
+        if blocked > 0.0 {
+            self.colour += m_colour * blocked;
+            self.weight += blocked;
+            self.pass *= m_pass;
+        }
     }
 }
 
@@ -904,6 +945,139 @@ mod tests {
                 "{dims}: {seen} read, {skipped} clear"
             );
         }
+    }
+
+    /// [`sample_cell`] (instance by instance over the samples, the ground skipped where
+    /// it adds nothing) is the composition sample by sample, bit for bit: two turned,
+    /// scaled instances of a model, ground under, in and far below the cell's band,
+    /// `k` from 1 to 4.
+    #[test]
+    fn sample_cell_is_the_sample_by_sample_composition() {
+        let mut rng = fastrand::Rng::with_seed(17);
+        let d = GridDesc::new(Vec3::new(-2.0, 0.0, -2.0), 0.5, UVec3::new(9, 9, 9)).unwrap();
+        let cells: Vec<Material> = (0..d.point_count())
+            .map(|_| match rng.u32(0..3) {
+                0 => Material {
+                    reflectance: Vec3::new(rng.f32(), rng.f32(), rng.f32()),
+                    pass: rng.f32(),
+                },
+                1 if rng.u32(0..8) == 0 => Material::opaque(Vec3::splat(0.3)),
+                _ => Material::EMPTY,
+            })
+            .collect();
+        let model = MaterialGrid::new(d, cells).unwrap();
+        let clear = ClearCubes::new(&model);
+        let placed: Vec<Placed> = [(0.3f32, 1.1f32), (1.9, 0.8)]
+            .iter()
+            .map(|&(angle, scale)| {
+                let rotation = Quat::from_rotation_y(angle);
+                Placed {
+                    inst: Instance {
+                        model: 0,
+                        position: Vec3::new(angle, 0.2, -angle),
+                        rotation,
+                        scale,
+                    },
+                    inv_rot: rotation.inverse(),
+                    lo: Vec3::splat(-10.0),
+                    hi: Vec3::splat(10.0),
+                }
+            })
+            .collect();
+        let (mut skipped, mut banded) = (0, 0);
+        for k in 1..=4u32 {
+            let h = 1.0;
+            let samplings: Vec<Sampling<'_>> = placed
+                .iter()
+                .map(|p| Sampling::new(p, (&model, &clear), h, k))
+                .collect();
+            let local: Vec<&Sampling<'_>> = samplings.iter().collect();
+            let mut acc = Vec::new();
+            for _ in 0..300 {
+                let centre = Vec3::new(
+                    rng.f32() * 4.0 - 2.0,
+                    rng.f32() * 5.0,
+                    rng.f32() * 4.0 - 2.0,
+                );
+                let centres: Vec<(Vec3, usize)> = local
+                    .iter()
+                    .enumerate()
+                    .map(|(i, sm)| (sm.to_model(centre), i))
+                    .collect();
+                // Ground well below, about the cell, or over it.
+                let base = centre.y + (rng.f32() * 6.0 - 4.0);
+                let ground: Vec<(f32, Vec3)> = (0..k * k)
+                    .map(|_| (base + rng.f32() * 0.6, Vec3::new(0.2, rng.f32(), 0.1)))
+                    .collect();
+                let band = 1.0;
+                let got = sample_cell(
+                    (centre, h, k),
+                    (&local, &centres),
+                    (&ground, band),
+                    &mut acc,
+                );
+                // Sample by sample: each sample's instances, then its ground.
+                let (mut pass_sum, mut colour_sum, mut block_sum) = (0.0f32, Vec3::ZERO, 0.0f32);
+                let mut any_ground = false;
+                for s in 0..(k * k * k) as usize {
+                    let q = UVec3::new(s as u32 % k, (s as u32 / k) % k, s as u32 / (k * k));
+                    let p = centre + ((q.as_vec3() + 0.5) / k as f32 - 0.5) * h;
+                    let (mut pass, mut colour, mut weight) = (1.0f32, Vec3::ZERO, 0.0f32);
+                    let mut add = |m_pass: f32, m_colour: Vec3| {
+                        let blocked = 1.0 - m_pass;
+                        if blocked > 0.0 {
+                            colour += m_colour * blocked;
+                            weight += blocked;
+                            pass *= m_pass;
+                        }
+                    };
+                    for &(c, li) in &centres {
+                        let sm = local[li];
+                        let mpos = c + sm.offsets[s];
+                        if mpos.cmplt(sm.bounds.0).any() || mpos.cmpgt(sm.bounds.1).any() {
+                            continue;
+                        }
+                        if let Some(m) = sm.read(mpos) {
+                            add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
+                        }
+                    }
+                    let (g, c) = ground[(q.x + k * q.z) as usize];
+                    let w = ((g - p.y) / band + 0.5).clamp(0.0, 1.0);
+                    any_ground |= w > 0.0;
+                    add(1.0 - w, c);
+                    pass_sum += pass;
+                    if weight > 0.0 {
+                        colour_sum += colour / weight * (1.0 - pass);
+                        block_sum += 1.0 - pass;
+                    }
+                }
+                let want = Material {
+                    reflectance: if block_sum > 0.0 {
+                        (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
+                    } else {
+                        Vec3::ZERO
+                    },
+                    pass: (pass_sum / (k * k * k) as f32).clamp(0.0, 1.0),
+                };
+                assert_eq!(got.pass.to_bits(), want.pass.to_bits(), "k {k} at {centre}");
+                for c in 0..3 {
+                    assert_eq!(
+                        got.reflectance[c].to_bits(),
+                        want.reflectance[c].to_bits(),
+                        "k {k} at {centre}"
+                    );
+                }
+                if any_ground {
+                    banded += 1;
+                } else {
+                    skipped += 1;
+                }
+            }
+        }
+        assert!(
+            skipped > 100 && banded > 100,
+            "{skipped} above the band, {banded} in it"
+        );
     }
 
     /// The summed-volume table's boxes count what testing every cube counts, and a
