@@ -27,9 +27,13 @@ impl Run<'_> {
     ///
     /// The passes run on a worker of rayon's pool (`rayon::scope`): a level's parallel
     /// loops then start from inside the pool, and a level small enough for one task runs
-    /// on that worker at once instead of waking another thread for it.
+    /// on that worker at once instead of waking another thread for it; another worker
+    /// is kept awake for the levels' loops ([`Helper`]).
     pub(crate) fn run<S: Sink>(&mut self, g: Vec<S>) -> (Vec<S>, bool, EnergyBalance, SweepStats) {
-        rayon::scope(|_| run_with(self, g))
+        rayon::scope(|_| {
+            let _sweeping = Sweeping::enter();
+            run_with(self, g)
+        })
     }
 }
 
@@ -84,6 +88,8 @@ struct PassLoop<'r, S> {
     defer: bool,
     above: Option<DVec3>,
     accel: Accel,
+    /// Keeps a second worker awake through the levels (the sweep ends when it drops).
+    helper: Helper,
 }
 
 /// Diffusion acceleration (`crate::accel`) across a sweep's passes.
@@ -172,6 +178,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             stats: SweepStats::default(),
             ok: true,
             resolved: false,
+            helper: Helper::new(),
         }
     }
 
@@ -425,6 +432,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
     /// A level computed: its set-up, phase 1, and where it holds material phases 2
     /// and 3.
     fn compute_level(&mut self, p: &mut Pass<'r>, li: i32, j: i32, from_virtual: bool) {
+        self.helper.ensure();
         let (fast, fixed) = (self.fast, &self.fixed);
         let ny = self.desc.dims().y as i32;
         self.stats.levels_computed += 1;
