@@ -23,8 +23,14 @@ pub struct BinLight(pub [Vec3; NUM_DIRS]);
 
 impl std::ops::Add for BinLight {
     type Output = Self;
-    fn add(self, o: Self) -> Self {
-        Self(std::array::from_fn(|d| self.0[d] + o.0[d]))
+    fn add(mut self, o: Self) -> Self {
+        // In place, as 78 floats (the same sums): `from_fn` built a third array.
+        let a: &mut [f32] = bytemuck::cast_slice_mut(&mut self.0[..]);
+        let b: &[f32] = bytemuck::cast_slice(&o.0[..]);
+        for (x, y) in a.iter_mut().zip(b) {
+            *x += *y;
+        }
+        self
     }
 }
 
@@ -45,16 +51,21 @@ impl std::ops::Sub for BinLight {
 
 impl std::ops::Mul<f32> for BinLight {
     type Output = Self;
-    fn mul(self, s: f32) -> Self {
-        Self(self.0.map(|v| v * s))
+    fn mul(mut self, s: f32) -> Self {
+        self *= s;
+        self
     }
 }
 
 /// Per colour channel: a white response tinted by a light's colour.
 impl std::ops::Mul<Vec3> for BinLight {
     type Output = Self;
-    fn mul(self, c: Vec3) -> Self {
-        Self(self.0.map(|v| v * c))
+    fn mul(mut self, c: Vec3) -> Self {
+        // In place (the same products): `map` built a second array.
+        for v in &mut self.0 {
+            *v *= c;
+        }
+        self
     }
 }
 

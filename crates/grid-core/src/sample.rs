@@ -38,8 +38,12 @@ impl Blend for crate::HorizonLight {
         Self::default()
     }
     fn add_scaled(&mut self, other: &Self, w: f32) {
-        for (x, y) in self.0.iter_mut().zip(other.0) {
-            *x += y * w;
+        // As 24 floats in a row, as `BinLight`'s (the same sums), by reference: the
+        // loop took a copy of `other` and ran 8 three-float steps.
+        let a: &mut [f32] = bytemuck::cast_slice_mut(&mut self.0[..]);
+        let b: &[f32] = bytemuck::cast_slice(&other.0[..]);
+        for (x, y) in a.iter_mut().zip(b) {
+            *x += *y * w;
         }
     }
 }
