@@ -28,16 +28,16 @@
 //! `cargo run --release -p lightgrid-terrain-lod --example flythrough`: 30 frames along a 300 m
 //! path over the shipped DEM (4 m a pixel, heights × 0.05) with 4000 procedural 8 m
 //! trees, world grid 16 m, nodes down to 1 m, budget `node_points² × 96` points a frame,
-//! CPU sweeper (the default options: 4 passes at most, stopping at a tolerance of 0.01),
-//! 2-core VM, three runs on 2026-11-29 (the frame's mean includes building the world
-//! grid). Memory is that of the grids alive after the last frame, as stored (26 bins
-//! `f32`) and as the other representations would take.
+//! no apron, CPU sweeper (the default options: 4 passes at most, stopping at a
+//! tolerance of 0.01), the 2-core Intel Xeon VM, three runs on 2026-12-04 (the frame's
+//! mean includes building the world grid). Memory is that of the grids alive after the
+//! last frame, as stored (26 bins `f32`) and as the other representations would take.
 //!
 //! | points a node | ms a frame | points swept | 26 bins `f32` | 26 bins R11G11B10 | average + dominant |
 //! |--------------:|-----------:|-------------:|--------------:|------------------:|-------------------:|
-//! | 16 | 43–45 | 0.55 M | 62 MB | 21 MB | 5 MB |
-//! | 32 | 85–87 | 1.64 M | 202 MB | 67 MB | 16 MB |
-//! | 64 | 239–246 | 4.84 M | 851 MB | 284 MB | 65 MB |
+//! | 16 | 37–38 | 0.66 M | 62 MB | 21 MB | 5 MB |
+//! | 32 | 87–93 | 2.12 M | 203 MB | 68 MB | 16 MB |
+//! | 64 | 216–236 | 5.70 M | 853 MB | 284 MB | 66 MB |
 //!
 //! On the CPU sweeper 16-point nodes win on both counts: smaller nodes overlap the
 //! wanted area more tightly. Seed 000 chose 32 for GPU occupancy (one dispatch per
