@@ -7,14 +7,17 @@
 //! 5.37 ms on two threads and 6.14 ms on one (`halo_node`, `SIDES=halves`), most of the
 //! second thread's time spent going to sleep and waking. A [`Helper`] puts a job on the
 //! pool at each level that spins on [`rayon::yield_now`], so the next loop's tasks are
-//! taken at once: 3.62 ms on two threads.
+//! taken at once: 3.62–3.75 ms on two threads.
 //!
-//! It never holds a sweep up:
+//! It cannot hold a sweep up for long:
 //! - it runs only on a worker that is not running a sweep of its own ([`Sweeping`]): a
 //!   sweep's own worker that finds it while waiting on a loop drops it, and two sweeps
 //!   side by side never wait on each other's helpers;
-//! - it stops once the sweep ends, or after [`IDLE_LIMIT`] without work (its worker is
-//!   then free for whatever it was doing beneath it), and the next level starts another;
+//! - it stops once the sweep ends, or after [`IDLE_LIMIT`] without work, and the next
+//!   level starts another. (A worker that takes it while waiting inside one of the
+//!   sweep's own tasks holds that task until then: the sweep waits at most that long.
+//!   Each level's helper is queued before the level's tasks, so an idle worker takes it
+//!   first.)
 //! - with one thread in the pool there is none.
 //!
 //! It only runs the pool's tasks sooner: a sweep's result is the same bit for bit.
