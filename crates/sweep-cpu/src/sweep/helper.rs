@@ -15,9 +15,9 @@
 //!   side by side never wait on each other's helpers;
 //! - it stops once the sweep ends, or after [`IDLE_LIMIT`] without work, and the next
 //!   level starts another. (A worker that takes it while waiting inside one of the
-//!   sweep's own tasks holds that task until then: the sweep waits at most that long.
-//!   Each level's helper is queued before the level's tasks, so an idle worker takes it
-//!   first.)
+//!   sweep's own tasks holds that task until the helper stops: until the pool has had no
+//!   work for that long, the sweep's owner idle too. Each level's helper is queued
+//!   before the level's tasks, so an idle worker takes it first.)
 //! - with one thread in the pool there is none.
 //!
 //! It only runs the pool's tasks sooner: a sweep's result is the same bit for bit.
