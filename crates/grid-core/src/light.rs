@@ -24,21 +24,15 @@ pub struct BinLight(pub [Vec3; NUM_DIRS]);
 impl std::ops::Add for BinLight {
     type Output = Self;
     fn add(mut self, o: Self) -> Self {
-        // In place, as 78 floats (the same sums): `from_fn` built a third array.
-        let a: &mut [f32] = bytemuck::cast_slice_mut(&mut self.0[..]);
-        let b: &[f32] = bytemuck::cast_slice(&o.0[..]);
-        for (x, y) in a.iter_mut().zip(b) {
-            *x += *y;
-        }
+        // In place (the same sums): `from_fn` built a third array.
+        self += o;
         self
     }
 }
 
 impl std::ops::AddAssign for BinLight {
     fn add_assign(&mut self, o: Self) {
-        for (a, b) in self.0.iter_mut().zip(o.0) {
-            *a += b;
-        }
+        crate::sample::add_scaled_floats(&mut self.0, &o.0, 1.0);
     }
 }
 

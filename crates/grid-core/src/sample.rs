@@ -38,13 +38,9 @@ impl Blend for crate::HorizonLight {
         Self::default()
     }
     fn add_scaled(&mut self, other: &Self, w: f32) {
-        // As 24 floats in a row, as `BinLight`'s (the same sums), by reference: the
-        // loop took a copy of `other` and ran 8 three-float steps.
-        let a: &mut [f32] = bytemuck::cast_slice_mut(&mut self.0[..]);
-        let b: &[f32] = bytemuck::cast_slice(&other.0[..]);
-        for (x, y) in a.iter_mut().zip(b) {
-            *x += *y * w;
-        }
+        // By reference, as floats in a row: the loop took a copy of `other` and ran 8
+        // three-float steps.
+        add_scaled_floats(&mut self.0, &other.0, w);
     }
 }
 
@@ -53,13 +49,19 @@ impl Blend for BinLight {
         BinLight::ZERO
     }
     fn add_scaled(&mut self, other: &Self, w: f32) {
-        // As 78 floats in a row (the same sums, element by element): the loop runs on
-        // the vector unit instead of 26 three-float steps.
-        let a: &mut [f32] = bytemuck::cast_slice_mut(&mut self.0[..]);
-        let b: &[f32] = bytemuck::cast_slice(&other.0[..]);
-        for (x, y) in a.iter_mut().zip(b) {
-            *x += *y * w;
-        }
+        add_scaled_floats(&mut self.0, &other.0, w);
+    }
+}
+
+/// `a += b · w` over the colours' floats in a row (the same sums, element by element):
+/// the loop runs on the vector unit instead of one three-float step a colour. (With
+/// `w` = 1 the product is exact: plain sums.)
+#[inline]
+pub(crate) fn add_scaled_floats(a: &mut [Vec3], b: &[Vec3], w: f32) {
+    let a: &mut [f32] = bytemuck::cast_slice_mut(a);
+    let b: &[f32] = bytemuck::cast_slice(b);
+    for (x, y) in a.iter_mut().zip(b) {
+        *x += *y * w;
     }
 }
 

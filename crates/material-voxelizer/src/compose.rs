@@ -806,11 +806,13 @@ fn sample_cell(
     // it gives none to any (each step of the weight is monotonic in `g` and `y`).
     let highest = ground.iter().map(|g| g.0).fold(f32::NEG_INFINITY, f32::max);
     if !ground.is_empty() && weight(highest, sample_y(0)) > 0.0 {
-        for (s, a) in acc.iter_mut().enumerate() {
-            let s = s as u32;
-            let (x, y, z) = (s % k, (s / k) % k, s / (k * k));
-            if let Some(&(g, colour)) = ground.get((x + k * z) as usize) {
-                a.add(1.0 - weight(g, sample_y(y)), colour);
+        // Row by row (x fastest within a row of fixed y and z): no division a sample.
+        for (r, row) in acc.chunks_exact_mut(k as usize).enumerate() {
+            let (y, z) = (r as u32 % k, r as u32 / k);
+            let under = ground.get((k * z) as usize..).unwrap_or_default();
+            let py = sample_y(y);
+            for (a, &(g, colour)) in row.iter_mut().zip(under) {
+                a.add(1.0 - weight(g, py), colour);
             }
         }
     }
