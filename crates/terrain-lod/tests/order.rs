@@ -3,7 +3,8 @@
 //! coarse depths' far nodes, so the camera's surroundings reach the finest depth within
 //! a frame a depth of a cold start; a node swept before a coarser node its boundary
 //! reads is swept again once that one is built, and once settled the hierarchy is the
-//! one a build without a budget gives, bit for bit.
+//! one a build without a budget gives, bit for bit; a camera among the nodes it has
+//! built sweeps none twice.
 
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{BinLight, Heightmap, LightField};
@@ -42,6 +43,17 @@ fn hierarchy_reading_neighbours(budget_points: u64) -> Hierarchy {
         HierarchyParams::default().compose_ahead,
         true,
     )
+}
+
+/// [`hierarchy`] that evicts a node as soon as the camera no longer wants it
+/// (`evict_factor` = `lod_factor`): after a path, settled, it holds the wanted nodes
+/// alone, as one frame without a budget builds them.
+fn hierarchy_evicting_behind(budget_points: u64) -> Hierarchy {
+    let params = HierarchyParams {
+        evict_factor: 1.0,
+        ..params(budget_points)
+    };
+    hierarchy_over(Box::new(field::varying_layer(Vec3::splat(0.6))), params)
 }
 
 /// [`hierarchy`] with `compose_ahead` and `neighbour_halo` as given.
@@ -165,12 +177,16 @@ fn composing_ahead_changes_no_frame() {
     assert!(composed_ahead > 0, "nothing composed ahead");
 }
 
-/// Settled under the small budget (nodes swept before what their boundaries read, and
-/// swept again), every node's light and every read, sun included, is what one frame
+/// Settled under the small budget after a camera arriving faster than its nodes are
+/// built (nodes swept before what their boundaries read, and swept again), every
+/// node's light and every read, sun included, is what one frame
 /// without a budget gives, bit for bit.
 #[test]
 fn settled_under_a_budget_is_built_without_one() {
-    settled_under_a_budget(hierarchy(SMALL));
+    let mut h = hierarchy_evicting_behind(SMALL);
+    let (_, provisional) = arrive(&mut h);
+    assert!(provisional > 0, "no node was ever provisional");
+    settled_under_a_budget(h);
 }
 
 /// The same where side halos read the nodes of their depth before them, the camera
@@ -204,6 +220,7 @@ fn arrive(h: &mut Hierarchy) -> (u32, u32) {
 /// Frames of `h` (a [`SMALL`] budget) until settled: some nodes swept twice, and then
 /// the hierarchy one frame without a budget builds.
 fn settled_under_a_budget(mut h: Hierarchy) {
+    let before = h.ready_nodes();
     let mut built = 0;
     for f in 0..60 {
         let s = h.update(CAMERA).unwrap();
@@ -213,13 +230,15 @@ fn settled_under_a_budget(mut h: Hierarchy) {
         }
         assert!(f < 59, "never settled: {s:?}");
     }
-    let nodes = h.ready_nodes().len() as u32;
+    let nodes = h.ready_nodes();
+    let new = nodes.iter().filter(|k| !before.contains(k)).count() as u32;
     // Some were swept twice: the order had them before a coarser node they read (or,
-    // after a path, before a node of their depth they read).
-    println!("update: {built} builds for {nodes} nodes");
+    // after a path, before a node of their depth they read); a node ready before these
+    // frames and built in them is one swept again.
+    println!("update: {built} builds for {new} new nodes");
     assert!(
-        built > nodes || h.params().neighbour_halo,
-        "{built} builds of {nodes} nodes"
+        built > new || h.params().neighbour_halo,
+        "{built} builds of {new} new nodes"
     );
     same_as_without_a_budget(&h, None);
 }
@@ -229,7 +248,7 @@ fn settled_under_a_budget(mut h: Hierarchy) {
 /// one frame without a budget under the new sky gives, bit for bit.
 #[test]
 fn a_refreshed_node_stays_provisional() {
-    refreshed_stays_provisional(hierarchy(SMALL));
+    refreshed_stays_provisional(hierarchy_evicting_behind(SMALL));
 }
 
 /// The same where side halos read the nodes of their depth before them, nodes left
@@ -248,17 +267,21 @@ fn a_refreshed_node_reading_neighbours_stays_provisional() {
 /// settled: the hierarchy one frame without a budget builds under the new sky.
 fn refreshed_stays_provisional(mut h: Hierarchy) {
     // Until nodes are provisional and a coarser node one of them reads is still to
-    // come: frames of `update` until some are, and two more (the frame that marks one
-    // may build its coarser node next).
+    // come: frames along the arriving path (`arrive`: a camera that outruns what it
+    // has built) until some are, and two more (the frame that marks one may build its
+    // coarser node next).
     let mut marked = 0;
-    for f in 0.. {
-        let s = h.update(CAMERA).unwrap();
-        assert!(f < 40 && s.pending > 0, "no node was ever provisional");
+    for i in (1..=6).rev() {
+        let s = h
+            .update(CAMERA + Vec3::new(4.0, 0.0, 4.0) * i as f32)
+            .unwrap();
+        assert!(s.pending > 0, "settled before nodes were provisional");
         marked += (s.provisional > 0) as u32;
         if marked == 3 {
             break;
         }
     }
+    assert_eq!(marked, 3, "no node was ever provisional");
     refresh_and_settle(h);
 }
 
@@ -757,5 +780,40 @@ fn a_changed_scene_refreshed_under_a_budget_is_a_fresh_build() {
                 }
             }
         }
+    }
+}
+
+/// A camera moving among nodes it has built (settled, then 2.5 m a frame) builds each
+/// new node once, after the coarser nodes its boundary reads: no node is left
+/// provisional and none is swept twice, under a budget of a node or two a frame and
+/// under one of several (the order before this rule left 1–6 provisional on the same
+/// walk).
+#[test]
+fn a_camera_among_its_nodes_sweeps_none_twice() {
+    for budget in [SMALL, 4 * SMALL] {
+        let mut h = hierarchy(budget);
+        for f in 0..60 {
+            let s = h.update(CAMERA).unwrap();
+            if s.pending == 0 && s.sun_pending == 0 {
+                break;
+            }
+            assert!(f < 59, "never settled: {s:?}");
+        }
+        let mut camera = CAMERA;
+        let mut built = 0;
+        for f in 0..10 {
+            camera += Vec3::new(2.0, 0.0, 1.5);
+            let before = h.ready_nodes();
+            let s = h.update(camera).unwrap();
+            let new = h
+                .ready_nodes()
+                .iter()
+                .filter(|k| !before.contains(k))
+                .count() as u32;
+            assert_eq!(s.provisional, 0, "budget {budget}, frame {f}: {s:?}");
+            assert_eq!(s.built, new, "budget {budget}, frame {f}: swept twice");
+            built += s.built;
+        }
+        assert!(built > 0, "budget {budget}: the walk built nothing");
     }
 }
