@@ -35,9 +35,9 @@
 //!
 //! | points a node | ms a frame | points swept | 26 bins `f32` | 26 bins R11G11B10 | average + dominant |
 //! |--------------:|-----------:|-------------:|--------------:|------------------:|-------------------:|
-//! | 16 | 37–38 | 0.66 M | 62 MB | 21 MB | 5 MB |
-//! | 32 | 87–93 | 2.12 M | 203 MB | 68 MB | 16 MB |
-//! | 64 | 216–236 | 5.70 M | 853 MB | 284 MB | 66 MB |
+//! | 16 | 32–33 | 0.56 M | 62 MB | 21 MB | 5 MB |
+//! | 32 | 68–73 | 1.64 M | 203 MB | 68 MB | 16 MB |
+//! | 64 | 189–204 | 4.85 M | 853 MB | 284 MB | 66 MB |
 //!
 //! On the CPU sweeper 16-point nodes win on both counts: smaller nodes overlap the
 //! wanted area more tightly. Seed 000 chose 32 for GPU occupancy (one dispatch per
