@@ -139,26 +139,31 @@ impl Hierarchy {
             .filter(|k| near.contains(k))
             .copied()
             .collect();
-        // (A node that cannot be laid out counts as nothing, and is never pulled in.)
-        let cost = |k: NodeKey| self.sweep_cost(k).unwrap_or(0);
-        let unplaceable = |k: NodeKey| self.sweep_cost(k).is_none();
-        let (built, total) = near_keys.iter().fold((0, 0), |(b, t), k| {
-            let c = cost(*k);
-            (b + if self.nodes.contains_key(k) { c } else { 0 }, t + c)
-        });
+        // (A near node that cannot be laid out counts as nothing; missing reads that
+        // cannot are never pulled in.)
+        let costs: Vec<u64> = near_keys
+            .iter()
+            .map(|k| self.sweep_cost(*k).unwrap_or(0))
+            .collect();
+        let (built, total) = near_keys
+            .iter()
+            .zip(&costs)
+            .fold((0, 0), |(b, t), (k, &c)| {
+                (b + if self.nodes.contains_key(k) { c } else { 0 }, t + c)
+            });
         let caught_up = 2 * built >= total;
         let all: Wanted = wanted.iter().copied().collect();
-        for k in near_keys {
+        for (k, cost) in near_keys.into_iter().zip(costs) {
             if self.nodes.contains_key(&k) {
                 continue;
             }
             let missing = self.missing_reads(k, &all, near);
-            if missing.is_empty() || missing.iter().any(|m| unplaceable(*m)) {
-                continue;
-            }
-            let extra: u64 = missing.iter().map(|m| cost(*m)).sum();
-            if caught_up || extra <= cost(k) {
-                near.extend(missing);
+            let extra: Option<u64> = missing.iter().map(|m| self.sweep_cost(*m)).sum();
+            match extra {
+                Some(extra) if !missing.is_empty() && (caught_up || extra <= cost) => {
+                    near.extend(missing);
+                }
+                _ => {}
             }
         }
     }
