@@ -5,7 +5,8 @@
 
 use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{
-    BinLight, Blend, GridError, HorizonGrid, HorizonLight, LightField, LightGrid, Reading,
+    BinLight, Blend, Grid, GridDesc, GridError, HorizonGrid, HorizonLight, LightField, LightGrid,
+    Reading, trilinear_indices,
 };
 
 use crate::{
@@ -141,6 +142,22 @@ impl Hierarchy {
         (out, count)
     }
 
+    /// [`Hierarchy::shares`] with each share's [`Lookup`] (the errors of a read with a
+    /// bad normal or position).
+    fn looked_up(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<([(Share<'_>, Lookup); 4], usize), GridError> {
+        let (shares, count) = self.shares(p, n);
+        let first = Lookup::new(shares[0].light.desc(), p, n)?;
+        let mut out = [(shares[0], first); 4];
+        for (slot, s) in out.iter_mut().zip(&shares[..count]).skip(1) {
+            *slot = (*s, Lookup::new(s.light.desc(), p, n)?);
+        }
+        Ok((out, count))
+    }
+
     /// Node `key`'s sun at `p` with the sun kept apart: its own responses where shown,
     /// else the finest coarser grid's with a shown sun (a stale node's points read
     /// those).
@@ -167,6 +184,51 @@ struct Share<'a> {
     w: f32,
 }
 
+/// One share's trilinear lookup, found once and read from every grid of its layout
+/// (the node's bins and halves, its sun's scattered light and transmittance): the
+/// corners [`Grid::sample_biased`] (with a normal) or [`Grid::sample`] find, so a read
+/// through it is theirs bit for bit. A grid of another layout (a sun marched over a
+/// widened grid) is read as before.
+#[derive(Clone, Copy)]
+struct Lookup {
+    desc: GridDesc,
+    corners: ([usize; 8], [f32; 8]),
+}
+
+impl Lookup {
+    /// The lookup at `p` (half a cell along `n` where given) in grids of `desc`, with
+    /// [`Grid::sample_biased`]'s errors for a bad normal or position.
+    fn new(desc: &GridDesc, p: Vec3, n: Option<Vec3>) -> Result<Self, GridError> {
+        let q = match n {
+            Some(n) => {
+                let n = n.try_normalize().ok_or_else(|| {
+                    GridError::invalid("n", n, "normal must be finite and non-zero")
+                })?;
+                p + n * (0.5 * desc.h())
+            }
+            None => p,
+        };
+        if !q.is_finite() {
+            return Err(GridError::invalid("p", q, "sample position must be finite"));
+        }
+        Ok(Self {
+            desc: *desc,
+            corners: trilinear_indices(desc.dims(), desc.to_grid(q)),
+        })
+    }
+
+    /// `grid` read at the lookup's point.
+    fn read<T: Blend>(&self, grid: &Grid<T>, p: Vec3, n: Option<Vec3>) -> Result<T, GridError> {
+        if *grid.desc() == self.desc {
+            return Ok(grid.blend(self.corners));
+        }
+        match n {
+            Some(n) => grid.sample_biased(p, n),
+            None => grid.sample(p),
+        }
+    }
+}
+
 /// What one point reads, from the grid serving it and the grid holding its sun: the
 /// three reads of [`LightField`] and [`LightField::reading`] are made of these, so that
 /// they agree bit for bit.
@@ -181,16 +243,16 @@ impl Hierarchy {
     /// The sky's bins of `grid` times the sky scale, plus the sun's scattered light.
     fn bins_at(
         &self,
-        grid: &LightGrid,
-        sun: Option<(SunLight, &GridSun)>,
+        share: &Share<'_>,
+        at: &Lookup,
         p: Vec3,
         n: Option<Vec3>,
     ) -> Result<BinLight, GridError> {
-        let sky = grid.light(p, n)? * self.sky_scale;
-        Ok(match sun {
+        let sky = at.read(share.light, p, n)? * self.sky_scale;
+        Ok(match share.sun {
             // (None where the sky's bins hold the scattered sun.)
             Some((s, g)) => match &g.scattered {
-                Some(sc) => sky + sc.light(p, n)? * s.irradiance,
+                Some(sc) => sky + at.read(sc, p, n)? * s.irradiance,
                 None => sky,
             },
             None => sky,
@@ -203,19 +265,16 @@ impl Hierarchy {
         &self,
         halves: &HorizonGrid,
         sun: Option<(SunLight, &GridSun)>,
+        at: &Lookup,
         p: Vec3,
         n: Option<Vec3>,
     ) -> Result<HorizonLight, GridError> {
-        let read = |h: &HorizonGrid| match n {
-            Some(n) => h.sample_biased(p, n),
-            None => h.sample(p),
-        };
-        let sky = read(halves)? * self.sky_scale;
+        let sky = at.read(halves, p, n)? * self.sky_scale;
         Ok(match sun {
             Some((s, g)) => {
                 let scattered = match (&g.horizon, &g.scattered) {
-                    (Some(h), _) => read(h)?,
-                    (None, Some(sc)) => HorizonLight::even(&sc.light(p, n)?),
+                    (Some(h), _) => at.read(h, p, n)?,
+                    (None, Some(sc)) => HorizonLight::even(&at.read(sc, p, n)?),
                     // (The sky's bins hold the scattered sun.)
                     (None, None) => return Ok(sky),
                 };
@@ -228,16 +287,14 @@ impl Hierarchy {
     /// The sun's transmittance at `p` in `[0, 1]` (0 without a sun).
     fn transmittance_at(
         sun: Option<(SunLight, &GridSun)>,
+        at: &Lookup,
         p: Vec3,
         n: Option<Vec3>,
     ) -> Result<f32, GridError> {
         let Some((_, g)) = sun else {
             return Ok(0.0);
         };
-        let t = match n {
-            Some(n) => g.transmittance.sample_biased(p, n)?,
-            None => g.transmittance.sample(p)?,
-        };
+        let t = at.read(&g.transmittance, p, n)?;
         // (Trilinear weights may sum to 1 + 1 ulp.)
         Ok(t.clamp(0.0, 1.0))
     }
@@ -245,16 +302,16 @@ impl Hierarchy {
     /// [`Hierarchy::bins_at`] of each share, weighted.
     fn bins_of(
         &self,
-        shares: &[Share<'_>],
+        shares: &[(Share<'_>, Lookup)],
         p: Vec3,
         n: Option<Vec3>,
     ) -> Result<BinLight, GridError> {
-        if let [one] = shares {
-            return self.bins_at(one.light, one.sun, p, n);
+        if let [(one, at)] = shares {
+            return self.bins_at(one, at, p, n);
         }
         let mut acc = BinLight::ZERO;
-        for s in shares {
-            acc.add_scaled(&self.bins_at(s.light, s.sun, p, n)?, s.w);
+        for (s, at) in shares {
+            acc.add_scaled(&self.bins_at(s, at, p, n)?, s.w);
         }
         Ok(acc)
     }
@@ -263,16 +320,16 @@ impl Hierarchy {
     /// halves.
     fn halves_of(
         &self,
-        shares: &[Share<'_>],
+        shares: &[(Share<'_>, Lookup)],
         p: Vec3,
         n: Option<Vec3>,
     ) -> Result<Option<HorizonLight>, GridError> {
         let mut acc = HorizonLight::default();
-        for s in shares {
+        for (s, at) in shares {
             let Some(h) = s.halves else {
                 return Ok(None);
             };
-            let v = self.halves_at(h, s.sun, p, n)?;
+            let v = self.halves_at(h, s.sun, at, p, n)?;
             if shares.len() == 1 {
                 return Ok(Some(v));
             }
@@ -282,13 +339,17 @@ impl Hierarchy {
     }
 
     /// [`Hierarchy::transmittance_at`] of each share, weighted, in `[0, 1]`.
-    fn transmittance_of(shares: &[Share<'_>], p: Vec3, n: Option<Vec3>) -> Result<f32, GridError> {
-        if let [one] = shares {
-            return Self::transmittance_at(one.sun, p, n);
+    fn transmittance_of(
+        shares: &[(Share<'_>, Lookup)],
+        p: Vec3,
+        n: Option<Vec3>,
+    ) -> Result<f32, GridError> {
+        if let [(one, at)] = shares {
+            return Self::transmittance_at(one.sun, at, p, n);
         }
         let mut t = 0.0;
-        for s in shares {
-            t += Self::transmittance_at(s.sun, p, n)? * s.w;
+        for (s, at) in shares {
+            t += Self::transmittance_at(s.sun, at, p, n)? * s.w;
         }
         Ok(t.clamp(0.0, 1.0))
     }
@@ -304,7 +365,7 @@ impl Hierarchy {
 /// serving node's points clamped.
 impl LightField for Hierarchy {
     fn light(&self, p: Vec3, n: Option<Vec3>) -> Result<BinLight, GridError> {
-        let (shares, count) = self.shares(p, n);
+        let (shares, count) = self.looked_up(p, n)?;
         self.bins_of(&shares[..count], p, n)
     }
     /// The horizon halves of the finest ready grid at `p` times the sky scale, plus with
@@ -313,7 +374,7 @@ impl LightField for Hierarchy {
     /// sun's irradiance; `None` where the grid serving `p` keeps no halves
     /// (`HierarchyParams::sweep.outputs.horizon` off).
     fn horizon(&self, p: Vec3, n: Option<Vec3>) -> Result<Option<HorizonLight>, GridError> {
-        let (shares, count) = self.shares(p, n);
+        let (shares, count) = self.looked_up(p, n)?;
         self.halves_of(&shares[..count], p, n)
     }
     /// Every grid reduced once to the moments a light volume stores (the sky scale and
@@ -331,7 +392,7 @@ impl LightField for Hierarchy {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let (shares, count) = self.shares(p, n);
+        let (shares, count) = self.looked_up(p, n)?;
         let shares = &shares[..count];
         let horizon = match n {
             Some(_) => self.halves_of(shares, p, n)?,
@@ -348,7 +409,81 @@ impl LightField for Hierarchy {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let (shares, count) = self.shares(p, n);
+        let (shares, count) = self.looked_up(p, n)?;
         Self::transmittance_of(&shares[..count], p, n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lightgrid_core::glam::UVec3;
+    use proptest::prelude::*;
+
+    /// A grid of `desc` whose values differ point by point (every bin, every channel).
+    fn grid(desc: GridDesc) -> LightGrid {
+        let data = (0..desc.point_count())
+            .map(|i| {
+                BinLight(std::array::from_fn(|d| {
+                    Vec3::new(
+                        i as f32 + 0.25,
+                        d as f32 * 0.5 + 1.0,
+                        (i * 7 + d) as f32 * 0.1,
+                    )
+                }))
+            })
+            .collect();
+        LightGrid::from_trusted(desc, data)
+    }
+
+    proptest! {
+        /// A read through a shared lookup is the grid's own read bit for bit: with a
+        /// normal (half a cell along it) and without, inside and outside the grid,
+        /// and for a grid of another layout (read as before).
+        #[test]
+        fn a_lookup_reads_as_the_grid_samples(
+            p in (-3.0f32..9.0, -3.0f32..9.0, -3.0f32..9.0),
+            n in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
+            with_normal in any::<bool>(),
+        ) {
+            let desc = GridDesc::new(Vec3::new(0.5, -1.0, 0.25), 0.75, UVec3::new(5, 4, 6)).unwrap();
+            let other = GridDesc::new(Vec3::new(-0.5, -1.0, 0.25), 1.5, UVec3::new(4, 3, 4)).unwrap();
+            let (a, b) = (grid(desc), grid(other));
+            let p = Vec3::new(p.0, p.1, p.2);
+            let n = Vec3::new(n.0, n.1, n.2);
+            prop_assume!(n.length() > 1e-3);
+            let n = with_normal.then_some(n);
+            let at = Lookup::new(&desc, p, n).unwrap();
+            for g in [&a, &b] {
+                let want = match n {
+                    Some(n) => g.sample_biased(p, n).unwrap(),
+                    None => g.sample(p).unwrap(),
+                };
+                let got = at.read(g, p, n).unwrap();
+                for (x, y) in got.0.iter().zip(&want.0) {
+                    prop_assert_eq!(x.to_array().map(f32::to_bits), y.to_array().map(f32::to_bits));
+                }
+            }
+        }
+    }
+
+    /// A bad normal or position is named as the grid's own read names it.
+    #[test]
+    fn a_lookup_names_a_bad_normal_or_position() {
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(3)).unwrap();
+        let g = grid(desc);
+        for (p, n) in [
+            (Vec3::ONE, Some(Vec3::ZERO)),
+            (Vec3::ONE, Some(Vec3::NAN)),
+            (Vec3::new(f32::INFINITY, 0.0, 0.0), None),
+            (Vec3::new(f32::NAN, 0.0, 0.0), Some(Vec3::Y)),
+        ] {
+            let want = match n {
+                Some(n) => g.sample_biased(p, n).unwrap_err(),
+                None => g.sample(p).unwrap_err(),
+            };
+            let got = Lookup::new(&desc, p, n).err().expect("refused");
+            assert_eq!(got.to_string(), want.to_string());
+        }
     }
 }
