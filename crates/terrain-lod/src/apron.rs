@@ -29,7 +29,7 @@ use crate::{Hierarchy, LodError, NodeKey, NodeMaterial, StageTimes, shadow, time
 /// What a node's sky sweep reads besides its material: the boundary of its grid, or of
 /// the grid widened by the apron, and the hash of those inputs ([`Hierarchy::refresh`]).
 pub(crate) struct SkyInputs {
-    boundary: lightgrid_core::Boundary,
+    pub(crate) boundary: lightgrid_core::Boundary,
     pub(crate) hash: u64,
     /// The node's depth: the sun's march beyond its box reads this depth's materials
     /// and coarser ones ([`HierarchyParams::sun_with_sky`](crate::HierarchyParams::sun_with_sky)).
@@ -63,20 +63,43 @@ impl Hierarchy {
         options: &SweepOptions,
         times: &mut StageTimes,
     ) -> SkyInputs {
-        let m = material.1.unwrap_or(material.0);
-        let (boundary, hash) = timed(&mut times.boundary, || {
-            let b = self.node_boundary(m.desc(), key);
-            let hash = crate::hash_grid(m, &b, options);
-            (b, hash)
+        let mut inputs = self.sky_boundary(key, material, times);
+        timed(&mut times.boundary, || {
+            inputs.hash = self.sky_hash(material, &inputs.boundary, options);
         });
-        let hash = match self.sky_sun() {
-            Some(sun) => crate::sun::hash_sun(hash, sun),
-            None => hash,
-        };
+        inputs
+    }
+
+    /// [`Hierarchy::sky_inputs`] without their hash (0): the caller takes it with
+    /// [`Hierarchy::sky_hash`] (beside the sweep: [`Hierarchy::sky_node`]).
+    pub(crate) fn sky_boundary(
+        &self,
+        key: crate::NodeKey,
+        material: (&MaterialGrid, Option<&MaterialGrid>),
+        times: &mut StageTimes,
+    ) -> SkyInputs {
+        let m = material.1.unwrap_or(material.0);
+        let boundary = timed(&mut times.boundary, || self.node_boundary(m.desc(), key));
         SkyInputs {
             boundary,
-            hash,
+            hash: 0,
             depth: key.depth,
+        }
+    }
+
+    /// The hash of a node's sky inputs (its material as swept, `boundary`, `options`,
+    /// and the sun where its sky sweep holds it) that [`Hierarchy::refresh`] compares.
+    pub(crate) fn sky_hash(
+        &self,
+        material: (&MaterialGrid, Option<&MaterialGrid>),
+        boundary: &lightgrid_core::Boundary,
+        options: &SweepOptions,
+    ) -> u64 {
+        let m = material.1.unwrap_or(material.0);
+        let hash = crate::hash_grid(m, boundary, options);
+        match self.sky_sun() {
+            Some(sun) => crate::sun::hash_sun(hash, sun),
+            None => hash,
         }
     }
 

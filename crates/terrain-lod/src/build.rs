@@ -859,12 +859,32 @@ impl Hierarchy {
         times: &mut StageTimes,
     ) -> Result<Node, LodError> {
         let o = self.node_options(composed.has_objects);
-        let inputs = match prepared {
-            Some(i) => i,
-            None => self.sky_inputs(key, (&composed.grid, composed.widened.as_ref()), &o, times),
+        let material = (&composed.grid, composed.widened.as_ref());
+        let (out, input_hash) = match prepared {
+            Some(inputs) => (
+                self.sweep_sky(&inputs, composed, &o, (&mut *sweeper, fresh), times)?,
+                inputs.hash,
+            ),
+            None => {
+                // The inputs' hash (a pass over the material and the boundary: some
+                // 600 kB a 16-point node) taken on a worker the sweep leaves idle (a
+                // lone node's levels keep the second thread only half busy), else
+                // after it on this thread.
+                let inputs = self.sky_boundary(key, material, times);
+                let mut hash = 0;
+                let mut hash_time = Duration::ZERO;
+                let out = rayon::in_place_scope(|s| {
+                    s.spawn(|_| {
+                        timed(&mut hash_time, || {
+                            hash = self.sky_hash(material, &inputs.boundary, &o);
+                        })
+                    });
+                    self.sweep_sky(&inputs, composed, &o, (&mut *sweeper, fresh), times)
+                })?;
+                times.boundary += hash_time;
+                (out, hash)
+            }
         };
-        let input_hash = inputs.hash;
-        let out = self.sweep_sky(&inputs, composed, &o, (&mut *sweeper, fresh), times)?;
         let light = out.bins.ok_or_else(|| {
             GridError::invalid("sweeper", sweeper.name(), "returned no bins, asked for")
         })?;
