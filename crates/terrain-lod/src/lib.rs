@@ -30,14 +30,16 @@
 //! trees, world grid 16 m, nodes down to 1 m, budget `node_points² × 96` points a frame,
 //! no apron, CPU sweeper (the default options: 4 passes at most, stopping at a
 //! tolerance of 0.01), the 2-core Intel Xeon VM, three runs on 2026-12-04 (the frame's
-//! mean includes building the world grid). Memory is that of the grids alive after the
-//! last frame, as stored (26 bins `f32`) and as the other representations would take.
+//! mean includes building the world grid; the first run after a build took the 16-point
+//! path 35.5 ms, `cargo xtask figures`' median of three 29.5). Memory is that of the
+//! grids alive after the last frame, as stored (26 bins `f32`) and as the other
+//! representations would take.
 //!
 //! | points a node | ms a frame | points swept | 26 bins `f32` | 26 bins R11G11B10 | average + dominant |
 //! |--------------:|-----------:|-------------:|--------------:|------------------:|-------------------:|
-//! | 16 | 32–33 | 0.56 M | 62 MB | 21 MB | 5 MB |
-//! | 32 | 68–73 | 1.64 M | 203 MB | 68 MB | 16 MB |
-//! | 64 | 189–204 | 4.85 M | 853 MB | 284 MB | 66 MB |
+//! | 16 | 30–31 | 0.56 M | 62 MB | 21 MB | 5 MB |
+//! | 32 | 68–77 | 1.64 M | 203 MB | 68 MB | 16 MB |
+//! | 64 | 204–218 | 4.85 M | 853 MB | 284 MB | 66 MB |
 //!
 //! On the CPU sweeper 16-point nodes win on both counts: smaller nodes overlap the
 //! wanted area more tightly. Seed 000 chose 32 for GPU occupancy (one dispatch per
@@ -50,8 +52,9 @@
 //! `cargo xtask frame` runs a camera path with the sun kept apart and measures the
 //! light sampled against one full-resolution sweep of the region, and at the last
 //! camera against Monte Carlo (the repository's `docs/measurements.md`, "The hierarchy
-//! frame by frame", has its figures): with 16-point nodes 69–110 ms a frame on two
-//! cores (10, 30 and 60° suns, three runs on 2026-11-29, a noisy VM); against the single sweep the sky within about 1 % in bias at every depth,
+//! frame by frame", has its figures): with 16-point nodes 71, 59 and 57 ms a frame on
+//! two cores at 10, 30 and 60° suns (`cargo xtask figures`, 2026-12-04); against the
+//! single sweep the sky within about 1 % in bias at every depth,
 //! sky and sun together 3–5 % RMSE in the finest nodes; against Monte Carlo, what the
 //! renderer reads 6–10 % RMSE, most of it the single sweep's own error at points
 //! (ARCHITECTURE.md, "Known defects").
