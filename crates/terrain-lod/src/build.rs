@@ -15,7 +15,7 @@
 //! nothing its siblings write.
 
 use std::sync::Mutex;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use lightgrid_core::glam::Vec3;
 use lightgrid_core::{BinLight, GridError, LightField, Sweeper};
@@ -164,11 +164,19 @@ impl Hierarchy {
             .iter()
             .map(|k| self.composed.remove(k).expect("composed above or kept"))
             .collect();
+        self.step_swept = stats.points_swept;
         let jobs = self.jobs(order, &materials, stats);
+        let (selected, started) = (stats.points_swept - self.step_swept, Instant::now());
         let jobs = self.compose_jobs_casters(jobs, &new, &materials, stats)?;
         let ahead = self.ahead_of(next, &new, &materials);
         let (done, composed) =
             self.run_jobs_composing(jobs, &new, &materials, &mut stats.times, &ahead);
+        self.step_swept = stats.points_swept;
+        let secs = started.elapsed().as_secs_f64();
+        if self.params.budget_ms.is_some() {
+            self.steps_timed.0 += selected;
+            self.steps_timed.1 += secs;
+        }
         for (key, (m, t)) in ahead.into_iter().zip(composed) {
             stats.times.material += t;
             // (An error is met again, and returned, when the node's turn comes.)

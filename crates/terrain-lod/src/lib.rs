@@ -390,9 +390,10 @@ pub struct Layer<'a> {
 pub struct FrameStats {
     /// Points swept this frame.
     pub points_swept: u64,
-    /// Most points this frame could sweep: `budget_points`, or less under a time
-    /// budget ([`HierarchyParams::budget_ms`], whose frames mostly also sweep their
-    /// first node whatever it costs).
+    /// The points this frame's budget allowed at its start: `budget_points`, or under a
+    /// time budget ([`HierarchyParams::budget_ms`]) what the last frames' rate of
+    /// update time gets through in it (the frame itself takes jobs while their
+    /// predicted time fits what is left, and its first node whatever it costs).
     pub budget_points: u64,
     /// Nodes built (swept) this frame.
     pub built: u32,
@@ -537,6 +538,15 @@ pub struct Hierarchy {
     rate: Option<f64>,
     /// This frame's budget of points ([`FrameStats::budget_points`]).
     frame_budget: u64,
+    /// Under a time budget, the points a second of a frame's depths' jobs from their
+    /// selection to their end (sun casters composed, sweeps run), smoothed over the
+    /// frames: what [`Hierarchy::over_budget`] predicts a job's time with.
+    step_rate: Option<f64>,
+    /// The frame's points counted when the jobs being selected began to be (those
+    /// counted since are selected, not yet swept).
+    step_swept: u64,
+    /// This frame's depths' points and seconds from their jobs' selection to their end.
+    steps_timed: (u64, f64),
     /// When this frame began ([`Hierarchy::update`], [`Hierarchy::refresh`]).
     frame_started: std::time::Instant,
     /// Whether the last frame swept anything (see [`Hierarchy::over_budget`]).
@@ -698,6 +708,9 @@ impl Hierarchy {
             casters: Default::default(),
             rate: None,
             frame_budget: params.budget_points,
+            step_rate: None,
+            step_swept: 0,
+            steps_timed: (0, 0.0),
             frame_started: std::time::Instant::now(),
             last_frame_swept: true,
             sun: None,
@@ -1147,6 +1160,8 @@ impl Hierarchy {
             ..FrameStats::default()
         };
         self.frame_budget = self.frame_budget_points();
+        self.step_swept = 0;
+        self.steps_timed = (0, 0.0);
         stats.budget_points = self.frame_budget;
         Ok(stats)
     }
@@ -1275,6 +1290,12 @@ impl Hierarchy {
         self.casters.end_frame();
         stats.caster_bytes = self.casters.bytes();
         self.last_frame_swept = stats.points_swept > 0;
+        if let (p @ 1.., secs) = self.steps_timed
+            && secs > 0.0
+        {
+            let now = p as f64 / secs;
+            self.step_rate = Some(self.step_rate.map_or(now, |r| 0.5 * (r + now)));
+        }
         if stats.points_swept > 0 {
             let secs = self.frame_started.elapsed().as_secs_f64().max(1e-6);
             let now = stats.points_swept as f64 / secs;
@@ -1303,8 +1324,11 @@ impl Hierarchy {
     /// Whether `cost` more points after `swept` this frame are over its budget.
     ///
     /// Under a time budget ([`HierarchyParams::budget_ms`]):
-    /// - after the frame's first jobs, a job is over when the points budget is spent
-    ///   or the frame is past its time ([`Hierarchy::out_of_time`]);
+    /// - after the frame's first jobs, a job is over when the frame is past its time
+    ///   ([`Hierarchy::out_of_time`]), or the jobs selected since the depth's step
+    ///   began and it would not end within the time left at the measured rate of the
+    ///   last frames' steps (`step_rate`; before one is measured, when the frame's
+    ///   points budget is spent), or `budget_points` is;
     /// - the frame's first job runs whatever it costs, so that frames get on however
     ///   small the budget, unless the frame already spent half its budget before it
     ///   (composing new nodes' materials: a camera's first frame composes every node
@@ -1317,7 +1341,20 @@ impl Hierarchy {
             return swept + cost > self.frame_budget;
         };
         if swept > 0 {
-            return swept + cost > self.frame_budget || self.out_of_time(swept);
+            if self.out_of_time(swept) {
+                return true;
+            }
+            // The time left against the jobs selected and this one at the steps'
+            // measured rate (the frame's own rate, composing included, left frames
+            // with light composition a third of their budget unused).
+            return match self.step_rate {
+                Some(rate) => {
+                    let left = ms as f64 / 1e3 - self.frame_started.elapsed().as_secs_f64();
+                    let selected = swept.saturating_sub(self.step_swept) + cost;
+                    selected as f64 > rate * left || swept + cost > self.params.budget_points
+                }
+                None => swept + cost > self.frame_budget,
+            };
         }
         let spent = self.frame_started.elapsed().as_secs_f64() * 1e3;
         self.last_frame_swept && spent > 0.5 * ms as f64
@@ -1343,7 +1380,10 @@ impl Hierarchy {
     }
 
     /// The points a frame may sweep: `budget_points`, or under a time budget what the
-    /// measured rate gets through in it (its first node aside: [`Hierarchy::over_budget`]).
+    /// measured rate (points a second of the last frames' update time) gets through in
+    /// it: the build order's measure of what fits a frame ([`Hierarchy::all_fit`]);
+    /// once the jobs' own rate is measured, their predicted time decides instead
+    /// ([`Hierarchy::over_budget`]).
     fn frame_budget_points(&self) -> u64 {
         let p = &self.params;
         match p.budget_ms {
@@ -1395,5 +1435,42 @@ impl Hierarchy {
             k = Self::parent(key);
         }
         false
+    }
+}
+
+#[cfg(test)]
+mod budget_tests {
+    use crate::testing::layer_hierarchy;
+
+    /// Under a time budget a job fits while the jobs selected and it, at the measured
+    /// rate, end within the time left; the points budget bounds the frame all the same;
+    /// before any rate is measured the frame's points budget decides.
+    #[test]
+    fn a_job_fits_the_time_left_at_the_measured_rate() {
+        let mut h = layer_hierarchy(0, false);
+        h.params.budget_ms = Some(60_000.0); // a minute: the test's own time is nothing
+        h.frame_started = std::time::Instant::now();
+        h.frame_budget = 100;
+        h.step_swept = 1_000;
+        h.step_rate = None;
+        // No rate yet: the frame's points budget.
+        assert!(!h.over_budget(50, 50));
+        assert!(h.over_budget(50, 51));
+        // 10 points a second for a minute: 600 points in all, those selected since the
+        // step began (1,000 counted then) included.
+        h.step_rate = Some(10.0);
+        assert!(!h.over_budget(1_100, 499));
+        assert!(h.over_budget(1_100, 501));
+        assert!(!h.over_budget(1_000, 599));
+        assert!(h.over_budget(1_000, 601));
+        // The points budget still bounds the frame.
+        h.params.budget_points = 1_200;
+        assert!(h.over_budget(1_000, 201));
+        // A frame's first job runs whatever it costs.
+        assert!(!h.over_budget(0, 1_000_000));
+        // Past its time, nothing more.
+        h.params.budget_ms = Some(0.001);
+        std::thread::sleep(std::time::Duration::from_millis(2));
+        assert!(h.over_budget(1_000, 1));
     }
 }

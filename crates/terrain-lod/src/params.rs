@@ -91,15 +91,16 @@ pub struct HierarchyParams {
     /// Most points swept per frame (the world grid, built at load, is not counted).
     pub budget_points: u64,
     /// A frame's time budget, milliseconds (`None`: only `budget_points` limits a
-    /// frame). [`Hierarchy::update`] then sweeps at most the points its measured rate
-    /// (points per second of update time, averaged over the last frames; 0.2 M/s before
-    /// the first) gets through in this time, at most `budget_points`, and a frame's
-    /// first node whatever it costs (so frames get on; a frame that spent over half
-    /// its budget composing new nodes' materials leaves its first node to the next
-    /// frame, which then builds it). It composes new nodes' materials a batch (one a
-    /// thread) at a time and no further batch once it has spent half its budget; the
-    /// rest waits for
-    /// later frames ([`FrameStats::budget_points`] says what a frame allowed itself).
+    /// frame). [`Hierarchy::update`] then takes a job while the jobs it has selected
+    /// and this one, at the measured rate of the last frames' jobs (points a second
+    /// from their selection to their end, sun casters composed and sweeps run), end
+    /// within the time left, at most `budget_points` in all; in a process's first
+    /// frame, at most the points 0.2 M/s gets through in the budget
+    /// ([`FrameStats::budget_points`]). A frame's first node runs whatever it costs
+    /// (so frames get on; a frame that spent over half its budget composing new
+    /// nodes' materials leaves its first node to the next frame, which then builds it).
+    /// It composes new nodes' materials a batch (one a thread) at a time and no further
+    /// batch once it has spent half its budget; the rest waits for later frames.
     ///
     /// [`Hierarchy::update`]: crate::Hierarchy::update
     /// [`FrameStats::budget_points`]: crate::FrameStats::budget_points
