@@ -19,6 +19,7 @@ impl Blend for f32 {
     fn zero() -> Self {
         0.0
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         *self += *other * w;
     }
@@ -28,6 +29,7 @@ impl Blend for Vec3 {
     fn zero() -> Self {
         Vec3::ZERO
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         *self += *other * w;
     }
@@ -37,6 +39,7 @@ impl Blend for crate::HorizonLight {
     fn zero() -> Self {
         Self::default()
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         // By reference, as floats in a row: the loop took a copy of `other` and ran 8
         // three-float steps.
@@ -48,6 +51,7 @@ impl Blend for BinLight {
     fn zero() -> Self {
         BinLight::ZERO
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         add_scaled_floats(&mut self.0, &other.0, w);
     }
@@ -69,6 +73,7 @@ impl Blend for AverageLight {
     fn zero() -> Self {
         AverageLight(Vec3::ZERO)
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         self.0 += other.0 * w;
     }
@@ -78,6 +83,7 @@ impl Blend for DominantDir {
     fn zero() -> Self {
         DominantDir(Vec3::ZERO)
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         self.0 += other.0 * w;
     }
@@ -87,6 +93,7 @@ impl Blend for crate::AmbientCube {
     fn zero() -> Self {
         crate::AmbientCube::default()
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         for (a, b) in self.0.iter_mut().zip(&other.0) {
             *a += *b * w;
@@ -101,6 +108,7 @@ impl Blend for Material {
             pass: 0.0,
         }
     }
+    #[inline]
     fn add_scaled(&mut self, other: &Self, w: f32) {
         self.reflectance += other.reflectance * w;
         self.pass += other.pass * w;

@@ -291,18 +291,12 @@ impl IrradianceTable {
     }
 
     /// Irradiance of `bins` on the normal `n` (any non-zero length), interpolating the
-    /// table bilinearly. The GPU sampler does the same arithmetic.
+    /// table bilinearly (the GPU sampler reads the same table).
     /// A zero or non-finite normal reads as `+Y`; the result is finite (sums past
     /// `f32::MAX` saturate, NaN reads 0: `lightgrid_core::light::finite`).
     pub fn irradiance(&self, bins: &BinLight, n: Vec3) -> Vec3 {
         let corners = self.corners(n);
-        let mut e = Vec3::ZERO;
-        for &(node, w) in &corners {
-            let k = &self.weights[node..node + NUM_DIRS];
-            for d in 0..NUM_DIRS {
-                e += bins.0[d] * (k[d] * w);
-            }
-        }
+        let e = dot_bins(bins, &self.kernel_at(&corners));
         if e.is_finite() {
             return e;
         }
@@ -316,6 +310,32 @@ impl IrradianceTable {
         lightgrid_core::light::finite(wide)
     }
 
+    /// The table's 26 weights at `corners` ([`IrradianceTable::corners`]), blended
+    /// bilinearly: one weight a bin, so that a read is one dot product (whose terms are
+    /// independent) instead of four.
+    #[inline]
+    fn kernel_at(&self, corners: &[(usize, f32); 4]) -> [f32; NUM_DIRS] {
+        let mut k = [0.0f32; NUM_DIRS];
+        for &(node, w) in corners {
+            for (k, t) in k.iter_mut().zip(&self.weights[node..node + NUM_DIRS]) {
+                *k += t * w;
+            }
+        }
+        k
+    }
+
+    /// The horizon term's 8 weights at `corners`, blended bilinearly.
+    #[inline]
+    fn horizon_at(&self, corners: &[(usize, f32); 4]) -> [f32; H] {
+        let mut k = [0.0f32; H];
+        for &(node, w) in corners {
+            for (k, t) in k.iter_mut().zip(&self.horizon[node / NUM_DIRS * H..][..H]) {
+                *k += t * w;
+            }
+        }
+        k
+    }
+
     /// Irradiance of `bins` on the normal `n` with each horizontal bin read in its two
     /// halves, `down` the downward-travelling ones ([`lightgrid_core::HorizonLight`]):
     /// [`IrradianceTable::irradiance`] plus the horizon term ([`IrradianceTable::horizon`]),
@@ -327,21 +347,22 @@ impl IrradianceTable {
         down: &lightgrid_core::HorizonLight,
         n: Vec3,
     ) -> Vec3 {
-        let even = self.irradiance(bins, n);
-        let mut e = Vec3::ZERO;
-        for (node, w) in self.corners(n) {
-            let k = &self.horizon[node / NUM_DIRS * H..][..H];
-            for (h, kh) in k.iter().enumerate() {
-                let excess = down.0[h] - bins.0[dirs::FIRST_HORIZONTAL + h] * 0.5;
-                e += excess * (kh * w);
-            }
+        let corners = self.corners(n);
+        let even = dot_bins(bins, &self.kernel_at(&corners));
+        let kh = self.horizon_at(&corners);
+        let mut e = [Vec3::ZERO; 2];
+        for (h, kh) in kh.iter().enumerate() {
+            let excess = down.0[h] - bins.0[dirs::FIRST_HORIZONTAL + h] * 0.5;
+            e[h % 2] += excess * *kh;
         }
+        let e = e[0] + e[1];
         let sum = even + e;
         if sum.is_finite() {
             return sum;
         }
+        let even = self.irradiance(bins, n);
         let mut wide = even.as_dvec3();
-        for (node, w) in self.corners(n) {
+        for (node, w) in corners {
             for h in 0..H {
                 let excess =
                     down.0[h].as_dvec3() - bins.0[dirs::FIRST_HORIZONTAL + h].as_dvec3() * 0.5;
@@ -374,6 +395,17 @@ impl IrradianceTable {
             )
         })
     }
+}
+
+/// `Σ bins[d] k[d]` in four independent running sums (the bins' terms do not wait on
+/// one another), added at the end.
+#[inline]
+fn dot_bins(bins: &BinLight, k: &[f32; NUM_DIRS]) -> Vec3 {
+    let mut e = [Vec3::ZERO; 4];
+    for (d, (b, k)) in bins.0.iter().zip(k).enumerate() {
+        e[d % 4] += *b * *k;
+    }
+    (e[0] + e[1]) + (e[2] + e[3])
 }
 
 /// Average light and dominant direction on a regular grid, resampled from any light

@@ -150,10 +150,10 @@ impl Hierarchy {
         n: Option<Vec3>,
     ) -> Result<([(Share<'_>, Lookup); 4], usize), GridError> {
         let (shares, count) = self.shares(p, n);
-        let first = Lookup::new(shares[0].light.desc(), p, n)?;
+        let first = Lookup::of(&shares[0], p, n)?;
         let mut out = [(shares[0], first); 4];
         for (slot, s) in out.iter_mut().zip(&shares[..count]).skip(1) {
-            *slot = (*s, Lookup::new(s.light.desc(), p, n)?);
+            *slot = (*s, Lookup::of(s, p, n)?);
         }
         Ok((out, count))
     }
@@ -192,8 +192,14 @@ struct Share<'a> {
 #[derive(Clone, Copy)]
 struct Lookup {
     desc: GridDesc,
-    corners: ([usize; 8], [f32; 8]),
+    corners: Corners,
+    /// The lookup in the share's sun's grids where they lie on another layout (a
+    /// coarser grid's sun read while the node's own is still to come).
+    sun: Option<(GridDesc, Corners)>,
 }
+
+/// A trilinear lookup's corners: indices and weights ([`trilinear_indices`]).
+type Corners = ([usize; 8], [f32; 8]);
 
 impl Lookup {
     /// The lookup at `p` (half a cell along `n` where given) in grids of `desc`, with
@@ -214,13 +220,34 @@ impl Lookup {
         Ok(Self {
             desc: *desc,
             corners: trilinear_indices(desc.dims(), desc.to_grid(q)),
+            sun: None,
         })
     }
 
+    /// The lookup of `share`'s grids: its light's layout, and its sun's where that is
+    /// another (whose reads are then theirs bit for bit too).
+    fn of(share: &Share<'_>, p: Vec3, n: Option<Vec3>) -> Result<Self, GridError> {
+        let mut at = Self::new(share.light.desc(), p, n)?;
+        if let Some((_, g)) = share.sun {
+            let sun = g.transmittance.desc();
+            if *sun != at.desc {
+                let other = Self::new(sun, p, n)?;
+                at.sun = Some((other.desc, other.corners));
+            }
+        }
+        Ok(at)
+    }
+
     /// `grid` read at the lookup's point.
+    #[inline]
     fn read<T: Blend>(&self, grid: &Grid<T>, p: Vec3, n: Option<Vec3>) -> Result<T, GridError> {
         if *grid.desc() == self.desc {
             return Ok(grid.blend(self.corners));
+        }
+        if let Some((desc, corners)) = self.sun
+            && *grid.desc() == desc
+        {
+            return Ok(grid.blend(corners));
         }
         match n {
             Some(n) => grid.sample_biased(p, n),
@@ -241,6 +268,7 @@ impl Hierarchy {
     }
 
     /// The sky's bins of `grid` times the sky scale, plus the sun's scattered light.
+    #[inline]
     fn bins_at(
         &self,
         share: &Share<'_>,
@@ -261,6 +289,7 @@ impl Hierarchy {
 
     /// The sky's `halves` times the sky scale, plus the sun's scattered light's (its
     /// bins split evenly where its grid keeps no halves) times the sun's irradiance.
+    #[inline]
     fn halves_at(
         &self,
         halves: &HorizonGrid,
@@ -285,6 +314,7 @@ impl Hierarchy {
     }
 
     /// The sun's transmittance at `p` in `[0, 1]` (0 without a sun).
+    #[inline]
     fn transmittance_at(
         sun: Option<(SunLight, &GridSun)>,
         at: &Lookup,
@@ -439,7 +469,8 @@ mod tests {
     proptest! {
         /// A read through a shared lookup is the grid's own read bit for bit: with a
         /// normal (half a cell along it) and without, inside and outside the grid,
-        /// and for a grid of another layout (read as before).
+        /// for a grid of the sun's layout where the lookup keeps it, and for a grid of
+        /// another layout (read as before).
         #[test]
         fn a_lookup_reads_as_the_grid_samples(
             p in (-3.0f32..9.0, -3.0f32..9.0, -3.0f32..9.0),
@@ -454,14 +485,22 @@ mod tests {
             prop_assume!(n.length() > 1e-3);
             let n = with_normal.then_some(n);
             let at = Lookup::new(&desc, p, n).unwrap();
-            for g in [&a, &b] {
-                let want = match n {
-                    Some(n) => g.sample_biased(p, n).unwrap(),
-                    None => g.sample(p).unwrap(),
-                };
-                let got = at.read(g, p, n).unwrap();
-                for (x, y) in got.0.iter().zip(&want.0) {
-                    prop_assert_eq!(x.to_array().map(f32::to_bits), y.to_array().map(f32::to_bits));
+            // With the other layout's lookup kept too (a share whose sun lies on
+            // another grid's layout), and with a third layout neither holds.
+            let third = GridDesc::new(Vec3::new(0.0, 0.0, 0.0), 2.0, UVec3::new(3, 3, 3)).unwrap();
+            let mut both = at;
+            let o = Lookup::new(&other, p, n).unwrap();
+            both.sun = Some((o.desc, o.corners));
+            for at in [at, both] {
+                for g in [&a, &b, &grid(third)] {
+                    let want = match n {
+                        Some(n) => g.sample_biased(p, n).unwrap(),
+                        None => g.sample(p).unwrap(),
+                    };
+                    let got = at.read(g, p, n).unwrap();
+                    for (x, y) in got.0.iter().zip(&want.0) {
+                        prop_assert_eq!(x.to_array().map(f32::to_bits), y.to_array().map(f32::to_bits));
+                    }
                 }
             }
         }
