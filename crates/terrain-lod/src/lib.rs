@@ -31,7 +31,8 @@
 //! no apron, CPU sweeper (the default options: 4 passes at most, stopping at a
 //! tolerance of 0.01), the 2-core Intel Xeon VM, three runs on 2026-12-04 (the frame's
 //! mean includes building the world grid; the first run after a build took the 16-point
-//! path 35.5 ms, `cargo xtask figures`' median of three 28.0). Memory is that of the
+//! path 35.5 ms, `cargo xtask figures`' median of three 28.0 that morning and 31.1 in a
+//! slower spell at noon). Memory is that of the
 //! grids alive after the last frame, as stored (26 bins `f32`) and as the other
 //! representations would take.
 //!
