@@ -120,6 +120,9 @@ pub struct FrameConfig {
     /// Side halos read the nodes of their depth before them
     /// (`HierarchyParams::neighbour_halo`).
     pub neighbour_halo: bool,
+    /// Under a time budget a new node whose casters wait marches its direct sun
+    /// at once (`HierarchyParams::march_before_casters`).
+    pub march_before_casters: bool,
     /// Most passes a sweep runs (`HierarchyParams::sweep.max_passes`, in the hierarchy
     /// and the reference sweep; `None`: the hierarchy's default, 4).
     pub passes: Option<u32>,
@@ -169,6 +172,7 @@ impl FrameConfig {
             budget_ms: None,
             budget_points: None,
             neighbour_halo: false,
+            march_before_casters: false,
             passes: None,
             apron: None,
             sun_apron: 0,
@@ -416,6 +420,9 @@ pub struct FrameReport {
     /// Whether side halos read the nodes of their depth before them
     /// (`HierarchyParams::neighbour_halo`).
     pub neighbour_halo: bool,
+    /// Whether a new node whose casters waited marched its direct sun at once
+    /// (`HierarchyParams::march_before_casters`).
+    pub march_before_casters: bool,
     /// The frames' time budget, milliseconds (`None`: none).
     pub budget_ms: Option<f32>,
     /// The frames' point budget (`HierarchyParams::budget_points`).
@@ -778,6 +785,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
     p.neighbour_halo = cfg.neighbour_halo;
+    p.march_before_casters = cfg.march_before_casters;
     if let Some(n) = cfg.passes {
         p.sweep.max_passes = n;
     }
@@ -1149,6 +1157,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,
         neighbour_halo: cfg.neighbour_halo,
+        march_before_casters: cfg.march_before_casters,
         apron: hierarchy_params(cfg).apron,
         sun_apron: hierarchy_params(cfg).sun_apron,
         passes: hierarchy_params(cfg).sweep.max_passes,

@@ -122,6 +122,11 @@ enum Task {
         /// (HierarchyParams::neighbour_halo, off by default), for comparison
         #[arg(long)]
         neighbour_halo: bool,
+        /// Under a time budget, a new node whose sun's casters wait marches its direct
+        /// sun at once through those held (HierarchyParams::march_before_casters, off
+        /// by default)
+        #[arg(long)]
+        march_before_casters: bool,
         /// Most passes a sweep runs, in the hierarchy and the reference sweep (default:
         /// the hierarchy's, 4).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
@@ -237,6 +242,7 @@ fn main() -> ExitCode {
             budget_ms,
             budget_points,
             neighbour_halo,
+            march_before_casters,
             passes,
             tolerance,
             flat_source,
@@ -265,6 +271,7 @@ fn main() -> ExitCode {
             cfg.budget_ms = budget_ms;
             cfg.budget_points = budget_points;
             cfg.neighbour_halo = neighbour_halo;
+            cfg.march_before_casters = march_before_casters;
             cfg.passes = passes;
             cfg.tolerance = tolerance;
             cfg.flat_source = flat_source;

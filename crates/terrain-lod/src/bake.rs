@@ -428,7 +428,7 @@ impl WorldBake {
                 to_sun: b.to_sun,
                 marched_to: b.to_sun,
                 with_sky: None,
-                scene_changed: false,
+                march_stale: false,
             })),
             (Some(s), _) => {
                 Err(

@@ -44,6 +44,10 @@ pub(crate) struct Job {
     /// A new node whose sun responses wait for a later frame: march its transmittance
     /// now ([`Hierarchy::interim_sun`]).
     pub(crate) march: bool,
+    /// With `march`: the sun's casters its rays cross are not all composed yet (the
+    /// frame's time ran out): the march reads coarser material there, and the
+    /// transmittance is marched again with them ([`GridSun`]'s `march_stale`).
+    pub(crate) casters_missing: bool,
     /// A built node whose scattered sun is current but whose transmittance a moved
     /// sun's `set_sun` left for later ([`Hierarchy::march_suns`] under a time budget):
     /// march it alone.
@@ -60,6 +64,7 @@ impl Job {
             inputs: None,
             sun: false,
             march: false,
+            casters_missing: false,
             remarch: false,
         }
     }
@@ -275,9 +280,18 @@ impl Hierarchy {
                     stats.times.material += t;
                 }
                 if !held {
-                    if job.march {
+                    if job.march && !self.params.march_before_casters {
                         // The sky's job stays; its sun is the coarser grids' meanwhile.
                         job.march = false;
+                        kept.push(job);
+                        continue;
+                    }
+                    if job.march {
+                        // The sky's job stays, and so does its march, through the
+                        // casters held and coarser material beyond
+                        // (`HierarchyParams::march_before_casters`), marched again
+                        // once its casters are held.
+                        job.casters_missing = true;
                         kept.push(job);
                         continue;
                     }
@@ -595,7 +609,7 @@ impl Hierarchy {
                     ) {
                         g.transmittance = t;
                         g.marched_to = to_sun;
-                        g.scene_changed = false;
+                        g.march_stale = false;
                     }
                 }
                 Err(e) => {
@@ -657,7 +671,7 @@ impl Hierarchy {
         let g = old.sun.take()?;
         Some(match g.with_sky {
             Some(_) => GridSun {
-                scene_changed: g.scene_changed,
+                march_stale: g.march_stale,
                 ..GridSun::marched(g.transmittance, self.sky_sun().unwrap_or(sun), g.marched_to)
             },
             None => GridSun {
@@ -729,7 +743,11 @@ impl Hierarchy {
         let sun = if job.sun {
             self.node_sun(job.key, material, sweeper, fresh, &mut times)?
         } else if job.march {
-            self.interim_sun(job.key, material, sweeper, fresh, &mut times)?
+            let mut sun = self.interim_sun(job.key, material, sweeper, fresh, &mut times)?;
+            if let Some(g) = sun.as_mut() {
+                g.march_stale |= job.casters_missing;
+            }
+            sun
         } else {
             None
         };
@@ -793,7 +811,7 @@ impl Hierarchy {
                 .filter(|n| std::ptr::eq(&n.material, material));
             let kept = kept
                 .and_then(|n| n.sun.as_ref())
-                .filter(|g| g.marched_to == sun.to_sun && !g.scene_changed)
+                .filter(|g| g.marched_to == sun.to_sun && !g.march_stale)
                 .map(|g| g.transmittance.clone());
             let transmittance = match kept {
                 Some(t) => t,
@@ -852,7 +870,7 @@ impl Hierarchy {
             },
             marched_to: sun.to_sun,
             with_sky: None,
-            scene_changed: false,
+            march_stale: false,
         }))
     }
 

@@ -275,8 +275,10 @@ struct GridSun {
     /// `to_sun`); `None` where the scattered sun is swept apart.
     with_sky: Option<Vec3>,
     /// The transmittance was marched through a scene since changed
-    /// ([`Hierarchy::refresh`]): shown until it is marched again, not current.
-    scene_changed: bool,
+    /// ([`Hierarchy::refresh`]), or before the sun's casters it crosses were all
+    /// composed (a new node's interim march under a time budget: [`crate::casters`]):
+    /// shown until it is marched again, not current.
+    march_stale: bool,
 }
 
 /// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.

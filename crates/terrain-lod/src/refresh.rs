@@ -364,7 +364,7 @@ fn ray_meets(from: Aabb, to: Aabb, dir: Vec3) -> bool {
 
 impl Hierarchy {
     /// Marks the sun of every node whose march toward the sun may cross `changed` to be
-    /// marched again ([`crate::GridSun`]'s `scene_changed`) and its scattered sun to be
+    /// marched again ([`crate::GridSun`]'s `march_stale`) and its scattered sun to be
     /// swept again (with the sun swept with the sky, the node's sky sweep: the beam's
     /// first collisions are the scattered sun's source), both shown until then. The
     /// march leaves a node's points (and its apron's) toward the sun, over its depth's
@@ -386,7 +386,7 @@ impl Hierarchy {
             let (lo, hi) = desc.cell_bounds();
             let wide = Vec3::new(apron, 0.0, apron) * desc.h();
             if ray_meets((lo - wide, hi + wide), changed, sun.to_sun) {
-                g.scene_changed = true;
+                g.march_stale = true;
                 // Its scattered sun too: the beam's first collisions are its source.
                 g.mark_scattered_stale();
             }

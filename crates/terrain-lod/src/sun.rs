@@ -35,7 +35,7 @@ impl GridSun {
             to_sun: sky.to_sun,
             marched_to,
             with_sky: Some(sky.irradiance),
-            scene_changed: false,
+            march_stale: false,
         }
     }
 }
@@ -135,7 +135,7 @@ impl Hierarchy {
             to_sun: scattered_to,
             marched_to: scattered_to,
             with_sky: None,
-            scene_changed: false,
+            march_stale: false,
         };
         if sun.to_sun != scattered_to {
             g.transmittance = timed(&mut times.sun_sweep, || {
@@ -190,7 +190,7 @@ impl Hierarchy {
     pub(crate) fn sun_current(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
             (Some(s), Some(g)) => {
-                g.marched_to == s.to_sun && !g.scene_changed && self.scattered_current(g)
+                g.marched_to == s.to_sun && !g.march_stale && self.scattered_current(g)
             }
             _ => false,
         }
@@ -214,7 +214,7 @@ impl Hierarchy {
     pub(crate) fn scattered_sun_current(&self, key: NodeKey) -> bool {
         match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
             (Some(s), Some(g)) => {
-                (g.marched_to != s.to_sun || g.scene_changed) && self.scattered_current(g)
+                (g.marched_to != s.to_sun || g.march_stale) && self.scattered_current(g)
             }
             _ => false,
         }

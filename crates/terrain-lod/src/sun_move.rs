@@ -282,7 +282,7 @@ impl Hierarchy {
             if let Some(g) = self.nodes.get_mut(&key).and_then(|n| n.sun.as_mut()) {
                 g.transmittance = t;
                 g.marched_to = to_sun;
-                g.scene_changed = false;
+                g.march_stale = false;
             }
         }
         Ok(())
@@ -355,6 +355,6 @@ pub(crate) fn world_grid_sun(
         to_sun,
         marched_to: to_sun,
         with_sky: None,
-        scene_changed: false,
+        march_stale: false,
     })
 }

@@ -54,12 +54,21 @@ struct Outcome {
     held_later: u64,
     /// The most materials and casters one frame composed.
     most_composed: u32,
+    /// Frames in which a ready node of the finest depth showed no sun of its own (its
+    /// points read a coarser grid's).
+    without_sun: u32,
 }
 
 /// A 10° sun over the patches: the finest node farthest toward the sun, its direct
 /// sun against one march through the full-resolution material 128 m toward the sun,
 /// once the hierarchy settled (under a time budget of `budget_ms` if given).
 fn march_against_full_resolution(skip_casters: bool, budget_ms: Option<f32>) -> Outcome {
+    march_with(skip_casters, budget_ms, false)
+}
+
+/// [`march_against_full_resolution`], `march_before_casters` as given
+/// (`HierarchyParams::march_before_casters`).
+fn march_with(skip_casters: bool, budget_ms: Option<f32>, march_before_casters: bool) -> Outcome {
     let hm = Heightmap::from_fn(Vec2::ZERO, 4.0, 129, 129, |_, _| 0.0).unwrap();
     let mut params = HierarchyParams {
         world_cell: 16.0,
@@ -72,6 +81,7 @@ fn march_against_full_resolution(skip_casters: bool, budget_ms: Option<f32>) -> 
     params.sweep.max_passes = 1;
     params.skip.sun_casters = skip_casters;
     params.budget_ms = budget_ms;
+    params.march_before_casters = march_before_casters;
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
     let mut h = Hierarchy::new(
         &hm,
@@ -94,18 +104,26 @@ fn march_against_full_resolution(skip_casters: bool, budget_ms: Option<f32>) -> 
     let mut held = 0;
     let mut most_composed = 0;
     let frames = if budget_ms.is_some() { 5000 } else { 40 };
+    let mut without_sun = 0;
+    let finest = params.depths();
     for f in 0..frames {
         let s = h.update(cam).unwrap();
         casters += s.casters;
         held = s.caster_bytes;
         most_composed = most_composed.max(s.composed + s.casters);
+        // (Layers come as the world grid, then the ready nodes in key order.)
+        let keys = h.ready_nodes();
+        let layers = h.layers();
+        without_sun += keys
+            .iter()
+            .zip(&layers[1..])
+            .any(|(k, l)| k.depth == finest && l.sun.is_none()) as u32;
         if s.pending == 0 {
             break;
         }
         assert!(f + 1 < frames, "not settled after {frames} frames: {s:?}");
     }
     // The finest node farthest toward the sun: its rays leave the built nodes first.
-    let finest = params.depths();
     let u = Vec2::new(to_sun.x, to_sun.z).normalize();
     let key = h
         .ready_nodes()
@@ -166,6 +184,7 @@ fn march_against_full_resolution(skip_casters: bool, budget_ms: Option<f32>) -> 
         held,
         held_later,
         most_composed,
+        without_sun,
     }
 }
 
@@ -231,4 +250,20 @@ fn under_a_time_budget_the_casters_come_a_batch_a_frame() {
     assert!(free.most_composed > threads, "{}", free.most_composed);
     assert!(o.casters > 0, "{}", o.casters);
     assert_full_resolution(&o);
+}
+
+/// Under a time budget with `march_before_casters`, a new node whose casters are not
+/// all composed marches its direct sun at once through those held: no ready node of the
+/// finest depth ever shows a coarser grid's sun (without it some do, for frames), and
+/// once its casters are held it is marched again: the march ends the same as without
+/// a budget.
+#[test]
+fn marched_before_its_casters_a_node_shows_its_own_sun_and_ends_the_same() {
+    let o = march_with(false, Some(1e-3), true);
+    assert_eq!(o.without_sun, 0);
+    assert!(o.casters > 0, "{}", o.casters);
+    assert_full_resolution(&o);
+    let waited = march_with(false, Some(1e-3), false);
+    assert!(waited.without_sun > 0, "{}", waited.without_sun);
+    assert_full_resolution(&waited);
 }

@@ -107,7 +107,12 @@ pub fn text(report: &FrameReport) -> String {
         report
             .budget_ms
             .map_or("no time budget".to_string(), |ms| format!(
-                "time budget {ms} ms"
+                "time budget {ms} ms{}",
+                if report.march_before_casters {
+                    " (new nodes marched before their casters)"
+                } else {
+                    ""
+                }
             )),
         report.reference_points,
         report.reference_sky_s
