@@ -280,18 +280,16 @@ impl Hierarchy {
                     stats.times.material += t;
                 }
                 if !held {
-                    if job.march && !self.params.march_before_casters {
-                        // The sky's job stays; its sun is the coarser grids' meanwhile.
-                        job.march = false;
-                        kept.push(job);
-                        continue;
-                    }
                     if job.march {
-                        // The sky's job stays, and so does its march, through the
-                        // casters held and coarser material beyond
-                        // (`HierarchyParams::march_before_casters`), marched again
-                        // once its casters are held.
-                        job.casters_missing = true;
+                        // The sky's job stays; its sun is the coarser grids' meanwhile,
+                        // or with `HierarchyParams::march_before_casters` its march
+                        // through the casters held and coarser material beyond, marched
+                        // again once they all are.
+                        if self.params.march_before_casters {
+                            job.casters_missing = true;
+                        } else {
+                            job.march = false;
+                        }
                         kept.push(job);
                         continue;
                     }
