@@ -25,6 +25,11 @@ pub trait GridValue: Copy + Send + Sync + 'static {
     /// `Ok` when the value may enter a grid; otherwise the reason, for an error naming
     /// the element.
     fn check(&self) -> Result<(), (&'static str, String, &'static str)>;
+    /// Whether every one of `values` passes [`GridValue::check`]: a type may answer
+    /// faster than value by value (the default asks each).
+    fn all_valid(values: &[Self]) -> bool {
+        values.iter().all(|v| v.check().is_ok())
+    }
     /// Appends the little-endian file encoding.
     fn write_le(&self, out: &mut Vec<u8>);
     /// Reads the value from exactly [`Self::FILE_BYTES`] bytes.
@@ -49,13 +54,15 @@ impl<T: GridValue> Grid<T> {
                 found: data.len(),
             });
         }
-        for (i, v) in data.iter().enumerate() {
-            if let Err((field, value, reason)) = v.check() {
-                return Err(GridError::InvalidField {
-                    field: format!("data[{i}]{field}"),
-                    value,
-                    reason,
-                });
+        if !T::all_valid(&data) {
+            for (i, v) in data.iter().enumerate() {
+                if let Err((field, value, reason)) = v.check() {
+                    return Err(GridError::InvalidField {
+                        field: format!("data[{i}]{field}"),
+                        value,
+                        reason,
+                    });
+                }
             }
         }
         Ok(Self { desc, data })
@@ -217,6 +224,14 @@ impl GridValue for Material {
                 .map_err(|_| (name, format!("{v:?}"), "must be finite and in [0, 1]"))?;
         }
         Ok(())
+    }
+    /// Every float in `[0, 1]` (false for NaN and the infinities, as `check`), in one
+    /// pass that vectorises: checked cell by cell, a composed node's material spent
+    /// about 5 % of its composing time here.
+    fn all_valid(values: &[Self]) -> bool {
+        bytemuck::cast_slice::<Material, f32>(values)
+            .iter()
+            .fold(true, |ok, x| ok & (0.0..=1.0).contains(x))
     }
     fn write_le(&self, out: &mut Vec<u8>) {
         write_f32s(
@@ -515,6 +530,72 @@ impl CodedLightGrid {
 mod tests {
     use super::*;
     use glam::UVec3;
+
+    /// `Material::all_valid` agrees with `check` value by value: over floats in and
+    /// out of `[0, 1]` (signed zeros, the ends, NaN, the infinities, tiny and huge
+    /// values) in every field, a material grid is made exactly when every cell
+    /// checks, and its error names the first bad cell's field as before.
+    #[test]
+    fn a_material_grid_is_made_exactly_when_every_cell_checks() {
+        let floats = [
+            0.0,
+            -0.0,
+            1.0,
+            0.5,
+            f32::MIN_POSITIVE,
+            1.0 + f32::EPSILON,
+            -f32::MIN_POSITIVE,
+            -1.0,
+            2.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(3, 1, 1)).unwrap();
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        let mut pick = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            floats[(s % floats.len() as u64) as usize]
+        };
+        let (mut made, mut refused) = (0, 0);
+        for n in 0..4000usize {
+            // Mostly valid cells, one field at a time made anything.
+            let cells: Vec<Material> = (0..3)
+                .map(|c| {
+                    let mut f = [0.25f32, 0.5, 0.75, 0.9];
+                    f[(n / 3 + c) % 4] = pick();
+                    Material {
+                        reflectance: Vec3::new(f[0], f[1], f[2]),
+                        pass: f[3],
+                    }
+                })
+                .collect();
+            let each = cells.iter().all(|c| c.check().is_ok());
+            assert_eq!(Material::all_valid(&cells), each, "{cells:?}");
+            match Grid::new(desc, cells.clone()) {
+                Ok(_) => {
+                    assert!(each);
+                    made += 1;
+                }
+                Err(e) => {
+                    let (i, c) = cells
+                        .iter()
+                        .enumerate()
+                        .find(|(_, c)| c.check().is_err())
+                        .expect("a bad cell");
+                    let field = c.check().unwrap_err().0;
+                    assert!(e.to_string().contains(&format!("data[{i}]{field}")), "{e}");
+                    refused += 1;
+                }
+            }
+        }
+        assert!(
+            made > 100 && refused > 100,
+            "{made} made, {refused} refused"
+        );
+    }
 
     /// `zeroed` is `filled` with zeros, bit for bit.
     #[test]
