@@ -226,8 +226,8 @@ impl GridValue for Material {
         Ok(())
     }
     /// Every float in `[0, 1]` (false for NaN and the infinities, as `check`), in one
-    /// pass that vectorises: checked cell by cell, a composed node's material spent
-    /// about 5 % of its composing time here.
+    /// pass that vectorises: checked cell by cell, composed materials took 9 % of
+    /// composing's samples on the fly-through (`perf`).
     fn all_valid(values: &[Self]) -> bool {
         bytemuck::cast_slice::<Material, f32>(values)
             .iter()
@@ -269,6 +269,10 @@ impl GridValue for BinLight {
             check_light(*v, ".bins")?;
         }
         Ok(())
+    }
+    /// [`BinLight::all_valid`]: one pass over the floats.
+    fn all_valid(values: &[Self]) -> bool {
+        BinLight::all_valid(values)
     }
     fn write_le(&self, out: &mut Vec<u8>) {
         for v in &self.0 {

@@ -976,7 +976,8 @@ impl Hierarchy {
         Self::parent(key)
     }
 
-    /// Keys of the ready nodes.
+    /// Keys of the ready nodes, sorted ([`NodeKey`]'s order: by depth, then index);
+    /// [`Hierarchy::layers`] follows the world grid with their grids in this order.
     pub fn ready_nodes(&self) -> Vec<NodeKey> {
         let mut v: Vec<NodeKey> = self.nodes.keys().copied().collect();
         v.sort();

@@ -15,8 +15,8 @@ use crate::{
 use lightgrid_core::seam::seam_shares;
 
 impl Hierarchy {
-    /// The grids for layered sampling: the world grid, then the ready nodes by depth
-    /// (see [`Layer`]).
+    /// The grids for layered sampling: the world grid, then the ready nodes in
+    /// [`Hierarchy::ready_nodes`]'s order (by depth, then index; see [`Layer`]).
     pub fn layers(&self) -> Vec<Layer<'_>> {
         fn layer_sun(g: &GridSun) -> LayerSun<'_> {
             LayerSun {

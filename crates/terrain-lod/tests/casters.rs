@@ -114,6 +114,11 @@ fn march_with(skip_casters: bool, budget_ms: Option<f32>, march_before_casters: 
         // (Layers come as the world grid, then the ready nodes in key order.)
         let keys = h.ready_nodes();
         let layers = h.layers();
+        assert_eq!(layers.len(), keys.len() + 1);
+        for (k, l) in keys.iter().zip(&layers[1..]) {
+            let o = l.owner.expect("a node's layer has its owner");
+            assert_eq!((o.index, o.size), (k.index, params.node_size(k.depth)));
+        }
         without_sun += keys
             .iter()
             .zip(&layers[1..])
