@@ -428,15 +428,15 @@ fn choose_sweeper(
             Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
             "cpu".into(),
         ),
+        SweeperChoice::Auto => (
+            Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
+            "cpu (auto: the GPU sweeper is slower on the hierarchy's node-sized grids)".into(),
+        ),
         SweeperChoice::Gpu => {
             let c = open().context("--sweeper gpu")?;
             let name = format!("gpu ({})", c.info.name);
             (gpu_sweeper(c), name)
         }
-        SweeperChoice::Auto => (
-            Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
-            "cpu (auto: the GPU sweeper is slower on the hierarchy's node-sized grids)".into(),
-        ),
     })
 }
 
@@ -668,4 +668,18 @@ pub(crate) fn settle_view(
         .context("updating the light grids")?;
     pb.finish_and_clear();
     Ok((frames, swept, s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `auto` sweeps on the CPU without opening a device, and says why.
+    #[test]
+    fn auto_takes_the_cpu_sweeper() {
+        let (_, name) = choose_sweeper(SweeperChoice::Auto, &None).unwrap();
+        assert!(name.starts_with("cpu (auto:"), "{name}");
+        let (_, name) = choose_sweeper(SweeperChoice::Cpu, &None).unwrap();
+        assert_eq!(name, "cpu");
+    }
 }
