@@ -94,31 +94,33 @@ pub fn sample_points<F: LightField + Sync + ?Sized>(
     points.validate()?;
     let _span = tracing::debug_span!("sample light", points = points.positions.len()).entered();
     let table = IrradianceTable::get();
-    (0..points.positions.len())
-        .into_par_iter()
-        .map(|i| {
-            let p = points.positions[i];
-            let n = points.normals.map(|n| n[i]);
-            let r = field.reading(p, n)?;
-            let bins = r.light;
-            let light = match (n, r.horizon) {
-                (Some(n), Some(down)) => table.irradiance_split(&bins, &down, n),
-                (Some(n), None) => table.irradiance(&bins, n),
-                (None, _) => bins.average(),
-            };
-            let sun = r.sun;
-            Ok(SampledLight {
-                light: finite_or_zero(light),
-                sun: if sun.is_finite() {
-                    sun.clamp(0.0, 1.0)
-                } else {
-                    0.0
-                },
-                dominant: bins.dominant(),
-                ..Default::default()
-            })
-        })
-        .collect()
+    // Written in place (a collect of `Result`s gathers rayon's pieces in a list and
+    // copies them once more).
+    let mut out = vec![SampledLight::default(); points.positions.len()];
+    out.par_iter_mut().enumerate().try_for_each(|(i, slot)| {
+        let p = points.positions[i];
+        let n = points.normals.map(|n| n[i]);
+        let r = field.reading(p, n)?;
+        let bins = r.light;
+        let light = match (n, r.horizon) {
+            (Some(n), Some(down)) => table.irradiance_split(&bins, &down, n),
+            (Some(n), None) => table.irradiance(&bins, n),
+            (None, _) => bins.average(),
+        };
+        let sun = r.sun;
+        *slot = SampledLight {
+            light: finite_or_zero(light),
+            sun: if sun.is_finite() {
+                sun.clamp(0.0, 1.0)
+            } else {
+                0.0
+            },
+            dominant: bins.dominant(),
+            ..Default::default()
+        };
+        Ok::<(), GridError>(())
+    })?;
+    Ok(out)
 }
 
 fn finite_or_zero(v: Vec3) -> Vec3 {

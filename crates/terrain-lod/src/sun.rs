@@ -8,7 +8,7 @@ use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{Grid, Sweeper};
 
 use crate::{
-    GridSun, Hierarchy, LodError, NodeKey, NodeMaterial, Response, StageTimes, SunBoundary,
+    GridSun, Hierarchy, LodError, Node, NodeKey, NodeMaterial, Response, StageTimes, SunBoundary,
     SunLight, apron, shadow, sun_move, timed, within_levels,
 };
 
@@ -225,7 +225,13 @@ impl Hierarchy {
     /// the budget sweeps it again: a moved sun re-marches the grids' transmittances at
     /// once, under a time budget those nearest the camera first).
     pub(crate) fn sun_shown(&self, key: NodeKey) -> bool {
-        match (self.sun, self.nodes.get(&key).and_then(|n| n.sun.as_ref())) {
+        self.nodes.get(&key).is_some_and(|n| self.shows_sun(n))
+    }
+
+    /// [`Hierarchy::sun_shown`] of a node in hand (a read's: no second lookup).
+    #[inline]
+    pub(crate) fn shows_sun(&self, node: &Node) -> bool {
+        match (self.sun, node.sun.as_ref()) {
             (Some(s), Some(g)) => g.marched_to == s.to_sun,
             _ => false,
         }
@@ -257,7 +263,7 @@ impl Hierarchy {
             if let Some(n) = self.nodes.get(&key)
                 && within_levels(n.light.desc(), p)
                 && (if shown {
-                    self.sun_shown(key)
+                    self.shows_sun(n)
                 } else {
                     self.sun_current(key)
                 })
