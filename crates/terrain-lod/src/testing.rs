@@ -35,6 +35,49 @@ impl MaterialSource for Layer {
 /// A hierarchy over a flat 64 m square of [`Layer`], every node wanted and built
 /// (8-point nodes down to 2 m cells), a sun apart; with `apron` and `neighbour_halo`.
 pub(crate) fn layer_hierarchy(apron: u32, neighbour_halo: bool) -> Hierarchy {
+    built_over(Box::new(Layer), apron, neighbour_halo)
+}
+
+/// Columns of medium 3 m square on a third of a 3 m lattice, each of its own height
+/// (up to 12 m), over a flat ground: material whose top varies across a node.
+pub(crate) struct Columns;
+
+impl Columns {
+    /// The top of the column at `(x, z)` (0: none).
+    pub(crate) fn top(x: f32, z: f32) -> f32 {
+        let (i, k) = ((x / 3.0).floor() as i64, (z / 3.0).floor() as i64);
+        let h = (i.wrapping_mul(73_856_093) ^ k.wrapping_mul(19_349_663)).rem_euclid(97);
+        if h < 33 { 1.0 + (h % 12) as f32 } else { 0.0 }
+    }
+}
+
+impl MaterialSource for Columns {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        let cells = (0..desc.point_count())
+            .map(|i| {
+                let p = desc.position(desc.coords(i).expect("in range"));
+                if p.y < 0.0 {
+                    Material::opaque(Vec3::splat(0.3))
+                } else if p.y < Self::top(p.x, p.z) {
+                    Material {
+                        reflectance: Vec3::splat(0.5),
+                        pass: 0.4,
+                    }
+                } else {
+                    Material::EMPTY
+                }
+            })
+            .collect();
+        MaterialGrid::new(*desc, cells)
+    }
+}
+
+/// [`layer_hierarchy`] over `source`.
+pub(crate) fn built_over(
+    source: Box<dyn MaterialSource + Send + Sync>,
+    apron: u32,
+    neighbour_halo: bool,
+) -> Hierarchy {
     let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
     let params = HierarchyParams {
         world_cell: 8.0,
@@ -49,7 +92,7 @@ pub(crate) fn layer_hierarchy(apron: u32, neighbour_halo: bool) -> Hierarchy {
     };
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
     let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
-    let mut h = Hierarchy::new(&ground, Box::new(Layer), sweeper, sky, params).unwrap();
+    let mut h = Hierarchy::new(&ground, source, sweeper, sky, params).unwrap();
     h.set_sun(Some(SunLight {
         to_sun: Vec3::new(0.6, 0.5, 0.3),
         irradiance: Vec3::splat(3.0),
