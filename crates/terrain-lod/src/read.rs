@@ -145,7 +145,7 @@ impl Hierarchy {
     /// `read` given [`Hierarchy::shares`] with each share's [`Lookup`] (the errors of a
     /// read with a bad normal or position). A read away from a seam (one share, nearly
     /// every read) builds no array of four: a share and its lookup are some 370 bytes,
-    /// and copying four of them was a tenth of a read's time.
+    /// whose copies showed in the sampling's profile (`docs/measurements.md`).
     #[inline]
     fn looked_up<R>(
         &self,
