@@ -1,5 +1,5 @@
 //! Test support shared by the crate's unit tests: a small hierarchy over a layer of
-//! medium whose density varies across it.
+//! medium whose density varies across it, or over columns of many heights.
 
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{
@@ -13,23 +13,32 @@ pub(crate) struct Layer;
 
 impl MaterialSource for Layer {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let cells = (0..desc.point_count())
-            .map(|i| {
-                let p = desc.position(desc.coords(i).expect("in range"));
-                if p.y < 0.0 {
-                    Material::opaque(Vec3::splat(0.3))
-                } else if (2.0..8.0).contains(&p.y) {
-                    Material {
-                        reflectance: Vec3::new(0.2, 0.5, 0.3),
-                        pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
-                    }
-                } else {
-                    Material::EMPTY
-                }
+        over_flat_ground(desc, |p| {
+            (2.0..8.0).contains(&p.y).then(|| Material {
+                reflectance: Vec3::new(0.2, 0.5, 0.3),
+                pass: 0.5 + 0.45 * (0.37 * p.x).sin() * (0.23 * p.z + 0.5).cos(),
             })
-            .collect();
-        MaterialGrid::new(*desc, cells)
+        })
     }
+}
+
+/// The material of `desc`: opaque ground below 0, above it `medium` where it gives
+/// one, else air.
+fn over_flat_ground(
+    desc: &GridDesc,
+    medium: impl Fn(Vec3) -> Option<Material>,
+) -> Result<MaterialGrid, GridError> {
+    let cells = (0..desc.point_count())
+        .map(|i| {
+            let p = desc.position(desc.coords(i).expect("in range"));
+            if p.y < 0.0 {
+                Material::opaque(Vec3::splat(0.3))
+            } else {
+                medium(p).unwrap_or(Material::EMPTY)
+            }
+        })
+        .collect();
+    MaterialGrid::new(*desc, cells)
 }
 
 /// A hierarchy over a flat 64 m square of [`Layer`], every node wanted and built
@@ -53,22 +62,12 @@ impl Columns {
 
 impl MaterialSource for Columns {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let cells = (0..desc.point_count())
-            .map(|i| {
-                let p = desc.position(desc.coords(i).expect("in range"));
-                if p.y < 0.0 {
-                    Material::opaque(Vec3::splat(0.3))
-                } else if p.y < Self::top(p.x, p.z) {
-                    Material {
-                        reflectance: Vec3::splat(0.5),
-                        pass: 0.4,
-                    }
-                } else {
-                    Material::EMPTY
-                }
+        over_flat_ground(desc, |p| {
+            (p.y < Self::top(p.x, p.z)).then_some(Material {
+                reflectance: Vec3::splat(0.5),
+                pass: 0.4,
             })
-            .collect();
-        MaterialGrid::new(*desc, cells)
+        })
     }
 }
 
