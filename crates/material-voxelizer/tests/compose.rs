@@ -165,9 +165,11 @@ fn ground_is_dense_below_clear_above_with_a_biased_linear_band() {
     assert!(passes.windows(2).all(|w| w[0] <= w[1]), "{passes:?}");
 }
 
-/// A cell is composed from its own box alone: a grid's cells are, bit for bit, the
-/// inner cells of a wider grid on the same lattice (a hierarchy composes a node with its
-/// apron once and keeps the node's inner points).
+/// A grid's cells are, bit for bit, the inner cells of a wider grid on the same lattice
+/// (a hierarchy composes a node with its apron once and keeps the node's inner points)
+/// where both areas hold the same finest instance (here the 0.8-scale ones: 2 samples
+/// a side for both; the samples a side follow the area's finest instance, ARCHITECTURE's
+/// known defects).
 #[test]
 fn a_box_is_the_inner_cells_of_a_wider_box() {
     let hm = Heightmap::from_fn(Vec2::splat(-20.0), 1.0, 41, 41, |x, z| {
