@@ -2,7 +2,9 @@
 //! with a ground colour and from instances of model material grids.
 //!
 //! **Per area cell** (centre `c`, size `h`), on `k³` sample points spread over the cell
-//! (`k = ceil(h / finest model cell)`, at most [`ComposeParams::max_samples_per_axis`]):
+//! (`k = ceil(h / finest model cell)` of the instances overlapping the cell, model cell
+//! times scale, at most [`ComposeParams::max_samples_per_axis`]; one where none does: a
+//! cell is composed from its own box, whatever else the area holds):
 //!
 //! * *Objects.* Each instance overlapping the sample maps it into model space
 //!   (`m = R⁻¹ (c - position) / scale`) and samples its model grid trilinearly (outside
@@ -215,29 +217,41 @@ struct Sampling<'a> {
     /// The model's [`clear_cubes`].
     clear: &'a ClearCubes,
     bounds: (Vec3, Vec3),
-    /// `inv_rot * (o - 0.5) h / scale` of each sample offset `o` (x fastest).
-    offsets: Vec<Vec3>,
-    /// Largest `|offset|` per axis: a cell whose centre lies farther than this outside
-    /// `bounds` has no sample inside the model.
-    reach: Vec3,
+    /// For `k` samples a side (`offsets[k - 1]`), `inv_rot * (o - 0.5) h / scale` of
+    /// each sample offset `o` (x fastest).
+    offsets: Vec<Vec<Vec3>>,
+    /// For `k` samples a side, the largest `|offset|` per axis: a cell whose centre
+    /// lies farther than this outside `bounds` has no sample inside the model.
+    reach: Vec<Vec3>,
     ratio: f32,
+    /// The model's cell times the instance's scale: the samples a side a cell it
+    /// overlaps asks (`ceil(h / cell)`).
+    cell: f32,
 }
 
 impl<'a> Sampling<'a> {
+    /// The instance sampled in cells of size `h`, with up to `max_k` samples a side.
     fn new(
         placed: &'a Placed,
         (model, clear): (&'a MaterialGrid, &'a ClearCubes),
         h: f32,
-        k: u32,
+        max_k: u32,
     ) -> Self {
         let inv_scale = 1.0 / placed.inst.scale;
-        let offsets: Vec<Vec3> = (0..k * k * k)
-            .map(|s| {
-                let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
-                placed.inv_rot * (((o + 0.5) / k as f32 - 0.5) * h) * inv_scale
+        let offsets: Vec<Vec<Vec3>> = (1..=max_k.max(1))
+            .map(|k| {
+                (0..k * k * k)
+                    .map(|s| {
+                        let o = UVec3::new(s % k, (s / k) % k, s / (k * k)).as_vec3();
+                        placed.inv_rot * (((o + 0.5) / k as f32 - 0.5) * h) * inv_scale
+                    })
+                    .collect()
             })
             .collect();
-        let reach = offsets.iter().fold(Vec3::ZERO, |r, o| r.max(o.abs()));
+        let reach = offsets
+            .iter()
+            .map(|o| o.iter().fold(Vec3::ZERO, |r, o| r.max(o.abs())))
+            .collect();
         Self {
             placed,
             model,
@@ -246,7 +260,14 @@ impl<'a> Sampling<'a> {
             offsets,
             reach,
             ratio: h / (model.desc().h() * placed.inst.scale),
+            cell: model.desc().h() * placed.inst.scale,
         }
+    }
+
+    /// The offsets of `k` samples a side (at most the `max_k` it was made for).
+    #[inline]
+    fn offsets(&self, k: u32) -> &[Vec3] {
+        &self.offsets[k as usize - 1]
     }
 
     /// Model-space position of world point `p`.
@@ -278,13 +299,14 @@ impl<'a> Sampling<'a> {
     /// those of `c ± reach` (the base is monotonic in the position), and it holds clear
     /// cubes only. Then the instance adds nothing to the cell and is left out.
     #[inline]
-    fn clear_around(&self, c: Vec3) -> bool {
+    fn clear_around(&self, c: Vec3, k: u32) -> bool {
         if !c.is_finite() {
             return false;
         }
         let d = self.model.desc();
-        let lo = lightgrid_core::trilinear_base(d.dims(), d.to_grid(c - self.reach));
-        let hi = lightgrid_core::trilinear_base(d.dims(), d.to_grid(c + self.reach));
+        let reach = self.reach[k as usize - 1];
+        let lo = lightgrid_core::trilinear_base(d.dims(), d.to_grid(c - reach));
+        let hi = lightgrid_core::trilinear_base(d.dims(), d.to_grid(c + reach));
         self.clear.none_blocked(lo, hi)
     }
 }
@@ -613,8 +635,10 @@ impl AreaComposer {
                 self.models[p.inst.model as usize].desc().h() * p.inst.scale
             })
             .fold(f32::INFINITY, f32::min);
+        // The most samples a side any cell of the area takes (each takes those its own
+        // instances ask: a cell is composed from its own box).
         let k = if finest.is_finite() {
-            ((h / finest).ceil() as u32).clamp(1, self.params.max_samples_per_axis)
+            samples_a_side(h, finest, self.params.max_samples_per_axis)
         } else {
             1
         };
@@ -683,11 +707,16 @@ impl AreaComposer {
                         return;
                     }
                 }
-                // Ground alone is smooth: one sample; objects need k per axis.
-                let k = if local.is_empty() { 1 } else { k };
+                // Ground alone is smooth: one sample; objects need a sample a side per
+                // cell of the finest instance overlapping this cell (at most `k`).
+                let k = local
+                    .iter()
+                    .map(|sm| sm.cell)
+                    .fold(None, |f: Option<f32>, c| Some(f.map_or(c, |f| f.min(c))))
+                    .map_or(1, |finest| samples_a_side(h, finest, k));
                 let ground: &[(f32, Vec3)] = match column {
                     Some(c) if k == 1 => &c.one,
-                    Some(c) => &c.samples,
+                    Some(c) => &c.samples[k as usize - 2],
                     None => &[],
                 };
                 // Each instance's cell centre in its model's space, once a cell; the
@@ -697,9 +726,10 @@ impl AreaComposer {
                 for (li, sm) in local.iter().enumerate() {
                     let c = sm.to_model(centre);
                     let (mlo, mhi) = sm.bounds;
-                    if (c + sm.reach).cmpge(mlo).all()
-                        && (c - sm.reach).cmple(mhi).all()
-                        && !sm.clear_around(c)
+                    let reach = sm.reach[k as usize - 1];
+                    if (c + reach).cmpge(mlo).all()
+                        && (c - reach).cmple(mhi).all()
+                        && !sm.clear_around(c, k)
                     {
                         centres.push((c, li));
                     }
@@ -724,7 +754,8 @@ impl AreaComposer {
 struct ColumnGround {
     /// One sample: at the column's centre.
     one: Vec<(f32, Vec3)>,
-    samples: Vec<(f32, Vec3)>,
+    /// `k` a side for `k` in `2..=max_k` (`samples[k - 2]`).
+    samples: Vec<Vec<(f32, Vec3)>>,
 }
 
 impl AreaComposer {
@@ -755,12 +786,19 @@ impl AreaComposer {
                     let centre = desc.position(UVec3::new((c % nx) as u32, 0, (c / nx) as u32));
                     ColumnGround {
                         one: under(centre, 1),
-                        samples: under(centre, k),
+                        samples: (2..=k).map(|k| under(centre, k)).collect(),
                     }
                 })
                 .collect(),
         )
     }
+}
+
+/// Samples a side in a cell of size `h` whose finest overlapping instance has cells of
+/// `finest` (model cell times scale): `ceil(h / finest)`, in `1..=max_k`.
+#[inline]
+fn samples_a_side(h: f32, finest: f32, max_k: u32) -> u32 {
+    ((h / finest).ceil() as u32).clamp(1, max_k.max(1))
 }
 
 /// A cell's material from its `k³` samples: each sample's transmittance the product of
@@ -786,7 +824,7 @@ fn sample_cell(
     for &(c, li) in centres.iter() {
         let sm = local[li];
         let (mlo, mhi) = sm.bounds;
-        for (a, &offset) in acc.iter_mut().zip(&sm.offsets[..n]) {
+        for (a, &offset) in acc.iter_mut().zip(sm.offsets(k)) {
             let mpos = c + offset;
             if mpos.cmplt(mlo).any() || mpos.cmpgt(mhi).any() {
                 continue;
@@ -1035,7 +1073,7 @@ mod tests {
                     };
                     for &(c, li) in &centres {
                         let sm = local[li];
-                        let mpos = c + sm.offsets[s];
+                        let mpos = c + sm.offsets(k)[s];
                         if mpos.cmplt(sm.bounds.0).any() || mpos.cmpgt(sm.bounds.1).any() {
                             continue;
                         }
@@ -1114,9 +1152,9 @@ mod tests {
         let (mut clear_places, mut others) = (0, 0);
         for _ in 0..4000 {
             let c = d.origin() + (Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 1.4 - 0.2) * 5.0;
-            if sm.clear_around(c) {
+            if sm.clear_around(c, 3) {
                 clear_places += 1;
-                for o in &sm.offsets {
+                for o in sm.offsets(3) {
                     assert!(sm.read(c + *o).is_none(), "{c} + {o}");
                 }
             } else {

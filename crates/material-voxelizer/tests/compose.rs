@@ -165,11 +165,12 @@ fn ground_is_dense_below_clear_above_with_a_biased_linear_band() {
     assert!(passes.windows(2).all(|w| w[0] <= w[1]), "{passes:?}");
 }
 
-/// A grid's cells are, bit for bit, the inner cells of a wider grid on the same lattice
-/// (a hierarchy composes a node with its apron once and keeps the node's inner points)
-/// where both areas hold the same finest instance (here the 0.8-scale ones: 2 samples
-/// a side for both; the samples a side follow the area's finest instance, ARCHITECTURE's
-/// known defects).
+/// A cell is composed from its own box alone: a grid's cells are, bit for bit, the
+/// inner cells of a wider grid on the same lattice (a hierarchy composes a node with its
+/// apron once and keeps the node's inner points), also where the wider grid alone holds
+/// an instance of a smaller scale (0.4: 3 samples a side in its cells, against the
+/// inner instances' 2; the area's finest instance set every cell's samples until
+/// 2026-12-04).
 #[test]
 fn a_box_is_the_inner_cells_of_a_wider_box() {
     let hm = Heightmap::from_fn(Vec2::splat(-20.0), 1.0, 41, 41, |x, z| {
@@ -187,6 +188,12 @@ fn a_box_is_the_inner_cells_of_a_wider_box() {
             rotation: Quat::from_rotation_y(0.4 * i as f32),
             scale: 0.8 + 0.1 * (i % 4) as f32,
         })
+        .chain([Instance {
+            model: 0,
+            position: Vec3::new(2.4, 1.5, -2.0),
+            rotation: Quat::IDENTITY,
+            scale: 0.4,
+        }])
         .collect();
     let c = composer(random_model(4), &instances, Some(terrain));
     let inner = GridDesc::new(Vec3::new(-4.25, -2.25, -3.75), 0.5, UVec3::new(12, 14, 10)).unwrap();

@@ -38,11 +38,8 @@ pub(crate) struct SkyInputs {
 
 impl Hierarchy {
     /// The source's material over `desc` and, with an apron, over `desc` widened by it:
-    /// composed once over the widened grid, `desc`'s its inner points. (The same bit for
-    /// bit as `desc` composed alone where the area composer takes as many samples a side
-    /// for both areas: it takes them for the finest instance overlapping the area it is
-    /// given, so an instance of a smaller scale in the apron alone adds samples to the
-    /// node's cells too; ARCHITECTURE, known defects.)
+    /// composed once over the widened grid, `desc`'s its inner points (every cell is
+    /// composed from its own box: the same bit for bit).
     pub(crate) fn compose_node(
         &self,
         desc: &GridDesc,
