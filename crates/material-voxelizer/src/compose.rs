@@ -238,6 +238,7 @@ impl<'a> Sampling<'a> {
         max_k: u32,
     ) -> Self {
         let inv_scale = 1.0 / placed.inst.scale;
+        let cell = model.desc().h() * placed.inst.scale;
         let offsets: Vec<Vec<Vec3>> = (1..=max_k.max(1))
             .map(|k| {
                 (0..k * k * k)
@@ -259,8 +260,8 @@ impl<'a> Sampling<'a> {
             bounds: model.desc().cell_bounds(),
             offsets,
             reach,
-            ratio: h / (model.desc().h() * placed.inst.scale),
-            cell: model.desc().h() * placed.inst.scale,
+            ratio: h / cell,
+            cell,
         }
     }
 
@@ -709,11 +710,10 @@ impl AreaComposer {
                 }
                 // Ground alone is smooth: one sample; objects need a sample a side per
                 // cell of the finest instance overlapping this cell (at most `k`).
-                let k = local
-                    .iter()
-                    .map(|sm| sm.cell)
-                    .fold(None, |f: Option<f32>, c| Some(f.map_or(c, |f| f.min(c))))
-                    .map_or(1, |finest| samples_a_side(h, finest, k));
+                let k = match local.iter().map(|sm| sm.cell).reduce(f32::min) {
+                    Some(finest) => samples_a_side(h, finest, k),
+                    None => 1,
+                };
                 let ground: &[(f32, Vec3)] = match column {
                     Some(c) if k == 1 => &c.one,
                     Some(c) => &c.samples[k as usize - 2],

@@ -169,8 +169,8 @@ fn ground_is_dense_below_clear_above_with_a_biased_linear_band() {
 /// inner cells of a wider grid on the same lattice (a hierarchy composes a node with its
 /// apron once and keeps the node's inner points), also where the wider grid alone holds
 /// an instance of a smaller scale (0.4: 3 samples a side in its cells, against the
-/// inner instances' 2; the area's finest instance set every cell's samples until
-/// 2026-12-04).
+/// inner instances' 2: were the samples a side the area's, the inner cells would
+/// differ).
 #[test]
 fn a_box_is_the_inner_cells_of_a_wider_box() {
     let hm = Heightmap::from_fn(Vec2::splat(-20.0), 1.0, 41, 41, |x, z| {

@@ -375,7 +375,7 @@ mod tests {
         let finest = h.params.depths();
         let size = h.params.node_size(finest);
         let node_levels = 3.0 * h.params.cell(finest);
-        let (mut checked, mut over_material) = (0u64, 0u64);
+        let (mut checked, mut old_rule_listed) = (0u64, 0u64);
         let keys: Vec<NodeKey> = h
             .nodes
             .keys()
@@ -433,15 +433,15 @@ mod tests {
                         let far = dots(lo, hi).into_iter().fold(f32::MIN, f32::max);
                         let near = dots(qlo, qhi).into_iter().fold(f32::MAX, f32::min);
                         let lowest = bottom + (near - far).max(0.0) * slope;
-                        over_material +=
+                        old_rule_listed +=
                             (lowest < material_top_over(m, qlo, qhi) + margin + node_levels) as u64;
                     }
                 }
             }
         }
         assert!(
-            checked > 0 && over_material > 0,
-            "{checked} samples, {over_material} over material"
+            checked > 0 && old_rule_listed > 0,
+            "{checked} samples, {old_rule_listed} the whole rectangle's rule listed"
         );
     }
 
