@@ -239,18 +239,21 @@ impl Hierarchy {
 
     /// Whether the coarser grids a node's sun boundary reads are current: every built
     /// coarser node its boundary reads ([`Hierarchy::halo_rect`]: its parent and the
-    /// neighbours its halo reaches; the world grid's, always current, where none is).
-    /// Else a node near the camera, swept before a neighbour of its parent's depth
-    /// (`order.rs`), would take that neighbour's old sun and keep it. The same for the
-    /// nodes of its depth before it whose scattered sun its halo reads
-    /// ([`HierarchyParams::neighbour_halo`]) that the camera wants (a built one it no
-    /// longer wants keeps a stale sun, which the halo does not read).
+    /// neighbours its halo reaches; the world grid's, always current, where none is)
+    /// that the camera wants. Else a node near the camera, swept before a neighbour of
+    /// its parent's depth (`order.rs`), would take that neighbour's old sun and keep
+    /// it. The same for the nodes of its depth before it whose scattered sun its halo
+    /// reads ([`HierarchyParams::neighbour_halo`]). A built node the camera no longer
+    /// wants keeps a stale sun (only wanted nodes' suns are swept again), which the
+    /// boundary does not read ([`Hierarchy::coarse_sun`] takes current suns alone):
+    /// waiting for it, a moved sun never settled (`tests/order.rs`); once it is wanted
+    /// and current again, the nodes that read it are marked to be swept again
+    /// (`mark_scattered_readers`).
     pub(crate) fn sun_parent_ready(&self, key: NodeKey) -> bool {
-        self.halo_nodes(key)
-            .all(|k| !self.nodes.contains_key(&k) || self.sun_current(k))
-            && self.before_neighbours(key).all(|k| {
-                !self.nodes.contains_key(&k) || !self.wanted_now.contains(&k) || self.sun_current(k)
-            })
+        let ready = |k: NodeKey| {
+            !self.nodes.contains_key(&k) || !self.wanted_now.contains(&k) || self.sun_current(k)
+        };
+        self.halo_nodes(key).all(ready) && self.before_neighbours(key).all(ready)
     }
 
     /// The finest grid coarser than `depth` with a current sun response at `p` (the

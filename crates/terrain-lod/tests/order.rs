@@ -817,3 +817,74 @@ fn a_camera_among_its_nodes_sweeps_none_twice() {
         assert!(built > 0, "budget {budget}: the walk built nothing");
     }
 }
+
+/// A moved sun settles where a wanted node's halo reaches a built node the camera no
+/// longer wants. Such a node keeps its stale sun (only wanted nodes' suns are swept
+/// again), and the finest node whose boundary reads it waited for it, frame after frame
+/// for good (the frame bench at 10° hung so after its path): its sun boundary reads the
+/// coarser grids' current sun there instead, as a hierarchy built at that camera, which
+/// never built the node, reads it.
+#[test]
+fn a_moved_sun_settles_beside_a_built_node_no_longer_wanted() {
+    use lightgrid_core::glam::IVec2;
+    use lightgrid_terrain_lod::NodeKey;
+    let mut h = hierarchy(1 << 40);
+    // A depth-2 node (16 m, [16, 32]²), and a finest node (8 m, [32, 40]²) at the
+    // corner it shares with that node's diagonal neighbour: its halo (5 m) reaches it.
+    let old = NodeKey {
+        depth: 2,
+        index: IVec2::new(1, 1),
+    };
+    let finest = NodeKey {
+        depth: 3,
+        index: IVec2::new(4, 4),
+    };
+    let (a, b) = (Vec3::new(24.0, 12.0, 24.0), Vec3::new(45.0, 12.0, 45.0));
+    assert!(h.wanted(a).contains(&old));
+    // At `b` the finest node is wanted (7.1 m away) and the old one is not (18.4 m,
+    // beyond 16) but kept (within 24).
+    assert!(h.wanted(b).contains(&finest) && !h.wanted(b).contains(&old));
+    for cam in [a, b] {
+        let s = h.settle(cam, 60, |_| {}).unwrap();
+        assert_eq!((s.pending, s.sun_pending), (0, 0), "never settled at {cam}");
+    }
+    assert!(h.ready_nodes().contains(&old) && h.ready_nodes().contains(&finest));
+    let moved = SunLight {
+        to_sun: Vec3::new(-0.4, 0.7, 0.3),
+        irradiance: Vec3::splat(3.0),
+    };
+    h.set_sun(Some(moved)).unwrap();
+    for f in 0.. {
+        let s = h.update(b).unwrap();
+        if s.pending == 0 && s.sun_pending == 0 {
+            break;
+        }
+        assert!(f < 30, "the moved sun never settled: {s:?}");
+    }
+    assert!(h.ready_nodes().contains(&old), "the old node was kept");
+    // The finest node's sun responses are those of a hierarchy that only ever saw
+    // the camera at `b` under the moved sun, bit for bit.
+    let mut fresh = hierarchy(1 << 40);
+    fresh.set_sun(Some(moved)).unwrap();
+    let s = fresh.settle(b, 60, |_| {}).unwrap();
+    assert_eq!((s.pending, s.sun_pending), (0, 0));
+    assert!(!fresh.ready_nodes().contains(&old));
+    let sun_of = |h: &Hierarchy| {
+        let layers = h.layers();
+        let l = layers
+            .iter()
+            .find(|l| {
+                l.owner
+                    .is_some_and(|o| o.index == finest.index && o.size == 8.0)
+            })
+            .expect("the finest node is a layer");
+        let s = l.sun.expect("its sun is shown");
+        (s.scattered.cloned(), s.transmittance.clone())
+    };
+    let (mine, theirs) = (sun_of(&h), sun_of(&fresh));
+    assert!(mine.0.is_some());
+    assert!(
+        mine == theirs,
+        "the finest node's sun differs from a fresh build's"
+    );
+}
