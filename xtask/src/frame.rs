@@ -1072,9 +1072,11 @@ fn over_twice(frames: &[FrameRow], budget_ms: f32, cores: Option<usize>) -> usiz
 
 /// Frames at `cam`, `pace` apart, until one finds nothing left to sweep (every wanted
 /// node built, its sun response the current sun's; ready nodes the camera no longer
-/// wants are left as they are). Returns the frames run.
+/// wants are left as they are). Returns the frames run; an error once
+/// [`STALLED_FRAMES`] frames in a row did nothing while work was pending (a hierarchy
+/// that waits for itself: the bench once ran on for hours so).
 fn settle(h: &mut Hierarchy, cam: Vec3, pace: Duration) -> Result<u32> {
-    let mut frames = 0u32;
+    let (mut frames, mut stalled) = (0u32, 0u32);
     loop {
         let f = Instant::now();
         let s = h.update(cam)?;
@@ -1082,10 +1084,19 @@ fn settle(h: &mut Hierarchy, cam: Vec3, pace: Duration) -> Result<u32> {
         if s.points_swept == 0 && s.pending == 0 && !h.sun_moving() {
             return Ok(frames);
         }
-        anyhow::ensure!(frames < 100_000, "the hierarchy never settled at {cam}");
+        let idle = s.points_swept == 0 && s.composed == 0 && s.casters == 0 && !h.sun_moving();
+        stalled = if idle { stalled + 1 } else { 0 };
+        anyhow::ensure!(
+            stalled < STALLED_FRAMES,
+            "the hierarchy made no progress in {stalled} frames at {cam} with work pending: {s:?}"
+        );
         std::thread::sleep(pace.saturating_sub(f.elapsed()));
     }
 }
+
+/// Frames in a row that sweep and compose nothing, with work pending, before
+/// [`settle`] gives up.
+const STALLED_FRAMES: u32 = 100;
 
 /// Runs the measurement and writes `frame.txt`, `frame.json` and `frame.png`.
 pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
