@@ -56,7 +56,8 @@ use anyhow::{Context, Result};
 use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{BinLight, LightField, SeededRng, Sweeper};
 use lightgrid_material_voxelizer::compose::{
-    AreaComposer, ComposeParams, GroundColour, Heightmap, Instance, Terrain, load_heightmap_png,
+    AreaComposer, ComposeParams, GroundBand, GroundColour, Heightmap, Instance, Terrain,
+    load_heightmap_png,
 };
 use lightgrid_material_voxelizer::procedural::{TreeParams, tree};
 use lightgrid_material_voxelizer::voxelize::{VoxelizeParams, voxelize};
@@ -123,6 +124,10 @@ pub struct FrameConfig {
     /// Under a time budget a new node whose casters wait marches its direct sun
     /// at once (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
+    /// The ground's partly covered cells composed with the albedo whose half-space
+    /// reflects its colour (`ComposeParams::band_albedo = GroundBand::Reflecting`), in
+    /// the hierarchy and in every reference.
+    pub reflecting_band: bool,
     /// Most passes a sweep runs (`HierarchyParams::sweep.max_passes`, in the hierarchy
     /// and the reference sweep; `None`: the hierarchy's default, 4).
     pub passes: Option<u32>,
@@ -173,6 +178,7 @@ impl FrameConfig {
             budget_points: None,
             neighbour_halo: false,
             march_before_casters: false,
+            reflecting_band: false,
             passes: None,
             apron: None,
             sun_apron: 0,
@@ -423,6 +429,9 @@ pub struct FrameReport {
     /// Whether a new node whose casters waited marched its direct sun at once
     /// (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
+    /// Whether the ground's partly covered cells reflected like its surface
+    /// (`GroundBand::Reflecting`).
+    pub reflecting_band: bool,
     /// The frames' time budget, milliseconds (`None`: none).
     pub budget_ms: Option<f32>,
     /// The frames' point budget (`HierarchyParams::budget_points`).
@@ -451,6 +460,7 @@ struct World {
     terrain: Terrain,
     tree: lightgrid_core::MaterialGrid,
     instances: Vec<Instance>,
+    compose: ComposeParams,
 }
 
 impl World {
@@ -481,11 +491,20 @@ impl World {
             heightmap: hm.clone(),
             colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),
         };
+        let band_albedo = if cfg.reflecting_band {
+            GroundBand::Reflecting
+        } else {
+            GroundBand::Colour
+        };
         Ok(Self {
             hm,
             terrain,
             tree,
             instances,
+            compose: ComposeParams {
+                band_albedo,
+                ..ComposeParams::default()
+            },
         })
     }
 
@@ -494,7 +513,7 @@ impl World {
             vec![self.tree.clone()],
             &self.instances,
             Some(self.terrain.clone()),
-            ComposeParams::default(),
+            self.compose,
         )?)
     }
 
@@ -1169,6 +1188,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         budget_points: hierarchy_params(cfg).budget_points,
         neighbour_halo: cfg.neighbour_halo,
         march_before_casters: cfg.march_before_casters,
+        reflecting_band: cfg.reflecting_band,
         apron: hierarchy_params(cfg).apron,
         sun_apron: hierarchy_params(cfg).sun_apron,
         passes: hierarchy_params(cfg).sweep.max_passes,
@@ -1367,6 +1387,7 @@ mod tests {
             )
             .unwrap(),
             instances: vec![],
+            compose: ComposeParams::default(),
         };
         let cam = Vec3::new(32.0, 10.0, 32.0);
         let p = probes(&world, cam);

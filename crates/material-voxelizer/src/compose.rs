@@ -20,7 +20,8 @@
 //!   shadowed by ground cells that are barely underground.
 //!
 //! The cell's pass-through is the mean of its samples' and its reflectance the mean of
-//! their blocking-weighted colours. For a homogeneous model this is exact:
+//! their blocking-weighted colours (the ground's colour, or in cells it covers in part
+//! the albedo [`ComposeParams::band_albedo`] gives it). For a homogeneous model this is exact:
 //! composing at `2h` gives the square of the pass-through at `h`.
 //!
 //! **Cost.** Instances are binned into square tiles by their world bounds (seed 000's
@@ -170,6 +171,8 @@ pub struct ComposeParams {
     pub ground_band: f32,
     /// How far the ground is lowered, metres.
     pub ground_bias: f32,
+    /// What the cells the ground covers in part scatter ([`GroundBand`]).
+    pub band_albedo: GroundBand,
     /// Side of the square tiles instances are binned into, metres.
     pub tile: f32,
     /// Most sample points per axis within one area cell.
@@ -181,8 +184,51 @@ impl Default for ComposeParams {
         Self {
             ground_band: 1.0,
             ground_bias: 0.25,
+            band_albedo: GroundBand::Colour,
             tile: 16.0,
             max_samples_per_axis: 4,
+        }
+    }
+}
+
+/// The albedo of the cells the ground covers in part ([`ComposeParams::band_albedo`]):
+/// the sweeps read such a cell as a medium (pass-through `1 - w`), and a medium whose
+/// albedo is the ground's colour `a` reflects far less than a surface of that colour
+/// (a half-space of isotropic scatterers of albedo 0.2 reflects about a fifth of what
+/// the surface does), and over the ground's opaque cells it also darkens what they
+/// reflect. Over flat ground of colour 0.2 under a uniform sky, a surface facing down
+/// above it receives 25–100 % of the exact `a π` with `Colour` and 89–100 % with
+/// `Reflecting`, depending on where the surface falls in a cell, at cells of 0.5–4 m
+/// (`cargo run --release -p lightgrid-terrain-lod --example ground_band`).
+/// Opaque cells (wholly under the band) are surfaces and keep the ground's colour
+/// either way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GroundBand {
+    /// The ground's colour (the default so far; its known defect above).
+    #[default]
+    Colour,
+    /// The albedo `w = 1 - ((1 - a) / (1 + a))^2` per channel, whose half-space
+    /// reflects `a` (Kubelka–Munk's `R_inf`, Hapke's diffusive reflectance): a layer of
+    /// it over ground that reflects `a` reflects `a` whatever its depth (Kubelka–Munk),
+    /// so the reflected sky is near right wherever the surface falls in a cell (the
+    /// sweep's medium is not the two-stream one: up to 11 % short). A medium's
+    /// reflection is not Lambertian in angle: the reflected direct sun reads 0.75–1.00
+    /// of the exact at a 60° sun and 1.00–1.18 at 15° (against 0.20–1.00 and 0.33–1.00
+    /// with `Colour`).
+    Reflecting,
+}
+
+impl GroundBand {
+    /// The albedo of a partly covered ground cell for a ground of colour `a`.
+    #[inline]
+    pub fn albedo(self, a: Vec3) -> Vec3 {
+        match self {
+            GroundBand::Colour => a,
+            GroundBand::Reflecting => {
+                let a = a.clamp(Vec3::ZERO, Vec3::ONE);
+                let g = (Vec3::ONE - a) / (Vec3::ONE + a);
+                Vec3::ONE - g * g
+            }
         }
     }
 }
@@ -740,7 +786,7 @@ impl AreaComposer {
                 *cell = sample_cell(
                     (centre, h, k),
                     (local, centres),
-                    (ground, self.params.ground_band),
+                    (ground, self.params.ground_band, self.params.band_albedo),
                     samples,
                 );
             });
@@ -815,7 +861,7 @@ fn samples_a_side(h: f32, finest: f32, max_k: u32) -> u32 {
 fn sample_cell(
     (centre, h, k): (Vec3, f32, u32),
     (local, centres): (&[&Sampling<'_>], &[(Vec3, usize)]),
-    (ground, ground_band): (&[(f32, Vec3)], f32),
+    (ground, ground_band, band): (&[(f32, Vec3)], f32, GroundBand),
     acc: &mut Vec<SampleState>,
 ) -> Material {
     let n = (k * k * k) as usize;
@@ -843,28 +889,34 @@ fn sample_cell(
     // nothing): where the highest ground under the cell gives its lowest sample none,
     // it gives none to any (each step of the weight is monotonic in `g` and `y`).
     let highest = ground.iter().map(|g| g.0).fold(f32::NEG_INFINITY, f32::max);
+    // The samples before the ground, kept where the ground's albedo in the band is not
+    // its colour: a cell that comes out opaque is a surface, of the colour itself.
+    let mut before_ground = None;
     if !ground.is_empty() && weight(highest, sample_y(0)) > 0.0 {
-        // Row by row (x fastest within a row of fixed y and z): no division a sample.
-        for (r, row) in acc.chunks_exact_mut(k as usize).enumerate() {
-            let (y, z) = (r as u32 % k, r as u32 / k);
-            let under = ground.get((k * z) as usize..).unwrap_or_default();
-            let py = sample_y(y);
-            for (a, &(g, colour)) in row.iter_mut().zip(under) {
-                a.add(1.0 - weight(g, py), colour);
-            }
+        if band != GroundBand::Colour {
+            before_ground = Some(acc.clone());
         }
+        add_ground(acc, k, (ground, band), |g, y| 1.0 - weight(g, sample_y(y)));
     }
     let mut pass_sum = 0.0;
+    for a in acc.iter() {
+        pass_sum += a.pass;
+    }
+    let n = n as f32;
+    if let Some(mut surface) = before_ground.filter(|_| (pass_sum / n).clamp(0.0, 1.0) <= 0.0) {
+        add_ground(&mut surface, k, (ground, GroundBand::Colour), |g, y| {
+            1.0 - weight(g, sample_y(y))
+        });
+        *acc = surface;
+    }
     let mut colour_sum = Vec3::ZERO;
     let mut block_sum = 0.0;
     for a in acc.iter() {
-        pass_sum += a.pass;
         if a.weight > 0.0 {
             colour_sum += a.colour / a.weight * (1.0 - a.pass);
             block_sum += 1.0 - a.pass;
         }
     }
-    let n = n as f32;
     Material {
         reflectance: if block_sum > 0.0 {
             (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
@@ -872,6 +924,25 @@ fn sample_cell(
             Vec3::ZERO
         },
         pass: (pass_sum / n).clamp(0.0, 1.0),
+    }
+}
+
+/// The ground added to the samples `acc` (`k` a side) from the ground under each column
+/// of them, with its albedo in the band ([`GroundBand::albedo`]); `pass(g, y)` is what a
+/// ground of height `g` lets through at the samples' level `y`. Row by row (x fastest
+/// within a row of fixed y and z): no division a sample.
+fn add_ground(
+    acc: &mut [SampleState],
+    k: u32,
+    (ground, band): (&[(f32, Vec3)], GroundBand),
+    pass: impl Fn(f32, u32) -> f32,
+) {
+    for (r, row) in acc.chunks_exact_mut(k as usize).enumerate() {
+        let (y, z) = (r as u32 % k, r as u32 / k);
+        let under = ground.get((k * z) as usize..).unwrap_or_default();
+        for (a, &(g, colour)) in row.iter_mut().zip(under) {
+            a.add(pass(g, y), band.albedo(colour));
+        }
     }
 }
 
@@ -1053,7 +1124,7 @@ mod tests {
                 let got = sample_cell(
                     (centre, h, k),
                     (&local, &centres),
-                    (&ground, band),
+                    (&ground, band, GroundBand::Colour),
                     &mut acc,
                 );
                 // Sample by sample: each sample's instances, then its ground.
@@ -1122,6 +1193,77 @@ mod tests {
 
     /// The summed-volume table's boxes count what testing every cube counts, and a
     /// place whose box is clear reads clear at every offset within the reach.
+    /// `Colour` leaves the ground's colour as it is; `Reflecting` maps 0 to 0 and 1 to
+    /// 1, rises with the colour, and is the albedo whose half-space reflects the colour
+    /// (Hapke's diffusive reflectance `(1 - γ) / (1 + γ)`, `γ = sqrt(1 - w)`, of it).
+    #[test]
+    fn the_band_albedo_is_the_one_whose_half_space_reflects_the_colour() {
+        let mut last = -1.0;
+        for i in 0..=100 {
+            let a = i as f32 / 100.0;
+            let c = Vec3::new(a, 0.5 * a, 1.0 - a);
+            assert_eq!(GroundBand::Colour.albedo(c), c);
+            let w = GroundBand::Reflecting.albedo(c);
+            for (w, a) in w.to_array().into_iter().zip(c.to_array()) {
+                let g = (1.0 - w).sqrt();
+                let r = (1.0 - g) / (1.0 + g);
+                assert!((r - a).abs() < 1e-5, "{a}: albedo {w} reflects {r}");
+                assert!((0.0..=1.0).contains(&w) && w >= a, "{a}: {w}");
+            }
+            assert!(w.x > last || i == 0, "rises: {} after {last}", w.x);
+            last = w.x;
+        }
+        assert_eq!(GroundBand::Reflecting.albedo(Vec3::ZERO), Vec3::ZERO);
+        assert_eq!(GroundBand::Reflecting.albedo(Vec3::ONE), Vec3::ONE);
+    }
+
+    /// Flat ground composed with each band albedo: the cells the ground covers in part
+    /// take `GroundBand::albedo` of its colour, the cells wholly under it (surfaces) its
+    /// colour, and every other cell and every pass-through is the same bit for bit.
+    #[test]
+    fn only_the_partly_covered_ground_cells_change_albedo() {
+        let colour = Vec3::new(0.25, 0.22, 0.18);
+        let hm = Heightmap::from_fn(Vec2::splat(-8.0), 1.0, 32, 32, |x, z| {
+            10.3 + 0.2 * x + 0.1 * z
+        })
+        .unwrap();
+        let compose = |band| {
+            let terrain = Terrain {
+                heightmap: hm.clone(),
+                colour: GroundColour::Uniform(colour),
+            };
+            let params = ComposeParams {
+                band_albedo: band,
+                ..ComposeParams::default()
+            };
+            let d =
+                GridDesc::new(Vec3::new(0.25, 8.25, 0.25), 0.5, UVec3::new(12, 16, 12)).unwrap();
+            AreaComposer::new(Vec::new(), &[], Some(terrain), params)
+                .unwrap()
+                .compose(&d)
+                .unwrap()
+                .0
+        };
+        let (plain, reflecting) = (compose(GroundBand::Colour), compose(GroundBand::Reflecting));
+        let (mut partial, mut opaque) = (0, 0);
+        for (p, r) in plain.data().iter().zip(reflecting.data()) {
+            assert_eq!(p.pass.to_bits(), r.pass.to_bits());
+            if p.pass > 0.0 && p.pass < 1.0 {
+                partial += 1;
+                assert!((p.reflectance - colour).abs().max_element() < 1e-6, "{p:?}");
+                let want = GroundBand::Reflecting.albedo(colour);
+                assert!((r.reflectance - want).abs().max_element() < 1e-6, "{r:?}");
+            } else {
+                opaque += usize::from(p.pass == 0.0);
+                assert_eq!(p, r);
+            }
+        }
+        assert!(
+            partial > 50 && opaque > 50,
+            "{partial} partly covered, {opaque} opaque"
+        );
+    }
+
     #[test]
     fn clear_boxes_are_the_brute_force_and_read_clear() {
         let mut rng = fastrand::Rng::with_seed(5);

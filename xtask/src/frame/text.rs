@@ -113,7 +113,12 @@ pub fn text(report: &FrameReport) -> String {
                 } else {
                     ""
                 }
-            )),
+            ))
+            + if report.reflecting_band {
+                ", the ground's partly covered cells reflecting (GroundBand::Reflecting)"
+            } else {
+                ""
+            },
         report.reference_points,
         report.reference_sky_s
     );
