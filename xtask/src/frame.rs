@@ -124,10 +124,10 @@ pub struct FrameConfig {
     /// Under a time budget a new node whose casters wait marches its direct sun
     /// at once (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
-    /// The ground's partly covered cells composed with the albedo whose half-space
-    /// reflects its colour (`ComposeParams::band_albedo = GroundBand::Reflecting`), in
-    /// the hierarchy and in every reference.
-    pub reflecting_band: bool,
+    /// The ground's partly covered cells composed with its colour as their albedo
+    /// (`ComposeParams::band_albedo = GroundBand::Colour`, the composition before
+    /// `GroundBand::Reflecting`, the default), in the hierarchy and in every reference.
+    pub colour_band: bool,
     /// Most passes a sweep runs (`HierarchyParams::sweep.max_passes`, in the hierarchy
     /// and the reference sweep; `None`: the hierarchy's default, 4).
     pub passes: Option<u32>,
@@ -178,7 +178,7 @@ impl FrameConfig {
             budget_points: None,
             neighbour_halo: false,
             march_before_casters: false,
-            reflecting_band: false,
+            colour_band: false,
             passes: None,
             apron: None,
             sun_apron: 0,
@@ -429,9 +429,9 @@ pub struct FrameReport {
     /// Whether a new node whose casters waited marched its direct sun at once
     /// (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
-    /// Whether the ground's partly covered cells reflected like its surface
-    /// (`GroundBand::Reflecting`).
-    pub reflecting_band: bool,
+    /// Whether the ground's partly covered cells took its colour as their albedo
+    /// (`GroundBand::Colour`; else `GroundBand::Reflecting`, the default).
+    pub colour_band: bool,
     /// The frames' time budget, milliseconds (`None`: none).
     pub budget_ms: Option<f32>,
     /// The frames' point budget (`HierarchyParams::budget_points`).
@@ -491,10 +491,10 @@ impl World {
             heightmap: hm.clone(),
             colour: GroundColour::Uniform(Vec3::new(0.25, 0.22, 0.18)),
         };
-        let band_albedo = if cfg.reflecting_band {
-            GroundBand::Reflecting
-        } else {
+        let band_albedo = if cfg.colour_band {
             GroundBand::Colour
+        } else {
+            GroundBand::Reflecting
         };
         Ok(Self {
             hm,
@@ -1188,7 +1188,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         budget_points: hierarchy_params(cfg).budget_points,
         neighbour_halo: cfg.neighbour_halo,
         march_before_casters: cfg.march_before_casters,
-        reflecting_band: cfg.reflecting_band,
+        colour_band: cfg.colour_band,
         apron: hierarchy_params(cfg).apron,
         sun_apron: hierarchy_params(cfg).sun_apron,
         passes: hierarchy_params(cfg).sweep.max_passes,

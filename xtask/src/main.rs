@@ -127,11 +127,11 @@ enum Task {
         /// by default)
         #[arg(long)]
         march_before_casters: bool,
-        /// The ground's partly covered cells reflect like its surface
-        /// (ComposeParams::band_albedo = GroundBand::Reflecting; off by default), in the
-        /// hierarchy and every reference
+        /// The ground's partly covered cells take its colour as their albedo
+        /// (ComposeParams::band_albedo = GroundBand::Colour, the composition before
+        /// GroundBand::Reflecting, the default), in the hierarchy and every reference
         #[arg(long)]
-        reflecting_band: bool,
+        colour_band: bool,
         /// Most passes a sweep runs, in the hierarchy and the reference sweep (default:
         /// the hierarchy's, 4).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
@@ -248,7 +248,7 @@ fn main() -> ExitCode {
             budget_points,
             neighbour_halo,
             march_before_casters,
-            reflecting_band,
+            colour_band,
             passes,
             tolerance,
             flat_source,
@@ -278,7 +278,7 @@ fn main() -> ExitCode {
             cfg.budget_points = budget_points;
             cfg.neighbour_halo = neighbour_halo;
             cfg.march_before_casters = march_before_casters;
-            cfg.reflecting_band = reflecting_band;
+            cfg.colour_band = colour_band;
             cfg.passes = passes;
             cfg.tolerance = tolerance;
             cfg.flat_source = flat_source;

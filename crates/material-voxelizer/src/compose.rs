@@ -184,7 +184,7 @@ impl Default for ComposeParams {
         Self {
             ground_band: 1.0,
             ground_bias: 0.25,
-            band_albedo: GroundBand::Colour,
+            band_albedo: GroundBand::Reflecting,
             tile: 16.0,
             max_samples_per_axis: 4,
         }
@@ -198,14 +198,14 @@ impl Default for ComposeParams {
 /// the surface does), and over the ground's opaque cells it also darkens what they
 /// reflect. Over flat ground of colour 0.2 under a uniform sky, a surface facing down
 /// above it receives 25–100 % of the exact `a π` with `Colour` and 89–100 % with
-/// `Reflecting`, depending on where the surface falls in a cell, at cells of 0.5–4 m
-/// (`cargo run --release -p lightgrid-terrain-lod --example ground_band`).
+/// `Reflecting` (the default), depending on where the surface falls in a cell, at
+/// cells of 0.5–4 m (`cargo run --release -p lightgrid-terrain-lod --example
+/// ground_band`).
 /// Opaque cells (wholly under the band) are surfaces and keep the ground's colour
 /// either way.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum GroundBand {
-    /// The ground's colour (the default so far; its known defect above).
-    #[default]
+    /// The ground's colour, as composed before `Reflecting` (its defect above).
     Colour,
     /// The albedo `w = 1 - ((1 - a) / (1 + a))^2` per channel, whose half-space
     /// reflects `a` (Kubelka–Munk's `R_inf`, Hapke's diffusive reflectance): a layer of
@@ -214,7 +214,8 @@ pub enum GroundBand {
     /// sweep's medium is not the two-stream one: up to 11 % short). A medium's
     /// reflection is not Lambertian in angle: the reflected direct sun reads 0.75–1.00
     /// of the exact at a 60° sun and 1.00–1.18 at 15° (against 0.20–1.00 and 0.33–1.00
-    /// with `Colour`).
+    /// with `Colour`). The default.
+    #[default]
     Reflecting,
 }
 

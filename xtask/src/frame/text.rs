@@ -76,8 +76,8 @@ fn scattered_sun(report: &FrameReport) -> &'static str {
     }
 }
 
-/// The report as text.
-pub fn text(report: &FrameReport) -> String {
+/// The report's first line: what ran, and the reference.
+fn header(report: &FrameReport) -> String {
     use std::fmt::Write;
     let mut s = String::new();
     let _ = writeln!(
@@ -114,14 +114,21 @@ pub fn text(report: &FrameReport) -> String {
                     ""
                 }
             ))
-            + if report.reflecting_band {
-                ", the ground's partly covered cells reflecting (GroundBand::Reflecting)"
+            + if report.colour_band {
+                ", the ground's partly covered cells of its colour (GroundBand::Colour)"
             } else {
                 ""
             },
         report.reference_points,
         report.reference_sky_s
     );
+    s
+}
+
+/// The report as text.
+pub fn text(report: &FrameReport) -> String {
+    use std::fmt::Write;
+    let mut s = header(report);
     for r in &report.runs {
         let _ = writeln!(s, "\n{}", run_line(r));
         let n = r.frames.len().max(1) as f64;
