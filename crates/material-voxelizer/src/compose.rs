@@ -250,8 +250,9 @@ struct Scratch<'a> {
     /// The local instances within reach: a cell's centre in the model's space, and
     /// the instance's index in `local`.
     centres: Vec<(Vec3, usize)>,
-    /// The samples of the cell being composed ([`sample_cell`]).
-    samples: Vec<SampleState>,
+    /// The samples of the cell being composed, and a copy of them before the ground
+    /// ([`sample_cell`]).
+    samples: [Vec<SampleState>; 2],
 }
 
 /// One candidate instance as a composition samples it: its model, the model-space
@@ -863,7 +864,7 @@ fn sample_cell(
     (centre, h, k): (Vec3, f32, u32),
     (local, centres): (&[&Sampling<'_>], &[(Vec3, usize)]),
     (ground, ground_band, band): (&[(f32, Vec3)], f32, GroundBand),
-    acc: &mut Vec<SampleState>,
+    [acc, surface]: &mut [Vec<SampleState>; 2],
 ) -> Material {
     let n = (k * k * k) as usize;
     acc.clear();
@@ -890,12 +891,15 @@ fn sample_cell(
     // nothing): where the highest ground under the cell gives its lowest sample none,
     // it gives none to any (each step of the weight is monotonic in `g` and `y`).
     let highest = ground.iter().map(|g| g.0).fold(f32::NEG_INFINITY, f32::max);
-    // The samples before the ground, kept where the ground's albedo in the band is not
-    // its colour: a cell that comes out opaque is a surface, of the colour itself.
-    let mut before_ground = None;
+    // The samples before the ground, kept (in `surface`) where the ground's albedo in
+    // the band is not its colour: a cell that comes out opaque is a surface, of the
+    // colour itself.
+    let mut kept = false;
     if !ground.is_empty() && weight(highest, sample_y(0)) > 0.0 {
         if band != GroundBand::Colour {
-            before_ground = Some(acc.clone());
+            surface.clear();
+            surface.extend_from_slice(acc);
+            kept = true;
         }
         add_ground(acc, k, (ground, band), |g, y| 1.0 - weight(g, sample_y(y)));
     }
@@ -904,12 +908,14 @@ fn sample_cell(
         pass_sum += a.pass;
     }
     let n = n as f32;
-    if let Some(mut surface) = before_ground.filter(|_| (pass_sum / n).clamp(0.0, 1.0) <= 0.0) {
-        add_ground(&mut surface, k, (ground, GroundBand::Colour), |g, y| {
+    let acc = if kept && (pass_sum / n).clamp(0.0, 1.0) <= 0.0 {
+        add_ground(surface, k, (ground, GroundBand::Colour), |g, y| {
             1.0 - weight(g, sample_y(y))
         });
-        *acc = surface;
-    }
+        surface
+    } else {
+        acc
+    };
     let mut colour_sum = Vec3::ZERO;
     let mut block_sum = 0.0;
     for a in acc.iter() {
@@ -1104,7 +1110,7 @@ mod tests {
                 .map(|p| Sampling::new(p, (&model, &clear), h, k))
                 .collect();
             let local: Vec<&Sampling<'_>> = samplings.iter().collect();
-            let mut acc = Vec::new();
+            let mut acc = [Vec::new(), Vec::new()];
             for _ in 0..300 {
                 let centre = Vec3::new(
                     rng.f32() * 4.0 - 2.0,
