@@ -895,13 +895,15 @@ fn sample_cell(
     // the band is not its colour: a cell that comes out opaque is a surface, of the
     // colour itself.
     let mut kept = false;
+    // What a ground of height `g` lets through at the samples' level `y`.
+    let ground_pass = |g: f32, y: u32| 1.0 - weight(g, sample_y(y));
     if !ground.is_empty() && weight(highest, sample_y(0)) > 0.0 {
         if band != GroundBand::Colour {
             surface.clear();
             surface.extend_from_slice(acc);
             kept = true;
         }
-        add_ground(acc, k, (ground, band), |g, y| 1.0 - weight(g, sample_y(y)));
+        add_ground(acc, k, (ground, band), ground_pass);
     }
     let mut pass_sum = 0.0;
     for a in acc.iter() {
@@ -909,9 +911,7 @@ fn sample_cell(
     }
     let n = n as f32;
     let acc = if kept && (pass_sum / n).clamp(0.0, 1.0) <= 0.0 {
-        add_ground(surface, k, (ground, GroundBand::Colour), |g, y| {
-            1.0 - weight(g, sample_y(y))
-        });
+        add_ground(surface, k, (ground, GroundBand::Colour), ground_pass);
         surface
     } else {
         acc
