@@ -1102,7 +1102,7 @@ mod tests {
                 }
             })
             .collect();
-        let (mut skipped, mut banded) = (0, 0);
+        let (mut skipped, mut banded, mut reflecting, mut opaque) = (0, 0, 0, 0);
         for k in 1..=4u32 {
             let h = 1.0;
             let samplings: Vec<Sampling<'_>> = placed
@@ -1128,62 +1128,82 @@ mod tests {
                     .map(|_| (base + rng.f32() * 0.6, Vec3::new(0.2, rng.f32(), 0.1)))
                     .collect();
                 let band = 1.0;
-                let got = sample_cell(
-                    (centre, h, k),
-                    (&local, &centres),
-                    (&ground, band, GroundBand::Colour),
-                    &mut acc,
-                );
-                // Sample by sample: each sample's instances, then its ground.
-                let (mut pass_sum, mut colour_sum, mut block_sum) = (0.0f32, Vec3::ZERO, 0.0f32);
-                let mut any_ground = false;
-                for s in 0..(k * k * k) as usize {
-                    let q = UVec3::new(s as u32 % k, (s as u32 / k) % k, s as u32 / (k * k));
-                    let p = centre + ((q.as_vec3() + 0.5) / k as f32 - 0.5) * h;
-                    let (mut pass, mut colour, mut weight) = (1.0f32, Vec3::ZERO, 0.0f32);
-                    let mut add = |m_pass: f32, m_colour: Vec3| {
-                        let blocked = 1.0 - m_pass;
-                        if blocked > 0.0 {
-                            colour += m_colour * blocked;
-                            weight += blocked;
-                            pass *= m_pass;
+                // Sample by sample: each sample's instances, then its ground of albedo
+                // `rule.albedo(colour)`.
+                let sample_by_sample = |rule: GroundBand| {
+                    let (mut pass_sum, mut colour_sum, mut block_sum) =
+                        (0.0f32, Vec3::ZERO, 0.0f32);
+                    let mut any_ground = false;
+                    for s in 0..(k * k * k) as usize {
+                        let q = UVec3::new(s as u32 % k, (s as u32 / k) % k, s as u32 / (k * k));
+                        let p = centre + ((q.as_vec3() + 0.5) / k as f32 - 0.5) * h;
+                        let (mut pass, mut colour, mut weight) = (1.0f32, Vec3::ZERO, 0.0f32);
+                        let mut add = |m_pass: f32, m_colour: Vec3| {
+                            let blocked = 1.0 - m_pass;
+                            if blocked > 0.0 {
+                                colour += m_colour * blocked;
+                                weight += blocked;
+                                pass *= m_pass;
+                            }
+                        };
+                        for &(c, li) in &centres {
+                            let sm = local[li];
+                            let mpos = c + sm.offsets(k)[s];
+                            if mpos.cmplt(sm.bounds.0).any() || mpos.cmpgt(sm.bounds.1).any() {
+                                continue;
+                            }
+                            if let Some(m) = sm.read(mpos) {
+                                add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
+                            }
                         }
+                        let (g, c) = ground[(q.x + k * q.z) as usize];
+                        let w = ((g - p.y) / band + 0.5).clamp(0.0, 1.0);
+                        any_ground |= w > 0.0;
+                        add(1.0 - w, rule.albedo(c));
+                        pass_sum += pass;
+                        if weight > 0.0 {
+                            colour_sum += colour / weight * (1.0 - pass);
+                            block_sum += 1.0 - pass;
+                        }
+                    }
+                    let m = Material {
+                        reflectance: if block_sum > 0.0 {
+                            (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
+                        } else {
+                            Vec3::ZERO
+                        },
+                        pass: (pass_sum / (k * k * k) as f32).clamp(0.0, 1.0),
                     };
-                    for &(c, li) in &centres {
-                        let sm = local[li];
-                        let mpos = c + sm.offsets(k)[s];
-                        if mpos.cmplt(sm.bounds.0).any() || mpos.cmpgt(sm.bounds.1).any() {
-                            continue;
-                        }
-                        if let Some(m) = sm.read(mpos) {
-                            add(m.pass.clamp(0.0, 1.0).powf(sm.ratio), m.reflectance);
-                        }
-                    }
-                    let (g, c) = ground[(q.x + k * q.z) as usize];
-                    let w = ((g - p.y) / band + 0.5).clamp(0.0, 1.0);
-                    any_ground |= w > 0.0;
-                    add(1.0 - w, c);
-                    pass_sum += pass;
-                    if weight > 0.0 {
-                        colour_sum += colour / weight * (1.0 - pass);
-                        block_sum += 1.0 - pass;
-                    }
-                }
-                let want = Material {
-                    reflectance: if block_sum > 0.0 {
-                        (colour_sum / block_sum).clamp(Vec3::ZERO, Vec3::ONE)
-                    } else {
-                        Vec3::ZERO
-                    },
-                    pass: (pass_sum / (k * k * k) as f32).clamp(0.0, 1.0),
+                    (m, any_ground)
                 };
-                assert_eq!(got.pass.to_bits(), want.pass.to_bits(), "k {k} at {centre}");
-                for c in 0..3 {
-                    assert_eq!(
-                        got.reflectance[c].to_bits(),
-                        want.reflectance[c].to_bits(),
-                        "k {k} at {centre}"
+                let (plain, any_ground) = sample_by_sample(GroundBand::Colour);
+                for rule in [GroundBand::Colour, GroundBand::Reflecting] {
+                    let got = sample_cell(
+                        (centre, h, k),
+                        (&local, &centres),
+                        (&ground, band, rule),
+                        &mut acc,
                     );
+                    // A cell that comes out opaque is a surface of the colours themselves.
+                    let want = match sample_by_sample(rule).0 {
+                        m if m.pass <= 0.0 => plain,
+                        m => m,
+                    };
+                    assert_eq!(got.pass.to_bits(), want.pass.to_bits(), "k {k} at {centre}");
+                    for c in 0..3 {
+                        assert_eq!(
+                            got.reflectance[c].to_bits(),
+                            want.reflectance[c].to_bits(),
+                            "k {k} at {centre}, {rule:?}"
+                        );
+                    }
+                    if rule == GroundBand::Reflecting {
+                        if want.pass <= 0.0 && any_ground {
+                            opaque += 1;
+                        } else if want != plain {
+                            reflecting += 1;
+                        }
+                    }
                 }
                 if any_ground {
                     banded += 1;
@@ -1193,13 +1213,12 @@ mod tests {
             }
         }
         assert!(
-            skipped > 100 && banded > 100,
-            "{skipped} above the band, {banded} in it"
+            skipped > 100 && banded > 100 && reflecting > 50 && opaque > 10,
+            "{skipped} above the band, {banded} in it ({reflecting} changed by the \
+             reflecting band, {opaque} opaque)"
         );
     }
 
-    /// The summed-volume table's boxes count what testing every cube counts, and a
-    /// place whose box is clear reads clear at every offset within the reach.
     /// `Colour` leaves the ground's colour as it is; `Reflecting` maps 0 to 0 and 1 to
     /// 1, rises with the colour, and is the albedo whose half-space reflects the colour
     /// (Hapke's diffusive reflectance `(1 - γ) / (1 + γ)`, `γ = sqrt(1 - w)`, of it).
@@ -1271,6 +1290,8 @@ mod tests {
         );
     }
 
+    /// The summed-volume table's boxes count what testing every cube counts, and a
+    /// place whose box is clear reads clear at every offset within the reach.
     #[test]
     fn clear_boxes_are_the_brute_force_and_read_clear() {
         let mut rng = fastrand::Rng::with_seed(5);
