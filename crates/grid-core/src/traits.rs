@@ -931,12 +931,24 @@ impl<T: LightField + ?Sized> LightField for &T {
 pub trait MaterialSource {
     /// The material of every cell of `desc`.
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError>;
+
+    /// The material of every cell of `desc` for the sun's shadows alone: what a march of
+    /// the sun's transmittance crosses and nothing is swept on (the hierarchy's sun
+    /// casters). A source may compose it more coarsely than [`MaterialSource::material`]
+    /// (the area composer samples a cell on at most two points a side instead of four);
+    /// by default it is that material.
+    fn shadow_material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        self.material(desc)
+    }
 }
 
 /// A shared source (one composer feeding the hierarchy and debug views).
 impl<T: MaterialSource + ?Sized> MaterialSource for std::sync::Arc<T> {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
         (**self).material(desc)
+    }
+    fn shadow_material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        (**self).shadow_material(desc)
     }
 }
 
@@ -948,11 +960,20 @@ pub struct NoScatter<S>(pub S);
 
 impl<S: MaterialSource> MaterialSource for NoScatter<S> {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let mut g = self.0.material(desc)?;
+        Ok(Self::scatter_none(self.0.material(desc)?))
+    }
+    fn shadow_material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        Ok(Self::scatter_none(self.0.shadow_material(desc)?))
+    }
+}
+
+impl<S> NoScatter<S> {
+    /// `g` with every reflectance zero.
+    fn scatter_none(mut g: MaterialGrid) -> MaterialGrid {
         for m in g.data_mut() {
             m.reflectance = Vec3::ZERO;
         }
-        Ok(g)
+        g
     }
 }
 
@@ -960,6 +981,9 @@ impl<S: MaterialSource> MaterialSource for NoScatter<S> {
 impl<T: MaterialSource + ?Sized> MaterialSource for &T {
     fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
         (**self).material(desc)
+    }
+    fn shadow_material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        (**self).shadow_material(desc)
     }
 }
 

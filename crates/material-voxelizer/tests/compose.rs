@@ -310,3 +310,64 @@ fn shipped_dem_loads_as_a_heightmap() {
         .contains("nonexistent.png")
     );
 }
+
+/// The shadow material (`MaterialSource::shadow_material`, what a march of the sun
+/// crosses alone) takes a sample a side every two of the finest instance's cells, but
+/// no fewer than two where the material takes two or more: for one instance of
+/// 0.5 m cells at scales 0.5–2 over sloping ground, in areas of 0.5–4 m cells, it is
+/// the material of a composer allowed that many samples a side, bit for bit; coarser
+/// than the material where that is fewer (and the same where not).
+#[test]
+fn the_shadow_material_takes_half_the_samples_a_side_but_two() {
+    let hm = Heightmap::from_fn(Vec2::new(-8.0, -8.0), 1.0, 17, 17, |x, z| {
+        0.2 * x + 0.1 * z - 1.5
+    })
+    .unwrap();
+    let terrain = Terrain {
+        heightmap: hm,
+        colour: GroundColour::Uniform(Vec3::new(0.3, 0.25, 0.2)),
+    };
+    let (mut coarser, mut same_k) = (0, 0);
+    for scale in [0.5f32, 1.0, 2.0] {
+        let inst = [Instance {
+            model: 0,
+            position: Vec3::new(0.3, -1.0, -0.2),
+            rotation: Quat::from_rotation_y(0.7),
+            scale,
+        }];
+        let with = |k: u32| {
+            let params = ComposeParams {
+                max_samples_per_axis: k,
+                ..ComposeParams::default()
+            };
+            AreaComposer::new(vec![random_model(3)], &inst, Some(terrain.clone()), params).unwrap()
+        };
+        let c = with(ComposeParams::default().max_samples_per_axis);
+        for h in [0.5f32, 1.0, 2.0, 4.0] {
+            let n = (8.0 / h) as u32;
+            let desc = GridDesc::new(Vec3::splat(-4.0 + 0.5 * h), h, UVec3::splat(n)).unwrap();
+            let cell = 0.5 * scale;
+            let k_material = ((h / cell).ceil() as u32).clamp(1, 4);
+            let k_shadow = ((h / (2.0 * cell)).ceil() as u32)
+                .clamp(1, 4)
+                .max(k_material.min(2));
+            let shadow = c.shadow_material(&desc).unwrap();
+            assert!(
+                shadow.data() == with(k_shadow).material(&desc).unwrap().data(),
+                "scale {scale}, cells of {h} m: not the material of {k_shadow} a side"
+            );
+            let full = c.material(&desc).unwrap();
+            if k_shadow < k_material {
+                assert!(shadow.data() != full.data(), "scale {scale}, {h} m");
+                coarser += 1;
+            } else {
+                assert!(shadow.data() == full.data(), "scale {scale}, {h} m");
+                same_k += 1;
+            }
+        }
+    }
+    assert!(
+        (coarser, same_k) == (3, 9),
+        "{coarser} coarser, {same_k} the same"
+    );
+}

@@ -125,7 +125,6 @@ impl Hierarchy {
         // time budget a batch of one a thread at a time while the budget allows
         // ([`Hierarchy::composition_waits`]), else all at once; those composed in an
         // earlier frame for nodes the budget left are kept.
-        self.take_casters(&new);
         let missing: Vec<NodeKey> = new
             .iter()
             .copied()
@@ -505,8 +504,7 @@ impl Hierarchy {
 
     /// The nodes of `next` (the frame's next depth to build) whose materials are
     /// composed beside this depth's sweeps ([`Hierarchy::run_jobs_composing`]): those
-    /// not built, composed or held as a sun's caster (which a node built there takes,
-    /// [`Hierarchy::take_casters`]) whose parent is built or among this depth's `new` ones
+    /// not built or composed whose parent is built or among this depth's `new` ones
     /// (`materials`), and holds objects where bare ground's children are skipped; at
     /// most [`HierarchyParams::compose_ahead`](crate::HierarchyParams::compose_ahead).
     /// None under a time budget, whose frames compose a batch at a time
@@ -523,11 +521,7 @@ impl Hierarchy {
         let skip_bare = self.params.skip.bare_children;
         next.iter()
             .copied()
-            .filter(|k| {
-                !self.nodes.contains_key(k)
-                    && !self.composed.contains_key(k)
-                    && self.casters.get(k).is_none()
-            })
+            .filter(|k| !self.nodes.contains_key(k) && !self.composed.contains_key(k))
             .filter(|&k| match Self::parent(k) {
                 None => true,
                 Some(p) => match (self.nodes.get(&p), new.iter().position(|n| *n == p)) {

@@ -26,8 +26,12 @@
 //! material wherever it could matter, whatever the hierarchy built before, and comes
 //! out the same after a sun move as when built fresh.
 //!
-//! A caster is kept while frames need it (the next nodes' rays cross the same places)
-//! and for [`KEEP_FRAMES`] after; a node built where a caster lies takes its material.
+//! A caster is composed from the source's shadow material
+//! ([`lightgrid_core::MaterialSource::shadow_material`]: the area composer's takes
+//! about half the samples a side, no fewer than two; over the node's own grid, no
+//! apron) and kept while frames need it (the next nodes' rays cross the same places)
+//! and for [`KEEP_FRAMES`] after; a node built where a caster lies composes its own
+//! material (a sweep's).
 //! Under a time budget (`HierarchyParams::budget_ms`) a sun job whose casters are not
 //! all held once half the frame is spent waits for a later frame, and `set_sun`'s
 //! march composes none (it reads what is held; each node's transmittance is marched
@@ -46,9 +50,10 @@ use crate::{Hierarchy, KeyHasher, LodError, NodeKey, NodeMaterial};
 pub(crate) const KEEP_FRAMES: u64 = 8;
 
 /// What an object may reach above the top of the world grid's highest non-empty cell,
-/// in world cells: the area composer samples a cell on 4 points a side by default, so
-/// an object between two samples rises at most a quarter of a cell past the last one
-/// that found it. (A whole cell gave the frame bench at 10° 381 casters, a quarter 325,
+/// in world cells: the area composer samples a cell on 4 points a side by default (a
+/// caster's shadow material on 2 or more where its material takes 2 or more), so an
+/// object between two samples rises at most a quarter of a cell past the top of the
+/// cell that holds the last one that found it. (A whole cell gave the frame bench at 10° 381 casters, a quarter 325,
 /// none 304, all with the same error to the digit.)
 pub(crate) const TOP_MARGIN: f32 = 0.25;
 
@@ -65,7 +70,6 @@ impl Casters {
         self.materials.get(key).map(|c| &c.0)
     }
 
-    /// The caster at `key` taken out (a node is built there).
     /// Every caster held, by node.
     pub(crate) fn iter(&self) -> impl Iterator<Item = (&NodeKey, &NodeMaterial)> {
         self.materials.iter().map(|(k, c)| (k, &c.0))
@@ -74,10 +78,6 @@ impl Casters {
     /// The nodes held.
     pub(crate) fn keys(&self) -> impl Iterator<Item = &NodeKey> {
         self.materials.keys()
-    }
-
-    pub(crate) fn take(&mut self, key: &NodeKey) -> Option<NodeMaterial> {
-        self.materials.remove(key).map(|c| c.0)
     }
 
     /// Drops every caster (the scene may have changed).
@@ -275,17 +275,6 @@ impl Hierarchy {
         (world, TOP_MARGIN * world.desc().h())
     }
 
-    /// New nodes where a caster lies take its material (kept as composed for them).
-    pub(crate) fn take_casters(&mut self, new: &[NodeKey]) {
-        for k in new {
-            if !self.composed.contains_key(k)
-                && let Some(m) = self.casters.take(k)
-            {
-                self.composed.insert(*k, m);
-            }
-        }
-    }
-
     /// The casters that the sun's march from `grids` (each a node and its grid) along
     /// `dirs` needs and that no node, kept material, caster or `fresh`
     /// node holds; marks the needed casters held as used this frame.
@@ -344,7 +333,16 @@ impl Hierarchy {
             return Ok((0, Duration::ZERO));
         }
         let _span = tracing::trace_span!("sun casters", count = need.len()).entered();
-        let composed = self.compose_nodes(&need);
+        let composed: Vec<_> = {
+            use rayon::prelude::*;
+            need.par_iter()
+                .map(|&key| {
+                    let mut t = Duration::ZERO;
+                    let m = crate::timed(&mut t, || self.caster_material(key));
+                    (m, t)
+                })
+                .collect()
+        };
         let mut time = Duration::ZERO;
         let frame = self.casters.frame;
         for (k, (m, t)) in need.iter().zip(composed) {

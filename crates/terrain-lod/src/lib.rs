@@ -1063,6 +1063,27 @@ impl Hierarchy {
     /// ground.
     pub(crate) fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
         let (full, wide) = self.compose_node(&self.node_desc(key)?)?;
+        self.trimmed(full, wide)
+    }
+
+    /// The material of node `key` as a sun's caster holds it ([`casters`]): the source's
+    /// [`MaterialSource::shadow_material`] (coarser where the source allows) over the
+    /// node's grid alone (a march reads no apron), its levels as
+    /// [`Hierarchy::node_material`] keeps them.
+    pub(crate) fn caster_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
+        let m = self.source.shadow_material(&self.node_desc(key)?)?;
+        let d = *m.desc();
+        let full = MaterialGrid::new(d, depth::quantized(m.into_data()))?;
+        self.trimmed(full, None)
+    }
+
+    /// `full` (and `wide`, its apron's widened grid) kept from the ground to two cells
+    /// above the highest ground and one above the highest object ([`NodeMaterial`]).
+    fn trimmed(
+        &self,
+        full: MaterialGrid,
+        wide: Option<MaterialGrid>,
+    ) -> Result<NodeMaterial, GridError> {
         let d = *full.desc();
         let mut top_level = 0;
         // The highest level holding ground, and the highest holding an object (`None`:

@@ -3,10 +3,12 @@
 //! the full-resolution material gives.
 
 use lightgrid_core::glam::{UVec3, Vec2, Vec3};
-use lightgrid_core::{BinLight, GridDesc, Heightmap, LightField, Material, MaterialSource};
+use lightgrid_core::{
+    BinLight, GridDesc, GridError, Heightmap, LightField, Material, MaterialGrid, MaterialSource,
+};
 use lightgrid_sweep_cpu::CpuSweeper;
 use lightgrid_sweep_cpu::sun::SunTransmittance;
-use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, SunLight};
+use lightgrid_terrain_lod::{Hierarchy, HierarchyParams, NodeKey, SunLight};
 
 /// Extinction of the patches' medium, per metre.
 const SIGMA: f32 = 0.35;
@@ -24,7 +26,7 @@ fn patch(x: f32, z: f32) -> bool {
 /// Flat ground below 0 and patches of medium 3 m square on about a third of a 3 m
 /// lattice, up to [`PATCH_TOP`]; each cell takes the material at its centre, its
 /// pass-through over its own size.
-fn patches() -> field::Field<impl Fn(Vec3, f32) -> Material + Send + Sync> {
+fn patches() -> field::Field<fn(Vec3, f32) -> Material> {
     field::Field(|p: Vec3, h: f32| {
         if p.y < 0.0 {
             Material::opaque(Vec3::splat(0.3))
@@ -271,4 +273,93 @@ fn marched_before_its_casters_a_node_shows_its_own_sun_and_ends_the_same() {
     let waited = march_with(false, Some(1e-3), false);
     assert!(waited.without_sun > 0, "{}", waited.without_sun);
     assert_full_resolution(&waited);
+}
+
+/// [`patches`] whose shadow material (what the casters are composed from) scatters
+/// nothing: the same shadows, and light of its own wherever a sweep used it.
+struct DarkShadows(field::Field<fn(Vec3, f32) -> Material>);
+
+impl MaterialSource for DarkShadows {
+    fn material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        self.0.material(desc)
+    }
+    fn shadow_material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
+        lightgrid_core::NoScatter(&self.0).material(desc)
+    }
+}
+
+/// Every ready node's light after a flight toward a 10° sun, from a source whose shadow
+/// material is `dark` or plain, and the casters composed on the way.
+fn lit_after_a_flight(dark: bool) -> (Vec<(NodeKey, Vec<BinLight>)>, u32) {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 4.0, 129, 129, |_, _| 0.0).unwrap();
+    let mut params = HierarchyParams {
+        world_cell: 16.0,
+        finest_cell: 2.0,
+        node_points: 16,
+        max_levels: 40,
+        budget_points: u64::MAX / 4,
+        ..Default::default()
+    };
+    params.sweep.max_passes = 1;
+    let source: Box<dyn MaterialSource + Send + Sync> = if dark {
+        Box::new(DarkShadows(patches()))
+    } else {
+        Box::new(patches())
+    };
+    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+    let mut h = Hierarchy::new(&hm, source, Box::new(CpuSweeper::new()), sky, params).unwrap();
+    let (e, a) = (10f32.to_radians(), 20f32.to_radians());
+    let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
+    h.set_sun(Some(SunLight {
+        to_sun,
+        irradiance: Vec3::ONE,
+    }))
+    .unwrap();
+    let mut casters = 0;
+    // Toward the sun: the nodes the first cameras' rays crossed (casters) are built.
+    for step in 0..4 {
+        let cam = Vec3::new(192.0, 10.0, 192.0)
+            + 40.0 * step as f32 * Vec3::new(to_sun.x, 0.0, to_sun.z).normalize();
+        for _ in 0..40 {
+            let s = h.update(cam).unwrap();
+            casters += s.casters;
+            if s.pending == 0 {
+                break;
+            }
+        }
+    }
+    let lit = h
+        .ready_nodes()
+        .into_iter()
+        .map(|k| {
+            let g = h.node(k).unwrap();
+            let d = *g.desc();
+            let light = (0..d.point_count())
+                .map(|i| h.light(d.position(d.coords(i).unwrap()), None).unwrap())
+                .collect();
+            (k, light)
+        })
+        .collect();
+    (lit, casters)
+}
+
+/// The casters are composed from the source's shadow material (`MaterialSource::
+/// shadow_material`, coarser with the area composer) and a node built where a caster
+/// lay composes its own: with a source whose shadow material scatters nothing, every
+/// node's light after a flight toward a low sun (over the casters of the first frames)
+/// is the plain source's bit for bit. (A node that took its caster's material would
+/// scatter nothing of its own.)
+#[test]
+fn casters_come_from_the_shadow_material_and_nodes_never_take_it() {
+    let (dark, casters) = lit_after_a_flight(true);
+    let (plain, plain_casters) = lit_after_a_flight(false);
+    assert!(
+        casters > 0 && casters == plain_casters,
+        "{casters}, {plain_casters}"
+    );
+    assert_eq!(dark.len(), plain.len());
+    for ((k, a), (l, b)) in dark.iter().zip(&plain) {
+        assert_eq!(k, l);
+        assert!(a == b, "node {k:?}'s light differs");
+    }
 }

@@ -630,7 +630,8 @@ fn volume_sampler_reads_what_the_bins_give() {
     assert!(read(Vec3::new(f32::NAN, 0.0, 0.0)).is_err());
 }
 
-/// A material source that counts how often it composes each grid.
+/// A material source that counts how often it composes each grid (its shadow material
+/// apart).
 struct Counting {
     inner: std::sync::Arc<AreaComposer>,
     seen: std::sync::Mutex<std::collections::HashMap<String, u32>>,
@@ -648,6 +649,19 @@ impl lightgrid_core::MaterialSource for Counting {
             .entry(format!("{desc:?}"))
             .or_default() += 1;
         self.inner.material(desc)
+    }
+    /// The composer's (coarser) shadow material, counted apart from the materials.
+    fn shadow_material(
+        &self,
+        desc: &lightgrid_core::GridDesc,
+    ) -> Result<lightgrid_core::MaterialGrid, lightgrid_core::GridError> {
+        *self
+            .seen
+            .lock()
+            .unwrap()
+            .entry(format!("shadow {desc:?}"))
+            .or_default() += 1;
+        self.inner.shadow_material(desc)
     }
 }
 
