@@ -211,10 +211,20 @@ impl Hierarchy {
     /// The materials of `keys` composed side by side (rayon), each with the time it
     /// took.
     pub(crate) fn compose_nodes(&self, keys: &[NodeKey]) -> Vec<(Composed, Duration)> {
+        self.compose_each(keys, Self::node_material)
+    }
+
+    /// `compose(self, key)` of each of `keys` side by side (rayon), each with the time
+    /// it took.
+    pub(crate) fn compose_each(
+        &self,
+        keys: &[NodeKey],
+        compose: impl Fn(&Self, NodeKey) -> Composed + Sync,
+    ) -> Vec<(Composed, Duration)> {
         keys.par_iter()
             .map(|&key| {
                 let mut t = Duration::ZERO;
-                let m = timed(&mut t, || self.node_material(key));
+                let m = timed(&mut t, || compose(self, key));
                 (m, t)
             })
             .collect()

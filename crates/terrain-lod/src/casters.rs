@@ -53,8 +53,8 @@ pub(crate) const KEEP_FRAMES: u64 = 8;
 /// in world cells: the area composer samples a cell on 4 points a side by default (a
 /// caster's shadow material on 2 or more where its material takes 2 or more), so an
 /// object between two samples rises at most a quarter of a cell past the top of the
-/// cell that holds the last one that found it. (A whole cell gave the frame bench at 10° 381 casters, a quarter 325,
-/// none 304, all with the same error to the digit.)
+/// cell that holds the last one that found it. (A whole cell gave the frame bench at
+/// 10° 381 casters, a quarter 325, none 304, all with the same error to the digit.)
 pub(crate) const TOP_MARGIN: f32 = 0.25;
 
 /// The casters held, each with the last frame that needed it.
@@ -333,16 +333,7 @@ impl Hierarchy {
             return Ok((0, Duration::ZERO));
         }
         let _span = tracing::trace_span!("sun casters", count = need.len()).entered();
-        let composed: Vec<_> = {
-            use rayon::prelude::*;
-            need.par_iter()
-                .map(|&key| {
-                    let mut t = Duration::ZERO;
-                    let m = crate::timed(&mut t, || self.caster_material(key));
-                    (m, t)
-                })
-                .collect()
-        };
+        let composed = self.compose_each(&need, Self::caster_material);
         let mut time = Duration::ZERO;
         let frame = self.casters.frame;
         for (k, (m, t)) in need.iter().zip(composed) {
