@@ -41,6 +41,37 @@ fn patches() -> field::Field<fn(Vec3, f32) -> Material> {
     })
 }
 
+/// A hierarchy over a flat 512 m square of `source` (world grid 16 m, nodes of 16
+/// points at 8, 4 and 2 m, one pass, no point budget to speak of; `with` changes the
+/// parameters) under a 10° sun 20° off the x axis; the sun's direction and the
+/// parameters.
+fn under_a_low_sun(
+    source: Box<dyn MaterialSource + Send + Sync>,
+    with: impl FnOnce(&mut HierarchyParams),
+) -> (Hierarchy, Vec3, HierarchyParams) {
+    let hm = Heightmap::from_fn(Vec2::ZERO, 4.0, 129, 129, |_, _| 0.0).unwrap();
+    let mut params = HierarchyParams {
+        world_cell: 16.0,
+        finest_cell: 2.0, // depths: 8, 4, 2 m; finest nodes 32 m
+        node_points: 16,
+        max_levels: 40,
+        budget_points: u64::MAX / 4,
+        ..Default::default()
+    };
+    params.sweep.max_passes = 1;
+    with(&mut params);
+    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+    let mut h = Hierarchy::new(&hm, source, Box::new(CpuSweeper::new()), sky, params).unwrap();
+    let (e, a) = (10f32.to_radians(), 20f32.to_radians());
+    let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
+    h.set_sun(Some(SunLight {
+        to_sun,
+        irradiance: Vec3::ONE,
+    }))
+    .unwrap();
+    (h, to_sun, params)
+}
+
 /// What [`march_against_full_resolution`] found.
 struct Outcome {
     /// Mean and largest difference of the node's transmittance from the reference.
@@ -71,36 +102,11 @@ fn march_against_full_resolution(skip_casters: bool, budget_ms: Option<f32>) -> 
 /// [`march_against_full_resolution`], `march_before_casters` as given
 /// (`HierarchyParams::march_before_casters`).
 fn march_with(skip_casters: bool, budget_ms: Option<f32>, march_before_casters: bool) -> Outcome {
-    let hm = Heightmap::from_fn(Vec2::ZERO, 4.0, 129, 129, |_, _| 0.0).unwrap();
-    let mut params = HierarchyParams {
-        world_cell: 16.0,
-        finest_cell: 2.0, // depths: 8, 4, 2 m; finest nodes 32 m
-        node_points: 16,
-        max_levels: 40,
-        budget_points: u64::MAX / 4,
-        ..Default::default()
-    };
-    params.sweep.max_passes = 1;
-    params.skip.sun_casters = skip_casters;
-    params.budget_ms = budget_ms;
-    params.march_before_casters = march_before_casters;
-    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let mut h = Hierarchy::new(
-        &hm,
-        Box::new(patches()),
-        Box::new(CpuSweeper::new()),
-        sky,
-        params,
-    )
-    .unwrap();
-    // 10° above the horizon, 20° off the x axis.
-    let (e, a) = (10f32.to_radians(), 20f32.to_radians());
-    let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
-    h.set_sun(Some(SunLight {
-        to_sun,
-        irradiance: Vec3::ONE,
-    }))
-    .unwrap();
+    let (mut h, to_sun, params) = under_a_low_sun(Box::new(patches()), |params| {
+        params.skip.sun_casters = skip_casters;
+        params.budget_ms = budget_ms;
+        params.march_before_casters = march_before_casters;
+    });
     let cam = Vec3::new(256.0, 10.0, 256.0);
     let mut casters = 0;
     let mut held = 0;
@@ -291,30 +297,12 @@ impl MaterialSource for DarkShadows {
 /// Every ready node's light after a flight toward a 10° sun, from a source whose shadow
 /// material is `dark` or plain, and the casters composed on the way.
 fn lit_after_a_flight(dark: bool) -> (Vec<(NodeKey, Vec<BinLight>)>, u32) {
-    let hm = Heightmap::from_fn(Vec2::ZERO, 4.0, 129, 129, |_, _| 0.0).unwrap();
-    let mut params = HierarchyParams {
-        world_cell: 16.0,
-        finest_cell: 2.0,
-        node_points: 16,
-        max_levels: 40,
-        budget_points: u64::MAX / 4,
-        ..Default::default()
-    };
-    params.sweep.max_passes = 1;
     let source: Box<dyn MaterialSource + Send + Sync> = if dark {
         Box::new(DarkShadows(patches()))
     } else {
         Box::new(patches())
     };
-    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let mut h = Hierarchy::new(&hm, source, Box::new(CpuSweeper::new()), sky, params).unwrap();
-    let (e, a) = (10f32.to_radians(), 20f32.to_radians());
-    let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
-    h.set_sun(Some(SunLight {
-        to_sun,
-        irradiance: Vec3::ONE,
-    }))
-    .unwrap();
+    let (mut h, to_sun, _) = under_a_low_sun(source, |_| {});
     let mut casters = 0;
     // Toward the sun: the nodes the first cameras' rays crossed (casters) are built.
     for step in 0..4 {

@@ -642,12 +642,7 @@ impl lightgrid_core::MaterialSource for Counting {
         &self,
         desc: &lightgrid_core::GridDesc,
     ) -> Result<lightgrid_core::MaterialGrid, lightgrid_core::GridError> {
-        *self
-            .seen
-            .lock()
-            .unwrap()
-            .entry(format!("{desc:?}"))
-            .or_default() += 1;
+        self.count(format!("{desc:?}"));
         self.inner.material(desc)
     }
     /// The composer's (coarser) shadow material, counted apart from the materials.
@@ -655,13 +650,15 @@ impl lightgrid_core::MaterialSource for Counting {
         &self,
         desc: &lightgrid_core::GridDesc,
     ) -> Result<lightgrid_core::MaterialGrid, lightgrid_core::GridError> {
-        *self
-            .seen
-            .lock()
-            .unwrap()
-            .entry(format!("shadow {desc:?}"))
-            .or_default() += 1;
+        self.count(format!("shadow {desc:?}"));
         self.inner.shadow_material(desc)
+    }
+}
+
+impl Counting {
+    /// One more composition of the grid named `key`.
+    fn count(&self, key: String) {
+        *self.seen.lock().unwrap().entry(key).or_default() += 1;
     }
 }
 
