@@ -1052,7 +1052,11 @@ impl Hierarchy {
     /// The source's material over `desc`, every cell's depth of medium rounded
     /// ([`quantized_pass`]): what every grid of the hierarchy sweeps.
     fn compose(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
-        let m = self.source.material(desc)?;
+        Self::quantized(self.source.material(desc)?)
+    }
+
+    /// `m` with every cell's depth of medium rounded ([`depth::quantized`]).
+    fn quantized(m: MaterialGrid) -> Result<MaterialGrid, GridError> {
         let d = *m.desc();
         MaterialGrid::new(d, depth::quantized(m.into_data()))
     }
@@ -1072,9 +1076,7 @@ impl Hierarchy {
     /// [`Hierarchy::node_material`] keeps them.
     pub(crate) fn caster_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
         let m = self.source.shadow_material(&self.node_desc(key)?)?;
-        let d = *m.desc();
-        let full = MaterialGrid::new(d, depth::quantized(m.into_data()))?;
-        self.trimmed(full, None)
+        self.trimmed(Self::quantized(m)?, None)
     }
 
     /// `full` (and `wide`, its apron's widened grid) kept from the ground to two cells
