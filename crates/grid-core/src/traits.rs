@@ -935,8 +935,8 @@ pub trait MaterialSource {
     /// The material of every cell of `desc` for the sun's shadows alone: what a march of
     /// the sun's transmittance crosses and nothing is swept on (the hierarchy's sun
     /// casters). A source may compose it more coarsely than [`MaterialSource::material`]
-    /// (the area composer samples a cell on at most two points a side instead of four);
-    /// by default it is that material.
+    /// (the area composer takes about half the samples a side, no fewer than two where
+    /// the material takes two or more); by default it is that material.
     fn shadow_material(&self, desc: &GridDesc) -> Result<MaterialGrid, GridError> {
         self.material(desc)
     }

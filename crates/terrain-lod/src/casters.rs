@@ -302,11 +302,18 @@ impl Hierarchy {
         need.dedup();
         let frame = self.casters.frame;
         need.retain(|k| {
-            if let Some(c) = self.casters.materials.get_mut(k) {
-                c.1 = frame;
+            // A node's material (built, composed or fresh) is read before a caster's:
+            // a caster there is not marked used, and goes after `KEEP_FRAMES`.
+            if self.nodes.contains_key(k) || self.composed.contains_key(k) || fresh.contains(k) {
                 return false;
             }
-            !(self.nodes.contains_key(k) || self.composed.contains_key(k) || fresh.contains(k))
+            match self.casters.materials.get_mut(k) {
+                Some(c) => {
+                    c.1 = frame;
+                    false
+                }
+                None => true,
+            }
         });
         need
     }
