@@ -47,6 +47,21 @@ pub fn uniform_dynamic(
     )
 }
 
+/// A read-only storage buffer read at dynamic offsets, each block `size` bytes.
+pub fn storage_dynamic(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    size: u64,
+) -> wgpu::BindGroupLayoutEntry {
+    buffer(
+        binding,
+        visibility,
+        wgpu::BufferBindingType::Storage { read_only: true },
+        true,
+        wgpu::BufferSize::new(size),
+    )
+}
+
 /// A storage buffer, read-only or read-write.
 pub fn storage(
     binding: u32,

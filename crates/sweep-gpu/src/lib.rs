@@ -25,8 +25,10 @@
 //! transmits along each channel's path (step 2), recording removals and `T_after` in a
 //! level scratch buffer; `phase2` collects, absorbs, emits and re-absorbs (steps 3–7) and
 //! updates the two pending buffers (downward, upward). Levels ping-pong between two level
-//! buffers; per-level uniforms sit at 256-byte dynamic offsets, so one command buffer
-//! holds a whole pass. The device, layouts and pipelines are created once
+//! buffers; per-level parameters sit at 256-byte dynamic offsets of a read-only storage
+//! buffer, so one command buffer holds a whole pass. (Not a uniform buffer: Mesa's
+//! lavapipe compiles a shader again whenever a uniform that steers its control flow
+//! changes, at every level of every pass; that made a sweep on lavapipe twice as slow.) The device, layouts and pipelines are created once
 //! ([`GpuSweeper::new`]) and reused; grids whose buffers exceed the device's storage
 //! binding limit are refused with [`GpuError::TooLarge`] naming the buffer and the limit.
 //!
@@ -38,8 +40,10 @@
 //! they equal `LightGrid::pack` of sweep-cpu's grid within one code per channel.
 //!
 //! **One source for shared constants.** The direction tables, channel steps, flux
-//! factors, bins, stencils, path exponents and surface weights are generated into the
-//! WGSL from `grid-core` and `sweep-cpu` ([`wgsl`]); nothing is copied by hand. Every
+//! factors, bins, stencils, path exponents and surface weights are generated from
+//! `grid-core` and `sweep-cpu` ([`wgsl`]): scalars as WGSL constants, tables as one
+//! buffer uploaded once (`wgsl::table_floats`) with a generated accessor per table;
+//! nothing is copied by hand. Every
 //! WGSL source is validated by naga in a plain `cargo test`.
 //!
 //! **Tolerance.** Outputs equal sweep-cpu's within relative 1e-4 of the larger value plus

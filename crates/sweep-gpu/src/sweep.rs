@@ -17,7 +17,7 @@ use lightgrid_gpu::{GpuLightGrid, bind};
 use crate::{GpuContext, GpuError, wgsl};
 
 lightgrid_gpu::gpu_struct! {
-    /// Uniform block of one level; its WGSL declaration is generated from this list
+    /// Parameters of one level (read-only storage at a dynamic offset); its WGSL declaration is generated from this list
     /// (`LevelParams::wgsl`), and a test compares the two layouts with naga.
     pub struct LevelParams {
         /// Points along x.
@@ -68,8 +68,8 @@ pub struct GpuSweeper {
     layout1: wgpu::BindGroupLayout,
     layout2: wgpu::BindGroupLayout,
     surface_w: wgpu::Buffer,
-    /// `lightgrid_sweep_cpu::profile::table_floats`, uploaded once.
-    profile_tab: wgpu::Buffer,
+    /// `wgsl::table_floats` (the profile's and the sweep's tables), uploaded once.
+    tables: wgpu::Buffer,
     packer: crate::GpuPacker,
     keep_resident: bool,
 }
@@ -79,9 +79,9 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     bind::storage(binding, wgpu::ShaderStages::COMPUTE, read_only)
 }
 
-/// The per-level uniform block at dynamic offsets.
-fn uniform_dynamic() -> wgpu::BindGroupLayoutEntry {
-    bind::uniform_dynamic(
+/// The per-level parameters at dynamic offsets (storage, not uniform: see the crate docs).
+fn params_dynamic() -> wgpu::BindGroupLayoutEntry {
+    bind::storage_dynamic(
         0,
         wgpu::ShaderStages::COMPUTE,
         std::mem::size_of::<LevelParams>() as u64,
@@ -102,7 +102,7 @@ impl GpuSweeper {
         let layout1 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("sweep phase 1"),
             entries: &[
-                uniform_dynamic(),
+                params_dynamic(),
                 storage(1, true),
                 storage(2, false),
                 storage(3, false),
@@ -111,12 +111,13 @@ impl GpuSweeper {
                 storage(6, true),
                 storage(7, true),
                 storage(8, false),
+                storage(9, true),
             ],
         });
         let layout2 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("sweep phase 2"),
             entries: &[
-                uniform_dynamic(),
+                params_dynamic(),
                 storage(1, true),
                 storage(2, true),
                 storage(3, false),
@@ -162,9 +163,9 @@ impl GpuSweeper {
         let phase2 = pipeline("sweep phase 2", wgsl::sweep_phase2(), &layout2, "phase2");
         let phase3 = pipeline("sweep phase 3", wgsl::sweep_phase2(), &layout2, "phase3");
         let clamp = pipeline("sweep clamp", wgsl::sweep_phase2(), &layout2, "clamp_light");
-        let profile_tab = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("profile tables"),
-            contents: bytemuck::cast_slice(&lightgrid_sweep_cpu::profile::table_floats()),
+        let tables = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("sweep tables"),
+            contents: bytemuck::cast_slice(&wgsl::table_floats()),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let surface_w = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -184,7 +185,7 @@ impl GpuSweeper {
             clamp,
             layout1,
             layout2,
-            profile_tab,
+            tables,
         }
     }
 
@@ -575,7 +576,7 @@ impl GpuSweeper {
             params: d.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("level params"),
                 size: PARAM_STRIDE * shape.ny as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
         })
@@ -605,6 +606,7 @@ impl GpuSweeper {
                     b.virt.as_entire_binding(),
                     b.halo.as_entire_binding(),
                     b.flux_in.as_entire_binding(),
+                    self.tables.as_entire_binding(),
                 ],
             )
         };
@@ -625,7 +627,7 @@ impl GpuSweeper {
                     b.pend_flux.as_entire_binding(),
                     self.surface_w.as_entire_binding(),
                     b.srcj.as_entire_binding(),
-                    self.profile_tab.as_entire_binding(),
+                    self.tables.as_entire_binding(),
                 ],
             )
         };
@@ -696,7 +698,7 @@ impl GpuSweeper {
     }
 
     /// One pass in one command buffer: per level, phase 1 then phase 2 (and phase 3
-    /// under the source rule, `sources`), each level's uniforms at its dynamic offset.
+    /// under the source rule, `sources`), each level's parameters at its dynamic offset.
     fn encode_pass(&self, g: &BindGroups, ny: usize, (up, sources): (bool, bool), workgroups: u32) {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         // One compute pass for the whole sweep pass: each dispatch is a usage scope of
@@ -781,7 +783,7 @@ struct BindGroups {
     phase2: [[wgpu::BindGroup; 2]; 2],
 }
 
-/// The per-level uniforms of one pass, at [`PARAM_STRIDE`]-byte strides, in the order the
+/// The per-level parameters of one pass, at [`PARAM_STRIDE`]-byte strides, in the order the
 /// levels are computed.
 fn level_params(shape: &Shape, up: bool, options: &SweepOptions) -> Vec<u8> {
     let ny = shape.ny;

@@ -5,107 +5,158 @@
 
 use std::fmt::Write;
 
+/// One table of the sweep: its WGSL accessor's name, the type it returns, and its
+/// values, `components` floats an entry (integers stored as exact floats).
+struct Table {
+    name: &'static str,
+    ty: &'static str,
+    components: usize,
+    values: Vec<f32>,
+}
+
 /// The sweep's channel tables, generated from `lightgrid_sweep_cpu::sweep::channels` (the
 /// specification): steps, flux factors, bins of both passes, stencils and their path
-/// exponents, and the opaque cells' surface weights.
-pub fn sweep_tables() -> String {
-    use lightgrid_sweep_cpu::sweep::{CHANNELS, MAX_EXPONENTS, SLOTS, channels, path_exponents};
+/// exponents, the source rule's weights and split table, the height profile's slot
+/// geometry, and the directions' unit vectors and solid angles.
+fn tables() -> Vec<Table> {
+    use lightgrid_sweep_cpu::sweep::{MAX_EXPONENTS, channels, path_exponents};
     let (down, up) = (channels(false), channels(true));
+    let int = |v: i64| v as f32;
+    let e = path_exponents();
+    let w = lightgrid_sweep_cpu::medium::weights(false);
+    let t = |name, ty, components, values: Vec<f32>| Table {
+        name,
+        ty,
+        components,
+        values,
+    };
+    vec![
+        t(
+            "ch_step",
+            "vec2<i32>",
+            2,
+            down.iter()
+                .flat_map(|c| [int(c.step.x as i64), int(c.step.z as i64)])
+                .collect(),
+        ),
+        t("ch_mu", "f32", 1, down.iter().map(|c| c.mu).collect()),
+        t("ch_share", "f32", 1, down.iter().map(|c| c.share).collect()),
+        t(
+            "ch_bin_down",
+            "u32",
+            1,
+            down.iter().map(|c| int(c.bin as i64)).collect(),
+        ),
+        t(
+            "ch_bin_up",
+            "u32",
+            1,
+            up.iter().map(|c| int(c.bin as i64)).collect(),
+        ),
+        t(
+            "ch_first_slot",
+            "u32",
+            1,
+            down.iter().map(|c| int(c.first_slot as i64)).collect(),
+        ),
+        t(
+            "ch_nstencil",
+            "u32",
+            1,
+            down.iter().map(|c| int(c.stencil.len() as i64)).collect(),
+        ),
+        t(
+            "stencil_d",
+            "vec2<i32>",
+            2,
+            down.iter()
+                .flat_map(|c| c.stencil.iter())
+                .flat_map(|&(dx, dz, _)| [int(dx as i64), int(dz as i64)])
+                .collect(),
+        ),
+        t(
+            "stencil_e",
+            "f32",
+            1,
+            down.iter()
+                .flat_map(|c| c.pow.iter().map(|&k| e[k] as f32))
+                .collect(),
+        ),
+        // The source rule (`lightgrid_sweep_cpu::medium`): per path exponent its value and
+        // the pass's weight (the same in both passes), the channels' `ω_b σ_c`, the split
+        // table.
+        t(
+            "path_e",
+            "f32",
+            1,
+            (0..MAX_EXPONENTS)
+                .map(|k| e.get(k).copied().unwrap_or(0.0) as f32)
+                .collect(),
+        ),
+        t("src_w", "f32", 1, w.w.to_vec()),
+        t("src_omega", "f32", 1, w.omega.to_vec()),
+        t(
+            "split_table",
+            "f32",
+            1,
+            lightgrid_sweep_cpu::medium::split_table().to_vec(),
+        ),
+        // The quadratic source in height (`lightgrid_sweep_cpu::profile`): per pass and
+        // slot `(μ_c ω_b σ_c, e, ū_1, ū_2)`.
+        t(
+            "prof_geo",
+            "vec4<f32>",
+            4,
+            [false, true]
+                .iter()
+                .flat_map(|&up| lightgrid_sweep_cpu::profile::slot_geometry(up).iter())
+                .flat_map(|&(w, e, u)| [w, e, u[0], u[1]])
+                .collect(),
+        ),
+        t(
+            "dir_unit",
+            "vec3<f32>",
+            3,
+            lightgrid_core::dirs::units()
+                .iter()
+                .flat_map(|v| v.to_array())
+                .collect(),
+        ),
+        t(
+            "solid_angle",
+            "f32",
+            1,
+            lightgrid_core::dirs::solid_angles().to_vec(),
+        ),
+    ]
+}
+
+/// The buffer the sweep's kernels read their tables from (`tables` in WGSL): the
+/// profile's tables (`lightgrid_sweep_cpu::profile::table_floats`) first, then every
+/// table of [`sweep_tables`]' accessors at the offsets those name. Uploaded once.
+pub fn table_floats() -> Vec<f32> {
+    let mut v = lightgrid_sweep_cpu::profile::table_floats();
+    for t in tables() {
+        v.extend(t.values);
+    }
+    v
+}
+
+/// The sweep's scalar constants, and an accessor per table of [`table_floats`]
+/// (`ch_mu(c)`, `stencil_d(k)`, ...) reading the `tables` buffer. Tables, not WGSL
+/// `const` arrays: naga's SPIR-V writer stores a whole constant array into a function
+/// variable at every access with a runtime index (its `spill_to_internal_variable`),
+/// which made every sweep on lavapipe 8 times slower; a `var<private>` array instead is
+/// written out per invocation on OpenGL (twice as slow there).
+pub fn sweep_tables() -> String {
+    use lightgrid_sweep_cpu::sweep::{MAX_EXPONENTS, SLOTS};
     let mut s = String::new();
-    let list = |v: Vec<String>| v.join(", ");
     let _ = writeln!(
         s,
         "const FOUR_PI: f32 = {:?};",
         4.0f32 * std::f32::consts::PI
     );
-    let _ = writeln!(
-        s,
-        "const CH_STEP = array<vec2<i32>, {CHANNELS}>({});",
-        list(
-            down.iter()
-                .map(|c| format!("vec2<i32>({}, {})", c.step.x, c.step.z))
-                .collect()
-        )
-    );
-    let _ = writeln!(
-        s,
-        "const CH_MU = array<f32, {CHANNELS}>({});",
-        list(down.iter().map(|c| format!("{:?}", c.mu)).collect())
-    );
-    let _ = writeln!(
-        s,
-        "const CH_SHARE = array<f32, {CHANNELS}>({});",
-        list(down.iter().map(|c| format!("{:?}", c.share)).collect())
-    );
-    let _ = writeln!(
-        s,
-        "const CH_BIN_DOWN = array<u32, {CHANNELS}>({});",
-        list(down.iter().map(|c| format!("{}u", c.bin)).collect())
-    );
-    let _ = writeln!(
-        s,
-        "const CH_BIN_UP = array<u32, {CHANNELS}>({});",
-        list(up.iter().map(|c| format!("{}u", c.bin)).collect())
-    );
-    let _ = writeln!(
-        s,
-        "const CH_FIRST_SLOT = array<u32, {CHANNELS}>({});",
-        list(down.iter().map(|c| format!("{}u", c.first_slot)).collect())
-    );
-    let _ = writeln!(
-        s,
-        "const CH_NSTENCIL = array<u32, {CHANNELS}>({});",
-        list(
-            down.iter()
-                .map(|c| format!("{}u", c.stencil.len()))
-                .collect()
-        )
-    );
-    let e = path_exponents();
-    let _ = writeln!(
-        s,
-        "const STENCIL_D = array<vec2<i32>, {SLOTS}>({});",
-        list(
-            down.iter()
-                .flat_map(|c| c
-                    .stencil
-                    .iter()
-                    .map(|&(dx, dz, _)| format!("vec2<i32>({dx}, {dz})")))
-                .collect()
-        )
-    );
-    let _ = writeln!(
-        s,
-        "const STENCIL_E = array<f32, {SLOTS}>({});",
-        list(
-            down.iter()
-                .flat_map(|c| c.pow.iter().map(|&k| format!("{:?}", e[k])))
-                .collect()
-        )
-    );
-    // The source rule (`lightgrid_sweep_cpu::medium`): per path exponent its value and the pass's
-    // weight (the same in both passes), the channels' `ω_b σ_c`, `O / τ`, the split
-    // table.
     let w = lightgrid_sweep_cpu::medium::weights(false);
-    let _ = writeln!(
-        s,
-        "const PATH_E = array<f32, {MAX_EXPONENTS}>({});",
-        list(
-            (0..MAX_EXPONENTS)
-                .map(|k| format!("{:?}", e.get(k).copied().unwrap_or(0.0)))
-                .collect()
-        )
-    );
-    let _ = writeln!(
-        s,
-        "const SRC_W = array<f32, {MAX_EXPONENTS}>({});",
-        list(w.w.iter().map(|v| format!("{v:?}")).collect())
-    );
-    let _ = writeln!(
-        s,
-        "const SRC_OMEGA = array<f32, {CHANNELS}>({});",
-        list(w.omega.iter().map(|v| format!("{v:?}")).collect())
-    );
     let _ = writeln!(s, "const SRC_O: f32 = {:?};", w.o);
     let _ = writeln!(
         s,
@@ -114,18 +165,10 @@ pub fn sweep_tables() -> String {
     );
     let _ = writeln!(
         s,
-        "const SPLIT_N: u32 = {}u;\nconst MAX_E: u32 = {MAX_EXPONENTS}u;\nconst SPLIT = array<f32, {}>({});",
+        "const SPLIT_N: u32 = {}u;\nconst MAX_E: u32 = {MAX_EXPONENTS}u;",
         lightgrid_sweep_cpu::medium::SPLIT_TABLE,
-        lightgrid_sweep_cpu::medium::SPLIT_TABLE,
-        list(
-            lightgrid_sweep_cpu::medium::split_table()
-                .iter()
-                .map(|v| format!("{v:?}"))
-                .collect()
-        )
     );
-    // The quadratic source in height (`lightgrid_sweep_cpu::profile`): its table's layout, and
-    // per pass and slot `(μ_c ω_b σ_c, e, ū_1, ū_2)`.
+    // The quadratic source in height (`lightgrid_sweep_cpu::profile`): its table's layout.
     let _ = writeln!(
         s,
         "const PROF_N: u32 = {}u;\nconst PROF_TAU_MAX: f32 = {:?};\nconst PROF_NODE: u32 = {}u;\nconst SLOTS: u32 = {SLOTS}u;",
@@ -133,18 +176,30 @@ pub fn sweep_tables() -> String {
         lightgrid_sweep_cpu::profile::TAU_MAX as f32,
         lightgrid_sweep_cpu::profile::NODE_FLOATS
     );
-    let _ = writeln!(
-        s,
-        "const PROF_GEO = array<vec4<f32>, {}>({});",
-        2 * SLOTS,
-        list(
-            [false, true]
-                .iter()
-                .flat_map(|&up| lightgrid_sweep_cpu::profile::slot_geometry(up).iter())
-                .map(|(w, e, u)| format!("vec4<f32>({w:?}, {e:?}, {:?}, {:?})", u[0], u[1]))
-                .collect()
-        )
-    );
+    let mut at = lightgrid_sweep_cpu::profile::table_floats().len();
+    for t in tables() {
+        let read = |k: usize| format!("tables[o + {k}u]");
+        let body = match t.ty {
+            "f32" => read(0),
+            "u32" => format!("u32({})", read(0)),
+            "vec2<i32>" => format!("vec2<i32>(i32({}), i32({}))", read(0), read(1)),
+            "vec3<f32>" => format!("vec3<f32>({}, {}, {})", read(0), read(1), read(2)),
+            "vec4<f32>" => format!(
+                "vec4<f32>({}, {}, {}, {})",
+                read(0),
+                read(1),
+                read(2),
+                read(3)
+            ),
+            other => unreachable!("table type {other}"),
+        };
+        let _ = writeln!(
+            s,
+            "fn {}(i: u32) -> {} {{\n    let o = {at}u + {}u * i;\n    return {body};\n}}",
+            t.name, t.ty, t.components
+        );
+        at += t.values.len();
+    }
     s
 }
 
@@ -268,4 +323,36 @@ pub fn all() -> Vec<(&'static str, String)> {
         ("sweep_phase2", sweep_phase2()),
         ("sun_kernel", sun_kernel()),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The accessors read the tables where [`table_floats`] put them: one after the
+    /// other from the end of the profile's tables to the end of the buffer, each with
+    /// its table's entry size, and each table a whole number of entries.
+    #[test]
+    fn accessors_tile_the_table_buffer() {
+        let wgsl = sweep_tables();
+        let mut at = lightgrid_sweep_cpu::profile::table_floats().len();
+        for t in tables() {
+            assert_eq!(t.values.len() % t.components, 0, "{}", t.name);
+            let want = format!(
+                "fn {}(i: u32) -> {} {{\n    let o = {at}u + {}u * i;",
+                t.name, t.ty, t.components
+            );
+            assert!(wgsl.contains(&want), "{want}");
+            at += t.values.len();
+        }
+        assert_eq!(at, table_floats().len());
+        // Integers are stored exactly: the channels' steps read back as they are.
+        let steps = &tables()[0];
+        let want: Vec<f32> = lightgrid_sweep_cpu::sweep::channels(false)
+            .iter()
+            .flat_map(|c| [c.step.x, c.step.z])
+            .map(|v| v as f32)
+            .collect();
+        assert_eq!((steps.name, &steps.values), ("ch_step", &want));
+    }
 }

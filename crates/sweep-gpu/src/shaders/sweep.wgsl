@@ -1,9 +1,10 @@
 // The sweep of sweep-cpu (its crate docs are the specification), one level per dispatch
 // pair: `phase1` (gather, transmit, record removals) then `phase2` (collect, absorb,
-// emit, re-absorb). Channel tables come from the generated prelude.
+// emit, re-absorb). Channel tables are read through the generated accessors
+// (`ch_mu(c)`, ...) from `tables` (`crate::wgsl::table_floats`).
 
 
-@group(0) @binding(0) var<uniform> P: LevelParams;
+@group(0) @binding(0) var<storage, read> P: LevelParams;
 @group(0) @binding(1) var<storage, read> cells: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> prev: array<f32>;
 @group(0) @binding(3) var<storage, read_write> cur: array<f32>;
@@ -12,6 +13,7 @@
 @group(0) @binding(6) var<storage, read> virt: array<f32>;
 @group(0) @binding(7) var<storage, read> halo: array<f32>;
 @group(0) @binding(8) var<storage, read_write> aux: array<f32>;
+@group(0) @binding(9) var<storage, read> tables: array<f32>;
 
 fn load3(i: u32) -> vec3<f32> {
     return vec3<f32>(prev[i], prev[i + 1u], prev[i + 2u]);
@@ -58,13 +60,13 @@ fn outside(x: i32, z: i32, c: u32) -> vec3<f32> {
 
 fn ch_bin(c: u32) -> u32 {
     if (P.up == 1u) {
-        return CH_BIN_UP[c];
+        return ch_bin_up(c);
     }
-    return CH_BIN_DOWN[c];
+    return ch_bin_down(c);
 }
 
 fn ch_unit(c: u32) -> vec3<f32> {
-    return DIR_UNIT[ch_bin(c)];
+    return dir_unit(ch_bin(c));
 }
 
 @compute @workgroup_size(64)
@@ -79,7 +81,7 @@ fn phase1(@builtin(global_invocation_id) id: vec3<u32>) {
     var flux_in = vec3<f32>(0.0);
     for (var c = 0u; c < CH; c++) {
         // Step 1: gather from the source point and its smoothing taps.
-        let st = CH_STEP[c];
+        let st = ch_step(c);
         let qx = x - st.x;
         let qz = z - st.y;
         let s = P.smoothing;
@@ -109,25 +111,25 @@ fn phase1(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
         if (P.from_virtual == 1u) {
-            flux_in += ins * CH_MU[c];
+            flux_in += ins * ch_mu(c);
         }
-        flux_in += outs * CH_MU[c];
+        flux_in += outs * ch_mu(c);
         let light = ins + outs;
         // Step 2: transmit along the path, recording what each cell removes.
         var t = 1.0;
         var t_mid = 1.0;
         var after = 1.0;
         var past = false;
-        let first = CH_FIRST_SLOT[c];
-        for (var k = 0u; k < CH_NSTENCIL[c]; k++) {
-            let sd = STENCIL_D[first + k];
+        let first = ch_first_slot(c);
+        for (var k = 0u; k < ch_nstencil(c); k++) {
+            let sd = stencil_d(first + k);
             var tr = 1.0;
             var half = 1.0;
             let col = column(x + sd.x, z + sd.y);
             if (col >= 0) {
                 let p = cells[u32(col) + P.level_len * P.j].w;
-                tr = trans(p, STENCIL_E[first + k]);
-                half = seg_mean(tr, depth(p, STENCIL_E[first + k]));
+                tr = trans(p, stencil_e(first + k));
+                half = seg_mean(tr, depth(p, stencil_e(first + k)));
             }
             let r = light * (t * (1.0 - tr));
             let ri = li * SCRATCH + (first + k) * 3u;

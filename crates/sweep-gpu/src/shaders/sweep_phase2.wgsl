@@ -5,7 +5,7 @@
 
 const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 
-@group(0) @binding(0) var<uniform> P: LevelParams;
+@group(0) @binding(0) var<storage, read> P: LevelParams;
 @group(0) @binding(1) var<storage, read> cells: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> exposed: array<u32>;
 @group(0) @binding(3) var<storage, read_write> cur: array<f32>;
@@ -18,8 +18,9 @@ const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 // The source rules' source per cell of the level: J_0 (RGB), then (the profile rule,
 // medium 3) J_1 and J_2; 0: none.
 @group(0) @binding(10) var<storage, read_write> srcj: array<f32>;
-// The profile rule's tables (lightgrid_sweep_cpu::profile::table_floats).
-@group(0) @binding(11) var<storage, read> prof_tab: array<f32>;
+// The profile rule's tables (lightgrid_sweep_cpu::profile::table_floats), then the
+// sweep's (`crate::wgsl::table_floats`, read through the generated accessors).
+@group(0) @binding(11) var<storage, read> tables: array<f32>;
 
 // --- The quadratic source in height (lightgrid_sweep_cpu::profile, P.medium == 3) ---
 
@@ -39,8 +40,8 @@ fn prof_node(lnp: f32) -> ProfNode {
 // Value q (0..6: C_1/C_0, C_2/C_0, E_1, E_2, M_1, M_2) of slot `slot` of pass `pass`.
 fn prof_val(n: ProfNode, ps: u32, slot: u32, q: u32) -> f32 {
     let o = (ps * SLOTS + slot) * 6u + q;
-    let a = prof_tab[n.i * PROF_NODE + o];
-    let b = prof_tab[(n.i + 1u) * PROF_NODE + o];
+    let a = tables[n.i * PROF_NODE + o];
+    let b = tables[(n.i + 1u) * PROF_NODE + o];
     return a + (b - a) * n.f;
 }
 
@@ -62,7 +63,7 @@ fn prof_sums(pass_through: f32, up: u32) -> ProfSums {
     var kn0 = vec2<f32>(0.0);
     for (var ps = 0u; ps < 2u; ps++) {
         for (var sl = 0u; sl < SLOTS; sl++) {
-            let geo = PROF_GEO[ps * SLOTS + sl];
+            let geo = prof_geo(ps * SLOTS + sl);
             let seg_t = geo.y * tau;
             let c0 = 1.0 - exp(geo.y * lnp);
             let c = vec2<f32>(prof_val(n, ps, sl, 0u), prof_val(n, ps, sl, 1u));
@@ -80,7 +81,7 @@ fn prof_sums(pass_through: f32, up: u32) -> ProfSums {
     let kb = n.i * PROF_NODE + 2u * SLOTS * 6u;
     var kk: array<f32, 4>;
     for (var q = 0u; q < 4u; q++) {
-        kk[q] = prof_tab[kb + q] + (prof_tab[kb + PROF_NODE + q] - prof_tab[kb + q]) * n.f;
+        kk[q] = tables[kb + q] + (tables[kb + PROF_NODE + q] - tables[kb + q]) * n.f;
     }
     var k: array<vec3<f32>, 3>;
     k[0] = vec3<f32>(o, 0.0, 0.0) - gt;
@@ -180,9 +181,9 @@ fn add_p(a: Pending, b: Pending) -> Pending {
 
 fn ch_bin(up: u32, c: u32) -> u32 {
     if (up == 1u) {
-        return CH_BIN_UP[c];
+        return ch_bin_up(c);
     }
-    return CH_BIN_DOWN[c];
+    return ch_bin_down(c);
 }
 
 // A medium cell's emission weights (A, B) under the escape rule:
@@ -203,10 +204,10 @@ fn emission(p: Pending, pass_through: f32, ab: vec2<f32>, mask: u32, up: u32, c:
     if (pass_through > 0.0) {
         let a = ab.x;
         let b = ab.y;
-        let u = DIR_UNIT[bin];
-        let w = SOLID_ANGLE[bin] / FOUR_PI;
+        let u = dir_unit(bin);
+        let w = solid_angle(bin) / FOUR_PI;
         let um = p.m0 * u.x + p.m1 * u.y + p.m2 * u.z;
-        return max((p.s * a - um * b) * (w * CH_SHARE[c]), vec3<f32>(0.0));
+        return max((p.s * a - um * b) * (w * ch_share(c)), vec3<f32>(0.0));
     }
     return p.s * surface_w((mask * 2u + up) * NUM_DIRS + bin);
 }
@@ -225,7 +226,7 @@ fn leaving(p: Pending, f: vec3<f32>, t_after: f32, pass_through: f32, mask: u32,
 fn full(p: Pending, pass_through: f32, mask: u32, up: u32, c: u32) -> vec3<f32> {
     let bin = ch_bin(up, c);
     if (pass_through > 0.0) {
-        return p.s * (SOLID_ANGLE[bin] / FOUR_PI * CH_SHARE[c]);
+        return p.s * (solid_angle(bin) / FOUR_PI * ch_share(c));
     }
     return p.s * surface_w((mask * 2u + up) * NUM_DIRS + bin);
 }
@@ -235,11 +236,11 @@ fn split(lnp: f32) -> f32 {
     let n = f32(SPLIT_N - 1u);
     let u = sqrt(max(-lnp / SPLIT_TAU_MAX, 0.0)) * n;
     if (!(u < n)) {
-        return SPLIT[SPLIT_N - 1u];
+        return split_table(SPLIT_N - 1u);
     }
     let i = u32(u);
     let f = u - f32(i);
-    return SPLIT[i] + (SPLIT[i + 1u] - SPLIT[i]) * f;
+    return split_table(i) + (split_table(i + 1u) - split_table(i)) * f;
 }
 
 // lightgrid_sweep_cpu::medium::source for the three colours: the cell's source J.
@@ -247,7 +248,7 @@ fn medium_source(pass_through: f32, share: vec3<f32>, alb: vec3<f32>) -> vec3<f3
     let lnp = log(pass_through);
     var g = 0.0;
     for (var e = 0u; e < MAX_E; e++) {
-        g += SRC_W[e] * (1.0 - trans(pass_through, PATH_E[e]));
+        g += src_w(e) * (1.0 - trans(pass_through, path_e(e)));
     }
     let k = max(-lnp * SRC_O - g, 0.0);
     var j = vec3<f32>(0.0);
@@ -305,23 +306,23 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     var h2 = vec3<f32>(0.0);
     for (var c = 0u; c < CH; c++) {
         var r = vec3<f32>(0.0);
-        let first = CH_FIRST_SLOT[c];
-        for (var k = 0u; k < CH_NSTENCIL[c]; k++) {
-            let sd = STENCIL_D[first + k];
+        let first = ch_first_slot(c);
+        for (var k = 0u; k < ch_nstencil(c); k++) {
+            let sd = stencil_d(first + k);
             let col = column(x - sd.x, z - sd.y);
             if (col >= 0) {
                 let i = u32(col) * SCRATCH + (first + k) * 3u;
                 let v = vec3<f32>(scratch[i], scratch[i + 1u], scratch[i + 2u]);
                 r += v;
                 if (profile) {
-                    let vm = v * CH_MU[c];
+                    let vm = v * ch_mu(c);
                     h1 += vm * prof_val(node, P.up, first + k, 0u);
                     h2 += vm * prof_val(node, P.up, first + k, 1u);
                 }
             }
         }
-        r = r * CH_MU[c];
-        let u = DIR_UNIT[ch_bin(P.up, c)];
+        r = r * ch_mu(c);
+        let u = dir_unit(ch_bin(P.up, c));
         s_raw += r;
         m0 += r * u.x;
         m1 += r * u.y;
@@ -387,17 +388,17 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
             let f = emission(own, mat.w, ab, mask, P.up, c);
             let leaving = leaving(own, f, scratch[li * SCRATCH + T_AFTER_OFFSET + c], mat.w, mask, P.up, c);
             let lost = max(full(own, mat.w, mask, P.up, c) - leaving, vec3<f32>(0.0));
-            let u = DIR_UNIT[ch_bin(P.up, c)];
+            let u = dir_unit(ch_bin(P.up, c));
             lost_s += lost;
             l0 += lost * u.x;
             l1 += lost * u.y;
             l2 += lost * u.z;
             let oi = (li * CH + c) * 3u;
-            let add = leaving / CH_MU[c];
+            let add = leaving / ch_mu(c);
             cur[oi] += add.x;
             cur[oi + 1u] += add.y;
             cur[oi + 2u] += add.z;
-            g_add(gi, ch_bin(P.up, c), f * (0.5 / CH_MU[c]));
+            g_add(gi, ch_bin(P.up, c), f * (0.5 / ch_mu(c)));
         }
         own = Pending(lost_s * alb, l0 * alb, l1 * alb, l2 * alb);
         other = add_p(other, own);
@@ -423,15 +424,15 @@ fn src_at(i: u32) -> vec3<f32> {
 // Segment k of channel c's path from column (x, z) offset by (dx, dz): its
 // transmittance and emission (per unit ω_b σ_c); beyond open sides empty.
 fn segment(x: i32, z: i32, c: u32, k: u32) -> vec4<f32> {
-    let sd = STENCIL_D[CH_FIRST_SLOT[c] + k];
+    let sd = stencil_d(ch_first_slot(c) + k);
     let col = column(x + sd.x, z + sd.y);
     if (col < 0) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     let q = u32(col);
-    let slot = CH_FIRST_SLOT[c] + k;
+    let slot = ch_first_slot(c) + k;
     let pt = cells[q + P.level_len * P.j].w;
-    let tr = trans(pt, STENCIL_E[slot]);
+    let tr = trans(pt, stencil_e(slot));
     var e = src_at(q) * (1.0 - tr);
     if (P.medium == 3u && pt > 0.0 && pt < 1.0) {
         let n = prof_node(log(pt));
@@ -462,20 +463,20 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var c = 0u; c < CH; c++) {
         var acc = vec3<f32>(0.0);
         var centre = vec3<f32>(0.0);
-        for (var k = 0u; k < CH_NSTENCIL[c]; k++) {
-            let sd = STENCIL_D[CH_FIRST_SLOT[c] + k];
+        for (var k = 0u; k < ch_nstencil(c); k++) {
+            let sd = stencil_d(ch_first_slot(c) + k);
             let s = segment(x, z, c, k);
             if (sd.x == 0 && sd.y == 0) {
-                let half = seg_mean(s.w, depth(mat.w, STENCIL_E[CH_FIRST_SLOT[c] + k]));
+                let half = seg_mean(s.w, depth(mat.w, stencil_e(ch_first_slot(c) + k)));
                 centre = acc * half + src_at(li) * (1.0 - half);
                 if (profile) {
-                    let slot = CH_FIRST_SLOT[c] + k;
+                    let slot = ch_first_slot(c) + k;
                     centre += src_q(li, 1u) * prof_val(node, P.up, slot, 4u) + src_q(li, 2u) * prof_val(node, P.up, slot, 5u);
                 }
             }
             acc = acc * s.w + s.xyz;
         }
-        let om = SRC_OMEGA[c];
+        let om = src_omega(c);
         let oi = (li * CH + c) * 3u;
         let add = acc * om;
         cur[oi] += add.x;
@@ -490,10 +491,10 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
     var h1 = vec3<f32>(0.0);
     var h2 = vec3<f32>(0.0);
     for (var c = 0u; c < CH; c++) {
-        let om = SRC_OMEGA[c] * CH_MU[c];
-        let u = DIR_UNIT[ch_bin(P.up, c)];
-        for (var j = 0u; j < CH_NSTENCIL[c]; j++) {
-            let sj = STENCIL_D[CH_FIRST_SLOT[c] + j];
+        let om = src_omega(c) * ch_mu(c);
+        let u = dir_unit(ch_bin(P.up, c));
+        for (var j = 0u; j < ch_nstencil(c); j++) {
+            let sj = stencil_d(ch_first_slot(c) + j);
             if (column(x - sj.x, z - sj.y) < 0) {
                 continue;
             }
@@ -502,11 +503,11 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
                 let s = segment(x - sj.x, z - sj.y, c, m);
                 acc = acc * s.w + s.xyz;
             }
-            let r = acc * ((1.0 - trans(mat.w, STENCIL_E[CH_FIRST_SLOT[c] + j])) * om);
+            let r = acc * ((1.0 - trans(mat.w, stencil_e(ch_first_slot(c) + j))) * om);
             got = add_p(got, Pending(r, r * u.x, r * u.y, r * u.z));
             if (profile) {
-                h1 += r * prof_val(node, P.up, CH_FIRST_SLOT[c] + j, 0u);
-                h2 += r * prof_val(node, P.up, CH_FIRST_SLOT[c] + j, 1u);
+                h1 += r * prof_val(node, P.up, ch_first_slot(c) + j, 0u);
+                h2 += r * prof_val(node, P.up, ch_first_slot(c) + j, 1u);
             }
         }
     }
