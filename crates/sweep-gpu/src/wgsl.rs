@@ -146,7 +146,7 @@ pub fn table_floats() -> Vec<f32> {
 /// (`ch_mu(c)`, `stencil_d(k)`, ...) reading the `tables` buffer. Tables, not WGSL
 /// `const` arrays: naga's SPIR-V writer stores a whole constant array into a function
 /// variable at every access with a runtime index (its `spill_to_internal_variable`),
-/// which made every sweep on lavapipe 8 times slower; a `var<private>` array instead is
+/// which made every sweep on lavapipe 4 times slower; a `var<private>` array instead is
 /// written out per invocation on OpenGL (twice as slow there).
 pub fn sweep_tables() -> String {
     use lightgrid_sweep_cpu::sweep::{MAX_EXPONENTS, SLOTS};
