@@ -143,7 +143,9 @@ pub fn table_floats() -> Vec<f32> {
 }
 
 /// The sweep's scalar constants, and an accessor per table of [`table_floats`]
-/// (`ch_mu(c)`, `stencil_d(k)`, ...) reading the `tables` buffer. Tables, not WGSL
+/// (`ch_mu(c)`, `stencil_d(k)`, ...) reading the `tables` buffer, declared with its
+/// length (`TABLE_FLOATS`: bounds checks against a constant, cheaper on OpenGL than
+/// against a runtime-sized array's length). Tables, not WGSL
 /// `const` arrays: naga's SPIR-V writer stores a whole constant array into a function
 /// variable at every access with a runtime index (its `spill_to_internal_variable`),
 /// which made every sweep on lavapipe 4 times slower; a `var<private>` array instead is
@@ -176,6 +178,7 @@ pub fn sweep_tables() -> String {
         lightgrid_sweep_cpu::profile::TAU_MAX as f32,
         lightgrid_sweep_cpu::profile::NODE_FLOATS
     );
+    let _ = writeln!(s, "const TABLE_FLOATS: u32 = {}u;", table_floats().len());
     let mut at = lightgrid_sweep_cpu::profile::table_floats().len();
     for t in tables() {
         let read = |k: usize| format!("tables[o + {k}u]");

@@ -13,7 +13,7 @@
 @group(0) @binding(6) var<storage, read> virt: array<f32>;
 @group(0) @binding(7) var<storage, read> halo: array<f32>;
 @group(0) @binding(8) var<storage, read_write> aux: array<f32>;
-@group(0) @binding(9) var<storage, read> tables: array<f32>;
+@group(0) @binding(9) var<storage, read> tables: array<f32, TABLE_FLOATS>;
 
 fn load3(i: u32) -> vec3<f32> {
     return vec3<f32>(prev[i], prev[i + 1u], prev[i + 2u]);

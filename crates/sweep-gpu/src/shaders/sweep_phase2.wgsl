@@ -20,7 +20,7 @@ const LOCAL_ROUNDS: u32 = LOCAL_ROUNDS_GEN;
 @group(0) @binding(10) var<storage, read_write> srcj: array<f32>;
 // The profile rule's tables (lightgrid_sweep_cpu::profile::table_floats), then the
 // sweep's (`crate::wgsl::table_floats`, read through the generated accessors).
-@group(0) @binding(11) var<storage, read> tables: array<f32>;
+@group(0) @binding(11) var<storage, read> tables: array<f32, TABLE_FLOATS>;
 
 // --- The quadratic source in height (lightgrid_sweep_cpu::profile, P.medium == 3) ---
 
