@@ -32,21 +32,6 @@ pub fn uniform(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupL
     )
 }
 
-/// A uniform buffer read at dynamic offsets, each block `size` bytes.
-pub fn uniform_dynamic(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    size: u64,
-) -> wgpu::BindGroupLayoutEntry {
-    buffer(
-        binding,
-        visibility,
-        wgpu::BufferBindingType::Uniform,
-        true,
-        wgpu::BufferSize::new(size),
-    )
-}
-
 /// A read-only storage buffer read at dynamic offsets, each block `size` bytes.
 pub fn storage_dynamic(
     binding: u32,
