@@ -863,6 +863,38 @@ fn layered_device_sampling_reads_across_seams() {
         }
     }
     assert!(across > 1000, "{across} reads across a seam");
+    // The same rule on a lattice generated on the device, each layer visiting the
+    // lattice's points it can own or share alone: points on and between the tiles'
+    // outermost points, in the strips along the seams, and beyond the block.
+    let lattice =
+        GridDesc::new(Vec3::new(-6.1, -0.2, -6.05), 0.23, UVec3::new(48, 20, 47)).unwrap();
+    let lpos: Vec<Vec3> = (0..lattice.point_count())
+        .map(|i| lattice.position(lattice.coords(i).unwrap()))
+        .collect();
+    let gpu = sampler
+        .sample_layers_lit(&layers, GpuPoints::Lattice(lattice), &light)
+        .unwrap()
+        .read()
+        .unwrap();
+    let mut lattice_across = 0;
+    for (i, p) in lpos.iter().enumerate() {
+        let ps = parts(*p, None);
+        lattice_across += (ps.len() > 1) as usize;
+        let field = Blended(ps.iter().map(|&(k, w)| (lit(k), w)).collect());
+        let (c, want) = cpu_read(&field, (&lpos, None), i, (e, to_sun));
+        let got = gpu[i];
+        assert!(
+            (want - got.light).abs().max_element() <= 1e-5 * want.abs().max_element() + 1e-5
+                && (c.sun - got.sun).abs() <= 1e-5
+                && (c.dominant - got.dominant).abs().max_element() <= 1e-4,
+            "lattice point {i} at {p} from {ps:?}: cpu {want} gpu {}",
+            got.light
+        );
+    }
+    assert!(
+        lattice_across > 500,
+        "{lattice_across} lattice reads across a seam"
+    );
     // Continuous across the block's inner seams (x = 0, z = 0), away from the lower
     // tile's top: a step of a thousandth of a metre changes the light by little, where
     // the owners' reads alone jump.

@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use lightgrid_core::glam::{IVec2, Vec2, Vec3};
+use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, GridError, LightGrid};
 use lightgrid_gpu::kernel::{Binding, Kernel, buffer};
 use lightgrid_gpu::{GpuContext, GpuError, GpuLightGrid};
@@ -40,7 +40,8 @@ lightgrid_gpu::gpu_struct! {
         pub lattice_origin_h: [f32; 4] => "vec4<f32>",
         /// Lattice points: dims (xyz), 1 if the points are the lattice's (w).
         pub lattice_dims: [u32; 4] => "vec4<u32>",
-        /// Points in the batch.
+        /// Invocations of the dispatch: the listed points, or the lattice's points in
+        /// its box `sub_lo .. sub_lo + sub_dims`.
         pub count: u32 => "u32",
         /// The layer's horizon halves ([`GpuHorizon`]): 0 none (its horizontal bins read
         /// as even), 1 the sky's (the sun's bins read as even), 2 the sky's and then the
@@ -62,6 +63,13 @@ lightgrid_gpu::gpu_struct! {
         /// `(dx, dz)` away ([`seam_neighbours`]): their lowest and highest levels' heights
         /// and index + 1 (0: none there that tiles with it).
         pub near: [[f32; 4]; 9] => "array<vec4<f32>, 9>",
+        /// Lattice points: the first corner (xyz) of the box of them the dispatch
+        /// visits ([`lattice_box`]).
+        pub sub_lo: [u32; 4] => "vec4<u32>",
+        /// Lattice points: the points along each axis (xyz) of that box. Listed
+        /// points: 1 in `w` where the dispatch visits those named in its index list
+        /// ([`listed_near`]), else every one.
+        pub sub_dims: [u32; 4] => "vec4<u32>",
     }
 }
 
@@ -297,7 +305,7 @@ impl GpuLightSampler {
             "sample",
             &wgsl(),
             &[
-                Uniform, Read, Read, Read, Read, Read, ReadWrite, Read, ReadWrite,
+                Uniform, Read, Read, Read, Read, Read, ReadWrite, Read, ReadWrite, Read,
             ],
         );
         // The 26 bins' kernel, then the horizon term.
@@ -387,6 +395,26 @@ impl GpuLightSampler {
             mapped_at_creation: false,
         });
         let near = seam_neighbours(layers);
+        // Listed points: each owned layer's claims and shares visit only the points
+        // it can own or share, named in an index list (as a lattice's box, below).
+        let lists: Vec<Option<(wgpu::Buffer, u32)>> = match points {
+            GpuPoints::List(list) => layers
+                .iter()
+                .map(|layer| {
+                    let o = layer.owner.as_ref()?;
+                    let idx = listed_near(list.positions, layer.grid.desc(), o);
+                    let n = idx.len() as u32;
+                    let b = buffer(
+                        &self.ctx,
+                        "sample indices",
+                        bytemuck::cast_slice(&idx),
+                        wgpu::BufferUsages::STORAGE,
+                    );
+                    Some((b, n))
+                })
+                .collect(),
+            GpuPoints::Lattice(_) => vec![None; layers.len()],
+        };
         // One dispatch of layer `i` at step `mode` (the kernel's `SampleParams::mode`).
         let dispatch = |i: usize, mode: u32| {
             let layer = &layers[i];
@@ -394,6 +422,32 @@ impl GpuLightSampler {
             params.mode = mode;
             params.layer = i as u32 + 1;
             params.near = near[i];
+            if let Some(l) = lattice {
+                // Only the lattice's points an owned layer can own or share visit it
+                // (every point the finish and a layer owning everywhere): on lavapipe
+                // a visit costs though it returns at once (0.4 µs to claim nothing), and
+                // a dispatch over every point for each of 17 layers took twice the time
+                // (`cargo run --release -p lightgrid-render --example layered_sampling`).
+                let (lo, dims) = match (mode, &layer.owner) {
+                    (0 | 1, Some(o)) => lattice_box(&l, layer.grid.desc(), o),
+                    _ => (UVec3::ZERO, l.dims()),
+                };
+                params.sub_lo = lo.extend(0).to_array();
+                params.sub_dims = dims.extend(0).to_array();
+                params.count = dims.x * dims.y * dims.z;
+                if params.count == 0 {
+                    return;
+                }
+            }
+            let mut indices = &self.table;
+            if let (0 | 1, Some((list, n))) = (mode, &lists[i]) {
+                params.sub_dims[3] = 1;
+                params.count = *n;
+                indices = list;
+                if params.count == 0 {
+                    return;
+                }
+            }
             let uniform = buffer(
                 &self.ctx,
                 "sample params",
@@ -418,9 +472,10 @@ impl GpuLightSampler {
                     &out,
                     halves,
                     &claims,
+                    indices,
                 ],
             );
-            self.kernel.dispatch(&self.ctx, &bind, count as u32);
+            self.kernel.dispatch(&self.ctx, &bind, params.count);
         };
         // Claims finest first (the last layer in `layers` order owning a point wins),
         // then every layer's shares, then one finish.
@@ -564,6 +619,52 @@ fn seam_neighbours(layers: &[GpuSampleLayer<'_>]) -> Vec<[[f32; 4]; 9]> {
             }
             near
         })
+        .collect()
+}
+
+/// The world box holding every point a layer on grid `grid` owning `owner` can own or
+/// read a share of: its quadtree cell at its levels' heights (what it owns), and the
+/// points within two of its cells of its grid's points (a neighbour's read across their
+/// seam falls within a cell beyond them).
+fn layer_reach(grid: &GridDesc, owner: &LayerOwner) -> (Vec3, Vec3) {
+    let (lo, hi) = grid.point_bounds();
+    let margin = Vec3::splat(2.0 * grid.h());
+    let cell_lo = owner.origin + owner.index.as_vec2() * owner.size;
+    let cell_hi = cell_lo + Vec2::splat(owner.size);
+    (
+        (lo - margin).min(Vec3::new(cell_lo.x, lo.y, cell_lo.y)),
+        (hi + margin).max(Vec3::new(cell_hi.x, hi.y, cell_hi.y)),
+    )
+}
+
+/// The box of `lattice`'s points (its first corner and its points along each axis; none
+/// along an axis where empty) within [`layer_reach`] of a layer on grid `grid` owning
+/// `owner` (the whole lattice where that is not finite).
+fn lattice_box(lattice: &GridDesc, grid: &GridDesc, owner: &LayerOwner) -> (UVec3, UVec3) {
+    let (lo, hi) = layer_reach(grid, owner);
+    let g = |w: Vec3| (w - lattice.origin()) / lattice.h();
+    let last = lattice.dims().as_vec3() - Vec3::ONE;
+    let a = g(lo).floor().max(Vec3::ZERO);
+    let b = g(hi).ceil().min(last);
+    if !(a.is_finite() && b.is_finite()) {
+        return (UVec3::ZERO, lattice.dims());
+    }
+    if a.cmpgt(b).any() {
+        return (UVec3::ZERO, UVec3::ZERO);
+    }
+    (a.as_uvec3(), (b - a).as_uvec3() + UVec3::ONE)
+}
+
+/// The listed `positions` that a layer on grid `grid` owning `owner` can own or read a
+/// share of ([`lattice_box`]'s rule: its quadtree cell, and within two of its cells of
+/// its grid's points; a read moved along a normal moves half a cell).
+fn listed_near(positions: &[Vec3], grid: &GridDesc, owner: &LayerOwner) -> Vec<u32> {
+    let (lo, hi) = layer_reach(grid, owner);
+    positions
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.cmpge(lo).all() && p.cmple(hi).all())
+        .map(|(i, _)| i as u32)
         .collect()
 }
 

@@ -27,6 +27,8 @@
 @group(0) @binding(7) var<storage, read> halves: array<f32>;
 // The layer owning each point (its index in hierarchy order + 1; 0: none).
 @group(0) @binding(8) var<storage, read_write> claims: array<u32>;
+// With params.sub_dims.w = 1: the listed points the dispatch visits (unread otherwise).
+@group(0) @binding(9) var<storage, read> indices: array<u32>;
 
 // lightgrid_render::sampling::octahedral_encode
 fn octahedral_encode(n_in: vec3<f32>) -> vec2<f32> {
@@ -112,12 +114,28 @@ fn seam_weight(q: vec3<f32>, y: f32, o: vec2<i32>) -> f32 {
     return mine;
 }
 
+// The point of invocation `g`: on a lattice, the points of the dispatch's box of it
+// (x fastest, then z, then y); of listed points, the one its index list names, or the
+// point `g` where it visits them all.
+fn point_index(g: u32) -> u32 {
+    if (params.lattice_dims.w == 1u) {
+        let sd = params.sub_dims.xyz;
+        let c = params.sub_lo.xyz + vec3<u32>(g % sd.x, g / (sd.x * sd.z), (g / sd.x) % sd.z);
+        let ld = params.lattice_dims.xyz;
+        return (c.y * ld.z + c.z) * ld.x + c.x;
+    }
+    if (params.sub_dims.w == 1u) {
+        return indices[g];
+    }
+    return g;
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if (i >= params.count) {
+    if (gid.x >= params.count) {
         return;
     }
+    let i = point_index(gid.x);
     if (params.mode == 2u) {
         // The dominant direction from its summed moment (as sample_points: clamped to
         // unit length), the transmittance within [0, 1], the written flag.
