@@ -28,8 +28,9 @@
 //! buffers; per-level parameters sit at 256-byte dynamic offsets of a read-only storage
 //! buffer, so one command buffer holds a whole pass. (Not a uniform buffer: Mesa's
 //! lavapipe compiles a shader again whenever a uniform that steers its control flow
-//! changes, at every level of every pass; that made a sweep on lavapipe twice as slow.) The device, layouts and pipelines are created once
-//! ([`GpuSweeper::new`]) and reused; grids whose buffers exceed the device's storage
+//! changes, at every level of every pass; that made a sweep on lavapipe twice as slow.)
+//! The device, layouts and pipelines are created once ([`GpuSweeper::new`]) and
+//! reused; grids whose buffers exceed the device's storage
 //! binding limit are refused with [`GpuError::TooLarge`] naming the buffer and the limit.
 //!
 //! [`GpuSunTransmittance`] is sweep-cpu's exact sun march (`SunTransmittance::march`)

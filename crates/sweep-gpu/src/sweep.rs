@@ -17,8 +17,9 @@ use lightgrid_gpu::{GpuLightGrid, bind};
 use crate::{GpuContext, GpuError, wgsl};
 
 lightgrid_gpu::gpu_struct! {
-    /// Parameters of one level (read-only storage at a dynamic offset); its WGSL declaration is generated from this list
-    /// (`LevelParams::wgsl`), and a test compares the two layouts with naga.
+    /// Parameters of one level (read-only storage at a dynamic offset); its WGSL
+    /// declaration is generated from this list (`LevelParams::wgsl`), and a test
+    /// compares the two layouts with naga.
     pub struct LevelParams {
         /// Points along x.
         pub nx: u32 => "u32",
@@ -43,8 +44,8 @@ lightgrid_gpu::gpu_struct! {
         /// Smoothing weight.
         pub smoothing: f32 => "f32",
         /// The medium emission rule: 0 a slab's escape, 2 the flat source rule
-        /// (`lightgrid_sweep_cpu::medium`), 3 its quadratic source in height (`lightgrid_sweep_cpu::profile`,
-        /// the default).
+        /// (`lightgrid_sweep_cpu::medium`), 3 its quadratic source in height
+        /// (`lightgrid_sweep_cpu::profile`, the default).
         pub medium: u32 => "u32",
         /// 1 when the horizon halves are asked for (`Outputs::horizon`).
         pub horizon: u32 => "u32",
@@ -140,11 +141,17 @@ impl GpuSweeper {
                 storage(11, true),
             ],
         });
-        let pipeline = |name: &str, src: String, layout: &wgpu::BindGroupLayout, entry: &str| {
-            let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+        let module = |name: &str, src: String| {
+            d.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
                 source: wgpu::ShaderSource::Wgsl(src.into()),
-            });
+            })
+        };
+        // Phase 2's module (parsed and validated once) holds three entry points.
+        let pipeline = |name: &str,
+                        module: &wgpu::ShaderModule,
+                        layout: &wgpu::BindGroupLayout,
+                        entry: &str| {
             let pl = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(name),
                 bind_group_layouts: &[Some(layout)],
@@ -153,16 +160,18 @@ impl GpuSweeper {
             d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(name),
                 layout: Some(&pl),
-                module: &module,
+                module,
                 entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
             })
         };
-        let phase1 = pipeline("sweep phase 1", wgsl::sweep_phase1(), &layout1, "phase1");
-        let phase2 = pipeline("sweep phase 2", wgsl::sweep_phase2(), &layout2, "phase2");
-        let phase3 = pipeline("sweep phase 3", wgsl::sweep_phase2(), &layout2, "phase3");
-        let clamp = pipeline("sweep clamp", wgsl::sweep_phase2(), &layout2, "clamp_light");
+        let m1 = module("sweep phase 1", wgsl::sweep_phase1());
+        let m2 = module("sweep phase 2", wgsl::sweep_phase2());
+        let phase1 = pipeline("sweep phase 1", &m1, &layout1, "phase1");
+        let phase2 = pipeline("sweep phase 2", &m2, &layout2, "phase2");
+        let phase3 = pipeline("sweep phase 3", &m2, &layout2, "phase3");
+        let clamp = pipeline("sweep clamp", &m2, &layout2, "clamp_light");
         let tables = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("sweep tables"),
             contents: bytemuck::cast_slice(&wgsl::table_floats()),

@@ -131,11 +131,17 @@ fn tables() -> Vec<Table> {
     ]
 }
 
+/// Floats of the profile's tables at the head of [`table_floats`] (known without
+/// building them: [`sweep_tables`] only needs where its accessors start).
+const PROFILE_FLOATS: usize =
+    lightgrid_sweep_cpu::profile::TABLE * lightgrid_sweep_cpu::profile::NODE_FLOATS;
+
 /// The buffer the sweep's kernels read their tables from (`tables` in WGSL): the
 /// profile's tables (`lightgrid_sweep_cpu::profile::table_floats`) first, then every
 /// table of [`sweep_tables`]' accessors at the offsets those name. Uploaded once.
 pub fn table_floats() -> Vec<f32> {
     let mut v = lightgrid_sweep_cpu::profile::table_floats();
+    debug_assert_eq!(v.len(), PROFILE_FLOATS);
     for t in tables() {
         v.extend(t.values);
     }
@@ -178,9 +184,11 @@ pub fn sweep_tables() -> String {
         lightgrid_sweep_cpu::profile::TAU_MAX as f32,
         lightgrid_sweep_cpu::profile::NODE_FLOATS
     );
-    let _ = writeln!(s, "const TABLE_FLOATS: u32 = {}u;", table_floats().len());
-    let mut at = lightgrid_sweep_cpu::profile::table_floats().len();
-    for t in tables() {
+    let tables = tables();
+    let floats = PROFILE_FLOATS + tables.iter().map(|t| t.values.len()).sum::<usize>();
+    let _ = writeln!(s, "const TABLE_FLOATS: u32 = {floats}u;");
+    let mut at = PROFILE_FLOATS;
+    for t in tables {
         let read = |k: usize| format!("tables[o + {k}u]");
         let body = match t.ty {
             "f32" => read(0),
@@ -339,6 +347,7 @@ mod tests {
     fn accessors_tile_the_table_buffer() {
         let wgsl = sweep_tables();
         let mut at = lightgrid_sweep_cpu::profile::table_floats().len();
+        assert_eq!(at, PROFILE_FLOATS);
         for t in tables() {
             assert_eq!(t.values.len() % t.components, 0, "{}", t.name);
             let want = format!(
@@ -349,6 +358,8 @@ mod tests {
             at += t.values.len();
         }
         assert_eq!(at, table_floats().len());
+        let declared = format!("const TABLE_FLOATS: u32 = {at}u;");
+        assert!(wgsl.contains(&declared), "{declared}");
         // Integers are stored exactly: the channels' steps read back as they are.
         let steps = &tables()[0];
         let want: Vec<f32> = lightgrid_sweep_cpu::sweep::channels(false)
