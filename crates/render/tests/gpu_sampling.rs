@@ -248,6 +248,19 @@ fn layered_device_sampling_equals_the_cpu_rule() {
         .err()
         .unwrap();
     assert!(e.to_string().contains("layers[0]"), "{e}");
+    // An owner whose side is not a finite positive length is refused, naming it.
+    for size in [0.0, -4.0, f32::NAN, f32::INFINITY] {
+        let mut bad = layers.clone();
+        bad[2].owner = Some(LayerOwner {
+            size,
+            ..owner(2, 2).unwrap()
+        });
+        let e = sampler
+            .sample_layers(&bad, GpuPoints::Lattice(lattice))
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("layers[2].owner"), "{size}: {e}");
+    }
 }
 
 /// Light sampled on the device and drawn from where it lies (light volume, vertex

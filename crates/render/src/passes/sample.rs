@@ -496,8 +496,9 @@ impl GpuLightSampler {
     }
 
     /// The light's sky scale and sun checked, and the layers against them: every grid
-    /// on this device, and with a sun every layer's sun responses on this device and on
-    /// its grid's points. Returns the checked sun.
+    /// on this device, with a sun every layer's sun responses on this device and on its
+    /// grid's points, every owner's corner finite and its side finite and positive.
+    /// Returns the checked sun.
     fn check_layers(
         &self,
         layers: &[GpuSampleLayer<'_>],
@@ -532,6 +533,17 @@ impl GpuLightSampler {
             }
             None => None,
         };
+        if let Some(i) = layers.iter().position(|l| {
+            l.owner
+                .is_some_and(|o| !o.origin.is_finite() || !(o.size.is_finite() && o.size > 0.0))
+        }) {
+            return Err(GridError::invalid(
+                format!("layers[{i}].owner"),
+                format!("{:?}", layers[i].owner),
+                "origin must be finite and size finite and > 0",
+            )
+            .into());
+        }
         if let Some(i) = layers.iter().position(|l| {
             l.horizon.is_some_and(|h| {
                 !Arc::ptr_eq(&h.ctx, &self.ctx)
