@@ -535,7 +535,7 @@ impl GpuLightSampler {
         };
         if let Some(i) = layers.iter().position(|l| {
             l.owner
-                .is_some_and(|o| !o.origin.is_finite() || !(o.size.is_finite() && o.size > 0.0))
+                .is_some_and(|o| !(o.origin.is_finite() && o.size.is_finite() && o.size > 0.0))
         }) {
             return Err(GridError::invalid(
                 format!("layers[{i}].owner"),
