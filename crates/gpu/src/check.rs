@@ -22,20 +22,40 @@ pub fn validate(name: &str, src: &str) -> Result<naga::Module, String> {
             signed.join(", ")
         ));
     }
+    let copied = indexed_array_values(&module, &info);
+    if !copied.is_empty() {
+        return Err(format!(
+            "{name}: an array value (a `const` or `let` array) indexed at run time in {}: \
+             naga's SPIR-V writer copies the whole array into a variable at every such \
+             read; index a `var` holding it instead",
+            copied.join(", ")
+        ));
+    }
     Ok(module)
 }
 
-/// The functions (by name) of `module` that take a remainder (`%`) of signed integers
-/// at run time. WGSL defines it for negative operands; GLSL does not, and naga's GLSL
-/// writer emits it unchanged, so such a shader gives other results on the OpenGL
-/// backend (the GPU sweeper's periodic sides did: wrong cells on llvmpipe through GL).
-pub fn signed_remainders(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Vec<String> {
+/// The functions (by name) of `module` that index an array *value* at run time (a
+/// `const` array, or one bound by `let`), not a variable or a buffer. naga's SPIR-V
+/// writer spills such a value into a fresh function variable at every read: the
+/// sampling kernel's loop over the 26 directions, reading the prelude's `DIR_UNIT` at
+/// its index, copied 26 × 26 vectors a point, and the light volume's sampling on
+/// lavapipe took 10.7 s with it, 7.3 s without (`docs/measurements.md`).
+pub fn indexed_array_values(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Vec<String> {
+    functions_with(module, info, |e, fi| {
+        matches!(*e, naga::Expression::Access { base, .. }
+            if matches!(fi[base].ty.inner_with(&module.types), naga::TypeInner::Array { .. }))
+    })
+}
+
+/// The names of `module`'s functions and entry points holding an expression for which
+/// `hit` (given the function's validation info) is true.
+fn functions_with(
+    module: &naga::Module,
+    info: &naga::valid::ModuleInfo,
+    hit: impl Fn(&naga::Expression, &naga::valid::FunctionInfo) -> bool,
+) -> Vec<String> {
     let scan = |f: &naga::Function, fi: &naga::valid::FunctionInfo| {
-        f.expressions.iter().any(|(_, e)| {
-            matches!(*e, naga::Expression::Binary { op: naga::BinaryOperator::Modulo, left, .. }
-                if fi[left].ty.inner_with(&module.types).scalar_kind()
-                    == Some(naga::ScalarKind::Sint))
-        })
+        f.expressions.iter().any(|(_, e)| hit(e, fi))
     };
     let functions = module
         .functions
@@ -49,6 +69,18 @@ pub fn signed_remainders(module: &naga::Module, info: &naga::valid::ModuleInfo) 
         .filter(|&(i, ep)| scan(&ep.function, info.get_entry_point(i)))
         .map(|(_, ep)| ep.name.clone());
     functions.chain(entries).collect()
+}
+
+/// The functions (by name) of `module` that take a remainder (`%`) of signed integers
+/// at run time. WGSL defines it for negative operands; GLSL does not, and naga's GLSL
+/// writer emits it unchanged, so such a shader gives other results on the OpenGL
+/// backend (the GPU sweeper's periodic sides did: wrong cells on llvmpipe through GL).
+pub fn signed_remainders(module: &naga::Module, info: &naga::valid::ModuleInfo) -> Vec<String> {
+    functions_with(module, info, |e, fi| {
+        matches!(*e, naga::Expression::Binary { op: naga::BinaryOperator::Modulo, left, .. }
+            if fi[left].ty.inner_with(&module.types).scalar_kind()
+                == Some(naga::ScalarKind::Sint))
+    })
 }
 
 /// Checks that the WGSL struct `name` in `src` has exactly the fields `offsets` (name and
@@ -123,6 +155,32 @@ mod tests {
             "fn u(i: u32, n: u32) -> u32 { return i % n; }",
             "fn f(x: f32) -> f32 { return x % 2.0; }",
             "const C: i32 = -7 % 3;",
+        ] {
+            super::validate("ok", &format!("{prelude}\n{ok}")).unwrap();
+        }
+    }
+
+    /// A `const` or `let` array indexed at run time is refused by name (naga's SPIR-V
+    /// copies the array at every read); a `var` holding it, a constant index and a
+    /// buffer are not.
+    #[test]
+    fn array_values_indexed_at_run_time_are_refused() {
+        let prelude = crate::wgsl::prelude();
+        for bad in [
+            "fn unit(d: u32) -> vec3<f32> { return DIR_UNIT[d]; }",
+            "fn pick(i: u32, a: f32) -> f32 { let v = array<f32, 2>(a, 1.0); return v[i]; }",
+        ] {
+            let e = super::validate("bad", &format!("{prelude}\n{bad}")).unwrap_err();
+            assert!(
+                e.contains("run time") && (e.contains("unit") || e.contains("pick")),
+                "{e}"
+            );
+        }
+        for ok in [
+            "fn unit(d: u32) -> vec3<f32> { var u = DIR_UNIT; return u[d]; }",
+            "fn first() -> vec3<f32> { return DIR_UNIT[0]; }",
+            "fn pick(a: f32) -> f32 { let v = array<f32, 2>(a, 1.0); return v[1]; }",
+            "var<private> table: array<f32, 4>;\nfn t(i: u32) -> f32 { return table[i]; }",
         ] {
             super::validate("ok", &format!("{prelude}\n{ok}")).unwrap();
         }

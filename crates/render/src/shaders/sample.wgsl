@@ -301,9 +301,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // divides).
     var dom = vec3<f32>(0.0);
     var sum = 0.0;
+    // Indexed as a variable, copied once: naga writes a runtime index into a `const`
+    // array as a copy of the whole array at every read.
+    var units = DIR_UNIT;
     for (var d = 0u; d < NUM_DIRS; d++) {
         let l = luminance(acc[d]);
-        dom += DIR_UNIT[d] * l;
+        dom += units[d] * l;
         sum += l;
     }
     out[2u * i] += vec4<f32>(light, t_sun) * share;

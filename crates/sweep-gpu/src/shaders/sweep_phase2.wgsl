@@ -165,7 +165,8 @@ fn load_pending(buf: u32, gi: u32) -> Pending {
 
 fn store_pending(buf: u32, gi: u32, p: Pending) {
     let b = gi * 12u;
-    let v = array<f32, 12>(p.s.x, p.s.y, p.s.z, p.m0.x, p.m0.y, p.m0.z, p.m1.x, p.m1.y, p.m1.z, p.m2.x, p.m2.y, p.m2.z);
+    // A `var`: a `let` array indexed at run time is copied at every read (naga).
+    var v = array<f32, 12>(p.s.x, p.s.y, p.s.z, p.m0.x, p.m0.y, p.m0.z, p.m1.x, p.m1.y, p.m1.z, p.m2.x, p.m2.y, p.m2.z);
     for (var k = 0u; k < 12u; k++) {
         if (buf == 0u) {
             pend_same[b + k] = v[k];
@@ -338,7 +339,7 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
         let sums = prof_sums(mat.w, P.up);
         let dj = prof_source(sums, alb, s_raw, h1, h2);
         let emit = add_p(load_pending(0u, gi), dj);
-        let v = array<vec3<f32>, 3>(emit.s, emit.m0, emit.m1);
+        var v = array<vec3<f32>, 3>(emit.s, emit.m0, emit.m1);
         for (var q = 0u; q < 3u; q++) {
             srcj[li * 9u + q * 3u] = v[q].x;
             srcj[li * 9u + q * 3u + 1u] = v[q].y;
