@@ -10,7 +10,8 @@
 //! use lightgrid_sweep_gpu::GpuSweeper;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! // Err(GpuError::NoAdapter) without a GPU or lavapipe: fall back to lightgrid_sweep_cpu::CpuSweeper.
+//! // Err(GpuError::NoAdapter) without a GPU or lavapipe: fall back to
+//! // lightgrid_sweep_cpu::CpuSweeper.
 //! let mut gpu = GpuSweeper::new()?;
 //! let (material, boundary) = Scene::Canopy.build(32);
 //! let light = gpu.sweep(&material, &boundary, &SweepOptions::multi_bounce())?;
@@ -63,10 +64,13 @@
 //! takes more passes to the tolerance than sweep-cpu's diffusion acceleration
 //! (`lightgrid_sweep_cpu::accel`); both converge to the same light.
 //!
-//! **Speed** (`cargo bench -p lightgrid-sweep-gpu`): on the CI machine the adapter is lavapipe,
-//! Mesa's software Vulkan on the same two cores: 32³ canopy, 4 passes, 0.90 s against
-//! sweep-cpu's 44 ms (upload 13 ms, readback 9 ms); 64³: about 6.4 s against 0.33 s. These
-//! figures measure lavapipe, not a GPU; no GPU was available to this session.
+//! **Speed** (`cargo bench -p lightgrid-sweep-gpu`): on the CI machine the adapter is
+//! lavapipe, Mesa's software Vulkan on the same two cores (a 2-core Intel Xeon VM,
+//! 2026-12-05): 32³ canopy, 4 passes, 1.62 s against sweep-cpu's 22 ms (upload 23 ms,
+//! readback 18 ms); 64³: 12.7 s against 0.13 s. On an NVIDIA H200 a level costs about
+//! 150–200 µs whatever its size, so the 32³ canopy took 49 ms against 34 ms on its 16
+//! CPU cores (measured before the tables left WGSL `const` arrays; the repository's
+//! `docs/measurements.md`): the GPU sweeper does not win on small grids.
 //!
 //! GPU tests need an adapter; in CI that is lavapipe. Without one they fail, unless
 //! `LIGHTGRID_ALLOW_NO_GPU=1` is set, in which case they say loudly that they did not run.
