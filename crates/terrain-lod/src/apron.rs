@@ -18,10 +18,10 @@
 //! → 4.0 % at depth 4): the apron's light is swept with the node's own levels, ground
 //! and passes.
 
-use lightgrid_core::glam::{UVec3, Vec3};
+use lightgrid_core::glam::{IVec2, UVec3, Vec3};
 use lightgrid_core::{
-    Grid, GridDesc, GridError, MaterialGrid, Resident, SunBeam, SunResponse, SweepError,
-    SweepOptions, SweepOutput, Sweeper,
+    Grid, GridDesc, GridError, HorizonGrid, LightGrid, MaterialGrid, Resident, SunBeam,
+    SunResponse, SweepError, SweepOptions, SweepOutput, Sweeper,
 };
 
 use crate::{Hierarchy, LodError, NodeKey, NodeMaterial, StageTimes, shadow, timed};
@@ -112,7 +112,7 @@ impl Hierarchy {
         options: &SweepOptions,
         (sweeper, fresh): (&mut dyn Sweeper, &shadow::Fresh<'_>),
         times: &mut StageTimes,
-    ) -> Result<SweepOutput, LodError> {
+    ) -> Result<(SweepOutput, Option<Ring>), LodError> {
         let m = material.widened.as_ref().unwrap_or(&material.grid);
         let out = timed(&mut times.sky_sweep, || match self.sky_sun() {
             // The beam marched on beyond the node's box as its transmittance is.
@@ -129,14 +129,18 @@ impl Hierarchy {
             None => sweeper.sweep(m, &inputs.boundary, options),
         })?;
         Ok(match &material.widened {
-            None => out,
-            Some(w) => cropped(
-                out,
-                w.desc(),
-                material.grid.desc(),
-                self.params.apron,
-                sweeper,
-            ),
+            None => (out, None),
+            Some(w) => {
+                let (big, desc) = (w.desc(), material.grid.desc());
+                // Where the light stays on the CPU (a device copy is read by the GPU's
+                // layers, which have no ring: their reads clamp).
+                let ring = out
+                    .bins
+                    .as_ref()
+                    .filter(|_| out.resident.is_none())
+                    .map(|b| Ring::of(b, out.horizon.as_ref(), big, desc, self.params.apron));
+                (cropped(out, big, desc, self.params.apron, sweeper), ring)
+            }
         })
     }
 
@@ -261,6 +265,129 @@ fn crop_resident(
     sweeper.crop_resident(resident?, desc, UVec3::new(apron, 0, apron))
 }
 
+/// A node's light one cell beyond its grid, as its sky sweep over the apron left it:
+/// the tiles its eight neighbours of its depth would hold next to it (a side's column
+/// of points, or a corner's one), read in their place where a neighbour is not built.
+/// A read in the half cell between the node's outermost points and its rectangle's
+/// side takes, by [`lightgrid_core::seam`]'s rule, each tile's own clamped read; a
+/// missing neighbour's is its outermost points, which the ring's points estimate with
+/// the node's own fine material around them (the node's clamped read without one).
+/// Measured (`cargo xtask frame --node-points 32 --elevation 15 --mc-probes 0`, the
+/// nesting alone): depth 2's largest sky error over the local brightest 10.0 → 5.3 %,
+/// the finest depth's 13.8 → 11.7 %, the finest depth's strips' sky RMSE 2.8 → 2.2 %;
+/// nothing else read changes. `((n + 2)² − n²) / n²` of the node's points more (13 % at
+/// 32 points across).
+pub(crate) struct Ring {
+    /// The tiles at offsets `(k % 3 − 1, k / 3 − 1)` from the node, `k` in `0..9` but
+    /// the node's own (4).
+    tiles: Vec<LightGrid>,
+    halves: Option<Vec<HorizonGrid>>,
+}
+
+impl Ring {
+    /// The ring of `bins` (and `halves`), swept on `big` (`desc` widened by `apron` ≥ 1).
+    fn of(
+        bins: &LightGrid,
+        halves: Option<&HorizonGrid>,
+        big: &GridDesc,
+        desc: &GridDesc,
+        apron: u32,
+    ) -> Self {
+        let boxes: Vec<(UVec3, UVec3)> = (0..9)
+            .filter(|&k| k != 4)
+            .map(|k| tile_box(desc, apron, k))
+            .collect();
+        Self {
+            tiles: boxes
+                .iter()
+                .map(|&(lo, n)| crop_box(bins, big, lo, n))
+                .collect(),
+            halves: halves.map(|h| {
+                boxes
+                    .iter()
+                    .map(|&(lo, n)| crop_box(h, big, lo, n))
+                    .collect()
+            }),
+        }
+    }
+
+    /// Where the tile at `offset` from the node (x, z) is in the ring's order, if one
+    /// of the eight.
+    pub(crate) fn index(offset: IVec2) -> Option<usize> {
+        if offset == IVec2::ZERO || offset.abs().max_element() > 1 {
+            return None;
+        }
+        let k = ((offset.y + 1) * 3 + offset.x + 1) as usize;
+        Some(if k > 4 { k - 1 } else { k })
+    }
+
+    /// The tile at `offset` from the node (x, z), if one of the eight.
+    pub(crate) fn tile(&self, offset: IVec2) -> Option<(&LightGrid, Option<&HorizonGrid>)> {
+        let k = Self::index(offset)?;
+        Some((&self.tiles[k], self.halves.as_ref().map(|h| &h[k])))
+    }
+
+    /// The tiles with their offsets, in the ring's order.
+    pub(crate) fn tiles(&self) -> impl Iterator<Item = (IVec2, &LightGrid)> {
+        let offsets = (0..9)
+            .filter(|&k| k != 4)
+            .map(|k| IVec2::new(k % 3 - 1, k / 3 - 1));
+        offsets.zip(&self.tiles)
+    }
+
+    /// Points held (the eight tiles).
+    pub(crate) fn points(&self) -> u64 {
+        self.tiles
+            .iter()
+            .map(|t| t.desc().point_count() as u64)
+            .sum()
+    }
+}
+
+/// Tile `k`'s box on the grid widened by `apron` (≥ 1): its lowest point and its
+/// points across (x, levels, z).
+fn tile_box(desc: &GridDesc, apron: u32, k: u32) -> (UVec3, UVec3) {
+    let d = desc.dims();
+    let along = |o: u32, n: u32| match o {
+        0 => (apron - 1, 1),
+        1 => (apron, n),
+        _ => (apron + n, 1),
+    };
+    let (x0, nx) = along(k % 3, d.x);
+    let (z0, nz) = along(k / 3, d.z);
+    (UVec3::new(x0, 0, z0), UVec3::new(nx, d.y, nz))
+}
+
+/// The points of `g` (a node's grid) beside its ring's tile at `offset`, laid out as
+/// the tile's (`tile`): what the node's clamped read gives over the tile.
+pub(crate) fn edge_of<T: Copy>(g: &Grid<T>, offset: IVec2, tile: &GridDesc) -> Grid<T> {
+    let d = g.desc().dims();
+    let at = |o: i32, n: u32| if o > 0 { n - 1 } else { 0 };
+    let lo = UVec3::new(at(offset.x, d.x), 0, at(offset.y, d.z));
+    let data = g.data();
+    let kept = (0..tile.point_count())
+        .map(|i| {
+            let c = tile.coords(i).expect("an index of the grid");
+            data[g.desc().index_unchecked(c + lo)]
+        })
+        .collect();
+    Grid::from_trusted(*tile, kept)
+}
+
+/// `g` (on `big`) at the `n` points from `lo` (in `big`'s points).
+fn crop_box<T: Copy>(g: &Grid<T>, big: &GridDesc, lo: UVec3, n: UVec3) -> Grid<T> {
+    let desc = GridDesc::new(big.origin() + lo.as_vec3() * big.h(), big.h(), n)
+        .expect("a box of a valid grid");
+    let data = g.data();
+    let kept = (0..desc.point_count())
+        .map(|i| {
+            let c = desc.coords(i).expect("an index of the grid");
+            data[big.index_unchecked(c + lo)]
+        })
+        .collect();
+    Grid::from_trusted(desc, kept)
+}
+
 /// `g` (on `big`, `desc` widened by `apron`) at `desc`'s points.
 fn crop<T: Copy>(g: &Grid<T>, big: &GridDesc, desc: &GridDesc, apron: u32) -> Grid<T> {
     let shift = UVec3::new(apron, 0, apron);
@@ -294,6 +421,56 @@ mod tests {
             let p = desc.position(desc.coords(i).unwrap());
             let q = big.position(big.coords(j).unwrap());
             assert_eq!(p, q, "point {i}");
+        }
+    }
+
+    /// The ring's tile at each offset holds the widened grid's points one cell beyond
+    /// the node on that side (a column for a side, a corner's column for a corner), at
+    /// their own positions, and the node's points beside it are those its clamped read
+    /// gives there.
+    #[test]
+    fn the_ring_holds_the_points_one_cell_beyond_each_side() {
+        let desc = GridDesc::new(Vec3::new(3.5, -2.0, 7.5), 1.0, UVec3::new(4, 3, 5)).unwrap();
+        for apron in [1, 3] {
+            let big = widened(&desc, apron).unwrap();
+            let index = |p: Vec3| {
+                let c = big.to_grid(p).round().as_uvec3();
+                big.index_unchecked(c) as f32
+            };
+            let values = (0..big.point_count())
+                .map(|i| lightgrid_core::BinLight([Vec3::splat(i as f32); 26]))
+                .collect();
+            let bins = LightGrid::new(big, values).unwrap();
+            let ring = Ring::of(&bins, None, &big, &desc, apron);
+            assert_eq!(ring.points(), (6 * 7 - 4 * 5) * 3);
+            let (lo, hi) = desc.point_bounds();
+            for (offset, tile) in ring.tiles() {
+                assert!(ring.tile(offset).unwrap().1.is_none());
+                for (i, v) in tile.data().iter().enumerate() {
+                    let p = tile.desc().position(tile.desc().coords(i).unwrap());
+                    // One cell beyond the node's points on the offset's sides, within
+                    // them on the others.
+                    let beyond = |x: f32, o: i32, lo: f32, hi: f32| match o {
+                        -1 => x == lo - 1.0,
+                        1 => x == hi + 1.0,
+                        _ => x >= lo && x <= hi,
+                    };
+                    assert!(
+                        beyond(p.x, offset.x, lo.x, hi.x) && beyond(p.z, offset.y, lo.z, hi.z),
+                        "{offset} {p}"
+                    );
+                    assert_eq!(v.0[0].x, index(p), "{offset} {p}");
+                }
+                // The node's points beside the tile: its clamped read at the tile's.
+                let own = Grid::from_trusted(desc, (0..desc.point_count()).collect::<Vec<_>>());
+                let edge = edge_of(&own, offset, tile.desc());
+                for (i, &j) in edge.data().iter().enumerate() {
+                    let p = tile.desc().position(tile.desc().coords(i).unwrap());
+                    let q = desc.position(desc.coords(j).unwrap());
+                    assert_eq!(q, p.clamp(lo, hi), "{offset} {p}");
+                }
+            }
+            assert!(ring.tile(IVec2::ZERO).is_none() && ring.tile(IVec2::new(2, 0)).is_none());
         }
     }
 }

@@ -408,6 +408,8 @@ impl WorldBake {
                     },
                     sun,
                     resident: None,
+                    // (A baked grid is read at its own points: no ring.)
+                    ring: None,
                     input_hash: 0,
                     provisional: false,
                 },

@@ -888,7 +888,7 @@ impl Hierarchy {
     ) -> Result<Node, LodError> {
         let o = self.node_options(composed.has_objects);
         let material = (&composed.grid, composed.widened.as_ref());
-        let (out, input_hash) = match prepared {
+        let ((out, ring), input_hash) = match prepared {
             Some(inputs) => (
                 self.sweep_sky(&inputs, composed, &o, (&mut *sweeper, fresh), times)?,
                 inputs.hash,
@@ -922,6 +922,7 @@ impl Hierarchy {
             material: composed.clone(),
             sun: None,
             resident: out.resident,
+            ring,
             input_hash,
             provisional: false,
         })

@@ -323,6 +323,9 @@ struct Node {
     sun: Option<GridSun>,
     /// The sweeper's device copy of `light`, if it keeps one.
     resident: Option<Resident>,
+    /// Its light one cell beyond its grid, where its sky sweep had an apron and keeps
+    /// its light on the CPU: read beside a neighbour not built ([`apron::Ring`]).
+    ring: Option<apron::Ring>,
     input_hash: u64,
     /// Built before a wanted coarser node its boundary reads, or over one such
     /// (`order.rs`): swept again once those are all built and final.
@@ -1348,7 +1351,8 @@ impl Hierarchy {
         stats.points_per_depth[0] = self.world.desc().point_count() as u64;
         for (k, n) in &self.nodes {
             stats.alive_per_depth[k.depth as usize] += 1;
-            stats.points_per_depth[k.depth as usize] += n.light.desc().point_count() as u64;
+            stats.points_per_depth[k.depth as usize] += n.light.desc().point_count() as u64
+                + n.ring.as_ref().map_or(0, apron::Ring::points);
         }
         Ok(stats)
     }

@@ -81,8 +81,10 @@ impl Hierarchy {
     /// The grids `p`'s read takes its light from, with their weights: the serving grid
     /// alone, or where the read (moved half a cell along `n`) falls between the serving
     /// node's points and a neighbour's, the nodes of its depth that hold the lookup's
-    /// corners, each weighted by its share of them ([`lightgrid_core::seam`]). The serving grid
-    /// alone where one of those nodes is not built or does not reach `p`'s height.
+    /// corners, each weighted by its share of them ([`lightgrid_core::seam`]); a node
+    /// not built there read from the serving node's ring ([`crate::apron::Ring`]). The
+    /// serving grid alone where such a node has no ring to stand for it, or a built one
+    /// does not reach `p`'s height.
     fn shares(&self, p: Vec3, n: Option<Vec3>) -> ([Share<'_>; 4], usize) {
         let Some((key, node)) = self.serving_node(p) else {
             let world = Share {
@@ -118,14 +120,24 @@ impl Hierarchy {
                 depth: key.depth,
                 index: key.index + offset,
             };
-            let Some(m) = self
-                .nodes
-                .get(&k)
-                .filter(|m| within_levels(m.light.desc(), p))
-            else {
-                return ([own; 4], 1);
+            let Some(m) = self.nodes.get(&k) else {
+                // A neighbour not built: its share is its tile's outermost points, the
+                // ring's where the node keeps one (its sun the node's own, clamped),
+                // else the node's own read stands alone.
+                match node.ring.as_ref().and_then(|r| r.tile(offset)) {
+                    Some((light, halves)) if halves.is_some() == node.horizon.is_some() => {
+                        *slot = Share {
+                            light,
+                            halves,
+                            sun: own.sun,
+                            w,
+                        };
+                        continue;
+                    }
+                    _ => return ([own; 4], 1),
+                }
             };
-            if m.horizon.is_some() != node.horizon.is_some() {
+            if !within_levels(m.light.desc(), p) || m.horizon.is_some() != node.horizon.is_some() {
                 return ([own; 4], 1);
             }
             *slot = Share {

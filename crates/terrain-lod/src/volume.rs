@@ -63,7 +63,7 @@ impl Blend for Moments {
 fn reduce(
     sky: Option<&LightGrid>,
     scale: Vec3,
-    sun: Option<(&GridSun, Vec3)>,
+    sun: Option<(SunParts<'_>, Vec3)>,
     valid: Option<&[bool]>,
 ) -> Grid<Moments> {
     let desc = match (sky, sun) {
@@ -104,6 +104,23 @@ fn reduce(
     g
 }
 
+/// A sun response's grids on one layout: its scattered light (`None` where the sky's
+/// bins hold it) and its transmittance.
+#[derive(Clone, Copy)]
+struct SunParts<'a> {
+    scattered: Option<&'a LightGrid>,
+    transmittance: &'a Grid<f32>,
+}
+
+impl<'a> From<&'a GridSun> for SunParts<'a> {
+    fn from(s: &'a GridSun) -> Self {
+        Self {
+            scattered: s.scattered.as_ref(),
+            transmittance: &s.transmittance,
+        }
+    }
+}
+
 /// One grid reduced.
 struct Layer {
     /// The node it is (`None`: the world grid).
@@ -117,6 +134,9 @@ struct Layer {
     sun_folded: bool,
     /// Its sun response alone (kept where a finer grid's is stale and reads this one's).
     sun: Option<Grid<Moments>>,
+    /// Its ring's tiles reduced ([`crate::apron::Ring`]), each with the sun of the
+    /// node's points beside it (the node's clamped read); in the ring's order.
+    ring: Option<Vec<Grid<Moments>>>,
 }
 
 /// The ready nodes of one depth as a dense table over their lattice indices.
@@ -161,6 +181,32 @@ impl<'a> Reduced<'a> {
                     .map(lightgrid_core::validity::valid_points);
                 let valid = valid.as_deref();
                 let (lo, hi) = grid.desc().point_bounds();
+                let own_sun = own_sun.map(|(s, e)| (SunParts::from(s), e));
+                let ring = k.and_then(|k| h.nodes[&k].ring.as_ref()).map(|r| {
+                    r.tiles()
+                        .map(|(offset, tile)| {
+                            // The node's sun at its points beside the tile.
+                            let edge = own_sun.map(|(s, e)| {
+                                let d = tile.desc();
+                                (
+                                    s.scattered.map(|g| crate::apron::edge_of(g, offset, d)),
+                                    crate::apron::edge_of(s.transmittance, offset, d),
+                                    e,
+                                )
+                            });
+                            let sun = edge.as_ref().map(|(sc, t, e)| {
+                                (
+                                    SunParts {
+                                        scattered: sc.as_ref(),
+                                        transmittance: t,
+                                    },
+                                    *e,
+                                )
+                            });
+                            reduce(Some(tile), h.sky_scale, sun, None)
+                        })
+                        .collect()
+                });
                 Layer {
                     key: *k,
                     light: reduce(Some(grid), h.sky_scale, own_sun, valid),
@@ -169,6 +215,7 @@ impl<'a> Reduced<'a> {
                     sun: own_sun
                         .filter(|_| any_stale)
                         .map(|s| reduce(None, Vec3::ZERO, Some(s), valid)),
+                    ring,
                 }
             })
             .collect();
@@ -219,7 +266,12 @@ impl<'a> Reduced<'a> {
     /// `layer`'s moments at `p` (a stale sun response's taken from the finest coarser
     /// grid with a current one).
     fn read(&self, layer: &Layer, p: Vec3) -> Result<Moments, GridError> {
-        let mut m = layer.light.sample(p)?;
+        self.read_on(layer, &layer.light, p)
+    }
+
+    /// [`Reduced::read`] of `light`, `layer`'s own or one of its ring's tiles.
+    fn read_on(&self, layer: &Layer, light: &Grid<Moments>, p: Vec3) -> Result<Moments, GridError> {
+        let mut m = light.sample(p)?;
         if self.h.sun.is_some() && !layer.sun_folded {
             let depth = layer.key.map_or(0, |k| k.depth);
             let coarser = self
@@ -244,23 +296,26 @@ impl<'a> Reduced<'a> {
             return None;
         }
         let table = &self.depths[key.depth as usize - 1];
-        let mut parts = [(first, 0.0f32); 4];
+        let mut parts = [(first, &first.light, 0.0f32); 4];
         for (slot, &(offset, w)) in parts.iter_mut().zip(&weights[..count]) {
             let c = key.index + offset - table.lo;
-            if c.cmplt(IVec2::ZERO).any() || c.cmpge(table.size).any() {
-                return None;
-            }
-            let l = self
-                .layers
-                .get(table.layer[(c.x + table.size.x * c.y) as usize] as usize)?;
+            let built = (c.cmpge(IVec2::ZERO).all() && c.cmplt(table.size).all())
+                .then(|| table.layer[(c.x + table.size.x * c.y) as usize])
+                .and_then(|i| self.layers.get(i as usize));
+            let Some(l) = built else {
+                // Not built: the ring's tile, as `LightField` reads it.
+                let tile = first.ring.as_ref().zip(crate::apron::Ring::index(offset));
+                *slot = (first, tile.map(|(r, k)| &r[k])?, w);
+                continue;
+            };
             if !(p.y >= l.levels.0 && p.y <= l.levels.1) {
                 return None;
             }
-            *slot = (l, w);
+            *slot = (l, &l.light, w);
         }
         let mut m = Moments::zero();
-        for &(l, w) in &parts[..count] {
-            match self.read(l, p) {
+        for &(l, g, w) in &parts[..count] {
+            match self.read_on(l, g, p) {
                 Ok(v) => m.add_scaled(&v, w),
                 Err(e) => return Some(Err(e)),
             }

@@ -237,3 +237,59 @@ fn a_new_node_marches_its_sun_at_once_and_sweeps_it_later() {
         "{worst}"
     );
 }
+
+/// Beside a neighbour not built (here beyond the world's edges), a node swept over an
+/// apron reads the light its sweep computed one cell beyond it (`HierarchyParams::apron`,
+/// its ring): linear from its outermost points, as across a seam; without an apron the
+/// read is clamped there. The light volume's sampler reads the same.
+#[test]
+fn beside_a_neighbour_not_built_a_node_reads_its_apron_ring() {
+    // Under the layer, on the level of clear cells above the ground (the volume gives
+    // points in dense cells their neighbours' light).
+    let (y, z) = (0.0, 36.0);
+    let at = |x: f32| Vec3::new(x, y, z);
+    for apron in [0, 1] {
+        let params = HierarchyParams {
+            apron,
+            ..field::small_params(u64::MAX / 4)
+        };
+        let mut h =
+            field::over_varying_layer(Vec3::splat(0.5), Box::new(CpuSweeper::new()), params);
+        h.update(CAMERA).unwrap();
+        let volume = h.volume_sampler().unwrap();
+        // The finest nodes over 0..16 and 48..64 m: their outermost points at 1 and 63,
+        // the world's edges at 0 and 64.
+        for (last, out) in [(63.0f32, 1.0f32), (1.0, -1.0)] {
+            assert_eq!(h.grid_at(at(last + 0.4 * out)).desc().h(), CELL);
+            let la = h.light(at(last), None).unwrap();
+            let read = |f: f32| h.light(at(last + out * CELL * f), None).unwrap();
+            // The ring's light, from the read a quarter of the way out.
+            let ring = (read(0.25) - la * 0.75) * 4.0;
+            let moved = (total(&ring) - total(&la)).abs();
+            if apron == 0 {
+                assert!(moved <= 1e-6 * total(&la), "clamped: {moved}");
+            } else {
+                assert!(
+                    moved > 1e-3 * total(&la),
+                    "the ring's light is the outermost's"
+                );
+            }
+            for f in [0.1f32, 0.4, 0.4999] {
+                let want = la * (1.0 - f) + ring * f;
+                for (g, w) in read(f).0.iter().zip(want.0.iter()) {
+                    assert!(
+                        (*g - *w).abs().max_element() <= 1e-4 * total(&la),
+                        "{apron} {last} {f}: {g} {w}"
+                    );
+                }
+                let p = at(last + out * CELL * f);
+                let (v, b) = (volume(p).unwrap(), VolumeSample::read(&h, p).unwrap());
+                assert!(
+                    (v.average - b.average).abs().max_element() <= 1e-5 * b.average.max_element()
+                        && (v.sun - b.sun).abs() <= 1e-5,
+                    "{apron} {p}: {v:?} {b:?}"
+                );
+            }
+        }
+    }
+}
