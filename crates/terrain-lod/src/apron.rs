@@ -364,41 +364,31 @@ pub(crate) fn edge_of<T: Copy>(g: &Grid<T>, offset: IVec2, tile: &GridDesc) -> G
     let d = g.desc().dims();
     let at = |o: i32, n: u32| if o > 0 { n - 1 } else { 0 };
     let lo = UVec3::new(at(offset.x, d.x), 0, at(offset.y, d.z));
-    let data = g.data();
-    let kept = (0..tile.point_count())
-        .map(|i| {
-            let c = tile.coords(i).expect("an index of the grid");
-            data[g.desc().index_unchecked(c + lo)]
-        })
-        .collect();
-    Grid::from_trusted(*tile, kept)
+    points_from(g, g.desc(), lo, *tile)
 }
 
 /// `g` (on `big`) at the `n` points from `lo` (in `big`'s points).
 fn crop_box<T: Copy>(g: &Grid<T>, big: &GridDesc, lo: UVec3, n: UVec3) -> Grid<T> {
     let desc = GridDesc::new(big.origin() + lo.as_vec3() * big.h(), big.h(), n)
         .expect("a box of a valid grid");
-    let data = g.data();
-    let kept = (0..desc.point_count())
-        .map(|i| {
-            let c = desc.coords(i).expect("an index of the grid");
-            data[big.index_unchecked(c + lo)]
-        })
-        .collect();
-    Grid::from_trusted(desc, kept)
+    points_from(g, big, lo, desc)
 }
 
 /// `g` (on `big`, `desc` widened by `apron`) at `desc`'s points.
 fn crop<T: Copy>(g: &Grid<T>, big: &GridDesc, desc: &GridDesc, apron: u32) -> Grid<T> {
-    let shift = UVec3::new(apron, 0, apron);
+    points_from(g, big, UVec3::new(apron, 0, apron), *desc)
+}
+
+/// `onto`'s points taken from `g` (laid out on `from`) from its point `lo` on.
+fn points_from<T: Copy>(g: &Grid<T>, from: &GridDesc, lo: UVec3, onto: GridDesc) -> Grid<T> {
     let data = g.data();
-    let kept = (0..desc.point_count())
+    let kept = (0..onto.point_count())
         .map(|i| {
-            let c = desc.coords(i).expect("an index of the grid");
-            data[big.index_unchecked(c + shift)]
+            let c = onto.coords(i).expect("an index of the grid");
+            data[from.index_unchecked(c + lo)]
         })
         .collect();
-    Grid::from_trusted(*desc, kept)
+    Grid::from_trusted(onto, kept)
 }
 
 #[cfg(test)]
