@@ -410,6 +410,7 @@ impl WorldBake {
                     resident: None,
                     // (A baked grid is read at its own points: no ring.)
                     ring: None,
+                    band: None,
                     input_hash: 0,
                     provisional: false,
                 },

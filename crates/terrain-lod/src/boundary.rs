@@ -155,13 +155,62 @@ impl Hierarchy {
         }
         for d in (1..depth).rev() {
             let key = self.node_at(d, Vec2::new(p.x, p.z));
-            if let Some(n) = self.nodes.get(&key)
-                && within_levels(n.light.desc(), p)
-            {
-                return Some((&n.light, n.horizon.as_ref()));
+            match self.nodes.get(&key) {
+                Some(n) if within_levels(n.light.desc(), p) => {
+                    return Some((&n.light, n.horizon.as_ref()));
+                }
+                Some(_) => {}
+                None => {
+                    if let Some(r) = self.band_light(p, key) {
+                        return Some(r);
+                    }
+                }
             }
         }
         Some((&self.world, self.world_horizon.as_ref()))
+    }
+
+    /// For `p` in wanted node `missing`'s rectangle while it is not built, the light of
+    /// the nearest built node of its depth beside it whose apron's band holds the read
+    /// at `p` ([`crate::apron::Band`]; the first in row order among equals).
+    fn band_light(&self, p: Vec3, missing: NodeKey) -> Option<(&LightGrid, Option<&HorizonGrid>)> {
+        if !self.wanted_now.contains(&missing) {
+            return None;
+        }
+        let q = Vec2::new(p.x, p.z);
+        let mut best: Option<(f32, (&LightGrid, Option<&HorizonGrid>))> = None;
+        for k in crate::apron::around(missing) {
+            let Some(band) = self.nodes.get(&k).and_then(|n| n.band.as_ref()) else {
+                continue;
+            };
+            let Some(read) = band.at(p) else { continue };
+            let (lo, hi) = self.node_rect(k);
+            let far = (q - q.clamp(lo, hi)).length();
+            if best.is_none_or(|(b, _)| far < b) {
+                best = Some((far, read));
+            }
+        }
+        best.map(|(_, r)| r)
+    }
+
+    /// Whether a boundary may read node `key`'s band: a wanted node of its depth beside
+    /// it is not built.
+    pub(crate) fn band_read(&self, key: NodeKey) -> bool {
+        crate::apron::around(key)
+            .any(|b| self.wanted_now.contains(&b) && !self.nodes.contains_key(&b))
+    }
+
+    /// Drops the bands no boundary can read any more ([`Hierarchy::band_read`]).
+    pub(crate) fn drop_unread_bands(&mut self) {
+        let unread: Vec<NodeKey> = (self.nodes.iter())
+            .filter(|(k, n)| n.band.is_some() && !self.band_read(**k))
+            .map(|(k, _)| *k)
+            .collect();
+        for k in unread {
+            if let Some(n) = self.nodes.get_mut(&k) {
+                n.band = None;
+            }
+        }
     }
 
     /// The boundary of node `key`'s grid `desc` (its own or widened by its apron) from
@@ -249,7 +298,7 @@ mod tests {
 
     use super::trilinear_frame;
     use crate::Response;
-    use crate::testing::layer_hierarchy;
+    use crate::testing::{budgeted_layer_hierarchy, layer_hierarchy};
 
     /// The halo points of a grid `desc`, in the layout's order (level, then z, then x).
     fn halo_points(desc: &GridDesc) -> Vec<Vec3> {
@@ -406,5 +455,80 @@ mod tests {
             theirs > 1000 && coarse > 1000,
             "{theirs} from a node before, {coarse} from the coarser grids"
         );
+    }
+
+    /// A node swept while a wanted node beside its parent is not built reads its halo
+    /// points in that node's rectangle from the apron band of a built node beside it
+    /// (the widened sweep's light there, not the next coarser grid's), while no
+    /// settled node reads one; and the bands go once nothing can read them.
+    #[test]
+    fn a_node_waiting_for_a_coarser_neighbour_reads_the_band_beside_it() {
+        let mut h = budgeted_layer_hierarchy();
+        let camera = Vec3::new(62.0, 12.0, 66.0);
+        let (mut from_band, mut changed, mut banded) = (0, 0, 0);
+        for i in (0..=6).rev() {
+            h.update(camera + Vec3::new(4.0, 0.0, 4.0) * i as f32)
+                .unwrap();
+            // Every band kept has a wanted node beside it still to come.
+            for (k, n) in &h.nodes {
+                if n.band.is_some() {
+                    assert!(h.band_read(*k), "{k:?} keeps a band nothing reads");
+                    assert!(k.depth < h.params.depths());
+                    banded += 1;
+                }
+            }
+            for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
+                let n = &h.nodes[&key];
+                let desc = *n.material.widened.as_ref().unwrap().desc();
+                let b = h.node_boundary_of(&desc, key, Response::Sky);
+                let lightgrid_core::SideBoundary::GivenHalves { light, .. } = &b.sides else {
+                    panic!("sides {:?}", b.sides);
+                };
+                for (i, &p) in halo_points(&desc).iter().enumerate() {
+                    let at = h.node_at(key.depth - 1, Vec2::new(p.x, p.z));
+                    if h.nodes.contains_key(&at) || !h.wanted_now.contains(&at) {
+                        continue;
+                    }
+                    let reads: Vec<_> = crate::apron::around(at)
+                        .filter_map(|k| h.nodes.get(&k)?.band.as_ref()?.at(p))
+                        .map(|(g, _)| g.sample(p).unwrap())
+                        .collect();
+                    if reads.is_empty() {
+                        continue;
+                    }
+                    // A node reading a band is provisional: swept again once `at` is.
+                    assert!(n.provisional || h.halo_waits(key, &h.wanted_now), "{key:?}");
+                    let close = |a: &lightgrid_core::BinLight| {
+                        (a.0.iter().zip(&light[i].0)).all(|(a, b)| {
+                            (*a - *b).abs().max_element() <= 1e-5 * (1.0 + a.max_element())
+                        })
+                    };
+                    assert!(reads.iter().any(close), "{key:?} {p}: not a band's read");
+                    from_band += 1;
+                    // The coarser grid's read there, which the band replaces.
+                    let coarser = h.coarse_light_split(p, key.depth - 1, Response::Sky).0;
+                    changed += !close(&coarser) as u32;
+                }
+            }
+        }
+        assert!(
+            banded > 0 && from_band > 100,
+            "{banded} bands, {from_band} halo points read one"
+        );
+        assert!(
+            changed > from_band / 2,
+            "{changed} of {from_band} differ from the coarser grid's"
+        );
+        // Settled: every wanted node built, no band left.
+        for _ in 0..60 {
+            if h.update(camera).unwrap().pending == 0 {
+                break;
+            }
+        }
+        // (A node left behind may stay provisional: no frame wants it.)
+        for (k, n) in &h.nodes {
+            assert!(n.band.is_none(), "{k:?} keeps its band, settled");
+            assert!(!n.provisional || !h.wanted_now.contains(k), "{k:?}");
+        }
     }
 }

@@ -888,7 +888,7 @@ impl Hierarchy {
     ) -> Result<Node, LodError> {
         let o = self.node_options(composed.has_objects);
         let material = (&composed.grid, composed.widened.as_ref());
-        let ((out, ring), input_hash) = match prepared {
+        let ((out, ring, band), input_hash) = match prepared {
             Some(inputs) => (
                 self.sweep_sky(&inputs, composed, &o, (&mut *sweeper, fresh), times)?,
                 inputs.hash,
@@ -923,6 +923,7 @@ impl Hierarchy {
             sun: None,
             resident: out.resident,
             ring,
+            band,
             input_hash,
             provisional: false,
         })

@@ -326,6 +326,9 @@ struct Node {
     /// Its light one cell beyond its grid, where its sky sweep had an apron and keeps
     /// its light on the CPU: read beside a neighbour not built ([`apron::Ring`]).
     ring: Option<apron::Ring>,
+    /// Its light over its apron beyond its sides, while a finer node's boundary may read
+    /// it there in place of a wanted neighbour not built ([`apron::Band`]).
+    band: Option<apron::Band>,
     input_hash: u64,
     /// Built before a wanted coarser node its boundary reads, or over one such
     /// (`order.rs`): swept again once those are all built and final.
@@ -1344,6 +1347,7 @@ impl Hierarchy {
             points_swept = stats.points_swept,
             "frame done"
         );
+        self.drop_unread_bands();
         let depths = self.params.depths() as usize;
         stats.alive_per_depth = vec![0; depths + 1];
         stats.points_per_depth = vec![0; depths + 1];
@@ -1352,7 +1356,8 @@ impl Hierarchy {
         for (k, n) in &self.nodes {
             stats.alive_per_depth[k.depth as usize] += 1;
             stats.points_per_depth[k.depth as usize] += n.light.desc().point_count() as u64
-                + n.ring.as_ref().map_or(0, apron::Ring::points);
+                + n.ring.as_ref().map_or(0, apron::Ring::points)
+                + n.band.as_ref().map_or(0, apron::Band::points);
         }
         Ok(stats)
     }

@@ -71,6 +71,27 @@ impl MaterialSource for Columns {
     }
 }
 
+/// A hierarchy over a flat 128 m square of [`Layer`] under a budget of a node or two a
+/// frame (8-point nodes with an apron of 2 cells, down to 1 m; depth 1 wanted within
+/// 32 m of the camera, the finest within 8 m), no sun: nodes near the camera are swept
+/// before coarser nodes their boundaries read (`order.rs`).
+pub(crate) fn budgeted_layer_hierarchy() -> Hierarchy {
+    let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
+    let params = HierarchyParams {
+        world_cell: 8.0,
+        finest_cell: 1.0,
+        node_points: 8,
+        lod_factor: 1.0,
+        max_levels: 16,
+        apron: 2,
+        budget_points: (8 + 4) * (8 + 4) * 16,
+        ..Default::default()
+    };
+    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
+    let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
+    Hierarchy::new(&ground, Box::new(Layer), sweeper, sky, params).unwrap()
+}
+
 /// [`layer_hierarchy`] over `source`.
 pub(crate) fn built_over(
     source: Box<dyn MaterialSource + Send + Sync>,
