@@ -480,15 +480,17 @@ fn crop<T: Copy>(g: &Grid<T>, big: &GridDesc, desc: &GridDesc, apron: u32) -> Gr
     points_from(g, big, UVec3::new(apron, 0, apron), *desc)
 }
 
-/// `onto`'s points taken from `g` (laid out on `from`) from its point `lo` on.
+/// `onto`'s points taken from `g` (laid out on `from`) from its point `lo` on: a row
+/// (x) at a time, in `onto`'s order (level, z, x).
 fn points_from<T: Copy>(g: &Grid<T>, from: &GridDesc, lo: UVec3, onto: GridDesc) -> Grid<T> {
-    let data = g.data();
-    let kept = (0..onto.point_count())
-        .map(|i| {
-            let c = onto.coords(i).expect("an index of the grid");
-            data[from.index_unchecked(c + lo)]
-        })
-        .collect();
+    let (data, n) = (g.data(), onto.dims());
+    let mut kept = Vec::with_capacity(onto.point_count());
+    for y in 0..n.y {
+        for z in 0..n.z {
+            let start = from.index_unchecked(lo + UVec3::new(0, y, z));
+            kept.extend_from_slice(&data[start..start + n.x as usize]);
+        }
+    }
     Grid::from_trusted(onto, kept)
 }
 
