@@ -195,6 +195,46 @@ fn export_settings_change_only_the_exports_and_depths_add_tasks() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `[grid] gather` in the world file reaches the bake's sweeps: the world and node
+/// tasks hash anew and their light changes (a cheap gather, one scattering by 64 rays
+/// a cell).
+#[test]
+fn a_gather_in_the_world_file_reaches_the_bake() {
+    let dir = scratch("gather");
+    let text = std::fs::read_to_string(world()).unwrap();
+    let gathered = dir.join("gathered.toml");
+    let with = text.replacen(
+        "passes = 2",
+        "passes = 2\ngather = { orders = 1, rays = 64 }",
+        1,
+    );
+    assert_ne!(with, text);
+    std::fs::write(&gathered, with).unwrap();
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    run(bake(&a)
+        .args(["--depths", "1"])
+        .arg("--store")
+        .arg(dir.join("store")));
+    run(bin()
+        .arg("bake")
+        .arg(&gathered)
+        .arg("-o")
+        .arg(&b)
+        .args(["--depths", "1", "--store"])
+        .arg(dir.join("store")));
+    let (a, b) = (files(&a), files(&b));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    let changed: Vec<&String> = a.keys().filter(|k| a[*k] != b[*k]).collect();
+    assert!(
+        changed
+            .iter()
+            .any(|k| k.ends_with(".dds") || k.ends_with(".ktx2")),
+        "no volume changed: {changed:?} of {:?}",
+        a.keys().collect::<Vec<_>>()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_world_requests_are_refused_with_a_message() {
     let dir = scratch("bad");

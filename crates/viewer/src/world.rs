@@ -256,6 +256,7 @@ fn hierarchy_params(scene: &SceneFile) -> HierarchyParams {
         ..Default::default()
     };
     params.sweep.max_passes = g.passes;
+    params.sweep.gather = g.gather.gather();
     params
 }
 
@@ -681,5 +682,21 @@ mod tests {
         assert!(name.starts_with("cpu (auto:"), "{name}");
         let (_, name) = choose_sweeper(SweeperChoice::Cpu, &None).unwrap();
         assert_eq!(name, "cpu");
+    }
+
+    /// The scene's `[grid] gather` reaches every grid's sweeps (the viewer's and a
+    /// world bake's hierarchy).
+    #[test]
+    fn the_scene_s_gather_reaches_the_sweeps() {
+        let mut scene = SceneFile::demo().unwrap();
+        assert_eq!(
+            hierarchy_params(&scene).sweep.gather,
+            lightgrid_core::Gather::OFF
+        );
+        scene.grid.gather = crate::scene::GatherSpec::Preset(crate::scene::GatherPreset::LowSun);
+        assert_eq!(
+            hierarchy_params(&scene).sweep.gather,
+            lightgrid_core::Gather::LOW_SUN
+        );
     }
 }
