@@ -313,22 +313,9 @@ impl Ring {
         desc: &GridDesc,
         apron: u32,
     ) -> Self {
-        let boxes: Vec<(UVec3, UVec3)> = Self::OFFSETS
-            .iter()
-            .map(|&o| tile_box(desc, apron, o))
-            .collect();
-        Self {
-            tiles: boxes
-                .iter()
-                .map(|&(lo, n)| crop_box(bins, big, lo, n))
-                .collect(),
-            halves: halves.map(|h| {
-                boxes
-                    .iter()
-                    .map(|&(lo, n)| crop_box(h, big, lo, n))
-                    .collect()
-            }),
-        }
+        let boxes = Self::OFFSETS.map(|o| tile_box(desc, apron, o));
+        let (tiles, halves) = boxes_of(bins, halves, big, &boxes);
+        Self { tiles, halves }
     }
 
     /// Where the tile at `offset` from the node (x, z) is in the ring's order, if one
@@ -390,19 +377,8 @@ impl Band {
         desc: &GridDesc,
         apron: u32,
     ) -> Self {
-        let boxes = slab_boxes(desc, apron);
-        Self {
-            slabs: boxes
-                .iter()
-                .map(|&(lo, n)| crop_box(bins, big, lo, n))
-                .collect(),
-            halves: halves.map(|h| {
-                boxes
-                    .iter()
-                    .map(|&(lo, n)| crop_box(h, big, lo, n))
-                    .collect()
-            }),
-        }
+        let (slabs, halves) = boxes_of(bins, halves, big, &slab_boxes(desc, apron));
+        Self { slabs, halves }
     }
 
     /// The slab whose points hold the trilinear read at `p` (all eight corners), with
@@ -466,6 +442,22 @@ pub(crate) fn edge_of<T: Copy>(g: &Grid<T>, offset: IVec2, tile: &GridDesc) -> G
     let at = |o: i32, n: u32| if o > 0 { n - 1 } else { 0 };
     let lo = UVec3::new(at(offset.x, d.x), 0, at(offset.y, d.z));
     points_from(g, g.desc(), lo, *tile)
+}
+
+/// `bins` and `halves` (on `big`) cropped to each box (lowest point, points across).
+fn boxes_of(
+    bins: &LightGrid,
+    halves: Option<&HorizonGrid>,
+    big: &GridDesc,
+    boxes: &[(UVec3, UVec3)],
+) -> (Vec<LightGrid>, Option<Vec<HorizonGrid>>) {
+    fn of<T: Copy>(g: &Grid<T>, big: &GridDesc, boxes: &[(UVec3, UVec3)]) -> Vec<Grid<T>> {
+        boxes
+            .iter()
+            .map(|&(lo, n)| crop_box(g, big, lo, n))
+            .collect()
+    }
+    (of(bins, big, boxes), halves.map(|h| of(h, big, boxes)))
 }
 
 /// `g` (on `big`) at the `n` points from `lo` (in `big`'s points).

@@ -76,20 +76,38 @@ impl MaterialSource for Columns {
 /// 32 m of the camera, the finest within 8 m), no sun: nodes near the camera are swept
 /// before coarser nodes their boundaries read (`order.rs`).
 pub(crate) fn budgeted_layer_hierarchy() -> Hierarchy {
-    let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 65, 65, |_, _| 0.0).unwrap();
     let params = HierarchyParams {
-        world_cell: 8.0,
         finest_cell: 1.0,
-        node_points: 8,
         lod_factor: 1.0,
         max_levels: 16,
         apron: 2,
         budget_points: (8 + 4) * (8 + 4) * 16,
-        ..Default::default()
+        ..layer_params()
     };
+    flat(128.0, Box::new(Layer), params)
+}
+
+/// 8-point nodes under an 8 m world grid.
+fn layer_params() -> HierarchyParams {
+    HierarchyParams {
+        world_cell: 8.0,
+        node_points: 8,
+        ..Default::default()
+    }
+}
+
+/// A hierarchy of `params` over `source` on flat ground `size` metres square, under a
+/// uniform sky.
+fn flat(
+    size: f32,
+    source: Box<dyn MaterialSource + Send + Sync>,
+    params: HierarchyParams,
+) -> Hierarchy {
+    let n = (size / 2.0) as u32 + 1;
+    let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, n, n, |_, _| 0.0).unwrap();
     let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
     let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
-    Hierarchy::new(&ground, Box::new(Layer), sweeper, sky, params).unwrap()
+    Hierarchy::new(&ground, source, sweeper, sky, params).unwrap()
 }
 
 /// [`layer_hierarchy`] over `source`.
@@ -98,21 +116,16 @@ pub(crate) fn built_over(
     apron: u32,
     neighbour_halo: bool,
 ) -> Hierarchy {
-    let ground = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| 0.0).unwrap();
     let params = HierarchyParams {
-        world_cell: 8.0,
         finest_cell: 2.0,
-        node_points: 8,
         lod_factor: 100.0,
         evict_factor: 200.0,
         budget_points: u64::MAX / 4,
         apron,
         neighbour_halo,
-        ..Default::default()
+        ..layer_params()
     };
-    let sky = BinLight::uniform(Vec3::ONE).split_vertical().0;
-    let sweeper = Box::new(lightgrid_sweep_cpu::CpuSweeper::new());
-    let mut h = Hierarchy::new(&ground, source, sweeper, sky, params).unwrap();
+    let mut h = flat(64.0, source, params);
     h.set_sun(Some(SunLight {
         to_sun: Vec3::new(0.6, 0.5, 0.3),
         irradiance: Vec3::splat(3.0),
