@@ -87,17 +87,19 @@ pub struct SweepOptions {
 /// The 26 bins carry light from a cell to its neighbours along 26 directions only: the
 /// light a low sun scatters off lit patches of a canopy reaches cells between those
 /// directions too little, and cells along them too much (ray effects). Gathered, each
-/// cell's light of the first `orders` scatterings is the sum over `rays` rays (from
-/// points and in directions of a low-discrepancy sequence, the same for every cell) of
-/// what the cells along each ray emit, attenuated by the exact transmittance between;
-/// the sweep carries what those scatterings collide with further. A gather costs about
-/// `rays ×` the cells a ray crosses, per cell and order: made for a bake, not a frame.
+/// cell's light of the first `orders` scatterings is its mean over `rays` directions (a
+/// low-discrepancy set), each carried across the grid by parallel rays that integrate
+/// what the cells along them emit, attenuated by the exact transmittance; the sweep
+/// carries what those scatterings collide with further. A gather costs about `rays ×`
+/// the grid's cells a scattering (a 16 × 10 × 16 canopy: 0.31 s against the sweep's
+/// 22 ms on two cores): made for a bake, not a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Gather {
     /// Scatterings gathered (0: none, the sweep carries them all; at most 4).
     pub orders: u32,
-    /// Rays per cell for the first scattering (64 to 65,536); later ones take a
-    /// quarter as many (at least 64): their light is smoother.
+    /// Directions for the first scattering (64 to 65,536), each crossing every cell
+    /// about once; later ones take a quarter as many (at least 64): their light is
+    /// smoother.
     pub rays: u32,
 }
 
@@ -107,7 +109,7 @@ impl Gather {
         orders: 0,
         rays: 4096,
     };
-    /// Two scatterings gathered by 4,096 and 1,024 rays a cell: a patchy canopy under a 10° sun
+    /// Two scatterings gathered over 4,096 and 1,024 directions: a patchy canopy under a 10° sun
     /// within 5 % of Monte Carlo in every cell (`lightgrid-measure`'s `beam_cells`
     /// example, `--gather`).
     pub const LOW_SUN: Self = Self {

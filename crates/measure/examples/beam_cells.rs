@@ -261,7 +261,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         swept_s,
         if o.gather.is_on() {
             format!(
-                "first {} scatterings gathered, {} rays a cell for the first, a quarter as many for later ones",
+                "first {} scatterings gathered, {} directions for the first, a quarter as many for later ones",
                 o.gather.orders, o.gather.rays
             )
         } else {

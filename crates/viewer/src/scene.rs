@@ -231,7 +231,7 @@ pub struct GridSpec {
 pub enum GatherSpec {
     /// `"off"` or `"low_sun"`.
     Preset(GatherPreset),
-    /// Scatterings gathered (0–4) and rays a cell for the first (64–65,536).
+    /// Scatterings gathered (0–4) and directions for the first (64–65,536).
     Rays(GatherRays),
 }
 
