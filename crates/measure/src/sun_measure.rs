@@ -258,6 +258,12 @@ pub struct MediumErrors {
     pub direct_rms: f64,
     /// The medium cells' summed scattered light over the reference's, minus 1.
     pub scattered_bias: f64,
+    /// The cells whose reference noise is below 1 %.
+    pub quiet: usize,
+    /// How many of those are over 5 % off.
+    pub over_5: usize,
+    /// The sweep's and the reference's light (luminance) at the worst of those cells.
+    pub worst: [f64; 2],
 }
 
 /// [`MediumErrors`] for a sun at `elevation`/`azimuth` (radians), unit irradiance, in
@@ -308,6 +314,7 @@ pub fn medium_errors(
         (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
     // Direct alone: squared error and weight; scattered alone: sums.
     let (mut de, mut dw, mut ss, mut sref) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let (mut quiet, mut over_5, mut worst) = (0usize, 0usize, [0.0f64; 2]);
     for (i, cell) in material.data().iter().enumerate() {
         if cell.pass <= 0.0 || cell.pass >= 1.0 {
             continue;
@@ -331,7 +338,13 @@ pub fn medium_errors(
         noise += rel_noise * rel_noise;
         n += 1;
         if rel_noise < 0.01 {
-            max = max.max((a / r - 1.0).abs());
+            let off = (a / r - 1.0).abs();
+            quiet += 1;
+            over_5 += (off > 0.05) as usize;
+            if off > max {
+                max = off;
+                worst = [a, r];
+            }
         }
     }
     Ok(MediumErrors {
@@ -342,6 +355,9 @@ pub fn medium_errors(
         collided: fc.budget.collided / fc.budget.entered.max(1e-300),
         direct_rms: (de / dw.max(1e-300)).sqrt(),
         scattered_bias: ss / sref.max(1e-300) - 1.0,
+        quiet,
+        over_5,
+        worst,
     })
 }
 

@@ -36,7 +36,7 @@
 //! for the second): the patchy canopy's 16 × 10 × 16 cells in 0.31 s against the
 //! sweep's 22 ms on two cores (15 times faster than rays from every cell, which it
 //! replaced, at the same error; `docs/measurements.md`), so still a bake's option;
-//! its buffers about 0.8 kB a point while it runs (each bin's sums); `cargo run
+//! its buffers about 1.6 kB a point while it runs (0.75 of it each bin's sums); `cargo run
 //! --release -p lightgrid-measure
 //! --example beam_cells -- --gather` prints its time beside its error.
 //!
