@@ -537,6 +537,27 @@ pub fn gathered_ground(levels: u32, a: f32, elevation_deg: f32) -> Result<Case, 
     })
 }
 
+/// [`patchy_low_sun`]'s errors in full: the patchy canopy under a 10° sun (azimuth
+/// 20°, periodic) against 8 M Monte Carlo paths, swept or gathered (`Gather::LOW_SUN`),
+/// multi-bounce to tolerance 1e-6.
+pub fn patchy_low_sun_errors(
+    gathered: bool,
+) -> Result<crate::sun_measure::MediumErrors, Box<dyn std::error::Error>> {
+    let m = crate::sun_measure::patchy_canopy(16, 3);
+    let mut o = options(64, 1e-6);
+    if gathered {
+        o.gather = lightgrid_core::Gather::LOW_SUN;
+    }
+    crate::sun_measure::medium_errors(
+        &m,
+        true,
+        10f32.to_radians(),
+        20f32.to_radians(),
+        8_000_000,
+        &o,
+    )
+}
+
 /// A low sun over a patchy canopy, cell by cell (issue 44's 5 % a cell): the sweep's sun
 /// light in the medium cells of [`crate::sun_measure::patchy_canopy`] (16 × 10 × 16,
 /// periodic, 10°, azimuth 20°) against a Monte Carlo reference of 8 M paths, swept or
@@ -545,21 +566,8 @@ pub fn gathered_ground(levels: u32, a: f32, elevation_deg: f32) -> Result<Case, 
 /// under 1 % (0.3–0.6 % at 8 M paths), `pending` the share of those cells over 5 % off,
 /// `seconds` the whole measurement's (the reference's paths included: about a minute).
 pub fn patchy_low_sun(gathered: bool) -> Result<Case, SweepError> {
-    let m = crate::sun_measure::patchy_canopy(16, 3);
-    let mut o = options(64, 1e-6);
-    if gathered {
-        o.gather = lightgrid_core::Gather::LOW_SUN;
-    }
     let t = std::time::Instant::now();
-    let e = crate::sun_measure::medium_errors(
-        &m,
-        true,
-        10f32.to_radians(),
-        20f32.to_radians(),
-        8_000_000,
-        &o,
-    )
-    .map_err(|e| SweepError::Backend {
+    let e = patchy_low_sun_errors(gathered).map_err(|e| SweepError::Backend {
         backend: "cpu",
         message: e.to_string(),
     })?;

@@ -532,7 +532,8 @@ fn cell_order(
             l = down + up;
         }
         b.0[bin] = l;
-        s0 += luminance(l) as f64;
+        // (The moments pooled over the bin's directions, as their weights are.)
+        s0 += luminance(s.light[i] * scale) as f64;
         s1 += (s.moments[i][0] * scale) as f64;
         s2 += (s.moments[i][1] * scale) as f64;
     }
