@@ -111,13 +111,17 @@ fn directions(n: u32) -> Vec<Vec<Dir>> {
         let w = Vec3::new((r * a.cos()) as f32, y as f32, (r * a.sin()) as f32);
         let travel = -w;
         let bin = nearest_dir(travel);
-        let horizontal = (FIRST_HORIZONTAL..FIRST_HORIZONTAL + HORIZONTAL_BINS).contains(&bin);
         by_bin[bin].push(Dir {
             w,
-            down: horizontal && travel.y < 0.0,
+            down: horizontal(bin) && travel.y < 0.0,
         });
     }
     by_bin
+}
+
+/// Whether `bin` is one of the eight horizontal bins (which keep halves).
+fn horizontal(bin: usize) -> bool {
+    (FIRST_HORIZONTAL..FIRST_HORIZONTAL + HORIZONTAL_BINS).contains(&bin)
 }
 
 /// What each cell emits in one scattering: per unit of length and solid angle in a
@@ -161,7 +165,7 @@ struct Medium<'a> {
 /// cross-section (`light`; for an opaque point the radiance its faces receive times
 /// the cross-section), the same of the light travelling down (`down`, horizontal bins
 /// alone), the cross-section times the length crossed (`cover`: the cell's volume as
-/// the rays sampled it) and the luminance-weighted height moments `P1`, `P2` of the
+/// the rays sampled it; `cover_down` the downward directions' share) and the luminance-weighted height moments `P1`, `P2` of the
 /// light within a medium cell.
 struct BinSums {
     light: Vec<Vec3>,
@@ -169,6 +173,8 @@ struct BinSums {
     cover: Vec<f32>,
     cover_down: Vec<f32>,
     moments: Vec<[f32; 2]>,
+    /// How many of the bin's directions travel down.
+    down_dirs: usize,
 }
 
 impl Medium<'_> {
@@ -264,19 +270,19 @@ impl Medium<'_> {
                         m[1] += w * (1.5 * y * y - 0.5);
                     }
                     s.light[j] += sum * weight;
-                    if dir.down && !s.down.is_empty() {
+                    if dir.down {
                         s.down[j] += sum * weight;
                     }
                     s.moments[j][0] += m[0] * weight;
                     s.moments[j][1] += m[1] * weight;
                 } else {
                     s.light[j] += light * (ds * weight);
-                    if dir.down && !s.down.is_empty() {
+                    if dir.down {
                         s.down[j] += light * (ds * weight);
                     }
                 }
                 s.cover[j] += ds * weight;
-                if dir.down && !s.down.is_empty() {
+                if dir.down {
                     s.cover_down[j] += ds * weight;
                 }
             }
@@ -435,8 +441,7 @@ pub fn gather(
             .par_iter()
             .enumerate()
             .map(|(bin, set)| {
-                let horizontal =
-                    (FIRST_HORIZONTAL..FIRST_HORIZONTAL + HORIZONTAL_BINS).contains(&bin);
+                let horizontal = horizontal(bin);
                 let mut s = BinSums {
                     light: vec![Vec3::ZERO; n],
                     down: if horizontal {
@@ -447,6 +452,7 @@ pub fn gather(
                     cover: vec![0.0; n],
                     cover_down: if horizontal { vec![0.0; n] } else { Vec::new() },
                     moments: vec![[0.0; 2]; n],
+                    down_dirs: set.iter().filter(|d| d.down).count(),
                 };
                 // The same rays whatever the threads: one generator a bin and order.
                 let mut rng = fastrand::Rng::with_seed(SEED ^ ((order as u64) << 32) ^ bin as u64);
@@ -516,7 +522,7 @@ fn cell_order(
         if !s.down.is_empty() {
             // A horizontal bin's halves each their own mean (their light differs most:
             // over a ground, none travels down), weighted by their directions.
-            let down_dirs = set.iter().filter(|d| d.down).count() as f32;
+            let down_dirs = s.down_dirs as f32;
             let (cd, cu) = (s.cover_down[i], cover - s.cover_down[i]);
             let down = if cd > 0.0 {
                 s.down[i] * (down_dirs * d_omega / cd)
