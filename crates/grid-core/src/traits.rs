@@ -585,6 +585,7 @@ pub struct CellSource {
     removed: Vec<Vec3>,
     dir: Vec3,
     heights: Option<Vec<[f32; 2]>>,
+    across: Option<Vec<[f32; 2]>>,
 }
 
 impl CellSource {
@@ -620,6 +621,7 @@ impl CellSource {
             removed,
             dir: dir.normalize(),
             heights: None,
+            across: None,
         })
     }
 
@@ -662,6 +664,42 @@ impl CellSource {
     /// ([`CellSource::with_heights`]).
     pub fn heights(&self) -> Option<&[[f32; 2]]> {
         self.heights.as_deref()
+    }
+
+    /// This source with where across each cell the beam collides: `across[i] = [x̄,
+    /// z̄]`, the mean of the collisions' local x and z over the cell (`-1` at its low
+    /// face, `1` at its high one; finite, `|x̄|, |z̄| ≤ 1`): the first Legendre
+    /// moments across, as [`CellSource::with_heights`]' `C₁/C₀` in height. A gather of
+    /// the first scatterings (`lightgrid_sweep_cpu::gather`) places a cell's emission
+    /// by them (a low beam entering a cell through its side collides near that side);
+    /// the sweeps do not read them.
+    pub fn with_across(mut self, across: Vec<[f32; 2]>) -> Result<Self, GridError> {
+        if across.len() != self.desc.point_count() {
+            return Err(GridError::LengthMismatch {
+                field: "across",
+                expected: self.desc.point_count(),
+                found: across.len(),
+            });
+        }
+        if let Some(i) = across.iter().position(|a| {
+            !(a[0].is_finite() && a[1].is_finite())
+                || a[0].abs() > 1.0 + 1e-5
+                || a[1].abs() > 1.0 + 1e-5
+        }) {
+            return Err(GridError::invalid(
+                format!("across[{i}]"),
+                format!("{:?}", across[i]),
+                "must be finite first moments: |x|, |z| <= 1",
+            ));
+        }
+        self.across = Some(across);
+        Ok(self)
+    }
+
+    /// The collisions' first moments across each cell (x, z), where known
+    /// ([`CellSource::with_across`]).
+    pub fn across(&self) -> Option<&[[f32; 2]]> {
+        self.across.as_deref()
     }
 
     /// Flux taken from the beam, per cell (grid order).

@@ -24,6 +24,13 @@
 //! where the ray enters: a call a corner, not a call a ray (in a hierarchy each call is
 //! a march of its own).
 //!
+//! **Where in a cell** the beam collides: per cell the collisions' Legendre moments
+//! in height (`C₁/C₀`, `C₂/C₀`: the sweep's profile rule starts from them) and their
+//! mean position across the cell in x and z (a low beam entering a cell through its
+//! side collides near that side; a gather places the cell's first scattering by them:
+//! [`crate::CellSource::with_across`], `crate::gather`), each in closed form along
+//! every segment.
+//!
 //! **Determinism**: rays run in parallel in fixed chunks, and their deposits are added
 //! in ray order in `f64`, so the result does not depend on the thread count (a world
 //! bake repeats bit for bit).
@@ -70,7 +77,7 @@ pub const RAYS_PER_CELL: u32 = 16;
 
 /// A ray's deposit in a cell: its index, and the collided flux, its two height
 /// moments and the track (flux × length).
-type Deposit = (u32, [f64; 4]);
+type Deposit = (u32, [f64; 6]);
 
 /// Rays traced per parallel task (fixed, so the sums' order is too).
 const CHUNK: usize = 256;
@@ -260,8 +267,9 @@ pub fn first_collisions(
         track: options.mean_transmittance,
         max_steps: MAX_STEPS_PER_CELL * desc.dims().element_sum(),
     };
-    // Per cell: the collided flux and its height moments (flux × C₁/C₀, × C₂/C₀).
-    let mut sum = vec![[0f64; 4]; desc.point_count()];
+    // Per cell: the collided flux, its height moments (flux × C₁/C₀, × C₂/C₀), the
+    // track (flux × length) and its first moments across (flux × x̄, × z̄).
+    let mut sum = vec![[0f64; 6]; desc.point_count()];
     let mut budget = BeamBudget::default();
     // Waves of chunks, a few a thread: the deposits waiting to be summed are bounded
     // by the wave (a ray through thin media deposits in every cell it crosses), and
@@ -284,7 +292,7 @@ pub fn first_collisions(
         for (dep, b) in parts {
             for (i, v) in dep {
                 let c = &mut sum[i as usize];
-                for k in 0..4 {
+                for k in 0..6 {
                     c[k] += v[k];
                 }
             }
@@ -308,13 +316,26 @@ pub fn first_collisions(
             }
         })
         .collect();
+    let across = sum
+        .iter()
+        .map(|v| {
+            if v[0] > 0.0 {
+                [
+                    (v[4] / v[0]).clamp(-1.0, 1.0) as f32,
+                    (v[5] / v[0]).clamp(-1.0, 1.0) as f32,
+                ]
+            } else {
+                [0.0; 2]
+            }
+        })
+        .collect();
     // Volume per cell is 1 (grid units); the rays' track lengths times their flux per
     // unit projected area integrate the transmittance over it.
     let mean_transmittance = options
         .mean_transmittance
         .then(|| sum.iter().map(|v| (v[3] as f32).clamp(0.0, 1.0)).collect());
     Ok(FirstCollisions {
-        source: crate::CellSource::with_heights(desc, removed, heights, -s)?,
+        source: crate::CellSource::with_heights(desc, removed, heights, -s)?.with_across(across)?,
         budget,
         mean_transmittance,
     })
@@ -346,6 +367,27 @@ fn height_moments(t: f64, keep: f64, y0: f64, y1: f64) -> (f64, f64) {
     let c1 = y0 * g1 + d * g2;
     let c2 = 0.5 * (3.0 * y0 * y0 - 1.0) * g1 + 3.0 * y0 * d * g2 + 1.5 * d * d * g3;
     ((c1 / g1).clamp(-1.0, 1.0), (c2 / g1).clamp(-0.5, 1.0))
+}
+
+/// Where along a segment of optical length `t` (`keep = e^-t`) the light entering it
+/// collides, on average, as a fraction of its length: `γ(2, t) / (t γ(1, t))` (½ when
+/// thin, `1/t` when thick; a series below `t = 10⁻³`).
+fn mean_along(t: f64, keep: f64) -> f64 {
+    if t > 1e-3 {
+        let g1 = 1.0 - keep;
+        if g1 <= 0.0 {
+            return 0.5;
+        }
+        (1.0 - keep * (1.0 + t)) / (g1 * t)
+    } else {
+        0.5 - t / 12.0
+    }
+}
+
+/// A point's local coordinate along axis `k` in `cell` (centred on its integer
+/// coordinates, as the tracer's cells are), -1 to 1.
+fn across_at(pos: Vec3, cell: IVec3, k: usize) -> f64 {
+    (2.0 * (pos[k] - cell[k] as f32)).clamp(-1.0, 1.0) as f64
 }
 
 /// One face of the box the beam enters by: `axis` its normal's axis, at coordinate
@@ -498,11 +540,11 @@ impl Tracer {
         cell = cell.clamp(IVec3::ZERO, dims - IVec3::ONE);
         let mut pos = start;
         // Deposits `c` (flux and its height moments) in cell `i`, merged per cell run.
-        let mut deposit = |i: u32, c: [f64; 4], dep: &mut Vec<Deposit>| {
+        let mut deposit = |i: u32, c: [f64; 6], dep: &mut Vec<Deposit>| {
             b.collided += c[0];
             match dep.last_mut() {
                 Some((j, w)) if *j == i => {
-                    for k in 0..4 {
+                    for k in 0..6 {
                         w[k] += c[k];
                     }
                 }
@@ -517,12 +559,12 @@ impl Tracer {
             let p = self.pass[i];
             let (len, axis) = lightgrid_core::dda::exit(cell, pos, dir);
             if p <= 0.0 {
-                deposit(i as u32, [flux, 0.0, 0.0, 0.0], dep);
+                deposit(i as u32, [flux, 0.0, 0.0, 0.0, 0.0, 0.0], dep);
                 return;
             }
             let y0 = local(pos, cell);
             if self.track && p >= 1.0 && len > 0.0 {
-                deposit(i as u32, [0.0, 0.0, 0.0, flux * len as f64], dep);
+                deposit(i as u32, [0.0, 0.0, 0.0, flux * len as f64, 0.0, 0.0], dep);
             }
             if p < 1.0 && len > 0.0 {
                 let sigma = self.sigma[i];
@@ -531,14 +573,30 @@ impl Tracer {
                 let lost = flux * (1.0 - keep);
                 // ∫ flux ds over the segment: the flux lost over the extinction.
                 let track = lost / sigma;
-                let (m1, m2) = height_moments(t, keep, y0, local(pos + dir * len, cell));
+                let end = pos + dir * len;
+                let (m1, m2) = height_moments(t, keep, y0, local(end, cell));
+                // Across: x and z are linear along the segment too.
+                let along = mean_along(t, keep);
+                let across = |k: usize| {
+                    let (a0, a1) = (across_at(pos, cell, k), across_at(end, cell, k));
+                    (a0 + (a1 - a0) * along).clamp(-1.0, 1.0)
+                };
+                let (mx, mz) = (across(0), across(2));
                 flux *= keep;
                 if flux < 1e-30 * weight {
                     let all = lost + flux;
-                    deposit(i as u32, [all, all * m1, all * m2, track], dep);
+                    deposit(
+                        i as u32,
+                        [all, all * m1, all * m2, track, all * mx, all * mz],
+                        dep,
+                    );
                     return;
                 }
-                deposit(i as u32, [lost, lost * m1, lost * m2, track], dep);
+                deposit(
+                    i as u32,
+                    [lost, lost * m1, lost * m2, track, lost * mx, lost * mz],
+                    dep,
+                );
             }
             pos += dir * len;
             let step = lightgrid_core::dda::cross(&mut cell, &mut pos, axis, dir);
@@ -585,6 +643,56 @@ mod tests {
                     (m1 - w1).abs() < 1e-6 && (m2 - w2).abs() < 1e-6,
                     "t {t}, y {y0}..{y1}: ({m1}, {m2}) vs ({w1}, {w2})"
                 );
+                // A coordinate linear along the segment, as x and z are: its mean over
+                // the collisions is where along the segment they fall on average.
+                let across = y0 + (y1 - y0) * mean_along(t, (-t).exp());
+                assert!((across - w1).abs() < 1e-6, "t {t}: {across} vs {w1}");
+            }
+        }
+    }
+
+    /// A low beam entering a dense slab through its side collides near that side: the
+    /// sunward cells' mean position leans toward the sun, less so farther in, not at
+    /// all across the beam; a sun from the other side mirrors it.
+    #[test]
+    fn a_low_beam_collides_near_the_side_it_enters() {
+        let desc =
+            GridDesc::new(Vec3::ZERO, 1.0, lightgrid_core::glam::UVec3::new(4, 3, 4)).unwrap();
+        let cells = (0..desc.point_count())
+            .map(|i| match desc.coords(i).unwrap().y {
+                0 => lightgrid_core::Material::opaque(Vec3::splat(0.2)),
+                1 => lightgrid_core::Material {
+                    reflectance: Vec3::splat(0.7),
+                    pass: 0.05,
+                },
+                _ => lightgrid_core::Material::EMPTY,
+            })
+            .collect();
+        let m = MaterialGrid::new(desc, cells).unwrap();
+        let e = 5f32.to_radians();
+        let across = |sign: f32| {
+            let to_sun = Vec3::new(sign * e.cos(), e.sin(), 0.0);
+            // Many rays a cell: the lattice's own scatter of where they enter (some
+            // 0.2 in z̄ at the default 16) is then small.
+            let options = BeamOptions::DEFAULT.with_rays(1024);
+            first_collisions(&m, to_sun, Vec3::ONE, false, &|_| 1.0, &options)
+                .unwrap()
+                .source
+                .across()
+                .unwrap()
+                .to_vec()
+        };
+        let (east, west) = (across(1.0), across(-1.0));
+        let at = |a: &[[f32; 2]], x: u32, z: u32| a[desc.index((x, 1, z).into()).unwrap()];
+        for z in 0..4 {
+            let (sunward, next) = (at(&east, 3, z), at(&east, 2, z));
+            // Optical depth 3 a cell: about a third of the way in, on average.
+            assert!(sunward[0] > 0.3 && sunward[0] < 0.5, "{sunward:?}");
+            assert!(next[0] < sunward[0], "{next:?} against {sunward:?}");
+            for x in 0..4 {
+                let (a, b) = (at(&east, x, z), at(&west, 3 - x, z));
+                assert!(a[1].abs() < 0.01, "across the beam: {a:?}");
+                assert!((a[0] + b[0]).abs() < 0.01, "mirror: {a:?} against {b:?}");
             }
         }
     }

@@ -133,13 +133,20 @@ impl Hierarchy {
             None => (out, None, None),
             Some(w) => {
                 let (big, desc, apron) = (w.desc(), material.grid.desc(), self.params.apron);
+                let widened = |bins| Widened {
+                    bins,
+                    halves: out.horizon.as_ref(),
+                    big,
+                    desc,
+                    apron,
+                };
                 // Where the light stays on the CPU (a device copy is read by the GPU's
                 // layers, which have no ring: their reads clamp).
                 let ring = out
                     .bins
                     .as_ref()
                     .filter(|_| out.resident.is_none())
-                    .map(|b| Ring::of(b, out.horizon.as_ref(), big, desc, apron));
+                    .map(|b| Ring::of(widened(b)));
                 // Read by finer nodes' boundaries (on the CPU whatever the sweeper):
                 // only at a depth with finer ones, beside a wanted node not built.
                 let band = out
@@ -147,7 +154,7 @@ impl Hierarchy {
                     .as_ref()
                     .filter(|_| inputs.key.depth < self.params.depths())
                     .filter(|_| self.band_read(inputs.key))
-                    .map(|b| Band::of(b, out.horizon.as_ref(), big, desc, apron));
+                    .map(|b| Band::of(widened(b)));
                 (cropped(out, big, desc, apron, sweeper), ring, band)
             }
         })
@@ -305,16 +312,10 @@ impl Ring {
         IVec2::new(1, 1),
     ];
 
-    /// The ring of `bins` (and `halves`), swept on `big` (`desc` widened by `apron` ≥ 1).
-    fn of(
-        bins: &LightGrid,
-        halves: Option<&HorizonGrid>,
-        big: &GridDesc,
-        desc: &GridDesc,
-        apron: u32,
-    ) -> Self {
-        let boxes = Self::OFFSETS.map(|o| tile_box(desc, apron, o));
-        let (tiles, halves) = boxes_of(bins, halves, big, &boxes);
+    /// The ring of a node's widened light.
+    fn of(light: Widened<'_>) -> Self {
+        let (tiles, halves) =
+            light.crop(&Self::OFFSETS.map(|o| tile_box(light.desc, light.apron, o)));
         Self { tiles, halves }
     }
 
@@ -369,15 +370,9 @@ pub(crate) struct Band {
 }
 
 impl Band {
-    /// The band of `bins` (and `halves`), swept on `big` (`desc` widened by `apron` ≥ 1).
-    fn of(
-        bins: &LightGrid,
-        halves: Option<&HorizonGrid>,
-        big: &GridDesc,
-        desc: &GridDesc,
-        apron: u32,
-    ) -> Self {
-        let (slabs, halves) = boxes_of(bins, halves, big, &slab_boxes(desc, apron));
+    /// The band of a node's widened light.
+    fn of(light: Widened<'_>) -> Self {
+        let (slabs, halves) = light.crop(&slab_boxes(light.desc, light.apron));
         Self { slabs, halves }
     }
 
@@ -444,20 +439,31 @@ pub(crate) fn edge_of<T: Copy>(g: &Grid<T>, offset: IVec2, tile: &GridDesc) -> G
     points_from(g, g.desc(), lo, *tile)
 }
 
-/// `bins` and `halves` (on `big`) cropped to each box (lowest point, points across).
-fn boxes_of(
-    bins: &LightGrid,
-    halves: Option<&HorizonGrid>,
-    big: &GridDesc,
-    boxes: &[(UVec3, UVec3)],
-) -> (Vec<LightGrid>, Option<Vec<HorizonGrid>>) {
-    fn of<T: Copy>(g: &Grid<T>, big: &GridDesc, boxes: &[(UVec3, UVec3)]) -> Vec<Grid<T>> {
-        boxes
-            .iter()
-            .map(|&(lo, n)| crop_box(g, big, lo, n))
-            .collect()
+/// A node's light as its sky sweep over its apron left it: `bins` (and `halves`) on
+/// `big`, the node's grid `desc` widened by `apron` (≥ 1) cells a side.
+#[derive(Clone, Copy)]
+struct Widened<'a> {
+    bins: &'a LightGrid,
+    halves: Option<&'a HorizonGrid>,
+    big: &'a GridDesc,
+    desc: &'a GridDesc,
+    apron: u32,
+}
+
+impl Widened<'_> {
+    /// The light cropped to each box (lowest point, points across).
+    fn crop(&self, boxes: &[(UVec3, UVec3)]) -> (Vec<LightGrid>, Option<Vec<HorizonGrid>>) {
+        fn of<T: Copy>(g: &Grid<T>, big: &GridDesc, boxes: &[(UVec3, UVec3)]) -> Vec<Grid<T>> {
+            boxes
+                .iter()
+                .map(|&(lo, n)| crop_box(g, big, lo, n))
+                .collect()
+        }
+        (
+            of(self.bins, self.big, boxes),
+            self.halves.map(|h| of(h, self.big, boxes)),
+        )
     }
-    (of(bins, big, boxes), halves.map(|h| of(h, big, boxes)))
 }
 
 /// `g` (on `big`) at the `n` points from `lo` (in `big`'s points).
@@ -526,7 +532,13 @@ mod tests {
                 .map(|i| lightgrid_core::BinLight([Vec3::splat(i as f32); 26]))
                 .collect();
             let bins = LightGrid::new(big, values).unwrap();
-            let ring = Ring::of(&bins, None, &big, &desc, apron);
+            let ring = Ring::of(Widened {
+                bins: &bins,
+                halves: None,
+                big: &big,
+                desc: &desc,
+                apron,
+            });
             assert_eq!(ring.points(), (6 * 7 - 4 * 5) * 3);
             let (lo, hi) = desc.point_bounds();
             for (offset, tile) in ring.tiles() {
@@ -572,7 +584,13 @@ mod tests {
                 .map(|i| lightgrid_core::BinLight([Vec3::splat(i as f32); 26]))
                 .collect();
             let bins = LightGrid::new(big, values).unwrap();
-            let band = Band::of(&bins, None, &big, &desc, apron);
+            let band = Band::of(Widened {
+                bins: &bins,
+                halves: None,
+                big: &big,
+                desc: &desc,
+                apron,
+            });
             let (nx, nz) = (desc.dims().x, desc.dims().z);
             assert_eq!(
                 band.points(),

@@ -219,8 +219,8 @@ pub struct GridSpec {
     /// (`SweepOptions::gather`, with `sun.split`): `"off"` (left out: swept with the
     /// rest), `"low_sun"` (`Gather::LOW_SUN`: a low sun in a patchy canopy within 5 %
     /// of Monte Carlo in every cell, where the sweep alone leaves cells 16 % off, for
-    /// about 160 times each sun response's time: a bake's setting), or
-    /// `{ orders = 2, rays = 4096 }`.
+    /// about 10 times each sun response's time: a bake's setting), or
+    /// `{ orders = 2, rays = 2048 }`.
     #[serde(default)]
     pub gather: GatherSpec,
 }
