@@ -145,6 +145,9 @@ pub struct FrameConfig {
     /// The flat source rule (`MediumEmission::Source`) instead of the hierarchy's
     /// default (`Profile`), in the hierarchy and the reference sweep.
     pub flat_source: bool,
+    /// The sun's first two scatterings gathered by rays (`Gather::LOW_SUN`), in the
+    /// hierarchy and the reference sweep.
+    pub gather: bool,
     /// Where the camera flies.
     pub path: CameraPath,
     /// Metres of world around the sampled region in the reference sweep.
@@ -184,6 +187,7 @@ impl FrameConfig {
             sun_apron: 0,
             tolerance: None,
             flat_source: false,
+            gather: false,
             path: CameraPath::Forest,
             margin: 40.0,
             mc_probes: 1000,
@@ -446,6 +450,8 @@ pub struct FrameReport {
     pub tolerance: f32,
     /// The medium rule of every sweep (the hierarchy's and the reference's).
     pub medium: String,
+    /// Whether every sweep gathers the sun's first scatterings by rays.
+    pub gather: bool,
     /// The reference region, points.
     pub reference_points: u64,
     /// Seconds of the reference's sky sweep.
@@ -819,6 +825,9 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     }
     if cfg.flat_source {
         p.sweep.medium = lightgrid_core::MediumEmission::Source;
+    }
+    if cfg.gather {
+        p.sweep.gather = lightgrid_core::Gather::LOW_SUN;
     }
     p
 }
@@ -1194,6 +1203,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         passes: hierarchy_params(cfg).sweep.max_passes,
         tolerance: hierarchy_params(cfg).sweep.tolerance,
         medium: format!("{:?}", hierarchy_params(cfg).sweep.medium).to_lowercase(),
+        gather: cfg.gather,
         reference_points: desc.point_count() as u64,
         reference_sky_s,
         runs,

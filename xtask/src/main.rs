@@ -144,6 +144,11 @@ enum Task {
         /// rule, in the hierarchy and the reference sweep, for comparison.
         #[arg(long)]
         flat_source: bool,
+        /// The sun's first two scatterings gathered by rays (SweepOptions::gather =
+        /// Gather::LOW_SUN, a bake's setting), in the hierarchy and the reference sweep,
+        /// for comparison.
+        #[arg(long)]
+        gather: bool,
         /// The camera path: forest (inside the forest) or edge (out of it over bare
         /// ground).
         #[arg(long, default_value = "forest")]
@@ -252,6 +257,7 @@ fn main() -> ExitCode {
             passes,
             tolerance,
             flat_source,
+            gather,
             path,
             mc_probes,
             mc_paths,
@@ -282,6 +288,7 @@ fn main() -> ExitCode {
             cfg.passes = passes;
             cfg.tolerance = tolerance;
             cfg.flat_source = flat_source;
+            cfg.gather = gather;
             cfg.path = path;
             if !elevations.is_empty() {
                 cfg.elevations = elevations;
