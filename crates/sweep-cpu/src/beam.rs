@@ -346,7 +346,20 @@ pub fn first_collisions(
 /// (as `profile::Segment::collided`, in closed form: `γ(1..3, t)` from `e^-t`, a
 /// series below `t = 10⁻³`).
 fn height_moments(t: f64, keep: f64, y0: f64, y1: f64) -> (f64, f64) {
-    let (g1, g2, g3) = if t > 1e-3 {
+    let (g1, g2, g3) = gammas(t, keep);
+    if g1 <= 0.0 {
+        return (0.5 * (y0 + y1), 0.5 * (3.0 * y0 * y0 - 1.0));
+    }
+    let d = (y1 - y0) / t;
+    let c1 = y0 * g1 + d * g2;
+    let c2 = 0.5 * (3.0 * y0 * y0 - 1.0) * g1 + 3.0 * y0 * d * g2 + 1.5 * d * d * g3;
+    ((c1 / g1).clamp(-1.0, 1.0), (c2 / g1).clamp(-0.5, 1.0))
+}
+
+/// `γ(1, t)`, `γ(2, t)`, `γ(3, t)` (the lower incomplete gamma functions: `γ(n, t) =
+/// ∫₀ᵗ sⁿ⁻¹ e^-s ds`) from `keep = e^-t`; a series below `t = 10⁻³`.
+fn gammas(t: f64, keep: f64) -> (f64, f64, f64) {
+    if t > 1e-3 {
         (
             1.0 - keep,
             1.0 - keep * (1.0 + t),
@@ -359,34 +372,21 @@ fn height_moments(t: f64, keep: f64, y0: f64, y1: f64) -> (f64, f64) {
             t2 / 2.0 - t2 * t / 3.0 + t2 * t2 / 8.0,
             t2 * t / 3.0 - t2 * t2 / 4.0,
         )
-    };
-    if g1 <= 0.0 {
-        return (0.5 * (y0 + y1), 0.5 * (3.0 * y0 * y0 - 1.0));
     }
-    let d = (y1 - y0) / t;
-    let c1 = y0 * g1 + d * g2;
-    let c2 = 0.5 * (3.0 * y0 * y0 - 1.0) * g1 + 3.0 * y0 * d * g2 + 1.5 * d * d * g3;
-    ((c1 / g1).clamp(-1.0, 1.0), (c2 / g1).clamp(-0.5, 1.0))
 }
 
 /// Where along a segment of optical length `t` (`keep = e^-t`) the light entering it
 /// collides, on average, as a fraction of its length: `γ(2, t) / (t γ(1, t))` (½ when
-/// thin, `1/t` when thick; a series below `t = 10⁻³`).
+/// thin, `1/t` when thick).
 fn mean_along(t: f64, keep: f64) -> f64 {
-    if t > 1e-3 {
-        let g1 = 1.0 - keep;
-        if g1 <= 0.0 {
-            return 0.5;
-        }
-        (1.0 - keep * (1.0 + t)) / (g1 * t)
-    } else {
-        0.5 - t / 12.0
-    }
+    let (g1, g2, _) = gammas(t, keep);
+    let w = t * g1;
+    if w > 0.0 { g2 / w } else { 0.5 }
 }
 
 /// A point's local coordinate along axis `k` in `cell` (centred on its integer
 /// coordinates, as the tracer's cells are), -1 to 1.
-fn across_at(pos: Vec3, cell: IVec3, k: usize) -> f64 {
+fn local_at(pos: Vec3, cell: IVec3, k: usize) -> f64 {
     (2.0 * (pos[k] - cell[k] as f32)).clamp(-1.0, 1.0) as f64
 }
 
@@ -551,9 +551,6 @@ impl Tracer {
                 _ => dep.push((i, c)),
             }
         };
-        // A cell's local height of a point, -1 (bottom) to 1 (top).
-        let local =
-            |pos: Vec3, cell: IVec3| (2.0 * (pos.y - cell.y as f32)).clamp(-1.0, 1.0) as f64;
         for _ in 0..self.max_steps {
             let i = self.desc.index_unchecked(cell.as_uvec3());
             let p = self.pass[i];
@@ -562,7 +559,7 @@ impl Tracer {
                 deposit(i as u32, [flux, 0.0, 0.0, 0.0, 0.0, 0.0], dep);
                 return;
             }
-            let y0 = local(pos, cell);
+            let y0 = local_at(pos, cell, 1);
             if self.track && p >= 1.0 && len > 0.0 {
                 deposit(i as u32, [0.0, 0.0, 0.0, flux * len as f64, 0.0, 0.0], dep);
             }
@@ -574,11 +571,11 @@ impl Tracer {
                 // ∫ flux ds over the segment: the flux lost over the extinction.
                 let track = lost / sigma;
                 let end = pos + dir * len;
-                let (m1, m2) = height_moments(t, keep, y0, local(end, cell));
+                let (m1, m2) = height_moments(t, keep, y0, local_at(end, cell, 1));
                 // Across: x and z are linear along the segment too.
                 let along = mean_along(t, keep);
                 let across = |k: usize| {
-                    let (a0, a1) = (across_at(pos, cell, k), across_at(end, cell, k));
+                    let (a0, a1) = (local_at(pos, cell, k), local_at(end, cell, k));
                     (a0 + (a1 - a0) * along).clamp(-1.0, 1.0)
                 };
                 let (mx, mz) = (across(0), across(2));
