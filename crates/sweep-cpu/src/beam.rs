@@ -303,32 +303,21 @@ pub fn first_collisions(
         .iter()
         .map(|v| irradiance * (v[0] as f32).max(0.0))
         .collect();
-    let heights = sum
-        .iter()
-        .map(|v| {
-            if v[0] > 0.0 {
-                [
-                    (v[1] / v[0]).clamp(-1.0, 1.0) as f32,
-                    (v[2] / v[0]).clamp(-0.5, 1.0) as f32,
-                ]
-            } else {
-                [0.0; 2]
-            }
-        })
-        .collect();
-    let across = sum
-        .iter()
-        .map(|v| {
-            if v[0] > 0.0 {
-                [
-                    (v[4] / v[0]).clamp(-1.0, 1.0) as f32,
-                    (v[5] / v[0]).clamp(-1.0, 1.0) as f32,
-                ]
-            } else {
-                [0.0; 2]
-            }
-        })
-        .collect();
+    // Two of the sums per unit of collided flux (0 where none collided), each clamped
+    // to `[lo, 1]`.
+    let per_flux = |k: [usize; 2], lo: [f64; 2]| -> Vec<[f32; 2]> {
+        sum.iter()
+            .map(|v| {
+                if v[0] > 0.0 {
+                    [0, 1].map(|j| (v[k[j]] / v[0]).clamp(lo[j], 1.0) as f32)
+                } else {
+                    [0.0; 2]
+                }
+            })
+            .collect()
+    };
+    let heights = per_flux([1, 2], [-1.0, -0.5]);
+    let across = per_flux([4, 5], [-1.0, -1.0]);
     // Volume per cell is 1 (grid units); the rays' track lengths times their flux per
     // unit projected area integrate the transmittance over it.
     let mean_transmittance = options

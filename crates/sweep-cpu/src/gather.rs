@@ -12,8 +12,8 @@
 //! scattering before left in it (a medium cell `a R / 4π` per unit of length, shaped in
 //! height by the collisions' moments and, for the beam's, across the cell by where in x
 //! and z it collided ([`CellSource::across`]); an opaque cell's exposed faces
-//! `a R / (π n)` where the ray leaves it), attenuated by the exact transmittance, and the ray's light is
-//! integrated over its track through every cell it crosses. A bin's light in a cell is
+//! `a R / (π n)` where the ray leaves it), attenuated by the exact transmittance, and
+//! the ray's light is integrated over its track through every cell it crosses. A bin's light in a cell is
 //! the mean over the volume its directions' rays sampled there (a horizontal bin's two
 //! halves each their own mean), so light even across a cell is exact whatever volume
 //! the rays happened to sample: over an infinite Lambertian ground the light above is
@@ -43,7 +43,7 @@
 //! Cost: each direction's rays cross about every cell once, so an order costs about
 //! `rays ×` the grid's cells (`LOW_SUN`: 2,048 directions for the first order, 512
 //! for the second): the patchy canopy's 16 × 10 × 16 cells in about 0.2 s against the
-//! sweep's 22 ms on two cores (`docs/measurements.md`), so still a bake's option;
+//! sweep's 20 ms on two cores (`docs/measurements.md`), so still a bake's option;
 //! its buffers about 1.6 kB a point while it runs (0.75 of it each bin's sums); `cargo run
 //! --release -p lightgrid-measure
 //! --example beam_cells -- --gather` prints its time beside its error.
