@@ -202,7 +202,30 @@ struct BinSums {
     down_dirs: usize,
 }
 
-impl Medium<'_> {
+impl<'a> Medium<'a> {
+    /// `material` as the rays read it; `exposed`: its cells' exposed faces.
+    fn new(material: &MaterialGrid, periodic: bool, exposed: &'a [u8]) -> Self {
+        let desc = *material.desc();
+        let cells = material.data();
+        Self {
+            desc,
+            dims: desc.dims().as_ivec3(),
+            periodic,
+            depth: cells
+                .iter()
+                .map(|c| {
+                    if c.pass > 0.0 && c.pass < 1.0 {
+                        -c.pass.ln()
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+            opaque: cells.iter().map(|c| c.pass <= 0.0).collect(),
+            exposed,
+        }
+    }
+
     /// One ray of direction `dir`, entering at `p` (cell units, grid frame) into
     /// `cell`, travelling along `t = -w` until it leaves the grid: the light it carries
     /// (nothing from beyond the grid; an opaque cell's exposed face emits its value
@@ -421,23 +444,7 @@ pub fn gather(
     let n = desc.point_count();
     let cells = material.data();
     let exposed = crate::sweep::exposure(material, periodic);
-    let medium = Medium {
-        desc,
-        dims: desc.dims().as_ivec3(),
-        periodic,
-        depth: cells
-            .iter()
-            .map(|c| {
-                if c.pass > 0.0 && c.pass < 1.0 {
-                    -c.pass.ln()
-                } else {
-                    0.0
-                }
-            })
-            .collect(),
-        opaque: cells.iter().map(|c| c.pass <= 0.0).collect(),
-        exposed: &exposed,
-    };
+    let medium = Medium::new(material, periodic, &exposed);
     let albedo: Vec<Vec3> = cells
         .iter()
         .zip(&exposed)
