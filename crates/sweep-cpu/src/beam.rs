@@ -333,16 +333,22 @@ pub fn first_collisions(
 /// Where along a segment of optical length `t` (`keep = e^-t`), from local height `y0`
 /// to `y1`, the light entering it collides: `(C₁/C₀, C₂/C₀)`, `Cₙ = ∫₀ᵗ Pₙ(y(s)) e^-s ds`
 /// (as `profile::Segment::collided`, in closed form: `γ(1..3, t)` from `e^-t`, a
-/// series below `t = 10⁻³`).
-fn height_moments(t: f64, keep: f64, y0: f64, y1: f64) -> (f64, f64) {
+/// series below `t = 10⁻³`), and where along it on average, as a fraction of its
+/// length: `γ(2, t) / (t γ(1, t))` (½ when thin, `1/t` when thick), by which a
+/// coordinate linear along the segment (x, z) has its mean over the collisions.
+fn height_moments(t: f64, keep: f64, y0: f64, y1: f64) -> (f64, f64, f64) {
     let (g1, g2, g3) = gammas(t, keep);
-    if g1 <= 0.0 {
-        return (0.5 * (y0 + y1), 0.5 * (3.0 * y0 * y0 - 1.0));
+    if g1 <= 0.0 || t * g1 <= 0.0 {
+        return (0.5 * (y0 + y1), 0.5 * (3.0 * y0 * y0 - 1.0), 0.5);
     }
     let d = (y1 - y0) / t;
     let c1 = y0 * g1 + d * g2;
     let c2 = 0.5 * (3.0 * y0 * y0 - 1.0) * g1 + 3.0 * y0 * d * g2 + 1.5 * d * d * g3;
-    ((c1 / g1).clamp(-1.0, 1.0), (c2 / g1).clamp(-0.5, 1.0))
+    (
+        (c1 / g1).clamp(-1.0, 1.0),
+        (c2 / g1).clamp(-0.5, 1.0),
+        g2 / (t * g1),
+    )
 }
 
 /// `γ(1, t)`, `γ(2, t)`, `γ(3, t)` (the lower incomplete gamma functions: `γ(n, t) =
@@ -362,15 +368,6 @@ fn gammas(t: f64, keep: f64) -> (f64, f64, f64) {
             t2 * t / 3.0 - t2 * t2 / 4.0,
         )
     }
-}
-
-/// Where along a segment of optical length `t` (`keep = e^-t`) the light entering it
-/// collides, on average, as a fraction of its length: `γ(2, t) / (t γ(1, t))` (½ when
-/// thin, `1/t` when thick).
-fn mean_along(t: f64, keep: f64) -> f64 {
-    let (g1, g2, _) = gammas(t, keep);
-    let w = t * g1;
-    if w > 0.0 { g2 / w } else { 0.5 }
 }
 
 /// A point's local coordinate along axis `k` in `cell` (centred on its integer
@@ -560,9 +557,8 @@ impl Tracer {
                 // ∫ flux ds over the segment: the flux lost over the extinction.
                 let track = lost / sigma;
                 let end = pos + dir * len;
-                let (m1, m2) = height_moments(t, keep, y0, local_at(end, cell, 1));
+                let (m1, m2, along) = height_moments(t, keep, y0, local_at(end, cell, 1));
                 // Across: x and z are linear along the segment too.
-                let along = mean_along(t, keep);
                 let across = |k: usize| {
                     let (a0, a1) = (local_at(pos, cell, k), local_at(end, cell, k));
                     (a0 + (a1 - a0) * along).clamp(-1.0, 1.0)
@@ -623,7 +619,7 @@ mod tests {
                 (-0.2, 0.6),
             ] {
                 let c = crate::profile::Segment { t, y0, y1 }.collided();
-                let (m1, m2) = height_moments(t, (-t).exp(), y0, y1);
+                let (m1, m2, along) = height_moments(t, (-t).exp(), y0, y1);
                 let (w1, w2) = (c[1] / c[0], c[2] / c[0]);
                 assert!(
                     (m1 - w1).abs() < 1e-6 && (m2 - w2).abs() < 1e-6,
@@ -631,7 +627,7 @@ mod tests {
                 );
                 // A coordinate linear along the segment, as x and z are: its mean over
                 // the collisions is where along the segment they fall on average.
-                let across = y0 + (y1 - y0) * mean_along(t, (-t).exp());
+                let across = y0 + (y1 - y0) * along;
                 assert!((across - w1).abs() < 1e-6, "t {t}: {across} vs {w1}");
             }
         }
