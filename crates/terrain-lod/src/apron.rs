@@ -199,6 +199,83 @@ impl Hierarchy {
     }
 }
 
+/// A node's sun transmittance one cell beyond its points ([`Ring`]'s tiles, each
+/// marched toward the sun through the apron's cells there and on through the
+/// materials the hierarchy holds): what its missing neighbours' outermost points would
+/// hold (within the march's steps past each box's faces: `shadow::SkyMarch`), read in
+/// the strip beside them instead of the node's outermost points clamped (a read half a
+/// cell out took their transmittance, shadow edges and all, half a cell too far). A
+/// tile's grid lies on its [`Ring`] tile's layout. Marched with every march of the
+/// node's transmittance that has its material (its sun responses, `set_sun`'s; read
+/// only where the node keeps a sky [`Ring`], its light on the CPU); 13 % more points
+/// marched at 32 across. Measured (`cargo xtask frame --node-points 32
+/// --elevation 15 --elevation 40 --mc-probes 0`, the nesting alone): the direct sun's
+/// RMSE at depth 2 went from 2.0 to 0.0 % at 15° and at depth 4 from 0.9 to 0.2 %, the
+/// sun's at depth 2 5.1 / 3.5 → 4.8 / 3.3 % at 15 / 40° and at depth 4 1.3 / 1.5 → 0.9
+/// / 1.3 %, the finest depth's largest error of sky and sun over the local brightest
+/// 14.4 → 10.5 % at 15°, depth 2's 5.1 / 8.9 → 3.6 / 4.9 %; its strips' sun RMSE 7.1 →
+/// 1.1 % at 15°. The sky is unchanged. Cost, mostly the sun's casters found one cell
+/// wider for the ring's rays ([`Hierarchy::marched_extent`]): 166 casters over that
+/// path at 15° instead of 99, its frame 6 % longer.
+pub(crate) struct SunRing {
+    /// The direction marched toward.
+    pub(crate) to_sun: Vec3,
+    tiles: Vec<Grid<f32>>,
+}
+
+impl SunRing {
+    /// The tile at `offset` from the node (x, z), if one of the eight.
+    pub(crate) fn tile(&self, offset: IVec2) -> Option<&Grid<f32>> {
+        self.tiles.get(Ring::index(offset)?)
+    }
+}
+
+impl Hierarchy {
+    /// The grid node material `m`'s transmittance is marched from (its rays start in
+    /// all of it; the sun's casters are found for it): with the sun swept with the sky,
+    /// the sky sweep's (widened by the apron), else the sun responses' (widened by
+    /// `sun_apron`), and at least one cell past the node where it has an apron (its
+    /// [`SunRing`]).
+    pub(crate) fn marched_extent(&self, m: &NodeMaterial) -> GridDesc {
+        if self.params.sun_with_sky {
+            return *m.widened.as_ref().unwrap_or(&m.grid).desc();
+        }
+        let desc = *m.grid.desc();
+        match &m.widened {
+            Some(_) => widened(&desc, self.params.sun_apron.max(1)).unwrap_or(desc),
+            None => desc,
+        }
+    }
+
+    /// Node `key`'s [`SunRing`] for `to_sun`: `None` without an apron (no material
+    /// beyond the node's points).
+    pub(crate) fn march_ring(
+        &self,
+        sweeper: &mut dyn Sweeper,
+        key: NodeKey,
+        material: &NodeMaterial,
+        to_sun: Vec3,
+        fresh: &shadow::Fresh<'_>,
+    ) -> Result<Option<SunRing>, SweepError> {
+        let apron = self.params.apron;
+        let Some(wide) = material.widened.as_ref().filter(|_| apron > 0) else {
+            return Ok(None);
+        };
+        let sky = shadow::SkyMarch::new(self, key.depth, fresh);
+        let outside = |p: Vec3| sky.to_sky(p, to_sun);
+        let (desc, big) = (material.grid.desc(), wide.desc());
+        let tiles = Ring::OFFSETS
+            .into_iter()
+            .map(|o| {
+                let (lo, n) = tile_box(desc, apron, o);
+                let cells = crop_box(wide, big, lo, n);
+                crate::sun_move::march(sweeper, &cells, to_sun, &outside)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Some(SunRing { to_sun, tiles }))
+    }
+}
+
 /// `g`'s lowest `levels` levels (all of them where it has no more).
 pub(crate) fn lowest_levels<T: Copy>(g: Grid<T>, levels: u32) -> Result<Grid<T>, GridError> {
     let d = *g.desc();
@@ -638,5 +715,66 @@ mod tests {
                 "{beyond} beyond, {inside} inside"
             );
         }
+    }
+
+    /// A node's sun ring holds, one cell beyond each side and corner, the
+    /// transmittance its neighbour there holds at its outermost points (the same rays
+    /// through the same cells), not the node's own outermost points' (columns of many
+    /// heights under a sun 30° up: shadows cross the nodes' sides); without an apron a
+    /// node keeps none.
+    #[test]
+    fn the_suns_ring_is_what_the_neighbour_holds_beside_it() {
+        use crate::testing::{Columns, built_over};
+        let h = built_over(Box::new(Columns), 0, false);
+        assert!(
+            h.nodes
+                .values()
+                .all(|n| n.sun.as_ref().is_some_and(|g| g.ring.is_none()))
+        );
+        let h = built_over(Box::new(Columns), 1, false);
+        let (mut compared, mut worst, mut moved) = (0u32, 0.0f32, 0.0f32);
+        // The ring's rays leave its tile at once and go on through the materials held
+        // (`shadow::SkyMarch`), which steps a two-thousandth of the finest cell past
+        // each box's face it leaves: through the columns' medium (pass-through 0.4 a
+        // cell) up to three such steps let `0.4^(-0.006)` more through than the
+        // neighbour's march inside its own grid, never less.
+        let skipped = 0.4f32.powf(-0.006);
+        for (key, node) in &h.nodes {
+            let g = node.sun.as_ref().expect("a sun apart: every node has one");
+            for offset in Ring::OFFSETS {
+                let tile = g.ring_tile(offset).expect("an apron: a ring");
+                let at = NodeKey {
+                    depth: key.depth,
+                    index: key.index + offset,
+                };
+                let own = edge_of(&g.transmittance, offset, tile.desc());
+                let theirs = h.nodes.get(&at).and_then(|n| n.sun.as_ref());
+                for (i, (&t, &o)) in tile.data().iter().zip(own.data()).enumerate() {
+                    assert!((0.0..=1.0).contains(&t), "{key:?} {offset}: {t}");
+                    moved = moved.max((t - o).abs());
+                    let Some(s) = theirs else { continue };
+                    let p = tile.desc().position(tile.desc().coords(i).unwrap());
+                    let d = s.transmittance.desc();
+                    let (lo, hi) = d.point_bounds();
+                    // (Its own levels: the nodes end above their highest column.)
+                    if p.cmpge(lo).all() && p.cmple(hi).all() {
+                        let q = d.to_grid(p);
+                        assert!(
+                            (q - q.round()).abs().max_element() < 1e-3,
+                            "{p} on its points"
+                        );
+                        let b = s.transmittance.sample(p).unwrap();
+                        assert!(
+                            t >= b - 1e-6 && t <= b * skipped + 1e-6,
+                            "{key:?} {p}: {t} {b}"
+                        );
+                        worst = worst.max(t / b.max(1e-6));
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        assert!(compared > 1000, "{compared} points compared");
+        assert!(moved > 0.1, "the ring is not the node's edge: {moved}");
     }
 }

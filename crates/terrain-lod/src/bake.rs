@@ -432,6 +432,7 @@ impl WorldBake {
                 marched_to: b.to_sun,
                 with_sky: None,
                 march_stale: false,
+                ring: None,
             })),
             (Some(s), _) => {
                 Err(

@@ -77,6 +77,8 @@ struct Done {
     sun: Option<GridSun>,
     /// A re-marched transmittance, for the sun shown.
     marched: Option<lightgrid_core::Grid<f32>>,
+    /// The transmittance beyond the node's points for the direction it shows.
+    ring: Option<crate::apron::SunRing>,
     times: StageTimes,
 }
 
@@ -243,20 +245,13 @@ impl Hierarchy {
         stats: &mut FrameStats,
     ) -> Result<Vec<Job>, LodError> {
         let dirs = self.sun_directions();
-        // The grid a job's march runs on (its rays start in all of it): with the sun
-        // swept with the sky, the sky sweep's (widened by the apron), else the sun's.
+        // The grid a job's marches run on (their rays start in all of it).
         let grid = |this: &Self, j: &Job| {
             let m = match j.material {
                 Some(i) => &materials[i],
                 None => &this.nodes[&j.key].material,
             };
-            let marched = if this.params.sun_with_sky {
-                *m.widened.as_ref().unwrap_or(&m.grid).desc()
-            } else {
-                this.sun_material(m)
-                    .map_or(*m.grid.desc(), |(w, _)| *w.desc())
-            };
-            (j.key, marched)
+            (j.key, this.marched_extent(m))
         };
         if self.params.budget_ms.is_none() {
             let lit: Vec<_> = jobs
@@ -613,6 +608,12 @@ impl Hierarchy {
                         g.marched_to = to_sun;
                         g.march_stale = false;
                     }
+                    if let (Some(r), Some(g)) = (
+                        done.ring,
+                        self.nodes.get_mut(&done.key).and_then(|n| n.sun.as_mut()),
+                    ) {
+                        g.ring = (r.to_sun == g.marched_to).then_some(r);
+                    }
                 }
                 Err(e) => {
                     first_error.get_or_insert(e);
@@ -674,6 +675,7 @@ impl Hierarchy {
         Some(match g.with_sky {
             Some(_) => GridSun {
                 march_stale: g.march_stale,
+                ring: g.ring,
                 ..GridSun::marched(g.transmittance, self.sky_sun().unwrap_or(sun), g.marched_to)
             },
             None => GridSun {
@@ -759,11 +761,25 @@ impl Hierarchy {
             })?),
             _ => None,
         };
+        // The transmittance beyond the node's points, for the direction it will show
+        // (its sky's ring, read beside it, may still be to come: a new node's sun job
+        // runs beside its sky's).
+        let shown = match (&marched, self.sun) {
+            (Some(_), Some(s)) => Some(s.to_sun),
+            _ => sun.as_ref().map(|g| g.marched_to),
+        };
+        let ring = match shown {
+            Some(to_sun) => timed(&mut times.sun_sweep, || {
+                self.march_ring(sweeper, job.key, material, to_sun, fresh)
+            })?,
+            None => None,
+        };
         Ok(Done {
             key: job.key,
             node,
             sun,
             marched,
+            ring,
             times,
         })
     }
@@ -873,6 +889,7 @@ impl Hierarchy {
             marched_to: sun.to_sun,
             with_sky: None,
             march_stale: false,
+            ring: None,
         }))
     }
 

@@ -10,7 +10,9 @@
 //! material is composed (not swept) if no node, fresh material or caster holds it; the
 //! march reads casters as it reads nodes.
 //!
-//! Which nodes: those whose rectangle meets the node's rectangle swept toward the sun,
+//! Which nodes: those whose rectangle meets the node's rectangle (one cell wider where
+//! it has an apron: the rays of its sun's ring, `apron::SunRing`, start there) swept
+//! toward the sun,
 //! where over some column of the finest material held above it (a built, composed or
 //! caster ancestor's whose column nothing lies above, else the world grid's) the lowest
 //! ray (from the node's bottom, at the least horizontal distance to the column, widened

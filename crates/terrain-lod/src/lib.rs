@@ -280,6 +280,11 @@ struct GridSun {
     /// composed (a new node's interim march under a time budget: [`crate::casters`]):
     /// shown until it is marched again, not current.
     march_stale: bool,
+    /// A node's transmittance one cell beyond its points, marched over its apron's
+    /// first ring ([`apron::SunRing`]): read in the strip beside a neighbour not built.
+    /// `None` without an apron (or for the world grid); read only while marched for
+    /// `marched_to`.
+    ring: Option<apron::SunRing>,
 }
 
 /// The sun responses of one layer ([`Layer::sun`]), for unit sun irradiance.

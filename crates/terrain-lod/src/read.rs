@@ -82,7 +82,8 @@ impl Hierarchy {
     /// alone, or where the read (moved half a cell along `n`) falls between the serving
     /// node's points and a neighbour's, the nodes of its depth that hold the lookup's
     /// corners, each weighted by its share of them ([`lightgrid_core::seam`]); a node
-    /// not built there read from the serving node's ring ([`crate::apron::Ring`]). The
+    /// not built there read from the serving node's ring ([`crate::apron::Ring`]), its
+    /// transmittance from its sun's ([`crate::apron::SunRing`]) where kept. The
     /// serving grid alone where such a node has no ring to stand for it, or a built one
     /// does not reach `p`'s height.
     fn shares(&self, p: Vec3, n: Option<Vec3>) -> ([Share<'_>; 4], usize) {
@@ -91,6 +92,7 @@ impl Hierarchy {
                 light: &self.world,
                 halves: self.world_horizon.as_ref(),
                 sun: self.sun_at(p),
+                beyond: None,
                 w: 1.0,
             };
             return ([world; 4], 1);
@@ -101,6 +103,7 @@ impl Hierarchy {
             light: &node.light,
             halves: node.horizon.as_ref(),
             sun: self.node_sun_at(key, node, p),
+            beyond: None,
             w: 1.0,
         };
         let desc = node.light.desc();
@@ -122,14 +125,16 @@ impl Hierarchy {
             };
             let Some(m) = self.nodes.get(&k) else {
                 // A neighbour not built: its share is its tile's outermost points, the
-                // ring's where the node keeps one (its sun the node's own, clamped),
-                // else the node's own read stands alone.
+                // ring's where the node keeps one (its scattered sun the node's own,
+                // clamped; its transmittance the sun's ring where the node's own sun
+                // keeps one), else the node's own read stands alone.
                 match node.ring.as_ref().and_then(|r| r.tile(offset)) {
                     Some((light, halves)) if halves.is_some() == node.horizon.is_some() => {
                         *slot = Share {
                             light,
                             halves,
                             sun: own.sun,
+                            beyond: own.sun.and_then(|(_, g)| g.ring_tile(offset)),
                             w,
                         };
                         continue;
@@ -148,6 +153,7 @@ impl Hierarchy {
                 } else {
                     self.node_sun_at(k, m, p)
                 },
+                beyond: None,
                 w,
             };
         }
@@ -201,6 +207,9 @@ struct Share<'a> {
     light: &'a LightGrid,
     halves: Option<&'a HorizonGrid>,
     sun: Option<(SunLight, &'a GridSun)>,
+    /// The transmittance read instead of the sun's own: a ring tile's
+    /// ([`crate::apron::SunRing`]), on `light`'s layout.
+    beyond: Option<&'a Grid<f32>>,
     w: f32,
 }
 
@@ -333,10 +342,12 @@ impl Hierarchy {
         })
     }
 
-    /// The sun's transmittance at `p` in `[0, 1]` (0 without a sun).
+    /// The sun's transmittance at `p` in `[0, 1]` (0 without a sun): `beyond`'s where
+    /// given (a ring tile's), else the sun's grid's.
     #[inline]
     fn transmittance_at(
         sun: Option<(SunLight, &GridSun)>,
+        beyond: Option<&Grid<f32>>,
         at: &Lookup,
         p: Vec3,
         n: Option<Vec3>,
@@ -344,7 +355,7 @@ impl Hierarchy {
         let Some((_, g)) = sun else {
             return Ok(0.0);
         };
-        let t = at.read(&g.transmittance, p, n)?;
+        let t = at.read(beyond.unwrap_or(&g.transmittance), p, n)?;
         // (Trilinear weights may sum to 1 + 1 ulp.)
         Ok(t.clamp(0.0, 1.0))
     }
@@ -395,11 +406,11 @@ impl Hierarchy {
         n: Option<Vec3>,
     ) -> Result<f32, GridError> {
         if let [(one, at)] = shares {
-            return Self::transmittance_at(one.sun, at, p, n);
+            return Self::transmittance_at(one.sun, one.beyond, at, p, n);
         }
         let mut t = 0.0;
         for (s, at) in shares {
-            t += Self::transmittance_at(s.sun, at, p, n)? * s.w;
+            t += Self::transmittance_at(s.sun, s.beyond, at, p, n)? * s.w;
         }
         Ok(t.clamp(0.0, 1.0))
     }

@@ -13,6 +13,15 @@ use crate::{
 };
 
 impl GridSun {
+    /// Its [`apron::SunRing`]'s tile at `offset` from the node (x, z), where it keeps one
+    /// marched for the direction its transmittance is.
+    pub(crate) fn ring_tile(&self, offset: lightgrid_core::glam::IVec2) -> Option<&Grid<f32>> {
+        self.ring
+            .as_ref()
+            .filter(|r| r.to_sun == self.marched_to)
+            .and_then(|r| r.tile(offset))
+    }
+
     /// Marks the scattered sun to be swept again, shown until then (`to_sun` zero; with
     /// the sun swept with the sky, the grid's sky sweep: `with_sky` none).
     pub(crate) fn mark_scattered_stale(&mut self) {
@@ -36,6 +45,7 @@ impl GridSun {
             marched_to,
             with_sky: Some(sky.irradiance),
             march_stale: false,
+            ring: None,
         }
     }
 }
@@ -136,6 +146,7 @@ impl Hierarchy {
             marched_to: scattered_to,
             with_sky: None,
             march_stale: false,
+            ring: None,
         };
         if sun.to_sun != scattered_to {
             g.transmittance = timed(&mut times.sun_sweep, || {

@@ -264,7 +264,7 @@ impl Hierarchy {
         if self.params.budget_ms.is_none() {
             let lit: Vec<_> = keys
                 .iter()
-                .map(|k| (*k, *self.nodes[k].material.grid.desc()))
+                .map(|k| (*k, self.marched_extent(&self.nodes[k].material)))
                 .collect();
             self.compose_casters(&lit, &[to_sun], &[])?;
         }
@@ -279,10 +279,12 @@ impl Hierarchy {
             let n = &self.nodes[&key];
             let fresh = shadow::Fresh::default();
             let t = self.march_node(sweeper, key, &n.material, to_sun, &fresh)?;
+            let ring = self.march_ring(sweeper, key, &n.material, to_sun, &fresh)?;
             if let Some(g) = self.nodes.get_mut(&key).and_then(|n| n.sun.as_mut()) {
                 g.transmittance = t;
                 g.marched_to = to_sun;
                 g.march_stale = false;
+                g.ring = ring;
             }
         }
         Ok(())
@@ -356,5 +358,6 @@ pub(crate) fn world_grid_sun(
         marched_to: to_sun,
         with_sky: None,
         march_stale: false,
+        ring: None,
     })
 }

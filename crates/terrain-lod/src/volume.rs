@@ -134,8 +134,10 @@ struct Layer {
     sun_folded: bool,
     /// Its sun response alone (kept where a finer grid's is stale and reads this one's).
     sun: Option<Grid<Moments>>,
-    /// Its ring's tiles reduced ([`crate::apron::Ring`]), each with the sun of the
-    /// node's points beside it (the node's clamped read); in the ring's order.
+    /// Its ring's tiles reduced ([`crate::apron::Ring`]), each with the scattered sun of
+    /// the node's points beside it (the node's clamped read) and the transmittance of
+    /// its sun's ring ([`crate::apron::SunRing`]; without one, the node's points'); in
+    /// the ring's order.
     ring: Option<Vec<Grid<Moments>>>,
 }
 
@@ -176,6 +178,7 @@ impl<'a> Reduced<'a> {
                     ),
                 };
                 let own_sun = sun.and_then(|e| own_sun.map(|s| (s, e)));
+                let sun_ring = own_sun.map(|(s, _)| s);
                 let valid = material
                     .filter(|m| m.desc() == grid.desc())
                     .map(lightgrid_core::validity::valid_points);
@@ -185,12 +188,21 @@ impl<'a> Reduced<'a> {
                 let ring = k.and_then(|k| h.nodes[&k].ring.as_ref()).map(|r| {
                     r.tiles()
                         .map(|(offset, tile)| {
-                            // The node's sun at its points beside the tile.
+                            // The node's sun at its points beside the tile; the
+                            // transmittance its sun's ring holds there, where kept.
+                            let beyond = sun_ring.and_then(|g| g.ring_tile(offset));
                             let edge = own_sun.map(|(s, e)| {
                                 let d = tile.desc();
                                 (
                                     s.scattered.map(|g| crate::apron::edge_of(g, offset, d)),
-                                    crate::apron::edge_of(s.transmittance, offset, d),
+                                    match beyond {
+                                        Some(t) => std::borrow::Cow::Borrowed(t),
+                                        None => std::borrow::Cow::Owned(crate::apron::edge_of(
+                                            s.transmittance,
+                                            offset,
+                                            d,
+                                        )),
+                                    },
                                     e,
                                 )
                             });

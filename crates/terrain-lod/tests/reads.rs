@@ -240,8 +240,9 @@ fn a_new_node_marches_its_sun_at_once_and_sweeps_it_later() {
 
 /// Beside a neighbour not built (here beyond the world's edges), a node swept over an
 /// apron reads the light its sweep computed one cell beyond it (`HierarchyParams::apron`,
-/// its ring): linear from its outermost points, as across a seam; without an apron the
-/// read is clamped there. The light volume's sampler reads the same.
+/// its ring), and the sun's transmittance marched there: linear from its outermost
+/// points, as across a seam; without an apron the read is clamped there. The light
+/// volume's sampler reads the same.
 #[test]
 fn beside_a_neighbour_not_built_a_node_reads_its_apron_ring() {
     // Under the layer, on the level of clear cells above the ground (the volume gives
@@ -256,6 +257,7 @@ fn beside_a_neighbour_not_built_a_node_reads_its_apron_ring() {
         let mut h =
             field::over_varying_layer(Vec3::splat(0.5), Box::new(CpuSweeper::new()), params);
         h.update(CAMERA).unwrap();
+        let mut sun_moved = false;
         let volume = h.volume_sampler().unwrap();
         // The finest nodes over 0..16 and 48..64 m: their outermost points at 1 and 63,
         // the world's edges at 0 and 64.
@@ -263,6 +265,18 @@ fn beside_a_neighbour_not_built_a_node_reads_its_apron_ring() {
             assert_eq!(h.grid_at(at(last + 0.4 * out)).desc().h(), CELL);
             let la = h.light(at(last), None).unwrap();
             let read = |f: f32| h.light(at(last + out * CELL * f), None).unwrap();
+            let ta = h.sun_transmittance(at(last), None).unwrap();
+            let t = |f: f32| {
+                h.sun_transmittance(at(last + out * CELL * f), None)
+                    .unwrap()
+            };
+            let t_ring = (t(0.25) - ta * 0.75) * 4.0;
+            assert!((0.0..=1.0).contains(&t_ring), "{t_ring}");
+            if apron == 0 {
+                assert!((t_ring - ta).abs() <= 1e-6, "clamped: {t_ring} {ta}");
+            }
+            // (Beyond −x the sun's rays cross the layer there: a third as much.)
+            sun_moved |= (t_ring - ta).abs() > 0.1 * ta;
             // The ring's light, from the read a quarter of the way out.
             let ring = (read(0.25) - la * 0.75) * 4.0;
             let moved = (total(&ring) - total(&la)).abs();
@@ -275,6 +289,12 @@ fn beside_a_neighbour_not_built_a_node_reads_its_apron_ring() {
                 );
             }
             for f in [0.1f32, 0.4, 0.4999] {
+                let want = ta * (1.0 - f) + t_ring * f;
+                assert!(
+                    (t(f) - want).abs() <= 1e-5,
+                    "{apron} {last} {f}: {} {want}",
+                    t(f)
+                );
                 let want = la * (1.0 - f) + ring * f;
                 for (g, w) in read(f).0.iter().zip(want.0.iter()) {
                     assert!(
@@ -291,5 +311,6 @@ fn beside_a_neighbour_not_built_a_node_reads_its_apron_ring() {
                 );
             }
         }
+        assert_eq!(sun_moved, apron > 0, "the sun's ring read beyond the node");
     }
 }
