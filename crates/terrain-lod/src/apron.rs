@@ -187,15 +187,33 @@ impl Hierarchy {
         to_sun: Vec3,
         fresh: &shadow::Fresh<'_>,
     ) -> Result<Grid<f32>, SweepError> {
-        let sky = shadow::SkyMarch::new(self, key.depth, fresh);
-        let outside = |p: Vec3| sky.to_sky(p, to_sun);
         let wide = self.sun_material(material);
         let m = wide.as_ref().map_or(&material.grid, |w| &*w.0);
-        let t = crate::sun_move::march(sweeper, m, to_sun, &outside)?;
+        let t = self
+            .march_grids(sweeper, (key, fresh), to_sun, &[m])?
+            .remove(0);
         Ok(match &wide {
             None => t,
             Some((w, k)) => crop(&t, w.desc(), material.grid.desc(), *k),
         })
+    }
+
+    /// Each of `grids` (node `key`'s, or beside it) marched toward `to_sun`: every
+    /// point's ray through its grid, then on through the materials the hierarchy holds
+    /// down to `key`'s depth (`fresh`: those composed this frame).
+    fn march_grids(
+        &self,
+        sweeper: &mut dyn Sweeper,
+        (key, fresh): (NodeKey, &shadow::Fresh<'_>),
+        to_sun: Vec3,
+        grids: &[&MaterialGrid],
+    ) -> Result<Vec<Grid<f32>>, SweepError> {
+        let sky = shadow::SkyMarch::new(self, key.depth, fresh);
+        let outside = |p: Vec3| sky.to_sky(p, to_sun);
+        grids
+            .iter()
+            .map(|m| crate::sun_move::march(sweeper, m, to_sun, &outside))
+            .collect()
     }
 }
 
@@ -252,26 +270,24 @@ impl Hierarchy {
     pub(crate) fn march_ring(
         &self,
         sweeper: &mut dyn Sweeper,
-        key: NodeKey,
+        (key, fresh): (NodeKey, &shadow::Fresh<'_>),
         material: &NodeMaterial,
         to_sun: Vec3,
-        fresh: &shadow::Fresh<'_>,
     ) -> Result<Option<SunRing>, SweepError> {
         let apron = self.params.apron;
         let Some(wide) = material.widened.as_ref().filter(|_| apron > 0) else {
             return Ok(None);
         };
-        let sky = shadow::SkyMarch::new(self, key.depth, fresh);
-        let outside = |p: Vec3| sky.to_sky(p, to_sun);
         let (desc, big) = (material.grid.desc(), wide.desc());
-        let tiles = Ring::OFFSETS
+        let cells: Vec<MaterialGrid> = Ring::OFFSETS
             .into_iter()
             .map(|o| {
                 let (lo, n) = tile_box(desc, apron, o);
-                let cells = crop_box(wide, big, lo, n);
-                crate::sun_move::march(sweeper, &cells, to_sun, &outside)
+                crop_box(wide, big, lo, n)
             })
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect();
+        let cells: Vec<&MaterialGrid> = cells.iter().collect();
+        let tiles = self.march_grids(sweeper, (key, fresh), to_sun, &cells)?;
         Ok(Some(SunRing { to_sun, tiles }))
     }
 }

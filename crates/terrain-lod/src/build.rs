@@ -770,7 +770,7 @@ impl Hierarchy {
         };
         let ring = match shown {
             Some(to_sun) => timed(&mut times.sun_sweep, || {
-                self.march_ring(sweeper, job.key, material, to_sun, fresh)
+                self.march_ring(sweeper, (job.key, fresh), material, to_sun)
             })?,
             None => None,
         };

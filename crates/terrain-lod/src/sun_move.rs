@@ -279,7 +279,7 @@ impl Hierarchy {
             let n = &self.nodes[&key];
             let fresh = shadow::Fresh::default();
             let t = self.march_node(sweeper, key, &n.material, to_sun, &fresh)?;
-            let ring = self.march_ring(sweeper, key, &n.material, to_sun, &fresh)?;
+            let ring = self.march_ring(sweeper, (key, &fresh), &n.material, to_sun)?;
             if let Some(g) = self.nodes.get_mut(&key).and_then(|n| n.sun.as_mut()) {
                 g.transmittance = t;
                 g.marched_to = to_sun;
