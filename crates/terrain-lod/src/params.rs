@@ -32,7 +32,12 @@ pub struct HierarchyParams {
     /// nodes: 1.89 times); set it with `node_points`. With an apron, a sweeper that
     /// keeps its grids on a device (the GPU sweeper) has its widened grid's copy
     /// dropped: readers sample the node's grid kept on the CPU (set 0 to sample in
-    /// place).
+    /// place). With the sun kept apart, a node also keeps its transmittance marched one
+    /// cell past its points, which a read beside a neighbour not built takes (its
+    /// shadows where they fall there, not half a cell off), and the sun's casters are
+    /// found one cell wider for those rays: on the frame bench's forest at 15°, 166
+    /// casters over the path instead of 99 and a frame 6 % longer, for the finest
+    /// depth's largest error of sky and sun over the local brightest 14.4 → 10.5 %.
     pub apron: u32,
     /// Cells of the apron ([`HierarchyParams::apron`], at most that) that a node's sun
     /// responses are swept and marched over too (0: none, the default): the sun's
