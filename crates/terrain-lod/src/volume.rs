@@ -143,6 +143,10 @@ struct Layer {
 
 /// The ready nodes of one depth as a dense table over their lattice indices.
 struct DepthTable {
+    /// The quadtree's corner and a node's side at this depth, metres (a point's node
+    /// is `floor((p.xz - corner) / side)`, as `Hierarchy::node_at` finds it).
+    corner: Vec2,
+    side: f32,
     lo: IVec2,
     size: IVec2,
     /// Index into the layers, `u32::MAX` where no node is ready.
@@ -250,7 +254,13 @@ impl<'a> Reduced<'a> {
                     let c = idx - lo;
                     layer[(c.x + size.x * c.y) as usize] = i;
                 }
-                DepthTable { lo, size, layer }
+                DepthTable {
+                    corner: h.heightmap_lo,
+                    side: h.params.node_size(d),
+                    lo,
+                    size,
+                    layer,
+                }
             })
             .collect();
         Self { h, layers, depths }
@@ -258,21 +268,36 @@ impl<'a> Reduced<'a> {
 
     /// The layers holding `p`, finest first (the world grid last).
     fn holding(&self, p: Vec3) -> impl Iterator<Item = &Layer> {
-        let xz = Vec2::new(p.x, p.z);
         self.depths
             .iter()
-            .enumerate()
             .rev()
-            .filter_map(move |(d, t)| {
-                let c = self.h.node_at(d as u32 + 1, xz).index - t.lo;
-                if c.cmplt(IVec2::ZERO).any() || c.cmpge(t.size).any() {
-                    return None;
-                }
-                let i = t.layer[(c.x + t.size.x * c.y) as usize];
-                let l = self.layers.get(i as usize)?;
-                (p.y >= l.levels.0 && p.y <= l.levels.1).then_some(l)
-            })
+            .filter_map(move |t| self.held_by(t, p))
             .chain(std::iter::once(&self.layers[0]))
+    }
+
+    /// The first of [`Reduced::holding`], without the iterator (a volume's every point
+    /// asks it).
+    #[inline]
+    fn finest_holding(&self, p: Vec3) -> &Layer {
+        for t in self.depths.iter().rev() {
+            if let Some(l) = self.held_by(t, p) {
+                return l;
+            }
+        }
+        &self.layers[0]
+    }
+
+    /// The ready node of table `t`'s depth holding `p`, if any.
+    #[inline]
+    fn held_by(&self, t: &DepthTable, p: Vec3) -> Option<&Layer> {
+        let c = floor_index((Vec2::new(p.x, p.z) - t.corner) / t.side) - t.lo;
+        if c.cmplt(IVec2::ZERO).any() || c.cmpge(t.size).any() {
+            return None;
+        }
+        let l = self
+            .layers
+            .get(t.layer[(c.x + t.size.x * c.y) as usize] as usize)?;
+        (p.y >= l.levels.0 && p.y <= l.levels.1).then_some(l)
     }
 
     /// `layer`'s moments at `p` (a stale sun response's taken from the finest coarser
@@ -284,6 +309,14 @@ impl<'a> Reduced<'a> {
     /// [`Reduced::read`] of `light`, `layer`'s own or one of its ring's tiles.
     fn read_on(&self, layer: &Layer, light: &Grid<Moments>, p: Vec3) -> Result<Moments, GridError> {
         let mut m = light.sample(p)?;
+        self.add_stale_sun(layer, p, &mut m)?;
+        Ok(m)
+    }
+
+    /// Where `layer`'s sun response is not folded into its light (stale, or none),
+    /// the finest coarser grid's with a current one, added to `m`.
+    #[inline]
+    fn add_stale_sun(&self, layer: &Layer, p: Vec3, m: &mut Moments) -> Result<(), GridError> {
         if self.h.sun.is_some() && !layer.sun_folded {
             let depth = layer.key.map_or(0, |k| k.depth);
             let coarser = self
@@ -293,7 +326,7 @@ impl<'a> Reduced<'a> {
                 m.add_scaled(&s.sample(p)?, 1.0);
             }
         }
-        Ok(m)
+        Ok(())
     }
 
     /// Where `p` lies between the points of the node `first` and a neighbour's, the
@@ -342,13 +375,25 @@ impl<'a> Reduced<'a> {
         if !p.is_finite() {
             return Err(GridError::invalid("p", p, "must be finite"));
         }
-        let first = self
-            .holding(p)
-            .next()
-            .expect("the world grid holds every point");
-        let m = match self.across_seam(first, p) {
-            Some(m) => m?,
-            None => self.read(first, p)?,
+        let first = self.finest_holding(p);
+        // Within the node's points (most of a volume's points) its own trilinear read,
+        // the grid coordinates found once; beside them the read across the seam.
+        let desc = first.light.desc();
+        let g = desc.to_grid(p);
+        let last = desc.dims().as_vec3() - 1.0;
+        let inside = g.x >= 0.0 && g.x <= last.x && g.z >= 0.0 && g.z <= last.z;
+        // (The world grid has no seam: it clamps.)
+        let m = if inside || first.key.is_none() {
+            let mut m = first
+                .light
+                .blend(lightgrid_core::trilinear_indices(desc.dims(), g));
+            self.add_stale_sun(first, p, &mut m)?;
+            m
+        } else {
+            match self.across_seam(first, p) {
+                Some(m) => m?,
+                None => self.read(first, p)?,
+            }
         };
         let r = m.v / m.s;
         let dominant = if m.s > 0.0 && r.is_finite() {
@@ -370,5 +415,53 @@ impl<'a> Reduced<'a> {
                 0.0
             },
         })
+    }
+}
+
+/// `floor(q)` as integers, exact for every finite `q` within `±2^30` (a volume's lookups:
+/// the tables' indices are far smaller; larger values are clamped there first, which
+/// leaves them outside every table as before): a truncation and a compare, where
+/// `f32::floor` is a libm call a coordinate on the baseline x86-64 target.
+#[inline]
+fn floor_index(q: Vec2) -> IVec2 {
+    const LIMIT: f32 = (1u32 << 30) as f32;
+    let q = q.clamp(Vec2::splat(-LIMIT), Vec2::splat(LIMIT));
+    let t = q.as_ivec2();
+    t - IVec2::from(q.cmplt(t.as_vec2()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `floor_index` is `floor` wherever the volume's tables can look: at and beside
+    /// integers, negative and positive, and clamped far out.
+    #[test]
+    fn the_fast_floor_is_the_floor() {
+        let mut q = -70_000.0f32;
+        while q < 70_000.0 {
+            for v in [q, q.next_up(), q.next_down(), q + 0.5] {
+                let want = Vec2::new(v, -v).floor().as_ivec2();
+                assert_eq!(floor_index(Vec2::new(v, -v)), want, "{v}");
+            }
+            q += 0.731;
+        }
+        for v in [
+            -1.0f32,
+            -0.0,
+            0.0,
+            1.0,
+            -1e-30,
+            1e-30,
+            16777216.0,
+            -16777216.0,
+        ] {
+            assert_eq!(
+                floor_index(Vec2::splat(v)),
+                Vec2::splat(v).floor().as_ivec2()
+            );
+        }
+        let far = floor_index(Vec2::new(1e30, -1e30));
+        assert_eq!(far, IVec2::new(1 << 30, -(1 << 30)));
     }
 }
