@@ -1010,7 +1010,11 @@ impl Hierarchy {
         let s = self.params.node_size(depth);
         NodeKey {
             depth,
-            index: ((p - self.heightmap_lo) / s).floor().as_ivec2(),
+            index: {
+                let q = (p - self.heightmap_lo) / s;
+                // (`floor` without a libm call a coordinate: the same integers.)
+                IVec2::new(shadow::floor_i32(q.x), shadow::floor_i32(q.y))
+            },
         }
     }
 

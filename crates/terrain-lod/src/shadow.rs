@@ -65,7 +65,7 @@ const MAX_INDEX: i64 = 1 << 20;
 /// `floor(x) as i32` without a call to `floorf` (the baseline x86-64 has no rounding
 /// instruction): the same integer for every `f32`, NaN (0) and the saturated ends
 /// included.
-fn floor_i32(x: f32) -> i32 {
+pub(crate) fn floor_i32(x: f32) -> i32 {
     let i = x as i32;
     if (i as f32) > x {
         i.saturating_sub(1)

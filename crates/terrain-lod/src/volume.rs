@@ -14,6 +14,7 @@ use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{Blend, Grid, GridError, LightGrid, VolumeSample};
 use rayon::prelude::*;
 
+use crate::shadow::floor_i32;
 use crate::{GridSun, Hierarchy, NodeKey};
 use lightgrid_core::seam::seam_shares;
 
@@ -290,7 +291,8 @@ impl<'a> Reduced<'a> {
     /// The ready node of table `t`'s depth holding `p`, if any.
     #[inline]
     fn held_by(&self, t: &DepthTable, p: Vec3) -> Option<&Layer> {
-        let c = floor_index((Vec2::new(p.x, p.z) - t.corner) / t.side) - t.lo;
+        let q = (Vec2::new(p.x, p.z) - t.corner) / t.side;
+        let c = IVec2::new(floor_i32(q.x), floor_i32(q.y)) - t.lo;
         if c.cmplt(IVec2::ZERO).any() || c.cmpge(t.size).any() {
             return None;
         }
@@ -415,53 +417,5 @@ impl<'a> Reduced<'a> {
                 0.0
             },
         })
-    }
-}
-
-/// `floor(q)` as integers, exact for every finite `q` within `±2^30` (a volume's lookups:
-/// the tables' indices are far smaller; larger values are clamped there first, which
-/// leaves them outside every table as before): a truncation and a compare, where
-/// `f32::floor` is a libm call a coordinate on the baseline x86-64 target.
-#[inline]
-fn floor_index(q: Vec2) -> IVec2 {
-    const LIMIT: f32 = (1u32 << 30) as f32;
-    let q = q.clamp(Vec2::splat(-LIMIT), Vec2::splat(LIMIT));
-    let t = q.as_ivec2();
-    t - IVec2::from(q.cmplt(t.as_vec2()))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `floor_index` is `floor` wherever the volume's tables can look: at and beside
-    /// integers, negative and positive, and clamped far out.
-    #[test]
-    fn the_fast_floor_is_the_floor() {
-        let mut q = -70_000.0f32;
-        while q < 70_000.0 {
-            for v in [q, q.next_up(), q.next_down(), q + 0.5] {
-                let want = Vec2::new(v, -v).floor().as_ivec2();
-                assert_eq!(floor_index(Vec2::new(v, -v)), want, "{v}");
-            }
-            q += 0.731;
-        }
-        for v in [
-            -1.0f32,
-            -0.0,
-            0.0,
-            1.0,
-            -1e-30,
-            1e-30,
-            16777216.0,
-            -16777216.0,
-        ] {
-            assert_eq!(
-                floor_index(Vec2::splat(v)),
-                Vec2::splat(v).floor().as_ivec2()
-            );
-        }
-        let far = floor_index(Vec2::new(1e30, -1e30));
-        assert_eq!(far, IVec2::new(1 << 30, -(1 << 30)));
     }
 }
