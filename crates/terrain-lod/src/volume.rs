@@ -14,7 +14,6 @@ use lightgrid_core::glam::{IVec2, Vec2, Vec3};
 use lightgrid_core::{Blend, Grid, GridError, LightGrid, VolumeSample};
 use rayon::prelude::*;
 
-use crate::shadow::floor_i32;
 use crate::{GridSun, Hierarchy, NodeKey};
 use lightgrid_core::seam::seam_shares;
 
@@ -144,10 +143,7 @@ struct Layer {
 
 /// The ready nodes of one depth as a dense table over their lattice indices.
 struct DepthTable {
-    /// The quadtree's corner and a node's side at this depth, metres (a point's node
-    /// is `floor((p.xz - corner) / side)`, as `Hierarchy::node_at` finds it).
-    corner: Vec2,
-    side: f32,
+    depth: u32,
     lo: IVec2,
     size: IVec2,
     /// Index into the layers, `u32::MAX` where no node is ready.
@@ -256,8 +252,7 @@ impl<'a> Reduced<'a> {
                     layer[(c.x + size.x * c.y) as usize] = i;
                 }
                 DepthTable {
-                    corner: h.heightmap_lo,
-                    side: h.params.node_size(d),
+                    depth: d,
                     lo,
                     size,
                     layer,
@@ -291,8 +286,7 @@ impl<'a> Reduced<'a> {
     /// The ready node of table `t`'s depth holding `p`, if any.
     #[inline]
     fn held_by(&self, t: &DepthTable, p: Vec3) -> Option<&Layer> {
-        let q = (Vec2::new(p.x, p.z) - t.corner) / t.side;
-        let c = IVec2::new(floor_i32(q.x), floor_i32(q.y)) - t.lo;
+        let c = self.h.node_at(t.depth, Vec2::new(p.x, p.z)).index - t.lo;
         if c.cmplt(IVec2::ZERO).any() || c.cmpge(t.size).any() {
             return None;
         }
@@ -383,6 +377,7 @@ impl<'a> Reduced<'a> {
         let desc = first.light.desc();
         let g = desc.to_grid(p);
         let last = desc.dims().as_vec3() - 1.0;
+        // (`seam_shares`' own test: no neighbour's share on either axis.)
         let inside = g.x >= 0.0 && g.x <= last.x && g.z >= 0.0 && g.z <= last.z;
         // (The world grid has no seam: it clamps.)
         let m = if inside || first.key.is_none() {
