@@ -296,13 +296,8 @@ impl<'a> Reduced<'a> {
         (p.y >= l.levels.0 && p.y <= l.levels.1).then_some(l)
     }
 
-    /// `layer`'s moments at `p` (a stale sun response's taken from the finest coarser
-    /// grid with a current one).
-    fn read(&self, layer: &Layer, p: Vec3) -> Result<Moments, GridError> {
-        self.read_on(layer, &layer.light, p)
-    }
-
-    /// [`Reduced::read`] of `light`, `layer`'s own or one of its ring's tiles.
+    /// `layer`'s moments at `p` on `light`, its own grid or one of its ring's tiles (a
+    /// stale sun response's taken from the finest coarser grid with a current one).
     fn read_on(&self, layer: &Layer, light: &Grid<Moments>, p: Vec3) -> Result<Moments, GridError> {
         let mut m = light.sample(p)?;
         self.add_stale_sun(layer, p, &mut m)?;
@@ -389,7 +384,7 @@ impl<'a> Reduced<'a> {
         } else {
             match self.across_seam(first, p) {
                 Some(m) => m?,
-                None => self.read(first, p)?,
+                None => self.read_on(first, &first.light, p)?,
             }
         };
         let r = m.v / m.s;
