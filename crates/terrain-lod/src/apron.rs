@@ -12,8 +12,9 @@
 //! 1.6 / 1.8 / 3.2 / 3.3 % with one cell and 1.4 / 1.5 / 2.5 / 2.9 % with two, for
 //! `((n + 2a) / n)²` the points of each sky sweep (`n` points across, `a` the apron),
 //! which the point budget counts. With the default 32-point nodes three cells cost 1.41
-//! times the points, and the sky nests within 2 % RMSE at every depth (15° and 40°: 2.9
-//! / 2.6 / 2.2 / 3.0 % without, 1.0 / 1.0 / 1.8 / 1.9 % with three): the default. The
+//! times the points (15° and 40°: 2.9 / 2.6 / 2.2 / 3.0 % without, 1.0 / 1.0 / 1.8 /
+//! 1.9 % with three when first measured; now 1.2 / 1.2 / 1.8 / 2.1 % at 15°, the
+//! finest depth over issue 43's 2 %): the default. The
 //! neighbours of the node's own depth, where built, gave little as a halo instead (4.3
 //! → 4.0 % at depth 4): the apron's light is swept with the node's own levels, ground
 //! and passes.

@@ -25,10 +25,13 @@ pub struct HierarchyParams {
     /// material), and the point budget counts them: at a given budget fewer fine nodes
     /// are built a frame. At most `node_points`. By default 3: with the default
     /// 32-point nodes, 1.41 times the sky sweep's points, for which the sky nests
-    /// within 2 % RMSE of one sweep at each depth's own cell at every depth (the frame
-    /// bench's forest at 15° and 40°, depths 1–4: 2.9 / 2.6 / 2.2 / 3.0 % without, 1.0 /
-    /// 1.0 / 1.8 / 1.9 % with 3 cells; the repository's `docs/measurements.md`, "The
-    /// sides, and an apron"). Smaller nodes pay more for the same cells (16-point
+    /// within 1.2 / 1.2 / 1.8 / 2.1 % RMSE of one sweep at each depth's own cell at
+    /// depths 1–4 (the frame bench's forest at 15°; 1.0 / 1.0 / 1.6 / 1.9 % at 40°;
+    /// 2.9 / 2.6 / 2.2 / 3.0 % without an apron when first measured). With 4 cells the
+    /// finest depth's is 1.98 % at 15°, but the default point budget then builds fewer
+    /// nodes a frame and the camera path's error grows (the repository's
+    /// `docs/measurements.md`, "The sides, and an apron" and "A wider apron at the
+    /// defaults"). Smaller nodes pay more for the same cells (16-point
     /// nodes: 1.89 times); set it with `node_points`. With an apron, a sweeper that
     /// keeps its grids on a device (the GPU sweeper) has its widened grid's copy
     /// dropped: readers sample the node's grid kept on the CPU (set 0 to sample in
