@@ -66,6 +66,7 @@ use lightgrid_sky::ClearSky;
 use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, SunLight};
 use serde::Serialize;
 
+mod bins;
 mod host;
 mod kernel;
 mod mc;
@@ -345,6 +346,8 @@ pub struct Run {
     /// The finest depth's probes over the path against the 1 m sweep by where they
     /// read: the way they face and their distance from their node's side.
     pub finest_places: places::Places,
+    /// The finest depth's sky by the way it travels ([`bins`]).
+    pub finest_bins: bins::BinGroups,
     /// Mean frame, milliseconds.
     pub mean_ms: f64,
     /// Slowest frame, milliseconds.
@@ -721,6 +724,8 @@ struct Tally {
     peaks: peaks::PeakTally,
     /// The same over the path's second half ([`Run::peaks_second_half`]).
     peaks_second_half: peaks::PeakTally,
+    /// The finest depth's volume points' sky by bins ([`bins`]).
+    finest_bins: bins::BinTally,
 }
 
 /// The renderer's read of `field` at the probes: `lightgrid_render`'s sampler
@@ -884,6 +889,19 @@ fn frame(
             d => Some(&own[d - 1][..]),
         })
         .collect();
+    // The finest depth's volume points, each once (its six probes share it).
+    let volume_points: Vec<Vec3> = (VERTEX_SIDE * VERTEX_SIDE..probes.len())
+        .step_by(6)
+        .filter(|&i| depths[i] == finest)
+        .map(|i| probes[i].p)
+        .collect();
+    let coarser = finest.checked_sub(2).and_then(|k| refs.coarse.get(k));
+    bins::tally(
+        &mut tally.finest_bins,
+        h,
+        &volume_points,
+        (&refs.full, coarser),
+    )?;
     let side_of = |i: usize| places::nearest_side(h.grid_at(probes[i].p).desc(), probes[i].p);
     let at = peaks::Frame {
         frame: f,
@@ -1066,6 +1084,7 @@ fn run_elevation(
         error_by_depth_own: tally.by_depth_own.iter().map(Acc3::errors).collect(),
         finest_sun: tally.finest_sun.each_ref().map(Acc3::errors),
         finest_places: tally.finest_places.places(),
+        finest_bins: tally.finest_bins.groups(),
         peaks: tally.peaks.peaks(),
         peaks_second_half: tally.peaks_second_half.peaks(),
         sun_move_world_ms: world_ms,

@@ -263,6 +263,7 @@ fn nesting_lines(r: &Run) -> String {
         100.0 * coarse.direct.rmse
     );
     s.push_str(&super::places::lines(&r.finest_places));
+    s.push_str(&super::bins::line(&r.finest_bins));
     let by_depth: Vec<String> = r
         .error_by_depth_own
         .iter()
