@@ -346,7 +346,7 @@ pub struct Run {
     /// The finest depth's probes over the path against the 1 m sweep by where they
     /// read: the way they face and their distance from their node's side.
     pub finest_places: places::Places,
-    /// The finest depth's sky by the way it travels ([`bins`]).
+    /// The finest depth's sky by the way it travels (`frame/bins.rs`).
     pub finest_bins: bins::BinGroups,
     /// Mean frame, milliseconds.
     pub mean_ms: f64,
@@ -724,7 +724,7 @@ struct Tally {
     peaks: peaks::PeakTally,
     /// The same over the path's second half ([`Run::peaks_second_half`]).
     peaks_second_half: peaks::PeakTally,
-    /// The finest depth's volume points' sky by bins ([`bins`]).
+    /// The finest depth's volume points' sky by bins (`frame/bins.rs`).
     finest_bins: bins::BinTally,
 }
 
