@@ -200,7 +200,9 @@ impl Default for ComposeParams {
 /// above it receives 25–100 % of the exact `a π` with `Colour` and 89–100 % with
 /// `Reflecting` (the default), depending on where the surface falls in a cell, at
 /// cells of 0.5–4 m (`cargo run --release -p lightgrid-terrain-lod --example
-/// ground_band`).
+/// ground_band`). Over a slope both reflect less: `Reflecting` 83–88 % of a plane rising
+/// 1 in 5 at 0.5 m cells, and the light it sends near the horizon changes with the
+/// cell size (`--example slope_horizon`).
 /// Opaque cells (wholly under the band) are surfaces and keep the ground's colour
 /// either way.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
