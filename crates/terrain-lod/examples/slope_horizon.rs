@@ -16,7 +16,7 @@
 
 use std::f32::consts::PI;
 
-use lightgrid_core::dirs::{FIRST_HORIZONTAL, HORIZONTAL_BINS, NUM_DIRS, nearest_dir};
+use lightgrid_core::dirs::{FIRST_HORIZONTAL, HORIZONTAL_BINS, NUM_DIRS};
 use lightgrid_core::glam::{DVec3, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, HaloLayout, HorizonLight, LightField, MaterialSource,
@@ -72,31 +72,33 @@ impl Exact {
     fn new(n: u32, slope: f32) -> Self {
         let normal = Vec3::new(-slope, 1.0, 0.0).normalize();
         let ground = ALBEDO * (1.0 + normal.y) / 2.0;
-        let mut bins = BinLight::ZERO;
-        let mut down = HorizonLight::default();
-        let mut samples = Vec::with_capacity(n as usize);
-        let w = 4.0 * PI / n as f32;
-        for i in 0..n {
-            let y = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
-            let r = (1.0 - y * y).max(0.0).sqrt();
-            let a = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
-            let travel = DVec3::new(r * a.cos(), y, r * a.sin()).as_vec3();
-            let from = -travel;
-            let radiance = if from.dot(normal) < 0.0 {
+        // The radiance arriving from direction `from`.
+        let radiance = |from: Vec3| {
+            if from.dot(normal) < 0.0 {
                 ground
             } else if from.y > 0.0 {
                 1.0
             } else {
                 0.0
-            };
-            let d = nearest_dir(travel);
-            bins.0[d] += Vec3::splat(radiance * w);
-            if (FIRST_HORIZONTAL..FIRST_HORIZONTAL + HORIZONTAL_BINS).contains(&d) && travel.y < 0.0
-            {
-                down.0[d - FIRST_HORIZONTAL] += Vec3::splat(radiance * w);
             }
-            samples.push((travel, radiance, w));
-        }
+        };
+        let bins = BinLight::from_radiance(64, |from| Vec3::splat(radiance(from)));
+        // The light travelling down: arriving from above.
+        let falling = BinLight::from_radiance(64, |from| {
+            Vec3::splat(if from.y > 0.0 { radiance(from) } else { 0.0 })
+        });
+        let down = HorizonLight(std::array::from_fn(|k| falling.0[FIRST_HORIZONTAL + k]));
+        // A spherical Fibonacci set for the irradiance.
+        let w = 4.0 * PI / n as f32;
+        let samples = (0..n)
+            .map(|i| {
+                let y = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+                let r = (1.0 - y * y).max(0.0).sqrt();
+                let a = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+                let travel = DVec3::new(r * a.cos(), y, r * a.sin()).as_vec3();
+                (travel, radiance(-travel), w)
+            })
+            .collect();
         Self {
             bins,
             down,
