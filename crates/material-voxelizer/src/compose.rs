@@ -212,8 +212,9 @@ pub enum GroundBand {
     /// The albedo `w = 1 - ((1 - a) / (1 + a))^2` per channel, whose half-space
     /// reflects `a` (Kubelka–Munk's `R_inf`, Hapke's diffusive reflectance): a layer of
     /// it over ground that reflects `a` reflects `a` whatever its depth (Kubelka–Munk),
-    /// so the reflected sky is near right wherever the surface falls in a cell (the
-    /// sweep's medium is not the two-stream one: up to 11 % short). A medium's
+    /// so the reflected sky is near right wherever the surface falls in a cell (an
+    /// isotropic medium's radiative transfer is not the two-stream one: up to 11 %
+    /// short, in Monte Carlo of the same material too). A medium's
     /// reflection is not Lambertian in angle: the reflected direct sun reads 0.75–1.00
     /// of the exact at a 60° sun and 1.00–1.18 at 15° (against 0.20–1.00 and 0.33–1.00
     /// with `Colour`). The default.
