@@ -16,7 +16,7 @@
 
 use std::f32::consts::PI;
 
-use lightgrid_core::dirs::{FIRST_HORIZONTAL, HORIZONTAL_BINS, NUM_DIRS};
+use lightgrid_core::dirs::{FIRST_HORIZONTAL, HORIZONTAL_BINS};
 use lightgrid_core::glam::{DVec3, UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Boundary, GridDesc, HaloLayout, HorizonLight, LightField, MaterialSource,
@@ -115,16 +115,11 @@ impl Exact {
     }
 }
 
-/// The light's groups: down, horizontal going down, horizontal going up, up.
-fn groups(b: &BinLight, down: &HorizonLight) -> [f32; 4] {
-    let sum = |r: std::ops::Range<usize>| r.map(|i| b.0[i].x).sum::<f32>();
-    let going_down: f32 = down.0.iter().map(|v| v.x).sum();
-    [
-        sum(0..FIRST_HORIZONTAL),
-        going_down,
-        sum(FIRST_HORIZONTAL..FIRST_HORIZONTAL + HORIZONTAL_BINS) - going_down,
-        sum(FIRST_HORIZONTAL + HORIZONTAL_BINS..NUM_DIRS),
-    ]
+/// The horizontal bins' upward halves: the bins less their downward halves `down`.
+fn horizontal_up(b: &BinLight, down: &HorizonLight) -> f32 {
+    (0..HORIZONTAL_BINS)
+        .map(|k| b.0[FIRST_HORIZONTAL + k].x - down.0[k].x)
+        .sum()
 }
 
 /// The effective plane's height at `x` (the composed ground is lowered by the bias).
@@ -207,7 +202,7 @@ fn measure(
     o.outputs.horizon = true;
     let out = CpuSweeper::new().sweep(&material, &boundary, &o)?;
     let grid = SplitLightGrid::new(out.bins.ok_or("bins")?, out.horizon.ok_or("halves")?)?;
-    let want = groups(&exact.bins, &exact.down)[2];
+    let want = horizontal_up(&exact.bins, &exact.down);
     let mut m = Measured {
         down: [0.0; 4],
         across: [0.0; 4],
@@ -216,11 +211,11 @@ fn measure(
     let x = 0.5 * WIDE;
     for (k, above) in [1.0f32, 3.0, 5.0, 11.0].into_iter().enumerate() {
         let p = Vec3::new(x, plane(slope, x) + above, 0.5 * DEEP);
-        let got = groups(
+        let got = horizontal_up(
             &grid.light(p, None)?,
             &grid.horizon(p, None)?.ok_or("halves")?,
         );
-        m.horizontal_up[k] = got[2] / want;
+        m.horizontal_up[k] = got / want;
         m.down[k] = grid.irradiance(p, Vec3::NEG_Y)?.x / exact.irradiance(Vec3::NEG_Y);
         m.across[k] = grid.irradiance(p, Vec3::Z)?.x / exact.irradiance(Vec3::Z);
     }
