@@ -146,6 +146,10 @@ impl ContentHash {
         // Off, the hash is what it was before the field came (baked keys stay).
         if gather.is_on() {
             self.u32(gather.orders).u32(gather.rays);
+            // Every sun gathered (90) hashes as before the field came.
+            if gather.max_elevation_deg != 90 {
+                self.u32(gather.max_elevation_deg);
+            }
         }
         self
     }

@@ -76,7 +76,9 @@ pub struct SweepOptions {
     /// diffusion correction between passes ([`Acceleration::Diffusion`]).
     pub acceleration: Acceleration,
     /// How a cell source's first scatterings (the sun's) travel: swept with the rest
-    /// ([`Gather::OFF`], the presets) or gathered by rays ([`Gather::LOW_SUN`]).
+    /// ([`Gather::OFF`], [`SweepOptions::single_pass`]) or gathered by rays
+    /// ([`Gather::LOW_SUN`]; [`Gather::AUTO`], [`SweepOptions::multi_bounce`]'s, for a
+    /// sun at or below 30°).
     pub gather: Gather,
 }
 
@@ -94,6 +96,23 @@ pub struct SweepOptions {
 /// placed across each cell where it collided: [`crate::CellSource::across`]). A gather
 /// costs about `rays ×` the grid's cells a scattering (a 16 × 10 × 16 canopy: 0.19 s
 /// against the sweep's 19 ms on two cores): made for a bake, not a frame.
+///
+/// The sun's entry points (`Sweeper::sweep_sun`, `Sweeper::sweep_with_sun`) gather only
+/// for a sun at most [`Gather::max_elevation_deg`] above the horizon ([`Gather::for_sun`]):
+/// [`SweepOptions::multi_bounce`] gathers a sun at or below 30° ([`Gather::AUTO`]), where
+/// the sweep alone leaves a patchy canopy's cells up to 17 % off, and sweeps a higher one
+/// at the sweep's own cost.
+///
+/// ```
+/// use lightgrid_core::{Gather, SweepOptions, glam::Vec3};
+///
+/// let auto = SweepOptions::multi_bounce().gather;
+/// assert_eq!(auto, Gather::AUTO);
+/// let at = |deg: f32| Vec3::new(deg.to_radians().cos(), deg.to_radians().sin(), 0.0);
+/// assert_eq!(auto.for_sun(at(10.0)), Gather::LOW_SUN); // a low sun: gathered
+/// assert_eq!(auto.for_sun(at(45.0)), Gather::OFF); // a high one: swept
+/// assert_eq!(Gather::LOW_SUN.for_sun(at(60.0)), Gather::LOW_SUN); // every sun
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Gather {
     /// Scatterings gathered (0: none, the sweep carries them all; at most 4).
@@ -102,6 +121,10 @@ pub struct Gather {
     /// about once; later ones take a quarter as many (at least 64): their light is
     /// smoother.
     pub rays: u32,
+    /// The highest sun the sun's entry points gather, degrees above the horizon (0 to
+    /// 90; 90: every sun). A cell source given to `Sweeper::sweep_with_source` is
+    /// gathered whenever `orders > 0`.
+    pub max_elevation_deg: u32,
 }
 
 impl Gather {
@@ -109,18 +132,46 @@ impl Gather {
     pub const OFF: Self = Self {
         orders: 0,
         rays: 4096,
+        max_elevation_deg: 90,
     };
     /// Two scatterings gathered over 2,048 and 512 directions: a patchy canopy under a
     /// 10°, 20° or 30° sun within 3.5 % of Monte Carlo in every cell (8 M paths;
     /// `lightgrid-measure`'s `beam_cells` example, `--gather`; 4,096 directions: 3.3 %
     /// for twice the time, 1,024: 5.5 %).
+    /// Gathered at every sun elevation (`max_elevation_deg` 90).
     pub const LOW_SUN: Self = Self {
         orders: 2,
         rays: 2048,
+        max_elevation_deg: 90,
+    };
+    /// [`Gather::LOW_SUN`] for a sun at or below 30°, nothing gathered for a higher one
+    /// ([`SweepOptions::multi_bounce`]'s): the sweep alone leaves 87 of a patchy canopy's
+    /// 407 cells over 5 % off Monte Carlo at 10°, 39 at 20° and 22 at 30°, worst
+    /// 17 / 11 / 10 %, and 6 at 60° (7 %); gathered none at any of them
+    /// (`docs/measurements.md`, "The first scatterings gathered").
+    pub const AUTO: Self = Self {
+        max_elevation_deg: 30,
+        ..Self::LOW_SUN
     };
     /// Whether anything is gathered.
     pub const fn is_on(&self) -> bool {
         self.orders > 0
+    }
+    /// The gather for a sun toward `to_sun` (any length; y up): this one where the sun
+    /// is at most [`Gather::max_elevation_deg`] above the horizon (to within 0.001°),
+    /// [`Gather::OFF`] above it. A direction that is not finite and nonzero is
+    /// returned to the sweep's own checks unchanged.
+    pub fn for_sun(&self, to_sun: glam::Vec3) -> Self {
+        let len = to_sun.length();
+        if !(len.is_finite() && len > 0.0) || self.max_elevation_deg >= 90 {
+            return *self;
+        }
+        let elevation = (to_sun.y / len).clamp(-1.0, 1.0).asin().to_degrees();
+        if elevation <= self.max_elevation_deg as f32 + 1e-3 {
+            *self
+        } else {
+            Self::OFF
+        }
     }
     /// Checks every field; errors name it.
     pub fn validate(&self) -> Result<(), GridError> {
@@ -136,6 +187,13 @@ impl Gather {
                 "gather.rays",
                 self.rays,
                 "must be in 64..=65536",
+            ));
+        }
+        if self.max_elevation_deg > 90 {
+            return Err(GridError::invalid(
+                "gather.max_elevation_deg",
+                self.max_elevation_deg,
+                "must be in 0..=90",
             ));
         }
         Ok(())
@@ -234,7 +292,8 @@ impl SweepOptions {
         }
     }
     /// Repeated down/up passes for multiple bounces, until the light still to be
-    /// transported is under 0.1 % of the input.
+    /// transported is under 0.1 % of the input; a sun at or below 30° has its first
+    /// scatterings gathered ([`Gather::AUTO`]: about ten times a sun sweep's time there).
     pub const fn multi_bounce() -> Self {
         Self {
             outputs: Outputs::ALL,
@@ -244,7 +303,7 @@ impl SweepOptions {
             skip_empty_levels: true,
             medium: MediumEmission::Profile,
             acceleration: Acceleration::Off,
-            gather: Gather::OFF,
+            gather: Gather::AUTO,
         }
     }
     /// Checks every field; errors name it.

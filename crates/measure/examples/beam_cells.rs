@@ -20,11 +20,13 @@
 //!   cells half as large (each cell's two halves in height by its first moment, even
 //!   across x and z): what is left is not the transport's cell size.
 //! - `--gather [--orders N --rays R]`: the first scatterings gathered
-//!   by rays ([`Gather::LOW_SUN`] unless changed), the sweep carrying the rest.
+//!   by rays at any sun ([`Gather::LOW_SUN`] unless changed), the sweep carrying the
+//!   rest; `--swept`: none gathered. Without either, the preset's ([`Gather::AUTO`]:
+//!   gathered at or below 30°, swept above).
 //!
 //! `cargo run --release -p lightgrid-measure --example beam_cells -- [--paths N]
 //! [--elevation DEG] [--refine K [--spread]] [--beam-refine K] [--smoothing S]
-//! [--albedo A] [--ground G] [--gather]` (2 M paths: about 10 s).
+//! [--albedo A] [--ground G] [--gather | --swept]` (2 M paths: about 10 s).
 
 use lightgrid_core::CellSource;
 use lightgrid_core::glam::{UVec3, Vec3};
@@ -214,8 +216,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         o.gather = Gather {
             orders: arg("--orders", Gather::LOW_SUN.orders)?,
             rays: arg("--rays", Gather::LOW_SUN.rays)?,
+            ..Gather::LOW_SUN
         };
+    } else if flag("--swept") {
+        o.gather = Gather::OFF;
     }
+    // As the sun's entry points do (`Gather::for_sun`): the preset's `Gather::AUTO`
+    // gathers a sun at or below 30°.
+    o.gather = o.gather.for_sun(s);
     let t0 = std::time::Instant::now();
     let scattered = CpuSweeper::new()
         .sweep_with_source(&fine, &dark, &beam.source, &o)?

@@ -538,15 +538,17 @@ pub fn gathered_ground(levels: u32, a: f32, elevation_deg: f32) -> Result<Case, 
 }
 
 /// [`patchy_low_sun`]'s errors in full: the patchy canopy under a 10° sun (azimuth
-/// 20°, periodic) against 8 M Monte Carlo paths, swept or gathered (`Gather::LOW_SUN`),
-/// multi-bounce to tolerance 1e-6.
+/// 20°, periodic) against 8 M Monte Carlo paths, multi-bounce to tolerance 1e-6: swept
+/// (`Gather::OFF`) or with the preset's gather (`SweepOptions::multi_bounce`'s
+/// `Gather::AUTO`, which gathers a 10° sun as `Gather::LOW_SUN`).
 pub fn patchy_low_sun_errors(
     gathered: bool,
 ) -> Result<crate::sun_measure::MediumErrors, Box<dyn std::error::Error>> {
     let m = crate::sun_measure::patchy_canopy(16, 3);
+    // The preset's gather (`Gather::AUTO`: a 10° sun gathered), or none.
     let mut o = options(64, 1e-6);
-    if gathered {
-        o.gather = lightgrid_core::Gather::LOW_SUN;
+    if !gathered {
+        o.gather = lightgrid_core::Gather::OFF;
     }
     crate::sun_measure::medium_errors(
         &m,
@@ -560,8 +562,9 @@ pub fn patchy_low_sun_errors(
 
 /// A low sun over a patchy canopy, cell by cell (issue 44's 5 % a cell): the sweep's sun
 /// light in the medium cells of [`crate::sun_measure::patchy_canopy`] (16 × 10 × 16,
-/// periodic, 10°, azimuth 20°) against a Monte Carlo reference of 8 M paths, swept or
-/// with its first two scatterings gathered (`Gather::LOW_SUN`): `exact` and `swept`
+/// periodic, 10°, azimuth 20°) against a Monte Carlo reference of 8 M paths, swept
+/// (`Gather::OFF`) or at the preset's default (`Gather::AUTO`: its first two
+/// scatterings gathered, as `Gather::LOW_SUN`): `exact` and `swept`
 /// are the reference's and the sweep's light at the worst cell whose reference noise is
 /// under 1 % (0.3–0.6 % at 8 M paths), `pending` the share of those cells over 5 % off,
 /// `seconds` the whole measurement's (the reference's paths included: about a minute).
@@ -575,7 +578,11 @@ pub fn patchy_low_sun(gathered: bool) -> Result<Case, SweepError> {
     Ok(Case {
         name: format!(
             "sun 10°, patchy canopy, {}: worst of {} cells, {} over 5 %",
-            if gathered { "gathered" } else { "swept" },
+            if gathered {
+                "gathered (the default)"
+            } else {
+                "swept (gather off)"
+            },
             e.quiet,
             e.over_5
         ),

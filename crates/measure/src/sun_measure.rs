@@ -299,13 +299,15 @@ pub fn medium_errors(
     )?;
     let mean_t = fc.mean_transmittance.as_deref().expect("asked for");
     // Through the sweeper, which gathers the first scatterings where `options.gather`
-    // asks.
+    // asks for a sun this high (as the sun's entry points do).
+    let mut o = *options;
+    o.gather = options.gather.for_sun(s);
     let scattered = lightgrid_core::Sweeper::sweep_with_source(
         &mut lightgrid_sweep_cpu::CpuSweeper::new(),
         material,
         &dark,
         &fc.source,
-        options,
+        &o,
     )?
     .bins
     .ok_or("no bins")?;

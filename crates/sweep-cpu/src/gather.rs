@@ -43,7 +43,8 @@
 //! Cost: each direction's rays cross about every cell once, so an order costs about
 //! `rays ×` the grid's cells (`LOW_SUN`: 2,048 directions for the first order, 512
 //! for the second): the patchy canopy's 16 × 10 × 16 cells in about 0.2 s against the
-//! sweep's 20 ms on two cores (`docs/measurements.md`), so still a bake's option;
+//! sweep's 20 ms on two cores (`docs/measurements.md`): a bake's cost, which
+//! `SweepOptions::multi_bounce` pays for a sun at or below 30° only (`Gather::AUTO`);
 //! its buffers about 1.6 kB a point while it runs (0.75 of it each bin's sums); `cargo run
 //! --release -p lightgrid-measure
 //! --example beam_cells -- --gather` prints its time beside its error.
@@ -674,7 +675,11 @@ mod tests {
     use lightgrid_core::{Material, SweepOptions};
 
     fn params(orders: u32, rays: u32) -> Gather {
-        Gather { orders, rays }
+        Gather {
+            orders,
+            rays,
+            ..Gather::LOW_SUN
+        }
     }
 
     /// An infinite Lambertian ground of albedo 0.3 (one opaque level, periodic sides)

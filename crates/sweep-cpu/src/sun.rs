@@ -418,7 +418,8 @@ impl SunSplit {
 /// rays, unit irradiance) and one sweep of them with `sweeper` into the bins, `sun.scattered` the
 /// boundary light. A sun at or below the horizon has no beam: transmittance 0, and the
 /// bins hold only what `sun.scattered` brings. The horizon halves of the scattered
-/// light come with it where `options.outputs.horizon` asks for them.
+/// light come with it where `options.outputs.horizon` asks for them. The first
+/// scatterings are gathered where `options.gather.for_sun(sun.to_sun)` says.
 pub fn sweep_sun(
     sweeper: &mut dyn lightgrid_core::Sweeper,
     material: &MaterialGrid,
@@ -437,6 +438,7 @@ pub fn sweep_sun(
         dominant: false,
         horizon: options.outputs.horizon,
     };
+    o.gather = options.gather.for_sun(sun.to_sun);
     let out = if sun_direction(sun.to_sun)?.is_some() {
         let src = first_collision(material, sun.to_sun, Vec3::ONE, periodic, sun.outside)?;
         sweeper.sweep_with_source(material, &sun.scattered, &src, &o)?
@@ -456,8 +458,9 @@ pub fn sweep_sun(
 /// ([`lightgrid_core::Sweeper::sweep_with_sun`]; the implementation the CPU and GPU
 /// sweepers share): the beam traced as in [`sweep_sun`] ([`first_collision`] with
 /// `sun.irradiance`, wrapping on periodic sides of `boundary`, `sun.outside` beyond the
-/// box) and swept with `boundary`'s light. A sun at or below the horizon adds nothing:
-/// the plain sweep of `boundary`.
+/// box) and swept with `boundary`'s light (its first scatterings gathered where
+/// `options.gather.for_sun(sun.to_sun)` says). A sun at or below the horizon adds
+/// nothing: the plain sweep of `boundary`.
 pub fn sweep_with_sun(
     sweeper: &mut dyn lightgrid_core::Sweeper,
     material: &MaterialGrid,
@@ -470,7 +473,9 @@ pub fn sweep_with_sun(
     }
     let periodic = matches!(boundary.sides, lightgrid_core::SideBoundary::Periodic);
     let src = first_collision(material, sun.to_sun, sun.irradiance, periodic, sun.outside)?;
-    sweeper.sweep_with_source(material, boundary, &src, options)
+    let mut o = *options;
+    o.gather = options.gather.for_sun(sun.to_sun);
+    sweeper.sweep_with_source(material, boundary, &src, &o)
 }
 
 /// The transmittance part of [`sweep_sun`] alone

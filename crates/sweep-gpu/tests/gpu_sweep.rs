@@ -515,12 +515,14 @@ fn gathered_first_scatterings_on_the_gpu_equal_the_cpu() {
         },
         outside: &varying_outside,
     };
+    o.gather = Gather::OFF;
     let swept = lightgrid_sweep_cpu::CpuSweeper::new()
         .sweep_sun(&m, &sun, &o)
         .unwrap();
     o.gather = Gather {
         orders: 2,
         rays: 256,
+        max_elevation_deg: 90,
     };
     let cpu = lightgrid_sweep_cpu::CpuSweeper::new()
         .sweep_sun(&m, &sun, &o)

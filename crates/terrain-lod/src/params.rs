@@ -145,9 +145,10 @@ pub struct HierarchyParams {
     /// (on by default) keeps every grid's horizon halves, sky and scattered sun, and the
     /// hierarchy's irradiance reads each horizontal bin in its two halves
     /// ([`lightgrid_core::LightField::horizon`]) instead of as even across the horizon:
-    /// 8 more colours a point beside the 26 bins. `gather` (off by default) applies to
-    /// the sun's first collisions in every grid (`SweepOptions::gather`): seconds a
-    /// node, a bake's setting; a frame budget does not foresee it.
+    /// 8 more colours a point beside the 26 bins. `gather` (off by default, where
+    /// `SweepOptions::multi_bounce` has `Gather::AUTO`) applies to the sun's first
+    /// collisions in every grid (`SweepOptions::gather`): seconds a node, a bake's
+    /// setting; a frame budget does not foresee it.
     pub sweep: SweepOptions,
     /// Work the hierarchy skips (see [`LodSkips`] for which are on by default).
     pub skip: LodSkips,
@@ -220,6 +221,8 @@ impl Default for HierarchyParams {
         // to 0.1 points; brighter media run on to `max_passes` (`tests/passes.rs`).
         sweep.tolerance = 0.01;
         sweep.outputs.horizon = true;
+        // A frame's sweeps do not gather, at any sun (seconds a node: a bake's setting).
+        sweep.gather = lightgrid_core::Gather::OFF;
         Self {
             world_cell: 16.0,
             finest_cell: 1.0,

@@ -216,22 +216,39 @@ pub struct GridSpec {
     #[serde(default)]
     pub neighbour_halo: bool,
     /// How the sun's first scatterings reach the cells around the ones it lights
-    /// (`SweepOptions::gather`, with `sun.split`): `"off"` (left out: swept with the
-    /// rest), `"low_sun"` (`Gather::LOW_SUN`: a low sun in a patchy canopy within 5 %
-    /// of Monte Carlo in every cell, where the sweep alone leaves cells 16 % off, for
-    /// about 10 times each sun response's time: a bake's setting), or
-    /// `{ orders = 2, rays = 2048 }`.
+    /// (`SweepOptions::gather`, with `sun.split`): `"off"` (swept with the rest),
+    /// `"low_sun"` (`Gather::LOW_SUN`: a low sun in a patchy canopy within 5 % of Monte
+    /// Carlo in every cell, where the sweep alone leaves cells 16 % off, for about 10
+    /// times each sun response's time), `"auto"` (`Gather::AUTO`: `low_sun` for a sun
+    /// at or below 30°, off above), or `{ orders = 2, rays = 2048 }` (and
+    /// `max_elevation_deg = 30`, left out 90). Left out: off in the viewer's frames,
+    /// `"auto"` in a world bake ([`GridSpec::gather`]).
     #[serde(default)]
-    pub gather: GatherSpec,
+    pub gather: Option<GatherSpec>,
+}
+
+impl GridSpec {
+    /// The gather the scene's grids sweep with: `[grid] gather`, or where it is left
+    /// out `Gather::AUTO` for a bake (`lightgrid bake world.toml`, which takes seconds
+    /// anyway) and `Gather::OFF` for the viewer's frames (a frame budget does not
+    /// foresee it).
+    pub fn gather(&self, bake: bool) -> lightgrid_core::Gather {
+        match self.gather {
+            Some(g) => g.gather(),
+            None if bake => lightgrid_core::Gather::AUTO,
+            None => lightgrid_core::Gather::OFF,
+        }
+    }
 }
 
 /// `[grid] gather`: a preset's name or the gather's own numbers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(untagged)]
 pub enum GatherSpec {
-    /// `"off"` or `"low_sun"`.
+    /// `"off"`, `"low_sun"` or `"auto"`.
     Preset(GatherPreset),
-    /// Scatterings gathered (0–4) and directions for the first (64–65,536).
+    /// Scatterings gathered (0–4), directions for the first (64–65,536) and the
+    /// highest sun gathered.
     Rays(GatherRays),
 }
 
@@ -244,6 +261,8 @@ pub enum GatherPreset {
     Off,
     /// `Gather::LOW_SUN`.
     LowSun,
+    /// `Gather::AUTO`.
+    Auto,
 }
 
 /// A gather's numbers ([`GatherSpec::Rays`]).
@@ -254,6 +273,13 @@ pub struct GatherRays {
     pub orders: u32,
     /// Rays a cell for the first.
     pub rays: u32,
+    /// The highest sun gathered, degrees (left out: 90, every sun).
+    #[serde(default = "every_sun")]
+    pub max_elevation_deg: u32,
+}
+
+fn every_sun() -> u32 {
+    90
 }
 
 impl Default for GatherSpec {
@@ -268,7 +294,16 @@ impl GatherSpec {
         match *self {
             Self::Preset(GatherPreset::Off) => lightgrid_core::Gather::OFF,
             Self::Preset(GatherPreset::LowSun) => lightgrid_core::Gather::LOW_SUN,
-            Self::Rays(GatherRays { orders, rays }) => lightgrid_core::Gather { orders, rays },
+            Self::Preset(GatherPreset::Auto) => lightgrid_core::Gather::AUTO,
+            Self::Rays(GatherRays {
+                orders,
+                rays,
+                max_elevation_deg,
+            }) => lightgrid_core::Gather {
+                orders,
+                rays,
+                max_elevation_deg,
+            },
         }
     }
 }
@@ -282,7 +317,7 @@ impl Default for GridSpec {
             passes: default_passes(),
             apron: 0,
             neighbour_halo: false,
-            gather: GatherSpec::default(),
+            gather: None,
         }
     }
 }
@@ -692,7 +727,7 @@ impl SceneFile {
         if !(1..=16).contains(&g.passes) {
             bail!("grid.passes = {}: must be in 1..=16", g.passes);
         }
-        if let Err(e) = g.gather.gather().validate() {
+        if let Err(e) = g.gather(false).validate() {
             bail!("grid.gather: {e}");
         }
         if g.apron > g.node_points {
@@ -980,20 +1015,37 @@ mod tests {
                 Path::new("."),
             )
         };
-        let gather = |line: &str| parse(line).unwrap().grid.gather.gather();
+        let gather = |line: &str| parse(line).unwrap().grid.gather(false);
+        let baked = |line: &str| parse(line).unwrap().grid.gather(true);
         assert_eq!(gather(""), Gather::OFF);
+        assert_eq!(baked(""), Gather::AUTO);
         assert_eq!(gather("gather = \"off\""), Gather::OFF);
+        assert_eq!(baked("gather = \"off\""), Gather::OFF);
         assert_eq!(gather("gather = \"low_sun\""), Gather::LOW_SUN);
+        assert_eq!(gather("gather = \"auto\""), Gather::AUTO);
         assert_eq!(
             gather("gather = { orders = 1, rays = 1024 }"),
             Gather {
                 orders: 1,
-                rays: 1024
+                rays: 1024,
+                max_elevation_deg: 90,
+            }
+        );
+        assert_eq!(
+            baked("gather = { orders = 2, rays = 512, max_elevation_deg = 20 }"),
+            Gather {
+                orders: 2,
+                rays: 512,
+                max_elevation_deg: 20,
             }
         );
         for (line, want) in [
             ("gather = { orders = 2, rays = 10 }", "gather.rays = 10"),
             ("gather = { orders = 9, rays = 4096 }", "gather.orders = 9"),
+            (
+                "gather = { orders = 2, rays = 4096, max_elevation_deg = 91 }",
+                "gather.max_elevation_deg = 91",
+            ),
         ] {
             let e = format!("{:#}", parse(line).unwrap_err());
             assert!(e.contains("grid.gather") && e.contains(want), "{line}: {e}");

@@ -230,7 +230,7 @@ fn world_grid(
         boundary_light(sky_top, scene)?
     };
     let (sweeper, name) = choose_sweeper(sweeper, gpu)?;
-    let mut params = hierarchy_params(scene);
+    let mut params = hierarchy_params(scene, false);
     // The sun's first collisions swept with the sky, one sweep a grid (the same light;
     // a moved sun sweeps the clear sky's grids again anyway). Not on the GPU sweeper,
     // whose scattered sun the renderer's device sampling reads where it lies.
@@ -240,8 +240,9 @@ fn world_grid(
     Ok((hierarchy, name))
 }
 
-/// The hierarchy's parameters from the scene's `[grid]`.
-fn hierarchy_params(scene: &SceneFile) -> HierarchyParams {
+/// The hierarchy's parameters from the scene's `[grid]`, for a world bake (`bake`:
+/// its gather left out is `Gather::AUTO`) or the viewer's frames (off).
+fn hierarchy_params(scene: &SceneFile, bake: bool) -> HierarchyParams {
     let g = &scene.grid;
     let mut params = HierarchyParams {
         world_cell: g.world_cell,
@@ -256,7 +257,7 @@ fn hierarchy_params(scene: &SceneFile) -> HierarchyParams {
         ..Default::default()
     };
     params.sweep.max_passes = g.passes;
-    params.sweep.gather = g.gather.gather();
+    params.sweep.gather = g.gather(bake);
     params
 }
 
@@ -285,7 +286,7 @@ pub fn world_bake(scene: &SceneFile) -> Result<(WorldBake, (Vec3, Vec3))> {
         Box::new(lightgrid_sweep_cpu::CpuSweeper::new()),
         top,
         split,
-        hierarchy_params(scene),
+        hierarchy_params(scene, true),
     )
     .context("laying out the world's grids")?;
     Ok((bake, (-sun.0, sun.1)))
@@ -685,18 +686,18 @@ mod tests {
     }
 
     /// The scene's `[grid] gather` reaches every grid's sweeps (the viewer's and a
-    /// world bake's hierarchy).
+    /// world bake's hierarchy); left out, a bake gathers a low sun and a frame never.
     #[test]
     fn the_scene_s_gather_reaches_the_sweeps() {
+        use lightgrid_core::Gather;
         let mut scene = SceneFile::demo().unwrap();
-        assert_eq!(
-            hierarchy_params(&scene).sweep.gather,
-            lightgrid_core::Gather::OFF
-        );
-        scene.grid.gather = crate::scene::GatherSpec::Preset(crate::scene::GatherPreset::LowSun);
-        assert_eq!(
-            hierarchy_params(&scene).sweep.gather,
-            lightgrid_core::Gather::LOW_SUN
-        );
+        assert_eq!(hierarchy_params(&scene, false).sweep.gather, Gather::OFF);
+        assert_eq!(hierarchy_params(&scene, true).sweep.gather, Gather::AUTO);
+        scene.grid.gather = Some(crate::scene::GatherSpec::Preset(
+            crate::scene::GatherPreset::LowSun,
+        ));
+        for bake in [false, true] {
+            assert_eq!(hierarchy_params(&scene, bake).sweep.gather, Gather::LOW_SUN);
+        }
     }
 }
