@@ -182,4 +182,34 @@ mod tests {
         b.0[25].z = 1e-30;
         assert_ne!(h0, ContentHash::new(b"t").bins(&b).finish());
     }
+
+    /// A gather's every field changes a sweep's hash when it gathers; off, its other
+    /// fields do not (a baked key stays whatever they hold).
+    #[test]
+    fn the_gather_s_fields_change_the_options_hash() {
+        use crate::Gather;
+        let hash = |g: Gather| {
+            let mut o = SweepOptions::multi_bounce();
+            o.gather = g;
+            ContentHash::new(b"o").options(&o).finish()
+        };
+        let before = hash(Gather::OFF);
+        let off = Gather {
+            rays: 64,
+            max_elevation_deg: 10,
+            ..Gather::OFF
+        };
+        assert_eq!(hash(off), before);
+        let (low, auto) = (hash(Gather::LOW_SUN), hash(Gather::AUTO));
+        assert!(low != before && auto != before && auto != low);
+        let rays = hash(Gather {
+            rays: 1024,
+            ..Gather::AUTO
+        });
+        let orders = hash(Gather {
+            orders: 1,
+            ..Gather::AUTO
+        });
+        assert!(rays != auto && orders != auto && rays != orders);
+    }
 }

@@ -98,7 +98,8 @@ pub struct SweepOptions {
 /// against the sweep's 19 ms on two cores): made for a bake, not a frame.
 ///
 /// The sun's entry points (`Sweeper::sweep_sun`, `Sweeper::sweep_with_sun`) gather only
-/// for a sun at most [`Gather::max_elevation_deg`] above the horizon ([`Gather::for_sun`]):
+/// for a sun at most [`Gather::max_elevation_deg`] above the horizon ([`Gather::for_sun`];
+/// a source given alone only with `max_elevation_deg` 90, [`Gather::for_source`]):
 /// [`SweepOptions::multi_bounce`] gathers a sun at or below 30° ([`Gather::AUTO`]), where
 /// the sweep alone leaves a patchy canopy's cells up to 17 % off, and sweeps a higher one
 /// at the sweep's own cost.
@@ -122,8 +123,8 @@ pub struct Gather {
     /// smoother.
     pub rays: u32,
     /// The highest sun the sun's entry points gather, degrees above the horizon (0 to
-    /// 90; 90: every sun). A cell source given to `Sweeper::sweep_with_source` is
-    /// gathered whenever `orders > 0`.
+    /// 90; 90: every sun). A cell source given alone (`Sweeper::sweep_with_source`) is
+    /// gathered only at 90 ([`Gather::for_source`]).
     pub max_elevation_deg: u32,
 }
 
@@ -157,17 +158,34 @@ impl Gather {
     pub const fn is_on(&self) -> bool {
         self.orders > 0
     }
-    /// The gather for a sun toward `to_sun` (any length; y up): this one where the sun
-    /// is at most [`Gather::max_elevation_deg`] above the horizon (to within 0.001°),
-    /// [`Gather::OFF`] above it. A direction that is not finite and nonzero is
-    /// returned to the sweep's own checks unchanged.
+    /// The gather for a sun toward `to_sun` (any length; y up), as the sun's entry
+    /// points apply it before sweeping the beam's first collisions as a cell source:
+    /// where the sun is at most [`Gather::max_elevation_deg`] above the horizon (to
+    /// within 0.001°), this one for every source (`max_elevation_deg` 90); above it,
+    /// [`Gather::OFF`]. A direction that is not finite and nonzero is left to the
+    /// sweep's own checks: the gather comes back unchanged.
     pub fn for_sun(&self, to_sun: glam::Vec3) -> Self {
         let len = to_sun.length();
-        if !(len.is_finite() && len > 0.0) || self.max_elevation_deg >= 90 {
+        if !(len.is_finite() && len > 0.0) {
             return *self;
         }
         let elevation = (to_sun.y / len).clamp(-1.0, 1.0).asin().to_degrees();
-        if elevation <= self.max_elevation_deg as f32 + 1e-3 {
+        if self.max_elevation_deg >= 90 || elevation <= self.max_elevation_deg as f32 + 1e-3 {
+            Self {
+                max_elevation_deg: 90,
+                ..*self
+            }
+        } else {
+            Self::OFF
+        }
+    }
+    /// The gather a cell source given alone takes (`Sweeper::sweep_with_source`,
+    /// `lightgrid_sweep_cpu::run_with_source`), whose sun, if any, is unknown: this one
+    /// where it gathers at every sun (`max_elevation_deg` 90), else [`Gather::OFF`]. So
+    /// [`Gather::AUTO`] (the `multi_bounce` preset's) gathers only through the sun's
+    /// entry points, which know the sun ([`Gather::for_sun`]).
+    pub const fn for_source(&self) -> Self {
+        if self.max_elevation_deg >= 90 {
             *self
         } else {
             Self::OFF
@@ -351,5 +369,61 @@ impl SweepOptions {
 impl Default for SweepOptions {
     fn default() -> Self {
         Self::single_pass()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn at(deg: f32) -> Vec3 {
+        let r = deg.to_radians();
+        Vec3::new(r.cos() * 0.6, r.sin(), r.cos() * 0.8) * 3.0
+    }
+
+    /// `Gather::for_sun` gathers up to its elevation, its own limit included, at any
+    /// length of the direction, and never above it.
+    #[test]
+    fn a_gather_applies_up_to_its_elevation() {
+        for deg in [0.5, 2.0, 10.0, 29.9, 30.0] {
+            assert_eq!(Gather::AUTO.for_sun(at(deg)), Gather::LOW_SUN, "{deg}°");
+        }
+        for deg in [30.1, 45.0, 89.0, 90.0] {
+            assert_eq!(Gather::AUTO.for_sun(at(deg)), Gather::OFF, "{deg}°");
+            assert_eq!(Gather::LOW_SUN.for_sun(at(deg)), Gather::LOW_SUN, "{deg}°");
+        }
+        let never = Gather {
+            max_elevation_deg: 0,
+            ..Gather::LOW_SUN
+        };
+        assert_eq!(never.for_sun(at(1.0)), Gather::OFF);
+        // A sun below the horizon: as low suns (it has no beam to gather); a direction
+        // the sweep refuses: unchanged.
+        assert_eq!(Gather::AUTO.for_sun(at(-10.0)), Gather::LOW_SUN);
+        for bad in [Vec3::ZERO, Vec3::NAN, Vec3::new(f32::INFINITY, 1.0, 0.0)] {
+            assert_eq!(Gather::AUTO.for_sun(bad), Gather::AUTO);
+        }
+        // A source alone: gathered only by a gather for every sun.
+        assert_eq!(Gather::AUTO.for_source(), Gather::OFF);
+        assert_eq!(Gather::LOW_SUN.for_source(), Gather::LOW_SUN);
+        assert_eq!(Gather::OFF.for_source(), Gather::OFF);
+    }
+
+    /// The presets validate; a gather's elevation over 90 is refused by name.
+    #[test]
+    fn the_presets_validate_and_a_bad_elevation_is_named() {
+        for o in [SweepOptions::single_pass(), SweepOptions::multi_bounce()] {
+            o.validate().unwrap();
+        }
+        assert_eq!(SweepOptions::multi_bounce().gather, Gather::AUTO);
+        assert_eq!(SweepOptions::single_pass().gather, Gather::OFF);
+        let mut o = SweepOptions::multi_bounce();
+        o.gather.max_elevation_deg = 91;
+        let e = o.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("gather.max_elevation_deg") && e.contains("91"),
+            "{e}"
+        );
     }
 }

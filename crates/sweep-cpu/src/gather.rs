@@ -614,12 +614,13 @@ fn cell_order(
 }
 
 /// A sweep of a cell source in `material` lit by `boundary` with its first scatterings
-/// gathered when `options.gather` asks ([`gather`], wrapping where the sides are
-/// periodic): `sweep` (the sweeper's own sweep with a source,
+/// gathered when `options.gather.for_source()` asks (a gather for every sun: the sun's
+/// entry points make a gather for low suns one where it applies; [`gather`], wrapping
+/// where the sides are periodic): `sweep` (the sweeper's own sweep with a source,
 /// called once, with `options.gather` off and the bins on) sweeps what they collide
 /// with and the boundary's light, and the gathered light is added to its bins and
 /// horizon halves; the average and the dominant direction, where asked for, are those
-/// of the sum. With the gather off, `sweep` is called as it is. A sweeper's device copy
+/// of the sum. With the gather off, `sweep` is called with it off. A sweeper's device copy
 /// of the bins ([`SweepOutput::resident`]) does not hold the gathered light, so it is
 /// left out.
 pub fn sweep_gathered(
@@ -629,9 +630,14 @@ pub fn sweep_gathered(
     options: &SweepOptions,
     sweep: impl FnOnce(&CellSource, &SweepOptions) -> Result<SweepOutput, SweepError>,
 ) -> Result<SweepOutput, SweepError> {
-    if !options.gather.is_on() {
-        return sweep(source, options);
+    // A gather limited to low suns does not apply to a source whose sun is unknown
+    // (the sun's entry points have made it one for every source where it applies).
+    let mut given = *options;
+    given.gather = options.gather.for_source();
+    if !given.gather.is_on() {
+        return sweep(source, &given);
     }
+    let options = &given;
     options.validate()?;
     let periodic = matches!(boundary.sides, lightgrid_core::SideBoundary::Periodic);
     let g = gather(material, periodic, source, &options.gather)?;

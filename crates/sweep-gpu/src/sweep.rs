@@ -278,13 +278,15 @@ impl GpuSweeper {
         options: &SweepOptions,
     ) -> Result<SweepOutput, SweepError> {
         match source {
-            Some(src) if options.gather.is_on() => lightgrid_sweep_cpu::gather::sweep_gathered(
-                material,
-                boundary,
-                src,
-                options,
-                |s, o| Ok(self.timed(material, boundary, Some(s), o)?.0),
-            ),
+            Some(src) if options.gather.for_source().is_on() => {
+                lightgrid_sweep_cpu::gather::sweep_gathered(
+                    material,
+                    boundary,
+                    src,
+                    options,
+                    |s, o| Ok(self.timed(material, boundary, Some(s), o)?.0),
+                )
+            }
             _ => Ok(self.timed(material, boundary, source, options)?.0),
         }
     }

@@ -409,7 +409,9 @@ pub(crate) fn run_reusing(
     spare: &mut Spare,
 ) -> Result<Sweep, SweepError> {
     validate_inputs(material, boundary, options)?;
-    if source.is_some() && options.gather.is_on() {
+    // A gather for low suns alone (`Gather::AUTO`) is the sun's entry points' to apply:
+    // a source given here is swept as it is.
+    if source.is_some() && options.gather.for_source().is_on() {
         return Err(GridError::invalid(
             "gather",
             options.gather.orders,
