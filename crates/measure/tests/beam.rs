@@ -257,7 +257,7 @@ fn a_low_sun_lights_a_patchy_canopy_as_the_reference() {
 /// The same canopy and sun at the presets' default (`SweepOptions::multi_bounce`, whose
 /// `Gather::AUTO` gathers the first two scatterings of a sun at or below 30° by rays,
 /// as `Gather::LOW_SUN`): every cell whose reference noise is under 1 % within 5 % of
-/// the reference (issue 44's target; the sweep alone leaves 64 of 349 cells over 5 %,
+/// the reference (issue 44's target; the sweep alone leaves 87 of 407 cells over 5 %,
 /// the worst 16 % off: the 26 directions' ray effects between the patches), the media
 /// within 1 % in all (measured: the worst 3.5 %, none of 407 cells over 5 %, RMS
 /// 0.7 %; the media +0.0 %). 8 M reference paths: the cells' noise 0.3–0.6 %

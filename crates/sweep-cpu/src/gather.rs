@@ -4,8 +4,8 @@
 //! The 26 bins carry light between cells along 26 directions: under a low sun the
 //! light scattered off a canopy's lit patches reaches the cells between those
 //! directions too little and those along them too much (the discrete directions' ray
-//! effects; a patchy canopy under a 10° sun had 64 of 349 cells over 5 % off against
-//! Monte Carlo, the worst −16 %). Gathered, a cell's light of each of the first
+//! effects; a patchy canopy under a 10° sun has 87 of 407 cells over 5 % off against
+//! Monte Carlo swept, the worst −17 %). Gathered, a cell's light of each of the first
 //! `orders` scatterings is its mean radiance over `rays` directions (a spherical
 //! Fibonacci set), each direction's light carried by parallel rays across the whole
 //! grid (long characteristics): along each ray, every cell it crosses emits what the
