@@ -22,8 +22,8 @@ use lightgrid_core::{BinLight, Boundary, MaterialGrid, SideBoundary, SweepOption
 
 use crate::reference::{CollimatedSun, ReferenceOptions, trace_with_sun};
 use lightgrid_sky::Sun;
+use lightgrid_sweep_cpu::run;
 use lightgrid_sweep_cpu::sun::{SunTransmittance, first_collision};
-use lightgrid_sweep_cpu::{run, run_with_source};
 
 /// Average light and the six axis irradiances (luminance) of every point.
 pub type Field = Vec<(f32, [f32; 6])>;
@@ -140,10 +140,19 @@ pub fn sun_errors(
     let open = |_: Vec3| 1.0;
     let t = SunTransmittance::march(material, s, periodic, &open)?;
     let src = first_collision(material, s, e, periodic, &open)?;
-    let scattered = run_with_source(material, &dark, Some(&src), options)?
-        .output
-        .bins
-        .expect("bins");
+    // Through the sweeper, gathered where `options.gather` asks for a sun this high (as
+    // `Sweeper::sweep_sun` does: `multi_bounce`'s `Gather::AUTO` at or below 30°).
+    let mut o = *options;
+    o.gather = options.gather.for_sun(s);
+    let scattered = lightgrid_core::Sweeper::sweep_with_source(
+        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
+        material,
+        &dark,
+        &src,
+        &o,
+    )?
+    .bins
+    .expect("bins");
     let t_split = t0.elapsed().as_secs_f64();
     let fb = field(binned.data(), None);
     let fs = field(scattered.data(), Some((t.values(), e, s)));
@@ -184,10 +193,17 @@ pub fn ground_light(
         sides: periodic,
         ..Boundary::open_sky(BinLight::ZERO)
     };
-    let scattered = run_with_source(m, &dark, Some(&src), o)?
-        .output
-        .bins
-        .expect("bins");
+    let mut o = *o;
+    o.gather = o.gather.for_sun(s);
+    let scattered = lightgrid_core::Sweeper::sweep_with_source(
+        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
+        m,
+        &dark,
+        &src,
+        &o,
+    )?
+    .bins
+    .expect("bins");
     let b: Vec<f32> = binned.data()[range.clone()]
         .iter()
         .map(|l| luminance(l.irradiance(Vec3::Y)))
