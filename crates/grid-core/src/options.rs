@@ -135,11 +135,10 @@ impl Gather {
         rays: 4096,
         max_elevation_deg: 90,
     };
-    /// Two scatterings gathered over 2,048 and 512 directions: a patchy canopy under a
-    /// 10°, 20° or 30° sun within 3.5 % of Monte Carlo in every cell (8 M paths;
-    /// `lightgrid-measure`'s `beam_cells` example, `--gather`; 4,096 directions: 3.3 %
-    /// for twice the time, 1,024: 5.5 %).
-    /// Gathered at every sun elevation (`max_elevation_deg` 90).
+    /// Two scatterings gathered over 2,048 and 512 directions, at every sun elevation
+    /// (`max_elevation_deg` 90): a patchy canopy under a 10°, 20° or 30° sun within
+    /// 3.5 % of Monte Carlo in every cell (8 M paths; `lightgrid-measure`'s `beam_cells`
+    /// example, `--gather`; 4,096 directions: 3.3 % for twice the time, 1,024: 5.5 %).
     pub const LOW_SUN: Self = Self {
         orders: 2,
         rays: 2048,

@@ -107,6 +107,30 @@ pub struct SunErrors {
     pub seconds: (f64, f64),
 }
 
+/// The sun's first collisions `source` (the sun toward `to_sun`) swept into the bins by
+/// the CPU sweeper, their first scatterings gathered where `options.gather` asks for a
+/// sun this high, as `Sweeper::sweep_sun` does (`multi_bounce`'s `Gather::AUTO` at or
+/// below 30°).
+fn scattered_sun(
+    material: &MaterialGrid,
+    boundary: &Boundary,
+    source: &lightgrid_core::CellSource,
+    to_sun: Vec3,
+    options: &SweepOptions,
+) -> Result<lightgrid_core::LightGrid, lightgrid_core::SweepError> {
+    let mut o = *options;
+    o.gather = options.gather.for_sun(to_sun);
+    o.outputs.bins = true;
+    let out = lightgrid_core::Sweeper::sweep_with_source(
+        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
+        material,
+        boundary,
+        source,
+        &o,
+    )?;
+    Ok(out.bins.expect("bins asked for"))
+}
+
 /// Sun light only (unit irradiance) at `elevation`/`azimuth` (radians) in `material`
 /// with `sides`: the bins and the split against a reference of `paths` paths.
 pub fn sun_errors(
@@ -140,19 +164,7 @@ pub fn sun_errors(
     let open = |_: Vec3| 1.0;
     let t = SunTransmittance::march(material, s, periodic, &open)?;
     let src = first_collision(material, s, e, periodic, &open)?;
-    // Through the sweeper, gathered where `options.gather` asks for a sun this high (as
-    // `Sweeper::sweep_sun` does: `multi_bounce`'s `Gather::AUTO` at or below 30°).
-    let mut o = *options;
-    o.gather = options.gather.for_sun(s);
-    let scattered = lightgrid_core::Sweeper::sweep_with_source(
-        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
-        material,
-        &dark,
-        &src,
-        &o,
-    )?
-    .bins
-    .expect("bins");
+    let scattered = scattered_sun(material, &dark, &src, s, options)?;
     let t_split = t0.elapsed().as_secs_f64();
     let fb = field(binned.data(), None);
     let fs = field(scattered.data(), Some((t.values(), e, s)));
@@ -193,17 +205,7 @@ pub fn ground_light(
         sides: periodic,
         ..Boundary::open_sky(BinLight::ZERO)
     };
-    let mut o = *o;
-    o.gather = o.gather.for_sun(s);
-    let scattered = lightgrid_core::Sweeper::sweep_with_source(
-        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
-        m,
-        &dark,
-        &src,
-        &o,
-    )?
-    .bins
-    .expect("bins");
+    let scattered = scattered_sun(m, &dark, &src, s, o)?;
     let b: Vec<f32> = binned.data()[range.clone()]
         .iter()
         .map(|l| luminance(l.irradiance(Vec3::Y)))
@@ -314,19 +316,7 @@ pub fn medium_errors(
         &lightgrid_sweep_cpu::sun::BeamOptions::DEFAULT.with_mean_transmittance(),
     )?;
     let mean_t = fc.mean_transmittance.as_deref().expect("asked for");
-    // Through the sweeper, which gathers the first scatterings where `options.gather`
-    // asks for a sun this high (as the sun's entry points do).
-    let mut o = *options;
-    o.gather = options.gather.for_sun(s);
-    let scattered = lightgrid_core::Sweeper::sweep_with_source(
-        &mut lightgrid_sweep_cpu::CpuSweeper::new(),
-        material,
-        &dark,
-        &fc.source,
-        &o,
-    )?
-    .bins
-    .ok_or("no bins")?;
+    let scattered = scattered_sun(material, &dark, &fc.source, s, options)?;
     let four_pi = 4.0 * std::f32::consts::PI;
     let (mut sa, mut sr, mut se, mut sw, mut max, mut noise, mut n) =
         (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
