@@ -260,23 +260,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             noise: luminance(reference.std_error[i]) as f64 / total,
         });
     }
-    println!(
+    let header = format!(
         "patchy canopy 16 x 10 x 16 (albedo {albedo}, ground {ground}), periodic, sun {elevation}° (azimuth 20°), {paths} reference paths; sweep cells 1/{k} m, smoothing {}",
         o.smoothing
     );
+    report(&header, &o.gather, swept_s, &cells, m.desc().dims().y);
+    Ok(())
+}
+
+/// Prints the scene's line (`header`), the sweep's time and how its scattered light was
+/// found, each level's sweep over the reference and the worst of the quiet cells.
+fn report(header: &str, gather: &Gather, swept_s: f64, cells: &[Cell], levels: u32) {
+    println!("{header}");
     println!(
         "  scattered light: {:.3} s ({})",
         swept_s,
-        if o.gather.is_on() {
+        if gather.is_on() {
             format!(
                 "first {} scatterings gathered, {} directions for the first, a quarter as many for later ones",
-                o.gather.orders, o.gather.rays
+                gather.orders, gather.rays
             )
         } else {
             "swept".into()
         }
     );
-    for y in 0..m.desc().dims().y {
+    for y in 0..levels {
         let level: Vec<&Cell> = cells.iter().filter(|c| c.at.y == y).collect();
         if level.is_empty() {
             continue;
@@ -311,5 +319,4 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             100.0 * c.noise
         );
     }
-    Ok(())
 }
