@@ -792,23 +792,7 @@ fn layered_device_sampling_reads_across_seams() {
     let layers: Vec<GpuSampleLayer> = (0..n)
         .map(|i| grids.layer(i, owners[i], Some(&dev_h[i])))
         .collect();
-    // Points over the block and beside it, many in the strips along its seams.
-    let mut rng = fastrand::Rng::with_seed(17);
-    let positions: Vec<Vec3> = (0..4000)
-        .map(|k| {
-            let (mut x, mut z) = (rng.f32() * 11.0 - 6.0, rng.f32() * 11.0 - 6.0);
-            if k % 2 == 0 {
-                x = 0.8 * rng.f32() - 0.4;
-            }
-            if k % 3 == 0 {
-                z = 0.8 * rng.f32() - 0.4;
-            }
-            Vec3::new(x, rng.f32() * 4.4 - 0.2, z)
-        })
-        .collect();
-    let normals: Vec<Vec3> = (0..4000)
-        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5).normalize())
-        .collect();
+    let (positions, normals) = seam_points();
     // The owner (lightgrid_terrain_lod::Owner::owns: the quadtree cell, and the height
     // within the grid's levels; the strips beside a tile's outermost points are its).
     let owner_of = |p: Vec3| -> usize {
@@ -885,25 +869,63 @@ fn layered_device_sampling_reads_across_seams() {
         across += check(&positions, ns, &gpu, &format!("normals {with_normals}"));
     }
     assert!(across > 1000, "{across} reads across a seam");
-    // The same rule on a lattice generated on the device, each layer visiting the
-    // lattice's points it can own or share alone: points on and between the tiles'
-    // outermost points, in the strips along the seams, and beyond the block.
+    let lattice_across = lattice_reads(&sampler, &layers, &light, &check);
+    assert!(
+        lattice_across > 500,
+        "{lattice_across} lattice reads across a seam"
+    );
+    assert_continuous_across_inner_seams(&sampler, &layers, &light, sky, &owner_of);
+}
+
+/// Points over [`layered_device_sampling_reads_across_seams`]'s block and beside it, many
+/// in the strips along its seams, and a normal for each.
+fn seam_points() -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut rng = fastrand::Rng::with_seed(17);
+    let positions: Vec<Vec3> = (0..4000)
+        .map(|k| {
+            let (mut x, mut z) = (rng.f32() * 11.0 - 6.0, rng.f32() * 11.0 - 6.0);
+            if k % 2 == 0 {
+                x = 0.8 * rng.f32() - 0.4;
+            }
+            if k % 3 == 0 {
+                z = 0.8 * rng.f32() - 0.4;
+            }
+            Vec3::new(x, rng.f32() * 4.4 - 0.2, z)
+        })
+        .collect();
+    let normals: Vec<Vec3> = (0..4000)
+        .map(|_| Vec3::new(rng.f32() - 0.5, rng.f32() - 0.3, rng.f32() - 0.5).normalize())
+        .collect();
+    (positions, normals)
+}
+
+/// Each point's device read (`gpu`) at `points` (with `normals`) against the CPU rule's,
+/// named `what`; returns the reads across a seam.
+type SeamCheck<'a> =
+    dyn Fn(&[Vec3], Option<&[Vec3]>, &[lightgrid_render::SampledLight], &str) -> usize + 'a;
+
+/// The checks of [`layered_device_sampling_reads_across_seams`] (`check`: each read
+/// against the CPU rule's, returning the reads across a seam) on a lattice generated on
+/// the device, each layer visiting the lattice's points it can own or share alone:
+/// points on and between the tiles' outermost points, in the strips along the seams,
+/// and beyond the block.
+fn lattice_reads(
+    sampler: &GpuLightSampler,
+    layers: &[GpuSampleLayer<'_>],
+    light: &lightgrid_render::LayerLight,
+    check: &SeamCheck<'_>,
+) -> usize {
     let lattice =
         GridDesc::new(Vec3::new(-6.1, -0.2, -6.05), 0.23, UVec3::new(48, 20, 47)).unwrap();
     let lpos: Vec<Vec3> = (0..lattice.point_count())
         .map(|i| lattice.position(lattice.coords(i).unwrap()))
         .collect();
     let gpu = sampler
-        .sample_layers_lit(&layers, GpuPoints::Lattice(lattice), &light)
+        .sample_layers_lit(layers, GpuPoints::Lattice(lattice), light)
         .unwrap()
         .read()
         .unwrap();
-    let lattice_across = check(&lpos, None, &gpu, "lattice");
-    assert!(
-        lattice_across > 500,
-        "{lattice_across} lattice reads across a seam"
-    );
-    assert_continuous_across_inner_seams(&sampler, &layers, &light, sky, &owner_of);
+    check(&lpos, None, &gpu, "lattice")
 }
 
 /// Continuous across the block's inner seams (x = 0, z = 0) of
