@@ -74,6 +74,7 @@ mod peaks;
 mod places;
 mod reference;
 mod seams;
+mod served;
 mod text;
 pub use host::Interference;
 use host::{Clocks, process_cpu_ms};
@@ -81,6 +82,7 @@ pub use mc::MonteCarlo;
 pub use peaks::Peaks;
 use reference::{Reference, reference_desc};
 pub use seams::Seams;
+pub use served::Served;
 use text::run_line;
 pub use text::text;
 
@@ -332,6 +334,10 @@ pub struct Run {
     /// grid): the nesting's own part of a coarse depth's error, its cell size's part
     /// left out.
     pub error_by_depth_own: Vec<Errors>,
+    /// By depth, which frames its probes came from: a coarse depth serves the probes
+    /// near the camera only while the finer nodes there are still to come, so its
+    /// figures may be one frame's.
+    pub served: Vec<Served>,
     /// By depth, the worst errors against that depth's own-cell reference relative to
     /// the local brightest value, shadow edges apart (`frame/peaks.rs`).
     pub peaks: Vec<Peaks>,
@@ -715,6 +721,8 @@ struct Tally {
     all: Acc3,
     by_depth: Vec<Acc3>,
     by_depth_own: Vec<Acc3>,
+    /// By depth, the probes it served in each frame.
+    served: Vec<Vec<u64>>,
     /// The finest depth's probes against the 1 m sweep: those whose node shows its own
     /// sun response, and those whose node's is still to come (a coarser grid's read).
     finest_sun: [Acc3; 2],
@@ -927,6 +935,14 @@ fn frame(
             tally.by_depth_own.resize(d + 1, Acc3::default());
         }
         tally.by_depth[d].add(hp, r);
+        if tally.served.len() <= d {
+            tally.served.resize(d + 1, Vec::new());
+        }
+        let per_frame = &mut tally.served[d];
+        if per_frame.len() <= f as usize {
+            per_frame.resize(f as usize + 1, 0);
+        }
+        per_frame[f as usize] += 1;
         if d == finest {
             finest_acc.add(hp, r);
             let shown = own_sun.contains(&(h.grid_at(p.p) as *const _));
@@ -1082,6 +1098,7 @@ fn run_elevation(
         error: tally.all.errors(),
         error_by_depth: tally.by_depth.iter().map(Acc3::errors).collect(),
         error_by_depth_own: tally.by_depth_own.iter().map(Acc3::errors).collect(),
+        served: tally.served.iter().map(|v| Served::of(v)).collect(),
         finest_sun: tally.finest_sun.each_ref().map(Acc3::errors),
         finest_places: tally.finest_places.places(),
         finest_bins: tally.finest_bins.groups(),
