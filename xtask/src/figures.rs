@@ -174,7 +174,10 @@ fn hierarchy_measurements() -> [Measurement; 3] {
             ),
             headline: |t| {
                 t.lines()
-                    .filter(|l| l.trim_start().starts_with("nesting alone at sun"))
+                    .filter(|l| {
+                        let l = l.trim_start();
+                        l.starts_with("nesting alone at sun") || l.starts_with("far probes")
+                    })
                     .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
                     .collect()
             },

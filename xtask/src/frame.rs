@@ -29,7 +29,12 @@
 //! *nesting* error (the hierarchy against a single sweep of the same world). A coarse
 //! depth's error against the 1 m sweep is mostly its cell size's; per depth it is also
 //! measured against one sweep of the region at that depth's own cell, on its nodes'
-//! lattice (`frame/reference.rs`): the nesting's own part. At the last camera, once its
+//! lattice (`frame/reference.rs`): the nesting's own part. Those probes lie within some
+//! 20 m of the camera, where the finest nodes serve once built, so a coarser depth
+//! serves them only in the cold start (`frame/served.rs`); *far probes*, volume points
+//! 24–192 m from the camera, measure each coarser depth where it serves along the path,
+//! against its own-cell sweep, whose region reaches them (`frame/far.rs`; with 32-point
+//! nodes at 15° and 40° the process then holds some 11 GB at its peak). At the last camera, once its
 //! nodes are all built, the finest depth's probes are split by whether their read
 //! falls within a node's points or across the seam between two nodes'
 //! (`frame/seams.rs`).
@@ -67,6 +72,7 @@ use lightgrid_terrain_lod::{FrameStats, Hierarchy, HierarchyParams, StageTimes, 
 use serde::Serialize;
 
 mod bins;
+mod far;
 mod host;
 mod kernel;
 mod mc;
@@ -76,6 +82,7 @@ mod reference;
 mod seams;
 mod served;
 mod text;
+pub use far::Far;
 pub use host::Interference;
 use host::{Clocks, process_cpu_ms};
 pub use mc::MonteCarlo;
@@ -338,6 +345,9 @@ pub struct Run {
     /// near the camera only while the finer nodes there are still to come, so its
     /// figures may be one frame's.
     pub served: Vec<Served>,
+    /// The far probes (`frame/far.rs`): the coarser depths where they serve once the
+    /// path is under way, against their own-cell sweeps.
+    pub far: Far,
     /// By depth, the worst errors against that depth's own-cell reference relative to
     /// the local brightest value, shadow edges apart (`frame/peaks.rs`).
     pub peaks: Vec<Peaks>,
@@ -723,6 +733,8 @@ struct Tally {
     by_depth_own: Vec<Acc3>,
     /// By depth, the probes it served in each frame.
     served: Vec<Vec<u64>>,
+    /// The far probes ([`far`]).
+    far: far::FarTally,
     /// The finest depth's probes against the 1 m sweep: those whose node shows its own
     /// sun response, and those whose node's is still to come (a coarser grid's read).
     finest_sun: [Acc3; 2],
@@ -800,6 +812,31 @@ fn sample_all(h: &Hierarchy, probes: &[Probe], to_sun: Vec3) -> Result<f64> {
         .zip(&lit)
         .map(|(p, s)| shaded(s, p, SUN_E, to_sun) as f64)
         .sum())
+}
+
+/// Frame `f`'s far probes around `cam` ([`far`]) read and tallied against each coarser
+/// depth's own-cell sweep.
+fn far_probes(
+    h: &mut Hierarchy,
+    world: &World,
+    (f, cam, to_sun): (u32, Vec3, Vec3),
+    refs: &Refs,
+    tally: &mut far::FarTally,
+) -> Result<()> {
+    let probes = far::probes(world, cam);
+    let parts = sample_parts(h, &probes, to_sun)?;
+    let own = refs
+        .coarse
+        .iter()
+        .map(|r| r.sky_and_sun(&probes))
+        .collect::<Result<Vec<_>>>()?;
+    let depths: Vec<usize> = probes.iter().map(|p| depth_at(h, p.p)).collect();
+    // None for the world grid and the finest depth (the 1 m sweep stops short).
+    let own_refs: Vec<Option<&[Parts]>> = (0..=h.params().depths() as usize)
+        .map(|d| d.checked_sub(1).and_then(|k| own.get(k)).map(|v| &v[..]))
+        .collect();
+    tally.add(f, &depths, &parts, &own_refs);
+    Ok(())
 }
 
 /// Depth of the grid serving `p` (0: the world grid).
@@ -897,6 +934,7 @@ fn frame(
             d => Some(&own[d - 1][..]),
         })
         .collect();
+    far_probes(h, world, (f, cam, to_sun), refs, &mut tally.far)?;
     // The finest depth's volume points, each once (its six probes share it).
     let volume_points: Vec<Vec3> = (VERTEX_SIDE * VERTEX_SIDE..probes.len())
         .step_by(6)
@@ -1099,6 +1137,7 @@ fn run_elevation(
         error_by_depth: tally.by_depth.iter().map(Acc3::errors).collect(),
         error_by_depth_own: tally.by_depth_own.iter().map(Acc3::errors).collect(),
         served: tally.served.iter().map(|v| Served::of(v)).collect(),
+        far: tally.far.far(),
         finest_sun: tally.finest_sun.each_ref().map(Acc3::errors),
         finest_places: tally.finest_places.places(),
         finest_bins: tally.finest_bins.groups(),

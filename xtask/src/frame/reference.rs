@@ -135,11 +135,18 @@ pub(super) fn reference_desc(
     params: &HierarchyParams,
     d: u32,
 ) -> Result<GridDesc> {
+    // The near probes reach 20 m from the camera; the coarser depths' sweeps reach the
+    // far probes too (`far.rs`).
+    let reach = if d < params.depths() {
+        super::far::REACH
+    } else {
+        20.0
+    };
     let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
     for f in 0..cfg.frames {
         let c = world.camera(cfg, f);
-        lo = lo.min(Vec2::new(c.x, c.z) - 20.0 - cfg.margin);
-        hi = hi.max(Vec2::new(c.x, c.z) + 20.0 + cfg.margin);
+        lo = lo.min(Vec2::new(c.x, c.z) - reach - cfg.margin);
+        hi = hi.max(Vec2::new(c.x, c.z) + reach + cfg.margin);
     }
     // Toward the lowest sun, as far as its rays climb [`SHADE_HEIGHT`] (beyond the
     // region nothing shades them: a 10° sun's rise 7 m in 40 m, under the trees' tops).

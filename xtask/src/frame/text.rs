@@ -285,6 +285,7 @@ fn nesting_lines(r: &Run) -> String {
         by_depth.join(", ")
     );
     s.push_str(&super::served::line(&r.served));
+    s.push_str(&super::far::line(&r.far, r.elevation));
     let _ = writeln!(
         s,
         "  nesting alone at sun {:.0}°, the largest error over the local brightest value (% of sky / sun / both; sun and both away from shadow edges): {}",
