@@ -81,6 +81,7 @@ mod places;
 mod reference;
 mod seams;
 mod served;
+mod sun_move;
 mod text;
 pub use far::Far;
 pub use host::Interference;
@@ -1067,48 +1068,13 @@ fn run_elevation(
     } else {
         None
     };
-    let moved = sun_dir((elevation + 20.0).min(89.0));
-    let cpu = process_cpu_ms();
-    let t = Instant::now();
-    h.set_sun(Some(SunLight {
-        to_sun: moved,
-        irradiance: SUN_E,
-    }))?;
-    let world_ms = t.elapsed().as_secs_f64() * 1e3;
-    let set_sun_cpu_ms = cpu.zip(process_cpu_ms()).map(|(a, b)| b - a);
-    let marched = h.layers().iter().filter(|l| l.sun.is_some()).count();
-    let at_once = sample_parts(&mut h, &end_probes, moved)?;
-    // Frames at the budget's pace until one installs the new sun (at once unbudgeted).
-    let (mut wait_frames, mut wait_max_ms) = (0u32, 0.0f64);
-    let (s, frame_ms) = loop {
-        let f = Instant::now();
-        let s = h.update(cam)?;
-        let ms = f.elapsed().as_secs_f64() * 1e3;
-        if !h.sun_moving() {
-            break (s, ms);
-        }
-        wait_frames += 1;
-        wait_max_ms = wait_max_ms.max(ms);
-        anyhow::ensure!(
-            wait_frames < 100_000,
-            "the moved sun's world grid never landed"
-        );
-        std::thread::sleep(pace.saturating_sub(f.elapsed()));
-    };
-    let landed_ms = t.elapsed().as_secs_f64() * 1e3 - frame_ms;
-    // Then until a frame finds nothing left to do (it counts).
-    let settled_frames = wait_frames + 1 + settle(&mut h, cam, pace)?;
-    let settled_ms = t.elapsed().as_secs_f64() * 1e3;
-    let settled = sample_parts(&mut h, &end_probes, moved)?;
-    reference.sweep_sun(&params, moved)?;
-    let refs = reference.sky_and_sun(&end_probes)?;
-    let error_of = |parts: &[Parts]| {
-        let mut acc = Acc3::default();
-        for (hp, r) in parts.iter().zip(&refs) {
-            acc.add(*hp, *r);
-        }
-        acc.errors()
-    };
+    let moved = sun_move::measure(
+        &mut h,
+        reference,
+        &params,
+        &end_probes,
+        (elevation, cam, pace),
+    )?;
     let points_per_s_kernel = kernel::rate(world, cfg, gpu, (to_sun, sky_bins(to_sun)?))?;
     let n = frames.len().max(1) as f64;
     let total_s: f64 = frames.iter().map(|r| r.ms.total).sum::<f64>() / 1e3;
@@ -1143,19 +1109,19 @@ fn run_elevation(
         finest_bins: tally.finest_bins.groups(),
         peaks: tally.peaks.peaks(),
         peaks_second_half: tally.peaks_second_half.peaks(),
-        sun_move_world_ms: world_ms,
-        sun_move_wait_frames: wait_frames,
-        sun_move_wait_max_ms: wait_max_ms,
-        sun_move_landed_ms: landed_ms,
-        sun_move_frame_ms: frame_ms,
-        sun_move_built: s.sun_built,
-        sun_move_pending: s.sun_pending,
-        sun_move_marched: marched,
-        sun_move_cpu_ms: set_sun_cpu_ms,
-        sun_move_settled_ms: settled_ms,
-        sun_move_settled_frames: settled_frames,
-        sun_move_error_at_once: error_of(&at_once),
-        sun_move_error_settled: error_of(&settled),
+        sun_move_world_ms: moved.world_ms,
+        sun_move_wait_frames: moved.wait_frames,
+        sun_move_wait_max_ms: moved.wait_max_ms,
+        sun_move_landed_ms: moved.landed_ms,
+        sun_move_frame_ms: moved.frame_ms,
+        sun_move_built: moved.built,
+        sun_move_pending: moved.pending,
+        sun_move_marched: moved.marched,
+        sun_move_cpu_ms: moved.cpu_ms,
+        sun_move_settled_ms: moved.settled_ms,
+        sun_move_settled_frames: moved.settled_frames,
+        sun_move_error_at_once: moved.error_at_once,
+        sun_move_error_settled: moved.error_settled,
         seams,
         monte_carlo,
     })
