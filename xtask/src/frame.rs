@@ -974,14 +974,7 @@ fn frame(
             tally.by_depth_own.resize(d + 1, Acc3::default());
         }
         tally.by_depth[d].add(hp, r);
-        if tally.served.len() <= d {
-            tally.served.resize(d + 1, Vec::new());
-        }
-        let per_frame = &mut tally.served[d];
-        if per_frame.len() <= f as usize {
-            per_frame.resize(f as usize + 1, 0);
-        }
-        per_frame[f as usize] += 1;
+        served::count(&mut tally.served, d, f);
         if d == finest {
             finest_acc.add(hp, r);
             let shown = own_sun.contains(&(h.grid_at(p.p) as *const _));

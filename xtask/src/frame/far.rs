@@ -70,15 +70,10 @@ impl FarTally {
         own_refs: &[Option<&[Parts]>],
     ) {
         for (i, (&d, &hp)) in depths.iter().zip(parts).enumerate() {
-            if self.served.len() <= d {
-                self.served.resize(d + 1, Vec::new());
+            super::served::count(&mut self.served, d, f);
+            if self.by_depth_own.len() <= d {
                 self.by_depth_own.resize(d + 1, Acc3::default());
             }
-            let per_frame = &mut self.served[d];
-            if per_frame.len() <= f as usize {
-                per_frame.resize(f as usize + 1, 0);
-            }
-            per_frame[f as usize] += 1;
             if let Some(r) = own_refs.get(d).copied().flatten() {
                 self.by_depth_own[d].add(hp, r[i]);
             }

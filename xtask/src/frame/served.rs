@@ -35,6 +35,18 @@ impl Served {
     }
 }
 
+/// Counts one probe of depth `d` in frame `f` (`per_depth[d][f]`, grown as needed).
+pub(super) fn count(per_depth: &mut Vec<Vec<u64>>, d: usize, f: u32) {
+    if per_depth.len() <= d {
+        per_depth.resize(d + 1, Vec::new());
+    }
+    let per_frame = &mut per_depth[d];
+    if per_frame.len() <= f as usize {
+        per_frame.resize(f as usize + 1, 0);
+    }
+    per_frame[f as usize] += 1;
+}
+
 /// Which frames each depth's probes came from (a coarse depth near the camera serves
 /// while the finer nodes there are still to come: its figures may be one frame's).
 pub(super) fn line(served: &[Served]) -> String {
@@ -79,6 +91,11 @@ mod tests {
         );
         assert_eq!(Served::of(&[0, 5, 5]).most_frame, 1);
         assert_eq!(Served::of(&[]), Served::default());
+        let mut per_depth = Vec::new();
+        for (d, f) in [(2, 0), (2, 0), (2, 3), (1, 1)] {
+            count(&mut per_depth, d, f);
+        }
+        assert_eq!(per_depth, vec![vec![], vec![0, 1], vec![2, 0, 0, 1]]);
     }
 
     #[test]
