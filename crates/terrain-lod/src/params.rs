@@ -82,9 +82,11 @@ pub struct HierarchyParams {
     /// node's own cell. On the frame bench's forest (32-point nodes, 15° and 40°) with
     /// four times the default point budget, the sky's nesting at the finest depth went
     /// from 2.1 / 1.9 % RMSE to 1.8 / 1.7 % and the seams between its nodes from 2.8 to
-    /// 2.2 %, every depth within 2 %; but the waves cost a third more frame time in a
-    /// cold start, and under the default budget the camera's finest nodes wait for the
-    /// nodes before them (the path's error against one 1 m sweep 5.9 → 10.6 % at 15°).
+    /// 2.2 %, every depth within 2 % (sky, sun and both within 1.8 % RMSE and 0.6 %
+    /// bias, near the camera and 24–192 m from it); but the waves cost a third more
+    /// frame time in a cold start, and under the default budget the camera's finest
+    /// nodes wait for the nodes before them (the path's error against one 1 m sweep
+    /// 5.9 → 10.6 % at 15°).
     /// Off by default: for a bake, or a budget that keeps up with the camera (the
     /// repository's `docs/measurements.md`, "The same depth's nodes in a fixed order").
     pub neighbour_halo: bool,
