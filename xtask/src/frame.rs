@@ -580,6 +580,9 @@ const VERTEX_SIDE: usize = 40;
 const VOLUME_SIDE: usize = 20;
 /// Heights of the volume points: 1 to 11 m above the ground, 2 m apart.
 const VOLUME_LEVELS: usize = 6;
+/// Metres from the camera along x and z within which [`probes`] lie (the vertices'
+/// 19.5, the volume points' 19).
+const NEAR_REACH: f32 = 20.0;
 
 /// The vertex and volume points around camera `cam`: `VERTEX_SIDE²` vertices (x
 /// major), then `VOLUME_SIDE² × VOLUME_LEVELS` volume points (x major, then z, then
@@ -1438,7 +1441,7 @@ mod tests {
         assert_eq!(p.len(), 40 * 40 + 20 * 20 * 6 * 6);
         for q in &p {
             assert!((q.n.length() - 1.0).abs() < 1e-5);
-            assert!((q.p.x - cam.x).abs() <= 20.0 && (q.p.z - cam.z).abs() <= 20.0);
+            assert!((q.p.x - cam.x).abs() <= NEAR_REACH && (q.p.z - cam.z).abs() <= NEAR_REACH);
             assert!(q.p.y >= world.hm.height_at(q.p.x, q.p.z) - 1e-4);
         }
         // The slope's normal leans against the gradient.

@@ -16,7 +16,7 @@ pub(super) const REACH: f32 = 192.0;
 /// Metres between the far probes' columns.
 const STEP: f32 = 12.0;
 /// Columns within this many metres of the camera along both x and z are left out:
-/// the near probes' square (19.5 m) and a little more.
+/// the near probes' square (`NEAR_REACH`) and a little more.
 const INNER: f32 = 24.0;
 /// Heights of the far probes above the ground, metres.
 const HEIGHTS: [f32; 3] = [2.0, 6.0, 10.0];

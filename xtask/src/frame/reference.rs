@@ -135,12 +135,11 @@ pub(super) fn reference_desc(
     params: &HierarchyParams,
     d: u32,
 ) -> Result<GridDesc> {
-    // The near probes reach 20 m from the camera; the coarser depths' sweeps reach the
-    // far probes too (`far.rs`).
+    // The coarser depths' sweeps reach the far probes too (`far.rs`).
     let reach = if d < params.depths() {
         super::far::REACH
     } else {
-        20.0
+        super::NEAR_REACH
     };
     let (mut lo, mut hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
     for f in 0..cfg.frames {
