@@ -115,7 +115,7 @@ enum Task {
         #[arg(long)]
         budget_ms: Option<f32>,
         /// Points a frame may sweep (HierarchyParams::budget_points; default: the node's
-        /// points across squared times 96, two 48-level nodes)
+        /// points across with its apron squared times 96, two 48-level nodes)
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
         budget_points: Option<u64>,
         /// Side halos read the nodes of their depth before them where built
@@ -164,7 +164,7 @@ enum Task {
         #[arg(long, default_value_t = 40.0)]
         margin: f32,
         /// Cells a node's sky sweep reaches beyond the node (HierarchyParams::apron;
-        /// default: the hierarchy's, 3, for nodes of 32 points or more; 0 for smaller
+        /// default: the hierarchy's, 6, for nodes of 32 points or more; 0 for smaller
         /// ones)
         #[arg(long)]
         apron: Option<u32>,

@@ -42,8 +42,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             finest_cell: 1.0,
             max_levels: 48,
             budget_points: node_points as u64 * node_points as u64 * 48 * 2,
-            // Without the default apron of 3 cells (for 32-point nodes): the issue-43
-            // speed configuration, whose 16-point nodes it would cost 1.89 times the
+            // Without the default apron of 6 cells (for 32-point nodes): the issue-43
+            // speed configuration, whose 16-point nodes it would cost 3.06 times the
             // sky sweep's points.
             apron: 0,
             ..Default::default()

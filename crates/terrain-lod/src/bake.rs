@@ -175,7 +175,8 @@ impl WorldBake {
     /// nodes of its depth before it: the grids its boundary and sun march may read.
     fn reads(&self, key: NodeKey) -> Vec<NodeKey> {
         let (lo, hi) = self.h.node_rect(key);
-        let m = (HALO_WIDTH as f32 + 1.0) * self.h.params.cell(key.depth);
+        let m =
+            (HALO_WIDTH as f32 + 1.0 + self.h.params.apron as f32) * self.h.params.cell(key.depth);
         let (lo, hi) = (lo - Vec2::splat(m), hi + Vec2::splat(m));
         let mut out = Vec::new();
         for d in 1..key.depth {
@@ -224,7 +225,7 @@ impl WorldBake {
         let h = wd.h();
         let mut side = Vec2::splat(
             self.h.params.node_size(1)
-                + 2.0 * ((HALO_WIDTH as f32 + 1.0) * self.h.params.cell(1) + 2.0 * h),
+                + 2.0 * (self.tile_halo_cells() * self.h.params.cell(1) + 2.0 * h),
         );
         if let Some(sun) = self.h.sun
             && sun.to_sun.y > 0.0
@@ -237,10 +238,16 @@ impl WorldBake {
         n.x as u64 * n.y as u64 * wd.dims().y as u64
     }
 
+    /// Depth-1 cells a tile reaches beyond its node's rectangle for the node's
+    /// boundary halo, which lies beyond its apron ([`WorldBake::world_tiles`]).
+    fn tile_halo_cells(&self) -> f32 {
+        HALO_WIDTH as f32 + 1.0 + self.h.params.apron as f32
+    }
+
     /// The world grid cut into tiles, one per depth-1 node (lattice index): the part of
     /// it a node of that column and its descendants read, so that a node task reads a
     /// tile of bounded size however large the world. A tile is the node's rectangle
-    /// widened by its boundary halo and two world cells, and, with the sun apart, toward
+    /// widened by its apron, its boundary halo and two world cells, and, with the sun apart, toward
     /// the sun by as far as its beam travels before it rises above the highest cell that
     /// holds anything (so the beam's march beyond a node meets the same material as in
     /// the whole grid, up to f32 rounding where a ray grazes a cell's corner: a tile's
@@ -257,7 +264,7 @@ impl WorldBake {
         }
         let h = wd.h();
         let dlo = wd.point_bounds().0;
-        let halo = (HALO_WIDTH as f32 + 1.0) * self.h.params.cell(1) + 2.0 * h;
+        let halo = self.tile_halo_cells() * self.h.params.cell(1) + 2.0 * h;
         let (mut reach_lo, mut reach_hi) = (Vec2::ZERO, Vec2::ZERO);
         if let Some(sun) = self.h.sun
             && sun.to_sun.y > 0.0

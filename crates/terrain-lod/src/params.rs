@@ -23,16 +23,17 @@ pub struct HierarchyParams {
     /// instead of coming straight from a coarser grid's points. Each sky sweep sweeps
     /// `((node_points + 2 apron) / node_points)²` the points (and composes the apron's
     /// material), and the point budget counts them: at a given budget fewer fine nodes
-    /// are built a frame. At most `node_points`. By default 3: with the default
-    /// 32-point nodes, 1.41 times the sky sweep's points, for which the sky nests
-    /// within 1.2 / 1.2 / 1.8 / 2.1 % RMSE of one sweep at each depth's own cell at
-    /// depths 1–4 (the frame bench's forest at 15°; 1.0 / 1.0 / 1.6 / 1.9 % at 40°;
-    /// 2.9 / 2.6 / 2.2 / 3.0 % without an apron when first measured). With 4 cells the
-    /// finest depth's is 1.98 % at 15°, but the default point budget then builds fewer
-    /// nodes a frame and the camera path's error grows (the repository's
-    /// `docs/measurements.md`, "The sides, and an apron" and "A wider apron at the
-    /// defaults"). Smaller nodes pay more for the same cells (16-point
-    /// nodes: 1.89 times); set it with `node_points`. With an apron, a sweeper that
+    /// are built a frame. At most `node_points`. By default 6: with the default
+    /// 32-point nodes, 1.89 times the sky sweep's points, which the default point
+    /// budget ([`HierarchyParams::budget_points`]) counts in: two 48-level nodes a
+    /// frame with their aprons. On the frame bench's forest (15° and 40°) every depth
+    /// serving the camera then nests within 1.8 % RMSE and 0.6 % bias of one sweep at
+    /// its own cell, for sky, sun and both; with 3 cells and a budget of two nodes
+    /// without their aprons, the finest depth's sky 2.1 / 1.9 % and depth 2's sun
+    /// 4.8 / 3.3 % (the repository's
+    /// `docs/measurements.md`, "The sides, and an apron" and "An apron of 6 cells and a
+    /// budget that counts it"). Smaller nodes pay more for the same cells (16-point
+    /// nodes: 3.06 times); set it with `node_points`. With an apron, a sweeper that
     /// keeps its grids on a device (the GPU sweeper) has its widened grid's copy
     /// dropped: readers sample the node's grid kept on the CPU (set 0 to sample in
     /// place). With the sun kept apart, a node also keeps its transmittance marched one
@@ -48,9 +49,10 @@ pub struct HierarchyParams {
     /// material, as the sky's does. On the frame bench's forest at 15° with 3 cells,
     /// the sun's largest nesting error over the local brightest value at depth 1 went
     /// from 19 to 4.5 % and its RMSE from 0.6 to 0.2 %; but each sun response then
-    /// sweeps `((node_points + 2 sun_apron) / node_points)²` the points, and under the
-    /// default point budget fewer fine nodes fit a frame: the whole path's error against
-    /// one 1 m sweep grew from 10.6 to 12.7 % (1 cell: 12.0 %). Worth it where every
+    /// sweeps `((node_points + 2 sun_apron) / node_points)²` the points, and under a
+    /// point budget that does not count them fewer fine nodes fit a frame: the whole
+    /// path's error against one 1 m sweep grew from 10.6 to 12.7 % (1 cell: 12.0 %; a
+    /// sky apron of 3 cells and a budget of two nodes without their aprons). Worth it where every
     /// node is built anyway (a bake, a generous budget).
     pub sun_apron: u32,
     /// With the sun kept apart ([`Hierarchy::set_sun`](crate::Hierarchy::set_sun)),
@@ -79,14 +81,15 @@ pub struct HierarchyParams {
     /// coarser grid's there; a node is provisional until those of them the camera
     /// wants are built and final, and a depth's nodes are swept in waves of equal
     /// `x + z` (`neighbours.rs`). The light crossing those sides then comes at the
-    /// node's own cell. On the frame bench's forest (32-point nodes, 15° and 40°) with
-    /// four times the default point budget, the sky's nesting at the finest depth went
-    /// from 2.1 / 1.9 % RMSE to 1.8 / 1.7 % and the seams between its nodes from 2.8 to
-    /// 2.2 %, every depth within 2 % (sky, sun and both within 1.8 % RMSE and 0.6 %
-    /// bias, near the camera and 24–192 m from it); but the waves cost a third more
-    /// frame time in a cold start, and under the default budget the camera's finest
-    /// nodes wait for the nodes before them (the path's error against one 1 m sweep
-    /// 5.9 → 10.6 % at 15°).
+    /// node's own cell. On the frame bench's forest (32-point nodes, an apron of 3
+    /// cells, 15° and 40°) with a point budget of 393,216 (eight such nodes without
+    /// their aprons), the sky's nesting at the finest depth went from 2.1 / 1.9 % RMSE
+    /// to 1.8 / 1.7 % and the seams between its nodes from 2.8 to 2.2 %, every depth
+    /// within 2 % (sky, sun and both within 1.8 % RMSE and 0.6 % bias, near the camera
+    /// and 24–192 m from it); but the waves cost a third more frame time in a cold
+    /// start, and under a budget of two nodes the camera's finest nodes wait for the
+    /// nodes before them (the path's error against one 1 m sweep 5.9 → 10.6 % at
+    /// 15°).
     /// Off by default: for a bake, or a budget that keeps up with the camera (the
     /// repository's `docs/measurements.md`, "The same depth's nodes in a fixed order").
     pub neighbour_halo: bool,
@@ -98,7 +101,10 @@ pub struct HierarchyParams {
     pub lod_factor: f32,
     /// A node is evicted once the camera is beyond `evict_factor × node size`.
     pub evict_factor: f32,
-    /// Most points swept per frame (the world grid, built at load, is not counted).
+    /// Most points swept per frame (the world grid, built at load, is not counted; a
+    /// node's sky sweep counts its apron's points). By default two 48-level nodes of
+    /// the default size with their aprons, `(32 + 2 × 6)² × 48 × 2` = 185,856: set it
+    /// with `node_points` and `apron`.
     pub budget_points: u64,
     /// A frame's time budget, milliseconds (`None`: only `budget_points` limits a
     /// frame). [`Hierarchy::update`] then takes a job while the jobs it has selected
@@ -229,14 +235,15 @@ impl Default for HierarchyParams {
             world_cell: 16.0,
             finest_cell: 1.0,
             node_points: 32,
-            apron: 3,
+            apron: 6,
             sun_apron: 0,
             sun_with_sky: false,
             neighbour_halo: false,
             margin: 12.0,
             lod_factor: 1.0,
             evict_factor: 1.5,
-            budget_points: 32 * 32 * 48 * 2,
+            // Two 48-level nodes a frame with their aprons.
+            budget_points: (32 + 2 * 6) * (32 + 2 * 6) * 48 * 2,
             budget_ms: None,
             march_before_casters: false,
             compose_ahead: 4,

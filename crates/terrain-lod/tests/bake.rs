@@ -55,6 +55,9 @@ fn world_of(n: u32, relief: f32) -> (Heightmap, Arc<AreaComposer>, HierarchyPara
         world_cell: 8.0,
         finest_cell: 2.0,
         node_points: 8,
+        // An apron wider than the boundary halo's margin: a node's reads and its
+        // column's world tile reach past it.
+        apron: 6,
         max_levels: 40,
         lod_factor: 100.0,
         evict_factor: 200.0,

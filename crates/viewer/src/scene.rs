@@ -204,7 +204,7 @@ pub struct GridSpec {
     #[serde(default = "default_passes")]
     pub passes: u32,
     /// Cells a node's sky sweep reaches beyond the node on every side
-    /// (`HierarchyParams::apron`; left out: none, where the library's default is 3 for
+    /// (`HierarchyParams::apron`; left out: none, where the library's default is 6 for
     /// its 32-point nodes: at a point budget an apron builds fewer nodes a frame). With
     /// either sweeper the grids are sampled where they were swept.
     #[serde(default)]
