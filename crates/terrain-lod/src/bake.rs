@@ -247,11 +247,12 @@ impl WorldBake {
     /// The world grid cut into tiles, one per depth-1 node (lattice index): the part of
     /// it a node of that column and its descendants read, so that a node task reads a
     /// tile of bounded size however large the world. A tile is the node's rectangle
-    /// widened by its apron, its boundary halo and two world cells, and, with the sun apart, toward
-    /// the sun by as far as its beam travels before it rises above the highest cell that
-    /// holds anything (so the beam's march beyond a node meets the same material as in
-    /// the whole grid, up to f32 rounding where a ray grazes a cell's corner: a tile's
-    /// coordinates are shifted); it spans the world grid's full height.
+    /// widened by its apron, its boundary halo and two world cells, and, with the sun
+    /// apart, toward the sun by as far as its beam travels before it rises above the
+    /// highest cell that holds anything (so the beam's march beyond a node meets the
+    /// same material as in the whole grid, up to f32 rounding where a ray grazes a
+    /// cell's corner: a tile's coordinates are shifted); it spans the world grid's full
+    /// height.
     pub fn world_tiles(&self, world: &BakedGrid) -> Result<Vec<(IVec2, BakedGrid)>, LodError> {
         let wd = self.world_desc;
         if world.light.desc() != &wd {

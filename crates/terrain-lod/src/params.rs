@@ -30,9 +30,8 @@ pub struct HierarchyParams {
     /// serving the camera then nests within 1.8 % RMSE and 0.6 % bias of one sweep at
     /// its own cell, for sky, sun and both; with 3 cells and a budget of two nodes
     /// without their aprons, the finest depth's sky 2.1 / 1.9 % and depth 2's sun
-    /// 4.8 / 3.3 % (the repository's
-    /// `docs/measurements.md`, "The sides, and an apron" and "An apron of 6 cells and a
-    /// budget that counts it"). Smaller nodes pay more for the same cells (16-point
+    /// 4.8 / 3.3 % (the repository's `docs/measurements.md`, "The sides, and an
+    /// apron" and "An apron of 6 cells and a budget that counts it"). Smaller nodes pay more for the same cells (16-point
     /// nodes: 3.06 times); set it with `node_points`. With an apron, a sweeper that
     /// keeps its grids on a device (the GPU sweeper) has its widened grid's copy
     /// dropped: readers sample the node's grid kept on the CPU (set 0 to sample in
@@ -52,8 +51,8 @@ pub struct HierarchyParams {
     /// sweeps `((node_points + 2 sun_apron) / node_points)²` the points, and under a
     /// point budget that does not count them fewer fine nodes fit a frame: the whole
     /// path's error against one 1 m sweep grew from 10.6 to 12.7 % (1 cell: 12.0 %; a
-    /// sky apron of 3 cells and a budget of two nodes without their aprons). Worth it where every
-    /// node is built anyway (a bake, a generous budget).
+    /// sky apron of 3 cells and a budget of two nodes without their aprons). Worth it
+    /// where every node is built anyway (a bake, a generous budget).
     pub sun_apron: u32,
     /// With the sun kept apart ([`Hierarchy::set_sun`](crate::Hierarchy::set_sun)),
     /// every grid sweeps the sun's first collisions with its sky in one sweep
