@@ -872,9 +872,8 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
         None => p.apron,
     };
     p.sun_apron = cfg.sun_apron;
-    // Two 48-level nodes a frame with their aprons (the library's default budget).
-    let across = (cfg.node_points + 2 * p.apron) as u64;
-    p.budget_points = cfg.budget_points.unwrap_or(across * across * 96);
+    // Two of the largest nodes a frame with their aprons (the library's default budget).
+    p.budget_points = cfg.budget_points.unwrap_or(2 * p.largest_node());
     if let Some(t) = cfg.tolerance {
         p.sweep.tolerance = t;
     }

@@ -283,8 +283,17 @@ impl HierarchyParams {
         self.cell(d) * self.node_points as f32
     }
 
-    /// Points of the largest node sweep (`(node_points + 2 apron)² × max_levels`).
-    pub(crate) fn largest_node(&self) -> u64 {
+    /// Points of the largest node's sky sweep, `(node_points + 2 apron)² × max_levels`:
+    /// [`HierarchyParams::budget_points`] must cover it, and `k` times it is a budget
+    /// of `k` such nodes a frame (the default: 2).
+    ///
+    /// ```
+    /// use lightgrid_terrain_lod::HierarchyParams;
+    /// let p = HierarchyParams::default();
+    /// assert_eq!(p.largest_node(), (32 + 2 * 6) * (32 + 2 * 6) * 48);
+    /// assert_eq!(p.budget_points, 2 * p.largest_node());
+    /// ```
+    pub fn largest_node(&self) -> u64 {
         let across = (self.node_points + 2 * self.apron) as u64;
         across * across * self.max_levels as u64
     }

@@ -250,12 +250,10 @@ fn hierarchy_params(scene: &SceneFile, bake: bool) -> HierarchyParams {
         node_points: g.node_points,
         apron: g.apron,
         neighbour_halo: g.neighbour_halo,
-        budget_points: (g.node_points + 2 * g.apron) as u64
-            * (g.node_points + 2 * g.apron) as u64
-            * 48
-            * 4,
         ..Default::default()
     };
+    // Four of the largest nodes a frame.
+    params.budget_points = 4 * params.largest_node();
     params.sweep.max_passes = g.passes;
     params.sweep.gather = g.gather(bake);
     params
