@@ -175,8 +175,7 @@ impl WorldBake {
     /// nodes of its depth before it: the grids its boundary and sun march may read.
     fn reads(&self, key: NodeKey) -> Vec<NodeKey> {
         let (lo, hi) = self.h.node_rect(key);
-        let m =
-            (HALO_WIDTH as f32 + 1.0 + self.h.params.apron as f32) * self.h.params.cell(key.depth);
+        let m = self.halo_cells() * self.h.params.cell(key.depth);
         let (lo, hi) = (lo - Vec2::splat(m), hi + Vec2::splat(m));
         let mut out = Vec::new();
         for d in 1..key.depth {
@@ -225,7 +224,7 @@ impl WorldBake {
         let h = wd.h();
         let mut side = Vec2::splat(
             self.h.params.node_size(1)
-                + 2.0 * (self.tile_halo_cells() * self.h.params.cell(1) + 2.0 * h),
+                + 2.0 * (self.halo_cells() * self.h.params.cell(1) + 2.0 * h),
         );
         if let Some(sun) = self.h.sun
             && sun.to_sun.y > 0.0
@@ -238,9 +237,10 @@ impl WorldBake {
         n.x as u64 * n.y as u64 * wd.dims().y as u64
     }
 
-    /// Depth-1 cells a tile reaches beyond its node's rectangle for the node's
-    /// boundary halo, which lies beyond its apron ([`WorldBake::world_tiles`]).
-    fn tile_halo_cells(&self) -> f32 {
+    /// Cells of its own depth that a node's boundary halo reaches beyond its rectangle:
+    /// past its apron. A node's reads ([`WorldBake::reads`]) and a depth-1 column's
+    /// world tile ([`WorldBake::world_tiles`]) reach that far.
+    fn halo_cells(&self) -> f32 {
         HALO_WIDTH as f32 + 1.0 + self.h.params.apron as f32
     }
 
@@ -265,7 +265,7 @@ impl WorldBake {
         }
         let h = wd.h();
         let dlo = wd.point_bounds().0;
-        let halo = self.tile_halo_cells() * self.h.params.cell(1) + 2.0 * h;
+        let halo = self.halo_cells() * self.h.params.cell(1) + 2.0 * h;
         let (mut reach_lo, mut reach_hi) = (Vec2::ZERO, Vec2::ZERO);
         if let Some(sun) = self.h.sun
             && sun.to_sun.y > 0.0
