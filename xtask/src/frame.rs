@@ -132,6 +132,9 @@ pub struct FrameConfig {
     /// Side halos read the nodes of their depth before them
     /// (`HierarchyParams::neighbour_halo`).
     pub neighbour_halo: bool,
+    /// Halo points near bare ground read the coarser grid where they are, not clear of
+    /// its ground band (`HierarchyParams::halo_ground_lift` off).
+    pub no_ground_lift: bool,
     /// Under a time budget a new node whose casters wait marches its direct sun
     /// at once (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
@@ -191,6 +194,7 @@ impl FrameConfig {
             budget_ms: None,
             budget_points: None,
             neighbour_halo: false,
+            no_ground_lift: false,
             march_before_casters: false,
             colour_band: false,
             passes: None,
@@ -450,6 +454,9 @@ pub struct FrameReport {
     /// Whether side halos read the nodes of their depth before them
     /// (`HierarchyParams::neighbour_halo`).
     pub neighbour_halo: bool,
+    /// Whether halo points near bare ground read the coarser grid clear of its ground
+    /// band (`HierarchyParams::halo_ground_lift`).
+    pub ground_lift: bool,
     /// Whether a new node whose casters waited marched its direct sun at once
     /// (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
@@ -862,6 +869,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
     p.neighbour_halo = cfg.neighbour_halo;
+    p.halo_ground_lift = !cfg.no_ground_lift;
     p.march_before_casters = cfg.march_before_casters;
     if let Some(n) = cfg.passes {
         p.sweep.max_passes = n;
@@ -1233,6 +1241,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,
         neighbour_halo: cfg.neighbour_halo,
+        ground_lift: !cfg.no_ground_lift,
         march_before_casters: cfg.march_before_casters,
         colour_band: cfg.colour_band,
         apron: hierarchy_params(cfg).apron,

@@ -122,6 +122,10 @@ enum Task {
         /// (HierarchyParams::neighbour_halo, off by default), for comparison
         #[arg(long)]
         neighbour_halo: bool,
+        /// Halo points near bare ground read the coarser grid where they are
+        /// (HierarchyParams::halo_ground_lift off; on by default), for comparison
+        #[arg(long)]
+        no_ground_lift: bool,
         /// Under a time budget, a new node whose sun's casters wait marches its direct
         /// sun at once through those held (HierarchyParams::march_before_casters, off
         /// by default)
@@ -252,6 +256,7 @@ fn main() -> ExitCode {
             budget_ms,
             budget_points,
             neighbour_halo,
+            no_ground_lift,
             march_before_casters,
             colour_band,
             passes,
@@ -283,6 +288,7 @@ fn main() -> ExitCode {
             cfg.budget_ms = budget_ms;
             cfg.budget_points = budget_points;
             cfg.neighbour_halo = neighbour_halo;
+            cfg.no_ground_lift = no_ground_lift;
             cfg.march_before_casters = march_before_casters;
             cfg.colour_band = colour_band;
             cfg.passes = passes;

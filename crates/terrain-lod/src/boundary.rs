@@ -5,7 +5,7 @@
 use lightgrid_core::glam::{UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Blend, Boundary, GridDesc, HALO_WIDTH, HaloLayout, HorizonGrid, HorizonLight,
-    LightGrid, SideBoundary, TopBoundary,
+    LightGrid, MaterialGrid, SideBoundary, TopBoundary,
 };
 
 use lightgrid_core::{trilinear_frame, trilinear_indices};
@@ -19,11 +19,14 @@ use lightgrid_core::{trilinear_frame, trilinear_indices};
 /// trilinear one bit for bit: its weights along y are 1 and 0).
 type LevelRead = (usize, u32, BinLight, Option<HorizonLight>);
 
-/// The two coarse levels a halo column read last ([`Hierarchy::column_light_split`]).
+/// The two coarse levels a halo column read last ([`Hierarchy::column_light_split`]),
+/// the terrain's height under the column once found, and whether the grid (its
+/// address) it read near the ground was clear above its band
+/// ([`Hierarchy::ground_lifted`]).
 #[derive(Clone, Default)]
-pub(crate) struct ColumnReads([Option<LevelRead>; 2]);
+pub(crate) struct ColumnReads([Option<LevelRead>; 2], Option<f32>, Option<(usize, bool)>);
 
-use crate::{Hierarchy, NodeKey, Response, within_levels};
+use crate::{GROUND_LIFT, Hierarchy, NodeKey, Response, within_levels};
 
 impl Hierarchy {
     /// Light (full bins) at `p` from the finest ready grid coarser than `depth` (the
@@ -42,6 +45,7 @@ impl Hierarchy {
         // reads were half a node's boundary time.
         self.coarse_grid(p, depth, which)
             .map(|(g, h)| {
+                let p = self.ground_lifted(p, g, depth, self.heights.height_at(p.x, p.z));
                 let lookup = trilinear_indices(g.desc().dims(), g.desc().to_grid(p));
                 (
                     g.blend(lookup),
@@ -76,15 +80,34 @@ impl Hierarchy {
             return Default::default();
         }
         let depth = key.depth;
-        let Some((g, hg)) = self
-            .neighbour_light(p, key, which)
-            .or_else(|| self.coarse_grid(p, depth, which))
-        else {
+        let neighbour = self.neighbour_light(p, key, which);
+        let coarse = neighbour.is_none();
+        let Some((g, hg)) = neighbour.or_else(|| self.coarse_grid(p, depth, which)) else {
             return Default::default();
         };
         if hg.is_some_and(|h| h.desc() != g.desc()) {
             return self.coarse_light_split(p, depth, which);
         }
+        // A neighbour of the node's own cell is read where it is (its band is the
+        // node's own).
+        let p = if coarse && self.params.halo_ground_lift {
+            // The column's terrain and material check found once (for `g`).
+            let ground = *reads
+                .1
+                .get_or_insert_with(|| self.heights.height_at(p.x, p.z));
+            let id = g as *const LightGrid as usize;
+            let clear = &mut reads.2;
+            self.lifted_if(p, g, ground, || match *clear {
+                Some((at, c)) if at == id => c,
+                _ => {
+                    let c = self.clear_above_band(p, g, depth, ground);
+                    *clear = Some((id, c));
+                    c
+                }
+            })
+        } else {
+            p
+        };
         let (base, hi, f) = trilinear_frame(g.desc().dims(), g.desc().to_grid(p));
         let id = g as *const LightGrid as usize;
         let (nx, nz) = (g.desc().dims().x as usize, g.desc().dims().z as usize);
@@ -139,6 +162,72 @@ impl Hierarchy {
             }
         }
         (light, halves)
+    }
+
+    /// Where coarser grid `g` is read for a halo point `p` of a node at `depth`, the
+    /// terrain `ground` high under it
+    /// ([`HierarchyParams::halo_ground_lift`](crate::HierarchyParams::halo_ground_lift)):
+    /// `p` lifted to [`GROUND_LIFT`] of `g`'s cells above the terrain where it lies
+    /// below that (and above a cell under the terrain) and `g`'s material is empty from
+    /// the level above its band (the point nearest the terrain) to that height in the
+    /// four columns around `p` ([`Hierarchy::clear_above_band`]); else `p`. The lifted
+    /// read's two levels then both lie above the band (a point of the band lies within
+    /// half a cell of the terrain).
+    fn ground_lifted(&self, p: Vec3, g: &LightGrid, depth: u32, ground: f32) -> Vec3 {
+        self.lifted_if(p, g, ground, || self.clear_above_band(p, g, depth, ground))
+    }
+
+    /// [`Hierarchy::ground_lifted`] with the material's check `clear` (asked only for a
+    /// point near the ground).
+    fn lifted_if(&self, p: Vec3, g: &LightGrid, ground: f32, clear: impl FnOnce() -> bool) -> Vec3 {
+        if !self.params.halo_ground_lift {
+            return p;
+        }
+        let h = g.desc().h();
+        let lifted = ground + GROUND_LIFT * h;
+        if p.y < lifted && p.y > ground - h && clear() {
+            Vec3::new(p.x, lifted, p.z)
+        } else {
+            p
+        }
+    }
+
+    /// Whether coarser grid `g`'s material (the grid a node at `depth` reads at `p`,
+    /// over terrain `ground` high) is empty from the level above its band to
+    /// [`GROUND_LIFT`] cells above the terrain in the four columns around `p` (the
+    /// same for every point of a halo column reading `g`); `false` where `g` has no
+    /// material of its own points.
+    fn clear_above_band(&self, p: Vec3, g: &LightGrid, depth: u32, ground: f32) -> bool {
+        let Some(m) = self.material_of(g, p, depth) else {
+            return false;
+        };
+        let d = m.desc();
+        let dims = d.dims().as_ivec3();
+        let at = d.to_grid(Vec3::new(p.x, ground, p.z));
+        let first = (at.y.round() as i32 + 1).max(0);
+        let top = ground + GROUND_LIFT * d.h();
+        let last = (d.to_grid(Vec3::new(p.x, top, p.z)).y.ceil() as i32).min(dims.y - 1);
+        let around =
+            |c: f32, n: i32| (c.floor() as i32).clamp(0, n - 1)..=(c.ceil() as i32).clamp(0, n - 1);
+        around(at.x, dims.x).all(|x| {
+            around(at.z, dims.z).all(|z| {
+                (first..=last)
+                    .all(|y| m.data()[(x + dims.x * (z + dims.z * y)) as usize].is_empty())
+            })
+        })
+    }
+
+    /// The material of coarser grid `g` (a node's above `depth` holding `p`, or the
+    /// world grid), if it is on `g`'s points; `None` for other grids (a neighbour's
+    /// band).
+    fn material_of(&self, g: &LightGrid, p: Vec3, depth: u32) -> Option<&MaterialGrid> {
+        let on_g = |m: &&MaterialGrid| m.desc() == g.desc();
+        (1..depth)
+            .rev()
+            .filter_map(|d| self.nodes.get(&self.node_at(d, Vec2::new(p.x, p.z))))
+            .map(|n| &n.material.grid)
+            .find(on_g)
+            .or_else(|| self.world_material.as_ref().filter(on_g))
     }
 
     /// The grid [`Hierarchy::coarse_light_split`] reads at `p`, and its halves if kept.
@@ -348,9 +437,11 @@ mod tests {
                 assert_eq!(light.len(), at.len());
                 for (i, &p) in at.iter().enumerate() {
                     let (l, d) = h.coarse_light_split(p, key.depth, which);
-                    // On a coarse level: the trilinear read's weights along y are 1 and 0.
+                    // On a coarse level: the trilinear read's weights along y are 1 and 0
+                    // (where it is read: lifted near bare ground).
                     let on_level = h.coarse_grid(p, key.depth, which).is_some_and(|(g, _)| {
-                        let f = trilinear_frame(g.desc().dims(), g.desc().to_grid(p)).2;
+                        let q = h.ground_lifted(p, g, key.depth, 0.0);
+                        let f = trilinear_frame(g.desc().dims(), g.desc().to_grid(q)).2;
                         f.y == 0.0 || f.y == 1.0
                     });
                     let close = |a: &[f32], b: &[f32]| {
@@ -396,6 +487,68 @@ mod tests {
     /// same depth before the node (and wanted) holds that node's own value there, bit
     /// for bit, sky and scattered sun, halves too; every other halo point the coarser
     /// grids' read.
+    /// Over columns of medium of many heights on a flat ground: a halo point near the
+    /// ground is lifted ([`crate::HierarchyParams::halo_ground_lift`]) to
+    /// [`crate::GROUND_LIFT`] coarse cells above it only where the coarser grid it
+    /// reads holds no material between its band and that height around the point
+    /// (checked here on the material's points by position); both kinds occur.
+    #[test]
+    fn halo_points_are_lifted_only_through_empty_cells() {
+        let h = crate::testing::built_over(Box::new(crate::testing::Columns), 0, false);
+        let (mut lifted, mut kept) = (0, 0);
+        for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
+            let desc = *h.node(key).unwrap().desc();
+            for p in halo_points(&desc) {
+                let Some((g, _)) = h.coarse_grid(p, key.depth, Response::Sky) else {
+                    continue;
+                };
+                let c = g.desc().h();
+                // The flat ground lies at 0.
+                if !(p.y < crate::GROUND_LIFT * c && p.y > -c) {
+                    assert_eq!(h.ground_lifted(p, g, key.depth, 0.0), p);
+                    continue;
+                }
+                let m = h.material_of(g, p, key.depth).expect("the grid's material");
+                let d = m.desc();
+                let empty_above_band = (0..4).all(|corner| {
+                    let at = d.to_grid(p);
+                    let x = if corner & 1 == 0 {
+                        at.x.floor()
+                    } else {
+                        at.x.ceil()
+                    };
+                    let z = if corner & 2 == 0 {
+                        at.z.floor()
+                    } else {
+                        at.z.ceil()
+                    };
+                    let mut y = d.to_grid(Vec3::ZERO).y.round() + 1.0;
+                    let top = d.to_grid(Vec3::Y * crate::GROUND_LIFT * c).y.ceil();
+                    let mut clear = true;
+                    while y <= top.min(d.dims().y as f32 - 1.0) {
+                        let q = lightgrid_core::glam::UVec3::new(
+                            x.clamp(0.0, d.dims().x as f32 - 1.0) as u32,
+                            y as u32,
+                            z.clamp(0.0, d.dims().z as f32 - 1.0) as u32,
+                        );
+                        clear &= m.get(q).unwrap().is_empty();
+                        y += 1.0;
+                    }
+                    clear
+                });
+                let q = h.ground_lifted(p, g, key.depth, 0.0);
+                if empty_above_band {
+                    assert_eq!(q, Vec3::new(p.x, crate::GROUND_LIFT * c, p.z), "{p}");
+                    lifted += 1;
+                } else {
+                    assert_eq!(q, p);
+                    kept += 1;
+                }
+            }
+        }
+        assert!(lifted > 100 && kept > 100, "{lifted} lifted, {kept} kept");
+    }
+
     #[test]
     fn halo_points_among_a_node_before_hold_its_light() {
         let h = layer_hierarchy(1, true);

@@ -669,6 +669,13 @@ fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
 /// Most node depths below the world grid (`world_cell / finest_cell <= 2^16`).
 pub const MAX_DEPTHS: u32 = 16;
 
+/// Cells of a coarser grid above the terrain at which a halo point nearer bare ground
+/// reads it ([`HierarchyParams::halo_ground_lift`]): one and a half, the least height
+/// whose trilinear read takes neither of its levels from the grid's ground band (the
+/// band's points lie within half a cell of the terrain, so a point a cell and a half
+/// above it has both levels around it above the band's).
+pub const GROUND_LIFT: f32 = 1.5;
+
 /// Bytes a world-grid point needs while it is built: its material (16), the sweep's
 /// bins (312) and the stored grid (312).
 const WORLD_BYTES_PER_POINT: u64 = 16 + 2 * 312;

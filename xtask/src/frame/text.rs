@@ -104,10 +104,12 @@ fn header(report: &FrameReport) -> String {
         } else {
             "horizontal bins read as even"
         },
-        if report.neighbour_halo {
-            "the nodes before them where built"
-        } else {
-            "the coarser grids"
+        match (report.neighbour_halo, report.ground_lift) {
+            (true, true) =>
+                "the nodes before them where built (the coarser grids clear of their ground band near bare ground)",
+            (true, false) => "the nodes before them where built",
+            (false, true) => "the coarser grids (clear of their ground band near bare ground)",
+            (false, false) => "the coarser grids (where they are near bare ground too)",
         },
         report
             .budget_ms
