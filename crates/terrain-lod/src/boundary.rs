@@ -45,7 +45,11 @@ impl Hierarchy {
         // reads were half a node's boundary time.
         self.coarse_grid(p, depth, which)
             .map(|(g, h)| {
-                let p = self.ground_lifted(p, g, depth, self.heights.height_at(p.x, p.z));
+                let p = if self.params.halo_ground_lift {
+                    self.ground_lifted(p, g, depth, self.heights.height_at(p.x, p.z))
+                } else {
+                    p
+                };
                 let lookup = trilinear_indices(g.desc().dims(), g.desc().to_grid(p));
                 (
                     g.blend(lookup),

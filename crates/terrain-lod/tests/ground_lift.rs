@@ -37,8 +37,8 @@ fn sky() -> BinLight {
 }
 
 /// 8-point nodes (an apron of 2 cells) under an 8 m world grid, down to 1 m cells,
-/// every node near the middle built, over `source`; the ground lift `lift`.
-fn hierarchy(source: Box<dyn MaterialSource + Send + Sync>, lift: bool) -> Hierarchy {
+/// every node near the middle built; the ground lift `lift`.
+fn hierarchy(lift: bool) -> Hierarchy {
     let params = HierarchyParams {
         world_cell: 8.0,
         node_points: 8,
@@ -50,7 +50,14 @@ fn hierarchy(source: Box<dyn MaterialSource + Send + Sync>, lift: bool) -> Hiera
         ..Default::default()
     };
     let hm = lightgrid_core::Heightmap::from_fn(Vec2::ZERO, 4.0, 65, 65, |_, _| GROUND).unwrap();
-    let mut h = Hierarchy::new(&hm, source, Box::new(CpuSweeper::new()), sky(), params).unwrap();
+    let mut h = Hierarchy::new(
+        &hm,
+        Box::new(composer()),
+        Box::new(CpuSweeper::new()),
+        sky(),
+        params,
+    )
+    .unwrap();
     h.update(Vec3::new(SIDE / 2.0, GROUND + 4.0, SIDE / 2.0))
         .unwrap();
     h
@@ -69,7 +76,7 @@ fn horizontal(l: &BinLight) -> f32 {
 /// Per level of the finest node serving the camera above its lowest (the band's, then
 /// 1 and 2 m above the ground), the finest nodes' horizontal light near the camera
 /// over one periodic sweep's at its cell, the farthest from 1 over the points read.
-fn ratios(h: &Hierarchy, source: &dyn MaterialSource) -> Vec<f32> {
+fn ratios(h: &Hierarchy) -> Vec<f32> {
     let centre = SIDE / 2.0;
     let finest = h.grid_at(Vec3::new(centre, GROUND + 1.0, centre)).desc();
     assert_eq!(finest.h(), 1.0, "a finest node serves the camera");
@@ -80,7 +87,7 @@ fn ratios(h: &Hierarchy, source: &dyn MaterialSource) -> Vec<f32> {
         UVec3::new(16, finest.dims().y, 16),
     )
     .unwrap();
-    let m = source.material(&desc).unwrap();
+    let m = composer().material(&desc).unwrap();
     let options = HierarchyParams::default().sweep;
     let boundary = Boundary {
         sides: SideBoundary::Periodic,
@@ -117,8 +124,8 @@ fn ratios(h: &Hierarchy, source: &dyn MaterialSource) -> Vec<f32> {
 /// 4.5–6.5 % short (7.4 % in the band's own cell).
 #[test]
 fn near_bare_ground_the_sideways_light_nests() {
-    let with = ratios(&hierarchy(Box::new(composer()), true), &composer());
-    let without = ratios(&hierarchy(Box::new(composer()), false), &composer());
+    let with = ratios(&hierarchy(true));
+    let without = ratios(&hierarchy(false));
     assert!(
         with[1..].iter().all(|r| (r - 1.0).abs() <= 0.02),
         "with the lift {with:?} (without {without:?})"
