@@ -577,6 +577,10 @@ pub struct Hierarchy {
     /// (`casters::material_top_over` of the whole grid; −∞ before it or without one),
     /// found once a world material: the sun's casters are bounded by it.
     world_top: f32,
+    /// The top of each column's highest cell of `world_material` whose pass-through is
+    /// not 1 (x fastest; −∞ where none): what bounds the sun's march above
+    /// ([`shadow::SkyMarch`]'s clear sky ahead).
+    world_tops: Vec<f32>,
     /// A moved sun's world-grid responses being swept on a thread ([`sun_move`]).
     sun_move: Option<sun_move::SunMove>,
     sky_scale: Vec3,
@@ -742,6 +746,7 @@ impl Hierarchy {
             world_sun: None,
             world_material: None,
             world_top: f32::NEG_INFINITY,
+            world_tops: Vec::new(),
             sun_move: None,
             camera: None,
             checked: Default::default(),
@@ -816,6 +821,7 @@ impl Hierarchy {
     pub(crate) fn set_world_material(&mut self, material: MaterialGrid) {
         let all = Vec2::splat(f32::INFINITY);
         self.world_top = casters::material_top_over(&material, -all, all);
+        self.world_tops = shadow::column_tops(&material);
         self.world_material = Some(material);
     }
 
