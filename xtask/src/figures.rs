@@ -154,7 +154,7 @@ fn hierarchy_measurements() -> [Measurement; 3] {
             time: None,
         },
         Measurement {
-            what: "the hierarchy's nesting at the library's defaults (32-point nodes, an apron of 6 cells, two nodes a frame with their aprons)",
+            what: "the hierarchy's nesting at the library's defaults (32-point nodes, an apron of 6 cells, the sun's responses over 3 of them, two nodes a frame with their aprons)",
             command: "cargo xtask frame --node-points 32 --elevation 15 --elevation 40 --mc-probes 0 --out target/bench/nesting",
             runner: Runner::Xtask(
                 &[

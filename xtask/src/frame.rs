@@ -151,8 +151,8 @@ pub struct FrameConfig {
     /// cost 3.06 times the sky sweep's points).
     pub apron: Option<u32>,
     /// Cells of the apron the sun's responses are swept over too
-    /// (`HierarchyParams::sun_apron`).
-    pub sun_apron: u32,
+    /// (`HierarchyParams::sun_apron`; `None`: the hierarchy's).
+    pub sun_apron: Option<u32>,
     /// The sweeps' convergence tolerance (`HierarchyParams::sweep.tolerance`, in the
     /// hierarchy and the reference sweep; `None`: the hierarchy's default, 0.01).
     pub tolerance: Option<f32>,
@@ -199,7 +199,7 @@ impl FrameConfig {
             colour_band: false,
             passes: None,
             apron: None,
-            sun_apron: 0,
+            sun_apron: None,
             tolerance: None,
             flat_source: false,
             gather: false,
@@ -879,7 +879,9 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
         None if cfg.node_points < 32 => 0,
         None => p.apron,
     };
-    p.sun_apron = cfg.sun_apron;
+    if let Some(k) = cfg.sun_apron {
+        p.sun_apron = k;
+    }
     // Two of the largest nodes a frame with their aprons (the library's default budget).
     p.budget_points = cfg.budget_points.unwrap_or(2 * p.largest_node());
     if let Some(t) = cfg.tolerance {
@@ -1245,7 +1247,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         march_before_casters: cfg.march_before_casters,
         colour_band: cfg.colour_band,
         apron: hierarchy_params(cfg).apron,
-        sun_apron: hierarchy_params(cfg).sun_apron,
+        sun_apron: hierarchy_params(cfg).sun_apron_cells(),
         passes: hierarchy_params(cfg).sweep.max_passes,
         tolerance: hierarchy_params(cfg).sweep.tolerance,
         medium: format!("{:?}", hierarchy_params(cfg).sweep.medium).to_lowercase(),

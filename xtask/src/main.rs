@@ -173,9 +173,9 @@ enum Task {
         #[arg(long)]
         apron: Option<u32>,
         /// Cells of that apron the nodes' sun responses are swept over too
-        /// (HierarchyParams::sun_apron; default 0)
-        #[arg(long, default_value_t = 0)]
-        sun_apron: u32,
+        /// (HierarchyParams::sun_apron, at most the apron; default: the hierarchy's, 3)
+        #[arg(long)]
+        sun_apron: Option<u32>,
         /// Output folder (default target/bench).
         #[arg(long)]
         out: Option<PathBuf>,

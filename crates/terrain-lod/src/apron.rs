@@ -162,13 +162,13 @@ impl Hierarchy {
     }
 
     /// The material node `m`'s sun responses are swept and marched over: its grid
-    /// widened by [`HierarchyParams::sun_apron`](crate::HierarchyParams::sun_apron)
+    /// widened by [`HierarchyParams::sun_apron_cells`](crate::HierarchyParams::sun_apron_cells)
     /// cells (the sky's widened grid's inner part), and those cells; `None`: its own.
     pub(crate) fn sun_material<'a>(
         &self,
         m: &'a NodeMaterial,
     ) -> Option<(std::borrow::Cow<'a, MaterialGrid>, u32)> {
-        let (a, k) = (self.params.apron, self.params.sun_apron);
+        let (a, k) = (self.params.apron, self.params.sun_apron_cells());
         let w = m.widened.as_ref().filter(|_| k > 0)?;
         if k >= a {
             return Some((std::borrow::Cow::Borrowed(w), a));
@@ -261,7 +261,7 @@ impl Hierarchy {
         }
         let desc = *m.grid.desc();
         match &m.widened {
-            Some(_) => widened(&desc, self.params.sun_apron.max(1)).unwrap_or(desc),
+            Some(_) => widened(&desc, self.params.sun_apron_cells().max(1)).unwrap_or(desc),
             None => desc,
         }
     }

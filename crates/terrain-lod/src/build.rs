@@ -371,7 +371,8 @@ impl Hierarchy {
     /// coarser grids' scattered sun).
     pub(crate) fn stale_sun_job(&self, key: NodeKey, stats: &mut FrameStats) -> Option<Job> {
         // Its sun responses are swept and marched over its sun's apron, if any.
-        let points = crate::apron::sky_points(self.nodes[&key].light.desc(), self.params.sun_apron);
+        let points =
+            crate::apron::sky_points(self.nodes[&key].light.desc(), self.params.sun_apron_cells());
         if self.scattered_sun_current(key) {
             // The transmittance alone (about a quarter of a sun response's work:
             // counted so in the budget).
@@ -455,7 +456,7 @@ impl Hierarchy {
     ) {
         stats.points_swept += crate::apron::sky_points(desc, self.params.apron);
         stats.built += 1;
-        let sun_cost = crate::apron::sky_points(desc, self.params.sun_apron);
+        let sun_cost = crate::apron::sky_points(desc, self.params.sun_apron_cells());
         self.sky_jobs(sky, sun_cost, stats, jobs);
     }
 

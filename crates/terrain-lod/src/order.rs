@@ -192,7 +192,7 @@ impl Hierarchy {
         let desc = self.node_desc(key).ok()?;
         let mut cost = crate::apron::sky_points(&desc, self.params.apron);
         if self.sun.is_some() {
-            cost += crate::apron::sky_points(&desc, self.params.sun_apron);
+            cost += crate::apron::sky_points(&desc, self.params.sun_apron_cells());
         }
         Some(cost)
     }

@@ -374,7 +374,7 @@ impl Hierarchy {
         let Some(sun) = self.sun else {
             return;
         };
-        let apron = self.params.apron.max(self.params.sun_apron) as f32 + 1.0;
+        let apron = self.params.apron.max(self.params.sun_apron_cells()) as f32 + 1.0;
         for (key, n) in &mut self.nodes {
             if from.is_some_and(|f| *key == f || key.depth < f.depth) {
                 continue;

@@ -122,6 +122,9 @@ pub(crate) fn built_over(
         evict_factor: 200.0,
         budget_points: u64::MAX / 4,
         apron,
+        // The sun's responses over the node's own grid: the tests' invariants of the
+        // march beyond a node (its ring, `shadow`'s early end) are stated for it.
+        sun_apron: 0,
         neighbour_halo,
         ..layer_params()
     };

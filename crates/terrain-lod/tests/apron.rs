@@ -176,7 +176,8 @@ fn the_apron_brings_the_scattered_sun_nearer_too() {
 }
 
 /// An apron wider than a node is refused, naming the field; one that makes the largest
-/// node sweep exceed the point budget too.
+/// node sweep exceed the point budget too. A sun apron wider than the apron is taken as
+/// the apron (the default's 3 cells with no apron: none).
 #[test]
 fn the_apron_is_checked() {
     let hm = Heightmap::from_fn(Vec2::ZERO, 2.0, 33, 33, |_, _| GROUND).unwrap();
@@ -199,7 +200,14 @@ fn the_apron_is_checked() {
     assert!(e.contains("budget_points"), "{e}");
     let mut p = params(2);
     p.sun_apron = 3;
-    let e = build(p).expect("a sun apron wider than the apron");
-    assert!(e.contains("sun_apron"), "{e}");
+    assert_eq!(p.sun_apron_cells(), 2);
+    assert!(build(p).is_none(), "a sun apron wider than the apron");
+    let p = HierarchyParams {
+        apron: 0,
+        sun_apron: HierarchyParams::default().sun_apron,
+        ..params(2)
+    };
+    assert_eq!(p.sun_apron_cells(), 0);
+    assert!(build(p).is_none(), "the default sun apron with no apron");
     assert!(build(params(8)).is_none());
 }
