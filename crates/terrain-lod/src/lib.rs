@@ -573,12 +573,11 @@ pub struct Hierarchy {
     world_sun: Option<GridSun>,
     /// The world grid's material (the sun's march beyond the nodes crosses it).
     world_material: Option<MaterialGrid>,
-    /// The top of `world_material`'s highest non-empty cell anywhere
-    /// (`casters::material_top_over` of the whole grid; −∞ before it or without one),
-    /// found once a world material: the sun's casters are bounded by it.
+    /// The top of `world_material`'s highest non-empty cell anywhere (the highest of
+    /// `world_tops`; −∞ before it or without one): the sun's casters are bounded by it.
     world_top: f32,
-    /// The top of each column's highest cell of `world_material` whose pass-through is
-    /// not 1 (x fastest; −∞ where none): what bounds the sun's march above
+    /// The top of each column's highest non-empty cell of `world_material` (x fastest;
+    /// −∞ where none): what bounds the sun's march above
     /// ([`shadow::SkyMarch`]'s clear sky ahead).
     world_tops: Vec<f32>,
     /// A moved sun's world-grid responses being swept on a thread ([`sun_move`]).
@@ -819,9 +818,11 @@ impl Hierarchy {
 
     /// Keeps `material` as the world grid's, with its top (`world_top`).
     pub(crate) fn set_world_material(&mut self, material: MaterialGrid) {
-        let all = Vec2::splat(f32::INFINITY);
-        self.world_top = casters::material_top_over(&material, -all, all);
         self.world_tops = shadow::column_tops(&material);
+        self.world_top = self
+            .world_tops
+            .iter()
+            .fold(f32::NEG_INFINITY, |a, &b| a.max(b));
         self.world_material = Some(material);
     }
 

@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::hash::BuildHasherDefault;
 
 use lightgrid_core::dda::box_exit;
-use lightgrid_core::glam::{IVec2, IVec3, UVec3, Vec2, Vec3};
+use lightgrid_core::glam::{IVec2, IVec3, Vec2, Vec3};
 use lightgrid_core::{GridDesc, MaterialGrid};
 
 use crate::{Hierarchy, KeyHasher, NodeKey, NodeMaterial};
@@ -51,20 +51,20 @@ fn cells_contain(desc: &GridDesc, p: Vec3) -> bool {
     g.cmpge(Vec3::splat(-0.5)).all() && g.cmple(desc.dims().as_vec3() - 0.5).all()
 }
 
-/// The top of each column's highest cell of `m` whose pass-through is not 1, x fastest
-/// (−∞ where none): above it a ray crosses cells that take nothing from the beam.
+/// The top of each column's highest non-empty cell of `m` (pass-through under 1: the
+/// only cells that take from the beam), x fastest, −∞ where none
+/// ([`crate::casters::column_tops`] over the whole grid).
 pub(crate) fn column_tops(m: &MaterialGrid) -> Vec<f32> {
     let d = m.desc();
-    let (dims, cells) = (d.dims(), m.data());
+    let (dims, h) = (d.dims(), d.h());
+    let lo = Vec2::new(d.origin().x, d.origin().z) - 0.5 * h;
     let mut tops = vec![f32::NEG_INFINITY; (dims.x * dims.z) as usize];
-    for z in 0..dims.z {
-        for x in 0..dims.x {
-            let column = |j: u32| cells[d.index_unchecked(UVec3::new(x, j, z))].pass;
-            if let Some(j) = (0..dims.y).rev().find(|&j| column(j) != 1.0) {
-                tops[(x + dims.x * z) as usize] = d.origin().y + (j as f32 + 0.5) * d.h();
-            }
-        }
-    }
+    let all = Vec2::splat(f32::INFINITY);
+    crate::casters::column_tops(m, -all, all, |clo, _, top| {
+        let c = ((clo - lo) / h).round();
+        tops[(c.x as u32 + dims.x * c.y as u32) as usize] = top;
+        false
+    });
     tops
 }
 
