@@ -282,10 +282,14 @@ pub enum MediumEmission {
     /// laterally uniform half-space it is within the channels' own angular error at
     /// every cell depth (model: `cargo run --release -p lightgrid-measure --example
     /// profile_slab`); Chandrasekhar's half-space albedo within 2 % at every albedo and
-    /// cell depth from 0.05 to 3. Both sweepers run it, with diffusion acceleration when
-    /// asked. The default: a 64³ canopy sweeps at the flat rule's speed; on the CPU the
-    /// bench forest takes 1.6 times the flat rule's time and scenes made mostly of media
-    /// up to twice it (three source coefficients a cell instead of one).
+    /// cell depth from 0.05 to 3. Cells thinner than optical depth 0.3
+    /// (`lightgrid_sweep_cpu::medium::PROFILE_MIN_DEPTH`), whose collisions fall nearly
+    /// evenly over their height, emit the flat source of [`MediumEmission::Source`]
+    /// instead, which is as close to the exact answers there and cheaper. Both sweepers
+    /// run it, with diffusion acceleration when asked. The default: a 64³ canopy sweeps
+    /// at the flat rule's speed; on the CPU the bench forest takes 1.6 times the flat
+    /// rule's time and scenes made mostly of media up to twice it (three source
+    /// coefficients a thick cell instead of one).
     #[default]
     Profile,
 }

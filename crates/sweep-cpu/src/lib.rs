@@ -236,7 +236,9 @@
 //!    is linear.
 //!    The outgoing light gains `F_c / μ_c`.
 //!    **The default, [`MediumEmission::Profile`](lightgrid_core::MediumEmission)**,
-//!    replaces the medium's flat source by one quadratic in height, `j(y) = Σ_m J_m
+//!    replaces the flat source of a medium cell of optical depth at least
+//!    [`medium::PROFILE_MIN_DEPTH`] (0.3; thinner cells keep the flat source, as close
+//!    to the exact answers there, [`medium::profiled`]) by one quadratic in height, `j(y) = Σ_m J_m
 //!    P_m(y)` ([`profile`], where the rule is written out): steps 3 and phase 3's
 //!    collisions also tally the height moments of where each segment's light collides;
 //!    each batch of collisions becomes an isotropic source solving the cell's 3 × 3

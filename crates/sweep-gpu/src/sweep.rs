@@ -414,12 +414,7 @@ impl GpuSweeper {
             .buffers(material, &shape, options.outputs.horizon)
             .map_err(backend)?;
         let source_in = match source {
-            Some(src) => self.upload_source(
-                &bufs,
-                material,
-                src,
-                options.medium == lightgrid_core::MediumEmission::Profile,
-            )?,
+            Some(src) => self.upload_source(&bufs, material, src, options.medium)?,
             None => [0.0; 3],
         };
         let groups = self.bind_groups(&bufs);
@@ -481,7 +476,7 @@ impl GpuSweeper {
         bufs: &Buffers,
         material: &MaterialGrid,
         src: &CellSource,
-        profile_rule: bool,
+        rule: lightgrid_core::MediumEmission,
     ) -> Result<[f64; 3], SweepError> {
         if src.removed().len() != material.data().len() {
             return Err(lightgrid_core::GridError::invalid(
@@ -502,7 +497,7 @@ impl GpuSweeper {
                 for k in 0..3 {
                     input[k] += r[k] as f64;
                 }
-                if profile_rule && r != Vec3::ZERO && m.pass > 0.0 && m.pass < 1.0 {
+                if r != Vec3::ZERO && lightgrid_sweep_cpu::medium::profiled(rule, m.pass) {
                     // The profile rule: the beam's collisions as source coefficients,
                     // computed as sweep-cpu computes them.
                     let heights = src.heights().map(|h| h[i]);

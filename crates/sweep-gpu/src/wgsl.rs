@@ -168,6 +168,11 @@ pub fn sweep_tables() -> String {
     let _ = writeln!(s, "const SRC_O: f32 = {:?};", w.o);
     let _ = writeln!(
         s,
+        "const PROFILE_MAX_PASS: f32 = {:?};",
+        lightgrid_sweep_cpu::medium::PROFILE_MAX_PASS
+    );
+    let _ = writeln!(
+        s,
         "const SPLIT_TAU_MAX: f32 = {:?};",
         lightgrid_sweep_cpu::medium::SPLIT_TAU_MAX
     );

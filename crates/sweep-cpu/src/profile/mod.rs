@@ -1,7 +1,8 @@
 //! A medium cell's source as a **quadratic in height**: the segment integrals, the
 //! per-cell tables and the source solve of [`lightgrid_core::MediumEmission::Profile`]
-//! (issue 13's thick cells), **the default rule** (the flat source of [`crate::medium`]
-//! is the option `MediumEmission::Source`). It runs on the CPU sweeper (row kernels:
+//! (issue 13's thick cells), **the default rule** for cells of optical depth at least
+//! [`crate::medium::PROFILE_MIN_DEPTH`] (thinner ones, and every medium under the
+//! option `MediumEmission::Source`, emit the flat source of [`crate::medium`]). It runs on the CPU sweeper (row kernels:
 //! phases 2 and 3 gather the collisions' height moments over blocks of a row, phase 2
 //! writes what each cell's `P_1`, `P_2` terms emit into each slot's segment for phase
 //! 3's emission; with diffusion acceleration, [`crate::accel`]: its

@@ -33,7 +33,7 @@ pub(crate) fn correction(
     i: usize,
     delta: Vec3,
 ) -> Pending {
-    if rule == MediumEmission::Profile {
+    if medium::profiled(rule, cells[i].pass) {
         let a = cells[i].reflectance;
         let j: [[f32; 3]; 3] = crate::profile::with_profile(false, lnp[i], |pr| {
             std::array::from_fn(|k| pr.source_of_scattered(a[k], delta[k]))
@@ -88,7 +88,7 @@ impl Debt {
                     continue;
                 }
                 let (pd, pu, pn) = (&w.pend_down[i], &w.pend_up[i], &w.pend_next[i]);
-                let v = if rule == MediumEmission::Profile && medium::applies(rule, mat.pass) {
+                let v = if medium::profiled(rule, mat.pass) {
                     // What the waiting sources will send out of the cell (their own
                     // material's share was absorbed when they were solved for), less
                     // the outstanding correction's.
@@ -192,7 +192,7 @@ impl Debt {
             );
             *pd = pd.scaled(Vec3::splat(omega));
             *pu = pu.scaled(Vec3::splat(omega));
-            self.q[k] = if rule == MediumEmission::Profile {
+            self.q[k] = if medium::profiled(rule, cells[i].pass) {
                 let a = cells[i].reflectance;
                 crate::profile::with_profile(false, lnp[i], |pr| {
                     let sc = |p: &Pending| crate::profile::scattered_rgb(pr, a, &p.coeffs());

@@ -193,9 +193,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             }
             bal.source_in += r.as_dvec3();
             bal.absorbed += (r * (Vec3::ONE - mat.reflectance)).as_dvec3();
-            if self.options.medium == MediumEmission::Profile
-                && medium::applies(self.options.medium, mat.pass)
-            {
+            if medium::profiled(self.options.medium, mat.pass) {
                 // The beam's first collisions have the height moments the source
                 // carries (the beam tracer's), or those of a beam entering the cell
                 // through its top (or bottom) face.
@@ -527,7 +525,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 }
             }
             if profile_level {
-                prof.level(up, lnp, |q| medium::applies(options.medium, level[q].pass));
+                prof.level(up, lnp, |q| medium::profiled(options.medium, level[q].pass));
             }
         };
         if first_visit {

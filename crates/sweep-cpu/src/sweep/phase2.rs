@@ -253,7 +253,7 @@ impl Ctx {
         let b = GATHER_BLOCK.min(nx - x0);
         let profile = self.medium == MediumEmission::Profile;
         let is_profile =
-            |m: &lightgrid_core::Material| profile && medium::applies(self.medium, m.pass);
+            |m: &lightgrid_core::Material| profile && medium::profiled(self.medium, m.pass);
         let Phase2Scratch {
             by_row,
             by_row_h,
@@ -461,6 +461,7 @@ impl Ctx {
         let mut rf = RowFlux::default();
         emits_row.fill(false);
         ex_row.fill(0.0);
+        hi_row.fill([Vec3::ZERO; 2]); // (the flat source's media among the profile's)
         let row_cells = &cells[nx * z as usize..][..nx];
         let mut scratch = Phase2Scratch::take();
         for x in 0..self.nx {
@@ -489,7 +490,7 @@ impl Ctx {
             // Accelerated (`signed`): the media's collisions wait for the next pair of
             // passes (one generation per pair, as diffusion acceleration assumes);
             // `same_row` then keeps them.
-            if self.medium == MediumEmission::Profile && medium::applies(self.medium, mat.pass) {
+            if medium::profiled(self.medium, mat.pass) {
                 // A quadratic source in height (`crate::profile`): the collisions'
                 // height moments, walked path point by path point, become an isotropic
                 // source; this pass emits what waits for it, the other pass's waits.

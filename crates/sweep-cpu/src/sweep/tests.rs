@@ -207,7 +207,8 @@ fn profile_grid(ny: u32, passes: &[f32]) -> MaterialGrid {
     MaterialGrid::new(desc, cells).expect("material")
 }
 
-/// Sweeps with `spare` (2 passes, open sky): the bins' bits and the profiles its
+/// Sweeps with `spare` (2 passes, open sky; its media thick enough for the profile
+/// rule's quadratic source, `medium::PROFILE_MIN_DEPTH`): the bins' bits and the profiles its
 /// sweeper has computed so far.
 fn profile_sweep(m: &MaterialGrid, spare: &mut Spare) -> (Vec<u32>, u64) {
     let b = Boundary::open_sky(BinLight::uniform(Vec3::ONE).split_vertical().0);
@@ -242,16 +243,16 @@ fn cell_profiles_outlive_a_change_of_grid_size() {
     let mut spare = own_profiles(crate::profile::Profiles::KEEP);
     let mut sweep = |m: MaterialGrid| profile_sweep(&m, &mut spare).1;
     assert_eq!(
-        sweep(profile_grid(8, &[0.3, 0.6, 0.9])),
+        sweep(profile_grid(8, &[0.1, 0.2, 0.3])),
         6,
         "three depths, down and up"
     );
     assert_eq!(
-        sweep(profile_grid(12, &[0.6])),
+        sweep(profile_grid(12, &[0.2])),
         6,
         "a depth integrated before"
     );
-    assert_eq!(sweep(profile_grid(12, &[0.6, 0.45])), 8, "one new depth");
+    assert_eq!(sweep(profile_grid(12, &[0.2, 0.15])), 8, "one new depth");
 }
 
 /// Sweepers that share a store (a hierarchy's forks) compute each profile once
@@ -262,7 +263,7 @@ fn cell_profiles_outlive_a_change_of_grid_size() {
 /// keeps its own.
 #[test]
 fn sweepers_share_cell_profiles_and_a_full_store_gives_way() {
-    let depths = [0.31, 0.52, 0.73];
+    let depths = [0.11, 0.22, 0.33];
     let m = profile_grid(8, &depths);
     let (alone, n) = profile_sweep(&m, &mut own_profiles(crate::profile::Profiles::KEEP));
     assert_eq!(n, 6);
@@ -292,7 +293,7 @@ fn sweepers_share_cell_profiles_and_a_full_store_gives_way() {
     assert_eq!(again - n, 10);
     // Another scene's three depths: none kept, all six computed at every level; the
     // store gives way, and the next sweep keeps four of them again.
-    let other = profile_grid(8, &[0.22, 0.44, 0.66]);
+    let other = profile_grid(8, &[0.12, 0.24, 0.36]);
     let (_, other_first) = profile_sweep(&other, &mut small);
     let (_, other_second) = profile_sweep(&other, &mut small);
     assert_eq!(other_first - again, 30);

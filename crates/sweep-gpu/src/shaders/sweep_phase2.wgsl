@@ -29,6 +29,13 @@ struct ProfNode {
     f: f32,
 }
 
+// Whether a cell of pass-through p takes the quadratic source (sweep-cpu's
+// medium::profiled): the profile rule, and optical depth at least its least; thinner
+// media emit the flat source under that rule too.
+fn profiled(p: f32) -> bool {
+    return P.medium == 3u && p > 0.0 && p <= PROFILE_MAX_PASS;
+}
+
 // The table node of a cell of ln(pass) lnp (CellProfile::new's interpolation).
 fn prof_node(lnp: f32) -> ProfNode {
     let tau = max(-lnp, 0.0);
@@ -292,7 +299,7 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let x = i32(li % P.nx);
     let z = i32(li / P.nx);
-    let profile = P.medium == 3u && mat.w > 0.0;
+    let profile = profiled(mat.w);
     var node = ProfNode(0u, 0.0);
     if (profile) {
         node = prof_node(log(mat.w));
@@ -357,7 +364,7 @@ fn phase2(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var own = add_p(fresh, load_pending(0u, gi));
     var other = add_p(load_pending(1u, gi), fresh);
-    if (P.medium == 2u && mat.w > 0.0) {
+    if ((P.medium == 2u || P.medium == 3u) && mat.w > 0.0) {
         // The source rule: this direction's share ½ (S ∓ β M_y) as the cell's source.
         let beta = split(log(mat.w));
         let sgn = select(0.5, -0.5, P.up == 1u);
@@ -435,7 +442,7 @@ fn segment(x: i32, z: i32, c: u32, k: u32) -> vec4<f32> {
     let pt = cells[q + P.level_len * P.j].w;
     let tr = trans(pt, stencil_e(slot));
     var e = src_at(q) * (1.0 - tr);
-    if (P.medium == 3u && pt > 0.0 && pt < 1.0) {
+    if (profiled(pt)) {
         let n = prof_node(log(pt));
         e += src_q(q, 1u) * prof_val(n, P.up, slot, 2u) + src_q(q, 2u) * prof_val(n, P.up, slot, 3u);
     }
@@ -456,7 +463,7 @@ fn phase3(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = i32(li % P.nx);
     let z = i32(li / P.nx);
     let mat = cells[gi];
-    let profile = P.medium == 3u && mat.w > 0.0 && mat.w < 1.0;
+    let profile = profiled(mat.w);
     var node = ProfNode(0u, 0.0);
     if (profile) {
         node = prof_node(log(mat.w));
