@@ -251,9 +251,7 @@ impl Ctx {
     ) {
         let nx = self.nx as usize;
         let b = GATHER_BLOCK.min(nx - x0);
-        let profile = self.medium == MediumEmission::Profile;
-        let is_profile =
-            |m: &lightgrid_core::Material| profile && medium::profiled(self.medium, m.pass);
+        let is_profile = |m: &lightgrid_core::Material| medium::profiled(self.medium, m.pass);
         let Phase2Scratch {
             by_row,
             by_row_h,

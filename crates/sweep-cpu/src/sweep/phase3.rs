@@ -332,7 +332,7 @@ impl Ctx {
                     #[inline(always)]
                     |i| {
                         let ci = x0 + i + nx * z as usize;
-                        (profile && i < b && medium::profiled(self.medium, cells[ci].pass))
+                        (i < b && medium::profiled(self.medium, cells[ci].pass))
                             .then(|| prof.get(ci))
                     },
                 );
@@ -395,7 +395,7 @@ impl Ctx {
                         continue;
                     }
                     let alb = mat.reflectance;
-                    if profile && medium::profiled(self.medium, mat.pass) {
+                    if medium::profiled(self.medium, mat.pass) {
                         // Waits for the next passes of both directions, as an isotropic
                         // source.
                         let r = [got.s, v(&got_h[0]), v(&got_h[1])];
