@@ -125,10 +125,37 @@ impl Planes {
         &self.plane(plane)[r + (x + Self::R as i32) as usize..][..len]
     }
 
-    /// Fills the current level's transmittance planes from its `pows`.
-    pub(crate) fn fill_pows(&mut self, ctx: &Ctx, pows: &[[f32; MAX_EXPONENTS]], lnp: &[f32]) {
-        self.fill(ctx, Self::POW, MAX_EXPONENTS, 1.0, |q, e| pows[q][e]);
-        self.fill(ctx, Self::LNP, 1, 0.0, |q, _| lnp[q]);
+    /// Fills the current level's transmittance planes from its cells' `ln(pass)`
+    /// `lnp`: plane [`Planes::POW`] + `e` holds `pass^x_e` (`exp(x_e ln pass)`, 1
+    /// where the cell is empty) for the path exponent `x_e` of [`path_exponents`],
+    /// plane [`Planes::LNP`] `lnp` itself; a plane a task (a few planes a task on
+    /// small levels).
+    pub(crate) fn fill_pows(&mut self, ctx: &Ctx, lnp: &[f32]) {
+        let exps = path_exponents();
+        let n = self.plane_len();
+        let (nx, nz) = (self.nx, self.nz);
+        let level = &mut self.v[self.level * Self::PER_LEVEL * n..][..Self::PER_LEVEL * n];
+        level
+            .par_chunks_mut(n)
+            .with_min_len(MIN_POINTS_PER_TASK.div_ceil(n.max(1)))
+            .enumerate()
+            .for_each(|(k, plane)| {
+                if k == Self::LNP {
+                    fill_plane(ctx, (nx, nz), plane, 0.0, |q| lnp[q]);
+                } else {
+                    let e = exps[k];
+                    fill_plane(ctx, (nx, nz), plane, 1.0, |q| {
+                        let l = lnp[q];
+                        if l == 0.0 { 1.0 } else { (e * l).exp() }
+                    });
+                }
+            });
+    }
+
+    /// The current level's transmittances ([`LevelPows`]).
+    #[inline(always)]
+    pub(crate) fn pows(&self) -> LevelPows<'_> {
+        LevelPows::of(&self.v, self.level, (self.nx, self.nz))
     }
 
     /// Fills the source planes from the level's sources (0 where a cell does not emit).
@@ -167,34 +194,96 @@ impl Planes {
         outside: f32,
         value: impl Fn(usize, usize) -> f32,
     ) {
-        let (w, h) = (self.width(), self.nz + 2 * Self::R);
-        let r = Self::R as i32;
-        // Column and row of the level each ring position reads (`None`: outside).
-        let axis = |i: usize, n: i32| -> Option<usize> {
-            let v = i as i32 - r;
-            if ctx.periodic {
-                Some(v.rem_euclid(n) as usize)
-            } else {
-                (0..n).contains(&v).then_some(v as usize)
-            }
-        };
-        let xs: Vec<Option<usize>> = (0..w).map(|i| axis(i, ctx.nx)).collect();
-        let nx = self.nx;
+        let (nx, nz) = (self.nx, self.nz);
         for k in 0..count {
-            let plane = self.plane_mut(first + k);
-            for zz in 0..h {
-                let zs = axis(zz, ctx.nz);
-                let dst = &mut plane[zz * w..][..w];
-                match zs {
-                    None => dst.fill(outside),
-                    Some(z) => {
-                        for (d, x) in dst.iter_mut().zip(&xs) {
-                            *d = x.map_or(outside, |x| value(x + nx * z, k));
-                        }
-                    }
+            fill_plane(ctx, (nx, nz), self.plane_mut(first + k), outside, |q| {
+                value(q, k)
+            });
+        }
+    }
+}
+
+/// One plane of an `nx × nz` level with its ring ([`Planes`]): `value(cell)` at every
+/// cell of the ring and the level (the cell [`Ctx::col`] finds), `outside` beyond open
+/// sides.
+fn fill_plane(
+    ctx: &Ctx,
+    (nx, nz): (usize, usize),
+    plane: &mut [f32],
+    outside: f32,
+    value: impl Fn(usize) -> f32,
+) {
+    let r = Planes::R as i32;
+    let (w, h) = (nx + 2 * Planes::R, nz + 2 * Planes::R);
+    // Column and row of the level each ring position reads (`None`: outside).
+    let axis = |i: usize, n: i32| -> Option<usize> {
+        let v = i as i32 - r;
+        if ctx.periodic {
+            Some(v.rem_euclid(n) as usize)
+        } else {
+            (0..n).contains(&v).then_some(v as usize)
+        }
+    };
+    let xs: Vec<Option<usize>> = (0..w).map(|i| axis(i, ctx.nx)).collect();
+    for zz in 0..h {
+        let dst = &mut plane[zz * w..][..w];
+        match axis(zz, ctx.nz) {
+            None => dst.fill(outside),
+            Some(z) => {
+                for (d, x) in dst.iter_mut().zip(&xs) {
+                    *d = x.map_or(outside, |x| value(x + nx * z));
                 }
             }
         }
+    }
+}
+
+/// A level's transmittance of every path exponent, read from its planes
+/// ([`Planes::POW`]): `get(q, e)` is what cell `q` (its index within the level) passes
+/// along a path of exponent `path_exponents()[e]`. The one store of the transmittances
+/// (a copy a point beside the planes, written at every level's first visit, was 1.3 MB
+/// of fresh memory in a 32³ sweep: a fifth of what its first sweep faulted in beyond a
+/// recycled one).
+#[derive(Clone, Copy)]
+pub(crate) struct LevelPows<'a> {
+    v: &'a [f32],
+    plane: usize,
+    w: usize,
+    nx: usize,
+}
+
+impl<'a> LevelPows<'a> {
+    /// Level `level`'s transmittances in the planes `v` ([`Planes::v`]) of a grid of
+    /// `nx × nz` levels.
+    #[inline(always)]
+    pub(crate) fn of(v: &'a [f32], level: usize, (nx, nz): (usize, usize)) -> Self {
+        let w = nx + 2 * Planes::R;
+        let plane = w * (nz + 2 * Planes::R);
+        Self {
+            v: &v[level * Planes::PER_LEVEL * plane..][..MAX_EXPONENTS * plane],
+            plane,
+            w,
+            nx,
+        }
+    }
+
+    #[inline(always)]
+    fn offset(&self, q: usize) -> usize {
+        let (x, z) = (q % self.nx, q / self.nx);
+        (z + Planes::R) * self.w + x + Planes::R
+    }
+
+    /// Cell `q`'s transmittance along a path of exponent index `e`.
+    #[inline(always)]
+    pub(crate) fn get(&self, q: usize, e: usize) -> f32 {
+        self.v[e * self.plane + self.offset(q)]
+    }
+
+    /// Cell `q`'s transmittances of every exponent.
+    #[inline(always)]
+    pub(crate) fn at(&self, q: usize) -> [f32; MAX_EXPONENTS] {
+        let o = self.offset(q);
+        std::array::from_fn(|e| self.v[e * self.plane + o])
     }
 }
 
@@ -212,23 +301,23 @@ pub(crate) struct Work {
     /// The ring points some channel's taps reach ([`GhostRing`]), found once for a
     /// level size and channel set.
     pub(crate) ring: GhostRing,
-    /// Phase 1: what every point's path lost in each of its segments (per row: slot,
-    /// colour, column).
+    /// Slot planes (per row: slot, colour, column) of two uses in turn: phase 1 writes
+    /// what every point's path lost in each of its segments, which phase 2 reads; then
+    /// phase 3 writes over them what each point's path carries into each of its
+    /// segments (`pre`), which it reads itself. One buffer: phase 3 writes after phase
+    /// 2's last read, and the next level's phase 1 writes every row its phase 2 reads
+    /// (a row within two of a cell with material holds a point that is not quiet, and
+    /// phase 1 writes such rows whole, rings included). Two buffers were 661 KB more
+    /// of fresh memory in a 32³ sweep.
     pub(crate) removed: Vec<f32>,
-    /// Phase 3: what each point's path carries into each of its segments (per row:
-    /// slot, colour, column), and the level's transmittances and sources with a ring.
-    pub(crate) pre: Vec<f32>,
-    /// Per row: `pre` was written this level (some point of the row is near an
-    /// emitting cell).
+    /// Per row: phase 3 wrote its `pre` into [`Work::removed`] this level (some point
+    /// of the row is near an emitting cell).
     pub(crate) pre_rows: Vec<bool>,
     pub(crate) planes: Planes,
     pub(crate) t_after: Vec<[f32; CHANNELS]>,
     pub(crate) rows: Vec<RowFlux>,
-    /// Transmittance of every cell for each path exponent (a level's written at its
-    /// first visit of a sweep, `set_up`).
-    pub(crate) pows: Vec<[f32; MAX_EXPONENTS]>,
     /// Points with no material within two cells of their level ([`Ctx::quiet`];
-    /// written with `pows`).
+    /// written with the transmittance planes).
     pub(crate) quiet: Vec<bool>,
     pub(crate) quiet_rows: Vec<bool>,
     /// Per level: `pows`, `quiet` and the level's transmittance planes
@@ -263,14 +352,10 @@ impl Work {
             ghost_for: None,
             ring: GhostRing::default(),
             removed: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
-            pre: vec![0.0; nz * ring_pitch(nx) * SLOTS * 3],
             pre_rows: vec![false; nz],
             planes: Planes::new(nx, nz, n / level_len.max(1)),
             t_after: vec![[1.0; CHANNELS]; level_len],
             rows: vec![RowFlux::default(); nz],
-            // Written at each level's first visit (`set_up`): zeroed pages, faulted in
-            // by the threads that first write them.
-            pows: fresh_buffer(n),
             quiet: vec![false; n],
             quiet_rows: vec![false; level_len],
             set_up: vec![false; n / level_len.max(1)],
@@ -322,7 +407,7 @@ impl Work {
     }
 
     /// The buffers sized by the grid's levels made `levels` long (what they held is
-    /// written before it is read: the planes, `pows` and `quiet` at a level's set-up,
+    /// written before it is read: the planes and `quiet` at a level's set-up,
     /// which `set_up` marks; pending light clear, every level of it written zeroed
     /// before).
     fn resize_levels(&mut self, levels: usize) {
@@ -330,7 +415,6 @@ impl Work {
         self.planes
             .v
             .resize(levels * Planes::PER_LEVEL * self.planes.plane_len(), 0.0);
-        self.pows.resize(n, [0.0; MAX_EXPONENTS]);
         self.quiet.resize(n, false);
         self.set_up.clear();
         self.set_up.resize(levels, false);
@@ -504,17 +588,4 @@ pub(crate) fn ghost_reach(chn: &Channel, nx: isize, nz: isize) -> GhostReach {
         x: (-sx - 1, nx - sx),
         z: (-sz - 1, nz - sz),
     }
-}
-
-/// `pows` for the level whose cells have `ln(pass)` = `lnp`.
-pub(crate) fn level_powers(pows: &mut [[f32; MAX_EXPONENTS]], lnp: &[f32]) {
-    let exps = path_exponents();
-    pows.par_iter_mut()
-        .zip(lnp)
-        .with_min_len(MIN_POINTS_PER_TASK)
-        .for_each(|(pw, &l)| {
-            for (k, e) in exps.iter().enumerate() {
-                pw[k] = if l == 0.0 { 1.0 } else { (e * l).exp() };
-            }
-        });
 }

@@ -189,14 +189,15 @@ pub fn validate_inputs(
 /// up to three pending-scatter records (144: two, and a third in accelerated passes;
 /// only levels with material hold them), ln(pass) and exposure (8), the material with its
 /// enclosed opaque cells sealed (16, [`sealed_material`]), the output (312),
-/// and the transmittances of every path exponent and the quiet mask, kept for the
-/// sweep's later passes (41); per level its transmittance planes with their ring
-/// (eleven planes of `(nx + 4) × (nz + 4)` floats); per point of one level the level
-/// buffers (four 17-channel levels: the two in use, light from outside, the upward
-/// light waiting above all material; removals, transmittance, the source rule's
-/// sources and masks: 1441), with per row of a level the rings of its three sets of
-/// slot planes (removed light, what paths carry, the profile rule's emission: 3 × 2 ×
-/// 2 columns × 147 planes × 4 bytes); and the profile rule's cell profiles, one per
+/// and the quiet mask (1); per level its transmittance planes with their ring (eleven
+/// planes of `(nx + 4) × (nz + 4)` floats, the one store of its transmittances, kept
+/// for the sweep's later passes); per point of one level the level buffers (four
+/// 17-channel levels: the two in use, light from outside, the upward light waiting
+/// above all material: 816), its two sets of slot planes (removed light, then what
+/// paths carry; the profile rule's emission: 2 × 147 floats), the transmittance after
+/// each path's centre (68) and the source rule's sources and masks (38): 2098, with
+/// per row of a level the rings of the two sets of slot planes (2 × 2 × 2 columns ×
+/// 147 planes × 4 bytes); and the profile rule's cell profiles, one per
 /// distinct depth of medium and direction, at most two a point and [`crate::profile`]'s
 /// cap (held once a process, whatever its sweepers: those of another sweep of the same
 /// depths are the same memory).
@@ -204,12 +205,12 @@ pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
     let profiles = (2 * desc.point_count()).min(crate::profile::Profiles::KEEP) as u64
         * std::mem::size_of::<crate::profile::CellProfile>() as u64;
     let d = desc.dims();
-    let rings = d.z as u64 * (3 * 2 * RING * SLOTS * 3 * 4) as u64;
+    let rings = d.z as u64 * (2 * 2 * RING * SLOTS * 3 * 4) as u64;
     let planes = d.y as u64
         * ((d.x as usize + 2 * Planes::R) * (d.z as usize + 2 * Planes::R) * Planes::PER_LEVEL * 4)
             as u64;
-    desc.point_count() as u64 * (312 + 144 + 8 + 16 + 312 + 41)
-        + desc.level_len() as u64 * 1441
+    desc.point_count() as u64 * (312 + 144 + 8 + 16 + 312 + 1)
+        + desc.level_len() as u64 * 2098
         + rings
         + planes
         + profiles

@@ -20,7 +20,7 @@ impl Ctx {
     pub(crate) fn phase1_scalar<S: Sink>(
         &self,
         from: &Gather<'_, '_>,
-        (cells, first): ((&[[f32; MAX_EXPONENTS]], &[f32]), bool),
+        (cells, first): ((LevelPows<'_>, &[f32]), bool),
         Removals { removed, t_after }: Removals<'_>,
         LevelRows { cur, g, rows }: LevelRows<'_, S>,
     ) -> RowFlux {
@@ -78,7 +78,7 @@ impl Ctx {
     #[inline]
     pub(crate) fn transmit(
         &self,
-        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
+        (pows, lnp): (LevelPows<'_>, &[f32]),
         chn: &Channel,
         (x, z): (i32, i32),
         inner: Option<usize>,
@@ -97,7 +97,7 @@ impl Ctx {
             };
             let (tr, half) = match ci {
                 Some(ci) => {
-                    let tr = pows[ci][chn.pow[k]];
+                    let tr = pows.get(ci, chn.pow[k]);
                     (tr, seg_mean(tr, -exps[chn.pow[k]] * lnp[ci]))
                 }
                 None => (1.0, 1.0),
@@ -166,7 +166,7 @@ impl Ctx {
         z: i32,
         (src, emits): (&[Vec3], &[bool]),
         (src_hi, prof): (&[[Vec3; 2]], &crate::profile::Profiles),
-        (pows, lnp): (&[[f32; MAX_EXPONENTS]], &[f32]),
+        (pows, lnp): (LevelPows<'_>, &[f32]),
         p: usize,
         (cur_row, pre_row, g_row): (&mut [f32], &mut [f32], &mut [S]),
     ) {
@@ -178,7 +178,7 @@ impl Ctx {
         let seg = |q: Option<usize>, pow: usize, slot: usize| -> (f32, Vec3) {
             match q {
                 Some(q) if emits[q] => {
-                    let tr = pows[q][pow];
+                    let tr = pows.get(q, pow);
                     let mut e = src[q] * (1.0 - tr);
                     if profile {
                         let w = prof.get(q).emit[slot];
@@ -186,7 +186,7 @@ impl Ctx {
                     }
                     (tr, e)
                 }
-                Some(q) => (pows[q][pow], Vec3::ZERO),
+                Some(q) => (pows.get(q, pow), Vec3::ZERO),
                 None => (1.0, Vec3::ZERO),
             }
         };
@@ -204,7 +204,7 @@ impl Ctx {
                     let (tr, e) = seg(self.col(x + dx, z + dz), chn.pow[k], slot);
                     if dx == 0 && dz == 0 {
                         let half = seg_mean(
-                            pows[ci][chn.pow[k]],
+                            pows.get(ci, chn.pow[k]),
                             -path_exponents()[chn.pow[k]] * lnp[ci],
                         );
                         centre = acc * half;

@@ -504,7 +504,6 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         w.set_up[j as usize] |= material_here;
         w.planes.level = j as usize;
         let Work {
-            pows,
             planes,
             prev,
             quiet,
@@ -512,7 +511,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             prof,
             ..
         } = w;
-        let (pows, quiet) = (&mut pows[range.clone()], &mut quiet[range]);
+        let quiet = &mut quiet[range];
         let (up, ctx, prev_columns_wrapped) = (p.up, &p.ctx, p.prev_columns_wrapped);
         let mut each_pass = || {
             if fast && fixed.periodic {
@@ -531,8 +530,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         if first_visit {
             rayon::join(
                 || {
-                    level_powers(pows, lnp);
-                    planes.fill_pows(ctx, pows, lnp);
+                    planes.fill_pows(ctx, lnp);
                 },
                 || {
                     each_pass();
@@ -566,7 +564,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                     from_virtual,
                     src_level,
                 },
-                ((&w.pows[range.clone()], &fixed.lnp[range.clone()]), p.first),
+                ((w.planes.pows(), &fixed.lnp[range.clone()]), p.first),
                 Removals {
                     removed: &mut w.removed,
                     t_after: &mut w.t_after,
@@ -668,7 +666,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 removed: &w.removed,
                 scalar: !fast,
                 t_after: &w.t_after,
-                pows: &w.pows[range.clone()],
+                pows: LevelPows::of(&w.planes.v, w.planes.level, (nx, nz)),
                 cells,
                 exposed: &fixed.exposed[range.clone()],
             },
@@ -712,13 +710,12 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 emits: &w.emits,
                 src_hi: &w.src_hi,
                 prof: &w.prof,
-                pows: &w.pows[range.clone()],
                 lnp: &fixed.lnp[range.clone()],
                 cells,
                 scalar: !fast,
             },
             &mut w.planes,
-            (&mut w.pre, &mut w.pre_rows),
+            (&mut w.removed, &mut w.pre_rows),
             (same.level_mut(j as usize), other.level_mut(j as usize)),
             LevelRows {
                 cur: &mut w.cur,

@@ -11,7 +11,7 @@ pub(crate) struct Phase2In<'a> {
     pub(crate) removed: &'a [f32],
     pub(crate) scalar: bool,
     pub(crate) t_after: &'a [[f32; CHANNELS]],
-    pub(crate) pows: &'a [[f32; MAX_EXPONENTS]],
+    pub(crate) pows: LevelPows<'a>,
     pub(crate) cells: &'a [lightgrid_core::Material],
     pub(crate) exposed: &'a [u8],
 }
@@ -547,7 +547,7 @@ impl Ctx {
                 // light as the cell's source, which its path segments emit in phase 3
                 // (`crate::medium`).
                 let share = own.s * 0.5 + own.m[1] * half_beta;
-                let j = self.source_of(share, (mat, mw, &pows[ci]), &mut rf);
+                let j = self.source_of(share, (mat, mw, &pows.at(ci)), &mut rf);
                 src_row[xi] = j;
                 emits_row[xi] = j != Vec3::ZERO;
                 own = Pending::default();

@@ -4,15 +4,14 @@
 use super::*;
 
 /// What phase 3 of a level reads: the cells' sources and which cells emit, under the
-/// profile rule their `P_1`, `P_2` coefficients and profiles, the level's transmittance
-/// powers, `ln p` and cells, and whether the scalar oracle runs it.
+/// profile rule their `P_1`, `P_2` coefficients and profiles, the level's `ln p` and
+/// cells (its transmittances are [`Planes::pows`]), and whether the scalar oracle runs it.
 #[derive(Clone, Copy)]
 pub(crate) struct Phase3In<'a> {
     pub(crate) src: &'a [Vec3],
     pub(crate) emits: &'a [bool],
     pub(crate) src_hi: &'a [[Vec3; 2]],
     pub(crate) prof: &'a crate::profile::Profiles,
-    pub(crate) pows: &'a [[f32; MAX_EXPONENTS]],
     pub(crate) lnp: &'a [f32],
     pub(crate) cells: &'a [lightgrid_core::Material],
     pub(crate) scalar: bool,
@@ -43,7 +42,6 @@ impl Ctx {
             emits,
             src_hi,
             prof,
-            pows,
             lnp,
             scalar,
             ..
@@ -54,6 +52,7 @@ impl Ctx {
         let profile = self.medium == MediumEmission::Profile;
         planes.fill_src(self, src, emits);
         let planes = &*planes;
+        let pows = planes.pows();
         // Rows whose paths carry anything: within [`RING`] rows of an emitting cell, as
         // far as a path reaches (every row, scalar).
         let emitting: Vec<bool> = emits.chunks(nx).map(|r| r.contains(&true)).collect();
@@ -297,10 +296,10 @@ impl Ctx {
             emits,
             src_hi,
             prof,
-            pows,
             cells,
             ..
         } = *input;
+        let pows = planes.pows();
         const B: usize = GATHER_BLOCK;
         let nx = self.nx as usize;
         let row_cells = &cells[nx * z as usize..][..nx];
@@ -384,7 +383,7 @@ impl Ctx {
                     }
                     if !self.periodic && emits[ci] {
                         let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
-                        self.lost_through_sides(xi as i32, z, src[ci], hi, &pows[ci], rf);
+                        self.lost_through_sides(xi as i32, z, src[ci], hi, &pows.at(ci), rf);
                     }
                     let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
                     let got = Pending {
