@@ -15,8 +15,6 @@ pub(crate) struct Spare {
     /// bins and halves are copied out of it).
     pub(crate) horizon: Vec<lightgrid_core::HorizonLight>,
     pub(crate) split: Vec<super::sink::SplitBins>,
-    /// The material with its enclosed opaque cells sealed ([`super::sealed_material`]).
-    pub(crate) sealed: Vec<lightgrid_core::Material>,
     pub(crate) work: Option<Work>,
 }
 
@@ -28,7 +26,6 @@ impl std::fmt::Debug for Spare {
             .field("dominant", &self.dominant.len())
             .field("horizon", &self.horizon.len())
             .field("split", &self.split.len())
-            .field("sealed", &self.sealed.len())
             .field("work", &self.work.as_ref().map(|w| (w.prev.nx, w.prev.nz)))
             .finish()
     }

@@ -187,8 +187,7 @@ pub fn validate_inputs(
 
 /// Most bytes [`run`] holds at once for a grid: per point the accumulated bins (312),
 /// up to three pending-scatter records (144: two, and a third in accelerated passes;
-/// only levels with material hold them), ln(pass) and exposure (8), the material with its
-/// enclosed opaque cells sealed (16, [`sealed_material`]), the output (312),
+/// only levels with material hold them), ln(pass) and exposure (8), the output (312)
 /// and the quiet mask (1); per level its transmittance planes with their ring (eleven
 /// planes of `(nx + 4) × (nz + 4)` floats, the one store of its transmittances, kept
 /// for the sweep's later passes); per point of one level the level buffers (four
@@ -209,7 +208,7 @@ pub fn sweep_bytes(desc: &lightgrid_core::GridDesc) -> u64 {
     let planes = d.y as u64
         * ((d.x as usize + 2 * Planes::R) * (d.z as usize + 2 * Planes::R) * Planes::PER_LEVEL * 4)
             as u64;
-    desc.point_count() as u64 * (312 + 144 + 8 + 16 + 312 + 1)
+    desc.point_count() as u64 * (312 + 144 + 8 + 312 + 1)
         + desc.level_len() as u64 * 2098
         + rings
         + planes
@@ -320,36 +319,6 @@ pub fn swept_reflectance(m: &lightgrid_core::Material, exposed: u8) -> Vec3 {
     }
 }
 
-/// `material` as a sweep reads it ([`swept_reflectance`]): `None` where that changes no
-/// cell (no enclosed opaque cell reflects; `into` is left as it was), else the grid with
-/// the enclosed opaque cells' reflectance 0, written into `into`'s memory, taken (a
-/// sweeper's, kept from sweep to sweep: [`Grid::into_data`] gives it back).
-pub fn sealed_material(
-    material: &MaterialGrid,
-    exposed: &[u8],
-    into: &mut Vec<lightgrid_core::Material>,
-) -> Option<MaterialGrid> {
-    let cells = material.data();
-    let changes = |(m, &e): (&lightgrid_core::Material, &u8)| {
-        m.pass <= 0.0 && e == 0 && m.reflectance != Vec3::ZERO
-    };
-    if !cells.par_iter().zip(exposed).any(changes) {
-        return None;
-    }
-    let mut sealed = std::mem::take(into);
-    sealed.clear();
-    sealed.par_extend(
-        cells
-            .par_iter()
-            .zip(exposed)
-            .map(|(m, &e)| lightgrid_core::Material {
-                reflectance: swept_reflectance(m, e),
-                ..*m
-            }),
-    );
-    Some(Grid::from_trusted(*material.desc(), sealed))
-}
-
 /// Runs the sweep; see the crate docs for the semantics.
 pub fn run(
     material: &MaterialGrid,
@@ -420,10 +389,9 @@ pub(crate) fn run_reusing(
         )
         .into());
     }
-    // Enclosed opaque cells absorb what reaches them ([`swept_reflectance`]).
+    // Enclosed opaque cells absorb what reaches them: the phases read a cell's
+    // reflectance through [`swept_reflectance`] and its exposure.
     let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
-    let sealed = sealed_material(material, &exposed, &mut spare.sealed);
-    let material = sealed.as_ref().unwrap_or(material);
     let desc = *material.desc();
     if let Some(src) = source
         && *src.desc() != desc
@@ -480,9 +448,6 @@ pub(crate) fn run_reusing(
         (None, None, ok, balance, stats)
     };
     spare.work = run.work.take();
-    if let Some(g) = sealed {
-        spare.sealed = g.into_data();
-    }
     // Outputs not asked for keep their memory for the next sweep.
     let average = if want_avg {
         Some(Grid::from_trusted(desc, avg))

@@ -186,13 +186,14 @@ impl<'r, S: Sink> PassLoop<'r, S> {
     /// directions' pending light (each pass emits its half, as for removed light).
     fn book_source(&mut self, src: &CellSource) {
         let (w, bal, desc) = (&mut self.w, &mut self.bal, &self.desc);
-        let cells = self.material.data();
+        let (cells, exposed) = (self.material.data(), &self.fixed.exposed);
         for (i, (&r, mat)) in src.removed().iter().zip(cells).enumerate() {
             if r == Vec3::ZERO {
                 continue;
             }
             bal.source_in += r.as_dvec3();
-            bal.absorbed += (r * (Vec3::ONE - mat.reflectance)).as_dvec3();
+            let alb = swept_reflectance(mat, exposed[i]);
+            bal.absorbed += (r * (Vec3::ONE - alb)).as_dvec3();
             if medium::profiled(self.options.medium, mat.pass) {
                 // The beam's first collisions have the height moments the source
                 // carries (the beam tracer's), or those of a beam entering the cell
@@ -205,7 +206,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 w.pend_dirty[i / desc.level_len()] = true;
                 continue;
             }
-            let s = r * mat.reflectance;
+            let s = r * alb;
             let p = Pending {
                 s,
                 m: [s * src.dir().x, s * src.dir().y, s * src.dir().z],
@@ -712,6 +713,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 prof: &w.prof,
                 lnp: &fixed.lnp[range.clone()],
                 cells,
+                exposed: &fixed.exposed[range.clone()],
                 scalar: !fast,
             },
             &mut w.planes,

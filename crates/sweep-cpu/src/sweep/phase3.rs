@@ -4,8 +4,9 @@
 use super::*;
 
 /// What phase 3 of a level reads: the cells' sources and which cells emit, under the
-/// profile rule their `P_1`, `P_2` coefficients and profiles, the level's `ln p` and
-/// cells (its transmittances are [`Planes::pows`]), and whether the scalar oracle runs it.
+/// profile rule their `P_1`, `P_2` coefficients and profiles, the level's `ln p`, cells
+/// and exposed faces (its transmittances are [`Planes::pows`]), and whether the scalar
+/// oracle runs it.
 #[derive(Clone, Copy)]
 pub(crate) struct Phase3In<'a> {
     pub(crate) src: &'a [Vec3],
@@ -14,6 +15,8 @@ pub(crate) struct Phase3In<'a> {
     pub(crate) prof: &'a crate::profile::Profiles,
     pub(crate) lnp: &'a [f32],
     pub(crate) cells: &'a [lightgrid_core::Material],
+    /// The cells' exposed faces ([`exposure`]).
+    pub(crate) exposed: &'a [u8],
     pub(crate) scalar: bool,
 }
 
@@ -297,6 +300,7 @@ impl Ctx {
             src_hi,
             prof,
             cells,
+            exposed,
             ..
         } = *input;
         let pows = planes.pows();
@@ -393,7 +397,7 @@ impl Ctx {
                     if got.s == Vec3::ZERO {
                         continue;
                     }
-                    let alb = mat.reflectance;
+                    let alb = swept_reflectance(&mat, exposed[ci]);
                     if medium::profiled(self.medium, mat.pass) {
                         // Waits for the next passes of both directions, as an isotropic
                         // source.
