@@ -344,6 +344,10 @@ impl Ctx {
                         touch(&pr.coll[..]);
                     }
                 }
+                // The height moments only for a block holding a cell that takes them (a
+                // flat cell's are never read): a level's thin media emit the flat
+                // source ([`medium::profiled`]).
+                let moments = profile && block_prof[..b].iter().any(Option::is_some);
                 for (c, chn) in self.ch.iter().enumerate() {
                     let om = mw.omega[c] * chn.mu;
                     // A path carries nothing into its first segment.
@@ -358,7 +362,7 @@ impl Ctx {
                         let first = x0 as i32 - djx;
                         // Profile: the block's media's collision moments for this slot
                         // (0 elsewhere: what is tallied there is not read).
-                        if profile {
+                        if moments {
                             for (i, pr) in block_prof[..b].iter().enumerate() {
                                 (cw[0][i], cw[1][i]) = pr
                                     .map_or((0.0, 0.0), |pr| (pr.coll[slot][0], pr.coll[slot][1]));
@@ -371,7 +375,7 @@ impl Ctx {
                             let mut sums = Tally {
                                 s: &mut got_s[col][..b],
                                 m: [&mut m0[col][..b], &mut m1[col][..b], &mut m2[col][..b]],
-                                h: profile.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
+                                h: moments.then_some([&mut h0[col][..b], &mut h1[col][..b]]),
                             };
                             let from = tap(pre, nx, (zr, slot, col), first, b);
                             sums.add(0..b, from, (&pw[..b], om, unit), &cw);
