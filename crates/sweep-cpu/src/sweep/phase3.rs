@@ -142,6 +142,19 @@ impl Ctx {
         let mut mean = [0f32; B];
         while x0 < nx {
             let b = B.min(nx - x0);
+            // The profiles of the block's emitting cells, found once for every channel
+            // (not once a channel: a lookup through the store's slots for each of a
+            // pass's 17 centre slots).
+            let block_prof: [Option<&crate::profile::CellProfile>; B] = match hi {
+                Some((_, prof, emits)) => crate::isa::array_from(
+                    #[inline(always)]
+                    |i| {
+                        let q = x0 + i + nx * z as usize;
+                        (i < b && emits[q]).then(|| prof.get(q))
+                    },
+                ),
+                None => [None; B],
+            };
             // One block of any width `b` (not specialised by `with_width`: a large body,
             // compiled once, as the optimiser did before the vector dispatch).
             {
@@ -178,11 +191,11 @@ impl Ctx {
                                 }
                             }
                             // The point's own cell's `P_1`, `P_2` share of its mean light.
-                            if let Some((src_hi, prof, emits)) = hi {
-                                for i in 0..b {
-                                    let q = x0 + i + nx * z as usize;
-                                    if emits[q] {
-                                        let w = prof.get(q).mean[slot];
+                            if let Some((src_hi, _, _)) = hi {
+                                for (i, pr) in block_prof[..b].iter().enumerate() {
+                                    if let Some(pr) = pr {
+                                        let q = x0 + i + nx * z as usize;
+                                        let w = pr.mean[slot];
                                         let m = src_hi[q][0] * w[0] + src_hi[q][1] * w[1];
                                         for (col, ce) in centre.iter_mut().enumerate() {
                                             ce[i] += m[col];
