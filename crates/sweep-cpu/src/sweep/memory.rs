@@ -239,8 +239,7 @@ fn fill_plane(
 /// ([`Planes::POW`]): `get(q, e)` is what cell `q` (its index within the level) passes
 /// along a path of exponent `path_exponents()[e]`. The one store of the transmittances
 /// (a copy a point beside the planes, written at every level's first visit, was 1.3 MB
-/// of fresh memory in a 32³ sweep: a fifth of what its first sweep faulted in beyond a
-/// recycled one).
+/// more work memory in a 32³ sweep).
 #[derive(Clone, Copy)]
 pub(crate) struct LevelPows<'a> {
     v: &'a [f32],
