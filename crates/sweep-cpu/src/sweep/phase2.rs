@@ -477,8 +477,7 @@ impl Ctx {
             // for the block of the row, or (the scalar oracle) path point by path point.
             let mat = cells[ci];
             let (s_raw, m_raw) = self.removed_by((x, z), i, (removed, scalar), &scratch.by_row);
-            // Step 4: absorb (1 - albedo), keep albedo for scattering (none in an
-            // enclosed opaque cell: [`swept_reflectance`]).
+            // Step 4: absorb (1 - albedo), keep albedo for scattering (`swept_reflectance`).
             let alb = swept_reflectance(&mat, exposed[ci]);
             rf.absorbed += (s_raw * (Vec3::ONE - alb)).as_dvec3();
             let new = Pending { s: s_raw, m: m_raw }.scaled(alb);
