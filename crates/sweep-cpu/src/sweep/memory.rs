@@ -130,7 +130,6 @@ impl Planes {
     pub(crate) fn fill_pows(&mut self, ctx: &Ctx, lnp: &[f32]) {
         let exps = path_exponents();
         let n = self.plane_len();
-        let (nx, nz) = (self.nx, self.nz);
         let level = &mut self.v[self.level * Self::PER_LEVEL * n..][..Self::PER_LEVEL * n];
         level
             .par_chunks_mut(n)
@@ -138,10 +137,10 @@ impl Planes {
             .enumerate()
             .for_each(|(k, plane)| {
                 if k == Self::LNP {
-                    fill_plane(ctx, (nx, nz), plane, 0.0, |q| lnp[q]);
+                    fill_plane(ctx, plane, 0.0, |q| lnp[q]);
                 } else {
                     let e = exps[k];
-                    fill_plane(ctx, (nx, nz), plane, 1.0, |q| {
+                    fill_plane(ctx, plane, 1.0, |q| {
                         let l = lnp[q];
                         if l == 0.0 { 1.0 } else { (e * l).exp() }
                     });
@@ -191,25 +190,16 @@ impl Planes {
         outside: f32,
         value: impl Fn(usize, usize) -> f32,
     ) {
-        let (nx, nz) = (self.nx, self.nz);
         for k in 0..count {
-            fill_plane(ctx, (nx, nz), self.plane_mut(first + k), outside, |q| {
-                value(q, k)
-            });
+            fill_plane(ctx, self.plane_mut(first + k), outside, |q| value(q, k));
         }
     }
 }
 
-/// One plane of an `nx × nz` level with its ring ([`Planes`]): `value(cell)` at every
-/// cell of the ring and the level (the cell [`Ctx::col`] finds), `outside` beyond open
-/// sides.
-fn fill_plane(
-    ctx: &Ctx,
-    (nx, nz): (usize, usize),
-    plane: &mut [f32],
-    outside: f32,
-    value: impl Fn(usize) -> f32,
-) {
+/// One plane of `ctx`'s level with its ring ([`Planes`]): `value(cell)` at every cell
+/// of the ring and the level (the cell [`Ctx::col`] finds), `outside` beyond open sides.
+fn fill_plane(ctx: &Ctx, plane: &mut [f32], outside: f32, value: impl Fn(usize) -> f32) {
+    let (nx, nz) = (ctx.nx as usize, ctx.nz as usize);
     let r = Planes::R as i32;
     let (w, h) = (nx + 2 * Planes::R, nz + 2 * Planes::R);
     // Column and row of the level each ring position reads (`None`: outside).
@@ -263,22 +253,19 @@ impl<'a> LevelPows<'a> {
         }
     }
 
-    #[inline(always)]
-    fn offset(&self, q: usize) -> usize {
-        let (x, z) = (q % self.nx, q / self.nx);
-        (z + Planes::R) * self.w + x + Planes::R
-    }
-
-    /// Cell `q`'s transmittance along a path of exponent index `e`.
+    /// Cell `q`'s transmittance along a path of exponent index `e` (the oracle's
+    /// read, by the cell's index).
     #[inline(always)]
     pub(crate) fn get(&self, q: usize, e: usize) -> f32 {
-        self.v[e * self.plane + self.offset(q)]
+        let (x, z) = (q % self.nx, q / self.nx);
+        self.v[e * self.plane + (z + Planes::R) * self.w + x + Planes::R]
     }
 
-    /// Cell `q`'s transmittances of every exponent.
+    /// The transmittances of every exponent of the cell of column `x`, row `z` (the row
+    /// loops know both: no division).
     #[inline(always)]
-    pub(crate) fn at(&self, q: usize) -> [f32; MAX_EXPONENTS] {
-        let o = self.offset(q);
+    pub(crate) fn at(&self, x: usize, z: usize) -> [f32; MAX_EXPONENTS] {
+        let o = (z + Planes::R) * self.w + x + Planes::R;
         std::array::from_fn(|e| self.v[e * self.plane + o])
     }
 }

@@ -547,7 +547,7 @@ impl Ctx {
                 // light as the cell's source, which its path segments emit in phase 3
                 // (`crate::medium`).
                 let share = own.s * 0.5 + own.m[1] * half_beta;
-                let j = self.source_of(share, (mat, mw, &pows.at(ci)), &mut rf);
+                let j = self.source_of(share, (mat, mw, &pows.at(xi, z as usize)), &mut rf);
                 src_row[xi] = j;
                 emits_row[xi] = j != Vec3::ZERO;
                 own = Pending::default();

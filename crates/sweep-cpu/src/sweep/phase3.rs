@@ -404,7 +404,7 @@ impl Ctx {
                     }
                     if !self.periodic && emits[ci] {
                         let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
-                        self.lost_through_sides(xi as i32, z, src[ci], hi, &pows.at(ci), rf);
+                        self.lost_through_sides(xi as i32, z, src[ci], hi, pows, rf);
                     }
                     let v = |a: &[[f32; B]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
                     let got = Pending {
@@ -454,13 +454,14 @@ impl Ctx {
         z: i32,
         src: Vec3,
         hi: Option<([Vec3; 2], &crate::profile::CellProfile)>,
-        pows: &[f32; MAX_EXPONENTS],
+        pows: LevelPows<'_>,
         rf: &mut RowFlux,
     ) {
         let r = Planes::R as i32;
         if x >= r && x < self.nx - r && z >= r && z < self.nz - r {
             return;
         }
+        let pows = pows.at(x as usize, z as usize);
         let mw = medium::weights(up_pass(self.ch));
         for (c, chn) in self.ch.iter().enumerate() {
             let om = mw.omega[c] * chn.mu;
