@@ -20,11 +20,32 @@ use lightgrid_core::{trilinear_frame, trilinear_indices};
 type LevelRead = (usize, u32, BinLight, Option<HorizonLight>);
 
 /// The two coarse levels a halo column read last ([`Hierarchy::column_light_split`]),
-/// the terrain's height under the column once found, and whether the grid (its
+/// the terrain's height under the column once found, whether the grid (its
 /// address) it read near the ground was clear above its band
-/// ([`Hierarchy::ground_lifted`]).
+/// ([`Hierarchy::ground_lifted`]), and the sky's coarser grids over the column once
+/// found ([`Coarser`]).
 #[derive(Clone, Default)]
-pub(crate) struct ColumnReads([Option<LevelRead>; 2], Option<f32>, Option<(usize, bool)>);
+pub(crate) struct ColumnReads<'a>(
+    [Option<LevelRead>; 2],
+    Option<f32>,
+    Option<(usize, bool)>,
+    Option<Vec<Coarser<'a>>>,
+);
+
+/// A depth's node over a halo column, coarser than the node whose halo it is, as
+/// [`Hierarchy::coarse_grid`] goes through them for the sky (finest first): the one
+/// built there, with the heights of its levels, or the key of the one not built (a
+/// read there may take a neighbour's band: [`Hierarchy::band_light`]). Found once a
+/// column: a halo point's hash-map lookups were a third of its read.
+#[derive(Clone)]
+pub(crate) enum Coarser<'a> {
+    Built {
+        light: &'a LightGrid,
+        horizon: Option<&'a HorizonGrid>,
+        levels: (f32, f32),
+    },
+    Missing(NodeKey),
+}
 
 use crate::{GROUND_LIFT, Hierarchy, NodeKey, Response, within_levels};
 
@@ -73,12 +94,12 @@ impl Hierarchy {
     /// same depth before `key` holds `p` among its points
     /// ([`HierarchyParams::neighbour_halo`](crate::HierarchyParams::neighbour_halo)),
     /// that node's light there, read the same way (on its points: its own values).
-    pub(crate) fn column_light_split(
-        &self,
+    pub(crate) fn column_light_split<'a>(
+        &'a self,
         p: Vec3,
         key: NodeKey,
         which: Response,
-        reads: &mut ColumnReads,
+        reads: &mut ColumnReads<'a>,
     ) -> (BinLight, Option<HorizonLight>) {
         if !p.is_finite() {
             return Default::default();
@@ -86,7 +107,10 @@ impl Hierarchy {
         let depth = key.depth;
         let neighbour = self.neighbour_light(p, key, which);
         let coarse = neighbour.is_none();
-        let Some((g, hg)) = neighbour.or_else(|| self.coarse_grid(p, depth, which)) else {
+        let Some((g, hg)) = neighbour.or_else(|| match which {
+            Response::Sky => Some(self.column_coarse_grid(p, depth, &mut reads.3)),
+            Response::Sun => self.coarse_grid(p, depth, which),
+        }) else {
             return Default::default();
         };
         if hg.is_some_and(|h| h.desc() != g.desc()) {
@@ -232,6 +256,51 @@ impl Hierarchy {
             .map(|n| &n.material.grid)
             .find(on_g)
             .or_else(|| self.world_material.as_ref().filter(on_g))
+    }
+
+    /// [`Hierarchy::coarse_grid`]'s sky grid at `p`, a point of a halo column whose
+    /// coarser nodes `column` keeps (found at the column's first point).
+    fn column_coarse_grid<'a>(
+        &'a self,
+        p: Vec3,
+        depth: u32,
+        column: &mut Option<Vec<Coarser<'a>>>,
+    ) -> (&'a LightGrid, Option<&'a HorizonGrid>) {
+        let found = column.get_or_insert_with(|| {
+            (1..depth)
+                .rev()
+                .map(|d| {
+                    let key = self.node_at(d, Vec2::new(p.x, p.z));
+                    match self.nodes.get(&key) {
+                        Some(n) => {
+                            let (lo, hi) = n.light.desc().point_bounds();
+                            Coarser::Built {
+                                light: &n.light,
+                                horizon: n.horizon.as_ref(),
+                                levels: (lo.y, hi.y),
+                            }
+                        }
+                        None => Coarser::Missing(key),
+                    }
+                })
+                .collect()
+        });
+        for c in found.iter() {
+            match *c {
+                Coarser::Built {
+                    light,
+                    horizon,
+                    levels: (lo, hi),
+                } if p.y >= lo && p.y <= hi => return (light, horizon),
+                Coarser::Built { .. } => {}
+                Coarser::Missing(key) => {
+                    if let Some(r) = self.band_light(p, key) {
+                        return r;
+                    }
+                }
+            }
+        }
+        (&self.world, self.world_horizon.as_ref())
     }
 
     /// The grid [`Hierarchy::coarse_light_split`] reads at `p`, and its halves if kept.

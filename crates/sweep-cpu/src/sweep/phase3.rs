@@ -402,7 +402,7 @@ impl Ctx {
                     if mat.pass >= 1.0 {
                         continue;
                     }
-                    if !self.periodic && emits[ci] {
+                    if !self.periodic && emits[ci] && self.near_side(xi as i32, z) {
                         let hi = profile.then(|| (src_hi[ci], prof.get(ci)));
                         self.lost_through_sides(xi as i32, z, src[ci], hi, pows, rf);
                     }
@@ -444,9 +444,18 @@ impl Ctx {
         }
     }
 
-    /// What an emitting cell at `(x, z)` with source `src` sends into the paths of
-    /// points beyond an open side: their paths are not traced, so it leaves through the
-    /// side (`rf.side_out`).
+    /// Whether a cell at `(x, z)` emits along some path that leaves the level through
+    /// a side: it lies within [`Planes::R`] of one (the farthest a path moves sideways
+    /// a level); farther in, every path stays inside.
+    #[inline(always)]
+    pub(crate) fn near_side(&self, x: i32, z: i32) -> bool {
+        let r = Planes::R as i32;
+        !(x >= r && x < self.nx - r && z >= r && z < self.nz - r)
+    }
+
+    /// What an emitting cell at `(x, z)` ([`Ctx::near_side`]) with source `src` sends
+    /// into the paths of points beyond an open side: their paths are not traced, so it
+    /// leaves through the side (`rf.side_out`).
     #[inline(always)]
     pub(crate) fn lost_through_sides(
         &self,
@@ -457,10 +466,6 @@ impl Ctx {
         pows: LevelPows<'_>,
         rf: &mut RowFlux,
     ) {
-        let r = Planes::R as i32;
-        if x >= r && x < self.nx - r && z >= r && z < self.nz - r {
-            return;
-        }
         let pows = pows.at(x as usize, z as usize);
         let mw = medium::weights(up_pass(self.ch));
         for (c, chn) in self.ch.iter().enumerate() {
