@@ -94,15 +94,18 @@ impl Hierarchy {
     /// same depth before `key` holds `p` among its points
     /// ([`HierarchyParams::neighbour_halo`](crate::HierarchyParams::neighbour_halo)),
     /// that node's light there, read the same way (on its points: its own values).
+    /// The bins are blended into `light` (zero when called, a halo's own slot), the
+    /// halves returned.
     pub(crate) fn column_light_split<'a>(
         &'a self,
         p: Vec3,
         key: NodeKey,
         which: Response,
         reads: &mut ColumnReads<'a>,
-    ) -> (BinLight, Option<HorizonLight>) {
+        light: &mut BinLight,
+    ) -> Option<HorizonLight> {
         if !p.is_finite() {
-            return Default::default();
+            return None;
         }
         let depth = key.depth;
         let neighbour = self.neighbour_light(p, key, which);
@@ -111,10 +114,12 @@ impl Hierarchy {
             Response::Sky => Some(self.column_coarse_grid(p, depth, &mut reads.3)),
             Response::Sun => self.coarse_grid(p, depth, which),
         }) else {
-            return Default::default();
+            return None;
         };
         if hg.is_some_and(|h| h.desc() != g.desc()) {
-            return self.coarse_light_split(p, depth, which);
+            let (l, h) = self.coarse_light_split(p, depth, which);
+            *light = l;
+            return h;
         }
         // A neighbour of the node's own cell is read where it is (its band is the
         // node's own).
@@ -161,7 +166,6 @@ impl Hierarchy {
             }
             (id, y, light, halves)
         };
-        let mut light = BinLight::zero();
         let mut halves = hg.map(|_| HorizonLight::zero());
         for (y, wy) in [(base.y, 1.0 - f.y), (hi.y, f.y)] {
             if wy == 0.0 {
@@ -189,7 +193,7 @@ impl Hierarchy {
                 acc.add_scaled(h, wy);
             }
         }
-        (light, halves)
+        halves
     }
 
     /// Where coarser grid `g` is read for a halo point `p` of a node at `depth`, the
@@ -430,12 +434,13 @@ impl Hierarchy {
                 for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
                     let p = desc.origin() + h * Vec3::new(x as f32, j as f32, z as f32);
                     let column = column.next().expect("one read a column of the layout");
-                    let (light, halves) = self.column_light_split(p, key, which, column);
-                    match halves {
-                        Some(d) if halves_everywhere => down.push(d.within(&light)),
+                    // Blended where it is kept (a copy of 312 bytes less a point).
+                    halo.push(BinLight::zero());
+                    let light = halo.last_mut().expect("pushed");
+                    match self.column_light_split(p, key, which, column, light) {
+                        Some(d) if halves_everywhere => down.push(d.within(light)),
                         _ => halves_everywhere = false,
                     }
-                    halo.push(light);
                 }
             }
         }
