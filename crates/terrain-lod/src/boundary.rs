@@ -110,12 +110,10 @@ impl Hierarchy {
         let depth = key.depth;
         let neighbour = self.neighbour_light(p, key, which);
         let coarse = neighbour.is_none();
-        let Some((g, hg)) = neighbour.or_else(|| match which {
+        let (g, hg) = neighbour.or_else(|| match which {
             Response::Sky => Some(self.column_coarse_grid(p, depth, &mut reads.3)),
             Response::Sun => self.coarse_grid(p, depth, which),
-        }) else {
-            return None;
-        };
+        })?;
         if hg.is_some_and(|h| h.desc() != g.desc()) {
             let (l, h) = self.coarse_light_split(p, depth, which);
             *light = l;
