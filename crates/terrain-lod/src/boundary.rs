@@ -36,7 +36,7 @@ pub(crate) struct ColumnReads<'a>(
 /// [`Hierarchy::coarse_grid`] goes through them for the sky (finest first): the one
 /// built there, with the heights of its levels, or the key of the one not built (a
 /// read there may take a neighbour's band: [`Hierarchy::band_light`]). Found once a
-/// column: a halo point's hash-map lookups were a third of its read.
+/// column: a halo point's hash-map lookups were about a quarter of its read.
 #[derive(Clone)]
 pub(crate) enum Coarser<'a> {
     Built {
