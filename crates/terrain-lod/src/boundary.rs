@@ -47,7 +47,7 @@ pub(crate) enum Coarser<'a> {
     Missing(NodeKey),
 }
 
-use crate::{GROUND_LIFT, Hierarchy, NodeKey, Response, within_levels};
+use crate::{GROUND_LIFT, Hierarchy, NodeKey, Response};
 
 impl Hierarchy {
     /// Light (full bins) at `p` from the finest ready grid coarser than `depth` (the
@@ -268,27 +268,38 @@ impl Hierarchy {
         depth: u32,
         column: &mut Option<Vec<Coarser<'a>>>,
     ) -> (&'a LightGrid, Option<&'a HorizonGrid>) {
-        let found = column.get_or_insert_with(|| {
-            (1..depth)
-                .rev()
-                .map(|d| {
-                    let key = self.node_at(d, Vec2::new(p.x, p.z));
-                    match self.nodes.get(&key) {
-                        Some(n) => {
-                            let (lo, hi) = n.light.desc().point_bounds();
-                            Coarser::Built {
-                                light: &n.light,
-                                horizon: n.horizon.as_ref(),
-                                levels: (lo.y, hi.y),
-                            }
-                        }
-                        None => Coarser::Missing(key),
+        let found = column.get_or_insert_with(|| self.coarser_over(p, depth).collect());
+        self.sky_grid_of(p, found.iter().cloned())
+    }
+
+    /// The nodes coarser than `depth` over `p`'s column, finest first ([`Coarser`]).
+    fn coarser_over(&self, p: Vec3, depth: u32) -> impl Iterator<Item = Coarser<'_>> {
+        (1..depth).rev().map(move |d| {
+            let key = self.node_at(d, Vec2::new(p.x, p.z));
+            match self.nodes.get(&key) {
+                Some(n) => {
+                    let (lo, hi) = n.light.desc().point_bounds();
+                    Coarser::Built {
+                        light: &n.light,
+                        horizon: n.horizon.as_ref(),
+                        levels: (lo.y, hi.y),
                     }
-                })
-                .collect()
-        });
-        for c in found.iter() {
-            match *c {
+                }
+                None => Coarser::Missing(key),
+            }
+        })
+    }
+
+    /// The sky's grid at `p` among `coarser` (finest first): the first built node
+    /// whose levels hold `p`, or where one is not built a neighbour's band that holds
+    /// the read ([`Hierarchy::band_light`]); else the world grid.
+    fn sky_grid_of<'a>(
+        &'a self,
+        p: Vec3,
+        coarser: impl Iterator<Item = Coarser<'a>>,
+    ) -> (&'a LightGrid, Option<&'a HorizonGrid>) {
+        for c in coarser {
+            match c {
                 Coarser::Built {
                     light,
                     horizon,
@@ -317,21 +328,7 @@ impl Hierarchy {
                 .coarse_sun(p, depth, false)
                 .and_then(|s| Some((s.scattered.as_ref()?, s.horizon.as_ref())));
         }
-        for d in (1..depth).rev() {
-            let key = self.node_at(d, Vec2::new(p.x, p.z));
-            match self.nodes.get(&key) {
-                Some(n) if within_levels(n.light.desc(), p) => {
-                    return Some((&n.light, n.horizon.as_ref()));
-                }
-                Some(_) => {}
-                None => {
-                    if let Some(r) = self.band_light(p, key) {
-                        return Some(r);
-                    }
-                }
-            }
-        }
-        Some((&self.world, self.world_horizon.as_ref()))
+        Some(self.sky_grid_of(p, self.coarser_over(p, depth)))
     }
 
     /// For `p` in wanted node `missing`'s rectangle while it is not built, the light of
