@@ -103,7 +103,8 @@ impl Boundary {
         match &self.top {
             TopBoundary::Uniform(b) => check(&|| "top".into(), b.as_ref())?,
             TopBoundary::PerPoint(v) => {
-                if v.len() != desc.level_len() {
+                let columns = HaloLayout::new(desc.dims()).columns();
+                if v.len() != desc.level_len() && v.len() != columns {
                     return Err(GridError::LengthMismatch {
                         field: "top",
                         expected: desc.level_len(),
@@ -178,7 +179,12 @@ pub enum TopBoundary {
     /// The same light above every point (an open sky).
     Uniform(Box<BinLight>),
     /// One value per top point, in level order (`i + nx * k`): a fine grid inside a coarser
-    /// one.
+    /// one. Or one per column of the grid and of its halo ring
+    /// ([`HaloLayout::columns`] values, `(x + W) + (nx + 2W)(z + W)` for `x` in `-W ..
+    /// nx + W` and `z` in `-W .. nz + W`, `W` = [`HALO_WIDTH`]): the light above the
+    /// columns beyond the sides too, where paths from above the top start that reach the
+    /// grid through a given side. With one value per top point those take the nearest
+    /// top point's.
     PerPoint(Vec<BinLight>),
 }
 
@@ -194,7 +200,9 @@ pub enum SideBoundary {
     /// width [`HALO_WIDTH`] around every level, laid out by [`HaloLayout`]. Each value
     /// is full-sphere light (as a coarser grid holds it): the downward pass takes its
     /// downward part, the upward pass its upward part, each horizontal bin split across
-    /// the horizon by its neighbours ([`BinLight::split_vertical_by_neighbours`]).
+    /// the horizon by its neighbours ([`BinLight::split_vertical_by_neighbours`]). Paths
+    /// that start above the top level (below the bottom one) beyond the sides take the
+    /// top's (bottom's) light, at the nearest column, as those inside the sides do.
     Given(Vec<BinLight>),
     /// [`SideBoundary::Given`] with the downward halves of every value's horizontal bins
     /// beside it (`down[i]` for `light[i]`, as a coarser grid that kept them holds them:
@@ -251,6 +259,12 @@ impl HaloLayout {
         let w = HALO_WIDTH as usize;
         let (nx, nz) = (self.dims.x as usize, self.dims.z as usize);
         (nx + 2 * w) * (nz + 2 * w) - nx * nz
+    }
+    /// Columns of the grid and of its ring, `(nx + 2W)(nz + 2W)`: what a
+    /// [`TopBoundary::PerPoint`] that covers the ring holds.
+    pub fn columns(&self) -> usize {
+        let w = HALO_WIDTH as usize;
+        (self.dims.x as usize + 2 * w) * (self.dims.z as usize + 2 * w)
     }
     /// Total halo points over all levels.
     pub fn len(&self) -> usize {

@@ -64,7 +64,9 @@ fn empty_medium_every_point_gets_the_sky() {
 #[test]
 fn empty_medium_with_given_sides_and_per_point_top() {
     let sky = lumpy_sky();
-    let (top, bottom) = sky.split_vertical();
+    // Split across the horizon as the given sides split it: paths from above the top
+    // take the top's light beyond the sides too.
+    let (top, bottom) = sky.split_vertical_by_neighbours();
     let d = desc(3, 4, 2);
     let b = Boundary {
         top: TopBoundary::PerPoint(vec![top; d.level_len()]),

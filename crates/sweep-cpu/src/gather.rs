@@ -408,11 +408,12 @@ impl<'a> Medium<'a> {
 }
 
 /// `source`'s first `params.orders` scatterings in `material` gathered by rays, and what
-/// the last collides with ([`Gathered::rest`]); `periodic`: the sides wrap. Errors name
-/// a bad parameter or a source on another grid.
+/// the last collides with ([`Gathered::rest`]); `sides`: the sweep's (periodic ones
+/// wrap; which opaque faces are surfaces, [`crate::sweep::exposure`]). Errors name a bad
+/// parameter or a source on another grid.
 pub fn gather(
     material: &MaterialGrid,
-    periodic: bool,
+    sides: &lightgrid_core::SideBoundary,
     source: &CellSource,
     params: &Gather,
 ) -> Result<Gathered, GridError> {
@@ -444,7 +445,8 @@ pub fn gather(
     .entered();
     let n = desc.point_count();
     let cells = material.data();
-    let exposed = crate::sweep::exposure(material, periodic);
+    let periodic = matches!(sides, lightgrid_core::SideBoundary::Periodic);
+    let exposed = crate::sweep::exposure(material, sides);
     let medium = Medium::new(material, periodic, &exposed);
     let albedo: Vec<Vec3> = cells
         .iter()
@@ -639,8 +641,7 @@ pub fn sweep_gathered(
     }
     let options = &given;
     options.validate()?;
-    let periodic = matches!(boundary.sides, lightgrid_core::SideBoundary::Periodic);
-    let g = gather(material, periodic, source, &options.gather)?;
+    let g = gather(material, &boundary.sides, source, &options.gather)?;
     let mut o = *options;
     o.gather = Gather::OFF;
     o.outputs = Outputs {
@@ -678,7 +679,7 @@ pub fn sweep_gathered(
 mod tests {
     use super::*;
     use lightgrid_core::glam::UVec3;
-    use lightgrid_core::{Material, SweepOptions};
+    use lightgrid_core::{Material, SideBoundary, SweepOptions};
 
     fn params(orders: u32, rays: u32) -> Gather {
         Gather {
@@ -722,7 +723,7 @@ mod tests {
     #[test]
     fn an_infinite_lambertian_ground_known_answer() {
         let (m, src) = ground(0.5);
-        let g = gather(&m, true, &src, &params(1, 4096)).unwrap();
+        let g = gather(&m, &SideBoundary::Periodic, &src, &params(1, 4096)).unwrap();
         let exact = 0.3 * 0.5 / (2.0 * std::f32::consts::PI);
         let d = *m.desc();
         for i in d.level_len()..d.point_count() {
@@ -777,7 +778,7 @@ mod tests {
                 .unwrap();
             // Many directions: the cells beside the source see it over a wide solid
             // angle, each direction's rays crossing both cells only now and then.
-            let g = gather(&m, false, &src, &params(1, 65536)).unwrap();
+            let g = gather(&m, &SideBoundary::Open, &src, &params(1, 65536)).unwrap();
             let at = |x: u32| {
                 g.light.data()[desc.index(UVec3::new(x, 1, 2)).unwrap()]
                     .average()
@@ -806,8 +807,8 @@ mod tests {
         let (_, two) = ground(0.5);
         let p = params(2, 256);
         let (a, b) = (
-            gather(&m, true, &one, &p).unwrap(),
-            gather(&m, true, &two, &p).unwrap(),
+            gather(&m, &SideBoundary::Periodic, &one, &p).unwrap(),
+            gather(&m, &SideBoundary::Periodic, &two, &p).unwrap(),
         );
         for (x, y) in a.light.data().iter().zip(b.light.data()) {
             for k in 0..NUM_DIRS {
@@ -844,7 +845,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| gather(&m, false, &src, &params(2, 512)).unwrap())
+                .install(|| gather(&m, &SideBoundary::Open, &src, &params(2, 512)).unwrap())
         };
         let (a, b) = (run(1), run(2));
         assert_eq!(a, b);
@@ -902,7 +903,7 @@ mod tests {
     #[test]
     fn no_orders_no_light() {
         let (m, src) = ground(0.5);
-        let g = gather(&m, true, &src, &params(0, 256)).unwrap();
+        let g = gather(&m, &SideBoundary::Periodic, &src, &params(0, 256)).unwrap();
         assert!(g.light.data().iter().all(|b| *b == BinLight::ZERO));
         assert_eq!(g.rest.removed(), src.removed());
     }
@@ -913,14 +914,14 @@ mod tests {
     fn bad_input_is_named() {
         let (m, src) = ground(0.5);
         let name = |e: GridError| e.to_string();
-        let e = gather(&m, true, &src, &params(5, 256)).unwrap_err();
+        let e = gather(&m, &SideBoundary::Periodic, &src, &params(5, 256)).unwrap_err();
         assert!(name(e).contains("gather.orders"));
-        let e = gather(&m, true, &src, &params(1, 10)).unwrap_err();
+        let e = gather(&m, &SideBoundary::Periodic, &src, &params(1, 10)).unwrap_err();
         assert!(name(e).contains("gather.rays"));
         let other = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, 6, 8)).unwrap();
         let moved =
             CellSource::new(other, vec![Vec3::ZERO; other.point_count()], Vec3::NEG_Y).unwrap();
-        let e = gather(&m, true, &moved, &Gather::LOW_SUN).unwrap_err();
+        let e = gather(&m, &SideBoundary::Periodic, &moved, &Gather::LOW_SUN).unwrap_err();
         assert!(name(e).contains("source"));
         let big = CellSource::new(
             *m.desc(),
@@ -928,7 +929,7 @@ mod tests {
             Vec3::NEG_Y,
         )
         .unwrap();
-        let e = gather(&m, true, &big, &Gather::LOW_SUN).unwrap_err();
+        let e = gather(&m, &SideBoundary::Periodic, &big, &Gather::LOW_SUN).unwrap_err();
         assert!(name(e).contains("source.removed[0]"));
         // The largest source allowed gathers to finite light.
         let most = CellSource::new(
@@ -937,7 +938,7 @@ mod tests {
             Vec3::NEG_Y,
         )
         .unwrap();
-        let g = gather(&m, true, &most, &params(4, 64)).unwrap();
+        let g = gather(&m, &SideBoundary::Periodic, &most, &params(4, 64)).unwrap();
         assert!(
             g.light
                 .data()

@@ -175,10 +175,13 @@
 //!    the four horizontal neighbours `e` of the source point, where `w` is the smoothing
 //!    weight and `O'` the outgoing light of the previous level. For the first level the
 //!    previous level is the virtual level outside the grid: the top boundary (downward)
-//!    or the bottom boundary (upward). Source points beyond the sides take: open — the
+//!    or the bottom boundary (upward), beyond the sides too (a `PerPoint` top at the
+//!    nearest column). Source points beyond the sides take: open — the
 //!    top (downward) or bottom (upward) boundary light, as if the world around were empty;
-//!    periodic — the wrapped point; given — the halo value of that point and level (the
-//!    level clamped into the grid), its horizontal bins split across the horizon as given
+//!    periodic — the wrapped point; given — the halo value of that point and level
+//!    (for a level inside the grid; above the top or below the bottom the virtual
+//!    level's, as above: the halo's top level holds light that crossed that level's
+//!    cells, which a path from above has not; `tests/handover.rs`), its horizontal bins split across the horizon as given
 //!    (`SideBoundary::GivenHalves`: the downward pass takes the given downward half,
 //!    clamped to the bin; [`sweep::channel_value_halves`]), else by their neighbours
 //!    (`BinLight::horizon_share`: the downward pass takes
@@ -222,8 +225,10 @@
 //!    furnace, measured in `lightgrid_measure::exact`, and is closer on thick dark cells. The seed's
 //!    `(A, B) = ((1 + p)/2, (1 − p)/2)` was removed: worse everywhere measured.) A
 //!    cell with `p = 0`
-//!    is opaque: its faces that border non-opaque cells or the outside through a side are
-//!    diffuse surfaces (below the bottom level is ground, never a surface), and it
+//!    is opaque: its faces that border non-opaque cells, the sky above the top or the
+//!    outside through an open side are diffuse surfaces (below the bottom level is
+//!    ground, never a surface; beyond a given side the world goes on as it is at the
+//!    side, [`sweep::exposure`]; periodic sides wrap), and it
 //!    sends `F_c = W_c S · T_after` with fixed weights `W_c`, the mean over those faces
 //!    of the exact Lambertian share of the channel's bin, `∫_b max(0, u · n) dω / π`; a
 //!    horizontal bin's share goes to the channel on the face's side of the horizon

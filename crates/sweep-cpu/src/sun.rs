@@ -572,10 +572,14 @@ mod tests {
             let alone = s.sweep(&m, &b, &o).unwrap().bins.unwrap();
             let sun = SunBoundary {
                 to_sun,
+                // The same sides, dark: a given side's ground goes on beyond it
+                // (`sweep::exposure`), an open side's would not.
                 scattered: Boundary {
-                    sides: match sides {
-                        SideBoundary::Periodic => SideBoundary::Periodic,
-                        _ => SideBoundary::Open,
+                    sides: match &sides {
+                        SideBoundary::Given(h) => {
+                            SideBoundary::Given(vec![BinLight::ZERO; h.len()])
+                        }
+                        other => other.clone(),
                     },
                     ..Boundary::open_sky(BinLight::ZERO)
                 },

@@ -414,7 +414,7 @@ impl GpuSweeper {
             .buffers(material, &shape, options.outputs.horizon)
             .map_err(backend)?;
         let source_in = match source {
-            Some(src) => self.upload_source(&bufs, material, src, options.medium)?,
+            Some(src) => self.upload_source(&bufs, material, (src, &shape), options.medium)?,
             None => [0.0; 3],
         };
         let groups = self.bind_groups(&bufs);
@@ -475,7 +475,7 @@ impl GpuSweeper {
         &self,
         bufs: &Buffers,
         material: &MaterialGrid,
-        src: &CellSource,
+        (src, shape): (&CellSource, &Shape),
         rule: lightgrid_core::MediumEmission,
     ) -> Result<[f64; 3], SweepError> {
         if src.removed().len() != material.data().len() {
@@ -488,12 +488,15 @@ impl GpuSweeper {
         }
         let d = src.dir();
         let mut input = [0f64; 3];
+        let exposed =
+            lightgrid_sweep_cpu::sweep::exposure_of(material, shape.periodic, shape.given);
         let pend: Vec<f32> = src
             .removed()
             .iter()
             .zip(material.data())
+            .zip(&exposed)
             .enumerate()
-            .flat_map(|(i, (&r, m))| {
+            .flat_map(|(i, ((&r, m), &e))| {
                 for k in 0..3 {
                     input[k] += r[k] as f64;
                 }
@@ -508,9 +511,10 @@ impl GpuSweeper {
                         z, z,
                     ];
                 }
-                // (A beam enters a cell through an exposed face, so no deposit lies in
-                // an enclosed opaque cell: `swept_reflectance` is the cell's own here.)
-                let s = r * m.reflectance;
+                // As sweep-cpu books it: an enclosed opaque cell absorbs (a beam from
+                // beyond a given side may reach a ground's edge cell, which is no
+                // surface there).
+                let s = r * lightgrid_sweep_cpu::sweep::swept_reflectance(m, e);
                 let (a, b, c) = (s * d.x, s * d.y, s * d.z);
                 [s.x, s.y, s.z, a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z]
             })
@@ -542,7 +546,7 @@ impl GpuSweeper {
         ] {
             self.check_size(what, floats)?;
         }
-        let masks = lightgrid_sweep_cpu::sweep::exposure(material, shape.periodic);
+        let masks = lightgrid_sweep_cpu::sweep::exposure_of(material, shape.periodic, shape.given);
         // Enclosed opaque cells absorb what reaches them, as on the CPU.
         let cells: Vec<f32> = material
             .data()

@@ -2,7 +2,7 @@
 //! it, the sides from the full light in its halo, with the horizon halves where the
 //! coarser grid keeps them.
 
-use lightgrid_core::glam::{UVec3, Vec2, Vec3};
+use lightgrid_core::glam::{Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Blend, Boundary, GridDesc, HALO_WIDTH, HaloLayout, HorizonGrid, HorizonLight,
     LightGrid, MaterialGrid, SideBoundary, TopBoundary,
@@ -393,11 +393,14 @@ impl Hierarchy {
         let depth = key.depth;
         let dims = desc.dims();
         let h = desc.h();
-        let top_y = dims.y - 1;
-        let mut top = Vec::with_capacity(desc.level_len());
-        for k in 0..dims.z {
-            for i in 0..dims.x {
-                let p = desc.position(UVec3::new(i, top_y, k)) + Vec3::Y * h;
+        // Over the halo's columns too (`HaloLayout::columns`): paths from above the top
+        // that enter through a side start there.
+        let (w, nx, nz) = (HALO_WIDTH, dims.x as i32, dims.z as i32);
+        let top_y = (dims.y - 1) as f32 + 1.0;
+        let mut top = Vec::with_capacity(HaloLayout::new(dims).columns());
+        for k in -w..nz + w {
+            for i in -w..nx + w {
+                let p = desc.origin() + h * Vec3::new(i as f32, top_y, k as f32);
                 // The downward light: where the coarser grid keeps its horizon halves,
                 // its horizontal bins' downward halves as they are.
                 let (light, halves) = self.coarse_light_split(p, depth, which);
@@ -419,7 +422,6 @@ impl Hierarchy {
         let mut halo = Vec::with_capacity(layout.len());
         let mut down = Vec::with_capacity(layout.len());
         let mut halves_everywhere = true;
-        let (w, nx, nz) = (HALO_WIDTH, dims.x as i32, dims.z as i32);
         // Each column's last coarse levels read, in the layout's column order.
         let mut reads = vec![ColumnReads::default(); layout.per_level()];
         for j in 0..dims.y {

@@ -105,7 +105,13 @@ fn worst_transmittance(h: &Hierarchy, reference: &impl LightField) -> f32 {
         .fold(0.0, f32::max)
 }
 
-/// Measured: 11.2 % without an apron, 6.3 % with two cells and 3.0 % with four.
+/// Measured: 8.8 % without an apron, 5.6 % with two cells and 4.4 % with four. (14.1 /
+/// 8.3 / 5.5 % until 2026-12-07's hand-over rules: a ground's edge cells were surfaces
+/// through a given side, sending the ground's light sideways out of a node, and the
+/// top level's paths from beyond the sides started in the halo's top level
+/// (`sweep_cpu::sweep::exposure`, `tests/handover.rs` there). An apron moved both away
+/// from the finest points, so it has less left to mend: it took 41 % of the error
+/// away with two cells, 37 % now; the error without one is held as well.)
 #[test]
 fn an_apron_brings_the_finest_nodes_nearer_to_one_sweep() {
     // One sweep of the scene at the finest cell, over the 64 m and 16 m beyond on every
@@ -124,7 +130,8 @@ fn an_apron_brings_the_finest_nodes_nearer_to_one_sweep() {
         .map(|&a| rms_against(&hierarchy(a).unwrap(), &reference))
         .collect();
     println!("relative RMS against one sweep, apron 0 / 2 / 4: {errors:?}");
-    assert!(errors[1] < 0.6 * errors[0], "{errors:?}");
+    assert!(errors[0] < 0.1, "{errors:?}");
+    assert!(errors[1] < 0.7 * errors[0], "{errors:?}");
     assert!(errors[2] < errors[1], "{errors:?}");
 }
 
@@ -134,8 +141,11 @@ fn an_apron_brings_the_finest_nodes_nearer_to_one_sweep() {
 /// enters their sides from the coarser grids without an apron, and has crossed the
 /// apron's fine material with one.
 ///
-/// Measured: 52 % without an apron, 20 % with two cells and 15 % with four (the
-/// scattered sun is dim beside the block: relative errors are large). Its direct sun,
+/// Measured: 31 % without an apron, 24 % with two cells and 21 % with four (the
+/// scattered sun is dim beside the block: relative errors are large; 38 / 30 / 24 %
+/// before 2026-12-07's hand-over rules, and 52 / 20 / 15 % before that morning's
+/// `HierarchyParams::halo_ground_lift`, which `git bisect` finds took the aprons' gain
+/// from 62 to 22 %: measured, not mended). Its direct sun,
 /// marched over the widened grid, stays the one sweep's.
 #[test]
 fn the_apron_brings_the_scattered_sun_nearer_too() {

@@ -120,8 +120,9 @@ fn ratios(h: &Hierarchy) -> Vec<f32> {
 
 /// Over bare ground the finest nodes' sideways light 1 and 2 m above the ground nests
 /// within 2 % of one sweep at their cell (the nesting target as a bound at
-/// every point read); read where the halo points are, the coarser grids' band left it
-/// 4.5–6.5 % short (7.4 % in the band's own cell).
+/// every point read); read where the halo points are, the coarser grids' band leaves it
+/// 2.0–3.2 % short (6.3 % in the band's own cell; 4.5–6.5 % and 7.4 % while a ground's
+/// edge cells were surfaces through a node's sides, before 2026-12-07).
 #[test]
 fn near_bare_ground_the_sideways_light_nests() {
     let with = ratios(&hierarchy(true));
@@ -132,9 +133,9 @@ fn near_bare_ground_the_sideways_light_nests() {
     );
     // In the band's own cell within 4 %.
     assert!((with[0] - 1.0).abs() <= 0.04, "{with:?}");
-    // (Else the lift could do nothing here.)
+    // (Else the lift could do nothing here: without it the bound fails.)
     assert!(
-        without[1..].iter().any(|r| (r - 1.0).abs() > 0.04),
+        without[1..].iter().any(|r| (r - 1.0).abs() > 0.02),
         "without the lift {without:?}"
     );
 }

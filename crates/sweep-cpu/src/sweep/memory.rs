@@ -426,7 +426,7 @@ impl Work {
     /// The ring of `ghost`: what the oracle's [`Ctx::gather_edge`] reads for a tap at
     /// each column beyond the sides. Without a halo that is the virtual level's light,
     /// the same for every level of a pass (filled once a pass); with one, the halo's
-    /// light at the source level.
+    /// light at the source level, and the virtual level's for the pass's first level.
     ///
     /// Each channel's part of the ring is filled only where its taps reach
     /// ([`ghost_reach`]); the rest of its planes keep what they held, which no tap
@@ -451,7 +451,15 @@ impl Work {
         // With a halo, each ring point's value within a level is found once for the
         // level size ([`GhostRing::halo`]): [`Sources::outside_bins`] without its
         // lookup a point.
-        let halo = match (src.active, src.boundary.sides.halo(), &src.halo) {
+        // The first level of a pass gathers from the virtual level beyond the grid
+        // beyond its sides too: the light above the top (below the bottom) is the
+        // boundary's there, not the halo's top (bottom) level's, which crossed that
+        // level's cells.
+        let halo = match (
+            src.active && !from_virtual,
+            src.boundary.sides.halo(),
+            &src.halo,
+        ) {
             (true, Some(h), Some(layout)) => {
                 let lv = src_level.clamp(0, src.dims.y as i32 - 1) as usize;
                 let base = lv * layout.per_level();
@@ -471,7 +479,7 @@ impl Work {
                     })
                 }
                 (Some(_), None) => None,
-                _ if from_virtual && src.halo.is_none() => src.virtual_bins(x, z),
+                _ if from_virtual => src.virtual_bins(x, z),
                 _ => src.outside_bins(x, src_level, z),
             };
             let row = self.ghost.row_mut(z as isize);

@@ -146,8 +146,8 @@ pub struct Sweep {
 }
 
 /// The boundary light of the virtual level beyond the grid at column `(x, z)` (clamped
-/// to the grid): the bottom light on upward passes, the top light (uniform or per point)
-/// on downward ones. Part of the specification, shared with the GPU sweeper.
+/// to the columns the top holds: the grid's, or the grid's and its ring's): the bottom
+/// light on upward passes, the top light (uniform or per point) on downward ones. Part of the specification, shared with the GPU sweeper.
 pub fn virtual_level_light(
     boundary: &Boundary,
     up: bool,
@@ -162,7 +162,14 @@ pub fn virtual_level_light(
         TopBoundary::Uniform(b) => b,
         TopBoundary::PerPoint(v) => {
             let (nx, nz) = (dims.x as i32, dims.z as i32);
-            &v[(x.clamp(0, nx - 1) + nx * z.clamp(0, nz - 1)) as usize]
+            if v.len() == (nx * nz) as usize {
+                &v[(x.clamp(0, nx - 1) + nx * z.clamp(0, nz - 1)) as usize]
+            } else {
+                // Over the ring too (`HaloLayout::columns`).
+                let w = lightgrid_core::HALO_WIDTH;
+                let (x, z) = (x.clamp(-w, nx + w - 1), z.clamp(-w, nz + w - 1));
+                &v[((x + w) + (nx + 2 * w) * (z + w)) as usize]
+            }
         }
     }
 }
@@ -261,13 +268,28 @@ pub fn conserves_flux(periodic: bool, material: bool, first_level: bool) -> bool
 /// Mask of each opaque cell's faces that can receive light (bit order of
 /// [`FACE_NORMALS`]); 0 for cells with `p > 0`.
 ///
-/// A face is exposed when it borders a non-opaque cell, or the outside through a side
-/// (open sides: the empty world under the sky; given: the halo). The bottom face of a
+/// A face is exposed when it borders a non-opaque cell, the sky above the top level, or
+/// the outside through an open side (the empty world under the sky). Through a given
+/// side ([`SideBoundary::Given`], `GivenHalves`: a grid inside a world that goes on) it
+/// is not: the world beyond is taken to go on as it is at the side, so a ground's edge
+/// cells are ground within ground there, as in one sweep of the whole (their side faces
+/// exposed, they sent a share of the ground's bounce light sideways out of the grid:
+/// `cargo run --release -p lightgrid-measure --example handover`). The bottom face of a
 /// bottom-level cell is **never** exposed: below the grid is the ground the bottom level
 /// stands on, not empty space, so an opaque cell there emits nothing downward (emitting
 /// half the ground's bounce light into nothing was a leak: a one-level ground reflected
 /// half its albedo).
-pub fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
+pub fn exposure(material: &MaterialGrid, sides: &SideBoundary) -> Vec<u8> {
+    exposure_of(
+        material,
+        matches!(sides, SideBoundary::Periodic),
+        sides.halo().is_some(),
+    )
+}
+
+/// [`exposure`] for sides that are periodic (`periodic`), given (`given`), or else
+/// open.
+pub fn exposure_of(material: &MaterialGrid, periodic: bool, given: bool) -> Vec<u8> {
     let d = *material.desc();
     let dims = d.dims().as_ivec3();
     let cells = material.data();
@@ -287,8 +309,10 @@ pub fn exposure(material: &MaterialGrid, periodic: bool) -> Vec<u8> {
                 }
                 let open = if q.y < 0 {
                     false // the ground below the grid
+                } else if q.y >= dims.y {
+                    true // the sky above it
                 } else if q.cmplt(IVec3::ZERO).any() || q.cmpge(dims).any() {
-                    true
+                    !given // beyond a side: open, or the world as it is at the side
                 } else {
                     cells[d.index_unchecked(q.as_uvec3())].pass > 0.0
                 };
@@ -391,7 +415,7 @@ pub(crate) fn run_reusing(
     }
     // Enclosed opaque cells absorb what reaches them: the phases read a cell's
     // reflectance through [`swept_reflectance`] and its exposure.
-    let exposed = exposure(material, matches!(boundary.sides, SideBoundary::Periodic));
+    let exposed = exposure(material, &boundary.sides);
     let desc = *material.desc();
     if let Some(src) = source
         && *src.desc() != desc

@@ -148,9 +148,7 @@ impl Ctx {
             }
             match self.col(tx, tz) {
                 Some(i) => ins += prev.at(i, c) * w,
-                None if from_virtual && src.halo.is_none() => {
-                    outs += src.virtual_light(tx, tz, chn) * w
-                }
+                None if from_virtual => outs += src.virtual_light(tx, tz, chn) * w,
                 None => outs += src.outside(tx, src_level, tz, chn) * w,
             }
         }

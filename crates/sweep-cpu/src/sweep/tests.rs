@@ -498,6 +498,43 @@ fn clamp_equals_vec3_max() {
 /// cell, on the fast path and in the oracle, and the energy still balances. Scattered
 /// on instead, the light that a path's long step carries one cell past a side cell
 /// spread through the whole ground: every one of its enclosed cells held light.
+/// An opaque cell's face toward the outside is a surface through an open side (the
+/// empty world), not through a periodic one (the wrapped cell) or a given one (the
+/// world goes on as at the side); its top face is one under the sky, its bottom face
+/// never.
+#[test]
+fn faces_beyond_the_sides_are_exposed_through_open_sides_alone() {
+    let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(4, 3, 4)).expect("grid");
+    // A ground of two levels, a clear level above.
+    let cells = (0..desc.point_count())
+        .map(|i| match desc.coords(i).expect("index").y {
+            0 | 1 => Material::opaque(Vec3::splat(0.3)),
+            _ => Material::EMPTY,
+        })
+        .collect();
+    let m = MaterialGrid::new(desc, cells).expect("material");
+    let up = FACE_NORMALS.iter().position(|n| n.y > 0.0).expect("up") as u8;
+    let side_faces: u8 = (0..6u8)
+        .filter(|&f| FACE_NORMALS[f as usize].y == 0.0)
+        .map(|f| 1 << f)
+        .sum();
+    let halo = vec![BinLight::ZERO; lightgrid_core::HaloLayout::new(desc.dims()).len()];
+    for (sides, edges_open) in [
+        (SideBoundary::Open, true),
+        (SideBoundary::Periodic, false),
+        (SideBoundary::Given(halo), false),
+    ] {
+        let e = exposure(&m, &sides);
+        for i in 0..desc.point_count() {
+            let c = desc.coords(i).expect("index");
+            let edge = c.x == 0 || c.z == 0 || c.x == 3 || c.z == 3;
+            let want_sides = edges_open && edge && c.y < 2;
+            assert_eq!(e[i] & side_faces != 0, want_sides, "{sides:?}, cell {c}");
+            assert_eq!(e[i] & (1 << up) != 0, c.y == 1, "{sides:?}, cell {c}");
+        }
+    }
+}
+
 #[test]
 fn enclosed_opaque_cells_hold_no_light() {
     let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(10, 9, 10)).expect("grid");
@@ -528,13 +565,13 @@ fn enclosed_opaque_cells_hold_no_light() {
     let mut o = SweepOptions::multi_bounce();
     o.max_passes = 4;
     o.tolerance = 0.0;
-    let exposed = exposure(&m, false);
+    let exposed = exposure(&m, &b.sides);
     let enclosed: Vec<usize> = (0..desc.point_count())
         .filter(|&i| m.data()[i].pass <= 0.0 && exposed[i] == 0)
         .collect();
-    // The ground's inside: 8 x 8 columns of levels 1-3 (level 0's bottom face is
-    // never exposed, so its inner cells are enclosed too).
-    assert_eq!(enclosed.len(), 8 * 8 * 4);
+    // The ground below its top level: all 10 x 10 columns of levels 0-3 (level 0's
+    // bottom face is never exposed, and through the given sides the ground goes on).
+    assert_eq!(enclosed.len(), 10 * 10 * 4);
     for fast in [true, false] {
         let s = run_impl(&m, &b, None, &o, fast).expect("sweep");
         let g = s.output.bins.as_ref().expect("bins");

@@ -104,7 +104,8 @@ fn phase1(@builtin(global_invocation_id) id: vec3<u32>) {
             let col = column(tx, tz);
             if (col >= 0) {
                 ins += load3((u32(col) * CH + c) * 3u) * w;
-            } else if (P.from_virtual == 1u && P.given == 0u) {
+            } else if (P.from_virtual == 1u) {
+                // Beyond the sides too, given or not (sweep-cpu's `fill_ghost`).
                 outs += virt_at(tx, tz, c) * w;
             } else {
                 outs += outside(tx, tz, c) * w;
