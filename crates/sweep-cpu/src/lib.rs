@@ -176,7 +176,7 @@
 //!    weight and `O'` the outgoing light of the previous level. For the first level the
 //!    previous level is the virtual level outside the grid: the top boundary (downward)
 //!    or the bottom boundary (upward), beyond the sides too (a `PerPoint` top at the
-//!    nearest column). Source points beyond the sides take: open — the
+//!    column, or the nearest it holds). Source points beyond the sides take: open — the
 //!    top (downward) or bottom (upward) boundary light, as if the world around were empty;
 //!    periodic — the wrapped point; given — the halo value of that point and level
 //!    (for a level inside the grid; above the top or below the bottom the virtual

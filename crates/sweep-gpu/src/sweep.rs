@@ -410,11 +410,14 @@ impl GpuSweeper {
             message: e.to_string(),
         };
         let shape = Shape::of(material, boundary);
+        // Which opaque faces are surfaces, as sweep-cpu finds them (once a sweep).
+        let exposed =
+            lightgrid_sweep_cpu::sweep::exposure_of(material, shape.periodic, shape.given);
         let bufs = self
-            .buffers(material, &shape, options.outputs.horizon)
+            .buffers(material, (&shape, &exposed), options.outputs.horizon)
             .map_err(backend)?;
         let source_in = match source {
-            Some(src) => self.upload_source(&bufs, material, (src, &shape), options.medium)?,
+            Some(src) => self.upload_source(&bufs, material, (src, &exposed), options.medium)?,
             None => [0.0; 3],
         };
         let groups = self.bind_groups(&bufs);
@@ -475,7 +478,7 @@ impl GpuSweeper {
         &self,
         bufs: &Buffers,
         material: &MaterialGrid,
-        (src, shape): (&CellSource, &Shape),
+        (src, exposed): (&CellSource, &[u8]),
         rule: lightgrid_core::MediumEmission,
     ) -> Result<[f64; 3], SweepError> {
         if src.removed().len() != material.data().len() {
@@ -488,13 +491,11 @@ impl GpuSweeper {
         }
         let d = src.dir();
         let mut input = [0f64; 3];
-        let exposed =
-            lightgrid_sweep_cpu::sweep::exposure_of(material, shape.periodic, shape.given);
         let pend: Vec<f32> = src
             .removed()
             .iter()
             .zip(material.data())
-            .zip(&exposed)
+            .zip(exposed)
             .enumerate()
             .flat_map(|(i, ((&r, m), &e))| {
                 for k in 0..3 {
@@ -532,7 +533,7 @@ impl GpuSweeper {
     fn buffers(
         &self,
         material: &MaterialGrid,
-        shape: &Shape,
+        (shape, masks): (&Shape, &[u8]),
         horizon: bool,
     ) -> Result<Buffers, GpuError> {
         let (n, level_len) = (shape.n, shape.level_len);
@@ -546,12 +547,11 @@ impl GpuSweeper {
         ] {
             self.check_size(what, floats)?;
         }
-        let masks = lightgrid_sweep_cpu::sweep::exposure_of(material, shape.periodic, shape.given);
         // Enclosed opaque cells absorb what reaches them, as on the CPU.
         let cells: Vec<f32> = material
             .data()
             .iter()
-            .zip(&masks)
+            .zip(masks)
             .flat_map(|(m, &e)| {
                 let r = lightgrid_sweep_cpu::sweep::swept_reflectance(m, e);
                 [r.x, r.y, r.z, m.pass]
