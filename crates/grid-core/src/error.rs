@@ -26,6 +26,20 @@ pub enum GridError {
         /// Elements given.
         found: usize,
     },
+    /// A data array that may hold either of two numbers of elements holds neither
+    /// (a [`TopBoundary::PerPoint`](crate::TopBoundary::PerPoint) top: one value per
+    /// column of the grid, or per column of the grid and its halo's ring).
+    #[error("{field} has {found} elements, the descriptor needs {expected} or {or}")]
+    LengthMismatchEither {
+        /// Which array.
+        field: &'static str,
+        /// One number of elements the descriptor allows.
+        expected: usize,
+        /// The other.
+        or: usize,
+        /// Elements given.
+        found: usize,
+    },
     /// Reading or writing a file failed at the operating-system level.
     #[error("I/O error on {}: {source}", path.display())]
     Io {

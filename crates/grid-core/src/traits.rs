@@ -105,9 +105,10 @@ impl Boundary {
             TopBoundary::PerPoint(v) => {
                 let columns = HaloLayout::new(desc.dims()).columns();
                 if v.len() != desc.level_len() && v.len() != columns {
-                    return Err(GridError::LengthMismatch {
+                    return Err(GridError::LengthMismatchEither {
                         field: "top",
                         expected: desc.level_len(),
+                        or: columns,
                         found: v.len(),
                     });
                 }
@@ -1240,7 +1241,7 @@ mod tests {
             b.validate(&d)
                 .unwrap_err()
                 .to_string()
-                .contains("top has 3 elements")
+                .contains("top has 3 elements, the descriptor needs 4 or 144")
         );
         // Given halves: as many as the halo's points, each finite and >= 0.
         let n = HaloLayout::new(d.dims()).len();

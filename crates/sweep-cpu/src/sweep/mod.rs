@@ -147,7 +147,8 @@ pub struct Sweep {
 
 /// The boundary light of the virtual level beyond the grid at column `(x, z)` (clamped
 /// to the columns the top holds: the grid's, or the grid's and its ring's): the bottom
-/// light on upward passes, the top light (uniform or per point) on downward ones. Part of the specification, shared with the GPU sweeper.
+/// light on upward passes, the top light (uniform or per point) on downward ones. Part
+/// of the specification, shared with the GPU sweeper.
 pub fn virtual_level_light(
     boundary: &Boundary,
     up: bool,
