@@ -132,6 +132,9 @@ pub struct FrameConfig {
     /// Side halos read the nodes of their depth before them
     /// (`HierarchyParams::neighbour_halo`).
     pub neighbour_halo: bool,
+    /// The halo's paths traced through the nodes' edge cells
+    /// (`SweepOptions::halo_paths` in `HierarchyParams::sweep`).
+    pub halo_paths: bool,
     /// Halo points near bare ground read the coarser grid where they are, not clear of
     /// its ground band (`HierarchyParams::halo_ground_lift` off).
     pub no_ground_lift: bool,
@@ -194,6 +197,7 @@ impl FrameConfig {
             budget_ms: None,
             budget_points: None,
             neighbour_halo: false,
+            halo_paths: false,
             no_ground_lift: false,
             march_before_casters: false,
             colour_band: false,
@@ -454,6 +458,8 @@ pub struct FrameReport {
     /// Whether side halos read the nodes of their depth before them
     /// (`HierarchyParams::neighbour_halo`).
     pub neighbour_halo: bool,
+    /// Whether the nodes' sweeps traced the halo's paths (`SweepOptions::halo_paths`).
+    pub halo_paths: bool,
     /// Whether halo points near bare ground read the coarser grid clear of its ground
     /// band (`HierarchyParams::halo_ground_lift`).
     pub ground_lift: bool,
@@ -869,6 +875,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.sweep.outputs.horizon = !cfg.even;
     p.budget_ms = cfg.budget_ms;
     p.neighbour_halo = cfg.neighbour_halo;
+    p.sweep.halo_paths = cfg.halo_paths;
     p.halo_ground_lift = !cfg.no_ground_lift;
     p.march_before_casters = cfg.march_before_casters;
     if let Some(n) = cfg.passes {
@@ -1243,6 +1250,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         budget_ms: cfg.budget_ms,
         budget_points: hierarchy_params(cfg).budget_points,
         neighbour_halo: cfg.neighbour_halo,
+        halo_paths: cfg.halo_paths,
         ground_lift: !cfg.no_ground_lift,
         march_before_casters: cfg.march_before_casters,
         colour_band: cfg.colour_band,

@@ -9,7 +9,7 @@
 //!   furnace, Lambertian ground, Chandrasekhar's half-space albedo) and passes to
 //!   tolerance against optical depth and albedo (`lightgrid_measure::exact`); writes
 //!   `target/bench/exact.txt`.
-//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--sun-with-sky] [--even] [--budget-ms MS] [--budget-points N] [--neighbour-halo] [--passes N] [--tolerance T] [--flat-source] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
+//! * `frame [--node-points N] [--frames N] [--elevation DEG]... [--gpu] [--bare-skip] [--no-casters] [--skip-finest-sun] [--sun-with-sky] [--even] [--budget-ms MS] [--budget-points N] [--neighbour-halo] [--halo-paths] [--passes N] [--tolerance T] [--flat-source] [--path forest|edge] [--mc-probes N] [--mc-paths N]`:
 //!   the hierarchy along a camera path, timed by stage and measured against one
 //!   full-resolution sweep (see `xtask::frame`); writes `target/bench/frame.{txt,json,png}`.
 //! * `figures [--assemble]`: the README's figures measured in one go (bench forest,
@@ -122,6 +122,10 @@ enum Task {
         /// (HierarchyParams::neighbour_halo, off by default), for comparison
         #[arg(long)]
         neighbour_halo: bool,
+        /// The halo's paths traced through the nodes' edge cells
+        /// (SweepOptions::halo_paths, off by default), for comparison
+        #[arg(long)]
+        halo_paths: bool,
         /// Halo points near bare ground read the coarser grid where they are
         /// (HierarchyParams::halo_ground_lift off; on by default), for comparison
         #[arg(long)]
@@ -256,6 +260,7 @@ fn main() -> ExitCode {
             budget_ms,
             budget_points,
             neighbour_halo,
+            halo_paths,
             no_ground_lift,
             march_before_casters,
             colour_band,
@@ -288,6 +293,7 @@ fn main() -> ExitCode {
             cfg.budget_ms = budget_ms;
             cfg.budget_points = budget_points;
             cfg.neighbour_halo = neighbour_halo;
+            cfg.halo_paths = halo_paths;
             cfg.no_ground_lift = no_ground_lift;
             cfg.march_before_casters = march_before_casters;
             cfg.colour_band = colour_band;

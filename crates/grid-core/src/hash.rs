@@ -124,7 +124,12 @@ impl ContentHash {
             medium,
             acceleration,
             gather,
+            halo_paths,
         } = *o;
+        if halo_paths {
+            // (Only when on: the hashes of earlier options stay as they were.)
+            self.u32(0x4841_4c4f);
+        }
         self.u32(
             outputs.bins as u32
                 | (outputs.average as u32) << 1

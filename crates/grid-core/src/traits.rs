@@ -394,6 +394,12 @@ pub trait Sweeper {
     fn fork(&self) -> Option<Box<dyn Sweeper + Send + Sync>> {
         None
     }
+    /// Whether this sweeper traces the halo's paths into the grid
+    /// ([`SweepOptions::halo_paths`]); one that does not returns an error for options
+    /// that ask for them with given sides (the default: it does not).
+    fn carries_halo_paths(&self) -> bool {
+        false
+    }
     /// Sweeps `material` lit by `boundary`.
     fn sweep(
         &mut self,

@@ -12,7 +12,8 @@
 //! at every non-opaque point of the crop: the largest error over the local brightest
 //! value (the 3 × 3 × 3 points around it in the full sweep; issue 43's measure), that
 //! largest at 3, 6 (the hierarchy's apron) and 10 or more cells from the crop's sides,
-//! and the RMSE.
+//! and the RMSE; each without and with the halo's paths traced
+//! (`SweepOptions::halo_paths`).
 //!
 //! `cargo run --release -p lightgrid-measure --example handover`
 
@@ -141,6 +142,50 @@ fn crop(
     Ok((MaterialGrid::new(desc, cells)?, b))
 }
 
+/// The crop's light `c` against the full sweep's `full` at every non-opaque point of
+/// the crop `cm`, over the six axes' irradiance: the largest error over the local
+/// brightest value at each of [`FROM_SIDE`]'s distances from the sides or more, and the
+/// RMSE over the mean square.
+fn errors(
+    cm: &MaterialGrid,
+    (cb, ch): &(LightGrid, HorizonGrid),
+    (fb, fh): &(LightGrid, HorizonGrid),
+) -> Result<([f64; 4], f64), Box<dyn std::error::Error>> {
+    let irr = |b: &BinLight, h: &HorizonLight, a: usize| {
+        luminance(b.irradiance_split(AMBIENT_AXES[a], h)) as f64
+    };
+    let full_irr = |q: IVec3, a: usize| -> Option<f64> {
+        let q = q.try_into().ok()?;
+        Some(irr(fb.get(q)?, fh.get(q)?, a))
+    };
+    let (mut worst, mut se, mut sr) = ([0.0f64; 4], 0.0, 0.0);
+    for i in 0..cm.desc().point_count() {
+        let p = cm.desc().coords(i).unwrap_or_default();
+        if cm.get(p).is_some_and(|m| m.pass == 0.0) {
+            continue;
+        }
+        let q = UVec3::new(X0 + p.x, p.y, X0 + p.z).as_ivec3();
+        let from_side = p.x.min(p.z).min(W - 1 - p.x).min(W - 1 - p.z);
+        for a in 0..6 {
+            let got = irr(cb.get(p).ok_or("point")?, ch.get(p).ok_or("point")?, a);
+            let want = full_irr(q, a).ok_or("point")?;
+            let mut bright = want;
+            for d in (0..27).map(|k| IVec3::new(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1)) {
+                bright = bright.max(full_irr(q + d, a).unwrap_or(0.0));
+            }
+            let e = (got - want).abs() / bright.max(1e-9);
+            for (w, d) in worst.iter_mut().zip(FROM_SIDE) {
+                if from_side >= d {
+                    *w = w.max(e);
+                }
+            }
+            se += (got - want).powi(2);
+            sr += want.powi(2);
+        }
+    }
+    Ok((worst, (se / sr).sqrt()))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The hierarchy's sweep options (`HierarchyParams::default().sweep`), with the bins.
     let mut o = SweepOptions::multi_bounce();
@@ -155,9 +200,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     converged.tolerance = 1e-5;
     let (sky, _) = BinLight::uniform(Vec3::new(0.6, 0.7, 1.0)).split_vertical();
     println!(
-        "| scene | passes | largest, all points | largest, 3+ cells from the sides | 6+ | 10+ | RMSE |"
+        "| scene | passes | the halo's paths | largest, all points | largest, 3+ cells from the sides | 6+ | 10+ | RMSE |"
     );
-    println!("|---|---|---:|---:|---:|---:|---:|");
+    println!("|---|---|---|---:|---:|---:|---:|---:|");
     for (name, band, (ground, lift), o) in [
         ("forest", Band::None, (true, false), o),
         ("forest", Band::None, (true, false), converged),
@@ -201,60 +246,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
             &o,
         )?;
-        let (fb, fh) = (
+        let full = (
             full.bins.ok_or("bins asked for")?,
             full.horizon.ok_or("halves asked for")?,
         );
-        let (cm, b) = crop(&m, (&fb, &fh), sky, lift)?;
-        let c = CpuSweeper::new().sweep(&cm, &b, &o)?;
-        let (cb, ch) = (
-            c.bins.ok_or("bins asked for")?,
-            c.horizon.ok_or("halves asked for")?,
-        );
-        let irr = |b: &BinLight, h: &HorizonLight, a: usize| {
-            luminance(b.irradiance_split(AMBIENT_AXES[a], h)) as f64
-        };
-        let full_irr = |q: IVec3, a: usize| -> Option<f64> {
-            let q = q.try_into().ok()?;
-            Some(irr(fb.get(q)?, fh.get(q)?, a))
-        };
-        // The largest error at 0+, 3+, 6+ (the hierarchy's apron) and 10+ cells from
-        // the crop's sides.
-        let (mut worst, mut se, mut sr) = ([0.0f64; 4], 0.0, 0.0);
-        for i in 0..cm.desc().point_count() {
-            let p = cm.desc().coords(i).unwrap_or_default();
-            if cm.get(p).is_some_and(|m| m.pass == 0.0) {
-                continue;
-            }
-            let q = UVec3::new(X0 + p.x, p.y, X0 + p.z).as_ivec3();
-            let from_side = p.x.min(p.z).min(W - 1 - p.x).min(W - 1 - p.z);
-            for a in 0..6 {
-                let got = irr(cb.get(p).ok_or("point")?, ch.get(p).ok_or("point")?, a);
-                let want = full_irr(q, a).ok_or("point")?;
-                let mut bright = want;
-                for d in (0..27).map(|k| IVec3::new(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1)) {
-                    bright = bright.max(full_irr(q + d, a).unwrap_or(0.0));
-                }
-                let e = (got - want).abs() / bright.max(1e-9);
-                for (w, d) in worst.iter_mut().zip(FROM_SIDE) {
-                    if from_side >= d {
-                        *w = w.max(e);
-                    }
-                }
-                se += (got - want).powi(2);
-                sr += want.powi(2);
-            }
-        }
+        let (cm, b) = crop(&m, (&full.0, &full.1), sky, lift)?;
         let passes = if o.max_passes == 4 {
             "the hierarchy's"
         } else {
             "converged"
         };
-        let w = worst.map(|w| format!("{:.1} %", w * 100.0)).join(" | ");
-        println!(
-            "| {name} | {passes} | {w} | {:.2} % |",
-            (se / sr).sqrt() * 100.0
-        );
+        for halo_paths in [false, true] {
+            let mut o = o;
+            o.halo_paths = halo_paths;
+            let c = CpuSweeper::new().sweep(&cm, &b, &o)?;
+            let c = (
+                c.bins.ok_or("bins asked for")?,
+                c.horizon.ok_or("halves asked for")?,
+            );
+            let (worst, rmse) = errors(&cm, &c, &full)?;
+            let w = worst.map(|w| format!("{:.1} %", w * 100.0)).join(" | ");
+            let traced = if halo_paths { "traced" } else { "no" };
+            println!(
+                "| {name} | {passes} | {traced} | {w} | {:.2} % |",
+                rmse * 100.0
+            );
+        }
     }
     Ok(())
 }

@@ -488,7 +488,21 @@
 //!
 //! **Edge approximation.** The paths of points outside the grid are not traced, so light
 //! leaving through a side skips the (at most two) edge cells its path would still cross.
-//! Periodic boundaries have no edge.
+//! Periodic boundaries have no edge. With given sides and
+//! [`SweepOptions::halo_paths`](lightgrid_core::SweepOptions::halo_paths) they are,
+//! where they cross the grid's cells (the horizontal channels of the halo's points
+//! within two cells of a side; `sweep::ring_paths`): a path entering the grid starts
+//! from the halo's light at its point (the mean of the point's cell, taken as the light
+//! at its centre: exact where the halo's cells are empty) and crosses the grid's media
+//! after the centre (steps 2, 3 and the medium's emission of step 5; opaque cells do
+//! not stop it, as the exposure rule has the world beyond the side go on as it is there,
+//! a surface whose light leaves over its level-mates), and the next level gathers its
+//! outgoing light in place of the halo value; a path leaving the grid gathers as the
+//! grid's points do and crosses the grid's cells before its point (steps 2 and 3), what
+//! they emit into it leaving. Not traced: what a later cell of such a path stops of
+//! what an earlier one emitted into it (step 5's collection), which waits for the next
+//! passes (`tests/handover.rs`: a crop of fog handed its sweep's own light, exact in one
+//! pass, within 2e-4 of the brightest bin in two, 7 % off untraced).
 
 pub mod accel;
 pub mod beam;
@@ -736,6 +750,9 @@ impl Sweeper for CpuSweeper {
     }
     /// A new CPU sweeper with memory of its own (sweeps are deterministic: the same
     /// results bit for bit on any thread).
+    fn carries_halo_paths(&self) -> bool {
+        true
+    }
     fn fork(&self) -> Option<Box<dyn Sweeper + Send + Sync>> {
         Some(Box::new(CpuSweeper::new()))
     }

@@ -49,6 +49,8 @@ struct Case {
     bins: bool,
     /// `MediumEmission::Profile` (a quadratic source in height) instead of the flat rule.
     profile: bool,
+    /// `SweepOptions::halo_paths` (the halo's partial paths traced, with given sides).
+    halo_paths: bool,
 }
 
 fn case() -> impl Strategy<Value = Case> {
@@ -60,10 +62,19 @@ fn case() -> impl Strategy<Value = Case> {
         prop_oneof![Just(0.0f32), 0.0f32..0.9],
         1u32..6,
         any::<bool>(),
-        any::<bool>(),
+        (any::<bool>(), any::<bool>()),
     )
         .prop_map(
-            |(sides, per_point_top, bottom, source, smoothing, passes, bins, profile)| Case {
+            |(
+                sides,
+                per_point_top,
+                bottom,
+                source,
+                smoothing,
+                passes,
+                bins,
+                (profile, halo_paths),
+            )| Case {
                 sides,
                 per_point_top,
                 bottom,
@@ -72,6 +83,7 @@ fn case() -> impl Strategy<Value = Case> {
                 passes,
                 bins,
                 profile,
+                halo_paths,
             },
         )
 }
@@ -112,6 +124,7 @@ fn check(m: &MaterialGrid, c: Case) -> Result<(), TestCaseError> {
     o.smoothing = c.smoothing;
     o.max_passes = c.passes;
     o.tolerance = 0.0;
+    o.halo_paths = c.halo_paths;
     if !c.bins {
         o.outputs = Outputs::AVERAGE_DOMINANT;
     }
@@ -175,6 +188,7 @@ fn one_cell_in_empty_space() {
             passes: 4,
             bins: true,
             profile,
+            halo_paths: false,
         };
         check(&m, c).unwrap();
     }
@@ -196,6 +210,7 @@ fn wide_levels() {
             passes: 2,
             bins: true,
             profile,
+            halo_paths: false,
         };
         check(&m, c).unwrap();
     }
@@ -219,6 +234,7 @@ fn block_widths() {
                 passes: 3,
                 bins: true,
                 profile,
+                halo_paths: false,
             };
             check(&m, c).unwrap_or_else(|e| panic!("rows of {nx}: {e}"));
         }
@@ -242,6 +258,7 @@ fn sinks_fetched_ahead() {
         passes: 3,
         bins: true,
         profile: true,
+        halo_paths: false,
     };
     check(&m, c).unwrap();
 }

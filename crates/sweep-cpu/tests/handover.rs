@@ -2,7 +2,10 @@
 //! at its halo, reproduces it. Exact where the paths that start beyond the crop's sides
 //! cross only empty cells before they reach its points (a clear band around its sides):
 //! what is left elsewhere is the halo's cells, which the crop does not hold (measured
-//! by `cargo run --release -p lightgrid-measure --example handover`).
+//! by `cargo run --release -p lightgrid-measure --example handover`). With the halo's
+//! paths traced (`SweepOptions::halo_paths`) the band may end at the crop's sides: the
+//! paths from the halo's points nearest them go on through the crop's edge cells as in
+//! the full sweep.
 
 use lightgrid_core::glam::{UVec3, Vec3};
 use lightgrid_core::{
@@ -18,12 +21,13 @@ const X0: u32 = 12;
 const W: u32 = 16;
 
 /// Fog (pass-through 0.7, albedo 0.6) everywhere but a clear band from `HALO_WIDTH`
-/// cells outside the crop's sides to 3 inside: the farthest a path reaches into the
-/// grid from a halo point's own cell.
-fn scene() -> MaterialGrid {
+/// cells outside the crop's sides to `inside` cells inside (3: the farthest a path
+/// reaches into the grid from a halo point's own cell).
+fn scene(inside: u32) -> MaterialGrid {
     let desc = GridDesc::new(Vec3::ZERO, 1.0, UVec3::new(N, NY, N)).unwrap();
     let w = HALO_WIDTH as u32;
-    let band = |v: u32| (X0 - w..X0 + 3).contains(&v) || (X0 + W - 3..X0 + W + w).contains(&v);
+    let band =
+        |v: u32| (X0 - w..X0 + inside).contains(&v) || (X0 + W - inside..X0 + W + w).contains(&v);
     let within = |v: u32| (X0 - w..X0 + W + w).contains(&v);
     let cells = (0..desc.point_count())
         .map(|i| {
@@ -50,9 +54,11 @@ fn sky() -> BinLight {
     b.split_vertical().0
 }
 
-#[test]
-fn a_crop_given_the_sweeps_own_light_at_its_halo_reproduces_it() {
-    let m = scene();
+/// The largest difference, over every bin of every point of the crop, between the crop
+/// handed the full sweep's light at its halo and the full sweep, over the full sweep's
+/// brightest bin; `inside`: the clear band's cells inside the crop.
+fn crop_error(inside: u32, passes: u32, halo_paths: bool) -> f32 {
+    let m = scene(inside);
     let cdesc = GridDesc::new(
         Vec3::new(X0 as f32, 0.0, X0 as f32),
         1.0,
@@ -69,13 +75,14 @@ fn a_crop_given_the_sweeps_own_light_at_its_halo_reproduces_it() {
             .collect(),
     )
     .unwrap();
-    // One pass (downward) and two (and back up): boundary light enters in both.
-    for passes in [1, 2] {
+    {
         let mut o = SweepOptions::multi_bounce();
         o.max_passes = passes;
         o.tolerance = 0.0;
         o.outputs.bins = true;
         o.outputs.horizon = true;
+        o.halo_paths = halo_paths;
+
         let full = CpuSweeper::new()
             .sweep(
                 &m,
@@ -112,19 +119,43 @@ fn a_crop_given_the_sweeps_own_light_at_its_halo_reproduces_it() {
         let largest = fb.data().iter().fold(0.0f32, |a, l| {
             l.0.iter().fold(a, |a, v| a.max(v.max_element()))
         });
+        let mut worst = 0.0f32;
         for i in 0..cdesc.point_count() {
             let p = cdesc.coords(i).unwrap();
             let q = UVec3::new(X0 + p.x, p.y, X0 + p.z);
             let (got, want) = (cb.get(p).unwrap(), fb.get(q).unwrap());
             for bin in 0..lightgrid_core::NUM_DIRS {
-                let d = (got.0[bin] - want.0[bin]).abs().max_element();
-                assert!(
-                    d <= 1e-5 * largest,
-                    "{passes} passes, point {p}, bin {bin}: {} against {}",
-                    got.0[bin],
-                    want.0[bin]
-                );
+                worst = worst.max((got.0[bin] - want.0[bin]).abs().max_element());
             }
         }
+        worst / largest
     }
+}
+
+#[test]
+fn a_crop_given_the_sweeps_own_light_at_its_halo_reproduces_it() {
+    // One pass (downward) and two (and back up): boundary light enters in both.
+    for passes in [1, 2] {
+        for halo_paths in [false, true] {
+            let e = crop_error(3, passes, halo_paths);
+            assert!(e <= 1e-5, "{passes} passes, halo paths {halo_paths}: {e}");
+        }
+    }
+}
+
+/// With the clear band outside the crop alone, the paths of the halo's points nearest
+/// its sides cross its edge cells of fog, entering the crop and leaving it: traced, a
+/// downward pass reproduces the full sweep to rounding; untraced, it is 7 % of the
+/// brightest bin off. With a second pass they are within 2e-4: what the edge cells stop
+/// of their level-mates' emission into those paths waits for the next pass, and the
+/// crop's cells then miss it.
+#[test]
+fn the_halos_paths_through_the_crops_edge_cells_are_traced() {
+    let traced = crop_error(0, 1, true);
+    assert!(traced <= 1e-5, "one pass, traced: {traced}");
+    let untraced = crop_error(0, 1, false);
+    assert!(untraced > 0.05, "one pass, untraced: {untraced}");
+    let (traced, untraced) = (crop_error(0, 2, true), crop_error(0, 2, false));
+    assert!(traced <= 5e-4, "two passes, traced: {traced}");
+    assert!(untraced > 0.05, "two passes, untraced: {untraced}");
 }

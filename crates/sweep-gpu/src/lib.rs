@@ -64,6 +64,10 @@
 //! takes more passes to the tolerance than sweep-cpu's diffusion acceleration
 //! (`lightgrid_sweep_cpu::accel`); both converge to the same light.
 //!
+//! **The halo's paths.** `SweepOptions::halo_paths` (off by default) is not
+//! implemented either: with given sides the GPU sweeper returns an error for it, and
+//! `Sweeper::carries_halo_paths` is false, so a hierarchy does not ask it.
+//!
 //! **Speed** (`cargo bench -p lightgrid-sweep-gpu`): on the CI machine the adapter is
 //! lavapipe, Mesa's software Vulkan on the same two cores (a 2-core Intel Xeon VM,
 //! 2026-12-05): 32³ canopy, 4 passes, 1.62 s against sweep-cpu's 22 ms (upload 23 ms,

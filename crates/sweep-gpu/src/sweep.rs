@@ -405,6 +405,14 @@ impl GpuSweeper {
         let start = std::time::Instant::now();
         let mut timings = GpuTimings::default();
         lightgrid_sweep_cpu::sweep::validate_inputs(material, boundary, options)?;
+        if options.halo_paths && boundary.sides.halo().is_some() {
+            return Err(SweepError::Backend {
+                backend: "gpu",
+                message: "SweepOptions::halo_paths: the GPU sweeper does not trace the \
+                          halo's paths (Sweeper::carries_halo_paths); set it off"
+                    .into(),
+            });
+        }
         let backend = |e: GpuError| SweepError::Backend {
             backend: "gpu",
             message: e.to_string(),

@@ -205,6 +205,27 @@ fn invalid_input_is_the_same_typed_error() {
     assert!(e.contains("top"), "{e}");
 }
 
+/// The GPU sweeper does not trace the halo's paths (`SweepOptions::halo_paths`): asked
+/// to with given sides, it says so, and its `carries_halo_paths` says no.
+#[test]
+fn halo_paths_are_refused_by_name() {
+    use lightgrid_core::Sweeper;
+    let Some(gpu) = sweeper() else { return };
+    assert!(!gpu.carries_halo_paths());
+    let d = GridDesc::new(Vec3::ZERO, 1.0, UVec3::splat(2)).unwrap();
+    let m = MaterialGrid::filled(d, Material::EMPTY).unwrap();
+    let b = Boundary {
+        sides: SideBoundary::Given(vec![BinLight::ZERO; HaloLayout::new(d.dims()).len()]),
+        ..Boundary::open_sky(BinLight::ZERO)
+    };
+    let mut o = SweepOptions::default();
+    o.halo_paths = true;
+    let e = gpu.run(&m, &b, &o).unwrap_err().to_string();
+    assert!(e.contains("halo_paths"), "{e}");
+    o.halo_paths = false;
+    assert!(gpu.run(&m, &b, &o).is_ok());
+}
+
 /// The final grid packed on the GPU equals sweep-cpu's grid packed by grid-core within
 /// one code per channel, with the same exposure.
 #[test]

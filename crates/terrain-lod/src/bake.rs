@@ -324,7 +324,10 @@ impl WorldBake {
         let _span = tracing::info_span!("bake node", ?key).entered();
         self.load(key, world, reads)?;
         let composed = self.h.node_material(key)?;
-        let mut sweeper = std::mem::replace(&mut self.h.sweeper, Box::new(crate::Lent));
+        let mut sweeper = {
+            let lent = crate::Lent(self.h.sweeper.carries_halo_paths());
+            std::mem::replace(&mut self.h.sweeper, Box::new(lent))
+        };
         let mut times = crate::StageTimes::default();
         let fresh = crate::shadow::Fresh::default();
         let r = self

@@ -554,7 +554,10 @@ impl Hierarchy {
         if jobs.is_empty() {
             return (Ok(()), self.compose_nodes(ahead));
         }
-        let mut main = std::mem::replace(&mut self.sweeper, Box::new(crate::Lent));
+        let mut main = {
+            let lent = crate::Lent(self.sweeper.carries_halo_paths());
+            std::mem::replace(&mut self.sweeper, Box::new(lent))
+        };
         let pool = Mutex::new(std::mem::take(&mut self.forks));
         let fresh: Fresh<'_> = new.iter().copied().zip(materials).collect();
         let (results, composed) = {

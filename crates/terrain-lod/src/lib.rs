@@ -597,12 +597,16 @@ pub struct Hierarchy {
     recomposed: refresh::Recomposed,
 }
 
-/// Stands in for the sweeper while a sun sweep borrows the hierarchy for its boundary.
-struct Lent;
+/// Stands in for the sweeper while a sun sweep borrows the hierarchy for its boundary
+/// (with the sweeper's [`Sweeper::carries_halo_paths`], which the nodes' options read).
+struct Lent(bool);
 
 impl Sweeper for Lent {
     fn name(&self) -> &'static str {
         "lent"
+    }
+    fn carries_halo_paths(&self) -> bool {
+        self.0
     }
     fn sweep(
         &mut self,
@@ -1400,6 +1404,8 @@ impl Hierarchy {
     /// when that skip is on.
     fn node_options(&self, has_objects: bool) -> SweepOptions {
         let mut o = self.params.sweep;
+        // Asked of a sweeper that traces them alone.
+        o.halo_paths &= self.sweeper.carries_halo_paths();
         // The grids keep the bins alone: average and dominant direction are read
         // from them.
         o.outputs = lightgrid_core::Outputs {

@@ -208,7 +208,8 @@ impl Hierarchy {
             return Ok(());
         };
         let _span = tracing::debug_span!("march suns").entered();
-        let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(crate::Lent));
+        let lent = crate::Lent(self.sweeper.carries_halo_paths());
+        let mut sweeper = std::mem::replace(&mut self.sweeper, Box::new(lent));
         let r = self.march_all(sweeper.as_mut(), sun.to_sun);
         self.sweeper = sweeper;
         r

@@ -82,7 +82,7 @@ fn header(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells, sun responses {}), {} passes at most (tolerance {}, {} medium rule{}), {} path, bare-ground skip {}, sun's casters {}, {}, {}, side halos from {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells, sun responses {}), {} passes at most (tolerance {}, {} medium rule{}{}), {} path, bare-ground skip {}, sun's casters {}, {}, {}, side halos from {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.apron,
@@ -92,6 +92,11 @@ fn header(report: &FrameReport) -> String {
         report.medium,
         if report.gather {
             ", the sun's first scatterings gathered"
+        } else {
+            ""
+        },
+        if report.halo_paths {
+            ", the halo's paths traced"
         } else {
             ""
         },

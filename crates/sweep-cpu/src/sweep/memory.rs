@@ -322,6 +322,10 @@ pub(crate) struct Work {
     pub(crate) pend_next: PendingLevels,
     /// Per level: some pending light of it was written (zeroed again on reuse).
     pub(crate) pend_dirty: Vec<bool>,
+    /// The halo's partial paths ([`RingPaths`]) and their light at the level being
+    /// swept.
+    pub(crate) ring_paths: RingPaths,
+    pub(crate) ring_level: RingLevel,
 }
 
 impl Work {
@@ -350,6 +354,8 @@ impl Work {
             pend_up: PendingLevels::new(level_len, n / level_len.max(1)),
             pend_next: PendingLevels::default(),
             pend_dirty: vec![false; n / level_len.max(1)],
+            ring_paths: RingPaths::default(),
+            ring_level: RingLevel::default(),
         }
     }
 
@@ -495,6 +501,27 @@ impl Work {
                 row[b + 2 * p] = v.z;
             }
         }
+    }
+}
+
+impl Work {
+    /// The halo's partial paths' exit light at the source level written over their
+    /// points' halo light in `ghost` ([`RingPaths`]); the next fill fills afresh.
+    pub(crate) fn ghost_ring_exits(&mut self) {
+        let rp = &self.ring_paths;
+        if !rp.prev_valid {
+            return;
+        }
+        let p = self.ghost.pitch();
+        for (e, en) in rp.entries.iter().enumerate() {
+            let v = rp.prev[e];
+            let row = self.ghost.row_mut(en.z as isize);
+            let b = en.c * 3 * p + (en.x as isize + PAD as isize) as usize;
+            row[b] = v.x;
+            row[b + p] = v.y;
+            row[b + 2 * p] = v.z;
+        }
+        self.ghost_for = None;
     }
 }
 

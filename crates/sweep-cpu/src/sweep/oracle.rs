@@ -11,6 +11,9 @@ pub(crate) struct Gather<'a, 's> {
     pub(crate) src: &'a Sources<'s>,
     pub(crate) from_virtual: bool,
     pub(crate) src_level: i32,
+    /// The halo's partial paths ([`RingPaths`]), when they are traced: a tap at a halo
+    /// point with one reads its exit light at the source level.
+    pub(crate) ring: Option<&'a RingPaths>,
 }
 
 impl Ctx {
@@ -131,6 +134,7 @@ impl Ctx {
             src,
             from_virtual,
             src_level,
+            ring,
         } = *from;
         let s = self.smoothing;
         let taps = [
@@ -149,6 +153,7 @@ impl Ctx {
             match self.col(tx, tz) {
                 Some(i) => ins += prev.at(i, c) * w,
                 None if from_virtual => outs += src.virtual_light(tx, tz, chn) * w,
+                None if let Some(v) = ring.and_then(|r| r.exit(self, tx, tz, c)) => outs += v * w,
                 None => outs += src.outside(tx, src_level, tz, chn) * w,
             }
         }

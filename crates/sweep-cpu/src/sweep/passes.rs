@@ -307,6 +307,11 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         }
     }
 
+    /// Whether the halo's partial paths are traced ([`RingPaths`]).
+    fn ring_on(&self) -> bool {
+        self.options.halo_paths && self.fixed.halo.is_some() && !self.fixed.periodic
+    }
+
     /// The levels of one pass, in its direction.
     fn levels(&mut self, p: &mut Pass<'r>) {
         let ny = self.desc.dims().y as i32;
@@ -319,6 +324,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             }
             let from_virtual = li == 0;
             if from_virtual {
+                self.w.ring_paths.prev_valid = false;
                 self.w.fill_from_boundary(&p.src, &p.ctx);
                 p.prev_columns_wrapped = false;
             }
@@ -411,6 +417,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             * self.desc.level_len() as f64;
         self.stats.levels_copied += 1;
         std::mem::swap(&mut self.w.prev, &mut self.w.cur);
+        self.w.ring_paths.prev_valid = false;
         p.prev_columns_wrapped = false;
         if p.last && p.first {
             // One pass: the level's points are all `one`.
@@ -486,6 +493,11 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             self.ok &= !f1.bad;
         }
         std::mem::swap(&mut self.w.prev, &mut self.w.cur);
+        if self.ring_on() {
+            let w = &mut self.w;
+            w.ring_paths.level_done(&mut w.ring_level);
+            w.ring_paths.prev_valid = w.ring_level.traced;
+        }
         p.prev_columns_wrapped = wrap_in_rows;
     }
 
@@ -555,15 +567,42 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         wrap_in_rows: bool,
     ) -> RowFlux {
         let range = self.desc.level_range(j as u32);
+        let ring_on = self.ring_on();
         let (w, fixed) = (&mut self.w, &self.fixed);
         let src_level = if p.up { j - 1 } else { j + 1 };
+        // A level without material changes no path: the halo's light at a point is then
+        // the path's light beyond it, as untraced.
+        let ring_on = ring_on && fixed.level_material[j as usize];
+        w.ring_level.traced = ring_on;
+        if ring_on {
+            w.ring_paths.make_for(&p.ctx, &mut w.ring_level);
+        }
+        // The halo's partial paths at this level, once its own are gathered.
+        let ring_phase1 = |w: &mut Work, f: &mut RowFlux| {
+            let from = Gather {
+                prev: &w.prev,
+                src: &p.src,
+                from_virtual,
+                src_level,
+                ring: Some(&w.ring_paths),
+            };
+            let (inside, outside) = p.ctx.ring_phase1(
+                &from,
+                j,
+                (w.planes.pows(), &fixed.lnp[range.clone()]),
+                (&w.ring_paths, &mut w.ring_level, &mut w.removed[..]),
+            );
+            f.inside += inside;
+            f.outside += outside;
+        };
         if !self.fast {
-            return p.ctx.phase1_scalar(
+            let mut f = p.ctx.phase1_scalar(
                 &Gather {
                     prev: &w.prev,
                     src: &p.src,
                     from_virtual,
                     src_level,
+                    ring: ring_on.then_some(&w.ring_paths),
                 },
                 ((w.planes.pows(), &fixed.lnp[range.clone()]), p.first),
                 Removals {
@@ -572,18 +611,28 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 },
                 LevelRows {
                     cur: &mut w.cur,
-                    g: &mut self.g[range],
+                    g: &mut self.g[range.clone()],
                     rows: &mut w.rows,
                 },
             );
+            if ring_on {
+                ring_phase1(w, &mut f);
+            }
+            return f;
         }
-        // Light from outside the sides: the ring of `ghost`.
-        let ghost_on = p.src.active && !fixed.periodic;
+        // Light from outside the sides: the ring of `ghost` (with the halo's paths,
+        // their exit light at the source level, in every pass: what the grid's cells
+        // emitted into them).
+        let exits = ring_on && !from_virtual && w.ring_paths.prev_valid;
+        let ghost_on = (p.src.active || exits) && !fixed.periodic;
         if ghost_on {
             w.fill_ghost(&p.src, &p.ctx, from_virtual, src_level);
+            if exits {
+                w.ghost_ring_exits();
+            }
         }
         let quiet = material_here.then_some(&w.quiet[range.clone()]);
-        p.ctx.phase1_fast(
+        let mut f = p.ctx.phase1_fast(
             Phase1In {
                 prev: &w.prev,
                 count: !conserved,
@@ -604,14 +653,18 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             },
             Finish {
                 avg: &mut self.avg[range.clone()],
-                dom: &mut self.dom[range],
+                dom: &mut self.dom[range.clone()],
                 last_phase: !material_here,
                 resolve: p.last.then_some(self.options.outputs.dominant),
                 clamp: self.signed_light,
                 from_planes: p.first && !material_here,
                 wrap_columns: wrap_in_rows,
             },
-        )
+        );
+        if ring_on {
+            ring_phase1(w, &mut f);
+        }
+        f
     }
 
     /// Phases 2 and 3 of level `j` (with material; `sent`: the flux the level before it
@@ -630,6 +683,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         let nz = self.desc.dims().z as usize;
         let cells = &self.material.data()[range.clone()];
         let fixed = &self.fixed;
+        let ring_on = self.ring_on();
         let w = &mut self.w;
         let resolve = p.last.then_some(options.outputs.dominant);
         w.pend_dirty[j as usize] = true;
@@ -664,7 +718,10 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         }
         let f2 = p.ctx.phase2(
             Phase2In {
-                removed: &w.removed,
+                removed: (
+                    &w.removed,
+                    ring_on.then_some((&w.ring_paths, &w.ring_level)),
+                ),
                 scalar: !fast,
                 t_after: &w.t_after,
                 pows: LevelPows::of(&w.planes.v, w.planes.level, (nx, nz)),
@@ -726,7 +783,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
             },
             Finish {
                 avg: &mut self.avg[range.clone()],
-                dom: &mut self.dom[range],
+                dom: &mut self.dom[range.clone()],
                 last_phase: true,
                 resolve,
                 clamp: self.signed_light,
@@ -734,6 +791,14 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 wrap_columns: wrap_in_rows,
             },
         );
+        if ring_on {
+            p.ctx.ring_phase3(
+                (&w.src, &w.emits),
+                (&w.src_hi, &w.prof),
+                (w.planes.pows(), &fixed.lnp[range.clone()]),
+                (&w.ring_paths, &mut w.ring_level),
+            );
+        }
         self.bal.absorbed += f3.absorbed;
         self.bal.side_out += f3.side_out;
         p.pending += f3.pending;
