@@ -136,6 +136,8 @@ impl Ctx {
         out: &mut [[[f32; GATHER_BLOCK]; 3]; CHANNELS],
     ) {
         let nx = self.nx as usize;
+        // A row of the halo's removals beyond the grid's rows (traced paths alone).
+        let mut beyond = [0f32; GATHER_BLOCK];
         for (c, chn) in self.ch.iter().enumerate() {
             let o = &mut out[c];
             // The first tap sets the sums (as [`Ctx::gather_moments`]: no `memset` per
@@ -148,7 +150,6 @@ impl Ctx {
                 }
                 let first = x0 as i32 - dx;
                 for (col, oc) in o.iter_mut().enumerate() {
-                    let mut beyond = [0f32; GATHER_BLOCK];
                     let from = match (zr, ring) {
                         (Some(zr), _) => tap(removed, nx, (zr, chn.first_slot + k, col), first, b),
                         (None, Some((r, l))) => {
@@ -200,6 +201,8 @@ impl Ctx {
             o[..b].fill(0.0);
         }
         let mut t = [[[0f32; GATHER_BLOCK]; 3]; 2];
+        // A row of the halo's removals beyond the grid's rows (traced paths alone).
+        let mut beyond = [0f32; GATHER_BLOCK];
         for (c, (chn, ro)) in self.ch.iter().zip(removed_out.iter_mut()).enumerate() {
             // The first tap sets the channel's sums, the others add to them (zeroed
             // first, each array was a call to `memset` per channel: 1.6 % of the
@@ -215,7 +218,6 @@ impl Ctx {
                 let (w0, w1) = (&w[slot][0][..b], &w[slot][1][..b]);
                 let [t0, t1] = &mut t;
                 for col in 0..3 {
-                    let mut beyond = [0f32; GATHER_BLOCK];
                     let from = match (zr, ring) {
                         (Some(zr), _) => tap(removed, nx, (zr, slot, col), first, b),
                         (None, Some((r, l))) => {
