@@ -571,10 +571,11 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         let (w, fixed) = (&mut self.w, &self.fixed);
         let src_level = if p.up { j - 1 } else { j + 1 };
         // A level without material changes no path: the halo's light at a point is then
-        // the path's light beyond it, as untraced.
-        let ring_on = ring_on && fixed.level_material[j as usize];
-        w.ring_level.traced = ring_on;
-        if ring_on {
+        // the path's light beyond it, as untraced (its gather still reads the paths'
+        // light of a level before that traced them).
+        let trace = ring_on && fixed.level_material[j as usize];
+        w.ring_level.traced = trace;
+        if trace {
             w.ring_paths.make_for(&p.ctx, &mut w.ring_level);
         }
         // The halo's partial paths at this level, once its own are gathered.
@@ -615,7 +616,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                     rows: &mut w.rows,
                 },
             );
-            if ring_on {
+            if trace {
                 ring_phase1(w, &mut f);
             }
             return f;
@@ -661,7 +662,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
                 wrap_columns: wrap_in_rows,
             },
         );
-        if ring_on {
+        if trace {
             ring_phase1(w, &mut f);
         }
         f
@@ -683,7 +684,7 @@ impl<'r, S: Sink> PassLoop<'r, S> {
         let nz = self.desc.dims().z as usize;
         let cells = &self.material.data()[range.clone()];
         let fixed = &self.fixed;
-        let ring_on = self.ring_on();
+        let ring_on = self.ring_on() && self.w.ring_level.traced;
         let w = &mut self.w;
         let resolve = p.last.then_some(options.outputs.dominant);
         w.pend_dirty[j as usize] = true;

@@ -251,8 +251,8 @@ impl Ctx {
             if (0..self.nz).contains(&en.z) {
                 // Beside the grid's rows: into the planes' ring columns (zeros
                 // elsewhere, `fill_rings`).
-                for (k, &(dx, _, _)) in chn.stencil.iter().enumerate() {
-                    if k == en.kc || self.col(en.x + dx, en.z + chn.stencil[k].1).is_none() {
+                for (k, &(dx, dz, _)) in chn.stencil.iter().enumerate() {
+                    if k == en.kc || self.col(en.x + dx, en.z + dz).is_none() {
                         continue;
                     }
                     let slot = chn.first_slot + k;
