@@ -138,6 +138,9 @@ pub struct FrameConfig {
     /// Halo points near bare ground read the coarser grid where they are, not clear of
     /// its ground band (`HierarchyParams::halo_ground_lift` off).
     pub no_ground_lift: bool,
+    /// Where the nodes' sweeps take their halo's cells from
+    /// (`HierarchyParams::halo_cells`).
+    pub halo_cells: lightgrid_terrain_lod::HaloCells,
     /// Under a time budget a new node whose casters wait marches its direct sun
     /// at once (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
@@ -199,6 +202,7 @@ impl FrameConfig {
             neighbour_halo: false,
             halo_paths: false,
             no_ground_lift: false,
+            halo_cells: lightgrid_terrain_lod::HaloCells::Off,
             march_before_casters: false,
             colour_band: false,
             passes: None,
@@ -463,6 +467,9 @@ pub struct FrameReport {
     /// Whether halo points near bare ground read the coarser grid clear of its ground
     /// band (`HierarchyParams::halo_ground_lift`).
     pub ground_lift: bool,
+    /// Where the nodes' sweeps took their halo's cells from
+    /// (`HierarchyParams::halo_cells`: off, coarser or composed).
+    pub halo_cells: String,
     /// Whether a new node whose casters waited marched its direct sun at once
     /// (`HierarchyParams::march_before_casters`).
     pub march_before_casters: bool,
@@ -877,6 +884,7 @@ fn hierarchy_params(cfg: &FrameConfig) -> HierarchyParams {
     p.neighbour_halo = cfg.neighbour_halo;
     p.sweep.halo_paths = cfg.halo_paths;
     p.halo_ground_lift = !cfg.no_ground_lift;
+    p.halo_cells = cfg.halo_cells;
     p.march_before_casters = cfg.march_before_casters;
     if let Some(n) = cfg.passes {
         p.sweep.max_passes = n;
@@ -1252,6 +1260,7 @@ pub fn run(cfg: &FrameConfig) -> Result<FrameReport> {
         neighbour_halo: cfg.neighbour_halo,
         halo_paths: cfg.halo_paths,
         ground_lift: !cfg.no_ground_lift,
+        halo_cells: format!("{:?}", cfg.halo_cells).to_lowercase(),
         march_before_casters: cfg.march_before_casters,
         colour_band: cfg.colour_band,
         apron: hierarchy_params(cfg).apron,

@@ -130,6 +130,10 @@ enum Task {
         /// (HierarchyParams::halo_ground_lift off; on by default), for comparison
         #[arg(long)]
         no_ground_lift: bool,
+        /// Where the nodes' sweeps take their halo's cells from
+        /// (HierarchyParams::halo_cells: off (the default), coarser or composed)
+        #[arg(long, default_value = "off", value_parser = ["off", "coarser", "composed"])]
+        halo_cells: String,
         /// Under a time budget, a new node whose sun's casters wait marches its direct
         /// sun at once through those held (HierarchyParams::march_before_casters, off
         /// by default)
@@ -262,6 +266,7 @@ fn main() -> ExitCode {
             neighbour_halo,
             halo_paths,
             no_ground_lift,
+            halo_cells,
             march_before_casters,
             colour_band,
             passes,
@@ -295,6 +300,13 @@ fn main() -> ExitCode {
             cfg.neighbour_halo = neighbour_halo;
             cfg.halo_paths = halo_paths;
             cfg.no_ground_lift = no_ground_lift;
+            cfg.halo_cells = match halo_cells.as_str() {
+                "off" => lightgrid_terrain_lod::HaloCells::Off,
+                "coarser" => lightgrid_terrain_lod::HaloCells::Coarser,
+                "composed" => lightgrid_terrain_lod::HaloCells::Composed,
+                // (clap takes no other value.)
+                _ => lightgrid_terrain_lod::HaloCells::Off,
+            };
             cfg.march_before_casters = march_before_casters;
             cfg.colour_band = colour_band;
             cfg.passes = passes;

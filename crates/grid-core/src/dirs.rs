@@ -291,6 +291,36 @@ fn polygon_moment(poly: &[DVec3]) -> DVec3 {
     0.5 * sum
 }
 
+/// The cells a channel of direction `v` (a bin's integer vector, [`dir_ivec`]) crosses
+/// within one level, in travel order: `(dx, dz, fraction)` of each, its offset from
+/// the receiving point's own cell and its share of the channel's path length per level
+/// ([`channel_length`]). A horizontal channel crosses five cells along its direction
+/// (an eighth, three quarters and an eighth of its length: the point's own cell holds
+/// a quarter); any other crosses its own cell alone. The sweeps' stencils and the
+/// carry of a halo through its cells ([`crate::halo_carry`]) read it.
+pub fn level_stencil(v: IVec3) -> Vec<(i32, i32, f32)> {
+    if v.y == 0 {
+        let (dx, dz) = (v.x, v.z);
+        vec![
+            (-2 * dx, -2 * dz, 0.125),
+            (-dx, -dz, 0.25),
+            (0, 0, 0.25),
+            (dx, dz, 0.25),
+            (2 * dx, 2 * dz, 0.125),
+        ]
+    } else {
+        vec![(0, 0, 1.0)]
+    }
+}
+
+/// [`channel_length`] of any bin: an upward bin's is its downward mirror's, as the
+/// upward pass mirrors the downward one.
+pub fn bin_channel_length(bin: usize) -> f32 {
+    let mut v = dir_ivec(bin.min(NUM_DIRS - 1));
+    v.y = -v.y.abs();
+    channel_length(dir_index(v).expect("a direction mirrored is one"))
+}
+
 /// Path length per level (in `h`) of the channels of bin `bin` (a downward or
 /// horizontal bin; the upward pass mirrors them): `1 / μ̄`, where `μ̄` is the bin's mean
 /// `|cos|` to the vertical over its solid angle (a horizontal bin's downward half). A

@@ -99,7 +99,7 @@ impl ContentHash {
                     self.bins(x);
                 }
             }
-            SideBoundary::GivenHalves { light, down } => {
+            SideBoundary::GivenHalves { light, down, cells } => {
                 self.u32(3).u64(light.len() as u64);
                 for x in light {
                     self.bins(x);
@@ -108,6 +108,13 @@ impl ContentHash {
                     for v in &d.0 {
                         self.f32s(&v.to_array());
                     }
+                }
+                // Hashed only where given: a boundary without them keeps its hash.
+                if let Some(cells) = cells {
+                    self.u32(1).u64(cells.len() as u64);
+                }
+                for m in cells.iter().flatten() {
+                    self.f32s(&[m.pass]).f32s(&m.reflectance.to_array());
                 }
             }
         }

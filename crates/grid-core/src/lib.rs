@@ -96,6 +96,7 @@ mod error;
 pub mod extremes;
 pub mod file;
 mod grid;
+pub mod halo_carry;
 pub mod hash;
 pub mod light;
 pub mod lights;

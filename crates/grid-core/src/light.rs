@@ -494,6 +494,26 @@ pub fn half_bin_weights(n: DVec3) -> [[f64; 2]; dirs::HORIZONTAL_BINS] {
     })
 }
 
+/// The mean over a segment of optical depth `depth` (transmittance `tr = e^−depth`) of
+/// the transmittance from its start, `(1 − tr) / depth`: a point's light is the mean of
+/// its path's light over the segment through its own cell (`lightgrid-sweep-cpu`'s docs, step 7), as
+/// the Monte Carlo reference tallies a cell's mean. 1 for an empty segment, 0 for an
+/// opaque one (`depth` infinite), `1 / depth` where `tr` underflows; in `[tr, 1]`. Taken
+/// from the depth, not from `tr` alone, so that it stays right (and the GPU's equal)
+/// where `tr` is below `f32`'s normal range.
+#[inline]
+pub fn seg_mean(tr: f32, depth: f32) -> f32 {
+    if depth.is_nan() || depth <= 0.0 {
+        return 1.0;
+    }
+    // Below 0.02, the series `1 − x/2 + x²/6 − x³/24` (within 2e-9): `1 − tr` loses
+    // digits in `f32`.
+    if depth < 0.02 {
+        return 1.0 - depth * (0.5 - depth * (1.0 / 6.0 - depth / 24.0));
+    }
+    (1.0 - tr) / depth
+}
+
 /// `v` as `f32`, finite: beyond `±f32::MAX` saturated there, NaN read as 0. What the
 /// projections of [`BinLight`] return instead of an infinity or a NaN.
 pub fn finite(v: DVec3) -> Vec3 {

@@ -142,6 +142,26 @@ impl Boundary {
                 }
             }
         }
+        if let Some(cells) = self.sides.halo_cells() {
+            let layout = HaloLayout::new(desc.dims());
+            if cells.len() != layout.len() {
+                return Err(GridError::LengthMismatch {
+                    field: "sides.cells",
+                    expected: layout.len(),
+                    found: cells.len(),
+                });
+            }
+            let unit = |v: f32| (0.0..=1.0).contains(&v);
+            let valid =
+                |m: &Material| unit(m.pass) && m.reflectance.to_array().into_iter().all(unit);
+            if let Some((i, m)) = cells.iter().enumerate().find(|(_, m)| !valid(m)) {
+                return Err(GridError::invalid(
+                    "sides.cells",
+                    format!("[{i}] = pass {}, reflectance {}", m.pass, m.reflectance),
+                    "pass and reflectance must be in [0, 1]",
+                ));
+            }
+        }
         if let Some(h) = self.sides.halo() {
             let layout = HaloLayout::new(desc.dims());
             if h.len() != layout.len() {
@@ -215,6 +235,14 @@ pub enum SideBoundary {
         light: Vec<BinLight>,
         /// The downward halves of `light`'s horizontal bins, point for point.
         down: Vec<crate::HorizonLight>,
+        /// The material of the halo's cells, point for point, where the caller knows it
+        /// (`None`: taken as empty space). A value of `light` is its cell's mean (as a
+        /// grid's points hold it); with the cell's material known, a sweep carries it to
+        /// where the point's paths leave the cell and through the halo's cells after it
+        /// (a medium stops part of it and emits its albedo's share of the cell's mean
+        /// light), as the paths of the grid's own points are carried
+        /// ([`SideBoundary::halo_cells`]).
+        cells: Option<Vec<Material>>,
     },
 }
 
@@ -225,6 +253,15 @@ impl SideBoundary {
         match self {
             SideBoundary::Given(h) | SideBoundary::GivenHalves { light: h, .. } => Some(h),
             SideBoundary::Open | SideBoundary::Periodic => None,
+        }
+    }
+
+    /// The material of the halo's cells, if given ([`SideBoundary::GivenHalves`]'s
+    /// `cells`).
+    pub fn halo_cells(&self) -> Option<&[Material]> {
+        match self {
+            SideBoundary::GivenHalves { cells, .. } => cells.as_deref(),
+            _ => None,
         }
     }
 
@@ -1255,6 +1292,7 @@ mod tests {
             sides: SideBoundary::GivenHalves {
                 light: vec![BinLight::ZERO; n],
                 down,
+                cells: None,
             },
             ..Boundary::open_sky(BinLight::ZERO)
         };
@@ -1269,6 +1307,49 @@ mod tests {
         bad[5].0[2].y = -1.0;
         let e = sides(bad).validate(&d).unwrap_err().to_string();
         assert!(e.contains("sides.down") && e.contains("[5]"), "{e}");
+        // Given cells: as many as the halo's points, pass-through and reflectance in
+        // [0, 1].
+        let with_cells = |cells: Vec<Material>| Boundary {
+            sides: SideBoundary::GivenHalves {
+                light: vec![BinLight::ZERO; n],
+                down: vec![crate::HorizonLight::default(); n],
+                cells: Some(cells),
+            },
+            ..Boundary::open_sky(BinLight::ZERO)
+        };
+        assert!(with_cells(vec![Material::EMPTY; n]).validate(&d).is_ok());
+        let e = with_cells(vec![Material::EMPTY; n + 1])
+            .validate(&d)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("sides.cells"), "{e}");
+        for bad in [
+            Material {
+                reflectance: Vec3::ONE,
+                pass: 1.5,
+            },
+            Material {
+                reflectance: Vec3::ONE,
+                pass: f32::NAN,
+            },
+            Material {
+                reflectance: Vec3::new(0.5, -0.1, 0.5),
+                pass: 0.5,
+            },
+            Material {
+                reflectance: Vec3::new(0.5, 1.1, 0.5),
+                pass: 0.5,
+            },
+            Material {
+                reflectance: Vec3::new(0.5, f32::INFINITY, 0.5),
+                pass: 0.5,
+            },
+        ] {
+            let mut cells = vec![Material::EMPTY; n];
+            cells[7] = bad;
+            let e = with_cells(cells).validate(&d).unwrap_err().to_string();
+            assert!(e.contains("sides.cells") && e.contains("[7]"), "{e}");
+        }
     }
 
     #[test]

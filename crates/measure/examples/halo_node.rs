@@ -72,6 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 })
                 .collect(),
             light: halo,
+            cells: None,
         },
         Ok("periodic") => SideBoundary::Periodic,
         Ok(s) => return Err(format!("SIDES={s}: given, halves or periodic").into()),

@@ -13,9 +13,11 @@
 //! value (the 3 × 3 × 3 points around it in the full sweep; issue 43's measure), that
 //! largest at 3, 6 (the hierarchy's apron) and 10 or more cells from the crop's sides,
 //! and the RMSE; each without and with the halo's paths traced
-//! (`SweepOptions::halo_paths`).
+//! (`SweepOptions::halo_paths`), and without and with the halo's cells given
+//! (`SideBoundary::GivenHalves`'s `cells`: its light carried through them,
+//! `lightgrid_core::halo_carry`).
 //!
-//! `cargo run --release -p lightgrid-measure --example handover`
+//! `cargo run --release -p lightgrid-measure --example handover` (13 minutes)
 
 use lightgrid_core::glam::{IVec3, UVec3, Vec3};
 use lightgrid_core::light::{AMBIENT_AXES, luminance};
@@ -99,14 +101,14 @@ fn crop(
     m: &MaterialGrid,
     (bins, halves): (&LightGrid, &HorizonGrid),
     sky: BinLight,
-    lift: bool,
+    (lift, with_cells): (bool, bool),
 ) -> Result<(MaterialGrid, Boundary), Box<dyn std::error::Error>> {
     let desc = GridDesc::new(
         Vec3::new(X0 as f32, 0.0, X0 as f32),
         1.0,
         UVec3::new(W, NY, W),
     )?;
-    let cells = (0..desc.point_count())
+    let crop_cells: Vec<Material> = (0..desc.point_count())
         .map(|i| {
             let p = desc.coords(i).unwrap_or_default();
             *m.get(UVec3::new(X0 + p.x, p.y, X0 + p.z))
@@ -114,9 +116,10 @@ fn crop(
         })
         .collect();
     let layout = HaloLayout::new(desc.dims());
-    let (mut light, mut down) = (
+    let (mut light, mut down, mut cells) = (
         vec![BinLight::ZERO; layout.len()],
         vec![HorizonLight::default(); layout.len()],
+        vec![Material::EMPTY; layout.len()],
     );
     let w = HALO_WIDTH;
     for j in 0..NY {
@@ -124,6 +127,7 @@ fn crop(
             for x in -w..W as i32 + w {
                 if let Some(k) = layout.index(x, j, z) {
                     let mut q = UVec3::new((X0 as i32 + x) as u32, j, (X0 as i32 + z) as u32);
+                    cells[k] = *m.get(q).ok_or("halo point in the full grid")?;
                     // Lifted out of the ground, as the hierarchy reads its halo near
                     // bare ground (`HierarchyParams::halo_ground_lift`).
                     while lift && q.y + 1 < NY && m.get(q).is_some_and(|c| c.pass == 0.0) {
@@ -136,10 +140,14 @@ fn crop(
         }
     }
     let b = Boundary {
-        sides: SideBoundary::GivenHalves { light, down },
+        sides: SideBoundary::GivenHalves {
+            light,
+            down,
+            cells: with_cells.then_some(cells),
+        },
         ..Boundary::open_sky(sky)
     };
-    Ok((MaterialGrid::new(desc, cells)?, b))
+    Ok((MaterialGrid::new(desc, crop_cells)?, b))
 }
 
 /// The crop's light `c` against the full sweep's `full` at every non-opaque point of
@@ -250,13 +258,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             full.bins.ok_or("bins asked for")?,
             full.horizon.ok_or("halves asked for")?,
         );
-        let (cm, b) = crop(&m, (&full.0, &full.1), sky, lift)?;
         let passes = if o.max_passes == 4 {
             "the hierarchy's"
         } else {
             "converged"
         };
-        for halo_paths in [false, true] {
+        for (halo_paths, with_cells) in [(false, false), (true, false), (false, true), (true, true)]
+        {
+            let (cm, b) = crop(&m, (&full.0, &full.1), sky, (lift, with_cells))?;
             let mut o = o;
             o.halo_paths = halo_paths;
             let c = CpuSweeper::new().sweep(&cm, &b, &o)?;
@@ -266,7 +275,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
             let (worst, rmse) = errors(&cm, &c, &full)?;
             let w = worst.map(|w| format!("{:.1} %", w * 100.0)).join(" | ");
-            let traced = if halo_paths { "traced" } else { "no" };
+            let traced = match (halo_paths, with_cells) {
+                (false, false) => "no",
+                (true, false) => "traced",
+                (false, true) => "no, cells given",
+                (true, true) => "traced, cells given",
+            };
             println!(
                 "| {name} | {passes} | {traced} | {w} | {:.2} % |",
                 rmse * 100.0

@@ -227,6 +227,7 @@ fn horizon_halves_handed_over_through_the_sides_are_kept_exactly() {
     let given = sweep(SideBoundary::GivenHalves {
         light: vec![field; n],
         down: vec![halves; n],
+        cells: None,
     });
     let (bins, down) = (given.bins.unwrap(), given.horizon.unwrap());
     for (i, (l, d)) in bins.data().iter().zip(down.data()).enumerate() {

@@ -502,7 +502,12 @@
 //! they emit into it leaving. Not traced: what a later cell of such a path stops of
 //! what an earlier one emitted into it (step 5's collection), which waits for the next
 //! passes (`tests/handover.rs`: a crop of fog handed its sweep's own light, exact in one
-//! pass, within 2e-4 of the brightest bin in two, 7 % off untraced).
+//! pass, within 2e-4 of the brightest bin in two, 7 % off untraced). A halo value is
+//! its cell's mean; where the caller gives the halo's cells
+//! ([`SideBoundary::GivenHalves`]'s `cells`) it is carried through them before the
+//! sweep, from the mean to where its bin's path leaves the cell and through the halo's
+//! cells after it ([`lightgrid_core::halo_carry`]); the grid's own points' paths still
+//! cross the halo's cells before the grid's as empty space.
 
 pub mod accel;
 pub mod beam;

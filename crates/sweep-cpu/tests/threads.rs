@@ -52,6 +52,7 @@ fn node(seed: u64) -> (MaterialGrid, Boundary) {
                     }))
                 })
                 .collect(),
+            cells: None,
         },
     };
     (MaterialGrid::new(d, cells).unwrap(), boundary)

@@ -413,6 +413,10 @@ impl GpuSweeper {
                     .into(),
             });
         }
+        // The halo's light carried through its given cells, as on the CPU.
+        let carried =
+            lightgrid_core::halo_carry::carried_boundary(boundary, material.desc().dims());
+        let boundary = &*carried;
         let backend = |e: GpuError| SweepError::Backend {
             backend: "gpu",
             message: e.to_string(),

@@ -110,7 +110,8 @@ fn material_strategy(max: u32) -> impl Strategy<Value = MaterialGrid> {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
     /// Random grids (each side 1 to 40 points; pass-through and reflectance including exact
-    /// 0 and 1), every side mode (given halos with and without their downward halves) and a per-point top, random sky and sun, smoothing and
+    /// 0 and 1), every side mode (given halos with and without their downward halves,
+    /// and with their cells) and a per-point top, random sky and sun, smoothing and
     /// pass count.
     #[test]
     fn random_grids_match_the_cpu(m in material_strategy(40), sides in 0u8..5, smoothing in 0f32..0.9, passes in 1u32..5, sun in 0f32..100.0, sun_bin in 0usize..17, profile in any::<bool>(), horizon in any::<bool>()) {
@@ -130,7 +131,14 @@ proptest! {
                 _ => {
                     let light: Vec<BinLight> = (0..HaloLayout::new(d.dims()).len()).map(|i| sky.scaled(0.5 + (i % 7) as f32 * 0.1)).collect();
                     let down = light.iter().enumerate().map(|(i, l)| lightgrid_core::HorizonLight(std::array::from_fn(|k| l.0[lightgrid_core::dirs::FIRST_HORIZONTAL + k] * (0.1 + ((i + k) % 9) as f32 * 0.1)))).collect();
-                    SideBoundary::GivenHalves { light, down }
+                    // The halo's cells given for half the cases (media, opaque and
+                    // empty cells): both sweepers carry the halo's light through them.
+                    let cells = (sun_bin % 2 == 0).then(|| (0..HaloLayout::new(d.dims()).len()).map(|i| match i % 5 {
+                        0 => lightgrid_core::Material::EMPTY,
+                        1 => lightgrid_core::Material::opaque(Vec3::splat(0.4)),
+                        k => lightgrid_core::Material { reflectance: Vec3::new(0.3, 0.5, 0.7), pass: 0.15 * k as f32 },
+                    }).collect());
+                    SideBoundary::GivenHalves { light, down, cells }
                 }
             },
         };

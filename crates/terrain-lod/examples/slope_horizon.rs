@@ -194,7 +194,11 @@ fn measure(
     let boundary = Boundary {
         top: TopBoundary::Uniform(Box::new(top)),
         bottom: BinLight::ZERO,
-        sides: SideBoundary::GivenHalves { light, down },
+        sides: SideBoundary::GivenHalves {
+            light,
+            down,
+            cells: None,
+        },
     };
     let mut o = lightgrid_core::SweepOptions::multi_bounce();
     o.max_passes = 64;

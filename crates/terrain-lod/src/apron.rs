@@ -27,6 +27,10 @@ use lightgrid_core::{
 
 use crate::{Hierarchy, LodError, NodeKey, NodeMaterial, StageTimes, shadow, timed};
 
+/// A node's composed material: its grid, widened by the apron, and widened by the apron
+/// and the halo ([`Hierarchy::compose_node`]).
+pub(crate) type Composed = (MaterialGrid, Option<MaterialGrid>, Option<MaterialGrid>);
+
 /// What a node's sky sweep reads besides its material: the boundary of its grid, or of
 /// the grid widened by the apron, and the hash of those inputs ([`Hierarchy::refresh`]).
 pub(crate) struct SkyInputs {
@@ -42,17 +46,32 @@ impl Hierarchy {
     /// The source's material over `desc` and, with an apron, over `desc` widened by it:
     /// composed once over the widened grid, `desc`'s its inner points (every cell is
     /// composed from its own box: the same bit for bit).
-    pub(crate) fn compose_node(
-        &self,
-        desc: &GridDesc,
-    ) -> Result<(MaterialGrid, Option<MaterialGrid>), GridError> {
+    ///
+    /// With [`HierarchyParams::halo_cells`](crate::HierarchyParams::halo_cells), composed
+    /// [`HALO_WIDTH`](lightgrid_core::HALO_WIDTH) cells wider still, and that grid (whose
+    /// ring holds the cells of the sweeps' halos) returned third.
+    pub(crate) fn compose_node(&self, desc: &GridDesc) -> Result<Composed, GridError> {
         let apron = self.params.apron;
+        if self.params.halo_cells == crate::HaloCells::Composed {
+            let ring = lightgrid_core::HALO_WIDTH as u32;
+            let outer_desc = widened(desc, apron + ring)?;
+            let outer = self.compose(&outer_desc)?;
+            let wide = (apron > 0).then(|| {
+                let big = widened(desc, apron).expect("narrower than the composed grid");
+                crop(&outer, &outer_desc, &big, ring)
+            });
+            return Ok((
+                crop(&outer, &outer_desc, desc, apron + ring),
+                wide,
+                Some(outer),
+            ));
+        }
         if apron == 0 {
-            return Ok((self.compose(desc)?, None));
+            return Ok((self.compose(desc)?, None, None));
         }
         let big = widened(desc, apron)?;
         let wide = self.compose(&big)?;
-        Ok((crop(&wide, &big, desc, apron), Some(wide)))
+        Ok((crop(&wide, &big, desc, apron), Some(wide), None))
     }
 
     /// The inputs of node `key`'s sky sweep, its material `material`: the boundary from
@@ -61,13 +80,14 @@ impl Hierarchy {
     pub(crate) fn sky_inputs(
         &self,
         key: crate::NodeKey,
-        material: (&MaterialGrid, Option<&MaterialGrid>),
+        material: &NodeMaterial,
         options: &SweepOptions,
         times: &mut StageTimes,
     ) -> SkyInputs {
         let mut inputs = self.sky_boundary(key, material, times);
+        let m = (&material.grid, material.widened.as_ref());
         timed(&mut times.boundary, || {
-            inputs.hash = self.sky_hash(material, &inputs.boundary, options);
+            inputs.hash = self.sky_hash(m, &inputs.boundary, options);
         });
         inputs
     }
@@ -77,11 +97,16 @@ impl Hierarchy {
     pub(crate) fn sky_boundary(
         &self,
         key: crate::NodeKey,
-        material: (&MaterialGrid, Option<&MaterialGrid>),
+        material: &NodeMaterial,
         times: &mut StageTimes,
     ) -> SkyInputs {
-        let m = material.1.unwrap_or(material.0);
-        let boundary = timed(&mut times.boundary, || self.node_boundary(m.desc(), key));
+        let m = material.widened.as_ref().unwrap_or(&material.grid);
+        let boundary = timed(&mut times.boundary, || {
+            let mut b = self.node_boundary(m.desc(), key, material.outer.as_ref());
+            // Carried here, in place: the sweep then copies nothing.
+            lightgrid_core::halo_carry::carry_halo(&mut b, m.desc().dims());
+            b
+        });
         SkyInputs {
             boundary,
             hash: 0,

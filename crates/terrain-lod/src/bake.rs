@@ -414,6 +414,7 @@ impl WorldBake {
                         grid: g.material.clone(),
                         // (Read only: loaded nodes are never swept again.)
                         widened: None,
+                        outer: None,
                         has_objects: g.has_objects,
                         open_above: g.open_above,
                     },

@@ -2,7 +2,7 @@
 //! it, the sides from the full light in its halo, with the horizon halves where the
 //! coarser grid keeps them.
 
-use lightgrid_core::glam::{Vec2, Vec3};
+use lightgrid_core::glam::{UVec3, Vec2, Vec3};
 use lightgrid_core::{
     BinLight, Blend, Boundary, GridDesc, HALO_WIDTH, HaloLayout, HorizonGrid, HorizonLight,
     LightGrid, MaterialGrid, SideBoundary, TopBoundary,
@@ -379,8 +379,13 @@ impl Hierarchy {
     /// from the full light in the halo (and, with
     /// [`HierarchyParams::neighbour_halo`](crate::HierarchyParams::neighbour_halo),
     /// from the nodes of its depth before it where they are built).
-    pub(crate) fn node_boundary(&self, desc: &GridDesc, key: NodeKey) -> Boundary {
-        self.node_boundary_of(desc, key, Response::Sky)
+    pub(crate) fn node_boundary(
+        &self,
+        desc: &GridDesc,
+        key: NodeKey,
+        outer: Option<&MaterialGrid>,
+    ) -> Boundary {
+        self.node_boundary_of(desc, key, Response::Sky, outer)
     }
 
     /// [`Hierarchy::node_boundary`] of one response.
@@ -389,6 +394,7 @@ impl Hierarchy {
         desc: &GridDesc,
         key: NodeKey,
         which: Response,
+        outer: Option<&MaterialGrid>,
     ) -> Boundary {
         let depth = key.depth;
         let dims = desc.dims();
@@ -443,7 +449,11 @@ impl Hierarchy {
         }
         debug_assert_eq!(halo.len(), layout.len());
         let sides = if halves_everywhere {
-            SideBoundary::GivenHalves { light: halo, down }
+            SideBoundary::GivenHalves {
+                light: halo,
+                down,
+                cells: self.halo_cells_of(desc, key, outer),
+            }
         } else {
             SideBoundary::Given(halo)
         };
@@ -453,6 +463,130 @@ impl Hierarchy {
             sides,
         }
     }
+
+    /// The material of the cells of `desc`'s halo for node `key`'s sweeps
+    /// ([`HierarchyParams::halo_cells`](crate::HierarchyParams::halo_cells)): with
+    /// [`HaloCells::Composed`](crate::HaloCells::Composed), from `outer` (the node's
+    /// grid composed over them); with [`HaloCells::Coarser`](crate::HaloCells::Coarser),
+    /// each cell's from the first grid that holds it of `outer` and the coarser
+    /// depths' materials (the node's ancestors', the world grid's), a coarser cell's
+    /// pass-through taken to the finer cell's length; empty beyond them all.
+    pub(crate) fn halo_cells_of(
+        &self,
+        desc: &GridDesc,
+        key: NodeKey,
+        outer: Option<&MaterialGrid>,
+    ) -> Option<Vec<lightgrid_core::Material>> {
+        use crate::HaloCells;
+        match self.params.halo_cells {
+            HaloCells::Off => return None,
+            HaloCells::Composed => return outer.and_then(|m| halo_cells(desc, m)),
+            HaloCells::Coarser => {}
+        }
+        let mut grids: Vec<&MaterialGrid> = outer.into_iter().collect();
+        let mut k = Some(key);
+        while let Some(at) = k.and_then(Self::parent) {
+            if let Some(n) = self.nodes.get(&at) {
+                grids.push(n.material.widened.as_ref().unwrap_or(&n.material.grid));
+            }
+            k = Some(at);
+        }
+        grids.extend(self.world_material.as_ref());
+        let (dims, h, w) = (desc.dims(), desc.h(), HALO_WIDTH);
+        let (nx, nz) = (dims.x as i32, dims.z as i32);
+        let mut cells = Vec::with_capacity(HaloLayout::new(dims).len());
+        // A level's points lie on one level of each grid, a row (column) of them on
+        // one row (column): their cells found once a level and once a row and column.
+        let at = |g: &MaterialGrid, v: f32, axis: usize| {
+            let d = g.desc();
+            let q = ((v - d.origin()[axis]) / d.h()).round();
+            (q >= 0.0 && q < d.dims()[axis] as f32).then_some(q as u32)
+        };
+        let corner = desc.origin() - h * Vec3::new(w as f32, 0.0, w as f32);
+        let span = |axis: usize, n: i32| -> Vec<Vec<Option<u32>>> {
+            grids
+                .iter()
+                .map(|g| {
+                    (0..n + 2 * w)
+                        .map(|k| at(g, corner[axis] + h * k as f32, axis))
+                        .collect()
+                })
+                .collect()
+        };
+        let (xs, zs) = (span(0, nx), span(2, nz));
+        // A coarser cell's pass-through over the finer cell's length, for the few
+        // distinct values a composed material holds.
+        let mut seen: Vec<(u32, f32, f32)> = Vec::new();
+        let mut scaled = |pass: f32, f: f32| -> f32 {
+            if let Some(&(_, _, p)) = seen.iter().find(|s| s.0 == pass.to_bits() && s.1 == f) {
+                return p;
+            }
+            let p = pass.powf(f);
+            if seen.len() < 64 {
+                seen.push((pass.to_bits(), f, p));
+            }
+            p
+        };
+        for j in 0..dims.y {
+            let y = desc.origin().y + h * j as f32;
+            let ys: Vec<Option<u32>> = grids.iter().map(|g| at(g, y, 1)).collect();
+            for z in -w..nz + w {
+                let inside_z = (0..nz).contains(&z);
+                for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
+                    let (kx, kz) = ((x + w) as usize, (z + w) as usize);
+                    let found = grids.iter().enumerate().find_map(|(g, grid)| {
+                        let q = UVec3::new(xs[g][kx]?, ys[g]?, zs[g][kz]?);
+                        grid.get(q).map(|m| (m, h / grid.desc().h()))
+                    });
+                    cells.push(match found {
+                        Some((m, f)) if m.pass > 0.0 && m.pass < 1.0 && f != 1.0 => {
+                            lightgrid_core::Material {
+                                pass: scaled(m.pass, f),
+                                ..*m
+                            }
+                        }
+                        Some((m, _)) => *m,
+                        None => lightgrid_core::Material::EMPTY,
+                    });
+                }
+            }
+        }
+        Some(cells)
+    }
+}
+
+/// The material of the cells of `desc`'s halo ([`HaloLayout`]'s order) from `outer`, a
+/// grid of the same cells and levels around it ([`crate::NodeMaterial`]'s `outer`);
+/// `None` where `outer` does not hold the whole halo on `desc`'s lattice.
+fn halo_cells(desc: &GridDesc, outer: &MaterialGrid) -> Option<Vec<lightgrid_core::Material>> {
+    let o = outer.desc();
+    let off = (desc.origin() - o.origin()) / desc.h();
+    let (dims, odims) = (desc.dims(), o.dims());
+    let w = HALO_WIDTH;
+    let fits = (o.h() - desc.h()).abs() <= 1e-6 * desc.h()
+        && (off - off.round()).abs().max_element() < 1e-3
+        && off.y.round() == 0.0
+        && off.x.round() >= w as f32
+        && off.z.round() >= w as f32
+        && off.x.round() as u32 + dims.x + w as u32 <= odims.x
+        && off.z.round() as u32 + dims.z + w as u32 <= odims.z
+        && dims.y <= odims.y;
+    if !fits {
+        return None;
+    }
+    let (ox, oz) = (off.x.round() as i32, off.z.round() as i32);
+    let (nx, nz) = (dims.x as i32, dims.z as i32);
+    let mut cells = Vec::with_capacity(HaloLayout::new(dims).len());
+    for j in 0..dims.y {
+        for z in -w..nz + w {
+            let inside_z = (0..nz).contains(&z);
+            for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
+                let q = UVec3::new((x + ox) as u32, j, (z + oz) as u32);
+                cells.push(*outer.get(q)?);
+            }
+        }
+    }
+    Some(cells)
 }
 
 #[cfg(test)]
@@ -500,9 +634,9 @@ mod tests {
         for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
             let desc = *h.node(key).unwrap().desc();
             for which in [Response::Sky, Response::Sun] {
-                let b = h.node_boundary_of(&desc, key, which);
+                let b = h.node_boundary_of(&desc, key, which, None);
                 let (light, down) = match &b.sides {
-                    lightgrid_core::SideBoundary::GivenHalves { light, down } => {
+                    lightgrid_core::SideBoundary::GivenHalves { light, down, .. } => {
                         (light, Some(down))
                     }
                     lightgrid_core::SideBoundary::Given(light) => (light, None),
@@ -636,9 +770,9 @@ mod tests {
                     Response::Sky => *n.material.widened.as_ref().unwrap().desc(),
                     Response::Sun => *n.light.desc(),
                 };
-                let b = h.node_boundary_of(&desc, key, which);
+                let b = h.node_boundary_of(&desc, key, which, None);
                 let (light, down) = match &b.sides {
-                    lightgrid_core::SideBoundary::GivenHalves { light, down } => (light, down),
+                    lightgrid_core::SideBoundary::GivenHalves { light, down, .. } => (light, down),
                     other => panic!("sides {other:?}"),
                 };
                 for (i, &p) in halo_points(&desc).iter().enumerate() {
@@ -708,7 +842,7 @@ mod tests {
             for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
                 let n = &h.nodes[&key];
                 let desc = *n.material.widened.as_ref().unwrap().desc();
-                let b = h.node_boundary_of(&desc, key, Response::Sky);
+                let b = h.node_boundary_of(&desc, key, Response::Sky, None);
                 let lightgrid_core::SideBoundary::GivenHalves { light, .. } = &b.sides else {
                     panic!("sides {:?}", b.sides);
                 };

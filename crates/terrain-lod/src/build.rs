@@ -919,7 +919,7 @@ impl Hierarchy {
                 // 600 kB a 16-point node) taken on a worker the sweep leaves idle (a
                 // lone node's levels keep the second thread only half busy), else
                 // after it on this thread.
-                let inputs = self.sky_boundary(key, material, times);
+                let inputs = self.sky_boundary(key, composed, times);
                 let mut hash = 0;
                 let mut hash_time = Duration::ZERO;
                 let out = rayon::in_place_scope(|s| {

@@ -176,7 +176,7 @@ mod testing;
 mod volume;
 
 pub use depth::{DEPTH_BITS, quantized_pass};
-pub use params::{HierarchyParams, LodSkips};
+pub use params::{HaloCells, HierarchyParams, LodSkips};
 
 use lightgrid_core::Heightmap;
 use lightgrid_core::glam::{IVec2, UVec3, Vec2, Vec3};
@@ -309,6 +309,10 @@ struct NodeMaterial {
     /// on every side (the same levels; `grid` is its inner points): what the node's
     /// sweeps and marches run on ([`crate::apron`]).
     widened: Option<MaterialGrid>,
+    /// With [`HaloCells::Composed`], the material of `grid` widened by the apron
+    /// and [`HALO_WIDTH`](lightgrid_core::HALO_WIDTH) more cells: its ring holds the
+    /// cells of the halos of the node's sweeps (the sky's and the sun's).
+    outer: Option<MaterialGrid>,
     /// Objects above the ground.
     has_objects: bool,
     /// Nothing lies above the grid in the node's column (its composed top was empty).
@@ -664,10 +668,17 @@ fn hash_grid(m: &MaterialGrid, b: &Boundary, o: &SweepOptions) -> u64 {
             h.write_u8(2);
             h.write(bytemuck::cast_slice(v));
         }
-        SideBoundary::GivenHalves { light, down } => {
+        SideBoundary::GivenHalves { light, down, cells } => {
             h.write_u8(3);
             h.write(bytemuck::cast_slice(light));
             h.write(bytemuck::cast_slice(down));
+            if let Some(cells) = cells {
+                h.write_u8(1);
+                for m in cells {
+                    h.write(bytemuck::cast_slice(&[m.pass]));
+                    h.write(bytemuck::cast_slice(&m.reflectance.to_array()));
+                }
+            }
         }
     }
     h.finish()
@@ -1099,8 +1110,8 @@ impl Hierarchy {
     /// higher: tall where the forest is tall. Also whether it has objects above the
     /// ground.
     pub(crate) fn node_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
-        let (full, wide) = self.compose_node(&self.node_desc(key)?)?;
-        self.trimmed(full, wide)
+        let composed = self.compose_node(&self.node_desc(key)?)?;
+        self.trimmed(composed)
     }
 
     /// The material of node `key` as a sun's caster holds it ([`casters`]): the source's
@@ -1109,16 +1120,12 @@ impl Hierarchy {
     /// [`Hierarchy::node_material`] keeps them.
     pub(crate) fn caster_material(&self, key: NodeKey) -> Result<NodeMaterial, GridError> {
         let m = self.source.shadow_material(&self.node_desc(key)?)?;
-        self.trimmed(Self::quantized(m)?, None)
+        self.trimmed((Self::quantized(m)?, None, None))
     }
 
     /// `full` (and `wide`, its apron's widened grid) kept from the ground to two cells
     /// above the highest ground and one above the highest object ([`NodeMaterial`]).
-    fn trimmed(
-        &self,
-        full: MaterialGrid,
-        wide: Option<MaterialGrid>,
-    ) -> Result<NodeMaterial, GridError> {
+    fn trimmed(&self, (full, wide, outer): apron::Composed) -> Result<NodeMaterial, GridError> {
         let d = *full.desc();
         let mut top_level = 0;
         // The highest level holding ground, and the highest holding an object (`None`:
@@ -1153,6 +1160,7 @@ impl Hierarchy {
         Ok(NodeMaterial {
             grid: apron::lowest_levels(full, ny)?,
             widened: wide.map(|w| apron::lowest_levels(w, ny)).transpose()?,
+            outer: outer.map(|w| apron::lowest_levels(w, ny)).transpose()?,
             has_objects,
             open_above,
         })

@@ -300,8 +300,7 @@ impl Hierarchy {
                 };
                 let inputs = (material.grid.desc() == n.light.desc()).then(|| {
                     let o = self.node_options(material.has_objects);
-                    let m = (&material.grid, material.widened.as_ref());
-                    self.sky_inputs(*key, m, &o, &mut times)
+                    self.sky_inputs(*key, &material, &o, &mut times)
                 });
                 Ok(Prepared {
                     material,

@@ -116,7 +116,15 @@ impl Hierarchy {
         let desc = *swept.desc();
         let o = self.node_options(material.has_objects);
         let scattered = timed(&mut times.sun_boundary, || {
-            self.node_boundary_of(&desc, key, Response::Sun)
+            let mut b = self.node_boundary_of(
+                &desc,
+                key,
+                Response::Sun,
+                material.outer.as_ref().or(material.widened.as_ref()),
+            );
+            // Carried here, in place: the sweep then copies nothing.
+            lightgrid_core::halo_carry::carry_halo(&mut b, desc.dims());
+            b
         });
         // Swept for the direction the scattered sun is shown for (the old one while a
         // moved sun's world grid is swept on a thread), marched for the sun shown.

@@ -82,7 +82,7 @@ fn header(report: &FrameReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells, sun responses {}), {} passes at most (tolerance {}, {} medium rule{}{}), {} path, bare-ground skip {}, sun's casters {}, {}, {}, side halos from {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
+        "cargo xtask frame: {} sweeper, {}-point nodes (sky sweeps with an apron of {} cells, sun responses {}), {} passes at most (tolerance {}, {} medium rule{}{}{}), {} path, bare-ground skip {}, sun's casters {}, {}, {}, side halos from {}, {}; reference {} points (one 1 m sweep, sky in {:.2} s)",
         report.sweeper,
         report.node_points,
         report.apron,
@@ -99,6 +99,10 @@ fn header(report: &FrameReport) -> String {
             ", the halo's paths traced"
         } else {
             ""
+        },
+        match report.halo_cells.as_str() {
+            "off" => ", the halo's cells taken as empty".to_string(),
+            m => format!(", the halo's cells from the {m} material"),
         },
         report.path,
         if report.bare_skip { "on" } else { "off" },

@@ -406,6 +406,9 @@ pub(crate) fn run_reusing(
     spare: &mut Spare,
 ) -> Result<Sweep, SweepError> {
     validate_inputs(material, boundary, options)?;
+    // The halo's light carried through its given cells (`SideBoundary::halo_cells`).
+    let carried = lightgrid_core::halo_carry::carried_boundary(boundary, material.desc().dims());
+    let boundary = &*carried;
     // A gather for low suns alone (`Gather::AUTO`) is the sun's entry points' to apply:
     // a source given here is swept as it is.
     if source.is_some() && options.gather.for_source().is_on() {

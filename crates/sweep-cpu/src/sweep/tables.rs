@@ -95,18 +95,7 @@ pub fn channels(up: bool) -> &'static [Channel; CHANNELS] {
             }
             let bin = dirs::dir_index(v).expect("mirrored direction");
             let horizontal = v.y == 0;
-            let stencil = if horizontal {
-                let (dx, dz) = (v.x, v.z);
-                vec![
-                    (-2 * dx, -2 * dz, 0.125),
-                    (-dx, -dz, 0.25),
-                    (0, 0, 0.25),
-                    (dx, dz, 0.25),
-                    (2 * dx, 2 * dz, 0.125),
-                ]
-            } else {
-                vec![(0, 0, 1.0)]
-            };
+            let stencil = dirs::level_stencil(v);
             let first_slot = slot;
             slot += stencil.len();
             let length = channel_length(sd.bin);
@@ -246,25 +235,7 @@ pub fn medium_emission(pass: f32) -> (f32, f32) {
     ((forward + back) * 0.5, (back - forward) * 0.5)
 }
 
-/// The mean over a segment of optical depth `depth` (transmittance `tr = e^−depth`) of
-/// the transmittance from its start, `(1 − tr) / depth`: a point's light is the mean of
-/// its path's light over the segment through its own cell (the crate docs, step 7), as
-/// the Monte Carlo reference tallies a cell's mean. 1 for an empty segment, 0 for an
-/// opaque one (`depth` infinite), `1 / depth` where `tr` underflows; in `[tr, 1]`. Taken
-/// from the depth, not from `tr` alone, so that it stays right (and the GPU's equal)
-/// where `tr` is below `f32`'s normal range.
-#[inline]
-pub fn seg_mean(tr: f32, depth: f32) -> f32 {
-    if depth.is_nan() || depth <= 0.0 {
-        return 1.0;
-    }
-    // Below 0.02, the series `1 − x/2 + x²/6 − x³/24` (within 2e-9): `1 − tr` loses
-    // digits in `f32`.
-    if depth < 0.02 {
-        return 1.0 - depth * (0.5 - depth * (1.0 / 6.0 - depth / 24.0));
-    }
-    (1.0 - tr) / depth
-}
+pub use lightgrid_core::light::seg_mean;
 
 /// Channel `chn`'s value in bins `b`: whole where `b` is a boundary's one-way light;
 /// where it is full-sphere light (a side halo), a horizontal bin's part travelling the

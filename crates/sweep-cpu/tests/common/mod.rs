@@ -57,6 +57,7 @@ pub(crate) fn sides(d: &GridDesc, kind: u8) -> SideBoundary {
                     }))
                 })
                 .collect(),
+            cells: None,
         },
     }
 }
