@@ -202,7 +202,7 @@ impl FrameConfig {
             neighbour_halo: false,
             halo_paths: false,
             no_ground_lift: false,
-            halo_cells: lightgrid_terrain_lod::HaloCells::Off,
+            halo_cells: lightgrid_terrain_lod::HierarchyParams::default().halo_cells,
             march_before_casters: false,
             colour_band: false,
             passes: None,

@@ -131,8 +131,8 @@ enum Task {
         #[arg(long)]
         no_ground_lift: bool,
         /// Where the nodes' sweeps take their halo's cells from
-        /// (HierarchyParams::halo_cells: off (the default), coarser or composed)
-        #[arg(long, default_value = "off", value_parser = ["off", "coarser", "composed"])]
+        /// (HierarchyParams::halo_cells: off, coarser (the default) or composed)
+        #[arg(long, default_value = "coarser", value_parser = ["off", "coarser", "composed"])]
         halo_cells: String,
         /// Under a time budget, a new node whose sun's casters wait marches its direct
         /// sun at once through those held (HierarchyParams::march_before_casters, off
@@ -305,7 +305,7 @@ fn main() -> ExitCode {
                 "coarser" => lightgrid_terrain_lod::HaloCells::Coarser,
                 "composed" => lightgrid_terrain_lod::HaloCells::Composed,
                 // (clap takes no other value.)
-                _ => lightgrid_terrain_lod::HaloCells::Off,
+                _ => lightgrid_terrain_lod::HaloCells::Coarser,
             };
             cfg.march_before_casters = march_before_casters;
             cfg.colour_band = colour_band;

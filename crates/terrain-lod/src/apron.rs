@@ -102,7 +102,11 @@ impl Hierarchy {
     ) -> SkyInputs {
         let m = material.widened.as_ref().unwrap_or(&material.grid);
         let boundary = timed(&mut times.boundary, || {
-            let mut b = self.node_boundary(m.desc(), key, material.outer.as_ref());
+            let cells = crate::boundary::HaloMaterial {
+                swept: Some(m),
+                outer: material.outer.as_ref(),
+            };
+            let mut b = self.node_boundary(m.desc(), key, cells);
             // Carried here, in place: the sweep then copies nothing.
             lightgrid_core::halo_carry::carry_halo(&mut b, m.desc().dims());
             b

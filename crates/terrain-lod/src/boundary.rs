@@ -49,6 +49,30 @@ pub(crate) enum Coarser<'a> {
 
 use crate::{GROUND_LIFT, Hierarchy, NodeKey, Response};
 
+/// Where a halo column's cells near the ground are taken from
+/// ([`Hierarchy::halo_cells_of`]): the terrain's height at the column's centre, the
+/// index within a level of the node's nearest column, and the levels from a halo cell
+/// to the cell of that column at the same height above the terrain.
+#[derive(Clone, Copy)]
+struct StandIn {
+    ground: f32,
+    column: u32,
+    shift: i32,
+}
+
+/// The node's own materials its halo's cells may be taken from
+/// ([`Hierarchy::halo_cells_of`]).
+#[derive(Clone, Copy, Default)]
+pub(crate) struct HaloMaterial<'a> {
+    /// The material the node is swept on (`desc`'s): near the ground, its nearest cells
+    /// stand in for the halo's.
+    pub swept: Option<&'a MaterialGrid>,
+    /// A grid of the same cells and levels around it (the node composed wider: with
+    /// [`HaloCells::Composed`](crate::HaloCells::Composed), or the sky's widened grid
+    /// around the sun's): it holds the halo's cells themselves.
+    pub outer: Option<&'a MaterialGrid>,
+}
+
 impl Hierarchy {
     /// Light (full bins) at `p` from the finest ready grid coarser than `depth` (the
     /// sky's, or all light without the sun apart, or the sun's scattered response), and
@@ -383,9 +407,9 @@ impl Hierarchy {
         &self,
         desc: &GridDesc,
         key: NodeKey,
-        outer: Option<&MaterialGrid>,
+        cells: HaloMaterial<'_>,
     ) -> Boundary {
-        self.node_boundary_of(desc, key, Response::Sky, outer)
+        self.node_boundary_of(desc, key, Response::Sky, cells)
     }
 
     /// [`Hierarchy::node_boundary`] of one response.
@@ -394,7 +418,7 @@ impl Hierarchy {
         desc: &GridDesc,
         key: NodeKey,
         which: Response,
-        outer: Option<&MaterialGrid>,
+        cells: HaloMaterial<'_>,
     ) -> Boundary {
         let depth = key.depth;
         let dims = desc.dims();
@@ -452,7 +476,7 @@ impl Hierarchy {
             SideBoundary::GivenHalves {
                 light: halo,
                 down,
-                cells: self.halo_cells_of(desc, key, outer),
+                cells: self.halo_cells_of(desc, key, which, cells),
             }
         } else {
             SideBoundary::Given(halo)
@@ -466,30 +490,58 @@ impl Hierarchy {
 
     /// The material of the cells of `desc`'s halo for node `key`'s sweeps
     /// ([`HierarchyParams::halo_cells`](crate::HierarchyParams::halo_cells)): with
-    /// [`HaloCells::Composed`](crate::HaloCells::Composed), from `outer` (the node's
+    /// [`HaloCells::Composed`](crate::HaloCells::Composed), from `own.outer` (the node's
     /// grid composed over them); with [`HaloCells::Coarser`](crate::HaloCells::Coarser),
-    /// each cell's from the first grid that holds it of `outer` and the coarser
-    /// depths' materials (the node's ancestors', the world grid's), a coarser cell's
-    /// pass-through taken to the finer cell's length; empty beyond them all.
+    /// each cell's from the first grid that holds it of `own.outer` and the coarser
+    /// depths' materials (the nodes' grids over the halo whose `which` light its halo
+    /// reads, finest first, then the world grid's), a coarser cell's pass-through taken to the finer cell's length; empty
+    /// beyond them all. Near the ground (the fine cell within one of the coarser
+    /// grid's cells above the terrain, so that the coarser cell may hold the terrain's
+    /// band, cut at its own size) the nearest cell of `own.swept` at the same height
+    /// above the terrain stands in, and a cell holding the terrain's surface is left
+    /// empty: the coarser band taken for a finer cell's medium lit bare ground's
+    /// sideways light 2.5–5 % bright, the surface's cell 3–5 % (`tests/ground_lift.rs`).
     pub(crate) fn halo_cells_of(
         &self,
         desc: &GridDesc,
         key: NodeKey,
-        outer: Option<&MaterialGrid>,
+        which: Response,
+        own: HaloMaterial<'_>,
     ) -> Option<Vec<lightgrid_core::Material>> {
         use crate::HaloCells;
         match self.params.halo_cells {
             HaloCells::Off => return None,
-            HaloCells::Composed => return outer.and_then(|m| halo_cells(desc, m)),
+            HaloCells::Composed => return own.outer.and_then(|m| halo_cells(desc, m)),
             HaloCells::Coarser => {}
         }
-        let mut grids: Vec<&MaterialGrid> = outer.into_iter().collect();
-        let mut k = Some(key);
-        while let Some(at) = k.and_then(Self::parent) {
-            if let Some(n) = self.nodes.get(&at) {
-                grids.push(n.material.widened.as_ref().unwrap_or(&n.material.grid));
-            }
-            k = Some(at);
+        // Each coarser depth's nodes over the halo (their grids, not their aprons'
+        // widened ones: those cells are their neighbours', and a bake's task holds
+        // the grids alone, its nodes then the live ones bit for bit), finest first:
+        // those at the halo's corners, every one over it where a coarser node is as
+        // wide as the node with its apron and halo, as at the defaults (one missed
+        // leaves its cells to a coarser depth).
+        let mut grids: Vec<&MaterialGrid> = own.outer.into_iter().collect();
+        let (lo, hi) = {
+            let d = desc.dims().as_vec3() - Vec3::ONE;
+            let w = HALO_WIDTH as f32 * desc.h();
+            let (a, b) = (desc.origin(), desc.origin() + d * desc.h());
+            (Vec2::new(a.x - w, a.z - w), Vec2::new(b.x + w, b.z + w))
+        };
+        for depth in (1..key.depth).rev() {
+            let mut keys: Vec<NodeKey> = [lo, Vec2::new(hi.x, lo.y), Vec2::new(lo.x, hi.y), hi]
+                .into_iter()
+                .map(|p| self.node_at(depth, p))
+                .collect();
+            keys.sort();
+            keys.dedup();
+            // (For a sun response, those whose sun the halo's light reads: the
+            // nodes a hierarchy built afresh there would hold.)
+            grids.extend(
+                keys.iter()
+                    .filter(|&&k| which == Response::Sky || self.sun_current(k))
+                    .filter_map(|k| self.nodes.get(k))
+                    .map(|n| &n.material.grid),
+            );
         }
         grids.extend(self.world_material.as_ref());
         let (dims, h, w) = (desc.dims(), desc.h(), HALO_WIDTH);
@@ -514,6 +566,7 @@ impl Hierarchy {
                 .collect()
         };
         let (xs, zs) = (span(0, nx), span(2, nz));
+        let near = self.near_ground_stand_ins(desc, own.swept);
         // A coarser cell's pass-through over the finer cell's length, for the few
         // distinct values a composed material holds.
         let mut seen: Vec<(u32, f32, f32)> = Vec::new();
@@ -530,6 +583,7 @@ impl Hierarchy {
         for j in 0..dims.y {
             let y = desc.origin().y + h * j as f32;
             let ys: Vec<Option<u32>> = grids.iter().map(|g| at(g, y, 1)).collect();
+            let mut column = 0;
             for z in -w..nz + w {
                 let inside_z = (0..nz).contains(&z);
                 for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
@@ -538,20 +592,76 @@ impl Hierarchy {
                         let q = UVec3::new(xs[g][kx]?, ys[g]?, zs[g][kz]?);
                         grid.get(q).map(|m| (m, h / grid.desc().h()))
                     });
-                    cells.push(match found {
-                        Some((m, f)) if m.pass > 0.0 && m.pass < 1.0 && f != 1.0 => {
+                    let stand_in = near.as_ref().and_then(|(swept, near)| {
+                        let StandIn {
+                            ground,
+                            column: q,
+                            shift,
+                        } = near[column];
+                        // The terrain's surface: the carry's even source
+                        // misplaces a surface's light, and where the ground lift
+                        // applies the halo value is light read clear of the band,
+                        // not the cell's mean (carried, bare ground's sideways
+                        // light nested 3–5 % bright).
+                        if (y - ground).abs() < 0.5 * h {
+                            return Some(lightgrid_core::Material::EMPTY);
+                        }
+                        // Within the coarser cell found of the terrain.
+                        let (_, f) = found?;
+                        (f != 1.0 && y < ground + h / f).then(|| {
+                            let level = (j as i32 + shift).clamp(0, dims.y as i32 - 1);
+                            swept.data()[(q + level as u32 * dims.x * dims.z) as usize]
+                        })
+                    });
+                    column += 1;
+                    cells.push(match (stand_in, found) {
+                        (Some(m), _) => m,
+                        (None, Some((m, f))) if m.pass > 0.0 && m.pass < 1.0 && f != 1.0 => {
                             lightgrid_core::Material {
                                 pass: scaled(m.pass, f),
                                 ..*m
                             }
                         }
-                        Some((m, _)) => *m,
-                        None => lightgrid_core::Material::EMPTY,
+                        (None, Some((m, _))) => *m,
+                        (None, None) => lightgrid_core::Material::EMPTY,
                     });
                 }
             }
         }
         Some(cells)
+    }
+
+    /// For each halo column of `desc` (the layout's order in a level): the terrain's
+    /// height at its centre, the index within a level of `swept`'s nearest column
+    /// (`desc`'s points), and the levels from a halo cell to the cell of that column at
+    /// the same height above the terrain; `None` without `swept` on `desc`'s points.
+    fn near_ground_stand_ins<'m>(
+        &self,
+        desc: &GridDesc,
+        swept: Option<&'m MaterialGrid>,
+    ) -> Option<(&'m MaterialGrid, Vec<StandIn>)> {
+        let swept = swept.filter(|m| m.desc() == desc)?;
+        let (dims, h, w) = (desc.dims(), desc.h(), HALO_WIDTH);
+        let (nx, nz) = (dims.x as i32, dims.z as i32);
+        let ground = |x: i32, z: i32| {
+            let p = desc.origin() + h * Vec3::new(x as f32, 0.0, z as f32);
+            self.heights.height_at(p.x, p.z)
+        };
+        let mut out = Vec::with_capacity(HaloLayout::new(dims).per_level());
+        for z in -w..nz + w {
+            let inside_z = (0..nz).contains(&z);
+            for x in (-w..nx + w).filter(|x| !inside_z || !(0..nx).contains(x)) {
+                let (cx, cz) = (x.clamp(0, nx - 1), z.clamp(0, nz - 1));
+                let g = ground(x, z);
+                let shift = ((ground(cx, cz) - g) / h).round() as i32;
+                out.push(StandIn {
+                    ground: g,
+                    column: (cx + cz * nx) as u32,
+                    shift,
+                });
+            }
+        }
+        Some((swept, out))
     }
 }
 
@@ -634,7 +744,7 @@ mod tests {
         for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
             let desc = *h.node(key).unwrap().desc();
             for which in [Response::Sky, Response::Sun] {
-                let b = h.node_boundary_of(&desc, key, which, None);
+                let b = h.node_boundary_of(&desc, key, which, Default::default());
                 let (light, down) = match &b.sides {
                     lightgrid_core::SideBoundary::GivenHalves { light, down, .. } => {
                         (light, Some(down))
@@ -770,7 +880,7 @@ mod tests {
                     Response::Sky => *n.material.widened.as_ref().unwrap().desc(),
                     Response::Sun => *n.light.desc(),
                 };
-                let b = h.node_boundary_of(&desc, key, which, None);
+                let b = h.node_boundary_of(&desc, key, which, Default::default());
                 let (light, down) = match &b.sides {
                     lightgrid_core::SideBoundary::GivenHalves { light, down, .. } => (light, down),
                     other => panic!("sides {other:?}"),
@@ -842,7 +952,7 @@ mod tests {
             for key in h.ready_nodes().into_iter().filter(|k| k.depth >= 2) {
                 let n = &h.nodes[&key];
                 let desc = *n.material.widened.as_ref().unwrap().desc();
-                let b = h.node_boundary_of(&desc, key, Response::Sky, None);
+                let b = h.node_boundary_of(&desc, key, Response::Sky, Default::default());
                 let lightgrid_core::SideBoundary::GivenHalves { light, .. } = &b.sides else {
                     panic!("sides {:?}", b.sides);
                 };

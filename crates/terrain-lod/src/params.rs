@@ -116,17 +116,16 @@ pub struct HierarchyParams {
     /// ground").
     pub halo_ground_lift: bool,
     /// Where each node's sweeps take the material of their halo's cells from
-    /// ([`SideBoundary::GivenHalves`](lightgrid_core::SideBoundary)'s `cells`; [`HaloCells`]).
-    /// Given, a sweep carries each halo value (a coarser grid's light at the point, a
-    /// cell's mean) through its cell and the halo's cells after it as it carries its
-    /// own points' light ([`lightgrid_core::halo_carry`]), instead of taking it for the
-    /// light leaving the point through empty space: taken as empty, a canopy's halo
-    /// cells let the coarse grid's light into the node unstopped. Off by default for
-    /// now: `Coarser` takes the frame bench's finest largest sky error 9.9 / 8.4 → 8.5
-    /// / 7.1 % (15 / 40°) for some 2.5 ms a fly-through frame, but a baked node no
-    /// longer equals the live one (a bake's task holds no ancestors' materials) and
-    /// over flat bare ground the finest nodes' sideways light nests 2.5–5 % bright
-    /// (`tests/ground_lift.rs`): `docs/measurements.md`, "The halo's cells, carried".
+    /// ([`SideBoundary::GivenHalves`](lightgrid_core::SideBoundary)'s `cells`; [`HaloCells`];
+    /// `Coarser` by default). Given, a sweep carries each halo value (a coarser grid's
+    /// light at the point, a cell's mean) through its cell and the halo's cells after
+    /// it as it carries its own points' light ([`lightgrid_core::halo_carry`]), instead
+    /// of taking it for the light leaving the point through empty space: taken as
+    /// empty, a canopy's halo cells let the coarse grid's light into the node
+    /// unstopped. On the frame bench `Coarser` takes the finest depth's largest sky
+    /// error 9.9 / 8.4 → 8.5 / 7.1 % (15 / 40°) and depth 2's 3.1 / 2.5 → 2.6 / 2.0 %,
+    /// the finest sky bias −0.4 → −0.7 %, for some 1.7 ms a fly-through frame
+    /// (`docs/measurements.md`, "The halo's cells, carried").
     pub halo_cells: HaloCells,
     /// Height above a node's highest ground searched for objects (trees), metres, at
     /// least: where the world grid holds material higher over the node, the search
@@ -278,7 +277,7 @@ impl Default for HierarchyParams {
             sun_with_sky: false,
             neighbour_halo: false,
             halo_ground_lift: true,
-            halo_cells: HaloCells::Off,
+            halo_cells: HaloCells::Coarser,
             margin: 12.0,
             lod_factor: 1.0,
             evict_factor: 1.5,
@@ -436,12 +435,20 @@ impl HierarchyParams {
 
 /// Where a node's sweeps take the material of their halo's cells from
 /// ([`HierarchyParams::halo_cells`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum HaloCells {
     /// Not given: the sweeps take them as empty space.
     Off,
-    /// From the coarser depths' materials (the node's ancestors', the world grid's),
-    /// already composed: a coarser cell's pass-through taken to the finer cell's length.
+    /// From the coarser depths' materials, already composed (each cell's from the
+    /// finest coarser node built over it, else the world grid's): a coarser cell's
+    /// pass-through taken to the finer cell's length. Near the ground (within one of
+    /// the coarser grid's cells above the terrain, where its cell may hold the
+    /// terrain's band) the node's own nearest cell at the same height above the
+    /// terrain stands in, and a cell holding the terrain's surface is left empty: the
+    /// carry's even source misplaces a surface's light, and where the ground lift
+    /// applies ([`HierarchyParams::halo_ground_lift`]) the halo value there is light
+    /// read clear of the band, not the cell's mean.
+    #[default]
     Coarser,
     /// Composed at the node's own cell size: the node's material is composed
     /// [`HALO_WIDTH`](lightgrid_core::HALO_WIDTH) cells beyond its sky sweep's apron.

@@ -120,7 +120,10 @@ impl Hierarchy {
                 &desc,
                 key,
                 Response::Sun,
-                material.outer.as_ref().or(material.widened.as_ref()),
+                crate::boundary::HaloMaterial {
+                    swept: Some(swept),
+                    outer: material.outer.as_ref().or(material.widened.as_ref()),
+                },
             );
             // Carried here, in place: the sweep then copies nothing.
             lightgrid_core::halo_carry::carry_halo(&mut b, desc.dims());
