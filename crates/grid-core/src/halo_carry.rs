@@ -63,13 +63,14 @@ pub fn carry_halo(boundary: &mut Boundary, dims: UVec3) {
         return;
     }
     let per_level = layout.per_level();
-    let (paths, mut scratch) = (bin_paths(), Scratch::default());
+    let paths = bin_paths();
+    let mut scratch = Scratch::new(dims, paths);
     for ((l, d), c) in light
         .chunks_mut(per_level)
         .zip(down.chunks_mut(per_level))
         .zip(c.chunks(per_level))
     {
-        carry_level(dims, (paths, &mut scratch), (l, d), c);
+        carry_level(paths, &mut scratch, (l, d), c);
     }
 }
 
@@ -173,13 +174,33 @@ impl HaloMedium {
     }
 }
 
-/// What [`carry_level`] keeps between levels: each cell of the halo's square's medium
-/// (an index into `media`, [`NONE`] where it is none) and the level's media.
-#[derive(Default)]
+/// Cells of the media square beyond the halo's on each side: a path's cells lie
+/// within two cells of its point along x and z (`dirs::level_stencil`), so no look-up
+/// leaves the square.
+const PAD: i32 = 2;
+
+/// A halo point's place in the media square, and the bins a grid point gathers from it
+/// (bit `d`).
+#[derive(Clone, Copy)]
+struct Column {
+    at: usize,
+    gathered: u32,
+}
+
+/// What [`carry_level`] keeps between levels: the media square (each cell's medium, an
+/// index into `media`, [`NONE`] where it is none; the halo's square and [`PAD`] cells
+/// beyond it), the level's media, and what is the same at every level: the halo's
+/// points' places and gathered bins, and the bins' paths as offsets in the square.
 struct Scratch {
     square: Vec<u32>,
+    /// The square's width (cells along x).
+    width: usize,
     media: Vec<HaloMedium>,
-    at: Vec<(i32, i32)>,
+    /// The halo's points, in the layout's order within a level.
+    columns: Vec<Column>,
+    /// Per bin, `(offset in the square, length index)` of each cell its path crosses
+    /// from its point's own.
+    offsets: [Vec<(isize, usize)>; NUM_DIRS],
     /// Whether a medium lies within two cells (in x and z) of each cell of the square.
     near: Vec<bool>,
     /// `near` along x alone.
@@ -190,53 +211,89 @@ struct Scratch {
 /// No medium in [`Scratch::square`].
 const NONE: u32 = u32::MAX;
 
+impl Scratch {
+    fn new(dims: UVec3, paths: &BinPaths) -> Self {
+        let (w, nx, nz) = (HALO_WIDTH, dims.x as i32, dims.z as i32);
+        let width = (nx + 2 * w + 2 * PAD) as usize;
+        let depth = (nz + 2 * w + 2 * PAD) as usize;
+        let inside = |x: i32, z: i32| (0..nx).contains(&x) && (0..nz).contains(&z);
+        let mut columns = Vec::new();
+        for z in -w..nz + w {
+            for x in (-w..nx + w).filter(|&x| !inside(x, z)) {
+                // A value no grid point gathers is left as it is: the grid's points
+                // one step on from it (and their neighbours) lie beyond the grid.
+                let mut gathered = 0u32;
+                for (d, &(sx, sz)) in paths.steps.iter().enumerate() {
+                    let (gx, gz) = (x + sx, z + sz);
+                    if ((-1..=nx).contains(&gx) && (0..nz).contains(&gz))
+                        || ((0..nx).contains(&gx) && (-1..=nz).contains(&gz))
+                    {
+                        gathered |= 1 << d;
+                    }
+                }
+                let at = (z + w + PAD) as usize * width + (x + w + PAD) as usize;
+                columns.push(Column { at, gathered });
+            }
+        }
+        let offsets = std::array::from_fn(|d| {
+            paths.paths[d]
+                .iter()
+                .map(|&(dx, dz, e)| {
+                    debug_assert!(dx.abs() <= PAD && dz.abs() <= PAD);
+                    (dz as isize * width as isize + dx as isize, e)
+                })
+                .collect()
+        });
+        Self {
+            square: vec![NONE; width * depth],
+            width,
+            media: Vec::new(),
+            columns,
+            offsets,
+            near: vec![false; width * depth],
+            near_x: vec![false; width * depth],
+            seen: Vec::new(),
+        }
+    }
+}
+
 /// [`carry_halo`] over one level's halo points (`light`, `down`, `cells` in the
 /// layout's order).
 fn carry_level(
-    dims: UVec3,
-    (paths, scratch): (&BinPaths, &mut Scratch),
+    paths: &BinPaths,
+    scratch: &mut Scratch,
     (light, down): (&mut [BinLight], &mut [HorizonLight]),
     cells: &[Material],
 ) {
-    let (w, nx, nz) = (HALO_WIDTH, dims.x as i32, dims.z as i32);
-    let width = (nx + 2 * w) as usize;
-    let inside = |x: i32, z: i32| (0..nx).contains(&x) && (0..nz).contains(&z);
-    // The level's medium cells on the halo's square, found before any value is
-    // carried (their sources read the means).
     let Scratch {
         square,
+        width,
         media,
-        at,
+        columns,
+        offsets,
         near,
         near_x,
         seen,
     } = scratch;
-    square.clear();
-    square.resize(width * (nz + 2 * w) as usize, NONE);
+    let width = *width;
+    // The level's medium cells on the halo's square, found before any value is
+    // carried (their sources read the means). (The square holds no medium inside the
+    // grid, nor beyond the halo: those cells are the grid's, or none.)
+    square.fill(NONE);
     media.clear();
-    at.clear();
-    let mut i = 0;
-    for z in -w..nz + w {
-        for x in (-w..nx + w).filter(|&x| !inside(x, z)) {
-            if let Some(m) = HaloMedium::of(&cells[i], &light[i], &paths.lengths, seen) {
-                square[(z + w) as usize * width + (x + w) as usize] = media.len() as u32;
-                media.push(m);
-            }
-            at.push((x, z));
-            i += 1;
+    for (i, c) in columns.iter().enumerate() {
+        if let Some(m) = HaloMedium::of(&cells[i], &light[i], &paths.lengths, seen) {
+            square[c.at] = media.len() as u32;
+            media.push(m);
         }
     }
     if media.is_empty() {
         return;
     }
     // A point none of whose paths' cells holds a medium keeps its light: found by
-    // widening the media by two cells along x, then along z.
-    let depth = (nz + 2 * w) as usize;
-    near_x.clear();
-    near_x.resize(square.len(), false);
-    near.clear();
-    near.resize(square.len(), false);
-    // Sliding counts of media over five cells, along x and then along z.
+    // widening the media by two cells along x, then along z (sliding counts of media
+    // over five cells).
+    let depth = square.len() / width;
     for r in 0..depth {
         let row = &square[r * width..][..width];
         let mut count = row[..2.min(width)].iter().filter(|&&m| m != NONE).count();
@@ -263,39 +320,26 @@ fn carry_level(
             near[r * width + c] = count > 0;
         }
     }
-    // (The square holds no medium inside the grid: those cells are the grid's.)
-    let medium = |x: i32, z: i32| -> Option<&HaloMedium> {
-        if x < -w || z < -w || x >= nx + w || z >= nz + w {
-            return None;
-        }
-        media.get(square[(z + w) as usize * width + (x + w) as usize] as usize)
-    };
     let omega = dirs::solid_angles();
-    for (i, &(x, z)) in at.iter().enumerate() {
-        if !near[(z + w) as usize * width + (x + w) as usize] {
+    let horizontal = dirs::FIRST_HORIZONTAL..dirs::FIRST_HORIZONTAL + dirs::HORIZONTAL_BINS;
+    for (i, c) in columns.iter().enumerate() {
+        if !near[c.at] {
             continue;
         }
         // Without a medium in its own cell, only the horizontal bins' paths cross
         // others.
-        let bins = match medium(x, z) {
-            Some(_) => 0..NUM_DIRS,
-            None => dirs::FIRST_HORIZONTAL..dirs::FIRST_HORIZONTAL + dirs::HORIZONTAL_BINS,
+        let bins = if square[c.at] != NONE {
+            0..NUM_DIRS
+        } else {
+            horizontal.clone()
         };
-        for d in bins {
-            let path = &paths.paths[d];
-            let h = (d.checked_sub(dirs::FIRST_HORIZONTAL)).filter(|&k| k < dirs::HORIZONTAL_BINS);
-            // A value no grid point gathers is left as it is: the grid's points one
-            // step on from it (and their neighbours) lie beyond the grid.
-            let (gx, gz) = (x + paths.steps[d].0, z + paths.steps[d].1);
-            let gathered = ((-1..=nx).contains(&gx) && (0..nz).contains(&gz))
-                || ((0..nx).contains(&gx) && (-1..=nz).contains(&gz));
-            if !gathered {
-                continue;
-            }
+        for d in bins.filter(|&d| c.gathered & (1 << d) != 0) {
+            let h = horizontal.contains(&d).then(|| d - dirs::FIRST_HORIZONTAL);
             let (mut v, mut half) = (light[i].0[d], h.map(|k| down[i].0[k]));
             let mut changed = false;
-            for (k, &(dx, dz, e)) in path.iter().enumerate() {
-                let Some(m) = medium(x + dx, z + dz) else {
+            for (k, &(off, e)) in offsets[d].iter().enumerate() {
+                let q = square[(c.at as isize + off) as usize];
+                let Some(m) = media.get(q as usize) else {
                     continue;
                 };
                 let s = m.source * omega[d];

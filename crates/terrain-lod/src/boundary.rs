@@ -734,6 +734,48 @@ mod tests {
         out
     }
 
+    /// The halo's cells near flat ground (`HaloCells::Coarser`, the default): the cell
+    /// holding the terrain's surface is empty, and those above it within one of the
+    /// next coarser depth's cells are the node's own nearest cells (the ground flat:
+    /// at their own level), not the coarser grids' band cut at their size.
+    #[test]
+    fn near_the_ground_the_halos_cells_are_the_nodes_own() {
+        use lightgrid_core::Material;
+        let h = layer_hierarchy(0, false);
+        let (lo, hi) = h.world.desc().point_bounds();
+        let (mut surface, mut own) = (0, 0);
+        for key in h.ready_nodes() {
+            let m = &h.nodes[&key].material.grid;
+            let desc = *m.desc();
+            let given = super::HaloMaterial {
+                swept: Some(m),
+                outer: None,
+            };
+            let cells = h
+                .halo_cells_of(&desc, key, Response::Sky, given)
+                .expect("given by default");
+            let coarser = h.params.cell(key.depth - 1);
+            let dims = desc.dims().as_ivec3();
+            for (c, p) in cells.iter().zip(halo_points(&desc)) {
+                // (Within the world grid: beyond it no grid holds a cell.)
+                if p.x < lo.x || p.x > hi.x || p.z < lo.z || p.z > hi.z {
+                    continue;
+                }
+                let q = ((p - desc.origin()) / desc.h()).round().as_ivec3();
+                if p.y.abs() < 0.5 * desc.h() {
+                    assert_eq!(*c, Material::EMPTY, "{key:?} at {p}");
+                    surface += 1;
+                } else if p.y > 0.0 && p.y < coarser {
+                    let at = q.clamp(lightgrid_core::glam::IVec3::ZERO, dims - 1);
+                    let want = m.get(at.as_uvec3()).expect("in the grid");
+                    assert_eq!(c, want, "{key:?} at {p}");
+                    own += 1;
+                }
+            }
+        }
+        assert!(surface > 0 && own > 0, "{surface} surface cells, {own} own");
+    }
+
     /// Every halo point of every node, sky and sun: the column's reads equal the
     /// trilinear ones to rounding, and bit for bit where the point lies on a level of
     /// the coarser grid read.
