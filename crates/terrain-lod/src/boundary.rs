@@ -494,13 +494,14 @@ impl Hierarchy {
     /// grid composed over them); with [`HaloCells::Coarser`](crate::HaloCells::Coarser),
     /// each cell's from the first grid that holds it of `own.outer` and the coarser
     /// depths' materials (the nodes' grids over the halo whose `which` light its halo
-    /// reads, finest first, then the world grid's), a coarser cell's pass-through taken to the finer cell's length; empty
-    /// beyond them all. Near the ground (the fine cell within one of the coarser
-    /// grid's cells above the terrain, so that the coarser cell may hold the terrain's
-    /// band, cut at its own size) the nearest cell of `own.swept` at the same height
-    /// above the terrain stands in, and a cell holding the terrain's surface is left
-    /// empty: the coarser band taken for a finer cell's medium lit bare ground's
-    /// sideways light 2.5–5 % bright, the surface's cell 3–5 % (`tests/ground_lift.rs`).
+    /// reads, finest first, then the world grid's), a coarser cell's pass-through
+    /// taken to the finer cell's length; empty beyond them all. Near the ground (the
+    /// fine cell within one of the coarser grid's cells above the terrain, so that the
+    /// coarser cell may hold the terrain's band, cut at its own size) the nearest cell
+    /// of `own.swept` at the same height above the terrain stands in, and a cell
+    /// holding the terrain's surface is left empty: the coarser band taken for a finer
+    /// cell's medium lit bare ground's sideways light 2.5–5 % bright, the surface's
+    /// cell 3–5 % (`tests/ground_lift.rs`).
     pub(crate) fn halo_cells_of(
         &self,
         desc: &GridDesc,
