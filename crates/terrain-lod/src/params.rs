@@ -124,7 +124,7 @@ pub struct HierarchyParams {
     /// empty, a canopy's halo cells let the coarse grid's light into the node
     /// unstopped. On the frame bench `Coarser` takes the finest depth's largest sky
     /// error 9.9 / 8.4 → 8.5 / 7.1 % (15 / 40°) and depth 2's 3.1 / 2.5 → 2.6 / 2.0 %,
-    /// the finest sky bias −0.4 → −0.7 %, for some 1.7 ms a fly-through frame
+    /// the finest sky bias −0.4 → −0.7 %, for some 1.4 ms a fly-through frame
     /// (`docs/measurements.md`, "The halo's cells, carried").
     pub halo_cells: HaloCells,
     /// Height above a node's highest ground searched for objects (trees), metres, at
